@@ -1,0 +1,14 @@
+"""samplehd: a MuJoCo simulator and dataset generator for language-conditioned tabletop manipulation."""
+
+from __future__ import annotations
+
+from samplehd.render.backend import configure_gl_backend
+
+# Must run before anything imports mujoco: MuJoCo fixes its GL backend at first import.
+configure_gl_backend()
+
+from samplehd.errors import SamplehdError  # noqa: E402
+
+__version__ = "0.1.0"
+
+__all__ = ["SamplehdError", "__version__"]

@@ -1,0 +1,3 @@
+from samplehd.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""Offscreen rendering: GL backend choice, RGB / depth / segmentation, quality presets."""
