@@ -1,0 +1,328 @@
+"""RGB, metric depth and instance segmentation from any named camera, at any resolution.
+
+Segmentation ids (one ``int32`` per pixel):
+
+=========  ==========================================
+id         meaning
+=========  ==========================================
+0          background (floor, walls, counter, sky)
+1          table
+2          robot (arm and gripper)
+3 + i      scene object ``i`` (body ``object_{i}``)
+=========  ==========================================
+
+Depth is the metric distance along the camera's optical axis (z-depth) [m], float32.
+
+Passes: RGB and depth come from one render pass when that is exact (no MSAA with reflections); the
+segmentation pass (flat id colours, no lighting) is cheap and also yields depth when requested.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from types import TracebackType
+
+import mujoco
+import numpy as np
+
+import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+from samplehd.errors import RenderError
+
+__all__ = [
+    "MODALITIES",
+    "PRESETS",
+    "SEG_BACKGROUND",
+    "SEG_OBJECT_OFFSET",
+    "SEG_ROBOT",
+    "SEG_TABLE",
+    "RenderPreset",
+    "SceneRenderer",
+    "camera_intrinsics",
+    "camera_names",
+    "camera_pose",
+    "get_preset",
+    "project_points",
+    "render_images",
+    "segmentation_lut",
+]
+
+SEG_BACKGROUND = 0
+SEG_TABLE = 1
+SEG_ROBOT = 2
+SEG_OBJECT_OFFSET = 3
+
+MODALITIES = ("rgb", "depth", "segmentation")
+
+_FLAG = mujoco.mjtRndFlag
+
+
+@dataclass(frozen=True)
+class RenderPreset:
+    """Rendering quality.
+
+    Attributes:
+        name: preset name.
+        shadows: render shadow maps (a fixed cost per frame on a CPU rasteriser).
+        msaa_samples: multisample anti-aliasing samples (0 = off).
+        reflections: render reflective materials with a mirror pass.
+    """
+
+    name: str
+    shadows: bool
+    msaa_samples: int
+    reflections: bool
+
+
+PRESETS: dict[str, RenderPreset] = {
+    "fast": RenderPreset("fast", shadows=False, msaa_samples=0, reflections=False),
+    "hd": RenderPreset("hd", shadows=True, msaa_samples=4, reflections=True),
+}
+
+
+def get_preset(name: str | RenderPreset) -> RenderPreset:
+    """Look up a preset by name; raises RenderError listing the valid names."""
+    if isinstance(name, RenderPreset):
+        return name
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise RenderError(f"unknown render preset {name!r}; valid: {', '.join(PRESETS)}") from None
+
+
+def camera_names(model: mujoco.MjModel) -> list[str]:
+    """Names of the model's cameras, in id order."""
+    return [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) or f"#{i}" for i in range(model.ncam)]
+
+
+def _camera_id(model: mujoco.MjModel, camera: str | int) -> int:
+    if isinstance(camera, (int, np.integer)):
+        if 0 <= int(camera) < model.ncam:
+            return int(camera)
+    else:
+        cid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, camera)
+        if cid >= 0:
+            return cid
+    raise RenderError(f"unknown camera {camera!r}; valid: {', '.join(camera_names(model)) or '(none)'}")
+
+
+def segmentation_lut(model: mujoco.MjModel) -> np.ndarray:
+    """Per-geom segmentation id (see module docstring), from body names and ancestry."""
+    body_class = np.full(model.nbody, SEG_BACKGROUND, dtype=np.int32)
+    for b in range(1, model.nbody):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) or ""
+        parent = int(model.body_parentid[b])
+        if name == "robot_base":
+            body_class[b] = SEG_ROBOT
+        elif name == "table":
+            body_class[b] = SEG_TABLE
+        elif name.startswith("object_") and name[7:].isdigit():
+            body_class[b] = SEG_OBJECT_OFFSET + int(name[7:])
+        elif parent > 0:
+            body_class[b] = body_class[parent]  # bodies are numbered parents first
+    return body_class[model.geom_bodyid]
+
+
+def camera_intrinsics(model: mujoco.MjModel, camera: str | int, width: int, height: int) -> np.ndarray:
+    """3×3 pinhole intrinsics K [px] of a camera rendered at width × height (square pixels)."""
+    cid = _camera_id(model, camera)
+    fovy = np.deg2rad(model.cam_fovy[cid])
+    f = 0.5 * height / np.tan(fovy / 2.0)
+    return np.array([[f, 0.0, width / 2.0], [0.0, f, height / 2.0], [0.0, 0.0, 1.0]])
+
+
+def camera_pose(model: mujoco.MjModel, data: mujoco.MjData, camera: str | int) -> np.ndarray:
+    """4×4 camera-to-world transform in MuJoCo's camera convention (looks along -z, y up)."""
+    cid = _camera_id(model, camera)
+    pose = np.eye(4)
+    pose[:3, :3] = data.cam_xmat[cid].reshape(3, 3)
+    pose[:3, 3] = data.cam_xpos[cid]
+    return pose
+
+
+def project_points(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    camera: str | int,
+    width: int,
+    height: int,
+    points: np.ndarray,
+) -> np.ndarray:
+    """Project world points (N, 3) [m] to (N, 3) rows of [u, v, depth] (pixels from top-left, metres)."""
+    pose = camera_pose(model, data, camera)
+    k = camera_intrinsics(model, camera, width, height)
+    pts = np.atleast_2d(np.asarray(points, dtype=float))
+    cam = (pts - pose[:3, 3]) @ pose[:3, :3]  # world → camera frame
+    depth = -cam[:, 2]
+    u = k[0, 2] + k[0, 0] * cam[:, 0] / depth
+    v = k[1, 2] - k[1, 1] * cam[:, 1] / depth
+    return np.stack([u, v, depth], axis=1)
+
+
+class SceneRenderer:
+    """Offscreen renderer of one compiled model at one resolution and quality preset.
+
+    Example:
+        >>> with SceneRenderer(model, 640, 360, "fast") as r:  # doctest: +SKIP
+        ...     images = r.render(data, "operator", ("rgb", "depth", "segmentation"))
+    """
+
+    def __init__(
+        self, model: mujoco.MjModel, width: int, height: int, preset: str | RenderPreset = "fast"
+    ) -> None:
+        if not (isinstance(width, int) and isinstance(height, int)) or not (
+            8 <= width <= 8192 and 8 <= height <= 8192
+        ):
+            raise RenderError(f"resolution {width}x{height} is invalid; width and height must be 8..8192 px")
+        self.model = model
+        self.width = width
+        self.height = height
+        self.preset = get_preset(preset)
+        self._lut = segmentation_lut(model)
+        self._gl = None
+        self._ctx = None
+        # The offscreen buffer and MSAA are fixed when the GL context is made: size them for us.
+        model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
+        model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
+        model.vis.quality.offsamples = self.preset.msaa_samples
+        try:
+            self._gl = mujoco.GLContext(width, height)
+            self._gl.make_current()
+            self._ctx = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
+        except Exception as exc:  # GL failures surface as many exception types
+            self.close()
+            raise RenderError(
+                f"cannot create an offscreen GL context with MUJOCO_GL={_gl_backend()}: {exc}; "
+                "install libegl1 libegl-mesa0 libgl1-mesa-dri (or libosmesa6 with MUJOCO_GL=osmesa)"
+            ) from exc
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._ctx)
+        self._ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self._scene = mujoco.MjvScene(model, maxgeom=10000)
+        self._option = mujoco.MjvOption()
+        self._camera = mujoco.MjvCamera()
+        self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
+        self._rect = mujoco.MjrRect(0, 0, width, height)
+        self._rgb = np.empty((height, width, 3), dtype=np.uint8)
+        self._depth = np.empty((height, width), dtype=np.float32)
+        extent = float(model.stat.extent)
+        self._znear = np.float32(model.vis.map.znear * extent)
+        self._zfar = np.float32(model.vis.map.zfar * extent)
+
+    def __enter__(self) -> SceneRenderer:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Free the GL resources (safe to call twice)."""
+        if self._ctx is not None:
+            self._ctx.free()
+            self._ctx = None
+        if self._gl is not None:
+            self._gl.free()
+            self._gl = None
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: GL may already be gone
+            pass
+
+    def _update(self, data: mujoco.MjData, camera_id: int, segment: bool) -> None:
+        self._camera.fixedcamid = camera_id
+        mujoco.mjv_updateScene(
+            self.model, data, self._option, None, self._camera, mujoco.mjtCatBit.mjCAT_ALL.value, self._scene
+        )
+        flags = self._scene.flags
+        flags[_FLAG.mjRND_SEGMENT] = segment
+        flags[_FLAG.mjRND_IDCOLOR] = segment
+        flags[_FLAG.mjRND_SHADOW] = self.preset.shadows and not segment
+        flags[_FLAG.mjRND_REFLECTION] = self.preset.reflections and not segment
+        flags[_FLAG.mjRND_SKYBOX] = False
+
+    def _metric_depth(self, raw: np.ndarray) -> np.ndarray:
+        # Reverse-Z perspective depth buffer → distance along the optical axis, as MuJoCo's Renderer.
+        c = -(self._zfar + self._znear) / (self._zfar - self._znear)
+        d = -(np.float32(2) * self._zfar * self._znear) / (self._zfar - self._znear)
+        c = np.float32(-0.5) * c - np.float32(0.5)
+        d = np.float32(-0.5) * d
+        return (d / (raw.astype(np.float64) + c)).astype(np.float32)
+
+    def render(
+        self, data: mujoco.MjData, camera: str | int, modalities: Iterable[str] = ("rgb",)
+    ) -> dict[str, np.ndarray]:
+        """Render the requested modalities from a camera.
+
+        Args:
+            data: simulation state (``mj_forward`` or ``mj_step`` must have run).
+            camera: camera name or id.
+            modalities: any of ``rgb`` (H×W×3 uint8), ``depth`` (H×W float32 [m]) and
+                ``segmentation`` (H×W int32 ids, see module docstring).
+
+        Returns:
+            A dict from modality to a new array, rows from the top of the image.
+        """
+        wanted = tuple(dict.fromkeys(modalities))
+        bad = [m for m in wanted if m not in MODALITIES]
+        if bad or not wanted:
+            raise RenderError(f"unknown modalities {bad or '(none)'}; valid: {', '.join(MODALITIES)}")
+        if self._ctx is None:
+            raise RenderError("renderer is closed")
+        cid = _camera_id(self.model, camera)
+        self._gl.make_current()  # type: ignore[union-attr]
+        out: dict[str, np.ndarray] = {}
+        depth_from_rgb = "depth" in wanted and "segmentation" not in wanted and not (
+            self.preset.reflections and self.preset.msaa_samples
+        )
+        if "rgb" in wanted:
+            self._update(data, cid, segment=False)
+            mujoco.mjr_render(self._rect, self._scene, self._ctx)
+            mujoco.mjr_readPixels(self._rgb, self._depth if depth_from_rgb else None, self._rect, self._ctx)
+            out["rgb"] = np.flipud(self._rgb).copy()
+            if depth_from_rgb:
+                out["depth"] = np.flipud(self._metric_depth(self._depth))
+        if "segmentation" in wanted or ("depth" in wanted and "depth" not in out):
+            self._update(data, cid, segment=True)
+            mujoco.mjr_render(self._rect, self._scene, self._ctx)
+            mujoco.mjr_readPixels(self._rgb, self._depth, self._rect, self._ctx)
+            if "depth" in wanted:
+                out["depth"] = np.flipud(self._metric_depth(self._depth))
+            if "segmentation" in wanted:
+                out["segmentation"] = np.flipud(self._segment_ids(self._rgb)).copy()
+        return {m: out[m] for m in wanted}
+
+    def _segment_ids(self, idcolor: np.ndarray) -> np.ndarray:
+        rgb = idcolor.astype(np.int32)
+        segid = rgb[..., 0] + (rgb[..., 1] << 8) + (rgb[..., 2] << 16)  # 0 = nothing drawn
+        n = self._scene.ngeom
+        table = np.full(n + 1, SEG_BACKGROUND, dtype=np.int32)
+        geoms = self._scene.geoms
+        geom_type = int(mujoco.mjtObj.mjOBJ_GEOM)
+        for i in range(n):
+            g = geoms[i]
+            if g.objtype == geom_type and g.segid >= 0:
+                table[g.segid + 1] = self._lut[g.objid]
+        return table[np.minimum(segid, n)]
+
+
+def _gl_backend() -> str:
+    import os
+
+    return os.environ.get("MUJOCO_GL", "")
+
+
+def render_images(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    camera: str,
+    width: int,
+    height: int,
+    preset: str = "fast",
+    modalities: Sequence[str] = ("rgb",),
+) -> dict[str, np.ndarray]:
+    """One-shot convenience: make a renderer, render, free it."""
+    with SceneRenderer(model, width, height, preset) as r:
+        return r.render(data, camera, modalities)

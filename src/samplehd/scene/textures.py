@@ -1,0 +1,81 @@
+"""Procedural textures for the kitchen world: wood grain, tiles and plaster, made from numpy arrays.
+
+Textures are generated from a fixed seed so every build of the world is identical.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plaster_texture", "tile_texture", "wood_texture"]
+
+
+def _smooth_noise(
+    rng: np.random.Generator, height: int, width: int, cells: int, cells_x: int | None = None
+) -> np.ndarray:
+    """Smoothly interpolated value noise in [0, 1] with `cells` (rows) × `cells_x` lattice cells."""
+    cx = cells if cells_x is None else cells_x
+    lattice = rng.random((cells + 1, cx + 1))
+    ys = np.linspace(0, cells, height, endpoint=False)
+    xs = np.linspace(0, cx, width, endpoint=False)
+    y0, x0 = ys.astype(int), xs.astype(int)
+    fy, fx = (ys - y0)[:, None], (xs - x0)[None, :]
+    fy, fx = fy * fy * (3 - 2 * fy), fx * fx * (3 - 2 * fx)
+    a = lattice[y0][:, x0]
+    b = lattice[y0][:, x0 + 1]
+    c = lattice[y0 + 1][:, x0]
+    d = lattice[y0 + 1][:, x0 + 1]
+    return (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy
+
+
+def wood_texture(
+    size: int = 512,
+    light: tuple[int, int, int] = (196, 150, 104),
+    dark: tuple[int, int, int] = (128, 84, 50),
+    seed: int = 7,
+) -> np.ndarray:
+    """Return a (size, size, 3) uint8 wood-grain texture; grain runs along the image's x axis."""
+    rng = np.random.default_rng(seed)
+    # Grain runs along x: the warp changes slowly along x and faster across it.
+    warp = _smooth_noise(rng, size, size, 8, 2) * 1.6 + _smooth_noise(rng, size, size, 32, 4) * 0.35
+    v = np.linspace(0.0, 1.0, size, endpoint=False)[:, None]
+    rings = 0.5 + 0.5 * np.sin(2 * np.pi * (v * 22.0 + warp))
+    rings = rings**4
+    fibres = _smooth_noise(rng, size, size, 160, 6)
+    t = np.clip(0.55 * rings + 0.3 * fibres, 0.0, 1.0)[..., None]
+    img = np.asarray(light, float) * (1 - t) + np.asarray(dark, float) * t
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def tile_texture(
+    size: int = 256,
+    tiles: int = 4,
+    tile_rgb: tuple[int, int, int] = (226, 230, 226),
+    grout_rgb: tuple[int, int, int] = (150, 150, 145),
+    seed: int = 11,
+) -> np.ndarray:
+    """Return a (size, size, 3) uint8 texture of square tiles with grout lines and slight variation."""
+    rng = np.random.default_rng(seed)
+    img = np.empty((size, size, 3), float)
+    img[:] = tile_rgb
+    step = size // tiles
+    shade = rng.uniform(-8, 8, (tiles, tiles))
+    for i in range(tiles):
+        for j in range(tiles):
+            img[i * step : (i + 1) * step, j * step : (j + 1) * step] += shade[i, j]
+    grout = max(2, size // 128)
+    for k in range(tiles):
+        img[k * step : k * step + grout, :] = grout_rgb
+        img[:, k * step : k * step + grout] = grout_rgb
+    img += (_smooth_noise(rng, size, size, 16)[..., None] - 0.5) * 6
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def plaster_texture(
+    size: int = 256, rgb: tuple[int, int, int] = (232, 226, 212), seed: int = 13
+) -> np.ndarray:
+    """Return a (size, size, 3) uint8 texture of lightly mottled painted plaster."""
+    rng = np.random.default_rng(seed)
+    n = _smooth_noise(rng, size, size, 8) * 0.6 + _smooth_noise(rng, size, size, 32) * 0.4
+    img = np.asarray(rgb, float)[None, None, :] + (n[..., None] - 0.5) * 14
+    return np.clip(img, 0, 255).astype(np.uint8)

@@ -1,0 +1,332 @@
+"""Compose the kitchen world with ``mujoco.MjSpec``: floor, wooden table, kitchen backdrop, lights,
+cameras, the UR5e with its gripper, and the scene's objects.
+
+Model-building (which objects, which cameras → recompile) is kept apart from per-episode state
+(poses → qpos): :func:`build_world` returns an ``MjSpec``; callers compile it once per scene.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+from samplehd.errors import ConfigError
+from samplehd.scene.geometry import look_at_quat
+from samplehd.scene.layout import LAYOUT, TableLayout
+from samplehd.scene.textures import plaster_texture, tile_texture, wood_texture
+
+__all__ = [
+    "OPERATOR_CAMERA",
+    "CameraSpec",
+    "PlacedObject",
+    "WorldConfig",
+    "build_world",
+    "compile_world",
+]
+
+_GEOM = mujoco.mjtGeom
+_ROLE_RGB = mujoco.mjtTextureRole.mjTEXROLE_RGB
+
+
+@dataclass(frozen=True)
+class CameraSpec:
+    """A fixed camera looking at a target point.
+
+    Attributes:
+        name: camera name in the model.
+        pos: camera position in the world [m].
+        target: point the optical axis passes through [m].
+        fovy: vertical field of view [deg].
+    """
+
+    name: str
+    pos: tuple[float, float, float]
+    target: tuple[float, float, float]
+    fovy: float = 45.0
+
+    def __post_init__(self) -> None:
+        if not 1.0 <= self.fovy <= 170.0:
+            raise ConfigError(f"camera {self.name!r}: fovy={self.fovy} must be in [1, 170] degrees")
+        if np.allclose(self.pos, self.target):
+            raise ConfigError(f"camera {self.name!r}: pos and target must differ")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "pos": list(self.pos), "target": list(self.target), "fovy": self.fovy}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> CameraSpec:
+        return cls(
+            name=str(d["name"]),
+            pos=tuple(float(v) for v in d["pos"]),  # type: ignore[arg-type]
+            target=tuple(float(v) for v in d["target"]),  # type: ignore[arg-type]
+            fovy=float(d.get("fovy", 45.0)),
+        )
+
+
+# The operator's viewpoint: in front of the table (+x), at standing eye height, looking at the workspace.
+OPERATOR_CAMERA = CameraSpec("operator", pos=(1.45, 0.0, 1.62), target=(-0.05, 0.0, 0.86), fovy=45.0)
+
+
+@dataclass(frozen=True)
+class PlacedObject:
+    """An object instance at a pose: what the world builder needs to add one scene object.
+
+    Attributes:
+        instance: a ``samplehd.catalogue.ObjectInstance``.
+        pos: position of the object's frame in the world [m].
+        quat: orientation (w, x, y, z).
+    """
+
+    instance: Any
+    pos: tuple[float, float, float]
+    quat: tuple[float, float, float, float] = (1.0, 0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """Options of the world model.
+
+    Attributes:
+        timestep: physics step [s] (500 Hz by default).
+        cameras: fixed cameras besides the robot's wrist camera.
+        with_robot: include the UR5e and gripper.
+        offscreen_size: largest offscreen render (width, height) [px].
+        shadow_size: shadow map resolution [px].
+    """
+
+    timestep: float = 0.002
+    cameras: tuple[CameraSpec, ...] = (OPERATOR_CAMERA,)
+    with_robot: bool = True
+    offscreen_size: tuple[int, int] = (1920, 1080)
+    shadow_size: int = 4096
+
+    def __post_init__(self) -> None:
+        if not 1e-4 <= self.timestep <= 0.02:
+            raise ConfigError(f"world.timestep={self.timestep} must be in [0.0001, 0.02] s (500 Hz = 0.002)")
+        names = [c.name for c in self.cameras]
+        if len(set(names)) != len(names) or "wrist" in names:
+            raise ConfigError(f"world.cameras: names must be unique and not 'wrist', got {names}")
+
+
+def _add_texture(spec: mujoco.MjSpec, name: str, rgb: np.ndarray, cube: bool = False) -> None:
+    # A cube texture with one image puts the same picture on every face of a box (the table top's
+    # edges too); a 2-D texture is projected along the geom's local z and repeats with texrepeat.
+    h, w, _ = rgb.shape
+    kind = mujoco.mjtTexture.mjTEXTURE_CUBE if cube else mujoco.mjtTexture.mjTEXTURE_2D
+    tex = spec.add_texture(name=name, type=kind, width=w, height=h, nchannel=3)
+    tex.data = np.ascontiguousarray(rgb, dtype=np.uint8).tobytes()
+
+
+def _add_material(
+    spec: mujoco.MjSpec,
+    name: str,
+    rgba: Sequence[float] = (1, 1, 1, 1),
+    texture: str | None = None,
+    texrepeat: tuple[float, float] = (1.0, 1.0),
+    specular: float = 0.2,
+    shininess: float = 0.2,
+    reflectance: float = 0.0,
+    texuniform: bool = False,
+) -> None:
+    mat = spec.add_material(name=name, rgba=list(rgba), specular=specular, shininess=shininess)
+    mat.reflectance = reflectance
+    if texture:
+        mat.textures[_ROLE_RGB] = texture
+        mat.texrepeat = list(texrepeat)
+        mat.texuniform = texuniform
+
+
+def _add_materials(spec: mujoco.MjSpec) -> None:
+    _add_texture(spec, "wood", wood_texture(), cube=True)
+    _add_texture(spec, "tiles", tile_texture())
+    _add_texture(spec, "plaster", plaster_texture())
+    floor = spec.add_texture(name="floor_tiles", type=mujoco.mjtTexture.mjTEXTURE_2D, width=512, height=512)
+    floor.builtin = mujoco.mjtBuiltin.mjBUILTIN_CHECKER
+    floor.rgb1 = [0.58, 0.55, 0.50]
+    floor.rgb2 = [0.50, 0.47, 0.43]
+    floor.mark = mujoco.mjtMark.mjMARK_EDGE
+    floor.markrgb = [0.36, 0.34, 0.31]
+    _add_material(spec, "floor", texture="floor_tiles", texrepeat=(3, 3), texuniform=True, specular=0.1)
+    _add_material(spec, "table_wood", texture="wood", texrepeat=(1, 1), specular=0.25, shininess=0.35)
+    _add_material(spec, "leg_metal", rgba=(0.30, 0.30, 0.32, 1), specular=0.6, shininess=0.6)
+    _add_material(spec, "wall", texture="plaster", texrepeat=(3, 3), specular=0.05)
+    _add_material(spec, "backsplash", texture="tiles", texrepeat=(1, 8), specular=0.4)
+    _add_material(spec, "cabinet", rgba=(0.40, 0.52, 0.50, 1), specular=0.2, shininess=0.3)
+    _add_material(spec, "countertop", rgba=(0.82, 0.80, 0.76, 1), specular=0.5, shininess=0.6)
+    _add_material(spec, "handle", rgba=(0.75, 0.75, 0.76, 1), specular=0.9, shininess=0.9)
+    _add_material(spec, "window", rgba=(0.80, 0.90, 1.0, 1), specular=0.0)
+    _add_material(spec, "frame", rgba=(0.95, 0.95, 0.93, 1))
+
+
+def _add_table(spec: mujoco.MjSpec, layout: TableLayout) -> None:
+    sx, sy = layout.table_size
+    t = layout.table_thickness
+    table = spec.worldbody.add_body(name="table", pos=[0, 0, 0])
+    table.add_geom(
+        name="table_top",
+        type=_GEOM.mjGEOM_BOX,
+        size=[sx / 2, sy / 2, t / 2],
+        pos=[0, 0, layout.table_height - t / 2],
+        material="table_wood",
+        friction=[0.8, 0.01, 0.001],
+    )
+    leg_h = layout.table_height - t
+    for i, (lx, ly) in enumerate([(1, 1), (1, -1), (-1, 1), (-1, -1)]):
+        table.add_geom(
+            name=f"table_leg_{i}",
+            type=_GEOM.mjGEOM_BOX,
+            size=[0.03, 0.03, leg_h / 2],
+            pos=[lx * (sx / 2 - 0.06), ly * (sy / 2 - 0.06), leg_h / 2],
+            material="leg_metal",
+        )
+    # Apron under the top so the table reads as furniture, not a floating slab.
+    for i, (px, py, hx, hy) in enumerate(
+        [(sx / 2 - 0.06, 0, 0.015, sy / 2 - 0.06), (-(sx / 2 - 0.06), 0, 0.015, sy / 2 - 0.06),
+         (0, sy / 2 - 0.06, sx / 2 - 0.06, 0.015), (0, -(sy / 2 - 0.06), sx / 2 - 0.06, 0.015)]
+    ):
+        table.add_geom(
+            name=f"table_apron_{i}",
+            type=_GEOM.mjGEOM_BOX,
+            size=[hx, hy, 0.04],
+            pos=[px, py, layout.table_height - t - 0.04],
+            material="table_wood",
+        )
+
+
+# Turns a box's local z onto world x, so a 2-D texture lies flat on a wall facing +x.
+_FACING_X = [np.sqrt(0.5), 0.0, np.sqrt(0.5), 0.0]
+
+
+def _box(
+    body: mujoco.MjsBody,
+    name: str,
+    center: Sequence[float],
+    half: Sequence[float],
+    material: str,
+    facing_x: bool = False,
+) -> None:
+    """Add a visual-only box; `facing_x` rotates it so textures show on its ±x faces."""
+    size = [half[2], half[1], half[0]] if facing_x else list(half)
+    quat = _FACING_X if facing_x else [1.0, 0.0, 0.0, 0.0]
+    body.add_geom(
+        name=name, type=_GEOM.mjGEOM_BOX, size=size, pos=list(center), quat=quat, material=material,
+        contype=0, conaffinity=0,
+    )
+
+
+def _add_backdrop(spec: mujoco.MjSpec) -> None:
+    """Wall, base cabinets with a counter, tiled backsplash, wall cabinets and a window, behind the robot."""
+    wb = spec.worldbody
+    wall_x = -1.45
+    _box(wb, "backdrop_wall", (wall_x - 0.05, 0, 1.5), (0.05, 3.0, 1.5), "wall", facing_x=True)
+    _box(wb, "backdrop_wall_side", (0.2, -3.0, 1.5), (1.7, 0.05, 1.5), "wall")
+    # Base cabinets and countertop along the wall.
+    depth, height = 0.6, 0.88
+    cx = wall_x + depth / 2
+    _box(wb, "backdrop_counter_body", (cx, 0, height / 2), (depth / 2, 2.4, height / 2), "cabinet")
+    _box(wb, "backdrop_countertop", (cx + 0.02, 0, height + 0.02), (depth / 2 + 0.02, 2.42, 0.02), "countertop")
+    for i, y in enumerate(np.arange(-2.1, 2.11, 0.6)):
+        _box(wb, f"backdrop_door_{i}", (wall_x + depth + 0.005, y, 0.45), (0.005, 0.28, 0.36), "cabinet")
+        _box(wb, f"backdrop_knob_{i}", (wall_x + depth + 0.02, y + 0.2, 0.7), (0.012, 0.05, 0.008), "handle")
+    _box(wb, "backdrop_splash", (wall_x + 0.002, 0, height + 0.32), (0.004, 2.4, 0.30), "backsplash", facing_x=True)
+    # Wall cabinets with a window between them.
+    for i, y in enumerate((-1.6, 1.6)):
+        _box(wb, f"backdrop_upper_{i}", (wall_x + 0.17, y, 1.85), (0.17, 0.75, 0.35), "cabinet")
+        _box(wb, f"backdrop_upper_knob_{i}", (wall_x + 0.35, y - np.sign(y) * 0.6, 1.6),
+             (0.012, 0.008, 0.05), "handle")
+    _box(wb, "backdrop_window_frame", (wall_x + 0.01, 0, 1.75), (0.01, 0.62, 0.42), "frame")
+    _box(wb, "backdrop_window", (wall_x + 0.02, 0, 1.75), (0.01, 0.56, 0.36), "window")
+    _box(wb, "backdrop_window_bar", (wall_x + 0.03, 0, 1.75), (0.01, 0.02, 0.36), "frame")
+
+
+def _add_lights(spec: mujoco.MjSpec) -> None:
+    wb = spec.worldbody
+    key = wb.add_light(name="key_light", pos=[0.9, 0.6, 2.8], dir=[-0.35, -0.2, -1.0])
+    key.diffuse = [0.65, 0.63, 0.60]
+    key.specular = [0.3, 0.3, 0.3]
+    key.castshadow = True
+    key.cutoff = 60
+    fill = wb.add_light(name="fill_light", pos=[1.5, -1.5, 2.2], dir=[-0.5, 0.5, -0.6])
+    fill.diffuse = [0.30, 0.31, 0.34]
+    fill.specular = [0.05, 0.05, 0.05]
+    fill.castshadow = False
+    fill.cutoff = 80
+    spec.visual.headlight.ambient = [0.28, 0.28, 0.28]
+    spec.visual.headlight.diffuse = [0.12, 0.12, 0.12]
+    spec.visual.headlight.specular = [0.0, 0.0, 0.0]
+
+
+def build_world(
+    objects: Sequence[PlacedObject] = (),
+    config: WorldConfig | None = None,
+    layout: TableLayout = LAYOUT,
+) -> mujoco.MjSpec:
+    """Compose the kitchen world as an ``MjSpec``.
+
+    Args:
+        objects: scene objects; object ``i`` becomes body ``object_{i}`` with a free joint.
+        config: world options (timestep, cameras, robot).
+        layout: table and workspace dimensions.
+
+    Returns:
+        The spec, ready for ``compile()`` (or :func:`compile_world`).
+    """
+    config = config or WorldConfig()
+    spec = mujoco.MjSpec()
+    spec.modelname = "samplehd_kitchen"
+    spec.option.timestep = config.timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.option.noslip_iterations = 0
+    spec.visual.global_.offwidth = config.offscreen_size[0]
+    spec.visual.global_.offheight = config.offscreen_size[1]
+    spec.visual.quality.shadowsize = config.shadow_size
+    spec.visual.map.znear = 0.01
+    spec.visual.map.zfar = 30.0
+    spec.stat.center = [0.0, 0.0, layout.table_height]
+    spec.stat.extent = 2.0
+
+    _add_materials(spec)
+    spec.worldbody.add_geom(
+        name="floor", type=_GEOM.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor", pos=[0, 0, 0]
+    )
+    _add_table(spec, layout)
+    _add_backdrop(spec)
+    _add_lights(spec)
+    for cam in config.cameras:
+        spec.worldbody.add_camera(
+            name=cam.name, pos=list(cam.pos), quat=list(look_at_quat(cam.pos, cam.target)), fovy=cam.fovy
+        )
+    if config.with_robot:
+        from samplehd.robot.constants import ROBOT_BASE_QUAT
+        from samplehd.robot.ur5e import add_robot
+
+        add_robot(spec.worldbody, layout.robot_base_position, ROBOT_BASE_QUAT)
+    if objects:
+        from samplehd.catalogue import add_object
+
+        for i, placed in enumerate(objects):
+            add_object(spec, placed.instance, f"object_{i}", placed.pos, placed.quat)
+    return spec
+
+
+def compile_world(
+    objects: Sequence[PlacedObject] = (),
+    config: WorldConfig | None = None,
+    layout: TableLayout = LAYOUT,
+) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """Build and compile the world; returns the model and fresh data after ``mj_forward``."""
+    spec = build_world(objects, config, layout)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    if model.nkey:
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
