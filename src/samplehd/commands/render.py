@@ -1,0 +1,58 @@
+"""Render the kitchen world (or one scene of a scenes file) from a named camera to image files."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from samplehd.errors import ConfigError
+
+HELP = "render RGB (and optionally depth / segmentation) from a named camera"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--camera", default="operator", help="camera name (operator, wrist, ...)")
+    parser.add_argument("--width", type=int, default=640, help="image width [px]")
+    parser.add_argument("--height", type=int, default=360, help="image height [px]")
+    parser.add_argument("--preset", default="hd", choices=["fast", "hd"], help="render quality preset")
+    parser.add_argument("--out", required=True, type=Path, help="RGB output file (.png)")
+    parser.add_argument("--depth", type=Path, help="depth output: .png (uint16 mm) or .npy (float32 m)")
+    parser.add_argument("--segmentation", type=Path, help="instance-id PNG output")
+    parser.add_argument("--preview", action="store_true", help="also write false-colour depth/seg previews")
+
+
+def run(args: argparse.Namespace) -> int:
+    from samplehd.render.image_io import (
+        colorize_depth,
+        colorize_segmentation,
+        save_depth,
+        save_rgb,
+        save_segmentation,
+    )
+    from samplehd.render.renderer import SceneRenderer
+    from samplehd.scene.world import compile_world
+
+    if args.out.suffix.lower() not in (".png", ".jpg", ".jpeg"):
+        raise ConfigError(f"--out {args.out}: must be a .png or .jpg file")
+    model, data = compile_world()
+    modalities = ["rgb"]
+    if args.depth:
+        modalities.append("depth")
+    if args.segmentation:
+        modalities.append("segmentation")
+    with SceneRenderer(model, args.width, args.height, args.preset) as renderer:
+        images = renderer.render(data, args.camera, modalities)
+    save_rgb(args.out, images["rgb"])
+    print(f"wrote {args.out}")
+    if args.depth:
+        save_depth(args.depth, images["depth"])
+        print(f"wrote {args.depth}")
+        if args.preview:
+            save_rgb(args.depth.with_name(args.depth.stem + "_preview.png"), colorize_depth(images["depth"]))
+    if args.segmentation:
+        save_segmentation(args.segmentation, images["segmentation"])
+        print(f"wrote {args.segmentation}")
+        if args.preview:
+            p = args.segmentation.with_name(args.segmentation.stem + "_preview.png")
+            save_rgb(p, colorize_segmentation(images["segmentation"]))
+    return 0

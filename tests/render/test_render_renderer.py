@@ -1,0 +1,97 @@
+import numpy as np
+import pytest
+
+import mujoco
+from samplehd.errors import RenderError
+from samplehd.render.renderer import (
+    SEG_BACKGROUND,
+    SEG_ROBOT,
+    SEG_TABLE,
+    SceneRenderer,
+    camera_intrinsics,
+    project_points,
+)
+from samplehd.scene.layout import LAYOUT
+
+pytestmark = pytest.mark.render
+
+
+@pytest.fixture(scope="module")
+def fast_images(world):
+    model, data = world
+    with SceneRenderer(model, 320, 180, "fast") as r:
+        return r.render(data, "operator", ("rgb", "depth", "segmentation"))
+
+
+def test_shapes_and_types(fast_images):
+    assert fast_images["rgb"].shape == (180, 320, 3) and fast_images["rgb"].dtype == np.uint8
+    assert fast_images["depth"].shape == (180, 320) and fast_images["depth"].dtype == np.float32
+    assert fast_images["segmentation"].dtype == np.int32
+
+
+def test_segmentation_sees_table_robot_background(fast_images):
+    ids = set(np.unique(fast_images["segmentation"]).tolist())
+    assert {SEG_BACKGROUND, SEG_TABLE, SEG_ROBOT} <= ids
+
+
+def test_depth_is_metric_at_table_centre(world, fast_images):
+    model, data = world
+    # The pixel where the workspace centre projects must see the table at the projected depth.
+    c = LAYOUT.workspace_center
+    u, v, z = project_points(model, data, "operator", 320, 180, np.array([[c[0], c[1] + 0.25, LAYOUT.table_height]]))[0]
+    assert fast_images["segmentation"][int(v), int(u)] == SEG_TABLE
+    assert fast_images["depth"][int(v), int(u)] == pytest.approx(z, abs=0.01)
+
+
+def test_one_pass_depth_equals_segmentation_pass_depth(world, fast_images):
+    model, data = world
+    with SceneRenderer(model, 320, 180, "fast") as r:
+        depth_rgb_pass = r.render(data, "operator", ("rgb", "depth"))["depth"]
+    np.testing.assert_allclose(depth_rgb_pass, fast_images["depth"], atol=1e-5)
+
+
+def test_hd_segmentation_has_only_valid_ids_despite_msaa(world):
+    model, data = world
+    with SceneRenderer(model, 320, 180, "hd") as r:
+        out = r.render(data, "operator", ("rgb", "segmentation"))
+    assert set(np.unique(out["segmentation"]).tolist()) <= {SEG_BACKGROUND, SEG_TABLE, SEG_ROBOT}
+    assert out["rgb"].std() > 10
+
+
+def test_render_is_deterministic(world, fast_images):
+    model, data = world
+    with SceneRenderer(model, 320, 180, "fast") as r:
+        again = r.render(data, "operator", ("rgb",))["rgb"]
+    np.testing.assert_array_equal(again, fast_images["rgb"])
+
+
+def test_wrist_camera_renders(world):
+    model, data = world
+    with SceneRenderer(model, 160, 90, "fast") as r:
+        assert r.render(data, "wrist", ("rgb",))["rgb"].shape == (90, 160, 3)
+
+
+def test_unknown_camera_lists_valid_names(world):
+    model, data = world
+    with SceneRenderer(model, 64, 64, "fast") as r, pytest.raises(RenderError, match="unknown camera 'nope'; valid: operator"):
+        r.render(data, "nope")
+
+
+def test_bad_preset_modality_and_resolution(world):
+    model, data = world
+    with pytest.raises(RenderError, match="unknown render preset 'ultra'; valid: fast, hd"):
+        SceneRenderer(model, 64, 64, "ultra")
+    with pytest.raises(RenderError, match="resolution"):
+        SceneRenderer(model, 0, 64)
+    with SceneRenderer(model, 64, 64) as r, pytest.raises(RenderError, match="valid: rgb, depth, segmentation"):
+        r.render(data, "operator", ("normals",))
+
+
+def test_intrinsics_match_projection(world):
+    model, data = world
+    k = camera_intrinsics(model, "operator", 640, 360)
+    assert k[0, 2] == 320 and k[1, 2] == 180
+    cam_pos = data.cam_xpos[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "operator")]
+    fwd = -data.cam_xmat[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "operator")].reshape(3, 3)[:, 2]
+    u, v, z = project_points(model, data, "operator", 640, 360, cam_pos + 2.0 * fwd)[0]
+    assert (u, v, z) == pytest.approx((320, 180, 2.0))

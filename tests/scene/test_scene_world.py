@@ -1,0 +1,68 @@
+import numpy as np
+import pytest
+
+import mujoco
+from samplehd.errors import ConfigError
+from samplehd.scene.layout import LAYOUT, table_parts_of
+from samplehd.scene.mjcf import export_mjcf
+from samplehd.scene.world import CameraSpec, WorldConfig, build_world
+
+
+def _name(model, objtype, i):
+    return mujoco.mj_id2name(model, objtype, i)
+
+
+def test_world_has_named_parts(world):
+    model, data = world
+    geoms = {_name(model, mujoco.mjtObj.mjOBJ_GEOM, i) for i in range(model.ngeom)}
+    assert {"floor", "table_top", "backdrop_wall", "backdrop_countertop"} <= geoms
+    cams = {_name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)}
+    assert {"operator", "wrist"} <= cams
+    assert model.opt.timestep == pytest.approx(0.002)
+    joints = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, i) for i in range(model.njnt)]
+    for j in ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
+              "wrist_3_joint"):
+        assert j in joints
+
+
+def test_table_top_at_layout_height(world):
+    model, data = world
+    gid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "table_top")
+    top = data.geom_xpos[gid][2] + model.geom_size[gid][2]
+    assert top == pytest.approx(LAYOUT.table_height)
+
+
+def test_world_settles_without_contacts_with_robot_at_rest(world):
+    model, _ = world
+    data = mujoco.MjData(model)
+    if model.nkey:
+        mujoco.mj_resetDataKeyframe(model, data, 0)
+    mujoco.mj_step(model, data, 500)
+    assert np.all(np.isfinite(data.qpos))
+
+
+def test_build_is_deterministic():
+    a = build_world(config=WorldConfig(with_robot=False)).to_xml()
+    b = build_world(config=WorldConfig(with_robot=False)).to_xml()
+    assert a == b
+
+
+def test_bad_world_config_is_one_line_error():
+    with pytest.raises(ConfigError, match="timestep"):
+        WorldConfig(timestep=0.5)
+    with pytest.raises(ConfigError, match="fovy"):
+        CameraSpec("c", (1, 0, 1), (0, 0, 0), fovy=0.0)
+
+
+def test_table_parts_with_neutral_band():
+    c = LAYOUT.workspace_center
+    assert table_parts_of((c[0], c[1])) == []
+    assert table_parts_of((c[0] + 0.1, c[1] - 0.2)) == ["left", "front"]
+    assert table_parts_of((c[0] - 0.1, c[1] + 0.2)) == ["right", "back"]
+
+
+def test_export_mjcf_opens_in_mujoco(tmp_path):
+    path = export_mjcf(build_world(), tmp_path / "world.xml")
+    model = mujoco.MjModel.from_xml_path(str(path))
+    assert mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "tcp") >= 0
+    assert model.ntex >= 3
