@@ -1,7 +1,7 @@
+import mujoco
 import numpy as np
 import pytest
 
-import mujoco
 from samplehd.errors import RenderError
 from samplehd.render.renderer import (
     SEG_BACKGROUND,
@@ -73,8 +73,9 @@ def test_wrist_camera_renders(world):
 
 def test_unknown_camera_lists_valid_names(world):
     model, data = world
-    with SceneRenderer(model, 64, 64, "fast") as r, pytest.raises(RenderError, match="unknown camera 'nope'; valid: operator"):
-        r.render(data, "nope")
+    with SceneRenderer(model, 64, 64, "fast") as r:
+        with pytest.raises(RenderError, match="unknown camera 'nope'; valid: operator"):
+            r.render(data, "nope")
 
 
 def test_bad_preset_modality_and_resolution(world):

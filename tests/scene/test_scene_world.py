@@ -1,7 +1,7 @@
+import mujoco
 import numpy as np
 import pytest
 
-import mujoco
 from samplehd.errors import ConfigError
 from samplehd.scene.layout import LAYOUT, table_parts_of
 from samplehd.scene.mjcf import export_mjcf

@@ -26,7 +26,6 @@ from types import TracebackType
 import mujoco
 import numpy as np
 
-import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 from samplehd.errors import RenderError
 
 __all__ = [

@@ -4,11 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import mujoco
 import numpy as np
 from PIL import Image
-
-import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
-import mujoco
 
 from samplehd.errors import ConfigError
 

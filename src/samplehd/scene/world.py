@@ -14,7 +14,6 @@ from typing import Any
 import mujoco
 import numpy as np
 
-import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 from samplehd.errors import ConfigError
 from samplehd.scene.geometry import look_at_quat
 from samplehd.scene.layout import LAYOUT, TableLayout

@@ -1,0 +1,115 @@
+"""The scene specification that flows from the scene sampler to every later stage.
+
+A :class:`SceneSpec` says which objects stand where (their settled poses) and where the scene camera
+is; :func:`compile_scene` turns it into a MuJoCo model + data, identically every time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from samplehd.errors import SceneError
+from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec, PlacedObject, WorldConfig, compile_world
+
+__all__ = ["SceneObject", "SceneSpec", "compile_scene", "object_body_name", "object_qpos_addresses"]
+
+
+def object_body_name(index: int) -> str:
+    """Name of the MuJoCo body of scene object `index`."""
+    return f"object_{index}"
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    """One object of a scene.
+
+    Attributes:
+        instance: the catalogue ``ObjectInstance`` (class, variant, colour, material, size).
+        pos: position of the object frame in the world after settling [m].
+        quat: orientation (w, x, y, z) after settling.
+    """
+
+    instance: Any
+    pos: tuple[float, float, float]
+    quat: tuple[float, float, float, float]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"instance": self.instance.to_dict(), "pos": list(self.pos), "quat": list(self.quat)}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SceneObject:
+        from samplehd.catalogue import ObjectInstance
+
+        try:
+            return cls(
+                instance=ObjectInstance.from_dict(d["instance"]),
+                pos=tuple(float(v) for v in d["pos"]),  # type: ignore[arg-type]
+                quat=tuple(float(v) for v in d["quat"]),  # type: ignore[arg-type]
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise SceneError(f"malformed scene object {d!r}: {exc}") from exc
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """A sampled scene.
+
+    Attributes:
+        index: scene index in its dataset.
+        seed: seed the scene was sampled from.
+        objects: the objects with their settled poses.
+        camera: the scene camera (named ``scene``) drawn around the operator viewpoint.
+    """
+
+    index: int
+    seed: int
+    objects: tuple[SceneObject, ...]
+    camera: CameraSpec = OPERATOR_CAMERA
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "index": self.index,
+            "seed": self.seed,
+            "objects": [o.to_dict() for o in self.objects],
+            "camera": self.camera.to_dict(),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> SceneSpec:
+        try:
+            return cls(
+                index=int(d["index"]),
+                seed=int(d["seed"]),
+                objects=tuple(SceneObject.from_dict(o) for o in d["objects"]),
+                camera=CameraSpec.from_dict(d["camera"]),
+            )
+        except (KeyError, TypeError, ValueError) as exc:
+            raise SceneError(f"malformed scene spec: missing or bad field {exc}") from exc
+
+    def world_config(self, timestep: float = 0.002) -> WorldConfig:
+        """World options with the operator camera and this scene's camera (named ``scene``)."""
+        cams = (OPERATOR_CAMERA,)
+        if self.camera.name != OPERATOR_CAMERA.name:
+            cams = (OPERATOR_CAMERA, self.camera)
+        return WorldConfig(timestep=timestep, cameras=cams)
+
+
+def compile_scene(scene: SceneSpec, timestep: float = 0.002) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """Compile the world with the scene's objects at their settled poses (robot at home)."""
+    placed = [PlacedObject(o.instance, tuple(o.pos), tuple(o.quat)) for o in scene.objects]
+    return compile_world(placed, scene.world_config(timestep))
+
+
+def object_qpos_addresses(model: mujoco.MjModel, count: int) -> np.ndarray:
+    """qpos addresses of the free joints of objects 0..count-1 (7 entries each from there)."""
+    adr = []
+    for i in range(count):
+        bid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, object_body_name(i))
+        if bid < 0:
+            raise SceneError(f"model has no body {object_body_name(i)!r}")
+        adr.append(int(model.jnt_qposadr[model.body_jntadr[bid]]))
+    return np.asarray(adr, dtype=np.int64)
