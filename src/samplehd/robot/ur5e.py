@@ -1,0 +1,349 @@
+"""Procedural UR5e arm with a parallel-jaw gripper, built with :class:`mujoco.MjSpec`.
+
+The kinematic chain is the published DH chain of the UR5e: body ``robot_<link>`` i carries joint i
+(a hinge about its local z axis), and its child sits at ``Tz(d_i) Tx(a_i) Rx(alpha_i)``; so the
+site ``flange`` is exactly DH frame 6 and forward kinematics equal :mod:`samplehd.robot.kinematics`.
+
+Names (relied upon by other packages, see docs/CONTRACTS.md):
+
+- root body ``robot_base``; every robot body descends from it and is named ``robot_*``;
+  every robot geom is named ``robot_*``;
+- joints ``shoulder_pan_joint`` … ``wrist_3_joint``, finger slides ``robot_left_finger_joint`` and
+  ``robot_right_finger_joint`` (kept equal by an equality constraint);
+- sites ``flange`` (DH frame 6) and ``tcp`` (between the finger pads, z = approach direction);
+- camera ``wrist`` on the gripper, looking along the approach direction.
+
+Actuators (``data.ctrl`` layout, in this order):
+
+- ``robot_<joint>_position`` (6): integrated-velocity position servos. ``ctrl`` is the velocity of
+  the joint's position target [rad/s]; MuJoCo integrates it into the target (``data.act``), so a
+  target that ramps linearly needs no per-physics-step Python. Clamped to the speed limits.
+- ``robot_<joint>_velocity`` (6): velocity servos fed the same ``ctrl`` (feed-forward, so a ramping
+  target is tracked without lag). The sum of both servos and the gravity compensation of the arm is
+  clamped to the UR5e torque limits per joint.
+- ``robot_gripper``: finger opening width [m], 0 (closed) … 0.085 (open); the squeeze force is
+  limited to :data:`~samplehd.robot.constants.GRIPPER_FORCE` per finger.
+
+Use :class:`samplehd.robot.controller.RobotController` rather than writing ``ctrl`` directly.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+
+import mujoco
+import numpy as np
+
+from samplehd.robot.constants import (
+    ARM_KP,
+    ARM_KV,
+    DH_A,
+    DH_ALPHA,
+    DH_D,
+    GRIPPER_ACTUATOR,
+    GRIPPER_FINGER_JOINTS,
+    GRIPPER_FORCE,
+    GRIPPER_STROKE,
+    JOINT_ARMATURE,
+    JOINT_DAMPING,
+    JOINT_LIMITS,
+    JOINT_NAMES,
+    LINK_MASSES,
+    LINK_NAMES,
+    POSITION_ACTUATORS,
+    ROBOT_BASE_QUAT,
+    ROBOT_BODY,
+    SPEED_LIMITS,
+    TCP_OFFSET,
+    TORQUE_LIMITS,
+    UR_CAP_RGBA,
+    UR_DARK_RGBA,
+    UR_GREY_RGBA,
+    UR_RING_RGBA,
+    VELOCITY_ACTUATORS,
+)
+
+__all__ = ["add_robot", "robot_spec"]
+
+# The robot is built in its own MjSpec and attached without a name prefix, so the names in
+# docs/CONTRACTS.md hold in the world. MuJoCo warns that prefix-less attachment "may prevent the
+# model from being saved correctly"; the names are unique (all robot names are robot_* or the UR
+# joint names), so saving works and the warning is noise for every world compile.
+warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix")
+
+_GEOM = mujoco.mjtGeom
+# Collision geoms are in group 0 (visible by default); decorative geoms that never collide
+# (caps, rings, the camera housing) are in group 1.
+_COLLISION_GROUP = 0
+_VISUAL_GROUP = 1
+
+# Finger geometry [m]: finger bodies hang below the gripper housing; pads face each other.
+_HOUSING_BOTTOM = 0.087  # housing spans flange z 0.012 … 0.087
+_PAD_CENTRE = TCP_OFFSET - _HOUSING_BOTTOM  # pad centre below the housing, so the TCP is between pads
+_PAD_HALF = (0.011, 0.004, 0.0175)
+_BAR_HALF = (0.012, 0.006, 0.033)
+_FINGER_MASS = 0.05
+_GRIPPER_HOUSING_MASS = 0.7
+_COUPLING_MASS = 0.1
+_PAD_FRICTION = (1.5, 0.02, 0.002)
+
+
+def _material(spec: mujoco.MjSpec, name: str, rgba: np.ndarray, specular: float, shininess: float) -> str:
+    mat = spec.add_material(name=name)
+    mat.rgba = rgba
+    mat.specular = specular
+    mat.shininess = shininess
+    return name
+
+
+class _LinkBuilder:
+    """Adds geoms to one body and sets their densities so the body has a given mass."""
+
+    def __init__(self, body: mujoco.MjsBody, name: str) -> None:
+        self.body = body
+        self.name = name
+        self.geoms: list[tuple[mujoco.MjsGeom, float]] = []
+
+    def cylinder(
+        self,
+        part: str,
+        radius: float,
+        z0: float,
+        z1: float,
+        material: str,
+        *,
+        axis: str = "z",
+        at: Sequence[float] = (0.0, 0.0),
+        collide: bool = True,
+    ) -> mujoco.MjsGeom:
+        """Cylinder along a body axis from coordinate z0 to z1, centred at ``at`` across it."""
+        a, b = at
+        if axis == "z":
+            start, end = (a, b, z0), (a, b, z1)
+        elif axis == "y":
+            start, end = (a, z0, b), (a, z1, b)
+        else:
+            start, end = (z0, a, b), (z1, a, b)
+        return self._add(part, _GEOM.mjGEOM_CYLINDER, [radius, 0, 0], material, collide, fromto=[*start, *end])
+
+    def tube(self, part: str, radius: float, start: Sequence[float], end: Sequence[float], material: str):
+        """Collision cylinder between two points of the body frame."""
+        return self._add(part, _GEOM.mjGEOM_CYLINDER, [radius, 0, 0], material, True, fromto=[*start, *end])
+
+    def box(
+        self, part: str, half: Sequence[float], centre: Sequence[float], material: str, *, collide: bool = True
+    ) -> mujoco.MjsGeom:
+        return self._add(part, _GEOM.mjGEOM_BOX, list(half), material, collide, pos=list(centre))
+
+    def _add(self, part, gtype, size, material, collide, **kw) -> mujoco.MjsGeom:
+        geom = self.body.add_geom(name=f"{self.name}_{part}", type=gtype, size=size, material=material, **kw)
+        geom.contype = 1 if collide else 0
+        geom.conaffinity = 1 if collide else 0
+        geom.group = _COLLISION_GROUP if collide else _VISUAL_GROUP
+        self.geoms.append((geom, _volume(gtype, size, kw.get("fromto"))))
+        return geom
+
+    def set_mass(self, mass: float) -> None:
+        """Give all geoms one density so that the body's mass is ``mass`` [kg]."""
+        total = sum(v for _, v in self.geoms)
+        for geom, _ in self.geoms:
+            geom.density = mass / total
+
+
+def _volume(gtype: int, size: Sequence[float], fromto: Sequence[float] | None) -> float:
+    if gtype == _GEOM.mjGEOM_BOX:
+        return 8.0 * size[0] * size[1] * size[2]
+    assert fromto is not None  # cylinders are always given by fromto here
+    length = float(np.linalg.norm(np.subtract(fromto[3:], fromto[:3])))
+    return math.pi * size[0] ** 2 * length
+
+
+def _quat_rx(angle: float) -> list[float]:
+    return [math.cos(angle / 2), math.sin(angle / 2), 0.0, 0.0]
+
+
+def _add_arm_geometry(links: list[_LinkBuilder], grey: str, cap: str, ring: str, dark: str) -> None:
+    """UR-like shapes: cylindrical joint housings with blue-grey caps and light-grey tubes.
+
+    Each housing is a cylinder about its joint axis, so it is drawn on whichever side of the joint
+    it belongs to; offsets along the joint axes follow the real arm (shoulder 0.138 m, elbow
+    -0.131 m, wrist 0.127 m), which add up to d4.
+    """
+    base, shoulder, upper, fore, w1, w2, w3 = links
+    base.cylinder("foot", 0.09, 0.0, 0.008, dark)
+    base.cylinder("housing", 0.075, 0.008, 0.06, grey)
+    base.cylinder("ring", 0.063, 0.06, 0.075, ring, collide=False)
+    # Shoulder: vertical J1 housing rising into the horizontal J2 housing.
+    shoulder.cylinder("housing", 0.06, 0.075, DH_D[0], grey)
+    # Upper arm: J2 housing (cap facing away from the arm), tube, elbow housing.
+    upper.cylinder("shoulder_housing", 0.06, -0.06, 0.185, grey)
+    upper.cylinder("shoulder_cap", 0.057, -0.07, -0.06, cap, collide=False)
+    upper.cylinder("shoulder_ring", 0.057, 0.185, 0.19, ring, collide=False)
+    upper.tube("tube", 0.045, (0.0, 0.0, 0.138), (DH_A[1], 0.0, 0.138), grey)
+    upper.cylinder("elbow_housing", 0.05, 0.07, 0.185, grey, at=(DH_A[1], 0.0))
+    upper.cylinder("elbow_cap", 0.047, 0.185, 0.193, cap, at=(DH_A[1], 0.0), collide=False)
+    # Forearm: rest of the elbow housing, tube, wrist-1 housing.
+    fore.cylinder("elbow_housing", 0.05, -0.05, 0.07, grey)
+    fore.cylinder("elbow_cap", 0.047, -0.058, -0.05, cap, collide=False)
+    fore.tube("tube", 0.038, (0.0, 0.0, 0.007), (DH_A[2], 0.0, 0.007), grey)
+    fore.cylinder("wrist_housing", 0.045, -0.045, 0.05, grey, at=(DH_A[2], 0.0))
+    fore.cylinder("wrist_cap", 0.042, -0.052, -0.045, cap, at=(DH_A[2], 0.0), collide=False)
+    # Wrists: each a housing about its own axis, capped on the outer side.
+    w1.cylinder("housing", 0.045, 0.05, DH_D[3], grey)
+    w2.cylinder("housing", 0.045, -0.05, 0.055, grey)
+    w2.cylinder("cap", 0.042, -0.057, -0.05, cap, collide=False)
+    w3.cylinder("housing", 0.045, -0.05, 0.085, grey)
+    w3.cylinder("cap", 0.042, -0.057, -0.05, cap, collide=False)
+    w3.cylinder("flange", 0.0315, 0.085, DH_D[5], ring)
+
+
+def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal: str, rubber: str) -> None:
+    gripper = wrist_3.add_body(name="robot_gripper", pos=[0.0, 0.0, DH_D[5]])
+    gripper.gravcomp = 1.0
+    g = _LinkBuilder(gripper, "robot_gripper")
+    g.cylinder("coupling", 0.038, 0.0, 0.012, dark)
+    g.box("housing", (0.035, 0.068, 0.0375), (0.0, 0.0, 0.0495), dark)
+    g.box("rail", (0.014, 0.062, 0.004), (0.0, 0.0, _HOUSING_BOTTOM - 0.002), metal, collide=False)
+    g.box("camera_housing", (0.01, 0.018, 0.012), (0.045, 0.0, 0.035), dark, collide=False)
+    g.set_mass(_GRIPPER_HOUSING_MASS + _COUPLING_MASS)
+    gripper.add_site(name="tcp", pos=[0.0, 0.0, TCP_OFFSET], size=[0.005, 0, 0], rgba=[1, 0.3, 0.1, 0.0])
+
+    # Wrist camera beside the housing, looking along the approach (+z) direction, tilted 12° towards
+    # the fingertips so they are in view; image up points away from the gripper (+x).
+    tilt = math.radians(12.0)
+    x_cam = np.array([0.0, 1.0, 0.0])
+    z_cam = np.array([math.sin(tilt), 0.0, -math.cos(tilt)])
+    y_cam = np.cross(z_cam, x_cam)
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, np.column_stack([x_cam, y_cam, z_cam]).reshape(9))
+    gripper.add_camera(name="wrist", pos=[0.056, 0.0, 0.035], quat=quat, fovy=75.0)
+
+    for side, sign, joint_name in (("left", -1.0, GRIPPER_FINGER_JOINTS[0]), ("right", 1.0, GRIPPER_FINGER_JOINTS[1])):
+        finger = gripper.add_body(name=f"robot_{side}_finger", pos=[0.0, 0.0, _HOUSING_BOTTOM])
+        finger.gravcomp = 1.0
+        joint = finger.add_joint(
+            name=joint_name,
+            type=mujoco.mjtJoint.mjJNT_SLIDE,
+            axis=[0.0, sign, 0.0],
+            range=[0.0, GRIPPER_STROKE / 2],
+            damping=150.0,
+            armature=0.01,
+        )
+        joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+        f = _LinkBuilder(finger, f"robot_{side}_finger")
+        pad = f.box("pad", _PAD_HALF, (0.0, sign * _PAD_HALF[1], _PAD_CENTRE), rubber)
+        pad.friction = list(_PAD_FRICTION)
+        pad.condim = 4
+        bar_y = sign * (2 * _PAD_HALF[1] + _BAR_HALF[1])
+        f.box("bar", _BAR_HALF, (0.0, bar_y, _BAR_HALF[2]), metal)
+        f.set_mass(_FINGER_MASS)
+
+    # The fingers touch each other when closed on nothing; that is not a collision.
+    spec.add_exclude(bodyname1="robot_left_finger", bodyname2="robot_right_finger")
+    eq = spec.add_equality(
+        name="robot_finger_symmetry",
+        type=mujoco.mjtEq.mjEQ_JOINT,
+        name1=GRIPPER_FINGER_JOINTS[1],
+        name2=GRIPPER_FINGER_JOINTS[0],
+    )
+    eq.solref = [0.005, 1.0]
+    width = spec.add_tendon(name="robot_gripper_width")
+    for jn in GRIPPER_FINGER_JOINTS:
+        width.wrap_joint(jn, 1.0)
+
+
+def robot_spec() -> mujoco.MjSpec:
+    """The UR5e with its gripper as a standalone spec: body ``robot_base`` at the world origin."""
+    spec = mujoco.MjSpec()
+    spec.compiler.degree = False
+    spec.copy_during_attach = True
+    grey = _material(spec, "robot_grey", UR_GREY_RGBA, 0.5, 0.6)
+    cap = _material(spec, "robot_cap", UR_CAP_RGBA, 0.4, 0.5)
+    ring = _material(spec, "robot_ring", UR_RING_RGBA, 0.6, 0.7)
+    dark = _material(spec, "robot_dark", UR_DARK_RGBA, 0.3, 0.3)
+    metal = _material(spec, "robot_metal", np.array([0.55, 0.56, 0.58, 1.0]), 0.8, 0.8)
+    rubber = _material(spec, "robot_rubber", np.array([0.08, 0.08, 0.08, 1.0]), 0.1, 0.1)
+
+    base = spec.worldbody.add_body(name=ROBOT_BODY)
+    links = [_LinkBuilder(base, ROBOT_BODY)]
+    parent = base
+    pos, quat = [0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]
+    for i, (link_name, joint_name) in enumerate(zip(LINK_NAMES, JOINT_NAMES, strict=True)):
+        body = parent.add_body(name=link_name, pos=pos, quat=quat)
+        body.gravcomp = 1.0
+        joint = body.add_joint(
+            name=joint_name,
+            type=mujoco.mjtJoint.mjJNT_HINGE,
+            axis=[0.0, 0.0, 1.0],
+            range=list(JOINT_LIMITS[i]),
+            armature=float(JOINT_ARMATURE[i]),
+            damping=float(JOINT_DAMPING[i]),
+        )
+        joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+        # Gravity compensation is the servo's job, so it counts against the joint torque limit.
+        joint.actgravcomp = True
+        joint.actfrclimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        joint.actfrcrange = [-float(TORQUE_LIMITS[i]), float(TORQUE_LIMITS[i])]
+        links.append(_LinkBuilder(body, link_name))
+        parent = body
+        # The next body sits at the fixed part of this joint's DH transform: Tz(d) Tx(a) Rx(alpha).
+        pos, quat = [float(DH_A[i]), 0.0, float(DH_D[i])], _quat_rx(float(DH_ALPHA[i]))
+    wrist_3 = parent
+    wrist_3.add_site(name="flange", pos=[0.0, 0.0, float(DH_D[5])], size=[0.005, 0, 0], rgba=[0.1, 0.1, 1, 0.0])
+
+    _add_arm_geometry(links, grey, cap, ring, dark)
+    for link, mass in zip(links, LINK_MASSES, strict=True):
+        link.set_mass(float(mass))
+    _add_gripper(spec, wrist_3, dark, metal, rubber)
+
+    for name, joint_name, kp, vmax in zip(POSITION_ACTUATORS, JOINT_NAMES, ARM_KP, SPEED_LIMITS, strict=True):
+        act = spec.add_actuator(name=name, target=joint_name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_intvelocity(kp=float(kp), kv=0.0)
+        act.ctrlrange = [-float(vmax), float(vmax)]
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.actrange = list(JOINT_LIMITS[JOINT_NAMES.index(joint_name)])
+        act.actlimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    for name, joint_name, kv, vmax in zip(VELOCITY_ACTUATORS, JOINT_NAMES, ARM_KV, SPEED_LIMITS, strict=True):
+        act = spec.add_actuator(name=name, target=joint_name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        act.set_to_velocity(kv=float(kv))
+        act.ctrlrange = [-float(vmax), float(vmax)]
+        act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    # The gripper actuator comes last, so ctrl[12] is the gripper opening width.
+    act = spec.add_actuator(name=GRIPPER_ACTUATOR, target="robot_gripper_width", trntype=mujoco.mjtTrn.mjTRN_TENDON)
+    act.set_to_position(kp=2000.0, kv=0.0)
+    act.ctrlrange = [0.0, GRIPPER_STROKE]
+    act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    act.forcerange = [-GRIPPER_FORCE, GRIPPER_FORCE]
+    act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+
+    return spec
+
+
+def add_robot(
+    parent: mujoco.MjsBody,
+    pos: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
+    quat: Sequence[float] | np.ndarray = ROBOT_BASE_QUAT,
+) -> mujoco.MjsBody:
+    """Attach the UR5e with its gripper to ``parent``.
+
+    Args:
+        parent: body of the world spec that carries the robot (e.g. the worldbody).
+        pos: position of the robot base frame (DH frame 0) in ``parent``'s frame [m].
+        quat: orientation (w, x, y, z) of the base frame in ``parent``'s frame.
+
+    Returns:
+        The attached root body ``robot_base``.
+    """
+    frame = parent.add_frame(pos=list(map(float, pos)), quat=list(map(float, quat)))
+    robot = robot_spec()
+    # MuJoCo also reports the prefix-less attachment through its C warning handler (stdout and
+    # MUJOCO_LOG.TXT); silence it for this call only.
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda _msg: None)
+    try:
+        body = frame.attach_body(robot.body(ROBOT_BODY), "", "")
+    finally:
+        mujoco.set_mju_user_warning(previous)
+    return body
