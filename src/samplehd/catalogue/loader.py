@@ -1,0 +1,279 @@
+"""Load and validate the catalogue data files; merge built-in and user-registered classes.
+
+Files (in ``samplehd/catalogue/data`` unless another directory is given):
+    colours.json    ``{"format": 1, "colours": {name: {"rgba": [r, g, b, a], "materials"?: [...]}}}``
+    materials.json  ``{"format": 1, "materials": {name: {"look": {...}, "physics": {...}, "colours"?: [...]}}}``
+    sizes.json      ``{"format": 1, "sizes": {name: {"scale": s}}, "weights": {name: {"max_mass": kg|null}}}``
+    classes.json    ``{"format": 1, "classes": {name: {description, affordances, mass, variants, menu}}}``
+
+Imported classes live in the user registry (see :mod:`samplehd.catalogue.registry`), one
+``<name>/class.json`` each with the same layout as one entry of ``classes.json``.
+
+Every problem is reported as one :class:`~samplehd.errors.AssetError` line naming the file, the
+field and what is valid; unknown keys are errors.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+from samplehd.catalogue.geometry import parse_geometry
+from samplehd.catalogue.model import (
+    Affordances,
+    AssetMenu,
+    Catalogue,
+    Colour,
+    MassModel,
+    Material,
+    ObjectClass,
+    SizeClass,
+    Variant,
+    WeightClass,
+)
+from samplehd.catalogue.schema import Field, read_json
+
+__all__ = [
+    "DATA_DIR",
+    "TEXTURES",
+    "load_catalogue",
+    "parse_class",
+    "read_catalogue",
+]
+
+DATA_DIR = Path(__file__).parent / "data"
+FORMAT = 1
+TEXTURES = ("wood_grain",)
+_AFFORDANCES = ("graspable", "handle_pickable", "container", "stackable_on", "stackable")
+
+
+def load_catalogue() -> Catalogue:
+    """Return the catalogue: the built-in data merged with the user registry (cached).
+
+    Call :func:`samplehd.catalogue.registry.refresh` (done by ``assets import``) after the registry
+    changes.
+
+    Raises:
+        AssetError: a data file or a registered class is malformed.
+    """
+    from samplehd.catalogue.registry import registry_dir
+
+    return _load_cached(str(DATA_DIR), str(registry_dir()))
+
+
+@lru_cache(maxsize=8)
+def _load_cached(data_dir: str, registry: str) -> Catalogue:
+    return read_catalogue(Path(data_dir), Path(registry))
+
+
+def read_catalogue(data_dir: Path = DATA_DIR, registry: Path | None = None) -> Catalogue:
+    """Read and validate the catalogue files in ``data_dir`` and the classes in ``registry``.
+
+    Args:
+        data_dir: directory holding colours.json, materials.json, sizes.json and classes.json.
+        registry: user registry directory with imported classes (None or missing: none).
+
+    Returns:
+        The validated catalogue.
+
+    Raises:
+        AssetError: a file is missing or malformed (one line naming file and field).
+    """
+    data_dir = Path(data_dir)
+    colours = _read_colours(read_json(data_dir / "colours.json"))
+    materials = _read_materials(read_json(data_dir / "materials.json"), colours)
+    sizes, weights = _read_sizes(read_json(data_dir / "sizes.json"))
+    base = Catalogue(colours, materials, sizes, weights, {})
+    doc = read_json(data_dir / "classes.json").mapping(["format", "classes"])
+    _check_format(doc["format"])
+    classes: dict[str, ObjectClass] = {}
+    for name, entry in doc["classes"].items():
+        classes[name] = parse_class(base, entry, name=name)
+    if not classes:
+        raise doc["classes"].fail("expected at least one class")
+    if registry is not None and Path(registry).is_dir():
+        for path in sorted(Path(registry).glob("*/class.json")):
+            name = path.parent.name
+            f = read_json(path)
+            if name in classes:
+                raise f.fail(f"imported class {name!r} clashes with a built-in class; re-import under another name")
+            classes[name] = parse_class(base, f, name=name, imported=True, registry_dir=path.parent)
+    return Catalogue(colours, materials, sizes, weights, classes)
+
+
+def _check_format(f: Field) -> None:
+    if f.value != FORMAT:
+        raise f.fail(f"unsupported format {f.value!r}; this samplehd reads format {FORMAT}")
+
+
+def _read_colours(doc: Field) -> dict[str, Colour]:
+    m = doc.mapping(["format", "colours"])
+    _check_format(m["format"])
+    out: dict[str, Colour] = {}
+    for name, entry in m["colours"].items():
+        e = entry.mapping(["rgba"], ["materials"])
+        entry.child("name", name).name()
+        rgba = e["rgba"].numbers(4, 0.0, 1.0)
+        mats = tuple(f.name() for f in e["materials"].sequence(1)) if "materials" in e else ()
+        out[name] = Colour(name, (rgba[0], rgba[1], rgba[2], rgba[3]), mats)
+    if not out:
+        raise m["colours"].fail("expected at least one colour")
+    return out
+
+
+def _read_materials(doc: Field, colours: dict[str, Colour]) -> dict[str, Material]:
+    m = doc.mapping(["format", "materials"])
+    _check_format(m["format"])
+    out: dict[str, Material] = {}
+    for name, entry in m["materials"].items():
+        entry.child("name", name).name()
+        e = entry.mapping(["look", "physics"], ["colours"])
+        look = e["look"].mapping(["specular", "shininess", "reflectance"], ["alpha", "texture"])
+        phys = e["physics"].mapping(["density", "friction"], ["sheet_factor"])
+        friction = phys["friction"].numbers(3, 0.0, 10.0)
+        if friction[0] <= 0:
+            raise phys["friction"].fail("sliding friction (first value) must be > 0")
+        density = phys["density"].number(1.0, 25000.0)
+        out[name] = Material(
+            name=name,
+            specular=look["specular"].number(0.0, 1.0),
+            shininess=look["shininess"].number(0.0, 1.0),
+            reflectance=look["reflectance"].number(0.0, 1.0),
+            alpha=look["alpha"].number(0.05, 1.0) if "alpha" in look else 1.0,
+            texture=look["texture"].choice(TEXTURES) if "texture" in look else None,
+            density=density,
+            friction=(friction[0], friction[1], friction[2]),
+            sheet_factor=phys["sheet_factor"].number(0.01, 1.0) if "sheet_factor" in phys else 1.0,
+            colours=e["colours"].choices(colours) if "colours" in e else (),
+        )
+    for c in colours.values():
+        for mat in c.materials:
+            if mat not in out:
+                raise Field(None, "colours.json", f"colours.{c.name}.materials").fail(
+                    f"unknown material {mat!r}; valid materials are {', '.join(out)}"
+                )
+    return out
+
+
+def _read_sizes(doc: Field) -> tuple[dict[str, SizeClass], tuple[WeightClass, ...]]:
+    m = doc.mapping(["format", "sizes", "weights"])
+    _check_format(m["format"])
+    sizes = {}
+    for name, entry in m["sizes"].items():
+        entry.child("name", name).name()
+        sizes[name] = SizeClass(name, entry.mapping(["scale"])["scale"].number(0.2, 5.0))
+    if not sizes:
+        raise m["sizes"].fail("expected at least one size")
+    weights: list[WeightClass] = []
+    for name, entry in m["weights"].items():
+        entry.child("name", name).name()
+        f = entry.mapping(["max_mass"])["max_mass"]
+        limit = None if f.value is None else f.positive()
+        if weights and (weights[-1].max_mass is None or (limit is not None and limit <= weights[-1].max_mass)):
+            raise f.fail("weight classes must be listed lightest first with increasing max_mass; only the last is null")
+        weights.append(WeightClass(name, limit))
+    if not weights or weights[-1].max_mass is not None:
+        raise m["weights"].fail("the last weight class must have max_mass null (no upper bound)")
+    return sizes, tuple(weights)
+
+
+def parse_class(
+    catalogue: Catalogue,
+    f: Field,
+    *,
+    name: str,
+    imported: bool = False,
+    registry_dir: Path | None = None,
+) -> ObjectClass:
+    """Validate one class entry against the vocabulary of ``catalogue``.
+
+    Args:
+        catalogue: provides colours, materials and sizes (its classes are ignored).
+        f: the class entry.
+        name: class name.
+        imported: whether the class comes from the user registry.
+        registry_dir: directory that relative mesh paths of an imported class are resolved against.
+
+    Raises:
+        AssetError: the entry is malformed (one line naming the file and field).
+    """
+    f.child("name", name).name()
+    e = f.mapping(["description", "affordances", "mass", "variants", "menu"])
+    description = e["description"].string()
+    affordances = _affordances(e["affordances"])
+    mass = _mass(e["mass"])
+    menu = _menu(catalogue, e["menu"])
+    variants: dict[str, Variant] = {}
+    for vname, ventry in e["variants"].items():
+        ventry.child("name", vname).name()
+        v = ventry.mapping(["geometry"], ["affordances", "menu"])
+        variants[vname] = Variant(
+            name=vname,
+            geometry=parse_geometry(v["geometry"], registry_dir),
+            affordances=_affordances(v["affordances"]) if "affordances" in v else affordances,
+            menu=_menu(catalogue, v["menu"], base=menu) if "menu" in v else menu,
+        )
+    if not variants:
+        raise e["variants"].fail("expected at least one variant")
+    return ObjectClass(name, description, mass, variants, imported)
+
+
+def _affordances(f: Field) -> Affordances:
+    m = f.mapping(_AFFORDANCES)
+    return Affordances(**{k: m[k].boolean() for k in _AFFORDANCES})
+
+
+def _mass(f: Field) -> MassModel:
+    m = f.mapping(["thin_walled"], ["shell", "contents_density", "fill"])
+    return MassModel(
+        thin_walled=m["thin_walled"].boolean(),
+        shell=m["shell"].number(1e-5, 0.05, lo_open=True) if "shell" in m else None,
+        contents_density=m["contents_density"].number(0.0, 20000.0) if "contents_density" in m else 0.0,
+        fill=m["fill"].number(0.0, 1.0) if "fill" in m else 1.0,
+    )
+
+
+def _menu(catalogue: Catalogue, f: Field, base: AssetMenu | None = None) -> AssetMenu:
+    """Parse a menu; with ``base`` (a variant's override) missing properties come from it."""
+    m = f.mapping([] if base else ["colour", "material", "size"], [] if not base else ["colour", "material", "size"])
+    colour = m["colour"].choices(catalogue.colours) if "colour" in m else base.colour  # type: ignore[union-attr]
+    material = (
+        m["material"].choices(catalogue.materials) if "material" in m else base.material  # type: ignore[union-attr]
+    )
+    size = m["size"].choices(catalogue.sizes) if "size" in m else base.size  # type: ignore[union-attr]
+    return make_menu(catalogue, colour, material, size, f)
+
+
+def make_menu(
+    catalogue: Catalogue,
+    colour: tuple[str, ...],
+    material: tuple[str, ...],
+    size: tuple[str, ...],
+    where: Field,
+) -> AssetMenu:
+    """Build a menu and check that every colour and every material can be combined with the other.
+
+    Args:
+        catalogue: provides the colour/material compatibility rules.
+        colour: allowed colours.
+        material: allowed materials.
+        size: allowed sizes.
+        where: field to name in error messages.
+
+    Raises:
+        AssetError: a colour fits none of the materials or a material none of the colours.
+    """
+    pairs = tuple((c, m) for c in colour for m in material if catalogue.compatible(c, m))
+    for c in colour:
+        if not any(p[0] == c for p in pairs):
+            raise where.child("colour", None).fail(
+                f"colour {c!r} fits none of the materials {list(material)}"
+                f" (it needs one of {list(catalogue.colours[c].materials) or 'any'})"
+            )
+    for mat in material:
+        if not any(p[1] == mat for p in pairs):
+            raise where.child("material", None).fail(
+                f"material {mat!r} fits none of the colours {list(colour)}"
+                f" (it allows {list(catalogue.materials[mat].colours) or 'any'})"
+            )
+    return AssetMenu(colour, material, size, pairs)

@@ -1,0 +1,45 @@
+"""Procedural textures (numpy arrays) for materials, e.g. wood grain for wooden objects."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["WOOD_SEED", "wood_grain"]
+
+WOOD_SEED = 20240611  # fixed: every wooden object shows the same grain pattern, run after run
+
+
+def wood_grain(width: int = 256, height: int = 256, rng: np.random.Generator | None = None) -> np.ndarray:
+    """A tileable grey-scale wood-grain image; the material colour tints it.
+
+    Grain lines run along the image's u axis (horizontal), growth rings vary along v.
+
+    Args:
+        width: image width [px].
+        height: image height [px].
+        rng: random generator for the grain irregularities (default: fixed seed ``WOOD_SEED``).
+
+    Returns:
+        (height, width, 3) uint8 RGB image, brightness between about 55 % and 100 %.
+    """
+    if rng is None:
+        rng = np.random.default_rng(WOOD_SEED)
+    u = np.linspace(0.0, 1.0, width, endpoint=False)[None, :]
+    v = np.linspace(0.0, 1.0, height, endpoint=False)[:, None]
+    # Integer frequencies keep the pattern tileable in u and v.
+    warp = np.zeros((height, width))
+    for k in range(1, 5):
+        phase_u, phase_v = rng.uniform(0, 2 * np.pi, 2)
+        warp += rng.uniform(0.01, 0.03) / k * np.sin(2 * np.pi * k * u + phase_u) * np.cos(2 * np.pi * k * v + phase_v)
+    rings = 14
+    t = (v + warp) * rings
+    ring = 0.5 + 0.5 * np.cos(2 * np.pi * t)
+    ring = ring**3  # thin dark late-wood lines on light early wood
+    fine = np.zeros((height, width))
+    for k in (23, 37, 61):
+        fine += np.sin(2 * np.pi * (k * v + rng.uniform(0, 1)) + 0.5 * np.sin(2 * np.pi * 2 * u)) / 3
+    lum = 0.95 - 0.3 * ring + 0.04 * fine
+    lum = np.clip(lum, 0.55, 1.0)
+    tint = np.array([1.0, 0.93, 0.82])  # warm, so that white paint still reads as wood
+    img = lum[..., None] * tint[None, None, :]
+    return np.round(img * 255.0).astype(np.uint8)
