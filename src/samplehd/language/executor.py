@@ -1,0 +1,287 @@
+"""One executor for both program formats: CLEVR node lists and SAMPLE-HD flat token sequences.
+
+Running a program on a scene gives a :class:`Task`: what to do, to which objects, where. See
+:mod:`samplehd.language.programs` for both formats.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from samplehd.errors import SamplehdError
+from samplehd.language.programs import ACTION_FUNCTIONS, FLAT_FILTER, FLAT_TASK_TOKENS, NODE_FUNCTIONS
+from samplehd.language.relations import RELATIONS
+from samplehd.language.scene import Scene, SceneObject, parse_scene
+from samplehd.scene.layout import OPPOSITE_PART, TABLE_PARTS
+
+__all__ = [
+    "ProgramError",
+    "Task",
+    "execute",
+    "execute_nodes",
+    "execute_sequence",
+    "parse_token",
+]
+
+Subject = str | int | None
+
+
+class ProgramError(SamplehdError, ValueError):
+    """A program is malformed or does not evaluate on the scene (e.g. ``unique`` of two objects)."""
+
+
+@dataclass(frozen=True)
+class Task:
+    """What an instruction asks for.
+
+    Attributes:
+        type: place, stack, put, pick_up, place_relative or stack_three (remove is a place: the
+            cleared part's objects go to the opposite part).
+        objects: indices of the objects to move, in the order they are moved.
+        subject: destination: a table part (place), an object index (stack, put, place_relative,
+            stack_three: the bottom object) or None (pick_up).
+        relation: for place_relative, the direction from the subject ("left": left of it).
+    """
+
+    type: str
+    objects: tuple[int, ...]
+    subject: Subject = None
+    relation: str | None = None
+
+    @property
+    def targets(self) -> tuple[int, ...]:
+        """Every object the task involves: the moved objects, then the subject object if any."""
+        return self.objects + ((self.subject,) if isinstance(self.subject, int) else ())
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return ``{type, objects, subject, relation}``."""
+        return {
+            "type": self.type,
+            "objects": list(self.objects),
+            "subject": self.subject,
+            "relation": self.relation,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Task:
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            type=str(data["type"]),
+            objects=tuple(int(i) for i in data["objects"]),
+            subject=data.get("subject"),
+            relation=data.get("relation"),
+        )
+
+
+def _filter(objects: Sequence[SceneObject], items: frozenset[int], kind: str, value: str) -> frozenset[int]:
+    if kind == "table_part":
+        return frozenset(i for i in items if value in objects[i].table_part)
+    return frozenset(i for i in items if getattr(objects[i], kind) == value)
+
+
+def _check_part(value: str, where: str) -> str:
+    if value not in TABLE_PARTS:
+        raise ProgramError(f"{where}: unknown table part {value!r}; valid: {', '.join(TABLE_PARTS)}")
+    return value
+
+
+def _check_relation(value: str, where: str) -> str:
+    if value not in RELATIONS:
+        raise ProgramError(f"{where}: unknown relation {value!r}; valid: {', '.join(RELATIONS)}")
+    return value
+
+
+def _as_object(value: Any, where: str) -> int:
+    if isinstance(value, int):
+        return value
+    if isinstance(value, frozenset) and len(value) == 1:
+        return next(iter(value))
+    raise ProgramError(f"{where}: expected one object, got {_describe(value)}")
+
+
+def _as_set(value: Any, where: str) -> frozenset[int]:
+    if isinstance(value, int):
+        return frozenset((value,))
+    if isinstance(value, frozenset):
+        return value
+    raise ProgramError(f"{where}: expected objects, got {_describe(value)}")
+
+
+def _describe(value: Any) -> str:
+    if isinstance(value, frozenset):
+        return f"{len(value)} objects {sorted(value)}"
+    return repr(value)
+
+
+def _make_task(type_: str, groups: list[Any], value: str | None, where: str) -> Task:
+    """Build the task of an action from its (object or set) arguments."""
+    if type_ in ("place", "remove"):
+        if len(groups) != 1:
+            raise ProgramError(f"{where}: {type_} takes one object set, got {len(groups)}")
+        part = _check_part(str(value), where)
+        objects = tuple(sorted(_as_set(groups[0], where)))
+        if not objects:
+            raise ProgramError(f"{where}: {type_} of an empty set")
+        return Task("place", objects, OPPOSITE_PART[part] if type_ == "remove" else part)
+    arity = {"stack": 2, "put": 2, "pick_up": 1, "place_relative": 2, "stack_three": 3}[type_]
+    if len(groups) != arity:
+        raise ProgramError(f"{where}: {type_} takes {arity} objects, got {len(groups)}")
+    objs = [_as_object(g, where) for g in groups]
+    if len(set(objs)) != len(objs):
+        raise ProgramError(f"{where}: {type_} needs distinct objects, got {objs}")
+    if type_ == "pick_up":
+        return Task("pick_up", (objs[0],))
+    if type_ == "place_relative":
+        return Task("place_relative", (objs[0],), objs[1], _check_relation(str(value), where))
+    if type_ == "stack_three":
+        top, middle, bottom = objs
+        return Task("stack_three", (middle, top), bottom)
+    return Task(type_, (objs[0],), objs[1])
+
+
+def execute_nodes(program: Sequence[Mapping[str, Any]], scene: Scene) -> Task:
+    """Run a CLEVR node-list program on a scene.
+
+    Raises:
+        ProgramError: a node is malformed or does not evaluate (the message names the node).
+    """
+    objects = scene.objects
+    values: list[Any] = []
+    task: Task | None = None
+    for k, nd in enumerate(program):
+        where = f"node {k}"
+        if not isinstance(nd, Mapping) or "type" not in nd:
+            raise ProgramError(f"{where}: expected {{type, inputs, value_inputs}}, got {nd!r}")
+        type_ = str(nd["type"])
+        where = f"node {k} ({type_})"
+        if type_ not in NODE_FUNCTIONS:
+            raise ProgramError(f"{where}: unknown function; valid: {', '.join(sorted(NODE_FUNCTIONS))}")
+        inputs = list(nd.get("inputs", []))
+        vals = [str(v) for v in nd.get("value_inputs", [])]
+        if any(not isinstance(i, int) or not 0 <= i < k for i in inputs):
+            raise ProgramError(f"{where}: inputs must be indices of earlier nodes, got {inputs}")
+        if len(vals) != NODE_FUNCTIONS[type_]:
+            raise ProgramError(f"{where}: takes {NODE_FUNCTIONS[type_]} value inputs, got {vals}")
+        args = [values[i] for i in inputs]
+        result: Any
+        if type_ in ACTION_FUNCTIONS:
+            if task is not None:
+                raise ProgramError(f"{where}: a program has one action")
+            task = _make_task(type_, args, vals[0] if vals else None, where)
+            result = task
+        elif type_ == "scene":
+            result = frozenset(range(len(objects)))
+        elif type_.startswith("filter_"):
+            kind = next(kd for kd, f in _NODE_FILTER_KIND.items() if f == type_)
+            if len(args) != 1:
+                raise ProgramError(f"{where}: takes one input")
+            if kind == "table_part":
+                _check_part(vals[0], where)
+            result = _filter(objects, _as_set(args[0], where), kind, vals[0])
+        elif type_ == "unique":
+            if len(args) != 1:
+                raise ProgramError(f"{where}: takes one input")
+            result = _as_object(args[0], where)
+        elif type_ == "relate":
+            if len(args) != 1:
+                raise ProgramError(f"{where}: takes one input")
+            rel = _check_relation(vals[0], where)
+            result = frozenset(scene.relationships[rel][_as_object(args[0], where)])
+        else:  # union, intersect
+            if len(args) != 2:
+                raise ProgramError(f"{where}: takes two inputs")
+            a, b = (_as_set(x, where) for x in args)
+            result = a | b if type_ == "union" else a & b
+        values.append(result)
+    if task is None:
+        raise ProgramError("program has no action node (place, stack, put, ...)")
+    if not isinstance(values[-1], Task):
+        raise ProgramError(f"node {len(values) - 1}: the action must be the last node")
+    return task
+
+
+_NODE_FILTER_KIND = {
+    "name": "filter_name",
+    "colour": "filter_color",
+    "material": "filter_material",
+    "size": "filter_size",
+    "table_part": "filter_table_part",
+}
+_FLAT_FILTER_KIND = {f: k for k, f in FLAT_FILTER.items()}
+_TOKEN = re.compile(r"^([a-z_]+)(?:\[([^\[\]]+)\])?$")
+
+
+def parse_token(token: str) -> tuple[str, str | None]:
+    """Split a flat token ``"filter_colour[red]"`` into ``("filter_colour", "red")``."""
+    match = _TOKEN.match(token)
+    if not match:
+        raise ProgramError(f"malformed token {token!r}; expected name or name[value]")
+    return match.group(1), match.group(2)
+
+
+def execute_sequence(program: str | Sequence[str], scene: Scene) -> Task:
+    """Run a SAMPLE-HD flat program (a string of tokens or a token list) on a scene.
+
+    Raises:
+        ProgramError: a token is malformed or does not evaluate (the message names the token).
+    """
+    tokens = program.split() if isinstance(program, str) else list(program)
+    if not tokens:
+        raise ProgramError("empty program")
+    action, value = parse_token(tokens[0])
+    if action not in FLAT_TASK_TOKENS:
+        raise ProgramError(f"token 0: unknown task {action!r}; valid: {', '.join(FLAT_TASK_TOKENS)}")
+    if FLAT_TASK_TOKENS[action] != (value is not None):
+        raise ProgramError(f"token 0: {action} {'needs' if FLAT_TASK_TOKENS[action] else 'takes no'} [value]")
+    objects = scene.objects
+    groups: list[frozenset[int]] = []
+    for k, token in enumerate(tokens[1:], start=1):
+        name, val = parse_token(token)
+        where = f"token {k} ({token})"
+        if name == "scene":
+            groups.append(frozenset(range(len(objects))))
+            continue
+        if not groups:
+            raise ProgramError(f"{where}: an object group must start with 'scene'")
+        if name == "filter_relate":
+            rel = _check_relation(str(val), where)
+            groups[-1] = frozenset(scene.relationships[rel][_as_object(groups[-1], where)])
+        elif name in _FLAT_FILTER_KIND and val is not None:
+            kind = _FLAT_FILTER_KIND[name]
+            if kind == "table_part":
+                _check_part(val, where)
+            groups[-1] = _filter(objects, groups[-1], kind, val)
+        else:
+            valid = ", ".join([*(f"{f}[v]" for f in FLAT_FILTER.values()), "filter_relate[r]", "scene"])
+            raise ProgramError(f"{where}: unknown token; valid: {valid}")
+    where = f"task {tokens[0]}"
+    if action == "place":
+        return _make_task("place", [frozenset().union(*groups)] if groups else [], value, where)
+    return _make_task(action, list(groups), value, where)
+
+
+_EXECUTORS: dict[str, Callable[[Any, Scene], Task]] = {"nodes": execute_nodes, "sequence": execute_sequence}
+
+
+def execute(program: str | Sequence[str] | Sequence[Mapping[str, Any]], scene: Scene | Mapping[str, Any]) -> Task:
+    """Run a program in either format on a scene and return its task.
+
+    Args:
+        program: a CLEVR node list, a flat token list, or a flat program string.
+        scene: the scene to run on (a parsed :class:`Scene` or a scene dict).
+
+    Raises:
+        ProgramError: the program is malformed or does not evaluate on the scene.
+        SceneError: ``scene`` is a malformed scene dict.
+    """
+    if not isinstance(scene, Scene):
+        scene = parse_scene(scene)
+    if isinstance(program, str):
+        return _EXECUTORS["sequence"](program, scene)
+    items = list(program)
+    if items and all(isinstance(x, str) for x in items):
+        return _EXECUTORS["sequence"](items, scene)
+    return _EXECUTORS["nodes"](items, scene)

@@ -1,0 +1,397 @@
+"""Rejection-based instruction generation (SAMPLE-HD's method).
+
+For each instruction slot of a scene: order the templates so the least used template (or family,
+then template) comes first, ties broken at random; for that template draw its parameters one by
+one (objects uniformly among those with a unique description, sets among the scene's set
+descriptions, table parts and relations uniformly) and check each constraint as soon as its
+parameters are drawn, rejecting the draw on the first failure and counting the reason. A template
+that fails ``tries_per_template`` draws is dropped for the scene and the next one is tried. A draw
+that passes gets descriptions drawn among the shortest unique ones, text, and programs in both
+formats; both programs are executed and must give the same task, and a task already asked for in
+the scene is rejected as a duplicate. Nothing enumerates all attribute combinations: the cost per
+instruction is polynomial in the number of objects.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from samplehd.errors import ConfigError
+from samplehd.language.constraints import CONSTRAINTS, ConstraintContext, Reachable, default_reachable
+from samplehd.language.descriptions import Description, SceneDescriber, render_description
+from samplehd.language.executor import ProgramError, Task, execute_nodes, execute_sequence
+from samplehd.language.lexicon import Lexicon, default_lexicon
+from samplehd.language.programs import node, reference_nodes, reference_tokens
+from samplehd.language.realise import realise_text
+from samplehd.language.relations import RELATIONS
+from samplehd.language.scene import Scene, parse_scene
+from samplehd.language.templates import Template, TemplateConstraint, default_templates
+from samplehd.scene.layout import OPPOSITE_PART, TABLE_PARTS
+
+__all__ = [
+    "BALANCE_MODES",
+    "GenerationResult",
+    "Instruction",
+    "TemplateBalancer",
+    "generate_instructions",
+]
+
+BALANCE_MODES = ("templates", "families")
+_META = ("object", "object_set")
+
+
+@dataclass(frozen=True)
+class Instruction:
+    """One generated instruction for one scene.
+
+    Attributes:
+        text: the instruction.
+        family: task family of its template.
+        template_name: the template's name.
+        template_filename: the file the template came from.
+        template_index: the template's position in that file.
+        task: what the programs evaluate to.
+        program: CLEVR node list.
+        program_sequence: SAMPLE-HD flat program tokens.
+        params: bound parameters (object index, list of indices, table part or relation).
+        references: descriptions used for object and set parameters.
+    """
+
+    text: str
+    family: str
+    template_name: str
+    template_filename: str
+    template_index: int
+    task: Task
+    program: tuple[dict[str, Any], ...]
+    program_sequence: tuple[str, ...]
+    params: dict[str, Any] = field(default_factory=dict)
+    references: dict[str, Description] = field(default_factory=dict)
+
+    @property
+    def targets(self) -> tuple[int, ...]:
+        """Every object index the task involves (moved objects, then the subject object)."""
+        return self.task.targets
+
+    def to_dict(self) -> dict[str, Any]:
+        """Return the instruction-file entry fields this instruction owns."""
+        return {
+            "instruction": self.text,
+            "family": self.family,
+            "template_name": self.template_name,
+            "template_filename": self.template_filename,
+            "template_index": self.template_index,
+            "task": self.task.to_dict(),
+            "targets": list(self.targets),
+            "program": [dict(n) for n in self.program],
+            "program_sequence": " ".join(self.program_sequence),
+            "params": {k: list(v) if isinstance(v, tuple) else v for k, v in self.params.items()},
+            "references": {k: d.to_dict() for k, d in self.references.items()},
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> Instruction:
+        """Inverse of :meth:`to_dict` (extra entry fields are ignored)."""
+        seq = data["program_sequence"]
+        return cls(
+            text=str(data["instruction"]),
+            family=str(data["family"]),
+            template_name=str(data.get("template_name", "")),
+            template_filename=str(data["template_filename"]),
+            template_index=int(data["template_index"]),
+            task=Task.from_dict(data["task"]),
+            program=tuple(dict(n) for n in data["program"]),
+            program_sequence=tuple(seq.split() if isinstance(seq, str) else seq),
+            params={k: tuple(v) if isinstance(v, list) else v for k, v in data.get("params", {}).items()},
+            references={k: Description.from_dict(d) for k, d in data.get("references", {}).items()},
+        )
+
+
+@dataclass(frozen=True)
+class GenerationResult:
+    """Instructions for one scene and how many draws were rejected, by reason."""
+
+    instructions: tuple[Instruction, ...]
+    rejections: dict[str, int]
+    attempts: int
+
+
+class TemplateBalancer:
+    """Keeps use counts so that templates (or families) come out near uniformly.
+
+    Share one balancer across the scenes of a dataset; the next slot tries the least used template
+    (``"templates"``) or the least used family and within it the least used template
+    (``"families"``) first, ties broken at random.
+
+    Args:
+        balance: ``"templates"`` or ``"families"``.
+    """
+
+    def __init__(self, balance: str = "templates") -> None:
+        if balance not in BALANCE_MODES:
+            raise ConfigError(f"balance {balance!r} is unknown; valid: {', '.join(BALANCE_MODES)}")
+        self.balance = balance
+        self.template_counts: Counter[str] = Counter()
+        self.family_counts: Counter[str] = Counter()
+
+    def order(self, templates: Sequence[Template], rng: np.random.Generator) -> list[Template]:
+        """Return the templates in the order to try them."""
+        keys = rng.random(len(templates))
+        if self.balance == "templates":
+            order = sorted(range(len(templates)), key=lambda i: (self.template_counts[templates[i].name], keys[i]))
+            return [templates[i] for i in order]
+        families = sorted({t.family for t in templates})
+        fkeys = dict(zip(families, rng.random(len(families)), strict=True))
+        order = sorted(
+            range(len(templates)),
+            key=lambda i: (
+                self.family_counts[templates[i].family],
+                fkeys[templates[i].family],
+                self.template_counts[templates[i].name],
+                keys[i],
+            ),
+        )
+        return [templates[i] for i in order]
+
+    def record(self, template: Template) -> None:
+        """Count one instruction made from ``template``."""
+        self.template_counts[template.name] += 1
+        self.family_counts[template.family] += 1
+
+
+def _schedule(template: Template) -> list[list[TemplateConstraint]]:
+    """Constraints to check after each parameter is drawn (when their last parameter is bound)."""
+    position = {p.name: k for k, p in enumerate(template.params)}
+    out: list[list[TemplateConstraint]] = [[] for _ in template.params]
+    for c in template.constraints:
+        out[max(position[p] for p in c.params)].append(c)
+    return out
+
+
+class _SceneGenerator:
+    """Per-scene state: descriptions, constraint context, counts."""
+
+    def __init__(self, scene: Scene, reachable: Reachable, lexicon: Lexicon, rng: np.random.Generator) -> None:
+        self.scene = scene
+        self.lexicon = lexicon
+        self.rng = rng
+        self.describer = SceneDescriber(scene, lexicon)
+        self.ctx = ConstraintContext(scene, reachable)
+        self.describable = [i for i in range(len(scene.objects)) if self.describer.unique_descriptions(i)]
+        self.sets = self.describer.set_descriptions()
+        self.set_members = [self.describer.matches(d) for d in self.sets]
+        self.rejections: Counter[str] = Counter()
+        self.attempts = 0
+        self._schedules: dict[str, list[list[TemplateConstraint]]] = {}
+
+    def draw(self, template: Template) -> tuple[dict[str, Any], dict[str, Description]] | None:
+        """Draw parameters for a template; None (and a counted reason) when rejected."""
+        self.attempts += 1
+        if template.name not in self._schedules:
+            self._schedules[template.name] = _schedule(template)
+        schedule = self._schedules[template.name]
+        values: dict[str, Any] = {}
+        refs: dict[str, Description] = {}
+        used: set[int] = set()
+        rng = self.rng
+        for k, p in enumerate(template.params):
+            if p.type == "object":
+                pool = [i for i in self.describable if i not in used]
+                if not pool:
+                    self.rejections["no_describable_object"] += 1
+                    return None
+                i = pool[int(rng.integers(len(pool)))]
+                values[p.name] = i
+                used.add(i)
+            elif p.type == "object_set":
+                if not self.sets:
+                    self.rejections["no_set_description"] += 1
+                    return None
+                s = int(rng.integers(len(self.sets)))
+                members = self.set_members[s]
+                if used.intersection(members):
+                    self.rejections["referents_overlap"] += 1
+                    return None
+                values[p.name] = members
+                refs[p.name] = self.sets[s]
+                used.update(members)
+            elif p.type == "table_part":
+                values[p.name] = TABLE_PARTS[int(rng.integers(len(TABLE_PARTS)))]
+            else:
+                values[p.name] = RELATIONS[int(rng.integers(len(RELATIONS)))]
+            for c in schedule[k]:
+                if not CONSTRAINTS[c.type].check(self.ctx, [values[x] for x in c.params]):
+                    self.rejections[c.type] += 1
+                    return None
+        for p in template.params:
+            if p.type == "object":
+                options = self.describer.unique_descriptions(values[p.name])
+                refs[p.name] = options[int(rng.integers(len(options)))]
+        return values, refs
+
+    def build(self, template: Template, values: dict[str, Any], refs: dict[str, Description]) -> Instruction | None:
+        """Render text and programs for a successful draw; None if the programs disagree."""
+        rng = self.rng
+        lex = self.lexicon
+        types = {p.name: p.type for p in template.params}
+        rendered: dict[str, str] = {}
+
+        def phrase(name: str, modifier: str | None) -> str:
+            kind, value = types[name], values[name]
+            if kind == "object":
+                obj_name = self.scene.objects[value].name
+                plural = lex.is_plural_form(obj_name)
+                if modifier == "pronoun":
+                    return "them" if plural else "it"
+                if modifier == "be":
+                    return "are" if plural else "is"
+                if name not in rendered:
+                    rendered[name] = render_description(refs[name], lex)
+                return rendered[name]
+            if kind == "object_set":
+                if name not in rendered:
+                    dets = lex.set_determiners
+                    det = dets[int(rng.integers(len(dets)))]
+                    rendered[name] = render_description(refs[name], lex, plural=True, determiner=det)
+                return rendered[name]
+            if kind == "table_part":
+                return OPPOSITE_PART[value] if modifier == "opposite" else value
+            return lex.relation_destination_phrase.get(value, value)
+
+        variant = template.text[int(rng.integers(len(template.text)))]
+        text = realise_text(variant, phrase, template.synonyms, rng)
+
+        nodes: list[dict[str, Any]] = []
+        where: dict[int, int] = {}
+        for k, nd in enumerate(template.nodes):
+            if nd["type"] in _META:
+                nodes += reference_nodes(refs[nd["side_inputs"][0]], len(nodes), unique=nd["type"] == "object")
+            else:
+                vals = list(nd["value_inputs"]) + [str(values[s]) for s in nd["side_inputs"]]
+                nodes.append(node(nd["type"], [where[i] for i in nd["inputs"]], vals))
+            where[k] = len(nodes) - 1
+
+        def substitute(token: str) -> str:
+            for p in template.params:
+                if p.type == "table_part":
+                    token = token.replace(f"<{p.name}:opposite>", OPPOSITE_PART[values[p.name]])
+                if p.type not in _META:
+                    token = token.replace(f"<{p.name}>", str(values[p.name]))
+            return token
+
+        sequence: list[str] = []
+        for token in template.sequence:
+            name = token[1:-1] if token.startswith("<") and token.endswith(">") else None
+            if name in types and types[name] in _META:
+                sequence += reference_tokens(refs[name])
+            else:
+                sequence.append(substitute(token))
+        try:
+            task = execute_nodes(nodes, self.scene)
+            if execute_sequence(sequence, self.scene) != task:
+                raise ProgramError("formats disagree")
+        except ProgramError:
+            self.rejections["program_mismatch"] += 1
+            return None
+        return Instruction(
+            text=text,
+            family=template.family,
+            template_name=template.name,
+            template_filename=template.filename,
+            template_index=template.index,
+            task=task,
+            program=tuple(nodes),
+            program_sequence=tuple(sequence),
+            params=dict(values),
+            references=dict(refs),
+        )
+
+
+def generate_instructions(
+    scene: Scene | Mapping[str, Any],
+    rng: np.random.Generator,
+    templates: Sequence[Template] | None = None,
+    *,
+    per_scene: int = 5,
+    balance: str = "templates",
+    families: Sequence[str] | None = None,
+    reachable: Reachable = default_reachable,
+    balancer: TemplateBalancer | None = None,
+    tries_per_template: int = 20,
+    lexicon: Lexicon | None = None,
+) -> GenerationResult:
+    """Generate up to ``per_scene`` distinct instructions for one scene by rejection sampling.
+
+    Args:
+        scene: a parsed scene or a scene dict (CLEVR layout).
+        rng: the only source of randomness.
+        templates: templates to draw from (default: the shipped ones).
+        per_scene: how many instructions to make; fewer when the scene does not allow more.
+        balance: ``"templates"`` or ``"families"``: what should come out uniform.
+        families: only use templates of these families.
+        reachable: whether the arm can pick or place at a point (x, y, z) [m].
+        balancer: shared use counts across scenes (default: a fresh one for this scene).
+        tries_per_template: draws of one template before giving up on it for this scene.
+        lexicon: words for the text (default: the shipped lexicon).
+
+    Returns:
+        The instructions, rejection counts by reason, and the number of draws.
+
+    Raises:
+        SceneError: ``scene`` is a malformed scene dict.
+        ConfigError: an unknown balance mode or family, or no templates left.
+    """
+    if not isinstance(scene, Scene):
+        scene = parse_scene(scene)
+    pool = list(templates if templates is not None else default_templates())
+    if families is not None:
+        known = sorted({t.family for t in pool})
+        unknown = [f for f in families if f not in known]
+        if unknown:
+            raise ConfigError(f"family {unknown[0]!r} has no templates; valid: {', '.join(known)}")
+        pool = [t for t in pool if t.family in families]
+    if not pool:
+        raise ConfigError("no templates to generate from")
+    if balancer is None:
+        balancer = TemplateBalancer(balance)
+    elif balancer.balance != balance:
+        raise ConfigError(f"balancer balances {balancer.balance}, but balance={balance!r} was asked for")
+    gen = _SceneGenerator(scene, reachable, lexicon or default_lexicon(), rng)
+    gen.rejections["no_unique_description"] = len(scene.objects) - len(gen.describable)
+    out: list[Instruction] = []
+    seen: set[tuple[Any, ...]] = set()
+    exhausted: set[str] = set()
+    while len(out) < per_scene:
+        made: Instruction | None = None
+        chosen: Template | None = None
+        for template in balancer.order(pool, rng):
+            if template.name in exhausted:
+                continue
+            for _ in range(tries_per_template):
+                drawn = gen.draw(template)
+                if drawn is None:
+                    continue
+                inst = gen.build(template, *drawn)
+                if inst is None:
+                    continue
+                key = (inst.task.type, inst.task.objects, inst.task.subject, inst.task.relation)
+                if key in seen:
+                    gen.rejections["duplicate"] += 1
+                    continue
+                seen.add(key)
+                made, chosen = inst, template
+                break
+            if made is not None:
+                break
+            exhausted.add(template.name)
+        if made is None or chosen is None:
+            break
+        balancer.record(chosen)
+        out.append(made)
+    rejections = {k: v for k, v in sorted(gen.rejections.items()) if v}
+    return GenerationResult(tuple(out), rejections, gen.attempts)
