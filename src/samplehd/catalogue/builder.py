@@ -130,7 +130,7 @@ def material_rgba(material: Material, colour: Colour) -> tuple[float, float, flo
     """
     r, g, b, a = colour.rgba
     if material.texture == "wood_grain":
-        r, g, b = (0.25 + 0.75 * c for c in (r, g, b))
+        r, g, b = (0.4 + 0.6 * c for c in (r, g, b))
     return (r, g, b, min(a, material.alpha))
 
 

@@ -30,15 +30,18 @@ def wood_grain(width: int = 256, height: int = 256, rng: np.random.Generator | N
     warp = np.zeros((height, width))
     for k in range(1, 5):
         phase_u, phase_v = rng.uniform(0, 2 * np.pi, 2)
-        warp += rng.uniform(0.01, 0.03) / k * np.sin(2 * np.pi * k * u + phase_u) * np.cos(2 * np.pi * k * v + phase_v)
-    rings = 14
-    t = (v + warp) * rings
+        warp += (
+            rng.uniform(0.002, 0.006) / k * np.sin(2 * np.pi * k * u + phase_u) * np.cos(2 * np.pi * k * v + phase_v)
+        )
+    rings = 22
+    # Uneven ring spacing, still periodic in v (integer frequencies).
+    t = (v + warp) * rings + 0.8 * np.sin(2 * np.pi * 3 * v + rng.uniform(0, 2 * np.pi))
     ring = 0.5 + 0.5 * np.cos(2 * np.pi * t)
-    ring = ring**3  # thin dark late-wood lines on light early wood
+    ring = ring**4  # thin dark late-wood lines on light early wood
     fine = np.zeros((height, width))
     for k in (23, 37, 61):
         fine += np.sin(2 * np.pi * (k * v + rng.uniform(0, 1)) + 0.5 * np.sin(2 * np.pi * 2 * u)) / 3
-    lum = 0.95 - 0.3 * ring + 0.04 * fine
+    lum = 0.95 - 0.22 * ring + 0.04 * fine
     lum = np.clip(lum, 0.55, 1.0)
     tint = np.array([1.0, 0.93, 0.82])  # warm, so that white paint still reads as wood
     img = lum[..., None] * tint[None, None, :]
