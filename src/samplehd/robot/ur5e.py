@@ -83,7 +83,9 @@ _VISUAL_GROUP = 1
 _HOUSING_BOTTOM = 0.087  # housing spans flange z 0.012 … 0.087
 _PAD_CENTRE = TCP_OFFSET - _HOUSING_BOTTOM  # pad centre below the housing, so the TCP is between pads
 _PAD_HALF = (0.011, 0.004, 0.0175)
-_BAR_HALF = (0.012, 0.006, 0.033)
+# The bar ends where the pad ends, so the pads are the lowest part of the fingers and a top-down
+# grasp can pinch thin objects (cutlery) a few millimetres above the table.
+_BAR_HALF = (0.012, 0.006, (_PAD_CENTRE + _PAD_HALF[2]) / 2)
 _FINGER_MASS = 0.05
 _GRIPPER_HOUSING_MASS = 0.7
 _COUPLING_MASS = 0.1
@@ -236,6 +238,11 @@ def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal:
         pad = f.box("pad", _PAD_HALF, (0.0, sign * _PAD_HALF[1], _PAD_CENTRE), rubber)
         pad.friction = list(_PAD_FRICTION)
         pad.condim = 4
+        # Stiff, high-priority rubber pads: the default soft contact lets a squeezed object sink
+        # millimetres into the pads and creep out of the grasp.
+        pad.priority = 1
+        pad.solref = [0.004, 1.0]
+        pad.solimp = [0.95, 0.99, 0.001, 0.5, 2.0]
         bar_y = sign * (2 * _PAD_HALF[1] + _BAR_HALF[1])
         f.box("bar", _BAR_HALF, (0.0, bar_y, _BAR_HALF[2]), metal)
         f.set_mass(_FINGER_MASS)

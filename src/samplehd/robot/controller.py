@@ -1,0 +1,409 @@
+"""Robot control asynchronous to physics.
+
+A policy or planner decides at the control rate (20 Hz by default); physics runs at its own rate
+(500 Hz). Each decision sets a joint-space target; until the next decision the joint position
+servos follow a target that ramps linearly towards it, within the joint speed limits, so motion is
+continuous. The ramp runs inside MuJoCo (integrated-velocity servos, see
+:mod:`samplehd.robot.ur5e`): one control step is a handful of ``mj_step(model, data, nstep)``
+calls, with a safety check between them.
+
+Action modes (``mode`` argument) and the layout of ``action`` (all in the robot base frame):
+
+=================  =====  ======================================================================
+mode               shape  meaning
+=================  =====  ======================================================================
+``joint_position``  (7,)  6 joint targets [rad], gripper
+``joint_delta``     (7,)  6 joint target increments [rad] (clipped to ``max_joint_delta``), gripper
+``cartesian_pose``  (8,)  TCP position [m] (3), TCP orientation quaternion w, x, y, z (4), gripper
+``cartesian_delta`` (7,)  TCP translation [m] (3) and rotation vector [rad] (3) for this step, gripper
+``steering``        (7,)  SAMPLE-HD steering: TCP linear velocity x, y, z and angular velocity x, y, z
+                          in [-1, 1], scaled by ``max_linear_speed`` / ``max_angular_speed``, gripper
+=================  =====  ======================================================================
+
+The gripper value is in [-1, 1]: +1 fully open (85 mm), -1 closed (squeezing with the limited grip
+force), linear in between. Values out of range are clipped and the clipping is reported; NaN,
+infinities, wrong shapes and unknown modes raise :class:`~samplehd.errors.ActionError`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from samplehd.errors import ActionError, ConfigError, UnreachableError
+from samplehd.robot.constants import (
+    GRIPPER_ACTUATOR,
+    GRIPPER_STROKE,
+    JOINT_LIMITS,
+    JOINT_NAMES,
+    NUM_JOINTS,
+    POSITION_ACTUATORS,
+    ROBOT_BODY,
+    SPEED_LIMITS,
+    TCP_OFFSET,
+    VELOCITY_ACTUATORS,
+)
+from samplehd.robot.kinematics import fk_tcp, inverse_kinematics
+from samplehd.robot.safety import SafetyConfig, SafetyEvent, SafetyMonitor
+
+__all__ = ["ACTION_MODES", "ControlConfig", "ControlReport", "RobotController"]
+
+ACTION_MODES: dict[str, int] = {
+    "joint_position": 7,
+    "joint_delta": 7,
+    "cartesian_pose": 8,
+    "cartesian_delta": 7,
+    "steering": 7,
+}
+
+
+@dataclass(frozen=True)
+class ControlConfig:
+    """Rates and limits of the controller.
+
+    Attributes:
+        physics_hz: physics rate; must equal 1 / model timestep [Hz].
+        control_hz: decision rate; physics_hz must be a multiple of it [Hz].
+        max_linear_speed: TCP speed for a steering value of 1 [m/s].
+        max_angular_speed: TCP angular speed for a steering value of 1 [rad/s].
+        max_joint_delta: largest joint increment per control step in ``joint_delta`` mode [rad].
+        max_cartesian_delta: largest TCP translation / rotation per step in ``cartesian_delta``
+            mode [m, rad].
+        speed_scale: fraction of the UR5e joint speed limits (180°/s) the target may move at (0, 1].
+        safety_checks_per_step: how many times per control step the safety monitor runs (the
+            physics steps are split into that many equal chunks; must divide them).
+        raise_unreachable: raise UnreachableError for an unreachable Cartesian command instead of
+            holding the previous target and reporting it.
+        safety: safety monitor thresholds; None disables the monitor.
+    """
+
+    physics_hz: float = 500.0
+    control_hz: float = 20.0
+    max_linear_speed: float = 0.25
+    max_angular_speed: float = 1.0
+    max_joint_delta: float = 0.15
+    max_cartesian_delta: tuple[float, float] = (0.05, 0.25)
+    speed_scale: float = 1.0
+    safety_checks_per_step: int = 5
+    raise_unreachable: bool = False
+    safety: SafetyConfig | None = field(default_factory=SafetyConfig)
+
+    def __post_init__(self) -> None:
+        for name in ("physics_hz", "control_hz", "max_linear_speed", "max_angular_speed", "max_joint_delta"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"ControlConfig.{name} must be a positive number, got {value!r}")
+        ratio = self.physics_hz / self.control_hz
+        if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
+            raise ConfigError(
+                f"ControlConfig: physics_hz ({self.physics_hz}) must be an integer multiple of control_hz "
+                f"({self.control_hz}), e.g. 500 and 20"
+            )
+        if not (0.0 < self.speed_scale <= 1.0):
+            raise ConfigError(f"ControlConfig.speed_scale must be in (0, 1], got {self.speed_scale}")
+        if len(self.max_cartesian_delta) != 2 or min(self.max_cartesian_delta) <= 0:
+            raise ConfigError(
+                "ControlConfig.max_cartesian_delta must be two positive numbers [m, rad], "
+                f"got {self.max_cartesian_delta}"
+            )
+        checks = self.safety_checks_per_step
+        if not (isinstance(checks, int) and checks >= 1 and self.substeps % checks == 0):
+            raise ConfigError(
+                f"ControlConfig.safety_checks_per_step must be a positive divisor of the {self.substeps} physics "
+                f"steps per control step, got {checks!r}"
+            )
+
+    @property
+    def substeps(self) -> int:
+        """Physics steps per control step."""
+        return round(self.physics_hz / self.control_hz)
+
+    @property
+    def control_dt(self) -> float:
+        """Control period [s]."""
+        return self.substeps / self.physics_hz
+
+
+@dataclass(frozen=True)
+class ControlReport:
+    """What happened in one control step.
+
+    Attributes:
+        time: simulation time at the end of the step [s].
+        clipped: names of the action fields that were out of range and clipped (e.g. "gripper",
+            "joint_position", "steering", "joint_limits").
+        unreachable: the Cartesian command had no IK solution; the previous target was kept.
+        ignored: the command was ignored because the arm is stopped by the safety monitor.
+        safety_event: the event that stopped the arm during this step, if any.
+    """
+
+    time: float
+    clipped: tuple[str, ...] = ()
+    unreachable: bool = False
+    ignored: bool = False
+    safety_event: SafetyEvent | None = None
+
+
+def _rotvec_matrix(rotvec: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a rotation vector (Rodrigues) [rad]."""
+    angle = math.sqrt(float(rotvec @ rotvec))
+    if angle < 1e-12:
+        return np.eye(3)
+    k = rotvec / angle
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+
+
+def _quat_matrix(q: np.ndarray) -> np.ndarray:
+    w, x, y, z = q
+    return np.array(
+        [
+            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+        ]
+    )
+
+
+class RobotController:
+    """Drives the UR5e of a compiled world through the control modes in :data:`ACTION_MODES`.
+
+    Args:
+        model: compiled world with the robot (built with :func:`samplehd.robot.ur5e.add_robot`).
+        data: its data; the controller writes ``ctrl`` and ``act`` of the robot actuators.
+        config: rates and limits.
+
+    Example:
+        >>> ctrl = RobotController(model, data)          # doctest: +SKIP
+        >>> ctrl.reset(HOME_QPOS)                          # doctest: +SKIP
+        >>> report = ctrl.step(np.r_[0.5, 0, 0, 0, 0, 0, -1.0], "steering")  # doctest: +SKIP
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, config: ControlConfig | None = None) -> None:
+        self.model = model
+        self.data = data
+        self.config = config or ControlConfig()
+        cfg = self.config
+        if abs(model.opt.timestep * cfg.physics_hz - 1.0) > 1e-9:
+            raise ConfigError(
+                f"model timestep {model.opt.timestep} s does not match ControlConfig.physics_hz {cfg.physics_hz}; "
+                f"set spec.option.timestep = {1.0 / cfg.physics_hz}"
+            )
+        if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
+            raise ConfigError(f"model has no body {ROBOT_BODY!r}; build the world with samplehd.robot.ur5e.add_robot")
+        self._qpos_idx = np.array([model.jnt_qposadr[model.joint(j).id] for j in JOINT_NAMES])
+        self._dof_idx = np.array([model.jnt_dofadr[model.joint(j).id] for j in JOINT_NAMES])
+        pos_ids = np.array([model.actuator(a).id for a in POSITION_ACTUATORS])
+        vel_ids = np.array([model.actuator(a).id for a in VELOCITY_ACTUATORS])
+        self._ctrl_idx = np.concatenate([pos_ids, vel_ids])
+        self._act_idx = model.actuator_actadr[pos_ids]
+        self._gripper_id = model.actuator(GRIPPER_ACTUATOR).id
+        self._speed = SPEED_LIMITS * cfg.speed_scale
+        self._limits = JOINT_LIMITS
+        self._dt = cfg.control_dt
+        self._chunk = cfg.substeps // cfg.safety_checks_per_step
+        self.monitor = SafetyMonitor(model, cfg.safety) if cfg.safety is not None else None
+        self._target = self.joint_positions()
+        self._stopped: SafetyEvent | None = None
+        self._zero_ctrl = np.zeros(2 * NUM_JOINTS)
+
+    # ------------------------------------------------------------------ state
+    def joint_positions(self) -> np.ndarray:
+        """Measured arm joint angles [rad]."""
+        return self.data.qpos[self._qpos_idx].copy()
+
+    def joint_velocities(self) -> np.ndarray:
+        """Measured arm joint velocities [rad/s]."""
+        return self.data.qvel[self._dof_idx].copy()
+
+    @property
+    def target(self) -> np.ndarray:
+        """Joint target of the latest command [rad] (the servos ramp towards it)."""
+        return self._target.copy()
+
+    @property
+    def interpolated_target(self) -> np.ndarray:
+        """Current point of the ramp, i.e. what the position servos track right now [rad]."""
+        return self.data.act[self._act_idx].copy()
+
+    @property
+    def gripper_width(self) -> float:
+        """Commanded finger opening [m]."""
+        return float(self.data.ctrl[self._gripper_id])
+
+    @property
+    def stopped(self) -> SafetyEvent | None:
+        """The safety event that stopped the arm, or None while it may move."""
+        return self._stopped
+
+    def tcp_pose(self) -> np.ndarray:
+        """TCP pose of the current joint target in the base frame (4×4) [m]."""
+        return fk_tcp(self._target)
+
+    # ------------------------------------------------------------------ commands
+    def reset(self, qpos: np.ndarray | None = None, gripper: float = 1.0) -> None:
+        """Clear a safety stop and hold the arm still.
+
+        Args:
+            qpos: if given, teleport the arm to these joint angles [rad] (zero velocity); otherwise
+                hold where it is.
+            gripper: gripper command in [-1, 1] (+1 open).
+        """
+        d = self.data
+        if qpos is not None:
+            q = np.asarray(qpos, dtype=float)
+            if q.shape != (NUM_JOINTS,) or not np.all(np.isfinite(q)):
+                raise ActionError(f"reset qpos must be 6 finite joint angles [rad], got shape {q.shape}")
+            d.qpos[self._qpos_idx] = np.clip(q, self._limits[:, 0], self._limits[:, 1])
+            d.qvel[self._dof_idx] = 0.0
+        self._hold()
+        self._stopped = None
+        if self.monitor is not None:
+            self.monitor.reset()
+        self._set_gripper(np.clip(gripper, -1.0, 1.0))
+        mujoco.mj_forward(self.model, d)
+
+    def _hold(self) -> None:
+        q = self.data.qpos[self._qpos_idx]
+        self._target = q.copy()
+        self.data.act[self._act_idx] = q
+        self.data.ctrl[self._ctrl_idx] = self._zero_ctrl
+
+    def _set_gripper(self, command: float) -> None:
+        self.data.ctrl[self._gripper_id] = (command + 1.0) * 0.5 * GRIPPER_STROKE
+
+    def command(self, action: np.ndarray, mode: str = "joint_position") -> ControlReport:
+        """Set a new target from an action without stepping physics; see the module docstring.
+
+        Returns:
+            A report (time is the current time).
+
+        Raises:
+            ActionError: unknown mode, wrong shape, NaN or infinite values.
+            UnreachableError: only with ``raise_unreachable`` and an unreachable Cartesian command.
+        """
+        size = ACTION_MODES.get(mode)
+        if size is None:
+            raise ActionError(f"unknown action mode {mode!r}; valid: {', '.join(ACTION_MODES)}")
+        a = np.asarray(action, dtype=float)
+        if a.shape != (size,):
+            raise ActionError(f"action for mode {mode!r} must have shape ({size},), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise ActionError(f"action for mode {mode!r} contains NaN or infinite values")
+        if self._stopped is not None:
+            return ControlReport(time=float(self.data.time), ignored=True)
+        clipped: list[str] = []
+        gripper = a[-1]
+        if not -1.0 <= gripper <= 1.0:
+            clipped.append("gripper")
+            gripper = min(1.0, max(-1.0, gripper))
+        unreachable = False
+        if mode == "joint_position":
+            target = a[:6]
+        elif mode == "joint_delta":
+            delta = a[:6]
+            lim = self.config.max_joint_delta
+            if np.any(np.abs(delta) > lim):
+                clipped.append("joint_delta")
+                delta = np.clip(delta, -lim, lim)
+            target = self._target + delta
+        else:
+            target, unreachable, cart_clipped = self._cartesian_target(a, mode)
+            clipped.extend(cart_clipped)
+        lo, hi = self._limits[:, 0], self._limits[:, 1]
+        if np.any(target < lo) or np.any(target > hi):
+            clipped.append("joint_limits")
+            target = np.clip(target, lo, hi)
+        self._target = np.array(target, dtype=float)
+        self._set_gripper(gripper)
+        return ControlReport(time=float(self.data.time), clipped=tuple(clipped), unreachable=unreachable)
+
+    def _cartesian_target(self, a: np.ndarray, mode: str) -> tuple[np.ndarray, bool, list[str]]:
+        clipped: list[str] = []
+        current = fk_tcp(self._target)
+        pose = np.eye(4)
+        if mode == "cartesian_pose":
+            quat = a[3:7]
+            norm = float(np.linalg.norm(quat))
+            if norm < 1e-9:
+                raise ActionError("cartesian_pose quaternion (action[3:7]) must be non-zero (w, x, y, z)")
+            pose[:3, :3] = _quat_matrix(quat / norm)
+            pose[:3, 3] = a[:3]
+        else:
+            if mode == "steering":
+                twist = a[:6]
+                if np.any(np.abs(twist) > 1.0):
+                    clipped.append("steering")
+                    twist = np.clip(twist, -1.0, 1.0)
+                lin = twist[:3] * (self.config.max_linear_speed * self._dt)
+                rot = twist[3:] * (self.config.max_angular_speed * self._dt)
+            else:
+                lin, rot = a[:3], a[3:6]
+                max_lin, max_rot = self.config.max_cartesian_delta
+                n_lin, n_rot = float(np.linalg.norm(lin)), float(np.linalg.norm(rot))
+                if n_lin > max_lin:
+                    lin = lin * (max_lin / n_lin)
+                    clipped.append("cartesian_delta")
+                if n_rot > max_rot:
+                    rot = rot * (max_rot / n_rot)
+                    clipped.append("cartesian_delta")
+            # Velocities are in the base frame; rotation is about the TCP.
+            pose[:3, :3] = _rotvec_matrix(rot) @ current[:3, :3]
+            pose[:3, 3] = current[:3, 3] + lin
+        try:
+            target = inverse_kinematics(pose, self._target, TCP_OFFSET, self._limits)
+        except UnreachableError:
+            if self.config.raise_unreachable:
+                raise
+            return self._target.copy(), True, clipped
+        return target, False, clipped
+
+    # ------------------------------------------------------------------ stepping
+    def advance(self) -> SafetyEvent | None:
+        """Run one control period of physics, ramping towards the current target.
+
+        Returns:
+            The safety event that stopped the arm during this period, if any.
+        """
+        m, d = self.model, self.data
+        if self._stopped is None:
+            ramp = self._target - d.act[self._act_idx]
+            # Synchronised straight line in joint space: every joint's ramp is scaled by the same
+            # factor, so the slowest joint (at its speed limit) sets the pace and all joints
+            # arrive together, as a UR "movej" does. The target is reached this period when the
+            # speed limits allow.
+            reach = self._speed * self._dt
+            fraction = min(1.0, float(np.min(reach / np.maximum(np.abs(ramp), 1e-300))))
+            velocity = ramp * (fraction / self._dt)
+            d.ctrl[self._ctrl_idx] = np.concatenate([velocity, velocity])
+        event = None
+        monitor = self.monitor
+        for _ in range(self.config.safety_checks_per_step):
+            mujoco.mj_step(m, d, self._chunk)
+            if monitor is not None and self._stopped is None:
+                event = monitor.check(d)
+                if event is not None:
+                    self._stopped = event
+                    self._hold()
+        if self._stopped is None:
+            # The ramp ends exactly at the target when it was reachable this period; pin it so
+            # rounding in MuJoCo's integration does not accumulate.
+            reached = np.abs(self._target - d.act[self._act_idx]) < 1e-9
+            d.act[self._act_idx[reached]] = self._target[reached]
+            d.ctrl[self._ctrl_idx] = self._zero_ctrl
+        return event
+
+    def step(self, action: np.ndarray, mode: str = "joint_position") -> ControlReport:
+        """Apply an action (:meth:`command`) and run one control period of physics (:meth:`advance`)."""
+        report = self.command(action, mode)
+        event = self.advance()
+        return ControlReport(
+            time=float(self.data.time),
+            clipped=report.clipped,
+            unreachable=report.unreachable,
+            ignored=report.ignored,
+            safety_event=event,
+        )

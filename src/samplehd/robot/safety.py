@@ -1,0 +1,245 @@
+"""Safety monitor: stops the arm on collisions, excessive contact force or joint overload.
+
+Checked events (:attr:`SafetyEvent.kind`):
+
+- ``self_collision``: two robot geoms touch (adjacent links and the two fingers never do).
+- ``environment_collision``: a robot geom touches anything that is not a scene object: the table
+  (body ``table``), the floor, the backdrop (walls, counter) or any other static geom.
+- ``contact_force``: the normal force between the robot and a scene object (bodies ``object_{i}``
+  and their descendants) exceeds ``max_contact_force``. Touching and grasping objects is allowed.
+- ``joint_torque``: an arm motor delivers at least ``torque_ratio`` of its torque limit for
+  ``torque_hold_time`` or longer (a stall against an obstacle or an excessive load).
+
+The monitor only detects; :class:`samplehd.robot.controller.RobotController` holds the arm.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from samplehd.errors import ConfigError
+from samplehd.robot.constants import JOINT_NAMES, ROBOT_BODY, TORQUE_LIMITS
+
+__all__ = ["SAFETY_EVENT_CODES", "SAFETY_EVENT_KINDS", "SafetyConfig", "SafetyEvent", "SafetyMonitor"]
+
+SAFETY_EVENT_KINDS = ("self_collision", "environment_collision", "contact_force", "joint_torque")
+# Integer codes for per-frame records: 0 means no event.
+SAFETY_EVENT_CODES: dict[str, int] = {kind: i + 1 for i, kind in enumerate(SAFETY_EVENT_KINDS)}
+
+# Geom classes.
+_OTHER, _ROBOT, _OBJECT = 0, 1, 2
+
+
+@dataclass(frozen=True)
+class SafetyConfig:
+    """Thresholds of the safety monitor.
+
+    Attributes:
+        max_contact_force: largest allowed normal force between the robot and one scene object [N].
+        torque_ratio: fraction of a joint's torque limit that counts as overload (0, 1].
+        torque_hold_time: how long an overload must last before the arm stops [s].
+        min_penetration: contacts shallower than this are ignored (grazing touches) [m].
+        check_self_collision: whether robot–robot contacts stop the arm.
+        check_environment: whether robot–table/floor/wall contacts stop the arm.
+    """
+
+    max_contact_force: float = 150.0
+    torque_ratio: float = 0.98
+    torque_hold_time: float = 0.1
+    min_penetration: float = 0.0
+    check_self_collision: bool = True
+    check_environment: bool = True
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.max_contact_force) and self.max_contact_force > 0):
+            raise ConfigError(f"max_contact_force must be a positive number of newtons, got {self.max_contact_force}")
+        if not (0.0 < self.torque_ratio <= 1.0):
+            raise ConfigError(f"torque_ratio must be in (0, 1], got {self.torque_ratio}")
+        if not (math.isfinite(self.torque_hold_time) and self.torque_hold_time >= 0):
+            raise ConfigError(f"torque_hold_time must be >= 0 seconds, got {self.torque_hold_time}")
+        if not (math.isfinite(self.min_penetration) and self.min_penetration >= 0):
+            raise ConfigError(f"min_penetration must be >= 0 metres, got {self.min_penetration}")
+
+
+@dataclass(frozen=True)
+class SafetyEvent:
+    """One safety stop.
+
+    Attributes:
+        kind: one of :data:`SAFETY_EVENT_KINDS`.
+        time: simulation time of detection [s].
+        bodies: the two bodies in contact (robot body first); for ``joint_torque`` the link the
+            joint moves and its parent.
+        geoms: the two geoms in contact (empty strings for ``joint_torque``).
+        joint: the overloaded joint (``joint_torque`` only, else "").
+        value: penetration depth [m], normal force [N] or joint torque [N·m].
+        threshold: the limit that was crossed, in the unit of ``value``.
+    """
+
+    kind: str
+    time: float
+    bodies: tuple[str, str]
+    geoms: tuple[str, str] = ("", "")
+    joint: str = ""
+    value: float = 0.0
+    threshold: float = 0.0
+
+    @property
+    def code(self) -> int:
+        """Integer code of :attr:`kind` (:data:`SAFETY_EVENT_CODES`; 0 is reserved for "none")."""
+        return SAFETY_EVENT_CODES[self.kind]
+
+    def __str__(self) -> str:
+        what = f"joint {self.joint}" if self.joint else f"{self.bodies[0]} and {self.bodies[1]}"
+        unit = {"contact_force": "N", "joint_torque": "N·m"}.get(self.kind, "m")
+        return (
+            f"{self.kind} at t={self.time:.3f} s between {what} ({self.value:.4g} {unit}, limit {self.threshold:.4g})"
+        )
+
+    def to_dict(self) -> dict[str, object]:
+        """JSON-ready dictionary."""
+        return {
+            "kind": self.kind,
+            "time": self.time,
+            "bodies": list(self.bodies),
+            "geoms": list(self.geoms),
+            "joint": self.joint,
+            "value": self.value,
+            "threshold": self.threshold,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, object]) -> SafetyEvent:
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            kind=str(d["kind"]),
+            time=float(d["time"]),  # type: ignore[arg-type]
+            bodies=tuple(d["bodies"]),  # type: ignore[arg-type]
+            geoms=tuple(d.get("geoms", ("", ""))),  # type: ignore[arg-type]
+            joint=str(d.get("joint", "")),
+            value=float(d.get("value", 0.0)),  # type: ignore[arg-type]
+            threshold=float(d.get("threshold", 0.0)),  # type: ignore[arg-type]
+        )
+
+
+def _descendants(model: mujoco.MjModel, root: int) -> np.ndarray:
+    """Boolean mask over bodies: ``root`` and everything below it."""
+    mask = np.zeros(model.nbody, dtype=bool)
+    mask[root] = True
+    for b in range(root + 1, model.nbody):  # MuJoCo orders bodies so parents precede children
+        mask[b] = mask[model.body_parentid[b]]
+    return mask
+
+
+@dataclass
+class SafetyMonitor:
+    """Classifies contacts and joint loads of a compiled world; call :meth:`check` after stepping.
+
+    Args:
+        model: compiled world containing the robot (root body ``robot_base``).
+        config: thresholds.
+    """
+
+    model: mujoco.MjModel
+    config: SafetyConfig = field(default_factory=SafetyConfig)
+
+    def __post_init__(self) -> None:
+        m = self.model
+        robot_id = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY)
+        if robot_id < 0:
+            raise ConfigError(f"model has no body {ROBOT_BODY!r}; build the world with samplehd.robot.ur5e.add_robot")
+        robot_bodies = _descendants(m, robot_id)
+        object_bodies = np.zeros(m.nbody, dtype=bool)
+        for b in range(m.nbody):
+            name = m.body(b).name
+            if name.startswith("object_") and name.removeprefix("object_").isdigit():
+                object_bodies |= _descendants(m, b)
+        body_class = np.where(robot_bodies, _ROBOT, np.where(object_bodies, _OBJECT, _OTHER))
+        self._geom_class = body_class[m.geom_bodyid].astype(np.int8)
+        self._arm_dofs = np.array([m.jnt_dofadr[m.joint(j).id] for j in JOINT_NAMES])
+        self._torque_limit = TORQUE_LIMITS * self.config.torque_ratio
+        self._overload_since = np.full(len(JOINT_NAMES), np.nan)
+        self._force = np.zeros(6)
+
+    def reset(self) -> None:
+        """Forget accumulated overload timers (after the arm was reset)."""
+        self._overload_since[:] = np.nan
+
+    def check(self, data: mujoco.MjData) -> SafetyEvent | None:
+        """Return the first safety event in the current state of ``data``, or None."""
+        if data.ncon:
+            contacts = data.contact
+            geom = contacts.geom
+            cls = self._geom_class[geom]
+            robot = cls == _ROBOT
+            involved = np.flatnonzero(robot[:, 0] | robot[:, 1])
+            if involved.size:
+                event = self._check_contacts(data, involved, geom, cls, contacts.dist)
+                if event is not None:
+                    return event
+        return self._check_torque(data)
+
+    def _check_contacts(self, data, involved, geom, cls, dist) -> SafetyEvent | None:
+        cfg = self.config
+        m = self.model
+        for i in involved:
+            g1, g2 = int(geom[i, 0]), int(geom[i, 1])
+            c1, c2 = int(cls[i, 0]), int(cls[i, 1])
+            if c1 != _ROBOT:
+                g1, g2, c1, c2 = g2, g1, c2, c1
+            depth = -float(dist[i])
+            if c2 == _OBJECT:
+                mujoco.mj_contactForce(m, data, int(i), self._force)
+                force = abs(float(self._force[0]))
+                if force > cfg.max_contact_force:
+                    return self._contact_event("contact_force", data, g1, g2, force, cfg.max_contact_force)
+                continue
+            if depth < cfg.min_penetration:
+                continue
+            if c2 == _ROBOT and cfg.check_self_collision:
+                return self._contact_event("self_collision", data, g1, g2, depth, cfg.min_penetration)
+            if c2 == _OTHER and cfg.check_environment:
+                return self._contact_event("environment_collision", data, g1, g2, depth, cfg.min_penetration)
+        return None
+
+    def _contact_event(self, kind: str, data, g1: int, g2: int, value: float, threshold: float) -> SafetyEvent:
+        m = self.model
+        b1, b2 = m.geom_bodyid[g1], m.geom_bodyid[g2]
+        return SafetyEvent(
+            kind=kind,
+            time=float(data.time),
+            bodies=(m.body(b1).name or f"body{b1}", m.body(b2).name or "world"),
+            geoms=(m.geom(g1).name or f"geom{g1}", m.geom(g2).name or f"geom{g2}"),
+            value=value,
+            threshold=threshold,
+        )
+
+    def _check_torque(self, data: mujoco.MjData) -> SafetyEvent | None:
+        torque = np.abs(data.qfrc_actuator[self._arm_dofs])
+        over = torque >= self._torque_limit
+        if not over.any():
+            self._overload_since[:] = np.nan
+            return None
+        now = float(data.time)
+        self._overload_since[~over] = np.nan
+        start = np.where(over & np.isnan(self._overload_since), now, self._overload_since)
+        self._overload_since[:] = start
+        lasting = over & (now - start >= self.config.torque_hold_time)
+        if not lasting.any():
+            return None
+        j = int(np.flatnonzero(lasting)[0])
+        m = self.model
+        jid = m.joint(JOINT_NAMES[j]).id
+        body = m.jnt_bodyid[jid]
+        return SafetyEvent(
+            kind="joint_torque",
+            time=now,
+            bodies=(m.body(body).name, m.body(m.body_parentid[body]).name),
+            joint=JOINT_NAMES[j],
+            value=float(torque[j]),
+            threshold=float(self._torque_limit[j]),
+        )
