@@ -26,6 +26,7 @@ __all__ = [
     "WorldConfig",
     "build_world",
     "compile_world",
+    "reset_robot_home",
 ]
 
 _GEOM = mujoco.mjtGeom
@@ -68,7 +69,7 @@ class CameraSpec:
 
 
 # The operator's viewpoint: in front of the table (+x), at standing eye height, looking at the workspace.
-OPERATOR_CAMERA = CameraSpec("operator", pos=(1.45, 0.0, 1.62), target=(-0.05, 0.0, 0.86), fovy=45.0)
+OPERATOR_CAMERA = CameraSpec("operator", pos=(1.28, 0.0, 1.52), target=(-0.02, 0.0, 0.86), fovy=45.0)
 
 
 @dataclass(frozen=True)
@@ -319,13 +320,25 @@ def compile_world(
     config: WorldConfig | None = None,
     layout: TableLayout = LAYOUT,
 ) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """Build and compile the world; returns the model and fresh data after ``mj_forward``."""
+    """Build and compile the world; returns the model and fresh data after ``mj_forward``, with the
+    arm holding its home configuration and the gripper open."""
     spec = build_world(objects, config, layout)
     model = spec.compile()
     data = mujoco.MjData(model)
-    if model.nkey:
-        mujoco.mj_resetDataKeyframe(model, data, 0)
+    reset_robot_home(model, data)
     mujoco.mj_forward(model, data)
     return model, data
+
+
+def reset_robot_home(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """Put the arm (if the model has one) at its home configuration, holding still, gripper open."""
+    from samplehd.robot.constants import HOME_QPOS, ROBOT_BODY
+
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
+        return
+    from samplehd.robot.controller import ControlConfig, RobotController
+
+    physics_hz = round(1.0 / model.opt.timestep)
+    RobotController(model, data, ControlConfig(physics_hz=physics_hz, safety=None)).reset(HOME_QPOS, gripper=1.0)
 
 

@@ -1,0 +1,149 @@
+"""CLEVR-layout annotations of a scene, with the SAMPLE-HD fields added.
+
+A scene entry (one per scene in ``scenes.json``, and alone in ``scenes/<stem>.json``)::
+
+    split, image_index, image_filename, seed, version,
+    directions       {left, right, front, behind, above, below: unit vectors in the world}
+    objects          [{name, shape, color, colour, material, size, weight, mass, table_part,
+                       3d_coords, rotation (yaw deg), orientation (quat w,x,y,z), pixel_coords [u, v, depth],
+                       bbox {min, max, extents} (world, axis-aligned), footprint_half_extents,
+                       segmentation_id, affordances, opening_radius, top_extent, variant}]
+    relationships    {left, right, front, behind: per object i, sorted j in that direction of i}
+    camera           {name, width, height, intrinsics K, extrinsics (camera-to-world 4x4, MuJoCo axes),
+                       pos, target, fovy}
+    manipulator      {joint_names, joint_positions, tcp_position, tcp_quaternion, gripper_opening}
+    segmentation_ids {background: 0, table: 1, robot: 2, object_offset: 3}
+    spec             SceneSpec.to_dict(): exactly rebuilds the world
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+import samplehd
+from samplehd.catalogue import object_facts
+from samplehd.language.relations import compute_relationships
+from samplehd.render.renderer import (
+    SEG_BACKGROUND,
+    SEG_OBJECT_OFFSET,
+    SEG_ROBOT,
+    SEG_TABLE,
+    camera_intrinsics,
+    camera_pose,
+    project_points,
+)
+from samplehd.scene.geometry import quat_to_mat, yaw_from_quat
+from samplehd.scene.layout import DIRECTIONS, table_parts_of
+from samplehd.scene.spec import SceneSpec
+
+__all__ = ["annotate_scene", "image_stem"]
+
+
+def image_stem(split: str, index: int) -> str:
+    """File stem shared by a scene's image, depth, segmentation and annotation files."""
+    return f"SHD_{split}_{index:06d}"
+
+
+def _manipulator(model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, Any]:
+    from samplehd.robot.constants import JOINT_NAMES
+
+    q = [float(data.qpos[model.jnt_qposadr[model.joint(j).id]]) for j in JOINT_NAMES]
+    sid = model.site("tcp").id
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, data.site_xmat[sid])
+    fingers = [data.qpos[model.jnt_qposadr[model.joint(j).id]] for j in ("robot_left_finger_joint",
+                                                                        "robot_right_finger_joint")]
+    return {
+        "joint_names": list(JOINT_NAMES),
+        "joint_positions": q,
+        "tcp_position": data.site_xpos[sid].tolist(),
+        "tcp_quaternion": quat.tolist(),
+        "gripper_joint_positions": [float(f) for f in fingers],
+    }
+
+
+def annotate_scene(
+    scene: SceneSpec,
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    width: int,
+    height: int,
+    split: str = "train",
+    camera: str = "scene",
+) -> dict[str, Any]:
+    """Build the CLEVR-layout annotation of a compiled scene seen from `camera` at width × height."""
+    objects = []
+    centers = []
+    for i, obj in enumerate(scene.objects):
+        facts = object_facts(obj.instance)
+        body = model.body(f"object_{i}").id
+        pos = data.xpos[body].copy()
+        quat = data.xquat[body].copy()
+        rot = quat_to_mat(quat)
+        lo, hi = np.asarray(facts.bbox_min), np.asarray(facts.bbox_max)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        world_corners = corners @ rot.T + pos
+        center = pos + rot @ ((lo + hi) / 2)
+        centers.append(center)
+        inst = obj.instance
+        aff = facts.affordances.to_dict()
+        objects.append(
+            {
+                "name": inst.class_name,
+                "shape": inst.class_name,
+                "variant": inst.variant,
+                "color": inst.colour,
+                "colour": inst.colour,
+                "material": inst.material,
+                "size": inst.size,
+                "weight": facts.weight,
+                "mass": round(float(facts.mass), 6),
+                "table_part": table_parts_of(pos[:2]),
+                "3d_coords": pos.tolist(),
+                "rotation": float(np.degrees(yaw_from_quat(quat))),
+                "orientation": quat.tolist(),
+                "bbox": {
+                    "min": world_corners.min(0).tolist(),
+                    "max": world_corners.max(0).tolist(),
+                    "extents": list(facts.extents),
+                },
+                "footprint_half_extents": list(facts.footprint_half_extents),
+                "segmentation_id": SEG_OBJECT_OFFSET + i,
+                "affordances": aff,
+                "opening_radius": float(facts.opening.radius) if facts.opening else None,
+                "top_extent": [2 * v for v in facts.top.half_extents] if facts.top.flat else None,
+            }
+        )
+    # pixel_coords: where the object's origin (its base centre) projects, as CLEVR does with 3d_coords;
+    # nudged 1 cm up so it lands on the object rather than the table at its foot.
+    anchor = np.array([o["3d_coords"] for o in objects]) + np.array([0.0, 0.0, 0.01])
+    pix = project_points(model, data, camera, width, height, anchor) if objects else np.zeros((0, 3))
+    for o, p in zip(objects, pix, strict=True):
+        o["pixel_coords"] = [int(round(p[0])), int(round(p[1])), float(p[2])]
+    cam = next(c for c in (scene.camera,) if c.name == camera) if scene.camera.name == camera else None
+    return {
+        "split": split,
+        "image_index": scene.index,
+        "image_filename": f"{image_stem(split, scene.index)}.png",
+        "seed": scene.seed,
+        "version": samplehd.__version__,
+        "directions": {k: list(v) for k, v in DIRECTIONS.items()},
+        "objects": objects,
+        "relationships": compute_relationships(objects),
+        "camera": {
+            "name": camera,
+            "width": width,
+            "height": height,
+            "intrinsics": camera_intrinsics(model, camera, width, height).tolist(),
+            "extrinsics": camera_pose(model, data, camera).tolist(),
+            **({"pos": list(cam.pos), "target": list(cam.target), "fovy": cam.fovy} if cam else {}),
+        },
+        "manipulator": _manipulator(model, data),
+        "segmentation_ids": {
+            "background": SEG_BACKGROUND, "table": SEG_TABLE, "robot": SEG_ROBOT, "object_offset": SEG_OBJECT_OFFSET,
+        },
+        "spec": scene.to_dict(),
+    }

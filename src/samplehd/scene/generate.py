@@ -1,0 +1,145 @@
+"""Generate a directory of annotated scenes (``samplehd scenes``).
+
+Layout of DIR::
+
+    config.json              fully resolved configuration (sampler, resolution, preset, seed)
+    scenes.json              CLEVR layout: {info, scenes: [...]} sorted by image_index
+    scenes/<stem>.json       one scene annotation each
+    images/<stem>.png        RGB from the scene camera
+    depth/<stem>.png         depth as uint16 millimetres; depth/<stem>.npy the exact float32 metres
+    segmentation/<stem>.png  instance ids (0 background, 1 table, 2 robot, 3 + i object i)
+
+``<stem>`` is ``SHD_<split>_<index:06d>``. Scene ``i`` is drawn from ``scene_seed(seed, i)`` alone, so the
+result does not depend on the number of workers.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections import Counter
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Any
+
+import samplehd
+from samplehd.errors import ConfigError
+from samplehd.scene.config import SceneConfig
+
+__all__ = ["SceneJob", "generate_scenes", "render_scene_files", "scene_split", "write_json_atomic"]
+
+
+def scene_split(index: int, test_every: int = 20) -> str:
+    """Split of scene `index`: every `test_every`-th scene is in the test split (5 % by default)."""
+    return "test" if test_every > 0 and index % test_every == test_every - 1 else "train"
+
+
+def write_json_atomic(path: Path, obj: Any, indent: int | None = None) -> None:
+    """Write JSON to a temporary name in the same directory, then rename over `path`."""
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    tmp.write_text(json.dumps(obj, indent=indent))
+    os.replace(tmp, path)
+
+
+@dataclass(frozen=True)
+class SceneJob:
+    """Everything a worker needs to make one scene's files."""
+
+    index: int
+    seed: int
+    out: str
+    config: dict[str, Any]
+    width: int
+    height: int
+    preset: str
+    test_every: int
+
+
+def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
+    """Sample, render and annotate one scene; writes its files and returns (annotation, rejections)."""
+    from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
+    from samplehd.render.renderer import SceneRenderer
+    from samplehd.scene.annotate import annotate_scene, image_stem
+    from samplehd.scene.sampler import sample_scene
+    from samplehd.scene.spec import compile_scene
+
+    config = SceneConfig.from_dict(job.config)
+    result = sample_scene(job.index, job.seed, config)
+    model, data = compile_scene(result.scene)
+    with SceneRenderer(model, job.width, job.height, job.preset) as r:
+        img = r.render(data, "scene", ("rgb", "depth", "segmentation"))
+    split = scene_split(job.index, job.test_every)
+    stem = image_stem(split, job.index)
+    out = Path(job.out)
+    save_rgb(out / "images" / f"{stem}.png", img["rgb"])
+    save_depth(out / "depth" / f"{stem}.png", img["depth"])
+    save_depth(out / "depth" / f"{stem}.npy", img["depth"])
+    save_segmentation(out / "segmentation" / f"{stem}.png", img["segmentation"])
+    ann = annotate_scene(result.scene, model, data, job.width, job.height, split=split)
+    ann["sampling"] = {"attempts": result.attempts, "rejections": dict(result.rejections),
+                       "visible_pixels": result.visible_pixels}
+    write_json_atomic(out / "scenes" / f"{stem}.json", ann)
+    return ann, dict(result.rejections)
+
+
+def _run_jobs(jobs: list[SceneJob], workers: int) -> Iterator[tuple[dict[str, Any], dict[str, int]]]:
+    if workers <= 1:
+        for job in jobs:
+            yield render_scene_files(job)
+        return
+    # spawn, not fork: a forked child must not inherit the parent's GL/EGL state.
+    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+        yield from pool.map(render_scene_files, jobs, chunksize=1)
+
+
+def generate_scenes(
+    out: Path,
+    num: int,
+    seed: int = 0,
+    config: SceneConfig | None = None,
+    width: int = 640,
+    height: int = 360,
+    preset: str = "fast",
+    workers: int = 1,
+    test_every: int = 20,
+    on_scene: Callable[[int], None] | None = None,
+) -> dict[str, Any]:
+    """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts."""
+    from samplehd.render.renderer import get_preset
+    from samplehd.scene.sampler import scene_seed
+
+    if num < 1:
+        raise ConfigError(f"--num {num}: must be ≥ 1")
+    if workers < 1:
+        raise ConfigError(f"--workers {workers}: must be ≥ 1")
+    get_preset(preset)
+    config = config or SceneConfig()
+    try:
+        for sub in ("scenes", "images", "depth", "segmentation"):
+            (out / sub).mkdir(parents=True, exist_ok=True)
+        probe = out / ".write_test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise ConfigError(f"output directory {out} is not writable: {exc.strerror}") from exc
+    resolved = {"scene": config.to_dict(), "num": num, "seed": seed, "width": width, "height": height,
+                "preset": preset, "test_every": test_every, "version": samplehd.__version__}
+    write_json_atomic(out / "config.json", resolved, indent=2)
+    jobs = [SceneJob(i, scene_seed(seed, i), str(out), config.to_dict(), width, height, preset, test_every)
+            for i in range(num)]
+    scenes: list[dict[str, Any]] = []
+    rejections: Counter[str] = Counter()
+    for ann, rej in _run_jobs(jobs, workers):
+        scenes.append(ann)
+        rejections.update(rej)
+        if on_scene:
+            on_scene(len(scenes))
+    scenes.sort(key=lambda s: s["image_index"])
+    info = {"version": samplehd.__version__, "seed": seed, "num_scenes": num, "license": "CC BY 4.0",
+            "split_rule": f"every {test_every}th scene is test"}
+    write_json_atomic(out / "scenes.json", {"info": info, "scenes": scenes})
+    return {"scenes": num, "rejections": dict(sorted(rejections.items())),
+            "attempts": sum(s["sampling"]["attempts"] for s in scenes)}

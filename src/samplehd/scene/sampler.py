@@ -1,0 +1,286 @@
+"""Sample randomised scenes: objects drawn from the asset menus, placed one after another on the
+table, a camera drawn around the operator viewpoint, occlusion and physics-settling checks.
+
+Every rejection is counted by reason. The same seed gives the same scene (bit for bit).
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from samplehd.catalogue import Catalogue, ObjectInstance, load_catalogue, object_facts
+from samplehd.errors import ConfigError, SceneError
+from samplehd.render.renderer import SEG_OBJECT_OFFSET, SceneRenderer
+from samplehd.scene.config import SceneConfig
+from samplehd.scene.geometry import quat_from_yaw, quat_to_mat
+from samplehd.scene.layout import LAYOUT, TableLayout
+from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene, object_qpos_addresses
+from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec
+
+__all__ = ["SampleResult", "draw_instance", "sample_camera", "sample_scene", "scene_seed"]
+
+# A scene camera is named "scene"; the fixed "operator" camera stays in every world too.
+SCENE_CAMERA = "scene"
+
+
+def scene_seed(base_seed: int, index: int) -> int:
+    """The seed of scene `index` of a dataset with `base_seed` (independent streams per scene)."""
+    return int(np.random.SeedSequence([int(base_seed), int(index)]).generate_state(1, np.uint32)[0])
+
+
+@dataclass
+class SampleResult:
+    """A sampled scene and the bookkeeping of how it was found.
+
+    Attributes:
+        scene: the accepted scene.
+        rejections: rejected candidates by reason.
+        attempts: scene attempts used (1 = the first candidate scene was accepted).
+        visible_pixels: per object, segmentation pixels in the occlusion check.
+    """
+
+    scene: SceneSpec
+    rejections: Counter[str] = field(default_factory=Counter)
+    attempts: int = 1
+    visible_pixels: list[int] = field(default_factory=list)
+
+
+def _menu_values(cat: Catalogue, config: SceneConfig, class_name: str, variant: str) -> tuple[list, list]:
+    menu = cat.object_class(class_name).variant(variant).menu
+    pairs = list(menu.pairs)
+    sizes = list(menu.size)
+    override = (config.menu_overrides or {}).get(class_name)
+    if override:
+        unknown = sorted(set(override) - {"colour", "material", "size"})
+        if unknown:
+            raise ConfigError(f"scene.menu_overrides.{class_name}: unknown properties {unknown}; "
+                              "valid: colour, material, size")
+        if "colour" in override:
+            pairs = [p for p in pairs if p[0] in override["colour"]]
+        if "material" in override:
+            pairs = [p for p in pairs if p[1] in override["material"]]
+        if "size" in override:
+            sizes = [s for s in sizes if s in override["size"]]
+    return pairs, sizes
+
+
+def _validate_classes(cat: Catalogue, config: SceneConfig) -> list[str]:
+    classes = list(config.classes) or list(cat.classes)
+    for name in list(classes) + list((config.menu_overrides or {}).keys()):
+        if name not in cat.classes:
+            raise ConfigError(f"scene: unknown object class {name!r}; valid: {', '.join(cat.classes)}")
+    usable = []
+    for name in classes:
+        cls = cat.object_class(name)
+        if any(all(_menu_values(cat, config, name, v)) for v in cls.variants):
+            usable.append(name)
+    if not usable:
+        raise ConfigError("scene.menu_overrides leave no colour/material/size combination for any class")
+    return usable
+
+
+def draw_instance(rng: np.random.Generator, cat: Catalogue, config: SceneConfig, classes: list[str]) -> ObjectInstance:
+    """Draw a class uniformly, then a variant, then the menu's properties (colour/material pair, size)."""
+    while True:
+        name = classes[int(rng.integers(len(classes)))]
+        variants = list(cat.object_class(name).variants)
+        variant = variants[int(rng.integers(len(variants)))]
+        pairs, sizes = _menu_values(cat, config, name, variant)
+        if pairs and sizes:
+            colour, material = pairs[int(rng.integers(len(pairs)))]
+            size = sizes[int(rng.integers(len(sizes)))]
+            return ObjectInstance(name, variant, colour, material, size)
+
+
+def _footprint_corners(facts: Any, xy: np.ndarray, yaw: float, margin: float) -> np.ndarray:
+    cx, cy = facts.footprint_center
+    hx, hy = facts.footprint_half_extents
+    hx, hy = hx + margin, hy + margin
+    local = np.array([[cx - hx, cy - hy], [cx + hx, cy - hy], [cx + hx, cy + hy], [cx - hx, cy + hy]])
+    c, s = np.cos(yaw), np.sin(yaw)
+    rot = np.array([[c, -s], [s, c]])
+    return local @ rot.T + xy
+
+
+def _rects_overlap(a: np.ndarray, b: np.ndarray) -> bool:
+    """Separating-axis test of two convex quadrilaterals (4×2 corner arrays)."""
+    for poly in (a, b):
+        for i in range(4):
+            edge = poly[(i + 1) % 4] - poly[i]
+            axis = np.array([-edge[1], edge[0]])
+            pa, pb = a @ axis, b @ axis
+            if pa.max() < pb.min() or pb.max() < pa.min():
+                return False
+    return True
+
+
+def _place(
+    rng: np.random.Generator, facts: Any, placed: list[np.ndarray], config: SceneConfig, layout: TableLayout,
+    rejections: Counter[str],
+) -> tuple[np.ndarray, float, np.ndarray] | None:
+    lo, hi = np.asarray(layout.workspace_min), np.asarray(layout.workspace_max)
+    half_table = np.asarray(layout.table_size) / 2 - 0.02
+    for _ in range(config.placement_tries):
+        xy = rng.uniform(lo, hi)
+        yaw = float(rng.uniform(-np.pi, np.pi))
+        if not layout.in_reach(xy):
+            rejections["placement_out_of_reach"] += 1
+            continue
+        corners = _footprint_corners(facts, xy, yaw, 0.0)
+        if np.any(np.abs(corners) > half_table):
+            rejections["placement_off_table"] += 1
+            continue
+        padded = _footprint_corners(facts, xy, yaw, config.placement_margin / 2)
+        if any(_rects_overlap(padded, other) for other in placed):
+            rejections["placement_intersects"] += 1
+            continue
+        return xy, yaw, padded
+    return None
+
+
+def sample_camera(rng: np.random.Generator, config: SceneConfig, base: CameraSpec = OPERATOR_CAMERA) -> CameraSpec:
+    """A camera drawn in a cone around `base`: yaw about the target, elevation, distance, target jitter."""
+    target = np.asarray(base.target, float) + np.append(rng.uniform(-1, 1, 2) * config.camera_target_jitter, 0.0)
+    offset = np.asarray(base.pos, float) - np.asarray(base.target, float)
+    dist = np.linalg.norm(offset) * (1.0 + rng.uniform(-1, 1) * config.camera_distance_jitter)
+    yaw = np.arctan2(offset[1], offset[0]) + np.deg2rad(rng.uniform(-1, 1) * config.camera_yaw_deg)
+    pitch = np.arcsin(offset[2] / np.linalg.norm(offset)) + np.deg2rad(rng.uniform(-1, 1) * config.camera_pitch_deg)
+    pos = target + dist * np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)])
+    return CameraSpec(SCENE_CAMERA, tuple(float(v) for v in pos), tuple(float(v) for v in target), base.fovy)
+
+
+def _tilt_deg(quat: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip(quat_to_mat(quat)[2, 2], -1.0, 1.0))))
+
+
+def _settle(
+    scene: SceneSpec, config: SceneConfig, rejections: Counter[str]
+) -> tuple[SceneSpec, mujoco.MjModel, mujoco.MjData] | None:
+    model, data = compile_scene(scene)
+    adr = object_qpos_addresses(model, len(scene.objects))
+    start = np.stack([data.qpos[a : a + 7] for a in adr])
+    mujoco.mj_step(model, data, int(round(config.settle_time / model.opt.timestep)))
+    end = np.stack([data.qpos[a : a + 7] for a in adr])
+    if not np.all(np.isfinite(end)):
+        rejections["settle_unstable"] += 1
+        return None
+    if np.any(end[:, 2] < start[:, 2] - 0.03):
+        rejections["settle_fell"] += 1
+        return None
+    if any(_tilt_deg(e[3:]) - _tilt_deg(s[3:]) > config.max_settle_tilt_deg for s, e in zip(start, end, strict=True)):
+        rejections["settle_tipped"] += 1
+        return None
+    if np.any(np.linalg.norm(end[:, :2] - start[:, :2], axis=1) > config.max_settle_shift):
+        rejections["settle_drifted"] += 1
+        return None
+    dof = [int(model.jnt_dofadr[model.body_jntadr[model.body(f"object_{i}").id]]) for i in range(len(adr))]
+    speeds = [np.linalg.norm(data.qvel[d : d + 3]) for d in dof]
+    if max(speeds) > config.max_rest_speed:
+        rejections["settle_still_moving"] += 1
+        return None
+    objects = tuple(
+        SceneObject(o.instance, tuple(float(v) for v in e[:3]), tuple(float(v) for v in e[3:] / np.linalg.norm(e[3:])))
+        for o, e in zip(scene.objects, end, strict=True)
+    )
+    settled = SceneSpec(scene.index, scene.seed, objects, scene.camera)
+    model, data = compile_scene(settled)
+    return settled, model, data
+
+
+def _visible_pixels(
+    model: mujoco.MjModel, data: mujoco.MjData, count: int, config: SceneConfig
+) -> tuple[list[int], list[int]]:
+    """Pixels of each object in the scene camera's segmentation, with all objects and alone."""
+    w, h = config.occlusion_resolution
+    adr = object_qpos_addresses(model, count)
+    with SceneRenderer(model, w, h, "fast") as r:
+        seg = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
+        visible = [int(np.count_nonzero(seg == SEG_OBJECT_OFFSET + i)) for i in range(count)]
+        alone = []
+        saved = data.qpos.copy()
+        for i in range(count):
+            for j in range(count):
+                if j != i:  # park the others far below the floor, out of view
+                    data.qpos[adr[j] : adr[j] + 3] = (50.0 + j, 50.0, -50.0)
+            mujoco.mj_kinematics(model, data)
+            mujoco.mj_camlight(model, data)
+            seg_i = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
+            alone.append(int(np.count_nonzero(seg_i == SEG_OBJECT_OFFSET + i)))
+            data.qpos[:] = saved
+        mujoco.mj_forward(model, data)
+    return visible, alone
+
+
+def sample_scene(
+    index: int,
+    seed: int,
+    config: SceneConfig | None = None,
+    catalogue: Catalogue | None = None,
+    layout: TableLayout = LAYOUT,
+) -> SampleResult:
+    """Sample one scene.
+
+    Args:
+        index: scene index (recorded in the spec).
+        seed: the scene's seed; the same seed gives the same scene.
+        config: sampler options.
+        catalogue: object catalogue (default: built-in plus imported classes).
+        layout: table and workspace.
+
+    Returns:
+        The accepted scene with rejection counts.
+
+    Raises:
+        SceneError: no acceptable scene within ``config.scene_attempts``.
+    """
+    config = config or SceneConfig()
+    cat = catalogue or load_catalogue()
+    classes = _validate_classes(cat, config)
+    rng = np.random.default_rng(seed)
+    rejections: Counter[str] = Counter()
+    ref_pixels = 640 * 360
+    w, h = config.occlusion_resolution
+    min_pixels = config.min_visible_pixels * (w * h) / ref_pixels
+    for attempt in range(1, config.scene_attempts + 1):
+        n = int(rng.integers(config.min_objects, config.max_objects + 1))
+        objects: list[SceneObject] = []
+        footprints: list[np.ndarray] = []
+        redraws = 0
+        while len(objects) < n and redraws < config.object_tries:
+            inst = draw_instance(rng, cat, config, classes)
+            facts = object_facts(inst, cat)
+            spot = _place(rng, facts, footprints, config, layout, rejections)
+            if spot is None:
+                rejections["object_no_free_spot"] += 1
+                redraws += 1
+                continue
+            xy, yaw, padded = spot
+            z = layout.table_height - facts.bbox_min[2] + 0.001
+            objects.append(SceneObject(inst, (float(xy[0]), float(xy[1]), float(z)), tuple(quat_from_yaw(yaw))))
+            footprints.append(padded)
+        if len(objects) < n:
+            rejections["scene_table_full"] += 1
+            continue
+        camera = sample_camera(rng, config)
+        settled = _settle(SceneSpec(index, seed, tuple(objects), camera), config, rejections)
+        if settled is None:
+            continue
+        scene, model, data = settled
+        visible, alone = _visible_pixels(model, data, len(objects), config)
+        occluded = [
+            i for i in range(len(objects))
+            if visible[i] < min_pixels or visible[i] < config.min_visible_fraction * max(alone[i], 1)
+        ]
+        if occluded:
+            rejections["occluded"] += 1
+            continue
+        return SampleResult(scene, rejections, attempt, visible)
+    raise SceneError(
+        f"scene {index} (seed {seed}): no acceptable scene in {config.scene_attempts} attempts; "
+        f"rejections {dict(rejections)}; try fewer objects or a smaller placement_margin"
+    )
