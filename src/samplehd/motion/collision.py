@@ -1,0 +1,137 @@
+"""Collision checks of robot configurations with MuJoCo's own collision detection on a scratch
+``MjData``: the arm at given joint angles, the fingers at an opening, optionally an object held
+rigidly in the gripper. The physics state of the episode is never touched."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from samplehd.motion.robot_info import RobotInfo
+from samplehd.tasks.state import SceneBodies
+
+__all__ = ["CollisionChecker", "Held"]
+
+
+@dataclass(frozen=True, eq=False)
+class Held:
+    """An object held rigidly by the gripper.
+
+    Attributes:
+        index: scene object index.
+        tcp_to_object: 4×4 pose of the object frame in the TCP frame.
+    """
+
+    index: int
+    tcp_to_object: np.ndarray
+
+
+class CollisionChecker:
+    """Checks robot configurations against the scene in a given physics state.
+
+    Args:
+        model: compiled world.
+        data: the current state (object poses are copied from it at construction / :meth:`sync`).
+        bodies: body ids of the scene.
+        robot: robot addresses.
+        margin: penetration depth tolerated [m] (contacts shallower than this are ignored).
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodies, robot: RobotInfo,
+                 margin: float = 0.0005) -> None:
+        self.model, self.bodies, self.robot, self.margin = model, bodies, robot, margin
+        self.scratch = mujoco.MjData(model)
+        self.sync(data)
+        self._obj_qpos = {}
+        for i, b in enumerate(bodies.object_body):
+            j = model.body_jntadr[b]
+            self._obj_qpos[i] = int(model.jnt_qposadr[j]) if j >= 0 else -1
+        self.checks = 0
+
+    def sync(self, data: mujoco.MjData) -> None:
+        """Take object poses (and everything else) from ``data``."""
+        self.base_qpos = data.qpos.copy()
+
+    def _set(self, q: np.ndarray, opening: float, held: Held | None) -> None:
+        d = self.scratch
+        d.qpos[:] = self.base_qpos
+        d.qpos[self.robot.arm_qpos] = q
+        d.qpos[self.robot.finger_qpos] = self.robot.finger_qpos_for(opening)
+        mujoco.mj_kinematics(self.model, d)
+        if held is not None:
+            adr = self._obj_qpos[held.index]
+            tcp = np.eye(4)
+            tcp[:3, :3] = d.site_xmat[self.robot.tcp_site].reshape(3, 3)
+            tcp[:3, 3] = d.site_xpos[self.robot.tcp_site]
+            obj = tcp @ held.tcp_to_object
+            quat = np.empty(4)
+            mujoco.mju_mat2Quat(quat, obj[:3, :3].reshape(9))
+            d.qpos[adr:adr + 3] = obj[:3, 3]
+            d.qpos[adr + 3:adr + 7] = quat
+            mujoco.mj_kinematics(self.model, d)
+
+    def contacts(
+        self,
+        q: np.ndarray,
+        opening: float,
+        held: Held | None = None,
+        allow: Iterable[tuple[int, int]] = (),
+        allow_objects_with_gripper: Iterable[int] = (),
+    ) -> list[tuple[int, int, float]]:
+        """Offending contacts at configuration ``q``: (body a, body b, distance [m]).
+
+        A contact offends when it involves the robot or the held object, is deeper than the margin,
+        and is not allowed: robot self-contacts inside the gripper, the gripper with the held object,
+        the gripper with objects in ``allow_objects_with_gripper``, and the body pairs in ``allow``.
+        """
+        self._set(q, opening, held)
+        d, m, b = self.scratch, self.model, self.bodies
+        mujoco.mj_collision(m, d)
+        self.checks += 1
+        robot, grip = b.robot_bodies, b.gripper_bodies
+        held_body = int(b.object_body[held.index]) if held is not None else -2
+        grip_ok = {int(b.object_body[i]) for i in allow_objects_with_gripper}
+        if held is not None:
+            grip_ok.add(held_body)
+        allowed = {(min(x, y), max(x, y)) for x, y in allow}
+        bad = []
+        for k in range(d.ncon):
+            c = d.contact[k]
+            if c.dist > -self.margin:
+                continue
+            b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
+            r1, r2 = b1 in robot, b2 in robot
+            h1, h2 = b1 == held_body, b2 == held_body
+            if not (r1 or r2 or h1 or h2):
+                continue
+            if r1 and r2:
+                if b1 in grip and b2 in grip:
+                    continue
+            if (b1 in grip and b2 in grip_ok) or (b2 in grip and b1 in grip_ok):
+                continue
+            if (min(b1, b2), max(b1, b2)) in allowed:
+                continue
+            bad.append((b1, b2, float(c.dist)))
+        return bad
+
+    def free(self, q: np.ndarray, opening: float, held: Held | None = None,
+             allow: Iterable[tuple[int, int]] = (), allow_objects_with_gripper: Iterable[int] = ()) -> bool:
+        """Whether configuration ``q`` has no offending contact."""
+        return not self.contacts(q, opening, held, allow, allow_objects_with_gripper)
+
+    def path_free(self, qs: np.ndarray, opening: float, held: Held | None = None,
+                  allow: Iterable[tuple[int, int]] = (), allow_objects_with_gripper: Iterable[int] = (),
+                  step: float = 0.03) -> bool:
+        """Whether the piecewise-linear joint path through ``qs`` is free, checked every ``step`` [rad]."""
+        allow = tuple(allow)
+        allow_g = tuple(allow_objects_with_gripper)
+        qs = np.asarray(qs)
+        for a, c in zip(qs[:-1], qs[1:], strict=False):
+            n = max(1, int(np.ceil(np.max(np.abs(c - a)) / step)))
+            for s in np.linspace(0.0, 1.0, n + 1)[1:]:
+                if not self.free(a + s * (c - a), opening, held, allow, allow_g):
+                    return False
+        return bool(len(qs) == 0 or self.free(qs[0], opening, held, allow, allow_g))

@@ -1,0 +1,290 @@
+"""Execution of planned subtasks in physics through the robot controller (joint-position mode at the
+control rate over 500 Hz physics), recording one frame per control step.
+
+Planning is interleaved with execution: each subtask is planned from the state the previous one left
+(the object's actual pose, the actual grasp), so small slips in physics do not accumulate.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from samplehd.errors import PlanningError
+from samplehd.motion.collision import CollisionChecker, Held
+from samplehd.motion.planner import (
+    PlannerConfig,
+    choose_grasps,
+    destination_candidates,
+    object_pose,
+    plan_joint_move,
+    release_height,
+    straight_move,
+)
+from samplehd.motion.robot_info import RobotInfo
+from samplehd.record.recorder import FrameRecorder, steering_from_targets
+from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
+from samplehd.robot.controller import RobotController
+from samplehd.robot.kinematics import fk_tcp, ik_batch
+from samplehd.scene.layout import LAYOUT, TableLayout
+from samplehd.tasks.state import SceneBodies, object_world_box
+
+__all__ = ["AttemptFailed", "Rollout"]
+
+
+class AttemptFailed(PlanningError):
+    """One execution attempt failed; ``reason`` is a short counted key, ``grasp`` the grasp index used."""
+
+    def __init__(self, reason: str, message: str, grasp: int = -1) -> None:
+        super().__init__(message)
+        self.reason = reason
+        self.grasp = grasp
+
+
+def _gripper_command(opening: float) -> float:
+    return float(np.clip(2.0 * opening / GRIPPER_STROKE - 1.0, -1.0, 1.0))
+
+
+@dataclass
+class _Hand:
+    """What the gripper holds: object index and its pose in the TCP frame."""
+
+    index: int
+    tcp_to_object: np.ndarray
+    opening: float
+
+
+class Rollout:
+    """Runs subtasks of one attempt on a live ``MjData`` and records them.
+
+    Args:
+        model: compiled scene.
+        data: state at the start of the attempt (modified in place).
+        controller: the robot controller bound to ``model``/``data``.
+        robot: robot addresses.
+        bodies: scene body ids.
+        facts: catalogue facts per object (None for unknown objects).
+        config: planner settings.
+        rng: random generator (destinations, RRT).
+        layout: table layout.
+        directions: scene direction vectors.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
+                 bodies: SceneBodies, facts: list[Any], config: PlannerConfig, rng: np.random.Generator,
+                 layout: TableLayout = LAYOUT, directions: dict[str, Any] | None = None) -> None:
+        self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
+        self.facts, self.cfg, self.rng, self.layout, self.directions = facts, config, rng, layout, directions
+        self.dt = controller.config.control_dt
+        fingers = tuple(sorted(b for b in bodies.gripper_bodies
+                               if any(model.jnt_bodyid[j] == b for j in range(model.njnt))))
+        self.recorder = FrameRecorder(model, data, robot.arm_qpos, robot.arm_dof, robot.finger_qpos,
+                                      (fingers[0], fingers[-1]), robot.tcp_site, bodies.object_body)
+        self.subtasks: list[str] = []
+        self.checker = CollisionChecker(model, data, bodies, robot)
+        self.gripper = 1.0
+        self.hand: _Hand | None = None
+        self.info: dict[str, Any] = {"grasps": [], "destinations": [], "methods": []}
+
+    # ------------------------------------------------------------------ stepping
+    def _begin(self, name: str) -> int:
+        self.subtasks.append(name)
+        return len(self.subtasks) - 1
+
+    def run(self, name: str, target: int, targets: np.ndarray, gripper: float | None = None) -> None:
+        """Execute joint targets (one per control step) as subtask ``name`` and record each step."""
+        idx = self._begin(name)
+        if gripper is not None:
+            self.gripper = gripper
+        n = len(targets)
+        cc = self.ctrl.config
+        for k, q in enumerate(targets):
+            steer = steering_from_targets(fk_tcp(self.ctrl.target), fk_tcp(q), self.gripper, self.dt,
+                                          cc.max_linear_speed, cc.max_angular_speed)
+            self.recorder.record(idx, k / max(1, n - 1), target, q, self.gripper, steer)
+            report = self.ctrl.step(np.concatenate([q, [self.gripper]]), "joint_position")
+            if report.safety_event is not None:
+                self.recorder.rows["safety_event"][-1] = np.int8(report.safety_event.code)
+                raise AttemptFailed(f"safety_{report.safety_event.kind}", f"{name}: {report.safety_event}")
+
+    def hold(self, name: str, target: int, duration: float, gripper: float) -> None:
+        """Keep the arm still for ``duration`` seconds with a gripper command."""
+        n = max(1, int(round(duration / self.dt)))
+        self.run(name, target, np.repeat(self.ctrl.target[None], n, axis=0), gripper)
+
+    def finish(self) -> None:
+        """Record the final state (hold command)."""
+        idx = max(0, len(self.subtasks) - 1)
+        steer = np.zeros(7, np.float32)
+        steer[6] = self.gripper
+        self.recorder.record(idx, 1.0, -1, self.ctrl.target, self.gripper, steer)
+
+    # ------------------------------------------------------------------ helpers
+    def _sync(self) -> None:
+        mujoco.mj_forward(self.model, self.data)
+        self.checker.sync(self.data)
+
+    def _tcp_world(self) -> np.ndarray:
+        t = np.eye(4)
+        t[:3, :3] = self.data.site_xmat[self.robot.tcp_site].reshape(3, 3)
+        t[:3, 3] = self.data.site_xpos[self.robot.tcp_site]
+        return t
+
+    def _transport_z(self, held_index: int) -> float:
+        """TCP height [m, world] that lifts the held object's bottom over every other object."""
+        tops = [object_world_box(self.model, self.data, self.bodies, k).hi[2]
+                for k in range(self.bodies.num_objects) if k != held_index]
+        top = max(tops, default=self.layout.table_height)
+        tcp = self._tcp_world()
+        below = tcp[2, 3] - object_world_box(self.model, self.data, self.bodies, held_index).lo[2]
+        return float(max(top + self.cfg.transport_clearance + below,
+                         self.layout.table_height + self.cfg.min_transport_height))
+
+    # ------------------------------------------------------------------ subtasks
+    def pick(self, i: int, exclude: tuple[int, ...] = (), lift: bool = True) -> int:
+        """GripperMoveAvoid, ApproachGrasp, CloseGripper (and MoveUP) for object ``i``.
+
+        Returns:
+            The index of the grasp used (in the registry's candidate list).
+        """
+        self._sync()
+        q0 = self.ctrl.target
+        grasps = choose_grasps(self.model, self.data, self.bodies, self.robot, self.checker, i, self.facts[i],
+                               q0, self.cfg, self.layout, exclude)
+        if not grasps:
+            raise AttemptFailed("no_feasible_grasp", f"object {i}: no reachable, collision-free grasp")
+        k, gp = grasps[0]
+        self.info["grasps"].append({"object": i, "index": k, **gp.grasp.to_dict()})
+        open_cmd = _gripper_command(gp.grasp.opening)
+        lift_z = self._transport_z(i)
+        try:
+            path, method = plan_joint_move(self.checker, q0, gp.q_pregrasp, gp.grasp.opening, self.dt, self.cfg,
+                                           self.rng, lift_z=lift_z, robot=self.robot)
+            self.info["methods"].append(method)
+        except PlanningError as exc:
+            raise AttemptFailed("no_path_to_object", str(exc), k) from exc
+        self.run("GripperMoveAvoid", i, path, open_cmd)
+        self._sync()
+        try:
+            path = straight_move(self.checker, fk_tcp(self.ctrl.target), gp.tcp_grasp, self.ctrl.target,
+                                 gp.grasp.opening, self.dt, self.cfg.approach_speed, allow_objects_with_gripper=(i,))
+        except PlanningError as exc:
+            raise AttemptFailed("approach_blocked", str(exc), k) from exc
+        self.run("ApproachGrasp", i, path, open_cmd)
+        self.hold("CloseGripper", i, self.cfg.close_time, -1.0)
+        self._sync()
+        if self.recorder.rows["grasped_object"] and self._grasped() != i:
+            raise AttemptFailed("grasp_missed", f"object {i}: the fingers closed without holding it", k)
+        tcp = self._tcp_world()
+        self.hand = _Hand(i, np.linalg.inv(tcp) @ object_pose(self.data, self.bodies, i), gp.grasp.opening)
+        if lift:
+            self.move_up(i, k)
+        return k
+
+    def _grasped(self) -> int:
+        from samplehd.record.recorder import grasped_object
+
+        return grasped_object(self.model, self.data, self.recorder.finger_bodies, self.recorder.body_to_object)
+
+    def move_up(self, i: int, grasp_index: int = -1) -> None:
+        """MoveUP: straight lift of the held object to the transport height."""
+        z = self._transport_z(i)
+        start = fk_tcp(self.ctrl.target)
+        end = start.copy()
+        end[2, 3] = z - self.robot.base_pos[2]
+        held = Held(i, self.hand.tcp_to_object)
+        try:
+            path = straight_move(self.checker, start, end, self.ctrl.target, 0.0, self.dt, self.cfg.lift_speed,
+                                 held=held, check=False)
+        except PlanningError as exc:
+            raise AttemptFailed("lift_unreachable", str(exc), grasp_index) from exc
+        self.run("MoveUP", i, path, -1.0)
+        self._sync()
+        if self._grasped() != i:
+            raise AttemptFailed("grasp_slipped", f"object {i} slipped out of the gripper while lifting", grasp_index)
+        # Re-measure the grasp after lifting: the object may have settled in the fingers.
+        self.hand = _Hand(i, np.linalg.inv(self._tcp_world()) @ object_pose(self.data, self.bodies, i),
+                          self.hand.opening)
+
+    def place(self, i: int, task: Any, grasp_index: int = -1) -> None:
+        """ObjectMove, MoveDOWN, OpenGripper, MoveToDefaultPos for the held object ``i``."""
+        self._sync()
+        hand = self.hand
+        if hand is None or hand.index != i:
+            raise AttemptFailed("not_holding", f"object {i} is not in the gripper", grasp_index)
+        held = Held(i, hand.tcp_to_object)
+        t_obj = object_pose(self.data, self.bodies, i)
+        # Ignore the held object itself when searching for room.
+        spots = destination_candidates(self.data, self.bodies, self.facts, i, task, self.rng, self.cfg,
+                                       self.layout, self.directions)
+        if not spots:
+            raise AttemptFailed("no_free_spot", f"object {i}: no free spot at the destination", grasp_index)
+        transport_z = self._transport_z(i)
+        q_now = self.ctrl.target
+        last_error = "no reachable release pose"
+        for xy in spots:
+            # Release pose: object translated to (x, y), same orientation, dropped onto its support.
+            obj_bottom_below = t_obj[2, 3] - object_world_box(self.model, self.data, self.bodies, i).lo[2]
+            start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
+            try:
+                z_rel = release_height(self.checker, self.bodies, i, t_obj[:3, :3], xy, start_z,
+                                       self.layout.table_height + obj_bottom_below - 0.001)
+            except PlanningError as exc:
+                last_error = str(exc)
+                continue
+            t_obj_rel = t_obj.copy()
+            t_obj_rel[:3, 3] = (xy[0], xy[1], z_rel + self.cfg.release_gap)
+            tcp_rel_w = t_obj_rel @ np.linalg.inv(hand.tcp_to_object)
+            tcp_above_w = tcp_rel_w.copy()
+            tcp_above_w[2, 3] = max(transport_z, tcp_rel_w[2, 3] + 0.02)
+            above_b = self.robot.world_to_base(tcp_above_w)
+            rel_b = self.robot.world_to_base(tcp_rel_w)
+            q_above, ok = ik_batch(above_b[None], q_now[None], TCP_OFFSET)
+            if not ok[0]:
+                last_error = "release pose out of reach"
+                continue
+            q_above = q_above[0]
+            try:
+                move, method = plan_joint_move(self.checker, q_now, q_above, 0.0, self.dt, self.cfg, self.rng,
+                                               held=held, lift_z=transport_z, robot=self.robot)
+                down = straight_move(self.checker, above_b, rel_b, q_above, 0.0, self.dt, self.cfg.approach_speed,
+                                     held=held)
+            except PlanningError as exc:
+                last_error = str(exc)
+                continue
+            q_rel = down[-1] if len(down) else q_above
+            if not self.checker.free(q_rel, hand.opening, allow_objects_with_gripper=(i,)):
+                last_error = "the fingers cannot open at the release pose"
+                continue
+            self.info["destinations"].append({"object": i, "xy": [float(xy[0]), float(xy[1])],
+                                              "z": float(t_obj_rel[2, 3])})
+            self.info["methods"].append(method)
+            self.run("ObjectMove", i, move, -1.0)
+            self.run("MoveDOWN", i, down, -1.0)
+            self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(hand.opening))
+            self.hand = None
+            self.go_home(i, hand.opening)
+            return
+        raise AttemptFailed("no_release_path", f"object {i}: {last_error}", grasp_index)
+
+    def go_home(self, target: int, opening: float) -> None:
+        """MoveToDefaultPos: straight retreat up, then a joint-space move home."""
+        self._sync()
+        start = fk_tcp(self.ctrl.target)
+        up = start.copy()
+        up[2, 3] += self.cfg.retreat_distance
+        gcmd = _gripper_command(opening)
+        try:
+            retreat = straight_move(self.checker, start, up, self.ctrl.target, opening, self.dt, self.cfg.lift_speed,
+                                    check=False)
+            q_up = retreat[-1] if len(retreat) else self.ctrl.target
+            self.checker.sync(self.data)
+            home, _ = plan_joint_move(self.checker, q_up, HOME_QPOS, opening, self.dt, self.cfg, self.rng,
+                                      lift_z=self._tcp_world()[2, 3] + self.cfg.retreat_distance, robot=self.robot)
+        except PlanningError as exc:
+            raise AttemptFailed("no_path_home", str(exc)) from exc
+        path = np.vstack([retreat, home]) if len(home) else retreat
+        self.run("MoveToDefaultPos", target, path, gcmd)

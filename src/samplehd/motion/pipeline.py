@@ -1,0 +1,231 @@
+"""The library entry point: plan and execute one instruction's ground-truth path with retries.
+
+:func:`plan_and_execute` compiles the scene (or takes a compiled one), runs attempts from the
+scene's initial state until one passes the success checker, and returns its :class:`Episode`. A
+failed attempt is retried with another grasp and other destination draws; when every attempt fails
+it raises :class:`PathRejected` with a short, countable reason. A failed path is never returned.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from samplehd.errors import ConfigError, PlanningError
+from samplehd.motion.execute import AttemptFailed, Rollout
+from samplehd.motion.planner import PlannerConfig
+from samplehd.motion.robot_info import RobotInfo
+from samplehd.record.episode import Episode
+from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS
+from samplehd.robot.controller import ControlConfig, RobotController
+from samplehd.scene.layout import LAYOUT
+from samplehd.tasks.checker import CheckerConfig, check_success
+from samplehd.tasks.state import SceneBodies
+from samplehd.tasks.task import Task, parse_task
+
+__all__ = ["PathConfig", "PathRejected", "initial_state", "plan_and_execute"]
+
+
+@dataclass(frozen=True)
+class PathConfig:
+    """Settings of ground-truth path generation.
+
+    Attributes:
+        planner: planner distances, speeds and budgets.
+        checker: success checker tolerances.
+        control_hz: control (and recording) rate [Hz].
+        physics_hz: physics rate [Hz].
+        max_attempts: attempts per instruction before it is rejected.
+        reject_fallen: reject paths after which any object has fallen over.
+    """
+
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    checker: CheckerConfig = field(default_factory=CheckerConfig)
+    control_hz: float = 20.0
+    physics_hz: float = 500.0
+    max_attempts: int = 3
+
+    reject_fallen: bool = True
+
+    def __post_init__(self) -> None:
+        if self.max_attempts < 1:
+            raise ConfigError(f"paths.max_attempts={self.max_attempts} must be >= 1")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "planner": self.planner.to_dict(),
+            "checker": self.checker.to_dict(),
+            "control_hz": self.control_hz,
+            "physics_hz": self.physics_hz,
+            "max_attempts": self.max_attempts,
+            "reject_fallen": self.reject_fallen,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PathConfig:
+        unknown = set(d) - set(cls.__dataclass_fields__)
+        if unknown:
+            raise ConfigError(f"unknown paths options {sorted(unknown)}; valid: {sorted(cls.__dataclass_fields__)}")
+        return cls(
+            planner=PlannerConfig.from_dict(d.get("planner", {})),
+            checker=CheckerConfig.from_dict(d.get("checker", {})),
+            control_hz=float(d.get("control_hz", 20.0)),
+            physics_hz=float(d.get("physics_hz", 500.0)),
+            max_attempts=int(d.get("max_attempts", 3)),
+            reject_fallen=bool(d.get("reject_fallen", True)),
+        )
+
+
+class PathRejected(PlanningError):
+    """No attempt produced a path that passes the checker.
+
+    Attributes:
+        reason: countable key of the last failure (e.g. "no_feasible_grasp", "checker_failed").
+        attempts: per attempt, its reason and message.
+    """
+
+    def __init__(self, reason: str, message: str, attempts: list[dict[str, Any]]) -> None:
+        super().__init__(message)
+        self.reason = reason
+        self.attempts = attempts
+
+
+def initial_state(model: mujoco.MjModel, data: mujoco.MjData, config: ControlConfig) -> RobotController:
+    """Put the arm at home with the gripper open, objects as compiled; returns the controller."""
+    ctrl = RobotController(model, data, config)
+    ctrl.reset(HOME_QPOS, gripper=1.0)
+    robot = RobotInfo.from_model(model, data)
+    data.qpos[robot.finger_qpos] = GRIPPER_STROKE / 2
+    mujoco.mj_forward(model, data)
+    return ctrl
+
+
+def _facts(scene: Any) -> list[Any]:
+    from samplehd.catalogue import object_facts
+
+    out = []
+    for o in scene.objects:
+        try:
+            out.append(object_facts(o.instance))
+        except Exception:  # noqa: BLE001 - objects unknown to the catalogue fall back to model geometry
+            out.append(None)
+    return out
+
+
+def _run_attempt(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, task: Task, rng: np.random.Generator,
+                 config: PathConfig, facts: list[Any], exclude: dict[int, set[int]],
+                 directions: dict[str, Any] | None) -> tuple[Rollout, Any]:
+    control = ControlConfig(physics_hz=config.physics_hz, control_hz=config.control_hz)
+    ctrl = initial_state(model, data, control)
+    robot = RobotInfo.from_model(model, data)
+    bodies = SceneBodies(model, len(scene.objects))
+    ro = Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions)
+    for i in task.objects:
+        k = -1
+        try:
+            k = ro.pick(i, tuple(exclude.get(i, ())))
+            if task.family != "pick_up":
+                ro.place(i, task, k)
+        except AttemptFailed as exc:
+            if exc.grasp < 0:
+                exc.grasp = k
+            exc.object = i  # type: ignore[attr-defined]
+            raise
+    ro.finish()
+    result = check_success(model, data, scene, task, config.checker, LAYOUT, directions)
+    return ro, result
+
+
+def plan_and_execute(
+    scene: Any,
+    task: dict[str, Any] | Task,
+    rng: np.random.Generator,
+    config: PathConfig | None = None,
+    *,
+    family: str | None = None,
+    scene_index: int | None = None,
+    instruction_index: int = 0,
+    seed: int = 0,
+    directions: dict[str, Any] | None = None,
+    compiled: tuple[mujoco.MjModel, mujoco.MjData] | None = None,
+) -> Episode:
+    """Generate the ground-truth path of one instruction.
+
+    Args:
+        scene: the ``SceneSpec``.
+        task: the executor's task dict (or a parsed Task).
+        rng: the only source of randomness (destinations, RRT, retries).
+        config: path settings.
+        family: the instruction's family if it differs from the task type ("remove").
+        scene_index: recorded in the episode (default: ``scene.index``).
+        instruction_index: recorded in the episode.
+        seed: recorded in the episode (the seed ``rng`` was made from).
+        directions: the scene's direction vectors (default: the layout's).
+        compiled: an already compiled (model, data) of this scene, to skip compilation; ``data`` is
+            left in the episode's final state.
+
+    Returns:
+        The successful episode (``success`` True, checker report in ``info["check"]``).
+
+    Raises:
+        PathRejected: every attempt failed; ``reason`` says why.
+        PlanningError: the task is malformed.
+    """
+    from samplehd.scene.spec import compile_scene
+
+    config = config or PathConfig()
+    t = parse_task(task, family)
+    n = len(scene.objects)
+    for i in t.involved:
+        if not 0 <= i < n:
+            raise PlanningError(f"task names object {i}, but the scene has objects 0..{n - 1}")
+    model, data = compiled if compiled is not None else compile_scene(scene, 1.0 / config.physics_hz)
+    start = mujoco.MjData(model)
+    mujoco.mj_copyData(start, model, data)
+    facts = _facts(scene)
+    exclude: dict[int, set[int]] = {}
+    attempts: list[dict[str, Any]] = []
+    reason, message = "", ""
+    for attempt in range(config.max_attempts):
+        mujoco.mj_copyData(data, model, start)
+        sub = np.random.default_rng(rng.integers(2**63))
+        try:
+            ro, result = _run_attempt(model, data, scene, t, sub, config, facts, exclude, directions)
+        except AttemptFailed as exc:
+            reason, message = exc.reason, str(exc)
+            attempts.append({"attempt": attempt, "reason": reason, "message": message})
+            obj = getattr(exc, "object", -1)
+            if exc.grasp >= 0 and obj >= 0:
+                exclude.setdefault(obj, set()).add(exc.grasp)
+            continue
+        if not result.success or (config.reject_fallen and result.fallen):
+            reason = "checker_failed" if not result.success else "knocked_over"
+            message = result.reason or f"objects {list(result.fallen)} fell over"
+            attempts.append({"attempt": attempt, "reason": reason, "message": message})
+            # Try another grasp of the first moved object next time.
+            for g in ro.info["grasps"][:1]:
+                exclude.setdefault(int(g["object"]), set()).add(int(g["index"]))
+            continue
+        info = {
+            "task": t.to_dict(),
+            "attempts": attempt + 1,
+            "failed_attempts": attempts,
+            "check": result.to_dict(),
+            "control_hz": config.control_hz,
+            "physics_hz": config.physics_hz,
+            **ro.info,
+        }
+        return Episode(
+            scene_index=int(scene.index if scene_index is None else scene_index),
+            instruction_index=int(instruction_index),
+            family=family or t.family,
+            seed=int(seed),
+            subtasks=tuple(ro.subtasks),
+            frames=ro.recorder.frames(),
+            success=True,
+            info=info,
+        )
+    raise PathRejected(reason, f"instruction {instruction_index}: {message}", attempts)

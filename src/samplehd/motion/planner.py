@@ -1,0 +1,505 @@
+"""The subtask planner: grasp choice, destination search and collision-checked joint paths for each
+SAMPLE-HD subtask of one moved object.
+
+Per moved object the subtasks are, in order (``samplehd.record.episode.SUBTASK_NAMES``):
+
+1. GripperMoveAvoid: from the current configuration to the pre-grasp pose above the object, in
+   joint space, collision-checked (via a lifted waypoint, then RRT-Connect, where the straight path
+   collides).
+2. ApproachGrasp: a straight TCP line along the grasp's approach direction to the grasp pose.
+3. CloseGripper: close the fingers with the limited force, arm still.
+4. MoveUP: a straight vertical lift to the transport height (the held object's bottom clears every
+   other object's top by ``transport_clearance``).
+5. ObjectMove: a joint-space move, held object included in the collision checks, to above the
+   release pose.
+6. MoveDOWN: a straight descent until the object's bottom is ``release_gap`` above its support
+   (table, stack base top or container floor, found by probing MuJoCo's collision detection).
+7. OpenGripper: open the fingers, arm still.
+8. MoveToDefaultPos: a straight retreat up, then a joint-space move home.
+
+pick_up stops after MoveUP, holding the object. Every function is deterministic given its inputs;
+randomness (destination sampling, RRT) comes only from the generator passed in.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from samplehd.errors import ConfigError, PlanningError
+from samplehd.motion.collision import CollisionChecker, Held
+from samplehd.motion.grasps import Grasp, grasp_candidates
+from samplehd.motion.robot_info import RobotInfo
+from samplehd.motion.rrt import rrt_connect
+from samplehd.motion.trajectory import cartesian_path, joint_path
+from samplehd.robot.constants import JOINT_LIMITS, TCP_OFFSET
+from samplehd.robot.kinematics import fk_tcp, ik_all, ik_batch, wrap_to_limits
+from samplehd.scene.layout import DIRECTIONS, LAYOUT, TableLayout
+from samplehd.tasks.state import SceneBodies, object_world_box
+
+__all__ = [
+    "GraspPlan",
+    "PlannerConfig",
+    "choose_grasps",
+    "destination_candidates",
+    "object_pose",
+    "plan_joint_move",
+    "release_height",
+]
+
+
+@dataclass(frozen=True)
+class PlannerConfig:
+    """Distances, speeds and search budgets of the planner.
+
+    Attributes:
+        approach_distance: pre-grasp stand-off along the approach direction [m].
+        retreat_distance: straight retreat after releasing [m].
+        transport_clearance: held object's bottom above the tallest other object in transport [m].
+        min_transport_height: lowest TCP height above the table in transport [m].
+        approach_speed: mean TCP speed of approach/descent lines [m/s].
+        lift_speed: mean TCP speed of lifts [m/s].
+        joint_speed: largest joint speed of joint-space moves [rad/s].
+        max_tcp_speed: largest TCP speed in joint-space moves (below the steering scale) [m/s].
+        max_tcp_angular_speed: largest TCP angular speed in joint-space moves [rad/s].
+        finger_clearance: fingertips above the table at the grasp [m].
+        release_gap: object's bottom above its support at release [m].
+        close_time: duration of CloseGripper [s].
+        open_time: duration of OpenGripper [s].
+        grasp_candidates: grasps tried per object (best first).
+        spot_samples: candidate destinations sampled per object.
+        spot_margin: free space between the placed object and its neighbours [m].
+        part_margin: placed centre at least this far inside the destination part [m].
+        relation_gap: extra distance beyond the relation margin for place_relative [m].
+        rrt_iterations: RRT-Connect budget per joint-space move.
+    """
+
+    approach_distance: float = 0.08
+    retreat_distance: float = 0.08
+    transport_clearance: float = 0.04
+    min_transport_height: float = 0.18
+    approach_speed: float = 0.06
+    lift_speed: float = 0.08
+    joint_speed: float = 1.2
+    max_tcp_speed: float = 0.22
+    max_tcp_angular_speed: float = 0.9
+    finger_clearance: float = 0.003
+    release_gap: float = 0.006
+    close_time: float = 0.8
+    open_time: float = 0.5
+    grasp_candidates: int = 8
+    spot_samples: int = 400
+    spot_margin: float = 0.02
+    part_margin: float = 0.03
+    relation_gap: float = 0.03
+    rrt_iterations: int = 1500
+
+    def __post_init__(self) -> None:
+        for k, v in asdict(self).items():
+            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
+                raise ConfigError(f"planner.{k}={v!r} must be a finite non-negative number")
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> PlannerConfig:
+        unknown = set(d) - set(cls.__dataclass_fields__)
+        if unknown:
+            raise ConfigError(f"unknown planner options {sorted(unknown)}; valid: {sorted(cls.__dataclass_fields__)}")
+        return cls(**d)
+
+
+@dataclass(frozen=True, eq=False)
+class GraspPlan:
+    """A chosen grasp of one object in the current state.
+
+    Attributes:
+        grasp: the grasp (object frame).
+        tcp_grasp: TCP pose at the grasp, robot base frame (4×4).
+        tcp_pregrasp: TCP pose at the pre-grasp, robot base frame (4×4).
+        q_grasp: joint configuration at the grasp [rad].
+        q_pregrasp: joint configuration at the pre-grasp [rad].
+    """
+
+    grasp: Grasp
+    tcp_grasp: np.ndarray
+    tcp_pregrasp: np.ndarray
+    q_grasp: np.ndarray
+    q_pregrasp: np.ndarray
+
+
+def object_pose(data: mujoco.MjData, bodies: SceneBodies, i: int) -> np.ndarray:
+    """World pose (4×4) of object ``i`` in the state ``data``."""
+    b = bodies.object_body[i]
+    t = np.eye(4)
+    t[:3, :3] = data.xmat[b].reshape(3, 3)
+    t[:3, 3] = data.xpos[b]
+    return t
+
+
+def _ik_near(pose_base: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
+    q, ok = ik_batch(pose_base[None], np.asarray(seed, float)[None], TCP_OFFSET)
+    return q[0] if ok[0] else None
+
+
+def ik_candidates(pose_base: np.ndarray, seed: np.ndarray) -> list[np.ndarray]:
+    """Every IK solution inside the limits, nearest ``seed`` first (each wrapped towards it) [rad]."""
+    sols = ik_all(pose_base, TCP_OFFSET)
+    out = []
+    for s in sols:
+        q, ok = wrap_to_limits(s, seed)
+        if ok:
+            out.append(q)
+    out.sort(key=lambda q: float(np.sum((q - seed) ** 2)))
+    return out
+
+
+def _elbow_up(q: np.ndarray) -> bool:
+    """Whether a configuration keeps the UR5e's usual pose: elbow above the wrist, wrist down."""
+    # With the standard DH frames, the elbow is up when the lift and elbow joints have opposite signs.
+    return bool(q[1] < 0 and q[2] > 0)
+
+
+def choose_grasps(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    bodies: SceneBodies,
+    robot: RobotInfo,
+    checker: CollisionChecker,
+    i: int,
+    facts: Any,
+    seed_q: np.ndarray,
+    config: PlannerConfig,
+    layout: TableLayout = LAYOUT,
+    exclude: tuple[int, ...] = (),
+) -> list[tuple[int, GraspPlan]]:
+    """Feasible grasps of object ``i`` in the current state, best first, with their registry index.
+
+    A grasp is feasible when the grasp and pre-grasp poses have an elbow-up IK solution, the
+    fingers (opened to the grasp's opening) touch nothing at the pre-grasp and nothing but the
+    object at the grasp, and the fingertips stay ``finger_clearance`` above the table.
+    """
+    t_obj = object_pose(data, bodies, i)
+    sites = facts.graspable_sites if facts is not None else ()
+    bmin = facts.bbox_min if facts is not None else bodies.local_box(i).lo
+    bmax = facts.bbox_max if facts is not None else bodies.local_box(i).hi
+    cands = grasp_candidates(sites, np.asarray(bmin), np.asarray(bmax))
+    feasible: list[tuple[float, int, GraspPlan]] = []
+    min_tcp_z = layout.table_height + robot.finger_depth + config.finger_clearance
+    for k, g in enumerate(cands):
+        if k in exclude:
+            continue
+        tcp_w = t_obj @ g.pose(robot.finger_axis)
+        app = tcp_w[:3, 2]
+        if app[2] > -0.5:
+            continue  # only top-down grasps: side approaches run the fingers into the table
+        if tcp_w[2, 3] < min_tcp_z:
+            tcp_w[2, 3] = min_tcp_z
+        pre_w = tcp_w.copy()
+        pre_w[:3, 3] -= config.approach_distance * app
+        tcp_b, pre_b = robot.world_to_base(tcp_w), robot.world_to_base(pre_w)
+        best = None
+        for q_pre in ik_candidates(pre_b, seed_q)[:4]:
+            if not _elbow_up(q_pre):
+                continue
+            q_g = _ik_near(tcp_b, q_pre)
+            if q_g is None or np.max(np.abs(q_g - q_pre)) > 0.6:
+                continue
+            if not checker.free(q_pre, g.opening):
+                continue
+            if not checker.free(q_g, g.opening, allow_objects_with_gripper=(i,)):
+                continue
+            best = (q_pre, q_g)
+            break
+        if best is None:
+            continue
+        # Prefer the catalogue's order, then small wrist turns from the seed.
+        cost = k * 0.05 + float(np.abs(best[0][5] - seed_q[5])) * 0.1 + float(np.sum(np.abs(best[0] - seed_q))) * 0.02
+        feasible.append((cost, k, GraspPlan(g, tcp_b, pre_b, best[1], best[0])))
+        if len(feasible) >= config.grasp_candidates:
+            break
+    feasible.sort(key=lambda x: x[0])
+    return [(k, gp) for _, k, gp in feasible]
+
+
+def _rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,
+                  h2: np.ndarray, margin: float) -> bool:
+    """Separating-axis test of two oriented rectangles (centres, 2×2 rotations, half sizes) grown by margin."""
+    d = c2 - c1
+    for axes in (r1, r2):
+        for k in range(2):
+            a = axes[:, k]
+            p1 = abs(a @ r1[:, 0]) * (h1[0] + margin / 2) + abs(a @ r1[:, 1]) * (h1[1] + margin / 2)
+            p2 = abs(a @ r2[:, 0]) * (h2[0] + margin / 2) + abs(a @ r2[:, 1]) * (h2[1] + margin / 2)
+            if abs(a @ d) > p1 + p2:
+                return False
+    return True
+
+
+def _footprint(
+    data: mujoco.MjData, bodies: SceneBodies, k: int, facts: Any
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centre xy, 2×2 rotation, half sizes) of object k's footprint rectangle in the world."""
+    t = object_pose(data, bodies, k)
+    yaw = math.atan2(t[1, 0], t[0, 0])
+    rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    if facts is not None:
+        c_local, half = np.asarray(facts.footprint_center), np.asarray(facts.footprint_half_extents)
+    else:
+        box = bodies.local_box(k)
+        c_local, half = box.center[:2], box.half[:2]
+    if abs(t[2, 2]) < 0.9:  # tipped over: fall back to the world box
+        wb = object_world_box(bodies.model, data, bodies, k)
+        return wb.center[:2], np.eye(2), wb.half[:2]
+    return t[:2, 3] + rot @ c_local, rot, half
+
+
+def destination_candidates(
+    data: mujoco.MjData,
+    bodies: SceneBodies,
+    facts: list[Any],
+    i: int,
+    task: Any,
+    rng: np.random.Generator,
+    config: PlannerConfig,
+    layout: TableLayout = LAYOUT,
+    directions: dict[str, Any] | None = None,
+    ignore: tuple[int, ...] = (),
+) -> list[np.ndarray]:
+    """Candidate world (x, y) positions of object ``i``'s frame origin at release, best first.
+
+    place/remove: free spots inside the destination part; place_relative: free spots past the
+    reference object along the scene's direction; stack/put: the support's top or opening centre.
+    """
+    t_obj = object_pose(data, bodies, i)
+    if task.family in ("stack", "put", "stack_three"):
+        base = task.support_of(i)
+        t_base = object_pose(data, bodies, base)
+        f = facts[base]
+        if task.family == "put" and f is not None and f.opening is not None:
+            c_local = np.array([*f.opening.center, 0.0])
+        elif f is not None:
+            c_local = np.array([*f.top.center, 0.0])
+        else:
+            c_local = np.array([*bodies.local_box(base).center[:2], 0.0])
+        target = (t_base[:3, :3] @ c_local + t_base[:3, 3])[:2]
+        # Place the object's footprint centre (not its frame origin) on the target.
+        _, rot_i, _ = _footprint(data, bodies, i, facts[i])
+        fc = np.asarray(facts[i].footprint_center) if facts[i] is not None else bodies.local_box(i).center[:2]
+        return [target - rot_i @ fc]
+    c_i, rot_i, half_i = _footprint(data, bodies, i, facts[i])
+    offset = c_i - t_obj[:2, 3]  # footprint centre relative to the frame origin (kept on transport)
+    others = [k for k in range(bodies.num_objects) if k != i and k not in ignore]
+    foot = {k: _footprint(data, bodies, k, facts[k]) for k in others}
+    table_lo = -np.array(layout.table_size) / 2 + 0.03
+    table_hi = np.array(layout.table_size) / 2 - 0.03
+    if task.family == "place_relative":
+        ref = task.reference
+        d = np.asarray((directions or DIRECTIONS)[task.direction], float)[:2]
+        d /= np.linalg.norm(d)
+        lateral = np.array([-d[1], d[0]])
+        c_ref, rot_ref, half_ref = foot[ref]
+        # Extent of both footprints along d, so the rectangles end up side by side.
+        ext_ref = abs(d @ rot_ref[:, 0]) * half_ref[0] + abs(d @ rot_ref[:, 1]) * half_ref[1]
+        ext_i = abs(d @ rot_i[:, 0]) * half_i[0] + abs(d @ rot_i[:, 1]) * half_i[1]
+        ref_origin = object_pose(data, bodies, ref)[:2, 3]
+        base_dist = ext_ref + ext_i + config.spot_margin
+        dist = base_dist + rng.uniform(0.0, 0.15, config.spot_samples)
+        lat = rng.uniform(-0.08, 0.08, config.spot_samples)
+        centres = c_ref[None] + dist[:, None] * d[None] + lat[:, None] * lateral[None]
+        lo, hi = np.array(layout.workspace_min) - 0.05, np.array(layout.workspace_max) + 0.05
+        need = config.relation_gap + 0.02
+    else:
+        part = task.destination_part
+        lo, hi = layout.part_bounds(part)
+        lo, hi = lo + config.part_margin, hi - config.part_margin
+        centres = rng.uniform(lo, hi, size=(config.spot_samples, 2))
+        d = None
+    scored = []
+    for c in centres:
+        origin = c - offset
+        if d is not None:
+            if float((origin - ref_origin) @ d) < need:
+                continue
+            if np.any(origin < lo) or np.any(origin > hi):
+                continue
+        elif np.any(origin < lo) or np.any(origin > hi):
+            continue
+        r = float(np.max(np.abs(rot_i) @ half_i))
+        if np.any(c - r < table_lo) or np.any(c + r > table_hi):
+            continue
+        if not layout.in_reach(origin):
+            continue
+        clear = True
+        gap = np.inf
+        for k in others:
+            ck, rk, hk = foot[k]
+            if _rect_overlap(c, rot_i, half_i, ck, rk, hk, config.spot_margin):
+                clear = False
+                break
+            gap = min(gap, float(np.linalg.norm(ck - c)))
+        if clear:
+            # Prefer spots with room around them and close to the arm's comfortable reach.
+            reach = float(np.hypot(origin[0] - layout.robot_base[0], origin[1] - layout.robot_base[1]))
+            scored.append((-min(gap, 0.25) + 0.3 * abs(reach - 0.5), origin))
+    scored.sort(key=lambda x: x[0])
+    # Keep a little randomness among the good ones.
+    best = [o for _, o in scored[:12]]
+    if len(best) > 1:
+        order = rng.permutation(len(best))
+        best = [best[j] for j in sorted(order[: min(6, len(best))])]
+    return best
+
+
+def release_height(
+    checker: CollisionChecker,
+    bodies: SceneBodies,
+    held: int,
+    obj_rot: np.ndarray,
+    xy: np.ndarray,
+    start_z: float,
+    floor_z: float,
+    step: float = 0.002,
+) -> float:
+    """Lowest height of the held object's frame at (x, y) before it touches anything [m].
+
+    Probes MuJoCo's collision detection with the object alone (robot parked where it is), moving it
+    down from ``start_z`` in ``step`` increments; stops at ``floor_z``.
+    """
+    m, d = checker.model, checker.scratch
+    body = int(bodies.object_body[held])
+    adr = int(m.jnt_qposadr[m.body_jntadr[body]])
+    quat = np.empty(4)
+    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(obj_rot).reshape(9))
+    d.qpos[:] = checker.base_qpos
+    d.qpos[adr + 3:adr + 7] = quat
+    robot = bodies.robot_bodies
+
+    def touches(z: float) -> bool:
+        d.qpos[adr:adr + 3] = (xy[0], xy[1], z)
+        mujoco.mj_kinematics(m, d)
+        mujoco.mj_collision(m, d)
+        for k in range(d.ncon):
+            c = d.contact[k]
+            b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
+            if body in (b1, b2) and c.dist < 0 and not ({b1, b2} & robot):
+                return True
+        return False
+
+    if touches(start_z):
+        raise PlanningError(f"object {held} collides above its destination at z={start_z:.3f} m")
+    lo, hi = floor_z, start_z
+    if not touches(lo):
+        return lo
+    while hi - lo > step:
+        mid = 0.5 * (lo + hi)
+        if touches(mid):
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def _limit_tcp_speed(path: np.ndarray, start: np.ndarray, dt: float, config: PlannerConfig) -> float:
+    """Factor by which a joint path must be slowed so the TCP stays below the steering limits."""
+    qs = np.vstack([start[None], path])
+    tcp = fk_tcp(qs)
+    v = np.abs(np.diff(tcp[:, :3, 3], axis=0)) / dt
+    rel = np.einsum("nji,njk->nik", tcp[:-1, :3, :3], tcp[1:, :3, :3])
+    ang = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1)) / dt
+    return max(1.0, float(v.max(initial=0) / config.max_tcp_speed),
+               float(ang.max(initial=0) / config.max_tcp_angular_speed))
+
+
+def timed_joint_path(waypoints: np.ndarray, dt: float, config: PlannerConfig) -> np.ndarray:
+    """Joint path through waypoints, slowed so the TCP never exceeds the steering speed limits."""
+    speed = config.joint_speed
+    path = joint_path(waypoints, dt, speed)
+    for _ in range(4):
+        f = _limit_tcp_speed(path, waypoints[0], dt, config)
+        if f <= 1.0 + 1e-6:
+            break
+        speed /= f * 1.05
+        path = joint_path(waypoints, dt, speed)
+    return path
+
+
+def plan_joint_move(
+    checker: CollisionChecker,
+    q_start: np.ndarray,
+    q_goal: np.ndarray,
+    opening: float,
+    dt: float,
+    config: PlannerConfig,
+    rng: np.random.Generator,
+    held: Held | None = None,
+    lift_z: float | None = None,
+    robot: RobotInfo | None = None,
+    allow_objects_with_gripper: tuple[int, ...] = (),
+) -> tuple[np.ndarray, str]:
+    """A collision-free, timed joint-space move: straight, via lifted waypoints, or RRT-Connect.
+
+    Returns:
+        (targets at the control rate, method used: "direct", "lifted" or "rrt").
+
+    Raises:
+        PlanningError: no collision-free path was found.
+    """
+    allow_g = allow_objects_with_gripper
+
+    def free(q: np.ndarray) -> bool:
+        return checker.free(q, opening, held, allow_objects_with_gripper=allow_g)
+
+    ends = np.array([q_start, q_goal])
+    if checker.path_free(ends, opening, held, allow_objects_with_gripper=allow_g):
+        return timed_joint_path(ends, dt, config), "direct"
+    if lift_z is not None and robot is not None:
+        # Lift straight up from the start and descend straight onto the goal at a safe height.
+        via = []
+        for q in (q_start, q_goal):
+            t = fk_tcp(q)
+            t[2, 3] = max(t[2, 3], lift_z - robot.base_pos[2])
+            qv = _ik_near(t, q)
+            if qv is None:
+                break
+            via.append(qv)
+        if len(via) == 2:
+            wps = np.array([q_start, via[0], via[1], q_goal])
+            if checker.path_free(wps, opening, held, allow_objects_with_gripper=allow_g):
+                return timed_joint_path(wps, dt, config), "lifted"
+    lo = np.maximum(JOINT_LIMITS[:, 0], np.minimum(q_start, q_goal) - 1.0)
+    hi = np.minimum(JOINT_LIMITS[:, 1], np.maximum(q_start, q_goal) + 1.0)
+    if not free(q_start):
+        raise PlanningError("the start configuration of a joint move is in collision")
+    if not free(q_goal):
+        raise PlanningError("the goal configuration of a joint move is in collision")
+    wps = rrt_connect(q_start, q_goal, free, lo, hi, rng, max_iterations=int(config.rrt_iterations))
+    return timed_joint_path(wps, dt, config), "rrt"
+
+
+def straight_move(
+    checker: CollisionChecker,
+    start_pose: np.ndarray,
+    end_pose: np.ndarray,
+    q_start: np.ndarray,
+    opening: float,
+    dt: float,
+    speed: float,
+    held: Held | None = None,
+    allow_objects_with_gripper: tuple[int, ...] = (),
+    check: bool = True,
+) -> np.ndarray:
+    """A straight TCP line (base-frame poses) as timed joint targets, collision-checked."""
+    path = cartesian_path(start_pose, end_pose, q_start, dt, speed)
+    if check:
+        for q in path[:: max(1, len(path) // 12)]:
+            if not checker.free(q, opening, held, allow_objects_with_gripper=allow_objects_with_gripper):
+                bad = checker.contacts(q, opening, held, allow_objects_with_gripper=allow_objects_with_gripper)
+                names = {mujoco.mj_id2name(checker.model, mujoco.mjtObj.mjOBJ_BODY, b) for a in bad for b in a[:2]}
+                raise PlanningError(f"straight TCP move collides ({', '.join(sorted(n or '?' for n in names))})")
+    return path

@@ -1,0 +1,126 @@
+"""Time-parameterised joint trajectories sampled at the control rate: joint-space moves and
+straight-line Cartesian moves of the TCP (through analytic IK), both with minimum-jerk timing so the
+arm starts and stops smoothly."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from samplehd.errors import PlanningError
+from samplehd.robot.constants import TCP_OFFSET
+from samplehd.robot.kinematics import ik_batch
+
+__all__ = ["cartesian_path", "interpolate_pose", "joint_path", "min_jerk", "rotation_angle"]
+
+
+def min_jerk(n: int) -> np.ndarray:
+    """Progress s(t) in [0, 1] at n samples t = 1/n … 1 of a minimum-jerk profile."""
+    t = np.arange(1, n + 1) / n
+    return 10 * t**3 - 15 * t**4 + 6 * t**5
+
+
+def rotation_angle(r: np.ndarray) -> float:
+    """Angle of a rotation matrix [rad]."""
+    return float(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0)))
+
+
+def _axis_angle(r: np.ndarray) -> np.ndarray:
+    ang = rotation_angle(r)
+    if ang < 1e-9:
+        return np.zeros(3)
+    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    s = np.linalg.norm(v)
+    if s < 1e-9:  # angle near pi
+        w, vec = np.linalg.eigh((r + r.T) / 2)
+        axis = vec[:, np.argmax(w)]
+        return axis * ang
+    return v / s * ang
+
+
+def _rodrigues(w: np.ndarray) -> np.ndarray:
+    ang = np.linalg.norm(w)
+    if ang < 1e-12:
+        return np.eye(3)
+    k = w / ang
+    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(ang) * kx + (1 - np.cos(ang)) * kx @ kx
+
+
+def interpolate_pose(a: np.ndarray, b: np.ndarray, s: float) -> np.ndarray:
+    """Pose at progress s between 4×4 poses a and b (linear position, geodesic rotation)."""
+    t = np.eye(4)
+    t[:3, 3] = a[:3, 3] + s * (b[:3, 3] - a[:3, 3])
+    t[:3, :3] = a[:3, :3] @ _rodrigues(s * _axis_angle(a[:3, :3].T @ b[:3, :3]))
+    return t
+
+
+def joint_path(waypoints: np.ndarray, dt: float, max_speed: float, min_time: float = 0.3) -> np.ndarray:
+    """Targets at the control rate along a piecewise-linear joint path, min-jerk timed per segment.
+
+    Args:
+        waypoints: (k, 6) joint configurations, the first being the current one [rad].
+        dt: control period [s].
+        max_speed: largest joint speed [rad/s] (the min-jerk peak is 1.875× the mean).
+        min_time: shortest duration of a segment [s].
+
+    Returns:
+        (T, 6) targets, excluding the start, ending exactly at the last waypoint.
+    """
+    out = []
+    for a, b in zip(waypoints[:-1], waypoints[1:], strict=False):
+        dist = float(np.max(np.abs(b - a)))
+        if dist < 1e-9:
+            continue
+        dur = max(min_time, 1.875 * dist / max_speed)
+        n = max(1, int(np.ceil(dur / dt)))
+        s = min_jerk(n)[:, None]
+        out.append(a + s * (b - a))
+    return np.concatenate(out) if out else np.zeros((0, 6))
+
+
+def cartesian_path(
+    start_pose: np.ndarray,
+    end_pose: np.ndarray,
+    q_start: np.ndarray,
+    dt: float,
+    speed: float,
+    angular_speed: float = 1.0,
+    min_time: float = 0.3,
+    max_joint_step: float = 0.25,
+) -> np.ndarray:
+    """Targets at the control rate moving the TCP along a straight line between base-frame poses.
+
+    Args:
+        start_pose: TCP pose at the start in the robot base frame (4×4).
+        end_pose: TCP pose at the end (4×4).
+        q_start: joint configuration at the start (IK seed) [rad].
+        dt: control period [s].
+        speed: mean linear speed [m/s].
+        angular_speed: mean angular speed [rad/s].
+        min_time: shortest duration [s].
+        max_joint_step: largest joint change between two targets [rad]; larger means an IK branch
+            switch or a singularity.
+
+    Returns:
+        (T, 6) joint targets, excluding the start.
+
+    Raises:
+        PlanningError: a pose on the line is out of reach or the joint path jumps.
+    """
+    dist = float(np.linalg.norm(end_pose[:3, 3] - start_pose[:3, 3]))
+    ang = rotation_angle(start_pose[:3, :3].T @ end_pose[:3, :3])
+    dur = max(min_time, dist / speed, ang / angular_speed)
+    n = max(1, int(np.ceil(dur / dt)))
+    poses = np.stack([interpolate_pose(start_pose, end_pose, float(s)) for s in min_jerk(n)])
+    out = np.empty((n, 6))
+    q = np.asarray(q_start, float)
+    for k in range(n):
+        qk, ok = ik_batch(poses[k:k + 1], q[None], TCP_OFFSET)
+        if not ok[0]:
+            p = poses[k, :3, 3]
+            raise PlanningError(f"straight TCP path leaves the reach at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m")
+        if np.max(np.abs(qk[0] - q)) > max_joint_step:
+            raise PlanningError("straight TCP path crosses a singularity (joint jump)")
+        q = qk[0]
+        out[k] = q
+    return out

@@ -1,0 +1,146 @@
+"""Geometric facts about scene objects read from a compiled model and its state.
+
+Everything here works from MuJoCo's own geoms, so it holds for procedural and imported objects alike:
+object bounding boxes in the object frame and in the world, contacts between objects, the robot's
+and the gripper's bodies.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from samplehd.scene.spec import object_body_name
+
+__all__ = ["ObjectBox", "SceneBodies", "contact_pairs", "object_local_box", "object_world_box", "quat_tilt"]
+
+
+@dataclass(frozen=True)
+class ObjectBox:
+    """An axis-aligned box.
+
+    Attributes:
+        lo: lower corner (x, y, z) [m].
+        hi: upper corner (x, y, z) [m].
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @property
+    def center(self) -> np.ndarray:
+        return (self.lo + self.hi) / 2.0
+
+    @property
+    def half(self) -> np.ndarray:
+        return (self.hi - self.lo) / 2.0
+
+    def contains_xy(self, xy: np.ndarray, margin: float = 0.0) -> bool:
+        """Whether (x, y) lies inside the box shrunk by ``margin`` [m] on every side."""
+        return bool(np.all(xy[:2] >= self.lo[:2] + margin) and np.all(xy[:2] <= self.hi[:2] - margin))
+
+
+def _geom_corners(model: mujoco.MjModel, g: int) -> np.ndarray:
+    c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+    return c + signs * h
+
+
+class SceneBodies:
+    """Body and geom ids of a compiled scene: objects, robot, gripper, table.
+
+    Args:
+        model: the compiled world.
+        num_objects: number of scene objects (bodies ``object_0`` …).
+    """
+
+    def __init__(self, model: mujoco.MjModel, num_objects: int) -> None:
+        self.model = model
+        self.num_objects = num_objects
+        self.object_body = np.array(
+            [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, object_body_name(i)) for i in range(num_objects)],
+            dtype=int,
+        )
+        root = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "robot_base")
+        self.robot_bodies = set()
+        if root >= 0:
+            for b in range(model.nbody):
+                a = b
+                while a > 0 and a != root:
+                    a = int(model.body_parentid[a])
+                if a == root:
+                    self.robot_bodies.add(b)
+        self.gripper_bodies = set()
+        for j in range(model.njnt):
+            name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or ""
+            if "finger" in name:
+                self.gripper_bodies.add(int(model.jnt_bodyid[j]))
+        # The finger bodies' subtrees (pads) belong to the gripper too.
+        for b in list(self.robot_bodies):
+            a = b
+            while a > 0:
+                if a in self.gripper_bodies:
+                    self.gripper_bodies.add(b)
+                    break
+                a = int(model.body_parentid[a])
+        self.table_body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "table")
+        self.body_to_object = {int(b): i for i, b in enumerate(self.object_body)}
+        self._local_boxes: dict[int, ObjectBox] = {}
+
+    def object_geoms(self, i: int) -> np.ndarray:
+        """Geom ids of object ``i`` (its body only; objects are single bodies)."""
+        return np.flatnonzero(self.model.geom_bodyid == self.object_body[i])
+
+    def local_box(self, i: int) -> ObjectBox:
+        """Bounding box of object ``i`` in its own frame [m] (cached)."""
+        if i not in self._local_boxes:
+            self._local_boxes[i] = object_local_box(self.model, self, i)
+        return self._local_boxes[i]
+
+
+def object_local_box(model: mujoco.MjModel, bodies: SceneBodies, i: int) -> ObjectBox:
+    """Bounding box of object ``i``'s collision geoms in the object (body) frame [m]."""
+    pts = []
+    geoms = bodies.object_geoms(i)
+    coll = [g for g in geoms if model.geom_contype[g] or model.geom_conaffinity[g]]
+    for g in coll or geoms:
+        mat = np.empty(9)
+        mujoco.mju_quat2Mat(mat, model.geom_quat[g])
+        pts.append(_geom_corners(model, g) @ mat.reshape(3, 3).T + model.geom_pos[g])
+    p = np.concatenate(pts)
+    return ObjectBox(p.min(axis=0), p.max(axis=0))
+
+
+def object_world_box(model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodies, i: int) -> ObjectBox:
+    """World axis-aligned bounding box of object ``i``'s collision geoms in the current state [m]."""
+    pts = []
+    geoms = bodies.object_geoms(i)
+    coll = [g for g in geoms if model.geom_contype[g] or model.geom_conaffinity[g]]
+    for g in coll or geoms:
+        pts.append(_geom_corners(model, g) @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g])
+    p = np.concatenate(pts)
+    return ObjectBox(p.min(axis=0), p.max(axis=0))
+
+
+def contact_pairs(model: mujoco.MjModel, data: mujoco.MjData) -> set[tuple[int, int]]:
+    """Pairs of bodies (sorted ids) in contact in the current state."""
+    pairs: set[tuple[int, int]] = set()
+    for k in range(data.ncon):
+        c = data.contact[k]
+        if c.dist > 1e-3:
+            continue
+        a, b = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
+        pairs.add((min(a, b), max(a, b)))
+    return pairs
+
+
+def quat_tilt(q0: np.ndarray, q1: np.ndarray) -> float:
+    """Angle between the z axes of two orientations (w, x, y, z) [rad]: how far an object tipped."""
+    z = []
+    for q in (q0, q1):
+        m = np.empty(9)
+        mujoco.mju_quat2Mat(m, np.asarray(q, dtype=float))
+        z.append(m.reshape(3, 3)[:, 2])
+    return float(np.arccos(np.clip(np.dot(z[0], z[1]), -1.0, 1.0)))
