@@ -169,6 +169,8 @@ class SceneDescriber:
         return {k: options[k] for k in MODIFIER_KINDS if options[k]}
 
     def _allowed(self, filters: tuple[tuple[str, str], ...]) -> bool:
+        if not self.lexicon.exclusive_modifiers or len(filters) < 2:
+            return True
         return not any(self.lexicon.are_exclusive(a, b) for a, b in combinations(filters, 2))
 
     def _minimal_subsets(self, index: int, within: int) -> tuple[tuple[tuple[str, str], ...], ...]:

@@ -3,9 +3,10 @@
 For each instruction slot of a scene: order the templates so the least used template (or family,
 then template) comes first, ties broken at random; for that template draw its parameters one by
 one (objects uniformly among those with a unique description, sets among the scene's set
-descriptions, table parts and relations uniformly) and check each constraint as soon as its
-parameters are drawn, rejecting the draw on the first failure and counting the reason. A template
-that fails ``tries_per_template`` draws is dropped for the scene and the next one is tried. A draw
+descriptions, table parts and relations uniformly), checking each constraint as soon as its
+parameters are drawn and rejecting the candidates that fail it (counted by reason), backing up on a
+dead end. A template without any valid binding, or whose ``tries_per_template`` draws all repeat
+instructions already made, is dropped for the scene and the next one is tried. A draw
 that passes gets descriptions drawn among the shortest unique ones, text, and programs in both
 formats; both programs are executed and must give the same task, and a task already asked for in
 the scene is rejected as a duplicate. Nothing enumerates all attribute combinations: the cost per
@@ -164,6 +165,11 @@ class TemplateBalancer:
         self.family_counts[template.family] += 1
 
 
+def binding_key(template: Template, values: Mapping[str, Any]) -> tuple[Any, ...]:
+    """Hashable identity of a template binding (same key: same instruction up to wording)."""
+    return (template.name, tuple(sorted(values.items())))
+
+
 def _schedule(template: Template) -> list[list[TemplateConstraint]]:
     """Constraints to check after each parameter is drawn (when their last parameter is bound)."""
     position = {p.name: k for k, p in enumerate(template.params)}
@@ -188,47 +194,93 @@ class _SceneGenerator:
         self.rejections: Counter[str] = Counter()
         self.attempts = 0
         self._schedules: dict[str, list[list[TemplateConstraint]]] = {}
+        self._memo: dict[tuple[Any, ...], bool] = {}
 
-    def draw(self, template: Template) -> tuple[dict[str, Any], dict[str, Description]] | None:
-        """Draw parameters for a template; None (and a counted reason) when rejected."""
+    def _fails(self, constraints: Sequence[TemplateConstraint], values: Mapping[str, Any]) -> str | None:
+        """Name of the first constraint the bound values violate (memoised per scene), or None."""
+        for c in constraints:
+            args = tuple(values[x] for x in c.params)
+            key = (c.type, args)
+            ok = self._memo.get(key)
+            if ok is None:
+                ok = self._memo[key] = bool(CONSTRAINTS[c.type].check(self.ctx, args))
+                if not ok:
+                    # counted once per distinct rejected candidate, not per draw
+                    self.rejections[c.type] += 1
+            if not ok:
+                return c.type
+        return None
+
+    def draw(
+        self, template: Template, exclude: set[tuple[Any, ...]] | None = None
+    ) -> tuple[dict[str, Any], dict[str, Description]] | None:
+        """Draw parameters for a template; None when no new binding satisfies its constraints.
+
+        Parameters are drawn in template order. Each parameter's candidates are checked against the
+        constraints that become checkable with it (forward checking; failures are counted by
+        constraint), one is drawn uniformly among those that pass, and on a dead end the search
+        backs up to the previous parameter and draws another. Templates have at most three object
+        parameters, so the work is at most cubic in the number of objects, and constraint results
+        are memoised per scene.
+        """
         self.attempts += 1
         if template.name not in self._schedules:
             self._schedules[template.name] = _schedule(template)
         schedule = self._schedules[template.name]
+        params = template.params
         values: dict[str, Any] = {}
         refs: dict[str, Description] = {}
         used: set[int] = set()
         rng = self.rng
-        for k, p in enumerate(template.params):
+
+        def assign(k: int) -> bool:
+            if k == len(params):
+                if exclude is not None and binding_key(template, values) in exclude:
+                    self.rejections["duplicate"] += 1
+                    return False
+                return True
+            p = params[k]
+            domain: list[Any]
             if p.type == "object":
-                pool = [i for i in self.describable if i not in used]
-                if not pool:
-                    self.rejections["no_describable_object"] += 1
-                    return None
-                i = pool[int(rng.integers(len(pool)))]
-                values[p.name] = i
-                used.add(i)
+                domain = [i for i in self.describable if i not in used]
             elif p.type == "object_set":
-                if not self.sets:
-                    self.rejections["no_set_description"] += 1
-                    return None
-                s = int(rng.integers(len(self.sets)))
-                members = self.set_members[s]
-                if used.intersection(members):
-                    self.rejections["referents_overlap"] += 1
-                    return None
-                values[p.name] = members
-                refs[p.name] = self.sets[s]
-                used.update(members)
+                domain = [s for s in range(len(self.sets)) if not used.intersection(self.set_members[s])]
             elif p.type == "table_part":
-                values[p.name] = TABLE_PARTS[int(rng.integers(len(TABLE_PARTS)))]
+                domain = list(TABLE_PARTS)
             else:
-                values[p.name] = RELATIONS[int(rng.integers(len(RELATIONS)))]
-            for c in schedule[k]:
-                if not CONSTRAINTS[c.type].check(self.ctx, [values[x] for x in c.params]):
-                    self.rejections[c.type] += 1
-                    return None
-        for p in template.params:
+                domain = list(RELATIONS)
+            valid = []
+            for candidate in domain:
+                values[p.name] = self.set_members[candidate] if p.type == "object_set" else candidate
+                if self._fails(schedule[k], values) is None:
+                    valid.append(candidate)
+            if not valid:
+                self.rejections[f"no_candidate_{p.type}"] += 1
+                values.pop(p.name, None)
+                return False
+            for j in rng.permutation(len(valid)):
+                choice = valid[int(j)]
+                members: tuple[int, ...] = ()
+                if p.type == "object_set":
+                    members = self.set_members[choice]
+                    values[p.name] = members
+                    refs[p.name] = self.sets[choice]
+                elif p.type == "object":
+                    members = (choice,)
+                    values[p.name] = choice
+                else:
+                    values[p.name] = choice
+                used.update(members)
+                if assign(k + 1):
+                    return True
+                used.difference_update(members)
+            values.pop(p.name, None)
+            refs.pop(p.name, None)
+            return False
+
+        if not assign(0):
+            return None
+        for p in params:
             if p.type == "object":
                 options = self.describer.unique_descriptions(values[p.name])
                 refs[p.name] = options[int(rng.integers(len(options)))]
@@ -322,7 +374,7 @@ def generate_instructions(
     families: Sequence[str] | None = None,
     reachable: Reachable = default_reachable,
     balancer: TemplateBalancer | None = None,
-    tries_per_template: int = 20,
+    tries_per_template: int = 8,
     lexicon: Lexicon | None = None,
 ) -> GenerationResult:
     """Generate up to ``per_scene`` distinct instructions for one scene by rejection sampling.
@@ -365,6 +417,7 @@ def generate_instructions(
     gen.rejections["no_unique_description"] = len(scene.objects) - len(gen.describable)
     out: list[Instruction] = []
     seen: set[tuple[Any, ...]] = set()
+    seen_bindings: set[tuple[Any, ...]] = set()
     exhausted: set[str] = set()
     while len(out) < per_scene:
         made: Instruction | None = None
@@ -373,9 +426,10 @@ def generate_instructions(
             if template.name in exhausted:
                 continue
             for _ in range(tries_per_template):
-                drawn = gen.draw(template)
-                if drawn is None:
-                    continue
+                drawn = gen.draw(template, seen_bindings)
+                if drawn is None:  # no new binding: the template is used up for this scene
+                    break
+                seen_bindings.add(binding_key(template, drawn[0]))
                 inst = gen.build(template, *drawn)
                 if inst is None:
                     continue

@@ -52,9 +52,8 @@ def compute_relationships(
     out: dict[str, list[list[int]]] = {}
     for name in RELATIONS:
         d = np.asarray(directions[name], dtype=float)[: coords.shape[1]]
-        proj = coords @ d
-        # offset[i, j] = proj[j] - proj[i]
-        offset = proj[None, :] - proj[:, None]
+        # offset[i, j] = (coords[j] - coords[i]) . d, exactly as CLEVR computes it
+        offset = (coords[None, :, :] - coords[:, None, :]) @ d
         np.fill_diagonal(offset, -np.inf)
         out[name] = [np.flatnonzero(row > margin).tolist() for row in offset]
     return out
