@@ -92,10 +92,10 @@ def colorize_segmentation(seg: np.ndarray) -> np.ndarray:
 
 
 def colorize_depth(depth: np.ndarray, near: float | None = None, far: float | None = None) -> np.ndarray:
-    """Grey-scale H×W×3 preview of depth: near is bright, far is dark."""
+    """Grey-scale H×W×3 preview of depth: near is bright, far is dark (2nd–98th percentile by default)."""
     d = np.asarray(depth, dtype=np.float64)
-    lo = float(np.nanmin(d)) if near is None else near
-    hi = float(np.nanmax(d)) if far is None else far
+    lo = float(np.nanpercentile(d, 2)) if near is None else near
+    hi = float(np.nanpercentile(d, 98)) if far is None else far
     t = np.clip((d - lo) / max(hi - lo, 1e-6), 0.0, 1.0)
     g = (255 * (1.0 - t) ** 0.8).astype(np.uint8)
     return np.repeat(g[..., None], 3, axis=2)

@@ -69,7 +69,7 @@ class CameraSpec:
 
 
 # The operator's viewpoint: in front of the table (+x), at standing eye height, looking at the workspace.
-OPERATOR_CAMERA = CameraSpec("operator", pos=(1.28, 0.0, 1.52), target=(-0.02, 0.0, 0.86), fovy=45.0)
+OPERATOR_CAMERA = CameraSpec("operator", pos=(1.30, 0.0, 1.56), target=(-0.05, 0.0, 0.93), fovy=45.0)
 
 
 @dataclass(frozen=True)
