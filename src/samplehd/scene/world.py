@@ -225,6 +225,8 @@ def _add_backdrop(spec: mujoco.MjSpec) -> None:
     wall_x = -1.45
     _box(wb, "backdrop_wall", (wall_x - 0.05, 0, 1.5), (0.05, 3.0, 1.5), "wall", facing_x=True)
     _box(wb, "backdrop_wall_side", (0.2, -3.0, 1.5), (1.7, 0.05, 1.5), "wall")
+    _box(wb, "backdrop_wall_side_right", (0.2, 3.0, 1.5), (1.7, 0.05, 1.5), "wall")
+    _box(wb, "backdrop_wall_front", (1.95, 0, 1.5), (0.05, 3.0, 1.5), "wall", facing_x=True)
     # Base cabinets and countertop along the wall.
     depth, height = 0.6, 0.88
     cx = wall_x + depth / 2
