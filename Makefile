@@ -6,7 +6,10 @@ STAMP := $(VENV)/.installed
 DEV_STAMP := $(VENV)/.installed-dev
 PYTEST_ARGS ?= -m "not slow"
 
-.PHONY: demo test test-all bench lint gl clean
+GL_DEBS := libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6
+BROWSER_DEBS := chromium chromium-driver
+
+.PHONY: demo test test-all bench lint gl browser clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -21,15 +24,19 @@ $(DEV_STAMP): pyproject.toml $(STAMP)
 	touch $@
 
 gl:
-	@bash scripts/ensure-gl.sh
+	@bash scripts/ensure-debs.sh $(GL_DEBS)
+
+# Debian's chromium drives the web viewer's browser tests (nothing downloads a browser).
+browser:
+	@bash scripts/ensure-debs.sh $(BROWSER_DEBS)
 
 demo: gl $(STAMP)
 	$(BIN)/samplehd demo --out outputs/demo
 
-test: gl $(DEV_STAMP)
+test: gl browser $(DEV_STAMP)
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
-test-all: gl $(DEV_STAMP)
+test-all: gl browser $(DEV_STAMP)
 	$(BIN)/python -m pytest
 
 bench: gl $(STAMP)
