@@ -44,8 +44,8 @@ __all__ = [
 _D1, _D4, _D5, _D6 = (float(DH_D[i]) for i in (0, 3, 4, 5))
 _A2, _A3 = float(DH_A[1]), float(DH_A[2])
 _TWO_PI = 2.0 * np.pi
-# Below this |sin(q5)| the wrist is singular (axes 4 and 6 align); q6 is then taken from the seed.
-_WRIST_SINGULAR = 1e-9
+# Below this |sin(q5)| the wrist is singular (axes 4 and 6 parallel); q2+q3+q4 then comes from the seed.
+_WRIST_SINGULAR = 1e-7
 # Tolerance on cosines slightly outside [-1, 1] caused by rounding at the workspace boundary.
 _COS_TOL = 1e-9
 
@@ -140,8 +140,12 @@ def fk_tcp(q: np.ndarray) -> np.ndarray:
     return forward_kinematics(q, TCP_OFFSET)
 
 
-def _ik_core(pose: np.ndarray, q6_default: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _ik_core(pose: np.ndarray, seed234: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """All 8 closed-form branches for flange poses ``pose`` (N, 4, 4).
+
+    At the wrist singularity (sin q5 = 0, joints 2, 3, 4 and 6 parallel) the arm is redundant;
+    q2 + q3 + q4 is then taken from the seed (``seed234``, shape (N,)) and q6 follows. (The
+    single-pose path, :func:`inverse_kinematics`, also moves q234 into the elbow's reach.)
 
     Returns:
         (q, valid): q of shape (N, 8, 6) in (-π, π], valid of shape (N, 8).
@@ -169,7 +173,12 @@ def _ik_core(pose: np.ndarray, q6_default: np.ndarray) -> tuple[np.ndarray, np.n
     singular = np.abs(s5) < _WRIST_SINGULAR
     s5safe = np.where(singular, 1.0, s5)
     q6 = np.arctan2((-ox * s1e + oy * c1e) / s5safe, (nx * s1e - ny * c1e) / s5safe)
-    q6 = np.where(singular, q6_default[:, None, None], q6)
+    # Singular wrist: keep the seed's q234 and solve q6 from Rz(-q234) R16 = Ry(-q5) Rz(q6).
+    s234, c234 = np.sin(seed234)[:, None, None], np.cos(seed234)[:, None, None]
+    r00, r01 = c1e * nx + s1e * ny, c1e * ox + s1e * oy
+    r10, r11 = r[:, None, None, 2, 0], r[:, None, None, 2, 1]
+    q6_singular = np.arctan2(-s234 * r00 + c234 * r10, -s234 * r01 + c234 * r11)
+    q6 = np.where(singular, q6_singular, q6)
     # Frame 1 -> frame 4 transform: T14 = inv(T01) T06 inv(T45 T56).
     q1b = np.broadcast_to(q1[:, :, None], (n, 2, 2))
     t01 = _dh_single(q1b, 0)
@@ -207,7 +216,30 @@ def _ik_core(pose: np.ndarray, q6_default: np.ndarray) -> tuple[np.ndarray, np.n
     return q, valid & np.all(np.isfinite(q), axis=-1)
 
 
-def _ik_scalar(rows: list[list[float]], q6_default: float) -> list[list[float]]:
+def _singular_q234(cx: float, cy: float, seed234: float) -> float:
+    """q2+q3+q4 nearest ``seed234`` that lets the elbow reach the wrist at a singular wrist.
+
+    With sin q5 = 0 the frame-3 origin is o3 = c + d5 (-sin q234, cos q234), a circle of radius d5
+    about c (the wrist point below the d5 offset); the elbow reaches |o3| in [|a2|-|a3|, |a2|+|a3|].
+    Writing q234 = phi + gamma - π/2 with gamma = atan2(c), |o3|² = |c|² + d5² + 2 d5 |c| cos(phi);
+    clip the seed's phi into the reachable band of cos(phi).
+    """
+    rc = math.hypot(cx, cy)
+    if rc < 1e-12:
+        return seed234
+    gamma = math.atan2(cy, cx)
+    span = 2.0 * _D5 * rc
+    lo = ((abs(_A2) - abs(_A3)) ** 2 - rc * rc - _D5 * _D5) / span
+    hi = ((abs(_A2) + abs(_A3)) ** 2 - rc * rc - _D5 * _D5) / span
+    if lo > 1.0 or hi < -1.0:
+        return seed234
+    phi_min, phi_max = math.acos(min(1.0, hi)), math.acos(max(-1.0, lo))
+    phi = math.remainder(seed234 - gamma + math.pi / 2, _TWO_PI)
+    phi = math.copysign(min(max(abs(phi), phi_min), phi_max), phi)
+    return phi + gamma - math.pi / 2
+
+
+def _ik_scalar(rows: list[list[float]], seed234: float) -> list[list[float]]:
     """All closed-form solutions of one flange pose with scalar math (fast for a single pose).
 
     Derivation: with R16 = Rx(-π/2) Rz(-q1) R06 the flange rotation seen from frame 1,
@@ -236,16 +268,20 @@ def _ik_scalar(rows: list[list[float]], q6_default: float) -> list[list[float]]:
         for q5 in (a5, -a5):
             s5 = math.sin(q5)
             if abs(s5) < _WRIST_SINGULAR:
-                q6 = q6_default
+                # Singular wrist (redundant arm): q234 nearest the seed's that the elbow can
+                # reach, then q6 from Rz(-q234) R16 = Ry(-q5) Rz(q6).
+                q234 = _singular_q234(x16 - _D6 * r02, y16 - _D6 * r12, seed234)
+                s234, c234 = math.sin(q234), math.cos(q234)
+                q6 = math.atan2(-s234 * r00 + c234 * r10, -s234 * r01 + c234 * r11)
             else:
                 q6 = math.atan2(-r21 / s5, r20 / s5)
-            c6, s6 = math.cos(q6), math.sin(q6)
-            cq5 = math.cos(q5)
-            # Rz(q234) = R16 (Ry(-q5) Rz(q6))^T; first column of Ry(-q5) Rz(q6) transposed.
-            m00 = r00 * cq5 * c6 - r01 * cq5 * s6 - r02 * s5
-            m10 = r10 * cq5 * c6 - r11 * cq5 * s6 - r12 * s5
-            q234 = math.atan2(m10, m00)
-            s234, c234 = math.sin(q234), math.cos(q234)
+                c6, s6 = math.cos(q6), math.sin(q6)
+                cq5 = math.cos(q5)
+                # Rz(q234) = R16 (Ry(-q5) Rz(q6))^T; its first column.
+                m00 = r00 * cq5 * c6 - r01 * cq5 * s6 - r02 * s5
+                m10 = r10 * cq5 * c6 - r11 * cq5 * s6 - r12 * s5
+                q234 = math.atan2(m10, m00)
+                s234, c234 = math.sin(q234), math.cos(q234)
             # Wrist-centre chain: o3 = p16 - d6 z16 - d5 (s234, -c234) (planar part).
             x3 = x16 - _D6 * r02 - _D5 * s234
             y3 = y16 - _D6 * r12 + _D5 * c234
@@ -380,7 +416,7 @@ def ik_batch(
     n = poses.shape[0]
     seeds = np.broadcast_to(_check_q(seeds), (n, NUM_JOINTS))
     flange = poses @ _tool(-tool_offset) if tool_offset else poses
-    q, valid = _ik_core(flange, seeds[:, 5])
+    q, valid = _ik_core(flange, seeds[:, 1] + seeds[:, 2] + seeds[:, 3])
     q, in_limits = wrap_to_limits(q, seeds[:, None, :], limits)
     valid &= in_limits
     dist = np.where(valid, np.sum((q - seeds[:, None, :]) ** 2, axis=-1), np.inf)
@@ -427,7 +463,8 @@ def inverse_kinematics(
         for row in rows[:3]:
             row[3] -= tool_offset * row[2]
     limit_rows = limits.tolist() if limits is JOINT_LIMITS else np.asarray(limits, dtype=float).tolist()
-    best = _nearest_scalar(_ik_scalar(rows, seed_list[5]), seed_list, limit_rows)
+    seed234 = seed_list[1] + seed_list[2] + seed_list[3]
+    best = _nearest_scalar(_ik_scalar(rows, seed234), seed_list, limit_rows)
     if best is None:
         pos = pose[:3, 3]
         raise UnreachableError(

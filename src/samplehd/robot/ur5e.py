@@ -69,9 +69,10 @@ __all__ = ["add_robot", "robot_spec"]
 
 # The robot is built in its own MjSpec and attached without a name prefix, so the names in
 # docs/CONTRACTS.md hold in the world. MuJoCo warns that prefix-less attachment "may prevent the
-# model from being saved correctly"; the names are unique (all robot names are robot_* or the UR
-# joint names), so saving works and the warning is noise for every world compile.
-warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix")
+# model from being saved correctly" at every later compile; the names are unique (robot_* or the UR
+# joint names), so saving works and the warning is noise. add_robot installs this filter on each
+# call, because test runners reset warning filters between tests.
+_EMPTY_PREFIX_WARNING = "Attaching a spec with an empty prefix"
 
 _GEOM = mujoco.mjtGeom
 # Collision geoms are in group 0 (visible by default); decorative geoms that never collide
@@ -90,6 +91,11 @@ _FINGER_MASS = 0.05
 _GRIPPER_HOUSING_MASS = 0.7
 _COUPLING_MASS = 0.1
 _PAD_FRICTION = (1.5, 0.02, 0.002)
+# Finger servo: stiff enough that a 1 cm squeeze already saturates at the grip force, so thin
+# objects are held as firmly as thick ones. Finger damping [N·s/m]: much more makes the squeezed
+# pads oscillate against the finger-symmetry constraint and lets objects creep out of the grasp.
+_GRIPPER_KP = 10000.0
+_FINGER_DAMPING = 150.0
 
 
 def _material(spec: mujoco.MjSpec, name: str, rgba: np.ndarray, specular: float, shininess: float) -> str:
@@ -230,7 +236,7 @@ def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal:
             type=mujoco.mjtJoint.mjJNT_SLIDE,
             axis=[0.0, sign, 0.0],
             range=[0.0, GRIPPER_STROKE / 2],
-            damping=150.0,
+            damping=_FINGER_DAMPING,
             armature=0.01,
         )
         joint.limited = mujoco.mjtLimited.mjLIMITED_TRUE
@@ -319,7 +325,7 @@ def robot_spec() -> mujoco.MjSpec:
         act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
     # The gripper actuator comes last, so ctrl[12] is the gripper opening width.
     act = spec.add_actuator(name=GRIPPER_ACTUATOR, target="robot_gripper_width", trntype=mujoco.mjtTrn.mjTRN_TENDON)
-    act.set_to_position(kp=2000.0, kv=0.0)
+    act.set_to_position(kp=_GRIPPER_KP, kv=0.0)
     act.ctrlrange = [0.0, GRIPPER_STROKE]
     act.ctrllimited = mujoco.mjtLimited.mjLIMITED_TRUE
     act.forcerange = [-GRIPPER_FORCE, GRIPPER_FORCE]
@@ -343,6 +349,7 @@ def add_robot(
     Returns:
         The attached root body ``robot_base``.
     """
+    warnings.filterwarnings("ignore", message=_EMPTY_PREFIX_WARNING)
     frame = parent.add_frame(pos=list(map(float, pos)), quat=list(map(float, quat)))
     robot = robot_spec()
     # MuJoCo also reports the prefix-less attachment through its C warning handler (stdout and
