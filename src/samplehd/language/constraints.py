@@ -12,6 +12,7 @@ trailing ``"*"`` for one or more of that type.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -77,12 +78,25 @@ class ConstraintContext:
 
     def part_area(self, part: str) -> float:
         """Area of a table part [m^2]."""
-        lo, hi = self.layout.part_bounds(part)
-        return float(np.prod(hi - lo))
+        key = ("area", part)
+        if key not in self.cache:
+            lo, hi = self.layout.part_bounds(part)
+            self.cache[key] = float(np.prod(hi - lo))
+        return self.cache[key]
+
+    def occupied_area(self, part: str) -> float:
+        """Total footprint area of the objects in a table part [m^2]."""
+        key = ("occupied", part)
+        if key not in self.cache:
+            self.cache[key] = sum(_footprint_area(self.obj(i)) for i in self.objects_in(part))
+        return self.cache[key]
 
     def objects_in(self, part: str) -> tuple[int, ...]:
         """Indices of the objects in a table part."""
-        return tuple(o.index for o in self.scene.objects if part in o.table_part)
+        key = ("in", part)
+        if key not in self.cache:
+            self.cache[key] = tuple(o.index for o in self.scene.objects if part in o.table_part)
+        return self.cache[key]
 
 
 Check = Callable[[ConstraintContext, Sequence[Any]], bool]
@@ -162,9 +176,9 @@ def _not_in_part(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
 
 
 def _room(ctx: ConstraintContext, moved: Sequence[int], part: str) -> bool:
-    staying = [i for i in ctx.objects_in(part) if i not in moved]
-    area = sum(_footprint_area(ctx.obj(i)) for i in (*staying, *moved))
-    return area <= ctx.fill_fraction * ctx.part_area(part)
+    # objects already in the part stay; moved ones that were elsewhere arrive
+    arriving = sum(_footprint_area(ctx.obj(i)) for i in moved if part not in ctx.obj(i).table_part)
+    return ctx.occupied_area(part) + arriving <= ctx.fill_fraction * ctx.part_area(part)
 
 
 def _room_in_part(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
@@ -206,28 +220,26 @@ def _not_already_related(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
     return x not in ctx.scene.relationships[rel][y]
 
 
-def relative_destination(ctx: ConstraintContext, x: int, y: int, rel: str) -> np.ndarray:
+def relative_destination(ctx: ConstraintContext, x: int, y: int, rel: str) -> tuple[float, float, float]:
     """Where object ``x`` goes to be in direction ``rel`` of object ``y`` (x, y, z) [m]."""
-    d = np.asarray(ctx.scene.directions[rel], dtype=float)[:2]
-    d = d / (np.linalg.norm(d) or 1.0)
+    dx, dy = ctx.scene.directions[rel][:2]
+    norm = math.hypot(dx, dy) or 1.0
     ox, oy = ctx.obj(x), ctx.obj(y)
     distance = _radius(ox) + _radius(oy) + ctx.relative_gap
-    xy = np.asarray(oy.coords[:2]) + d * distance
-    return np.array([xy[0], xy[1], ox.coords[2]])
+    return (oy.coords[0] + dx / norm * distance, oy.coords[1] + dy / norm * distance, ox.coords[2])
 
 
 def _free_beside(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
     x, y, rel = params
     dest = relative_destination(ctx, x, y, rel)
-    lo, hi = np.asarray(ctx.layout.workspace_min), np.asarray(ctx.layout.workspace_max)
-    if np.any(dest[:2] < lo) or np.any(dest[:2] > hi) or not ctx.reach(dest):
+    (x0, y0), (x1, y1) = ctx.layout.workspace_min, ctx.layout.workspace_max
+    if not (x0 <= dest[0] <= x1 and y0 <= dest[1] <= y1) or not ctx.reach(dest):
         return False
     rx = _radius(ctx.obj(x))
     for other in ctx.scene.objects:
         if other.index in (x, y):
             continue
-        gap = float(np.hypot(*(np.asarray(other.coords[:2]) - dest[:2])))
-        if gap < rx + _radius(other):
+        if math.hypot(other.coords[0] - dest[0], other.coords[1] - dest[1]) < rx + _radius(other):
             return False
     return True
 

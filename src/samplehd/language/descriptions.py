@@ -115,9 +115,20 @@ class SceneDescriber:
         scene: the scene.
         lexicon: words and the rules that forbid some modifier combinations.
         max_set_filters: largest number of filters in a set description ("all red mugs" has 2).
+        modifier_kinds: attribute kinds that may modify the class name (default: all four).
     """
 
-    def __init__(self, scene: Scene, lexicon: Lexicon | None = None, max_set_filters: int = 2) -> None:
+    def __init__(
+        self,
+        scene: Scene,
+        lexicon: Lexicon | None = None,
+        max_set_filters: int = 2,
+        modifier_kinds: tuple[str, ...] = MODIFIER_KINDS,
+    ) -> None:
+        unknown = [k for k in modifier_kinds if k not in MODIFIER_KINDS]
+        if unknown:
+            raise ValueError(f"unknown modifier kind {unknown[0]!r}; valid: {', '.join(MODIFIER_KINDS)}")
+        self.modifier_kinds = tuple(k for k in MODIFIER_KINDS if k in modifier_kinds)
         self.scene = scene
         self.lexicon = lexicon or default_lexicon()
         self.max_set_filters = max_set_filters
@@ -166,7 +177,7 @@ class SceneDescriber:
             "material": () if self.lexicon.material_is_redundant(obj.name, obj.material) else (obj.material,),
             "table_part": obj.table_part,
         }
-        return {k: options[k] for k in MODIFIER_KINDS if options[k]}
+        return {k: options[k] for k in self.modifier_kinds if options[k]}
 
     def _allowed(self, filters: tuple[tuple[str, str], ...]) -> bool:
         if not self.lexicon.exclusive_modifiers or len(filters) < 2:
@@ -254,7 +265,8 @@ class SceneDescriber:
         (a description naming the class preferred). Ordered by the set's bitmask.
         """
         if self._sets is None:
-            keys = sorted(self.masks, key=lambda k: (_KIND_RANK[k[0]], k[1]))
+            kinds = {*self.modifier_kinds, "name"}
+            keys = sorted((k for k in self.masks if k[0] in kinds), key=lambda k: (_KIND_RANK[k[0]], k[1]))
             best: dict[int, tuple[tuple[int, int, list[int]], Description]] = {}
             for size in range(1, self.max_set_filters + 1):
                 for combo in combinations(keys, size):

@@ -195,6 +195,9 @@ class _SceneGenerator:
         self.attempts = 0
         self._schedules: dict[str, list[list[TemplateConstraint]]] = {}
         self._memo: dict[tuple[Any, ...], bool] = {}
+        # candidate checks one draw may make before giving up (bounds the search for any scene)
+        self.search_budget = 4000
+        self.budget = self.search_budget
 
     def _fails(self, constraints: Sequence[TemplateConstraint], values: Mapping[str, Any]) -> str | None:
         """Name of the first constraint the bound values violate (memoised per scene), or None."""
@@ -216,12 +219,13 @@ class _SceneGenerator:
     ) -> tuple[dict[str, Any], dict[str, Description]] | None:
         """Draw parameters for a template; None when no new binding satisfies its constraints.
 
-        Parameters are drawn in template order. Each parameter's candidates are checked against the
-        constraints that become checkable with it (forward checking; failures are counted by
-        constraint), one is drawn uniformly among those that pass, and on a dead end the search
-        backs up to the previous parameter and draws another. Templates have at most three object
-        parameters, so the work is at most cubic in the number of objects, and constraint results
-        are memoised per scene.
+        Parameters are drawn in template order. Each parameter's candidates are tried in random
+        order against the constraints that become checkable with it (failures are counted by
+        constraint); the first that passes is taken (a uniform draw among the valid ones), and on a
+        dead end the search backs up to the previous parameter and tries its next candidate.
+        Templates have at most three object parameters, so the work is at most cubic in the number
+        of objects; it is also capped at ``search_budget`` candidate checks per draw, and
+        constraint results are memoised per scene.
         """
         self.attempts += 1
         if template.name not in self._schedules:
@@ -249,36 +253,42 @@ class _SceneGenerator:
                 domain = list(TABLE_PARTS)
             else:
                 domain = list(RELATIONS)
-            valid = []
-            for candidate in domain:
-                values[p.name] = self.set_members[candidate] if p.type == "object_set" else candidate
-                if self._fails(schedule[k], values) is None:
-                    valid.append(candidate)
-            if not valid:
-                self.rejections[f"no_candidate_{p.type}"] += 1
-                values.pop(p.name, None)
-                return False
-            for j in rng.permutation(len(valid)):
-                choice = valid[int(j)]
+            # candidates in random order, each checked only when reached: the first valid one is a
+            # uniform draw among the valid ones, and most draws stop long before the whole domain
+            any_valid = False
+            for j in rng.permutation(len(domain)):
+                candidate = domain[int(j)]
                 members: tuple[int, ...] = ()
                 if p.type == "object_set":
-                    members = self.set_members[choice]
+                    members = self.set_members[candidate]
                     values[p.name] = members
-                    refs[p.name] = self.sets[choice]
                 elif p.type == "object":
-                    members = (choice,)
-                    values[p.name] = choice
+                    members = (candidate,)
+                    values[p.name] = candidate
                 else:
-                    values[p.name] = choice
+                    values[p.name] = candidate
+                if self.budget <= 0:
+                    break
+                self.budget -= 1
+                if self._fails(schedule[k], values) is not None:
+                    continue
+                any_valid = True
+                if p.type == "object_set":
+                    refs[p.name] = self.sets[candidate]
                 used.update(members)
                 if assign(k + 1):
                     return True
                 used.difference_update(members)
+            if not any_valid:
+                self.rejections[f"no_candidate_{p.type}"] += 1
             values.pop(p.name, None)
             refs.pop(p.name, None)
             return False
 
+        self.budget = self.search_budget
         if not assign(0):
+            if self.budget <= 0:
+                self.rejections["search_budget"] += 1
             return None
         for p in params:
             if p.type == "object":

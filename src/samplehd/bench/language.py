@@ -1,0 +1,204 @@
+"""Instruction generation speed: instructions/s against object count and attribute kinds, and the
+time to produce a SAMPLE-HD-sized set (≥8360 instructions for 2000 scenes of 3–5 objects).
+
+All figures run on one core in this process, on seeded synthetic scenes
+(:mod:`samplehd.language.synthetic`), and report medians over repeats. Growth is summarised by the
+log-log slope of time per scene against object count: a polynomial cost gives a bounded slope
+(exhaustive search over attribute combinations would grow exponentially).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from samplehd.bench import Figure
+
+__all__ = ["bench_attribute_kinds", "bench_dataset", "bench_object_counts", "run"]
+
+
+def _scenes(n_objects: int, count: int, seed: int) -> list[Any]:
+    from samplehd.language.scene import parse_scene
+    from samplehd.language.synthetic import synthetic_scene
+
+    rng = np.random.default_rng([seed, n_objects])
+    return [parse_scene(synthetic_scene(rng, n_objects, image_index=i)) for i in range(count)]
+
+
+def _slope(xs: Sequence[float], ys: Sequence[float]) -> float:
+    """Least-squares slope of log(y) against log(x)."""
+    return float(np.polyfit(np.log(xs), np.log(ys), 1)[0])
+
+
+def bench_object_counts(
+    object_counts: Sequence[int] = (3, 5, 10, 20),
+    scenes: int = 40,
+    per_scene: int = 5,
+    repeats: int = 3,
+    seed: int = 0,
+) -> dict[str, Any]:
+    """Instructions/s and description time per scene for scenes of each object count.
+
+    Returns:
+        ``{"rows": [{objects, instructions_per_s, ms_per_scene, describe_ms_per_scene,
+        instructions}], "slope_ms_per_scene", "slope_describe"}`` (medians over ``repeats``).
+    """
+    from samplehd.language.descriptions import SceneDescriber
+    from samplehd.language.generator import TemplateBalancer, generate_instructions
+
+    rows = []
+    for n in object_counts:
+        batch = _scenes(n, scenes, seed)
+        rates, per_scene_ms, describe_ms, made = [], [], [], 0
+        for rep in range(repeats):
+            balancer = TemplateBalancer("templates")
+            t0 = time.perf_counter()
+            made = 0
+            for k, scene in enumerate(batch):
+                result = generate_instructions(
+                    scene, np.random.default_rng([seed, rep, k]), per_scene=per_scene, balancer=balancer
+                )
+                made += len(result.instructions)
+            dt = time.perf_counter() - t0
+            rates.append(made / dt)
+            per_scene_ms.append(1000 * dt / len(batch))
+            t0 = time.perf_counter()
+            for scene in batch:
+                d = SceneDescriber(scene)
+                for i in range(len(scene.objects)):
+                    d.unique_descriptions(i)
+                d.set_descriptions()
+            describe_ms.append(1000 * (time.perf_counter() - t0) / len(batch))
+        rows.append(
+            {
+                "objects": n,
+                "instructions_per_s": statistics.median(rates),
+                "ms_per_scene": statistics.median(per_scene_ms),
+                "describe_ms_per_scene": statistics.median(describe_ms),
+                "instructions": made,
+            }
+        )
+    xs = [r["objects"] for r in rows]
+    return {
+        "rows": rows,
+        "slope_ms_per_scene": _slope(xs, [r["ms_per_scene"] for r in rows]),
+        "slope_describe": _slope(xs, [r["describe_ms_per_scene"] for r in rows]),
+    }
+
+
+def bench_attribute_kinds(n_objects: int = 10, scenes: int = 40, repeats: int = 3, seed: int = 0) -> dict[str, Any]:
+    """Time to describe every object and set against the number of modifier kinds allowed (1–4).
+
+    Returns:
+        ``{"rows": [{kinds, describe_ms_per_scene, relational_fraction}]}`` (medians).
+    """
+    from samplehd.language.descriptions import MODIFIER_KINDS, SceneDescriber
+
+    batch = _scenes(n_objects, scenes, seed)
+    rows = []
+    for k in range(1, len(MODIFIER_KINDS) + 1):
+        kinds = MODIFIER_KINDS[:k]
+        times, relational = [], 0.0
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            rel = total = 0
+            for scene in batch:
+                d = SceneDescriber(scene, modifier_kinds=kinds)
+                for i in range(len(scene.objects)):
+                    found = d.unique_descriptions(i)
+                    total += 1
+                    rel += bool(found) and found[0].anchor is not None
+                d.set_descriptions()
+            times.append(1000 * (time.perf_counter() - t0) / len(batch))
+            relational = rel / total
+        rows.append({"kinds": k, "describe_ms_per_scene": statistics.median(times), "relational_fraction": relational})
+    return {"objects": n_objects, "rows": rows}
+
+
+def bench_dataset(
+    n_scenes: int = 2000,
+    min_objects: int = 3,
+    max_objects: int = 5,
+    per_scene: int = 5,
+    repeats: int = 3,
+    seed: int = 0,
+    balance: str = "templates",
+) -> dict[str, Any]:
+    """Time to generate instructions for a SAMPLE-HD-sized dataset (scene dicts in, document out).
+
+    Returns:
+        ``{scenes, instructions, seconds, instructions_per_s, reaches_8360}`` (median seconds).
+    """
+    from samplehd.language.instruction_file import generate_instruction_file
+    from samplehd.language.synthetic import synthetic_scenes_file
+
+    scenes = synthetic_scenes_file(np.random.default_rng(seed), n_scenes, min_objects, max_objects)["scenes"]
+    times, made = [], 0
+    for rep in range(repeats):
+        t0 = time.perf_counter()
+        doc = generate_instruction_file(scenes, seed=rep, per_scene=per_scene, balance=balance)
+        times.append(time.perf_counter() - t0)
+        made = len(doc["instructions"])
+    seconds = statistics.median(times)
+    return {
+        "scenes": n_scenes,
+        "instructions": made,
+        "seconds": seconds,
+        "instructions_per_s": made / seconds,
+        "reaches_8360": made >= 8360,
+        "families": doc["info"]["counts"]["families"],
+    }
+
+
+def run(repeats: int = 3) -> list[Figure]:
+    """Figures for ``samplehd bench``."""
+    figures = []
+    counts = bench_object_counts(repeats=repeats)
+    for row in counts["rows"]:
+        n = row["objects"]
+        figures.append(
+            Figure(
+                "language",
+                f"instructions/s, {n} objects",
+                row["instructions_per_s"],
+                "1/s",
+                "one core, 5 per scene, synthetic scenes",
+            )
+        )
+        figures.append(
+            Figure("language", f"describe all objects + sets, {n} objects", row["describe_ms_per_scene"], "ms/scene")
+        )
+    figures.append(
+        Figure(
+            "language",
+            "log-log slope of generation time vs objects",
+            counts["slope_ms_per_scene"],
+            "exponent",
+            "3, 5, 10, 20 objects",
+        )
+    )
+    kinds = bench_attribute_kinds(repeats=repeats)
+    for row in kinds["rows"]:
+        figures.append(
+            Figure(
+                "language",
+                f"describe, {row['kinds']} modifier kinds, 10 objects",
+                row["describe_ms_per_scene"],
+                "ms/scene",
+            )
+        )
+    data = bench_dataset(repeats=repeats)
+    figures.append(
+        Figure(
+            "language",
+            "seconds for 2000 scenes (3-5 objects)",
+            data["seconds"],
+            "s",
+            f"{data['instructions']} instructions",
+        )
+    )
+    return figures
