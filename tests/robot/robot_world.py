@@ -29,7 +29,7 @@ def build_table_world(
     table = spec.worldbody.add_body(name="table", pos=[0.0, 0.0, TABLE_TOP - 0.02])
     table.add_geom(name="table_top", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.5, 0.7, 0.02])
     spec.worldbody.add_geom(
-        name="backdrop_wall", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.02, 1.5, 1.0], pos=[-1.2, 0.0, 1.0]
+        name="backdrop_wall", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.02, 1.5, 1.0], pos=[-1.0, 0.0, 1.0]
     )
     add_robot(spec.worldbody, BASE_POS, base_quat)
     if extra is not None:
