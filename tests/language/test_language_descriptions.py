@@ -177,7 +177,7 @@ def test_set_descriptions_render_plural() -> None:
     assert "all the knives" in sets
     assert "all the scissors" in sets
     assert "all the red objects" in sets
-    assert "all the objects on the right" in sets
+    assert "all the objects that are on the right" in sets
 
 
 def test_scissors_take_plural_agreement_in_relative_clause() -> None:

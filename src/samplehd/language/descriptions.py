@@ -315,6 +315,9 @@ def render_description(
     words.append(lex.noun(description.value("name"), plural=plural))
     part = description.value("table_part")
     if part is not None:
+        if plural:
+            # "put all objects that are on the right on the front side", not "on the right on the front"
+            words += ["that", "are"]
         words.append(lex.table_part_phrase.get(part, f"on the {part}"))
     if description.anchor is not None and description.relation is not None:
         # a relative clause keeps a relation apart from the verb's destination phrase

@@ -308,7 +308,9 @@ class _SceneGenerator:
             if kind == "object":
                 obj_name = self.scene.objects[value].name
                 plural = lex.is_plural_form(obj_name)
-                if modifier == "pronoun":
+                if modifier == "they":
+                    return "they" if plural else "it"
+                if modifier == "them":
                     return "them" if plural else "it"
                 if modifier == "be":
                     return "are" if plural else "is"

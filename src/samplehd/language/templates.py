@@ -18,9 +18,10 @@ A template file (see ``templates/*.json``) is::
       ]
     }
 
-Text: ``<NAME>`` is a parameter (``<P:opposite>`` the opposite table part, ``<R1:pronoun>`` "it" or
-"them", ``<R1:be>`` "is" or "are"), ``[words]`` an optional phrase, ``{group}`` a synonym drawn
-from the group. Parameter types: ``object`` (a unique reference), ``object_set`` (a set reference),
+Text: ``<NAME>`` is a parameter (``<P:opposite>`` the opposite table part; ``<R1:they>`` "it" or
+"they", ``<R1:them>`` "it" or "them", ``<R1:be>`` "is" or "are", agreeing with the noun: "the
+scissors ... them"), ``[words]`` an optional phrase, ``{group}`` a synonym drawn from the group.
+Parameter types: ``object`` (a unique reference), ``object_set`` (a set reference),
 ``table_part``, ``relation``. Nodes: CLEVR functions (see :mod:`samplehd.language.programs`) with
 parameters as ``side_inputs``, plus the meta-nodes ``object``/``object_set`` that expand into the
 reference's nodes. Sequence: the flat program, where ``<R1>`` expands into the reference's tokens.
@@ -57,7 +58,7 @@ DEFAULT_TEMPLATE_DIR = Path(__file__).with_name("templates")
 SYNONYMS_PATH = Path(__file__).with_name("synonyms.json")
 PARAM_TYPES = ("object", "object_set", "table_part", "relation")
 # Placeholder modifiers allowed per parameter type.
-_MODIFIERS = {"opposite": ("table_part",), "pronoun": ("object",), "be": ("object",)}
+_MODIFIERS = {"opposite": ("table_part",), "they": ("object",), "them": ("object",), "be": ("object",)}
 _PLACEHOLDER = re.compile(r"<([A-Za-z0-9_]+)(?::([a-z]+))?>")
 _SYNONYM = re.compile(r"\{([A-Za-z0-9_]+)\}")
 _META_NODES = ("object", "object_set")
