@@ -137,3 +137,19 @@ def test_shipped_templates_cover_families_with_paraphrases() -> None:
     assert {t.family for t in templates} == FAMILIES
     for t in templates:
         assert len(t.text) >= 3, t.name
+
+
+def test_ik_reachability_is_no_looser_than_the_annulus(scenes: list[Scene]) -> None:
+    from samplehd.language.reach import IKReachable, make_reachable
+    from samplehd.scene.layout import LAYOUT
+
+    ik = IKReachable()
+    for x, y in [(0.0, 0.0), (0.2, 0.3), (-0.15, 0.0), (0.3, 0.4), (0.1, -0.35)]:
+        xyz = (x, y, LAYOUT.table_height + 0.05)
+        assert not ik(xyz) or LAYOUT.in_reach((x, y))
+    assert ik((0.1, 0.0, LAYOUT.table_height + 0.05))
+    result = generate_instructions(scenes[3], np.random.default_rng(0), reachable=make_reachable("ik"))
+    for inst in result.instructions:
+        assert all(ik(scenes[3].objects[i].coords) for i in inst.task.objects)
+    with pytest.raises(ConfigError, match="valid: annulus, ik"):
+        make_reachable("arm")

@@ -29,6 +29,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="extra template file or folder of *.json templates (repeatable)",
     )
     parser.add_argument("--no-default-templates", action="store_true", help="use only --templates")
+    parser.add_argument(
+        "--reach",
+        choices=["annulus", "ik"],
+        default="annulus",
+        help="reachability test: the layout's reach annulus, or annulus + analytic UR5e IK (slower)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="random seed")
     parser.add_argument(
         "--split-ratio", metavar="NAME=FRAC,...", help="reassign scene splits, e.g. train=0.95,test=0.05"
@@ -46,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
         parse_split_ratio,
         write_instructions,
     )
+    from samplehd.language.reach import make_reachable
     from samplehd.language.scene import load_scenes
     from samplehd.language.templates import load_templates
 
@@ -74,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
             families=args.families,
             templates=templates,
             split_ratio=ratio,
+            reachable=make_reachable(args.reach),
             scenes_info=info,
             progress=lambda done, total: progress.update(bar, completed=done),
             source=str(args.scenes),
