@@ -60,6 +60,7 @@ __all__ = [
 GRIPPER_STROKE = 0.085  # [m] opening of the parallel-jaw gripper
 _SEGMENTS = 48  # circular segments of visual surfaces of revolution
 _HULL_SEGMENTS = 16  # points per circle of convex collision pieces
+_MAX_EDGE = 0.012  # longest profile edge of a visual surface of revolution [m]
 _OVERLAP = math.radians(1.5)  # angular overlap of neighbouring wall pieces [rad]
 
 
@@ -600,6 +601,21 @@ def _circle(r: float, z: float, n: int = _HULL_SEGMENTS, a0: float = 0.0, a1: fl
     return np.stack([r * np.cos(a), r * np.sin(a), np.full_like(a, z)], axis=1)
 
 
+def _densify(points: list[tuple[float, float]], max_len: float) -> list[tuple[float, float]]:
+    """Insert points so that no edge of the closed outline is longer than ``max_len`` [m].
+
+    MuJoCo's classic renderer lights per vertex, so long thin triangles (a fan across a pan's floor)
+    show star-shaped highlights; rings of vertices every centimetre avoid that.
+    """
+    out: list[tuple[float, float]] = []
+    n = len(points)
+    for i in range(n):
+        a, b = np.asarray(points[i]), np.asarray(points[(i + 1) % n])
+        k = max(1, math.ceil(float(np.linalg.norm(b - a)) / max_len))
+        out += [tuple(a + (b - a) * (j / k)) for j in range(k)]
+    return out
+
+
 def _polygon(points: list[tuple[float, float]]) -> mf.CrossSection:
     pts = np.asarray(points, dtype=np.float64)
     x, y = pts[:, 0], pts[:, 1]
@@ -641,7 +657,7 @@ def _build_revolved(spec: RevolvedSpec) -> ObjectGeometry:
         outline.append((0.0, prof[hollow[0]][0]))
     else:
         outline.append((0.0, z_top))
-    solid = mf.Manifold.revolve(_polygon(outline), _SEGMENTS)
+    solid = mf.Manifold.revolve(_polygon(_densify(outline, _MAX_EDGE)), _SEGMENTS)
 
     pieces: list[CollisionPiece] = []
     solid_end = hollow[0] if hollow else len(prof) - 1

@@ -41,7 +41,7 @@ def wood_grain(width: int = 256, height: int = 256, rng: np.random.Generator | N
     fine = np.zeros((height, width))
     for k in (23, 37, 61):
         fine += np.sin(2 * np.pi * (k * v + rng.uniform(0, 1)) + 0.5 * np.sin(2 * np.pi * 2 * u)) / 3
-    lum = 0.95 - 0.22 * ring + 0.04 * fine
+    lum = 0.95 - 0.16 * ring + 0.04 * fine
     lum = np.clip(lum, 0.55, 1.0)
     tint = np.array([1.0, 0.93, 0.82])  # warm, so that white paint still reads as wood
     img = lum[..., None] * tint[None, None, :]
