@@ -13,6 +13,16 @@ modifier subsets are enumerated in increasing size over the at most four modifie
 at the first size with a unique match. There is no search over attribute-value combinations across
 objects (SAMPLE-HD's depth-first search was exponential in the number of adjectives). Results are
 cached per scene in a :class:`SceneDescriber`.
+
+Example:
+    >>> from samplehd.language.scene import parse_scene
+    >>> def obj(name, colour, y):
+    ...     return {"name": name, "colour": colour, "material": "ceramic", "size": "small",
+    ...             "table_part": [], "3d_coords": [0.0, y, 0.8], "bbox": {"extents": [0.1, 0.1, 0.1]}}
+    >>> scene = parse_scene({"objects": [obj("mug", "red", -0.2), obj("mug", "blue", 0.0),
+    ...                                  obj("wine_glass", "blue", 0.2)]})
+    >>> [render_description(shortest_unique_description(scene, i)) for i in range(3)]
+    ['the red mug', 'the blue mug', 'the wine glass']
 """
 
 from __future__ import annotations

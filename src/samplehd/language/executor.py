@@ -2,6 +2,17 @@
 
 Running a program on a scene gives a :class:`Task`: what to do, to which objects, where. See
 :mod:`samplehd.language.programs` for both formats.
+
+Example:
+    >>> from samplehd.language.scene import parse_scene
+    >>> def obj(name, colour, y, parts):
+    ...     return {"name": name, "colour": colour, "material": "ceramic", "size": "small",
+    ...             "table_part": parts, "3d_coords": [0.0, y, 0.8], "bbox": {"extents": [0.1, 0.1, 0.1]}}
+    >>> scene = parse_scene({"objects": [obj("mug", "red", 0.2, ["right"]), obj("plate", "white", -0.2, ["left"])]})
+    >>> execute("place[left] scene filter_colour[red] filter_name[mug]", scene).to_dict()
+    {'type': 'place', 'objects': [0], 'subject': 'left', 'relation': None}
+    >>> execute("place[left] scene filter_table[right]", scene).objects  # SAMPLE-HD's "remove right"
+    (0,)
 """
 
 from __future__ import annotations
