@@ -133,3 +133,10 @@ def test_programs_execute_property(seed: int, n: int) -> None:
 def test_task_round_trip() -> None:
     t = Task("place_relative", (3,), 1, "left")
     assert Task.from_dict(t.to_dict()) == t
+    assert Task("place", (0, 2), "left").to_sample_hd() == {
+        "name": "place",
+        "objectInt": [0, 2],
+        "subjectString": ["left"],
+        "subjectInt": -1,
+    }
+    assert Task("stack", (1,), 4).to_sample_hd()["subjectInt"] == 4

@@ -76,6 +76,15 @@ class Task:
             "relation": self.relation,
         }
 
+    def to_sample_hd(self) -> dict[str, Any]:
+        """Return SAMPLE-HD's executor output ``{name, objectInt, subjectString, subjectInt}``."""
+        return {
+            "name": self.type,
+            "objectInt": list(self.objects),
+            "subjectString": [self.subject] if isinstance(self.subject, str) else [],
+            "subjectInt": self.subject if isinstance(self.subject, int) else -1,
+        }
+
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Task:
         """Inverse of :meth:`to_dict`."""
