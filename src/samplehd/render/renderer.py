@@ -19,9 +19,11 @@ segmentation pass (flat id colours, no lighting) is cheap and also yields depth 
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -65,17 +67,19 @@ class RenderPreset:
         shadows: render shadow maps (a fixed cost per frame on a CPU rasteriser).
         msaa_samples: multisample anti-aliasing samples (0 = off).
         reflections: render reflective materials with a mirror pass.
+        shadow_size: shadow map resolution [px] (allocated even when shadows are off, so keep it small).
     """
 
     name: str
     shadows: bool
     msaa_samples: int
     reflections: bool
+    shadow_size: int
 
 
 PRESETS: dict[str, RenderPreset] = {
-    "fast": RenderPreset("fast", shadows=False, msaa_samples=0, reflections=False),
-    "hd": RenderPreset("hd", shadows=True, msaa_samples=4, reflections=True),
+    "fast": RenderPreset("fast", shadows=False, msaa_samples=0, reflections=False, shadow_size=64),
+    "hd": RenderPreset("hd", shadows=True, msaa_samples=4, reflections=True, shadow_size=2048),
 }
 
 
@@ -158,6 +162,22 @@ def project_points(
     return np.stack([u, v, depth], axis=1)
 
 
+_THREAD = threading.local()
+
+
+def _shared_gl_context() -> Any:
+    """One GL context per thread, made once and reused by every renderer of that thread.
+
+    Making a context compiles the rasteriser's shaders (about a second on llvmpipe); the render
+    size is set by MuJoCo's offscreen framebuffer, not by the context, so one context serves all.
+    """
+    ctx = getattr(_THREAD, "gl", None)
+    if ctx is None:
+        ctx = mujoco.GLContext(64, 64)
+        _THREAD.gl = ctx
+    return ctx
+
+
 class SceneRenderer:
     """Offscreen renderer of one compiled model at one resolution and quality preset.
 
@@ -178,14 +198,16 @@ class SceneRenderer:
         self.height = height
         self.preset = get_preset(preset)
         self._lut = segmentation_lut(model)
-        self._gl = None
+        self._gl: Any = None
         self._ctx = None
-        # The offscreen buffer and MSAA are fixed when the GL context is made: size them for us.
-        model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
-        model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
+        # The offscreen buffer, MSAA and shadow map are allocated when the context is made: size them
+        # for this renderer (a 1080p buffer or a 4k shadow map costs seconds to allocate on llvmpipe).
+        model.vis.global_.offwidth = width
+        model.vis.global_.offheight = height
         model.vis.quality.offsamples = self.preset.msaa_samples
+        model.vis.quality.shadowsize = self.preset.shadow_size
         try:
-            self._gl = mujoco.GLContext(width, height)
+            self._gl = _shared_gl_context()
             self._gl.make_current()
             self._ctx = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
         except Exception as exc:  # GL failures surface as many exception types
@@ -218,11 +240,11 @@ class SceneRenderer:
     def close(self) -> None:
         """Free the GL resources (safe to call twice)."""
         if self._ctx is not None:
+            if self._gl is not None:
+                self._gl.make_current()
             self._ctx.free()
             self._ctx = None
-        if self._gl is not None:
-            self._gl.free()
-            self._gl = None
+        self._gl = None  # the shared context lives on for the next renderer
 
     def __del__(self) -> None:
         try:
@@ -271,7 +293,7 @@ class SceneRenderer:
         if self._ctx is None:
             raise RenderError("renderer is closed")
         cid = _camera_id(self.model, camera)
-        self._gl.make_current()  # type: ignore[union-attr]
+        self._gl.make_current()
         out: dict[str, np.ndarray] = {}
         depth_from_rgb = "depth" in wanted and "segmentation" not in wanted and not (
             self.preset.reflections and self.preset.msaa_samples

@@ -1,9 +1,12 @@
 """Procedural textures for the kitchen world: wood grain, tiles and plaster, made from numpy arrays.
 
-Textures are generated from a fixed seed so every build of the world is identical.
+Textures are generated from a fixed seed so every build of the world is identical; they are cached
+(treat the returned arrays as read-only).
 """
 
 from __future__ import annotations
+
+from functools import lru_cache
 
 import numpy as np
 
@@ -28,6 +31,7 @@ def _smooth_noise(
     return (a * (1 - fx) + b * fx) * (1 - fy) + (c * (1 - fx) + d * fx) * fy
 
 
+@lru_cache(maxsize=8)
 def wood_texture(
     size: int = 512,
     light: tuple[int, int, int] = (196, 150, 104),
@@ -47,6 +51,7 @@ def wood_texture(
     return np.clip(img, 0, 255).astype(np.uint8)
 
 
+@lru_cache(maxsize=8)
 def tile_texture(
     size: int = 256,
     tiles: int = 4,
@@ -71,6 +76,7 @@ def tile_texture(
     return np.clip(img, 0, 255).astype(np.uint8)
 
 
+@lru_cache(maxsize=8)
 def plaster_texture(
     size: int = 256, rgb: tuple[int, int, int] = (232, 226, 212), seed: int = 13
 ) -> np.ndarray:

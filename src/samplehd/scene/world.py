@@ -142,10 +142,10 @@ def _add_material(
 
 
 def _add_materials(spec: mujoco.MjSpec) -> None:
-    _add_texture(spec, "wood", wood_texture(), cube=True)
-    _add_texture(spec, "tiles", tile_texture())
-    _add_texture(spec, "plaster", plaster_texture())
-    floor = spec.add_texture(name="floor_tiles", type=mujoco.mjtTexture.mjTEXTURE_2D, width=512, height=512)
+    _add_texture(spec, "wood", wood_texture(256), cube=True)
+    _add_texture(spec, "tiles", tile_texture(128))
+    _add_texture(spec, "plaster", plaster_texture(128))
+    floor = spec.add_texture(name="floor_tiles", type=mujoco.mjtTexture.mjTEXTURE_2D, width=256, height=256)
     floor.builtin = mujoco.mjtBuiltin.mjBUILTIN_CHECKER
     floor.rgb1 = [0.58, 0.55, 0.50]
     floor.rgb2 = [0.50, 0.47, 0.43]
