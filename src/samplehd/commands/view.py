@@ -1,0 +1,47 @@
+"""Browse a dataset in a web page: scenes with RGB/depth/segmentation and per-object annotations,
+instructions with their programs drawn as trees and their targets outlined, and episodes played
+back with the subtask timeline and joint, gripper and steering plots.
+
+The server is read-only, binds to 127.0.0.1 unless told otherwise, serves only files inside the
+dataset folder, and works offline (every asset ships with the package). A dataset that is still
+being written can be browsed: missing files are shown as such and appear when written.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+HELP = "browse a dataset in a web page (scenes, instructions, programs, episodes)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("dataset", type=Path, metavar="DIR", help="dataset folder (or a `samplehd scenes` folder)")
+    parser.add_argument("--host", default="127.0.0.1", help="address to bind; 0.0.0.0 exposes it to the network")
+    parser.add_argument("--port", type=int, default=8000, help="port (0 picks a free one)")
+    parser.add_argument("--verbose", action="store_true", help="log every request")
+
+
+def run(args: argparse.Namespace) -> int:
+    from samplehd.errors import ConfigError
+    from samplehd.viewer.server import make_server
+
+    if not 0 <= args.port <= 65535:
+        raise ConfigError(f"--port {args.port}: must be in 0..65535")
+    try:
+        server = make_server(args.dataset, args.host, args.port, verbose=args.verbose)
+    except OSError as exc:
+        raise ConfigError(f"--host {args.host} --port {args.port}: cannot listen ({exc.strerror or exc}); "
+                          f"pick another --port") from exc
+    status = server.app.index.status()
+    counts = status["counts"]
+    print(f"samplehd view: {status['root']} — {counts['scenes']} scenes, {counts['instructions']} instructions, "
+          f"{counts['episodes']} episodes")
+    print(f"serving on {server.url} (Ctrl-C to stop)", flush=True)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        print("stopped")
+    finally:
+        server.server_close()
+    return 0

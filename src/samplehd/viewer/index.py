@@ -1,0 +1,293 @@
+"""What the viewer knows about a dataset folder: scenes, instructions and episodes, read tolerantly.
+
+A dataset may still be being written while it is browsed. Every file is re-read when its size or
+modification time changes; a file that is missing or does not parse yet (a partial write) gives a
+*state* (``missing`` / ``partial``) instead of an error, and the scene list then falls back to the
+per-scene files ``scenes/<stem>.json`` that are already complete. Nothing is ever executed or
+unpickled: JSON, PNG and NumPy arrays loaded with ``allow_pickle=False`` only.
+
+Scenes are keyed by their ``image_index``; instructions by their ``instruction_index``; an
+instruction belongs to the scene whose ``image_index`` it carries.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from samplehd.errors import DatasetError
+
+__all__ = [
+    "FILTER_KEYS",
+    "DatasetIndex",
+    "FileState",
+    "filter_scene_summaries",
+    "is_dataset_dir",
+    "scene_summary",
+]
+
+# Query keys of the scene grid's filters, each matched against a scene summary's set of the same name.
+FILTER_KEYS = ("family", "class", "colour", "material", "split", "success")
+
+# Files or folders whose presence makes a folder browsable.
+_MARKERS = ("info.json", "scenes.json", "scenes", "instructions.json", "episodes")
+
+
+@dataclass(frozen=True)
+class FileState:
+    """How far one dataset file has been written.
+
+    Attributes:
+        name: file name relative to the dataset root.
+        state: ``ok``, ``missing`` or ``partial`` (exists but does not parse yet).
+        detail: one line saying why, empty when ok.
+    """
+
+    name: str
+    state: str
+    detail: str = ""
+
+    def to_dict(self) -> dict[str, str]:
+        return {"name": self.name, "state": self.state, "detail": self.detail}
+
+
+def is_dataset_dir(path: Path) -> bool:
+    """Whether ``path`` is a folder holding any dataset file (info, scenes, instructions, episodes)."""
+    return path.is_dir() and any((path / m).exists() for m in _MARKERS)
+
+
+class _JsonCache:
+    """JSON documents keyed by path, re-read when (mtime, size) changes; thread-safe."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._docs: dict[Path, tuple[tuple[int, int], Any, str]] = {}
+
+    def read(self, path: Path) -> tuple[Any, FileState]:
+        """The parsed document (or None) and the file's state."""
+        name = path.name
+        try:
+            st = path.stat()
+        except FileNotFoundError:
+            return None, FileState(name, "missing", f"{name} has not been written yet")
+        key = (st.st_mtime_ns, st.st_size)
+        with self._lock:
+            hit = self._docs.get(path)
+        if hit is not None and hit[0] == key:
+            doc, problem = hit[1], hit[2]
+        else:
+            try:
+                doc, problem = json.loads(path.read_bytes()), ""
+            except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+                doc, problem = None, f"{name} does not parse yet ({type(exc).__name__}: {exc})"
+            with self._lock:
+                self._docs[path] = (key, doc, problem)
+        if problem:
+            return None, FileState(name, "partial", problem)
+        return doc, FileState(name, "ok")
+
+
+def _as_int(value: Any, default: int) -> int:
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        return default
+
+
+def scene_summary(scene: Mapping[str, Any], instructions: Iterable[Mapping[str, Any]],
+                  episodes: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
+    """What the scene grid shows and filters on for one scene.
+
+    Args:
+        scene: CLEVR-layout scene dict.
+        instructions: that scene's instructions.
+        episodes: that scene's episode summaries (``success`` key).
+
+    Returns:
+        ``{index, stem, split, num_objects, objects, class, colour, material, family, success,
+        num_instructions, num_episodes}`` where class/colour/material/family/success are sorted
+        lists of the values present (success values: ``success``, ``failure``, ``none``).
+    """
+    objects = [o for o in scene.get("objects", []) if isinstance(o, Mapping)]
+    instructions = list(instructions)
+    episodes = list(episodes)
+    outcomes = {"success" if e.get("success") else "failure" for e in episodes} or {"none"}
+    filename = str(scene.get("image_filename", ""))
+    return {
+        "index": _as_int(scene.get("image_index"), -1),
+        "stem": filename.rsplit(".", 1)[0],
+        "split": [str(scene.get("split", "unknown"))],
+        "num_objects": len(objects),
+        "objects": [f"{o.get('colour', o.get('color', ''))} {o.get('name', o.get('shape', ''))}".strip()
+                    for o in objects],
+        "class": sorted({str(o.get("name", o.get("shape", ""))) for o in objects}),
+        "colour": sorted({str(o.get("colour", o.get("color", ""))) for o in objects}),
+        "material": sorted({str(o.get("material", "")) for o in objects}),
+        "family": sorted({str(q.get("family", "")) for q in instructions}),
+        "success": sorted(outcomes),
+        "num_instructions": len(instructions),
+        "num_episodes": len(episodes),
+    }
+
+
+def filter_scene_summaries(summaries: Iterable[Mapping[str, Any]],
+                           criteria: Mapping[str, str]) -> list[Mapping[str, Any]]:
+    """Summaries matching every criterion: ``criteria[key]`` must be in ``summary[key]``.
+
+    Args:
+        summaries: outputs of :func:`scene_summary`.
+        criteria: filter key (one of :data:`FILTER_KEYS`) → wanted value; empty values are ignored.
+
+    Raises:
+        DatasetError: an unknown filter key.
+    """
+    unknown = sorted(set(criteria) - set(FILTER_KEYS))
+    if unknown:
+        raise DatasetError(f"unknown scene filter(s) {unknown}; valid: {list(FILTER_KEYS)}")
+    wanted = {k: v for k, v in criteria.items() if v}
+    return [s for s in summaries if all(v in s.get(k, ()) for k, v in wanted.items())]
+
+
+class DatasetIndex:
+    """Read-only view of one dataset folder, safe to use from many request threads.
+
+    Args:
+        root: the dataset folder.
+        episodes: source of episode summaries and frames (``None``: the folder has none).
+
+    Raises:
+        DatasetError: ``root`` is not a folder or holds no dataset file.
+    """
+
+    def __init__(self, root: Path, episodes: Any | None = None) -> None:
+        root = Path(root)
+        if not root.is_dir():
+            raise DatasetError(f"{root}: no such dataset folder")
+        if not is_dataset_dir(root):
+            raise DatasetError(f"{root}: not a samplehd dataset (expected any of {', '.join(_MARKERS)})")
+        self.root = root.resolve()
+        self.episodes = episodes
+        self._json = _JsonCache()
+
+    # -- files ---------------------------------------------------------------------------------
+    def info(self) -> tuple[dict[str, Any], FileState]:
+        """``info.json`` (or ``{}``) and its state."""
+        doc, state = self._json.read(self.root / "info.json")
+        return (doc if isinstance(doc, dict) else {}), state
+
+    def scenes(self) -> tuple[dict[int, dict[str, Any]], FileState]:
+        """Scenes by image index, and the state of ``scenes.json``.
+
+        While ``scenes.json`` is missing or partial, the complete per-scene files are used.
+        """
+        doc, state = self._json.read(self.root / "scenes.json")
+        scenes: list[Any] = []
+        if isinstance(doc, dict) and isinstance(doc.get("scenes"), list):
+            scenes = doc["scenes"]
+        elif doc is not None:
+            state = FileState("scenes.json", "partial", "scenes.json has no 'scenes' list")
+        if not scenes:
+            folder = self.root / "scenes"
+            for path in sorted(folder.glob("*.json")) if folder.is_dir() else ():
+                one, one_state = self._json.read(path)
+                if one_state.state == "ok" and isinstance(one, dict) and "objects" in one:
+                    scenes.append(one)
+            if scenes and state.state != "ok":
+                state = FileState("scenes.json", state.state,
+                                  f"{state.detail}; showing {len(scenes)} per-scene files from scenes/")
+        out: dict[int, dict[str, Any]] = {}
+        for position, scene in enumerate(scenes):
+            if isinstance(scene, dict):
+                out[_as_int(scene.get("image_index"), position)] = scene
+        return out, state
+
+    def instructions(self) -> tuple[list[dict[str, Any]], FileState]:
+        """Instructions (``instructions`` or CLEVR's ``questions`` list) and the file's state."""
+        doc, state = self._json.read(self.root / "instructions.json")
+        items: Any = []
+        if isinstance(doc, dict):
+            items = doc.get("instructions", doc.get("questions", []))
+        if not isinstance(items, list):
+            return [], FileState("instructions.json", "partial", "instructions.json has no 'instructions' list")
+        out = []
+        for position, q in enumerate(items):
+            if isinstance(q, dict):
+                q = dict(q)
+                q.setdefault("instruction_index", q.get("question_index", position))
+                out.append(q)
+        return out, state
+
+    def episode_summaries(self) -> tuple[list[dict[str, Any]], FileState]:
+        """Episode summaries from the episode source, and its state."""
+        if self.episodes is None:
+            return [], FileState("episodes", "missing", "this folder holds no episodes")
+        return self.episodes.summaries(), self.episodes.state()
+
+    # -- derived -------------------------------------------------------------------------------
+    def status(self) -> dict[str, Any]:
+        """States of every dataset file, and counts; what the page's banner shows."""
+        info, info_state = self.info()
+        scenes, scenes_state = self.scenes()
+        instructions, instr_state = self.instructions()
+        episodes, ep_state = self.episode_summaries()
+        return {
+            "root": str(self.root),
+            "name": self.root.name,
+            "info": info,
+            "files": [s.to_dict() for s in (info_state, scenes_state, instr_state, ep_state)],
+            "counts": {"scenes": len(scenes), "instructions": len(instructions), "episodes": len(episodes)},
+        }
+
+    def instructions_of(self, scene_index: int) -> list[dict[str, Any]]:
+        """The instructions whose ``image_index`` is ``scene_index``."""
+        items, _ = self.instructions()
+        return [q for q in items if _as_int(q.get("image_index"), -1) == scene_index]
+
+    def instruction(self, instruction_index: int) -> dict[str, Any]:
+        """One instruction by index; raises DatasetError when absent."""
+        items, state = self.instructions()
+        for q in items:
+            if _as_int(q.get("instruction_index"), -1) == instruction_index:
+                return q
+        raise DatasetError(f"instruction {instruction_index}: not in the dataset ({state.state}, {len(items)} read)")
+
+    def scene(self, scene_index: int) -> dict[str, Any]:
+        """One scene by image index; raises DatasetError when absent."""
+        scenes, state = self.scenes()
+        if scene_index not in scenes:
+            raise DatasetError(f"scene {scene_index}: not in the dataset ({state.state}, {len(scenes)} read)")
+        return scenes[scene_index]
+
+    def summaries(self) -> list[dict[str, Any]]:
+        """Scene-grid summaries of every scene, in index order."""
+        scenes, _ = self.scenes()
+        instructions, _ = self.instructions()
+        episodes, _ = self.episode_summaries()
+        by_scene: dict[int, list[dict[str, Any]]] = {}
+        for q in instructions:
+            by_scene.setdefault(_as_int(q.get("image_index"), -1), []).append(q)
+        eps_by_scene: dict[int, list[dict[str, Any]]] = {}
+        for e in episodes:
+            eps_by_scene.setdefault(_as_int(e.get("scene_index"), -1), []).append(e)
+        return [scene_summary(scenes[i], by_scene.get(i, []), eps_by_scene.get(i, [])) for i in sorted(scenes)]
+
+    def image_path(self, scene_index: int, modality: str) -> Path:
+        """Path of a scene's ``rgb`` / ``depth`` / ``segmentation`` PNG (it may not exist yet).
+
+        Raises:
+            DatasetError: unknown modality or scene.
+        """
+        folders = {"rgb": "images", "depth": "depth", "segmentation": "segmentation"}
+        if modality not in folders:
+            raise DatasetError(f"modality {modality!r}: valid: {sorted(folders)}")
+        scene = self.scene(scene_index)
+        filename = Path(str(scene.get("image_filename", f"{scene_index:06d}.png"))).name
+        stem = filename.rsplit(".", 1)[0]
+        path = (self.root / folders[modality] / f"{stem}.png").resolve()
+        if not path.is_relative_to(self.root):
+            raise DatasetError(f"scene {scene_index}: image_filename {filename!r} points outside the dataset")
+        return path

@@ -1,0 +1,369 @@
+// samplehd viewer: a hash-routed single page over the read-only JSON API of `samplehd view`.
+//   #/                    scene grid with filters (#/?family=stack&colour=red&page=2)
+//   #/scene/<i>           one scene: RGB / depth / segmentation, annotation of the object under the cursor
+//   #/instruction/<j>     one instruction: text, family, programs (tree + flat), targets outlined
+//   #/episodes            episode list;  #/episode/<k>  the episode player
+import {COLOUR_CSS, el, getJSON, getPixels, HttpError, num, parseHash, rgb, swatch} from "./util.js";
+import {drawMasks, idAt} from "./masks.js";
+import {flatTokens, programTree} from "./tree.js";
+import {openPlayer} from "./player.js";
+
+const FILTERS = [["family", "family"], ["class", "class"], ["colour", "colour"], ["material", "material"],
+  ["split", "split"], ["success", "episode outcome"]];
+const PAGE = 60;
+const MOVED = [255, 120, 0];
+const REFERENCE = [0, 170, 255];
+
+const view = document.getElementById("view");
+let cleanup = () => {};
+let status = null;
+
+// ---------------------------------------------------------------- status banner (polled: datasets grow)
+async function refreshStatus() {
+  try {
+    status = await getJSON("/api/status");
+  } catch (err) {
+    showBanner([`cannot reach the viewer server: ${err.message}`]);
+    return;
+  }
+  document.getElementById("dataset-name").textContent = status.name;
+  const c = status.counts;
+  document.getElementById("counts").textContent =
+    `${c.scenes} scenes · ${c.instructions} instructions · ${c.episodes} episodes`;
+  const notes = status.files
+    .filter((f) => f.state === "partial" || (f.state === "missing" && f.name !== "info.json" && f.name !== "episodes"))
+    .map((f) => `${f.name}: ${f.state} — ${f.detail}`);
+  showBanner(notes.length ? ["This dataset is incomplete or still being written:", ...notes] : []);
+}
+
+function showBanner(lines) {
+  const banner = document.getElementById("banner");
+  banner.replaceChildren();
+  banner.hidden = lines.length === 0;
+  if (lines.length) banner.append(el("strong", {}, lines[0]), el("ul", {}, lines.slice(1).map((l) => el("li", {}, l))));
+}
+
+// ---------------------------------------------------------------- routing
+async function route() {
+  cleanup();
+  cleanup = () => {};
+  const {parts, query} = parseHash(location.hash);
+  const page = parts[0] || "scenes";
+  for (const a of document.querySelectorAll("[data-nav]")) {
+    a.classList.toggle("active", a.dataset.nav === page || (a.dataset.nav === "scenes" && page === "scene")
+      || (a.dataset.nav === "episodes" && page === "episode"));
+  }
+  view.replaceChildren(el("p", {class: "muted"}, "loading…"));
+  try {
+    if (page === "scenes") await sceneGrid(query);
+    else if (page === "scene") await scenePage(Number(parts[1]));
+    else if (page === "instruction") await instructionPage(Number(parts[1]));
+    else if (page === "episodes") await episodeList(query);
+    else if (page === "episode") cleanup = await openPlayer(view, Number(parts[1]));
+    else view.replaceChildren(el("p", {class: "error"}, `no page ${page}`));
+  } catch (err) {
+    const missing = err instanceof HttpError && (err.status === 404 || err.status === 503);
+    view.replaceChildren(el("div", {class: missing ? "placeholder" : "error", "data-error": "1"}, err.message));
+    if (!(err instanceof HttpError)) console.warn(err);
+  }
+}
+
+function setHash(parts, query = {}) {
+  const q = new URLSearchParams(Object.entries(query).filter(([, v]) => v !== "" && v !== undefined));
+  const text = `#/${parts.join("/")}${q.toString() ? `?${q}` : ""}`;
+  if (location.hash !== text) location.hash = text;
+}
+
+// ---------------------------------------------------------------- scene grid
+async function sceneGrid(query) {
+  const pageNo = Math.max(1, Number(query.page || 1));
+  const criteria = Object.fromEntries(FILTERS.map(([k]) => [k, query[k] || ""]));
+  const params = new URLSearchParams({...criteria, offset: (pageNo - 1) * PAGE, limit: PAGE});
+  for (const [k, v] of [...params]) if (v === "") params.delete(k);
+  const data = await getJSON(`/api/scenes?${params}`);
+  const filters = el("div", {class: "filters", id: "filters"});
+  for (const [key, label] of FILTERS) {
+    const select = el("select", {name: key, "data-filter": key, onchange: (e) => {
+      setHash([], {...criteria, [key]: e.target.value, page: ""});
+    }}, el("option", {value: ""}, "any"), data.options[key].map((v) => el("option", {value: v}, v)));
+    select.value = criteria[key];
+    filters.append(el("label", {}, label, select));
+  }
+  filters.append(el("button", {type: "button", onclick: () => setHash([])}, "clear filters"));
+  const from = data.matched ? data.offset + 1 : 0;
+  const to = Math.min(data.offset + data.scenes.length, data.matched);
+  const line = el("div", {class: "summary-line", id: "grid-summary"},
+    `${data.matched} of ${data.total} scenes match` + (data.matched ? ` · showing ${from}–${to}` : ""));
+  const grid = el("div", {class: "grid", id: "scene-grid"}, data.scenes.map(sceneCard));
+  if (!data.scenes.length) {
+    grid.append(el("div", {class: "placeholder"}, data.total ? "no scene matches these filters" : "no scenes written yet"));
+  }
+  const pages = Math.max(1, Math.ceil(data.matched / PAGE));
+  const pager = el("div", {class: "pager"},
+    el("button", {type: "button", disabled: pageNo <= 1, onclick: () => setHash([], {...criteria, page: pageNo - 1})}, "‹ prev"),
+    el("span", {}, `page ${pageNo} / ${pages}`),
+    el("button", {type: "button", disabled: pageNo >= pages, onclick: () => setHash([], {...criteria, page: pageNo + 1})}, "next ›"));
+  view.replaceChildren(el("h1", {}, "Scenes"), filters, line, grid, pager);
+}
+
+function sceneCard(s) {
+  const outcome = s.success.includes("failure") ? el("span", {class: "chip bad"}, "has failures")
+    : s.success.includes("success") ? el("span", {class: "chip ok"}, "success") : null;
+  return el("a", {class: "card", href: `#/scene/${s.index}`, "data-scene": s.index},
+    el("img", {src: `/api/scenes/${s.index}/thumb`, loading: "lazy", alt: s.stem}),
+    el("div", {class: "body"},
+      el("div", {class: "title"}, el("span", {}, s.stem), el("span", {class: "muted"}, s.split.join(","))),
+      el("div", {class: "muted"}, `${s.num_objects} objects · ${s.num_instructions} instructions · ${s.num_episodes} episodes`),
+      el("div", {class: "chips"}, s.family.map((f) => el("span", {class: "chip fam"}, f)), outcome),
+      el("div", {class: "muted", title: s.objects.join(", ")}, s.objects.join(", "))));
+}
+
+// ---------------------------------------------------------------- image stage with masks
+/** An image with an overlay canvas; loads ids lazily for masks and the cursor read-out. */
+function imageStage(sceneIndex, modality) {
+  const img = el("img", {src: `/api/scenes/${sceneIndex}/image/${modality}`, alt: `${modality} image`, id: "scene-image"});
+  const overlay = el("canvas", {class: "overlay", id: "overlay"});
+  const root = el("div", {class: "stage crosshair"}, img, overlay);
+  img.addEventListener("error", () => {
+    root.replaceChildren(el("div", {class: "placeholder"}, `${modality} image not written yet`));
+  });
+  const stage = {
+    root, img, overlay, ids: null, depth: null,
+    setModality(m) { img.src = `/api/scenes/${sceneIndex}/image/${m}`; },
+    async loadIds() {
+      if (!stage.ids) {
+        try { stage.ids = await getPixels(`/api/scenes/${sceneIndex}/ids`); } catch (_) { stage.ids = null; }
+      }
+      return stage.ids;
+    },
+    async loadDepth() {
+      if (!stage.depth) {
+        try { stage.depth = await getPixels(`/api/scenes/${sceneIndex}/depth_mm`); } catch (_) { stage.depth = null; }
+      }
+      return stage.depth;
+    },
+  };
+  return stage;
+}
+
+function modalityToggle(onChange, available = {}) {
+  const box = el("div", {class: "toggle", role: "group", "aria-label": "image modality"});
+  for (const m of ["rgb", "depth", "segmentation"]) {
+    const b = el("button", {type: "button", "data-modality": m, disabled: available[m] === false,
+      title: available[m] === false ? "not written yet" : m}, m === "rgb" ? "RGB" : m[0].toUpperCase() + m.slice(1));
+    b.addEventListener("click", () => {
+      for (const x of box.children) x.classList.toggle("active", x === b);
+      onChange(m);
+    });
+    if (m === "rgb") b.classList.add("active");
+    box.append(b);
+  }
+  return box;
+}
+
+function kv(rows) {
+  return el("table", {class: "kv"}, rows.filter(Boolean).map(([k, v]) => el("tr", {}, el("th", {}, k), el("td", {}, v))));
+}
+
+function describeObject(o) {
+  return `${o.size || ""} ${o.colour || o.color || ""} ${o.material || ""} ${o.name || o.shape || ""}`.replace(/\s+/g, " ").trim();
+}
+
+function objectRows(o, index) {
+  const c = o["3d_coords"] || [];
+  const px = o.pixel_coords || [];
+  const aff = Object.entries(o.affordances || {}).filter(([, v]) => v).map(([k]) => k).join(", ");
+  return [
+    ["object", `#${index} ${o.name || o.shape}${o.variant ? ` (${o.variant})` : ""}`],
+    ["colour", el("span", {}, swatch(COLOUR_CSS[o.colour || o.color] || "#ccc"), o.colour || o.color)],
+    ["material", o.material], ["size", o.size],
+    o.weight && ["weight", `${o.weight}${o.mass ? ` (${num(o.mass, 3)} kg)` : ""}`],
+    ["table part", (o.table_part || []).join(", ") || "neutral band"],
+    ["3d coords [m]", c.map((v) => num(v, 3)).join(", ")],
+    o.rotation !== undefined && ["rotation [°]", num(o.rotation, 1)],
+    ["pixel coords", px.length ? `${px[0]}, ${px[1]} (depth ${num(px[2], 3)} m)` : "–"],
+    o.bbox && ["extents [m]", (o.bbox.extents || []).map((v) => num(v, 3)).join(" × ")],
+    aff && ["affordances", aff],
+    ["segmentation id", String(o.segmentation_id ?? "")],
+  ];
+}
+
+// ---------------------------------------------------------------- scene page
+async function scenePage(i) {
+  const data = await getJSON(`/api/scenes/${i}`);
+  const scene = data.scene;
+  const objects = scene.objects || [];
+  const offset = data.segmentation_offset;
+  const stage = imageStage(i, "rgb");
+  const hoverCard = el("div", {class: "panel hover-card", id: "hover-card"},
+    el("p", {class: "muted"}, "Move the cursor over the image to see the annotation of the object under it."));
+  const objectTable = el("table", {class: "objects", id: "object-table"},
+    el("tr", {}, ["#", "object", "colour", "material", "size", "table part"].map((h) => el("th", {}, h))),
+    objects.map((o, k) => el("tr", {"data-object": k},
+      el("td", {}, swatch(rgb(data.object_colours[k])), String(k)), el("td", {}, o.name || o.shape),
+      el("td", {}, swatch(COLOUR_CSS[o.colour || o.color] || "#ccc"), o.colour || o.color),
+      el("td", {}, o.material), el("td", {}, o.size), el("td", {}, (o.table_part || []).join(", ")))));
+  let hot = -2;
+  const highlight = async (k) => {
+    if (k === hot) return;
+    hot = k;
+    for (const tr of objectTable.querySelectorAll("tr[data-object]")) tr.classList.toggle("hot", Number(tr.dataset.object) === k);
+    const ids = await stage.loadIds();
+    if (!ids) return;
+    drawMasks(stage.overlay, ids, k >= 0 ? [{ids: [k + offset], colour: [255, 230, 0], fill: 0.18}] : []);
+  };
+  const names = {0: "background", 1: "table", 2: "robot"};
+  stage.root.addEventListener("mousemove", async (event) => {
+    const ids = await stage.loadIds();
+    if (!ids) { hoverCard.replaceChildren(el("p", {class: "muted"}, "segmentation not written yet")); return; }
+    const hit = idAt(event, stage.img, ids);
+    if (hit.id < 0) return;
+    const depth = await stage.loadDepth();
+    const mm = depth && hit.p >= 0 ? depth.data[hit.p] : 0;
+    const where = el("p", {class: "muted mono"}, `pixel (${hit.x}, ${hit.y}) · id ${hit.id} · depth ${mm ? num(mm / 1000, 3) + " m" : "–"}`);
+    const k = hit.id - offset;
+    if (k >= 0 && k < objects.length) {
+      hoverCard.replaceChildren(el("h2", {}, describeObject(objects[k])), kv(objectRows(objects[k], k)), where);
+    } else {
+      hoverCard.replaceChildren(el("h2", {}, names[hit.id] || `id ${hit.id}`), where);
+    }
+    highlight(k >= 0 && k < objects.length ? k : -1);
+  });
+  stage.root.addEventListener("mouseleave", () => highlight(-1));
+  objectTable.addEventListener("mouseover", (e) => {
+    const tr = e.target.closest("tr[data-object]");
+    if (tr) highlight(Number(tr.dataset.object));
+  });
+
+  const episodesByInstruction = new Map(data.episodes.map((e) => [e.instruction_index, e]));
+  const instructions = el("ul", {class: "instr-list", id: "instruction-list"}, data.instructions.map((q) => {
+    const ep = episodesByInstruction.get(q.instruction_index);
+    return el("li", {},
+      el("a", {href: `#/instruction/${q.instruction_index}`}, q.instruction || q.question || `instruction ${q.instruction_index}`),
+      el("div", {class: "chips"}, el("span", {class: "chip fam"}, q.family || "?"),
+        el("span", {class: "chip"}, q.template_name || q.template_filename || ""),
+        ep ? el("a", {href: `#/episode/${ep.episode}`, class: `chip ${ep.success ? "ok" : "bad"}`},
+          ep.success ? "episode ✓" : `episode ✗ ${ep.failure_reason || ""}`) : null));
+  }));
+  const cam = scene.camera || {};
+  const man = scene.manipulator || {};
+  const meta = kv([
+    ["split", scene.split], ["image", scene.image_filename], ["seed", String(scene.seed ?? "–")],
+    cam.pos && ["camera position [m]", cam.pos.map((v) => num(v, 3)).join(", ")],
+    cam.fovy && ["camera fovy [°]", num(cam.fovy, 1)],
+    man.joint_positions && ["arm joints [rad]", man.joint_positions.map((v) => num(v, 2)).join(", ")],
+    man.tcp_position && ["TCP [m]", man.tcp_position.map((v) => num(v, 3)).join(", ")],
+  ]);
+  const nav = el("div", {class: "toolbar"},
+    el("a", {href: `#/scene/${i - 1}`}, "‹ previous scene"), el("a", {href: `#/scene/${i + 1}`}, "next scene ›"),
+    el("a", {href: `/files/scenes/${encodeURIComponent((scene.image_filename || "").replace(/\.png$/, ".json"))}`,
+      target: "_blank"}, "scene JSON"));
+  view.replaceChildren(
+    el("h1", {}, `Scene ${i} — ${(scene.image_filename || "").replace(/\.png$/, "")}`), nav,
+    el("div", {class: "row"},
+      el("div", {class: "col-main"},
+        el("div", {class: "toolbar"}, modalityToggle((m) => stage.setModality(m), data.images),
+          el("span", {class: "muted"}, `${objects.length} objects`)),
+        stage.root,
+        el("h3", {}, "Objects"), objectTable),
+      el("div", {class: "col-side"}, hoverCard,
+        el("h3", {}, `Instructions (${data.instructions.length})`),
+        data.instructions.length ? instructions : el("p", {class: "muted"}, "no instructions for this scene (yet)"),
+        el("h3", {}, "Scene"), meta)));
+}
+
+// ---------------------------------------------------------------- instruction page
+function targetGroups(q, offset) {
+  const task = q.task || {};
+  const moved = Array.isArray(task.objects) ? task.objects : (q.targets || []);
+  const reference = Number.isInteger(task.subject) ? [task.subject] : [];
+  const others = (q.targets || []).filter((t) => !moved.includes(t) && !reference.includes(t));
+  return {
+    moved, reference: [...reference, ...others],
+    groups: [
+      {ids: moved.map((k) => k + offset), colour: MOVED, fill: 0.3},
+      {ids: [...reference, ...others].map((k) => k + offset), colour: REFERENCE, fill: 0.3},
+    ],
+  };
+}
+
+async function instructionPage(j) {
+  const data = await getJSON(`/api/instructions/${j}`);
+  const q = data.instruction;
+  const scene = data.scene;
+  const objects = (scene && scene.objects) || [];
+  const sceneIndex = q.image_index;
+  const {moved, reference, groups} = targetGroups(q, data.segmentation_offset);
+  const name = (k) => (objects[k] ? `#${k} ${describeObject(objects[k])}` : `#${k}`);
+  let imageBlock;
+  if (scene) {
+    const stage = imageStage(sceneIndex, "rgb");
+    stage.root.classList.remove("crosshair");
+    stage.loadIds().then((ids) => { if (ids) drawMasks(stage.overlay, ids, groups, 3); });
+    imageBlock = el("div", {}, el("div", {class: "toolbar"}, modalityToggle((m) => stage.setModality(m))), stage.root,
+      el("div", {class: "legend", id: "target-legend"},
+        ...legend(moved, MOVED, "moved", name), ...legend(reference, REFERENCE, "reference", name)));
+  } else {
+    imageBlock = el("div", {class: "placeholder"}, `scene ${sceneIndex} not written yet`);
+  }
+  const episodes = data.episodes.map((e) => el("a", {href: `#/episode/${e.episode}`, class: `chip ${e.success ? "ok" : "bad"}`},
+    `episode ${e.episode}: ${e.success ? "success" : `failure ${e.failure_reason || ""}`} · ${e.num_frames} frames`));
+  view.replaceChildren(
+    el("h1", {}, `Instruction ${j}`),
+    el("div", {class: "toolbar"},
+      el("a", {href: `#/instruction/${j - 1}`}, "‹ previous"), el("a", {href: `#/instruction/${j + 1}`}, "next ›"),
+      el("a", {href: `#/scene/${sceneIndex}`}, `scene ${sceneIndex}`)),
+    el("div", {class: "row"},
+      el("div", {class: "col-main"}, imageBlock),
+      el("div", {class: "col-side"},
+        el("div", {class: "instr-text", id: "instruction-text"}, `“${q.instruction || q.question || ""}”`),
+        el("div", {class: "chips"}, el("span", {class: "chip fam", id: "instruction-family"}, q.family || "?"),
+          el("span", {class: "chip"}, `template ${q.template_name || q.template_filename || "?"}`),
+          el("span", {class: "chip"}, q.split || "")),
+        el("h3", {}, "Targets"),
+        kv([["moved", moved.map(name).join("; ") || "–"], ["reference", reference.map(name).join("; ") || "–"],
+          q.task && ["task", `${q.task.type}${q.task.subject !== null && q.task.subject !== undefined ? ` → ${q.task.subject}` : ""}`
+            + `${q.task.relation ? ` (${q.task.relation})` : ""}`]]),
+        el("h3", {}, "Episodes"), episodes.length ? el("div", {class: "chips"}, episodes) : el("p", {class: "muted"}, "no episode recorded"))),
+    el("h3", {}, "Program (flat, SAMPLE-HD)"), el("div", {id: "flat-program"}, flatTokens(q.program_sequence)),
+    el("h3", {}, "Program (CLEVR nodes, drawn as a tree)"), el("div", {class: "tree-wrap", id: "program-tree"}, programTree(q.program)),
+    el("h3", {}, "Task"), el("pre", {class: "json"}, JSON.stringify({task: q.task, targets: q.targets, params: q.params}, null, 1)));
+}
+
+function legend(indices, colour, label, name) {
+  if (!indices.length) return [];
+  const line = el("span", {class: "line"});
+  line.style.borderTopColor = rgb(colour);
+  return [el("span", {}, line, `${label}: ${indices.map(name).join("; ")}`)];
+}
+
+// ---------------------------------------------------------------- episode list
+async function episodeList(query) {
+  const params = new URLSearchParams(Object.entries({family: query.family || "", success: query.success || ""})
+    .filter(([, v]) => v));
+  const data = await getJSON(`/api/episodes?${params}`);
+  const all = await getJSON("/api/episodes");
+  const families = [...new Set(all.episodes.map((e) => e.family))].sort();
+  const pick = (key, values) => {
+    const s = el("select", {"data-filter": key, onchange: (e) => setHash(["episodes"], {...query, [key]: e.target.value})},
+      el("option", {value: ""}, "any"), values.map((v) => el("option", {value: v}, v)));
+    s.value = query[key] || "";
+    return el("label", {}, key, s);
+  };
+  const rows = data.episodes.map((e) => el("tr", {},
+    el("td", {}, el("a", {href: `#/episode/${e.episode}`}, String(e.episode))),
+    el("td", {}, el("a", {href: `#/scene/${e.scene_index}`}, String(e.scene_index))),
+    el("td", {}, el("a", {href: `#/instruction/${e.instruction_index}`}, e.instruction || String(e.instruction_index))),
+    el("td", {}, e.family), el("td", {}, String(e.num_frames ?? "")),
+    el("td", {}, el("span", {class: `chip ${e.success ? "ok" : "bad"}`}, e.success ? "success" : `failure ${e.failure_reason || ""}`))));
+  view.replaceChildren(el("h1", {}, "Episodes"),
+    el("div", {class: "filters"}, pick("family", families), pick("success", ["success", "failure"])),
+    data.state.state !== "ok" ? el("p", {class: "muted"}, data.state.detail) : null,
+    el("table", {class: "objects", id: "episode-table"},
+      el("tr", {}, ["episode", "scene", "instruction", "family", "frames", "outcome"].map((h) => el("th", {}, h))), rows));
+}
+
+// ---------------------------------------------------------------- start
+window.addEventListener("hashchange", route);
+refreshStatus().then(route);
+setInterval(refreshStatus, 5000);
