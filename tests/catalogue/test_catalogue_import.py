@@ -75,6 +75,17 @@ def test_import_convex_stl_without_scaling(tmp_path: Path) -> None:
     assert min(g["width"] for g in meta["grasps"]) == pytest.approx(0.03, abs=1e-6)
 
 
+@pytest.mark.parametrize("suffix", [".ply", ".glb", ".obj"])
+def test_import_formats(tmp_path: Path, suffix: str) -> None:
+    src = tmp_path / f"cyl{suffix}"
+    trimesh.creation.cylinder(radius=0.03, height=0.1, sections=24).export(src)
+    _, report = import_mesh(src, "cyl")
+    np.testing.assert_allclose(report["extents"], [0.06, 0.06, 0.1], atol=2e-3)
+    facts = object_facts(ObjectInstance("cyl", "default", "blue", "plastic", "small"))
+    assert facts.height == pytest.approx(0.08, abs=2e-3)
+    assert facts.top.flat
+
+
 @pytest.mark.parametrize(
     ("name", "content", "expected"),
     [

@@ -69,3 +69,16 @@ def test_facts_of_flat_objects() -> None:
     assert plate.top.flat and plate.top.round and plate.top.height < 0.01
     fork = object_facts(ObjectInstance("fork", "dinner", "metallic", "metal", "medium"))
     assert not fork.top.flat and fork.opening is None
+
+
+def test_package_docstring_example_runs() -> None:
+    import samplehd.catalogue as catalogue
+
+    lines = []
+    for line in catalogue.__doc__.split("::", 1)[1].splitlines()[1:]:
+        if line.strip() and not line.startswith("    "):
+            break
+        lines.append(line[4:])
+    namespace: dict = {}
+    exec(compile("\n".join(lines), "catalogue-doc", "exec"), namespace)
+    assert namespace["model"].nbody == 2 and namespace["facts"].mass > 0

@@ -11,6 +11,9 @@ Typical use::
     add_object(spec, mug, "object_0", pos=(0.0, 0.0, 0.0))
     model = spec.compile()
     facts = object_facts(mug)   # extents, footprint, top surface, opening, grasps, mass, weight
+
+Mesh import lives in :mod:`samplehd.catalogue.importer` (``import_mesh``), previews in
+:mod:`samplehd.catalogue.preview`; both pull in heavier dependencies and are not imported here.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from samplehd.catalogue.geometry import (
 )
 from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.loader import load_catalogue, read_catalogue
+from samplehd.catalogue.menu import apply_menu_overrides, validate_menu_overrides
 from samplehd.catalogue.model import (
     PROPERTIES,
     Affordances,
@@ -65,6 +69,7 @@ __all__ = [
     "Variant",
     "WeightClass",
     "add_object",
+    "apply_menu_overrides",
     "build_geometry",
     "instance_geometry",
     "load_catalogue",
@@ -72,4 +77,5 @@ __all__ = [
     "material_rgba",
     "object_facts",
     "read_catalogue",
+    "validate_menu_overrides",
 ]

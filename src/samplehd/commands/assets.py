@@ -33,6 +33,7 @@ def _names(values: list[str] | None) -> tuple[str, ...] | None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the ``import``, ``list``, ``preview``, ``sheet`` and ``remove`` sub-commands."""
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter  # keep the examples' line breaks
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     fmt = argparse.ArgumentDefaultsHelpFormatter
 
