@@ -182,7 +182,14 @@ def _schedule(template: Template) -> list[list[TemplateConstraint]]:
 class _SceneGenerator:
     """Per-scene state: descriptions, constraint context, counts."""
 
-    def __init__(self, scene: Scene, reachable: Reachable, lexicon: Lexicon, rng: np.random.Generator) -> None:
+    def __init__(
+        self,
+        scene: Scene,
+        reachable: Reachable,
+        lexicon: Lexicon,
+        rng: np.random.Generator,
+        search_budget: int = 4000,
+    ) -> None:
         self.scene = scene
         self.lexicon = lexicon
         self.rng = rng
@@ -196,7 +203,7 @@ class _SceneGenerator:
         self._schedules: dict[str, list[list[TemplateConstraint]]] = {}
         self._memo: dict[tuple[Any, ...], bool] = {}
         # candidate checks one draw may make before giving up (bounds the search for any scene)
-        self.search_budget = 4000
+        self.search_budget = search_budget
         self.budget = self.search_budget
 
     def _fails(self, constraints: Sequence[TemplateConstraint], values: Mapping[str, Any]) -> str | None:
@@ -387,6 +394,7 @@ def generate_instructions(
     reachable: Reachable = default_reachable,
     balancer: TemplateBalancer | None = None,
     tries_per_template: int = 8,
+    search_budget: int = 4000,
     lexicon: Lexicon | None = None,
 ) -> GenerationResult:
     """Generate up to ``per_scene`` distinct instructions for one scene by rejection sampling.
@@ -401,6 +409,7 @@ def generate_instructions(
         reachable: whether the arm can pick or place at a point (x, y, z) [m].
         balancer: shared use counts across scenes (default: a fresh one for this scene).
         tries_per_template: draws of one template before giving up on it for this scene.
+        search_budget: candidate checks one draw may make (bounds the work on crowded scenes).
         lexicon: words for the text (default: the shipped lexicon).
 
     Returns:
@@ -425,7 +434,9 @@ def generate_instructions(
         balancer = TemplateBalancer(balance)
     elif balancer.balance != balance:
         raise ConfigError(f"balancer balances {balancer.balance}, but balance={balance!r} was asked for")
-    gen = _SceneGenerator(scene, reachable, lexicon or default_lexicon(), rng)
+    if per_scene < 0 or tries_per_template < 1 or search_budget < 1:
+        raise ConfigError("per_scene must be >= 0, tries_per_template and search_budget >= 1")
+    gen = _SceneGenerator(scene, reachable, lexicon or default_lexicon(), rng, search_budget)
     gen.rejections["no_unique_description"] = len(scene.objects) - len(gen.describable)
     out: list[Instruction] = []
     seen: set[tuple[Any, ...]] = set()
