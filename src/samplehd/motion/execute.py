@@ -7,6 +7,7 @@ Planning is interleaved with execution: each subtask is planned from the state t
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -26,7 +27,7 @@ from samplehd.motion.planner import (
 )
 from samplehd.motion.robot_info import RobotInfo
 from samplehd.record.recorder import FrameRecorder, steering_from_targets
-from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
+from samplehd.robot.constants import GRIPPER_ACTUATOR, GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
 from samplehd.robot.controller import RobotController
 from samplehd.robot.kinematics import fk_tcp, ik_batch
 from samplehd.scene.layout import LAYOUT, TableLayout
@@ -94,14 +95,27 @@ class Rollout:
         self.subtasks.append(name)
         return len(self.subtasks) - 1
 
-    def run(self, name: str, target: int, targets: np.ndarray, gripper: float | None = None) -> None:
-        """Execute joint targets (one per control step) as subtask ``name`` and record each step."""
+    def run(self, name: str, target: int, targets: np.ndarray,
+            gripper: float | np.ndarray | Callable[[int], float] | None = None) -> None:
+        """Execute joint targets (one per control step) as subtask ``name`` and record each step.
+
+        Args:
+            name: subtask name.
+            target: scene object the subtask acts on.
+            targets: (T, 6) joint targets [rad].
+            gripper: gripper command in [-1, 1]: one value, one per step, or a function of the step
+                index (default: unchanged).
+        """
         idx = self._begin(name)
-        if gripper is not None:
-            self.gripper = gripper
         n = len(targets)
+        if callable(gripper):
+            grip_of = gripper
+        else:
+            grips = np.broadcast_to(np.asarray(self.gripper if gripper is None else gripper, float), (n,))
+            grip_of = grips.__getitem__
         cc = self.ctrl.config
         for k, q in enumerate(targets):
+            self.gripper = float(grip_of(k))
             steer = steering_from_targets(fk_tcp(self.ctrl.target), fk_tcp(q), self.gripper, self.dt,
                                           cc.max_linear_speed, cc.max_angular_speed)
             self.recorder.record(idx, k / max(1, n - 1), target, q, self.gripper, steer)
@@ -170,11 +184,11 @@ class Rollout:
         self._sync()
         try:
             path = straight_move(self.checker, fk_tcp(self.ctrl.target), gp.tcp_grasp, self.ctrl.target,
-                                 gp.grasp.opening, self.dt, self.cfg.approach_speed, allow_objects_with_gripper=(i,))
+                                 gp.grasp.opening, self.dt, self.cfg.approach_speed)
         except PlanningError as exc:
             raise AttemptFailed("approach_blocked", str(exc), k) from exc
         self.run("ApproachGrasp", i, path, open_cmd)
-        self.hold("CloseGripper", i, self.cfg.close_time, -1.0)
+        self.close_gripper(i, gp.grasp.opening, gp.grasp.width)
         self._sync()
         if self.recorder.rows["grasped_object"] and self._grasped() != i:
             raise AttemptFailed("grasp_missed", f"object {i}: the fingers closed without holding it", k)
@@ -183,6 +197,32 @@ class Rollout:
         if lift:
             self.move_up(i, k)
         return k
+
+    def close_gripper(self, i: int, opening: float, width: float) -> None:
+        """CloseGripper: ramp the finger command down until the pads touch, then squeeze with a
+        moderate force (``squeeze_force``), arm still.
+
+        The command after the ramp is the measured opening minus squeeze_force / servo gain, so the
+        fingers press with that force instead of the gripper's maximum, which keeps contact forces
+        far below the safety monitor's limit while holding objects of up to ~1 kg.
+        """
+        n = max(2, int(round(self.cfg.close_time / self.dt)))
+        ramp = max(1, int(n * 0.6))
+        start = _gripper_command(opening)
+        end = _gripper_command(max(0.0, width - 0.012))
+        cmds = np.linspace(start, end, ramp + 1)[1:]
+        kp = float(self.model.actuator_gainprm[self.model.actuator(GRIPPER_ACTUATOR).id, 0]) or 1e4
+        squeeze: list[float] = []
+
+        def command(k: int) -> float:
+            if k < ramp:
+                return float(cmds[k])
+            if not squeeze:
+                measured = float(self.data.qpos[self.robot.finger_qpos].sum())
+                squeeze.append(_gripper_command(max(0.0, measured - self.cfg.squeeze_force / kp)))
+            return squeeze[0]
+
+        self.run("CloseGripper", i, np.repeat(self.ctrl.target[None], n, axis=0), command)
 
     def _grasped(self) -> int:
         from samplehd.record.recorder import grasped_object
@@ -225,17 +265,20 @@ class Rollout:
         transport_z = self._transport_z(i)
         q_now = self.ctrl.target
         last_error = "no reachable release pose"
-        for xy in spots:
-            # Release pose: object translated to (x, y), same orientation, dropped onto its support.
+        for xy, yaw in spots:
+            # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
+            cz, sz = np.cos(yaw), np.sin(yaw)
+            rot = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]) @ t_obj[:3, :3]
             obj_bottom_below = t_obj[2, 3] - object_world_box(self.model, self.data, self.bodies, i).lo[2]
             start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
             try:
-                z_rel = release_height(self.checker, self.bodies, i, t_obj[:3, :3], xy, start_z,
+                z_rel = release_height(self.checker, self.bodies, i, rot, xy, start_z,
                                        self.layout.table_height + obj_bottom_below - 0.001)
             except PlanningError as exc:
                 last_error = str(exc)
                 continue
-            t_obj_rel = t_obj.copy()
+            t_obj_rel = np.eye(4)
+            t_obj_rel[:3, :3] = rot
             t_obj_rel[:3, 3] = (xy[0], xy[1], z_rel + self.cfg.release_gap)
             tcp_rel_w = t_obj_rel @ np.linalg.inv(hand.tcp_to_object)
             tcp_above_w = tcp_rel_w.copy()
@@ -260,7 +303,7 @@ class Rollout:
                 last_error = "the fingers cannot open at the release pose"
                 continue
             self.info["destinations"].append({"object": i, "xy": [float(xy[0]), float(xy[1])],
-                                              "z": float(t_obj_rel[2, 3])})
+                                              "z": float(t_obj_rel[2, 3]), "yaw": float(yaw)})
             self.info["methods"].append(method)
             self.run("ObjectMove", i, move, -1.0)
             self.run("MoveDOWN", i, down, -1.0)

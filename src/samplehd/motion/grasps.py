@@ -11,7 +11,8 @@ Rules (data, one entry per site name in :data:`GRASP_RULES`):
 - ``yaws``: for axisymmetric sites, how many rotations about the object's z axis to try.
 - ``top_down``: side-approach sites (approach horizontal) also get a top-down variant, the fingers
   reaching ``finger_reach`` below the top.
-- ``clearance``: room left between each finger and the object when the gripper opens [m].
+- ``clearance``: room left between each finger and the object when the gripper opens [m] (less,
+  down to :data:`MIN_CLEARANCE`, for objects nearly as wide as the stroke).
 """
 
 from __future__ import annotations
@@ -22,9 +23,18 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["GRASP_RULES", "GRIPPER_STROKE", "Grasp", "GraspRule", "grasp_candidates", "register_grasp_rule"]
+__all__ = [
+    "GRASP_RULES",
+    "GRIPPER_STROKE",
+    "MIN_CLEARANCE",
+    "Grasp",
+    "GraspRule",
+    "grasp_candidates",
+    "register_grasp_rule",
+]
 
 GRIPPER_STROKE = 0.085  # [m] largest finger opening of the parallel-jaw gripper
+MIN_CLEARANCE = 0.0025  # [m] least room between a finger and the object when the gripper is fully open
 
 
 @dataclass(frozen=True)
@@ -112,7 +122,7 @@ class GraspRule:
 
 GRASP_RULES: dict[str, GraspRule] = {
     "body": GraspRule(yaws=8, top_down=True, clearance=0.012),
-    "rim": GraspRule(yaws=12, top_down=True, clearance=0.015),
+    "rim": GraspRule(yaws=12, top_down=True, clearance=0.007),
     "handle": GraspRule(yaws=1, clearance=0.012),
     "edge": GraspRule(yaws=1, top_down=False, clearance=0.01),
     "box": GraspRule(yaws=1, clearance=0.012),
@@ -160,7 +170,7 @@ def grasp_candidates(
     out: list[Grasp] = []
     for site in sites or ():
         rule = GRASP_RULES.get(site.name, GraspRule())
-        if site.width + 2 * rule.clearance > stroke:
+        if site.width + 2 * MIN_CLEARANCE > stroke:
             continue
         pos = np.asarray(site.position, float)
         app = np.asarray(site.approach, float)
@@ -196,7 +206,7 @@ def _box_grasps(lo: np.ndarray, hi: np.ndarray, stroke: float) -> list[Grasp]:
     out = []
     for axis in np.argsort(size[:2]):
         w = float(size[axis])
-        if w + 2 * rule.clearance > stroke:
+        if w + 2 * MIN_CLEARANCE > stroke:
             continue
         closing = np.zeros(3)
         closing[axis] = 1.0

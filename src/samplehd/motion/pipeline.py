@@ -85,12 +85,16 @@ class PathRejected(PlanningError):
     Attributes:
         reason: countable key of the last failure (e.g. "no_feasible_grasp", "checker_failed").
         attempts: per attempt, its reason and message.
+        failed_episode: the frames of the last failed attempt (``success`` False), for inspection
+            only; never ground truth.
     """
 
-    def __init__(self, reason: str, message: str, attempts: list[dict[str, Any]]) -> None:
+    def __init__(self, reason: str, message: str, attempts: list[dict[str, Any]],
+                 failed_episode: Episode | None = None) -> None:
         super().__init__(message)
         self.reason = reason
         self.attempts = attempts
+        self.failed_episode = failed_episode
 
 
 def initial_state(model: mujoco.MjModel, data: mujoco.MjData, config: ControlConfig) -> RobotController:
@@ -115,14 +119,17 @@ def _facts(scene: Any) -> list[Any]:
     return out
 
 
-def _run_attempt(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, task: Task, rng: np.random.Generator,
-                 config: PathConfig, facts: list[Any], exclude: dict[int, set[int]],
-                 directions: dict[str, Any] | None) -> tuple[Rollout, Any]:
+def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, rng: np.random.Generator,
+                 config: PathConfig, facts: list[Any], directions: dict[str, Any] | None) -> Rollout:
     control = ControlConfig(physics_hz=config.physics_hz, control_hz=config.control_hz)
     ctrl = initial_state(model, data, control)
     robot = RobotInfo.from_model(model, data)
     bodies = SceneBodies(model, len(scene.objects))
-    ro = Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions)
+    return Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions)
+
+
+def _run_attempt(ro: Rollout, scene: Any, task: Task, config: PathConfig, exclude: dict[int, set[int]],
+                 directions: dict[str, Any] | None) -> Any:
     for i in task.objects:
         k = -1
         try:
@@ -135,8 +142,21 @@ def _run_attempt(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, task: T
             exc.object = i  # type: ignore[attr-defined]
             raise
     ro.finish()
-    result = check_success(model, data, scene, task, config.checker, LAYOUT, directions)
-    return ro, result
+    return check_success(ro.model, ro.data, scene, task, config.checker, LAYOUT, directions)
+
+
+def _episode(ro: Rollout, scene: Any, scene_index: int | None, instruction_index: int, family: str, seed: int,
+             success: bool, info: dict[str, Any]) -> Episode:
+    return Episode(
+        scene_index=int(scene.index if scene_index is None else scene_index),
+        instruction_index=int(instruction_index),
+        family=family,
+        seed=int(seed),
+        subtasks=tuple(ro.subtasks) or ("GripperMoveAvoid",),
+        frames=ro.recorder.frames(),
+        success=success,
+        info=info,
+    )
 
 
 def plan_and_execute(
@@ -189,12 +209,15 @@ def plan_and_execute(
     exclude: dict[int, set[int]] = {}
     attempts: list[dict[str, Any]] = []
     reason, message = "", ""
+    last: Rollout | None = None
     for attempt in range(config.max_attempts):
         mujoco.mj_copyData(data, model, start)
         sub = np.random.default_rng(rng.integers(2**63))
+        ro = _new_rollout(model, data, scene, sub, config, facts, directions)
         try:
-            ro, result = _run_attempt(model, data, scene, t, sub, config, facts, exclude, directions)
+            result = _run_attempt(ro, scene, t, config, exclude, directions)
         except AttemptFailed as exc:
+            last = ro
             reason, message = exc.reason, str(exc)
             attempts.append({"attempt": attempt, "reason": reason, "message": message})
             obj = getattr(exc, "object", -1)
@@ -205,11 +228,13 @@ def plan_and_execute(
             reason = "checker_failed" if not result.success else "knocked_over"
             message = result.reason or f"objects {list(result.fallen)} fell over"
             attempts.append({"attempt": attempt, "reason": reason, "message": message})
+            last = ro
             # Try another grasp of the first moved object next time.
             for g in ro.info["grasps"][:1]:
                 exclude.setdefault(int(g["object"]), set()).add(int(g["index"]))
             continue
         info = {
+            "scene": scene.to_dict(),
             "task": t.to_dict(),
             "attempts": attempt + 1,
             "failed_attempts": attempts,
@@ -218,14 +243,7 @@ def plan_and_execute(
             "physics_hz": config.physics_hz,
             **ro.info,
         }
-        return Episode(
-            scene_index=int(scene.index if scene_index is None else scene_index),
-            instruction_index=int(instruction_index),
-            family=family or t.family,
-            seed=int(seed),
-            subtasks=tuple(ro.subtasks),
-            frames=ro.recorder.frames(),
-            success=True,
-            info=info,
-        )
-    raise PathRejected(reason, f"instruction {instruction_index}: {message}", attempts)
+        return _episode(ro, scene, scene_index, instruction_index, family or t.family, seed, True, info)
+    failed = _episode(last, scene, scene_index, instruction_index, family or t.family, seed, False,
+                      {"task": t.to_dict(), "failed_attempts": attempts, **last.info})
+    raise PathRejected(reason, f"instruction {instruction_index}: {message}", attempts, failed)

@@ -69,6 +69,7 @@ class PlannerConfig:
         finger_clearance: fingertips above the table at the grasp [m].
         release_gap: object's bottom above its support at release [m].
         close_time: duration of CloseGripper [s].
+        squeeze_force: finger force once the pads touch the object [N].
         open_time: duration of OpenGripper [s].
         grasp_candidates: grasps tried per object (best first).
         spot_samples: candidate destinations sampled per object.
@@ -87,9 +88,10 @@ class PlannerConfig:
     joint_speed: float = 1.2
     max_tcp_speed: float = 0.22
     max_tcp_angular_speed: float = 0.9
-    finger_clearance: float = 0.003
+    finger_clearance: float = 0.0015
     release_gap: float = 0.006
-    close_time: float = 0.8
+    close_time: float = 1.0
+    squeeze_force: float = 35.0
     open_time: float = 0.5
     grasp_candidates: int = 8
     spot_samples: int = 400
@@ -181,8 +183,9 @@ def choose_grasps(
     """Feasible grasps of object ``i`` in the current state, best first, with their registry index.
 
     A grasp is feasible when the grasp and pre-grasp poses have an elbow-up IK solution, the
-    fingers (opened to the grasp's opening) touch nothing at the pre-grasp and nothing but the
-    object at the grasp, and the fingertips stay ``finger_clearance`` above the table.
+    fingers (opened to the grasp's opening) touch nothing, the object included, at either pose, and
+    the fingertips stay ``finger_clearance`` above the table (the grasp is raised a little where the
+    open fingers would press on the object).
     """
     t_obj = object_pose(data, bodies, i)
     sites = facts.graspable_sites if facts is not None else ()
@@ -191,6 +194,7 @@ def choose_grasps(
     cands = grasp_candidates(sites, np.asarray(bmin), np.asarray(bmax))
     feasible: list[tuple[float, int, GraspPlan]] = []
     min_tcp_z = layout.table_height + robot.finger_depth + config.finger_clearance
+    top_z = float(object_world_box(model, data, bodies, i).hi[2])
     for k, g in enumerate(cands):
         if k in exclude:
             continue
@@ -200,27 +204,35 @@ def choose_grasps(
             continue  # only top-down grasps: side approaches run the fingers into the table
         if tcp_w[2, 3] < min_tcp_z:
             tcp_w[2, 3] = min_tcp_z
-        pre_w = tcp_w.copy()
-        pre_w[:3, 3] -= config.approach_distance * app
-        tcp_b, pre_b = robot.world_to_base(tcp_w), robot.world_to_base(pre_w)
+        # Raise the grasp where the open fingers would press on the object (sloped rims), as long
+        # as the pads still reach 4 mm below the object's top.
+        max_tcp_z = top_z - 0.004 + robot.finger_depth
         best = None
-        for q_pre in ik_candidates(pre_b, seed_q)[:4]:
-            if not _elbow_up(q_pre):
-                continue
-            q_g = _ik_near(tcp_b, q_pre)
-            if q_g is None or np.max(np.abs(q_g - q_pre)) > 0.6:
-                continue
-            if not checker.free(q_pre, g.opening):
-                continue
-            if not checker.free(q_g, g.opening, allow_objects_with_gripper=(i,)):
-                continue
-            best = (q_pre, q_g)
-            break
+        for dz in np.arange(0.0, max(0.0, max_tcp_z - tcp_w[2, 3]) + 1e-9, 0.003)[:8]:
+            tcp_k = tcp_w.copy()
+            tcp_k[2, 3] += dz
+            pre_w = tcp_k.copy()
+            pre_w[:3, 3] -= config.approach_distance * app
+            tcp_b, pre_b = robot.world_to_base(tcp_k), robot.world_to_base(pre_w)
+            for q_pre in ik_candidates(pre_b, seed_q)[:4]:
+                if not _elbow_up(q_pre):
+                    continue
+                q_g = _ik_near(tcp_b, q_pre)
+                if q_g is None or np.max(np.abs(q_g - q_pre)) > 0.6:
+                    continue
+                if not checker.free(q_g, g.opening):
+                    break  # the same pose collides for every IK branch: try higher
+                if not checker.free(q_pre, g.opening):
+                    continue
+                best = (q_pre, q_g, tcp_b, pre_b)
+                break
+            if best is not None:
+                break
         if best is None:
             continue
         # Prefer the catalogue's order, then small wrist turns from the seed.
         cost = k * 0.05 + float(np.abs(best[0][5] - seed_q[5])) * 0.1 + float(np.sum(np.abs(best[0] - seed_q))) * 0.02
-        feasible.append((cost, k, GraspPlan(g, tcp_b, pre_b, best[1], best[0])))
+        feasible.append((cost, k, GraspPlan(g, best[2], best[3], best[1], best[0])))
         if len(feasible) >= config.grasp_candidates:
             break
     feasible.sort(key=lambda x: x[0])
@@ -270,8 +282,9 @@ def destination_candidates(
     layout: TableLayout = LAYOUT,
     directions: dict[str, Any] | None = None,
     ignore: tuple[int, ...] = (),
-) -> list[np.ndarray]:
-    """Candidate world (x, y) positions of object ``i``'s frame origin at release, best first.
+) -> list[tuple[np.ndarray, float]]:
+    """Candidate world (x, y) positions of object ``i``'s frame origin at release and turns about the
+    vertical [rad], best first.
 
     place/remove: free spots inside the destination part; place_relative: free spots past the
     reference object along the scene's direction; stack/put: the support's top or opening centre.
@@ -291,46 +304,51 @@ def destination_candidates(
         # Place the object's footprint centre (not its frame origin) on the target.
         _, rot_i, _ = _footprint(data, bodies, i, facts[i])
         fc = np.asarray(facts[i].footprint_center) if facts[i] is not None else bodies.local_box(i).center[:2]
-        return [target - rot_i @ fc]
-    c_i, rot_i, half_i = _footprint(data, bodies, i, facts[i])
-    offset = c_i - t_obj[:2, 3]  # footprint centre relative to the frame origin (kept on transport)
+        return [(target - rot_i @ fc, 0.0)]
+    c_i, rot_i0, half_i = _footprint(data, bodies, i, facts[i])
+    offset0 = c_i - t_obj[:2, 3]  # footprint centre relative to the frame origin (kept on transport)
     others = [k for k in range(bodies.num_objects) if k != i and k not in ignore]
     foot = {k: _footprint(data, bodies, k, facts[k]) for k in others}
     table_lo = -np.array(layout.table_size) / 2 + 0.03
     table_hi = np.array(layout.table_size) / 2 - 0.03
+    n = int(config.spot_samples)
+    # The object may turn about the vertical on the way (the wrist turns), which helps long objects fit.
+    yaws = rng.choice(np.array([0.0, 0.0, math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2]), size=n)
+    ref_origin = np.zeros(2)
     if task.family == "place_relative":
         ref = task.reference
         d = np.asarray((directions or DIRECTIONS)[task.direction], float)[:2]
         d /= np.linalg.norm(d)
         lateral = np.array([-d[1], d[0]])
         c_ref, rot_ref, half_ref = foot[ref]
-        # Extent of both footprints along d, so the rectangles end up side by side.
         ext_ref = abs(d @ rot_ref[:, 0]) * half_ref[0] + abs(d @ rot_ref[:, 1]) * half_ref[1]
-        ext_i = abs(d @ rot_i[:, 0]) * half_i[0] + abs(d @ rot_i[:, 1]) * half_i[1]
         ref_origin = object_pose(data, bodies, ref)[:2, 3]
-        base_dist = ext_ref + ext_i + config.spot_margin
-        dist = base_dist + rng.uniform(0.0, 0.15, config.spot_samples)
-        lat = rng.uniform(-0.08, 0.08, config.spot_samples)
-        centres = c_ref[None] + dist[:, None] * d[None] + lat[:, None] * lateral[None]
+        dist = rng.uniform(0.0, 0.15, n)
+        lat = rng.uniform(-0.08, 0.08, n)
         lo, hi = np.array(layout.workspace_min) - 0.05, np.array(layout.workspace_max) + 0.05
         need = config.relation_gap + 0.02
     else:
-        part = task.destination_part
-        lo, hi = layout.part_bounds(part)
+        lo, hi = layout.part_bounds(task.destination_part)
         lo, hi = lo + config.part_margin, hi - config.part_margin
-        centres = rng.uniform(lo, hi, size=(config.spot_samples, 2))
+        centres = rng.uniform(lo, hi, size=(n, 2))
         d = None
     scored = []
-    for c in centres:
-        origin = c - offset
+    for s in range(n):
+        cy, sy = math.cos(yaws[s]), math.sin(yaws[s])
+        rz = np.array([[cy, -sy], [sy, cy]])
+        rot_i = rz @ rot_i0
+        offset = rz @ offset0
         if d is not None:
-            if float((origin - ref_origin) @ d) < need:
-                continue
-            if np.any(origin < lo) or np.any(origin > hi):
-                continue
-        elif np.any(origin < lo) or np.any(origin > hi):
+            ext_i = abs(d @ rot_i[:, 0]) * half_i[0] + abs(d @ rot_i[:, 1]) * half_i[1]
+            c = c_ref + (ext_ref + ext_i + config.spot_margin + dist[s]) * d + lat[s] * lateral
+        else:
+            c = centres[s]
+        origin = c - offset
+        if d is not None and float((origin - ref_origin) @ d) < need:
             continue
-        r = float(np.max(np.abs(rot_i) @ half_i))
+        if np.any(origin < lo) or np.any(origin > hi):
+            continue
+        r = np.abs(rot_i) @ half_i
         if np.any(c - r < table_lo) or np.any(c + r > table_hi):
             continue
         if not layout.in_reach(origin):
@@ -344,16 +362,16 @@ def destination_candidates(
                 break
             gap = min(gap, float(np.linalg.norm(ck - c)))
         if clear:
-            # Prefer spots with room around them and close to the arm's comfortable reach.
+            # Prefer room around the spot, the arm's comfortable reach and no turn.
             reach = float(np.hypot(origin[0] - layout.robot_base[0], origin[1] - layout.robot_base[1]))
-            scored.append((-min(gap, 0.25) + 0.3 * abs(reach - 0.5), origin))
+            score = -min(gap, 0.25) + 0.3 * abs(reach - 0.5) + 0.05 * abs(yaws[s])
+            scored.append((score, origin, float(yaws[s])))
     scored.sort(key=lambda x: x[0])
-    # Keep a little randomness among the good ones.
-    best = [o for _, o in scored[:12]]
+    best = scored[:12]
     if len(best) > 1:
-        order = rng.permutation(len(best))
-        best = [best[j] for j in sorted(order[: min(6, len(best))])]
-    return best
+        order = sorted(rng.permutation(len(best))[: min(6, len(best))])
+        best = [best[j] for j in order]
+    return [(o, y) for _, o, y in best]
 
 
 def release_height(
