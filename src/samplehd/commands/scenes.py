@@ -20,6 +20,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px] (16:9 by default)")
     parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
+    parser.add_argument("--sheet", type=Path, help="also write a contact sheet (RGB | depth | segmentation) "
+                        "of up to 16 scenes to this PNG")
 
 
 def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
@@ -43,6 +45,26 @@ def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
     return SceneConfig.from_dict(doc.get("scene", {}), where=f"{path}: scene")
 
 
+def write_scene_sheet(directory: Path, path: Path, count: int = 16) -> None:
+    """Contact sheet of the first `count` scenes of a scenes directory: RGB | depth | segmentation."""
+    import numpy as np
+    from PIL import Image
+
+    from samplehd.render.contact_sheet import contact_sheet
+    from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
+
+    scenes = json.loads((directory / "scenes.json").read_text())["scenes"][:count]
+    tiles, labels = [], []
+    for s in scenes:
+        stem = s["image_filename"].removesuffix(".png")
+        rgb = np.asarray(Image.open(directory / "images" / s["image_filename"]).convert("RGB"))
+        depth = colorize_depth(read_depth(directory / "depth" / f"{stem}.npy"))
+        seg = colorize_segmentation(read_segmentation(directory / "segmentation" / f"{stem}.png"))
+        tiles.append(np.concatenate([rgb, depth, seg], axis=1))
+        labels.append(f"{s['image_index']}: " + ", ".join(f"{o['colour']} {o['name']}" for o in s["objects"]))
+    save_rgb(path, contact_sheet(tiles, columns=2, labels=labels, tile_width=840))
+
+
 def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
@@ -63,6 +85,9 @@ def run(args: argparse.Namespace) -> int:
         summary = generate_scenes(args.out, args.num, args.seed, config, args.width, args.height, args.preset,
                                   args.workers, on_scene=tick)
     dt = time.perf_counter() - t0
+    if args.sheet:
+        write_scene_sheet(args.out, args.sheet)
+        print(f"wrote {args.sheet}")
     print(f"wrote {args.num} scenes to {args.out} in {dt:.1f} s ({args.num / dt:.2f} scenes/s); "
           f"rejections: {summary['rejections']}")
     return 0

@@ -91,11 +91,29 @@ def colorize_segmentation(seg: np.ndarray) -> np.ndarray:
     return _PALETTE[np.asarray(seg) % len(_PALETTE)]
 
 
+_DEPTH_STOPS = np.array(
+    [[253, 231, 37], [94, 201, 98], [33, 145, 140], [59, 82, 139], [68, 1, 84], [10, 10, 20]], dtype=np.float64
+)
+
+
 def colorize_depth(depth: np.ndarray, near: float | None = None, far: float | None = None) -> np.ndarray:
-    """Grey-scale H×W×3 preview of depth: near is bright, far is dark (2nd–98th percentile by default)."""
-    d = np.asarray(depth, dtype=np.float64)
-    lo = float(np.nanpercentile(d, 2)) if near is None else near
-    hi = float(np.nanpercentile(d, 98)) if far is None else far
-    t = np.clip((d - lo) / max(hi - lo, 1e-6), 0.0, 1.0)
-    g = (255 * (1.0 - t) ** 0.8).astype(np.uint8)
-    return np.repeat(g[..., None], 3, axis=2)
+    """False-colour H×W×3 preview of depth: near is yellow, far is dark violet.
+
+    The colour follows the rank of each depth among the 1st–99th percentiles when `near`/`far` are not
+    given, so the table top and the objects on it get distinct colours instead of one flat shade.
+    """
+    d = np.nan_to_num(np.asarray(depth, dtype=np.float64), nan=np.inf)
+    finite = d[np.isfinite(d)]
+    if finite.size == 0:
+        return np.zeros((*d.shape, 3), dtype=np.uint8)
+    if near is None and far is None:
+        qs = np.percentile(finite, np.linspace(1, 99, 65))
+        t = np.interp(d, qs, np.linspace(0.0, 1.0, qs.size))
+    else:
+        lo = float(finite.min()) if near is None else near
+        hi = float(finite.max()) if far is None else far
+        t = np.clip((d - lo) / max(hi - lo, 1e-6), 0.0, 1.0)
+    x = t * (len(_DEPTH_STOPS) - 1)
+    i = np.clip(np.floor(x).astype(int), 0, len(_DEPTH_STOPS) - 2)
+    f = (x - i)[..., None]
+    return (_DEPTH_STOPS[i] * (1 - f) + _DEPTH_STOPS[i + 1] * f).astype(np.uint8)
