@@ -1,8 +1,8 @@
 """Preview images of catalogue objects, rendered offscreen with MuJoCo's classic renderer.
 
-A small studio scene: a neutral floor, a key light with shadows, a fill light and a free camera
-framed on the objects' bounding box. Used by ``samplehd assets preview`` and for the catalogue
-contact sheet in ``docs/images/catalogue.png``.
+A small studio scene: a neutral floor, a key light with shadows, a fill light and a camera framed
+on the objects' bounding box, rendered by :class:`samplehd.render.renderer.SceneRenderer`. Used
+by ``samplehd assets preview`` and for the contact sheet in ``docs/images/catalogue.png``.
 """
 
 from __future__ import annotations
@@ -20,6 +20,8 @@ from samplehd.catalogue.facts import _catalogue, object_facts
 from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.model import Catalogue
 from samplehd.errors import RenderError
+
+_FOVY = 45.0  # vertical field of view of the preview camera [deg]
 
 __all__ = [
     "PREFERRED_COLOUR",
@@ -62,9 +64,6 @@ def preview_spec(
     spec.visual.headlight.ambient = [0.3, 0.3, 0.3]
     spec.visual.headlight.diffuse = [0.25, 0.25, 0.25]
     spec.visual.headlight.specular = [0.1, 0.1, 0.1]
-    spec.visual.quality.shadowsize = 2048
-    spec.visual.global_.offwidth = 1024
-    spec.visual.global_.offheight = 1024
     floor_tex = spec.add_texture(
         name="floor_grid",
         type=mujoco.mjtTexture.mjTEXTURE_2D,
@@ -74,18 +73,9 @@ def preview_spec(
         width=256,
         height=256,
     )
-    spec.add_texture(
-        name="sky",
-        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
-        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-        rgb1=[0.95, 0.95, 0.97],
-        rgb2=[0.75, 0.76, 0.8],
-        width=64,
-        height=64,
-    )
-    floor_mat = spec.add_material(name="floor", texrepeat=[30, 30], reflectance=0.0)
+    floor_mat = spec.add_material(name="floor", texrepeat=[200, 200], reflectance=0.0)
     floor_mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = floor_tex.name
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[3, 3, 0.1], material="floor")
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[20, 20, 0.1], material="floor")
     facts = [object_facts(i, cat) for i in instances]
     c, s = math.cos(yaw), math.sin(yaw)
     rot = np.array([[c, -s], [s, c]])
@@ -140,24 +130,19 @@ def render_instances(
 
     Raises:
         RenderError: the offscreen GL context cannot be created or the size is invalid.
+
+    Rendering uses :class:`samplehd.render.renderer.SceneRenderer` with its ``hd`` preset
+    (shadows, 4x MSAA), so previews look like the dataset's images.
     """
     if not (16 <= width <= 1024 and 16 <= height <= 1024):
         raise RenderError(f"preview size {width}x{height} px is out of range; use 16..1024 per side")
     spec, lo, hi = preview_spec(instances, catalogue=catalogue)
     if elevation is None:
-        elevation = -30.0 if (hi[2] - lo[2]) > 0.12 * max(hi[0] - lo[0], (hi[1] - lo[1]) / len(instances)) else -55.0
-    model = spec.compile()
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    cam = mujoco.MjvCamera()
-    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+        flat = (hi[2] - lo[2]) <= 0.12 * max(hi[0] - lo[0], (hi[1] - lo[1]) / len(instances))
+        elevation = -55.0 if flat else -32.0
     center = 0.5 * (lo + hi)
-    cam.lookat[:] = center
-    cam.azimuth = azimuth
-    cam.elevation = elevation
     # Fit the bounding box: each corner must lie inside the horizontal and vertical field of view.
-    fovy = math.radians(model.vis.global_.fovy)
-    tan_y = math.tan(fovy / 2)
+    tan_y = math.tan(math.radians(_FOVY) / 2)
     tan_x = tan_y * width / height
     az, el = math.radians(azimuth), math.radians(elevation)
     forward = np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
@@ -166,21 +151,21 @@ def render_instances(
     up = np.cross(right, forward)
     corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
     rel = corners - center
-    need = max(
+    distance = 1.06 * max(
         float(np.max(np.abs(rel @ right) / tan_x - rel @ forward)),
         float(np.max(np.abs(rel @ up) / tan_y - rel @ forward)),
     )
-    cam.distance = 1.06 * need
-    try:
-        renderer = mujoco.Renderer(model, height=height, width=width)
-    except Exception as exc:  # the GL context can fail in many ways; report it on one line
-        raise RenderError(f"cannot create the offscreen renderer ({exc}); check MUJOCO_GL (egl or osmesa)") from None
-    try:
-        renderer.update_scene(data, camera=cam)
-        renderer.scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW] = True
-        return renderer.render().copy()
-    finally:
-        renderer.close()
+    quat = np.zeros(4)
+    # A MuJoCo camera looks along its -z axis with +y up.
+    mujoco.mju_mat2Quat(quat, np.column_stack([right, up, -forward]).ravel())
+    spec.worldbody.add_camera(name="preview", pos=list(center - distance * forward), quat=list(quat), fovy=_FOVY)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    from samplehd.render.renderer import SceneRenderer
+
+    with SceneRenderer(model, width, height, "hd") as renderer:
+        return renderer.render(data, "preview", ("rgb",))["rgb"]
 
 
 def _colour_for(cat: Catalogue, pairs: Sequence[tuple[str, str]], material: str) -> str | None:
