@@ -112,6 +112,9 @@ class FrameRecorder:
                gripper_command: float, steering: np.ndarray, safety_code: int = 0) -> int:
         """Append the current state with the command of this step; returns the grasped object."""
         d = self.data
+        # After mj_step, positions derived from qpos lag one step behind it; recompute them so the
+        # recorded poses are exactly those a replay of the recorded qpos produces.
+        mujoco.mj_kinematics(self.model, d)
         r = self.rows
         tcp_quat = np.empty(4)
         mujoco.mju_mat2Quat(tcp_quat, d.site_xmat[self.tcp_site])
