@@ -46,7 +46,7 @@ from samplehd.robot.constants import (
     TCP_OFFSET,
     VELOCITY_ACTUATORS,
 )
-from samplehd.robot.kinematics import fk_tcp, inverse_kinematics
+from samplehd.robot.kinematics import fk_tcp, ik_nearest_rows
 from samplehd.robot.safety import SafetyConfig, SafetyEvent, SafetyMonitor
 
 __all__ = ["ACTION_MODES", "ControlConfig", "ControlReport", "RobotController"]
@@ -147,25 +147,26 @@ class ControlReport:
     safety_event: SafetyEvent | None = None
 
 
-def _rotvec_matrix(rotvec: np.ndarray) -> np.ndarray:
-    """Rotation matrix of a rotation vector (Rodrigues) [rad]."""
-    angle = math.sqrt(float(rotvec @ rotvec))
-    if angle < 1e-12:
-        return np.eye(3)
-    k = rotvec / angle
-    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+def _as_index(indices: list[int]) -> slice | np.ndarray:
+    """A slice for consecutive indices, else an index array."""
+    if all(b == a + 1 for a, b in zip(indices, indices[1:])):  # noqa: B905
+        return slice(indices[0], indices[-1] + 1)
+    return np.asarray(indices)
 
 
-def _quat_matrix(q: np.ndarray) -> np.ndarray:
-    w, x, y, z = q
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-        ]
-    )
+def _rotvec_rows(rotvec: list[float]) -> list[list[float]]:
+    """Rotation matrix (rows) of a non-zero rotation vector (Rodrigues) [rad]."""
+    angle = math.sqrt(rotvec[0] ** 2 + rotvec[1] ** 2 + rotvec[2] ** 2)
+    if angle < 1e-15:
+        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    kx, ky, kz = rotvec[0] / angle, rotvec[1] / angle, rotvec[2] / angle
+    s, c = math.sin(angle), math.cos(angle)
+    t = 1.0 - c
+    return [
+        [c + t * kx * kx, t * kx * ky - s * kz, t * kx * kz + s * ky],
+        [t * kx * ky + s * kz, c + t * ky * ky, t * ky * kz - s * kx],
+        [t * kx * kz - s * ky, t * ky * kz + s * kx, c + t * kz * kz],
+    ]
 
 
 class RobotController:
@@ -194,19 +195,25 @@ class RobotController:
             )
         if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
             raise ConfigError(f"model has no body {ROBOT_BODY!r}; build the world with samplehd.robot.ur5e.add_robot")
-        self._qpos_idx = np.array([model.jnt_qposadr[model.joint(j).id] for j in JOINT_NAMES])
-        self._dof_idx = np.array([model.jnt_dofadr[model.joint(j).id] for j in JOINT_NAMES])
-        pos_ids = np.array([model.actuator(a).id for a in POSITION_ACTUATORS])
-        vel_ids = np.array([model.actuator(a).id for a in VELOCITY_ACTUATORS])
-        self._ctrl_idx = np.concatenate([pos_ids, vel_ids])
-        self._act_idx = model.actuator_actadr[pos_ids]
+        # Index sets are slices when contiguous (they are for add_robot's layout): slicing costs
+        # far less than fancy indexing in the per-step path.
+        self._qpos_idx = _as_index([model.jnt_qposadr[model.joint(j).id] for j in JOINT_NAMES])
+        self._dof_idx = _as_index([model.jnt_dofadr[model.joint(j).id] for j in JOINT_NAMES])
+        pos_ids = [model.actuator(a).id for a in POSITION_ACTUATORS]
+        vel_ids = [model.actuator(a).id for a in VELOCITY_ACTUATORS]
+        self._ctrl_idx = _as_index(pos_ids + vel_ids)
+        self._act_idx = _as_index(model.actuator_actadr[pos_ids].tolist())
         self._gripper_id = model.actuator(GRIPPER_ACTUATOR).id
         self._speed = SPEED_LIMITS * cfg.speed_scale
+        self._reach = self._speed * cfg.control_dt  # largest target move per control step [rad]
         self._limits = JOINT_LIMITS
+        self._limit_rows = JOINT_LIMITS.tolist()
         self._dt = cfg.control_dt
         self._chunk = cfg.substeps // cfg.safety_checks_per_step
         self.monitor = SafetyMonitor(model, cfg.safety) if cfg.safety is not None else None
         self._target = self.joint_positions()
+        # TCP pose of the target when it came from a Cartesian command (saves an FK per step).
+        self._target_pose: list[list[float]] | None = None
         self._stopped: SafetyEvent | None = None
         self._zero_ctrl = np.zeros(2 * NUM_JOINTS)
 
@@ -269,6 +276,7 @@ class RobotController:
     def _hold(self) -> None:
         q = self.data.qpos[self._qpos_idx]
         self._target = q.copy()
+        self._target_pose = None
         self.data.act[self._act_idx] = q
         self.data.ctrl[self._ctrl_idx] = self._zero_ctrl
 
@@ -301,6 +309,7 @@ class RobotController:
             clipped.append("gripper")
             gripper = min(1.0, max(-1.0, gripper))
         unreachable = False
+        pose = None
         if mode == "joint_position":
             target = a[:6]
         elif mode == "joint_delta":
@@ -311,55 +320,79 @@ class RobotController:
                 delta = np.clip(delta, -lim, lim)
             target = self._target + delta
         else:
-            target, unreachable, cart_clipped = self._cartesian_target(a, mode)
+            target, pose, unreachable, cart_clipped = self._cartesian_target(a, mode)
             clipped.extend(cart_clipped)
         lo, hi = self._limits[:, 0], self._limits[:, 1]
         if np.any(target < lo) or np.any(target > hi):
             clipped.append("joint_limits")
             target = np.clip(target, lo, hi)
         self._target = np.array(target, dtype=float)
+        self._target_pose = pose
         self._set_gripper(gripper)
         return ControlReport(time=float(self.data.time), clipped=tuple(clipped), unreachable=unreachable)
 
-    def _cartesian_target(self, a: np.ndarray, mode: str) -> tuple[np.ndarray, bool, list[str]]:
+    def _cartesian_target(
+        self, a: np.ndarray, mode: str
+    ) -> tuple[np.ndarray, list[list[float]] | None, bool, list[str]]:
+        """Joint target, its TCP pose rows, unreachable flag, clipped fields.
+
+        Small 3×3 algebra runs on Python floats: for single poses it is several times cheaper
+        than numpy, and this runs once per control step.
+        """
         clipped: list[str] = []
-        current = fk_tcp(self._target)
-        pose = np.eye(4)
         if mode == "cartesian_pose":
-            quat = a[3:7]
-            norm = float(np.linalg.norm(quat))
+            w, x, y, z = a[3:7].tolist()
+            norm = math.sqrt(w * w + x * x + y * y + z * z)
             if norm < 1e-9:
                 raise ActionError("cartesian_pose quaternion (action[3:7]) must be non-zero (w, x, y, z)")
-            pose[:3, :3] = _quat_matrix(quat / norm)
-            pose[:3, 3] = a[:3]
+            w, x, y, z = w / norm, x / norm, y / norm, z / norm
+            px, py, pz = a[:3].tolist()
+            rows = [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y), px],
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x), py],
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y), pz],
+            ]
         else:
+            current = self._target_pose
+            if current is None:
+                current = fk_tcp(self._target)[:3].tolist()
             if mode == "steering":
                 twist = a[:6]
                 if np.any(np.abs(twist) > 1.0):
                     clipped.append("steering")
                     twist = np.clip(twist, -1.0, 1.0)
-                lin = twist[:3] * (self.config.max_linear_speed * self._dt)
-                rot = twist[3:] * (self.config.max_angular_speed * self._dt)
+                lin = (twist[:3] * (self.config.max_linear_speed * self._dt)).tolist()
+                rot = (twist[3:] * (self.config.max_angular_speed * self._dt)).tolist()
             else:
-                lin, rot = a[:3], a[3:6]
+                lin, rot = a[:3].tolist(), a[3:6].tolist()
                 max_lin, max_rot = self.config.max_cartesian_delta
-                n_lin, n_rot = float(np.linalg.norm(lin)), float(np.linalg.norm(rot))
+                n_lin, n_rot = math.hypot(*lin), math.hypot(*rot)
                 if n_lin > max_lin:
-                    lin = lin * (max_lin / n_lin)
+                    lin = [v * (max_lin / n_lin) for v in lin]
                     clipped.append("cartesian_delta")
                 if n_rot > max_rot:
-                    rot = rot * (max_rot / n_rot)
+                    rot = [v * (max_rot / n_rot) for v in rot]
                     clipped.append("cartesian_delta")
             # Velocities are in the base frame; rotation is about the TCP.
-            pose[:3, :3] = _rotvec_matrix(rot) @ current[:3, :3]
-            pose[:3, 3] = current[:3, 3] + lin
-        try:
-            target = inverse_kinematics(pose, self._target, TCP_OFFSET, self._limits)
-        except UnreachableError:
+            rows = [[r[0], r[1], r[2], r[3] + d] for r, d in zip(current, lin)]  # noqa: B905
+            if any(rot):
+                rmat = _rotvec_rows(rot)
+                cols = [[r[j] for r in current] for j in range(3)]
+                for i in range(3):
+                    ri = rmat[i]
+                    for j in range(3):
+                        c = cols[j]
+                        rows[i][j] = ri[0] * c[0] + ri[1] * c[1] + ri[2] * c[2]
+        best = ik_nearest_rows(rows, self._target.tolist(), TCP_OFFSET, self._limit_rows)
+        if best is None:
             if self.config.raise_unreachable:
-                raise
-            return self._target.copy(), True, clipped
-        return target, False, clipped
+                p = rows
+                raise UnreachableError(
+                    f"TCP pose at ({p[0][3]:.3f}, {p[1][3]:.3f}, {p[2][3]:.3f}) m in the base frame is out of "
+                    "reach of the UR5e within its joint limits"
+                )
+            return self._target.copy(), self._target_pose, True, clipped
+        return np.array(best), rows, False, clipped
 
     # ------------------------------------------------------------------ stepping
     def advance(self) -> SafetyEvent | None:
@@ -369,30 +402,34 @@ class RobotController:
             The safety event that stopped the arm during this period, if any.
         """
         m, d = self.model, self.data
+        act = self._act_idx
+        pinned = False
         if self._stopped is None:
-            ramp = self._target - d.act[self._act_idx]
+            ramp = self._target - d.act[act]
             # Synchronised straight line in joint space: every joint's ramp is scaled by the same
             # factor, so the slowest joint (at its speed limit) sets the pace and all joints
             # arrive together, as a UR "movej" does. The target is reached this period when the
             # speed limits allow.
-            reach = self._speed * self._dt
-            fraction = min(1.0, float(np.min(reach / np.maximum(np.abs(ramp), 1e-300))))
+            slowest = float(np.max(np.abs(ramp) / self._reach))
+            fraction = 1.0 if slowest <= 1.0 else 1.0 / slowest
             velocity = ramp * (fraction / self._dt)
             d.ctrl[self._ctrl_idx] = np.concatenate([velocity, velocity])
+            pinned = fraction == 1.0
         event = None
         monitor = self.monitor
+        chunk = self._chunk
         for _ in range(self.config.safety_checks_per_step):
-            mujoco.mj_step(m, d, self._chunk)
+            mujoco.mj_step(m, d, chunk)
             if monitor is not None and self._stopped is None:
                 event = monitor.check(d)
                 if event is not None:
                     self._stopped = event
                     self._hold()
         if self._stopped is None:
-            # The ramp ends exactly at the target when it was reachable this period; pin it so
-            # rounding in MuJoCo's integration does not accumulate.
-            reached = np.abs(self._target - d.act[self._act_idx]) < 1e-9
-            d.act[self._act_idx[reached]] = self._target[reached]
+            if pinned:
+                # The ramp ended exactly at the target; pin it so that rounding in MuJoCo's
+                # integration of the ramp does not accumulate.
+                d.act[act] = self._target
             d.ctrl[self._ctrl_idx] = self._zero_ctrl
         return event
 

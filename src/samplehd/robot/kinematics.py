@@ -34,6 +34,7 @@ __all__ = [
     "ik_all",
     "ik_batch",
     "ik_flange",
+    "ik_nearest_rows",
     "ik_tcp",
     "inverse_kinematics",
     "pose_from_pos_quat",
@@ -44,6 +45,7 @@ __all__ = [
 _D1, _D4, _D5, _D6 = (float(DH_D[i]) for i in (0, 3, 4, 5))
 _A2, _A3 = float(DH_A[1]), float(DH_A[2])
 _TWO_PI = 2.0 * np.pi
+_LIMIT_ROWS: list[list[float]] = JOINT_LIMITS.tolist()
 # Below this |sin(q5)| the wrist is singular (axes 4 and 6 parallel); q2+q3+q4 then comes from the seed.
 _WRIST_SINGULAR = 1e-7
 # Tolerance on cosines slightly outside [-1, 1] caused by rounding at the workspace boundary.
@@ -458,13 +460,8 @@ def inverse_kinematics(
         raise KinematicsError("seed contains NaN or infinite values")
     rows = pose.tolist()
     _check_pose_rows(rows)
-    if tool_offset:
-        # Flange origin = tool point minus tool_offset along the approach (z) axis.
-        for row in rows[:3]:
-            row[3] -= tool_offset * row[2]
-    limit_rows = limits.tolist() if limits is JOINT_LIMITS else np.asarray(limits, dtype=float).tolist()
-    seed234 = seed_list[1] + seed_list[2] + seed_list[3]
-    best = _nearest_scalar(_ik_scalar(rows, seed234), seed_list, limit_rows)
+    limit_rows = _LIMIT_ROWS if limits is JOINT_LIMITS else np.asarray(limits, dtype=float).tolist()
+    best = ik_nearest_rows(rows, seed_list, tool_offset, limit_rows)
     if best is None:
         pos = pose[:3, 3]
         raise UnreachableError(
@@ -472,6 +469,27 @@ def inverse_kinematics(
             "of the UR5e within its joint limits"
         )
     return np.array(best)
+
+
+def ik_nearest_rows(
+    rows: list[list[float]], seed: list[float], tool_offset: float = 0.0, limits: list[list[float]] | None = None
+) -> list[float] | None:
+    """Unchecked fast path of :func:`inverse_kinematics` on plain lists (for per-step control).
+
+    Args:
+        rows: the first three rows of a valid pose (orthonormal rotation, finite) [m]; not modified.
+        seed: 6 finite joint angles [rad].
+        tool_offset: distance of the tool point from the flange along its z axis [m].
+        limits: 6 (lower, upper) pairs [rad]; default the UR5e limits.
+
+    Returns:
+        The solution nearest ``seed`` inside the limits, or None if there is none.
+    """
+    if tool_offset:
+        # Flange origin = tool point minus tool_offset along the approach (z) axis.
+        rows = [[r[0], r[1], r[2], r[3] - tool_offset * r[2]] for r in rows[:3]]
+    seed234 = seed[1] + seed[2] + seed[3]
+    return _nearest_scalar(_ik_scalar(rows, seed234), seed, _LIMIT_ROWS if limits is None else limits)
 
 
 def ik_flange(pose: np.ndarray, seed: np.ndarray) -> np.ndarray:

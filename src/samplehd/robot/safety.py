@@ -160,14 +160,18 @@ class SafetyMonitor:
                 object_bodies |= _descendants(m, b)
         body_class = np.where(robot_bodies, _ROBOT, np.where(object_bodies, _OBJECT, _OTHER))
         self._geom_class = body_class[m.geom_bodyid].astype(np.int8)
-        self._arm_dofs = np.array([m.jnt_dofadr[m.joint(j).id] for j in JOINT_NAMES])
+        dofs = [int(m.jnt_dofadr[m.joint(j).id]) for j in JOINT_NAMES]
+        contiguous = dofs == list(range(dofs[0], dofs[0] + len(dofs)))
+        self._arm_dofs = slice(dofs[0], dofs[-1] + 1) if contiguous else np.array(dofs)
         self._torque_limit = TORQUE_LIMITS * self.config.torque_ratio
         self._overload_since = np.full(len(JOINT_NAMES), np.nan)
+        self._overloaded = False
         self._force = np.zeros(6)
 
     def reset(self) -> None:
         """Forget accumulated overload timers (after the arm was reset)."""
         self._overload_since[:] = np.nan
+        self._overloaded = False
 
     def check(self, data: mujoco.MjData) -> SafetyEvent | None:
         """Return the first safety event in the current state of ``data``, or None."""
@@ -222,8 +226,10 @@ class SafetyMonitor:
         torque = np.abs(data.qfrc_actuator[self._arm_dofs])
         over = torque >= self._torque_limit
         if not over.any():
-            self._overload_since[:] = np.nan
+            if self._overloaded:
+                self.reset()
             return None
+        self._overloaded = True
         now = float(data.time)
         self._overload_since[~over] = np.nan
         start = np.where(over & np.isnan(self._overload_since), now, self._overload_since)
