@@ -4,12 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import mujoco  # noqa: E402  (after samplehd)
-import numpy as np  # noqa: E402
-
 import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
-from samplehd.robot.constants import ROBOT_BASE_QUAT  # noqa: E402
-from samplehd.robot.ur5e import add_robot  # noqa: E402
+
+# isort: split
+import mujoco
+import numpy as np
+
+from samplehd.robot.constants import ROBOT_BASE_QUAT
+from samplehd.robot.ur5e import add_robot
 
 BASE_POS = np.array([-0.40, 0.0, 0.75])
 TABLE_TOP = 0.75

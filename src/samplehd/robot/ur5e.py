@@ -214,19 +214,19 @@ def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal:
     g.cylinder("coupling", 0.038, 0.0, 0.012, dark)
     g.box("housing", (0.035, 0.068, 0.0375), (0.0, 0.0, 0.0495), dark)
     g.box("rail", (0.014, 0.062, 0.004), (0.0, 0.0, _HOUSING_BOTTOM - 0.002), metal, collide=False)
-    g.box("camera_housing", (0.01, 0.018, 0.012), (0.045, 0.0, 0.035), dark, collide=False)
+    g.box("camera_housing", (0.012, 0.018, 0.012), (0.047, 0.0, 0.072), dark, collide=False)
     g.set_mass(_GRIPPER_HOUSING_MASS + _COUPLING_MASS)
     gripper.add_site(name="tcp", pos=[0.0, 0.0, TCP_OFFSET], size=[0.005, 0, 0], rgba=[1, 0.3, 0.1, 0.0])
 
     # Wrist camera beside the housing, looking along the approach (+z) direction, tilted 12° towards
     # the fingertips so they are in view; image up points away from the gripper (+x).
-    tilt = math.radians(12.0)
+    tilt = math.radians(20.0)
     x_cam = np.array([0.0, 1.0, 0.0])
     z_cam = np.array([math.sin(tilt), 0.0, -math.cos(tilt)])
     y_cam = np.cross(z_cam, x_cam)
     quat = np.empty(4)
     mujoco.mju_mat2Quat(quat, np.column_stack([x_cam, y_cam, z_cam]).reshape(9))
-    gripper.add_camera(name="wrist", pos=[0.056, 0.0, 0.035], quat=quat, fovy=75.0)
+    gripper.add_camera(name="wrist", pos=[0.06, 0.0, 0.08], quat=quat, fovy=75.0)
 
     for side, sign, joint_name in (("left", -1.0, GRIPPER_FINGER_JOINTS[0]), ("right", 1.0, GRIPPER_FINGER_JOINTS[1])):
         finger = gripper.add_body(name=f"robot_{side}_finger", pos=[0.0, 0.0, _HOUSING_BOTTOM])
