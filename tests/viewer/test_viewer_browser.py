@@ -104,7 +104,7 @@ def _frame_number(browser: Any) -> int:
 
 
 def test_episode_player_advances_frames(browser: Any, viewer_url: str) -> None:
-    _open(browser, f"{viewer_url}#/episode/0")
+    _open(browser, f"{viewer_url}#/episode/s000000_00")
     _wait(browser, lambda b: b.find_elements(By.ID, "frame-label") and _frame_number(b) == 1)
     frame_image = browser.find_element(By.ID, "episode-frame")
     _wait(browser, lambda b: int(frame_image.get_attribute("naturalWidth") or 0) == 320)
@@ -133,7 +133,7 @@ def test_episode_player_advances_frames(browser: Any, viewer_url: str) -> None:
           return ink; });""")
     assert len(drawn) == 4 and min(drawn) > 500
     assert _console_errors(browser) == []
-    _open(browser, f"{viewer_url}#/episode/1")
+    _open(browser, f"{viewer_url}#/episode/s000000_01")
     _wait(browser, lambda b: "object_dropped" in b.find_element(By.ID, "verdict").text)
 
 

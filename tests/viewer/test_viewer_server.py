@@ -101,17 +101,18 @@ def test_scene_detail_images_and_raw_pixels(app: ViewerApp, fake_dataset: Path) 
 def test_instruction_and_episode_routes(app: ViewerApp) -> None:
     q = json.loads(app.handle("/api/instructions/1", {}).body)
     assert q["instruction"]["family"] == "stack" and q["scene"]["image_index"] == 0
-    assert q["episodes"][0]["episode"] == 1 and q["episodes"][0]["success"] is False
+    assert q["episodes"][0]["episode"] == "s000000_01" and q["episodes"][0]["success"] is False
     listing = json.loads(app.handle("/api/episodes", {"success": "failure"}).body)
-    assert [e["episode"] for e in listing["episodes"]] == [1]
-    detail = json.loads(app.handle("/api/episodes/0", {}).body)
+    assert [e["episode"] for e in listing["episodes"]] == ["s000000_01"]
+    detail = json.loads(app.handle("/api/episodes/s000000_00", {}).body)
     assert len(detail["series"]["steering"][0]) == 7
-    frame = app.handle("/api/episodes/0/frame/3", {"camera": "operator", "modality": "depth"})
+    frame = app.handle("/api/episodes/s000000_00/frame/3", {"camera": "operator", "modality": "depth"})
     assert frame.status == 200 and frame.body[:4] == b"\x89PNG"
-    jpeg = app.handle("/api/episodes/0/frame/3", {"format": "jpeg"})
+    jpeg = app.handle("/api/episodes/s000000_00/frame/3", {"format": "jpeg"})
     assert jpeg.content_type == "image/jpeg"
-    assert app.handle("/api/episodes/0/frame/999", {}).status == 404
-    assert app.handle("/api/episodes/77", {}).status == 404
+    assert app.handle("/api/episodes/s000000_00/frame/999", {}).status == 404
+    assert app.handle("/api/episodes/s000077_00", {}).status == 404
+    assert app.handle("/api/episodes/..%2f..", {}).status == 400
 
 
 def test_partial_dataset_gives_states_not_errors(tmp_path: Path) -> None:

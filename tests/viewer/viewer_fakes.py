@@ -111,19 +111,28 @@ class FakeEpisodeStore:
         return FileState("episodes", "ok")
 
     def summaries(self) -> list[dict[str, Any]]:
-        return [{"episode": k, "scene_index": q["image_index"], "instruction_index": q["instruction_index"],
+        return [{"episode": self.name(k), "scene_index": q["image_index"], "instruction_index": q["instruction_index"],
                  "instruction": q["instruction"], "family": q["family"], "success": k != 1,
                  "failure_reason": "" if k != 1 else "object_dropped", "num_frames": self.frames}
                 for k, q in enumerate(self.items)]
 
-    def version(self, k: int) -> int:
-        return 0
+    def name(self, k: int) -> str:
+        q = self.items[k]
+        return f"s{q['image_index']:06d}_{q['instruction_index']:02d}"
 
-    def detail(self, k: int) -> dict[str, Any]:
+    def _number(self, name: str) -> int:
         from samplehd.errors import DatasetError
 
-        if not 0 <= k < len(self.items):
-            raise DatasetError(f"episode {k}: not in the dataset")
+        for k in range(len(self.items)):
+            if self.name(k) == name:
+                return k
+        raise DatasetError(f"episode {name}: not in the dataset")
+
+    def version(self, name: str) -> int:
+        return 0
+
+    def detail(self, name: str) -> dict[str, Any]:
+        k = self._number(name)
         t = np.arange(self.frames) / 20.0
         sub = np.minimum((np.arange(self.frames) * len(self.subtask_names)) // self.frames, 7)
         segments, start = [], 0
@@ -147,11 +156,14 @@ class FakeEpisodeStore:
                            "safety_event": [0] * self.frames},
                 "layout": {"table_size": [1.0, 1.4], "robot_base": [-0.4, 0.0], "workspace_min": [-0.15, -0.4],
                            "workspace_max": [0.3, 0.4], "workspace_center": [0.075, 0.0], "band": 0.06},
+                "previous": self.name(k - 1) if k > 0 else None,
+                "next": self.name(k + 1) if k + 1 < len(self.items) else None,
                 "info": {"checker": {"success": k != 1}}}
 
-    def frame(self, k: int, t: int, camera: str, modality: str) -> np.ndarray:
+    def frame(self, name: str, t: int, camera: str, modality: str) -> np.ndarray:
         from samplehd.errors import DatasetError
 
+        k = self._number(name)
         if not 0 <= t < self.frames:
             raise DatasetError(f"episode {k}: frame {t} outside 0..{self.frames - 1}")
         if modality == "depth":

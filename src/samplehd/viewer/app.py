@@ -16,8 +16,8 @@ endpoint                                       answer
                                                ``X-Height``, ``X-Dtype`` headers)
 ``/api/instructions/<j>``                      instruction, its scene's objects, its episodes
 ``/api/episodes?family=&success=``             episode summaries
-``/api/episodes/<k>``                          per-frame series for the plots and timeline
-``/api/episodes/<k>/frame/<t>?camera=&``       one frame as PNG (``format=jpeg`` for JPEG)
+``/api/episodes/<name>``                       per-frame series for the plots and timeline
+``/api/episodes/<name>/frame/<t>?camera=&``    one frame as PNG (``format=jpeg`` for JPEG)
 ``modality=``
 ``/files/<path>``                              a raw file of the dataset (read-only)
 =============================================  ===============================================
@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import json
 import mimetypes
+import re
 import threading
 from collections import OrderedDict
 from collections.abc import Callable, Mapping
@@ -133,6 +134,9 @@ def _int(text: str, what: str) -> int:
         return int(text)
     except ValueError as exc:
         raise _BadRequest(f"{what} {text!r}: expected an integer") from exc
+
+
+_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")
 
 
 class _BadRequest(DatasetError):
@@ -340,7 +344,9 @@ class ViewerApp:
             return Response.json(_sanitise({"state": state.to_dict(), "episodes": episodes}))
         if store is None:
             raise DatasetError("this dataset holds no episodes")
-        k = _int(rest[0], "episode")
+        k = rest[0]
+        if not _NAME.fullmatch(k):
+            raise _BadRequest(f"episode {k!r}: expected a name like s000012_03")
         if len(rest) == 1:
             return Response.json(_sanitise(store.detail(k)))
         if len(rest) == 3 and rest[1] == "frame":

@@ -100,7 +100,7 @@ def open_dataset(root: Path) -> DatasetIndex:
     from samplehd.viewer.episodes import open_episode_store
 
     index = DatasetIndex(root)
-    index.episodes = open_episode_store(index.root)
+    index.episodes = open_episode_store(index.root, index.instructions)
     return index
 
 

@@ -59,7 +59,7 @@ async function route() {
     else if (page === "scene") await scenePage(Number(parts[1]));
     else if (page === "instruction") await instructionPage(Number(parts[1]));
     else if (page === "episodes") await episodeList(query);
-    else if (page === "episode") cleanup = await openPlayer(view, Number(parts[1]));
+    else if (page === "episode") cleanup = await openPlayer(view, parts[1]);
     else view.replaceChildren(el("p", {class: "error"}, `no page ${page}`));
   } catch (err) {
     const missing = err instanceof HttpError && (err.status === 404 || err.status === 503);

@@ -12,7 +12,7 @@ const STEERING_NAMES = ["vx", "vy", "vz", "wx", "wy", "wz", "grip"];
  * removes global listeners).
  */
 export async function openPlayer(root, k) {
-  const ep = await getJSON(`/api/episodes/${k}`);
+  const ep = await getJSON(`/api/episodes/${encodeURIComponent(k)}`);
   const s = ep.series;
   const frames = ep.num_frames;
   let scene = null;
@@ -58,11 +58,11 @@ export async function openPlayer(root, k) {
     modalityBox.append(b);
   }
   const controls = el("div", {class: "player-controls"},
-    button("⏮", "first frame (Home)", () => seek(0), "first"),
-    button("◀", "previous frame (←)", () => seek(state.frame - 1), "step-back"),
+    button("|◀◀", "first frame (Home)", () => seek(0), "first"),
+    button("◀|", "previous frame (←)", () => seek(state.frame - 1), "step-back"),
     playButton,
-    button("▶|", "next frame (→)", () => seek(state.frame + 1), "step"),
-    button("⏭", "last frame (End)", () => seek(frames - 1), "last"),
+    button("|▶", "next frame (→)", () => seek(state.frame + 1), "step"),
+    button("▶▶|", "last frame (End)", () => seek(frames - 1), "last"),
     speed, scrub, label);
   const info = el("div", {class: "panel", id: "frame-info"});
 
@@ -95,7 +95,8 @@ export async function openPlayer(root, k) {
       el("a", {href: `#/instruction/${ep.instruction_index}`}, `“${ep.instruction || `instruction ${ep.instruction_index}`}”`),
       el("a", {href: `#/scene/${ep.scene_index}`}, `scene ${ep.scene_index}`),
       el("span", {class: "muted"}, `${frames} frames at ${num(ep.control_hz, 0)} Hz`),
-      el("a", {href: `#/episode/${k - 1}`}, "‹ previous episode"), el("a", {href: `#/episode/${k + 1}`}, "next episode ›")),
+      ep.previous ? el("a", {href: `#/episode/${ep.previous}`}, "‹ previous episode") : null,
+      ep.next ? el("a", {href: `#/episode/${ep.next}`}, "next episode ›") : null),
     el("div", {class: "toolbar"}, cameraNames.length > 1 ? cameraSelect : null, cameraNames.length ? modalityBox : null),
     views, controls, info, el("h3", {}, "Subtasks"), timeline.root, legend, ...plots.map((p) => p.root),
     el("h3", {}, "Checker and generation report"), el("pre", {class: "json", id: "episode-info"}, JSON.stringify(ep.info, null, 1)));
@@ -120,7 +121,7 @@ export async function openPlayer(root, k) {
       el("span", {}, " · target ", objName(s.target_object[f])),
       el("span", {}, " · grasped ", objName(s.grasped_object[f])),
       el("span", {}, ` · gripper ${num(s.gripper_opening[f] * 1000, 1)} mm`),
-      s.safety_event[f] ? el("span", {class: "error"}, ` · safety event ${s.safety_event[f]}`) : null);
+      ...(s.safety_event[f] ? [el("span", {class: "error"}, ` · safety event ${s.safety_event[f]}`)] : []));
     timeline.setCursor(f);
     for (const p of plots) p.setCursor(f);
     drawTop(top, ep, scene, f);
