@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from samplehd.catalogue import GRIPPER_STROKE, ObjectInstance, object_facts
@@ -82,3 +83,11 @@ def test_package_docstring_example_runs() -> None:
     namespace: dict = {}
     exec(compile("\n".join(lines), "catalogue-doc", "exec"), namespace)
     assert namespace["model"].nbody == 2 and namespace["facts"].mass > 0
+
+
+def test_footprint_at_rotates_and_translates() -> None:
+    f = object_facts(ObjectInstance("knife", "chef", "metallic", "metal", "medium"))
+    poly = f.footprint_at(0.1, -0.2, np.pi / 2)  # blade along +x becomes along +y
+    assert poly[:, 1].max() - poly[:, 1].min() == pytest.approx(f.extents[0], abs=1e-6)
+    assert poly[:, 0].max() - poly[:, 0].min() == pytest.approx(f.extents[1], abs=1e-6)
+    assert poly.mean(axis=0)[0] == pytest.approx(0.1 - np.mean(np.asarray(f.footprint_polygon)[:, 1]), abs=1e-6)

@@ -143,18 +143,50 @@ def test_container_holds_a_small_object(cls: str, variant: str) -> None:
     assert _up(data.body("container").xquat) > 0.999
 
 
-def test_stack_plate_on_board_rests() -> None:
-    board = ObjectInstance("chopping_board", "rectangular", "brown", "wooden", "medium")
-    plate = ObjectInstance("plate", "dinner", "white", "ceramic", "small")
-    top = object_facts(board).top
+@pytest.mark.parametrize(
+    ("lower", "upper"),
+    [
+        (
+            ("chopping_board", "rectangular", "brown", "wooden", "medium"),
+            ("plate", "dinner", "white", "ceramic", "small"),
+        ),
+        (("plate", "dinner", "white", "ceramic", "medium"), ("plate", "dinner", "red", "plastic", "medium")),
+        (("plate", "dinner", "white", "ceramic", "large"), ("bowl", "round", "blue", "plastic", "medium")),
+        (("baking_tray", "rectangular", "black", "metal", "medium"), ("mug", "straight", "red", "ceramic", "medium")),
+        (("food_box", "flat", "red", "plastic", "medium"), ("soda_can", "standard", "red", "metal", "small")),
+    ],
+)
+def test_stacks_rest_on_the_top_surface(lower: tuple, upper: tuple) -> None:
+    low, up = ObjectInstance(*lower), ObjectInstance(*upper)
+    top = object_facts(low).top
+    assert top.flat and object_facts(low).affordances.stackable_on and object_facts(up).affordances.stackable
     spec = _world()
-    add_object(spec, board, "board")
-    add_object(spec, plate, "plate", pos=(0.0, 0.0, top.height + 0.005))
+    add_object(spec, low, "lower")
+    add_object(spec, up, "upper", pos=(top.center[0], top.center[1], top.height + 0.005))
     model = spec.compile()
     data = mujoco.MjData(model)
     mujoco.mj_step(model, data, 1000)
-    assert data.body("plate").xpos[2] == pytest.approx(top.height, abs=2e-3)
-    assert _up(data.body("plate").xquat) > 0.999
+    assert data.body("upper").xpos[2] == pytest.approx(top.height, abs=3e-3)
+    assert _up(data.body("upper").xquat) > 0.999 and _up(data.body("lower").xquat) > 0.999
+    assert np.abs(data.qvel).max() < 0.02
+
+
+@pytest.mark.slow
+def test_every_class_variant_size_and_material_rests_upright() -> None:
+    cat = load_catalogue()
+    for cls in cat.classes.values():
+        for v in cls.variants.values():
+            for size in v.menu.size:
+                for material in v.menu.material:
+                    colour = next(c for c, m in v.menu.pairs if m == material)
+                    spec = _world()
+                    add_object(spec, ObjectInstance(cls.name, v.name, colour, material, size), "o", pos=(0, 0, 0.01))
+                    model = spec.compile()
+                    data = mujoco.MjData(model)
+                    mujoco.mj_step(model, data, 1000)
+                    where = (cls.name, v.name, size, material)
+                    assert abs(data.qpos[2]) < 2e-3 and _up(data.qpos[3:7]) > 0.999, where
+                    assert np.abs(data.qvel).max() < 0.02, where
 
 
 def test_duplicate_body_name_is_an_error() -> None:

@@ -73,6 +73,21 @@ class ObjectFacts:
     friction: tuple[float, float, float]
     num_collision_pieces: int
 
+    def footprint_at(self, x: float, y: float, yaw: float) -> np.ndarray:
+        """The footprint polygon of the object placed at (x, y) with a rotation ``yaw`` about z.
+
+        Args:
+            x: world x of the object origin [m].
+            y: world y of the object origin [m].
+            yaw: rotation about the world z axis [rad].
+
+        Returns:
+            (n, 2) counter-clockwise polygon in world x, y [m].
+        """
+        c, s = np.cos(yaw), np.sin(yaw)
+        poly = np.asarray(self.footprint_polygon, dtype=np.float64)
+        return poly @ np.array([[c, s], [-s, c]]) + np.array([x, y])
+
     def to_dict(self) -> dict:
         """Return the facts as a JSON-ready dict (tuples become lists)."""
         from dataclasses import asdict
