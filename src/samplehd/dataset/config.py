@@ -1,0 +1,223 @@
+"""Configuration of dataset generation, its presets, and the seeds of every work unit.
+
+A config file is JSON with any of the sections below; unknown keys are errors naming the file and
+field::
+
+    {"num_scenes": 2000, "seed": 0, "target_episodes": 8360, "test_every": 20,
+     "scene": {...SceneConfig...}, "instructions": {"per_scene": 8, "balance": "templates",
+     "families": null}, "paths": {...PathConfig...}, "render": {"mode": "fast", "width": 640,
+     "height": 360, "cameras": ["scene"], "modalities": ["rgb", "depth", "segmentation"]}}
+
+Presets give every field; a config file overrides a preset, command-line flags override both.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from samplehd.dataset.render import RenderConfig
+from samplehd.errors import ConfigError
+from samplehd.scene.config import SceneConfig
+
+__all__ = [
+    "PRESETS",
+    "GenerateConfig",
+    "InstructionConfig",
+    "episode_seed",
+    "load_config",
+    "preset_config",
+]
+
+_BALANCE = ("templates", "families")
+
+
+@dataclass(frozen=True)
+class InstructionConfig:
+    """How instruction candidates are generated.
+
+    Attributes:
+        per_scene: instruction candidates per scene (fewer where a scene allows fewer); each gets a
+            ground-truth path attempt, and the failed ones are left out of the dataset.
+        balance: what comes out uniform: ``templates`` or ``families``.
+        families: only these task families (None: all of SAMPLE-HD's and samplehd's).
+    """
+
+    per_scene: int = 5
+    balance: str = "templates"
+    families: tuple[str, ...] | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.per_scene, int) or isinstance(self.per_scene, bool) or not 1 <= self.per_scene <= 99:
+            raise ConfigError(f"instructions.per_scene={self.per_scene!r}: must be an integer in 1..99")
+        if self.balance not in _BALANCE:
+            raise ConfigError(f"instructions.balance={self.balance!r}: valid: {', '.join(_BALANCE)}")
+        if self.families is not None and (not self.families or not all(isinstance(f, str) for f in self.families)):
+            raise ConfigError(f"instructions.families={self.families!r}: must be null or a non-empty list of names")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"per_scene": self.per_scene, "balance": self.balance,
+                "families": list(self.families) if self.families is not None else None}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], where: str = "instructions") -> InstructionConfig:
+        valid = {"per_scene", "balance", "families"}
+        unknown = sorted(set(d) - valid)
+        if unknown:
+            raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(sorted(valid))}")
+        kw = dict(d)
+        if kw.get("families") is not None:
+            kw["families"] = tuple(kw["families"])
+        return cls(**kw)
+
+
+def _path_config(d: Mapping[str, Any] | None = None) -> Any:
+    from samplehd.motion.pipeline import PathConfig
+
+    return PathConfig.from_dict(dict(d or {}))
+
+
+@dataclass(frozen=True)
+class GenerateConfig:
+    """Everything that decides a dataset's content (not how fast it is made).
+
+    Attributes:
+        num_scenes: scenes to sample.
+        seed: base seed; scene ``i`` and instruction slot ``k`` of it draw from seeds derived from
+            ``(seed, i)`` and ``(seed, i, k)`` alone, so the result does not depend on workers or backend.
+        target_episodes: stop once this many episodes succeeded, counting candidates in slot-major order
+            (every scene's first instruction, then every scene's second, ...); 0: keep every success.
+        test_every: every ``test_every``-th scene (and its instructions) is in the test split.
+        scene: scene sampler options.
+        instructions: instruction candidate options.
+        paths: ground-truth path options (``samplehd.motion.pipeline.PathConfig``).
+        render: images stored with each episode.
+    """
+
+    num_scenes: int = 4
+    seed: int = 0
+    target_episodes: int = 0
+    test_every: int = 20
+    scene: SceneConfig = field(default_factory=SceneConfig)
+    instructions: InstructionConfig = field(default_factory=InstructionConfig)
+    paths: Any = field(default_factory=_path_config)
+    render: RenderConfig = field(default_factory=RenderConfig)
+
+    def __post_init__(self) -> None:
+        for name, lo in (("num_scenes", 1), ("seed", 0), ("target_episodes", 0), ("test_every", 0)):
+            v = getattr(self, name)
+            if not isinstance(v, int) or isinstance(v, bool) or v < lo:
+                raise ConfigError(f"{name}={v!r}: must be an integer ≥ {lo}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "num_scenes": self.num_scenes,
+            "seed": self.seed,
+            "target_episodes": self.target_episodes,
+            "test_every": self.test_every,
+            "scene": self.scene.to_dict(),
+            "instructions": self.instructions.to_dict(),
+            "paths": self.paths.to_dict(),
+            "render": self.render.to_dict(),
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], where: str = "config", base: GenerateConfig | None = None
+                  ) -> GenerateConfig:
+        """Build from a mapping; missing keys come from ``base`` (default: the defaults).
+
+        Raises:
+            ConfigError: an unknown key or a bad value, naming ``where`` and the field.
+        """
+        if not isinstance(d, Mapping):
+            raise ConfigError(f"{where}: expected a JSON object")
+        base = base or cls()
+        valid = {"num_scenes", "seed", "target_episodes", "test_every", "scene", "instructions", "paths", "render"}
+        unknown = sorted(set(d) - valid)
+        if unknown:
+            raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(sorted(valid))}")
+        kw: dict[str, Any] = {}
+        for k in ("num_scenes", "seed", "target_episodes", "test_every"):
+            if k in d:
+                kw[k] = d[k]
+        sections = {
+            "scene": lambda s: SceneConfig.from_dict({**base.scene.to_dict(), **s}, where=f"{where}: scene"),
+            "instructions": lambda s: InstructionConfig.from_dict({**base.instructions.to_dict(), **s},
+                                                                  where=f"{where}: instructions"),
+            "paths": lambda s: _path_config({**base.paths.to_dict(), **s}),
+            "render": lambda s: RenderConfig.from_dict({**base.render.to_dict(), **s}, where=f"{where}: render"),
+        }
+        for k, make in sections.items():
+            if k in d:
+                if not isinstance(d[k], Mapping):
+                    raise ConfigError(f"{where}: {k}: expected a JSON object")
+                try:
+                    kw[k] = make(d[k])
+                except ConfigError as exc:
+                    msg = str(exc)
+                    raise ConfigError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+        try:
+            return replace(base, **kw)
+        except ConfigError as exc:
+            raise ConfigError(f"{where}: {exc}") from None
+
+
+PRESETS: dict[str, dict[str, Any]] = {
+    # A minute on two cores: 4 small scenes, 2 candidates each, small images.
+    "tiny": {
+        "num_scenes": 4,
+        "scene": {"min_objects": 3, "max_objects": 3},
+        "instructions": {"per_scene": 2},
+        "render": {"mode": "fast", "width": 128, "height": 72},
+        "test_every": 4,
+    },
+    "small": {
+        "num_scenes": 40,
+        "instructions": {"per_scene": 4},
+        "render": {"mode": "fast", "width": 320, "height": 180},
+    },
+    # SAMPLE-HD's shape: 2000 scenes of 3-5 objects, >= 8360 successful instructions, 16:9 images.
+    "sample-hd": {
+        "num_scenes": 2000,
+        "target_episodes": 8360,
+        "scene": {"min_objects": 3, "max_objects": 5},
+        "instructions": {"per_scene": 10},
+        "render": {"mode": "fast", "width": 640, "height": 360},
+    },
+}
+
+
+def preset_config(name: str) -> GenerateConfig:
+    """The config of a preset; raises ConfigError listing the valid names."""
+    if name not in PRESETS:
+        raise ConfigError(f"unknown preset {name!r}; valid: {', '.join(PRESETS)}")
+    return GenerateConfig.from_dict(PRESETS[name], where=f"preset {name}")
+
+
+def load_config(path: Path | None, base: GenerateConfig) -> GenerateConfig:
+    """Apply a JSON config file to ``base``; errors name the file and field."""
+    if path is None:
+        return base
+    try:
+        doc = json.loads(Path(path).read_text())
+    except OSError as exc:
+        raise ConfigError(f"--config {path}: cannot read ({exc.strerror})") from None
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"--config {path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    return GenerateConfig.from_dict(doc, where=str(path), base=base)
+
+
+def episode_seed(base_seed: int, scene_index: int, slot: int) -> int:
+    """The seed of instruction slot ``slot`` of scene ``scene_index`` (independent of everything else)."""
+    ss = np.random.SeedSequence([int(base_seed), 1, int(scene_index), int(slot)])
+    return int(ss.generate_state(1, np.uint32)[0])
+
+
+def candidate_order(keys: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Candidates (scene, slot) in slot-major order: the order ``target_episodes`` counts in."""
+    return sorted(keys, key=lambda k: (k[1], k[0]))

@@ -1,0 +1,274 @@
+"""One episode per HDF5 file: per-frame records, physics states and (optionally) images.
+
+Layout of ``episodes/s{scene:06d}_{slot:02d}.h5``::
+
+    /                       attrs: format_version, scene_index, slot, instruction_index, family, seed,
+                                   success, num_frames, subtasks (JSON list), info (JSON), instruction
+                                   (text), task (JSON)
+    /frames/<field>         one dataset per :data:`samplehd.record.episode.FRAME_FIELDS` entry, shape
+                            (T, ...) with the field's dtype, gzip + shuffle (lossless, bit-exact)
+    /images                 attrs: render (JSON: preset, width, height, cameras, modalities)
+    /images/<cam>/rgb       (T, H, W, 3) uint8, lossless gzip, one chunk per frame
+    /images/<cam>/depth     (T, H, W) float32 metres, exact; gzip + shuffle, one chunk per frame
+    /images/<cam>/segmentation  (T, H, W) uint8 (uint16 when ids exceed 255) instance ids; gzip,
+                            one chunk per frame
+
+Files are written under a temporary name (``.NAME.tmp-PID``) in the same directory, flushed, then
+renamed over the final name, so a reader never sees a half-written episode and a killed writer
+leaves only a temporary file behind. Every image access is per frame (one chunk or one PNG).
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import json
+import os
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from samplehd.dataset.layout import FORMAT_VERSION, tmp_path
+from samplehd.errors import DatasetError
+from samplehd.record.episode import FRAME_FIELDS, Episode
+
+__all__ = [
+    "EpisodeFile",
+    "FrameImages",
+    "episode_attrs",
+    "file_digest",
+    "read_episode",
+    "read_frames",
+    "write_episode",
+    "write_error",
+]
+
+_GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+_DISK_FULL = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
+
+
+@dataclass(frozen=True)
+class EpisodeFile:
+    """What the writer reports about one written episode file.
+
+    Attributes:
+        name: file name inside ``episodes/``.
+        num_frames: frames in the episode.
+        size: file size [bytes].
+        sha256: hex digest of the file.
+    """
+
+    name: str
+    num_frames: int
+    size: int
+    sha256: str
+
+
+def file_digest(path: Path) -> str:
+    """SHA-256 of a file, read in 1 MiB blocks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def write_error(path: Path, exc: BaseException) -> DatasetError:
+    """A one-line DatasetError for a failed write, naming disk-full and permission problems."""
+    err = getattr(exc, "errno", None)
+    text = str(exc)
+    if err in _DISK_FULL or "No space left" in text or "File too large" in text or "errno = 28" in text:
+        return DatasetError(f"{path}: cannot write: the disk is full (no space left on device); free space "
+                            f"and run again with --resume")
+    if err in (errno.EACCES, errno.EPERM, errno.EROFS) or "Permission denied" in text:
+        return DatasetError(f"{path}: cannot write: permission denied; choose a writable --out")
+    return DatasetError(f"{path}: cannot write: {getattr(exc, 'strerror', None) or text}")
+
+
+def _write_images(group: h5py.Group, images: Mapping[str, Mapping[str, np.ndarray]]) -> None:
+    for cam, mods in images.items():
+        g = group.require_group(cam)
+        for mod, arr in mods.items():
+            arr = np.asarray(arr)
+            if mod == "rgb":
+                g.create_dataset(mod, data=arr.astype(np.uint8), chunks=(1, *arr.shape[1:]),
+                                 compression="gzip", compression_opts=4)
+            elif mod == "depth":
+                g.create_dataset(mod, data=arr.astype(np.float32), chunks=(1, *arr.shape[1:]), **_GZIP)
+            elif mod == "segmentation":
+                dtype = np.uint8 if arr.size == 0 or int(arr.max()) < 256 else np.uint16
+                if arr.size and int(arr.min()) < 0:
+                    raise DatasetError(f"segmentation of camera {cam!r} has negative ids")
+                g.create_dataset(mod, data=arr.astype(dtype), chunks=(1, *arr.shape[1:]),
+                                 compression="gzip", compression_opts=4)
+            else:
+                raise DatasetError(f"unknown image modality {mod!r}; valid: rgb, depth, segmentation")
+
+
+def episode_attrs(episode: Episode, extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """The root attributes of an episode file."""
+    attrs: dict[str, Any] = {
+        "format_version": FORMAT_VERSION,
+        "scene_index": episode.scene_index,
+        "instruction_index": episode.instruction_index,
+        "family": episode.family,
+        "seed": episode.seed,
+        "success": bool(episode.success),
+        "num_frames": episode.num_frames,
+        "subtasks": json.dumps(list(episode.subtasks)),
+        "info": json.dumps(episode.info, sort_keys=True),
+    }
+    for k, v in (extra or {}).items():
+        attrs[k] = v if isinstance(v, (str, int, float, bool)) else json.dumps(v, sort_keys=True)
+    return attrs
+
+
+def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None = None,
+                  render: Mapping[str, Any] | None = None) -> EpisodeFile:
+    """Write ``episode`` atomically to ``path`` (temporary name, flush, rename).
+
+    Args:
+        path: the final file path.
+        episode: the episode; its ``images`` (if any) are stored under ``/images``.
+        extra: more root attributes (slot, instruction text, task); non-scalars are stored as JSON.
+        render: the render settings that produced the images (stored as ``/images`` attrs).
+
+    Returns:
+        Name, frame count, size and SHA-256 of the written file.
+
+    Raises:
+        DatasetError: the file cannot be written (disk full, permission denied, ...), one line.
+    """
+    path = Path(path)
+    tmp = tmp_path(path)
+    try:
+        with h5py.File(tmp, "w", track_order=True) as f:
+            for k, v in episode_attrs(episode, extra).items():
+                f.attrs[k] = v
+            frames = f.create_group("frames")
+            for key, (_, dtype) in FRAME_FIELDS.items():
+                arr = np.asarray(episode.frames[key], dtype=dtype)
+                frames.create_dataset(key, data=arr, **(_GZIP if arr.size > 64 else {}))
+            if episode.images:
+                g = f.create_group("images")
+                g.attrs["render"] = json.dumps(dict(render or {}), sort_keys=True)
+                _write_images(g, episode.images)
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        digest = file_digest(tmp)
+        size = tmp.stat().st_size
+        os.replace(tmp, path)
+    except (OSError, RuntimeError, ValueError) as exc:
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        raise write_error(path, exc) from None
+    return EpisodeFile(path.name, episode.num_frames, size, digest)
+
+
+class FrameImages:
+    """Lazy, per-frame access to one image stream of an episode file.
+
+    Indexing with an integer reads and decodes one frame; a slice or ``np.asarray`` reads several.
+    The file is opened per access, so no handle is held between reads.
+
+    Args:
+        path: the episode file.
+        key: dataset path inside the file, e.g. ``images/scene/rgb``.
+    """
+
+    def __init__(self, path: Path, key: str) -> None:
+        self.path = Path(path)
+        self.key = key
+        with h5py.File(self.path, "r") as f:
+            ds = f[key]
+            self._len = int(ds.shape[0])
+            self.shape = tuple(int(v) for v in ds.shape)
+            self.dtype = ds.dtype
+
+    def __len__(self) -> int:
+        return self._len
+
+    def __getitem__(self, index: int | slice) -> np.ndarray:
+        if not isinstance(index, slice):
+            t = int(index)
+            t += self._len if t < 0 else 0
+            if not 0 <= t < self._len:
+                raise IndexError(f"frame {index} outside 0..{self._len - 1}")
+            index = t
+        try:
+            with h5py.File(self.path, "r") as f:
+                return f[self.key][index]
+        except (OSError, KeyError, RuntimeError) as exc:
+            raise DatasetError(f"{self.path}: cannot read {self.key}[{index}]: {exc}") from None
+
+    def __array__(self, dtype: Any = None, copy: Any = None) -> np.ndarray:
+        arr = self[:]
+        return arr if dtype is None else arr.astype(dtype)
+
+    def __repr__(self) -> str:
+        return f"FrameImages({self.path.name}:{self.key}, shape={self.shape}, dtype={self.dtype})"
+
+
+def _open(path: Path) -> h5py.File:
+    try:
+        return h5py.File(path, "r")
+    except FileNotFoundError:
+        raise DatasetError(f"{path}: episode file is missing") from None
+    except OSError as exc:
+        raise DatasetError(f"{path}: not a readable HDF5 episode file (truncated or corrupted): {exc}") from None
+
+
+def read_frames(path: Path, fields: Iterable[str] | None = None) -> dict[str, np.ndarray]:
+    """Read some (default: all) frame fields of an episode file."""
+    with _open(path) as f:
+        try:
+            return {k: f["frames"][k][()] for k in (fields or FRAME_FIELDS)}
+        except (KeyError, OSError, RuntimeError) as exc:
+            raise DatasetError(f"{path}: cannot read frames: {exc}") from None
+
+
+def read_episode(path: Path, images: str = "lazy", instruction_index: int | None = None) -> Episode:
+    """Read an episode file.
+
+    Args:
+        path: the episode file.
+        images: ``"lazy"`` (per-frame :class:`FrameImages`), ``"load"`` (decoded arrays) or ``"none"``.
+        instruction_index: override the stored instruction index (the dataset's final numbering).
+
+    Raises:
+        DatasetError: the file is missing, truncated or corrupted (one line).
+    """
+    path = Path(path)
+    if images not in ("lazy", "load", "none"):
+        raise DatasetError(f"images={images!r}: valid: lazy, load, none")
+    with _open(path) as f:
+        try:
+            a = f.attrs
+            frames = {k: f["frames"][k][()] for k in FRAME_FIELDS}
+            keys = []
+            if images != "none" and "images" in f:
+                for cam in f["images"]:
+                    for mod in f["images"][cam]:
+                        keys.append((cam, mod))
+            meta = {
+                "scene_index": int(a["scene_index"]),
+                "instruction_index": int(a["instruction_index"] if instruction_index is None else instruction_index),
+                "family": str(a["family"]),
+                "seed": int(a["seed"]),
+                "subtasks": tuple(json.loads(a["subtasks"])),
+                "success": bool(a["success"]),
+                "info": json.loads(a["info"]),
+            }
+        except (KeyError, OSError, RuntimeError, ValueError) as exc:
+            raise DatasetError(f"{path}: corrupted episode file: {exc}") from None
+    imgs: dict[str, dict[str, Any]] = {}
+    for cam, mod in keys:
+        lazy = FrameImages(path, f"images/{cam}/{mod}")
+        imgs.setdefault(cam, {})[mod] = lazy if images == "lazy" else np.asarray(lazy)
+    return Episode(frames=frames, images=imgs, **meta)

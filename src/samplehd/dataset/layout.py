@@ -1,0 +1,67 @@
+"""Names and path templates of a samplehd dataset directory (see docs/FORMAT.md).
+
+Every file name a writer or reader uses comes from here, so the layout is defined in one place.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+__all__ = [
+    "CANDIDATES_FILE",
+    "EPISODE_DIR",
+    "EPISODE_SUFFIX",
+    "FORMAT_VERSION",
+    "INFO_FILE",
+    "INSTRUCTIONS_FILE",
+    "JOURNAL_FILE",
+    "RUNS_FILE",
+    "SCENES_FILE",
+    "SCENE_DIR",
+    "TMP_MARK",
+    "episode_name",
+    "is_temporary",
+    "parse_episode_name",
+    "tmp_path",
+]
+
+FORMAT_VERSION = "1.0"
+
+INFO_FILE = "info.json"
+SCENES_FILE = "scenes.json"
+INSTRUCTIONS_FILE = "instructions.json"
+CANDIDATES_FILE = "candidates.json"
+JOURNAL_FILE = "journal.jsonl"
+RUNS_FILE = "runs.jsonl"
+SCENE_DIR = "scenes"
+EPISODE_DIR = "episodes"
+EPISODE_SUFFIX = ".h5"
+# Temporary files start with a dot and contain this mark; readers skip them.
+TMP_MARK = ".tmp-"
+
+
+def episode_name(scene_index: int, slot: int) -> str:
+    """File name of the episode of instruction slot ``slot`` of scene ``scene_index``."""
+    return f"s{scene_index:06d}_{slot:02d}{EPISODE_SUFFIX}"
+
+
+def parse_episode_name(name: str) -> tuple[int, int] | None:
+    """(scene index, slot) of an episode file name, or None for anything else."""
+    if not name.endswith(EPISODE_SUFFIX) or name.startswith(".") or not name.startswith("s"):
+        return None
+    stem = name[1 : -len(EPISODE_SUFFIX)]
+    scene, sep, slot = stem.partition("_")
+    if not sep or not scene.isdigit() or not slot.isdigit():
+        return None
+    return int(scene), int(slot)
+
+
+def tmp_path(path: Path) -> Path:
+    """A temporary name next to ``path`` (same file system, so a rename is atomic)."""
+    return path.with_name(f".{path.name}{TMP_MARK}{os.getpid()}")
+
+
+def is_temporary(name: str) -> bool:
+    """Whether a file name is a writer's temporary file."""
+    return name.startswith(".") and TMP_MARK in name

@@ -1,0 +1,219 @@
+"""Read a samplehd dataset directory: metadata, scenes, instructions and episodes.
+
+Example:
+    >>> reader = DatasetReader("outputs/demo/dataset")  # doctest: +SKIP
+    >>> ep = reader.episode(0)                           # doctest: +SKIP
+    >>> ep.frames["joint_pos"].shape, ep.images["scene"]["rgb"][10].shape  # doctest: +SKIP
+    ((309, 6), (180, 320, 3))
+
+The reader also works on a dataset that is still being generated: it then lists the episode files
+written so far (skipping temporary files) and the instruction candidates they belong to.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from samplehd.dataset.layout import (
+    CANDIDATES_FILE,
+    EPISODE_DIR,
+    INFO_FILE,
+    INSTRUCTIONS_FILE,
+    SCENE_DIR,
+    SCENES_FILE,
+    is_temporary,
+    parse_episode_name,
+)
+from samplehd.errors import DatasetError
+from samplehd.record.episode import Episode
+
+__all__ = ["DatasetReader", "EpisodeEntry"]
+
+
+@dataclass(frozen=True)
+class EpisodeEntry:
+    """One episode of a dataset, as listed in ``info.json``.
+
+    Attributes:
+        instruction_index: index into ``instructions.json`` (the dataset's numbering of episodes).
+        scene_index: index into ``scenes.json``.
+        slot: the instruction's position among its scene's candidates.
+        file: path of the episode file relative to the dataset root.
+        seed: seed of the episode's randomness.
+        family: task family.
+        split: train or test.
+        num_frames: frames in the episode (-1 when unknown: dataset still being written).
+        size: file size [bytes] (-1 when unknown).
+        sha256: file digest ("" when unknown).
+    """
+
+    instruction_index: int
+    scene_index: int
+    slot: int
+    file: str
+    seed: int
+    family: str
+    split: str
+    num_frames: int = -1
+    size: int = -1
+    sha256: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return dict(self.__dict__)
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> EpisodeEntry:
+        return cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        raise DatasetError(f"{path}: missing") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{path}: cannot read: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise DatasetError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
+
+
+class DatasetReader:
+    """Read access to a dataset directory written by ``samplehd generate``.
+
+    Attributes:
+        root: the dataset directory.
+        info: ``info.json`` (empty-ish with ``status: "in_progress"`` while generation runs).
+        complete: whether generation finished (``info.json`` lists the episodes).
+
+    Args:
+        path: the dataset directory.
+
+    Raises:
+        DatasetError: ``path`` is not a dataset directory.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.root = Path(path)
+        if not self.root.is_dir():
+            raise DatasetError(f"{self.root}: not a dataset directory (does not exist)")
+        info_path = self.root / INFO_FILE
+        if not info_path.exists():
+            raise DatasetError(f"{self.root}: not a samplehd dataset ({INFO_FILE} is missing)")
+        self.info: dict[str, Any] = _read_json(info_path)
+        self.complete = self.info.get("status") == "complete"
+        self._scenes: list[dict[str, Any]] | None = None
+        self._instructions: list[dict[str, Any]] | None = None
+        self._episodes: list[EpisodeEntry] | None = None
+
+    # --- metadata -------------------------------------------------------------------------------
+    @property
+    def config(self) -> dict[str, Any]:
+        """The resolved generation config."""
+        return dict(self.info.get("config", {}))
+
+    @property
+    def scenes(self) -> list[dict[str, Any]]:
+        """Scene annotations (CLEVR layout), sorted by ``image_index``."""
+        if self._scenes is None:
+            path = self.root / SCENES_FILE
+            if path.exists():
+                self._scenes = list(_read_json(path)["scenes"])
+            else:
+                found = []
+                for p in sorted((self.root / SCENE_DIR).glob("*.json")):
+                    if not is_temporary(p.name):
+                        try:
+                            found.append(_read_json(p))
+                        except DatasetError:
+                            continue  # being written
+                self._scenes = sorted(found, key=lambda s: s["image_index"])
+        return self._scenes
+
+    def scene(self, index: int) -> dict[str, Any]:
+        """The scene with ``image_index == index``."""
+        for s in self.scenes:
+            if s["image_index"] == index:
+                return s
+        raise DatasetError(f"{self.root}: no scene {index}")
+
+    @property
+    def instructions(self) -> list[dict[str, Any]]:
+        """Instructions with episodes, in ``instruction_index`` order (CLEVR question-file entries)."""
+        if self._instructions is None:
+            if self.complete:
+                self._instructions = list(_read_json(self.root / INSTRUCTIONS_FILE)["instructions"])
+            else:
+                by_key = {(c["image_index"], c["slot"]): c for c in self._candidates()}
+                self._instructions = []
+                for e in self.episodes:
+                    entry = dict(by_key.get((e.scene_index, e.slot), {}))
+                    entry["instruction_index"] = e.instruction_index
+                    self._instructions.append(entry)
+        return self._instructions
+
+    def _candidates(self) -> list[dict[str, Any]]:
+        path = self.root / CANDIDATES_FILE
+        return list(_read_json(path)["instructions"]) if path.exists() else []
+
+    @property
+    def episodes(self) -> list[EpisodeEntry]:
+        """Every episode, in ``instruction_index`` order."""
+        if self._episodes is None:
+            if self.complete:
+                self._episodes = [EpisodeEntry.from_dict(e) for e in self.info.get("episodes", [])]
+            else:
+                self._episodes = self._scan_episodes()
+        return self._episodes
+
+    def _scan_episodes(self) -> list[EpisodeEntry]:
+        cands = {(c["image_index"], c["slot"]): c for c in self._candidates()}
+        keys = []
+        folder = self.root / EPISODE_DIR
+        for p in sorted(folder.iterdir()) if folder.is_dir() else []:
+            key = parse_episode_name(p.name)
+            if key is not None and not is_temporary(p.name):
+                keys.append((key, p))
+        out = []
+        for i, ((scene, slot), p) in enumerate(sorted(keys)):
+            c = cands.get((scene, slot), {})
+            out.append(EpisodeEntry(i, scene, slot, f"{EPISODE_DIR}/{p.name}", int(c.get("seed", -1)),
+                                    str(c.get("family", "")), str(c.get("split", ""))))
+        return out
+
+    def __len__(self) -> int:
+        return len(self.episodes)
+
+    def __iter__(self) -> Iterator[Episode]:
+        for i in range(len(self)):
+            yield self.episode(i)
+
+    # --- episodes -------------------------------------------------------------------------------
+    def episode_path(self, index: int) -> Path:
+        """Path of episode ``index``'s file."""
+        eps = self.episodes
+        if not 0 <= index < len(eps):
+            raise DatasetError(f"{self.root}: no episode {index}; valid: 0..{len(eps) - 1}")
+        return self.root / eps[index].file
+
+    def episode(self, index: int, images: str = "lazy") -> Episode:
+        """Episode ``index`` (its ``instruction_index``).
+
+        Args:
+            index: the episode / instruction index.
+            images: ``"lazy"`` (each ``images[cam][mod]`` reads one frame per index, see
+                :class:`samplehd.dataset.container.FrameImages`), ``"load"`` (arrays) or ``"none"``.
+
+        Raises:
+            DatasetError: no such episode, or its file is truncated or corrupted.
+        """
+        from samplehd.dataset.container import read_episode
+
+        return read_episode(self.episode_path(index), images=images, instruction_index=index)
+
+    def instruction(self, index: int) -> dict[str, Any]:
+        """The instruction entry of episode ``index``."""
+        return self.instructions[index]
