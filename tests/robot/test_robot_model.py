@@ -101,7 +101,7 @@ def test_tcp_between_fingertips_and_home_points_down(table_model: mujoco.MjModel
     assert tcp[0, 3] > 0.3  # reaches over the table (+x)
     # the wrist camera looks along the approach direction (camera frame looks along its -z)
     view = -data.cam_xmat[table_model.camera("wrist").id].reshape(3, 3)[:, 2]
-    assert view @ data.site("tcp").xmat.reshape(3, 3)[:, 2] > 0.95
+    assert view @ data.site("tcp").xmat.reshape(3, 3)[:, 2] > 0.9  # tilted 20° towards the fingertips
     # the pads are the lowest part of each finger (thin objects can be pinched)
     for side in ("left", "right"):
         pad = data.geom(f"robot_{side}_finger_pad")
