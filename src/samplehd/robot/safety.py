@@ -5,8 +5,10 @@ Checked events (:attr:`SafetyEvent.kind`):
 - ``self_collision``: two robot geoms touch (adjacent links and the two fingers never do).
 - ``environment_collision``: a robot geom touches anything that is not a scene object: the table
   (body ``table``), the floor, the backdrop (walls, counter) or any other static geom.
-- ``contact_force``: the normal force between the robot and a scene object (bodies ``object_{i}``
-  and their descendants) exceeds ``max_contact_force``. Touching and grasping objects is allowed.
+- ``contact_force``: the normal force between one robot body and one scene object (bodies
+  ``object_{i}`` and their descendants), summed over their contact points, exceeds
+  ``max_contact_force``. Touching and grasping objects is allowed (the grip force is 100 N per
+  finger, below the default limit of 150 N).
 - ``joint_torque``: an arm motor delivers at least ``torque_ratio`` of its torque limit for
   ``torque_hold_time`` or longer (a stall against an obstacle or an excessive load).
 
@@ -187,27 +189,34 @@ class SafetyMonitor:
                     return event
         return self._check_torque(data)
 
-    def _check_contacts(self, data, involved, geom, cls, dist) -> SafetyEvent | None:
+    def _check_contacts(
+        self, data: mujoco.MjData, involved: np.ndarray, geom: np.ndarray, cls: np.ndarray, dist: np.ndarray
+    ) -> SafetyEvent | None:
         cfg = self.config
         m = self.model
-        for i in involved:
+        # Normal force summed over the contact points of each (robot body, object body) pair.
+        pair_force: dict[tuple[int, int], list[float | int]] = {}
+        for i in involved.tolist():
             g1, g2 = int(geom[i, 0]), int(geom[i, 1])
             c1, c2 = int(cls[i, 0]), int(cls[i, 1])
             if c1 != _ROBOT:
                 g1, g2, c1, c2 = g2, g1, c2, c1
-            depth = -float(dist[i])
             if c2 == _OBJECT:
-                mujoco.mj_contactForce(m, data, int(i), self._force)
-                force = abs(float(self._force[0]))
-                if force > cfg.max_contact_force:
-                    return self._contact_event("contact_force", data, g1, g2, force, cfg.max_contact_force)
+                mujoco.mj_contactForce(m, data, i, self._force)
+                key = (int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2]))
+                entry = pair_force.setdefault(key, [0.0, g1, g2])
+                entry[0] += abs(float(self._force[0]))
                 continue
+            depth = -float(dist[i])
             if depth < cfg.min_penetration:
                 continue
             if c2 == _ROBOT and cfg.check_self_collision:
                 return self._contact_event("self_collision", data, g1, g2, depth, cfg.min_penetration)
             if c2 == _OTHER and cfg.check_environment:
                 return self._contact_event("environment_collision", data, g1, g2, depth, cfg.min_penetration)
+        for force, g1, g2 in pair_force.values():
+            if force > cfg.max_contact_force:
+                return self._contact_event("contact_force", data, int(g1), int(g2), float(force), cfg.max_contact_force)
         return None
 
     def _contact_event(self, kind: str, data, g1: int, g2: int, value: float, threshold: float) -> SafetyEvent:
