@@ -188,6 +188,32 @@ function objectRows(o, index) {
   ];
 }
 
+/** Rows "left of it: #2 pan, ..." from CLEVR relationships (relationships[r][i] = objects in direction r of i). */
+function relationRows(relationships, k, objects) {
+  const label = {left: "to its left", right: "to its right", front: "in front of it", behind: "behind it"};
+  return Object.entries(relationships || {}).filter(([r]) => label[r]).map(([r, lists]) => {
+    const others = (lists[k] || []).map((j) => `#${j} ${(objects[j] || {}).name || ""}`);
+    return [label[r], others.join(", ") || "–"];
+  });
+}
+
+/** A colour bar with the near/far depth of the shown range (1st/99th percentile, like the server). */
+async function depthBar(stage) {
+  const depth = await stage.loadDepth();
+  const bar = el("canvas", {width: 160, height: 10});
+  const ctx = bar.getContext("2d");
+  const stops = [[48, 18, 59], [70, 107, 227], [40, 187, 236], [49, 242, 153], [162, 252, 60], [237, 208, 58],
+    [251, 128, 34], [208, 47, 5], [122, 4, 3]].reverse();
+  const grad = ctx.createLinearGradient(0, 0, 160, 0);
+  stops.forEach((c, n) => grad.addColorStop(n / (stops.length - 1), rgb(c)));
+  ctx.fillStyle = grad;
+  ctx.fillRect(0, 0, 160, 10);
+  if (!depth) return el("span", {class: "depth-bar"}, "depth not written yet");
+  const valid = Array.from(depth.data).filter((v) => v > 0).sort((a, b) => a - b);
+  const at = (q) => (valid.length ? valid[Math.min(valid.length - 1, Math.floor(q * valid.length))] / 1000 : 0);
+  return el("span", {class: "depth-bar", id: "depth-bar"}, `near ${num(at(0.01), 2)} m`, bar, `far ${num(at(0.99), 2)} m`);
+}
+
 // ---------------------------------------------------------------- scene page
 async function scenePage(i) {
   const data = await getJSON(`/api/scenes/${i}`);
@@ -195,6 +221,7 @@ async function scenePage(i) {
   const objects = scene.objects || [];
   const offset = data.segmentation_offset;
   const stage = imageStage(i, "rgb");
+  const barSlot = el("span");
   const hoverCard = el("div", {class: "panel hover-card", id: "hover-card"},
     el("p", {class: "muted"}, "Move the cursor over the image to see the annotation of the object under it."));
   const objectTable = el("table", {class: "objects", id: "object-table"},
@@ -223,7 +250,8 @@ async function scenePage(i) {
     const where = el("p", {class: "muted mono"}, `pixel (${hit.x}, ${hit.y}) · id ${hit.id} · depth ${mm ? num(mm / 1000, 3) + " m" : "–"}`);
     const k = hit.id - offset;
     if (k >= 0 && k < objects.length) {
-      hoverCard.replaceChildren(el("h2", {}, describeObject(objects[k])), kv(objectRows(objects[k], k)), where);
+      hoverCard.replaceChildren(el("h2", {}, describeObject(objects[k])), kv([...objectRows(objects[k], k),
+        ...relationRows(scene.relationships, k, objects)]), where);
     } else {
       hoverCard.replaceChildren(el("h2", {}, names[hit.id] || `id ${hit.id}`), where);
     }
@@ -262,8 +290,10 @@ async function scenePage(i) {
     el("h1", {}, `Scene ${i} — ${(scene.image_filename || "").replace(/\.png$/, "")}`), nav,
     el("div", {class: "row"},
       el("div", {class: "col-main"},
-        el("div", {class: "toolbar"}, modalityToggle((m) => stage.setModality(m), data.images),
-          el("span", {class: "muted"}, `${objects.length} objects`)),
+        el("div", {class: "toolbar"}, modalityToggle(async (m) => {
+          stage.setModality(m);
+          barSlot.replaceChildren(m === "depth" ? await depthBar(stage) : "");
+        }, data.images), el("span", {class: "muted"}, `${objects.length} objects`), barSlot),
         stage.root,
         el("h3", {}, "Objects"), objectTable),
       el("div", {class: "col-side"}, hoverCard,
