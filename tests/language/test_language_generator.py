@@ -109,8 +109,12 @@ def test_family_filter(scenes: list[Scene]) -> None:
 
 
 def test_instruction_round_trip(generated: list) -> None:
+    from samplehd.language.generator import GenerationResult
+
     inst = generated[0][1].instructions[0]
     assert Instruction.from_dict(inst.to_dict()) == inst
+    result = generated[1][1]
+    assert GenerationResult.from_dict(result.to_dict()) == result
 
 
 @pytest.mark.parametrize("balance", ["templates", "families"])

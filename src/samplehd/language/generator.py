@@ -121,6 +121,23 @@ class GenerationResult:
     rejections: dict[str, int]
     attempts: int
 
+    def to_dict(self) -> dict[str, Any]:
+        """Return ``{instructions: [...], rejections, attempts}``."""
+        return {
+            "instructions": [i.to_dict() for i in self.instructions],
+            "rejections": dict(self.rejections),
+            "attempts": self.attempts,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> GenerationResult:
+        """Inverse of :meth:`to_dict`."""
+        return cls(
+            tuple(Instruction.from_dict(i) for i in data["instructions"]),
+            {str(k): int(v) for k, v in data["rejections"].items()},
+            int(data["attempts"]),
+        )
+
 
 class TemplateBalancer:
     """Keeps use counts so that templates (or families) come out near uniformly.
