@@ -19,6 +19,8 @@ from __future__ import annotations
 import hashlib
 import json
 import shutil
+import subprocess
+import sys
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,7 +55,11 @@ __all__ = [
 
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".glb")
 _MIN_EXTENT, _MAX_EXTENT = 0.01, 1.0  # plausible tabletop object size [m]
-_DECOMPOSITION_VERSION = 1  # bump when the decomposition or cleaning changes (invalidates the cache)
+_DECOMPOSITION_VERSION = 1
+# Run as a script, not with -m: importing the samplehd.catalogue package would load MuJoCo for nothing.
+_WORKER = Path(__file__).with_name(
+    "coacd_worker.py"
+)  # bump when the decomposition or cleaning changes (invalidates the cache)
 
 
 @dataclass(frozen=True)
@@ -149,24 +155,34 @@ def normalise_mesh(mesh: trimesh.Trimesh, options: ImportOptions, source: str = 
     return m
 
 
-def decompose(mesh: trimesh.Trimesh, options: ImportOptions) -> list[np.ndarray]:
-    """Split a cleaned mesh into convex pieces with CoACD; returns each piece's hull vertices [m]."""
-    import coacd
+def decompose(mesh: trimesh.Trimesh, options: ImportOptions, source: str = "mesh") -> list[np.ndarray]:
+    """Split a cleaned mesh into convex pieces with CoACD; returns each piece's hull vertices [m].
 
-    coacd.set_log_level("error")
-    cmesh = coacd.Mesh(np.asarray(mesh.vertices, np.float64), np.asarray(mesh.faces, np.int32))
-    parts = coacd.run_coacd(
-        cmesh,
-        threshold=options.threshold,
-        max_convex_hull=options.max_pieces,
-        seed=options.seed,
-        preprocess_mode="auto",
-    )
-    pieces = []
-    for verts, _faces in parts:
-        v = np.asarray(verts, np.float64)
-        if len(v) >= 4 and float(np.ptp(v, axis=0).min()) > 1e-6:
-            pieces.append(v)
+    CoACD runs in a child process (:mod:`samplehd.catalogue.coacd_worker`) so that a crash inside
+    the C++ library becomes an :class:`AssetError` rather than the end of the caller.
+
+    Raises:
+        AssetError: CoACD failed on the mesh.
+    """
+    params = {"threshold": options.threshold, "max_pieces": options.max_pieces, "seed": options.seed}
+    with tempfile.TemporaryDirectory(prefix="samplehd-coacd-") as tmp:
+        src, dst = Path(tmp) / "in.npz", Path(tmp) / "out.npz"
+        np.savez(src, vertices=np.asarray(mesh.vertices, np.float64), faces=np.asarray(mesh.faces, np.int32))
+        proc = subprocess.run(
+            [sys.executable, str(_WORKER), str(src), str(dst), json.dumps(params)],
+            capture_output=True,
+            text=True,
+            check=False,
+        )
+        if proc.returncode != 0 or not dst.is_file():
+            last = (proc.stderr.strip().splitlines() or [f"exit status {proc.returncode}"])[-1][:160]
+            raise AssetError(
+                f"{source}: convex decomposition (CoACD) failed: {last}; "
+                "repair the mesh (make it closed and manifold) or try another --threshold"
+            )
+        with np.load(dst, allow_pickle=False) as z:
+            counts, points = z["counts"], z["points"]
+    pieces = list(np.split(points, np.cumsum(counts)[:-1])) if len(counts) else []
     if not pieces:
         pieces = [np.asarray(mesh.convex_hull.vertices, np.float64)]
     return pieces
@@ -180,7 +196,9 @@ def _hash_file(path: Path) -> str:
     return h.hexdigest()
 
 
-def _cached_decomposition(mesh: trimesh.Trimesh, key: str, options: ImportOptions) -> tuple[list[np.ndarray], bool]:
+def _cached_decomposition(
+    mesh: trimesh.Trimesh, key: str, options: ImportOptions, source: str
+) -> tuple[list[np.ndarray], bool]:
     path = cache_dir() / "decompositions" / f"{key}.npz"
     if path.is_file():
         try:
@@ -190,7 +208,7 @@ def _cached_decomposition(mesh: trimesh.Trimesh, key: str, options: ImportOption
             return list(np.split(flat, np.cumsum(counts)[:-1])), True
         except (OSError, ValueError, KeyError):
             pass  # a damaged cache entry is recomputed
-    pieces = decompose(mesh, options)
+    pieces = decompose(mesh, options, source)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(".tmp.npz")
     np.savez_compressed(tmp, counts=np.array([len(p) for p in pieces]), points=np.vstack(pieces))
@@ -321,7 +339,7 @@ def import_mesh(
         sort_keys=True,
     )
     key = hashlib.sha256((digest + params).encode()).hexdigest()[:32]
-    pieces, cached = _cached_decomposition(mesh, key, options)
+    pieces, cached = _cached_decomposition(mesh, key, options, str(src))
     sites, top, axes = _grasp_metadata(mesh)
     volume = float(mesh.volume) if mesh.is_watertight and mesh.volume > 0 else None
     pieces_volume = float(sum(trimesh.convex.convex_hull(p).volume for p in pieces))
