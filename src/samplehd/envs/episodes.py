@@ -1,0 +1,223 @@
+"""Episode specifications: which scene, which instruction; drawn from a generator or given.
+
+An :class:`EpisodeSpec` is everything an environment episode starts from. :func:`sample_episode`
+draws one from an explicit generator (the environment's ``np_random``); :func:`episode_from_options`
+rebuilds one from a scene and an instruction (dicts as written in scenes.json / instructions.json,
+or the library's objects) so that a dataset episode can be reproduced exactly.
+
+Scene sampling and compilation are the expensive part of a reset; :class:`SceneCache` memoises
+both per scene (the sampler is a deterministic function of its seed and config).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import OrderedDict
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from samplehd.errors import ConfigError, SceneError
+from samplehd.scene.config import SceneConfig
+from samplehd.scene.spec import SceneSpec, compile_scene
+
+__all__ = ["EpisodeSpec", "SceneCache", "episode_from_options", "sample_episode"]
+
+# Scenes tried before giving up on finding an instruction of the drawn family.
+_SCENE_TRIES = 12
+
+
+@dataclass(frozen=True)
+class EpisodeSpec:
+    """What one episode starts from.
+
+    Attributes:
+        scene: the scene (objects, settled poses, camera).
+        instruction: the instruction entry: ``instruction`` (text), ``family``, ``task``
+            (executor dict), ``targets``, ``program`` (CLEVR nodes), ``program_sequence``.
+        annotation: the CLEVR-layout scene dict the instruction refers to (directions, objects).
+        initial_state: optional ``{qpos, qvel, act}`` arrays replacing the compiled initial state.
+    """
+
+    scene: SceneSpec
+    instruction: dict[str, Any]
+    annotation: dict[str, Any] = field(default_factory=dict)
+    initial_state: dict[str, np.ndarray] | None = None
+
+    @property
+    def family(self) -> str:
+        return str(self.instruction["family"])
+
+    @property
+    def text(self) -> str:
+        return str(self.instruction["instruction"])
+
+
+class SceneCache:
+    """Memoises sampled scenes (by seed) and compiled models (by scene), least recently used first out.
+
+    Args:
+        config: scene sampler options.
+        size: compiled scenes kept.
+        timestep: physics timestep of compiled models [s].
+    """
+
+    def __init__(self, config: SceneConfig, size: int = 8, timestep: float = 0.002) -> None:
+        self.config = config
+        self.size = size
+        self.timestep = timestep
+        self._scenes: OrderedDict[int, SceneSpec] = OrderedDict()
+        self._models: OrderedDict[str, tuple[mujoco.MjModel, mujoco.MjData]] = OrderedDict()
+
+    def scene(self, seed: int, index: int = 0) -> SceneSpec:
+        """The scene sampled from ``seed`` (cached)."""
+        from samplehd.scene.sampler import sample_scene
+
+        if seed in self._scenes:
+            self._scenes.move_to_end(seed)
+            return self._scenes[seed]
+        scene = sample_scene(index, seed, self.config).scene
+        self._scenes[seed] = scene
+        while len(self._scenes) > 4 * self.size:
+            self._scenes.popitem(last=False)
+        return scene
+
+    def compiled(self, scene: SceneSpec) -> tuple[mujoco.MjModel, mujoco.MjData, bool]:
+        """(model, pristine initial data, whether the model is new) of a scene (cached).
+
+        The pristine data must not be modified: copy it into a working MjData.
+        """
+        key = json.dumps(scene.to_dict(), sort_keys=True)
+        if key in self._models:
+            self._models.move_to_end(key)
+            model, data = self._models[key]
+            return model, data, False
+        model, data = compile_scene(scene, self.timestep)
+        mujoco.mj_forward(model, data)
+        self._models[key] = (model, data)
+        while len(self._models) > self.size:
+            self._models.popitem(last=False)
+        return model, data, True
+
+
+def _annotation(scene: SceneSpec, model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, Any]:
+    from samplehd.scene.annotate import annotate_scene
+
+    camera = "scene" if scene.camera.name == "scene" else "operator"
+    return annotate_scene(scene, model, data, 640, 360, camera=camera)
+
+
+def _instruction_entry(instruction: Any) -> dict[str, Any]:
+    d = dict(instruction.to_dict())
+    d["task"] = dict(d["task"])
+    return d
+
+
+def sample_episode(
+    rng: np.random.Generator,
+    cache: SceneCache,
+    families: tuple[str, ...],
+    *,
+    family: str | None = None,
+    num_scenes: int = 0,
+    scene_seed: int = 0,
+) -> EpisodeSpec:
+    """Draw a scene and an instruction of a uniformly drawn family.
+
+    Args:
+        rng: the only source of randomness.
+        cache: scene cache (sampling config and compiled models).
+        families: families to draw from.
+        family: use this family instead of drawing one.
+        num_scenes: 0 for a fresh scene seed per episode, else the size of the scene pool.
+        scene_seed: base seed of the scene pool.
+
+    Raises:
+        SceneError: no scene in several tries allowed an instruction of the family.
+    """
+    from samplehd.language.generator import generate_instructions
+    from samplehd.scene.sampler import scene_seed as pool_seed
+
+    if family is None:
+        family = families[int(rng.integers(len(families)))]
+    elif family not in families:
+        raise ConfigError(f"episode family {family!r} is not among the environment's families {list(families)}")
+    for _ in range(_SCENE_TRIES):
+        if num_scenes:
+            index = int(rng.integers(num_scenes))
+            seed = pool_seed(scene_seed, index)
+        else:
+            index, seed = 0, int(rng.integers(2**31 - 1))
+        scene = cache.scene(seed, index)
+        model, data, _ = cache.compiled(scene)
+        ann = _annotation(scene, model, data)
+        sub = np.random.default_rng(int(rng.integers(2**63 - 1)))
+        made = generate_instructions(ann, sub, per_scene=1, families=[family]).instructions
+        if made:
+            return EpisodeSpec(scene, _instruction_entry(made[0]), ann)
+    raise SceneError(f"no instruction of family {family!r} in {_SCENE_TRIES} sampled scenes; "
+                     "allow more objects (scene.max_objects) or other families")
+
+
+def _as_scene(value: Any) -> SceneSpec:
+    if isinstance(value, SceneSpec):
+        return value
+    if isinstance(value, Mapping):
+        # A scenes.json entry carries the exact spec under "spec"; a bare SceneSpec dict is the spec.
+        return SceneSpec.from_dict(dict(value.get("spec", value)))
+    raise SceneError(f"reset option 'scene' must be a SceneSpec or a scene dict, got {type(value).__name__}")
+
+
+def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> EpisodeSpec:
+    """Rebuild an episode from reset options.
+
+    Options:
+        scene: a ``SceneSpec``, its dict, or a scenes.json entry (with ``spec``).
+        instruction: an instructions.json entry or ``Instruction`` (needs ``instruction`` text and
+            ``task`` or ``program``; ``family`` defaults to the task type).
+        episode: optional recorded ``Episode`` (``samplehd.record.episode``) or a mapping with
+            ``qpos``/``qvel``/``act`` arrays: the episode starts from its first frame's state.
+
+    Raises:
+        ConfigError: a required option is missing or malformed.
+    """
+    from samplehd.language.executor import execute
+
+    unknown = sorted(set(options) - {"scene", "instruction", "episode", "family"})
+    if unknown:
+        raise ConfigError(f"reset: unknown option(s) {unknown}; valid: episode, family, instruction, scene")
+    if "scene" not in options or "instruction" not in options:
+        raise ConfigError("reset: options need both 'scene' and 'instruction' to reproduce an episode")
+    scene = _as_scene(options["scene"])
+    model, data, _ = cache.compiled(scene)
+    ann = _annotation(scene, model, data)
+    raw = options["instruction"]
+    entry = _instruction_entry(raw) if hasattr(raw, "to_dict") else dict(raw)
+    if "instruction" not in entry:
+        raise ConfigError("reset: option 'instruction' needs the instruction text under key 'instruction'")
+    if "task" not in entry:
+        if "program" not in entry and "program_sequence" not in entry:
+            raise ConfigError("reset: option 'instruction' needs a 'task' or a 'program'")
+        entry["task"] = execute(entry.get("program") or entry["program_sequence"], ann).to_dict()
+    task = dict(entry["task"])
+    entry["task"] = task
+    entry.setdefault("family", str(task.get("type", "")).split("[")[0])
+    entry.setdefault("targets", list(task.get("objects", [])) + (
+        [task["subject"]] if isinstance(task.get("subject"), int) else []))
+    entry.setdefault("program", [])
+    entry.setdefault("program_sequence", "")
+    state = None
+    ep = options.get("episode")
+    if ep is not None:
+        frames = getattr(ep, "frames", ep)
+        try:
+            state = {k: np.array(frames[k][0] if np.ndim(frames[k]) == 2 else frames[k], dtype=float)
+                     for k in ("qpos", "qvel", "act")}
+        except (KeyError, TypeError, IndexError) as exc:
+            raise ConfigError(f"reset: option 'episode' needs qpos, qvel and act frames ({exc})") from None
+        if state["qpos"].shape != (model.nq,) or state["qvel"].shape != (model.nv,) or state["act"].shape != (model.na,):
+            raise ConfigError("reset: option 'episode' does not match the scene (qpos/qvel/act sizes differ)")
+    return EpisodeSpec(scene, entry, ann, state)
