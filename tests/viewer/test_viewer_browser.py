@@ -45,7 +45,7 @@ def test_scene_grid_loads_and_filters(browser: Any, viewer_url: str) -> None:
     browser.find_element(By.XPATH, "//button[text()='clear filters']").click()
     _wait(browser, lambda b: len(_cards(b)) == 4)
     Select(browser.find_element(By.CSS_SELECTOR, "select[data-filter=success]")).select_by_value("failure")
-    _wait(browser, lambda b: _cards(b) == [0])
+    _wait(browser, lambda b: _cards(b) == [0, 2])
     _wait(browser, lambda b: all(img.get_attribute("naturalWidth") not in (None, "0")
                                  for img in b.find_elements(By.CSS_SELECTOR, "#scene-grid img")))
     assert _console_errors(browser) == []
@@ -142,6 +142,7 @@ def test_episode_list_and_refused_paths(browser: Any, viewer_url: str, fake_data
     _wait(browser, lambda b: len(b.find_elements(By.CSS_SELECTOR, "#episode-table tr")) == 6)
     Select(browser.find_element(By.CSS_SELECTOR, "select[data-filter=success]")).select_by_value("failure")
     _wait(browser, lambda b: len(b.find_elements(By.CSS_SELECTOR, "#episode-table tr")) == 2)
+    assert "no_feasible_grasp" in browser.find_element(By.ID, "rejection-table").text
     assert _console_errors(browser) == []
     (fake_dataset.parent / "outside.txt").write_text("secret")
     statuses = browser.execute_async_script("""

@@ -63,9 +63,9 @@ def test_status_and_scene_filters(app: ViewerApp) -> None:
     both = json.loads(app.handle("/api/scenes", {"family": "pick_up", "split": "test"}).body)
     assert [s["index"] for s in both["scenes"]] == [3]
     failed = json.loads(app.handle("/api/scenes", {"success": "failure"}).body)
-    assert [s["index"] for s in failed["scenes"]] == [0]
+    assert [s["index"] for s in failed["scenes"]] == [0, 2]  # a failed episode; a rejected path
     none = json.loads(app.handle("/api/scenes", {"success": "none"}).body)
-    assert [s["index"] for s in none["scenes"]] == [2, 3]
+    assert [s["index"] for s in none["scenes"]] == [3]
     red = json.loads(app.handle("/api/scenes", {"colour": "red"}).body)
     assert all("red" in s["colour"] for s in red["scenes"]) and red["matched"] >= 1
     page = json.loads(app.handle("/api/scenes", {"offset": "1", "limit": "2"}).body)
@@ -104,6 +104,10 @@ def test_instruction_and_episode_routes(app: ViewerApp) -> None:
     assert q["episodes"][0]["episode"] == "s000000_01" and q["episodes"][0]["success"] is False
     listing = json.loads(app.handle("/api/episodes", {"success": "failure"}).body)
     assert [e["episode"] for e in listing["episodes"]] == ["s000000_01"]
+    assert listing["rejections"][0]["instruction"].startswith("Stack") and listing["rejections"][0]["slot"] == 1
+    rejected = json.loads(app.handle("/api/instructions/6", {}).body)
+    assert rejected["episodes"] == [] and rejected["rejections"][0]["reason"] == "no_feasible_grasp"
+    assert json.loads(app.handle("/api/episodes", {"success": "success"}).body)["rejections"] == []
     detail = json.loads(app.handle("/api/episodes/s000000_00", {}).body)
     assert len(detail["series"]["steering"][0]) == 7
     frame = app.handle("/api/episodes/s000000_00/frame/3", {"camera": "operator", "modality": "depth"})

@@ -86,7 +86,9 @@ def make_fake_dataset(root: Path, num_scenes: int = 4) -> Path:
             else:
                 program.append({"type": "pick_up", "inputs": [2], "value_inputs": []})
                 flat, text, targets = f"pick_up scene filter_name[{a}]", f"Pick up the {a}.", [0]
+            slot = sum(1 for q in instructions if q["image_index"] == i)
             instructions.append({"split": scene["split"], "image_index": i, "image_filename": f"{stem}.png",
+                                 "slot": slot,
                                  "instruction_index": len(instructions), "instruction": text, "family": family,
                                  "template_name": family, "task": task, "targets": targets, "program": program,
                                  "program_sequence": flat, "params": {}})
@@ -111,14 +113,15 @@ class FakeEpisodeStore:
         return FileState("episodes", "ok")
 
     def summaries(self) -> list[dict[str, Any]]:
-        return [{"episode": self.name(k), "scene_index": q["image_index"], "instruction_index": q["instruction_index"],
+        return [{"episode": self.name(k), "scene_index": q["image_index"], "slot": q["slot"],
+                 "instruction_index": q["instruction_index"],
                  "instruction": q["instruction"], "family": q["family"], "success": k != 1,
                  "failure_reason": "" if k != 1 else "object_dropped", "num_frames": self.frames}
                 for k, q in enumerate(self.items)]
 
     def name(self, k: int) -> str:
         q = self.items[k]
-        return f"s{q['image_index']:06d}_{q['instruction_index']:02d}"
+        return f"s{q['image_index']:06d}_{q['slot']:02d}"
 
     def _number(self, name: str) -> int:
         from samplehd.errors import DatasetError
@@ -127,6 +130,9 @@ class FakeEpisodeStore:
             if self.name(k) == name:
                 return k
         raise DatasetError(f"episode {name}: not in the dataset")
+
+    def rejections(self) -> list[dict[str, Any]]:
+        return [{"scene_index": 2, "slot": 1, "reason": "no_feasible_grasp", "message": "no grasp of object 1"}]
 
     def version(self, name: str) -> int:
         return 0

@@ -43,7 +43,7 @@ import numpy as np
 
 from samplehd.errors import DatasetError
 from samplehd.viewer import imaging
-from samplehd.viewer.index import FILTER_KEYS, DatasetIndex, filter_scene_summaries
+from samplehd.viewer.index import FILTER_KEYS, DatasetIndex, filter_scene_summaries, matches_instruction
 from samplehd.viewer.paths import resolve_inside
 
 __all__ = ["STATIC_DIR", "Response", "ViewerApp"]
@@ -261,9 +261,12 @@ class ViewerApp:
         return Response.json({"total": len(summaries), "matched": len(matched), "offset": offset, "limit": limit,
                               "options": options, "criteria": criteria, "scenes": matched[offset:offset + limit]})
 
-    def _episodes_of_scene(self, scene_index: int) -> list[dict[str, Any]]:
+    def _with_outcomes(self, instructions: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        """Instructions with their ``episodes`` and ``rejections`` attached."""
         episodes, _ = self.index.episode_summaries()
-        return [e for e in episodes if e.get("scene_index") == scene_index]
+        rejections = self.index.rejections()
+        return [{**q, "episodes": [e for e in episodes if matches_instruction(e, q)],
+                 "rejections": [r for r in rejections if matches_instruction(r, q)]} for q in instructions]
 
     def _scene(self, i: int) -> Response:
         scene = self.index.scene(i)
@@ -277,8 +280,7 @@ class ViewerApp:
             "images": images,
             "segmentation_offset": offset,
             "object_colours": colours,
-            "instructions": self.index.instructions_of(i),
-            "episodes": self._episodes_of_scene(i),
+            "instructions": self._with_outcomes(self.index.instructions_of(i)),
         }))
 
     def _existing(self, i: int, modality: str) -> Path:
@@ -323,12 +325,13 @@ class ViewerApp:
             scene = self.index.scene(scene_index)
         except DatasetError:
             scene = None
-        episodes, _ = self.index.episode_summaries()
+        joined = self._with_outcomes([instruction])[0]
         return Response.json(_sanitise({
             "instruction": instruction,
             "scene": scene,
             "segmentation_offset": int((scene or {}).get("segmentation_ids", {}).get("object_offset", 3)),
-            "episodes": [e for e in episodes if e.get("instruction_index") == j],
+            "episodes": joined["episodes"],
+            "rejections": joined["rejections"],
         }))
 
     def _episodes(self, rest: list[str], query: Mapping[str, str]) -> Response:
@@ -341,7 +344,18 @@ class ViewerApp:
             if success:
                 want = success == "success"
                 episodes = [e for e in episodes if bool(e.get("success")) == want]
-            return Response.json(_sanitise({"state": state.to_dict(), "episodes": episodes}))
+            instructions, _ = self.index.instructions()
+            rejections = []
+            for r in self.index.rejections():
+                q = next((q for q in instructions if matches_instruction(r, q)), {})
+                rejections.append({**r, "instruction_index": q.get("instruction_index"),
+                                   "instruction": q.get("instruction", ""), "family": q.get("family", "")})
+            if family:
+                rejections = [r for r in rejections if r["family"] == family]
+            if success == "success":
+                rejections = []
+            return Response.json(_sanitise({"state": state.to_dict(), "episodes": episodes,
+                                            "rejections": rejections}))
         if store is None:
             raise DatasetError("this dataset holds no episodes")
         k = rest[0]

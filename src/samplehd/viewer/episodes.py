@@ -1,12 +1,13 @@
 """Episodes as the viewer shows them: summaries for lists, per-frame series for the player's plots
-and timeline, and single frames of the stored images, read one at a time on demand.
+and timeline, single frames of the stored images read one at a time on demand, and the rejected
+instruction candidates (paths that failed, from the generation journal).
 
-Episodes are the per-episode HDF5 containers of ``samplehd.dataset`` (``episodes/*.h5``); they are
-read through its container functions, never written. Files appear while a dataset is being
-generated: the folder is rescanned when it changes, temporary files are skipped, and a file that
-cannot be read yet is listed as unreadable instead of failing the page.
+Episodes are read through ``samplehd.dataset.reader.DatasetReader`` (HDF5 containers, never
+written). While a dataset is being generated the reader is renewed whenever the folder changes;
+a file that cannot be read is listed as unreadable instead of failing the page.
 
-An episode is named by its file stem (``s000012_03``), stable while files are added.
+An episode is named by its file stem (``s000012_03`` = scene 12, instruction slot 3): stable while
+files are added, unlike the episode index, which is final only once generation completes.
 """
 
 from __future__ import annotations
@@ -96,162 +97,167 @@ def _rounded(values: np.ndarray, digits: int = 5) -> list[Any]:
 
 
 class EpisodeStore:
-    """Read-only access to the episode files of one dataset folder, safe from many threads.
+    """Read-only access to the episodes of one ``samplehd generate`` dataset, through
+    :class:`samplehd.dataset.reader.DatasetReader`; safe from many threads.
+
+    A new reader is made whenever ``info.json``, ``candidates.json``, ``journal.jsonl`` or the
+    ``episodes/`` folder changes, so a dataset being generated shows its new episodes. Per-episode
+    attributes are cached by file (path, mtime, size).
 
     Args:
-        root: the dataset folder (episodes are in ``root/episodes``).
-        instructions: callable returning the dataset's instructions (for text and indices).
+        root: the dataset folder.
+        instructions: callable returning ``(instructions, state)`` (for instruction texts).
     """
 
     def __init__(self, root: Path, instructions: Any = None) -> None:
         self.root = Path(root)
-        self.folder = self.root / "episodes"
         self._instructions = instructions
         self._lock = threading.Lock()
-        self._summaries: dict[str, tuple[tuple[int, int], dict[str, Any]]] = {}
-        self._scan_key: tuple[int, int] | None = None
-        self._order: list[str] = []
+        self._reader_key: tuple[Any, ...] | None = None
+        self._reader: Any = None
+        self._reader_error = ""
+        self._meta: dict[str, tuple[tuple[int, int], dict[str, Any]]] = {}
 
-    # -- listing -------------------------------------------------------------------------------
-    def _files(self) -> list[Path]:
-        from samplehd.dataset.layout import is_temporary, parse_episode_name
-
-        if not self.folder.is_dir():
-            return []
-        out = [p for p in self.folder.iterdir()
-               if p.is_file() and not is_temporary(p.name) and parse_episode_name(p.name) is not None]
-        return sorted(out, key=lambda p: parse_episode_name(p.name) or (0, 0))
-
-    def _summary(self, path: Path) -> dict[str, Any]:
-        import h5py
-
-        from samplehd.dataset.layout import parse_episode_name
-
-        scene_index, slot = parse_episode_name(path.name) or (-1, -1)
-        base: dict[str, Any] = {"episode": path.stem, "file": f"episodes/{path.name}", "scene_index": scene_index,
-                                "slot": slot, "instruction_index": -1, "family": "", "success": False,
-                                "failure_reason": "", "num_frames": 0, "readable": True}
+    # -- reader --------------------------------------------------------------------------------
+    def _stamp(self, name: str) -> tuple[int, int]:
         try:
-            with h5py.File(path, "r") as f:
-                a = f.attrs
-                info = _attr_json(a, "info", {})
-                info = info if isinstance(info, dict) else {}
-                success = bool(a.get("success", False))
-                base.update({
-                    "scene_index": int(a.get("scene_index", scene_index)),
-                    "instruction_index": int(a.get("instruction_index", -1)),
-                    "family": str(a.get("family", "")),
-                    "success": success,
-                    "failure_reason": failure_reason(success, info),
-                    "num_frames": int(a.get("num_frames", 0)),
-                    "instruction": str(a.get("instruction", "")),
-                    "cameras": {cam: sorted(f["images"][cam]) for cam in f["images"]} if "images" in f else {},
-                })
-        except (OSError, KeyError, ValueError, RuntimeError) as exc:
-            base.update({"readable": False, "failure_reason": f"unreadable: {exc}"})
-        return base
+            st = (self.root / name).stat()
+        except OSError:
+            return (0, -1)
+        return st.st_mtime_ns, st.st_size
 
-    def _rescan(self) -> list[str]:
-        files = self._files()
-        stamps = {}
-        for p in files:
-            try:
-                st = p.stat()
-            except FileNotFoundError:
-                continue
-            stamps[p.stem] = ((st.st_mtime_ns, st.st_size), p)
-        for stem, (key, path) in stamps.items():
-            with self._lock:
-                hit = self._summaries.get(stem)
-            if hit is None or hit[0] != key:
-                summary = self._summary(path)
-                with self._lock:
-                    self._summaries[stem] = (key, summary)
+    def reader(self) -> Any:
+        """The current DatasetReader, or None when the folder is not a ``samplehd generate`` dataset."""
+        from samplehd.dataset.layout import CANDIDATES_FILE, EPISODE_DIR, INFO_FILE, JOURNAL_FILE
+        from samplehd.dataset.reader import DatasetReader
+
+        key = tuple(self._stamp(n) for n in (INFO_FILE, CANDIDATES_FILE, JOURNAL_FILE, EPISODE_DIR))
         with self._lock:
-            for stem in set(self._summaries) - set(stamps):
-                del self._summaries[stem]
-            self._order = [p.stem for p in files if p.stem in stamps]
-            return list(self._order)
+            if key == self._reader_key:
+                return self._reader
+        try:
+            reader, error = DatasetReader(self.root), ""
+            reader.episodes  # noqa: B018 - list them now, under the same key
+        except DatasetError as exc:
+            reader, error = None, str(exc)
+        with self._lock:
+            self._reader_key, self._reader, self._reader_error = key, reader, error
+        return reader
+
+    def _entries(self) -> list[tuple[str, int, Any]]:
+        """(stem, reader index, EpisodeEntry) of every episode."""
+        reader = self.reader()
+        if reader is None:
+            return []
+        return [(Path(e.file).stem, i, e) for i, e in enumerate(reader.episodes)]
+
+    def _locate(self, name: str) -> tuple[Any, int, Any]:
+        for stem, i, entry in self._entries():
+            if stem == name:
+                return self.reader(), i, entry
+        raise DatasetError(f"episode {name}: not in the dataset (yet)")
 
     def state(self) -> FileState:
-        """``ok`` when episodes exist, ``missing`` when the folder has none (yet)."""
-        if not self.folder.is_dir():
-            return FileState("episodes", "missing", "episodes/ has not been written yet")
-        if not self._order and not self._rescan():
-            return FileState("episodes", "missing", "episodes/ holds no episode yet")
+        """``ok`` for a complete dataset, ``partial`` while generating, ``missing`` without episodes."""
+        reader = self.reader()
+        if reader is None:
+            return FileState("episodes", "missing", f"no episodes: {self._reader_error}")
+        count = len(reader.episodes)
+        if not reader.complete:
+            status = reader.info.get("status", "in_progress")
+            return FileState("episodes", "partial", f"generation {status}: {count} episodes written so far")
         return FileState("episodes", "ok")
 
+    # -- listing -------------------------------------------------------------------------------
+    def _episode_meta(self, reader: Any, index: int, entry: Any) -> dict[str, Any]:
+        path = self.root / entry.file
+        try:
+            st = path.stat()
+            key = (st.st_mtime_ns, st.st_size)
+        except OSError:
+            key = (0, -1)
+        with self._lock:
+            hit = self._meta.get(entry.file)
+        if hit is not None and hit[0] == key:
+            return hit[1]
+        try:
+            meta = reader.episode_meta(index)
+            info = meta.get("info") if isinstance(meta.get("info"), dict) else {}
+            success = bool(meta.get("success", False))
+            meta = {"success": success, "failure_reason": failure_reason(success, info),
+                    "num_frames": int(meta.get("num_frames", entry.num_frames)),
+                    "instruction": str(meta.get("instruction", "")), "cameras": dict(meta.get("images") or {}),
+                    "family": str(meta.get("family", entry.family)), "readable": True}
+        except DatasetError as exc:
+            meta = {"success": False, "failure_reason": f"unreadable: {exc}", "readable": False, "cameras": {}}
+        with self._lock:
+            self._meta[entry.file] = (key, meta)
+        return meta
+
     def summaries(self) -> list[dict[str, Any]]:
-        """Summaries of every readable or unreadable episode file, in (scene, slot) order."""
-        order = self._rescan()
+        """One summary per episode, in the dataset's episode order."""
+        reader = self.reader()
         texts = self._instruction_texts()
         out = []
-        with self._lock:
-            for stem in order:
-                s = dict(self._summaries[stem][1])
-                if not s.get("instruction"):
-                    s["instruction"] = texts.get(s["instruction_index"], "")
-                out.append(s)
+        for stem, i, entry in self._entries():
+            meta = self._episode_meta(reader, i, entry)
+            summary = {"episode": stem, "index": i, "file": entry.file, "scene_index": entry.scene_index,
+                       "slot": entry.slot, "instruction_index": entry.instruction_index, "family": entry.family,
+                       "split": entry.split, "num_frames": entry.num_frames, **meta}
+            if not summary.get("instruction"):
+                summary["instruction"] = texts.get((entry.scene_index, entry.slot), "")
+            out.append(summary)
         return out
 
-    def _instruction_texts(self) -> dict[int, str]:
+    def rejections(self) -> list[dict[str, Any]]:
+        """Instruction candidates whose path was rejected: ``{scene_index, slot, reason, message}``."""
+        reader = self.reader()
+        if reader is None:
+            return []
+        try:
+            records = reader.rejections()
+        except (DatasetError, OSError) as exc:
+            return [{"scene_index": -1, "slot": -1, "reason": "journal_unreadable", "message": str(exc)}]
+        return [{"scene_index": int(r.get("scene_index", -1)), "slot": int(r.get("slot", -1)),
+                 "reason": str(r.get("reason", "")), "message": str(r.get("message", ""))} for r in records]
+
+    def _instruction_texts(self) -> dict[tuple[int, int], str]:
         if self._instructions is None:
             return {}
         items, _ = self._instructions()
-        return {int(q.get("instruction_index", -1)): str(q.get("instruction", "")) for q in items}
-
-    def _path(self, name: str) -> Path:
-        from samplehd.dataset.layout import EPISODE_SUFFIX, parse_episode_name
-
-        if parse_episode_name(f"{name}{EPISODE_SUFFIX}") is None:
-            raise DatasetError(f"episode {name!r}: not an episode name (expected like s000012_03)")
-        path = self.folder / f"{name}{EPISODE_SUFFIX}"
-        if not path.is_file():
-            raise DatasetError(f"episode {name}: no such episode file (yet)")
-        return path
+        return {(int(q.get("image_index", -1)), int(q.get("slot", -1))): str(q.get("instruction", ""))
+                for q in items}
 
     def version(self, name: str) -> tuple[int, int]:
         """(mtime, size) of the episode's file, to key caches."""
-        st = self._path(name).stat()
-        return st.st_mtime_ns, st.st_size
+        _, _, entry = self._locate(name)
+        return self._stamp(entry.file)
 
     # -- one episode ---------------------------------------------------------------------------
     def detail(self, name: str) -> dict[str, Any]:
         """Everything the player draws: summary, subtasks and segments, cameras, per-frame series."""
-        import h5py
-
-        from samplehd.dataset.container import read_frames
-
-        path = self._path(name)
-        summary = self._summary(path)
-        if not summary["readable"]:
-            raise DatasetError(f"episode {name}: {summary['failure_reason']}")
-        frames = read_frames(path, PLOT_FIELDS)
-        with h5py.File(path, "r") as f:
-            subtasks = _attr_json(f.attrs, "subtasks", [])
-            info = _attr_json(f.attrs, "info", {})
-            task = _attr_json(f.attrs, "task", None)
-            render = _attr_json(f["images"].attrs, "render", {}) if "images" in f else {}
-        info = info if isinstance(info, dict) else {}
-        info = {k: v for k, v in info.items() if k != "scene"}  # the scene is shown on its own page
-        order = self._order or self._rescan()
-        position = order.index(name) if name in order else -1
-        series = {key: _rounded(frames[key]) for key in PLOT_FIELDS}
+        reader, i, entry = self._locate(name)
+        meta = reader.episode_meta(i)
+        frames = reader.frames(i, PLOT_FIELDS)
+        info = meta.get("info") if isinstance(meta.get("info"), dict) else {}
+        subtasks = [str(s) for s in meta.get("subtasks") or []]
+        summary = next(s for s in self.summaries() if s["episode"] == name)
+        stems = [stem for stem, _, _ in self._entries()]
+        position = stems.index(name)
+        series: dict[str, Any] = {key: _rounded(frames[key]) for key in PLOT_FIELDS}
         series["joint_names"] = list(_JOINT_NAMES)
-        texts = self._instruction_texts()
         return {
             **summary,
-            "instruction": summary.get("instruction") or texts.get(summary["instruction_index"], ""),
-            "previous": order[position - 1] if position > 0 else None,
-            "next": order[position + 1] if 0 <= position < len(order) - 1 else None,
+            "previous": stems[position - 1] if position > 0 else None,
+            "next": stems[position + 1] if position + 1 < len(stems) else None,
             "control_hz": float(info.get("control_hz", 20.0) or 20.0),
-            "subtasks": [str(s) for s in subtasks],
-            "segments": subtask_segments(frames["subtask_index"], frames["target_object"], [str(s) for s in subtasks]),
-            "task": task,
-            "render": render,
+            "subtasks": subtasks,
+            "segments": subtask_segments(frames["subtask_index"], frames["target_object"], subtasks),
+            "task": meta.get("task"),
+            "render": meta.get("render"),
             "series": series,
             "layout": _layout(),
-            "info": info,
+            "info": {k: v for k, v in info.items() if k != "scene"},  # the scene has its own page
         }
 
     def frame(self, name: str, t: int, camera: str, modality: str) -> np.ndarray:
@@ -260,21 +266,20 @@ class EpisodeStore:
         Raises:
             DatasetError: no such camera/modality in the file, or frame out of range.
         """
-        from samplehd.dataset.container import FrameImages
-
-        path = self._path(name)
-        cameras = self._summary(path).get("cameras", {})
+        reader, i, entry = self._locate(name)
+        cameras = self._episode_meta(reader, i, entry).get("cameras", {})
         if not cameras:
-            raise DatasetError(f"episode {name}: stores no images (generated with render mode none)")
+            raise DatasetError(f"episode {name}: stores no images (generated with --render none; "
+                               f"`samplehd rerender` adds them)")
         camera = camera or next(iter(cameras))
         if camera not in cameras or modality not in cameras[camera]:
             valid = ", ".join(f"{c}/{m}" for c, ms in cameras.items() for m in ms)
             raise DatasetError(f"episode {name}: no {camera}/{modality} images; stored: {valid}")
-        images = FrameImages(path, f"images/{camera}/{modality}")
-        if not 0 <= t < len(images):
-            raise DatasetError(f"episode {name}: frame {t} outside 0..{len(images) - 1}")
-        pixels = np.asarray(images[t])
-        if pixels.ndim == 1 and pixels.dtype == np.uint8:  # an encoded frame (PNG/JPEG bytes): decode, never execute
+        try:
+            pixels = np.asarray(reader.image(i, camera, modality, t))
+        except IndexError as exc:
+            raise DatasetError(f"episode {name}: frame {t} out of range ({exc})") from None
+        if pixels.ndim == 1 and pixels.dtype == np.uint8:  # an encoded frame (PNG bytes): decode, never execute
             from PIL import Image
 
             with Image.open(io.BytesIO(pixels.tobytes())) as image:
@@ -283,12 +288,9 @@ class EpisodeStore:
 
 
 def open_episode_store(root: Path, instructions: Any = None) -> EpisodeStore | None:
-    """The episode store of a dataset folder, or None when the folder has no ``episodes/`` and the
-    dataset package (h5py) is unavailable."""
+    """The episode store of a dataset folder, or None when the dataset reader cannot be imported."""
     try:
-        import h5py  # noqa: F401
-
-        import samplehd.dataset.container  # noqa: F401
+        import samplehd.dataset.reader  # noqa: F401
     except ImportError:
         return None
     return EpisodeStore(root, instructions)

@@ -27,6 +27,7 @@ __all__ = [
     "FileState",
     "filter_scene_summaries",
     "is_dataset_dir",
+    "matches_instruction",
     "scene_summary",
 ]
 
@@ -34,7 +35,7 @@ __all__ = [
 FILTER_KEYS = ("family", "class", "colour", "material", "split", "success")
 
 # Files or folders whose presence makes a folder browsable.
-_MARKERS = ("info.json", "scenes.json", "scenes", "instructions.json", "episodes")
+_MARKERS = ("info.json", "scenes.json", "scenes", "instructions.json", "candidates.json", "episodes")
 
 
 @dataclass(frozen=True)
@@ -99,13 +100,14 @@ def _as_int(value: Any, default: int) -> int:
 
 
 def scene_summary(scene: Mapping[str, Any], instructions: Iterable[Mapping[str, Any]],
-                  episodes: Iterable[Mapping[str, Any]]) -> dict[str, Any]:
+                  episodes: Iterable[Mapping[str, Any]], rejected: bool = False) -> dict[str, Any]:
     """What the scene grid shows and filters on for one scene.
 
     Args:
         scene: CLEVR-layout scene dict.
         instructions: that scene's instructions.
         episodes: that scene's episode summaries (``success`` key).
+        rejected: whether a path of one of its instruction candidates was rejected (a failure).
 
     Returns:
         ``{index, stem, split, num_objects, objects, class, colour, material, family, success,
@@ -115,7 +117,8 @@ def scene_summary(scene: Mapping[str, Any], instructions: Iterable[Mapping[str, 
     objects = [o for o in scene.get("objects", []) if isinstance(o, Mapping)]
     instructions = list(instructions)
     episodes = list(episodes)
-    outcomes = {"success" if e.get("success") else "failure" for e in episodes} or {"none"}
+    outcomes = {"success" if e.get("success") else "failure" for e in episodes} | ({"failure"} if rejected else set())
+    outcomes = outcomes or {"none"}
     filename = str(scene.get("image_filename", ""))
     return {
         "index": _as_int(scene.get("image_index"), -1),
@@ -150,6 +153,15 @@ def filter_scene_summaries(summaries: Iterable[Mapping[str, Any]],
         raise DatasetError(f"unknown scene filter(s) {unknown}; valid: {list(FILTER_KEYS)}")
     wanted = {k: v for k, v in criteria.items() if v}
     return [s for s in summaries if all(v in s.get(k, ()) for k, v in wanted.items())]
+
+
+def matches_instruction(record: Mapping[str, Any], instruction: Mapping[str, Any]) -> bool:
+    """Whether an episode or rejection record belongs to an instruction: same scene and slot when the
+    instruction has a slot (``samplehd generate``), else the same instruction index."""
+    if "slot" in instruction and "slot" in record:
+        return (_as_int(record.get("scene_index"), -1) == _as_int(instruction.get("image_index"), -2)
+                and _as_int(record.get("slot"), -1) == _as_int(instruction.get("slot"), -2))
+    return _as_int(record.get("instruction_index"), -1) == _as_int(instruction.get("instruction_index"), -2)
 
 
 class DatasetIndex:
@@ -206,8 +218,18 @@ class DatasetIndex:
         return out, state
 
     def instructions(self) -> tuple[list[dict[str, Any]], FileState]:
-        """Instructions (``instructions`` or CLEVR's ``questions`` list) and the file's state."""
+        """Instructions (``instructions`` or CLEVR's ``questions`` list) and the file's state.
+
+        While ``instructions.json`` is not written yet (``samplehd generate`` writes it last), the
+        instruction candidates of ``candidates.json`` are shown instead.
+        """
         doc, state = self._json.read(self.root / "instructions.json")
+        if state.state != "ok":
+            candidates, cand_state = self._json.read(self.root / "candidates.json")
+            if cand_state.state == "ok" and isinstance(candidates, dict):
+                doc = candidates
+                state = FileState("instructions.json", state.state,
+                                  f"{state.detail}; showing the instruction candidates of candidates.json")
         items: Any = []
         if isinstance(doc, dict):
             items = doc.get("instructions", doc.get("questions", []))
@@ -226,6 +248,12 @@ class DatasetIndex:
         if self.episodes is None:
             return [], FileState("episodes", "missing", "this folder holds no episodes")
         return self.episodes.summaries(), self.episodes.state()
+
+    def rejections(self) -> list[dict[str, Any]]:
+        """Instruction candidates whose path was rejected (``{scene_index, slot, reason, message}``)."""
+        if self.episodes is None or not hasattr(self.episodes, "rejections"):
+            return []
+        return self.episodes.rejections()
 
     # -- derived -------------------------------------------------------------------------------
     def status(self) -> dict[str, Any]:
@@ -273,7 +301,9 @@ class DatasetIndex:
         eps_by_scene: dict[int, list[dict[str, Any]]] = {}
         for e in episodes:
             eps_by_scene.setdefault(_as_int(e.get("scene_index"), -1), []).append(e)
-        return [scene_summary(scenes[i], by_scene.get(i, []), eps_by_scene.get(i, [])) for i in sorted(scenes)]
+        rejected = {_as_int(r.get("scene_index"), -1) for r in self.rejections()}
+        return [scene_summary(scenes[i], by_scene.get(i, []), eps_by_scene.get(i, []), i in rejected)
+                for i in sorted(scenes)]
 
     def image_path(self, scene_index: int, modality: str) -> Path:
         """Path of a scene's ``rgb`` / ``depth`` / ``segmentation`` PNG (it may not exist yet).

@@ -214,6 +214,15 @@ async function depthBar(stage) {
   return el("span", {class: "depth-bar", id: "depth-bar"}, `near ${num(at(0.01), 2)} m`, bar, `far ${num(at(0.99), 2)} m`);
 }
 
+/** Chips linking an instruction's episodes and naming its rejected paths. */
+function outcomeChips(q) {
+  return [
+    ...(q.episodes || []).map((e) => el("a", {href: `#/episode/${e.episode}`, class: `chip ${e.success ? "ok" : "bad"}`},
+      e.success ? `episode ${e.episode} ✓` : `episode ${e.episode} ✗ ${e.failure_reason || ""}`)),
+    ...(q.rejections || []).map((r) => el("span", {class: "chip bad", title: r.message}, `path rejected: ${r.reason}`)),
+  ];
+}
+
 // ---------------------------------------------------------------- scene page
 async function scenePage(i) {
   const data = await getJSON(`/api/scenes/${i}`);
@@ -263,16 +272,10 @@ async function scenePage(i) {
     if (tr) highlight(Number(tr.dataset.object));
   });
 
-  const episodesByInstruction = new Map(data.episodes.map((e) => [e.instruction_index, e]));
-  const instructions = el("ul", {class: "instr-list", id: "instruction-list"}, data.instructions.map((q) => {
-    const ep = episodesByInstruction.get(q.instruction_index);
-    return el("li", {},
-      el("a", {href: `#/instruction/${q.instruction_index}`}, q.instruction || q.question || `instruction ${q.instruction_index}`),
-      el("div", {class: "chips"}, el("span", {class: "chip fam"}, q.family || "?"),
-        el("span", {class: "chip"}, q.template_name || q.template_filename || ""),
-        ep ? el("a", {href: `#/episode/${ep.episode}`, class: `chip ${ep.success ? "ok" : "bad"}`},
-          ep.success ? "episode ✓" : `episode ✗ ${ep.failure_reason || ""}`) : null));
-  }));
+  const instructions = el("ul", {class: "instr-list", id: "instruction-list"}, data.instructions.map((q) => el("li", {},
+    el("a", {href: `#/instruction/${q.instruction_index}`}, q.instruction || q.question || `instruction ${q.instruction_index}`),
+    el("div", {class: "chips"}, el("span", {class: "chip fam"}, q.family || "?"),
+      el("span", {class: "chip"}, q.template_name || q.template_filename || ""), outcomeChips(q)))));
   const cam = scene.camera || {};
   const man = scene.manipulator || {};
   const meta = kv([
@@ -336,8 +339,11 @@ async function instructionPage(j) {
   } else {
     imageBlock = el("div", {class: "placeholder"}, `scene ${sceneIndex} not written yet`);
   }
-  const episodes = data.episodes.map((e) => el("a", {href: `#/episode/${e.episode}`, class: `chip ${e.success ? "ok" : "bad"}`},
-    `episode ${e.episode}: ${e.success ? "success" : `failure ${e.failure_reason || ""}`} · ${e.num_frames} frames`));
+  const episodes = [
+    ...data.episodes.map((e) => el("a", {href: `#/episode/${e.episode}`, class: `chip ${e.success ? "ok" : "bad"}`},
+      `episode ${e.episode}: ${e.success ? "success" : `failure ${e.failure_reason || ""}`} · ${e.num_frames} frames`)),
+    ...data.rejections.map((r) => el("span", {class: "chip bad", title: r.message}, `path rejected: ${r.reason} — ${r.message}`)),
+  ];
   view.replaceChildren(
     el("h1", {}, `Instruction ${j}`),
     el("div", {class: "toolbar"},
@@ -386,11 +392,22 @@ async function episodeList(query) {
     el("td", {}, el("a", {href: `#/instruction/${e.instruction_index}`}, e.instruction || String(e.instruction_index))),
     el("td", {}, e.family), el("td", {}, String(e.num_frames ?? "")),
     el("td", {}, el("span", {class: `chip ${e.success ? "ok" : "bad"}`}, e.success ? "success" : `failure ${e.failure_reason || ""}`))));
+  const rejected = data.rejections.map((r) => el("tr", {},
+    el("td", {}, el("a", {href: `#/scene/${r.scene_index}`}, String(r.scene_index))), el("td", {}, String(r.slot)),
+    el("td", {}, r.instruction_index !== null && r.instruction_index !== undefined
+      ? el("a", {href: `#/instruction/${r.instruction_index}`}, r.instruction || String(r.instruction_index)) : "–"),
+    el("td", {}, r.family || ""), el("td", {}, el("span", {class: "chip bad"}, r.reason)), el("td", {class: "muted"}, r.message)));
+  const reasons = {};
+  for (const r of data.rejections) reasons[r.reason] = (reasons[r.reason] || 0) + 1;
   view.replaceChildren(el("h1", {}, "Episodes"),
     el("div", {class: "filters"}, pick("family", families), pick("success", ["success", "failure"])),
     data.state.state !== "ok" ? el("p", {class: "muted"}, data.state.detail) : null,
     el("table", {class: "objects", id: "episode-table"},
-      el("tr", {}, ["episode", "scene", "instruction", "family", "frames", "outcome"].map((h) => el("th", {}, h))), rows));
+      el("tr", {}, ["episode", "scene", "instruction", "family", "frames", "outcome"].map((h) => el("th", {}, h))), rows),
+    data.rejections.length ? el("h2", {}, `Rejected paths (${data.rejections.length}): `
+      + Object.entries(reasons).sort((a, b) => b[1] - a[1]).map(([k, v]) => `${k} ${v}`).join(", ")) : null,
+    data.rejections.length ? el("table", {class: "objects", id: "rejection-table"},
+      el("tr", {}, ["scene", "slot", "instruction", "family", "reason", "message"].map((h) => el("th", {}, h))), rejected) : null);
 }
 
 // ---------------------------------------------------------------- start
