@@ -43,6 +43,8 @@ __all__ = [
     "file_digest",
     "read_episode",
     "read_frames",
+    "read_image",
+    "read_meta",
     "write_episode",
     "write_error",
 ]
@@ -185,7 +187,9 @@ class FrameImages:
     def __init__(self, path: Path, key: str) -> None:
         self.path = Path(path)
         self.key = key
-        with h5py.File(self.path, "r") as f:
+        with _open(self.path) as f:
+            if key not in f:
+                raise DatasetError(f"{self.path}: no image stream {key!r}")
             ds = f[key]
             self._len = int(ds.shape[0])
             self.shape = tuple(int(v) for v in ds.shape)
@@ -231,6 +235,36 @@ def read_frames(path: Path, fields: Iterable[str] | None = None) -> dict[str, np
             return {k: f["frames"][k][()] for k in (fields or FRAME_FIELDS)}
         except (KeyError, OSError, RuntimeError) as exc:
             raise DatasetError(f"{path}: cannot read frames: {exc}") from None
+
+
+def read_meta(path: Path) -> dict[str, Any]:
+    """An episode file's attributes without reading frames or images.
+
+    Returns:
+        ``{stem, scene_index, slot, instruction_index, family, seed, success, num_frames, subtasks,
+        info, task, instruction, render, images: {camera: [modalities]}}``; ``render`` is None and
+        ``images`` empty when the episode stores no images (render mode none).
+
+    Raises:
+        DatasetError: the file is missing, truncated or corrupted.
+    """
+    path = Path(path)
+    with _open(path) as f:
+        try:
+            out: dict[str, Any] = {"stem": path.stem}
+            for k, v in f.attrs.items():
+                v = v.item() if isinstance(v, np.generic) else v
+                out[k] = json.loads(v) if k in ("subtasks", "info", "task") and isinstance(v, str) else v
+            out["render"] = json.loads(f["images"].attrs["render"]) if "images" in f else None
+            out["images"] = {cam: list(f["images"][cam]) for cam in f["images"]} if "images" in f else {}
+        except (KeyError, OSError, RuntimeError, ValueError) as exc:
+            raise DatasetError(f"{path}: corrupted episode file: {exc}") from None
+    return out
+
+
+def read_image(path: Path, camera: str, modality: str, frame: int) -> np.ndarray:
+    """One decoded image frame (reads one chunk)."""
+    return FrameImages(path, f"images/{camera}/{modality}")[frame]
 
 
 def read_episode(path: Path, images: str = "lazy", instruction_index: int | None = None) -> Episode:

@@ -214,6 +214,48 @@ class DatasetReader:
 
         return read_episode(self.episode_path(index), images=images, instruction_index=index)
 
+    def episode_meta(self, index: int) -> dict[str, Any]:
+        """Episode ``index``'s attributes without frames or images (see
+        :func:`samplehd.dataset.container.read_meta`): stem, family, success, num_frames, subtasks,
+        info (checker report, control_hz), task, render settings and stored ``images`` {camera:
+        [modalities]} (empty, with ``render`` None, for an episode stored without images)."""
+        from samplehd.dataset.container import read_meta
+
+        meta = read_meta(self.episode_path(index))
+        meta["instruction_index"] = index
+        return meta
+
+    def listing(self) -> list[dict[str, Any]]:
+        """A cheap listing of every episode (attributes only); unreadable files are listed with
+        ``error`` set instead of raising."""
+        out = []
+        for i, e in enumerate(self.episodes):
+            try:
+                meta = self.episode_meta(i)
+                meta.pop("info", None)
+            except DatasetError as exc:
+                meta = {"stem": Path(e.file).stem, "error": str(exc)}
+            out.append({**e.to_dict(), **meta, "instruction_index": i})
+        return out
+
+    def frames(self, index: int, fields: list[str] | tuple[str, ...] | None = None) -> dict[str, Any]:
+        """Selected frame fields of episode ``index`` (no images, no other fields are read)."""
+        from samplehd.dataset.container import read_frames
+
+        return read_frames(self.episode_path(index), fields)
+
+    def image(self, index: int, camera: str, modality: str, frame: int) -> Any:
+        """One decoded image frame: rgb uint8 H×W×3, depth float32 [m], segmentation ids."""
+        from samplehd.dataset.container import read_image
+
+        return read_image(self.episode_path(index), camera, modality, frame)
+
+    def rejections(self) -> list[dict[str, Any]]:
+        """Instruction candidates whose ground-truth path failed: {scene_index, slot, reason, message}."""
+        from samplehd.dataset.journal import read_journal
+
+        return [r for r in read_journal(self.root) if r.get("status") == "rejected"]
+
     def instruction(self, index: int) -> dict[str, Any]:
         """The instruction entry of episode ``index``."""
         return self.instructions[index]

@@ -1,0 +1,140 @@
+"""Run work units in parallel: local worker processes or a Ray cluster.
+
+Both backends take units lazily from an iterator (so the caller can stop feeding them, e.g. once
+``target_episodes`` is reached) and yield ``(unit, result)`` as units finish, in completion order.
+Results never depend on which worker ran a unit.
+
+Local workers are started with the ``spawn`` method: a forked child would inherit the parent's
+GL/EGL state. Ray tasks run the same functions; on a multi-machine cluster the output directory must
+be on a file system every node can write (workers write their episode files themselves).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterator
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from dataclasses import dataclass
+from multiprocessing import get_context
+from typing import Any
+
+from samplehd.errors import ConfigError
+
+__all__ = ["BACKENDS", "Backend", "default_workers"]
+
+BACKENDS = ("local", "ray")
+
+
+def default_workers() -> int:
+    """All cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+@dataclass(frozen=True)
+class Backend:
+    """Where units run.
+
+    Attributes:
+        kind: ``local`` or ``ray``.
+        workers: local worker processes (1: in this process), or Ray CPUs to start a local Ray with.
+        ray_address: address of a running Ray cluster (``auto``, ``ray://host:10001``); None starts or
+            reuses a local Ray instance.
+    """
+
+    kind: str = "local"
+    workers: int = 1
+    ray_address: str | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in BACKENDS:
+            raise ConfigError(f"--backend {self.kind!r}: valid: {', '.join(BACKENDS)}")
+        if not isinstance(self.workers, int) or self.workers < 1:
+            raise ConfigError(f"--workers {self.workers!r}: must be an integer ≥ 1")
+
+    def describe(self) -> str:
+        if self.kind == "ray":
+            return f"ray ({self.ray_address or 'local'})"
+        return f"local, {self.workers} worker{'s' if self.workers > 1 else ''}"
+
+    def map(self, fn: Callable[[Any], Any], units: Iterator[Any]) -> Iterator[tuple[Any, Any]]:
+        """Run ``fn`` on every unit; yield ``(unit, result)`` as they finish.
+
+        The first exception raised by a unit stops the run: pending units are cancelled and the
+        exception is re-raised here.
+        """
+        if self.kind == "ray":
+            yield from _ray_map(fn, units, self.workers, self.ray_address)
+        elif self.workers <= 1:
+            for unit in units:
+                yield unit, fn(unit)
+        else:
+            yield from _pool_map(fn, units, self.workers)
+
+
+def _pool_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int) -> Iterator[tuple[Any, Any]]:
+    window = 2 * workers
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+    pending: dict[Future, Any] = {}
+    try:
+        exhausted = False
+        while True:
+            while not exhausted and len(pending) < window:
+                try:
+                    unit = next(units)
+                except StopIteration:
+                    exhausted = True
+                    break
+                pending[pool.submit(fn, unit)] = unit
+            if not pending:
+                break
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for fut in done:
+                unit = pending.pop(fut)
+                yield unit, fut.result()
+    finally:
+        for fut in pending:
+            fut.cancel()
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _ray_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int,
+             address: str | None) -> Iterator[tuple[Any, Any]]:
+    try:
+        import ray
+    except ImportError:
+        raise ConfigError("--backend ray needs Ray: pip install 'samplehd[ray]'") from None
+    if not ray.is_initialized():
+        if address:
+            ray.init(address=address, include_dashboard=False, log_to_driver=False)
+        else:
+            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+    remote = ray.remote(num_cpus=1, max_retries=0)(fn)
+    window = max(2, 2 * int(ray.cluster_resources().get("CPU", workers)))
+    pending: dict[Any, Any] = {}
+    try:
+        exhausted = False
+        while True:
+            while not exhausted and len(pending) < window:
+                try:
+                    unit = next(units)
+                except StopIteration:
+                    exhausted = True
+                    break
+                pending[remote.remote(unit)] = unit
+            if not pending:
+                break
+            done, _ = ray.wait(list(pending), num_returns=1)
+            for ref in done:
+                unit = pending.pop(ref)
+                try:
+                    result = ray.get(ref)
+                except ray.exceptions.RayTaskError as exc:
+                    cause = exc.as_instanceof_cause()
+                    raise (cause.cause if getattr(cause, "cause", None) else cause) from None
+                yield unit, result
+    finally:
+        for ref in pending:
+            ray.cancel(ref, force=True)

@@ -1,0 +1,434 @@
+"""Generate a dataset: scenes → instruction candidates → ground-truth paths (+ images) → metadata.
+
+The writer of the layout in docs/FORMAT.md::
+
+    DIR/info.json  scenes.json  instructions.json  candidates.json  journal.jsonl  runs.jsonl
+    DIR/scenes/SHD_<split>_<index:06d>.json   (+ images/ depth/ segmentation/ of each scene)
+    DIR/episodes/s<scene:06d>_<slot:02d>.h5    one HDF5 container per successful episode
+
+Stages and their units:
+
+1. scenes: one unit per scene (``scene_seed(seed, i)``); done when its ``scenes/<stem>.json`` exists.
+2. instructions: one deterministic pass over all scenes in index order (template use counts are shared
+   across scenes), written to ``candidates.json``; slot ``k`` of scene ``i`` gets
+   ``episode_seed(seed, i, k)``.
+3. paths: one unit per candidate, fed in slot-major order; done when its episode file exists or the
+   journal records its rejection. With ``target_episodes`` the run stops at the candidate whose success
+   reaches the target (counted in that order), whatever finished first.
+4. finalize: ``instructions.json`` (successful candidates, numbered 0..M-1 by scene then slot),
+   ``scenes.json`` and ``info.json`` (status ``complete``).
+
+Every file is written atomically, so a run killed at any moment resumes (``resume=True``) to the same
+dataset an uninterrupted run makes.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import sys
+import time
+from collections import Counter
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import samplehd
+from samplehd.dataset.backend import Backend
+from samplehd.dataset.config import GenerateConfig, candidate_order, episode_seed
+from samplehd.dataset.journal import append_journal, read_journal, repair_journal
+from samplehd.dataset.layout import (
+    CANDIDATES_FILE,
+    EPISODE_DIR,
+    FORMAT_VERSION,
+    INFO_FILE,
+    INSTRUCTIONS_FILE,
+    RUNS_FILE,
+    SCENE_DIR,
+    SCENES_FILE,
+    episode_name,
+    is_temporary,
+    parse_episode_name,
+)
+from samplehd.errors import ConfigError, DatasetError
+
+__all__ = ["GenerateSummary", "Progress", "generate_dataset", "versions"]
+
+
+class Progress:
+    """Receives progress events; the default does nothing (the CLI draws rich progress bars)."""
+
+    def stage(self, name: str, total: int, done: int = 0) -> None:
+        """A stage starts with ``total`` units, ``done`` of them already finished (resume)."""
+
+    def advance(self, name: str, n: int = 1, frames: int = 0) -> None:
+        """``n`` units of stage ``name`` finished, producing ``frames`` frames."""
+
+    def note(self, text: str) -> None:
+        """A one-line message."""
+
+
+@dataclass
+class GenerateSummary:
+    """What a run made.
+
+    Attributes:
+        scenes: scenes in the dataset.
+        candidates: instruction candidates generated.
+        attempted: candidates whose path was attempted (up to the target cutoff).
+        episodes: successful episodes in the dataset.
+        frames: frames over all episodes.
+        rejections: path rejections by reason (up to the cutoff).
+        scene_rejections: scene-sampling rejections by reason.
+        families: episodes per family.
+        target_reached: whether ``target_episodes`` was reached (True when there is no target).
+        seconds: wall time of this run [s].
+        work_seconds: summed unit times of the units this run executed [s].
+        units_run: path units executed in this run (not resumed from disk).
+    """
+
+    scenes: int = 0
+    candidates: int = 0
+    attempted: int = 0
+    episodes: int = 0
+    frames: int = 0
+    rejections: dict[str, int] = field(default_factory=dict)
+    scene_rejections: dict[str, int] = field(default_factory=dict)
+    families: dict[str, int] = field(default_factory=dict)
+    target_reached: bool = True
+    seconds: float = 0.0
+    work_seconds: float = 0.0
+    units_run: int = 0
+
+
+def versions() -> dict[str, str]:
+    """Versions of what decides the content: samplehd, MuJoCo, numpy, h5py, Python."""
+    import h5py
+    import mujoco
+    import numpy
+
+    return {"samplehd": samplehd.__version__, "mujoco": mujoco.__version__, "numpy": numpy.__version__,
+            "h5py": h5py.__version__, "python": platform.python_version()}
+
+
+def _write_json(path: Path, obj: Any, indent: int | None = None) -> None:
+    from samplehd.dataset.container import write_error
+    from samplehd.scene.generate import write_json_atomic
+
+    try:
+        write_json_atomic(path, obj, indent)
+    except OSError as exc:
+        raise write_error(path, exc) from None
+
+
+def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in sorted(set(a) | set(b)):
+            d = _first_difference(a.get(k), b.get(k), f"{where}.{k}" if where else k)
+            if d:
+                return d
+        return None
+    return None if a == b else f"{where}: {a!r} in the dataset, {b!r} now"
+
+
+def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
+    info_path = out / INFO_FILE
+    if out.exists() and not out.is_dir():
+        raise DatasetError(f"--out {out}: exists and is not a directory")
+    if info_path.exists():
+        if not resume:
+            raise DatasetError(f"--out {out}: already holds a dataset; pass --resume to continue it or choose "
+                               f"another --out")
+        try:
+            stored = json.loads(info_path.read_text())["config"]
+        except (OSError, ValueError, KeyError) as exc:
+            raise DatasetError(f"{info_path}: unreadable ({exc}); cannot resume") from None
+        diff = _first_difference(stored, json.loads(json.dumps(config.to_dict())))
+        if diff:
+            raise ConfigError(f"--resume: the config differs from {info_path} at {diff}; resume with the same "
+                              f"preset/config/flags")
+    elif out.is_dir() and any(p for p in out.iterdir() if not is_temporary(p.name)):
+        raise DatasetError(f"--out {out}: is not empty and holds no dataset; choose an empty or new directory")
+    try:
+        for sub in (SCENE_DIR, EPISODE_DIR, "images", "depth", "segmentation"):
+            (out / sub).mkdir(parents=True, exist_ok=True)
+        probe = out / f".write-test{os.getpid()}"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        raise DatasetError(f"--out {out}: not writable ({exc.strerror}); choose a writable directory") from None
+    for folder in (out, out / SCENE_DIR, out / EPISODE_DIR):
+        for p in folder.iterdir():
+            if is_temporary(p.name) and p.is_file():
+                p.unlink()
+    repair_journal(out)
+
+
+def _base_info(config: GenerateConfig) -> dict[str, Any]:
+    return {"format_version": FORMAT_VERSION, "status": "in_progress", "versions": versions(),
+            "config": config.to_dict()}
+
+
+def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: Progress) -> list[dict[str, Any]]:
+    from samplehd.dataset.work import run_scene_unit
+    from samplehd.scene.annotate import image_stem
+    from samplehd.scene.generate import SceneJob, scene_split
+    from samplehd.scene.sampler import scene_seed
+
+    r = config.render
+    preset = r.mode if r.enabled else "fast"
+    jobs = []
+    for i in range(config.num_scenes):
+        stem = image_stem(scene_split(i, config.test_every), i)
+        if not (out / SCENE_DIR / f"{stem}.json").exists():
+            jobs.append(SceneJob(i, scene_seed(config.seed, i), str(out), config.scene.to_dict(), r.width, r.height,
+                                 preset, config.test_every))
+    progress.stage("scenes", config.num_scenes, config.num_scenes - len(jobs))
+    for _, _res in backend.map(run_scene_unit, iter(jobs)):
+        progress.advance("scenes")
+    scenes = []
+    for i in range(config.num_scenes):
+        path = out / SCENE_DIR / f"{image_stem(scene_split(i, config.test_every), i)}.json"
+        try:
+            scenes.append(json.loads(path.read_text()))
+        except (OSError, ValueError) as exc:
+            raise DatasetError(f"{path}: unreadable scene file ({exc}); delete it and run with --resume") from None
+    return scenes
+
+
+def _instruction_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
+                       progress: Progress) -> list[dict[str, Any]]:
+    from samplehd.language.instruction_file import generate_instruction_file
+
+    path = out / CANDIDATES_FILE
+    progress.stage("instructions", len(scenes))
+    if path.exists():
+        try:
+            doc = json.loads(path.read_text())
+        except (OSError, ValueError) as exc:
+            raise DatasetError(f"{path}: unreadable ({exc}); delete it and run with --resume") from None
+        progress.advance("instructions", len(scenes))
+        return list(doc["instructions"])
+    ic = config.instructions
+    doc = generate_instruction_file(scenes, config.seed, per_scene=ic.per_scene, balance=ic.balance,
+                                    families=list(ic.families) if ic.families is not None else None,
+                                    scenes_info={"num_scenes": len(scenes), "seed": config.seed},
+                                    progress=lambda done, total: progress.advance("instructions"),
+                                    source=str(out / SCENE_DIR))
+    slots: Counter[int] = Counter()
+    for entry in doc["instructions"]:
+        scene = int(entry["image_index"])
+        slot = slots[scene]
+        slots[scene] += 1
+        entry["candidate_index"] = entry.pop("instruction_index")
+        entry["slot"] = slot
+        entry["seed"] = episode_seed(config.seed, scene, slot)
+        entry["file"] = f"{EPISODE_DIR}/{episode_name(scene, slot)}"
+    _write_json(path, doc)
+    return list(doc["instructions"])
+
+
+class _Cutoff:
+    """Tracks results in slot-major order to find where ``target_episodes`` is reached."""
+
+    def __init__(self, order: list[tuple[int, int]], target: int) -> None:
+        self.order = order
+        self.target = target
+        self.status: dict[tuple[int, int], bool] = {}
+        self.next = 0  # first position whose status is unknown
+        self.successes = 0  # among positions < next
+        self.end: int | None = None  # positions < end are in the dataset
+
+    def record(self, key: tuple[int, int], ok: bool) -> None:
+        self.status[key] = ok
+        while self.end is None and self.next < len(self.order) and self.order[self.next] in self.status:
+            self.successes += self.status[self.order[self.next]]
+            self.next += 1
+            if self.target and self.successes >= self.target:
+                self.end = self.next
+
+    def needed(self, position: int) -> bool:
+        return self.end is None or position < self.end
+
+
+def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], candidates: list[dict[str, Any]],
+                backend: Backend, progress: Progress, summary: GenerateSummary) -> _Cutoff:
+    from samplehd.dataset.container import read_meta
+    from samplehd.dataset.work import EpisodeUnit, run_episode_unit
+
+    by_key = {(int(c["image_index"]), int(c["slot"])): c for c in candidates}
+    order = candidate_order(list(by_key))
+    cutoff = _Cutoff(order, config.target_episodes)
+    known: dict[tuple[int, int], dict[str, Any]] = {}
+    for rec in read_journal(out):
+        key = (int(rec["scene_index"]), int(rec["slot"]))
+        if key in by_key and (rec["status"] == "rejected" or (out / by_key[key]["file"]).exists()):
+            known[key] = rec
+    # An episode file renamed into place just before a kill, without its journal line.
+    late = []
+    for p in (out / EPISODE_DIR).iterdir():
+        key = parse_episode_name(p.name)
+        if key is not None and key in by_key and key not in known:
+            try:
+                meta = read_meta(p)
+            except DatasetError:
+                p.unlink()
+                continue
+            from samplehd.dataset.container import file_digest
+
+            rec = {"scene_index": key[0], "slot": key[1], "status": "ok", "num_frames": int(meta["num_frames"]),
+                   "size": p.stat().st_size, "sha256": file_digest(p), "seconds": 0.0}
+            known[key] = rec
+            late.append(rec)
+    append_journal(out, late)
+    for key in order:
+        if key in known:
+            cutoff.record(key, known[key]["status"] == "ok")
+    scene_by_index = {int(s["image_index"]): s for s in scenes}
+    total = len(order) if cutoff.end is None else cutoff.end
+    progress.stage("paths", total, sum(1 for k in order[:total] if k in known))
+    frames_done = sum(int(r.get("num_frames", 0)) for k, r in known.items())
+    if frames_done:
+        progress.advance("paths", 0, frames_done)
+
+    def units() -> Iterator[EpisodeUnit]:
+        for pos, key in enumerate(order):
+            if key in known:
+                continue
+            if not cutoff.needed(pos):
+                return
+            c = by_key[key]
+            s = scene_by_index[key[0]]
+            yield EpisodeUnit(out=str(out), file=Path(c["file"]).name, scene_index=key[0], slot=key[1],
+                              seed=int(c["seed"]), family=str(c["family"]), task=dict(c["task"]),
+                              instruction=str(c["instruction"]), split=str(c["split"]), scene=s["spec"],
+                              directions=s["directions"], paths=config.paths.to_dict(),
+                              render=config.render.to_dict())
+
+    position = {k: i for i, k in enumerate(order)}
+    for unit, res in backend.map(run_episode_unit, units()):
+        key = (unit.scene_index, unit.slot)
+        append_journal(out, [res])
+        known[key] = res
+        cutoff.record(key, res["status"] == "ok")
+        summary.units_run += 1
+        summary.work_seconds += float(res.get("seconds", 0.0))
+        if cutoff.end is not None and position[key] >= cutoff.end:
+            continue
+        progress.advance("paths", 1, int(res.get("num_frames", 0)))
+        if res["status"] != "ok":
+            progress.note(f"scene {key[0]} slot {key[1]}: rejected ({res['reason']})")
+    if cutoff.end is not None:
+        progress.stage("paths", cutoff.end, cutoff.end)
+    cutoff.known = known  # type: ignore[attr-defined]
+    return cutoff
+
+
+def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], candidates: list[dict[str, Any]],
+              cutoff: _Cutoff, summary: GenerateSummary) -> None:
+    known: dict[tuple[int, int], dict[str, Any]] = cutoff.known  # type: ignore[attr-defined]
+    end = len(cutoff.order) if cutoff.end is None else cutoff.end
+    included = set(cutoff.order[:end])
+    by_key = {(int(c["image_index"]), int(c["slot"])): c for c in candidates}
+    ok_keys = sorted(k for k in included if known.get(k, {}).get("status") == "ok")
+    instructions, episodes = [], []
+    families: Counter[str] = Counter()
+    splits: Counter[str] = Counter()
+    for i, key in enumerate(ok_keys):
+        c = dict(by_key[key])
+        rec = known[key]
+        c["instruction_index"] = i
+        c["num_frames"] = int(rec["num_frames"])
+        instructions.append(c)
+        episodes.append({"instruction_index": i, "scene_index": key[0], "slot": key[1], "file": c["file"],
+                         "seed": int(c["seed"]), "family": c["family"], "split": c["split"],
+                         "num_frames": int(rec["num_frames"]), "size": int(rec["size"]), "sha256": rec["sha256"]})
+        families[c["family"]] += 1
+        splits[c["split"]] += 1
+    # Episodes past the target cutoff (finished by other workers meanwhile) are not part of the dataset.
+    keep = {Path(e["file"]).name for e in episodes}
+    for p in (out / EPISODE_DIR).iterdir():
+        if parse_episode_name(p.name) is not None and p.name not in keep:
+            p.unlink()
+    rejections = Counter(known[k]["reason"] for k in included if known.get(k, {}).get("status") == "rejected")
+    scene_rej: Counter[str] = Counter()
+    for s in scenes:
+        scene_rej.update(s.get("sampling", {}).get("rejections", {}))
+    cand_doc = json.loads((out / CANDIDATES_FILE).read_text())
+    summary.scenes = len(scenes)
+    summary.candidates = len(candidates)
+    summary.attempted = len(included)
+    summary.episodes = len(episodes)
+    summary.frames = sum(e["num_frames"] for e in episodes)
+    summary.rejections = dict(sorted(rejections.items()))
+    summary.scene_rejections = dict(sorted(scene_rej.items()))
+    summary.families = dict(sorted(families.items()))
+    summary.target_reached = not config.target_episodes or len(episodes) >= config.target_episodes
+    lang_info = dict(cand_doc["info"])
+    lang_info["counts"] = {"families": dict(sorted(families.items())), "splits": dict(sorted(splits.items())),
+                           "candidates": len(candidates)}
+    _write_json(out / SCENES_FILE, {"info": {"version": samplehd.__version__, "seed": config.seed,
+                                             "num_scenes": len(scenes), "license": "CC BY 4.0",
+                                             "split_rule": f"every {config.test_every}th scene is test"},
+                                    "scenes": scenes})
+    _write_json(out / INSTRUCTIONS_FILE, {"info": lang_info, "instructions": instructions})
+    info = _base_info(config)
+    info.update({
+        "status": "complete",
+        "counts": {"scenes": len(scenes), "candidates": len(candidates), "attempted": len(included),
+                   "episodes": len(episodes), "frames": summary.frames, "families": summary.families,
+                   "splits": dict(sorted(splits.items()))},
+        "target_reached": summary.target_reached,
+        "rejections": {"scenes": summary.scene_rejections, "paths": summary.rejections,
+                       "instructions": dict(cand_doc["info"].get("rejections", {}))},
+        "seeds": {"base": config.seed, "scenes": [int(s["seed"]) for s in scenes]},
+        "render": config.render.to_dict(),
+        "episodes": episodes,
+    })
+    _write_json(out / INFO_FILE, info, indent=1)
+
+
+def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend | None = None, resume: bool = False,
+                     progress: Progress | None = None) -> GenerateSummary:
+    """Generate (or, with ``resume``, finish) a dataset in ``out``.
+
+    Args:
+        out: the dataset directory (created; must be new or empty unless resuming).
+        config: what to generate.
+        backend: where units run (default: in this process).
+        resume: continue the dataset in ``out``; its config must equal ``config``.
+        progress: progress receiver.
+
+    Returns:
+        The summary of the finished dataset.
+
+    Raises:
+        DatasetError: ``out`` is not usable, or a file cannot be written (disk full, permissions).
+        ConfigError: resuming with a different config.
+    """
+    out = Path(out)
+    backend = backend or Backend()
+    progress = progress or Progress()
+    summary = GenerateSummary()
+    t0 = time.perf_counter()
+    _prepare(out, config, resume)
+    if not (out / INFO_FILE).exists():
+        _write_json(out / INFO_FILE, _base_info(config), indent=1)
+    scenes = _scene_stage(out, config, backend, progress)
+    candidates = _instruction_stage(out, config, scenes, progress)
+    cutoff = _path_stage(out, config, scenes, candidates, backend, progress, summary)
+    _finalize(out, config, scenes, candidates, cutoff, summary)
+    summary.seconds = time.perf_counter() - t0
+    run = {"command": "generate", "argv": sys.argv[1:], "backend": backend.describe(), "resume": resume,
+           "seconds": round(summary.seconds, 3), "units_run": summary.units_run,
+           "work_seconds": round(summary.work_seconds, 3), "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+    try:
+        with open(out / RUNS_FILE, "a", encoding="utf-8") as f:
+            f.write(json.dumps(run) + "\n")
+    except OSError as exc:
+        from samplehd.dataset.container import write_error
+
+        raise write_error(out / RUNS_FILE, exc) from None
+    return summary

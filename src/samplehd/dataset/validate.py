@@ -1,0 +1,178 @@
+"""Check a dataset directory against its own metadata.
+
+Every problem is collected (never raised) as one line naming the file; an empty list means the
+dataset is complete and consistent: info.json, scenes.json, instructions.json and every episode file
+(present, size and SHA-256 as recorded, readable, frame fields with the right shapes and dtypes,
+images with the recorded cameras, modalities and resolution).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from samplehd.dataset.layout import (
+    EPISODE_DIR,
+    FORMAT_VERSION,
+    INFO_FILE,
+    INSTRUCTIONS_FILE,
+    SCENE_DIR,
+    SCENES_FILE,
+    is_temporary,
+)
+from samplehd.errors import DatasetError
+
+__all__ = ["validate_dataset", "validate_episode_file"]
+
+
+def _load(path: Path, problems: list[str]) -> Any:
+    try:
+        return json.loads(path.read_text())
+    except FileNotFoundError:
+        problems.append(f"{path}: missing")
+    except (OSError, ValueError) as exc:
+        problems.append(f"{path}: unreadable or not JSON ({exc})")
+    return None
+
+
+def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, Any] | None,
+                          deep: bool = False) -> list[str]:
+    """Problems of one episode file compared with its ``info.json`` entry and the render settings."""
+    from samplehd.dataset.container import file_digest, read_episode
+
+    problems: list[str] = []
+    if not path.exists():
+        return [f"{path}: missing"]
+    size = path.stat().st_size
+    if entry.get("size", -1) >= 0 and size != entry["size"]:
+        problems.append(f"{path}: size {size} bytes, info.json says {entry['size']} (truncated or modified)")
+    if entry.get("sha256") and file_digest(path) != entry["sha256"]:
+        problems.append(f"{path}: SHA-256 differs from info.json (corrupted or modified)")
+    try:
+        ep = read_episode(path, images="none")
+    except DatasetError as exc:
+        return [*problems, str(exc)]
+    if ep.num_frames != entry.get("num_frames", ep.num_frames):
+        problems.append(f"{path}: {ep.num_frames} frames, info.json says {entry['num_frames']}")
+    if ep.scene_index != entry.get("scene_index", ep.scene_index):
+        problems.append(f"{path}: scene_index {ep.scene_index}, info.json says {entry['scene_index']}")
+    if ep.seed != entry.get("seed", ep.seed):
+        problems.append(f"{path}: seed {ep.seed}, info.json says {entry['seed']}")
+    if not ep.success:
+        problems.append(f"{path}: episode is not marked successful")
+    for key in ("qpos", "qvel", "joint_pos", "object_pos"):
+        if not np.all(np.isfinite(ep.frames[key])):
+            problems.append(f"{path}: frames/{key} has non-finite values")
+    try:
+        with h5py.File(path, "r") as f:
+            has = "images" in f
+            if render and render.get("mode", "none") != "none":
+                if not has:
+                    problems.append(f"{path}: no images, but the dataset renders {render['mode']}")
+                else:
+                    h, w = render["height"], render["width"]
+                    for cam in render["cameras"]:
+                        for mod in render["modalities"]:
+                            key = f"images/{cam}/{mod}"
+                            if key not in f:
+                                problems.append(f"{path}: {key} missing")
+                                continue
+                            ds = f[key]
+                            want = (ep.num_frames, h, w, 3) if mod == "rgb" else (ep.num_frames, h, w)
+                            if tuple(ds.shape) != want:
+                                problems.append(f"{path}: {key} has shape {tuple(ds.shape)}, expected {want}")
+                            elif deep:
+                                for t in range(ds.shape[0]):
+                                    ds[t]
+    except (OSError, RuntimeError, KeyError) as exc:
+        problems.append(f"{path}: cannot read images: {exc}")
+    return problems
+
+
+def validate_dataset(root: str | Path, deep: bool = False,
+                     on_episode: Callable[[int, int], None] | None = None) -> tuple[list[str], dict[str, int]]:
+    """Check a whole dataset.
+
+    Args:
+        root: the dataset directory.
+        deep: also decode every image chunk (the SHA-256 check already covers file integrity).
+        on_episode: progress callback ``(done, total)``.
+
+    Returns:
+        (problems, counts) where counts has episodes and frames checked.
+    """
+    root = Path(root)
+    problems: list[str] = []
+    if not root.is_dir():
+        return [f"{root}: not a directory"], {}
+    info = _load(root / INFO_FILE, problems)
+    if not isinstance(info, dict):
+        return problems, {}
+    if info.get("status") != "complete":
+        problems.append(f"{root / INFO_FILE}: status {info.get('status')!r}: generation has not finished "
+                        f"(run samplehd generate --resume)")
+        return problems, {}
+    if info.get("format_version") != FORMAT_VERSION:
+        problems.append(f"{root / INFO_FILE}: format_version {info.get('format_version')!r}, this samplehd reads "
+                        f"{FORMAT_VERSION}")
+    for key in ("versions", "config", "episodes", "counts", "seeds"):
+        if key not in info:
+            problems.append(f"{root / INFO_FILE}: field {key!r} missing")
+    episodes = list(info.get("episodes", []))
+    counts = info.get("counts", {})
+    scenes_doc = _load(root / SCENES_FILE, problems)
+    scenes = list(scenes_doc.get("scenes", [])) if isinstance(scenes_doc, dict) else []
+    if scenes_doc is not None:
+        idx = [s.get("image_index") for s in scenes]
+        if idx != list(range(len(scenes))):
+            problems.append(f"{root / SCENES_FILE}: image_index values are not 0..{len(scenes) - 1} in order")
+        if counts.get("scenes") != len(scenes):
+            problems.append(f"{root / SCENES_FILE}: {len(scenes)} scenes, info.json says {counts.get('scenes')}")
+        for s in scenes:
+            stem = Path(str(s.get("image_filename", ""))).stem
+            if not (root / SCENE_DIR / f"{stem}.json").exists():
+                problems.append(f"{root / SCENE_DIR / stem}.json: missing")
+            if "spec" not in s:
+                problems.append(f"{root / SCENES_FILE}: scene {s.get('image_index')}: field 'spec' missing")
+    inst_doc = _load(root / INSTRUCTIONS_FILE, problems)
+    insts = list(inst_doc.get("instructions", [])) if isinstance(inst_doc, dict) else []
+    if inst_doc is not None:
+        if len(insts) != len(episodes):
+            problems.append(f"{root / INSTRUCTIONS_FILE}: {len(insts)} instructions, info.json lists "
+                            f"{len(episodes)} episodes")
+        for k, (inst, ep) in enumerate(zip(insts, episodes, strict=False)):
+            if inst.get("instruction_index") != k:
+                problems.append(f"{root / INSTRUCTIONS_FILE}: entry {k} has instruction_index "
+                                f"{inst.get('instruction_index')}")
+            if inst.get("file") != ep.get("file") or inst.get("image_index") != ep.get("scene_index"):
+                problems.append(f"{root / INSTRUCTIONS_FILE}: entry {k} does not match info.json episode {k}")
+            if not 0 <= int(inst.get("image_index", -1)) < max(len(scenes), 1):
+                problems.append(f"{root / INSTRUCTIONS_FILE}: entry {k} points to scene {inst.get('image_index')}")
+    if counts.get("episodes") != len(episodes):
+        problems.append(f"{root / INFO_FILE}: counts.episodes {counts.get('episodes')} but {len(episodes)} listed")
+    render = info.get("render")
+    listed = set()
+    frames = 0
+    for k, entry in enumerate(episodes):
+        path = root / str(entry.get("file", ""))
+        listed.add(path.name)
+        if entry.get("instruction_index") != k:
+            problems.append(f"{root / INFO_FILE}: episodes[{k}] has instruction_index {entry.get('instruction_index')}")
+        problems.extend(validate_episode_file(path, entry, render, deep))
+        frames += int(entry.get("num_frames", 0))
+        if on_episode:
+            on_episode(k + 1, len(episodes))
+    if sum(int(e.get("num_frames", 0)) for e in episodes) != counts.get("frames"):
+        problems.append(f"{root / INFO_FILE}: counts.frames {counts.get('frames')} differs from the episode sum")
+    folder = root / EPISODE_DIR
+    for p in sorted(folder.iterdir()) if folder.is_dir() else []:
+        if is_temporary(p.name):
+            problems.append(f"{p}: leftover temporary file (an interrupted write; run generate --resume)")
+        elif p.name not in listed:
+            problems.append(f"{p}: not listed in info.json")
+    return problems, {"episodes": len(episodes), "frames": frames, "scenes": len(scenes)}

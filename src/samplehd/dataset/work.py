@@ -1,0 +1,170 @@
+"""Work units of dataset generation: pure functions of their (picklable) inputs.
+
+A unit writes its own output file atomically and returns a small JSON-able result to the
+coordinating process. Units never share state, so any worker (a local process, a Ray task) can run
+any unit in any order and the files come out the same.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+__all__ = ["EpisodeUnit", "RenderUnit", "run_episode_unit", "run_render_unit", "run_scene_unit"]
+
+
+def run_scene_unit(job: Any) -> dict[str, Any]:
+    """Sample, render and annotate one scene (``samplehd.scene.generate.SceneJob``)."""
+    from samplehd.scene.generate import render_scene_files
+
+    t0 = time.perf_counter()
+    ann, rejections = render_scene_files(job)
+    return {"index": job.index, "rejections": rejections, "seconds": time.perf_counter() - t0}
+
+
+@dataclass(frozen=True)
+class EpisodeUnit:
+    """Everything one ground-truth path needs.
+
+    Attributes:
+        out: dataset directory.
+        file: episode file name inside ``episodes/``.
+        scene_index: the scene.
+        slot: the instruction's position among the scene's candidates.
+        seed: the episode's seed.
+        family: task family.
+        task: the executor's task dict.
+        instruction: instruction text (stored in the file).
+        split: train or test.
+        scene: ``SceneSpec.to_dict()``.
+        directions: the scene's direction vectors.
+        paths: ``PathConfig.to_dict()``.
+        render: ``RenderConfig.to_dict()``.
+    """
+
+    out: str
+    file: str
+    scene_index: int
+    slot: int
+    seed: int
+    family: str
+    task: dict[str, Any]
+    instruction: str
+    split: str
+    scene: dict[str, Any]
+    directions: dict[str, Any]
+    paths: dict[str, Any]
+    render: dict[str, Any]
+
+
+def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
+    """Plan and execute one instruction, render its images from the stored states, write the file.
+
+    Returns:
+        ``{scene_index, slot, status: ok|rejected, reason, message, num_frames, size, sha256, seconds,
+        render_seconds}``.
+
+    Raises:
+        DatasetError: the episode file cannot be written (disk full, permissions).
+    """
+    import numpy as np
+
+    from samplehd.dataset.container import write_episode
+    from samplehd.dataset.layout import EPISODE_DIR
+    from samplehd.dataset.render import RenderConfig, render_states
+    from samplehd.errors import DatasetError, PlanningError
+    from samplehd.motion.pipeline import PathConfig, PathRejected, plan_and_execute
+    from samplehd.scene.spec import SceneSpec, compile_scene
+
+    t0 = time.perf_counter()
+    base = {"scene_index": unit.scene_index, "slot": unit.slot}
+    config = PathConfig.from_dict(unit.paths)
+    scene = SceneSpec.from_dict(unit.scene)
+    model, data = compile_scene(scene, 1.0 / config.physics_hz)
+    try:
+        episode = plan_and_execute(scene, unit.task, np.random.default_rng(unit.seed), config, family=unit.family,
+                                   scene_index=unit.scene_index, instruction_index=unit.slot, seed=unit.seed,
+                                   directions=unit.directions, compiled=(model, data))
+    except PathRejected as exc:
+        return {**base, "status": "rejected", "reason": exc.reason, "message": str(exc).splitlines()[0][:300],
+                "seconds": time.perf_counter() - t0}
+    except (PlanningError, ValueError, IndexError, KeyError, ArithmeticError) as exc:
+        # A planner bug on one instance must not stop a 10-hour run; it is counted and reported.
+        where = traceback.extract_tb(exc.__traceback__)[-1]
+        return {**base, "status": "rejected", "reason": f"error_{type(exc).__name__}",
+                "message": f"{exc} ({Path(where.filename).name}:{where.lineno})"[:300],
+                "seconds": time.perf_counter() - t0}
+    t1 = time.perf_counter()
+    render = RenderConfig.from_dict(unit.render)
+    if render.enabled:
+        import dataclasses
+
+        episode = dataclasses.replace(episode, images=render_states(model, episode.frames, render))
+    t2 = time.perf_counter()
+    path = Path(unit.out) / EPISODE_DIR / unit.file
+    extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
+    try:
+        written = write_episode(path, episode, extra, render.to_dict() if render.enabled else None)
+    except DatasetError:
+        raise
+    return {**base, "status": "ok", "num_frames": written.num_frames, "size": written.size,
+            "sha256": written.sha256, "seconds": time.perf_counter() - t0, "path_seconds": t1 - t0,
+            "render_seconds": t2 - t1}
+
+
+@dataclass(frozen=True)
+class RenderUnit:
+    """Re-render one episode file from its stored states.
+
+    Attributes:
+        path: the episode file.
+        scene: ``SceneSpec.to_dict()`` of its scene.
+        physics_hz: physics rate the scene was compiled at [Hz].
+        render: ``RenderConfig.to_dict()``.
+        replace: drop the file's existing images first (else keep cameras/modalities not re-rendered).
+    """
+
+    path: str
+    scene: dict[str, Any]
+    physics_hz: float
+    render: dict[str, Any]
+    replace: bool = True
+
+
+def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
+    """Render an episode's images from its states and rewrite its file atomically.
+
+    Returns:
+        ``{path, num_frames, size, sha256, seconds}``.
+    """
+    from samplehd.dataset.container import read_episode, write_episode
+    from samplehd.dataset.render import RenderConfig, render_states
+    from samplehd.scene.spec import SceneSpec, compile_scene
+
+    t0 = time.perf_counter()
+    import dataclasses
+    import json
+
+    import h5py
+
+    path = Path(unit.path)
+    render = RenderConfig.from_dict(unit.render)
+    episode = read_episode(path, images="none" if unit.replace else "load")
+    with h5py.File(path, "r") as f:
+        extra = {k: v for k, v in f.attrs.items() if k not in (
+            "format_version", "scene_index", "instruction_index", "family", "seed", "success", "num_frames",
+            "subtasks", "info")}
+    extra = {k: (v.item() if hasattr(v, "item") else v) for k, v in extra.items()}
+    if "task" in extra and isinstance(extra["task"], str):
+        extra["task"] = json.loads(extra["task"])
+    scene = SceneSpec.from_dict(unit.scene)
+    model, _ = compile_scene(scene, 1.0 / unit.physics_hz)
+    images = {} if unit.replace else {c: dict(m) for c, m in episode.images.items()}
+    for cam, mods in render_states(model, episode.frames, render).items():
+        images.setdefault(cam, {}).update(mods)
+    written = write_episode(path, dataclasses.replace(episode, images=images), extra, render.to_dict())
+    return {"path": str(path), "num_frames": written.num_frames, "size": written.size, "sha256": written.sha256,
+            "seconds": time.perf_counter() - t0}
