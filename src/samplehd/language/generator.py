@@ -317,6 +317,12 @@ class _SceneGenerator:
         for p in params:
             if p.type == "object":
                 options = self.describer.unique_descriptions(values[p.name])
+                # "put the knife in the pan that is behind the knife" reads badly: avoid anchoring a
+                # reference on another object of the same instruction when there is a choice
+                apart = [
+                    d for d in options if d.anchor is None or not used.intersection(self.describer.matches(d.anchor))
+                ]
+                options = apart or options
                 refs[p.name] = options[int(rng.integers(len(options)))]
         return values, refs
 
