@@ -162,6 +162,8 @@ def test_http_server_refuses_paths_outside_the_dataset(viewer_url: str, fake_dat
         assert b"secret" not in body
     status, headers, body = _get(viewer_url, "/files/scenes.json")
     assert status == 200 and json.loads(body)["scenes"]
+    assert "sandbox" in headers["Content-Security-Policy"]
+    status, headers, _ = _get(viewer_url, "/")
     assert "default-src 'self'" in headers["Content-Security-Policy"]
     status, _, _ = _get(viewer_url, "/files/scenes.json", method="POST")
     assert status == 405
@@ -169,6 +171,25 @@ def test_http_server_refuses_paths_outside_the_dataset(viewer_url: str, fake_dat
     assert status == 200 and body == b"" and headers["Content-Type"].startswith("text/html")
     status, _, body = _get(viewer_url, "/static/app.js")
     assert status == 200 and b"import" in body
+    # dataset files are never served as code
+    (fake_dataset / "evil.html").write_text("<script>alert(1)</script>")
+    status, headers, _ = _get(viewer_url, "/files/evil.html")
+    assert status == 200 and headers["Content-Type"] == "application/octet-stream"
+    assert headers["Content-Disposition"].startswith("attachment") and "sandbox" in headers["Content-Security-Policy"]
+
+
+def test_http_server_refuses_foreign_host_names(viewer_url: str) -> None:
+    parts = urlsplit(viewer_url)
+    conn = http.client.HTTPConnection(parts.hostname, parts.port, timeout=10)
+    conn.request("GET", "/api/status", headers={"Host": "attacker.example:80"})
+    response = conn.getresponse()
+    assert response.status == 403 and b"loopback" in response.read()
+    conn.close()
+    for host in (f"localhost:{parts.port}", f"127.0.0.1:{parts.port}"):
+        conn = http.client.HTTPConnection(parts.hostname, parts.port, timeout=10)
+        conn.request("GET", "/api/status", headers={"Host": host})
+        assert conn.getresponse().status == 200
+        conn.close()
 
 
 def test_page_assets_load_nothing_from_the_internet() -> None:

@@ -131,6 +131,9 @@ class FakeEpisodeStore:
                 return k
         raise DatasetError(f"episode {name}: not in the dataset")
 
+    def count(self) -> int:
+        return len(self.items)
+
     def rejections(self) -> list[dict[str, Any]]:
         return [{"scene_index": 2, "slot": 1, "reason": "no_feasible_grasp", "message": "no grasp of object 1"}]
 

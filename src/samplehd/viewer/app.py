@@ -30,7 +30,6 @@ anything else is answered 403. Missing or half-written data is answered 404 or 5
 from __future__ import annotations
 
 import json
-import mimetypes
 import re
 import threading
 from collections import OrderedDict
@@ -57,6 +56,14 @@ SECURITY_HEADERS = {
     "X-Content-Type-Options": "nosniff",
     "Referrer-Policy": "no-referrer",
 }
+
+# Policy of raw dataset files: no scripts, no requests (raw JSON and images still display).
+_FILE_POLICY = "sandbox; default-src 'none'; img-src 'self'; style-src 'unsafe-inline'"
+
+# Types of dataset files shown in the browser; everything else is sent as a download.
+_INERT = {".json": "application/json", ".jsonl": "text/plain; charset=utf-8", ".png": "image/png",
+          ".jpg": "image/jpeg", ".jpeg": "image/jpeg", ".txt": "text/plain; charset=utf-8",
+          ".md": "text/plain; charset=utf-8", ".csv": "text/plain; charset=utf-8"}
 
 _TYPES = {".js": "text/javascript; charset=utf-8", ".css": "text/css; charset=utf-8",
           ".html": "text/html; charset=utf-8", ".json": "application/json", ".png": "image/png",
@@ -219,11 +226,15 @@ class ViewerApp:
             return Response.json({"folder": relative, "entries": names})
         if not target.is_file():
             raise DatasetError(f"/files/{relative}: no such file (yet)")
-        kind = _TYPES.get(target.suffix.lower()) or mimetypes.guess_type(target.name)[0]
-        # Dataset files are data: anything that is not a known inert type downloads as bytes.
+        # Dataset files are data, never code: only inert types are shown inline (HTML, scripts and SVG
+        # from a dataset would run with the viewer's origin), everything else downloads as bytes,
+        # and a sandbox policy disables scripts in whatever the browser renders.
+        kind = _INERT.get(target.suffix.lower())
+        disposition = "inline" if kind else "attachment"
+        safe_name = re.sub(r'[^A-Za-z0-9._-]', "_", target.name)
         return Response(200, target.read_bytes(), kind or "application/octet-stream",
-                        {"Content-Disposition": f'inline; filename="{target.name}"'} if kind else
-                        {"Content-Disposition": f'attachment; filename="{target.name}"'})
+                        {"Content-Disposition": f'{disposition}; filename="{safe_name}"',
+                         "Content-Security-Policy": _FILE_POLICY})
 
     # -- api -----------------------------------------------------------------------------------
     def _api(self, parts: list[str], query: Mapping[str, str]) -> Response:

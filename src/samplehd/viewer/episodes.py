@@ -117,6 +117,8 @@ class EpisodeStore:
         self._reader: Any = None
         self._reader_error = ""
         self._meta: dict[str, tuple[tuple[int, int], dict[str, Any]]] = {}
+        self._journal_key: tuple[int, int] | None = None
+        self._journal_cache: dict[tuple[int, int], int] = {}
 
     # -- reader --------------------------------------------------------------------------------
     def _stamp(self, name: str) -> tuple[int, int]:
@@ -154,6 +156,9 @@ class EpisodeStore:
     def _locate(self, name: str) -> tuple[Any, int, Any]:
         for stem, i, entry in self._entries():
             if stem == name:
+                path = (self.root / entry.file).resolve()
+                if not path.is_relative_to(self.root.resolve()):
+                    raise DatasetError(f"episode {name}: its file {entry.file!r} lies outside the dataset; refused")
                 return self.reader(), i, entry
         raise DatasetError(f"episode {name}: not in the dataset (yet)")
 
@@ -194,20 +199,51 @@ class EpisodeStore:
             self._meta[entry.file] = (key, meta)
         return meta
 
+    def count(self) -> int:
+        """Number of episodes (cheap: no episode file is opened)."""
+        return len(self._entries())
+
     def summaries(self) -> list[dict[str, Any]]:
-        """One summary per episode, in the dataset's episode order."""
-        reader = self.reader()
+        """One summary per episode, in the dataset's episode order.
+
+        Cheap for thousands of episodes: no episode file is opened. A dataset stores only episodes
+        whose path succeeded, so ``success`` is True unless the file, once opened for the player,
+        said otherwise; frame counts of a dataset still being generated come from the journal.
+        """
         texts = self._instruction_texts()
+        frames = self._journal_frames()
         out = []
         for stem, i, entry in self._entries():
-            meta = self._episode_meta(reader, i, entry)
+            with self._lock:
+                hit = self._meta.get(entry.file)
+            num_frames = entry.num_frames if entry.num_frames >= 0 else frames.get((entry.scene_index, entry.slot), -1)
             summary = {"episode": stem, "index": i, "file": entry.file, "scene_index": entry.scene_index,
                        "slot": entry.slot, "instruction_index": entry.instruction_index, "family": entry.family,
-                       "split": entry.split, "num_frames": entry.num_frames, **meta}
-            if not summary.get("instruction"):
-                summary["instruction"] = texts.get((entry.scene_index, entry.slot), "")
+                       "split": entry.split, "num_frames": num_frames, "success": True, "failure_reason": "",
+                       "instruction": texts.get((entry.scene_index, entry.slot), "")}
+            if hit is not None:
+                summary.update({k: v for k, v in hit[1].items() if k != "cameras" and v not in ("", None)})
+                summary["success"] = hit[1]["success"]
             out.append(summary)
         return out
+
+    def _journal_frames(self) -> dict[tuple[int, int], int]:
+        """Frame counts of written episodes from the generation journal (empty when absent)."""
+        from samplehd.dataset.journal import read_journal
+
+        key = self._stamp("journal.jsonl")
+        with self._lock:
+            if self._journal_key == key:
+                return self._journal_cache
+        try:
+            records = read_journal(self.root)
+        except OSError:
+            records = []
+        counts = {(int(r.get("scene_index", -1)), int(r.get("slot", -1))): int(r.get("num_frames", -1))
+                  for r in records if r.get("status") == "ok"}
+        with self._lock:
+            self._journal_key, self._journal_cache = key, counts
+        return counts
 
     def rejections(self) -> list[dict[str, Any]]:
         """Instruction candidates whose path was rejected: ``{scene_index, slot, reason, message}``."""
@@ -241,7 +277,9 @@ class EpisodeStore:
         frames = reader.frames(i, PLOT_FIELDS)
         info = meta.get("info") if isinstance(meta.get("info"), dict) else {}
         subtasks = [str(s) for s in meta.get("subtasks") or []]
+        self._episode_meta(reader, i, entry)  # caches success, failure reason and cameras for the listing
         summary = next(s for s in self.summaries() if s["episode"] == name)
+        summary["cameras"] = dict(meta.get("images") or {})
         stems = [stem for stem, _, _ in self._entries()]
         position = stems.index(name)
         series: dict[str, Any] = {key: _rounded(frames[key]) for key in PLOT_FIELDS}

@@ -261,13 +261,16 @@ class DatasetIndex:
         info, info_state = self.info()
         scenes, scenes_state = self.scenes()
         instructions, instr_state = self.instructions()
-        episodes, ep_state = self.episode_summaries()
+        if self.episodes is None:
+            ep_count, ep_state = 0, FileState("episodes", "missing", "this folder holds no episodes")
+        else:
+            ep_count, ep_state = self.episodes.count(), self.episodes.state()
         return {
             "root": str(self.root),
             "name": self.root.name,
             "info": info,
             "files": [s.to_dict() for s in (info_state, scenes_state, instr_state, ep_state)],
-            "counts": {"scenes": len(scenes), "instructions": len(instructions), "episodes": len(episodes)},
+            "counts": {"scenes": len(scenes), "instructions": len(instructions), "episodes": ep_count},
         }
 
     def instructions_of(self, scene_index: int) -> list[dict[str, Any]]:

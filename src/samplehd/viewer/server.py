@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import ipaddress
+import socket
 import sys
 import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
@@ -16,13 +18,37 @@ from samplehd.viewer.index import DatasetIndex
 __all__ = ["ViewerServer", "make_server", "open_dataset"]
 
 
+_LOOPBACK_NAMES = {"localhost", "127.0.0.1", "::1"}
+
+
+def _is_loopback(host: str) -> bool:
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return host.lower() == "localhost"
+
+
 class _Handler(BaseHTTPRequestHandler):
     """Routes GET/HEAD to the app; 405 for everything else."""
 
     server: ViewerServer
     protocol_version = "HTTP/1.1"
 
+    def _host_allowed(self) -> bool:
+        """On a loopback address, only requests naming a loopback host (no DNS rebinding)."""
+        if not self.server.loopback_only:
+            return True
+        host = (self.headers.get("Host") or "").strip().lower()
+        name = host.rsplit("]", 1)[0].lstrip("[") if host.startswith("[") else host.split(":", 1)[0]
+        return name in _LOOPBACK_NAMES
+
     def _answer(self, send_body: bool) -> None:
+        if not self._host_allowed():
+            response = Response.error(403, "Host header is not a loopback name; the viewer serves only "
+                                           "http://127.0.0.1 or http://localhost unless started with --host")
+            response.headers = dict(SECURITY_HEADERS)
+            self._send(response, send_body)
+            return
         split = urlsplit(self.path)
         query = dict(parse_qsl(split.query, keep_blank_values=True))
         response = self.server.app.handle(split.path, query)
@@ -74,6 +100,9 @@ class ViewerServer(ThreadingHTTPServer):
     def __init__(self, address: tuple[str, int], app: ViewerApp, verbose: bool = False) -> None:
         self.app = app
         self.verbose = verbose
+        self.loopback_only = _is_loopback(address[0])
+        if ":" in address[0]:
+            self.address_family = socket.AF_INET6
         super().__init__(address, _Handler)
 
     @property
