@@ -20,7 +20,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--balance", choices=["templates", "families"], default="templates", help="what comes out uniform"
     )
-    parser.add_argument("--families", nargs="+", metavar="FAMILY", help="only these families (default: all)")
+    parser.add_argument(
+        "--families",
+        nargs="+",
+        metavar="FAMILY",
+        help="only these families, e.g. place stack put remove pick_up place_relative stack_three; all when omitted",
+    )
     parser.add_argument(
         "--templates",
         action="append",
