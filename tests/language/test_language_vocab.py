@@ -2,7 +2,15 @@
 
 from __future__ import annotations
 
-from samplehd.language.vocab import SPECIAL_TOKENS, build_vocab, decode, encode, program_node_tokens, tokenize
+from samplehd.language.vocab import (
+    SPECIAL_TOKENS,
+    build_vocab,
+    decode,
+    encode,
+    instruction_words,
+    program_node_tokens,
+    tokenize,
+)
 
 
 def test_tokenize_separates_punctuation() -> None:
@@ -44,3 +52,12 @@ def test_program_node_tokens() -> None:
         {"type": "filter_color", "inputs": [0], "value_inputs": ["red"]},
     ]
     assert program_node_tokens(program) == ["scene", "filter_color[red]"]
+
+
+def test_fixed_word_list_covers_generated_text(generated: list) -> None:
+    words = set(instruction_words())
+    for scene, result in generated:
+        values = {w for o in scene.objects for v in (o.colour, o.material, o.size, o.name) for w in v.split("_")}
+        for inst in result.instructions:
+            missing = set(tokenize(inst.text)) - words - values
+            assert not missing, (inst.text, missing)

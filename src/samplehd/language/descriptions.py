@@ -327,13 +327,13 @@ def render_description(
     if part is not None:
         if plural:
             # "put all objects that are on the right on the front side", not "on the right on the front"
-            words += ["that", "are"]
+            words += [lex.relative_pronoun, lex.agree("be", True)]
         words.append(lex.table_part_phrase.get(part, f"on the {part}"))
     if description.anchor is not None and description.relation is not None:
         # a relative clause keeps a relation apart from the verb's destination phrase
         name = description.value("name")
         plural_verb = plural or (name is not None and lex.is_plural_form(name))
-        words += ["that", "are" if plural_verb else "is"]
+        words += [lex.relative_pronoun, lex.agree("be", plural_verb)]
         words.append(lex.relation_phrase.get(description.relation, description.relation))
         words.append(render_description(description.anchor, lex))
     return " ".join(words)

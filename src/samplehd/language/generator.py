@@ -338,12 +338,8 @@ class _SceneGenerator:
             if kind == "object":
                 obj_name = self.scene.objects[value].name
                 plural = lex.is_plural_form(obj_name)
-                if modifier == "they":
-                    return "they" if plural else "it"
-                if modifier == "them":
-                    return "them" if plural else "it"
-                if modifier == "be":
-                    return "are" if plural else "is"
+                if modifier is not None:  # they / them / be, agreeing with the noun
+                    return lex.agree(modifier, plural)
                 if name not in rendered:
                     rendered[name] = render_description(refs[name], lex)
                 return rendered[name]

@@ -43,6 +43,8 @@ class Lexicon:
         set_determiners: determiners drawn for set descriptions ("all the").
         relation_destination_phrase: relation as a destination ("to the left of").
         plural_only: classes whose singular form is grammatically plural ("scissors").
+        agreement: "singular"/"plural" -> form name (they, them, be) -> word ("it", "are").
+        relative_pronoun: word that starts a relative clause ("that").
     """
 
     nouns: dict[str, tuple[str, str]] = field(default_factory=dict)
@@ -55,6 +57,13 @@ class Lexicon:
     set_determiners: tuple[str, ...] = ("all the",)
     relation_destination_phrase: dict[str, str] = field(default_factory=dict)
     plural_only: frozenset[str] = frozenset()
+    agreement: dict[str, dict[str, str]] = field(
+        default_factory=lambda: {
+            "singular": {"they": "it", "them": "it", "be": "is"},
+            "plural": {"they": "they", "them": "them", "be": "are"},
+        }
+    )
+    relative_pronoun: str = "that"
 
     def noun(self, name: str | None, plural: bool = False) -> str:
         """Return the noun for a class (``None``: the generic noun), singular or plural."""
@@ -68,6 +77,10 @@ class Lexicon:
     def adjective(self, kind: str, value: str) -> str:
         """Return the word for an attribute value ("medium" -> "medium-sized")."""
         return self.adjectives.get(kind, {}).get(value, value.replace("_", " "))
+
+    def agree(self, form: str, plural: bool) -> str:
+        """Return a pronoun or verb form agreeing in number: ``agree("be", True) == "are"``."""
+        return self.agreement["plural" if plural else "singular"][form]
 
     def is_plural_form(self, name: str) -> bool:
         """Whether a single object of this class takes plural agreement ("the scissors are")."""
@@ -95,6 +108,8 @@ class Lexicon:
             set_determiners=tuple(data.get("set_determiners", ("all the",))),
             relation_destination_phrase=dict(data.get("relation_destination_phrase", {})),
             plural_only=frozenset(data.get("plural_only", ())),
+            **({"agreement": {k: dict(v) for k, v in data["agreement"].items()}} if "agreement" in data else {}),
+            relative_pronoun=str(data.get("relative_pronoun", "that")),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -110,6 +125,8 @@ class Lexicon:
             "set_determiners": list(self.set_determiners),
             "relation_destination_phrase": self.relation_destination_phrase,
             "plural_only": sorted(self.plural_only),
+            "agreement": self.agreement,
+            "relative_pronoun": self.relative_pronoun,
         }
 
 

@@ -18,6 +18,7 @@ from typing import Any
 
 __all__ = [
     "SPECIAL_TOKENS",
+    "instruction_words",
     "build_token_to_idx",
     "build_vocab",
     "decode",
@@ -28,6 +29,7 @@ __all__ = [
 
 SPECIAL_TOKENS: dict[str, int] = {"<NULL>": 0, "<START>": 1, "<END>": 2, "<UNK>": 3}
 _PUNCTUATION = re.compile(r"([,.;:?!])")
+_MARKUP = re.compile(r"<[^<>]*>|[{}\[\]]")
 
 
 def tokenize(text: str) -> list[str]:
@@ -95,3 +97,33 @@ def decode(indices: Sequence[int], token_to_idx: Mapping[str, int], strip_specia
     if strip_special:
         tokens = [t for t in tokens if t not in ("<NULL>", "<START>", "<END>")]
     return tokens
+
+
+def instruction_words(templates: Sequence[Any] | None = None, lexicon: Any | None = None) -> list[str]:
+    """Every word the templates and lexicon can produce, sorted (a fixed vocabulary).
+
+    Attribute values come from the scenes (colours, materials and sizes of the catalogue, imported
+    class names), so they are not included unless the lexicon lists them: add them from the
+    catalogue.
+
+    Args:
+        templates: templates (default: the shipped ones).
+        lexicon: lexicon (default: the shipped one).
+    """
+    from samplehd.language.lexicon import default_lexicon
+    from samplehd.language.relations import RELATIONS
+    from samplehd.language.templates import default_synonyms, default_templates
+    from samplehd.scene.layout import TABLE_PARTS
+
+    lex = lexicon or default_lexicon()
+    phrases: list[str] = list(",.;:?!") + list(TABLE_PARTS) + list(RELATIONS)
+    for t in templates if templates is not None else default_templates():
+        phrases += [_MARKUP.sub(" ", text) for text in t.text]
+        phrases += [w for group in t.synonyms.values() for w in group]
+    phrases += [w for group in default_synonyms().values() for w in group]
+    phrases += [w for pair in (*lex.nouns.values(), lex.generic_noun) for w in pair]
+    phrases += [w for words in lex.adjectives.values() for w in words.values()]
+    phrases += [*lex.table_part_phrase.values(), *lex.relation_phrase.values()]
+    phrases += [*lex.relation_destination_phrase.values(), *lex.set_determiners, lex.relative_pronoun]
+    phrases += [w for forms in lex.agreement.values() for w in forms.values()]
+    return sorted({w for phrase in phrases for w in tokenize(phrase)})
