@@ -4,7 +4,8 @@ A :class:`Description` is a set of attribute filters (class name, colour, materi
 part), optionally followed by a relation to another, uniquely described anchor object ("the mug
 left of the blue bowl"). A description of a single object always names its class (the head noun);
 its length is the number of *modifiers* — the attributes other than the class name. Shortest
-unique means no description of that object with fewer modifiers picks it out alone. Adding the
+unique means no description of that object with fewer modifiers picks it out alone (among the
+descriptions the lexicon allows: no "glass glass", no "metallic metal"). Adding the
 class name never lengthens a description in this measure, so naming the class costs nothing, and
 "the red mug" is as short as "the red object".
 
