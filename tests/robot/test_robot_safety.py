@@ -122,3 +122,15 @@ def test_event_record() -> None:
         SafetyConfig(torque_ratio=0.0)
     with pytest.raises(ConfigError):
         SafetyConfig(max_contact_force=-1.0)
+
+
+def test_kitchen_world_home_is_safe_and_the_table_is_recognised(world) -> None:
+    model, _ = world
+    data = mujoco.MjData(model)
+    ctrl = RobotController(model, data)
+    ctrl.reset(HOME_QPOS)
+    for _ in range(5):
+        assert ctrl.step(np.r_[HOME_QPOS, 1.0], "joint_position").safety_event is None
+    xy = fk_tcp(HOME_QPOS)[:2, 3]
+    event = _run_until_event(ctrl, np.r_[xy, -0.10, DOWN, 1.0], "cartesian_pose")
+    assert event.kind == "environment_collision" and event.bodies[1] == "table"
