@@ -28,10 +28,10 @@ def scene():
 
 
 def _run(scene, task, family=None, seed=0):
+    from samplehd.motion.assist import compile_scene_with_assist
     from samplehd.motion.pipeline import plan_and_execute
-    from samplehd.scene.spec import compile_scene
 
-    model, data = compile_scene(scene)
+    model, data = compile_scene_with_assist(scene)
     ep = plan_and_execute(scene, task, np.random.default_rng(seed), family=family, instruction_index=3, seed=seed,
                           compiled=(model, data))
     return model, ep

@@ -16,7 +16,7 @@ import numpy as np
 
 from samplehd.scene.layout import LAYOUT, OPPOSITE_PART, TABLE_PARTS, table_parts_of
 
-__all__ = ["random_task", "simple_scene"]
+__all__ = ["oracle_success", "oracle_table", "random_task", "simple_scene"]
 
 
 def _instance(rng: np.random.Generator, classes: list[str] | None = None) -> Any:
@@ -132,3 +132,110 @@ def random_task(scene: Any, family: str, rng: np.random.Generator) -> dict[str, 
                     return {"type": "stack_three", "objects": [int(m), int(rng.choice(tops))], "subject": int(b)}
         return None
     raise ValueError(f"unknown family {family!r}")
+
+
+def _oracle_scene(args: tuple[int, int, int, str]) -> list[dict[str, Any]]:
+    """Sample one scene with the real sampler, generate instructions with the real generator
+    (families balanced), and run the oracle on each; returns one result dict per instruction."""
+    import time
+
+    import mujoco
+
+    import samplehd  # noqa: F401
+    from samplehd.language.generator import generate_instructions
+    from samplehd.motion.pipeline import PathRejected, plan_and_execute
+    from samplehd.scene.annotate import annotate_scene
+    from samplehd.scene.sampler import sample_scene
+    from samplehd.scene.spec import compile_scene
+
+    index, seed, per_scene, out = args
+    results = []
+    try:
+        sampled = sample_scene(index, seed)
+    except Exception as exc:  # noqa: BLE001 - a scene the sampler cannot make is skipped, counted
+        return [{"scene": index, "family": "-", "success": False, "reason": f"scene: {exc}", "skipped": True}]
+    scene = sampled.scene
+    model, data = compile_scene(scene)
+    start = mujoco.MjData(model)
+    mujoco.mj_copyData(start, model, data)
+    ann = annotate_scene(scene, model, data, 640, 360)
+    rng = np.random.default_rng(seed)
+    gen = generate_instructions(ann, rng, per_scene=per_scene, balance="families")
+    for k, ins in enumerate(gen.instructions):
+        mujoco.mj_copyData(data, model, start)
+        t0 = time.perf_counter()
+        r: dict[str, Any] = {"scene": index, "instruction": k, "family": ins.family, "text": ins.text,
+                             "task": ins.task.to_dict(),
+                             "classes": [scene.objects[i].instance.class_name for i in ins.targets]}
+        try:
+            ep = plan_and_execute(scene, ins.task.to_dict(), np.random.default_rng([seed, k]), family=ins.family,
+                                  instruction_index=k, directions=ann["directions"], compiled=(model, data))
+            r.update(success=True, attempts=ep.info["attempts"], frames=ep.num_frames,
+                     failed=[a["reason"] for a in ep.info["failed_attempts"]])
+        except PathRejected as exc:
+            r.update(success=False, reason=exc.reason, failed=[a["reason"] for a in exc.attempts],
+                     message=str(exc)[:200])
+        r["seconds"] = time.perf_counter() - t0
+        results.append(r)
+        if out:
+            import json
+
+            with open(out, "a", encoding="utf-8") as f:
+                f.write(json.dumps(r) + "\n")
+    return results
+
+
+def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers: int = 2,
+                   out: str = "") -> list[dict[str, Any]]:
+    """Oracle success over real sampled scenes and generated instructions.
+
+    Args:
+        num_scenes: scenes to sample (seeds ``base_seed + i``).
+        base_seed: first seed.
+        per_scene: instructions per scene.
+        workers: worker processes.
+        out: JSONL file to append per-instruction results to as they finish ("" for none).
+
+    Returns:
+        One dict per instruction: family, success, attempts, frames, reason, seconds.
+    """
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    jobs = [(i, base_seed + i, per_scene, out) for i in range(num_scenes)]
+    results: list[dict[str, Any]] = []
+    if workers <= 1:
+        for j in jobs:
+            results += _oracle_scene(j)
+        return results
+    with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
+        for rs in pool.map(_oracle_scene, jobs, chunksize=1):
+            results += rs
+    return results
+
+
+def oracle_table(results: list[dict[str, Any]]) -> str:
+    """Per family: attempted, first-try and final success rates, and failure reasons."""
+    from collections import Counter, defaultdict
+
+    by: dict[str, Counter] = defaultdict(Counter)
+    for r in results:
+        if r.get("skipped"):
+            continue
+        c = by[r["family"]]
+        c["n"] += 1
+        if r["success"]:
+            c["ok"] += 1
+            c["first"] += int(r.get("attempts", 1) == 1)
+        else:
+            c["reason:" + r["reason"]] += 1
+    lines = [f"{'family':15s} {'pairs':>5s} {'first try':>10s} {'after retries':>14s}  failures"]
+    tot = Counter()
+    for fam in sorted(by):
+        c = by[fam]
+        tot.update({k: v for k, v in c.items() if not k.startswith("reason:")})
+        fails = ", ".join(f"{k[7:]} {v}" for k, v in c.items() if k.startswith("reason:"))
+        lines.append(f"{fam:15s} {c['n']:5d} {c['first'] / c['n']:10.1%} {c['ok'] / c['n']:14.1%}  {fails}")
+    if tot["n"]:
+        lines.append(f"{'all':15s} {tot['n']:5d} {tot['first'] / tot['n']:10.1%} {tot['ok'] / tot['n']:14.1%}")
+    return "\n".join(lines)

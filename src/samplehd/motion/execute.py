@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import PlanningError
+from samplehd.motion.assist import GraspAssist
 from samplehd.motion.collision import CollisionChecker, Held
 from samplehd.motion.planner import (
     PlannerConfig,
@@ -72,11 +73,14 @@ class Rollout:
         rng: random generator (destinations, RRT).
         layout: table layout.
         directions: scene direction vectors.
+        use_assist: weld the grasped object to the gripper while held (see :mod:`.assist`).
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
                  bodies: SceneBodies, facts: list[Any], config: PlannerConfig, rng: np.random.Generator,
-                 layout: TableLayout = LAYOUT, directions: dict[str, Any] | None = None) -> None:
+                 layout: TableLayout = LAYOUT, directions: dict[str, Any] | None = None,
+                 use_assist: bool = True) -> None:
+        self.use_assist = use_assist
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
         self.facts, self.cfg, self.rng, self.layout, self.directions = facts, config, rng, layout, directions
         self.dt = controller.config.control_dt
@@ -88,7 +92,10 @@ class Rollout:
         self.checker = CollisionChecker(model, data, bodies, robot)
         self.gripper = 1.0
         self.hand: _Hand | None = None
-        self.info: dict[str, Any] = {"grasps": [], "destinations": [], "methods": []}
+        self.info: dict[str, Any] = {"grasps": [], "destinations": [], "methods": [], "assist": []}
+        self.current_grasp = -1
+        self.assist = GraspAssist(model, bodies.num_objects)
+        self.assist.release(data)
 
     # ------------------------------------------------------------------ stepping
     def _begin(self, name: str) -> int:
@@ -153,9 +160,11 @@ class Rollout:
                 for k in range(self.bodies.num_objects) if k != held_index]
         top = max(tops, default=self.layout.table_height)
         tcp = self._tcp_world()
-        below = tcp[2, 3] - object_world_box(self.model, self.data, self.bodies, held_index).lo[2]
+        bottom = object_world_box(self.model, self.data, self.bodies, held_index).lo[2]
+        below = tcp[2, 3] - bottom
         return float(max(top + self.cfg.transport_clearance + below,
-                         self.layout.table_height + self.cfg.min_transport_height))
+                         self.layout.table_height + self.cfg.min_transport_height,
+                         self.layout.table_height + self.cfg.min_lift + below))
 
     # ------------------------------------------------------------------ subtasks
     def pick(self, i: int, exclude: tuple[int, ...] = (), lift: bool = True) -> int:
@@ -171,6 +180,7 @@ class Rollout:
         if not grasps:
             raise AttemptFailed("no_feasible_grasp", f"object {i}: no reachable, collision-free grasp")
         k, gp = grasps[0]
+        self.current_grasp = k
         self.info["grasps"].append({"object": i, "index": k, **gp.grasp.to_dict()})
         open_cmd = _gripper_command(gp.grasp.opening)
         lift_z = self._transport_z(i)
@@ -190,10 +200,15 @@ class Rollout:
         self.run("ApproachGrasp", i, path, open_cmd)
         self.close_gripper(i, gp.grasp.opening, gp.grasp.width)
         self._sync()
-        if self.recorder.rows["grasped_object"] and self._grasped() != i:
+        if self._grasped() != i:
             raise AttemptFailed("grasp_missed", f"object {i}: the fingers closed without holding it", k)
+        if self.use_assist and self.assist.attach(self.data, i):
+            self.info["assist"].append({"object": i, "frame": len(self.recorder), "on": True})
         tcp = self._tcp_world()
-        self.hand = _Hand(i, np.linalg.inv(tcp) @ object_pose(self.data, self.bodies, i), gp.grasp.opening)
+        # Release with the fingers opened a little beyond the measured grip, not the full approach opening.
+        held_width = float(self.data.qpos[self.robot.finger_qpos].sum())
+        release_opening = min(gp.grasp.opening, held_width + 0.012)
+        self.hand = _Hand(i, np.linalg.inv(tcp) @ object_pose(self.data, self.bodies, i), release_opening)
         if lift:
             self.move_up(i, k)
         return k
@@ -241,7 +256,7 @@ class Rollout:
                                  held=held, check=False)
         except PlanningError as exc:
             raise AttemptFailed("lift_unreachable", str(exc), grasp_index) from exc
-        self.run("MoveUP", i, path, -1.0)
+        self.run("MoveUP", i, path)
         self._sync()
         if self._grasped() != i:
             raise AttemptFailed("grasp_slipped", f"object {i} slipped out of the gripper while lifting", grasp_index)
@@ -305,8 +320,11 @@ class Rollout:
             self.info["destinations"].append({"object": i, "xy": [float(xy[0]), float(xy[1])],
                                               "z": float(t_obj_rel[2, 3]), "yaw": float(yaw)})
             self.info["methods"].append(method)
-            self.run("ObjectMove", i, move, -1.0)
-            self.run("MoveDOWN", i, down, -1.0)
+            self.run("ObjectMove", i, move)
+            self.run("MoveDOWN", i, down)
+            if self.assist.active >= 0:
+                self.assist.release(self.data)
+                self.info["assist"].append({"object": i, "frame": len(self.recorder), "on": False})
             self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(hand.opening))
             self.hand = None
             self.go_home(i, hand.opening)

@@ -39,6 +39,8 @@ class PathConfig:
         control_hz: control (and recording) rate [Hz].
         physics_hz: physics rate [Hz].
         max_attempts: attempts per instruction before it is rejected.
+        grasp_assist: weld the held object to the gripper between CloseGripper and OpenGripper
+            (needs a model compiled with :func:`~samplehd.motion.assist.compile_scene_with_assist`).
         reject_fallen: reject paths after which any object has fallen over.
     """
 
@@ -47,7 +49,7 @@ class PathConfig:
     control_hz: float = 20.0
     physics_hz: float = 500.0
     max_attempts: int = 3
-
+    grasp_assist: bool = True
     reject_fallen: bool = True
 
     def __post_init__(self) -> None:
@@ -61,6 +63,7 @@ class PathConfig:
             "control_hz": self.control_hz,
             "physics_hz": self.physics_hz,
             "max_attempts": self.max_attempts,
+            "grasp_assist": self.grasp_assist,
             "reject_fallen": self.reject_fallen,
         }
 
@@ -75,6 +78,7 @@ class PathConfig:
             control_hz=float(d.get("control_hz", 20.0)),
             physics_hz=float(d.get("physics_hz", 500.0)),
             max_attempts=int(d.get("max_attempts", 3)),
+            grasp_assist=bool(d.get("grasp_assist", True)),
             reject_fallen=bool(d.get("reject_fallen", True)),
         )
 
@@ -125,7 +129,8 @@ def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, rng: np
     ctrl = initial_state(model, data, control)
     robot = RobotInfo.from_model(model, data)
     bodies = SceneBodies(model, len(scene.objects))
-    return Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions)
+    return Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions,
+                   use_assist=config.grasp_assist)
 
 
 def _run_attempt(ro: Rollout, scene: Any, task: Task, config: PathConfig, exclude: dict[int, set[int]],
@@ -138,7 +143,7 @@ def _run_attempt(ro: Rollout, scene: Any, task: Task, config: PathConfig, exclud
                 ro.place(i, task, k)
         except AttemptFailed as exc:
             if exc.grasp < 0:
-                exc.grasp = k
+                exc.grasp = k if k >= 0 else ro.current_grasp
             exc.object = i  # type: ignore[attr-defined]
             raise
     ro.finish()
@@ -184,8 +189,9 @@ def plan_and_execute(
         instruction_index: recorded in the episode.
         seed: recorded in the episode (the seed ``rng`` was made from).
         directions: the scene's direction vectors (default: the layout's).
-        compiled: an already compiled (model, data) of this scene, to skip compilation; ``data`` is
-            left in the episode's final state.
+        compiled: an already compiled (model, data) of this scene (with
+            :func:`~samplehd.motion.assist.compile_scene_with_assist` for the grasp assist), to skip
+            compilation; ``data`` is left in the episode's final state.
 
     Returns:
         The successful episode (``success`` True, checker report in ``info["check"]``).
@@ -194,7 +200,7 @@ def plan_and_execute(
         PathRejected: every attempt failed; ``reason`` says why.
         PlanningError: the task is malformed.
     """
-    from samplehd.scene.spec import compile_scene
+    from samplehd.motion.assist import compile_scene_with_assist
 
     config = config or PathConfig()
     t = parse_task(task, family)
@@ -202,7 +208,7 @@ def plan_and_execute(
     for i in t.involved:
         if not 0 <= i < n:
             raise PlanningError(f"task names object {i}, but the scene has objects 0..{n - 1}")
-    model, data = compiled if compiled is not None else compile_scene(scene, 1.0 / config.physics_hz)
+    model, data = compiled if compiled is not None else compile_scene_with_assist(scene, 1.0 / config.physics_hz)
     start = mujoco.MjData(model)
     mujoco.mj_copyData(start, model, data)
     facts = _facts(scene)

@@ -23,6 +23,7 @@ randomness (destination sampling, RRT) comes only from the generator passed in.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -32,7 +33,7 @@ import numpy as np
 
 from samplehd.errors import ConfigError, PlanningError
 from samplehd.motion.collision import CollisionChecker, Held
-from samplehd.motion.grasps import Grasp, grasp_candidates
+from samplehd.motion.grasps import GRIPPER_STROKE, Grasp, grasp_candidates
 from samplehd.motion.robot_info import RobotInfo
 from samplehd.motion.rrt import rrt_connect
 from samplehd.motion.trajectory import cartesian_path, joint_path
@@ -60,6 +61,7 @@ class PlannerConfig:
         approach_distance: pre-grasp stand-off along the approach direction [m].
         retreat_distance: straight retreat after releasing [m].
         transport_clearance: held object's bottom above the tallest other object in transport [m].
+        min_lift: smallest rise of the held object in MoveUP [m].
         min_transport_height: lowest TCP height above the table in transport [m].
         approach_speed: mean TCP speed of approach/descent lines [m/s].
         lift_speed: mean TCP speed of lifts [m/s].
@@ -82,6 +84,7 @@ class PlannerConfig:
     approach_distance: float = 0.08
     retreat_distance: float = 0.08
     transport_clearance: float = 0.04
+    min_lift: float = 0.1
     min_transport_height: float = 0.18
     approach_speed: float = 0.06
     lift_speed: float = 0.08
@@ -91,7 +94,7 @@ class PlannerConfig:
     finger_clearance: float = 0.0015
     release_gap: float = 0.006
     close_time: float = 1.0
-    squeeze_force: float = 35.0
+    squeeze_force: float = 30.0
     open_time: float = 0.5
     grasp_candidates: int = 8
     spot_samples: int = 400
@@ -208,7 +211,12 @@ def choose_grasps(
         # as the pads still reach 4 mm below the object's top.
         max_tcp_z = top_z - 0.004 + robot.finger_depth
         best = None
-        for dz in np.arange(0.0, max(0.0, max_tcp_z - tcp_w[2, 3]) + 1e-9, 0.003)[:8]:
+        # Open wider where the collision hull is thicker than the site's nominal width (sloped rims).
+        openings = sorted({min(GRIPPER_STROKE, g.opening + extra) for extra in (0.0, 0.012, 0.024)})
+        heights = np.arange(0.0, max(0.0, max_tcp_z - tcp_w[2, 3]) + 1e-9, 0.003)[:8]
+        for opening, dz in ((o, h) for o in openings for h in heights):
+            if best is not None:
+                break
             tcp_k = tcp_w.copy()
             tcp_k[2, 3] += dz
             pre_w = tcp_k.copy()
@@ -220,13 +228,15 @@ def choose_grasps(
                 q_g = _ik_near(tcp_b, q_pre)
                 if q_g is None or np.max(np.abs(q_g - q_pre)) > 0.6:
                     continue
-                if not checker.free(q_g, g.opening):
+                if not checker.free(q_g, opening):
                     break  # the same pose collides for every IK branch: try higher
-                if not checker.free(q_pre, g.opening):
+                if not checker.free(q_pre, opening):
+                    continue
+                if not _lift_free(checker, tcp_b, q_g, opening, i):
                     continue
                 best = (q_pre, q_g, tcp_b, pre_b)
-                break
-            if best is not None:
+                if opening != g.opening:
+                    g = dataclasses.replace(g, opening=float(opening))
                 break
         if best is None:
             continue
@@ -237,6 +247,18 @@ def choose_grasps(
             break
     feasible.sort(key=lambda x: x[0])
     return [(k, gp) for _, k, gp in feasible]
+
+
+def _lift_free(checker: CollisionChecker, tcp_b: np.ndarray, q_grasp: np.ndarray, opening: float, i: int) -> bool:
+    """Whether the gripper can rise 2 and 5 cm from the grasp without touching another object
+    (a finger under an overhanging rim, a plate's, would lift it)."""
+    for dz in (0.02, 0.05):
+        t = tcp_b.copy()
+        t[2, 3] += dz
+        q = _ik_near(t, q_grasp)
+        if q is None or not checker.free(q, opening, allow_objects_with_gripper=(i,)):
+            return False
+    return True
 
 
 def _rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,

@@ -22,8 +22,9 @@ Predicates (tolerances are the fields of :class:`CheckerConfig`):
   ``container_margin`` and its bottom is below the container's rim (top of its bounding box).
 - **place_relative**: the object is resting on the table and its offset from the reference object,
   projected on the scene's direction vector, exceeds ``relation_margin``.
-- **pick_up**: the object's bottom is at least ``lift_height`` above the table top, it touches
-  both fingers (or the gripper and nothing else) and it does not drop during the window.
+- **pick_up**: the object's bottom is at least ``lift_height`` above the table top, it touches a
+  finger (or hangs in the grasp assist's weld) and nothing but the robot, and it does not drop
+  during the window.
 
 Independently of success the report lists objects the task does not name that were **disturbed**
 (moved more than ``disturb_distance`` or turned more than ``disturb_angle`` from their scene pose)
@@ -69,7 +70,7 @@ class CheckerConfig:
     rest_speed: float = 0.02
     stable_drift: float = 0.01
     footprint_margin: float = 0.01
-    stack_min_rise: float = 0.003
+    stack_min_rise: float = 0.001
     container_margin: float = 0.005
     rim_tolerance: float = 0.01
     relation_margin: float = 0.02
@@ -176,6 +177,12 @@ class _Judge:
         return ""
 
 
+def _welded(model: mujoco.MjModel, data: mujoco.MjData, i: int) -> bool:
+    """Whether object i hangs in the grasp assist's weld (``samplehd.motion.assist``)."""
+    e = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp_weld_{i}")
+    return e >= 0 and bool(data.eq_active[e])
+
+
 def _simulate_window(model: mujoco.MjModel, data: mujoco.MjData, window: float) -> mujoco.MjData:
     end = mujoco.MjData(model)
     mujoco.mj_copyData(end, model, data)
@@ -276,7 +283,7 @@ def check_success(
         others.discard(int(bodies.object_body[i]))
         if lift < config.lift_height:
             reason = f"object {i} is only {lift * 1000:.0f} mm above the table"
-        elif not touched:
+        elif not touched and not _welded(model, end, i):
             reason = f"object {i} is not held by the gripper"
         elif others - bodies.robot_bodies:
             reason = f"object {i} rests on something besides the gripper"
