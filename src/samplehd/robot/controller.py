@@ -177,6 +177,9 @@ class RobotController:
         data: its data; the controller writes ``ctrl`` and ``act`` of the robot actuators.
         config: rates and limits.
 
+    The controller starts from the servos' current targets (``data.act``); on fresh data (where
+    they are zero) call :meth:`reset` first, which holds the arm where it is or at a given pose.
+
     Example:
         >>> ctrl = RobotController(model, data)          # doctest: +SKIP
         >>> ctrl.reset(HOME_QPOS)                          # doctest: +SKIP
@@ -211,7 +214,9 @@ class RobotController:
         self._dt = cfg.control_dt
         self._chunk = cfg.substeps // cfg.safety_checks_per_step
         self.monitor = SafetyMonitor(model, cfg.safety) if cfg.safety is not None else None
-        self._target = self.joint_positions()
+        # Start from the servos' current target (data.act is part of the physics state, so a
+        # restored state resumes its ramp); call reset() to hold the measured pose instead.
+        self._target = self.data.act[self._act_idx].copy()
         # TCP pose of the target when it came from a Cartesian command (saves an FK per step).
         self._target_pose: list[list[float]] | None = None
         self._stopped: SafetyEvent | None = None
