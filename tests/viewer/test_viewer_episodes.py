@@ -81,7 +81,8 @@ def test_episodes_of_a_dataset_being_generated(generated: Path) -> None:
     assert first["instruction"] == "Put the mug on the left."
     assert listing["rejections"] == [{"scene_index": 0, "slot": 1, "reason": "checker_failed",
                                       "message": "object 0 not on 1", "instruction_index": 1,
-                                      "instruction": "Stack the mug onto the bowl.", "family": "stack"}]
+                                      "instruction": "Stack the mug onto the bowl.", "family": "stack",
+                                      "program_sequence": "stack scene filter_name[mug] scene filter_name[bowl]"}]
     scene = json.loads(app.handle("/api/scenes/0", {}).body)
     outcomes = [(len(q["episodes"]), len(q["rejections"])) for q in scene["instructions"]]
     assert outcomes == [(1, 0), (0, 1)]
@@ -119,6 +120,13 @@ def test_episodes_of_a_dataset_being_generated(generated: Path) -> None:
     status = json.loads(app.handle("/api/status", {}).body)
     assert {f["name"]: f["state"] for f in status["files"]}["episodes"] == "ok"
     assert status["counts"]["episodes"] == 2
+    (generated / "instructions.json").write_text(json.dumps({"info": {}, "instructions": [
+        {**q, "instruction_index": n} for n, q in enumerate(
+            q for q in json.loads((generated / "candidates.json").read_text())["instructions"]
+            if (q["image_index"], q["slot"]) in ((0, 0), (1, 2)))]}))
+    scene = json.loads(app.handle("/api/scenes/0", {}).body)
+    assert [r["instruction"] for r in scene["rejections"]] == ["Stack the mug onto the bowl."]
+    assert scene["rejections"][0]["instruction_index"] is None  # a candidate, not a dataset instruction
 
 
 def test_failure_reason_and_segments() -> None:

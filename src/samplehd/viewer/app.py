@@ -272,6 +272,22 @@ class ViewerApp:
         return Response.json({"total": len(summaries), "matched": len(matched), "offset": offset, "limit": limit,
                               "options": options, "criteria": criteria, "scenes": matched[offset:offset + limit]})
 
+    def _rejections(self, scene_index: int | None = None) -> list[dict[str, Any]]:
+        """Rejected paths with their candidate's text, family and flat program; ``instruction_index``
+        set when the candidate is also in the instructions (only while generation runs)."""
+        instructions, _ = self.index.instructions()
+        candidates = self.index.candidates()
+        out = []
+        for r in self.index.rejections():
+            if scene_index is not None and r.get("scene_index") != scene_index:
+                continue
+            q = next((q for q in instructions if matches_instruction(r, q)), None)
+            c = q or next((c for c in candidates if matches_instruction(r, c)), {})
+            out.append({**r, "instruction_index": q.get("instruction_index") if q else None,
+                        "instruction": c.get("instruction", ""), "family": c.get("family", ""),
+                        "program_sequence": c.get("program_sequence", "")})
+        return out
+
     def _with_outcomes(self, instructions: list[dict[str, Any]]) -> list[dict[str, Any]]:
         """Instructions with their ``episodes`` and ``rejections`` attached."""
         episodes, _ = self.index.episode_summaries()
@@ -292,6 +308,7 @@ class ViewerApp:
             "segmentation_offset": offset,
             "object_colours": colours,
             "instructions": self._with_outcomes(self.index.instructions_of(i)),
+            "rejections": self._rejections(i),
         }))
 
     def _existing(self, i: int, modality: str) -> Path:
@@ -355,12 +372,7 @@ class ViewerApp:
             if success:
                 want = success == "success"
                 episodes = [e for e in episodes if bool(e.get("success")) == want]
-            instructions, _ = self.index.instructions()
-            rejections = []
-            for r in self.index.rejections():
-                q = next((q for q in instructions if matches_instruction(r, q)), {})
-                rejections.append({**r, "instruction_index": q.get("instruction_index"),
-                                   "instruction": q.get("instruction", ""), "family": q.get("family", "")})
+            rejections = self._rejections()
             if family:
                 rejections = [r for r in rejections if r["family"] == family]
             if success == "success":

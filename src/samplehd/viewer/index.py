@@ -243,6 +243,12 @@ class DatasetIndex:
                 out.append(q)
         return out, state
 
+    def candidates(self) -> list[dict[str, Any]]:
+        """Instruction candidates of ``candidates.json`` (``samplehd generate``), or []."""
+        doc, state = self._json.read(self.root / "candidates.json")
+        items = doc.get("instructions", []) if isinstance(doc, dict) and state.state == "ok" else []
+        return [q for q in items if isinstance(q, dict)] if isinstance(items, list) else []
+
     def episode_summaries(self) -> tuple[list[dict[str, Any]], FileState]:
         """Episode summaries from the episode source, and its state."""
         if self.episodes is None:

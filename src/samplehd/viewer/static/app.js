@@ -3,7 +3,7 @@
 //   #/scene/<i>           one scene: RGB / depth / segmentation, annotation of the object under the cursor
 //   #/instruction/<j>     one instruction: text, family, programs (tree + flat), targets outlined
 //   #/episodes            episode list;  #/episode/<k>  the episode player
-import {COLOUR_CSS, el, getJSON, getPixels, HttpError, num, parseHash, rgb, swatch} from "./util.js";
+import {COLOUR_CSS, el, fill, getJSON, getPixels, HttpError, num, parseHash, rgb, swatch} from "./util.js";
 import {drawMasks, idAt} from "./masks.js";
 import {flatTokens, programTree} from "./tree.js";
 import {openPlayer} from "./player.js";
@@ -17,6 +17,7 @@ const REFERENCE = [0, 170, 255];
 const view = document.getElementById("view");
 let cleanup = () => {};
 let status = null;
+let lastCounts = null;
 
 // ---------------------------------------------------------------- status banner (polled: datasets grow)
 async function refreshStatus() {
@@ -28,6 +29,11 @@ async function refreshStatus() {
   }
   document.getElementById("dataset-name").textContent = status.name;
   const c = status.counts;
+  const changed = lastCounts !== null && JSON.stringify(c) !== lastCounts;
+  lastCounts = JSON.stringify(c);
+  // a dataset being written grows: refresh the lists (not a page the user is looking at in detail)
+  const page = parseHash(location.hash).parts[0] || "scenes";
+  if (changed && (page === "scenes" || page === "episodes")) route();
   document.getElementById("counts").textContent =
     `${c.scenes} scenes · ${c.instructions} instructions · ${c.episodes} episodes`;
   const notes = status.files
@@ -289,7 +295,7 @@ async function scenePage(i) {
     el("a", {href: `#/scene/${i - 1}`}, "‹ previous scene"), el("a", {href: `#/scene/${i + 1}`}, "next scene ›"),
     el("a", {href: `/files/scenes/${encodeURIComponent((scene.image_filename || "").replace(/\.png$/, ".json"))}`,
       target: "_blank"}, "scene JSON"));
-  view.replaceChildren(
+  fill(view,
     el("h1", {}, `Scene ${i} — ${(scene.image_filename || "").replace(/\.png$/, "")}`), nav,
     el("div", {class: "row"},
       el("div", {class: "col-main"},
@@ -302,6 +308,12 @@ async function scenePage(i) {
       el("div", {class: "col-side"}, hoverCard,
         el("h3", {}, `Instructions (${data.instructions.length})`),
         data.instructions.length ? instructions : el("p", {class: "muted"}, "no instructions for this scene (yet)"),
+        data.rejections.length ? el("h3", {}, `Rejected paths (${data.rejections.length})`) : null,
+        data.rejections.length ? el("ul", {class: "instr-list", id: "rejection-list"}, data.rejections.map((r) => el("li", {},
+          r.instruction_index !== null ? el("a", {href: `#/instruction/${r.instruction_index}`}, r.instruction)
+            : el("span", {}, r.instruction || `slot ${r.slot}`),
+          el("div", {class: "chips"}, el("span", {class: "chip fam"}, r.family || "?"),
+            el("span", {class: "chip bad"}, r.reason)), el("div", {class: "muted"}, r.message)))) : null,
         el("h3", {}, "Scene"), meta)));
 }
 
@@ -341,10 +353,11 @@ async function instructionPage(j) {
   }
   const episodes = [
     ...data.episodes.map((e) => el("a", {href: `#/episode/${e.episode}`, class: `chip ${e.success ? "ok" : "bad"}`},
-      `episode ${e.episode}: ${e.success ? "success" : `failure ${e.failure_reason || ""}`} · ${e.num_frames} frames`)),
+      `episode ${e.episode}: ${e.success ? "success" : `failure ${e.failure_reason || ""}`}`
+      + (e.num_frames >= 0 ? ` · ${e.num_frames} frames` : ""))),
     ...data.rejections.map((r) => el("span", {class: "chip bad", title: r.message}, `path rejected: ${r.reason} — ${r.message}`)),
   ];
-  view.replaceChildren(
+  fill(view,
     el("h1", {}, `Instruction ${j}`),
     el("div", {class: "toolbar"},
       el("a", {href: `#/instruction/${j - 1}`}, "‹ previous"), el("a", {href: `#/instruction/${j + 1}`}, "next ›"),
@@ -390,7 +403,7 @@ async function episodeList(query) {
     el("td", {}, el("a", {href: `#/episode/${e.episode}`}, String(e.episode))),
     el("td", {}, el("a", {href: `#/scene/${e.scene_index}`}, String(e.scene_index))),
     el("td", {}, el("a", {href: `#/instruction/${e.instruction_index}`}, e.instruction || String(e.instruction_index))),
-    el("td", {}, e.family), el("td", {}, String(e.num_frames ?? "")),
+    el("td", {}, e.family), el("td", {}, e.num_frames >= 0 ? String(e.num_frames) : "?"),
     el("td", {}, el("span", {class: `chip ${e.success ? "ok" : "bad"}`}, e.success ? "success" : `failure ${e.failure_reason || ""}`))));
   const rejected = data.rejections.map((r) => el("tr", {},
     el("td", {}, el("a", {href: `#/scene/${r.scene_index}`}, String(r.scene_index))), el("td", {}, String(r.slot)),
@@ -399,7 +412,7 @@ async function episodeList(query) {
     el("td", {}, r.family || ""), el("td", {}, el("span", {class: "chip bad"}, r.reason)), el("td", {class: "muted"}, r.message)));
   const reasons = {};
   for (const r of data.rejections) reasons[r.reason] = (reasons[r.reason] || 0) + 1;
-  view.replaceChildren(el("h1", {}, "Episodes"),
+  fill(view, el("h1", {}, "Episodes"),
     el("div", {class: "filters"}, pick("family", families), pick("success", ["success", "failure"])),
     data.state.state !== "ok" ? el("p", {class: "muted"}, data.state.detail) : null,
     el("table", {class: "objects", id: "episode-table"},

@@ -1,7 +1,7 @@
 // Episode player: play/pause, scrubber, frame stepping, camera images (RGB / depth / segmentation,
 // fetched one frame at a time), a top view of the table drawn from the recorded poses, the subtask
 // timeline, and plots of joint positions, gripper and the 7-D steering vector.
-import {COLOUR_CSS, el, getJSON, num} from "./util.js";
+import {COLOUR_CSS, el, fill, getJSON, num} from "./util.js";
 import {LinePlot, subtaskColour, Timeline} from "./plot.js";
 
 const SPEEDS = [0.25, 0.5, 1, 2, 4];
@@ -89,7 +89,7 @@ export async function openPlayer(root, k) {
     sw.style.background = subtaskColour(n);
     return el("span", {}, sw, n);
   }));
-  root.replaceChildren(
+  fill(root,
     el("h1", {}, `Episode ${k} — ${ep.family}`),
     el("div", {class: "toolbar"}, verdict,
       el("a", {href: `#/instruction/${ep.instruction_index}`}, `“${ep.instruction || `instruction ${ep.instruction_index}`}”`),

@@ -18,6 +18,12 @@ export function el(tag, attrs = {}, ...children) {
   return node;
 }
 
+/** Replace a node's children, skipping null / undefined / false. */
+export function fill(node, ...children) {
+  node.replaceChildren(...children.flat().filter((c) => c !== null && c !== undefined && c !== false));
+  return node;
+}
+
 /** Error carrying the HTTP status and the server's one-line message. */
 export class HttpError extends Error {
   constructor(status, message) {

@@ -1,0 +1,83 @@
+"""The viewer on a real dataset made by ``samplehd generate --preset tiny`` (slow: it simulates and
+renders), through the API and in headless Chromium."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from samplehd.viewer.app import ViewerApp
+from samplehd.viewer.server import ViewerServer, open_dataset
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def tiny_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("generated") / "tiny"
+    cmd = [sys.executable, "-m", "samplehd", "generate", "--preset", "tiny", "--out", str(out), "--scenes", "3",
+           "--workers", "2", "--quiet"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr[-2000:]
+    return out
+
+
+@pytest.fixture(scope="module")
+def tiny_url(tiny_dataset: Path) -> Iterator[str]:
+    server = ViewerServer(("127.0.0.1", 0), ViewerApp(open_dataset(tiny_dataset)))
+    server.start_in_thread()
+    yield server.url
+    server.shutdown()
+    server.server_close()
+
+
+def test_every_page_of_a_generated_dataset_answers(tiny_dataset: Path) -> None:
+    app = ViewerApp(open_dataset(tiny_dataset))
+    status = json.loads(app.handle("/api/status", {}).body)
+    assert {f["name"]: f["state"] for f in status["files"]} == {
+        "info.json": "ok", "scenes.json": "ok", "instructions.json": "ok", "episodes": "ok"}
+    for scene in json.loads(app.handle("/api/scenes", {}).body)["scenes"]:
+        i = scene["index"]
+        for path in (f"/api/scenes/{i}", f"/api/scenes/{i}/thumb", f"/api/scenes/{i}/ids",
+                     *(f"/api/scenes/{i}/image/{m}" for m in ("rgb", "depth", "segmentation"))):
+            assert app.handle(path, {}).status == 200, path
+    instructions = json.loads((tiny_dataset / "instructions.json").read_text())["instructions"]
+    for q in instructions:
+        answer = json.loads(app.handle(f"/api/instructions/{q['instruction_index']}", {}).body)
+        assert len(answer["episodes"]) == 1, q["instruction_index"]  # instruction i ↔ episode i
+    episodes = json.loads(app.handle("/api/episodes", {}).body)["episodes"]
+    assert len(episodes) == len(instructions) >= 1
+    for e in episodes:
+        detail = json.loads(app.handle(f"/api/episodes/{e['episode']}", {}).body)
+        assert detail["success"] and len(detail["series"]["joint_pos"]) == detail["num_frames"]
+        camera = next(iter(detail["cameras"]))
+        for modality in detail["cameras"][camera]:
+            frame = app.handle(f"/api/episodes/{e['episode']}/frame/{detail['num_frames'] - 1}",
+                               {"camera": camera, "modality": modality})
+            assert frame.status == 200, (e["episode"], modality)
+
+
+def test_browser_plays_a_generated_episode(browser: Any, tiny_url: str, tiny_dataset: Path) -> None:
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    wait = WebDriverWait(browser, 20, poll_frequency=0.1)
+    browser.get(tiny_url)
+    wait.until(lambda b: len(b.find_elements(By.CSS_SELECTOR, "#scene-grid .card")) == 3)
+    browser.get(f"{tiny_url}#/instruction/0")
+    wait.until(lambda b: b.find_elements(By.CSS_SELECTOR, "#program-tree svg.tree g.node"))
+    stem = json.loads((tiny_dataset / "info.json").read_text())["episodes"][0]["file"].split("/")[-1][:-3]
+    browser.get(f"{tiny_url}#/episode/{stem}")
+    wait.until(lambda b: b.find_elements(By.ID, "frame-label"))
+    image = browser.find_element(By.ID, "episode-frame")
+    wait.until(lambda b: int(image.get_attribute("naturalWidth") or 0) > 0)
+    browser.find_element(By.ID, "play").click()
+    wait.until(lambda b: int(b.find_element(By.ID, "frame-label").text.split()[1]) >= 10)
+    browser.find_element(By.ID, "play").click()
+    assert [e for e in browser.get_log("browser") if e["level"] == "SEVERE"] == []
