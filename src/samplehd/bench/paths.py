@@ -16,7 +16,7 @@ import numpy as np
 
 from samplehd.scene.layout import LAYOUT, OPPOSITE_PART, TABLE_PARTS, table_parts_of
 
-__all__ = ["oracle_success", "oracle_table", "random_task", "simple_scene"]
+__all__ = ["oracle_success", "oracle_table", "random_task", "run", "simple_scene"]
 
 
 def _instance(rng: np.random.Generator, classes: list[str] | None = None) -> Any:
@@ -239,3 +239,56 @@ def oracle_table(results: list[dict[str, Any]]) -> str:
     if tot["n"]:
         lines.append(f"{'all':15s} {tot['n']:5d} {tot['first'] / tot['n']:10.1%} {tot['ok'] / tot['n']:14.1%}")
     return "\n".join(lines)
+
+
+def _bench_scene() -> Any:
+    from samplehd.catalogue import ObjectInstance
+    from samplehd.scene.spec import SceneObject, SceneSpec
+
+    up = (1.0, 0.0, 0.0, 0.0)
+    t = LAYOUT.table_height
+    return SceneSpec(index=0, seed=0, objects=(
+        SceneObject(ObjectInstance("food_box", "flat", "red", "plastic", "medium"), (0.02, -0.25, t), up),
+        SceneObject(ObjectInstance("soda_can", "standard", "red", "metal", "medium"), (0.05, 0.12, t), up),
+        SceneObject(ObjectInstance("bowl", "round", "white", "ceramic", "medium"), (0.20, -0.05, t), up),
+        SceneObject(ObjectInstance("glass", "short", "transparent", "glass", "medium"), (-0.08, -0.05, t), up),
+    ))
+
+
+def run(repeats: int = 3) -> list[Any]:
+    """Episode frames/s: state-only, and with ``fast`` RGB+depth+segmentation at 320×180 and 640×360.
+
+    One place episode (about 250 frames at 20 Hz) of a 4-object scene; frames/s counts planning,
+    physics, recording and the checker, plus rendering every frame from the operator camera.
+    """
+    import statistics
+    import time
+
+    from samplehd.bench import Figure
+    from samplehd.motion.assist import compile_scene_with_assist
+    from samplehd.motion.pipeline import plan_and_execute
+    from samplehd.record.replay import render_episode
+
+    scene = _bench_scene()
+    task = {"type": "place", "objects": [1], "subject": "left"}
+    rates: dict[str, list[float]] = {"state": [], "320x180": [], "640x360": []}
+    frames = 0
+    for r in range(repeats):
+        model, data = compile_scene_with_assist(scene)
+        t0 = time.perf_counter()
+        ep = plan_and_execute(scene, task, np.random.default_rng(r), compiled=(model, data))
+        sim = time.perf_counter() - t0
+        frames = ep.num_frames
+        rates["state"].append(frames / sim)
+        for w, h in ((320, 180), (640, 360)):
+            t1 = time.perf_counter()
+            render_episode(model, ep, ("operator",), ("rgb", "depth", "segmentation"), w, h, "fast")
+            rates[f"{w}x{h}"].append(frames / (sim + time.perf_counter() - t1))
+    note = f"place episode, {frames} frames, 20 Hz control / 500 Hz physics, operator camera"
+    return [
+        Figure("paths", "episode frames/s state-only", statistics.median(rates["state"]), "1/s", note),
+        Figure("paths", "episode frames/s rgb+depth+seg 320x180 fast", statistics.median(rates["320x180"]), "1/s",
+               note),
+        Figure("paths", "episode frames/s rgb+depth+seg 640x360 fast", statistics.median(rates["640x360"]), "1/s",
+               note),
+    ]
