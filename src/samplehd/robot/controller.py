@@ -73,8 +73,9 @@ class ControlConfig:
         max_cartesian_delta: largest TCP translation / rotation per step in ``cartesian_delta``
             mode [m, rad].
         speed_scale: fraction of the UR5e joint speed limits (180°/s) the target may move at (0, 1].
-        safety_checks_per_step: how many times per control step the safety monitor runs (the
-            physics steps are split into that many equal chunks; must divide them).
+        safety_checks_per_step: how many times per control step the safety monitor checks
+            contacts (the physics steps are split into that many equal chunks; must divide them);
+            joint torques are sampled once per control step.
         raise_unreachable: raise UnreachableError for an unreachable Cartesian command instead of
             holding the previous target and reporting it.
         safety: safety monitor thresholds; None disables the monitor.
@@ -205,6 +206,8 @@ class RobotController:
         pos_ids = [model.actuator(a).id for a in POSITION_ACTUATORS]
         vel_ids = [model.actuator(a).id for a in VELOCITY_ACTUATORS]
         self._ctrl_idx = _as_index(pos_ids + vel_ids)
+        self._pos_ctrl = _as_index(pos_ids)
+        self._vel_ctrl = _as_index(vel_ids)
         self._act_idx = _as_index(model.actuator_actadr[pos_ids].tolist())
         self._gripper_id = model.actuator(GRIPPER_ACTUATOR).id
         self._speed = SPEED_LIMITS * cfg.speed_scale
@@ -418,15 +421,17 @@ class RobotController:
             slowest = float(np.max(np.abs(ramp) / self._reach))
             fraction = 1.0 if slowest <= 1.0 else 1.0 / slowest
             velocity = ramp * (fraction / self._dt)
-            d.ctrl[self._ctrl_idx] = np.concatenate([velocity, velocity])
+            d.ctrl[self._pos_ctrl] = velocity
+            d.ctrl[self._vel_ctrl] = velocity
             pinned = fraction == 1.0
         event = None
         monitor = self.monitor
         chunk = self._chunk
-        for _ in range(self.config.safety_checks_per_step):
+        last = self.config.safety_checks_per_step - 1
+        for k in range(last + 1):
             mujoco.mj_step(m, d, chunk)
             if monitor is not None and self._stopped is None:
-                event = monitor.check(d)
+                event = monitor.check(d, torque=k == last)
                 if event is not None:
                     self._stopped = event
                     self._hold()

@@ -302,17 +302,21 @@ def _nearest_scalar(solutions: list[list[float]], seed: list[float], limits: lis
     best: list[float] | None = None
     best_d = math.inf
     two_pi = _TWO_PI
+    remainder = math.remainder
     for sol in solutions:
         cand: list[float] = []
         d = 0.0
-        for qi, si, lim in zip(sol, seed, limits):  # noqa: B905 - lengths are fixed (6)
-            v = qi + two_pi * round((si - qi) / two_pi)
-            while v > lim[1] + 1e-12:
+        for qi, si, (lo, hi) in zip(sol, seed, limits):  # noqa: B905 - lengths are fixed (6)
+            # Representation nearest the seed, then into the limits if it is just outside.
+            v = si + remainder(qi - si, two_pi)
+            if v > hi:
                 v -= two_pi
-            while v < lim[0] - 1e-12:
+                if v < lo:
+                    break
+            elif v < lo:
                 v += two_pi
-            if v > lim[1] + 1e-12:
-                break
+                if v > hi:
+                    break
             d += (v - si) * (v - si)
             if d >= best_d:
                 break

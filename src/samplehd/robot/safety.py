@@ -43,7 +43,8 @@ class SafetyConfig:
     Attributes:
         max_contact_force: largest allowed normal force between the robot and one scene object [N].
         torque_ratio: fraction of a joint's torque limit that counts as overload (0, 1].
-        torque_hold_time: how long an overload must last before the arm stops [s].
+        torque_hold_time: how long an overload must last before the arm stops [s] (torques are
+            sampled once per control step by the controller).
         min_penetration: contacts shallower than this are ignored (grazing touches) [m].
         check_self_collision: whether robot–robot contacts stop the arm.
         check_environment: whether robot–table/floor/wall contacts stop the arm.
@@ -175,8 +176,14 @@ class SafetyMonitor:
         self._overload_since[:] = np.nan
         self._overloaded = False
 
-    def check(self, data: mujoco.MjData) -> SafetyEvent | None:
-        """Return the first safety event in the current state of ``data``, or None."""
+    def check(self, data: mujoco.MjData, torque: bool = True) -> SafetyEvent | None:
+        """Return the first safety event in the current state of ``data``, or None.
+
+        Args:
+            data: the simulation state to inspect.
+            torque: also sample the joint torques (overload needs ``torque_hold_time`` of samples;
+                the controller samples them once per control step, contacts more often).
+        """
         if data.ncon:
             contacts = data.contact
             geom = contacts.geom
@@ -187,7 +194,7 @@ class SafetyMonitor:
                 event = self._check_contacts(data, involved, geom, cls, contacts.dist)
                 if event is not None:
                     return event
-        return self._check_torque(data)
+        return self._check_torque(data) if torque else None
 
     def _check_contacts(
         self, data: mujoco.MjData, involved: np.ndarray, geom: np.ndarray, cls: np.ndarray, dist: np.ndarray
