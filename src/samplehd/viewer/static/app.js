@@ -373,9 +373,9 @@ async function instructionPage(j) {
         kv([["moved", moved.map(name).join("; ") || "–"], ["reference", reference.map(name).join("; ") || "–"],
           q.task && ["task", `${q.task.type}${q.task.subject !== null && q.task.subject !== undefined ? ` → ${q.task.subject}` : ""}`
             + `${q.task.relation ? ` (${q.task.relation})` : ""}`]]),
-        el("h3", {}, "Episodes"), episodes.length ? el("div", {class: "chips"}, episodes) : el("p", {class: "muted"}, "no episode recorded"))),
-    el("h3", {}, "Program (flat, SAMPLE-HD)"), el("div", {id: "flat-program"}, flatTokens(q.program_sequence)),
-    el("h3", {}, "Program (CLEVR nodes, drawn as a tree)"), el("div", {class: "tree-wrap", id: "program-tree"}, programTree(q.program)),
+        el("h3", {}, "Episodes"), episodes.length ? el("div", {class: "chips"}, episodes) : el("p", {class: "muted"}, "no episode recorded"),
+        el("h3", {}, "Program (flat, SAMPLE-HD)"), el("div", {id: "flat-program"}, flatTokens(q.program_sequence)),
+        el("h3", {}, "Program (CLEVR nodes, as a tree)"), el("div", {class: "tree-wrap", id: "program-tree"}, programTree(q.program)))),
     el("h3", {}, "Task"), el("pre", {class: "json"}, JSON.stringify({task: q.task, targets: q.targets, params: q.params}, null, 1)));
 }
 

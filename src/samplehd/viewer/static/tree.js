@@ -48,9 +48,9 @@ export function programTree(program) {
   });
   const charW = 7.4;
   const boxW = Math.max(90, ...labels.map((l) => Math.max(l.type.length, l.value.length) * charW + 22));
-  const boxH = 40;
+  const boxH = 34;
   const gapX = 14;
-  const gapY = 34;
+  const gapY = 24;
   const slots = Math.max(...[...pos.values()].map((p) => p.x)) + 1;
   const depth = Math.max(...[...pos.values()].map((p) => p.y)) + 1;
   const width = slots * (boxW + gapX) + gapX;
@@ -81,10 +81,10 @@ export function programTree(program) {
     g.append(el("svg:rect", {x, y, width: boxW, height: boxH, rx: 6, fill: KIND_FILL[kind], stroke: KIND_STROKE[kind],
       "stroke-width": 1.4}));
     g.append(el("svg:text", {x: x + 4, y: y + 10, "font-size": 9, fill: "#888"}, String(i)));
-    g.append(el("svg:text", {x: cx(i), y: y + (labels[i].value ? 17 : 24), "text-anchor": "middle", fill: "#1d2127",
+    g.append(el("svg:text", {x: cx(i), y: y + (labels[i].value ? 15 : 21), "text-anchor": "middle", fill: "#1d2127",
       "font-weight": 600}, labels[i].type));
     if (labels[i].value) {
-      g.append(el("svg:text", {x: cx(i), y: y + 32, "text-anchor": "middle", fill: "#444"}, labels[i].value));
+      g.append(el("svg:text", {x: cx(i), y: y + 28, "text-anchor": "middle", fill: "#444"}, labels[i].value));
     }
     g.append(el("svg:title", {}, `node ${i}: ${labels[i].type}${labels[i].value} ← inputs [${(n.inputs || []).join(", ")}]`));
     svg.append(g);
