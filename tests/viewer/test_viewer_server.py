@@ -217,3 +217,29 @@ def test_cli_view_rejects_missing_dataset(tmp_path: Path, capsys: pytest.Capture
     assert main(["view", str(tmp_path / "absent")]) == 2
     assert "no such dataset folder" in capsys.readouterr().err
     assert main(["view", str(tmp_path)]) == 2
+
+
+def test_cli_view_serves_until_interrupted(fake_dataset: Path) -> None:
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "samplehd", "view", str(fake_dataset), "--port", "0"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None
+        lines = [proc.stdout.readline(), proc.stdout.readline()]
+        assert "4 scenes, 10 instructions" in lines[0], lines
+        url = lines[1].split("serving on ", 1)[1].split()[0]
+        assert url.startswith("http://127.0.0.1:")
+        status, _, body = _get(url, "/api/status")
+        assert status == 200 and json.loads(body)["counts"]["scenes"] == 4
+    finally:
+        proc.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + 10
+        while proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0
