@@ -81,3 +81,40 @@ def test_browser_plays_a_generated_episode(browser: Any, tiny_url: str, tiny_dat
     wait.until(lambda b: int(b.find_element(By.ID, "frame-label").text.split()[1]) >= 10)
     browser.find_element(By.ID, "play").click()
     assert [e for e in browser.get_log("browser") if e["level"] == "SEVERE"] == []
+
+
+def test_episode_stored_without_images_is_rendered_from_its_states(tiny_dataset: Path, tmp_path: Path) -> None:
+    import dataclasses
+    import io
+    import shutil
+
+    import numpy as np
+    from PIL import Image
+
+    from samplehd.dataset.container import read_episode, read_meta, write_episode
+
+    states_only = tmp_path / "states-only"
+    shutil.copytree(tiny_dataset, states_only)
+    stem = json.loads((tiny_dataset / "info.json").read_text())["episodes"][0]["file"].split("/")[-1][:-3]
+    path = states_only / "episodes" / f"{stem}.h5"
+    meta = read_meta(path)
+    episode = dataclasses.replace(read_episode(path, images="none"), images={})
+    write_episode(path, episode, extra={k: meta[k] for k in ("slot", "instruction", "task")})
+    rendered, stored = ViewerApp(open_dataset(states_only)), ViewerApp(open_dataset(tiny_dataset))
+    try:
+        detail = json.loads(rendered.handle(f"/api/episodes/{stem}", {}).body)
+        assert detail["rendered_on_demand"] and set(detail["cameras"]) == {"scene", "operator", "wrist"}
+        last = detail["num_frames"] - 1
+        pictures = []
+        for app in (rendered, stored):
+            answer = app.handle(f"/api/episodes/{stem}/frame/{last}", {"camera": "scene", "modality": "rgb"})
+            assert answer.status == 200
+            pictures.append(np.asarray(Image.open(io.BytesIO(answer.body))).astype(int))
+        assert np.abs(pictures[0] - pictures[1]).mean() < 1.0  # same state, same renderer, same pixels
+        assert rendered.handle(f"/api/episodes/{stem}/frame/0", {"camera": "wrist", "modality": "depth"}).status == 200
+        without = ViewerApp(open_dataset(states_only, render=False))
+        refused = without.handle(f"/api/episodes/{stem}/frame/0", {"camera": "scene", "modality": "rgb"})
+        assert refused.status == 404 and b"stores no images" in refused.body
+    finally:
+        rendered.index.episodes.renderer.close()
+        stored.index.episodes.renderer.close()

@@ -243,3 +243,14 @@ def test_cli_view_serves_until_interrupted(fake_dataset: Path) -> None:
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 0
+
+
+def test_state_renderer_refuses_bad_requests_before_rendering() -> None:
+    from samplehd.viewer.state_render import StateRenderer
+
+    renderer = StateRenderer()
+    with pytest.raises(DatasetError, match="has no 'spec'"):
+        renderer.render({"image_index": 3}, {}, "scene", "rgb")
+    with pytest.raises(DatasetError, match="valid cameras"):
+        renderer.render({"spec": {}}, {}, "ceiling", "rgb")
+    renderer.close()

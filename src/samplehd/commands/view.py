@@ -19,6 +19,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("dataset", type=Path, metavar="DIR", help="dataset folder (or a `samplehd scenes` folder)")
     parser.add_argument("--host", default="127.0.0.1", help="address to bind; 0.0.0.0 exposes it to the network")
     parser.add_argument("--port", type=int, default=8000, help="port (0 picks a free one)")
+    parser.add_argument("--no-render", action="store_true",
+                        help="do not render frames of episodes stored without images (--render none datasets) "
+                             "from their recorded states; show their top view only")
     parser.add_argument("--verbose", action="store_true", help="log every request")
 
 
@@ -29,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise ConfigError(f"--port {args.port}: must be in 0..65535")
     try:
-        server = make_server(args.dataset, args.host, args.port, verbose=args.verbose)
+        server = make_server(args.dataset, args.host, args.port, verbose=args.verbose, render=not args.no_render)
     except OSError as exc:
         raise ConfigError(f"--host {args.host} --port {args.port}: cannot listen ({exc.strerror or exc}); "
                           f"pick another --port") from exc

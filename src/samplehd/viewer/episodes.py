@@ -15,6 +15,7 @@ from __future__ import annotations
 import io
 import json
 import threading
+from collections import OrderedDict
 from pathlib import Path
 from typing import Any
 
@@ -107,11 +108,17 @@ class EpisodeStore:
     Args:
         root: the dataset folder.
         instructions: callable returning ``(instructions, state)`` (for instruction texts).
+        scene: callable from a scene index to its scene dict (to rebuild worlds for rendering).
+        renderer: a :class:`~samplehd.viewer.state_render.StateRenderer` for episodes stored without
+            images (None: such episodes show the top view only).
     """
 
-    def __init__(self, root: Path, instructions: Any = None) -> None:
+    def __init__(self, root: Path, instructions: Any = None, scene: Any = None, renderer: Any = None) -> None:
         self.root = Path(root)
         self._instructions = instructions
+        self._scene = scene
+        self.renderer = renderer
+        self._states: OrderedDict[str, tuple[tuple[int, int], dict[str, np.ndarray]]] = OrderedDict()
         self._lock = threading.Lock()
         self._reader_key: tuple[Any, ...] | None = None
         self._reader: Any = None
@@ -280,6 +287,12 @@ class EpisodeStore:
         self._episode_meta(reader, i, entry)  # caches success, failure reason and cameras for the listing
         summary = next(s for s in self.summaries() if s["episode"] == name)
         summary["cameras"] = dict(meta.get("images") or {})
+        summary["rendered_on_demand"] = False
+        if not summary["cameras"] and self._renderable(entry.scene_index):
+            from samplehd.viewer.state_render import CAMERAS
+
+            summary["cameras"] = {c: ["rgb", "depth", "segmentation"] for c in CAMERAS}
+            summary["rendered_on_demand"] = True
         stems = [stem for stem, _, _ in self._entries()]
         position = stems.index(name)
         series: dict[str, Any] = {key: _rounded(frames[key]) for key in PLOT_FIELDS}
@@ -307,8 +320,7 @@ class EpisodeStore:
         reader, i, entry = self._locate(name)
         cameras = self._episode_meta(reader, i, entry).get("cameras", {})
         if not cameras:
-            raise DatasetError(f"episode {name}: stores no images (generated with --render none; "
-                               f"`samplehd rerender` adds them)")
+            return self._render(name, reader, i, entry, t, camera or "scene", modality)
         camera = camera or next(iter(cameras))
         if camera not in cameras or modality not in cameras[camera]:
             valid = ", ".join(f"{c}/{m}" for c, ms in cameras.items() for m in ms)
@@ -324,11 +336,46 @@ class EpisodeStore:
                 pixels = np.asarray(image.convert("RGB"))
         return pixels
 
+    def _renderable(self, scene_index: int) -> bool:
+        """Whether frames of this scene's episodes can be rendered (a renderer, and a scene spec)."""
+        if self.renderer is None or self._scene is None:
+            return False
+        try:
+            return isinstance(self._scene(scene_index).get("spec"), dict)
+        except DatasetError:
+            return False
 
-def open_episode_store(root: Path, instructions: Any = None) -> EpisodeStore | None:
+    def _render(self, name: str, reader: Any, i: int, entry: Any, t: int, camera: str,
+                modality: str) -> np.ndarray:
+        """Render frame ``t`` of an episode stored without images from its recorded state."""
+        if self.renderer is None or self._scene is None:
+            raise DatasetError(f"episode {name}: stores no images (generated with --render none); "
+                               f"`samplehd rerender` adds them, or run `samplehd view` without --no-render")
+        if not self._renderable(entry.scene_index):
+            raise DatasetError(f"episode {name}: stores no images, and scene {entry.scene_index} has no 'spec' "
+                               f"to render them from")
+        key = self._stamp(entry.file)
+        with self._lock:
+            hit = self._states.get(name)
+        if hit is None or hit[0] != key:
+            states = reader.frames(i, ("qpos", "qvel", "act"))
+            with self._lock:
+                self._states[name] = (key, states)
+                while len(self._states) > 4:
+                    self._states.popitem(last=False)
+        else:
+            states = hit[1]
+        if not 0 <= t < len(states["qpos"]):
+            raise DatasetError(f"episode {name}: frame {t} outside 0..{len(states['qpos']) - 1}")
+        scene = self._scene(entry.scene_index)
+        return self.renderer.render(scene, {k: v[t] for k, v in states.items()}, camera, modality)
+
+
+def open_episode_store(root: Path, instructions: Any = None, scene: Any = None,
+                       renderer: Any = None) -> EpisodeStore | None:
     """The episode store of a dataset folder, or None when the dataset reader cannot be imported."""
     try:
         import samplehd.dataset.reader  # noqa: F401
     except ImportError:
         return None
-    return EpisodeStore(root, instructions)
+    return EpisodeStore(root, instructions, scene, renderer)

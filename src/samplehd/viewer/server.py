@@ -113,6 +113,13 @@ class ViewerServer(ThreadingHTTPServer):
         shown = f"[{host}]" if ":" in host else host
         return f"http://{shown}:{port}/"
 
+    def server_close(self) -> None:
+        """Close the socket and stop the frame renderer, if any."""
+        super().server_close()
+        renderer = getattr(self.app.index.episodes, "renderer", None)
+        if renderer is not None:
+            renderer.close()
+
     def start_in_thread(self) -> threading.Thread:
         """Serve from a daemon thread (for tests and notebooks); stop with ``shutdown()``."""
         thread = threading.Thread(target=self.serve_forever, name="samplehd-viewer", daemon=True)
@@ -120,24 +127,38 @@ class ViewerServer(ThreadingHTTPServer):
         return thread
 
 
-def open_dataset(root: Path) -> DatasetIndex:
+def open_dataset(root: Path, render: bool = True) -> DatasetIndex:
     """Index a dataset folder, with its episodes when the folder has any.
+
+    Args:
+        root: the dataset folder.
+        render: render frames of episodes stored without images from their recorded states (at the
+            dataset's configured image size, 320×180 if none).
 
     Raises:
         DatasetError: not a folder, or not a dataset.
     """
     from samplehd.viewer.episodes import open_episode_store
+    from samplehd.viewer.state_render import StateRenderer
 
     index = DatasetIndex(root)
-    index.episodes = open_episode_store(index.root, index.instructions)
+    renderer = None
+    if render:
+        info, _ = index.info()
+        config = info.get("config") if isinstance(info.get("config"), dict) else {}
+        size = config.get("render") if isinstance(config.get("render"), dict) else {}
+        width, height = int(size.get("width") or 320), int(size.get("height") or 180)
+        renderer = StateRenderer(width, height, "hd" if size.get("mode") == "hd" else "fast")
+    index.episodes = open_episode_store(index.root, index.instructions, index.scene, renderer)
     return index
 
 
-def make_server(root: Path, host: str = "127.0.0.1", port: int = 8000, verbose: bool = False) -> ViewerServer:
+def make_server(root: Path, host: str = "127.0.0.1", port: int = 8000, verbose: bool = False,
+                render: bool = True) -> ViewerServer:
     """A viewer server for the dataset at ``root`` (not yet serving; call ``serve_forever``).
 
     Raises:
         DatasetError: ``root`` is not a dataset.
         OSError: the address is in use or cannot be bound.
     """
-    return ViewerServer((host, port), ViewerApp(open_dataset(root)), verbose=verbose)
+    return ViewerServer((host, port), ViewerApp(open_dataset(root, render)), verbose=verbose)

@@ -97,7 +97,9 @@ export async function openPlayer(root, k) {
       el("span", {class: "muted"}, `${frames} frames at ${num(ep.control_hz, 0)} Hz`),
       ep.previous ? el("a", {href: `#/episode/${ep.previous}`}, "‹ previous episode") : null,
       ep.next ? el("a", {href: `#/episode/${ep.next}`}, "next episode ›") : null),
-    el("div", {class: "toolbar"}, cameraNames.length > 1 ? cameraSelect : null, cameraNames.length ? modalityBox : null),
+    el("div", {class: "toolbar"}, cameraNames.length > 1 ? cameraSelect : null, cameraNames.length ? modalityBox : null,
+      ep.rendered_on_demand ? el("span", {class: "muted", id: "rendered-note"},
+        "this episode stores no images: frames are rendered on demand from its recorded physics states") : null),
     views, controls, info, el("h3", {}, "Subtasks"), timeline.root, legend, ...plots.map((p) => p.root),
     el("h3", {}, "Checker and generation report"), el("pre", {class: "json", id: "episode-info"}, JSON.stringify(ep.info, null, 1)));
 
