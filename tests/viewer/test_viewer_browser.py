@@ -153,3 +153,31 @@ def test_episode_list_and_refused_paths(browser: Any, viewer_url: str, fake_data
     assert all(code in (403, 404) for code in statuses[:3]) and statuses[3] == 200
     browser.get(f"{viewer_url}files/%2e%2e/outside.txt")
     assert "secret" not in browser.page_source
+
+
+def test_dataset_being_written_shows_its_state_without_errors(browser: Any, tmp_path: Path) -> None:
+    import os
+
+    from viewer_fakes import make_fake_dataset
+
+    from samplehd.viewer import DatasetIndex, ViewerApp, ViewerServer
+
+    root = make_fake_dataset(tmp_path / "growing", num_scenes=3)
+    (root / "scenes.json").write_text('{"info": {}, "scenes": [')
+    (root / "instructions.json").unlink()
+    os.remove(root / "images" / "SHD_train_000002.png")
+    server = ViewerServer(("127.0.0.1", 0), ViewerApp(DatasetIndex(root)))
+    server.start_in_thread()
+    try:
+        _open(browser, server.url)
+        _wait(browser, lambda b: len(_cards(b)) == 3)
+        banner = browser.find_element(By.ID, "banner")
+        assert banner.is_displayed() and "still being written" in banner.text and "scenes.json: partial" in banner.text
+        assert "image not written yet" in browser.find_element(By.CSS_SELECTOR, "[data-scene='2']").text
+        _open(browser, f"{server.url}#/scene/2")
+        _wait(browser, lambda b: "not written yet" in b.find_element(By.ID, "view").text)
+        assert "no instructions for this scene" in browser.find_element(By.ID, "view").text
+        assert _console_errors(browser) == []
+    finally:
+        server.shutdown()
+        server.server_close()

@@ -354,9 +354,11 @@ class ViewerApp:
         except DatasetError:
             scene = None
         joined = self._with_outcomes([instruction])[0]
+        written = scene is not None and self.index.image_path(scene_index, "rgb").is_file()
         return Response.json(_sanitise({
             "instruction": instruction,
             "scene": scene,
+            "image_written": written,
             "segmentation_offset": int((scene or {}).get("segmentation_ids", {}).get("object_offset", 3)),
             "episodes": joined["episodes"],
             "rejections": joined["rejections"],

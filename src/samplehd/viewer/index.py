@@ -311,8 +311,15 @@ class DatasetIndex:
         for e in episodes:
             eps_by_scene.setdefault(_as_int(e.get("scene_index"), -1), []).append(e)
         rejected = {_as_int(r.get("scene_index"), -1) for r in self.rejections()}
-        return [scene_summary(scenes[i], by_scene.get(i, []), eps_by_scene.get(i, []), i in rejected)
-                for i in sorted(scenes)]
+        out = []
+        for i in sorted(scenes):
+            summary = scene_summary(scenes[i], by_scene.get(i, []), eps_by_scene.get(i, []), i in rejected)
+            try:
+                summary["has_image"] = self.image_path(i, "rgb").is_file()
+            except DatasetError:
+                summary["has_image"] = False
+            out.append(summary)
+        return out
 
     def image_path(self, scene_index: int, modality: str) -> Path:
         """Path of a scene's ``rgb`` / ``depth`` / ``segmentation`` PNG (it may not exist yet).

@@ -116,7 +116,8 @@ function sceneCard(s) {
   const outcome = s.success.includes("failure") ? el("span", {class: "chip bad"}, "has failures")
     : s.success.includes("success") ? el("span", {class: "chip ok"}, "success") : null;
   return el("a", {class: "card", href: `#/scene/${s.index}`, "data-scene": s.index},
-    el("img", {src: `/api/scenes/${s.index}/thumb`, loading: "lazy", alt: s.stem}),
+    s.has_image === false ? el("div", {class: "placeholder thumb"}, "image not written yet")
+      : el("img", {src: `/api/scenes/${s.index}/thumb`, loading: "lazy", alt: s.stem}),
     el("div", {class: "body"},
       el("div", {class: "title"}, el("span", {}, s.stem), el("span", {class: "muted"}, s.split.join(","))),
       el("div", {class: "muted"}, `${s.num_objects} objects · ${s.num_instructions} instructions · ${s.num_episodes} episodes`),
@@ -126,10 +127,12 @@ function sceneCard(s) {
 
 // ---------------------------------------------------------------- image stage with masks
 /** An image with an overlay canvas; loads ids lazily for masks and the cursor read-out. */
-function imageStage(sceneIndex, modality) {
-  const img = el("img", {src: `/api/scenes/${sceneIndex}/image/${modality}`, alt: `${modality} image`, id: "scene-image"});
+function imageStage(sceneIndex, modality, written = true) {
+  const img = el("img", {src: written ? `/api/scenes/${sceneIndex}/image/${modality}` : null, alt: `${modality} image`,
+    id: "scene-image"});
   const overlay = el("canvas", {class: "overlay", id: "overlay"});
-  const root = el("div", {class: "stage crosshair"}, img, overlay);
+  const root = written ? el("div", {class: "stage crosshair"}, img, overlay)
+    : el("div", {class: "placeholder"}, `${modality} image not written yet`);
   img.addEventListener("error", () => {
     root.replaceChildren(el("div", {class: "placeholder"}, `${modality} image not written yet`));
   });
@@ -235,7 +238,7 @@ async function scenePage(i) {
   const scene = data.scene;
   const objects = scene.objects || [];
   const offset = data.segmentation_offset;
-  const stage = imageStage(i, "rgb");
+  const stage = imageStage(i, "rgb", data.images.rgb !== false);
   const barSlot = el("span");
   const hoverCard = el("div", {class: "panel hover-card", id: "hover-card"},
     el("p", {class: "muted"}, "Move the cursor over the image to see the annotation of the object under it."));
@@ -342,7 +345,7 @@ async function instructionPage(j) {
   const name = (k) => (objects[k] ? `#${k} ${describeObject(objects[k])}` : `#${k}`);
   let imageBlock;
   if (scene) {
-    const stage = imageStage(sceneIndex, "rgb");
+    const stage = imageStage(sceneIndex, "rgb", data.image_written);
     stage.root.classList.remove("crosshair");
     stage.loadIds().then((ids) => { if (ids) drawMasks(stage.overlay, ids, groups, 3); });
     imageBlock = el("div", {}, el("div", {class: "toolbar"}, modalityToggle((m) => stage.setModality(m))), stage.root,
