@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import errno
 import hashlib
+import io
 import json
 import os
 from collections.abc import Iterable, Mapping
@@ -79,11 +80,25 @@ def file_digest(path: Path) -> str:
     return h.hexdigest()
 
 
+def _nearly_full(path: Path) -> bool:
+    """Whether the file system holding ``path`` has (almost) no space left; some writers (numpy's
+    ``save``) report a full disk without an errno."""
+    import shutil
+
+    p = Path(path)
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    try:
+        return shutil.disk_usage(p).free < (1 << 20)
+    except OSError:
+        return False
+
+
 def write_error(path: Path, exc: BaseException) -> DatasetError:
     """A one-line DatasetError for a failed write, naming disk-full and permission problems."""
     err = getattr(exc, "errno", None)
     text = str(exc)
-    if err in _DISK_FULL or "No space left" in text or "File too large" in text or "errno = 28" in text:
+    if err in _DISK_FULL or "No space left" in text or "File too large" in text or _nearly_full(path):
         return DatasetError(f"{path}: cannot write: the disk is full (no space left on device); free space "
                             f"and run again with --resume")
     if err in (errno.EACCES, errno.EPERM, errno.EROFS) or "Permission denied" in text:
@@ -147,29 +162,35 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
     """
     path = Path(path)
     tmp = tmp_path(path)
+    # Build the file in memory, then write it with plain file I/O: a full disk then fails one clean
+    # write() instead of leaving HDF5 handles half-flushed inside the library.
+    buffer = io.BytesIO()
+    with h5py.File(buffer, "w", track_order=True) as f:
+        for k, v in episode_attrs(episode, extra).items():
+            f.attrs[k] = v
+        frames = f.create_group("frames")
+        for key, (_, dtype) in FRAME_FIELDS.items():
+            arr = np.asarray(episode.frames[key], dtype=dtype)
+            frames.create_dataset(key, data=arr, **(_GZIP if arr.size > 64 else {}))
+        if episode.images:
+            g = f.create_group("images")
+            g.attrs["render"] = json.dumps(dict(render or {}), sort_keys=True)
+            _write_images(g, episode.images)
+    data = buffer.getbuffer()
+    digest = hashlib.sha256(data).hexdigest()
     try:
-        with h5py.File(tmp, "w", track_order=True) as f:
-            for k, v in episode_attrs(episode, extra).items():
-                f.attrs[k] = v
-            frames = f.create_group("frames")
-            for key, (_, dtype) in FRAME_FIELDS.items():
-                arr = np.asarray(episode.frames[key], dtype=dtype)
-                frames.create_dataset(key, data=arr, **(_GZIP if arr.size > 64 else {}))
-            if episode.images:
-                g = f.create_group("images")
-                g.attrs["render"] = json.dumps(dict(render or {}), sort_keys=True)
-                _write_images(g, episode.images)
-        with open(tmp, "rb+") as fh:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+            fh.flush()
             os.fsync(fh.fileno())
-        digest = file_digest(tmp)
-        size = tmp.stat().st_size
         os.replace(tmp, path)
-    except (OSError, RuntimeError, ValueError) as exc:
+    except OSError as exc:
         try:
             tmp.unlink()
         except OSError:
             pass
         raise write_error(path, exc) from None
+    size = len(data)
     return EpisodeFile(path.name, episode.num_frames, size, digest)
 
 

@@ -18,10 +18,18 @@ __all__ = ["EpisodeUnit", "RenderUnit", "run_episode_unit", "run_render_unit", "
 
 def run_scene_unit(job: Any) -> dict[str, Any]:
     """Sample, render and annotate one scene (``samplehd.scene.generate.SceneJob``)."""
+    from samplehd.dataset.container import write_error
+    from samplehd.errors import RenderError
     from samplehd.scene.generate import render_scene_files
 
     t0 = time.perf_counter()
-    ann, rejections = render_scene_files(job)
+    try:
+        ann, rejections = render_scene_files(job)
+    except (OSError, RenderError) as exc:
+        cause = exc if isinstance(exc, OSError) else exc.__cause__
+        if isinstance(cause, OSError):
+            raise write_error(Path(job.out) / "scenes", cause) from None
+        raise
     return {"index": job.index, "rejections": rejections, "seconds": time.perf_counter() - t0}
 
 

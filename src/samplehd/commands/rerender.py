@@ -1,0 +1,42 @@
+"""Render (or re-render) every episode of a dataset from its stored physics states: set qpos, qvel and
+act, mj_forward, render; no re-simulation. Parallel; run it again to resume after an interruption."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+HELP = "add or replace the images of every episode from the stored states (no re-simulation)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from samplehd.dataset.backend import BACKENDS, default_workers
+
+    parser.add_argument("dir", type=Path, help="dataset directory")
+    parser.add_argument("--cameras", nargs="+", default=["scene"], help="cameras (scene, operator, wrist)")
+    parser.add_argument("--width", type=int, default=320, help="image width [px]")
+    parser.add_argument("--height", type=int, default=180, help="image height [px]")
+    parser.add_argument("--modalities", nargs="+", default=["rgb", "depth", "segmentation"],
+                        help="rgb depth segmentation")
+    parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
+    parser.add_argument("--workers", type=int, default=default_workers(), help="worker processes")
+    parser.add_argument("--backend", choices=BACKENDS, default="local", help="where work units run")
+    parser.add_argument("--ray-address", help="Ray cluster address (default: start a local Ray)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+
+
+def run(args: argparse.Namespace) -> int:
+    from samplehd.dataset.backend import Backend
+    from samplehd.dataset.progress import RichProgress
+    from samplehd.dataset.render import RenderConfig
+    from samplehd.dataset.rerender import rerender_dataset
+
+    cams = tuple(c for item in args.cameras for c in item.split(",") if c)
+    mods = tuple(m for item in args.modalities for m in item.split(",") if m)
+    render = RenderConfig(args.preset, args.width, args.height, cams, mods)
+    backend = Backend(args.backend, args.workers, args.ray_address)
+    with RichProgress(disable=args.quiet) as progress:
+        res = rerender_dataset(args.dir, render, backend, progress)
+    print(f"rerendered {res['rendered']} episodes ({res['skipped']} already done), {res['frames']} frames in "
+          f"{res['seconds']:.1f} s ({res['frames'] / max(res['seconds'], 1e-9):.1f} frames/s)")
+    return 0
