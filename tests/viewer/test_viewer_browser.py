@@ -181,3 +181,10 @@ def test_dataset_being_written_shows_its_state_without_errors(browser: Any, tmp_
     finally:
         server.shutdown()
         server.server_close()
+
+
+def test_dataset_page_lists_file_states(browser: Any, viewer_url: str) -> None:
+    _open(browser, f"{viewer_url}#/dataset")
+    table = _wait(browser, lambda b: b.find_element(By.ID, "file-states"))
+    assert "scenes.json" in table.text and "instructions.json" in table.text
+    assert _console_errors(browser) == []

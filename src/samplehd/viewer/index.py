@@ -271,6 +271,9 @@ class DatasetIndex:
             ep_count, ep_state = 0, FileState("episodes", "missing", "this folder holds no episodes")
         else:
             ep_count, ep_state = self.episodes.count(), self.episodes.state()
+        # info.json of a finished dataset lists every episode (thousands): send the count instead
+        if isinstance(info.get("episodes"), list):
+            info = {**info, "episodes": f"{len(info['episodes'])} entries (see /files/info.json)"}
         return {
             "root": str(self.root),
             "name": self.root.name,

@@ -2,7 +2,7 @@
 //   #/                    scene grid with filters (#/?family=stack&colour=red&page=2)
 //   #/scene/<i>           one scene: RGB / depth / segmentation, annotation of the object under the cursor
 //   #/instruction/<j>     one instruction: text, family, programs (tree + flat), targets outlined
-//   #/episodes            episode list;  #/episode/<k>  the episode player
+//   #/episodes            episode list;  #/episode/<name>  the episode player;  #/dataset  info and file states
 import {COLOUR_CSS, el, fill, getJSON, getPixels, HttpError, num, parseHash, rgb, swatch} from "./util.js";
 import {drawMasks, idAt} from "./masks.js";
 import {flatTokens, programTree} from "./tree.js";
@@ -65,6 +65,7 @@ async function route() {
     else if (page === "scene") await scenePage(Number(parts[1]));
     else if (page === "instruction") await instructionPage(Number(parts[1]));
     else if (page === "episodes") await episodeList(query);
+    else if (page === "dataset") await datasetPage();
     else if (page === "episode") cleanup = await openPlayer(view, parts[1]);
     else view.replaceChildren(el("p", {class: "error"}, `no page ${page}`));
   } catch (err) {
@@ -424,6 +425,22 @@ async function episodeList(query) {
       + Object.entries(reasons).sort((a, b) => b[1] - a[1]).map(([k, v]) => `${k} ${v}`).join(", ")) : null,
     data.rejections.length ? el("table", {class: "objects", id: "rejection-table"},
       el("tr", {}, ["scene", "slot", "instruction", "family", "reason", "message"].map((h) => el("th", {}, h))), rejected) : null);
+}
+
+// ---------------------------------------------------------------- dataset page
+async function datasetPage() {
+  const st = await getJSON("/api/status");
+  const info = st.info || {};
+  const versions = info.versions || {};
+  fill(view, el("h1", {}, `Dataset ${st.name}`),
+    kv([["folder", st.root], ["status", info.status || "–"], ["format version", info.format_version || "–"],
+      ...Object.entries(versions).map(([k, v]) => [`${k} version`, String(v)]),
+      ...Object.entries(st.counts).map(([k, v]) => [k, String(v)])]),
+    el("h3", {}, "Files"),
+    el("table", {class: "objects", id: "file-states"}, el("tr", {}, ["file", "state", "detail"].map((h) => el("th", {}, h))),
+      st.files.map((f) => el("tr", {}, el("td", {}, f.name),
+        el("td", {}, el("span", {class: `chip ${f.state === "ok" ? "ok" : "bad"}`}, f.state)), el("td", {class: "muted"}, f.detail)))),
+    el("h3", {}, "info.json"), el("pre", {class: "json", id: "info-json"}, JSON.stringify(info, null, 1)));
 }
 
 // ---------------------------------------------------------------- start
