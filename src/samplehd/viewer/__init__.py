@@ -1,6 +1,11 @@
-"""Web browser for samplehd datasets: a read-only standard-library HTTP server plus a static page.
+"""Web browser for samplehd datasets: a read-only standard-library HTTP server plus a static page
+(plain JavaScript, CSS and canvas/SVG drawing shipped with the package; nothing from the internet).
 
-``samplehd view DIR`` serves it; :func:`make_server` does the same from Python.
+``samplehd view DIR`` serves a ``samplehd generate`` dataset (also while it is being written) or a
+``samplehd scenes`` + ``samplehd instructions`` folder; :func:`make_server` does the same from Python.
+Pages: scene grid with filters, scene (RGB/depth/segmentation, annotation under the cursor),
+instruction (programs as tree and tokens, targets outlined), episode player, dataset info. The JSON
+endpoints are listed in :mod:`samplehd.viewer.app`.
 """
 
 from samplehd.viewer.app import Response, ViewerApp

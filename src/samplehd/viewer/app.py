@@ -387,7 +387,9 @@ class ViewerApp:
         if not _NAME.fullmatch(k):
             raise _BadRequest(f"episode {k!r}: expected a name like s000012_03")
         if len(rest) == 1:
-            return Response.json(_sanitise(store.detail(k)))
+            detail = store.detail(k)
+            detail["version"] = "-".join(str(v) for v in np.atleast_1d(store.version(k)))
+            return Response.json(_sanitise(detail))
         if len(rest) == 3 and rest[1] == "frame":
             t = _int(rest[2].split(".", 1)[0], "frame")
             camera = query.get("camera", "")
@@ -403,5 +405,7 @@ class ViewerApp:
                 return imaging.encode_image(pixels, fmt)
 
             body = self._images.get_or_make(("episode", store.version(k), k, t, camera, modality, fmt), make)
-            return Response(200, body, "image/jpeg" if fmt == "jpeg" else "image/png", {"Cache-Control": "no-cache"})
+            # the player puts the file's version in the URL (?v=), so a cached frame is never stale
+            cache = "private, max-age=86400" if query.get("v") else "no-cache"
+            return Response(200, body, "image/jpeg" if fmt == "jpeg" else "image/png", {"Cache-Control": cache})
         raise DatasetError(f"/api/episodes/{'/'.join(rest)}: no such endpoint")

@@ -105,8 +105,21 @@ export async function openPlayer(root, k) {
 
   // ---- behaviour
   function frameUrl(f) {
-    const q = new URLSearchParams({camera: state.camera, modality: state.modality, format: state.modality === "rgb" ? "jpeg" : "png"});
+    const q = new URLSearchParams({camera: state.camera, modality: state.modality,
+      format: state.modality === "rgb" ? "jpeg" : "png", v: ep.version || ""});
     return `/api/episodes/${k}/frame/${f}?${q}`;
+  }
+  const prefetched = new Map();
+  function prefetch(f) {
+    // warm the browser cache with the next frames so that playback does not wait on each request
+    for (let g = f + 1; g <= Math.min(frames - 1, f + 4); g++) {
+      const url = frameUrl(g);
+      if (prefetched.has(url)) continue;
+      const image = new Image();
+      image.src = url;
+      prefetched.set(url, image);
+      if (prefetched.size > 64) prefetched.delete(prefetched.keys().next().value);
+    }
   }
   function show() {
     const f = state.frame;
@@ -115,6 +128,7 @@ export async function openPlayer(root, k) {
       state.busy = true;
       img.src = url;
     }
+    if (cameraNames.length && state.playing) prefetch(f);
     scrub.value = String(f);
     const sub = ep.subtasks[s.subtask_index[f]] ?? "?";
     label.textContent = `frame ${f + 1} / ${frames} · t = ${num(time[f], 2)} s`;
