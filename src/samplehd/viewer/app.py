@@ -14,12 +14,14 @@ endpoint                                       answer
 ``/api/scenes/<i>/thumb``                      JPEG thumbnail of the RGB image
 ``/api/scenes/<i>/ids``, ``…/depth_mm``        raw little-endian pixels (``X-Width``,
                                                ``X-Height``, ``X-Dtype`` headers)
-``/api/instructions/<j>``                      instruction, its scene's objects, its episodes
-``/api/episodes?family=&success=``             episode summaries
+``/api/instructions/<j>``                      instruction, its scene, its episodes and rejected paths
+``/api/episodes?family=&success=``             episode summaries and rejected paths (journal)
 ``/api/episodes/<name>``                       per-frame series for the plots and timeline
-``/api/episodes/<name>/frame/<t>?camera=&``    one frame as PNG (``format=jpeg`` for JPEG)
-``modality=``
-``/files/<path>``                              a raw file of the dataset (read-only)
+                                               (name = file stem, e.g. ``s000012_03``)
+``/api/episodes/<name>/frame/<t>?camera=&``    one frame as PNG (``format=jpeg`` for JPEG), stored
+``modality=&v=``                               or rendered from the recorded state
+``/files/<path>``                              a raw dataset file (data types inline, the rest as
+                                               a download, never as code)
 =============================================  ===============================================
 
 Every path a request names is resolved and must lie inside the dataset (or the static folder):
