@@ -200,10 +200,11 @@ class Rollout:
         self.run("ApproachGrasp", i, path, open_cmd)
         self.close_gripper(i, gp.grasp.opening, gp.grasp.width)
         self._sync()
-        if self._grasped() != i:
+        if not self._holding(i):
             raise AttemptFailed("grasp_missed", f"object {i}: the fingers closed without holding it", k)
-        if self.use_assist and self.assist.attach(self.data, i):
+        if self.use_assist and self.assist.active != i and self.assist.attach(self.data, i):
             self.info["assist"].append({"object": i, "frame": len(self.recorder), "on": True})
+            self.gripper = _gripper_command(float(self.data.qpos[self.robot.finger_qpos].sum()) - 0.0005)
         tcp = self._tcp_world()
         # Release with the fingers opened a little beyond the measured grip, not the full approach opening.
         held_width = float(self.data.qpos[self.robot.finger_qpos].sum())
@@ -214,28 +215,36 @@ class Rollout:
         return k
 
     def close_gripper(self, i: int, opening: float, width: float) -> None:
-        """CloseGripper: ramp the finger command down until the pads touch, then squeeze with a
-        moderate force (``squeeze_force``), arm still.
+        """CloseGripper: ramp the finger command down until both pads touch the object, arm still.
 
-        The command after the ramp is the measured opening minus squeeze_force / servo gain, so the
-        fingers press with that force instead of the gripper's maximum, which keeps contact forces
-        far below the safety monitor's limit while holding objects of up to ~1 kg.
+        With the grasp assist the object is welded to the gripper the moment both pads touch it and
+        the fingers then hold that opening (no squeeze: pads rattling against light convex objects
+        under a stiff squeeze spike contact forces past the safety limit). Without it the fingers
+        squeeze with ``squeeze_force`` (command = measured opening minus force / servo gain).
         """
         n = max(2, int(round(self.cfg.close_time / self.dt)))
-        ramp = max(1, int(n * 0.6))
+        ramp = max(1, int(n * 0.7))
         start = _gripper_command(opening)
-        end = _gripper_command(max(0.0, width - 0.012))
+        end = _gripper_command(max(0.0, width - 0.006))
         cmds = np.linspace(start, end, ramp + 1)[1:]
         kp = float(self.model.actuator_gainprm[self.model.actuator(GRIPPER_ACTUATOR).id, 0]) or 1e4
-        squeeze: list[float] = []
+        frozen: list[float] = []
 
         def command(k: int) -> float:
+            if frozen:
+                return frozen[0]
+            measured = float(self.data.qpos[self.robot.finger_qpos].sum())
+            if self.use_assist and self.assist.available and self._holding(i, 0.0005):
+                self.assist.attach(self.data, i)
+                self.info["assist"].append({"object": i, "frame": len(self.recorder), "on": True})
+                frozen.append(_gripper_command(max(0.0, measured - 0.0005)))
+                return frozen[0]
             if k < ramp:
                 return float(cmds[k])
-            if not squeeze:
-                measured = float(self.data.qpos[self.robot.finger_qpos].sum())
-                squeeze.append(_gripper_command(max(0.0, measured - self.cfg.squeeze_force / kp)))
-            return squeeze[0]
+            if not self.use_assist or not self.assist.available:
+                frozen.append(_gripper_command(max(0.0, measured - self.cfg.squeeze_force / kp)))
+                return frozen[0]
+            return float(cmds[-1])
 
         self.run("CloseGripper", i, np.repeat(self.ctrl.target[None], n, axis=0), command)
 
@@ -243,6 +252,29 @@ class Rollout:
         from samplehd.record.recorder import grasped_object
 
         return grasped_object(self.model, self.data, self.recorder.finger_bodies, self.recorder.body_to_object)
+
+    def _holding(self, i: int, tolerance: float = 0.002) -> bool:
+        """Whether object ``i`` is held: in the grasp weld, or within ``tolerance`` [m] of both fingers
+        (contacts on thin convex pieces flicker from step to step, distances do not)."""
+        if self.assist.active == i:
+            return True
+        m, d = self.model, self.data
+        obj = self.bodies.object_geoms(i)
+        fromto = np.zeros(6)
+        for fb in self.recorder.finger_bodies:
+            near = False
+            for g1 in np.flatnonzero(m.geom_bodyid == fb):
+                if not (m.geom_contype[g1] or m.geom_conaffinity[g1]):
+                    continue
+                for g2 in obj:
+                    if mujoco.mj_geomDistance(m, d, int(g1), int(g2), tolerance, fromto) < tolerance:
+                        near = True
+                        break
+                if near:
+                    break
+            if not near:
+                return False
+        return True
 
     def move_up(self, i: int, grasp_index: int = -1) -> None:
         """MoveUP: straight lift of the held object to the transport height."""
@@ -258,7 +290,7 @@ class Rollout:
             raise AttemptFailed("lift_unreachable", str(exc), grasp_index) from exc
         self.run("MoveUP", i, path)
         self._sync()
-        if self._grasped() != i:
+        if not self._holding(i):
             raise AttemptFailed("grasp_slipped", f"object {i} slipped out of the gripper while lifting", grasp_index)
         # Re-measure the grasp after lifting: the object may have settled in the fingers.
         self.hand = _Hand(i, np.linalg.inv(self._tcp_world()) @ object_pose(self.data, self.bodies, i),
