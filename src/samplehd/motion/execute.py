@@ -125,7 +125,8 @@ class Rollout:
             self.gripper = float(grip_of(k))
             steer = steering_from_targets(fk_tcp(self.ctrl.target), fk_tcp(q), self.gripper, self.dt,
                                           cc.max_linear_speed, cc.max_angular_speed)
-            self.recorder.record(idx, k / max(1, n - 1), target, q, self.gripper, steer)
+            held = self.assist.active if self.assist.active >= 0 else None
+            self.recorder.record(idx, k / max(1, n - 1), target, q, self.gripper, steer, held=held)
             report = self.ctrl.step(np.concatenate([q, [self.gripper]]), "joint_position")
             if report.safety_event is not None:
                 self.recorder.rows["safety_event"][-1] = np.int8(report.safety_event.code)
@@ -141,7 +142,8 @@ class Rollout:
         idx = max(0, len(self.subtasks) - 1)
         steer = np.zeros(7, np.float32)
         steer[6] = self.gripper
-        self.recorder.record(idx, 1.0, -1, self.ctrl.target, self.gripper, steer)
+        held = self.assist.active if self.assist.active >= 0 else None
+        self.recorder.record(idx, 1.0, -1, self.ctrl.target, self.gripper, steer, held=held)
 
     # ------------------------------------------------------------------ helpers
     def _sync(self) -> None:

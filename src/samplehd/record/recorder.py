@@ -109,8 +109,12 @@ class FrameRecorder:
         return len(self.rows["time"])
 
     def record(self, subtask_index: int, progress: float, target_object: int, command_joint_pos: np.ndarray,
-               gripper_command: float, steering: np.ndarray, safety_code: int = 0) -> int:
-        """Append the current state with the command of this step; returns the grasped object."""
+               gripper_command: float, steering: np.ndarray, safety_code: int = 0, held: int | None = None) -> int:
+        """Append the current state with the command of this step; returns the grasped object.
+
+        ``held`` overrides the contact test (the object the grasp assist holds); by default the
+        grasped object is the one touching both fingers.
+        """
         d = self.data
         # After mj_step, positions derived from qpos lag one step behind it; recompute them so the
         # recorded poses are exactly those a replay of the recorded qpos produces.
@@ -118,7 +122,7 @@ class FrameRecorder:
         r = self.rows
         tcp_quat = np.empty(4)
         mujoco.mju_mat2Quat(tcp_quat, d.site_xmat[self.tcp_site])
-        grasped = grasped_object(self.model, d, self.finger_bodies, self.body_to_object)
+        grasped = held if held is not None else grasped_object(self.model, d, self.finger_bodies, self.body_to_object)
         r["time"].append(np.float64(d.time))
         r["subtask_index"].append(np.int16(subtask_index))
         r["subtask_progress"].append(np.float32(progress))
