@@ -1,0 +1,59 @@
+"""Export a dataset: `export lerobot DIR --out DIR2` (LeRobot v3.0 layout: parquet + AV1 videos) or
+`export sample-hd DIR --out DIR2` (SAMPLE-HD's images/, scenes/, instructions/, sequences/ layout)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+HELP = "export a dataset to the LeRobot v3.0 or the original SAMPLE-HD layout"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from samplehd.dataset.backend import default_workers
+
+    sub = parser.add_subparsers(dest="format", metavar="FORMAT", required=True)
+    lr = sub.add_parser("lerobot", help="LeRobot v3.0 (meta/, data/, videos/)",
+                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    lr.add_argument("dir", type=Path, help="samplehd dataset")
+    lr.add_argument("--out", type=Path, required=True, help="new LeRobot dataset folder")
+    lr.add_argument("--repo-id", default="samplehd/dataset", help="repo id recorded for LeRobotDataset(repo_id, root=)")
+    lr.add_argument("--codec", help="video encoder (default: libsvtav1 as LeRobot, else libx264)")
+    lr.add_argument("--cameras", nargs="+", help="RGB cameras to export (default: all stored)")
+    lr.add_argument("--frames-per-file", type=int, default=200_000, help="frames per data/video file")
+    sh = sub.add_parser("sample-hd", help="SAMPLE-HD layout (images/, scenes/, instructions/, sequences/)",
+                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    sh.add_argument("dir", type=Path, help="samplehd dataset")
+    sh.add_argument("--out", type=Path, required=True, help="new folder")
+    sh.add_argument("--previews", action="store_true", help="write preview.mp4 per sequence")
+    sh.add_argument("--no-images", action="store_true", help="write data.json only, no per-frame PNGs")
+    sh.add_argument("--workers", type=int, default=default_workers(), help="worker processes")
+
+
+def run(args: argparse.Namespace) -> int:
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from samplehd.dataset.backend import Backend
+    from samplehd.errors import ConfigError
+
+    with Progress(TextColumn(f"export {args.format}"), BarColumn(), MofNCompleteColumn(),
+                  TimeRemainingColumn()) as bar:
+        task = bar.add_task("episodes", total=None)
+
+        def tick(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        if args.format == "lerobot":
+            from samplehd.dataset.export_lerobot import export_lerobot
+
+            if args.frames_per_file < 1:
+                raise ConfigError("--frames-per-file must be ≥ 1")
+            res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file, args.cameras,
+                                 progress=tick)
+        else:
+            from samplehd.dataset.export_samplehd import export_samplehd
+
+            res = export_samplehd(args.dir, args.out, images=not args.no_images, previews=args.previews,
+                                  backend=Backend("local", args.workers), progress=tick)
+    print(f"exported {res} to {args.out}")
+    return 0

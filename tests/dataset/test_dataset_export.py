@@ -1,0 +1,98 @@
+"""Exports (LeRobot v3.0 layout as lerobot 0.6.1 reads it; SAMPLE-HD layout), stats and the CLI."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from samplehd.cli import main
+from samplehd.dataset.reader import DatasetReader
+
+
+@pytest.fixture(scope="module")
+def lerobot_export(rendered_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from samplehd.dataset.export_lerobot import export_lerobot
+
+    out = tmp_path_factory.mktemp("lerobot") / "lr"
+    export_lerobot(rendered_dataset, out, "samplehd/test")
+    return out
+
+
+def test_lerobot_layout(lerobot_export: Path, rendered_dataset: Path) -> None:
+    import av
+    import pyarrow.parquet as pq
+
+    reader = DatasetReader(rendered_dataset)
+    info = json.loads((lerobot_export / "meta" / "info.json").read_text())
+    assert info["codebase_version"] == "v3.0" and info["fps"] == 20
+    assert info["total_episodes"] == len(reader) and info["total_frames"] == sum(e.num_frames for e in reader.episodes)
+    key = "observation.images.scene"
+    assert info["features"][key]["dtype"] == "video" and info["features"][key]["shape"] == [36, 64, 3]
+    for k in ("timestamp", "frame_index", "episode_index", "index", "task_index", "action", "observation.state"):
+        assert k in info["features"]
+    data = pq.read_table(lerobot_export / "data/chunk-000/file-000.parquet")
+    assert json.loads(data.schema.metadata[b"huggingface"])["info"]["features"]
+    assert data.num_rows == info["total_frames"]
+    assert data.column("index").to_pylist() == list(range(data.num_rows))
+    eps = pq.read_table(lerobot_export / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    assert [e["episode_index"] for e in eps] == list(range(len(eps)))
+    assert eps[0]["dataset_from_index"] == 0 and eps[-1]["dataset_to_index"] == data.num_rows
+    for a, b in zip(eps, eps[1:], strict=False):
+        assert a["dataset_to_index"] == b["dataset_from_index"]
+        assert a[f"videos/{key}/to_timestamp"] == pytest.approx(b[f"videos/{key}/from_timestamp"])
+    # state columns equal the episode's records
+    first = reader.episode(eps[0]["samplehd/instruction_index"])
+    state = np.array(data.column("observation.state").to_pylist()[: first.num_frames])
+    assert np.allclose(state[:, :6], first.frames["joint_pos"], atol=1e-6)
+    tasks = pq.read_table(lerobot_export / "meta/tasks.parquet")
+    assert json.loads(tasks.schema.metadata[b"pandas"])["index_columns"] == ["task"]
+    assert eps[0]["tasks"][0] in tasks.column("task").to_pylist()
+    stats = json.loads((lerobot_export / "meta/stats.json").read_text())
+    assert len(stats["action"]["mean"]) == 7 and np.array(stats[key]["mean"]).shape == (3, 1, 1)
+    with av.open(str(lerobot_export / f"videos/{key}/chunk-000/file-000.mp4")) as c:
+        assert sum(1 for _ in c.decode(video=0)) == info["total_frames"]
+
+
+def test_samplehd_layout_and_previews(rendered_dataset: Path, tmp_path: Path) -> None:
+    out = tmp_path / "shd"
+    assert main(["export", "sample-hd", str(rendered_dataset), "--out", str(out), "--previews",
+                 "--workers", "1"]) == 0
+    reader = DatasetReader(rendered_dataset)
+    assert len(list((out / "scenes").glob("*.json"))) == len(reader.scenes)
+    assert len(list((out / "images").glob("*.png"))) == len(reader.scenes)
+    assert len(list((out / "instructions").glob("i*.json"))) == len(reader)
+    e = reader.episodes[0]
+    seq = out / "sequences" / f"i{0:06d}_s{e.scene_index:06d}"
+    data = json.loads((seq / "data.json").read_text())
+    assert len(data["frames"]) == e.num_frames and data["markers"] == ["Succeeded", "Completed"]
+    assert {"joints", "steering", "subtask", "effector", "objects"} <= set(data["frames"][0])
+    assert len(list(seq.glob("*_rgb.png"))) == e.num_frames and (seq / "preview.mp4").stat().st_size > 0
+
+
+def test_stats_counts_and_plots(micro_dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from samplehd.dataset.stats import dataset_stats
+
+    s = dataset_stats(micro_dataset)
+    reader = DatasetReader(micro_dataset)
+    assert sum(s["families"].values()) == len(reader)
+    assert sum(s["classes"].values()) == sum(len(sc["objects"]) for sc in reader.scenes)
+    assert s["frames_per_episode"]["max"] == max(e.num_frames for e in reader.episodes)
+    assert main(["stats", str(micro_dataset), "--out", str(tmp_path / "plots")]) == 0
+    assert (tmp_path / "plots" / "families.png").exists() and (tmp_path / "plots" / "stats.json").exists()
+    assert "frames per episode" in capsys.readouterr().out
+
+
+def test_validate_cli_exit_codes(micro_dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    import shutil
+
+    assert main(["validate", str(micro_dataset)]) == 0
+    copy = tmp_path / "ds"
+    shutil.copytree(micro_dataset, copy)
+    path = DatasetReader(copy).episode_path(0)
+    path.write_bytes(path.read_bytes()[:1000])
+    assert main(["validate", str(copy)]) == 1
+    assert path.name in capsys.readouterr().out
+    assert main(["generate", "--preset", "tiny", "--out", str(micro_dataset)]) == 2  # exists: needs --resume
