@@ -143,10 +143,10 @@ def _oracle_scene(args: tuple[int, int, int, str]) -> list[dict[str, Any]]:
 
     import samplehd  # noqa: F401
     from samplehd.language.generator import generate_instructions
+    from samplehd.motion.assist import compile_scene_with_assist as compile_scene
     from samplehd.motion.pipeline import PathRejected, plan_and_execute
     from samplehd.scene.annotate import annotate_scene
     from samplehd.scene.sampler import sample_scene
-    from samplehd.scene.spec import compile_scene
 
     index, seed, per_scene, out = args
     results = []

@@ -71,9 +71,10 @@ def _job(args: tuple[dict[str, Any], dict[str, Any], dict[str, Any]]) -> dict[st
 
     import samplehd  # noqa: F401  (GL backend before mujoco)
     from samplehd.errors import SamplehdError
+    from samplehd.motion.assist import compile_scene_with_assist
     from samplehd.motion.pipeline import PathConfig, PathRejected, plan_and_execute
     from samplehd.record.recorder import write_episode_npz
-    from samplehd.scene.spec import SceneSpec, compile_scene
+    from samplehd.scene.spec import SceneSpec
 
     scene_d, entry, opts = args
     t0 = time.perf_counter()
@@ -83,7 +84,7 @@ def _job(args: tuple[dict[str, Any], dict[str, Any], dict[str, Any]]) -> dict[st
     res: dict[str, Any] = {"instruction_index": idx, "family": family, "seed": seed}
     try:
         scene = SceneSpec.from_dict(scene_d["spec"])
-        model, data = compile_scene(scene)
+        model, data = compile_scene_with_assist(scene)
         cfg = PathConfig(max_attempts=int(opts["max_attempts"]))
         ep = plan_and_execute(scene, entry["task"], np.random.default_rng(seed), cfg, family=family,
                               scene_index=int(scene_d.get("image_index", scene.index)), instruction_index=idx,

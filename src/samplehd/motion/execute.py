@@ -282,14 +282,20 @@ class Rollout:
         """MoveUP: straight lift of the held object to the transport height."""
         z = self._transport_z(i)
         start = fk_tcp(self.ctrl.target)
-        end = start.copy()
-        end[2, 3] = z - self.robot.base_pos[2]
         held = Held(i, self.hand.tcp_to_object)
-        try:
-            path = straight_move(self.checker, start, end, self.ctrl.target, 0.0, self.dt, self.cfg.lift_speed,
-                                 held=held, check=False)
-        except PlanningError as exc:
-            raise AttemptFailed("lift_unreachable", str(exc), grasp_index) from exc
+        path = None
+        # Tall objects held high may not reach the full transport height: lift as high as reachable.
+        for zk in np.arange(z, start[2, 3] + self.robot.base_pos[2] + 0.05 - 1e-9, -0.02):
+            end = start.copy()
+            end[2, 3] = zk - self.robot.base_pos[2]
+            try:
+                path = straight_move(self.checker, start, end, self.ctrl.target, 0.0, self.dt, self.cfg.lift_speed,
+                                     held=held, check=False)
+                break
+            except PlanningError:
+                continue
+        if path is None:
+            raise AttemptFailed("lift_unreachable", f"object {i}: no reachable lift", grasp_index)
         self.run("MoveUP", i, path)
         self._sync()
         if not self._holding(i):
@@ -330,15 +336,21 @@ class Rollout:
             t_obj_rel[:3, :3] = rot
             t_obj_rel[:3, 3] = (xy[0], xy[1], z_rel + self.cfg.release_gap)
             tcp_rel_w = t_obj_rel @ np.linalg.inv(hand.tcp_to_object)
-            tcp_above_w = tcp_rel_w.copy()
-            tcp_above_w[2, 3] = max(transport_z, tcp_rel_w[2, 3] + 0.02)
-            above_b = self.robot.world_to_base(tcp_above_w)
             rel_b = self.robot.world_to_base(tcp_rel_w)
-            q_above, ok = ik_batch(above_b[None], q_now[None], TCP_OFFSET)
-            if not ok[0]:
+            q_above = None
+            # Above the release pose at the transport height, or as high as the arm reaches there.
+            z_top = max(transport_z, self._tcp_world()[2, 3])
+            for zk in np.arange(z_top, tcp_rel_w[2, 3] + 0.02 - 1e-9, -0.02):
+                tcp_above_w = tcp_rel_w.copy()
+                tcp_above_w[2, 3] = zk
+                above_b = self.robot.world_to_base(tcp_above_w)
+                qa, ok = ik_batch(above_b[None], q_now[None], TCP_OFFSET)
+                if ok[0]:
+                    q_above = qa[0]
+                    break
+            if q_above is None:
                 last_error = "release pose out of reach"
                 continue
-            q_above = q_above[0]
             try:
                 move, method = plan_joint_move(self.checker, q_now, q_above, 0.0, self.dt, self.cfg, self.rng,
                                                held=held, lift_z=transport_z, robot=self.robot)
