@@ -12,6 +12,7 @@ be on a file system every node can write (workers write their episode files them
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
@@ -74,9 +75,24 @@ class Backend:
             yield from _pool_map(fn, units, self.workers)
 
 
+def _die_with_parent() -> None:
+    """Worker initializer: on Linux, get SIGKILL when the coordinating process dies (killed or
+    terminated), so no orphaned worker keeps writing into the dataset."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+        import signal
+
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
+    except OSError:
+        pass
+
+
 def _pool_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int) -> Iterator[tuple[Any, Any]]:
     window = 2 * workers
-    pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=_die_with_parent)
     pending: dict[Future, Any] = {}
     try:
         exhausted = False

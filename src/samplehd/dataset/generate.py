@@ -87,6 +87,7 @@ class GenerateSummary:
         seconds: wall time of this run [s].
         work_seconds: summed unit times of the units this run executed [s].
         units_run: path units executed in this run (not resumed from disk).
+        stage_seconds: wall time per stage of this run [s].
     """
 
     scenes: int = 0
@@ -101,6 +102,7 @@ class GenerateSummary:
     seconds: float = 0.0
     work_seconds: float = 0.0
     units_run: int = 0
+    stage_seconds: dict[str, float] = field(default_factory=dict)
 
 
 def versions() -> dict[str, str]:
@@ -416,14 +418,22 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
     _prepare(out, config, resume)
     if not (out / INFO_FILE).exists():
         _write_json(out / INFO_FILE, _base_info(config), indent=1)
+    marks = [time.perf_counter()]
     scenes = _scene_stage(out, config, backend, progress)
+    marks.append(time.perf_counter())
     candidates = _instruction_stage(out, config, scenes, progress)
+    marks.append(time.perf_counter())
     cutoff = _path_stage(out, config, scenes, candidates, backend, progress, summary)
+    marks.append(time.perf_counter())
     _finalize(out, config, scenes, candidates, cutoff, summary)
+    marks.append(time.perf_counter())
+    summary.stage_seconds = {k: round(b - a, 3) for k, a, b in zip(("scenes", "instructions", "paths", "finalize"),
+                                                                    marks, marks[1:], strict=False)}
     summary.seconds = time.perf_counter() - t0
     run = {"command": "generate", "argv": sys.argv[1:], "backend": backend.describe(), "resume": resume,
            "seconds": round(summary.seconds, 3), "units_run": summary.units_run,
-           "work_seconds": round(summary.work_seconds, 3), "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+           "work_seconds": round(summary.work_seconds, 3), "stage_seconds": summary.stage_seconds,
+           "workers": backend.workers, "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     try:
         with open(out / RUNS_FILE, "a", encoding="utf-8") as f:
             f.write(json.dumps(run) + "\n")
