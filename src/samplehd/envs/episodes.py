@@ -28,6 +28,10 @@ __all__ = ["EpisodeSpec", "SceneCache", "episode_from_options", "sample_episode"
 
 # Scenes tried before giving up on finding an instruction of the drawn family.
 _SCENE_TRIES = 12
+# Sampled scenes shared by every environment of the process: sampling is a deterministic function of
+# (seed, index, config), and costs seconds (settling, occlusion renders).
+_SAMPLED: OrderedDict[tuple[int, int, str], SceneSpec] = OrderedDict()
+_SAMPLED_MAX = 256
 
 
 @dataclass(frozen=True)
@@ -57,7 +61,8 @@ class EpisodeSpec:
 
 
 class SceneCache:
-    """Memoises sampled scenes (by seed) and compiled models (by scene), least recently used first out.
+    """Memoises sampled scenes (by seed, process-wide) and compiled models (by scene, per cache),
+    least recently used first out.
 
     Args:
         config: scene sampler options.
@@ -69,20 +74,21 @@ class SceneCache:
         self.config = config
         self.size = size
         self.timestep = timestep
-        self._scenes: OrderedDict[int, SceneSpec] = OrderedDict()
+        self._config_key = json.dumps(config.to_dict(), sort_keys=True)
         self._models: OrderedDict[str, tuple[mujoco.MjModel, mujoco.MjData]] = OrderedDict()
 
     def scene(self, seed: int, index: int = 0) -> SceneSpec:
         """The scene sampled from ``seed`` (cached)."""
         from samplehd.scene.sampler import sample_scene
 
-        if seed in self._scenes:
-            self._scenes.move_to_end(seed)
-            return self._scenes[seed]
+        key = (int(seed), int(index), self._config_key)
+        if key in _SAMPLED:
+            _SAMPLED.move_to_end(key)
+            return _SAMPLED[key]
         scene = sample_scene(index, seed, self.config).scene
-        self._scenes[seed] = scene
-        while len(self._scenes) > 4 * self.size:
-            self._scenes.popitem(last=False)
+        _SAMPLED[key] = scene
+        while len(_SAMPLED) > _SAMPLED_MAX:
+            _SAMPLED.popitem(last=False)
         return scene
 
     def compiled(self, scene: SceneSpec) -> tuple[mujoco.MjModel, mujoco.MjData, bool]:
@@ -141,10 +147,12 @@ def sample_episode(
     from samplehd.language.generator import generate_instructions
     from samplehd.scene.sampler import scene_seed as pool_seed
 
+    drawn = family is None
     if family is None:
         family = families[int(rng.integers(len(families)))]
     elif family not in families:
         raise ConfigError(f"episode family {family!r} is not among the environment's families {list(families)}")
+    last: tuple[SceneSpec, dict[str, Any]] | None = None
     for _ in range(_SCENE_TRIES):
         if num_scenes:
             index = int(rng.integers(num_scenes))
@@ -158,6 +166,16 @@ def sample_episode(
         made = generate_instructions(ann, sub, per_scene=1, families=[family]).instructions
         if made:
             return EpisodeSpec(scene, _instruction_entry(made[0]), ann)
+        last = (scene, ann)
+    if drawn and last is not None:
+        # Rare families (stack_three needs three stackable objects) fall back to another family
+        # on the last scene, in a random order, rather than failing the reset.
+        scene, ann = last
+        for k in rng.permutation(len(families)):
+            sub = np.random.default_rng(int(rng.integers(2**63 - 1)))
+            made = generate_instructions(ann, sub, per_scene=1, families=[families[int(k)]]).instructions
+            if made:
+                return EpisodeSpec(scene, _instruction_entry(made[0]), ann)
     raise SceneError(f"no instruction of family {family!r} in {_SCENE_TRIES} sampled scenes; "
                      "allow more objects (scene.max_objects) or other families")
 

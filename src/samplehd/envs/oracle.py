@@ -126,7 +126,7 @@ class OraclePolicy:
         self._actions: queue.Queue = queue.Queue(maxsize=1)
         self._resume: queue.Queue = queue.Queue(maxsize=1)
         self._episode: Any = None
-        self._hold: np.ndarray | None = None
+        self._finished = False
 
     # ------------------------------------------------------------------ policy API
     def reset(self, seed: int | None = None) -> None:
@@ -138,7 +138,7 @@ class OraclePolicy:
         self.failure = ""
         self.replans = 0
         self._episode = None
-        self._hold = None
+        self._finished = False
 
     def __call__(self, obs: Any = None) -> np.ndarray:
         """The next action; ``obs`` is unused (the oracle reads privileged state)."""
@@ -147,18 +147,35 @@ class OraclePolicy:
             self.reset()
             self._episode = env.episode
             self._start_worker()
+        elif self._finished:
+            return self._hold_action()
         else:
             self._resume.put("go")
-        kind, payload = self._actions.get()
+        kind, payload = self._next()
         if kind == "action":
             return payload
+        self._finished = True
         if kind == "error":
-            self._worker = None
             raise payload
-        # Done or given up: hold still.
-        self._worker_done = True
-        self._actions.put(("done", None))  # answer every later call the same way
-        return self._hold_action()
+        return self._hold_action()  # done or given up: hold still
+
+    @property
+    def gave_up(self) -> bool:
+        """Whether the oracle stopped trying in this episode (it then holds still)."""
+        return self._finished and bool(self.failure)
+
+    def _next(self) -> tuple[str, Any]:
+        """Wait for the worker's next message; a worker that ended silently counts as done."""
+        while True:
+            try:
+                return self._actions.get(timeout=0.5)
+            except queue.Empty:
+                w = self._worker
+                if w is None or not w.is_alive():
+                    try:
+                        return self._actions.get_nowait()
+                    except queue.Empty:
+                        return "done", None
 
     def close(self) -> None:
         """End the worker thread."""
@@ -182,7 +199,7 @@ class OraclePolicy:
             raise _Stop(f"safety stop: {env.controller.stopped}")
 
     def _start_worker(self) -> None:
-        self._worker_done = False
+        self._finished = False
         self._actions = queue.Queue(maxsize=1)
         self._resume = queue.Queue(maxsize=1)
         self._worker = threading.Thread(target=self._work, name="samplehd-oracle", daemon=True)

@@ -308,7 +308,12 @@ class TabletopEnv(gym.Env):
         from samplehd.render.renderer import SceneRenderer
 
         if self._renderer is None:
-            self._renderer = SceneRenderer(self.model, self.config.width, self.config.height, self.config.render_preset)
+            cfg = self.config
+            self._renderer = SceneRenderer(self.model, cfg.width, cfg.height, cfg.render_preset)
+            # The first frame of a new GL context differs from later ones in a few pixels (texture
+            # upload); render it once and throw it away so equal states give equal images.
+            for cam in cfg.cameras:
+                self._renderer.render(self.data, self._cam_names[cam], cfg.modalities)
         return self._renderer
 
     def _observation(self) -> dict[str, Any]:
@@ -384,6 +389,7 @@ class TabletopEnv(gym.Env):
         cfg = self.config
         if self._render_viewer is None:
             self._render_viewer = SceneRenderer(self.model, cfg.width, cfg.height, cfg.render_preset)
+            self._render_viewer.render(self.data, self._cam_names[cfg.render_camera], ("rgb",))  # warm-up
         return self._render_viewer.render(self.data, self._cam_names[cfg.render_camera], ("rgb",))["rgb"]
 
     def _close_renderers(self) -> None:

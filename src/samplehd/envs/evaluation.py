@@ -1,0 +1,290 @@
+"""Policy evaluation on a fixed, seeded benchmark split of ``samplehd/Tabletop-v0``.
+
+The split is a pure function of (number of episodes, families, seed): episode ``k`` asks for family
+``families[k % len(families)]`` and resets the environment with the seed
+``SeedSequence([seed, k])``, so every policy meets exactly the same scenes and instructions.
+
+A policy is any callable ``obs -> action``; if it has a ``reset(seed=...)`` method it is called at
+the start of every episode. Built in: ``oracle`` (:class:`samplehd.envs.oracle.OraclePolicy`) and
+``random`` (uniform samples of the action space). ``MODULE:CALLABLE`` imports user code (that is the
+point of the API); the callable may also be a factory taking the environment and returning the
+policy (it is called with the environment when it accepts a keyword ``env``).
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import json
+import multiprocessing
+import re
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from samplehd.envs.config import TASK_FAMILIES
+from samplehd.errors import ConfigError
+
+__all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "evaluate", "load_policy"]
+
+# SAMPLE-HD's families plus the two simple new ones: the default benchmark. stack_three needs scenes
+# with three stackable objects (see the env's ``scene`` option) and is opt-in.
+DEFAULT_FAMILIES = ("place", "remove", "stack", "put", "pick_up", "place_relative")
+_POLICY_SPEC = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:[A-Za-z_][A-Za-z0-9_]*$")
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """What an evaluation run does.
+
+    Attributes:
+        policy: ``oracle``, ``random`` or ``MODULE:CALLABLE``.
+        episodes: number of episodes of the split.
+        families: families of the split, in rotation.
+        seed: seed of the split.
+        env: environment options (``samplehd.envs.config.EnvConfig`` fields).
+        video_dir: write one MP4 per episode here (None: no videos).
+        workers: processes running episodes in parallel.
+        compare_offline: also run the offline ground-truth path generator (one attempt) on every
+            episode and record whether it succeeds (the oracle's reference).
+    """
+
+    policy: str = "oracle"
+    episodes: int = 10
+    families: tuple[str, ...] = DEFAULT_FAMILIES
+    seed: int = 0
+    env: dict[str, Any] = field(default_factory=dict)
+    video_dir: str | None = None
+    workers: int = 1
+    compare_offline: bool = False
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.episodes, int) and self.episodes >= 1):
+            raise ConfigError(f"--episodes {self.episodes!r}: must be a positive integer")
+        bad = [f for f in self.families if f not in TASK_FAMILIES]
+        if bad or not self.families:
+            raise ConfigError(f"--families: unknown {bad or '(none)'}; valid: {', '.join(TASK_FAMILIES)}")
+        if not (isinstance(self.workers, int) and self.workers >= 1):
+            raise ConfigError(f"--workers {self.workers!r}: must be a positive integer")
+        check_policy_spec(self.policy)
+
+
+def check_policy_spec(spec: str) -> None:
+    """Raise ConfigError unless ``spec`` is ``oracle``, ``random`` or ``MODULE:CALLABLE``."""
+    if spec in ("oracle", "random"):
+        return
+    if not _POLICY_SPEC.match(spec):
+        raise ConfigError(f"--policy {spec!r}: expected oracle, random or MODULE:CALLABLE (e.g. mypkg.agents:act)")
+
+
+def benchmark_split(episodes: int, families: Sequence[str], seed: int) -> list[tuple[int, str]]:
+    """(reset seed, family) of each episode of the split."""
+    out = []
+    for k in range(episodes):
+        s = int(np.random.SeedSequence([int(seed), k]).generate_state(1, np.uint32)[0])
+        out.append((s, families[k % len(families)]))
+    return out
+
+
+class RandomPolicy:
+    """Uniform samples of an action space (the success floor)."""
+
+    def __init__(self, action_space: Any, seed: int = 0) -> None:
+        self.action_space = action_space
+        self.action_space.seed(seed)
+
+    def reset(self, seed: int | None = None) -> None:
+        if seed is not None:
+            self.action_space.seed(seed)
+
+    def __call__(self, obs: Any) -> np.ndarray:
+        return self.action_space.sample()
+
+
+def load_policy(spec: str, env: Any) -> Callable[[Any], Any]:
+    """Build the policy named by ``spec`` for ``env``; see the module docstring."""
+    check_policy_spec(spec)
+    if spec == "oracle":
+        from samplehd.envs.oracle import OraclePolicy
+
+        return OraclePolicy(env)
+    if spec == "random":
+        return RandomPolicy(env.action_space)
+    module_name, attr = spec.split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise ConfigError(f"--policy {spec!r}: cannot import module {module_name!r} ({exc})") from None
+    obj = getattr(module, attr, None)
+    if obj is None or not callable(obj):
+        raise ConfigError(f"--policy {spec!r}: module {module_name!r} has no callable {attr!r}")
+    try:
+        params = inspect.signature(obj).parameters
+    except (TypeError, ValueError):
+        params = {}
+    if "env" in params:
+        obj = obj(env=env)
+        if not callable(obj):
+            raise ConfigError(f"--policy {spec!r}: the factory did not return a callable policy")
+    return obj
+
+
+def _offline_success(env: Any, seed: int) -> bool:
+    from samplehd.errors import PlanningError
+    from samplehd.motion.pipeline import PathConfig, plan_and_execute
+    from samplehd.scene.spec import compile_scene
+
+    ep = env.unwrapped.episode
+    try:
+        plan_and_execute(ep.scene, ep.instruction["task"], np.random.default_rng(seed), PathConfig(max_attempts=1),
+                         family=ep.family, directions=ep.annotation.get("directions"),
+                         compiled=compile_scene(ep.scene))
+    except PlanningError:
+        return False
+    return True
+
+
+def _write_video(path: Path, frames: list[np.ndarray], fps: int) -> None:
+    import av
+
+    h, w = frames[0].shape[:2]
+    with av.open(str(path), "w") as container:
+        stream = container.add_stream("libx264", rate=fps)
+        stream.width, stream.height = w - w % 2, h - h % 2
+        stream.pix_fmt = "yuv420p"
+        for f in frames:
+            frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(f[: stream.height, : stream.width]), format="rgb24")
+            for packet in stream.encode(frame):
+                container.mux(packet)
+        for packet in stream.encode():
+            container.mux(packet)
+
+
+def _run_episodes(config: EvalConfig, items: list[tuple[int, int, str]],
+                  progress: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
+    """Run the given (index, seed, family) episodes in one environment of this process."""
+    import samplehd  # noqa: F401  (GL backend before mujoco)
+    from samplehd.envs.tabletop import TabletopEnv
+
+    env_options = dict(config.env)
+    if config.video_dir:
+        env_options["render_mode"] = "rgb_array"
+    env = TabletopEnv(**env_options)
+    policy = load_policy(config.policy, env)
+    records = []
+    for index, seed, family in items:
+        t0 = time.perf_counter()
+        obs, info = env.reset(seed=seed, options={"family": family})
+        if hasattr(policy, "reset"):
+            policy.reset(seed=seed)
+        frames = [env.render()] if config.video_dir else []
+        steps, ret, term, trunc = 0, 0.0, False, False
+        gave_up = ""
+        while not (term or trunc):
+            obs, reward, term, trunc, info = env.step(policy(obs))
+            steps += 1
+            ret += reward
+            if config.video_dir:
+                frames.append(env.render())
+            if getattr(policy, "gave_up", False):
+                gave_up = str(getattr(policy, "failure", "gave up"))
+                break
+        record: dict[str, Any] = {
+            "index": index,
+            "seed": seed,
+            "family": info["family"],
+            "requested_family": family,
+            "instruction": info["instruction"],
+            "task": info["task"],
+            "success": bool(info["success"]),
+            "steps": steps,
+            "return": ret,
+            "terminated": term,
+            "truncated": trunc,
+            "safety_events": [e["kind"] for e in info["safety_events"]],
+            "check_reason": info["check_reason"],
+            "wall_s": round(time.perf_counter() - t0, 3),
+        }
+        if gave_up:
+            record["gave_up"] = gave_up
+        if hasattr(policy, "replans"):
+            record["replans"] = int(policy.replans)
+        if config.compare_offline:
+            record["offline_success"] = _offline_success(env, seed)
+        if config.video_dir and frames and frames[0] is not None:
+            out = Path(config.video_dir)
+            out.mkdir(parents=True, exist_ok=True)
+            name = f"episode_{index:04d}_{record['family']}_{'ok' if record['success'] else 'fail'}.mp4"
+            _write_video(out / name, frames, env.metadata["render_fps"])
+            record["video"] = str(out / name)
+        records.append(record)
+        if progress is not None:
+            progress(record)
+    if hasattr(policy, "close"):
+        policy.close()
+    env.close()
+    return records
+
+
+def _summary(records: list[dict[str, Any]]) -> dict[str, Any]:
+    n = len(records)
+    ok = sum(r["success"] for r in records)
+    out: dict[str, Any] = {"episodes": n, "successes": ok, "success_rate": ok / n if n else 0.0}
+    if records and "offline_success" in records[0]:
+        feasible = [r for r in records if r["offline_success"]]
+        out["offline_success_rate"] = len(feasible) / n
+        out["success_rate_where_offline_succeeds"] = (
+            sum(r["success"] for r in feasible) / len(feasible) if feasible else None)
+    out["safety_stops"] = sum(bool(r["safety_events"]) for r in records)
+    out["mean_steps"] = float(np.mean([r["steps"] for r in records])) if records else 0.0
+    return out
+
+
+def evaluate(config: EvalConfig, out: str | Path | None = None,
+             progress: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+    """Run a policy on the benchmark split and return (and optionally write) the JSON report.
+
+    Report keys: ``policy``, ``split`` (episodes, families, seed), ``env`` (options),
+    ``success_rate``, ``by_family`` (per family: episodes, successes, success_rate, ...),
+    ``safety_stops``, ``mean_steps``, ``wall_s`` and ``records`` (one per episode: index, seed,
+    family, instruction, task, success, steps, return, terminated, truncated, safety_events,
+    check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
+    """
+    from samplehd.envs.config import EnvConfig
+
+    EnvConfig.from_kwargs(**config.env)  # one-line errors before any work
+    split = benchmark_split(config.episodes, config.families, config.seed)
+    items = [(k, s, f) for k, (s, f) in enumerate(split)]
+    t0 = time.perf_counter()
+    if config.workers == 1:
+        records = _run_episodes(config, items, progress)
+    else:
+        chunks = [items[i:: config.workers] for i in range(config.workers)]
+        ctx = multiprocessing.get_context("spawn")
+        with ctx.Pool(config.workers) as pool:
+            parts = pool.starmap(_run_episodes, [(replace(config, workers=1), c) for c in chunks if c])
+        records = sorted((r for p in parts for r in p), key=lambda r: r["index"])
+        if progress:
+            for r in records:
+                progress(r)
+    by_family = {}
+    for fam in dict.fromkeys(r["family"] for r in records):
+        by_family[fam] = _summary([r for r in records if r["family"] == fam])
+    report = {
+        "policy": config.policy,
+        "split": {"episodes": config.episodes, "families": list(config.families), "seed": config.seed},
+        "env": EnvConfig.from_kwargs(**config.env).to_dict(),
+        **_summary(records),
+        "by_family": by_family,
+        "wall_s": round(time.perf_counter() - t0, 2),
+        "records": records,
+    }
+    if out is not None:
+        path = Path(out)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
+    return report
