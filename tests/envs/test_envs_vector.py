@@ -18,8 +18,11 @@ def test_two_envs_step_under_vector_env(vector: str, fast_options: dict) -> None
         samplehd.envs.register_envs()
         return gym.make(ENV_ID, obs_mode="rgb", width=24, height=24, **fast_options)
 
-    cls = gym.vector.SyncVectorEnv if vector == "sync" else gym.vector.AsyncVectorEnv
-    envs = cls([make, make])
+    if vector == "sync":
+        envs = gym.vector.SyncVectorEnv([make, make])
+    else:
+        # spawn, not fork: a GL context made earlier in this process does not survive a fork.
+        envs = gym.vector.AsyncVectorEnv([make, make], context="spawn")
     try:
         obs, info = envs.reset(seed=[1, 2])
         assert obs["scene_rgb"].shape == (2, 24, 24, 3)

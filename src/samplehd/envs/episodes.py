@@ -236,6 +236,7 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
                      for k in ("qpos", "qvel", "act")}
         except (KeyError, TypeError, IndexError) as exc:
             raise ConfigError(f"reset: option 'episode' needs qpos, qvel and act frames ({exc})") from None
-        if state["qpos"].shape != (model.nq,) or state["qvel"].shape != (model.nv,) or state["act"].shape != (model.na,):
+        sizes = {"qpos": model.nq, "qvel": model.nv, "act": model.na}
+        if any(state[k].shape != (n,) for k, n in sizes.items()):
             raise ConfigError("reset: option 'episode' does not match the scene (qpos/qvel/act sizes differ)")
     return EpisodeSpec(scene, entry, ann, state)
