@@ -106,3 +106,11 @@ def test_target_cutoff_counts_in_slot_major_order() -> None:
     c.record((0, 0), True)
     c.record((1, 0), False)
     assert c.end == 3 and c.needed(2) and not c.needed(3)
+
+
+def test_unknown_camera_fails_before_any_work() -> None:
+    from samplehd.dataset.render import RenderConfig, check_cameras
+
+    with pytest.raises(ConfigError, match=r"unknown camera\(s\) \['sceen'\]; valid: operator, scene, wrist"):
+        check_cameras(RenderConfig("fast", 64, 36, ("sceen",)))
+    check_cameras(RenderConfig("fast", 64, 36, ("scene", "wrist")))

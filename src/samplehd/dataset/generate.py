@@ -415,6 +415,9 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
     progress = progress or Progress()
     summary = GenerateSummary()
     t0 = time.perf_counter()
+    from samplehd.dataset.render import check_cameras
+
+    check_cameras(config.render)
     _prepare(out, config, resume)
     if not (out / INFO_FILE).exists():
         _write_json(out / INFO_FILE, _base_info(config), indent=1)

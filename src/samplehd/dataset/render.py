@@ -15,7 +15,7 @@ import numpy as np
 
 from samplehd.errors import ConfigError
 
-__all__ = ["RENDER_MODES", "RenderConfig", "render_states"]
+__all__ = ["RENDER_MODES", "RenderConfig", "check_cameras", "render_states"]
 
 RENDER_MODES = ("none", "fast", "hd")
 _MODALITIES = ("rgb", "depth", "segmentation")
@@ -115,6 +115,23 @@ def render_states(model: Any, frames: Mapping[str, np.ndarray], config: RenderCo
             out[cam] = {m: (np.stack(v) if v else np.zeros((0, config.height, config.width), np.float32))
                         for m, v in stacks.items()}
     return out
+
+
+def check_cameras(config: RenderConfig) -> None:
+    """Fail early (before any simulation) on a camera name no scene world has.
+
+    Raises:
+        ConfigError: naming the unknown cameras and the valid ones.
+    """
+    if not config.enabled:
+        return
+    from samplehd.render.renderer import camera_names
+    from samplehd.scene.world import compile_world
+
+    valid = sorted({*camera_names(compile_world()[0]), "scene"})
+    bad = [c for c in config.cameras if c not in valid]
+    if bad:
+        raise ConfigError(f"render.cameras: unknown camera(s) {bad}; valid: {', '.join(valid)}")
 
 
 def camera_list(text: Sequence[str] | None, default: tuple[str, ...]) -> tuple[str, ...]:

@@ -44,6 +44,9 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
 
     if not render.enabled:
         raise DatasetError("rerender needs a render preset (fast or hd), not 'none'")
+    from samplehd.dataset.render import check_cameras
+
+    check_cameras(render)
     root = Path(root)
     reader = DatasetReader(root)
     if not reader.complete:
