@@ -38,11 +38,17 @@ class CollisionChecker:
         bodies: body ids of the scene.
         robot: robot addresses.
         margin: penetration depth tolerated [m] (contacts shallower than this are ignored).
+        object_margin: penetration tolerated between the arm and a scene object [m] (a graze; the
+            safety monitor only stops on force there).
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodies, robot: RobotInfo,
-                 margin: float = 0.0005) -> None:
+                 margin: float = 0.0005, object_margin: float = 0.0015) -> None:
         self.model, self.bodies, self.robot, self.margin = model, bodies, robot, margin
+        self.object_margin = object_margin
+        # The base never moves: what touches it touched it in the scene already.
+        self.static_robot = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "robot_base")}
+        self.object_bodies = {int(b) for b in bodies.object_body}
         self.scratch = mujoco.MjData(model)
         self.sync(data)
         self._obj_qpos = {}
@@ -103,7 +109,12 @@ class CollisionChecker:
             if c.dist > -self.margin:
                 continue
             b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
+            if b1 in self.static_robot or b2 in self.static_robot:
+                continue
             r1, r2 = b1 in robot, b2 in robot
+            if ((r1 and b2 in self.object_bodies) or (r2 and b1 in self.object_bodies)) \
+                    and c.dist > -self.object_margin and b1 != held_body and b2 != held_body:
+                continue
             h1, h2 = b1 == held_body, b2 == held_body
             if not (r1 or r2 or h1 or h2):
                 continue

@@ -34,7 +34,7 @@ __all__ = [
 ]
 
 GRIPPER_STROKE = 0.085  # [m] largest finger opening of the parallel-jaw gripper
-MIN_CLEARANCE = 0.0025  # [m] least room between a finger and the object when the gripper is fully open
+MIN_CLEARANCE = 0.0015  # [m] least room between a finger and the object when the gripper is fully open
 
 
 @dataclass(frozen=True)
