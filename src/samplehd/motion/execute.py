@@ -351,6 +351,21 @@ class Rollout:
             if q_above is None:
                 last_error = "release pose out of reach"
                 continue
+            # Where the fingers cannot open beside the object (a can in a mug), release it higher and
+            # let it drop the last centimetres.
+            drop = None
+            for dz in np.arange(0.0, min(self.cfg.max_drop, tcp_above_w[2, 3] - tcp_rel_w[2, 3]) + 1e-9, 0.01):
+                t = rel_b.copy()
+                t[2, 3] += dz
+                qr, ok = ik_batch(t[None], q_above[None], TCP_OFFSET)
+                if ok[0] and self.checker.free(qr[0], hand.opening, Held(i, hand.tcp_to_object) if dz else None,
+                                               allow_objects_with_gripper=(i,)):
+                    drop = (dz, t)
+                    break
+            if drop is None:
+                last_error = "the fingers cannot open at the release pose"
+                continue
+            rel_b = drop[1]
             try:
                 move, method = plan_joint_move(self.checker, q_now, q_above, 0.0, self.dt, self.cfg, self.rng,
                                                held=held, lift_z=transport_z, robot=self.robot)
@@ -359,12 +374,9 @@ class Rollout:
             except PlanningError as exc:
                 last_error = str(exc)
                 continue
-            q_rel = down[-1] if len(down) else q_above
-            if not self.checker.free(q_rel, hand.opening, allow_objects_with_gripper=(i,)):
-                last_error = "the fingers cannot open at the release pose"
-                continue
             self.info["destinations"].append({"object": i, "xy": [float(xy[0]), float(xy[1])],
-                                              "z": float(t_obj_rel[2, 3]), "yaw": float(yaw)})
+                                              "z": float(t_obj_rel[2, 3]), "yaw": float(yaw),
+                                              "drop": float(drop[0])})
             self.info["methods"].append(method)
             self.run("ObjectMove", i, move)
             self.run("MoveDOWN", i, down)

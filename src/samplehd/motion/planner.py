@@ -70,6 +70,8 @@ class PlannerConfig:
         max_tcp_angular_speed: largest TCP angular speed in joint-space moves [rad/s].
         finger_clearance: fingertips above the table at the grasp [m].
         release_gap: object's bottom above its support at release [m].
+        max_drop: how much higher the object may be released where the fingers cannot open at the
+            support (it drops the rest) [m].
         close_time: duration of CloseGripper [s].
         squeeze_force: finger force once the pads touch the object [N].
         open_time: duration of OpenGripper [s].
@@ -93,6 +95,7 @@ class PlannerConfig:
     max_tcp_angular_speed: float = 0.9
     finger_clearance: float = 0.0015
     release_gap: float = 0.006
+    max_drop: float = 0.08
     close_time: float = 1.0
     squeeze_force: float = 20.0
     open_time: float = 0.5
