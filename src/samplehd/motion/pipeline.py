@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import ConfigError, PlanningError
+from samplehd.motion.assist import GraspAssist
 from samplehd.motion.execute import AttemptFailed, Rollout
 from samplehd.motion.planner import PlannerConfig
 from samplehd.motion.robot_info import RobotInfo
@@ -111,6 +112,14 @@ def initial_state(model: mujoco.MjModel, data: mujoco.MjData, config: ControlCon
     return ctrl
 
 
+def _copy_state(src: mujoco.MjData, dst: mujoco.MjData) -> None:
+    dst.qpos[:] = src.qpos
+    dst.qvel[:] = src.qvel
+    dst.act[:] = src.act
+    dst.ctrl[:] = src.ctrl
+    dst.time = src.time
+
+
 def _facts(scene: Any) -> list[Any]:
     from samplehd.catalogue import object_facts
 
@@ -189,9 +198,10 @@ def plan_and_execute(
         instruction_index: recorded in the episode.
         seed: recorded in the episode (the seed ``rng`` was made from).
         directions: the scene's direction vectors (default: the layout's).
-        compiled: an already compiled (model, data) of this scene (with
-            :func:`~samplehd.motion.assist.compile_scene_with_assist` for the grasp assist), to skip
-            compilation; ``data`` is left in the episode's final state.
+        compiled: an already compiled (model, data) of this scene, to skip compilation; ``data`` is
+            left in the episode's final state. A model without the grasp welds (plain
+            ``compile_scene``) is replaced internally by an identical one with them
+            (:func:`~samplehd.motion.assist.compile_scene_with_assist`) when the assist is on.
 
     Returns:
         The successful episode (``success`` True, checker report in ``info["check"]``).
@@ -209,6 +219,14 @@ def plan_and_execute(
         if not 0 <= i < n:
             raise PlanningError(f"task names object {i}, but the scene has objects 0..{n - 1}")
     model, data = compiled if compiled is not None else compile_scene_with_assist(scene, 1.0 / config.physics_hz)
+    caller: tuple[mujoco.MjModel, mujoco.MjData] | None = None
+    if compiled is not None and config.grasp_assist and not GraspAssist(model, n).available:
+        # A plain compile_scene model: run on an identical one with the grasp welds (same nq, nv,
+        # na) from the caller's state, and hand the final state back to the caller's data.
+        caller = compiled
+        model, data = compile_scene_with_assist(scene, float(caller[0].opt.timestep))
+        _copy_state(caller[1], data)
+        mujoco.mj_forward(model, data)
     start = mujoco.MjData(model)
     mujoco.mj_copyData(start, model, data)
     facts = _facts(scene)
@@ -249,7 +267,13 @@ def plan_and_execute(
             "physics_hz": config.physics_hz,
             **ro.info,
         }
+        if caller is not None:
+            _copy_state(data, caller[1])
+            mujoco.mj_forward(*caller)
         return _episode(ro, scene, scene_index, instruction_index, family or t.family, seed, True, info)
+    if caller is not None:
+        _copy_state(data, caller[1])
+        mujoco.mj_forward(*caller)
     failed = _episode(last, scene, scene_index, instruction_index, family or t.family, seed, False,
                       {"task": t.to_dict(), "failed_attempts": attempts, **last.info})
     raise PathRejected(reason, f"instruction {instruction_index}: {message}", attempts, failed)
