@@ -171,7 +171,8 @@ def _oracle_scene(args: tuple[int, int, int, str]) -> list[dict[str, Any]]:
             ep = plan_and_execute(scene, ins.task.to_dict(), np.random.default_rng([seed, k]), family=ins.family,
                                   instruction_index=k, directions=ann["directions"], compiled=(model, data))
             r.update(success=True, attempts=ep.info["attempts"], frames=ep.num_frames,
-                     failed=[a["reason"] for a in ep.info["failed_attempts"]])
+                     failed=[a["reason"] for a in ep.info["failed_attempts"]],
+                     disturbed=ep.info["check"]["disturbed"], fallen=ep.info["check"]["fallen"])
         except PathRejected as exc:
             r.update(success=False, reason=exc.reason, failed=[a["reason"] for a in exc.attempts],
                      message=str(exc)[:200])
@@ -238,6 +239,8 @@ def oracle_table(results: list[dict[str, Any]]) -> str:
         lines.append(f"{fam:15s} {c['n']:5d} {c['first'] / c['n']:10.1%} {c['ok'] / c['n']:14.1%}  {fails}")
     if tot["n"]:
         lines.append(f"{'all':15s} {tot['n']:5d} {tot['first'] / tot['n']:10.1%} {tot['ok'] / tot['n']:14.1%}")
+    dist = sum(1 for r in results if r.get("success") and r.get("disturbed"))
+    lines.append(f"succeeded episodes that disturbed an uninvolved object (> 2 cm or 15 deg): {dist}")
     return "\n".join(lines)
 
 
