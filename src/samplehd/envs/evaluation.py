@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.envs.config import TASK_FAMILIES
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, PlanningError
 
 __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "evaluate", "load_policy"]
 
@@ -134,7 +134,6 @@ def load_policy(spec: str, env: Any) -> Callable[[Any], Any]:
 
 
 def _offline_success(env: Any, seed: int) -> bool:
-    from samplehd.errors import PlanningError
     from samplehd.motion.pipeline import PathConfig, plan_and_execute
     from samplehd.scene.spec import compile_scene
 
@@ -164,19 +163,29 @@ def _write_video(path: Path, frames: list[np.ndarray], fps: int) -> None:
             container.mux(packet)
 
 
-def _run_episodes(config: EvalConfig, items: list[tuple[int, int, str]],
-                  progress: Callable[[dict[str, Any]], None] | None = None) -> list[dict[str, Any]]:
-    """Run the given (index, seed, family) episodes in one environment of this process."""
-    import samplehd  # noqa: F401  (GL backend before mujoco)
-    from samplehd.envs.tabletop import TabletopEnv
+class _Runner:
+    """One environment and policy that run benchmark episodes one at a time."""
 
-    env_options = dict(config.env)
-    if config.video_dir:
-        env_options["render_mode"] = "rgb_array"
-    env = TabletopEnv(**env_options)
-    policy = load_policy(config.policy, env)
-    records = []
-    for index, seed, family in items:
+    def __init__(self, config: EvalConfig) -> None:
+        import samplehd  # noqa: F401  (GL backend before mujoco)
+        from samplehd.envs.tabletop import TabletopEnv
+
+        self.config = config
+        env_options = dict(config.env)
+        if config.video_dir:
+            env_options["render_mode"] = "rgb_array"
+        self.env = TabletopEnv(**env_options)
+        self.policy = load_policy(config.policy, self.env)
+
+    def close(self) -> None:
+        if hasattr(self.policy, "close"):
+            self.policy.close()
+        self.env.close()
+
+    def run(self, item: tuple[int, int, str]) -> dict[str, Any]:
+        """Run episode ``(index, seed, family)`` and return its record."""
+        index, seed, family = item
+        config, env, policy = self.config, self.env, self.policy
         t0 = time.perf_counter()
         obs, info = env.reset(seed=seed, options={"family": family})
         if hasattr(policy, "reset"):
@@ -185,7 +194,12 @@ def _run_episodes(config: EvalConfig, items: list[tuple[int, int, str]],
         steps, ret, term, trunc = 0, 0.0, False, False
         gave_up = ""
         while not (term or trunc):
-            obs, reward, term, trunc, info = env.step(policy(obs))
+            try:
+                action = policy(obs)
+            except PlanningError as exc:  # the oracle could not go on: a failed episode, not a failed run
+                gave_up = f"{type(exc).__name__}: {exc}"
+                break
+            obs, reward, term, trunc, info = env.step(action)
             steps += 1
             ret += reward
             if config.video_dir:
@@ -221,13 +235,18 @@ def _run_episodes(config: EvalConfig, items: list[tuple[int, int, str]],
             name = f"episode_{index:04d}_{record['family']}_{'ok' if record['success'] else 'fail'}.mp4"
             _write_video(out / name, frames, env.metadata["render_fps"])
             record["video"] = str(out / name)
-        records.append(record)
-        if progress is not None:
-            progress(record)
-    if hasattr(policy, "close"):
-        policy.close()
-    env.close()
-    return records
+        return record
+
+
+_WORKER: dict[str, _Runner] = {}
+
+
+def _init_worker(config: EvalConfig) -> None:
+    _WORKER["runner"] = _Runner(config)
+
+
+def _run_in_worker(item: tuple[int, int, str]) -> dict[str, Any]:
+    return _WORKER["runner"].run(item)
 
 
 def _summary(records: list[dict[str, Any]]) -> dict[str, Any]:
@@ -260,22 +279,51 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
     split = benchmark_split(config.episodes, config.families, config.seed)
     items = [(k, s, f) for k, (s, f) in enumerate(split)]
     t0 = time.perf_counter()
+    records: list[dict[str, Any]] = []
+
+    def done(record: dict[str, Any]) -> None:
+        records.append(record)
+        if progress is not None:
+            progress(record)
+        if out is not None:  # partial report, so an interrupted run keeps what it finished
+            _write_report(out, _report(config, records, t0, partial=True))
+
     if config.workers == 1:
-        records = _run_episodes(config, items, progress)
+        runner = _Runner(config)
+        try:
+            for item in items:
+                done(runner.run(item))
+        finally:
+            runner.close()
     else:
-        chunks = [items[i:: config.workers] for i in range(config.workers)]
         ctx = multiprocessing.get_context("spawn")
-        with ctx.Pool(config.workers) as pool:
-            parts = pool.starmap(_run_episodes, [(replace(config, workers=1), c) for c in chunks if c])
-        records = sorted((r for p in parts for r in p), key=lambda r: r["index"])
-        if progress:
-            for r in records:
-                progress(r)
+        with ctx.Pool(config.workers, initializer=_init_worker, initargs=(replace(config, workers=1),)) as pool:
+            for record in pool.imap_unordered(_run_in_worker, items):
+                done(record)
+    report = _report(config, records, t0)
+    if out is not None:
+        _write_report(out, report)
+    return report
+
+
+def _write_report(out: str | Path, report: dict[str, Any]) -> None:
+    path = Path(out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
+    tmp.replace(path)
+
+
+def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partial: bool = False) -> dict[str, Any]:
+    from samplehd.envs.config import EnvConfig
+
+    records = sorted(records, key=lambda r: r["index"])
     by_family = {}
     for fam in dict.fromkeys(r["family"] for r in records):
         by_family[fam] = _summary([r for r in records if r["family"] == fam])
-    report = {
+    return {
         "policy": config.policy,
+        "partial": partial,
         "split": {"episodes": config.episodes, "families": list(config.families), "seed": config.seed},
         "env": EnvConfig.from_kwargs(**config.env).to_dict(),
         **_summary(records),
@@ -283,8 +331,3 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
         "wall_s": round(time.perf_counter() - t0, 2),
         "records": records,
     }
-    if out is not None:
-        path = Path(out)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
-    return report

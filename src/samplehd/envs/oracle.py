@@ -263,7 +263,11 @@ class OraclePolicy:
                     self.replans += 1
                     if grasp >= 0:
                         exclude.add(grasp)
-                    self._back_off(ro, i)
+                    try:
+                        self._back_off(ro, i)
+                    except PlanningError as back:
+                        self.failure = getattr(back, "reason", "no_path_home")
+                        return
                 except PlanningError as exc:
                     self.failure = f"planning: {exc}"
                     return
