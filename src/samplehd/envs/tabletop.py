@@ -40,6 +40,10 @@ oracle drives the episode, else ""), ``success``/``is_success``, ``check_reason`
 ``safety_stop``, ``action_clipped``, ``clipped`` (names of clipped fields), ``unreachable`` (IK had
 no solution for a Cartesian command), ``scene_seed``, ``elapsed_steps``.
 
+Vectorised use: ``gymnasium.vector.SyncVectorEnv`` and ``AsyncVectorEnv`` both work; give
+``AsyncVectorEnv`` ``context="spawn"`` when the parent process has rendered before (an EGL context
+does not survive ``fork``).
+
 Reset options (``reset(seed=..., options=...)``): ``family`` (draw an instruction of this family),
 or ``scene`` + ``instruction`` (+ ``episode``) to reproduce a given episode exactly (see
 :func:`samplehd.envs.episodes.episode_from_options`).
