@@ -81,3 +81,19 @@ def test_evaluate_cli_rejects_a_bad_policy_in_one_line() -> None:
                               capture_output=True, text=True, timeout=120)
         assert proc.returncode == 2, proc.stderr
         assert len(proc.stderr.strip().splitlines()) == 1 and "--policy" in proc.stderr
+
+
+def test_evaluate_loads_a_user_policy_and_a_policy_factory(tmp_path: Path, fast_options: dict,
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "user_agents.py").write_text(
+        "import numpy as np\n"
+        "def act(obs):\n"
+        "    return np.zeros(7, dtype=np.float32)\n"
+        "def make(env):\n"
+        "    return lambda obs: env.action_space.low * 0\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for spec in ("user_agents:act", "user_agents:make"):
+        cfg = EvalConfig(policy=spec, episodes=1, families=("pick_up",), env={**fast_options, "max_episode_steps": 5})
+        report = evaluate(cfg)
+        assert report["episodes"] == 1 and report["records"][0]["steps"] == 5
