@@ -58,6 +58,9 @@ class EnvConfig:
         dense_reward: add a shaping term (see :mod:`samplehd.envs.reward`).
         success_check_every: run the success checker every this many steps (1: every step).
         terminate_on_safety: end the episode when the safety monitor stops the arm.
+        grasp_assist: weld an object to the gripper while the fingers close on it and both pads
+            touch it, until the gripper opens again (``samplehd.motion.assist``; the dataset's paths
+            use it too), for every policy alike.
         scene_cache_size: compiled scenes kept in memory.
         checker: success checker tolerances (a CheckerConfig or its dict).
     """
@@ -82,6 +85,7 @@ class EnvConfig:
     dense_reward: bool = False
     success_check_every: int = 1
     terminate_on_safety: bool = True
+    grasp_assist: bool = True
     scene_cache_size: int = 8
     checker: CheckerConfig = field(default_factory=CheckerConfig)
 
@@ -137,7 +141,7 @@ class EnvConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and v >= lo):
                 fail(name, f"must be an integer >= {lo}")
-        for name in ("dense_reward", "terminate_on_safety"):
+        for name in ("dense_reward", "terminate_on_safety", "grasp_assist"):
             if not isinstance(getattr(self, name), bool):
                 fail(name, "must be true or false")
 

@@ -68,10 +68,12 @@ class SceneCache:
         config: scene sampler options.
         size: compiled scenes kept.
         timestep: physics timestep of compiled models [s].
+        grasp_welds: compile with the (inactive) grasp-assist welds.
     """
 
-    def __init__(self, config: SceneConfig, size: int = 8, timestep: float = 0.002) -> None:
+    def __init__(self, config: SceneConfig, size: int = 8, timestep: float = 0.002, grasp_welds: bool = False) -> None:
         self.config = config
+        self.grasp_welds = grasp_welds
         self.size = size
         self.timestep = timestep
         self._config_key = json.dumps(config.to_dict(), sort_keys=True)
@@ -101,7 +103,12 @@ class SceneCache:
             self._models.move_to_end(key)
             model, data = self._models[key]
             return model, data, False
-        model, data = compile_scene(scene, self.timestep)
+        if self.grasp_welds:
+            from samplehd.motion.assist import compile_scene_with_assist
+
+            model, data = compile_scene_with_assist(scene, self.timestep)
+        else:
+            model, data = compile_scene(scene, self.timestep)
         mujoco.mj_forward(model, data)
         self._models[key] = (model, data)
         while len(self._models) > self.size:

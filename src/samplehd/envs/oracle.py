@@ -64,8 +64,10 @@ def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: flo
         else:
             c = env.control
             a = steering_from_targets(t0, t1, gripper, c.control_dt, c.max_linear_speed, c.max_angular_speed)
-    lo, hi = env.action_space.low, env.action_space.high
-    return np.clip(a, lo, hi).astype(np.float32)
+    # float64: in joint_pos mode the targets then reach the controller bit for bit, as in the
+    # offline paths (float32 would round them by ~1e-7 rad, enough for contacts to diverge).
+    lo, hi = env.action_space.low.astype(float), env.action_space.high.astype(float)
+    return np.clip(np.asarray(a, dtype=float), lo, hi)
 
 
 class _ActingController:
@@ -89,7 +91,8 @@ class _ActingController:
         name = ro.subtasks[-1] if ro is not None and ro.subtasks else ""
         if ro is not None and ro.hand is not None and name in ("ObjectMove", "MoveDOWN"):
             # Closed loop: the object must still be between the fingers.
-            if ro._grasped() != ro.hand.index:
+            welded = getattr(self._policy.env, "_assist", None)
+            if (welded is None or welded.active != ro.hand.index) and ro._grasped() != ro.hand.index:
                 raise AttemptFailed("grasp_slipped", f"object {ro.hand.index} slipped out of the gripper in {name}")
         self._policy.subtask = name
         a = np.asarray(action, dtype=float)
@@ -239,12 +242,16 @@ class OraclePolicy:
                 facts.append(object_facts(o.instance))
             except Exception:  # noqa: BLE001 - objects unknown to the catalogue fall back to model geometry
                 facts.append(None)
-        rng = np.random.default_rng(self.seed)
+        # The generator of the offline generator's first attempt (plan_and_execute draws each
+        # attempt's generator from the episode's), so both make the same random choices.
+        rng = np.random.default_rng(np.random.default_rng(self.seed).integers(2**63))
         directions = env.episode.annotation.get("directions") if env.episode.annotation else None
         robot = RobotInfo.from_model(model, data)
         bodies = SceneBodies(model, len(scene.objects))
         acting = _ActingController(self, ctrl)
-        ro = Rollout(model, data, acting, robot, bodies, facts, self.planner, rng, LAYOUT, directions)
+        # The environment's grasp assist (when on) welds for every policy; the planner must not weld itself.
+        ro = Rollout(model, data, acting, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
+                     use_assist=False)
         acting.rollout = ro
         for i in task.objects:
             exclude: set[int] = set()

@@ -115,7 +115,7 @@ class TabletopEnv(gym.Env):
         self._low, self._high = low.astype(float), high.astype(float)
         self.max_objects = cfg.scene.max_objects
         self.observation_space = self._observation_space()
-        self.cache = SceneCache(cfg.scene, cfg.scene_cache_size, 1.0 / cfg.physics_hz)
+        self.cache = SceneCache(cfg.scene, cfg.scene_cache_size, 1.0 / cfg.physics_hz, grasp_welds=cfg.grasp_assist)
         self.episode: EpisodeSpec | None = None
         self.subtask = ""
         self.model: mujoco.MjModel | None = None
@@ -130,6 +130,7 @@ class TabletopEnv(gym.Env):
         self._task: Any = None
         self._cam_names: dict[str, str] = {}
         self.last_safety_event: Any = None
+        self._assist: Any = None
 
     # ------------------------------------------------------------------ spaces
     def _observation_space(self) -> spaces.Dict:
@@ -199,6 +200,20 @@ class TabletopEnv(gym.Env):
             data.act[:] = episode.initial_state["act"]
             mujoco.mj_forward(model, data)
             self.controller.reset(None, gripper=1.0)
+        self._assist = None
+        if self.config.grasp_assist:
+            from samplehd.motion.assist import GraspAssist
+            from samplehd.record.recorder import grasped_object
+
+            self._assist = GraspAssist(model, len(episode.scene.objects))
+            self._assist.release(data)
+            fingers = [model.jnt_bodyid[model.joint(j).id] for j in ("robot_left_finger_joint",
+                                                                     "robot_right_finger_joint")]
+            self._fingers = (int(fingers[0]), int(fingers[1]))
+            self._body_to_object = {int(model.body(f"object_{i}").id): i for i in range(len(episode.scene.objects))}
+            self._grasped_object = grasped_object
+        self._last_gripper = 1.0
+        self._attach_gripper = 1.0
         self.episode = episode
         self._task = parse_task(episode.instruction["task"], episode.family)
         self._object_body = np.array(
@@ -239,6 +254,8 @@ class TabletopEnv(gym.Env):
             a = np.clip(a, self._low, self._high)
         report = self.controller.step(a, self._mode)
         self.last_safety_event = report.safety_event
+        if self._assist is not None:
+            self._update_assist(float(a[-1]))
         self._steps += 1
         event = report.safety_event.to_dict() if report.safety_event is not None else None
         if event is not None:
@@ -257,6 +274,21 @@ class TabletopEnv(gym.Env):
         info = self._info(report, event)
         info["action_clipped"] = bool(clipped_box or report.clipped)
         return obs, float(reward), terminated, truncated, info
+
+    def _update_assist(self, gripper: float) -> None:
+        """Grasp assist, the same rule for every policy: weld the object both pads touch while the
+        gripper command closes (or stays closed); unweld as soon as the command opens again."""
+        assist = self._assist
+        if assist.active < 0:
+            closing = gripper < self._last_gripper - 1e-9 or gripper <= -1.0 + 1e-9
+            if closing and self.controller.stopped is None:
+                held = self._grasped_object(self.model, self.data, self._fingers, self._body_to_object)
+                if held >= 0:
+                    assist.attach(self.data, held)
+                    self._attach_gripper = gripper
+        elif gripper > self._attach_gripper + 0.05:
+            assist.release(self.data)
+        self._last_gripper = gripper
 
     def _may_succeed(self) -> bool:
         """A necessary condition of success that costs microseconds, so the checker runs only when needed.
