@@ -29,6 +29,11 @@ the scene's objects, the instruction as ``instruction`` (``Text``) and ``instruc
 ``{camera}_rgb`` (H×W×3 uint8), ``{camera}_depth`` (H×W float32 [m]) and ``{camera}_segmentation``
 (H×W int32 ids: 0 background, 1 table, 2 robot, 3+i object i).
 
+Grasp assist (option ``grasp_assist``, on by default, as in the dataset's paths): while the gripper
+command closes or stays closed and both finger pads touch an object, the object is welded to the
+gripper where it is; the weld is released as soon as the command opens. The rule is the same for
+every policy; the fingers still close physically and the safety monitor watches every contact.
+
 Reward (:mod:`samplehd.envs.reward`): 1 when the shared success checker accepts the state, plus an
 optional dense term. ``terminated`` on success or a safety stop; ``truncated`` after
 ``max_episode_steps`` steps.
