@@ -90,8 +90,16 @@ def _die_with_parent() -> None:
         pass
 
 
+# One worker per core: BLAS thread pools inside each worker would oversubscribe the cores, and
+# OpenBLAS's spinning threads then cost more than they save (measured: 2 workers 0.6× the frames/s of 1
+# with default threads, 2.2× with one thread each).
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
 def _pool_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int) -> Iterator[tuple[Any, Any]]:
     window = 2 * workers
+    for var in _THREAD_VARS:  # inherited by the spawned workers; a user's setting is kept
+        os.environ.setdefault(var, "1")
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=_die_with_parent)
     pending: dict[Future, Any] = {}
     try:
