@@ -24,14 +24,15 @@ def _project(root: Path, speedup: float) -> None:
     journal = read_journal(root)
     runs = [json.loads(line) for line in (root / "runs.jsonl").read_text().splitlines()]
     info = json.loads((root / "info.json").read_text())
-    unit = statistics.mean(float(r["seconds"]) for r in journal)
+    key = "cpu_seconds" if all("cpu_seconds" in r for r in journal) else "seconds"
+    unit = statistics.mean(float(r[key]) for r in journal)
     ok = sum(r["status"] == "ok" for r in journal) / len(journal)
     frames = [int(r["num_frames"]) for r in journal if r["status"] == "ok"]
     wall = sum(r["seconds"] for r in runs)
     # scene stage wall time × its workers / scenes = seconds per scene on one worker
     scene_s = sum(r["stage_seconds"]["scenes"] * r.get("workers", 1) for r in runs) / info["counts"]["scenes"]
     p = dataset.projection(unit, ok, scene_s, speedup)
-    print(f"{root}: {len(journal)} path units, mean {unit:.2f} s/unit (per worker), success {ok:.1%}, "
+    print(f"{root}: {len(journal)} path units, mean {unit:.2f} {key}/unit, success {ok:.1%}, "
           f"{statistics.mean(frames):.0f} frames/episode, wall {wall:.0f} s for {info['counts']['scenes']} scenes")
     print(f"sample-hd preset (2000 scenes, 8360 episodes, states only): {p['candidates']:.0f} candidates, "
           f"serial {p['serial'] / 3600:.2f} h, here with 2 workers {p['here_2_workers'] / 3600:.2f} h, "

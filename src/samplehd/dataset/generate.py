@@ -88,6 +88,8 @@ class GenerateSummary:
         work_seconds: summed unit times of the units this run executed [s].
         units_run: path units executed in this run (not resumed from disk).
         stage_seconds: wall time per stage of this run [s].
+        cpu_seconds: summed CPU time of the path units this run executed [s] (independent of contention).
+        scene_cpu_seconds: summed CPU time of the scene units this run executed [s].
     """
 
     scenes: int = 0
@@ -103,6 +105,8 @@ class GenerateSummary:
     work_seconds: float = 0.0
     units_run: int = 0
     stage_seconds: dict[str, float] = field(default_factory=dict)
+    cpu_seconds: float = 0.0
+    scene_cpu_seconds: float = 0.0
 
 
 def versions() -> dict[str, str]:
@@ -173,7 +177,8 @@ def _base_info(config: GenerateConfig) -> dict[str, Any]:
             "config": config.to_dict()}
 
 
-def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: Progress) -> list[dict[str, Any]]:
+def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: Progress,
+                 summary: GenerateSummary) -> list[dict[str, Any]]:
     from samplehd.dataset.work import run_scene_unit
     from samplehd.scene.annotate import image_stem
     from samplehd.scene.generate import SceneJob, scene_split
@@ -188,7 +193,8 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
             jobs.append(SceneJob(i, scene_seed(config.seed, i), str(out), config.scene.to_dict(), r.width, r.height,
                                  preset, config.test_every))
     progress.stage("scenes", config.num_scenes, config.num_scenes - len(jobs))
-    for _, _res in backend.map(run_scene_unit, iter(jobs)):
+    for _, res in backend.map(run_scene_unit, iter(jobs)):
+        summary.scene_cpu_seconds += float(res.get("cpu_seconds", 0.0))
         progress.advance("scenes")
     scenes = []
     for i in range(config.num_scenes):
@@ -317,6 +323,7 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
         cutoff.record(key, res["status"] == "ok")
         summary.units_run += 1
         summary.work_seconds += float(res.get("seconds", 0.0))
+        summary.cpu_seconds += float(res.get("cpu_seconds", 0.0))
         if cutoff.end is not None and position[key] >= cutoff.end:
             continue
         progress.advance("paths", 1, int(res.get("num_frames", 0)))
@@ -422,7 +429,7 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
     if not (out / INFO_FILE).exists():
         _write_json(out / INFO_FILE, _base_info(config), indent=1)
     marks = [time.perf_counter()]
-    scenes = _scene_stage(out, config, backend, progress)
+    scenes = _scene_stage(out, config, backend, progress, summary)
     marks.append(time.perf_counter())
     candidates = _instruction_stage(out, config, scenes, progress)
     marks.append(time.perf_counter())
@@ -436,6 +443,7 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
     run = {"command": "generate", "argv": sys.argv[1:], "backend": backend.describe(), "resume": resume,
            "seconds": round(summary.seconds, 3), "units_run": summary.units_run,
            "work_seconds": round(summary.work_seconds, 3), "stage_seconds": summary.stage_seconds,
+           "cpu_seconds": round(summary.cpu_seconds, 3), "scene_cpu_seconds": round(summary.scene_cpu_seconds, 3),
            "workers": backend.workers, "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
     try:
         with open(out / RUNS_FILE, "a", encoding="utf-8") as f:

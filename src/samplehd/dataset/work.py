@@ -22,7 +22,7 @@ def run_scene_unit(job: Any) -> dict[str, Any]:
     from samplehd.errors import RenderError
     from samplehd.scene.generate import render_scene_files
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
         ann, rejections = render_scene_files(job)
     except (OSError, RenderError) as exc:
@@ -30,7 +30,8 @@ def run_scene_unit(job: Any) -> dict[str, Any]:
         if isinstance(cause, OSError):
             raise write_error(Path(job.out) / "scenes", cause) from None
         raise
-    return {"index": job.index, "rejections": rejections, "seconds": time.perf_counter() - t0}
+    return {"index": job.index, "rejections": rejections, "seconds": time.perf_counter() - t0,
+            "cpu_seconds": time.process_time() - c0}
 
 
 @dataclass(frozen=True)
@@ -87,7 +88,7 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     from samplehd.motion.pipeline import PathConfig, PathRejected, plan_and_execute
     from samplehd.scene.spec import SceneSpec, compile_scene
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     base = {"scene_index": unit.scene_index, "slot": unit.slot}
     config = PathConfig.from_dict(unit.paths)
     scene = SceneSpec.from_dict(unit.scene)
@@ -98,13 +99,13 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
                                    directions=unit.directions, compiled=(model, data))
     except PathRejected as exc:
         return {**base, "status": "rejected", "reason": exc.reason, "message": str(exc).splitlines()[0][:300],
-                "seconds": time.perf_counter() - t0}
+                "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
     except (PlanningError, ValueError, IndexError, KeyError, ArithmeticError) as exc:
         # A planner bug on one instance must not stop a 10-hour run; it is counted and reported.
         where = traceback.extract_tb(exc.__traceback__)[-1]
         return {**base, "status": "rejected", "reason": f"error_{type(exc).__name__}",
                 "message": f"{exc} ({Path(where.filename).name}:{where.lineno})"[:300],
-                "seconds": time.perf_counter() - t0}
+                "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
     t1 = time.perf_counter()
     render = RenderConfig.from_dict(unit.render)
     if render.enabled:
@@ -119,7 +120,8 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     except DatasetError:
         raise
     return {**base, "status": "ok", "num_frames": written.num_frames, "size": written.size,
-            "sha256": written.sha256, "seconds": time.perf_counter() - t0, "path_seconds": t1 - t0,
+            "sha256": written.sha256, "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0,
+            "path_seconds": t1 - t0,
             "render_seconds": t2 - t1}
 
 
