@@ -51,11 +51,21 @@ def repair_journal(root: Path) -> None:
 
 
 def append_journal(root: Path, records: Iterable[Mapping[str, Any]]) -> None:
-    """Append records (one line each) and flush them to disk."""
+    """Append records (one line each) and flush them to disk.
+
+    Raises:
+        DatasetError: the journal cannot be written (disk full, permissions), one line.
+    """
     text = "".join(json.dumps(dict(r), sort_keys=True) + "\n" for r in records)
     if not text:
         return
-    with open(Path(root) / JOURNAL_FILE, "a", encoding="utf-8") as f:
-        f.write(text)
-        f.flush()
-        os.fsync(f.fileno())
+    path = Path(root) / JOURNAL_FILE
+    try:
+        with open(path, "a", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+    except OSError as exc:
+        from samplehd.dataset.container import write_error
+
+        raise write_error(path, exc) from None
