@@ -7,6 +7,7 @@ Planning is interleaved with execution: each subtask is planned from the state t
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -46,6 +47,25 @@ class AttemptFailed(PlanningError):
         self.grasp = grasp
 
 
+def _upright(rot: np.ndarray, max_tilt: float = 0.35) -> np.ndarray:
+    """The orientation turned by the smallest rotation that brings its z axis to the vertical.
+
+    An object can tilt a little in the fingers before both pads touch; it is put down upright (the
+    TCP tilts by the same small angle) so tall, narrow objects do not topple. Tilts above
+    ``max_tilt`` [rad] (an object held on its side) are kept.
+    """
+    z = rot[:, 2]
+    axis = np.cross(z, [0.0, 0.0, 1.0])
+    s, c = float(np.linalg.norm(axis)), float(z[2])
+    ang = float(np.arctan2(s, c))
+    if s < 1e-9 or ang > max_tilt:
+        return rot
+    k = axis / s
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    fix = np.eye(3) + np.sin(ang) * kx + (1.0 - np.cos(ang)) * kx @ kx
+    return fix @ rot
+
+
 def _gripper_command(opening: float) -> float:
     return float(np.clip(2.0 * opening / GRIPPER_STROKE - 1.0, -1.0, 1.0))
 
@@ -57,6 +77,7 @@ class _Hand:
     index: int
     tcp_to_object: np.ndarray
     opening: float
+    approach_opening: float = 0.0
 
 
 class Rollout:
@@ -211,7 +232,8 @@ class Rollout:
         # Release with the fingers opened a little beyond the measured grip, not the full approach opening.
         held_width = float(self.data.qpos[self.robot.finger_qpos].sum())
         release_opening = min(gp.grasp.opening, held_width + 0.012)
-        self.hand = _Hand(i, np.linalg.inv(tcp) @ object_pose(self.data, self.bodies, i), release_opening)
+        self.hand = _Hand(i, np.linalg.inv(tcp) @ object_pose(self.data, self.bodies, i), release_opening,
+                          gp.grasp.opening)
         if lift:
             self.move_up(i, k)
         return k
@@ -302,7 +324,7 @@ class Rollout:
             raise AttemptFailed("grasp_slipped", f"object {i} slipped out of the gripper while lifting", grasp_index)
         # Re-measure the grasp after lifting: the object may have settled in the fingers.
         self.hand = _Hand(i, np.linalg.inv(self._tcp_world()) @ object_pose(self.data, self.bodies, i),
-                          self.hand.opening)
+                          self.hand.opening, self.hand.approach_opening)
 
     def place(self, i: int, task: Any, grasp_index: int = -1) -> None:
         """ObjectMove, MoveDOWN, OpenGripper, MoveToDefaultPos for the held object ``i``."""
@@ -323,7 +345,7 @@ class Rollout:
         for xy, yaw in spots:
             # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
             cz, sz = np.cos(yaw), np.sin(yaw)
-            rot = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]) @ t_obj[:3, :3]
+            rot = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]) @ _upright(t_obj[:3, :3])
             obj_bottom_below = t_obj[2, 3] - object_world_box(self.model, self.data, self.bodies, i).lo[2]
             start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
             try:
@@ -353,19 +375,27 @@ class Rollout:
                 continue
             # Where the fingers cannot open beside the object (a can in a mug), release it higher and
             # let it drop the last centimetres.
+            # Open as wide as the approach did where there is room (a pad must not stay on the object),
+            # else a little beyond the grip.
             drop = None
             for dz in np.arange(0.0, min(self.cfg.max_drop, tcp_above_w[2, 3] - tcp_rel_w[2, 3]) + 1e-9, 0.01):
                 t = rel_b.copy()
                 t[2, 3] += dz
                 qr, ok = ik_batch(t[None], q_above[None], TCP_OFFSET)
-                if ok[0] and self.checker.free(qr[0], hand.opening, Held(i, hand.tcp_to_object) if dz else None,
-                                               allow_objects_with_gripper=(i,)):
-                    drop = (dz, t)
+                if not ok[0]:
+                    continue
+                for opening in (hand.approach_opening, hand.opening):
+                    if self.checker.free(qr[0], opening, Held(i, hand.tcp_to_object) if dz else None,
+                                         allow_objects_with_gripper=(i,)):
+                        drop = (dz, t, opening)
+                        break
+                if drop is not None:
                     break
             if drop is None:
                 last_error = "the fingers cannot open at the release pose"
                 continue
             rel_b = drop[1]
+            hand = dataclasses.replace(hand, opening=drop[2])
             try:
                 move, method = plan_joint_move(self.checker, q_now, q_above, 0.0, self.dt, self.cfg, self.rng,
                                                held=held, lift_z=transport_z, robot=self.robot)
