@@ -1,36 +1,91 @@
-"""Fixtures of the viewer tests: a small synthetic dataset (no rendering), a synthetic episode store,
-a server on a free port in a thread, and a headless Chromium driven by selenium (skipped cleanly
-when chromium, chromedriver or selenium is missing)."""
+"""Fixtures of the viewer tests: a real tiny dataset made once per session by ``samplehd generate``,
+its files as the tests expect them, copies of it in the states a dataset passes through while it is
+written, viewer servers on free ports in threads, and a headless Chromium driven by selenium (skipped
+cleanly when chromium, chromedriver or selenium is missing)."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
-from viewer_fakes import FakeEpisodeStore, make_fake_dataset
+from dataset_states import DatasetFiles, read_dataset_files
 
-from samplehd.viewer.index import DatasetIndex
+# The tiny preset on two scenes, with every second scene in the test split (so both splits exist),
+# one attempt per path and a 10 Hz recording (half the frames to simulate and render). With the
+# default seed 0 this gives 4 instruction candidates: 3 episodes with images and 1 rejected path
+# (the tests need at least one of each; `dataset_files` says so if a change of the generator
+# breaks that). Every expected value of the tests is read from the generated files.
+TINY_SCENES = 2
+TINY_OVERRIDES = {"test_every": 2, "paths": {"max_attempts": 1, "control_hz": 10.0}}
 
 
 @pytest.fixture(scope="session")
-def fake_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    return make_fake_dataset(tmp_path_factory.mktemp("viewer") / "dataset")
+def tiny_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A real dataset made by ``samplehd generate --preset tiny`` (simulated and rendered), once per
+    session. Tests must not change it: they copy it (``dataset_copy``) to change anything."""
+    from samplehd.cli import main
+
+    folder = tmp_path_factory.mktemp("viewer")
+    config = folder / "config.json"
+    config.write_text(json.dumps(TINY_OVERRIDES))
+    out = folder / "tiny"
+    code = main(["generate", "--preset", "tiny", "--config", str(config), "--scenes", str(TINY_SCENES),
+                 "--out", str(out), "--workers", "2", "--quiet"])
+    assert code == 0, "samplehd generate failed; run it by hand to see why"
+    return out
 
 
 @pytest.fixture(scope="session")
-def viewer_url(fake_dataset: Path) -> Iterator[str]:
-    """Base URL of a viewer serving the fake dataset with fake episodes, on a free port."""
+def dataset_files(tiny_dataset: Path) -> DatasetFiles:
+    """The generated dataset's files, checked to hold what the tests need."""
+    files = read_dataset_files(tiny_dataset)
+    assert files.info["status"] == "complete"
+    assert len(files.scenes) == TINY_SCENES and {s["split"] for s in files.scenes} == {"train", "test"}
+    assert files.episodes, "the tiny dataset has no successful episode; the viewer tests need one"
+    assert files.rejections, "the tiny dataset has no rejected path; the viewer tests need one (try another seed)"
+    return files
+
+
+@pytest.fixture()
+def dataset_copy(tiny_dataset: Path, tmp_path: Path) -> Path:
+    """A private copy of the generated dataset, free to change."""
+    return Path(shutil.copytree(tiny_dataset, tmp_path / tiny_dataset.name))
+
+
+@pytest.fixture()
+def serve() -> Iterator[Callable[[Path], str]]:
+    """Start a viewer (``open_dataset``, as ``samplehd view``) on a dataset folder; returns its URL.
+    Every server started is stopped at the end of the test."""
     from samplehd.viewer.app import ViewerApp
-    from samplehd.viewer.server import ViewerServer
+    from samplehd.viewer.server import ViewerServer, open_dataset
 
-    index = DatasetIndex(fake_dataset)
-    index.episodes = FakeEpisodeStore(index)
-    server = ViewerServer(("127.0.0.1", 0), ViewerApp(index))
+    servers: list[ViewerServer] = []
+
+    def start(root: Path) -> str:
+        server = ViewerServer(("127.0.0.1", 0), ViewerApp(open_dataset(root, render=False)))
+        server.start_in_thread()
+        servers.append(server)
+        return server.url
+
+    yield start
+    for server in servers:
+        server.shutdown()
+        server.server_close()
+
+
+@pytest.fixture(scope="session")
+def viewer_url(tiny_dataset: Path) -> Iterator[str]:
+    """Base URL of a viewer serving the generated dataset, on a free port."""
+    from samplehd.viewer.app import ViewerApp
+    from samplehd.viewer.server import ViewerServer, open_dataset
+
+    server = ViewerServer(("127.0.0.1", 0), ViewerApp(open_dataset(tiny_dataset, render=False)))
     server.start_in_thread()
     yield server.url
     server.shutdown()

@@ -1,13 +1,21 @@
-"""The viewer page in headless Chromium: loads without console errors, filters scenes, shows the
-annotation under the cursor, draws the program tree and target outlines, plays episodes, and the
-server refuses paths outside the dataset."""
+"""The viewer page in headless Chromium, on a real dataset made by ``samplehd generate``: loads
+without console errors, filters scenes, shows the annotation under the cursor, draws the program tree
+and target outlines, plays episodes, and the server refuses paths outside the dataset."""
 
 from __future__ import annotations
 
+import json
+import shutil
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
+from dataset_states import DatasetFiles, write_failed_episode
+from PIL import Image
+
+from samplehd.dataset.reader import DatasetReader
 
 pytest.importorskip("selenium", reason="headless browser tests need selenium (pip install selenium)")
 
@@ -33,57 +41,109 @@ def _cards(browser: Any) -> list[int]:
     return [int(c.get_attribute("data-scene")) for c in browser.find_elements(By.CSS_SELECTOR, "#scene-grid .card")]
 
 
-def test_scene_grid_loads_and_filters(browser: Any, viewer_url: str) -> None:
+def _instructions_by_family(files: DatasetFiles) -> dict[str, list[int]]:
+    """Scenes each family has an instruction in."""
+    out: dict[str, list[int]] = {}
+    for scene in files.scenes:
+        for q in files.instructions_of(scene["image_index"]):
+            if scene["image_index"] not in out.setdefault(q["family"], []):
+                out[q["family"]].append(scene["image_index"])
+    return out
+
+
+def test_scene_grid_loads_and_filters(browser: Any, viewer_url: str, dataset_files: DatasetFiles) -> None:
+    files = dataset_files
+    indices = [s["image_index"] for s in files.scenes]
     _open(browser, viewer_url)
-    _wait(browser, lambda b: len(_cards(b)) == 4)
-    assert "4 scenes" in browser.find_element(By.ID, "counts").text
-    Select(browser.find_element(By.CSS_SELECTOR, "select[data-filter=family]")).select_by_value("pick_up")
-    _wait(browser, lambda b: _cards(b) == [1, 3])
-    assert "family=pick_up" in browser.current_url
-    Select(browser.find_element(By.CSS_SELECTOR, "select[data-filter=split]")).select_by_value("test")
-    _wait(browser, lambda b: _cards(b) == [3])
+    _wait(browser, lambda b: _cards(b) == indices)
+    assert f"{len(indices)} scenes" in browser.find_element(By.ID, "counts").text
+    by_family = _instructions_by_family(files)
+    # a family some scenes have and others lack shows the filter filtering
+    family = next((f for f, found in sorted(by_family.items()) if len(found) < len(indices)), sorted(by_family)[0])
+    Select(browser.find_element(By.CSS_SELECTOR, "select[data-filter=family]")).select_by_value(family)
+    _wait(browser, lambda b: _cards(b) == by_family[family])
+    assert f"family={family}" in browser.current_url
+    split = files.scenes[by_family[family][0]]["split"]
+    Select(browser.find_element(By.CSS_SELECTOR, "select[data-filter=split]")).select_by_value(split)
+    _wait(browser, lambda b: _cards(b) == [i for i in by_family[family] if files.scenes[i]["split"] == split])
     browser.find_element(By.XPATH, "//button[text()='clear filters']").click()
-    _wait(browser, lambda b: len(_cards(b)) == 4)
+    _wait(browser, lambda b: _cards(b) == indices)
     Select(browser.find_element(By.CSS_SELECTOR, "select[data-filter=success]")).select_by_value("failure")
-    _wait(browser, lambda b: _cards(b) == [0, 2])
+    _wait(browser, lambda b: _cards(b) == [i for i in indices if "failure" in files.outcomes(i)])
     _wait(browser, lambda b: all(img.get_attribute("naturalWidth") not in (None, "0")
                                  for img in b.find_elements(By.CSS_SELECTOR, "#scene-grid img")))
     assert _console_errors(browser) == []
 
 
-def test_scene_page_annotates_the_object_under_the_cursor(browser: Any, viewer_url: str) -> None:
+def _deepest_pixel(mask: np.ndarray) -> tuple[int, int]:
+    """(x, y) of a pixel of ``mask`` farthest from its border (peeled off one ring at a time)."""
+    inside = mask.copy()
+    while True:
+        peeled = inside.copy()
+        peeled[1:] &= inside[:-1]
+        peeled[:-1] &= inside[1:]
+        peeled[:, 1:] &= inside[:, :-1]
+        peeled[:, :-1] &= inside[:, 1:]
+        if not peeled.any():
+            ys, xs = np.nonzero(inside)
+            return int(xs[len(xs) // 2]), int(ys[len(ys) // 2])
+        inside = peeled
+
+
+def test_scene_page_annotates_the_object_under_the_cursor(browser: Any, viewer_url: str,
+                                                          dataset_files: DatasetFiles) -> None:
+    scene = dataset_files.scenes[0]
+    stem = scene["image_filename"].removesuffix(".png")
+    ids = np.asarray(Image.open(dataset_files.root / "segmentation" / f"{stem}.png"))
+    depth_mm = np.asarray(Image.open(dataset_files.root / "depth" / f"{stem}.png"))
+    height, width = ids.shape
+    offset = scene["segmentation_ids"]["object_offset"]
+    k = max(range(len(scene["objects"])), key=lambda k: int((ids == offset + k).sum()))  # the largest in view
+    x, y = _deepest_pixel(ids == offset + k)
     _open(browser, f"{viewer_url}#/scene/0")
     image = _wait(browser, lambda b: b.find_element(By.ID, "scene-image"))
-    _wait(browser, lambda b: int(image.get_attribute("naturalWidth") or 0) == 320)
+    _wait(browser, lambda b: int(image.get_attribute("naturalWidth") or 0) == width)
     size = image.size
-    # object 1 of the fake scene covers pixels x 125..185, y 80..150 of the 320×180 image
-    dx = (155 / 320 - 0.5) * size["width"]
-    dy = (115 / 180 - 0.5) * size["height"]
+    dx = ((x + 0.5) / width - 0.5) * size["width"]
+    dy = ((y + 0.5) / height - 0.5) * size["height"]
     ActionChains(browser).move_to_element_with_offset(image, int(dx), int(dy)).perform()
     card = browser.find_element(By.ID, "hover-card")
-    _wait(browser, lambda b: "#1 bowl" in card.text)
-    assert "segmentation id" in card.text and "depth 1.320 m" in card.text
-    assert browser.find_element(By.CSS_SELECTOR, "tr[data-object='1']").get_attribute("class") == "hot"
+    _wait(browser, lambda b: f"#{k} {scene['objects'][k]['name']}" in card.text)
+    assert f"id {offset + k}" in card.text and f"depth {depth_mm[y, x] / 1000:.3f} m" in card.text
+    assert "segmentation id" in card.text
+    assert browser.find_element(By.CSS_SELECTOR, f"tr[data-object='{k}']").get_attribute("class") == "hot"
     for modality in ("depth", "segmentation", "rgb"):
         browser.find_element(By.CSS_SELECTOR, f"button[data-modality={modality}]").click()
         _wait(browser, lambda b, m=modality: image.get_attribute("src").endswith(f"/image/{m}"))
-        _wait(browser, lambda b: int(image.get_attribute("naturalWidth") or 0) == 320)
-    links = browser.find_elements(By.CSS_SELECTOR, "#instruction-list a")
-    assert [a.text for a in links][:1] == ["Put the mug on the left."]
+        _wait(browser, lambda b: int(image.get_attribute("naturalWidth") or 0) == width)
+    links = browser.find_elements(By.CSS_SELECTOR, "#instruction-list li > a")
+    assert [a.text for a in links] == [q["instruction"] for q in dataset_files.instructions_of(0)]
     assert _console_errors(browser) == []
 
 
-def test_instruction_page_draws_program_tree_and_targets(browser: Any, viewer_url: str) -> None:
-    _open(browser, f"{viewer_url}#/instruction/1")
+def test_instruction_page_draws_program_tree_and_targets(browser: Any, viewer_url: str,
+                                                         dataset_files: DatasetFiles) -> None:
+    files = dataset_files
+
+    def in_view(scene: dict[str, Any]) -> set[int]:
+        ids = np.asarray(Image.open(files.root / "segmentation" / scene["image_filename"]))
+        return {int(v) - scene["segmentation_ids"]["object_offset"] for v in np.unique(ids)}
+
+    # an instruction that moves one object relative to another, both in view
+    q = next(q for q in files.instructions if isinstance(q["task"]["subject"], int)
+             and {*q["task"]["objects"], q["task"]["subject"]} <= in_view(files.scenes[q["image_index"]]))
+    moved, reference = q["task"]["objects"], q["task"]["subject"]
+    _open(browser, f"{viewer_url}#/instruction/{q['instruction_index']}")
     _wait(browser, lambda b: b.find_elements(By.CSS_SELECTOR, "#program-tree svg.tree g.node"))
     nodes = browser.find_elements(By.CSS_SELECTOR, "#program-tree svg.tree g.node")
-    assert len(nodes) == 7
-    assert len(browser.find_elements(By.CSS_SELECTOR, "#program-tree svg.tree path[marker-end]")) == 6
-    assert browser.find_element(By.ID, "instruction-family").text == "stack"
+    assert len(nodes) == len(q["program"])
+    edges = sum(len(node["inputs"]) for node in q["program"])
+    assert len(browser.find_elements(By.CSS_SELECTOR, "#program-tree svg.tree path[marker-end]")) == edges
+    assert browser.find_element(By.ID, "instruction-family").text == q["family"]
     tokens = [t.text for t in browser.find_elements(By.CSS_SELECTOR, "#flat-program .tok")]
-    assert tokens == ["stack", "scene", "filter_name[mug]", "scene", "filter_name[bowl]"]
+    assert tokens == q["program_sequence"].split()
     legend = browser.find_element(By.ID, "target-legend").text
-    assert "moved: #0" in legend and "reference: #1" in legend
+    assert f"moved: #{moved[0]}" in legend and f"reference: #{reference}" in legend
     # the overlay holds orange (moved) and blue (reference) outline pixels
     counts = _wait(browser, lambda b: b.execute_script("""
         const c = document.getElementById('overlay');
@@ -95,7 +155,11 @@ def test_instruction_page_draws_program_tree_and_targets(browser: Any, viewer_ur
           if (d[i + 3] === 255 && d[i] === 0 && d[i + 1] === 170) ref++;
         }
         return moved && ref ? [moved, ref] : null;"""))
-    assert counts[0] > 100 and counts[1] > 100
+    scene = files.scenes[q["image_index"]]
+    ids = np.asarray(Image.open(files.root / "segmentation" / scene["image_filename"]))
+    offset = scene["segmentation_ids"]["object_offset"]
+    assert 0 < counts[0] <= int(np.isin(ids, [offset + k for k in moved]).sum())
+    assert 0 < counts[1] <= int((ids == offset + reference).sum())
     assert _console_errors(browser) == []
 
 
@@ -103,11 +167,18 @@ def _frame_number(browser: Any) -> int:
     return int(browser.find_element(By.ID, "frame-label").text.split()[1])
 
 
-def test_episode_player_advances_frames(browser: Any, viewer_url: str) -> None:
-    _open(browser, f"{viewer_url}#/episode/s000000_00")
+def test_episode_player_advances_frames(browser: Any, viewer_url: str, dataset_files: DatasetFiles,
+                                        dataset_copy: Path, serve: Callable[[Path], str]) -> None:
+    files = dataset_files
+    stem, entry = files.stems[0], files.episodes[0]
+    reader = DatasetReader(files.root)
+    subtasks = [str(s) for s in reader.episode_meta(0)["subtasks"]]
+    subtask_index = reader.frames(0, ["subtask_index"])["subtask_index"]
+    width = files.info["config"]["render"]["width"]
+    _open(browser, f"{viewer_url}#/episode/{stem}")
     _wait(browser, lambda b: b.find_elements(By.ID, "frame-label") and _frame_number(b) == 1)
     frame_image = browser.find_element(By.ID, "episode-frame")
-    _wait(browser, lambda b: int(frame_image.get_attribute("naturalWidth") or 0) == 320)
+    _wait(browser, lambda b: int(frame_image.get_attribute("naturalWidth") or 0) == width)
     browser.find_element(By.ID, "step").click()
     assert _frame_number(browser) == 2 and frame_image.get_attribute("src").split("?")[0].endswith("/frame/1")
     browser.find_element(By.ID, "play").click()
@@ -118,10 +189,10 @@ def test_episode_player_advances_frames(browser: Any, viewer_url: str) -> None:
     WebDriverWait(browser, 0.5).until(lambda b: True)
     assert abs(_frame_number(browser) - paused) <= 1
     browser.find_element(By.ID, "last").click()
-    assert _frame_number(browser) == 40
-    assert "MoveToDefaultPos" in browser.find_element(By.ID, "subtask-now").text
+    assert _frame_number(browser) == entry["num_frames"]
+    assert subtasks[subtask_index[-1]] in browser.find_element(By.ID, "subtask-now").text
     browser.find_element(By.ID, "first").click()
-    assert "GripperMoveAvoid" in browser.find_element(By.ID, "subtask-now").text
+    assert subtasks[subtask_index[0]] in browser.find_element(By.ID, "subtask-now").text
     browser.find_element(By.CSS_SELECTOR, "button[data-modality=segmentation]").click()
     _wait(browser, lambda b: "modality=segmentation" in frame_image.get_attribute("src"))
     assert browser.find_element(By.ID, "verdict").text == "✓ success"
@@ -133,18 +204,22 @@ def test_episode_player_advances_frames(browser: Any, viewer_url: str) -> None:
           return ink; });""")
     assert len(drawn) == 4 and min(drawn) > 500
     assert _console_errors(browser) == []
-    _open(browser, f"{viewer_url}#/episode/s000000_01")
-    _wait(browser, lambda b: "object_dropped" in b.find_element(By.ID, "verdict").text)
+    # the same episode, rewritten as one whose success check failed
+    write_failed_episode(dataset_copy, stem, "object 1 dropped")
+    _open(browser, f"{serve(dataset_copy)}#/episode/{stem}")
+    _wait(browser, lambda b: "object 1 dropped" in b.find_element(By.ID, "verdict").text)
 
 
-def test_episode_list_and_refused_paths(browser: Any, viewer_url: str, fake_dataset: Path) -> None:
+def test_episode_list_and_refused_paths(browser: Any, viewer_url: str, dataset_files: DatasetFiles) -> None:
     _open(browser, f"{viewer_url}#/episodes")
-    _wait(browser, lambda b: len(b.find_elements(By.CSS_SELECTOR, "#episode-table tr")) == 6)
+    _wait(browser, lambda b: len(b.find_elements(By.CSS_SELECTOR, "#episode-table tr")) == 1 + len(
+        dataset_files.episodes))
     Select(browser.find_element(By.CSS_SELECTOR, "select[data-filter=success]")).select_by_value("failure")
-    _wait(browser, lambda b: len(b.find_elements(By.CSS_SELECTOR, "#episode-table tr")) == 2)
-    assert "no_feasible_grasp" in browser.find_element(By.ID, "rejection-table").text
+    _wait(browser, lambda b: len(b.find_elements(By.CSS_SELECTOR, "#episode-table tr")) == 1)  # failed paths
+    rejections = browser.find_element(By.ID, "rejection-table").text  # are rejected, not recorded
+    assert all(r["reason"] in rejections for r in dataset_files.rejections)
     assert _console_errors(browser) == []
-    (fake_dataset.parent / "outside.txt").write_text("secret")
+    (dataset_files.root.parent / "outside.txt").write_text("secret")
     statuses = browser.execute_async_script("""
         const done = arguments[arguments.length - 1];
         Promise.all(['/files/%2e%2e/outside.txt', '/files/..%2foutside.txt', '/static/%2e%2e/server.py',
@@ -155,32 +230,32 @@ def test_episode_list_and_refused_paths(browser: Any, viewer_url: str, fake_data
     assert "secret" not in browser.page_source
 
 
-def test_dataset_being_written_shows_its_state_without_errors(browser: Any, tmp_path: Path) -> None:
-    import os
-
-    from viewer_fakes import make_fake_dataset
-
-    from samplehd.viewer import DatasetIndex, ViewerApp, ViewerServer
-
-    root = make_fake_dataset(tmp_path / "growing", num_scenes=3)
-    (root / "scenes.json").write_text('{"info": {}, "scenes": [')
-    (root / "instructions.json").unlink()
-    os.remove(root / "images" / "SHD_train_000002.png")
-    server = ViewerServer(("127.0.0.1", 0), ViewerApp(DatasetIndex(root)))
-    server.start_in_thread()
-    try:
-        _open(browser, server.url)
-        _wait(browser, lambda b: len(_cards(b)) == 3)
-        banner = browser.find_element(By.ID, "banner")
-        assert banner.is_displayed() and "still being written" in banner.text and "scenes.json: partial" in banner.text
-        assert "image not written yet" in browser.find_element(By.CSS_SELECTOR, "[data-scene='2']").text
-        _open(browser, f"{server.url}#/scene/2")
-        _wait(browser, lambda b: "not written yet" in b.find_element(By.ID, "view").text)
-        assert "no instructions for this scene" in browser.find_element(By.ID, "view").text
-        assert _console_errors(browser) == []
-    finally:
-        server.shutdown()
-        server.server_close()
+def test_dataset_being_written_shows_its_state_without_errors(browser: Any, dataset_copy: Path,
+                                                              dataset_files: DatasetFiles,
+                                                              serve: Callable[[Path], str]) -> None:
+    # scenes stage of `samplehd generate`: the per-scene files are written, the last scene's image not
+    # yet; scenes.json (written last) is half there, no instruction candidates nor episodes yet
+    root = dataset_copy
+    info = {k: dataset_files.info[k] for k in ("format_version", "versions", "config")}
+    (root / "info.json").write_text(json.dumps({**info, "status": "in_progress"}))
+    complete = (root / "scenes.json").read_bytes()
+    (root / "scenes.json").write_bytes(complete[: len(complete) // 2])
+    for name in ("instructions.json", "candidates.json", "journal.jsonl"):
+        (root / name).unlink()
+    shutil.rmtree(root / "episodes")
+    last = dataset_files.scenes[-1]
+    (root / "images" / last["image_filename"]).unlink()
+    i = last["image_index"]
+    url = serve(root)
+    _open(browser, url)
+    _wait(browser, lambda b: len(_cards(b)) == len(dataset_files.scenes))
+    banner = browser.find_element(By.ID, "banner")
+    assert banner.is_displayed() and "still being written" in banner.text and "scenes.json: partial" in banner.text
+    assert "image not written yet" in browser.find_element(By.CSS_SELECTOR, f"[data-scene='{i}']").text
+    _open(browser, f"{url}#/scene/{i}")
+    _wait(browser, lambda b: "not written yet" in b.find_element(By.ID, "view").text)
+    assert "no instructions for this scene" in browser.find_element(By.ID, "view").text
+    assert _console_errors(browser) == []
 
 
 def test_dataset_page_lists_file_states(browser: Any, viewer_url: str) -> None:

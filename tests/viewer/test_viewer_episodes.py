@@ -1,131 +1,100 @@
-"""Episodes through the real dataset reader: a small ``samplehd generate``-layout folder written with
-the dataset's own episode writer (synthetic frames), in progress and complete."""
+"""Episodes through the real dataset reader, on a copy of a dataset made by ``samplehd generate``
+taken back to a state it passes through while generating, then completed."""
 
 from __future__ import annotations
 
 import json
-import shutil
+from io import BytesIO
 from pathlib import Path
 
 import numpy as np
-import pytest
-from viewer_fakes import make_fake_dataset
+from dataset_states import DatasetFiles, finish_generation, stop_generation_midway
+from PIL import Image
 
-from samplehd.record.episode import FRAME_FIELDS, SUBTASK_NAMES, Episode
+from samplehd.dataset.reader import DatasetReader
 from samplehd.viewer.app import ViewerApp
 from samplehd.viewer.episodes import failure_reason, subtask_segments
 from samplehd.viewer.server import open_dataset
 
-T, H, W = 30, 36, 64
 
-
-def _episode(scene: int, slot: int, family: str, images: bool) -> Episode:
-    dims = {"N": 3, "nq": 10, "nv": 9, "na": 0}
-    frames = {}
-    for key, (shape, dtype) in FRAME_FIELDS.items():
-        full = (T, *(dims[s] if isinstance(s, str) else s for s in shape))
-        frames[key] = np.zeros(full, dtype=dtype)
-    frames["time"] = np.arange(T) / 20.0
-    frames["subtask_index"] = np.repeat(np.arange(3), T // 3).astype("i2")
-    frames["target_object"][:] = 1
-    frames["steering"][:, 0] = np.linspace(-1, 1, T)
-    frames["joint_pos"][:, 2] = np.sin(frames["time"])
-    frames["gripper_opening"][:] = 0.08
-    frames["tcp_pos"][:] = (0.1, 0.0, 0.9)
-    pictures: dict[str, dict[str, np.ndarray]] = {}
-    if images:
-        rgb = np.zeros((T, H, W, 3), np.uint8)
-        for t in range(T):
-            rgb[t, :, t % W] = (255, 0, 0)
-        pictures = {"scene": {"rgb": rgb, "depth": np.full((T, H, W), 1.25, np.float32),
-                              "segmentation": np.full((T, H, W), 3, np.uint8)}}
-    return Episode(scene_index=scene, instruction_index=slot, family=family, seed=7, subtasks=SUBTASK_NAMES[:3],
-                   frames=frames, success=True, info={"control_hz": 20.0, "check": {"success": True, "reason": ""}},
-                   images=pictures)
-
-
-@pytest.fixture()
-def generated(tmp_path: Path) -> Path:
-    """A dataset in the middle of ``samplehd generate``: two episodes written, one path rejected."""
-    pytest.importorskip("h5py")
-    from samplehd.dataset.container import write_episode
-
-    root = make_fake_dataset(tmp_path / "generated", num_scenes=3)
-    doc = json.loads((root / "instructions.json").read_text())
-    (root / "candidates.json").write_text(json.dumps(doc))
-    (root / "instructions.json").unlink()
-    (root / "info.json").write_text(json.dumps({"format_version": "1.0", "status": "in_progress"}))
-    (root / "episodes").mkdir()
-    for scene, slot, images in ((0, 0, True), (1, 2, False)):
-        q = next(q for q in doc["instructions"] if q["image_index"] == scene and q["slot"] == slot)
-        write_episode(root / "episodes" / f"s{scene:06d}_{slot:02d}.h5", _episode(scene, slot, q["family"], images),
-                      extra={"slot": slot, "instruction": q["instruction"], "task": q["task"]},
-                      render={"mode": "fast", "width": W, "height": H} if images else None)
-    (root / "episodes" / ".s000002_00.h5.tmp-123").write_bytes(b"half")
-    (root / "journal.jsonl").write_text(json.dumps({"scene_index": 0, "slot": 1, "status": "rejected",
-                                                    "reason": "checker_failed", "message": "object 0 not on 1"})
-                                        + "\n" + '{"scene_index": 2, "slo')  # torn last line
-    return root
-
-
-def test_episodes_of_a_dataset_being_generated(generated: Path) -> None:
-    app = ViewerApp(open_dataset(generated))
+def test_episodes_of_a_dataset_being_generated(dataset_copy: Path, dataset_files: DatasetFiles) -> None:
+    files = dataset_files
+    # scene 0's episode is written and journaled, one of scene 1's is written but its journal line is
+    # half appended, another one is being written; scene 0's rejected path is journaled
+    by_scene = {i: [s for s, e in zip(files.stems, files.episodes, strict=True) if e["scene_index"] == i]
+                for i in (0, 1)}
+    assert by_scene[0] and len(by_scene[1]) >= 2, "the tiny dataset's episodes changed; pick others"
+    written, unlogged, writing = by_scene[0][0], by_scene[1][0], by_scene[1][1]
+    stop_generation_midway(dataset_copy, files, written, unlogged, writing)
+    app = ViewerApp(open_dataset(dataset_copy, render=False))
     status = json.loads(app.handle("/api/status", {}).body)
     states = {f["name"]: f for f in status["files"]}
     assert states["episodes"]["state"] == "partial" and "2 episodes" in states["episodes"]["detail"]
     assert "candidates" in states["instructions.json"]["detail"]
+    assert states["scenes.json"]["state"] == "missing" and status["counts"]["scenes"] == len(files.scenes)
     listing = json.loads(app.handle("/api/episodes", {}).body)
-    assert [e["episode"] for e in listing["episodes"]] == ["s000000_00", "s000001_02"]
-    first = listing["episodes"][0]
-    assert first["success"] is True and first["num_frames"] == -1  # frame count unknown until the journal says
-    assert first["instruction"] == "Put the mug on the left."
-    assert listing["rejections"] == [{"scene_index": 0, "slot": 1, "reason": "checker_failed",
-                                      "message": "object 0 not on 1", "instruction_index": 1,
-                                      "instruction": "Stack the mug onto the bowl.", "family": "stack",
-                                      "program_sequence": "stack scene filter_name[mug] scene filter_name[bowl]"}]
+    assert [e["episode"] for e in listing["episodes"]] == [written, unlogged]
+    entries = {s: e for s, e in zip(files.stems, files.episodes, strict=True)}
+    first, second = listing["episodes"]
+    assert first["success"] is True and first["num_frames"] == entries[written]["num_frames"]  # from the journal
+    assert second["num_frames"] == -1  # frame count unknown until the journal says
+    candidate = files.candidate(entries[written]["scene_index"], entries[written]["slot"])
+    assert first["instruction"] == candidate["instruction"]
+    expected = []
+    for r in files.rejections:
+        c = files.candidate(r["scene_index"], r["slot"])
+        expected.append({"scene_index": r["scene_index"], "slot": r["slot"], "reason": r["reason"],
+                         "message": r["message"], "instruction_index": files.candidates.index(c),
+                         "instruction": c["instruction"], "family": c["family"],
+                         "program_sequence": c["program_sequence"]})
+    assert listing["rejections"] == expected  # while generating, candidates stand in for instructions
     scene = json.loads(app.handle("/api/scenes/0", {}).body)
-    outcomes = [(len(q["episodes"]), len(q["rejections"])) for q in scene["instructions"]]
-    assert outcomes == [(1, 0), (0, 1)]
+    outcomes = {q["slot"]: (len(q["episodes"]), len(q["rejections"])) for q in scene["instructions"]}
+    assert outcomes == {q["slot"]: ((1, 0) if f"s000000_{q['slot']:02d}" == written else
+                                    (0, 1) if any(r["scene_index"] == 0 and r["slot"] == q["slot"]
+                                                  for r in files.rejections) else (0, 0))
+                        for q in files.candidates if q["image_index"] == 0}
     failed = json.loads(app.handle("/api/scenes", {"success": "failure"}).body)
-    assert [s["index"] for s in failed["scenes"]] == [0]
+    assert [s["index"] for s in failed["scenes"]] == sorted({r["scene_index"] for r in files.rejections})
 
-    detail = json.loads(app.handle("/api/episodes/s000000_00", {}).body)
-    assert detail["cameras"] == {"scene": ["depth", "rgb", "segmentation"]}
-    assert detail["num_frames"] == T and detail["next"] == "s000001_02" and detail["previous"] is None
-    assert [g["name"] for g in detail["segments"]] == list(SUBTASK_NAMES[:3])
-    assert len(detail["series"]["steering"]) == T and detail["series"]["steering"][0][0] == -1.0
-    rgb = app.handle("/api/episodes/s000000_00/frame/5", {"camera": "scene", "modality": "rgb"})
+    detail = json.loads(app.handle(f"/api/episodes/{written}", {}).body)
+    render = files.info["config"]["render"]
+    assert detail["cameras"] == {c: sorted(render["modalities"]) for c in render["cameras"]}
+    reader = DatasetReader(files.root)
+    index = files.stems.index(written)
+    meta = reader.episode_meta(index)
+    n = entries[written]["num_frames"]
+    assert detail["num_frames"] == n and detail["next"] == unlogged and detail["previous"] is None
+    names = [str(s) for s in meta["subtasks"]]
+    assert {g["name"] for g in detail["segments"]} <= set(names) and detail["segments"][-1]["end"] == n
+    steering = reader.frames(index, ["steering"])["steering"]
+    assert len(detail["series"]["steering"]) == n
+    np.testing.assert_allclose(detail["series"]["steering"], steering, atol=1e-5)
+    camera = render["cameras"][0]
+    rgb = app.handle(f"/api/episodes/{written}/frame/5", {"camera": camera, "modality": "rgb"})
     assert rgb.status == 200
-    from io import BytesIO
-
-    from PIL import Image
-
     pixels = np.asarray(Image.open(BytesIO(rgb.body)))
-    assert pixels.shape == (H, W, 3) and tuple(pixels[0, 5]) == (255, 0, 0)
+    np.testing.assert_array_equal(pixels, np.asarray(reader.image(index, camera, "rgb", 5)))
+    assert pixels.shape == (render["height"], render["width"], 3)
     for modality in ("depth", "segmentation"):
-        assert app.handle("/api/episodes/s000000_00/frame/5", {"modality": modality}).status == 200
-    assert app.handle("/api/episodes/s000000_00/frame/30", {}).status == 404
-    no_images = app.handle("/api/episodes/s000001_02/frame/0", {})
-    assert no_images.status == 404 and b"no images" in no_images.body
-    assert app.handle("/api/episodes/s000002_00", {}).status == 404  # only a temporary file so far
+        assert app.handle(f"/api/episodes/{written}/frame/5", {"modality": modality}).status == 200
+    assert app.handle(f"/api/episodes/{written}/frame/{n}", {}).status == 404
+    assert app.handle(f"/api/episodes/{writing}", {}).status == 404  # only a temporary file so far
+    assert [p.name for p in (dataset_copy / "episodes").iterdir() if p.name.startswith(f".{writing}")]
 
-    # generation finishes: info.json lists the episodes, instructions.json is written
-    shutil.copy(generated / "candidates.json", generated / "instructions.json")
-    info = {"format_version": "1.0", "status": "complete", "episodes": [
-        {"instruction_index": 0, "scene_index": 0, "slot": 0, "file": "episodes/s000000_00.h5", "seed": 7,
-         "family": "place", "split": "train", "num_frames": T},
-        {"instruction_index": 1, "scene_index": 1, "slot": 2, "file": "episodes/s000001_02.h5", "seed": 7,
-         "family": "pick_up", "split": "train", "num_frames": T}]}
-    (generated / "info.json").write_text(json.dumps(info))
+    # generation finishes: episodes and journal complete, then scenes.json, instructions.json, info.json
+    finish_generation(dataset_copy, files)
     status = json.loads(app.handle("/api/status", {}).body)
-    assert {f["name"]: f["state"] for f in status["files"]}["episodes"] == "ok"
-    assert status["counts"]["episodes"] == 2
-    (generated / "instructions.json").write_text(json.dumps({"info": {}, "instructions": [
-        {**q, "instruction_index": n} for n, q in enumerate(
-            q for q in json.loads((generated / "candidates.json").read_text())["instructions"]
-            if (q["image_index"], q["slot"]) in ((0, 0), (1, 2)))]}))
-    scene = json.loads(app.handle("/api/scenes/0", {}).body)
-    assert [r["instruction"] for r in scene["rejections"]] == ["Stack the mug onto the bowl."]
+    assert {f["name"]: f["state"] for f in status["files"]} == {
+        "info.json": "ok", "scenes.json": "ok", "instructions.json": "ok", "episodes": "ok"}
+    assert status["counts"]["episodes"] == len(files.episodes)
+    listing = json.loads(app.handle("/api/episodes", {}).body)
+    assert [e["episode"] for e in listing["episodes"]] == files.stems
+    assert [e["num_frames"] for e in listing["episodes"]] == [e["num_frames"] for e in files.episodes]
+    rejected = files.rejections[0]
+    scene = json.loads(app.handle(f"/api/scenes/{rejected['scene_index']}", {}).body)
+    assert scene["rejections"][0]["instruction"] == files.candidate(rejected["scene_index"],
+                                                                      rejected["slot"])["instruction"]
     assert scene["rejections"][0]["instruction_index"] is None  # a candidate, not a dataset instruction
 
 

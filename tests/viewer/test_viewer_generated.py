@@ -1,40 +1,17 @@
-"""The viewer on a real dataset made by ``samplehd generate --preset tiny`` (slow: it simulates and
-renders), through the API and in headless Chromium."""
+"""The viewer on every page of the session's dataset made by ``samplehd generate --preset tiny``, through
+the API and in headless Chromium, and on its episodes stored without images (rendered on demand)."""
 
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+from dataset_states import DatasetFiles
 
 from samplehd.viewer.app import ViewerApp
-from samplehd.viewer.server import ViewerServer, open_dataset
-
-pytestmark = pytest.mark.slow
-
-
-@pytest.fixture(scope="module")
-def tiny_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    out = tmp_path_factory.mktemp("generated") / "tiny"
-    cmd = [sys.executable, "-m", "samplehd", "generate", "--preset", "tiny", "--out", str(out), "--scenes", "3",
-           "--workers", "2", "--quiet"]
-    done = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
-    assert done.returncode == 0, done.stderr[-2000:]
-    return out
-
-
-@pytest.fixture(scope="module")
-def tiny_url(tiny_dataset: Path) -> Iterator[str]:
-    server = ViewerServer(("127.0.0.1", 0), ViewerApp(open_dataset(tiny_dataset)))
-    server.start_in_thread()
-    yield server.url
-    server.shutdown()
-    server.server_close()
+from samplehd.viewer.server import open_dataset
 
 
 def test_every_page_of_a_generated_dataset_answers(tiny_dataset: Path) -> None:
@@ -63,17 +40,16 @@ def test_every_page_of_a_generated_dataset_answers(tiny_dataset: Path) -> None:
             assert frame.status == 200, (e["episode"], modality)
 
 
-def test_browser_plays_a_generated_episode(browser: Any, tiny_url: str, tiny_dataset: Path) -> None:
+def test_browser_plays_a_generated_episode(browser: Any, viewer_url: str, dataset_files: DatasetFiles) -> None:
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import WebDriverWait
 
     wait = WebDriverWait(browser, 20, poll_frequency=0.1)
-    browser.get(tiny_url)
-    wait.until(lambda b: len(b.find_elements(By.CSS_SELECTOR, "#scene-grid .card")) == 3)
-    browser.get(f"{tiny_url}#/instruction/0")
+    browser.get(viewer_url)
+    wait.until(lambda b: len(b.find_elements(By.CSS_SELECTOR, "#scene-grid .card")) == len(dataset_files.scenes))
+    browser.get(f"{viewer_url}#/instruction/0")
     wait.until(lambda b: b.find_elements(By.CSS_SELECTOR, "#program-tree svg.tree g.node"))
-    stem = json.loads((tiny_dataset / "info.json").read_text())["episodes"][0]["file"].split("/")[-1][:-3]
-    browser.get(f"{tiny_url}#/episode/{stem}")
+    browser.get(f"{viewer_url}#/episode/{dataset_files.stems[0]}")
     wait.until(lambda b: b.find_elements(By.ID, "frame-label"))
     image = browser.find_element(By.ID, "episode-frame")
     wait.until(lambda b: int(image.get_attribute("naturalWidth") or 0) > 0)
@@ -83,18 +59,17 @@ def test_browser_plays_a_generated_episode(browser: Any, tiny_url: str, tiny_dat
     assert [e for e in browser.get_log("browser") if e["level"] == "SEVERE"] == []
 
 
-def test_episode_stored_without_images_is_rendered_from_its_states(tiny_dataset: Path, tmp_path: Path) -> None:
+@pytest.mark.render
+def test_episode_stored_without_images_is_rendered_from_its_states(tiny_dataset: Path, dataset_copy: Path) -> None:
     import dataclasses
     import io
-    import shutil
 
     import numpy as np
     from PIL import Image
 
     from samplehd.dataset.container import read_episode, read_meta, write_episode
 
-    states_only = tmp_path / "states-only"
-    shutil.copytree(tiny_dataset, states_only)
+    states_only = dataset_copy
     stem = json.loads((tiny_dataset / "info.json").read_text())["episodes"][0]["file"].split("/")[-1][:-3]
     path = states_only / "episodes" / f"{stem}.h5"
     meta = read_meta(path)
