@@ -7,7 +7,11 @@ from samplehd.render.backend import configure_gl_backend
 # Must run before anything imports mujoco: MuJoCo fixes its GL backend at first import.
 configure_gl_backend()
 
+from samplehd.envs import register_envs  # noqa: E402
 from samplehd.errors import SamplehdError  # noqa: E402
+
+# `gymnasium.make("samplehd/Tabletop-v0")` works after `import samplehd` (string entry point: cheap).
+register_envs()
 
 __version__ = "0.1.0"
 
