@@ -90,6 +90,12 @@ def annotate_scene(
         centers.append(center)
         inst = obj.instance
         aff = facts.affordances.to_dict()
+        # The ground-truth planner grasps from above: an object is graspable in this scene only when a
+        # grasp site fits the gripper's stroke with a downward approach (a rectangular board's edge or a
+        # wide box is not, whatever its class says).
+        aff["graspable"] = bool(aff.get("graspable")) and any(
+            site.approach[2] < -0.7 for site in facts.graspable_sites
+        )
         objects.append(
             {
                 "name": inst.class_name,
