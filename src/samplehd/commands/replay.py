@@ -12,7 +12,8 @@ HELP = "re-render a recorded episode to MP4 from its recorded states"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("episode", type=Path, help="episode file (.npz written by `samplehd paths`)")
+    parser.add_argument("episode", type=Path,
+                        help="episode file: .h5 from `samplehd generate` or .npz from `samplehd paths`")
     parser.add_argument("--out", required=True, type=Path, help="output video (.mp4)")
     parser.add_argument("--camera", default="operator", help="camera name (operator, scene, wrist)")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
@@ -29,7 +30,12 @@ def run(args: argparse.Namespace) -> int:
 
     if args.out.suffix.lower() != ".mp4":
         raise ConfigError(f"--out {args.out}: must be an .mp4 file")
-    ep = read_episode_npz(args.episode)
+    if args.episode.suffix.lower() in (".h5", ".hdf5"):
+        from samplehd.dataset.container import read_episode
+
+        ep = read_episode(args.episode, images="none")
+    else:
+        ep = read_episode_npz(args.episode)
     if "scene" not in ep.info:
         raise ConfigError(f"{args.episode}: the episode does not carry its scene spec (info.scene)")
     scene = SceneSpec.from_dict(ep.info["scene"])
