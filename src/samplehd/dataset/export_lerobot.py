@@ -24,8 +24,6 @@ videos are lossy).
 from __future__ import annotations
 
 import json
-import os
-import shutil
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -33,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.dataset.reader import DatasetReader
+from samplehd.dataset.staging import staged_directory
 from samplehd.errors import DatasetError
 
 __all__ = ["CODEBASE_VERSION", "export_lerobot"]
@@ -181,9 +180,6 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
         raise DatasetError(f"{root}: images are {width}x{height}; videos need even sides (rerender at an even size)")
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
     codec = pick_codec(codec) if cams else None
-    tmp = out.with_name(f".{out.name}.tmp-{os.getpid()}")
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir(parents=True)
     order = sorted(range(len(reader)), key=lambda i: (reader.episodes[i].split != "train", i))
     tasks: dict[str, int] = {}
     stats = _Stats()
@@ -204,7 +200,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             w.close()
         writers.clear()
 
-    try:
+    with staged_directory(out) as tmp:
         for n, i in enumerate(order):
             entry = reader.episodes[i]
             ep = reader.episode(i)
@@ -284,17 +280,5 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
         (tmp / "meta" / "samplehd.json").write_text(json.dumps(
             {"repo_id": repo_id, "source": str(Path(root).resolve()), "source_format": reader.info.get(
                 "format_version"), "versions": reader.info.get("versions")}, indent=1))
-        if out.exists():
-            out.rmdir()
-        out.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(tmp, out)
-    except OSError as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        from samplehd.dataset.container import write_error
-
-        raise write_error(out, exc) from None
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return {"episodes": len(order), "frames": index, "tasks": len(tasks), "videos": [f"observation.images.{c}"
                                                                                       for c in cams], "codec": codec}

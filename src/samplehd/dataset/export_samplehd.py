@@ -22,7 +22,6 @@ recorder), ``joints_rad``, ``gripper_opening`` [m], ``steering`` (7 values in [-
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -33,6 +32,7 @@ import numpy as np
 
 from samplehd.dataset.backend import Backend
 from samplehd.dataset.reader import DatasetReader
+from samplehd.dataset.staging import staged_directory
 from samplehd.errors import DatasetError
 
 __all__ = ["export_samplehd", "sequence_name"]
@@ -140,10 +140,8 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
     out = Path(out)
     if out.exists() and any(out.iterdir()):
         raise DatasetError(f"--out {out}: exists and is not empty; choose a new folder")
-    tmp = out.with_name(f".{out.name}.tmp-{os.getpid()}")
-    shutil.rmtree(tmp, ignore_errors=True)
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
-    try:
+    with staged_directory(out) as tmp:
         for sub in ("images", "scenes", "instructions", "sequences"):
             (tmp / sub).mkdir(parents=True, exist_ok=True)
         root = Path(root)
@@ -164,16 +162,4 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
                 progress(done, len(units))
         (tmp / "info.json").write_text(json.dumps({"source": str(root.resolve()), "layout": "SAMPLE-HD",
                                                    "fps": fps, "info": reader.info.get("counts")}, indent=1))
-        if out.exists():
-            out.rmdir()
-        out.parent.mkdir(parents=True, exist_ok=True)
-        os.replace(tmp, out)
-    except OSError as exc:
-        shutil.rmtree(tmp, ignore_errors=True)
-        from samplehd.dataset.container import write_error
-
-        raise write_error(out, exc) from None
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return {"scenes": len(reader.scenes), "instructions": len(reader), "sequences": len(reader), "frames": frames}
