@@ -103,25 +103,41 @@ def _pool_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int) -> I
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=_die_with_parent)
     pending: dict[Future, Any] = {}
     try:
-        exhausted = False
-        while True:
-            while not exhausted and len(pending) < window:
-                try:
-                    unit = next(units)
-                except StopIteration:
-                    exhausted = True
-                    break
-                pending[pool.submit(fn, unit)] = unit
-            if not pending:
-                break
-            done, _ = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in done:
-                unit = pending.pop(fut)
-                yield unit, fut.result()
+        yield from _windowed(units, window, pending, lambda unit: pool.submit(fn, unit),
+                             lambda handles: wait(handles, return_when=FIRST_COMPLETED)[0],
+                             lambda fut: fut.result())
     finally:
         for fut in pending:
             fut.cancel()
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _windowed(
+    units: Iterator[Any],
+    window: int,
+    pending: dict[Any, Any],
+    submit: Callable[[Any], Any],
+    wait_done: Callable[[list[Any]], Any],
+    result_of: Callable[[Any], Any],
+) -> Iterator[tuple[Any, Any]]:
+    """Keep at most `window` units in flight; yield (unit, result) as they finish.
+
+    `pending` maps in-flight handles to units and is the caller's, so it can cancel them on exit.
+    """
+    exhausted = False
+    while True:
+        while not exhausted and len(pending) < window:
+            try:
+                unit = next(units)
+            except StopIteration:
+                exhausted = True
+                break
+            pending[submit(unit)] = unit
+        if not pending:
+            return
+        for handle in wait_done(list(pending)):
+            unit = pending.pop(handle)
+            yield unit, result_of(handle)
 
 
 def _ray_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int,
@@ -137,28 +153,17 @@ def _ray_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int,
             ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
     remote = ray.remote(num_cpus=1, max_retries=0)(fn)
     window = max(2, 2 * int(ray.cluster_resources().get("CPU", workers)))
+    def result_of(ref: Any) -> Any:
+        try:
+            return ray.get(ref)
+        except ray.exceptions.RayTaskError as exc:
+            cause = exc.as_instanceof_cause()
+            raise (cause.cause if getattr(cause, "cause", None) else cause) from None
+
     pending: dict[Any, Any] = {}
     try:
-        exhausted = False
-        while True:
-            while not exhausted and len(pending) < window:
-                try:
-                    unit = next(units)
-                except StopIteration:
-                    exhausted = True
-                    break
-                pending[remote.remote(unit)] = unit
-            if not pending:
-                break
-            done, _ = ray.wait(list(pending), num_returns=1)
-            for ref in done:
-                unit = pending.pop(ref)
-                try:
-                    result = ray.get(ref)
-                except ray.exceptions.RayTaskError as exc:
-                    cause = exc.as_instanceof_cause()
-                    raise (cause.cause if getattr(cause, "cause", None) else cause) from None
-                yield unit, result
+        yield from _windowed(units, window, pending, remote.remote,
+                             lambda handles: ray.wait(handles, num_returns=1)[0], result_of)
     finally:
         for ref in pending:
             ray.cancel(ref, force=True)

@@ -30,8 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.dataset.reader import DatasetReader
-from samplehd.dataset.staging import staged_directory
+from samplehd.dataset.staging import export_source, staged_directory
 from samplehd.errors import DatasetError
 
 __all__ = ["CODEBASE_VERSION", "export_lerobot"]
@@ -162,12 +161,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     """
     from samplehd.dataset.video import VideoWriter, pick_codec
 
-    reader = DatasetReader(root)
-    if not reader.complete:
-        raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
-    out = Path(out)
-    if out.exists() and any(out.iterdir()):
-        raise DatasetError(f"--out {out}: exists and is not empty; choose a new folder")
+    reader, out = export_source(root, out)
     render = reader.info.get("render") or {}
     stored = list(render.get("cameras", [])) if render.get("mode", "none") != "none" and "rgb" in render.get(
         "modalities", []) else []

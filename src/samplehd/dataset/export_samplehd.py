@@ -31,9 +31,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.dataset.backend import Backend
-from samplehd.dataset.reader import DatasetReader
-from samplehd.dataset.staging import staged_directory
-from samplehd.errors import DatasetError
+from samplehd.dataset.staging import export_source, staged_directory
 
 __all__ = ["export_samplehd", "sequence_name"]
 
@@ -134,12 +132,7 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
     Returns:
         ``{scenes, instructions, sequences, frames}``.
     """
-    reader = DatasetReader(root)
-    if not reader.complete:
-        raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
-    out = Path(out)
-    if out.exists() and any(out.iterdir()):
-        raise DatasetError(f"--out {out}: exists and is not empty; choose a new folder")
+    reader, out = export_source(root, out)
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
     with staged_directory(out) as tmp:
         for sub in ("images", "scenes", "instructions", "sequences"):

@@ -7,8 +7,14 @@ import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-__all__ = ["staged_directory"]
+from samplehd.errors import DatasetError
+
+if TYPE_CHECKING:
+    from samplehd.dataset.reader import DatasetReader
+
+__all__ = ["export_source", "staged_directory"]
 
 
 @contextmanager
@@ -36,3 +42,20 @@ def staged_directory(out: Path) -> Iterator[Path]:
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def export_source(root: str | Path, out: str | Path) -> tuple[DatasetReader, Path]:
+    """Open a finished dataset to export and check the export target is new or empty.
+
+    Raises:
+        DatasetError: generation has not finished, or `out` holds files (one line).
+    """
+    from samplehd.dataset.reader import DatasetReader
+
+    reader = DatasetReader(root)
+    if not reader.complete:
+        raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
+    out = Path(out)
+    if out.exists() and any(out.iterdir()):
+        raise DatasetError(f"--out {out}: exists and is not empty; choose a new folder")
+    return reader, out
