@@ -19,6 +19,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.physics import wake_all
 from samplehd.scene.spec import object_body_name
 
 __all__ = ["GRASP_WELD_PREFIX", "GraspAssist", "add_grasp_welds", "compile_scene_with_assist"]
@@ -100,4 +101,5 @@ class GraspAssist:
         if self.available:
             for e in self.eq:
                 data.eq_active[e] = 0
+            wake_all(data)
         self.active = -1

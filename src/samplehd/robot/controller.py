@@ -34,6 +34,7 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import ActionError, ConfigError, UnreachableError
+from samplehd.physics import wake_all
 from samplehd.robot.constants import (
     GRIPPER_ACTUATOR,
     GRIPPER_STROKE,
@@ -289,7 +290,11 @@ class RobotController:
         self.data.ctrl[self._ctrl_idx] = self._zero_ctrl
 
     def _set_gripper(self, command: float) -> None:
-        self.data.ctrl[self._gripper_id] = (command + 1.0) * 0.5 * GRIPPER_STROKE
+        width = (command + 1.0) * 0.5 * GRIPPER_STROKE
+        if width > self.data.ctrl[self._gripper_id] + 1e-6:
+            # Opening releases whatever the fingers held; wake it so that it falls.
+            wake_all(self.data)
+        self.data.ctrl[self._gripper_id] = width
 
     def command(self, action: np.ndarray, mode: str = "joint_position") -> ControlReport:
         """Set a new target from an action without stepping physics; see the module docstring.

@@ -97,6 +97,11 @@ class WorldConfig:
         with_robot: include the UR5e and gripper.
         offscreen_size: largest offscreen render (width, height) [px].
         shadow_size: shadow map resolution [px].
+        sleep: let resting objects sleep (MuJoCo's sleeping islands): a sleeping object costs no
+            collision or constraint work until something awake touches it. Contacts of sleeping
+            bodies are not in ``data.contact``; ``samplehd.tasks.state.contact_pairs`` computes them
+            on an awake copy, and ``samplehd.physics.wake_all`` wakes everything (opening the
+            gripper does).
     """
 
     timestep: float = 0.002
@@ -104,6 +109,7 @@ class WorldConfig:
     with_robot: bool = True
     offscreen_size: tuple[int, int] = (1920, 1080)
     shadow_size: int = 4096
+    sleep: bool = True
 
     def __post_init__(self) -> None:
         if not 1e-4 <= self.timestep <= 0.02:
@@ -285,6 +291,8 @@ def build_world(
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
     spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     spec.option.noslip_iterations = 0
+    if config.sleep:
+        spec.option.enableflags |= int(mujoco.mjtEnableBit.mjENBL_SLEEP)
     spec.visual.global_.offwidth = config.offscreen_size[0]
     spec.visual.global_.offheight = config.offscreen_size[1]
     spec.visual.quality.shadowsize = config.shadow_size

@@ -40,6 +40,7 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import ConfigError
+from samplehd.physics import wake_all
 from samplehd.scene.layout import DIRECTIONS, LAYOUT, TableLayout, table_parts_of
 from samplehd.tasks.state import SceneBodies, contact_pairs, object_world_box, quat_tilt
 from samplehd.tasks.task import Task, parse_task
@@ -186,6 +187,8 @@ def _welded(model: mujoco.MjModel, data: mujoco.MjData, i: int) -> bool:
 def _simulate_window(model: mujoco.MjModel, data: mujoco.MjData, window: float) -> mujoco.MjData:
     end = mujoco.MjData(model)
     mujoco.mj_copyData(end, model, data)
+    # Judge real physics, not sleep: an object asleep where nothing holds it falls in the window.
+    wake_all(end)
     steps = int(round(window / model.opt.timestep))
     for _ in range(steps):
         mujoco.mj_step(model, end)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from samplehd.physics import awake_contacts
 from samplehd.scene.spec import object_body_name
 
 __all__ = ["ObjectBox", "SceneBodies", "contact_pairs", "object_local_box", "object_world_box", "quat_tilt"]
@@ -125,7 +126,12 @@ def object_world_box(model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBo
 
 
 def contact_pairs(model: mujoco.MjModel, data: mujoco.MjData) -> set[tuple[int, int]]:
-    """Pairs of bodies (sorted ids) in contact in the current state."""
+    """Pairs of bodies (sorted ids) in contact in the current state.
+
+    Bodies asleep in MuJoCo's sleeping islands have no contacts in ``data``; when any is asleep,
+    the contacts are computed on an awake copy of the positions instead (``data`` is not touched).
+    """
+    data = awake_contacts(model, data)
     pairs: set[tuple[int, int]] = set()
     for k in range(data.ncon):
         c = data.contact[k]
