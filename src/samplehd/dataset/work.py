@@ -85,6 +85,7 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     from samplehd.dataset.layout import EPISODE_DIR
     from samplehd.dataset.render import RenderConfig, render_states
     from samplehd.errors import DatasetError, PlanningError
+    from samplehd.motion.assist import compile_scene_with_assist
     from samplehd.motion.pipeline import PathConfig, PathRejected, plan_and_execute
     from samplehd.scene.spec import SceneSpec, compile_scene
 
@@ -92,7 +93,9 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     base = {"scene_index": unit.scene_index, "slot": unit.slot}
     config = PathConfig.from_dict(unit.paths)
     scene = SceneSpec.from_dict(unit.scene)
-    model, data = compile_scene(scene, 1.0 / config.physics_hz)
+    # The grasp welds add no degrees of freedom: the same model serves the path and the images.
+    compile_fn = compile_scene_with_assist if config.grasp_assist else compile_scene
+    model, data = compile_fn(scene, 1.0 / config.physics_hz)
     try:
         episode = plan_and_execute(scene, unit.task, np.random.default_rng(unit.seed), config, family=unit.family,
                                    scene_index=unit.scene_index, instruction_index=unit.slot, seed=unit.seed,

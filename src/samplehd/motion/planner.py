@@ -47,6 +47,7 @@ __all__ = [
     "PlannerConfig",
     "choose_grasps",
     "destination_candidates",
+    "graspable_in_scene",
     "object_pose",
     "plan_joint_move",
     "release_height",
@@ -88,15 +89,15 @@ class PlannerConfig:
     transport_clearance: float = 0.04
     min_lift: float = 0.1
     min_transport_height: float = 0.18
-    approach_speed: float = 0.06
-    lift_speed: float = 0.08
+    approach_speed: float = 0.08
+    lift_speed: float = 0.12
     joint_speed: float = 1.2
     max_tcp_speed: float = 0.22
     max_tcp_angular_speed: float = 0.9
     finger_clearance: float = 0.0015
     release_gap: float = 0.006
     max_drop: float = 0.08
-    close_time: float = 1.0
+    close_time: float = 0.7
     squeeze_force: float = 20.0
     open_time: float = 0.5
     grasp_candidates: int = 8
@@ -250,6 +251,27 @@ def choose_grasps(
             break
     feasible.sort(key=lambda x: x[0])
     return [(k, gp) for _, k, gp in feasible]
+
+
+def graspable_in_scene(model: mujoco.MjModel, data: mujoco.MjData, facts: list[Any],
+                       config: PlannerConfig | None = None) -> list[bool]:
+    """Per scene object: whether :func:`choose_grasps` finds a grasp from the arm's current state.
+
+    This is the planner's own test (reachable elbow-up IK, collision-free pre-grasp and grasp,
+    free lift), run once per scene so that instructions only move objects the arm can take.
+
+    Args:
+        model: the compiled scene (with the robot).
+        data: its state (the arm where it starts, usually home).
+        facts: ``object_facts`` of each scene object, in order.
+        config: planner settings (the grasp search stops at the first feasible grasp).
+    """
+    config = dataclasses.replace(config or PlannerConfig(), grasp_candidates=1)
+    robot = RobotInfo.from_model(model, data)
+    bodies = SceneBodies(model, len(facts))
+    checker = CollisionChecker(model, data, bodies, robot)
+    seed = data.qpos[robot.arm_qpos].copy()
+    return [bool(choose_grasps(model, data, bodies, robot, checker, i, f, seed, config)) for i, f in enumerate(facts)]
 
 
 def _lift_free(checker: CollisionChecker, tcp_b: np.ndarray, q_grasp: np.ndarray, opening: float, i: int) -> bool:

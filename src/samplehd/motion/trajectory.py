@@ -8,7 +8,7 @@ import numpy as np
 
 from samplehd.errors import PlanningError
 from samplehd.robot.constants import TCP_OFFSET
-from samplehd.robot.kinematics import ik_batch
+from samplehd.robot.kinematics import ik_path
 
 __all__ = ["cartesian_path", "interpolate_pose", "joint_path", "min_jerk", "rotation_angle"]
 
@@ -112,15 +112,11 @@ def cartesian_path(
     dur = max(min_time, dist / speed, ang / angular_speed)
     n = max(1, int(np.ceil(dur / dt)))
     poses = np.stack([interpolate_pose(start_pose, end_pose, float(s)) for s in min_jerk(n)])
-    out = np.empty((n, 6))
-    q = np.asarray(q_start, float)
-    for k in range(n):
-        qk, ok = ik_batch(poses[k:k + 1], q[None], TCP_OFFSET)
-        if not ok[0]:
-            p = poses[k, :3, 3]
-            raise PlanningError(f"straight TCP path leaves the reach at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m")
-        if np.max(np.abs(qk[0] - q)) > max_joint_step:
-            raise PlanningError("straight TCP path crosses a singularity (joint jump)")
-        q = qk[0]
-        out[k] = q
+    out, failed = ik_path(poses, q_start, TCP_OFFSET)
+    if failed >= 0:
+        p = poses[failed, :3, 3]
+        raise PlanningError(f"straight TCP path leaves the reach at ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) m")
+    steps = np.abs(np.diff(np.vstack([np.asarray(q_start, float)[None], out]), axis=0))
+    if steps.max(initial=0.0) > max_joint_step:
+        raise PlanningError("straight TCP path crosses a singularity (joint jump)")
     return out

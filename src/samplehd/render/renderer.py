@@ -19,6 +19,7 @@ segmentation pass (flat id colours, no lighting) is cheap and also yields depth 
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -173,9 +174,28 @@ def _shared_gl_context() -> Any:
     """
     ctx = getattr(_THREAD, "gl", None)
     if ctx is None:
-        ctx = mujoco.GLContext(64, 64)
+        ctx = _context_class()(64, 64)
         _THREAD.gl = ctx
     return ctx
+
+
+def _context_class() -> Any:
+    """The GL context class of the chosen backend.
+
+    ``mujoco.GLContext`` is fixed when MuJoCo is first imported; a program that imported mujoco
+    before samplehd (so before ``MUJOCO_GL`` was set) would get the windowed default, so the
+    headless backends are imported by name.
+    """
+    backend = os.environ.get("MUJOCO_GL", "")
+    if backend == "egl":
+        from mujoco.egl import GLContext
+
+        return GLContext
+    if backend == "osmesa":
+        from mujoco.osmesa import GLContext
+
+        return GLContext
+    return mujoco.GLContext
 
 
 class SceneRenderer:

@@ -35,6 +35,7 @@ __all__ = [
     "ik_batch",
     "ik_flange",
     "ik_nearest_rows",
+    "ik_path",
     "ik_tcp",
     "inverse_kinematics",
     "pose_from_pos_quat",
@@ -430,6 +431,54 @@ def ik_batch(
     ok = np.isfinite(dist[np.arange(n), best])
     out = np.where(ok[:, None], q[np.arange(n), best], seeds)
     return out, ok
+
+
+def ik_path(
+    poses: np.ndarray,
+    q_start: np.ndarray,
+    tool_offset: float = 0.0,
+    limits: np.ndarray = JOINT_LIMITS,
+) -> tuple[np.ndarray, int]:
+    """IK along a sequence of poses, each solution nearest the previous one (the first: ``q_start``).
+
+    All branches of all poses are solved in one vectorised pass; only the choice of branch runs
+    pose by pose. At a wrist singularity q2 + q3 + q4 is taken from ``q_start``.
+
+    Args:
+        poses: (N, 4, 4) poses of the tool point in the base frame [m].
+        q_start: (6,) configuration before the first pose [rad].
+        tool_offset: distance of the tool point from the flange along its z axis [m].
+        limits: (6, 2) joint limits [rad].
+
+    Returns:
+        (q, failed): q of shape (N, 6) [rad]; ``failed`` is the index of the first pose with no
+        solution inside the limits (rows from there on are undefined), or -1.
+
+    Raises:
+        KinematicsError: wrong shapes or non-finite values.
+    """
+    poses = _check_pose(poses)
+    if poses.ndim != 3:
+        raise KinematicsError(f"poses must have shape (N, 4, 4), got {poses.shape}")
+    q = _check_q(q_start).astype(float)
+    n = poses.shape[0]
+    flange = poses @ _tool(-tool_offset) if tool_offset else poses
+    branches, valid = _ik_core(flange, np.full(n, q[1] + q[2] + q[3]))
+    out = np.empty((n, NUM_JOINTS))
+    lo, hi = limits[:, 0], limits[:, 1]
+    k_min = np.ceil((lo - branches) / _TWO_PI - 1e-12)
+    k_max = np.floor((hi - branches) / _TWO_PI + 1e-12)
+    valid = valid & np.all(k_min <= k_max, axis=-1)
+    for i in range(n):
+        k = np.clip(np.round((q - branches[i]) / _TWO_PI), k_min[i], k_max[i])
+        cand = branches[i] + _TWO_PI * k
+        dist = np.where(valid[i], np.sum((cand - q) ** 2, axis=-1), np.inf)
+        best = int(np.argmin(dist))
+        if not np.isfinite(dist[best]):
+            return out, i
+        q = cand[best]
+        out[i] = q
+    return out, -1
 
 
 def inverse_kinematics(
