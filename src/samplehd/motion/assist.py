@@ -42,14 +42,15 @@ def add_grasp_welds(spec: mujoco.MjSpec, num_objects: int) -> None:
 
 
 def compile_scene_with_assist(scene: Any, timestep: float = 0.002) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """Like ``samplehd.scene.spec.compile_scene``, with the grasp welds added."""
-    from samplehd.scene.world import PlacedObject, build_world
+    """Like ``samplehd.scene.spec.compile_scene`` (arm at home, gripper open), with the grasp welds added."""
+    from samplehd.scene.world import PlacedObject, build_world, reset_robot_home
 
     placed = [PlacedObject(o.instance, tuple(o.pos), tuple(o.quat)) for o in scene.objects]
     spec = build_world(placed, scene.world_config(timestep))
     add_grasp_welds(spec, len(scene.objects))
     model = spec.compile()
     data = mujoco.MjData(model)
+    reset_robot_home(model, data)
     mujoco.mj_forward(model, data)
     return model, data
 

@@ -262,16 +262,18 @@ def graspable_in_scene(model: mujoco.MjModel, data: mujoco.MjData, facts: list[A
 
     Args:
         model: the compiled scene (with the robot).
-        data: its state (the arm where it starts, usually home).
+        data: its state (object poses; the arm is taken at home, where every path starts).
         facts: ``object_facts`` of each scene object, in order.
         config: planner settings (the grasp search stops at the first feasible grasp).
     """
+    from samplehd.robot.constants import HOME_QPOS
+
     config = dataclasses.replace(config or PlannerConfig(), grasp_candidates=1)
     robot = RobotInfo.from_model(model, data)
     bodies = SceneBodies(model, len(facts))
     checker = CollisionChecker(model, data, bodies, robot)
-    seed = data.qpos[robot.arm_qpos].copy()
-    return [bool(choose_grasps(model, data, bodies, robot, checker, i, f, seed, config)) for i, f in enumerate(facts)]
+    return [bool(choose_grasps(model, data, bodies, robot, checker, i, f, HOME_QPOS, config))
+            for i, f in enumerate(facts)]
 
 
 def _lift_free(checker: CollisionChecker, tcp_b: np.ndarray, q_grasp: np.ndarray, opening: float, i: int) -> bool:

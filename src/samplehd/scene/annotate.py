@@ -75,10 +75,14 @@ def annotate_scene(
     camera: str = "scene",
 ) -> dict[str, Any]:
     """Build the CLEVR-layout annotation of a compiled scene seen from `camera` at width × height."""
+    from samplehd.motion.planner import graspable_in_scene
+
     objects = []
     centers = []
+    all_facts = [object_facts(obj.instance) for obj in scene.objects]
+    reachable = graspable_in_scene(model, data, all_facts)
     for i, obj in enumerate(scene.objects):
-        facts = object_facts(obj.instance)
+        facts = all_facts[i]
         body = model.body(f"object_{i}").id
         pos = data.xpos[body].copy()
         quat = data.xquat[body].copy()
@@ -90,12 +94,10 @@ def annotate_scene(
         centers.append(center)
         inst = obj.instance
         aff = facts.affordances.to_dict()
-        # The ground-truth planner grasps from above: an object is graspable in this scene only when a
-        # grasp site fits the gripper's stroke with a downward approach (a rectangular board's edge or a
-        # wide box is not, whatever its class says).
-        aff["graspable"] = bool(aff.get("graspable")) and any(
-            site.approach[2] < -0.7 for site in facts.graspable_sites
-        )
+        # Graspable in this scene: the class is, and the ground-truth planner finds a top-down grasp
+        # that the arm reaches from home without touching a neighbour (a rectangular board's edge, a
+        # wide box, or a mug hemmed in by taller objects is not).
+        aff["graspable"] = bool(aff.get("graspable")) and reachable[i]
         objects.append(
             {
                 "name": inst.class_name,
