@@ -151,6 +151,21 @@ def _opening(width: float, clearance: float, stroke: float) -> float:
     return float(min(stroke, width + 2 * clearance))
 
 
+RELEASE_CLEARANCE = 0.003  # [m] least room per finger around an object's widest part, fully open
+
+
+def _clears_widest(closing: np.ndarray, lo: np.ndarray, hi: np.ndarray, stroke: float) -> bool:
+    """Whether fingers coming from above along ``closing`` pass the object's widest part when open.
+
+    A side site's closing line taken from above sits higher than the site, where a flared object
+    (a wine glass's bowl, a bottle's shoulder) may be wider than the site: the fingers would close
+    under the flare and could not open past it to let go. The bounding box bounds every height.
+    """
+    size = hi - lo
+    widest = abs(float(closing[0])) * size[0] + abs(float(closing[1])) * size[1]
+    return widest + 2 * RELEASE_CLEARANCE <= stroke
+
+
 def grasp_candidates(
     sites: Any,
     bbox_min: np.ndarray,
@@ -180,7 +195,7 @@ def grasp_candidates(
         app = np.asarray(site.approach, float)
         clo = np.asarray(site.closing, float)
         variants: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-        if abs(app[2]) < 0.5 and rule.top_down:
+        if abs(app[2]) < 0.5 and rule.top_down and _clears_widest(clo, lo, hi, stroke):
             # Side approach: also take the same closing line from above, as deep as the fingers reach.
             z = max(pos[2], top - rule.finger_reach, 0.5 * top)
             variants.append((np.array([pos[0], pos[1], z]), np.array([0.0, 0.0, -1.0]), clo))

@@ -35,6 +35,7 @@ from samplehd.render.renderer import (
     camera_pose,
     project_points,
 )
+from samplehd.robot.constants import ROBOT_BODY
 from samplehd.scene.geometry import quat_to_mat, yaw_from_quat
 from samplehd.scene.layout import DIRECTIONS, table_parts_of
 from samplehd.scene.spec import SceneSpec
@@ -80,7 +81,10 @@ def annotate_scene(
     objects = []
     centers = []
     all_facts = [object_facts(obj.instance) for obj in scene.objects]
-    reachable = graspable_in_scene(model, data, all_facts)
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) >= 0:
+        reachable = graspable_in_scene(model, data, all_facts)
+    else:  # a world without the arm: a top-down grasp site that fits the stroke is all there is to check
+        reachable = [any(site.approach[2] < -0.7 for site in f.graspable_sites) for f in all_facts]
     for i, obj in enumerate(scene.objects):
         facts = all_facts[i]
         body = model.body(f"object_{i}").id
