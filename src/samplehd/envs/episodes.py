@@ -196,6 +196,27 @@ def _as_scene(value: Any) -> SceneSpec:
     raise SceneError(f"reset option 'scene' must be a SceneSpec or a scene dict, got {type(value).__name__}")
 
 
+def _dataset_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    """Resolve ``dataset`` + ``episode_index`` into the scene, instruction and recorded episode."""
+    from samplehd.dataset.reader import DatasetReader
+
+    if "dataset" not in options or "episode_index" not in options:
+        raise ConfigError("reset: options 'dataset' (a dataset directory) and 'episode_index' go together")
+    if {"scene", "instruction", "episode"} & set(options):
+        raise ConfigError("reset: give either 'dataset' + 'episode_index' or 'scene' + 'instruction' (+ 'episode')")
+    index = options["episode_index"]
+    if not isinstance(index, (int, np.integer)) or isinstance(index, bool):
+        raise ConfigError(f"reset: option 'episode_index' must be an integer, got {index!r}")
+    reader = DatasetReader(options["dataset"])
+    episode = reader.episode(int(index), images="none")
+    entry = reader.episodes[int(index)]
+    out = {"scene": reader.scene(entry.scene_index), "instruction": reader.instruction(int(index)),
+           "episode": episode}
+    if "family" in options:
+        out["family"] = options["family"]
+    return out
+
+
 def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> EpisodeSpec:
     """Rebuild an episode from reset options.
 
@@ -205,15 +226,20 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
             ``task`` or ``program``; ``family`` defaults to the task type).
         episode: optional recorded ``Episode`` (``samplehd.record.episode``) or a mapping with
             ``qpos``/``qvel``/``act`` arrays: the episode starts from its first frame's state.
+        dataset, episode_index: instead of the three above, a dataset directory (``samplehd
+            generate``) and an episode index in it: its scene, instruction and first state.
 
     Raises:
         ConfigError: a required option is missing or malformed.
     """
     from samplehd.language.executor import execute
 
-    unknown = sorted(set(options) - {"scene", "instruction", "episode", "family"})
+    unknown = sorted(set(options) - {"scene", "instruction", "episode", "family", "dataset", "episode_index"})
     if unknown:
-        raise ConfigError(f"reset: unknown option(s) {unknown}; valid: episode, family, instruction, scene")
+        raise ConfigError(f"reset: unknown option(s) {unknown}; valid: dataset, episode, episode_index, family, "
+                          "instruction, scene")
+    if "dataset" in options or "episode_index" in options:
+        options = _dataset_options(options)
     if "scene" not in options or "instruction" not in options:
         raise ConfigError("reset: options need both 'scene' and 'instruction' to reproduce an episode")
     scene = _as_scene(options["scene"])

@@ -50,8 +50,9 @@ Vectorised use: ``gymnasium.vector.SyncVectorEnv`` and ``AsyncVectorEnv`` both w
 does not survive ``fork``).
 
 Reset options (``reset(seed=..., options=...)``): ``family`` (draw an instruction of this family),
-or ``scene`` + ``instruction`` (+ ``episode``) to reproduce a given episode exactly (see
-:func:`samplehd.envs.episodes.episode_from_options`).
+or ``scene`` + ``instruction`` (+ ``episode``) to reproduce a given episode exactly, or ``dataset``
+(a directory written by ``samplehd generate``) + ``episode_index`` to start from a stored episode
+(see :func:`samplehd.envs.episodes.episode_from_options`).
 """
 
 from __future__ import annotations
@@ -171,15 +172,15 @@ class TabletopEnv(gym.Env):
         """Start an episode: draw a scene and an instruction from ``np_random`` or reproduce given ones."""
         super().reset(seed=seed)
         options = dict(options or {})
-        if "scene" in options or "instruction" in options or "episode" in options:
+        if {"scene", "instruction", "episode", "dataset", "episode_index"} & set(options):
             episode = episode_from_options(options, self.cache)
         else:
             family = options.pop("family", None)
             if options:
                 from samplehd.errors import ConfigError
 
-                raise ConfigError(f"reset: unknown option(s) {sorted(options)}; valid: episode, family, "
-                                  "instruction, scene")
+                raise ConfigError(f"reset: unknown option(s) {sorted(options)}; valid: dataset, episode, "
+                                  "episode_index, family, instruction, scene")
             episode = sample_episode(self.np_random, self.cache, self.config.task_families, family=family,
                                      num_scenes=self.config.num_scenes, scene_seed=self.config.scene_seed)
         self._start(episode)
