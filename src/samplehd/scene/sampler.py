@@ -192,6 +192,20 @@ def _settle(
     return settled, model, data
 
 
+def _home_clear(model: mujoco.MjModel, data: mujoco.MjData, count: int) -> bool:
+    """Whether the arm at home, gripper fully open, touches no object (every path starts there)."""
+    from samplehd.motion.collision import CollisionChecker
+    from samplehd.motion.robot_info import RobotInfo
+    from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
+    from samplehd.tasks.state import SceneBodies
+
+    if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
+        return True
+    robot = RobotInfo.from_model(model, data)
+    checker = CollisionChecker(model, data, SceneBodies(model, count), robot)
+    return checker.free(HOME_QPOS, GRIPPER_STROKE)
+
+
 def _visible_pixels(
     model: mujoco.MjModel, data: mujoco.MjData, count: int, config: SceneConfig
 ) -> tuple[list[int], list[int]]:
@@ -271,6 +285,9 @@ def sample_scene(
         if settled is None:
             continue
         scene, model, data = settled
+        if not _home_clear(model, data, len(objects)):
+            rejections["robot_home_blocked"] += 1
+            continue
         visible, alone = _visible_pixels(model, data, len(objects), config)
         occluded = [
             i for i in range(len(objects))
