@@ -372,8 +372,11 @@ def destination_candidates(
         c_ref, rot_ref, half_ref = foot[ref]
         ext_ref = abs(d @ rot_ref[:, 0]) * half_ref[0] + abs(d @ rot_ref[:, 1]) * half_ref[1]
         ref_origin = object_pose(data, bodies, ref)[:2, 3]
-        dist = rng.uniform(0.0, 0.15, n)
-        lat = rng.uniform(-0.08, 0.08, n)
+        # Near the reference first; the second half of the samples reaches further and wider, for a
+        # reference with neighbours on that side.
+        half = n // 2
+        dist = np.concatenate([rng.uniform(0.0, 0.15, half), rng.uniform(0.0, 0.3, n - half)])
+        lat = np.concatenate([rng.uniform(-0.08, 0.08, half), rng.uniform(-0.16, 0.16, n - half)])
         lo, hi = np.array(layout.workspace_min) - 0.05, np.array(layout.workspace_max) + 0.05
         need = config.relation_gap + 0.02
     else:
@@ -414,6 +417,8 @@ def destination_candidates(
             # Prefer room around the spot, the arm's comfortable reach and no turn.
             reach = float(np.hypot(origin[0] - layout.robot_base[0], origin[1] - layout.robot_base[1]))
             score = -min(gap, 0.25) + 0.3 * abs(reach - 0.5) + 0.05 * abs(yaws[s])
+            if d is not None:  # the far, wide samples only where the near ones found nothing
+                score += 2.0 * (max(0.0, dist[s] - 0.15) + max(0.0, abs(lat[s]) - 0.08))
             scored.append((score, origin, float(yaws[s])))
     scored.sort(key=lambda x: x[0])
     best = scored[:12]
