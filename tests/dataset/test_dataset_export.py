@@ -56,6 +56,61 @@ def test_lerobot_layout(lerobot_export: Path, rendered_dataset: Path) -> None:
         assert sum(1 for _ in c.decode(video=0)) == info["total_frames"]
 
 
+def test_lerobot_depth_and_segmentation_round_trip(lerobot_export: Path, rendered_dataset: Path) -> None:
+    """Depth comes back within 1 mm and segmentation ids exactly, as 16-bit PNG image features."""
+    import io
+
+    import pyarrow.parquet as pq
+    from PIL import Image
+
+    info = json.loads((lerobot_export / "meta" / "info.json").read_text())
+    feats = info["features"]
+    depth, seg = feats["observation.images.scene.depth"], feats["observation.images.scene.segmentation"]
+    assert depth["dtype"] == seg["dtype"] == "image" and depth["shape"] == seg["shape"] == [36, 64, 1]
+    assert depth["info"]["is_depth_map"] is True and depth["info"]["depth_unit"] == "mm"
+    assert seg["info"]["is_depth_map"] is False
+    data = pq.read_table(lerobot_export / "data/chunk-000/file-000.parquet")
+    hf = json.loads(data.schema.metadata[b"huggingface"])["info"]["features"]
+    assert hf["observation.images.scene.depth"] == {"_type": "Image"}
+    assert data.schema.field("observation.images.scene.depth").type.names == ["bytes", "path"]
+    reader = DatasetReader(rendered_dataset)
+    eps = pq.read_table(lerobot_export / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    depth_col = data.column("observation.images.scene.depth").to_pylist()
+    seg_col = data.column("observation.images.scene.segmentation").to_pylist()
+    for e in eps:
+        ep = reader.episode(e["samplehd/instruction_index"], images="load")
+        for t in range(e["length"]):
+            row = e["dataset_from_index"] + t
+            d = Image.open(io.BytesIO(depth_col[row]["bytes"]))
+            s = Image.open(io.BytesIO(seg_col[row]["bytes"]))
+            assert d.mode == s.mode == "I;16"
+            mm = np.asarray(d, dtype=np.float64)
+            assert np.abs(mm / 1000.0 - ep.images["scene"]["depth"][t]).max() <= 1e-3
+            assert np.array_equal(np.asarray(s), ep.images["scene"]["segmentation"][t])
+    stats = json.loads((lerobot_export / "meta/stats.json").read_text())
+    assert np.array(stats["observation.images.scene.depth"]["mean"]).shape == (1, 1, 1)
+    assert 500 < stats["observation.images.scene.depth"]["mean"][0][0][0] < 5000  # millimetres
+    assert stats["observation.images.scene.segmentation"]["max"][0][0][0] >= 3  # ids, not scaled
+
+
+def test_lerobot_selection_errors_are_one_line(rendered_dataset: Path, tmp_path: Path,
+                                              capsys: pytest.CaptureFixture) -> None:
+    base = ["export", "lerobot", str(rendered_dataset), "--out"]
+    assert main([*base, str(tmp_path / "a"), "--cameras", "wrist"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "--cameras ['wrist']: not stored" in err and "stored cameras: scene" in err
+    assert main([*base, str(tmp_path / "b"), "--modalities", "normals"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "valid: rgb, depth, segmentation" in err
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+    # Only depth: no videos, one image feature.
+    assert main([*base, str(tmp_path / "c"), "--modalities", "depth", "--frames-per-file", "500"]) == 0
+    info = json.loads((tmp_path / "c" / "meta" / "info.json").read_text())
+    assert [k for k in info["features"] if k.startswith("observation.images")] == ["observation.images.scene.depth"]
+    assert info["video_path"] is None and not (tmp_path / "c" / "videos").exists()
+    assert len(list((tmp_path / "c" / "data").glob("*/*.parquet"))) > 1  # files split by --frames-per-file
+
+
 def test_samplehd_layout_and_previews(rendered_dataset: Path, tmp_path: Path) -> None:
     out = tmp_path / "shd"
     assert main(["export", "sample-hd", str(rendered_dataset), "--out", str(out), "--previews",

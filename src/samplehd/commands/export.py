@@ -1,4 +1,5 @@
-"""Export a dataset: `export lerobot DIR --out DIR2` (LeRobot v3.0 layout: parquet + AV1 videos) or
+"""Export a dataset: `export lerobot DIR --out DIR2` (LeRobot v3.0 layout: parquet + AV1 videos of RGB,
+16-bit PNG image features of depth [mm] and segmentation ids in the parquet) or
 `export sample-hd DIR --out DIR2` (SAMPLE-HD's images/, scenes/, instructions/, sequences/ layout)."""
 
 from __future__ import annotations
@@ -19,7 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     lr.add_argument("--out", type=Path, required=True, help="new LeRobot dataset folder")
     lr.add_argument("--repo-id", default="samplehd/dataset", help="repo id recorded for LeRobotDataset(repo_id, root=)")
     lr.add_argument("--codec", help="video encoder (default: libsvtav1 as LeRobot, else libx264)")
-    lr.add_argument("--cameras", nargs="+", help="RGB cameras to export (default: all stored)")
+    lr.add_argument("--cameras", nargs="+", help="cameras to export (default: all stored)")
+    lr.add_argument("--modalities", nargs="+",
+                    help="rgb (video), depth (uint16 mm PNG), segmentation (uint16 id PNG); default: all stored")
     lr.add_argument("--frames-per-file", type=int, default=200_000, help="frames per data/video file")
     sh = sub.add_parser("sample-hd", help="SAMPLE-HD layout (images/, scenes/, instructions/, sequences/)",
                         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -48,8 +51,8 @@ def run(args: argparse.Namespace) -> int:
 
             if args.frames_per_file < 1:
                 raise ConfigError("--frames-per-file must be ≥ 1")
-            res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file, args.cameras,
-                                 progress=tick)
+            res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file,
+                                 _names(args.cameras), progress=tick, modalities=_names(args.modalities))
         else:
             from samplehd.dataset.export_samplehd import export_samplehd
 
@@ -57,3 +60,8 @@ def run(args: argparse.Namespace) -> int:
                                   backend=Backend("local", args.workers), progress=tick)
     print(f"exported {res} to {args.out}")
     return 0
+
+
+def _names(items: list[str] | None) -> list[str] | None:
+    """Names from the command line (space or comma separated); None when not given."""
+    return None if items is None else [n for item in items for n in item.split(",") if n]

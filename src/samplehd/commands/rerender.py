@@ -1,5 +1,6 @@
 """Render (or re-render) every episode of a dataset from its stored physics states: set qpos, qvel and
-act, mj_forward, render; no re-simulation. Parallel; run it again to resume after an interruption."""
+act, mj_forward, render; no re-simulation. Replaces all images, or with --add keeps the other cameras
+(each camera has its own resolution and preset). Parallel; run it again to resume after an interruption."""
 
 from __future__ import annotations
 
@@ -19,6 +20,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--modalities", nargs="+", default=["rgb", "depth", "segmentation"],
                         help="rgb depth segmentation")
     parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
+    parser.add_argument("--add", action="store_true",
+                        help="keep the episodes' other cameras and modalities (a camera + modality rendered "
+                             "again is overwritten); default: replace all images")
     parser.add_argument("--workers", type=int, default=default_workers(), help="worker processes")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="where work units run")
     parser.add_argument("--ray-address", help="Ray cluster address (default: start a local Ray)")
@@ -36,7 +40,9 @@ def run(args: argparse.Namespace) -> int:
     render = RenderConfig(args.preset, args.width, args.height, cams, mods)
     backend = Backend(args.backend, args.workers, args.ray_address)
     with RichProgress(disable=args.quiet) as progress:
-        res = rerender_dataset(args.dir, render, backend, progress)
-    print(f"rerendered {res['rendered']} episodes ({res['skipped']} already done), {res['frames']} frames in "
-          f"{res['seconds']:.1f} s ({res['frames'] / max(res['seconds'], 1e-9):.1f} frames/s)")
+        res = rerender_dataset(args.dir, render, backend, progress, add=args.add)
+    verb = "added images to" if args.add else "rerendered"
+    rate = res["frames"] / max(res["seconds"], 1e-9)
+    print(f"{verb} {res['rendered']} episodes ({res['skipped']} already done), {res['frames']} frames in "
+          f"{res['seconds']:.1f} s ({rate:.1f} frames/s)")
     return 0

@@ -7,7 +7,9 @@ Layout of ``episodes/s{scene:06d}_{slot:02d}.h5``::
                                    (text), task (JSON)
     /frames/<field>         one dataset per :data:`samplehd.record.episode.FRAME_FIELDS` entry, shape
                             (T, ...) with the field's dtype, gzip + shuffle (lossless, bit-exact)
-    /images                 attrs: render (JSON: preset, width, height, cameras, modalities)
+    /images                 attrs: render (JSON: mode, width, height, cameras, modalities and
+                            per_camera {camera: {mode, width, height, modalities}}; see
+                            :func:`camera_settings`, :func:`render_record`)
     /images/<cam>/rgb       (T, H, W, 3) uint8, lossless gzip, one chunk per frame
     /images/<cam>/depth     (T, H, W) float32 metres, exact; gzip + shuffle, one chunk per frame
     /images/<cam>/segmentation  (T, H, W) uint8 (uint16 when ids exceed 255) instance ids; gzip,
@@ -40,17 +42,20 @@ from samplehd.record.episode import FRAME_FIELDS, Episode
 __all__ = [
     "EpisodeFile",
     "FrameImages",
+    "camera_settings",
     "episode_attrs",
     "file_digest",
     "read_episode",
     "read_frames",
     "read_image",
     "read_meta",
+    "render_record",
     "write_episode",
     "write_error",
 ]
 
 _GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
+_MODALITIES = ("rgb", "depth", "segmentation")
 _DISK_FULL = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
 
 
@@ -106,10 +111,73 @@ def write_error(path: Path, exc: BaseException) -> DatasetError:
     return DatasetError(f"{path}: cannot write: {getattr(exc, 'strerror', None) or text}")
 
 
+def _modality_list(mods: Iterable[str]) -> list[str]:
+    """Modalities in the canonical order (rgb, depth, segmentation), unknown names last."""
+    names = list(dict.fromkeys(str(m) for m in mods))
+    return sorted(names, key=lambda m: (_MODALITIES.index(m) if m in _MODALITIES else len(_MODALITIES), m))
+
+
+def camera_settings(render: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
+    """The per-camera render settings of a render record (an episode file's ``/images`` attribute or
+    ``info.json``'s ``render``).
+
+    A record has ``per_camera`` when ``samplehd rerender --add`` may have given cameras different
+    settings; an older (or uniform) record has only ``mode, width, height, cameras, modalities``,
+    which apply to every camera.
+
+    Returns:
+        ``{camera: {mode, width, height, modalities}}`` (modalities in the order rgb, depth,
+        segmentation); empty for None or mode ``none``.
+
+    Raises:
+        DatasetError: the record is malformed.
+    """
+    if not render:
+        return {}
+    try:
+        per = render.get("per_camera")
+        if per is None:
+            if render.get("mode", "none") == "none":
+                return {}
+            per = {c: render for c in render.get("cameras", [])}
+        return {str(c): {"mode": str(s["mode"]), "width": int(s["width"]), "height": int(s["height"]),
+                         "modalities": _modality_list(s["modalities"])} for c, s in per.items()}
+    except (AttributeError, KeyError, TypeError, ValueError) as exc:
+        raise DatasetError(f"malformed render settings {dict(render)!r}: {exc!r}") from None
+
+
+def render_record(per_camera: Mapping[str, Mapping[str, Any]]) -> dict[str, Any] | None:
+    """The render record describing images with the given per-camera settings.
+
+    ``mode``, ``width``, ``height`` and ``modalities`` hold the value every camera shares; where the
+    cameras differ, ``mode`` is ``"mixed"`` and the others are None (``per_camera`` is then the
+    only description). Returns None when there are no cameras (no images).
+    """
+    per = camera_settings({"per_camera": per_camera}) if per_camera else {}
+    if not per:
+        return None
+    settings = list(per.values())
+
+    def shared(key: str) -> Any:
+        first = settings[0][key]
+        return first if all(s[key] == first for s in settings) else None
+
+    return {"mode": shared("mode") or "mixed", "width": shared("width"), "height": shared("height"),
+            "cameras": list(per), "modalities": shared("modalities"), "per_camera": per}
+
+
 def _write_images(group: h5py.Group, images: Mapping[str, Mapping[str, np.ndarray]]) -> None:
     for cam, mods in images.items():
         g = group.require_group(cam)
         for mod, arr in mods.items():
+            if isinstance(arr, FrameImages):
+                # Kept from an existing file: copy the stored (compressed) chunks unchanged.
+                try:
+                    with h5py.File(arr.path, "r") as src:
+                        g.copy(src[arr.key], g, name=mod)
+                except (OSError, KeyError, RuntimeError) as exc:
+                    raise DatasetError(f"{arr.path}: cannot copy {arr.key}: {exc}") from None
+                continue
             arr = np.asarray(arr)
             if mod == "rgb":
                 g.create_dataset(mod, data=arr.astype(np.uint8), chunks=(1, *arr.shape[1:]),
@@ -150,7 +218,8 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
 
     Args:
         path: the final file path.
-        episode: the episode; its ``images`` (if any) are stored under ``/images``.
+        episode: the episode; its ``images`` (if any) are stored under ``/images``; an image stream
+            given as :class:`FrameImages` (lazy, from another file) is copied chunk by chunk, unchanged.
         extra: more root attributes (slot, instruction text, task); non-scalars are stored as JSON.
         render: the render settings that produced the images (stored as ``/images`` attrs).
 

@@ -17,8 +17,21 @@ Frame features: ``observation.state`` (6 joint positions [rad] + gripper opening
 vector), ``action.joint`` (commanded joint targets [rad] + gripper command), ``subtask_index``,
 ``grasped_object``, and LeRobot's ``timestamp``, ``frame_index``, ``episode_index``, ``index``,
 ``task_index``; the task is the instruction text. Training episodes come first, then test, and
-``info.json`` ``splits`` gives both ranges. Depth and segmentation stay in the HDF5 episodes (LeRobot
-videos are lossy).
+``info.json`` ``splits`` gives both ranges.
+
+Images: RGB is a video feature ``observation.images.<camera>`` (lossy AV1/H.264, as LeRobot).
+Depth and segmentation must stay exact, and LeRobot's video decoders return 8-bit RGB, so they are
+image features stored in the data parquet (one 16-bit grayscale PNG per frame, column type
+``struct<bytes, path>`` as ``datasets.Image``), which lerobot 0.6.1 decodes to float32 ``(1, H, W)``
+in native units:
+
+* ``observation.images.<camera>.depth``: uint16 millimetres (rounded: within 0.5 mm; 0 = no data,
+  clipped at 65.535 m); ``info``: ``is_depth_map: true``, ``depth_unit: "mm"`` (LeRobot converts to
+  its ``depth_output_unit``, millimetres by default).
+* ``observation.images.<camera>.segmentation``: uint16 instance ids, exact (0 background, 1 table,
+  2 robot, 3 + i scene object i); ``info``: ``is_depth_map: false``.
+
+Their stats are in the same native units (mm, ids), per channel with shape (1, 1, 1).
 """
 
 from __future__ import annotations
@@ -40,6 +53,8 @@ CHUNKS_SIZE = 1000
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
 EPISODES_PATH = "meta/episodes/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
+DATA_FILE_MB = 100  # a data file with image columns is closed once it holds this much image data
+_MODALITIES = ("rgb", "depth", "segmentation")
 _QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
 
 _VECTOR_FEATURES: dict[str, tuple[int, list[str]]] = {
@@ -63,12 +78,14 @@ def _episode_columns(frames: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     }
 
 
-def _hf_features() -> dict[str, Any]:
+def _hf_features(image_keys: list[str]) -> dict[str, Any]:
     feats: dict[str, Any] = {}
     for k, (n, _) in _VECTOR_FEATURES.items():
         feats[k] = {"feature": {"dtype": "float32", "_type": "Value"}, "length": n, "_type": "List"}
     for k, dtype in _SCALAR_FEATURES.items():
         feats[k] = {"dtype": dtype, "_type": "Value"}
+    for k in image_keys:
+        feats[k] = {"_type": "Image"}
     return {"info": {"features": feats}}
 
 
@@ -93,9 +110,11 @@ class _Stats:
         return out
 
 
-def _image_stats(sample: list[np.ndarray]) -> dict[str, list]:
-    x = np.stack(sample).astype(np.float64) / 255.0  # (n, H, W, 3)
-    flat = x.reshape(-1, 3)
+def _image_stats(sample: list[np.ndarray], scale: float = 255.0) -> dict[str, list]:
+    """Per-channel stats (LeRobot's (C, 1, 1) layout) of sampled (H, W, C) or (H, W) frames, divided
+    by ``scale`` (255 for RGB, which LeRobot returns in [0, 1]; 1 for native-unit images)."""
+    x = np.stack(sample).astype(np.float64) / scale
+    flat = x.reshape(-1, 1 if x.ndim == 3 else x.shape[-1])
     d = {"min": flat.min(0), "max": flat.max(0), "mean": flat.mean(0), "std": flat.std(0)}
     for q in _QUANTILES:
         d[f"q{int(round(q * 100)):02d}"] = np.quantile(flat, q, axis=0)
@@ -104,23 +123,52 @@ def _image_stats(sample: list[np.ndarray]) -> dict[str, list]:
     return out
 
 
-def _write_parquet(path: Path, columns: dict[str, Any], hf: dict[str, Any] | None = None) -> None:
+def _as_uint16(mod: str, frames: np.ndarray) -> np.ndarray:
+    """Depth [m] → uint16 millimetres (0 = no data, clipped at 65.535 m); segmentation ids → uint16."""
+    if mod == "depth":
+        mm = np.round(np.nan_to_num(np.asarray(frames, np.float64), nan=0.0, posinf=65535.0, neginf=0.0) * 1000.0)
+        return np.clip(mm, 0, 65535).astype(np.uint16)
+    return np.asarray(frames).astype(np.uint16)
+
+
+def _png16(image: np.ndarray) -> bytes:
+    """One (H, W) uint16 image as a 16-bit grayscale PNG (PIL mode I;16, as LeRobot writes depth)."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(image, dtype=np.uint16)).save(buf, format="PNG", compress_level=1)
+    return buf.getvalue()
+
+
+def _table(columns: dict[str, Any], hf: dict[str, Any] | None = None) -> Any:
+    """A pyarrow table: 2-D arrays as fixed-size float32 lists, lists of PNG bytes as
+    ``datasets.Image`` structs ``{bytes, path}``, everything else as is."""
     import pyarrow as pa
-    import pyarrow.parquet as pq
 
     arrays, names = [], []
     for k, v in columns.items():
         if isinstance(v, np.ndarray) and v.ndim == 2:
             flat = pa.array(v.astype(np.float32).ravel())
             arrays.append(pa.FixedSizeListArray.from_arrays(flat, v.shape[1]))
+        elif isinstance(v, list) and v and isinstance(v[0], bytes):
+            arrays.append(pa.StructArray.from_arrays(
+                [pa.array(v, pa.binary()), pa.array([None] * len(v), pa.string())], names=["bytes", "path"]))
         else:
             arrays.append(pa.array(v))
         names.append(k)
     table = pa.Table.from_arrays(arrays, names=names)
     if hf is not None:
         table = table.replace_schema_metadata({"huggingface": json.dumps(hf)})
+    return table
+
+
+def _write_parquet(path: Path, columns: dict[str, Any], hf: dict[str, Any] | None = None) -> None:
+    import pyarrow.parquet as pq
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    pq.write_table(table, path)
+    pq.write_table(_table(columns, hf), path)
 
 
 def _write_tasks(path: Path, tasks: list[str]) -> None:
@@ -141,9 +189,43 @@ def _write_tasks(path: Path, tasks: list[str]) -> None:
     pq.write_table(table, path)
 
 
+def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str] | None,
+             modalities: list[str] | None) -> tuple[dict[str, dict[str, Any]], list[tuple[str, str]]]:
+    """The per-camera settings and the (camera, modality) streams to export; one-line errors."""
+    from samplehd.dataset.container import camera_settings
+
+    settings = camera_settings(render)
+    cams = list(dict.fromkeys(cameras)) if cameras is not None else list(settings)
+    missing = [c for c in cams if c not in settings]
+    if missing:
+        raise DatasetError(f"--cameras {missing}: not stored in {root}; stored cameras: "
+                           f"{', '.join(settings) or 'none (rerender adds images)'}")
+    mods = list(dict.fromkeys(modalities)) if modalities is not None else list(_MODALITIES)
+    bad = [m for m in mods if m not in _MODALITIES]
+    if bad:
+        raise DatasetError(f"--modalities {bad}: valid: {', '.join(_MODALITIES)}")
+    streams = [(c, m) for c in cams for m in settings[c]["modalities"] if m in mods]
+    if modalities is not None:
+        absent = [m for m in mods if all(mod != m for _, mod in streams)]
+        if absent:
+            stored = {c: settings[c]["modalities"] for c in cams}
+            raise DatasetError(f"--modalities {absent}: not stored for cameras {cams} in {root}; stored: {stored}")
+    for cam, mod in streams:
+        w, h = settings[cam]["width"], settings[cam]["height"]
+        if mod == "rgb" and (w % 2 or h % 2):
+            raise DatasetError(f"{root}: camera {cam!r} images are {w}x{h}; videos need even sides (rerender it "
+                               f"at an even size, or leave it out with --cameras / --modalities)")
+    return settings, streams
+
+
+def _feature_key(cam: str, mod: str) -> str:
+    return f"observation.images.{cam}" if mod == "rgb" else f"observation.images.{cam}.{mod}"
+
+
 def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/dataset", codec: str | None = None,
                    frames_per_file: int = 200_000, cameras: list[str] | None = None,
-                   progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+                   progress: Callable[[int, int], None] | None = None,
+                   modalities: list[str] | None = None) -> dict[str, Any]:
     """Write the LeRobot v3.0 layout of a complete samplehd dataset into ``out`` (atomically: a
     temporary folder renamed at the end).
 
@@ -152,44 +234,47 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
         out: the new LeRobot dataset folder (must not exist).
         repo_id: recorded in the export for ``LeRobotDataset(repo_id, root=out)``.
         codec: video encoder (default: AV1 as LeRobot, else H.264).
-        frames_per_file: frames per data/video file before a new file is started.
-        cameras: RGB cameras to export as videos (default: every camera stored with RGB).
+        frames_per_file: frames per data/video file before a new file is started (a data file with
+            depth/segmentation images is also closed once it holds ``DATA_FILE_MB`` of them).
+        cameras: cameras to export (default: every stored camera).
         progress: ``progress(done, total)`` per episode.
+        modalities: which of rgb (video), depth, segmentation (PNG image features) to export
+            (default: every stored one).
 
     Returns:
-        ``{episodes, frames, tasks, videos: [keys], codec}``.
+        ``{episodes, frames, tasks, videos: [keys], images: [keys], codec}``.
+
+    Raises:
+        DatasetError: not a complete dataset, ``out`` exists, a camera or modality is not stored, or
+            an RGB camera has odd image sides.
     """
+    import pyarrow.parquet as pq
+
     from samplehd.dataset.video import VideoWriter, pick_codec
 
     reader, out = export_source(root, out)
-    render = reader.info.get("render") or {}
-    stored = list(render.get("cameras", [])) if render.get("mode", "none") != "none" and "rgb" in render.get(
-        "modalities", []) else []
-    cams = cameras if cameras is not None else stored
-    missing = [c for c in cams if c not in stored]
-    if missing:
-        raise DatasetError(f"--cameras {missing}: not stored in {root}; stored RGB cameras: {stored or 'none'}")
-    width, height = int(render.get("width", 0)), int(render.get("height", 0))
-    if cams and (width % 2 or height % 2):
-        raise DatasetError(f"{root}: images are {width}x{height}; videos need even sides (rerender at an even size)")
+    settings, streams = _streams(root, reader.info.get("render"), cameras, modalities)
+    videos = [(c, m) for c, m in streams if m == "rgb"]
+    images = [(c, m) for c, m in streams if m != "rgb"]
+    image_keys = [_feature_key(c, m) for c, m in images]
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
-    codec = pick_codec(codec) if cams else None
+    codec = pick_codec(codec) if videos else None
     order = sorted(range(len(reader)), key=lambda i: (reader.episodes[i].split != "train", i))
     tasks: dict[str, int] = {}
     stats = _Stats()
-    image_samples: dict[str, list[np.ndarray]] = {c: [] for c in cams}
+    samples: dict[str, list[np.ndarray]] = {_feature_key(c, m): [] for c, m in streams}
     ep_rows: list[dict[str, Any]] = []
-    buffer: dict[str, list[np.ndarray]] = {}
     writers: dict[str, Any] = {}
+    data: dict[str, Any] = {}  # the open parquet writer of the current data file
     chunk = file = 0
     in_file = 0  # frames in the current data/video file
+    in_bytes = 0  # image bytes in the current data file
     index = 0
+    hf = _hf_features(image_keys)
 
     def flush_file() -> None:
-        if buffer:
-            cols = {k: np.concatenate(v, 0) for k, v in buffer.items()}
-            _write_parquet(tmp / DATA_PATH.format(chunk_index=chunk, file_index=file), cols, _hf_features())
-            buffer.clear()
+        if "writer" in data:
+            data.pop("writer").close()
         for w in writers.values():
             w.close()
         writers.clear()
@@ -199,36 +284,51 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             entry = reader.episodes[i]
             ep = reader.episode(i)
             t = ep.num_frames
-            if in_file and in_file + t > frames_per_file:
+            if in_file and (in_file + t > frames_per_file or in_bytes >= DATA_FILE_MB * 1_000_000):
                 flush_file()
                 file += 1
                 if file == CHUNKS_SIZE:
                     chunk, file = chunk + 1, 0
-                in_file = 0
+                in_file = in_bytes = 0
             text = str(reader.instruction(i).get("instruction", ""))
             task_index = tasks.setdefault(text, len(tasks))
-            cols = _episode_columns(ep.frames)
+            cols: dict[str, Any] = _episode_columns(ep.frames)
             cols["timestamp"] = (np.arange(t) / fps).astype(np.float32)
             cols["frame_index"] = np.arange(t, dtype=np.int64)
             cols["episode_index"] = np.full(t, n, dtype=np.int64)
             cols["index"] = np.arange(index, index + t, dtype=np.int64)
             cols["task_index"] = np.full(t, task_index, dtype=np.int64)
             for k, v in cols.items():
-                buffer.setdefault(k, []).append(v)
                 stats.add(k, v)
+            picks = slice(None, None, max(1, t // 4))
+            for cam, mod in images:
+                key = _feature_key(cam, mod)
+                frames16 = _as_uint16(mod, ep.images[cam][mod][:])
+                pngs = [_png16(f) for f in frames16]
+                in_bytes += sum(len(b) for b in pngs)
+                cols[key] = pngs
+                samples[key].extend(frames16[picks][:4])
+            if "writer" not in data:
+                path = tmp / DATA_PATH.format(chunk_index=chunk, file_index=file)
+                path.parent.mkdir(parents=True, exist_ok=True)
+                table = _table(cols, hf)
+                data["writer"] = pq.ParquetWriter(path, table.schema)
+                data["writer"].write_table(table)
+            else:
+                data["writer"].write_table(_table(cols, hf))
             row: dict[str, Any] = {
                 "episode_index": n, "tasks": [text], "length": t, "data/chunk_index": chunk, "data/file_index": file,
                 "dataset_from_index": index, "dataset_to_index": index + t,
             }
-            for cam in cams:
-                key = f"observation.images.{cam}"
+            for cam, _ in videos:
+                key = _feature_key(cam, "rgb")
                 if key not in writers:
                     writers[key] = VideoWriter(tmp / VIDEO_PATH.format(video_key=key, chunk_index=chunk,
-                                                                       file_index=file), width, height, fps, codec)
-                rgb = ep.images[cam]["rgb"]
-                frames_rgb = rgb[:]
+                                                                       file_index=file),
+                                               settings[cam]["width"], settings[cam]["height"], fps, codec)
+                frames_rgb = ep.images[cam]["rgb"][:]
                 writers[key].write(frames_rgb)
-                image_samples[cam].extend(frames_rgb[:: max(1, t // 4)][:4])
+                samples[key].extend(frames_rgb[picks][:4])
                 row.update({f"videos/{key}/chunk_index": chunk, f"videos/{key}/file_index": file,
                             f"videos/{key}/from_timestamp": in_file / fps,
                             f"videos/{key}/to_timestamp": (in_file + t) / fps})
@@ -245,20 +345,33 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
         _write_parquet(tmp / EPISODES_PATH.format(chunk_index=0, file_index=0),
                        {k: [r[k] for r in ep_rows] for k in (ep_rows[0] if ep_rows else {})})
         all_stats = stats.result()
-        for cam in cams:
-            if image_samples[cam]:
-                all_stats[f"observation.images.{cam}"] = _image_stats(image_samples[cam])
+        for cam, mod in streams:
+            key = _feature_key(cam, mod)
+            if samples[key]:
+                all_stats[key] = _image_stats(samples[key], 255.0 if mod == "rgb" else 1.0)
         (tmp / "meta" / "stats.json").write_text(json.dumps(all_stats, indent=1))
         features: dict[str, Any] = {}
         for k, (dim, names) in _VECTOR_FEATURES.items():
             features[k] = {"dtype": "float32", "shape": [dim], "names": names}
-        for cam in cams:
-            features[f"observation.images.{cam}"] = {
-                "dtype": "video", "shape": [height, width, 3], "names": ["height", "width", "channels"],
-                "info": {"video.height": height, "video.width": width,
-                         "video.codec": {"libsvtav1": "av1", "libx264": "h264"}.get(codec or "", codec),
-                         "video.pix_fmt": "yuv420p", "video.fps": fps, "video.channels": 3, "has_audio": False,
-                         "is_depth_map": False}}
+        for cam, mod in streams:
+            w, h = settings[cam]["width"], settings[cam]["height"]
+            names = ["height", "width", "channels"]
+            if mod == "rgb":
+                info = {"video.height": h, "video.width": w,
+                        "video.codec": {"libsvtav1": "av1", "libx264": "h264"}.get(codec or "", codec),
+                        "video.pix_fmt": "yuv420p", "video.fps": fps, "video.channels": 3, "has_audio": False,
+                        "is_depth_map": False}
+                features[_feature_key(cam, mod)] = {"dtype": "video", "shape": [h, w, 3], "names": names, "info": info}
+            elif mod == "depth":
+                features[_feature_key(cam, mod)] = {
+                    "dtype": "image", "shape": [h, w, 1], "names": names,
+                    "info": {"is_depth_map": True, "depth_unit": "mm", "image.format": "png", "image.dtype": "uint16",
+                             "samplehd.source": f"images/{cam}/depth (float32 m), rounded to mm"}}
+            else:
+                features[_feature_key(cam, mod)] = {
+                    "dtype": "image", "shape": [h, w, 1], "names": names,
+                    "info": {"is_depth_map": False, "image.format": "png", "image.dtype": "uint16",
+                             "samplehd.ids": "0 background, 1 table, 2 robot, 3 + i scene object i"}}
         for k, dtype in _SCALAR_FEATURES.items():
             features[k] = {"dtype": dtype, "shape": [1], "names": None}
         n_train = sum(1 for i in order if reader.episodes[i].split == "train")
@@ -267,12 +380,12 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             splits["test"] = f"{n_train}:{len(order)}"
         info = {"codebase_version": CODEBASE_VERSION, "fps": fps, "features": features,
                 "total_episodes": len(order), "total_frames": index, "total_tasks": len(tasks),
-                "chunks_size": CHUNKS_SIZE, "data_files_size_in_mb": 100, "video_files_size_in_mb": 200,
-                "data_path": DATA_PATH, "video_path": VIDEO_PATH if cams else None, "robot_type": "ur5e",
+                "chunks_size": CHUNKS_SIZE, "data_files_size_in_mb": DATA_FILE_MB, "video_files_size_in_mb": 200,
+                "data_path": DATA_PATH, "video_path": VIDEO_PATH if videos else None, "robot_type": "ur5e",
                 "splits": splits}
         (tmp / "meta" / "info.json").write_text(json.dumps(info, indent=4))
         (tmp / "meta" / "samplehd.json").write_text(json.dumps(
             {"repo_id": repo_id, "source": str(Path(root).resolve()), "source_format": reader.info.get(
                 "format_version"), "versions": reader.info.get("versions")}, indent=1))
-    return {"episodes": len(order), "frames": index, "tasks": len(tasks), "videos": [f"observation.images.{c}"
-                                                                                      for c in cams], "codec": codec}
+    return {"episodes": len(order), "frames": index, "tasks": len(tasks),
+            "videos": [_feature_key(c, "rgb") for c, _ in videos], "images": image_keys, "codec": codec}

@@ -1,7 +1,11 @@
 """Add or replace every episode's images from its stored physics states, without re-simulating.
 
-Each episode file is rewritten atomically with the new ``/images``; an episode whose file already
-carries the requested render settings is skipped, so running the same command again after a crash
+Each episode file is rewritten atomically with the new ``/images``. By default the new images replace
+all the file's images; with ``add=True`` the file's other cameras are kept (their stored chunks are
+copied unchanged) and a camera + modality rendered again is overwritten, so cameras can have
+different resolutions and presets. The file's ``/images`` ``render`` attribute and ``info.json``'s
+``render`` describe the result per camera (``per_camera``). An episode whose file already carries
+the requested per-camera settings is skipped, so running the same command again after a crash
 resumes where it stopped. ``info.json`` gets the new ``render`` settings and the new sizes and digests.
 """
 
@@ -9,6 +13,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -18,34 +23,85 @@ from samplehd.dataset.layout import INFO_FILE, RUNS_FILE
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError
 
-__all__ = ["rerender_dataset"]
+__all__ = ["merge_camera_settings", "rerender_dataset"]
+
+
+def _describe(s: Mapping[str, Any]) -> str:
+    return f"{s['width']}x{s['height']} {s['mode']}"
+
+
+def merge_camera_settings(old: Mapping[str, Mapping[str, Any]], render: RenderConfig,
+                          add: bool) -> dict[str, dict[str, Any]]:
+    """The per-camera settings of an episode's images after rendering ``render`` into it.
+
+    Args:
+        old: the file's current settings (:func:`samplehd.dataset.container.camera_settings`).
+        render: what is rendered now (mode fast or hd).
+        add: keep ``old``'s cameras (a camera + modality rendered again is overwritten); else only
+            the new images remain.
+
+    Returns:
+        ``{camera: {mode, width, height, modalities}}``.
+
+    Raises:
+        DatasetError: with ``add``, a stored camera would keep some modalities at other settings
+            (resolution or preset) than the ones rendered now; one camera has one setting.
+    """
+    from samplehd.dataset.container import camera_settings
+
+    new = camera_settings(render.to_dict())
+    if not add:
+        return new
+    out = {c: dict(s) for c, s in camera_settings({"per_camera": old}).items()} if old else {}
+    for cam, s in new.items():
+        prev = out.get(cam)
+        if prev is None:
+            out[cam] = s
+            continue
+        same = all(prev[k] == s[k] for k in ("mode", "width", "height"))
+        if same:
+            mods = set(prev["modalities"]) | set(s["modalities"])
+            out[cam] = {**s, "modalities": [m for m in ("rgb", "depth", "segmentation") if m in mods]}
+            continue
+        left = [m for m in prev["modalities"] if m not in s["modalities"]]
+        if left:
+            raise DatasetError(
+                f"camera {cam!r} is stored at {_describe(prev)} with {', '.join(left)}, which --add would keep "
+                f"beside new {_describe(s)} images; add --modalities {' '.join(prev['modalities'])} to re-render "
+                f"all of them, or re-render without --add")
+        out[cam] = s
+    return out
 
 
 def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | None = None,
-                     progress: Progress | None = None) -> dict[str, Any]:
-    """Render every episode of a dataset with ``render`` (replacing any images it had).
+                     progress: Progress | None = None, add: bool = False) -> dict[str, Any]:
+    """Render every episode of a dataset with ``render``.
 
     Args:
         root: the dataset directory (generation must be complete).
         render: cameras, modalities, resolution and preset (mode fast or hd).
         backend: where units run (default: in this process).
         progress: progress receiver (stage ``rerender``).
+        add: keep the episodes' other cameras and modalities (default: replace all images).
 
     Returns:
-        ``{episodes, rendered, skipped, frames, seconds}``.
+        ``{episodes, rendered, skipped, frames, seconds, add, render}`` (``render``: the new
+        ``info.json`` ``render``).
 
     Raises:
-        DatasetError: not a complete dataset, or a file cannot be written.
+        DatasetError: not a complete dataset, conflicting settings (see
+            :func:`merge_camera_settings`), episodes whose images differ before an add (an
+            interrupted different rerender), or a file cannot be written.
+        ConfigError: unknown camera.
     """
-    from samplehd.dataset.container import read_meta
+    from samplehd.dataset.container import camera_settings, file_digest, read_meta, render_record
     from samplehd.dataset.reader import DatasetReader
+    from samplehd.dataset.render import check_cameras
     from samplehd.dataset.work import RenderUnit, run_render_unit
     from samplehd.scene.generate import write_json_atomic
 
     if not render.enabled:
         raise DatasetError("rerender needs a render preset (fast or hd), not 'none'")
-    from samplehd.dataset.render import check_cameras
-
     check_cameras(render)
     root = Path(root)
     reader = DatasetReader(root)
@@ -56,38 +112,58 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
     t0 = time.perf_counter()
     scenes = {int(s["image_index"]): s["spec"] for s in reader.scenes}
     physics_hz = float(reader.config.get("paths", {}).get("physics_hz", 500.0))
-    want = render.to_dict()
-    units, skipped = [], 0
+    units: list[RenderUnit] = []
+    skipped = 0
+    result: dict[str, dict[str, Any]] | None = None
+    first = ""
     for e in reader.episodes:
         path = root / e.file
         try:
-            done = read_meta(path)["render"] == want
+            old = camera_settings(read_meta(path)["render"])
         except DatasetError:
-            done = False
-        if done:
+            if add:
+                raise
+            old = None
+        try:
+            want = merge_camera_settings(old or {}, render, add)
+        except DatasetError as exc:
+            raise DatasetError(f"{path}: {exc}") from None
+        if result is None:
+            result, first = want, path.name
+        elif want != result:
+            raise DatasetError(
+                f"{path}: would hold cameras {_cameras(want)} but {first} {_cameras(result)}: the episodes "
+                f"differ (an interrupted rerender with other settings?); finish that rerender first (run it "
+                f"again) or re-render without --add")
+        if old == want:
             skipped += 1
         else:
-            units.append(RenderUnit(str(path), scenes[e.scene_index], physics_hz, want))
+            units.append(RenderUnit(str(path), scenes[e.scene_index], physics_hz, render.to_dict(), replace=not add))
     progress.stage("rerender", len(reader.episodes), skipped)
     frames = 0
     for _, res in backend.map(run_render_unit, iter(units)):
         frames += int(res["num_frames"])
         progress.advance("rerender", 1, int(res["num_frames"]))
     # Refresh sizes and digests of every file (also those finished by an interrupted earlier run).
-    from samplehd.dataset.container import file_digest
-
     info = json.loads((root / INFO_FILE).read_text())
     for entry in info["episodes"]:
         p = root / entry["file"]
         entry["size"] = p.stat().st_size
         entry["sha256"] = file_digest(p)
+    if result is None:  # no episodes: describe what they would hold
+        result = merge_camera_settings(camera_settings(info.get("render")), render, add)
+    record = render_record(result)
     info.setdefault("render_history", []).append(info.get("render"))
-    info["render"] = want
+    info["render"] = record
     write_json_atomic(root / INFO_FILE, info, indent=1)
     seconds = time.perf_counter() - t0
     with open(root / RUNS_FILE, "a", encoding="utf-8") as f:
-        f.write(json.dumps({"command": "rerender", "render": want, "backend": backend.describe(),
-                            "rendered": len(units), "skipped": skipped, "frames": frames,
-                            "seconds": round(seconds, 3)}) + "\n")
+        f.write(json.dumps({"command": "rerender", "add": add, "render": render.to_dict(),
+                            "backend": backend.describe(), "rendered": len(units), "skipped": skipped,
+                            "frames": frames, "seconds": round(seconds, 3)}) + "\n")
     return {"episodes": len(reader.episodes), "rendered": len(units), "skipped": skipped, "frames": frames,
-            "seconds": seconds}
+            "seconds": seconds, "add": add, "render": record}
+
+
+def _cameras(settings: Mapping[str, Mapping[str, Any]]) -> str:
+    return ", ".join(f"{c} ({_describe(s)}: {' '.join(s['modalities'])})" for c, s in settings.items()) or "none"

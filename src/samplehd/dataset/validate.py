@@ -3,7 +3,7 @@
 Every problem is collected (never raised) as one line naming the file; an empty list means the
 dataset is complete and consistent: info.json, scenes.json, instructions.json and every episode file
 (present, size and SHA-256 as recorded, readable, frame fields with the right shapes and dtypes,
-images with the recorded cameras, modalities and resolution).
+images with the recorded cameras, modalities and per-camera resolution).
 """
 
 from __future__ import annotations
@@ -42,8 +42,10 @@ def _load(path: Path, problems: list[str]) -> Any:
 
 def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, Any] | None,
                           deep: bool = False) -> list[str]:
-    """Problems of one episode file compared with its ``info.json`` entry and the render settings."""
-    from samplehd.dataset.container import file_digest, read_episode
+    """Problems of one episode file compared with its ``info.json`` entry and the render settings
+    (``info.json``'s ``render``: every camera with its own resolution and modalities, see
+    :func:`samplehd.dataset.container.camera_settings`)."""
+    from samplehd.dataset.container import camera_settings, file_digest, read_episode
 
     problems: list[str] = []
     if not path.exists():
@@ -69,23 +71,34 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
         if not np.all(np.isfinite(ep.frames[key])):
             problems.append(f"{path}: frames/{key} has non-finite values")
     try:
+        want = camera_settings(render)
+    except DatasetError as exc:
+        return [*problems, f"info.json render: {exc}"]
+    try:
         with h5py.File(path, "r") as f:
             has = "images" in f
-            if render and render.get("mode", "none") != "none":
+            if want:
                 if not has:
-                    problems.append(f"{path}: no images, but the dataset renders {render['mode']}")
+                    problems.append(f"{path}: no images, but info.json lists cameras {', '.join(want)}")
                 else:
-                    h, w = render["height"], render["width"]
-                    for cam in render["cameras"]:
-                        for mod in render["modalities"]:
+                    try:
+                        stored = camera_settings(json.loads(f["images"].attrs["render"]))
+                    except (KeyError, ValueError, DatasetError) as exc:
+                        stored = None
+                        problems.append(f"{path}: images/ render attribute unreadable: {exc}")
+                    if stored is not None and stored != want:
+                        problems.append(f"{path}: images/ render settings {stored} differ from info.json's {want}")
+                    for cam, s in want.items():
+                        h, w = s["height"], s["width"]
+                        for mod in s["modalities"]:
                             key = f"images/{cam}/{mod}"
                             if key not in f:
                                 problems.append(f"{path}: {key} missing")
                                 continue
                             ds = f[key]
-                            want = (ep.num_frames, h, w, 3) if mod == "rgb" else (ep.num_frames, h, w)
-                            if tuple(ds.shape) != want:
-                                problems.append(f"{path}: {key} has shape {tuple(ds.shape)}, expected {want}")
+                            shape = (ep.num_frames, h, w, 3) if mod == "rgb" else (ep.num_frames, h, w)
+                            if tuple(ds.shape) != shape:
+                                problems.append(f"{path}: {key} has shape {tuple(ds.shape)}, expected {shape}")
                             elif deep:
                                 for t in range(ds.shape[0]):
                                     ds[t]

@@ -137,7 +137,9 @@ class RenderUnit:
         scene: ``SceneSpec.to_dict()`` of its scene.
         physics_hz: physics rate the scene was compiled at [Hz].
         render: ``RenderConfig.to_dict()``.
-        replace: drop the file's existing images first (else keep cameras/modalities not re-rendered).
+        replace: drop the file's existing images first; else keep the cameras and modalities not
+            re-rendered (copied unchanged; a camera rendered at other settings is replaced whole, see
+            :func:`samplehd.dataset.rerender.merge_camera_settings`).
     """
 
     path: str
@@ -150,11 +152,18 @@ class RenderUnit:
 def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
     """Render an episode's images from its states and rewrite its file atomically.
 
+    The file's ``/images`` ``render`` attribute gets the resulting per-camera settings.
+
     Returns:
         ``{path, num_frames, size, sha256, seconds}``.
+
+    Raises:
+        DatasetError: the file is unreadable or cannot be written, or (adding) a camera would mix settings.
     """
-    from samplehd.dataset.container import read_episode, write_episode
+    from samplehd.dataset.container import camera_settings, read_episode, read_meta, render_record, write_episode
     from samplehd.dataset.render import RenderConfig, render_states
+    from samplehd.dataset.rerender import merge_camera_settings
+    from samplehd.errors import DatasetError
     from samplehd.scene.spec import SceneSpec, compile_scene
 
     t0 = time.perf_counter()
@@ -165,7 +174,12 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
 
     path = Path(unit.path)
     render = RenderConfig.from_dict(unit.render)
-    episode = read_episode(path, images="none" if unit.replace else "load")
+    episode = read_episode(path, images="none" if unit.replace else "lazy")
+    old = {} if unit.replace else camera_settings(read_meta(path)["render"])
+    try:
+        settings = merge_camera_settings(old, render, add=not unit.replace)
+    except DatasetError as exc:
+        raise DatasetError(f"{path}: {exc}") from None
     with h5py.File(path, "r") as f:
         extra = {k: v for k, v in f.attrs.items() if k not in (
             "format_version", "scene_index", "instruction_index", "family", "seed", "success", "num_frames",
@@ -175,9 +189,15 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
         extra["task"] = json.loads(extra["task"])
     scene = SceneSpec.from_dict(unit.scene)
     model, _ = compile_scene(scene, 1.0 / unit.physics_hz)
-    images = {} if unit.replace else {c: dict(m) for c, m in episode.images.items()}
+    images: dict[str, dict[str, Any]] = {}
+    for cam, mods in episode.images.items():
+        prev = old.get(cam)
+        same = prev is not None and cam in settings and all(
+            prev[k] == settings[cam][k] for k in ("mode", "width", "height"))
+        if cam not in render.cameras or same:
+            images[cam] = dict(mods)  # kept (lazy: copied chunk by chunk); same settings: modalities merge
     for cam, mods in render_states(model, episode.frames, render).items():
         images.setdefault(cam, {}).update(mods)
-    written = write_episode(path, dataclasses.replace(episode, images=images), extra, render.to_dict())
+    written = write_episode(path, dataclasses.replace(episode, images=images), extra, render_record(settings))
     return {"path": str(path), "num_frames": written.num_frames, "size": written.size, "sha256": written.sha256,
             "seconds": time.perf_counter() - t0}
