@@ -97,7 +97,7 @@ class PlannerConfig:
     finger_clearance: float = 0.0015
     release_gap: float = 0.006
     max_drop: float = 0.08
-    close_time: float = 0.7
+    close_time: float = 1.0
     squeeze_force: float = 20.0
     open_time: float = 0.5
     grasp_candidates: int = 8

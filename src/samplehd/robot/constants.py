@@ -100,7 +100,7 @@ ARM_KV = np.array([150.0, 150.0, 120.0, 20.0, 20.0, 20.0])
 
 # Gripper: opening width 0 (closed) … GRIPPER_STROKE (open) [m]; squeeze force per finger [N].
 GRIPPER_STROKE = 0.085
-GRIPPER_FORCE = 100.0
+GRIPPER_FORCE = 85.0
 GRIPPER_MASS = 0.9  # [kg], coupling + housing + fingers
 # Tool centre point: midway between the finger pads, along the flange z axis [m].
 TCP_OFFSET = 0.13

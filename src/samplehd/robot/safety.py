@@ -7,8 +7,10 @@ Checked events (:attr:`SafetyEvent.kind`):
   (body ``table``), the floor, the backdrop (walls, counter) or any other static geom.
 - ``contact_force``: the normal force between one robot body and one scene object (bodies
   ``object_{i}`` and their descendants), summed over their contact points, exceeds
-  ``max_contact_force``. Touching and grasping objects is allowed (the grip force is 100 N per
-  finger, below the default limit of 150 N).
+  ``max_contact_force`` for ``force_hold_time`` or longer (a force sensor's filter: the few-
+  millisecond impulse of a finger pad meeting a light object is not a sustained push). Touching
+  and grasping objects is allowed (the grip force is 85 N per finger, so even one finger pushing
+  with both fingers' force through their coupling stays below the default limit of 150 N).
 - ``joint_torque``: an arm motor delivers at least ``torque_ratio`` of its torque limit for
   ``torque_hold_time`` or longer (a stall against an obstacle or an excessive load).
 
@@ -42,6 +44,8 @@ class SafetyConfig:
 
     Attributes:
         max_contact_force: largest allowed normal force between the robot and one scene object [N].
+        force_hold_time: how long the force must stay above the limit before the arm stops [s]
+            (contacts are checked every few physics steps; 0 stops at the first sample).
         torque_ratio: fraction of a joint's torque limit that counts as overload (0, 1].
         torque_hold_time: how long an overload must last before the arm stops [s] (torques are
             sampled once per control step by the controller).
@@ -51,6 +55,7 @@ class SafetyConfig:
     """
 
     max_contact_force: float = 150.0
+    force_hold_time: float = 0.008
     torque_ratio: float = 0.98
     torque_hold_time: float = 0.1
     min_penetration: float = 0.0
@@ -60,6 +65,8 @@ class SafetyConfig:
     def __post_init__(self) -> None:
         if not (math.isfinite(self.max_contact_force) and self.max_contact_force > 0):
             raise ConfigError(f"max_contact_force must be a positive number of newtons, got {self.max_contact_force}")
+        if not (math.isfinite(self.force_hold_time) and self.force_hold_time >= 0):
+            raise ConfigError(f"force_hold_time must be >= 0 seconds, got {self.force_hold_time}")
         if not (0.0 < self.torque_ratio <= 1.0):
             raise ConfigError(f"torque_ratio must be in (0, 1], got {self.torque_ratio}")
         if not (math.isfinite(self.torque_hold_time) and self.torque_hold_time >= 0):
@@ -170,9 +177,11 @@ class SafetyMonitor:
         self._overload_since = np.full(len(JOINT_NAMES), np.nan)
         self._overloaded = False
         self._force = np.zeros(6)
+        self._pushing_since: dict[tuple[int, int], float] = {}
 
     def reset(self) -> None:
         """Forget accumulated overload timers (after the arm was reset)."""
+        self._pushing_since.clear()
         self._overload_since[:] = np.nan
         self._overloaded = False
 
@@ -194,6 +203,8 @@ class SafetyMonitor:
                 event = self._check_contacts(data, involved, geom, cls, contacts.dist)
                 if event is not None:
                     return event
+                return self._check_torque(data) if torque else None
+        self._pushing_since.clear()
         return self._check_torque(data) if torque else None
 
     def _check_contacts(
@@ -221,8 +232,14 @@ class SafetyMonitor:
                 return self._contact_event("self_collision", data, g1, g2, depth, cfg.min_penetration)
             if c2 == _OTHER and cfg.check_environment:
                 return self._contact_event("environment_collision", data, g1, g2, depth, cfg.min_penetration)
-        for force, g1, g2 in pair_force.values():
-            if force > cfg.max_contact_force:
+        now = float(data.time)
+        since = self._pushing_since
+        pushing = {key: v for key, v in pair_force.items() if v[0] > cfg.max_contact_force}
+        for key in [k for k in since if k not in pushing]:
+            del since[key]
+        for key, (force, g1, g2) in pushing.items():
+            start = since.setdefault(key, now)
+            if now - start >= cfg.force_hold_time - 1e-9:
                 return self._contact_event("contact_force", data, int(g1), int(g2), float(force), cfg.max_contact_force)
         return None
 
