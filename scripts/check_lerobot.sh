@@ -41,7 +41,12 @@ for idx in (0, len(ds) // 2, len(ds) - 1):
     for key in ds.meta.video_keys:
         h, w, _ = info["features"][key]["shape"]
         assert tuple(item[key].shape) == (3, h, w), (key, item[key].shape)
+    # Depth (uint16 mm) and segmentation (uint16 ids) are 16-bit PNG image features in the parquet.
+    for key, feat in info["features"].items():
+        if feat.get("dtype") == "image":
+            h, w, _ = feat["shape"]
+            assert tuple(item[key].shape) == (1, h, w), (key, item[key].shape)
     assert isinstance(item["task"], str) and item["task"]
 print(f"check_lerobot: OK: lerobot loaded {root} ({ds.num_episodes} episodes, {ds.num_frames} frames, "
-      f"{ds.fps} fps, videos {ds.meta.video_keys}); first task: {ds[0]['task']!r}")
+      f"{ds.fps} fps, videos {ds.meta.video_keys}, images {ds.meta.image_keys}); first task: {ds[0]['task']!r}")
 PY

@@ -331,12 +331,15 @@ def destination_candidates(
     layout: TableLayout = LAYOUT,
     directions: dict[str, Any] | None = None,
     ignore: tuple[int, ...] = (),
+    relaxed: bool = False,
 ) -> list[tuple[np.ndarray, float]]:
     """Candidate world (x, y) positions of object ``i``'s frame origin at release and turns about the
     vertical [rad], best first.
 
     place/remove: free spots inside the destination part; place_relative: free spots past the
     reference object along the scene's direction; stack/put: the support's top or opening centre.
+    Where no spot is free, the search runs once more with the gaps to other objects and to the
+    part's edges halved (``relaxed``), as a person would squeeze an object in.
     """
     t_obj = object_pose(data, bodies, i)
     if task.family in ("stack", "put", "stack_three"):
@@ -420,6 +423,9 @@ def destination_candidates(
             if d is not None:  # the far, wide samples only where the near ones found nothing
                 score += 2.0 * (max(0.0, dist[s] - 0.15) + max(0.0, abs(lat[s]) - 0.08))
             scored.append((score, origin, float(yaws[s])))
+    if not scored and not relaxed:
+        tight = dataclasses.replace(config, spot_margin=config.spot_margin / 2, part_margin=config.part_margin / 2)
+        return destination_candidates(data, bodies, facts, i, task, rng, tight, layout, directions, ignore, True)
     scored.sort(key=lambda x: x[0])
     best = scored[:12]
     if len(best) > 1:
