@@ -25,6 +25,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=5000)
     parser.add_argument("--per-scene", type=int, default=5)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--families", nargs="+", default=None, help="oracle: only these families")
     parser.add_argument("--out", default="", help="JSONL of per-instruction results (oracle: written, table: read)")
     args = parser.parse_args()
     if args.what == "speed":
@@ -32,7 +33,8 @@ def main() -> None:
             print(f"{f.name:48s} {f.value:10.1f} {f.unit}   ({f.note})")
         return
     if args.what == "oracle":
-        results = paths.oracle_success(args.scenes, args.seed, args.per_scene, args.workers, args.out)
+        families = tuple(args.families) if args.families else None
+        results = paths.oracle_success(args.scenes, args.seed, args.per_scene, args.workers, args.out, families)
     else:
         with open(args.out, encoding="utf-8") as f:
             results = [json.loads(line) for line in f]

@@ -134,7 +134,7 @@ def random_task(scene: Any, family: str, rng: np.random.Generator) -> dict[str, 
     raise ValueError(f"unknown family {family!r}")
 
 
-def _oracle_scene(args: tuple[int, int, int, str]) -> list[dict[str, Any]]:
+def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> list[dict[str, Any]]:
     """Sample one scene with the real sampler, generate instructions with the real generator
     (families balanced), and run the oracle on each; returns one result dict per instruction."""
     import time
@@ -148,7 +148,7 @@ def _oracle_scene(args: tuple[int, int, int, str]) -> list[dict[str, Any]]:
     from samplehd.scene.annotate import annotate_scene
     from samplehd.scene.sampler import sample_scene
 
-    index, seed, per_scene, out = args
+    index, seed, per_scene, out, families = args
     results = []
     try:
         sampled = sample_scene(index, seed)
@@ -160,7 +160,7 @@ def _oracle_scene(args: tuple[int, int, int, str]) -> list[dict[str, Any]]:
     mujoco.mj_copyData(start, model, data)
     ann = annotate_scene(scene, model, data, 640, 360)
     rng = np.random.default_rng(seed)
-    gen = generate_instructions(ann, rng, per_scene=per_scene, balance="families")
+    gen = generate_instructions(ann, rng, per_scene=per_scene, balance="families", families=families)
     for k, ins in enumerate(gen.instructions):
         mujoco.mj_copyData(data, model, start)
         t0 = time.perf_counter()
@@ -187,7 +187,7 @@ def _oracle_scene(args: tuple[int, int, int, str]) -> list[dict[str, Any]]:
 
 
 def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers: int = 2,
-                   out: str = "") -> list[dict[str, Any]]:
+                   out: str = "", families: tuple[str, ...] | None = None) -> list[dict[str, Any]]:
     """Oracle success over real sampled scenes and generated instructions.
 
     Args:
@@ -196,6 +196,7 @@ def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers:
         per_scene: instructions per scene.
         workers: worker processes.
         out: JSONL file to append per-instruction results to as they finish ("" for none).
+        families: only instructions of these families (None: all, balanced).
 
     Returns:
         One dict per instruction: family, success, attempts, frames, reason, seconds.
@@ -203,7 +204,7 @@ def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers:
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
-    jobs = [(i, base_seed + i, per_scene, out) for i in range(num_scenes)]
+    jobs = [(i, base_seed + i, per_scene, out, families) for i in range(num_scenes)]
     results: list[dict[str, Any]] = []
     if workers <= 1:
         for j in jobs:
