@@ -16,13 +16,16 @@ from typing import Any
 import pytest
 from dataset_states import DatasetFiles, read_dataset_files
 
-# The tiny preset on two scenes, with every second scene in the test split (so both splits exist),
-# one attempt per path and a 10 Hz recording (half the frames to simulate and render). With the
-# default seed 0 this gives 4 instruction candidates: 3 episodes with images and 1 rejected path
-# (the tests need at least one of each; `dataset_files` says so if a change of the generator
-# breaks that). Every expected value of the tests is read from the generated files.
-TINY_SCENES = 2
-TINY_OVERRIDES = {"test_every": 2, "paths": {"max_attempts": 1, "control_hz": 10.0}}
+# The tiny preset on three scenes, with every second scene in the test split (so both splits exist),
+# one attempt per path and a 10 Hz recording (half the frames to simulate and render). The tests
+# need at least one episode and one rejected path (`dataset_files` says so if a change of the
+# generator breaks that). Every expected value of the tests is read from the generated files.
+TINY_SCENES = 3
+# The ground-truth paths now rarely fail, so the rejected path comes from a real checker setting: a
+# picked-up object must be lifted 0.5 m, which the pick_up path (lifting about 25 cm) does not do.
+# Seed 0, 3 scenes: place ×3, remove, stack, pick_up candidates → 5 episodes, 1 rejected path.
+TINY_OVERRIDES = {"test_every": 2,
+                  "paths": {"max_attempts": 1, "control_hz": 10.0, "checker": {"lift_height": 0.5}}}
 
 
 @pytest.fixture(scope="session")
