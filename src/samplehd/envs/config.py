@@ -61,6 +61,9 @@ class EnvConfig:
         grasp_assist: weld an object to the gripper while the fingers close on it and both pads
             touch it, until the gripper opens again (``samplehd.motion.assist``; the dataset's paths
             use it too), for every policy alike.
+        oracle_subtask: plan the oracle's path at every reset (about a second) and report in
+            ``info["oracle_plan_subtask"]`` the planned subtask nearest the current state, whatever
+            policy drives (``samplehd.envs.plan_tracker``).
         scene_cache_size: compiled scenes kept in memory.
         checker: success checker tolerances (a CheckerConfig or its dict).
     """
@@ -86,6 +89,7 @@ class EnvConfig:
     success_check_every: int = 1
     terminate_on_safety: bool = True
     grasp_assist: bool = True
+    oracle_subtask: bool = False
     scene_cache_size: int = 8
     checker: CheckerConfig = field(default_factory=CheckerConfig)
 
@@ -141,7 +145,7 @@ class EnvConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and v >= lo):
                 fail(name, f"must be an integer >= {lo}")
-        for name in ("dense_reward", "terminate_on_safety", "grasp_assist"):
+        for name in ("dense_reward", "terminate_on_safety", "grasp_assist", "oracle_subtask"):
             if not isinstance(getattr(self, name), bool):
                 fail(name, "must be true or false")
 

@@ -40,7 +40,9 @@ optional dense term. ``terminated`` on success or a safety stop; ``truncated`` a
 
 Info keys: ``instruction``, ``family``, ``task`` (executor dict), ``targets``, ``program`` (CLEVR
 nodes), ``program_sequence`` (flat tokens), ``subtask`` (the oracle's current subtask when an
-oracle drives the episode, else ""), ``success``/``is_success``, ``check_reason``,
+oracle drives the episode, else ""), ``oracle_plan_subtask`` (with option ``oracle_subtask``: the
+subtask of the oracle's plan nearest the current state, whatever policy drives; ``oracle_plan_note``
+says why there is none when the planner rejects the instruction), ``success``/``is_success``, ``check_reason``,
 ``safety_event`` (this step's event dict or None), ``safety_events`` (all of the episode),
 ``safety_stop``, ``action_clipped``, ``clipped`` (names of clipped fields), ``unreachable`` (IK had
 no solution for a Cartesian command), ``scene_seed``, ``elapsed_steps``.
@@ -124,6 +126,8 @@ class TabletopEnv(gym.Env):
         self.cache = SceneCache(cfg.scene, cfg.scene_cache_size, 1.0 / cfg.physics_hz, grasp_welds=cfg.grasp_assist)
         self.episode: EpisodeSpec | None = None
         self.subtask = ""
+        self._plan: Any = None
+        self._plan_note, self.plan_subtask = "", ""
         self.model: mujoco.MjModel | None = None
         self.data: mujoco.MjData | None = None
         self.controller: RobotController | None = None
@@ -241,6 +245,15 @@ class TabletopEnv(gym.Env):
         self._reason = ""
         self.subtask = ""
         self.last_safety_event = None
+        self._plan, self._plan_note, self.plan_subtask = None, "", ""
+        if self.config.oracle_subtask:
+            from samplehd.envs.plan_tracker import plan_tracker
+
+            directions = episode.annotation.get("directions") if episode.annotation else None
+            self._plan, self._plan_note = plan_tracker(
+                model, data, episode.scene, episode.instruction["task"], episode.family, directions,
+                int(episode.scene.seed), self.config.physics_hz, self.config.control_hz)
+            self._track_plan()
 
     # ------------------------------------------------------------------ stepping
     def step(self, action: Any) -> tuple[dict, float, bool, bool, dict]:
@@ -277,9 +290,15 @@ class TabletopEnv(gym.Env):
         stopped = self.controller.stopped is not None
         terminated = bool(self._success or (stopped and self.config.terminate_on_safety))
         truncated = bool(not terminated and self._steps >= self.config.max_episode_steps)
+        self._track_plan()
         info = self._info(report, event)
         info["action_clipped"] = bool(clipped_box or report.clipped)
         return obs, float(reward), terminated, truncated, info
+
+    def _track_plan(self) -> None:
+        if self._plan is not None:
+            d = self.data
+            self.plan_subtask = self._plan.update(d.site_xpos[self._tcp_site], float(d.qpos[self._finger_qpos].sum()))
 
     def _update_assist(self, gripper: float) -> None:
         """Grasp assist, the same rule for every policy: weld the object both pads touch while the
@@ -408,6 +427,8 @@ class TabletopEnv(gym.Env):
             "program": copy.deepcopy(ins.get("program", [])),
             "program_sequence": ins.get("program_sequence", ""),
             "subtask": self.subtask,
+            "oracle_plan_subtask": self.plan_subtask,
+            "oracle_plan_note": self._plan_note,
             "success": self._success,
             "is_success": self._success,
             "check_reason": self._reason,
