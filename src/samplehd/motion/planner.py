@@ -424,7 +424,8 @@ def destination_candidates(
                 score += 2.0 * (max(0.0, dist[s] - 0.15) + max(0.0, abs(lat[s]) - 0.08))
             scored.append((score, origin, float(yaws[s])))
     if not scored and not relaxed:
-        tight = dataclasses.replace(config, spot_margin=config.spot_margin / 2, part_margin=config.part_margin / 2)
+        tight = dataclasses.replace(config, spot_margin=config.spot_margin / 2, part_margin=config.part_margin / 2,
+                                    spot_samples=3 * config.spot_samples)
         return destination_candidates(data, bodies, facts, i, task, rng, tight, layout, directions, ignore, True)
     scored.sort(key=lambda x: x[0])
     best = scored[:12]
