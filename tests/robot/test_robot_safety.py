@@ -122,6 +122,8 @@ def test_event_record() -> None:
         SafetyConfig(torque_ratio=0.0)
     with pytest.raises(ConfigError):
         SafetyConfig(max_contact_force=-1.0)
+    with pytest.raises(ConfigError, match="force_hold_time"):
+        SafetyConfig(force_hold_time=-0.01)
 
 
 def test_kitchen_world_home_is_safe_and_the_table_is_recognised(world) -> None:

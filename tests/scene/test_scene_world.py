@@ -54,6 +54,8 @@ def test_build_is_deterministic():
 def test_bad_world_config_is_one_line_error():
     with pytest.raises(ConfigError, match="timestep"):
         WorldConfig(timestep=0.5)
+    with pytest.raises(ConfigError, match="world.sleep"):
+        WorldConfig(sleep="yes")  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match="fovy"):
         CameraSpec("c", (1, 0, 1), (0, 0, 0), fovy=0.0)
 

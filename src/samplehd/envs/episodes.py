@@ -11,6 +11,7 @@ both per scene (the sampler is a deterministic function of its seed and config).
 
 from __future__ import annotations
 
+import copy
 import json
 from collections import OrderedDict
 from collections.abc import Mapping
@@ -78,6 +79,7 @@ class SceneCache:
         self.timestep = timestep
         self._config_key = json.dumps(config.to_dict(), sort_keys=True)
         self._models: OrderedDict[str, tuple[mujoco.MjModel, mujoco.MjData]] = OrderedDict()
+        self._annotations: dict[str, dict[str, Any]] = {}
 
     def scene(self, seed: int, index: int = 0) -> SceneSpec:
         """The scene sampled from ``seed`` (cached)."""
@@ -112,8 +114,17 @@ class SceneCache:
         mujoco.mj_forward(model, data)
         self._models[key] = (model, data)
         while len(self._models) > self.size:
-            self._models.popitem(last=False)
+            old, _ = self._models.popitem(last=False)
+            self._annotations.pop(old, None)
         return model, data, True
+
+    def annotation(self, scene: SceneSpec) -> dict[str, Any]:
+        """The scene's CLEVR-layout annotation (cached with the compiled model; a private copy)."""
+        model, data, _ = self.compiled(scene)
+        key = json.dumps(scene.to_dict(), sort_keys=True)
+        if key not in self._annotations:
+            self._annotations[key] = _annotation(scene, model, data)
+        return copy.deepcopy(self._annotations[key])
 
 
 def _annotation(scene: SceneSpec, model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, Any]:
@@ -167,8 +178,7 @@ def sample_episode(
         else:
             index, seed = 0, int(rng.integers(2**31 - 1))
         scene = cache.scene(seed, index)
-        model, data, _ = cache.compiled(scene)
-        ann = _annotation(scene, model, data)
+        ann = cache.annotation(scene)
         sub = np.random.default_rng(int(rng.integers(2**63 - 1)))
         made = generate_instructions(ann, sub, per_scene=1, families=[family]).instructions
         if made:
@@ -243,8 +253,8 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
     if "scene" not in options or "instruction" not in options:
         raise ConfigError("reset: options need both 'scene' and 'instruction' to reproduce an episode")
     scene = _as_scene(options["scene"])
-    model, data, _ = cache.compiled(scene)
-    ann = _annotation(scene, model, data)
+    model, _, _ = cache.compiled(scene)
+    ann = cache.annotation(scene)
     raw = options["instruction"]
     entry = _instruction_entry(raw) if hasattr(raw, "to_dict") else dict(raw)
     if "instruction" not in entry:

@@ -147,22 +147,6 @@ def _offline_success(env: Any, seed: int) -> bool:
     return True
 
 
-def _write_video(path: Path, frames: list[np.ndarray], fps: int) -> None:
-    import av
-
-    h, w = frames[0].shape[:2]
-    with av.open(str(path), "w") as container:
-        stream = container.add_stream("libx264", rate=fps)
-        stream.width, stream.height = w - w % 2, h - h % 2
-        stream.pix_fmt = "yuv420p"
-        for f in frames:
-            frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(f[: stream.height, : stream.width]), format="rgb24")
-            for packet in stream.encode(frame):
-                container.mux(packet)
-        for packet in stream.encode():
-            container.mux(packet)
-
-
 class _Runner:
     """One environment and policy that run benchmark episodes one at a time."""
 
@@ -230,10 +214,12 @@ class _Runner:
         if config.compare_offline:
             record["offline_success"] = _offline_success(env, seed)
         if config.video_dir and frames and frames[0] is not None:
+            from samplehd.record.replay import write_mp4
+
             out = Path(config.video_dir)
             out.mkdir(parents=True, exist_ok=True)
             name = f"episode_{index:04d}_{record['family']}_{'ok' if record['success'] else 'fail'}.mp4"
-            _write_video(out / name, frames, env.metadata["render_fps"])
+            write_mp4(out / name, np.stack(frames), env.metadata["render_fps"])
             record["video"] = str(out / name)
         return record
 

@@ -114,6 +114,8 @@ class WorldConfig:
     def __post_init__(self) -> None:
         if not 1e-4 <= self.timestep <= 0.02:
             raise ConfigError(f"world.timestep={self.timestep} must be in [0.0001, 0.02] s (500 Hz = 0.002)")
+        if not isinstance(self.sleep, bool):
+            raise ConfigError(f"world.sleep={self.sleep!r} must be true or false")
         names = [c.name for c in self.cameras]
         if len(set(names)) != len(names) or "wrist" in names:
             raise ConfigError(f"world.cameras: names must be unique and not 'wrist', got {names}")
