@@ -217,7 +217,8 @@ class Rollout:
         self._sync()
         try:
             path = straight_move(self.checker, fk_tcp(self.ctrl.target), gp.tcp_grasp, self.ctrl.target,
-                                 gp.grasp.opening, self.dt, self.cfg.approach_speed)
+                                 gp.grasp.opening, self.dt, self.cfg.approach_speed,
+                                 ramp_time=self.cfg.line_ramp_time)
         except PlanningError as exc:
             raise AttemptFailed("approach_blocked", str(exc), k) from exc
         self.run("ApproachGrasp", i, path, open_cmd)
@@ -312,7 +313,7 @@ class Rollout:
             end[2, 3] = zk - self.robot.base_pos[2]
             try:
                 path = straight_move(self.checker, start, end, self.ctrl.target, 0.0, self.dt, self.cfg.lift_speed,
-                                     held=held, check=False)
+                                     held=held, check=False, ramp_time=self.cfg.line_ramp_time)
                 break
             except PlanningError:
                 continue
@@ -400,7 +401,7 @@ class Rollout:
                 move, method = plan_joint_move(self.checker, q_now, q_above, 0.0, self.dt, self.cfg, self.rng,
                                                held=held, lift_z=transport_z, robot=self.robot)
                 down = straight_move(self.checker, above_b, rel_b, q_above, 0.0, self.dt, self.cfg.approach_speed,
-                                     held=held)
+                                     held=held, ramp_time=self.cfg.line_ramp_time)
             except PlanningError as exc:
                 last_error = str(exc)
                 continue
@@ -428,7 +429,7 @@ class Rollout:
         gcmd = _gripper_command(opening)
         try:
             retreat = straight_move(self.checker, start, up, self.ctrl.target, opening, self.dt, self.cfg.lift_speed,
-                                    check=False)
+                                    check=False, ramp_time=self.cfg.line_ramp_time)
             q_up = retreat[-1] if len(retreat) else self.ctrl.target
             self.checker.sync(self.data)
             home, _ = plan_joint_move(self.checker, q_up, HOME_QPOS, opening, self.dt, self.cfg, self.rng,

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import mujoco
@@ -64,9 +64,13 @@ class PlannerConfig:
         transport_clearance: held object's bottom above the tallest other object in transport [m].
         min_lift: smallest rise of the held object in MoveUP [m].
         min_transport_height: lowest TCP height above the table in transport [m].
-        approach_speed: mean TCP speed of approach/descent lines [m/s].
-        lift_speed: mean TCP speed of lifts [m/s].
+        approach_speed: mean TCP speed of approach/descent lines timed minimum-jerk; 1.875× this is
+            their peak, and the cruise speed of long ones [m/s].
+        lift_speed: the same for lifts and retreats [m/s].
+        line_ramp_time: speed-up and slow-down time of long straight lines (0: minimum-jerk) [s].
         joint_speed: largest joint speed of joint-space moves [rad/s].
+        joint_ramp_time: speed-up and slow-down time of long joint-space moves, which cruise at the
+            speed limits in between (0: minimum-jerk timing, which peaks at 1.875× the mean speed) [s].
         max_tcp_speed: largest TCP speed in joint-space moves (below the steering scale) [m/s].
         max_tcp_angular_speed: largest TCP angular speed in joint-space moves [rad/s].
         finger_clearance: fingertips above the table at the grasp [m].
@@ -92,6 +96,8 @@ class PlannerConfig:
     approach_speed: float = 0.08
     lift_speed: float = 0.12
     joint_speed: float = 1.2
+    joint_ramp_time: float = 0.6
+    line_ramp_time: float = 0.5
     max_tcp_speed: float = 0.22
     max_tcp_angular_speed: float = 0.9
     finger_clearance: float = 0.0015
@@ -218,27 +224,21 @@ def choose_grasps(
         # Open wider where the collision hull is thicker than the site's nominal width (sloped rims).
         openings = sorted({min(GRIPPER_STROKE, g.opening + extra) for extra in (0.0, 0.012, 0.024)})
         heights = np.arange(0.0, max(0.0, max_tcp_z - tcp_w[2, 3]) + 1e-9, 0.003)[:8]
-        for opening, dz in ((o, h) for o in openings for h in heights):
+        arm_poses: dict[int, _GraspArmPoses] = {}  # the IK of a height serves every opening
+        for opening, h in ((o, h) for o in openings for h in range(len(heights))):
             if best is not None:
                 break
-            tcp_k = tcp_w.copy()
-            tcp_k[2, 3] += dz
-            pre_w = tcp_k.copy()
-            pre_w[:3, 3] -= config.approach_distance * app
-            tcp_b, pre_b = robot.world_to_base(tcp_k), robot.world_to_base(pre_w)
-            for q_pre in ik_candidates(pre_b, seed_q)[:4]:
-                if not _elbow_up(q_pre):
-                    continue
-                q_g = _ik_near(tcp_b, q_pre)
-                if q_g is None or np.max(np.abs(q_g - q_pre)) > 0.6:
-                    continue
+            if h not in arm_poses:
+                arm_poses[h] = _grasp_arm_poses(robot, tcp_w, app, float(heights[h]), seed_q, config)
+            poses = arm_poses[h]
+            for b, (q_pre, q_g) in enumerate(poses.branches):
                 if not checker.free(q_g, opening):
                     break  # the same pose collides for every IK branch: try higher
                 if not checker.free(q_pre, opening):
                     continue
-                if not _lift_free(checker, tcp_b, q_g, opening, i):
+                if not poses.lift_free(checker, b, opening, i):
                     continue
-                best = (q_pre, q_g, tcp_b, pre_b)
+                best = (q_pre, q_g, poses.tcp_b, poses.pre_b)
                 if opening != g.opening:
                     g = dataclasses.replace(g, opening=float(opening))
                 break
@@ -276,16 +276,51 @@ def graspable_in_scene(model: mujoco.MjModel, data: mujoco.MjData, facts: list[A
             for i, f in enumerate(facts)]
 
 
-def _lift_free(checker: CollisionChecker, tcp_b: np.ndarray, q_grasp: np.ndarray, opening: float, i: int) -> bool:
-    """Whether the gripper can rise 2 and 5 cm from the grasp without touching another object
-    (a finger under an overhanging rim, a plate's, would lift it)."""
-    for dz in (0.02, 0.05):
-        t = tcp_b.copy()
-        t[2, 3] += dz
-        q = _ik_near(t, q_grasp)
-        if q is None or not checker.free(q, opening, allow_objects_with_gripper=(i,)):
-            return False
-    return True
+@dataclass
+class _GraspArmPoses:
+    """The arm's configurations for one grasp pose, whatever the finger opening.
+
+    Attributes:
+        tcp_b: grasp pose in the base frame.
+        pre_b: pre-grasp pose in the base frame.
+        branches: per elbow-up IK branch of the pre-grasp (nearest the seed first, at most 4):
+            (pre-grasp q, grasp q).
+        lifts: per branch, the grasp lifted 2 and 5 cm (None: out of reach), solved when first asked.
+    """
+
+    tcp_b: np.ndarray
+    pre_b: np.ndarray
+    branches: list[tuple[np.ndarray, np.ndarray]]
+    lifts: dict[int, list[np.ndarray] | None] = field(default_factory=dict)
+
+    def lift_free(self, checker: CollisionChecker, b: int, opening: float, i: int) -> bool:
+        """Whether the gripper can rise 2 and 5 cm from branch ``b``'s grasp without touching another
+        object (a finger under an overhanging rim, a plate's, would lift it)."""
+        if b not in self.lifts:
+            up = np.repeat(self.tcp_b[None], 2, axis=0)
+            up[:, 2, 3] += (0.02, 0.05)
+            q, ok = ik_batch(up, self.branches[b][1], TCP_OFFSET)
+            self.lifts[b] = list(q) if ok.all() else None
+        qs = self.lifts[b]
+        return qs is not None and all(checker.free(q, opening, allow_objects_with_gripper=(i,)) for q in qs)
+
+
+def _grasp_arm_poses(robot: RobotInfo, tcp_w: np.ndarray, app: np.ndarray, dz: float, seed_q: np.ndarray,
+                     config: PlannerConfig) -> _GraspArmPoses:
+    tcp_k = tcp_w.copy()
+    tcp_k[2, 3] += dz
+    pre_w = tcp_k.copy()
+    pre_w[:3, 3] -= config.approach_distance * app
+    tcp_b, pre_b = robot.world_to_base(tcp_k), robot.world_to_base(pre_w)
+    branches: list[tuple[np.ndarray, np.ndarray]] = []
+    for q_pre in ik_candidates(pre_b, seed_q)[:4]:
+        if not _elbow_up(q_pre):
+            continue
+        q_g = _ik_near(tcp_b, q_pre)
+        if q_g is None or np.max(np.abs(q_g - q_pre)) > 0.6:
+            continue
+        branches.append((q_pre, q_g))
+    return _GraspArmPoses(tcp_b, pre_b, branches)
 
 
 def _rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,
@@ -498,13 +533,13 @@ def _limit_tcp_speed(path: np.ndarray, start: np.ndarray, dt: float, config: Pla
 def timed_joint_path(waypoints: np.ndarray, dt: float, config: PlannerConfig) -> np.ndarray:
     """Joint path through waypoints, slowed so the TCP never exceeds the steering speed limits."""
     speed = config.joint_speed
-    path = joint_path(waypoints, dt, speed)
+    path = joint_path(waypoints, dt, speed, ramp_time=config.joint_ramp_time)
     for _ in range(4):
         f = _limit_tcp_speed(path, waypoints[0], dt, config)
         if f <= 1.0 + 1e-6:
             break
         speed /= f * 1.05
-        path = joint_path(waypoints, dt, speed)
+        path = joint_path(waypoints, dt, speed, ramp_time=config.joint_ramp_time)
     return path
 
 
@@ -572,9 +607,11 @@ def straight_move(
     held: Held | None = None,
     allow_objects_with_gripper: tuple[int, ...] = (),
     check: bool = True,
+    ramp_time: float = 0.0,
 ) -> np.ndarray:
-    """A straight TCP line (base-frame poses) as timed joint targets, collision-checked."""
-    path = cartesian_path(start_pose, end_pose, q_start, dt, speed)
+    """A straight TCP line (base-frame poses) as timed joint targets, collision-checked; ``speed`` and
+    ``ramp_time`` as in :func:`cartesian_path`."""
+    path = cartesian_path(start_pose, end_pose, q_start, dt, speed, ramp_time=ramp_time)
     if check:
         for q in path[:: max(1, len(path) // 12)]:
             if not checker.free(q, opening, held, allow_objects_with_gripper=allow_objects_with_gripper):
