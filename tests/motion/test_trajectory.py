@@ -1,0 +1,53 @@
+"""Timing of joint moves and straight lines: speed limits, smooth starts and stops, exact ends."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from samplehd.motion.trajectory import cruise_profile, joint_path, min_jerk
+
+DT = 0.05
+
+
+def _speeds(s: np.ndarray, dist: float) -> np.ndarray:
+    return np.diff(np.r_[0.0, s, s[-1]]) * dist / DT
+
+
+@pytest.mark.parametrize("dist", [0.01, 0.1, 0.3, 0.8, 2.0])
+def test_cruise_profile_respects_the_speed_limit_and_ends_exactly(dist: float) -> None:
+    s = cruise_profile(dist, 0.22, DT)
+    assert s[-1] == 1.0
+    assert np.all(np.diff(s) >= 0)
+    v = _speeds(s, dist)
+    assert v.max() <= 0.22 + 1e-9
+    # smooth: it starts and stops slowly, and the speed changes by a bounded amount per step
+    assert v[0] < 0.1 * 0.22 and v[-2] < 0.1 * 0.22
+    if dist >= 0.3:  # cruising: the ramps' peak acceleration is 1.5 vmax / ramp_time
+        assert np.abs(np.diff(v)).max() <= 1.5 * 0.22 / 0.6 * DT + 1e-9
+
+
+def test_long_moves_cruise_and_are_quicker_than_minimum_jerk() -> None:
+    dist, vmax = 0.8, 0.22
+    s = cruise_profile(dist, vmax, DT)
+    n_min_jerk = int(np.ceil(1.875 * dist / vmax / DT))
+    assert len(s) < 0.75 * n_min_jerk
+    v = _speeds(s, dist)
+    assert np.sum(v > 0.95 * vmax) > len(s) / 2  # most of the move at the limit
+
+
+def test_short_moves_and_zero_ramp_stay_minimum_jerk() -> None:
+    np.testing.assert_allclose(cruise_profile(0.05, 0.22, DT), min_jerk(int(np.ceil(1.875 * 0.05 / 0.22 / DT))))
+    np.testing.assert_allclose(cruise_profile(1.0, 0.22, DT, ramp_time=0.0), min_jerk(int(np.ceil(1.875 / 0.22 / DT))))
+    assert len(cruise_profile(0.001, 0.22, DT, min_time=0.3)) == 6  # at least min_time
+
+
+def test_joint_path_ends_at_every_waypoint_within_the_joint_speed() -> None:
+    wps = np.array([[0.0] * 6, [1.5, -0.5, 0.2, 0.0, 0.0, 0.0], [1.5, -0.5, 0.2, 0.0, 0.0, 0.8]])
+    path = joint_path(wps, DT, 1.2)
+    np.testing.assert_allclose(path[-1], wps[-1])
+    steps = np.abs(np.diff(np.vstack([wps[0], path]), axis=0)).max(axis=1) / DT
+    assert steps.max() <= 1.2 + 1e-9
+    # it stops at the middle waypoint
+    k = int(np.argmin(np.linalg.norm(path - wps[1], axis=1)))
+    np.testing.assert_allclose(path[k], wps[1], atol=1e-12)
