@@ -7,6 +7,7 @@ from samplehd.render.renderer import (
     SEG_BACKGROUND,
     SEG_ROBOT,
     SEG_TABLE,
+    RendererCache,
     SceneRenderer,
     camera_intrinsics,
     project_points,
@@ -96,3 +97,32 @@ def test_intrinsics_match_projection(world):
     fwd = -data.cam_xmat[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "operator")].reshape(3, 3)[:, 2]
     u, v, z = project_points(model, data, "operator", 640, 360, cam_pos + 2.0 * fwd)[0]
     assert (u, v, z) == pytest.approx((320, 180, 2.0))
+
+
+def test_a_larger_buffer_renders_the_same_images_at_each_size(world, fast_images):
+    model, data = world
+    with SceneRenderer(model, 160, 90, "fast", buffer_size=(320, 180)) as r:
+        small = r.render(data, "operator", ("segmentation", "depth"))
+        r.resize(320, 180)
+        full = r.render(data, "operator", ("depth", "segmentation"))
+        with pytest.raises(RenderError, match="exceeds this renderer's buffer 320x180"):
+            r.resize(640, 360)
+    assert small["segmentation"].shape == (90, 160)
+    with SceneRenderer(model, 160, 90, "fast") as r:
+        np.testing.assert_array_equal(r.render(data, "operator", ("segmentation",))["segmentation"],
+                                      small["segmentation"])
+    np.testing.assert_array_equal(full["segmentation"], fast_images["segmentation"])
+    np.testing.assert_array_equal(full["depth"], fast_images["depth"])
+
+
+def test_renderer_cache_reuses_a_renderer_only_for_the_same_model_and_preset(world):
+    model, data = world
+    with RendererCache(buffer_size=(320, 180)) as cache:
+        a = cache.get(model, 160, 90, "fast")
+        assert cache.get(model, 320, 180, "fast") is a and (a.width, a.height) == (320, 180)
+        b = cache.get(model, 320, 180, "hd")  # another preset: a new renderer, the old one freed
+        assert b is not a and a._ctx is None
+        c = cache.get(model, 400, 200, "hd")  # larger than the buffer
+        assert c is not b and c.buffer_size == (400, 200)
+        assert c.render(data, "operator", ("rgb",))["rgb"].shape == (200, 400, 3)
+    assert c._ctx is None

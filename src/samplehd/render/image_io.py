@@ -32,11 +32,17 @@ def _parent_ok(path: Path) -> Path:
     return path
 
 
+# zlib level of RGB PNGs: level 3 encodes a 640×360 render in 38 ms instead of 87 ms (default 6), 14 %
+# larger (scene stage of dataset generation, measured on this project's renders).
+_RGB_PNG_LEVEL = 3
+
+
 def save_rgb(path: str | Path, rgb: np.ndarray) -> None:
     """Save an H×W×3 uint8 image (format from the suffix, PNG recommended)."""
     p = _parent_ok(Path(path))
+    options = {"compress_level": _RGB_PNG_LEVEL} if p.suffix.lower() == ".png" else {}
     try:
-        Image.fromarray(np.asarray(rgb, dtype=np.uint8)).save(p)
+        Image.fromarray(np.asarray(rgb, dtype=np.uint8)).save(p, **options)
     except (OSError, ValueError) as exc:
         raise RenderError(f"cannot write image {p}: {exc}") from exc
 

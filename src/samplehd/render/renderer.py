@@ -39,6 +39,7 @@ __all__ = [
     "SEG_ROBOT",
     "SEG_TABLE",
     "RenderPreset",
+    "RendererCache",
     "SceneRenderer",
     "camera_intrinsics",
     "camera_names",
@@ -207,23 +208,27 @@ class SceneRenderer:
     """
 
     def __init__(
-        self, model: mujoco.MjModel, width: int, height: int, preset: str | RenderPreset = "fast"
+        self,
+        model: mujoco.MjModel,
+        width: int,
+        height: int,
+        preset: str | RenderPreset = "fast",
+        buffer_size: tuple[int, int] | None = None,
     ) -> None:
-        if not (isinstance(width, int) and isinstance(height, int)) or not (
-            8 <= width <= 8192 and 8 <= height <= 8192
-        ):
-            raise RenderError(f"resolution {width}x{height} is invalid; width and height must be 8..8192 px")
+        """Make the GL resources of ``model`` for renders of ``width``×``height`` px; ``buffer_size``
+        allocates a larger offscreen buffer, so that :meth:`resize` can render larger images later."""
+        _check_size(width, height)
         self.model = model
-        self.width = width
-        self.height = height
         self.preset = get_preset(preset)
         self._lut = segmentation_lut(model)
         self._gl: Any = None
         self._ctx = None
+        bw, bh = buffer_size or (width, height)
+        self.buffer_size = (max(width, int(bw)), max(height, int(bh)))
+        _check_size(*self.buffer_size)
         # The offscreen buffer, MSAA and shadow map are allocated when the context is made: size them
         # for this renderer (a 1080p buffer or a 4k shadow map costs seconds to allocate on llvmpipe).
-        model.vis.global_.offwidth = width
-        model.vis.global_.offheight = height
+        model.vis.global_.offwidth, model.vis.global_.offheight = self.buffer_size
         model.vis.quality.offsamples = self.preset.msaa_samples
         model.vis.quality.shadowsize = self.preset.shadow_size
         try:
@@ -242,12 +247,22 @@ class SceneRenderer:
         self._option = mujoco.MjvOption()
         self._camera = mujoco.MjvCamera()
         self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
-        self._rect = mujoco.MjrRect(0, 0, width, height)
-        self._rgb = np.empty((height, width, 3), dtype=np.uint8)
-        self._depth = np.empty((height, width), dtype=np.float32)
+        self.resize(width, height)
         extent = float(model.stat.extent)
         self._znear = np.float32(model.vis.map.znear * extent)
         self._zfar = np.float32(model.vis.map.zfar * extent)
+
+    def resize(self, width: int, height: int) -> None:
+        """Render ``width``×``height`` px images from now on, within the offscreen buffer."""
+        _check_size(width, height)
+        if width > self.buffer_size[0] or height > self.buffer_size[1]:
+            raise RenderError(f"resolution {width}x{height} exceeds this renderer's buffer "
+                              f"{self.buffer_size[0]}x{self.buffer_size[1]}; make a renderer with a larger buffer_size")
+        self.width = width
+        self.height = height
+        self._rect = mujoco.MjrRect(0, 0, width, height)
+        self._rgb = np.empty((height, width, 3), dtype=np.uint8)
+        self._depth = np.empty((height, width), dtype=np.float32)
 
     def __enter__(self) -> SceneRenderer:
         return self
@@ -347,6 +362,52 @@ class SceneRenderer:
             if g.objtype == geom_type and g.segid >= 0:
                 table[g.segid + 1] = self._lut[g.objid]
         return table[np.minimum(segid, n)]
+
+
+def _check_size(width: int, height: int) -> None:
+    if not (isinstance(width, int) and isinstance(height, int)) or not (8 <= width <= 8192 and 8 <= height <= 8192):
+        raise RenderError(f"resolution {width}x{height} is invalid; width and height must be 8..8192 px")
+
+
+class RendererCache:
+    """Keeps the last renderer made, so that several renders of one model at different sizes share its GL
+    resources (making them costs about 65 ms per model on llvmpipe).
+
+    Example:
+        >>> with RendererCache(buffer_size=(640, 360)) as cache:  # doctest: +SKIP
+        ...     seg = cache.get(model, 320, 180).render(data, "scene", ("segmentation",))
+        ...     rgb = cache.get(model, 640, 360).render(data, "scene", ("rgb",))  # same renderer
+    """
+
+    def __init__(self, buffer_size: tuple[int, int] | None = None) -> None:
+        self.buffer_size = buffer_size
+        self._renderer: SceneRenderer | None = None
+
+    def get(self, model: mujoco.MjModel, width: int, height: int, preset: str | RenderPreset = "fast") -> SceneRenderer:
+        """A renderer of ``model`` at this size and preset: the kept one where it fits, else a new one."""
+        r = self._renderer
+        want = get_preset(preset)
+        if (r is not None and r.model is model and r.preset == want
+                and width <= r.buffer_size[0] and height <= r.buffer_size[1]):
+            r.resize(width, height)
+            return r
+        self.close()
+        self._renderer = SceneRenderer(model, width, height, want, self.buffer_size)
+        return self._renderer
+
+    def close(self) -> None:
+        """Free the kept renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def __enter__(self) -> RendererCache:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
 
 
 def _gl_backend() -> str:

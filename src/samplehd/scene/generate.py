@@ -61,16 +61,22 @@ class SceneJob:
 def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
     """Sample, render and annotate one scene; writes its files and returns (annotation, rejections)."""
     from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
-    from samplehd.render.renderer import SceneRenderer
+    from samplehd.render.renderer import RendererCache
     from samplehd.scene.annotate import annotate_scene, image_stem
     from samplehd.scene.sampler import sample_scene
     from samplehd.scene.spec import compile_scene
+    from samplehd.scene.world import fresh_state
 
     config = SceneConfig.from_dict(job.config)
-    result = sample_scene(job.index, job.seed, config)
-    model, data = compile_scene(result.scene)
-    with SceneRenderer(model, job.width, job.height, job.preset) as r:
-        img = r.render(data, "scene", ("rgb", "depth", "segmentation"))
+    # The occlusion check and the images share one model and, when their presets agree, its renderer.
+    with RendererCache(buffer_size=(job.width, job.height)) as renderers:
+        result = sample_scene(job.index, job.seed, config, renderers=renderers)
+        if result.model is not None:
+            model, data = result.model, fresh_state(result.model)
+        else:
+            model, data = compile_scene(result.scene)
+        img = renderers.get(model, job.width, job.height, job.preset).render(
+            data, "scene", ("rgb", "depth", "segmentation"))
     split = scene_split(job.index, job.test_every)
     stem = image_stem(split, job.index)
     out = Path(job.out)

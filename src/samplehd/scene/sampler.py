@@ -15,7 +15,7 @@ import numpy as np
 
 from samplehd.catalogue import Catalogue, ObjectInstance, load_catalogue, object_facts
 from samplehd.errors import ConfigError, SceneError
-from samplehd.render.renderer import SEG_OBJECT_OFFSET, SceneRenderer
+from samplehd.render.renderer import SEG_OBJECT_OFFSET, RendererCache
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.geometry import quat_from_yaw, quat_to_mat
 from samplehd.scene.layout import LAYOUT, TableLayout
@@ -42,12 +42,14 @@ class SampleResult:
         rejections: rejected candidates by reason.
         attempts: scene attempts used (1 = the first candidate scene was accepted).
         visible_pixels: per object, segmentation pixels in the occlusion check.
+        model: the scene compiled (``compile_scene(scene)``'s model), or None.
     """
 
     scene: SceneSpec
     rejections: Counter[str] = field(default_factory=Counter)
     attempts: int = 1
     visible_pixels: list[int] = field(default_factory=list)
+    model: mujoco.MjModel | None = field(default=None, compare=False, repr=False)
 
 
 def _menu_values(cat: Catalogue, config: SceneConfig, class_name: str, variant: str) -> tuple[list, list]:
@@ -207,26 +209,26 @@ def _home_clear(model: mujoco.MjModel, data: mujoco.MjData, count: int) -> bool:
 
 
 def _visible_pixels(
-    model: mujoco.MjModel, data: mujoco.MjData, count: int, config: SceneConfig
+    model: mujoco.MjModel, data: mujoco.MjData, count: int, config: SceneConfig, renderers: RendererCache
 ) -> tuple[list[int], list[int]]:
     """Pixels of each object in the scene camera's segmentation, with all objects and alone."""
     w, h = config.occlusion_resolution
     adr = object_qpos_addresses(model, count)
-    with SceneRenderer(model, w, h, "fast") as r:
-        seg = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
-        visible = [int(np.count_nonzero(seg == SEG_OBJECT_OFFSET + i)) for i in range(count)]
-        alone = []
-        saved = data.qpos.copy()
-        for i in range(count):
-            for j in range(count):
-                if j != i:  # park the others far below the floor, out of view
-                    data.qpos[adr[j] : adr[j] + 3] = (50.0 + j, 50.0, -50.0)
-            mujoco.mj_kinematics(model, data)
-            mujoco.mj_camlight(model, data)
-            seg_i = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
-            alone.append(int(np.count_nonzero(seg_i == SEG_OBJECT_OFFSET + i)))
-            data.qpos[:] = saved
-        mujoco.mj_forward(model, data)
+    r = renderers.get(model, w, h, "fast")
+    seg = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
+    visible = [int(np.count_nonzero(seg == SEG_OBJECT_OFFSET + i)) for i in range(count)]
+    alone = []
+    saved = data.qpos.copy()
+    for i in range(count):
+        for j in range(count):
+            if j != i:  # park the others far below the floor, out of view
+                data.qpos[adr[j] : adr[j] + 3] = (50.0 + j, 50.0, -50.0)
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_camlight(model, data)
+        seg_i = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
+        alone.append(int(np.count_nonzero(seg_i == SEG_OBJECT_OFFSET + i)))
+        data.qpos[:] = saved
+    mujoco.mj_forward(model, data)
     return visible, alone
 
 
@@ -236,6 +238,7 @@ def sample_scene(
     config: SceneConfig | None = None,
     catalogue: Catalogue | None = None,
     layout: TableLayout = LAYOUT,
+    renderers: RendererCache | None = None,
 ) -> SampleResult:
     """Sample one scene.
 
@@ -245,6 +248,9 @@ def sample_scene(
         config: sampler options.
         catalogue: object catalogue (default: built-in plus imported classes).
         layout: table and workspace.
+        renderers: where the occlusion check gets its renderer; pass the cache that renders the
+            scene's images next (with ``result.model``) to make the GL resources once. Default: a
+            renderer made and freed here.
 
     Returns:
         The accepted scene with rejection counts.
@@ -288,7 +294,11 @@ def sample_scene(
         if not _home_clear(model, data, len(objects)):
             rejections["robot_home_blocked"] += 1
             continue
-        visible, alone = _visible_pixels(model, data, len(objects), config)
+        if renderers is None:
+            with RendererCache() as own:
+                visible, alone = _visible_pixels(model, data, len(objects), config, own)
+        else:
+            visible, alone = _visible_pixels(model, data, len(objects), config, renderers)
         occluded = [
             i for i in range(len(objects))
             if visible[i] < min_pixels or visible[i] < config.min_visible_fraction * max(alone[i], 1)
@@ -296,7 +306,7 @@ def sample_scene(
         if occluded:
             rejections["occluded"] += 1
             continue
-        return SampleResult(scene, rejections, attempt, visible)
+        return SampleResult(scene, rejections, attempt, visible, model)
     raise SceneError(
         f"scene {index} (seed {seed}): no acceptable scene in {config.scene_attempts} attempts; "
         f"rejections {dict(rejections)}; try fewer objects or a smaller placement_margin"

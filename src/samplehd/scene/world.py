@@ -26,6 +26,7 @@ __all__ = [
     "WorldConfig",
     "build_world",
     "compile_world",
+    "fresh_state",
     "reset_robot_home",
 ]
 
@@ -336,10 +337,16 @@ def compile_world(
     arm holding its home configuration and the gripper open."""
     spec = build_world(objects, config, layout)
     model = spec.compile()
+    return model, fresh_state(model)
+
+
+def fresh_state(model: mujoco.MjModel) -> mujoco.MjData:
+    """A new state of a compiled world as :func:`compile_world` returns it: objects where the model
+    puts them, the arm holding still at home with the gripper open, after ``mj_forward``."""
     data = mujoco.MjData(model)
     reset_robot_home(model, data)
     mujoco.mj_forward(model, data)
-    return model, data
+    return data
 
 
 def reset_robot_home(model: mujoco.MjModel, data: mujoco.MjData) -> None:
