@@ -28,7 +28,7 @@ from samplehd.motion.planner import (
     straight_move,
 )
 from samplehd.motion.robot_info import RobotInfo
-from samplehd.record.recorder import FrameRecorder, steering_from_targets
+from samplehd.record.recorder import FrameRecorder, steering_from_targets, steering_motion
 from samplehd.robot.constants import GRIPPER_ACTUATOR, GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
 from samplehd.robot.controller import RobotController
 from samplehd.robot.kinematics import fk_tcp, ik_batch
@@ -142,10 +142,20 @@ class Rollout:
             grips = np.broadcast_to(np.asarray(self.gripper if gripper is None else gripper, float), (n,))
             grip_of = grips.__getitem__
         cc = self.ctrl.config
+        # The steering of every step at once, from consecutive targets; a step whose start is not the
+        # previous target (clipped by the controller) gets its own.
+        poses = fk_tcp(np.vstack([self.ctrl.target[None], targets])) if n else np.zeros((0, 4, 4))
+        motion = steering_motion(poses[:-1], poses[1:], self.dt, cc.max_linear_speed, cc.max_angular_speed)
+        previous = self.ctrl.target
         for k, q in enumerate(targets):
             self.gripper = float(grip_of(k))
-            steer = steering_from_targets(fk_tcp(self.ctrl.target), fk_tcp(q), self.gripper, self.dt,
-                                          cc.max_linear_speed, cc.max_angular_speed)
+            now = self.ctrl.target
+            if now is previous or np.array_equal(now, previous):
+                steer = np.clip(np.append(motion[k], self.gripper), -1.0, 1.0).astype(np.float32)
+            else:
+                steer = steering_from_targets(fk_tcp(now), poses[k + 1], self.gripper, self.dt,
+                                              cc.max_linear_speed, cc.max_angular_speed)
+            previous = q
             held = self.assist.active if self.assist.active >= 0 else None
             self.recorder.record(idx, k / max(1, n - 1), target, q, self.gripper, steer, held=held)
             report = self.ctrl.step(np.concatenate([q, [self.gripper]]), "joint_position")

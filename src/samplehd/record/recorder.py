@@ -22,6 +22,7 @@ __all__ = [
     "grasped_object",
     "read_episode_npz",
     "steering_from_targets",
+    "steering_motion",
     "write_episode_npz",
 ]
 
@@ -38,6 +39,28 @@ def _rotvec(r: np.ndarray) -> np.ndarray:
         w, vec = np.linalg.eigh((r + r.T) / 2)
         return vec[:, int(np.argmax(w))] * ang
     return v / s * ang
+
+
+def _rotvecs(r: np.ndarray) -> np.ndarray:
+    """Rotation vectors of (N, 3, 3) rotation matrices [rad], as :func:`_rotvec` row by row."""
+    ang = np.arccos(np.clip((np.trace(r, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
+    v = np.stack([r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]], axis=1)
+    s = np.linalg.norm(v, axis=1)
+    out = np.zeros_like(v)
+    regular = (ang >= 1e-9) & (s >= 1e-9)
+    out[regular] = v[regular] / s[regular, None] * ang[regular, None]
+    for k in np.flatnonzero((ang >= 1e-9) & (s < 1e-9)):  # half turns
+        out[k] = _rotvec(r[k])
+    return out
+
+
+def steering_motion(poses_now: np.ndarray, poses_next: np.ndarray, dt: float, max_linear: float,
+                    max_angular: float) -> np.ndarray:
+    """The first six steering values (unclipped) of N steps between TCP target poses (N, 4, 4); see
+    :func:`steering_from_targets`."""
+    lin = (poses_next[:, :3, 3] - poses_now[:, :3, 3]) / (max_linear * dt)
+    rot = _rotvecs(poses_next[:, :3, :3] @ np.swapaxes(poses_now[:, :3, :3], 1, 2)) / (max_angular * dt)
+    return np.concatenate([lin, rot], axis=1)
 
 
 def steering_from_targets(
