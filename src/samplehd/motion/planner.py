@@ -180,6 +180,10 @@ def _elbow_up(q: np.ndarray) -> bool:
     return bool(q[1] < 0 and q[2] > 0)
 
 
+# Cost of one place in the grasp registry's order (catalogue preference) in choose_grasps.
+_GRASP_ORDER_COST = 0.05
+
+
 def choose_grasps(
     model: mujoco.MjModel,
     data: mujoco.MjData,
@@ -195,6 +199,11 @@ def choose_grasps(
 ) -> list[tuple[int, GraspPlan]]:
     """Feasible grasps of object ``i`` in the current state, best first, with their registry index.
 
+    The cost of a grasp grows with its place in the registry's order, with the wrist turn and with
+    the joint travel from ``seed_q``; the search stops at ``config.grasp_candidates`` feasible grasps
+    or where no later candidate can cost less than the best found (the first entry is the same as
+    with a full search; the others are those found on the way).
+
     A grasp is feasible when the grasp and pre-grasp poses have an elbow-up IK solution, the
     fingers (opened to the grasp's opening) touch nothing, the object included, at either pose, and
     the fingertips stay ``finger_clearance`` above the table (the grasp is raised a little where the
@@ -208,7 +217,10 @@ def choose_grasps(
     feasible: list[tuple[float, int, GraspPlan]] = []
     min_tcp_z = layout.table_height + robot.finger_depth + config.finger_clearance
     top_z = float(object_world_box(model, data, bodies, i).hi[2])
+    best_cost = math.inf
     for k, g in enumerate(cands):
+        if k * _GRASP_ORDER_COST >= best_cost:
+            break  # every later candidate costs at least this much: none can beat the best
         if k in exclude:
             continue
         tcp_w = t_obj @ g.pose(robot.finger_axis)
@@ -245,7 +257,9 @@ def choose_grasps(
         if best is None:
             continue
         # Prefer the catalogue's order, then small wrist turns from the seed.
-        cost = k * 0.05 + float(np.abs(best[0][5] - seed_q[5])) * 0.1 + float(np.sum(np.abs(best[0] - seed_q))) * 0.02
+        cost = (k * _GRASP_ORDER_COST + float(np.abs(best[0][5] - seed_q[5])) * 0.1
+                + float(np.sum(np.abs(best[0] - seed_q))) * 0.02)
+        best_cost = min(best_cost, cost)
         feasible.append((cost, k, GraspPlan(g, best[2], best[3], best[1], best[0])))
         if len(feasible) >= config.grasp_candidates:
             break
