@@ -50,6 +50,7 @@ __all__ = [
     "graspable_in_scene",
     "object_pose",
     "plan_joint_move",
+    "rect_overlap",
     "release_height",
 ]
 
@@ -337,18 +338,20 @@ def _grasp_arm_poses(robot: RobotInfo, tcp_w: np.ndarray, app: np.ndarray, dz: f
     return _GraspArmPoses(tcp_b, pre_b, branches)
 
 
-def _rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,
-                  h2: np.ndarray, margin: float) -> bool:
-    """Separating-axis test of two oriented rectangles (centres, 2×2 rotations, half sizes) grown by margin."""
-    d = c2 - c1
-    for axes in (r1, r2):
-        for k in range(2):
-            a = axes[:, k]
-            p1 = abs(a @ r1[:, 0]) * (h1[0] + margin / 2) + abs(a @ r1[:, 1]) * (h1[1] + margin / 2)
-            p2 = abs(a @ r2[:, 0]) * (h2[0] + margin / 2) + abs(a @ r2[:, 1]) * (h2[1] + margin / 2)
-            if abs(a @ d) > p1 + p2:
-                return False
-    return True
+def rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,
+                 h2: np.ndarray, margin: float) -> np.ndarray:
+    """Separating-axis test of oriented rectangles (centres, 2×2 rotations, half sizes) grown by margin.
+
+    Broadcasts over leading dimensions (centres and half sizes ``(..., 2)``, rotations ``(..., 2, 2)``),
+    so one call tests many pairs; returns whether each pair overlaps (a boolean array of the leading
+    shape).
+    """
+    r1, r2 = np.broadcast_arrays(np.asarray(r1, float), np.asarray(r2, float))
+    axes = np.swapaxes(np.concatenate((r1, r2), axis=-1), -1, -2)  # the four candidate axes, as rows
+    reach = (np.abs(axes @ r1) @ (np.asarray(h1) + margin / 2)[..., None]
+             + np.abs(axes @ r2) @ (np.asarray(h2) + margin / 2)[..., None])
+    apart = np.abs(axes @ (np.asarray(c2) - np.asarray(c1))[..., None])
+    return np.all(apart <= reach, axis=(-2, -1))
 
 
 def _footprint(
@@ -436,42 +439,34 @@ def destination_candidates(
         lo, hi = lo + config.part_margin, hi - config.part_margin
         centres = rng.uniform(lo, hi, size=(n, 2))
         d = None
-    scored = []
-    for s in range(n):
-        cy, sy = math.cos(yaws[s]), math.sin(yaws[s])
-        rz = np.array([[cy, -sy], [sy, cy]])
-        rot_i = rz @ rot_i0
-        offset = rz @ offset0
-        if d is not None:
-            ext_i = abs(d @ rot_i[:, 0]) * half_i[0] + abs(d @ rot_i[:, 1]) * half_i[1]
-            c = c_ref + (ext_ref + ext_i + config.spot_margin + dist[s]) * d + lat[s] * lateral
-        else:
-            c = centres[s]
-        origin = c - offset
-        if d is not None and float((origin - ref_origin) @ d) < need:
-            continue
-        if np.any(origin < lo) or np.any(origin > hi):
-            continue
-        r = np.abs(rot_i) @ half_i
-        if np.any(c - r < table_lo) or np.any(c + r > table_hi):
-            continue
-        if not layout.in_reach(origin):
-            continue
-        clear = True
-        gap = np.inf
-        for k in others:
-            ck, rk, hk = foot[k]
-            if _rect_overlap(c, rot_i, half_i, ck, rk, hk, config.spot_margin):
-                clear = False
-                break
-            gap = min(gap, float(np.linalg.norm(ck - c)))
-        if clear:
-            # Prefer room around the spot, the arm's comfortable reach and no turn.
-            reach = float(np.hypot(origin[0] - layout.robot_base[0], origin[1] - layout.robot_base[1]))
-            score = -min(gap, 0.25) + 0.3 * abs(reach - 0.5) + 0.05 * abs(yaws[s])
-            if d is not None:  # the far, wide samples only where the near ones found nothing
-                score += 2.0 * (max(0.0, dist[s] - 0.15) + max(0.0, abs(lat[s]) - 0.08))
-            scored.append((score, origin, float(yaws[s])))
+    # Every sample at once: turned footprint, centre, frame origin, then the filters in turn.
+    cy, sy = np.cos(yaws), np.sin(yaws)
+    rz = np.stack([np.stack([cy, -sy], axis=1), np.stack([sy, cy], axis=1)], axis=1)  # (n, 2, 2)
+    rots = rz @ rot_i0
+    offsets = rz @ offset0
+    if d is not None:
+        ext_i = np.abs(rots[:, :, 0] @ d) * half_i[0] + np.abs(rots[:, :, 1] @ d) * half_i[1]
+        c = c_ref + (ext_ref + ext_i + config.spot_margin + dist)[:, None] * d + lat[:, None] * lateral
+    else:
+        c = centres
+    origins = c - offsets
+    keep = np.all((origins >= lo) & (origins <= hi), axis=1)
+    if d is not None:
+        keep &= (origins - ref_origin) @ d >= need
+    r = np.abs(rots) @ half_i
+    keep &= np.all((c - r >= table_lo) & (c + r <= table_hi), axis=1)
+    reach = np.hypot(origins[:, 0] - layout.robot_base[0], origins[:, 1] - layout.robot_base[1])
+    keep &= (reach >= layout.reach_min) & (reach <= layout.reach_max)
+    gap = np.full(n, np.inf)
+    for k in others:
+        ck, rk, hk = foot[k]
+        keep &= ~rect_overlap(c, rots, half_i, ck, rk, hk, config.spot_margin)
+        gap = np.minimum(gap, np.linalg.norm(ck - c, axis=1))
+    # Prefer room around the spot, the arm's comfortable reach and no turn.
+    score = -np.minimum(gap, 0.25) + 0.3 * np.abs(reach - 0.5) + 0.05 * np.abs(yaws)
+    if d is not None:  # the far, wide samples only where the near ones found nothing
+        score += 2.0 * (np.maximum(0.0, dist - 0.15) + np.maximum(0.0, np.abs(lat) - 0.08))
+    scored = [(float(score[s]), origins[s], float(yaws[s])) for s in np.flatnonzero(keep)]
     if not scored and not relaxed:
         tight = dataclasses.replace(config, spot_margin=config.spot_margin / 2, part_margin=config.part_margin / 2,
                                     spot_samples=3 * config.spot_samples)
