@@ -51,6 +51,11 @@ class CollisionChecker:
         self.object_bodies = {int(b) for b in bodies.object_body}
         self.scratch = mujoco.MjData(model)
         self.sync(data)
+        # Per-body flags, so that contacts are sorted in arrays rather than one by one.
+        flags = np.zeros((4, model.nbody), dtype=bool)
+        for row, ids in enumerate((self.static_robot, bodies.robot_bodies, self.object_bodies, bodies.gripper_bodies)):
+            flags[row, list(ids)] = True
+        self._static, self._robot, self._object, self._grip = flags
         self._obj_qpos = {}
         for i, b in enumerate(bodies.object_body):
             j = model.body_jntadr[b]
@@ -97,36 +102,31 @@ class CollisionChecker:
         d, m, b = self.scratch, self.model, self.bodies
         mujoco.mj_collision(m, d)
         self.checks += 1
-        robot, grip = b.robot_bodies, b.gripper_bodies
+        if d.ncon == 0:
+            return []
         held_body = int(b.object_body[held.index]) if held is not None else -2
-        grip_ok = {int(b.object_body[i]) for i in allow_objects_with_gripper}
+        dist = d.contact.dist
+        body = m.geom_bodyid[d.contact.geom]
+        b1, b2 = body[:, 0], body[:, 1]
+        r1, r2 = self._robot[b1], self._robot[b2]
+        h1, h2 = b1 == held_body, b2 == held_body
+        grip_ok = np.zeros(m.nbody, dtype=bool)
+        grip_ok[[int(b.object_body[i]) for i in allow_objects_with_gripper]] = True
         if held is not None:
-            grip_ok.add(held_body)
+            grip_ok[held_body] = True
+        g1, g2 = self._grip[b1], self._grip[b2]
+        offends = (
+            (dist <= -self.margin)
+            & ~(self._static[b1] | self._static[b2])
+            # a graze of the arm on a scene object (not the held one)
+            & ~(((r1 & self._object[b2]) | (r2 & self._object[b1])) & (dist > -self.object_margin) & ~h1 & ~h2)
+            & (r1 | r2 | h1 | h2)
+            & ~(r1 & r2 & g1 & g2)  # inside the gripper
+            & ~((g1 & grip_ok[b2]) | (g2 & grip_ok[b1]))
+        )
         allowed = {(min(x, y), max(x, y)) for x, y in allow}
-        bad = []
-        for k in range(d.ncon):
-            c = d.contact[k]
-            if c.dist > -self.margin:
-                continue
-            b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
-            if b1 in self.static_robot or b2 in self.static_robot:
-                continue
-            r1, r2 = b1 in robot, b2 in robot
-            if ((r1 and b2 in self.object_bodies) or (r2 and b1 in self.object_bodies)) \
-                    and c.dist > -self.object_margin and b1 != held_body and b2 != held_body:
-                continue
-            h1, h2 = b1 == held_body, b2 == held_body
-            if not (r1 or r2 or h1 or h2):
-                continue
-            if r1 and r2:
-                if b1 in grip and b2 in grip:
-                    continue
-            if (b1 in grip and b2 in grip_ok) or (b2 in grip and b1 in grip_ok):
-                continue
-            if (min(b1, b2), max(b1, b2)) in allowed:
-                continue
-            bad.append((b1, b2, float(c.dist)))
-        return bad
+        return [(int(b1[k]), int(b2[k]), float(dist[k])) for k in np.flatnonzero(offends)
+                if (min(int(b1[k]), int(b2[k])), max(int(b1[k]), int(b2[k]))) not in allowed]
 
     def free(self, q: np.ndarray, opening: float, held: Held | None = None,
              allow: Iterable[tuple[int, int]] = (), allow_objects_with_gripper: Iterable[int] = ()) -> bool:
