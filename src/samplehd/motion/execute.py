@@ -124,7 +124,8 @@ class Rollout:
         return len(self.subtasks) - 1
 
     def run(self, name: str, target: int, targets: np.ndarray,
-            gripper: float | np.ndarray | Callable[[int], float] | None = None) -> None:
+            gripper: float | np.ndarray | Callable[[int], float] | None = None,
+            until: Callable[[int], bool] | None = None) -> None:
         """Execute joint targets (one per control step) as subtask ``name`` and record each step.
 
         Args:
@@ -133,6 +134,8 @@ class Rollout:
             targets: (T, 6) joint targets [rad].
             gripper: gripper command in [-1, 1]: one value, one per step, or a function of the step
                 index (default: unchanged).
+            until: called with the step index after each step; True ends the subtask there (its
+                frames' progress then runs from 0 to 1 over the steps taken).
         """
         idx = self._begin(name)
         n = len(targets)
@@ -162,6 +165,11 @@ class Rollout:
             if report.safety_event is not None:
                 self.recorder.rows["safety_event"][-1] = np.int8(report.safety_event.code)
                 raise AttemptFailed(f"safety_{report.safety_event.kind}", f"{name}: {report.safety_event}")
+            if until is not None and k + 1 < n and until(k):
+                taken = k + 1
+                self.recorder.rows["subtask_progress"][-taken:] = [
+                    np.float32(j / max(1, taken - 1)) for j in range(taken)]
+                break
 
     def hold(self, name: str, target: int, duration: float, gripper: float) -> None:
         """Keep the arm still for ``duration`` seconds with a gripper command."""
@@ -281,7 +289,18 @@ class Rollout:
                 return frozen[0]
             return float(cmds[-1])
 
-        self.run("CloseGripper", i, np.repeat(self.ctrl.target[None], n, axis=0), command)
+        # With the assist the grasp is made when the object attaches: hold a moment for the finger
+        # forces to settle, then go on.
+        attached_at: list[int] = []
+        settle = max(1, int(round(self.cfg.grip_settle_time / self.dt)))
+
+        def settled(k: int) -> bool:
+            if frozen and self.assist.active == i and not attached_at:
+                attached_at.append(k)
+            return bool(attached_at) and k - attached_at[0] >= settle
+
+        self.run("CloseGripper", i, np.repeat(self.ctrl.target[None], n, axis=0), command,
+                 until=settled if self.use_assist else None)
 
     def _grasped(self) -> int:
         from samplehd.record.recorder import grasped_object

@@ -78,7 +78,9 @@ class PlannerConfig:
         release_gap: object's bottom above its support at release [m].
         max_drop: how much higher the object may be released where the fingers cannot open at the
             support (it drops the rest) [m].
-        close_time: duration of CloseGripper [s].
+        close_time: longest duration of CloseGripper [s].
+        grip_settle_time: with the grasp assist, CloseGripper ends this long after the object
+            attaches (the fingers hold still from then on) [s].
         squeeze_force: finger force once the pads touch the object [N].
         open_time: duration of OpenGripper [s].
         grasp_candidates: grasps tried per object (best first).
@@ -94,17 +96,18 @@ class PlannerConfig:
     transport_clearance: float = 0.04
     min_lift: float = 0.1
     min_transport_height: float = 0.18
-    approach_speed: float = 0.08
+    approach_speed: float = 0.1
     lift_speed: float = 0.12
     joint_speed: float = 1.2
     joint_ramp_time: float = 0.6
     line_ramp_time: float = 0.5
-    max_tcp_speed: float = 0.22
-    max_tcp_angular_speed: float = 0.9
+    max_tcp_speed: float = 0.245
+    max_tcp_angular_speed: float = 0.98
     finger_clearance: float = 0.0015
     release_gap: float = 0.006
     max_drop: float = 0.08
     close_time: float = 1.0
+    grip_settle_time: float = 0.2
     squeeze_force: float = 20.0
     open_time: float = 0.5
     grasp_candidates: int = 8
