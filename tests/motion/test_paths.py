@@ -64,6 +64,22 @@ def test_steering_in_range_and_grasp_recorded(place_episode):
     assert np.all(ep.frames["safety_event"] == 0)
 
 
+def test_close_gripper_ends_once_the_grasp_has_settled(place_episode):
+    from samplehd.motion.planner import PlannerConfig
+
+    _, ep = place_episode
+    cfg = PlannerConfig()
+    close = ep.frames["subtask_index"] == SUBTASK_NAMES.index("CloseGripper")
+    on = [a["frame"] for a in ep.info["assist"] if a["on"]][0]
+    frames = np.flatnonzero(close)
+    # it ends grip_settle_time after the object attached, before close_time ran out
+    assert frames[0] <= on <= frames[-1] + 1
+    assert frames[-1] + 1 - on == round(cfg.grip_settle_time * 20) + 1
+    assert len(frames) < round(cfg.close_time * 20)
+    prog = ep.frames["subtask_progress"][close]
+    assert prog[0] == 0.0 and prog[-1] == 1.0 and np.all(np.diff(prog) > 0)
+
+
 def test_replay_reproduces_object_poses_exactly(place_episode):
     from samplehd.record.replay import restore_frame
 
