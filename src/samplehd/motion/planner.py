@@ -50,6 +50,7 @@ __all__ = [
     "graspable_in_scene",
     "object_pose",
     "plan_joint_move",
+    "rect_overlap",
     "release_height",
 ]
 
@@ -288,18 +289,19 @@ def _lift_free(checker: CollisionChecker, tcp_b: np.ndarray, q_grasp: np.ndarray
     return True
 
 
-def _rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,
-                  h2: np.ndarray, margin: float) -> bool:
-    """Separating-axis test of two oriented rectangles (centres, 2×2 rotations, half sizes) grown by margin."""
-    d = c2 - c1
-    for axes in (r1, r2):
-        for k in range(2):
-            a = axes[:, k]
-            p1 = abs(a @ r1[:, 0]) * (h1[0] + margin / 2) + abs(a @ r1[:, 1]) * (h1[1] + margin / 2)
-            p2 = abs(a @ r2[:, 0]) * (h2[0] + margin / 2) + abs(a @ r2[:, 1]) * (h2[1] + margin / 2)
-            if abs(a @ d) > p1 + p2:
-                return False
-    return True
+def rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,
+                 h2: np.ndarray, margin: float) -> np.ndarray:
+    """Separating-axis test of two oriented rectangles (centres, 2×2 rotations, half sizes) grown by margin.
+
+    Broadcasts over leading dimensions (centres and half sizes ``(..., 2)``, rotations
+    ``(..., 2, 2)``), so one call tests many pairs; returns a boolean (array) of the leading shape.
+    """
+    r1, r2 = np.broadcast_arrays(r1, r2)
+    axes = np.swapaxes(np.concatenate((r1, r2), axis=-1), -1, -2)  # the four candidate axes, as rows
+    reach = (np.abs(axes @ r1) @ (np.asarray(h1) + margin / 2)[..., None]
+             + np.abs(axes @ r2) @ (np.asarray(h2) + margin / 2)[..., None])
+    apart = np.abs(axes @ (np.asarray(c2) - np.asarray(c1))[..., None])
+    return np.all(apart <= reach, axis=(-2, -1))
 
 
 def _footprint(
@@ -412,7 +414,7 @@ def destination_candidates(
         gap = np.inf
         for k in others:
             ck, rk, hk = foot[k]
-            if _rect_overlap(c, rot_i, half_i, ck, rk, hk, config.spot_margin):
+            if rect_overlap(c, rot_i, half_i, ck, rk, hk, config.spot_margin):
                 clear = False
                 break
             gap = min(gap, float(np.linalg.norm(ck - c)))
