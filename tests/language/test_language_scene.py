@@ -27,6 +27,21 @@ def test_parse_and_round_trip(scene_dict: dict) -> None:
     assert again == scene
 
 
+def test_footprint_rectangle_fields_round_trip(scene_dict: dict) -> None:
+    obj = scene_dict["objects"][0]
+    x, y, z = obj["3d_coords"]
+    obj["bbox"].update(min=[x - 0.04, y - 0.03, z], max=[x + 0.06, y + 0.03, z + 0.1])
+    obj["footprint_half_extents"] = [0.05, 0.03]
+    scene = parse_scene(scene_dict)
+    parsed = scene.objects[0]
+    assert parsed.rotation == obj["rotation"]
+    assert parsed.yaw == pytest.approx(np.radians(obj["rotation"]))
+    assert parsed.footprint_centre == pytest.approx((x + 0.01, y))
+    assert parsed.footprint_half == (0.05, 0.03)
+    assert Scene.from_dict(scene.to_dict()) == scene
+    assert scene.objects[1].footprint_half_extents is None  # optional: older files lack it
+
+
 def test_missing_relationships_are_computed(scene_dict: dict) -> None:
     without = {k: v for k, v in scene_dict.items() if k != "relationships"}
     assert parse_scene(without).relationships == parse_scene(scene_dict).relationships
@@ -43,6 +58,15 @@ def test_missing_relationships_are_computed(scene_dict: dict) -> None:
         (lambda s: s["relationships"]["left"].pop(), "relationships.left"),
         (lambda s: s["relationships"]["front"][0].append(0), "relationships.front[0]"),
         (lambda s: s.update(objects=None), "objects"),
+        (lambda s: s["objects"][0].update(rotation="north"), "objects[0]: rotation"),
+        (lambda s: s["objects"][0].update(rotation=True), "objects[0]: rotation"),
+        (lambda s: s["objects"][0].update(rotation=float("inf")), "objects[0]: rotation"),
+        (lambda s: s["objects"][1]["bbox"].update(min=[0, 0, 0]), "objects[1]: bbox.max"),
+        (lambda s: s["objects"][1]["bbox"].update(min=[0, "a", 0], max=[1, 1, 1]), "objects[1]: bbox.min"),
+        (lambda s: s["objects"][1]["bbox"].update(min=[0, 0.2, 0], max=[1, 0.1, 1]), "objects[1]: bbox.min"),
+        (lambda s: s["objects"][2].update(footprint_half_extents=[0.05]), "objects[2]: footprint_half_extents"),
+        (lambda s: s["objects"][2].update(footprint_half_extents=[0.05, 0.0]), "objects[2]: footprint_half_extents"),
+        (lambda s: s["objects"][2].update(footprint_half_extents="wide"), "objects[2]: footprint_half_extents"),
     ],
 )
 def test_malformed_scene_names_file_scene_and_field(tmp_path: Path, scene_dict: dict, edit, field: str) -> None:

@@ -33,6 +33,7 @@ from samplehd.language.descriptions import (
     shortest_unique_description,
 )
 from samplehd.language.executor import ProgramError, Task, execute, execute_nodes, execute_sequence
+from samplehd.language.free_spot import FreeSpots, SpotSearch
 from samplehd.language.generator import (
     GenerationResult,
     Instruction,
@@ -58,6 +59,7 @@ __all__ = [
     "SPECIAL_TOKENS",
     "ConstraintContext",
     "Description",
+    "FreeSpots",
     "GenerationResult",
     "IKReachable",
     "Instruction",
@@ -66,6 +68,7 @@ __all__ = [
     "Scene",
     "SceneDescriber",
     "SceneObject",
+    "SpotSearch",
     "Task",
     "Template",
     "TemplateBalancer",

@@ -8,6 +8,10 @@ fails, counting the rejection under the constraint's name. Parameter values are 
 Add a constraint with :func:`register_constraint`; its ``param_types`` say what it takes:
 ``"object"``, ``"objects"`` (an object or an object set), ``"table_part"``, ``"relation"``, and a
 trailing ``"*"`` for one or more of that type.
+
+Room at a destination (``room_in_part``, ``room_opposite``, ``free_beside``) is the ground-truth
+planner's own free-spot test, run on a grid (:mod:`samplehd.language.free_spot`), so an instruction
+is only made when the planner will find where to put its objects.
 """
 
 from __future__ import annotations
@@ -15,10 +19,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import cache
 from typing import Any
 
-import numpy as np
-
+from samplehd.language.free_spot import FreeSpots, SpotSearch
 from samplehd.language.scene import Scene, SceneObject
 from samplehd.scene.layout import LAYOUT, OPPOSITE_PART, TableLayout
 
@@ -47,16 +51,14 @@ class ConstraintContext:
         scene: the scene.
         reachable: whether the gripper can pick or place at a point (x, y, z) [m].
         layout: table geometry (table parts, workspace).
-        fill_fraction: largest fraction of a table part's area objects may cover after a move.
-        relative_gap: gap between an object placed beside another and that object [m].
+        spot_search: settings of the free-spot test (None: the planner's default margins).
         cache: per-scene memo for expensive checks (filled lazily).
     """
 
     scene: Scene
     reachable: Reachable = default_reachable
     layout: TableLayout = LAYOUT
-    fill_fraction: float = 0.5
-    relative_gap: float = 0.03
+    spot_search: SpotSearch | None = None
     cache: dict[Any, Any] = field(default_factory=dict, compare=False)
 
     def obj(self, index: int) -> SceneObject:
@@ -76,19 +78,12 @@ class ConstraintContext:
         c = (lo + hi) / 2.0
         return (float(c[0]), float(c[1]), self.layout.table_height)
 
-    def part_area(self, part: str) -> float:
-        """Area of a table part [m^2]."""
-        key = ("area", part)
+    def free_spots(self) -> FreeSpots:
+        """The planner's free-spot test on this scene (memoised with its candidate spots)."""
+        key = ("free_spots",)
         if key not in self.cache:
-            lo, hi = self.layout.part_bounds(part)
-            self.cache[key] = float(np.prod(hi - lo))
-        return self.cache[key]
-
-    def occupied_area(self, part: str) -> float:
-        """Total footprint area of the objects in a table part [m^2]."""
-        key = ("occupied", part)
-        if key not in self.cache:
-            self.cache[key] = sum(_footprint_area(self.obj(i)) for i in self.objects_in(part))
+            search = self.spot_search if self.spot_search is not None else _default_spot_search()
+            self.cache[key] = FreeSpots(self.scene.objects, search, self.layout, self.reach)
         return self.cache[key]
 
     def objects_in(self, part: str) -> tuple[int, ...]:
@@ -97,6 +92,12 @@ class ConstraintContext:
         if key not in self.cache:
             self.cache[key] = tuple(o.index for o in self.scene.objects if part in o.table_part)
         return self.cache[key]
+
+
+@cache
+def _default_spot_search() -> SpotSearch:
+    """The planner's default margins (read once: it loads the motion package)."""
+    return SpotSearch.from_planner()
 
 
 Check = Callable[[ConstraintContext, Sequence[Any]], bool]
@@ -150,14 +151,6 @@ def _flatten(values: Sequence[Any]) -> list[int]:
     return out
 
 
-def _radius(obj: SceneObject) -> float:
-    return 0.5 * max(obj.footprint)
-
-
-def _footprint_area(obj: SceneObject) -> float:
-    return obj.footprint[0] * obj.footprint[1]
-
-
 def _graspable(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
     return all(ctx.obj(i).graspable for i in _flatten(params))
 
@@ -175,14 +168,8 @@ def _not_in_part(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
     return all(part not in ctx.obj(i).table_part for i in _flatten(params[:-1]))
 
 
-def _room(ctx: ConstraintContext, moved: Sequence[int], part: str) -> bool:
-    # objects already in the part stay; moved ones that were elsewhere arrive
-    arriving = sum(_footprint_area(ctx.obj(i)) for i in moved if part not in ctx.obj(i).table_part)
-    return ctx.occupied_area(part) + arriving <= ctx.fill_fraction * ctx.part_area(part)
-
-
 def _room_in_part(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
-    return _room(ctx, _flatten(params[:-1]), params[-1])
+    return ctx.free_spots().room_in_part(_flatten(params[:-1]), params[-1])
 
 
 def _stackable_on(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
@@ -213,7 +200,7 @@ def _part_graspable(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
 def _room_opposite(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
     part = params[0]
     opposite = OPPOSITE_PART[part]
-    return ctx.reach(ctx.part_centre(opposite)) and _room(ctx, ctx.objects_in(part), opposite)
+    return ctx.reach(ctx.part_centre(opposite)) and ctx.free_spots().room_in_part(ctx.objects_in(part), opposite)
 
 
 def _not_already_related(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
@@ -221,28 +208,9 @@ def _not_already_related(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
     return x not in ctx.scene.relationships[rel][y]
 
 
-def relative_destination(ctx: ConstraintContext, x: int, y: int, rel: str) -> tuple[float, float, float]:
-    """Where object ``x`` goes to be in direction ``rel`` of object ``y`` (x, y, z) [m]."""
-    dx, dy = ctx.scene.directions[rel][:2]
-    norm = math.hypot(dx, dy) or 1.0
-    ox, oy = ctx.obj(x), ctx.obj(y)
-    distance = _radius(ox) + _radius(oy) + ctx.relative_gap
-    return (oy.coords[0] + dx / norm * distance, oy.coords[1] + dy / norm * distance, ox.coords[2])
-
-
 def _free_beside(ctx: ConstraintContext, params: Sequence[Any]) -> bool:
     x, y, rel = params
-    dest = relative_destination(ctx, x, y, rel)
-    (x0, y0), (x1, y1) = ctx.layout.workspace_min, ctx.layout.workspace_max
-    if not (x0 <= dest[0] <= x1 and y0 <= dest[1] <= y1) or not ctx.reach(dest):
-        return False
-    rx = _radius(ctx.obj(x))
-    for other in ctx.scene.objects:
-        if other.index in (x, y):
-            continue
-        if math.hypot(other.coords[0] - dest[0], other.coords[1] - dest[1]) < rx + _radius(other):
-            return False
-    return True
+    return ctx.free_spots().room_beside(x, y, ctx.scene.directions[rel][:2])
 
 
 for _name, _check, _types, _doc in (
@@ -250,13 +218,13 @@ for _name, _check, _types, _doc in (
     ("reachable", _reachable, ("objects*",), "every object is within the arm's reach"),
     ("part_reachable", _part_reachable, ("table_part",), "the table part's centre is reachable"),
     ("not_in_part", _not_in_part, ("objects*", "table_part"), "no object is already in the part"),
-    ("room_in_part", _room_in_part, ("objects*", "table_part"), "the part has room for the objects"),
+    ("room_in_part", _room_in_part, ("objects*", "table_part"), "the planner finds spots for the objects in the part"),
     ("stackable_on", _stackable_on, ("object", "object"), "the base's flat top holds the object"),
     ("fits_in", _fits_in, ("object", "object"), "the object's footprint circle passes the opening"),
     ("part_not_empty", _part_not_empty, ("table_part",), "some object is in the part"),
     ("part_graspable", _part_graspable, ("table_part",), "every object in the part can be moved"),
-    ("room_opposite", _room_opposite, ("table_part",), "the opposite part has room for them"),
+    ("room_opposite", _room_opposite, ("table_part",), "the planner finds spots for them in the opposite part"),
     ("not_already_related", _not_already_related, ("object", "object", "relation"), "not there yet"),
-    ("free_beside", _free_beside, ("object", "object", "relation"), "free, reachable spot beside"),
+    ("free_beside", _free_beside, ("object", "object", "relation"), "the planner finds a spot past the reference"),
 ):
     register_constraint(_name, _check, _types, _doc)

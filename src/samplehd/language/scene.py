@@ -43,6 +43,11 @@ class SceneObject:
         stackable: it can be stacked on something.
         opening_radius: radius of a container's opening [m], or None.
         top_extent: extents (dx, dy) of a flat top things can stand on [m], or None.
+        rotation: yaw about the vertical [deg], or None (older scene files: taken as 0).
+        bbox_min: lower corner (x, y, z) of the world-aligned bounding box [m], or None.
+        bbox_max: upper corner (x, y, z) of the world-aligned bounding box [m], or None.
+        footprint_half_extents: half sizes (x, y) of the footprint rectangle in the object frame
+            [m], or None (taken from ``extents``).
     """
 
     index: int
@@ -60,11 +65,38 @@ class SceneObject:
     stackable: bool = False
     opening_radius: float | None = None
     top_extent: tuple[float, float] | None = None
+    rotation: float | None = None
+    bbox_min: tuple[float, float, float] | None = None
+    bbox_max: tuple[float, float, float] | None = None
+    footprint_half_extents: tuple[float, float] | None = None
 
     @property
     def footprint(self) -> tuple[float, float]:
         """Horizontal extents (dx, dy) [m]."""
         return (self.extents[0], self.extents[1])
+
+    @property
+    def yaw(self) -> float:
+        """Yaw about the vertical [rad] (0 where the scene file gives no ``rotation``)."""
+        return math.radians(self.rotation) if self.rotation is not None else 0.0
+
+    @property
+    def footprint_centre(self) -> tuple[float, float]:
+        """Centre (x, y) of the footprint rectangle in the world [m].
+
+        Objects stand upright, so it is the centre of the world bounding box; without one, the
+        object's position ``coords``.
+        """
+        if self.bbox_min is None or self.bbox_max is None:
+            return (self.coords[0], self.coords[1])
+        return (0.5 * (self.bbox_min[0] + self.bbox_max[0]), 0.5 * (self.bbox_min[1] + self.bbox_max[1]))
+
+    @property
+    def footprint_half(self) -> tuple[float, float]:
+        """Half sizes (x, y) of the footprint rectangle in the object frame [m], turned by ``yaw``."""
+        if self.footprint_half_extents is not None:
+            return self.footprint_half_extents
+        return (0.5 * self.extents[0], 0.5 * self.extents[1])
 
     def attribute(self, kind: str) -> str | tuple[str, ...]:
         """Return the value of an attribute kind (name, colour, material, size, table_part)."""
@@ -84,6 +116,13 @@ class SceneObject:
             "bbox": {"extents": list(self.extents)},
             "affordances": {a: getattr(self, a) for a in _AFFORDANCES},
         }
+        if self.rotation is not None:
+            out["rotation"] = self.rotation
+        if self.bbox_min is not None and self.bbox_max is not None:
+            out["bbox"]["min"] = list(self.bbox_min)
+            out["bbox"]["max"] = list(self.bbox_max)
+        if self.footprint_half_extents is not None:
+            out["footprint_half_extents"] = list(self.footprint_half_extents)
         if self.opening_radius is not None:
             out["opening_radius"] = self.opening_radius
         if self.top_extent is not None:
@@ -162,6 +201,28 @@ def _vector(value: Any, n: int, where: str, field_name: str) -> tuple[float, ...
     return out
 
 
+def _number(value: Any, where: str, field_name: str, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise _fail(where, field_name, f"expected a finite number ({what}), got {value!r}")
+    return float(value)
+
+
+def _bbox_corners(
+    bbox: Mapping[str, Any], where: str
+) -> tuple[tuple[float, float, float] | None, tuple[float, float, float] | None]:
+    """The optional world bounding box corners: both or neither, lower <= upper on every axis."""
+    if "min" not in bbox and "max" not in bbox:
+        return None, None
+    for key in ("min", "max"):
+        if key not in bbox:
+            raise _fail(where, f"bbox.{key}", "missing (bbox.min and bbox.max go together)")
+    lo = _vector(bbox["min"], 3, where, "bbox.min")
+    hi = _vector(bbox["max"], 3, where, "bbox.max")
+    if any(a > b for a, b in zip(lo, hi, strict=True)):
+        raise _fail(where, "bbox.min", f"expected bbox.min <= bbox.max on every axis, got {lo!r} and {hi!r}")
+    return (lo[0], lo[1], lo[2]), (hi[0], hi[1], hi[2])
+
+
 def _parse_object(data: Mapping[str, Any], index: int, where: str) -> SceneObject:
     if not isinstance(data, Mapping):
         raise SceneError(f"{where}: expected an object dict, got {type(data).__name__}")
@@ -181,6 +242,15 @@ def _parse_object(data: Mapping[str, Any], index: int, where: str) -> SceneObjec
     if not isinstance(bbox, Mapping) or "extents" not in bbox:
         raise _fail(where, "bbox.extents", "missing")
     extents = _vector(bbox["extents"], 3, where, "bbox.extents")
+    bbox_min, bbox_max = _bbox_corners(bbox, where)
+    rotation = data.get("rotation")
+    if rotation is not None:
+        rotation = _number(rotation, where, "rotation", "yaw in degrees")
+    half = data.get("footprint_half_extents")
+    if half is not None:
+        half = _vector(half, 2, where, "footprint_half_extents")
+        if min(half) <= 0:
+            raise _fail(where, "footprint_half_extents", f"expected two positive half sizes [m], got {list(half)!r}")
     aff = data.get("affordances", {})
     if not isinstance(aff, Mapping):
         raise _fail(where, "affordances", f"expected a dict of booleans, got {aff!r}")
@@ -207,6 +277,10 @@ def _parse_object(data: Mapping[str, Any], index: int, where: str) -> SceneObjec
         extents=(extents[0], extents[1], extents[2]),
         opening_radius=opening,
         top_extent=None if top is None else (top[0], top[1]),
+        rotation=rotation,
+        bbox_min=bbox_min,
+        bbox_max=bbox_max,
+        footprint_half_extents=None if half is None else (half[0], half[1]),
         **flags,
     )
 
