@@ -178,7 +178,9 @@ def _base_info(config: GenerateConfig) -> dict[str, Any]:
 
 
 def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: Progress,
-                 summary: GenerateSummary) -> list[dict[str, Any]]:
+                 summary: GenerateSummary) -> Iterator[dict[str, Any]]:
+    """Sample the missing scenes; yield every scene's annotation in index order as soon as it and all
+    before it exist, so that the instruction stage runs while later scenes are sampled."""
     from samplehd.dataset.work import run_scene_unit
     from samplehd.scene.annotate import image_stem
     from samplehd.scene.generate import SceneJob, scene_split
@@ -186,45 +188,66 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
 
     r = config.render
     preset = r.mode if r.enabled else "fast"
-    jobs = []
-    for i in range(config.num_scenes):
-        stem = image_stem(scene_split(i, config.test_every), i)
-        if not (out / SCENE_DIR / f"{stem}.json").exists():
-            jobs.append(SceneJob(i, scene_seed(config.seed, i), str(out), config.scene.to_dict(), r.width, r.height,
-                                 preset, config.test_every))
+
+    def path(i: int) -> Path:
+        return out / SCENE_DIR / f"{image_stem(scene_split(i, config.test_every), i)}.json"
+
+    jobs = [SceneJob(i, scene_seed(config.seed, i), str(out), config.scene.to_dict(), r.width, r.height, preset,
+                     config.test_every) for i in range(config.num_scenes) if not path(i).exists()]
     progress.stage("scenes", config.num_scenes, config.num_scenes - len(jobs))
-    for _, res in backend.map(run_scene_unit, iter(jobs)):
+    done = [True] * config.num_scenes
+    for job in jobs:
+        done[job.index] = False
+    following = 0  # next scene to yield
+
+    def ready() -> Iterator[dict[str, Any]]:
+        nonlocal following
+        while following < config.num_scenes and done[following]:
+            try:
+                scene = json.loads(path(following).read_text())
+            except (OSError, ValueError) as exc:
+                raise DatasetError(f"{path(following)}: unreadable scene file ({exc}); delete it and run with "
+                                   "--resume") from None
+            following += 1
+            yield scene
+
+    yield from ready()
+    for job, res in backend.map(run_scene_unit, iter(jobs)):
         summary.scene_cpu_seconds += float(res.get("cpu_seconds", 0.0))
         progress.advance("scenes")
-    scenes = []
-    for i in range(config.num_scenes):
-        path = out / SCENE_DIR / f"{image_stem(scene_split(i, config.test_every), i)}.json"
-        try:
-            scenes.append(json.loads(path.read_text()))
-        except (OSError, ValueError) as exc:
-            raise DatasetError(f"{path}: unreadable scene file ({exc}); delete it and run with --resume") from None
-    return scenes
+        done[job.index] = True
+        yield from ready()
 
 
-def _instruction_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
-                       progress: Progress) -> list[dict[str, Any]]:
+def _instruction_stage(out: Path, config: GenerateConfig, scenes: Iterator[dict[str, Any]],
+                       progress: Progress) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Instruction candidates of every scene, made as the scenes arrive (or read back when resuming);
+    returns (scenes, candidates)."""
     from samplehd.language.instruction_file import generate_instruction_file
 
     path = out / CANDIDATES_FILE
-    progress.stage("instructions", len(scenes))
+    progress.stage("instructions", config.num_scenes)
     if path.exists():
+        seen = list(scenes)
         try:
             doc = json.loads(path.read_text())
         except (OSError, ValueError) as exc:
             raise DatasetError(f"{path}: unreadable ({exc}); delete it and run with --resume") from None
-        progress.advance("instructions", len(scenes))
-        return list(doc["instructions"])
+        progress.advance("instructions", len(seen))
+        return seen, list(doc["instructions"])
+    seen = []
+
+    def arriving() -> Iterator[dict[str, Any]]:
+        for scene in scenes:
+            seen.append(scene)
+            yield scene
+
     ic = config.instructions
-    doc = generate_instruction_file(scenes, config.seed, per_scene=ic.per_scene, balance=ic.balance,
+    doc = generate_instruction_file(arriving(), config.seed, per_scene=ic.per_scene, balance=ic.balance,
                                     families=list(ic.families) if ic.families is not None else None,
-                                    scenes_info={"num_scenes": len(scenes), "seed": config.seed},
+                                    scenes_info={"num_scenes": config.num_scenes, "seed": config.seed},
                                     progress=lambda done, total: progress.advance("instructions"),
-                                    source=str(out / SCENE_DIR))
+                                    source=str(out / SCENE_DIR), total=config.num_scenes)
     slots: Counter[int] = Counter()
     for entry in doc["instructions"]:
         scene = int(entry["image_index"])
@@ -235,7 +258,7 @@ def _instruction_stage(out: Path, config: GenerateConfig, scenes: list[dict[str,
         entry["seed"] = episode_seed(config.seed, scene, slot)
         entry["file"] = f"{EPISODE_DIR}/{episode_name(scene, slot)}"
     _write_json(path, doc)
-    return list(doc["instructions"])
+    return seen, list(doc["instructions"])
 
 
 class _Cutoff:
@@ -399,6 +422,12 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
     _write_json(out / INFO_FILE, info, indent=1)
 
 
+def _marking_end(items: Iterator[Any], marks: list[float]) -> Iterator[Any]:
+    """Pass items through; append the time when the last one has been produced."""
+    yield from items
+    marks.append(time.perf_counter())
+
+
 def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend | None = None, resume: bool = False,
                      progress: Progress | None = None) -> GenerateSummary:
     """Generate (or, with ``resume``, finish) a dataset in ``out``.
@@ -429,9 +458,9 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
     if not (out / INFO_FILE).exists():
         _write_json(out / INFO_FILE, _base_info(config), indent=1)
     marks = [time.perf_counter()]
-    scenes = _scene_stage(out, config, backend, progress, summary)
-    marks.append(time.perf_counter())
-    candidates = _instruction_stage(out, config, scenes, progress)
+    # Instructions are made in this process while the workers sample the later scenes.
+    scene_iter = _scene_stage(out, config, backend, progress, summary)
+    scenes, candidates = _instruction_stage(out, config, _marking_end(scene_iter, marks), progress)
     marks.append(time.perf_counter())
     cutoff = _path_stage(out, config, scenes, candidates, backend, progress, summary)
     marks.append(time.perf_counter())

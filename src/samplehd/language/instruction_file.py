@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import json
 from collections import Counter
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -97,7 +97,7 @@ def assign_splits(n_scenes: int, ratio: Mapping[str, float], rng: np.random.Gene
 
 
 def generate_instruction_file(
-    scenes: Sequence[Mapping[str, Any]],
+    scenes: Iterable[Mapping[str, Any]],
     seed: int = 0,
     *,
     per_scene: int = 5,
@@ -109,6 +109,7 @@ def generate_instruction_file(
     scenes_info: Mapping[str, Any] | None = None,
     progress: Callable[[int, int], None] | None = None,
     source: str = "scenes",
+    total: int | None = None,
 ) -> dict[str, Any]:
     """Generate instructions for every scene and return the ``instructions.json`` document.
 
@@ -116,7 +117,8 @@ def generate_instruction_file(
     across scenes in order, so the same scenes and seed give the same file.
 
     Args:
-        scenes: scene dicts (CLEVR layout).
+        scenes: scene dicts (CLEVR layout), in order; an iterator is consumed as scenes arrive
+            (give ``total``).
         seed: the seed.
         per_scene: instructions to make per scene (fewer where a scene allows fewer).
         balance: ``"templates"`` or ``"families"``.
@@ -127,6 +129,7 @@ def generate_instruction_file(
         scenes_info: the scenes file's ``info``, copied into ``info.scenes_info``.
         progress: called as ``progress(done, total)`` after each scene.
         source: name of the scenes file for error messages.
+        total: number of scenes (default: ``len(scenes)``).
 
     Raises:
         SceneError: a scene is malformed (the message names the scene index and field).
@@ -134,7 +137,8 @@ def generate_instruction_file(
     """
     pool = list(templates if templates is not None else default_templates())
     balancer = TemplateBalancer(balance)
-    splits = assign_splits(len(scenes), split_ratio, np.random.default_rng([seed, 1 << 30])) if split_ratio else None
+    count = total if total is not None else len(scenes)  # type: ignore[arg-type]
+    splits = assign_splits(count, split_ratio, np.random.default_rng([seed, 1 << 30])) if split_ratio else None
     entries: list[dict[str, Any]] = []
     rejections: Counter[str] = Counter()
     empty = 0
@@ -162,7 +166,7 @@ def generate_instruction_file(
             entry.update(inst.to_dict())
             entries.append(entry)
         if progress is not None:
-            progress(k + 1, len(scenes))
+            progress(k + 1, count)
     info = {
         "version": INSTRUCTIONS_FORMAT_VERSION,
         "samplehd_version": samplehd.__version__,
@@ -173,7 +177,7 @@ def generate_instruction_file(
         "split_ratio": dict(split_ratio) if split_ratio else None,
         "templates": [{"family": t.family, "name": t.name, "filename": t.filename, "index": t.index} for t in pool],
         "scenes_info": dict(scenes_info or {}),
-        "scenes": len(scenes),
+        "scenes": count,
         "scenes_without_instructions": empty,
         "counts": {
             "families": dict(sorted(balancer.family_counts.items())),
