@@ -128,6 +128,15 @@ def test_balance_is_near_uniform(scene_dicts: list[dict], balance: str) -> None:
     assert [e["instruction_index"] for e in doc["instructions"]] == list(range(len(doc["instructions"])))
 
 
+def test_scenes_may_arrive_one_by_one(scene_dicts: list[dict]) -> None:
+    # dataset generation feeds scenes as the workers finish them: same file as from the list
+    subset = scene_dicts[:12]
+    ratio = {"train": 0.75, "test": 0.25}
+    whole = generate_instruction_file(subset, seed=5, per_scene=3, split_ratio=ratio)
+    arriving = generate_instruction_file(iter(subset), seed=5, per_scene=3, split_ratio=ratio, total=len(subset))
+    assert arriving == whole
+
+
 def test_split_ratio() -> None:
     assert parse_split_ratio("train=3,test=1") == {"train": 0.75, "test": 0.25}
     with pytest.raises(ConfigError, match="NAME=FRACTION"):
