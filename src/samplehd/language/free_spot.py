@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from samplehd import placement
 from samplehd.errors import ConfigError
 from samplehd.language.scene import SceneObject
 from samplehd.scene.layout import TableLayout
@@ -33,26 +34,6 @@ if TYPE_CHECKING:
 
 __all__ = ["FreeSpots", "SpotSearch"]
 
-# Fixed numbers of the planner's destination search (``destination_candidates``), not config fields.
-# Turns it samples about the vertical, relative to the object's yaw (no turn twice as often) [rad].
-_PLANNER_YAWS = (0.0, 0.0, math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2)
-_TABLE_EDGE = 0.03  # footprint at least this far inside the table's edges [m]
-_WORKSPACE_SLACK = 0.05  # place_relative: origin at most this far outside the workspace [m]
-_BESIDE_NEED = 0.02  # place_relative: origin past the reference's by relation_gap plus this [m]
-# place_relative: half the samples (distance past the reference, lateral offset) near, half far [m]
-_BESIDE_NEAR = (0.15, 0.08)
-_BESIDE_FAR = (0.3, 0.16)
-# How the planner scores a free spot (lower is better): minus the distance to the nearest other
-# object capped at _ROOM_CAP, plus _REACH_WEIGHT times the origin's distance from _COMFORT_REACH
-# from the robot base, plus _TURN_WEIGHT per radian of turn, plus _FAR_PENALTY per metre a
-# place_relative sample lies beyond the near box.
-_ROOM_CAP = 0.25  # [m]
-_COMFORT_REACH = 0.5  # [m]
-_REACH_WEIGHT = 0.3
-_TURN_WEIGHT = 0.05  # [1/rad]
-_FAR_PENALTY = 2.0  # [1/m]
-_SHORTLIST = 12  # free samples the planner keeps, best first
-_OPTIONS = 6  # of which it tries this many
 _TURN_SPREAD = 0.06  # weight of a turn against a distance when spreading the options [m/rad]
 
 _Rect = tuple[np.ndarray, np.ndarray, np.ndarray]  # footprint centre, 2x2 rotation, half sizes
@@ -111,8 +92,8 @@ def _cells(lo: float, hi: float, step: float) -> np.ndarray:
 
 def _yaw_weights() -> tuple[np.ndarray, np.ndarray]:
     """The distinct turns the planner samples and how often it samples each."""
-    turns, counts = np.unique(np.array(_PLANNER_YAWS), return_counts=True)
-    return turns, counts / len(_PLANNER_YAWS)
+    turns, counts = np.unique(np.array(placement.SPOT_TURNS), return_counts=True)
+    return turns, counts / len(placement.SPOT_TURNS)
 
 
 @dataclass(frozen=True)
@@ -236,21 +217,21 @@ class FreeSpots:
             gap = np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
         else:
             gap = np.full(len(idx), np.inf)
-        ranked = idx[np.argsort(-np.minimum(gap, _ROOM_CAP) + spots.score[idx], kind="stable")]
+        ranked = idx[np.argsort(-np.minimum(gap, placement.SPOT_ROOM_CAP) + spots.score[idx], kind="stable")]
         samples = np.cumsum(self.search.samples * spots.weight[ranked])
-        best = ranked[: max(1, int(np.searchsorted(samples, _SHORTLIST, side="right")))]
+        best = ranked[: max(1, int(np.searchsorted(samples, placement.SPOT_SHORTLIST, side="right")))]
         # spread: farthest-point picks over position and turn (a long object's turn matters as much)
         where = np.column_stack([spots.centre[best], _TURN_SPREAD * spots.turns[spots.turn[best]]])
         picks = [0]
         dist = np.linalg.norm(where - where[0], axis=1)
-        while len(picks) < _OPTIONS and dist.max() > 0:
+        while len(picks) < placement.SPOT_OPTIONS and dist.max() > 0:
             picks.append(int(dist.argmax()))
             dist = np.minimum(dist, np.linalg.norm(where - where[picks[-1]], axis=1))
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
         reached = [int(best[i]) for i in picks if self.reach((*spots.origin[best[i]], z))]
         if reached:
             return reached
-        return next(([int(j)] for j in ranked[:_SHORTLIST] if self.reach((*spots.origin[j], z))), [])
+        return next(([int(j)] for j in ranked[:placement.SPOT_SHORTLIST] if self.reach((*spots.origin[j], z))), [])
 
     def _blocks(self, k: int, spots: _Spots, among: np.ndarray, c: np.ndarray, r: np.ndarray,
                 h: np.ndarray) -> np.ndarray:
@@ -293,7 +274,7 @@ class FreeSpots:
             d /= np.linalg.norm(d)
             lateral = np.array([-d[1], d[0]])
             ext_ref = np.abs(d @ self.rot[ref]) @ self.half[ref]
-            (near_dist, near_lat), (far_dist, far_lat) = _BESIDE_NEAR, _BESIDE_FAR
+            (near_dist, near_lat), (far_dist, far_lat) = placement.BESIDE_NEAR, placement.BESIDE_FAR
             step = self.search.step
             dist, lat = np.meshgrid(_cells(0.0, far_dist, step), _cells(-far_lat, far_lat, step), indexing="ij")
             dist, lat = dist.ravel(), lat.ravel()
@@ -308,11 +289,12 @@ class FreeSpots:
             centre = (self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin + dist)[:, None] * d
                       + lat[:, None] * lateral)
             origin = self._origins(x, turn, centre)
-            lo = np.asarray(self.layout.workspace_min) - _WORKSPACE_SLACK
-            hi = np.asarray(self.layout.workspace_max) + _WORKSPACE_SLACK
-            past = (origin - self.origin[ref]) @ d >= self.search.relation_gap + _BESIDE_NEED
+            lo = np.asarray(self.layout.workspace_min) - placement.SPOT_WORKSPACE_SLACK
+            hi = np.asarray(self.layout.workspace_max) + placement.SPOT_WORKSPACE_SLACK
+            past = (origin - self.origin[ref]) @ d >= self.search.relation_gap + placement.BESIDE_NEED
             inside = past & np.all((origin >= lo) & (origin <= hi), axis=1)
-            score = _FAR_PENALTY * (np.maximum(0.0, dist - near_dist) + np.maximum(0.0, np.abs(lat) - near_lat))
+            score = placement.SPOT_FAR_PENALTY * (np.maximum(0.0, dist - near_dist)
+                                                  + np.maximum(0.0, np.abs(lat) - near_lat))
             self._memo[key] = self._spots(x, centre, origin, turn, weight, score, inside)
         return self._memo[key]
 
@@ -331,14 +313,14 @@ class FreeSpots:
         """Spots that pass the tests not involving other objects, with their overlaps with them."""
         rots = self._turned_rots(k)
         half = (np.abs(rots) @ self.half[k])[turn]  # world-axis half sizes of the turned rectangles
-        table = np.asarray(self.layout.table_size) / 2 - _TABLE_EDGE
+        table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
         keep = keep & np.all((centre - half >= -table) & (centre + half <= table), axis=1)
         base = np.asarray(self.layout.robot_base)
         reach = np.hypot(origin[:, 0] - base[0], origin[:, 1] - base[1])
         keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
         centre, origin, turn = centre[keep], origin[keep], turn[keep]
-        score = (score[keep] + _REACH_WEIGHT * np.abs(reach[keep] - _COMFORT_REACH)
-                 + _TURN_WEIGHT * np.abs(self.turns[turn]))
+        score = (score[keep] + placement.SPOT_REACH_WEIGHT * np.abs(reach[keep] - placement.SPOT_COMFORT_REACH)
+                 + placement.SPOT_TURN_WEIGHT * np.abs(self.turns[turn]))
         lo, hi = (centre.min(axis=0), centre.max(axis=0)) if len(centre) else (np.zeros(2), np.zeros(2))
         spots = _Spots(centre, origin, turn, self.turns, rots, weight[keep], score,
                        np.zeros((len(centre), len(self.objects)), bool),

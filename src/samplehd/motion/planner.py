@@ -37,6 +37,21 @@ from samplehd.motion.grasps import GRIPPER_STROKE, Grasp, grasp_candidates
 from samplehd.motion.robot_info import RobotInfo
 from samplehd.motion.rrt import rrt_connect
 from samplehd.motion.trajectory import cartesian_path, joint_path
+from samplehd.placement import (
+    BESIDE_FAR,
+    BESIDE_NEAR,
+    BESIDE_NEED,
+    SPOT_COMFORT_REACH,
+    SPOT_FAR_PENALTY,
+    SPOT_OPTIONS,
+    SPOT_REACH_WEIGHT,
+    SPOT_ROOM_CAP,
+    SPOT_SHORTLIST,
+    SPOT_TABLE_EDGE,
+    SPOT_TURN_WEIGHT,
+    SPOT_TURNS,
+    SPOT_WORKSPACE_SLACK,
+)
 from samplehd.robot.constants import JOINT_LIMITS, TCP_OFFSET
 from samplehd.robot.kinematics import fk_tcp, ik_all, ik_batch, wrap_to_limits
 from samplehd.scene.layout import DIRECTIONS, LAYOUT, TableLayout
@@ -416,11 +431,11 @@ def destination_candidates(
     offset0 = c_i - t_obj[:2, 3]  # footprint centre relative to the frame origin (kept on transport)
     others = [k for k in range(bodies.num_objects) if k != i and k not in ignore]
     foot = {k: _footprint(data, bodies, k, facts[k]) for k in others}
-    table_lo = -np.array(layout.table_size) / 2 + 0.03
-    table_hi = np.array(layout.table_size) / 2 - 0.03
+    table_lo = -np.array(layout.table_size) / 2 + SPOT_TABLE_EDGE
+    table_hi = np.array(layout.table_size) / 2 - SPOT_TABLE_EDGE
     n = int(config.spot_samples)
     # The object may turn about the vertical on the way (the wrist turns), which helps long objects fit.
-    yaws = rng.choice(np.array([0.0, 0.0, math.pi / 4, -math.pi / 4, math.pi / 2, -math.pi / 2]), size=n)
+    yaws = rng.choice(np.array(SPOT_TURNS), size=n)
     ref_origin = np.zeros(2)
     if task.family == "place_relative":
         ref = task.reference
@@ -433,10 +448,12 @@ def destination_candidates(
         # Near the reference first; the second half of the samples reaches further and wider, for a
         # reference with neighbours on that side.
         half = n // 2
-        dist = np.concatenate([rng.uniform(0.0, 0.15, half), rng.uniform(0.0, 0.3, n - half)])
-        lat = np.concatenate([rng.uniform(-0.08, 0.08, half), rng.uniform(-0.16, 0.16, n - half)])
-        lo, hi = np.array(layout.workspace_min) - 0.05, np.array(layout.workspace_max) + 0.05
-        need = config.relation_gap + 0.02
+        (near_dist, near_lat), (far_dist, far_lat) = BESIDE_NEAR, BESIDE_FAR
+        dist = np.concatenate([rng.uniform(0.0, near_dist, half), rng.uniform(0.0, far_dist, n - half)])
+        lat = np.concatenate([rng.uniform(-near_lat, near_lat, half), rng.uniform(-far_lat, far_lat, n - half)])
+        lo = np.array(layout.workspace_min) - SPOT_WORKSPACE_SLACK
+        hi = np.array(layout.workspace_max) + SPOT_WORKSPACE_SLACK
+        need = config.relation_gap + BESIDE_NEED
     else:
         lo, hi = layout.part_bounds(task.destination_part)
         lo, hi = lo + config.part_margin, hi - config.part_margin
@@ -466,18 +483,20 @@ def destination_candidates(
         keep &= ~rect_overlap(c, rots, half_i, ck, rk, hk, config.spot_margin)
         gap = np.minimum(gap, np.linalg.norm(ck - c, axis=1))
     # Prefer room around the spot, the arm's comfortable reach and no turn.
-    score = -np.minimum(gap, 0.25) + 0.3 * np.abs(reach - 0.5) + 0.05 * np.abs(yaws)
+    score = (-np.minimum(gap, SPOT_ROOM_CAP) + SPOT_REACH_WEIGHT * np.abs(reach - SPOT_COMFORT_REACH)
+             + SPOT_TURN_WEIGHT * np.abs(yaws))
     if d is not None:  # the far, wide samples only where the near ones found nothing
-        score += 2.0 * (np.maximum(0.0, dist - 0.15) + np.maximum(0.0, np.abs(lat) - 0.08))
+        score += SPOT_FAR_PENALTY * (np.maximum(0.0, dist - BESIDE_NEAR[0])
+                                     + np.maximum(0.0, np.abs(lat) - BESIDE_NEAR[1]))
     scored = [(float(score[s]), origins[s], float(yaws[s])) for s in np.flatnonzero(keep)]
     if not scored and not relaxed:
         tight = dataclasses.replace(config, spot_margin=config.spot_margin / 2, part_margin=config.part_margin / 2,
                                     spot_samples=3 * config.spot_samples)
         return destination_candidates(data, bodies, facts, i, task, rng, tight, layout, directions, ignore, True)
     scored.sort(key=lambda x: x[0])
-    best = scored[:12]
+    best = scored[:SPOT_SHORTLIST]
     if len(best) > 1:
-        order = sorted(rng.permutation(len(best))[: min(6, len(best))])
+        order = sorted(rng.permutation(len(best))[: min(SPOT_OPTIONS, len(best))])
         best = [best[j] for j in order]
     return [(o, y) for _, o, y in best]
 
