@@ -51,3 +51,21 @@ def test_joint_path_ends_at_every_waypoint_within_the_joint_speed() -> None:
     # it stops at the middle waypoint
     k = int(np.argmin(np.linalg.norm(path - wps[1], axis=1)))
     np.testing.assert_allclose(path[k], wps[1], atol=1e-12)
+
+
+@pytest.mark.parametrize("field", ["joint_ramp_time", "line_ramp_time", "grip_settle_time", "approach_speed"])
+@pytest.mark.parametrize("value", [-0.1, float("nan"), "fast"])
+def test_bad_planner_timing_is_a_one_line_error(field: str, value: object) -> None:
+    from samplehd.errors import ConfigError
+    from samplehd.motion.planner import PlannerConfig
+
+    with pytest.raises(ConfigError, match=rf"^planner\.{field}=.* must be a finite non-negative number$"):
+        PlannerConfig.from_dict({field: value})
+
+
+def test_unknown_planner_option_names_the_valid_ones() -> None:
+    from samplehd.errors import ConfigError
+    from samplehd.motion.planner import PlannerConfig
+
+    with pytest.raises(ConfigError, match=r"unknown planner options \['ramp'\]; valid: .*joint_ramp_time"):
+        PlannerConfig.from_dict({"ramp": 0.5})

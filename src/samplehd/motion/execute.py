@@ -153,7 +153,7 @@ class Rollout:
         for k, q in enumerate(targets):
             self.gripper = float(grip_of(k))
             now = self.ctrl.target
-            if now is previous or np.array_equal(now, previous):
+            if np.array_equal(now, previous):
                 steer = np.clip(np.append(motion[k], self.gripper), -1.0, 1.0).astype(np.float32)
             else:
                 steer = steering_from_targets(fk_tcp(now), poses[k + 1], self.gripper, self.dt,
