@@ -83,7 +83,9 @@ class ConstraintContext:
         key = ("free_spots",)
         if key not in self.cache:
             search = self.spot_search if self.spot_search is not None else _default_spot_search()
-            self.cache[key] = FreeSpots(self.scene.objects, search, self.layout, self.reach)
+            # the default reach test is the planner's annulus, which every candidate spot passes
+            annulus = self.reachable is default_reachable and self.layout == LAYOUT
+            self.cache[key] = FreeSpots(self.scene.objects, search, self.layout, self.reach, annulus)
         return self.cache[key]
 
     def objects_in(self, part: str) -> tuple[int, ...]:

@@ -17,6 +17,7 @@ imported when first needed, so reading scenes and most constraints never load Mu
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -97,10 +98,26 @@ def _yaw_weights() -> tuple[np.ndarray, np.ndarray]:
 
 
 @dataclass(frozen=True)
-class _Spots:
-    """Candidate spots of one object, and which other objects (where the scene has them) each one
-    overlaps. Spots come in groups by the turn the object makes about the vertical."""
+class _Grid:
+    """A grid of spots for one object: footprint centre ``base[t] + u[i] e1 + v[j] e2`` for the turn
+    ``t`` about the vertical, row ``i`` and column ``j``, flattened in the order (turn, row, column)."""
 
+    base: np.ndarray  # (t, 2) origin of each turn's grid [m]
+    axes: np.ndarray  # (2, 2) directions of the rows and the columns, e1 and e2 (rows)
+    u: np.ndarray  # (r,) row coordinates along e1 [m]
+    v: np.ndarray  # (c,) column coordinates along e2 [m]: (j + 0.5) * width past lo
+    lo: float
+    width: float
+    on_axes: bool  # e1, e2 are x, y and base is 0: centre (u[i], v[j]) exactly
+
+
+@dataclass(frozen=True)
+class _Spots:
+    """Candidate spots of one object: every spot of its grid, the ones that pass the tests not
+    involving other objects marked in ``keep``, and which other objects (where the scene has them)
+    each one overlaps."""
+
+    grid: _Grid
     centre: np.ndarray  # (m, 2) footprint centres [m]
     origin: np.ndarray  # (m, 2) frame origins [m]
     turn: np.ndarray  # (m,) index into turns
@@ -108,14 +125,17 @@ class _Spots:
     rots: np.ndarray  # (t, 2, 2) the object's rotation after each turn
     weight: np.ndarray  # (m,) share of the planner's first-try samples landing on the spot
     score: np.ndarray  # (m,) the planner's score terms that do not depend on the neighbours
-    blocked: np.ndarray  # (m, n) overlaps scene object j
-    by_turn: tuple[np.ndarray, ...]  # indices of the spots of each turn
-    middle: np.ndarray  # (2,) centre of the box around the spots' centres [m]
-    spread: np.ndarray  # (2,) half sizes of that box [m]
+    keep: np.ndarray  # (m,) passes the tests not involving other objects
+    near: np.ndarray  # (b,) the other objects that come close enough to block some spot
+    blocked: np.ndarray  # (b, m) object near[i] overlaps the spot
 
 
 class FreeSpots:
     """The planner's free-spot test for the objects of one scene (candidate spots memoised).
+
+    The spots an object may take form a grid per turn, and the spots a rectangle blocks are, on
+    each row of the grid, one run of columns (the separating-axis test is four slabs), so the test
+    finds where each run starts and ends instead of testing every spot against every rectangle.
 
     Args:
         objects: the scene's objects.
@@ -123,6 +143,8 @@ class FreeSpots:
         layout: table geometry.
         reach: whether the gripper can place at a point (x, y, z) [m]; tried on the best spots
             (the planner's own reach annulus already filters every spot).
+        reach_is_annulus: ``reach`` is that annulus (``layout.in_reach``): every spot passes it,
+            so the last object moved needs only enough free spots, not the planner's picks.
     """
 
     def __init__(
@@ -131,20 +153,20 @@ class FreeSpots:
         search: SpotSearch,
         layout: TableLayout,
         reach: Callable[[Sequence[float]], bool],
+        reach_is_annulus: bool = False,
     ) -> None:
-        from samplehd.motion.planner import rect_overlap
-
-        self._overlap = rect_overlap
         self.objects = tuple(objects)
         self.search = search
         self.layout = layout
         self.reach = reach
+        self.reach_is_annulus = reach_is_annulus
         self.centre = np.array([o.footprint_centre for o in objects], float).reshape(-1, 2)
         self.origin = np.array([o.coords[:2] for o in objects], float).reshape(-1, 2)
         self.rot = _rotation(np.array([o.yaw for o in objects], float)).reshape(-1, 2, 2)
         self.half = np.array([o.footprint_half for o in objects], float).reshape(-1, 2)
         self.turns, self.turn_share = _yaw_weights()
-        self._memo: dict[tuple[Any, ...], _Spots] = {}
+        self._turn_rots = _rotation(self.turns)
+        self._memo: dict[tuple[Any, ...], Any] = {}
 
     def room_in_part(self, moved: Sequence[int], part: str) -> bool:
         """Whether the moved objects all find a free spot in a table part, one after another.
@@ -157,30 +179,38 @@ class FreeSpots:
         arriving = [k for k in sorted(set(moved)) if part not in self.objects[k].table_part]
         present = np.ones(len(self.objects), bool)  # objects still where the scene has them
         placed: list[_Rect] = []
+        free: np.ndarray | None = None  # the next object's free spots, where already known
         for n, k in enumerate(arriving):
             spots = self._part_spots(k, part)
-            free, neighbours = self._free(k, spots, present, placed)
-            options = self._options(k, spots, free, neighbours)
+            if free is None:
+                free = self._free(k, spots, present, placed)
+            if n + 1 == len(arriving) and self.reach_is_annulus:
+                return self._enough(spots, free)
+            options = self._options(k, spots, free, self._neighbours(k, present, placed))
             if not options:
                 return False
             present[k] = False
-            chosen = options[0]
+            chosen, free = options[0], None
             if n + 1 < len(arriving) and len(options) > 1:
                 nxt = arriving[n + 1]
                 nxt_spots = self._part_spots(nxt, part)
-                nxt_free, _ = self._free(nxt, nxt_spots, present, placed)
-                room_left = [self._hits(nxt_spots, nxt_free & ~self._blocks(nxt, nxt_spots, nxt_free,
-                                                                          *self._rect(k, spots, j)))
-                             for j in options]
-                chosen = options[int(np.argmin(room_left))]
+                nxt_free = self._free(nxt, nxt_spots, present, placed)
+                rects = [self._rect(k, spots, j) for j in options]
+                left = nxt_free & ~self._blocked_by(nxt, nxt_spots, *(np.stack(a) for a in zip(*rects, strict=True)))
+                room_left = [self._hits(nxt_spots, f) for f in left]
+                best = int(np.argmin(room_left))
+                chosen, free = options[best], left[best]
             placed.append(self._rect(k, spots, chosen))
         return True
 
     def room_beside(self, x: int, ref: int, direction: Sequence[float]) -> bool:
         """Whether object ``x`` finds a free spot past object ``ref`` along a direction (x, y)."""
         spots = self._beside_spots(x, ref, (float(direction[0]), float(direction[1])))
-        free, neighbours = self._free(x, spots, np.ones(len(self.objects), bool), [])
-        return bool(self._options(x, spots, free, neighbours))
+        present = np.ones(len(self.objects), bool)
+        free = self._free(x, spots, present, [])
+        if self.reach_is_annulus:
+            return self._enough(spots, free)
+        return bool(self._options(x, spots, free, self._neighbours(x, present, [])))
 
     def _rect(self, k: int, spots: _Spots, j: int) -> _Rect:
         """Object k's footprint rectangle on spot j: centre, rotation, half sizes."""
@@ -190,18 +220,37 @@ class FreeSpots:
         """How many of the planner's first-try samples are expected on the free spots."""
         return self.search.samples * float(spots.weight[free].sum())
 
-    def _free(self, k: int, spots: _Spots, present: np.ndarray,
-              placed: Sequence[_Rect]) -> tuple[np.ndarray, np.ndarray]:
+    def _enough(self, spots: _Spots, free: np.ndarray) -> bool:
+        """Whether enough of the planner's first-try samples land on free spots (and there is one)."""
+        return self._hits(spots, free) >= self.search.min_hits and bool(free.any())
+
+    def _free(self, k: int, spots: _Spots, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
         """Object k's free spots, given which objects are still where the scene has them and the
-        rectangles of those already moved; and the footprint centres of all those others."""
+        rectangles of those already moved."""
         others = present.copy()
         others[k] = False
-        free = ~spots.blocked[:, others].any(axis=1)
-        centres = [self.centre[others]]
-        for rect in placed:
-            free &= ~self._blocks(k, spots, free, *rect)
-            centres.append(rect[0][None])
-        return free, np.concatenate(centres)
+        free = spots.keep & ~spots.blocked[others[spots.near]].any(axis=0)
+        if placed:
+            c, r, h = (np.stack(a) for a in zip(*placed, strict=True))
+            free &= ~self._blocked_by(k, spots, c, r, h).any(axis=0)
+        return free
+
+    def _neighbours(self, k: int, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
+        """Footprint centres of the objects other than k where they are: (N, 2)."""
+        others = present.copy()
+        others[k] = False
+        return np.concatenate([self.centre[others], *(rect[0][None] for rect in placed)])
+
+    def _gaps(self, spots: _Spots, idx: np.ndarray, neighbours: np.ndarray) -> np.ndarray:
+        """Distance from each spot in ``idx`` to the nearest neighbour centre [m] (inf: none)."""
+        if not len(neighbours):
+            return np.full(len(idx), np.inf)
+        g = spots.grid
+        if g.on_axes:  # squared distances split along x and y: computed per row and per column
+            dx, dy = g.u[:, None] - neighbours[:, 0], g.v[:, None] - neighbours[:, 1]
+            nearest = np.sqrt(((dx * dx)[:, None, :] + (dy * dy)[None, :, :]).min(axis=2)).ravel()
+            return nearest[idx % len(nearest)]
+        return np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
 
     def _options(self, k: int, spots: _Spots, free: np.ndarray, neighbours: np.ndarray) -> list[int]:
         """Free spots the planner may put object k on, spread over the ones it may pick; none where
@@ -213,11 +262,9 @@ class FreeSpots:
         if self._hits(spots, free) < self.search.min_hits:
             return []
         idx = np.flatnonzero(free)
-        if len(neighbours):
-            gap = np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
-        else:
-            gap = np.full(len(idx), np.inf)
-        ranked = idx[np.argsort(-np.minimum(gap, placement.SPOT_ROOM_CAP) + spots.score[idx], kind="stable")]
+        gap = self._gaps(spots, idx, neighbours)
+        ranked = idx[_best_first(-np.minimum(gap, placement.SPOT_ROOM_CAP) + spots.score[idx],
+                                 self._ranks_needed(spots))]
         samples = np.cumsum(self.search.samples * spots.weight[ranked])
         best = ranked[: max(1, int(np.searchsorted(samples, placement.SPOT_SHORTLIST, side="right")))]
         # spread: farthest-point picks over position and turn (a long object's turn matters as much)
@@ -233,50 +280,104 @@ class FreeSpots:
             return reached
         return next(([int(j)] for j in ranked[:placement.SPOT_SHORTLIST] if self.reach((*spots.origin[j], z))), [])
 
-    def _blocks(self, k: int, spots: _Spots, among: np.ndarray, c: np.ndarray, r: np.ndarray,
-                h: np.ndarray) -> np.ndarray:
-        """Which of object k's spots (of those in ``among``) overlap the rectangle (centre c,
-        rotation r, half sizes h); one vectorised test per turn, on the spots whose circles reach it."""
-        out = np.zeros(len(spots.centre), bool)
-        grow = self.search.spot_margin / 2
-        reach = math.hypot(*(self.half[k] + grow)) + math.hypot(*(h + grow))
-        if len(spots.centre) == 0 or np.any(np.abs(c - spots.middle) > spots.spread + reach):
-            return out
-        near = among & (np.einsum("ij,ij->i", spots.centre - c, spots.centre - c) <= reach * reach)
-        for t, members in enumerate(spots.by_turn):
-            idx = members[near[members]]
-            if len(idx):
-                out[idx] = self._overlap(spots.centre[idx], spots.rots[t], self.half[k], c, r, h,
-                                         self.search.spot_margin)
-        return out
+    def _ranks_needed(self, spots: _Spots) -> int:
+        """How many best-scored spots surely hold the shortlist's samples and the shortlist itself
+        (every spot holds at least the lightest spot's share of the samples)."""
+        least = self.search.samples * float(spots.weight.min()) if len(spots.weight) else 0.0
+        if least <= 0:
+            return len(spots.weight)
+        return max(placement.SPOT_SHORTLIST, int(1.01 * placement.SPOT_SHORTLIST / least) + 2)
 
-    def _part_spots(self, k: int, part: str) -> _Spots:
-        key = ("part", k, part)
+    def _blocked_by(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray, h: np.ndarray) -> np.ndarray:
+        """Which of object k's spots overlap each rectangle (centres (R, 2), rotations (R, 2, 2),
+        half sizes (R, 2)), by the planner's separating-axis test with its margin: (R, m).
+
+        On a row of the grid, each of the test's four axes bounds the column coordinate from both
+        sides, so the spots a rectangle blocks are one run of columns per turn and row."""
+        g = spots.grid
+        grow = self.search.spot_margin / 2
+        rt = spots.rots  # (t, 2, 2)
+        n_rect, n_turn = len(c), len(rt)
+        # the four axes of each pair (rect, turn), as rows: the turned object's, then the rectangle's
+        axes = np.concatenate([np.broadcast_to(np.swapaxes(rt, -1, -2)[None], (n_rect, n_turn, 2, 2)),
+                               np.broadcast_to(np.swapaxes(r, -1, -2)[:, None], (n_rect, n_turn, 2, 2))], axis=2)
+        # reach along each axis: the projected half sizes of both, grown by half the margin each
+        reach = (np.abs(axes @ rt[None]) @ (self.half[k] + grow)
+                 + (np.abs(axes @ r[:, None]) @ (h + grow)[:, None, :, None])[..., 0])
+        q0 = np.einsum("rtad,rtd->rta", axes, c[:, None, :] - g.base[None])  # (R, t, 4)
+        along = axes @ g.axes[0]  # (R, t, 4): how the projection moves per metre along a row
+        across = (axes @ g.axes[1])[..., None]  # ... and along a column
+        q = q0[..., None] - along[..., None] * g.u  # (R, t, 4, r): the projection at column v = 0
+        lim = reach[..., None]
+        flat = across == 0  # an axis that ignores the column: all or none, by the row
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a, b = (q - lim) / across, (q + lim) / across
+        low, high = np.minimum(a, b), np.maximum(a, b)
+        if flat.any():
+            inside = np.abs(q) <= lim
+            low = np.where(flat, np.where(inside, -np.inf, np.inf), low)
+            high = np.where(flat, np.where(inside, np.inf, -np.inf), high)
+        count = len(g.v)
+        first = np.clip(np.ceil((low.max(axis=2) - g.lo) / g.width - 0.5), 0, count)  # (R, t, r)
+        last = np.clip(np.floor((high.min(axis=2) - g.lo) / g.width - 0.5), -1, count - 1)
+        j = np.arange(count, dtype=float)
+        return ((j >= first[..., None]) & (j <= last[..., None])).reshape(n_rect, -1)
+
+    def _part_grid(self, part: str) -> tuple[_Grid, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """A table part's grid (shared by every object), its spots' centres, turns and weights, and
+        the part's bounds shrunk by the part margin."""
+        key = ("grid", part)
         if key not in self._memo:
             lo, hi = self.layout.part_bounds(part)
             lo, hi = lo + self.search.part_margin, hi - self.search.part_margin
             step = self.search.step
-            gx, gy = np.meshgrid(_cells(lo[0], hi[0], step), _cells(lo[1], hi[1], step), indexing="ij")
+            xs, ys = _cells(lo[0], hi[0], step), _cells(lo[1], hi[1], step)
+            gx, gy = np.meshgrid(xs, ys, indexing="ij")
             grid = np.stack([gx.ravel(), gy.ravel()], -1)
             nt = len(self.turns)
             turn = np.repeat(np.arange(nt), len(grid))
             centre = np.tile(grid, (nt, 1))
-            origin = self._origins(k, turn, centre)
             weight = np.repeat(self.turn_share / len(grid), len(grid))
-            inside = np.all((origin >= lo) & (origin <= hi), axis=1)
-            self._memo[key] = self._spots(k, centre, origin, turn, weight, np.zeros(len(turn)), inside)
+            frame = _Grid(np.zeros((nt, 2)), np.eye(2), xs, ys, float(lo[1]), float(hi[1] - lo[1]) / len(ys), True)
+            self._memo[key] = (frame, centre, turn, weight, np.stack([lo, hi]))
         return self._memo[key]
 
-    def _beside_spots(self, x: int, ref: int, direction: tuple[float, float]) -> _Spots:
-        key = ("beside", x, ref, direction)
+    def _part_spots(self, k: int, part: str) -> _Spots:
+        key = ("part", k, part)
+        if key not in self._memo:
+            grid, centre, turn, weight, (lo, hi) = self._part_grid(part)
+            rots = self._turned_rots(k)
+            offsets = self._turn_rots @ (self.centre[k] - self.origin[k])  # (t, 2)
+            half = np.abs(rots) @ self.half[k]  # (t, 2) world-axis half sizes of the turned rectangles
+            table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
+            base = np.asarray(self.layout.robot_base)
+            # every test below is on x or y alone, or on the frame origin: per turn, row and column
+            keep_axis, rel = [], []
+            for a, coords in enumerate((grid.u, grid.v)):
+                o = coords[None] - offsets[:, a, None]  # (t, r or c) origin coordinate
+                c_lo, c_hi = coords[None] - half[:, a, None], coords[None] + half[:, a, None]
+                keep_axis.append((o >= lo[a]) & (o <= hi[a]) & (c_lo >= -table[a]) & (c_hi <= table[a]))
+                rel.append(o - base[a])
+            keep = keep_axis[0][:, :, None] & keep_axis[1][:, None, :]
+            reach = np.hypot(rel[0][:, :, None], rel[1][:, None, :])
+            keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
+            origin = centre - offsets[turn]
+            self._memo[key] = self._spots(k, grid, centre, origin, turn, weight, 0.0, keep.ravel(), reach.ravel())
+        return self._memo[key]
+
+    def _beside_grid(self, direction: tuple[float, float]) -> tuple[Any, ...]:
+        """What the spots past a reference along a direction share, whichever the objects: the
+        direction and its lateral, the (distance, lateral offset) cells of every turn, flattened,
+        their turns, weights and far penalty."""
+        key = ("beside grid", direction)
         if key not in self._memo:
             d = np.asarray(direction, float)
             d /= np.linalg.norm(d)
             lateral = np.array([-d[1], d[0]])
-            ext_ref = np.abs(d @ self.rot[ref]) @ self.half[ref]
             (near_dist, near_lat), (far_dist, far_lat) = placement.BESIDE_NEAR, placement.BESIDE_FAR
             step = self.search.step
-            dist, lat = np.meshgrid(_cells(0.0, far_dist, step), _cells(-far_lat, far_lat, step), indexing="ij")
+            dists, lats = _cells(0.0, far_dist, step), _cells(-far_lat, far_lat, step)
+            dist, lat = np.meshgrid(dists, lats, indexing="ij")
             dist, lat = dist.ravel(), lat.ravel()
             near = (dist <= near_dist) & (np.abs(lat) <= near_lat)
             # half the planner's samples fall in the near box, half in the far one
@@ -285,48 +386,82 @@ class FreeSpots:
             turn = np.repeat(np.arange(nt), len(dist))
             weight = np.repeat(self.turn_share, len(dist)) * np.tile(cell, nt)
             dist, lat = np.tile(dist, nt), np.tile(lat, nt)
-            ext_x = (np.abs(d @ self._turned_rots(x)) @ self.half[x])[turn]
-            centre = (self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin + dist)[:, None] * d
-                      + lat[:, None] * lateral)
-            origin = self._origins(x, turn, centre)
+            far = placement.SPOT_FAR_PENALTY * (np.maximum(0.0, dist - near_dist)
+                                                + np.maximum(0.0, np.abs(lat) - near_lat))
+            self._memo[key] = (d, lateral, dists, lats, dist, lat, turn, weight, far, -far_lat, 2 * far_lat / len(lats))
+        return self._memo[key]
+
+    def _beside_spots(self, x: int, ref: int, direction: tuple[float, float]) -> _Spots:
+        key = ("beside", x, ref, direction)
+        if key not in self._memo:
+            d, lateral, dists, lats, dist, lat, turn, weight, far, v_lo, v_width = self._beside_grid(direction)
+            ext_ref = np.abs(d @ self.rot[ref]) @ self.half[ref]
+            rots = self._turned_rots(x)
+            ext_x = np.abs(d @ rots) @ self.half[x]
+            along = ext_ref + ext_x[turn] + self.search.spot_margin + dist
+            offsets = self._turn_rots @ (self.centre[x] - self.origin[x])  # (t, 2)
+            half = np.abs(rots) @ self.half[x]  # (t, 2) world-axis half sizes of the turned rectangles
             lo = np.asarray(self.layout.workspace_min) - placement.SPOT_WORKSPACE_SLACK
             hi = np.asarray(self.layout.workspace_max) + placement.SPOT_WORKSPACE_SLACK
-            past = (origin - self.origin[ref]) @ d >= self.search.relation_gap + placement.BESIDE_NEED
-            inside = past & np.all((origin >= lo) & (origin <= hi), axis=1)
-            score = placement.SPOT_FAR_PENALTY * (np.maximum(0.0, dist - near_dist)
-                                                  + np.maximum(0.0, np.abs(lat) - near_lat))
-            self._memo[key] = self._spots(x, centre, origin, turn, weight, score, inside)
+            table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
+            base = np.asarray(self.layout.robot_base)
+            # x and y apart: footprint centre, frame origin, and the tests on each
+            centre, origin, rel = [], [], []
+            keep = np.ones(len(dist), bool)
+            for a in range(2):
+                c = self.centre[ref, a] + along * d[a] + lat * lateral[a]
+                o = c - offsets[turn, a]
+                h = half[turn, a]
+                keep &= (o >= lo[a]) & (o <= hi[a]) & (c - h >= -table[a]) & (c + h <= table[a])
+                centre.append(c)
+                origin.append(o)
+                rel.append(o - base[a])
+            centre_xy, origin_xy = np.stack(centre, -1), np.stack(origin, -1)
+            keep &= (origin_xy - self.origin[ref]) @ d >= self.search.relation_gap + placement.BESIDE_NEED
+            reach = np.hypot(rel[0], rel[1])
+            keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
+            grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
+                         np.stack([d, lateral]), dists, lats, v_lo, v_width, False)
+            self._memo[key] = self._spots(x, grid, centre_xy, origin_xy, turn, weight, far, keep, reach)
         return self._memo[key]
 
     def _turned_rots(self, k: int) -> np.ndarray:
         """Object k's rotation after each turn (t, 2, 2)."""
-        return _rotation(self.turns) @ self.rot[k]
+        return self._turn_rots @ self.rot[k]
 
     def _origins(self, k: int, turn: np.ndarray, centre: np.ndarray) -> np.ndarray:
         """Frame origins of object k turned by ``turns[turn]`` with its footprint centred at
         ``centre``: the origin keeps its offset from the footprint centre, turned with it."""
-        offsets = _rotation(self.turns) @ (self.centre[k] - self.origin[k])
+        offsets = self._turn_rots @ (self.centre[k] - self.origin[k])
         return centre - offsets[turn]
 
-    def _spots(self, k: int, centre: np.ndarray, origin: np.ndarray, turn: np.ndarray, weight: np.ndarray,
-               score: np.ndarray, keep: np.ndarray) -> _Spots:
-        """Spots that pass the tests not involving other objects, with their overlaps with them."""
-        rots = self._turned_rots(k)
-        half = (np.abs(rots) @ self.half[k])[turn]  # world-axis half sizes of the turned rectangles
-        table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
-        keep = keep & np.all((centre - half >= -table) & (centre + half <= table), axis=1)
-        base = np.asarray(self.layout.robot_base)
-        reach = np.hypot(origin[:, 0] - base[0], origin[:, 1] - base[1])
-        keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
-        centre, origin, turn = centre[keep], origin[keep], turn[keep]
-        score = (score[keep] + placement.SPOT_REACH_WEIGHT * np.abs(reach[keep] - placement.SPOT_COMFORT_REACH)
+    def _spots(self, k: int, grid: _Grid, centre: np.ndarray, origin: np.ndarray, turn: np.ndarray,
+               weight: np.ndarray, score: Any, keep: np.ndarray, reach: np.ndarray) -> _Spots:
+        """The spots with their score and their overlaps with the other objects."""
+        score = (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
                  + placement.SPOT_TURN_WEIGHT * np.abs(self.turns[turn]))
-        lo, hi = (centre.min(axis=0), centre.max(axis=0)) if len(centre) else (np.zeros(2), np.zeros(2))
-        spots = _Spots(centre, origin, turn, self.turns, rots, weight[keep], score,
-                       np.zeros((len(centre), len(self.objects)), bool),
-                       tuple(np.flatnonzero(turn == t) for t in range(len(self.turns))), (lo + hi) / 2, (hi - lo) / 2)
-        every = np.ones(len(spots.centre), bool)
-        for j in range(len(self.objects)):
-            if j != k:
-                spots.blocked[:, j] = self._blocks(k, spots, every, self.centre[j], self.rot[j], self.half[j])
+        # the objects whose rectangle, with both margins, comes within reach of the grid's box
+        g = grid
+        corners = (g.base[:, None, None, :] + g.u[[0, -1]][None, :, None, None] * g.axes[0]
+                   + g.v[[0, -1]][None, None, :, None] * g.axes[1]).reshape(-1, 2)
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
+        grow = self.search.spot_margin / 2
+        radius = np.hypot(*(self.half[k] + grow)) + np.hypot(*(self.half + grow).T) + 1e-9
+        near = np.flatnonzero(np.all(np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None]), axis=1))
+        near = near[near != k]
+        rots = self._turned_rots(k)
+        none = np.zeros((0, len(keep)), bool)
+        spots = _Spots(grid, centre, origin, turn, self.turns, rots, weight, score, keep, near, none)
+        if len(near):
+            blocked = self._blocked_by(k, spots, self.centre[near], self.rot[near], self.half[near])
+            spots = dataclasses.replace(spots, blocked=blocked)
         return spots
+
+def _best_first(key: np.ndarray, needed: int) -> np.ndarray:
+    """The start of ``argsort(key, kind="stable")``, at least ``needed`` long (all of it for short keys):
+    the keys up to the ``needed``-th smallest, ties included, sorted stably."""
+    if needed >= len(key):
+        return np.argsort(key, kind="stable")
+    kth = np.partition(key, needed - 1)[needed - 1]
+    sel = np.flatnonzero(key <= kth)
+    return sel[np.argsort(key[sel], kind="stable")]
