@@ -37,7 +37,7 @@ from typing import Any
 
 import samplehd
 from samplehd.dataset.backend import Backend
-from samplehd.dataset.config import GenerateConfig, candidate_order, episode_seed
+from samplehd.dataset.config import GenerateConfig, candidate_order
 from samplehd.dataset.journal import append_journal, read_journal, repair_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
@@ -53,6 +53,7 @@ from samplehd.dataset.layout import (
     parse_episode_name,
 )
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.world.seeding import episode_seed
 
 __all__ = ["GenerateSummary", "Progress", "generate_dataset", "versions"]
 
@@ -184,7 +185,7 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
     from samplehd.dataset.work import run_scene_unit
     from samplehd.scene.annotate import image_stem
     from samplehd.scene.generate import SceneJob, scene_split
-    from samplehd.scene.sampler import scene_seed
+    from samplehd.world.seeding import scene_seed
 
     r = config.render
     preset = r.mode if r.enabled else "fast"

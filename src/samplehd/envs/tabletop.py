@@ -231,7 +231,7 @@ class TabletopEnv(gym.Env):
         self._tcp_site = model.site("tcp").id
         self._finger_qpos = np.array([model.jnt_qposadr[model.joint(j).id]
                                       for j in ("robot_left_finger_joint", "robot_right_finger_joint")])
-        from samplehd.tasks.state import SceneBodies
+        from samplehd.world.bodies import SceneBodies
 
         self._gripper_bodies = np.array(sorted(SceneBodies(model, len(episode.scene.objects)).gripper_bodies), int)
         self._start_pos = np.array([o.pos for o in episode.scene.objects], dtype=float).reshape(-1, 3)

@@ -115,7 +115,7 @@ def generate_scenes(
 ) -> dict[str, Any]:
     """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts."""
     from samplehd.render.renderer import get_preset
-    from samplehd.scene.sampler import scene_seed
+    from samplehd.world.seeding import scene_seed
 
     if num < 1:
         raise ConfigError(f"--num {num}: must be ≥ 1")
