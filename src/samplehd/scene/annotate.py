@@ -23,7 +23,6 @@ from typing import Any
 import mujoco
 import numpy as np
 
-import samplehd
 from samplehd.catalogue import object_facts
 from samplehd.render.renderer import (
     SEG_BACKGROUND,
@@ -36,6 +35,7 @@ from samplehd.render.renderer import (
 )
 from samplehd.robot.constants import ROBOT_BODY
 from samplehd.scene.spec import SceneSpec
+from samplehd.version import __version__
 from samplehd.world.bodies import object_body_name
 from samplehd.world.grasps import graspable_in_scene
 from samplehd.world.layout import DIRECTIONS, table_parts_of
@@ -141,7 +141,7 @@ def annotate_scene(
         "image_index": scene.index,
         "image_filename": f"{image_stem(split, scene.index)}.png",
         "seed": scene.seed,
-        "version": samplehd.__version__,
+        "version": __version__,
         "directions": {k: list(v) for k, v in DIRECTIONS.items()},
         "objects": objects,
         "relationships": compute_relationships(objects),
