@@ -74,7 +74,7 @@ class InstructionConfig:
 
 
 def _path_config(d: Mapping[str, Any] | None = None) -> Any:
-    from samplehd.motion.pipeline import PathConfig
+    from samplehd.record.paths import PathConfig
 
     return PathConfig.from_dict(dict(d or {}))
 
@@ -92,7 +92,7 @@ class GenerateConfig:
         test_every: every ``test_every``-th scene (and its instructions) is in the test split.
         scene: scene sampler options.
         instructions: instruction candidate options.
-        paths: ground-truth path options (``samplehd.motion.pipeline.PathConfig``).
+        paths: ground-truth path options (``samplehd.record.paths.PathConfig``).
         render: images stored with each episode.
     """
 
