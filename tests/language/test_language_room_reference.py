@@ -24,7 +24,7 @@ from samplehd.language.constraints import CONSTRAINTS, ConstraintContext
 from samplehd.language.generator import TemplateBalancer, generate_instructions
 from samplehd.language.scene import Scene, parse_scene
 from samplehd.language.synthetic import synthetic_scene, synthetic_scenes_file
-from samplehd.scene.layout import TABLE_PARTS
+from samplehd.world.layout import TABLE_PARTS
 
 REFERENCE = Path(__file__).parent / "data" / "room_reference.json"
 RELATIONS = ("left", "right", "front", "behind")
