@@ -391,7 +391,9 @@ def _build_scaled(spec: GeometrySpec, scale: float) -> ObjectGeometry:
         return g
     s = scale
     pieces = tuple(
-        CollisionPiece(p.kind, scale_tuple(p.pos, s), p.quat, scale_tuple(p.half_extents, s), p.vertices * s, p.volume * s**3)
+        CollisionPiece(
+            p.kind, scale_tuple(p.pos, s), p.quat, scale_tuple(p.half_extents, s), p.vertices * s, p.volume * s**3
+        )
         for p in g.pieces
     )
     out = ObjectGeometry(

@@ -62,8 +62,9 @@ def load_catalogue(imported: Iterable[str] = ()) -> Catalogue:
     """Return the built-in catalogue plus the imported classes named in ``imported`` (cached).
 
     Nothing in the user registry takes part unless named here, so a seeded run gives the same
-    scenes on every machine whatever its user imported. Call :func:`~samplehd.catalogue.registry.refresh` after the registry
-    changes (``assets import`` and ``assets remove`` do).
+    scenes on every machine whatever its user imported. Call
+    :func:`~samplehd.catalogue.registry.refresh` after the registry changes (``assets import`` and
+    ``assets remove`` do).
 
     Args:
         imported: names of classes in the user registry to add.

@@ -7,7 +7,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CollisionPiece", "GraspSite", "ObjectGeometry", "Opening", "TopSurface", "planar_texcoords", "scale_tuple"]
+__all__ = [
+    "CollisionPiece",
+    "GraspSite",
+    "ObjectGeometry",
+    "Opening",
+    "TopSurface",
+    "planar_texcoords",
+    "scale_tuple",
+]
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,7 +86,9 @@ class TopSurface:
 
     def scaled(self, s: float) -> TopSurface:
         """Return the surface of the object scaled by ``s``."""
-        return TopSurface(self.height * s, scale_tuple(self.center, s), scale_tuple(self.half_extents, s), self.round, self.flat)
+        return TopSurface(
+            self.height * s, scale_tuple(self.center, s), scale_tuple(self.half_extents, s), self.round, self.flat
+        )
 
 
 @dataclass(frozen=True)
