@@ -261,7 +261,7 @@ def sample_scene(
     """
     config = config or SceneConfig()
     # Built-in classes, plus imported ones only where the config names them.
-    cat = catalogue or catalogue_for((*config.classes, *(config.menu_overrides or {})))
+    cat = catalogue or catalogue_for(config.named_classes)
     classes = _validate_classes(cat, config)
     rng = np.random.default_rng(seed)
     rejections: Counter[str] = Counter()
