@@ -129,7 +129,7 @@ def run(repeats: int = 3) -> list[Figure]:
     from samplehd.dataset.container import read_episode
     from samplehd.dataset.journal import read_journal
     from samplehd.dataset.reader import DatasetReader
-    from samplehd.dataset.render import RenderConfig, render_states
+    from samplehd.dataset.render import RenderConfig
     from samplehd.scene.spec import SceneSpec, compile_scene
 
     figures: list[Figure] = []
@@ -163,7 +163,7 @@ def run(repeats: int = 3) -> list[Figure]:
             ep = read_episode(reader.episode_path(i), images="none")
             model, _ = compile_scene(SceneSpec.from_dict(reader.scene(ep.scene_index)["spec"]))
             picks = list(range(0, ep.num_frames, max(1, ep.num_frames // 8)))[:8]
-            render_states(model, {k: v[picks] for k, v in ep.frames.items()}, RenderConfig("hd", 640, 360))
+            RenderConfig("hd", 640, 360).images(model, {k: v[picks] for k, v in ep.frames.items()})
             n += len(picks)
         hd_render = n / (time.perf_counter() - t0)
         figures.append(Figure("dataset", "hd rgb+depth+seg 640x360 render frames/s (from states)", hd_render, "1/s",

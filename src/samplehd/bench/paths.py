@@ -271,7 +271,8 @@ def run(repeats: int = 3) -> list[Any]:
     from samplehd.bench import Figure
     from samplehd.motion.assist import compile_scene_with_assist
     from samplehd.motion.pipeline import plan_and_execute
-    from samplehd.record.replay import render_episode
+    from samplehd.render.renderer import MODALITIES
+    from samplehd.render.states import render_states
 
     scene = _bench_scene()
     task = {"type": "place", "objects": [1], "subject": "left"}
@@ -288,7 +289,7 @@ def run(repeats: int = 3) -> list[Any]:
         rates["cpu state"].append(frames / sim_cpu)
         for w, h in ((320, 180), (640, 360)):
             t1, c1 = time.perf_counter(), time.process_time()
-            render_episode(model, ep, ("operator",), ("rgb", "depth", "segmentation"), w, h, "fast")
+            render_states(model, ep.frames, ("operator",), MODALITIES, w, h, "fast")
             rates[f"{w}x{h}"].append(frames / (sim + time.perf_counter() - t1))
             rates[f"cpu {w}x{h}"].append(frames / (sim_cpu + time.process_time() - c1))
     note = f"place episode, {frames} frames, 20 Hz control / 500 Hz physics, operator camera"

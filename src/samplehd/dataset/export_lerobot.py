@@ -250,7 +250,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     """
     import pyarrow.parquet as pq
 
-    from samplehd.dataset.video import VideoWriter, pick_codec
+    from samplehd.render.video import VideoWriter, pick_codec
 
     reader, out = export_source(root, out)
     settings, streams = _streams(root, reader.info.get("render"), cameras, modalities)

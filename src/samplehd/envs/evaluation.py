@@ -28,6 +28,7 @@ import numpy as np
 from samplehd.catalogue.loader import catalogue_for
 from samplehd.envs.config import TASK_FAMILIES
 from samplehd.errors import ConfigError, PlanningError
+from samplehd.render.video import write_mp4
 from samplehd.workers import Backend
 
 __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "evaluate", "load_policy"]
@@ -215,8 +216,6 @@ class _Runner:
         if config.compare_offline:
             record["offline_success"] = _offline_success(env, seed)
         if config.video_dir and frames and frames[0] is not None:
-            from samplehd.record.replay import write_mp4
-
             out = Path(config.video_dir)
             out.mkdir(parents=True, exist_ok=True)
             name = f"episode_{index:04d}_{record['family']}_{'ok' if record['success'] else 'fail'}.mp4"
