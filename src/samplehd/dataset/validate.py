@@ -16,6 +16,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from samplehd.dataset.container import camera_settings, file_digest, read_episode
 from samplehd.dataset.layout import (
     EPISODE_DIR,
     FORMAT_VERSION,
@@ -45,7 +46,6 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
     """Problems of one episode file compared with its ``info.json`` entry and the render settings
     (``info.json``'s ``render``: every camera with its own resolution and modalities, see
     :func:`samplehd.dataset.container.camera_settings`)."""
-    from samplehd.dataset.container import camera_settings, file_digest, read_episode
 
     problems: list[str] = []
     if not path.exists():
