@@ -24,19 +24,10 @@ from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.loader import catalogue_for, load_catalogue
 from samplehd.catalogue.preview import render_instances, write_contact_sheet
 from samplehd.catalogue.registry import registered_classes, remove_imported
+from samplehd.commands._options import split_names
 from samplehd.errors import AssetError
 
 HELP = "import meshes as object classes, list the catalogue, render previews"
-
-
-def _names(values: list[str] | None) -> tuple[str, ...] | None:
-    """Flatten repeated and comma-separated option values."""
-    if not values:
-        return None
-    out: list[str] = []
-    for v in values:
-        out += [x.strip() for x in v.split(",") if x.strip()]
-    return tuple(dict.fromkeys(out))
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -92,9 +83,9 @@ def _import(args: argparse.Namespace) -> int:
         args.mesh,
         args.name,
         options=options,
-        materials=_names(args.material) or ("plastic",),
-        colours=_names(args.colour),
-        sizes=_names(args.sizes),
+        materials=split_names(args.material) or ("plastic",),
+        colours=split_names(args.colour),
+        sizes=split_names(args.sizes),
         description=args.description,
         overwrite=args.overwrite,
     )

@@ -11,12 +11,16 @@ import json
 import pkgutil
 from pathlib import Path
 
+from rich.console import Console
+from rich.table import Table
+
+from samplehd import bench
+from samplehd.errors import ConfigError
+
 HELP = "run the performance benchmarks and print/write the figures"
 
 
 def _areas() -> list[str]:
-    from samplehd import bench
-
     return [m.name for m in pkgutil.iter_modules(bench.__path__) if not m.name.startswith("_")]
 
 
@@ -27,11 +31,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.table import Table
-
-    from samplehd.errors import ConfigError
-
     areas = _areas()
     chosen = args.only or areas
     unknown = [a for a in chosen if a not in areas]

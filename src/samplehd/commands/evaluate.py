@@ -6,13 +6,14 @@ import argparse
 import json
 from pathlib import Path
 
+from samplehd.envs.config import CONTROL_MODES, OBS_MODES, TASK_FAMILIES
+from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate
+from samplehd.errors import ConfigError
+
 HELP = "run a policy (MODULE:CALLABLE, oracle or random) on the seeded benchmark split; JSON report"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.envs.config import CONTROL_MODES, OBS_MODES, TASK_FAMILIES
-    from samplehd.envs.evaluation import DEFAULT_FAMILIES
-
     parser.add_argument("--policy", required=True, help="oracle, random, or MODULE:CALLABLE (obs -> action)")
     parser.add_argument("--episodes", type=int, default=10, help="episodes of the split (default 10)")
     parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=TASK_FAMILIES,
@@ -33,9 +34,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.envs.evaluation import EvalConfig, evaluate
-    from samplehd.errors import ConfigError
-
     env: dict = {}
     if args.env_options is not None:
         try:

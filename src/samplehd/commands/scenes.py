@@ -8,6 +8,17 @@ import os
 import time
 from pathlib import Path
 
+import numpy as np
+from PIL import Image
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+from samplehd.errors import ConfigError
+from samplehd.render.contact_sheet import contact_sheet
+from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
+from samplehd.scene.config import SceneConfig
+from samplehd.scene.generate import generate_scenes
+
 HELP = "sample annotated scenes (images, depth, segmentation, scenes.json)"
 
 
@@ -26,9 +37,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
     """Read the 'scene' section of a JSON config file (unknown keys are errors)."""
-    from samplehd.errors import ConfigError
-    from samplehd.scene.config import SceneConfig
-
     if path is None:
         return SceneConfig()
     try:
@@ -47,12 +55,6 @@ def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
 
 def write_scene_sheet(directory: Path, path: Path, count: int = 16) -> None:
     """Contact sheet of the first `count` scenes of a scenes directory: RGB | depth | segmentation."""
-    import numpy as np
-    from PIL import Image
-
-    from samplehd.render.contact_sheet import contact_sheet
-    from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
-
     scenes = json.loads((directory / "scenes.json").read_text())["scenes"][:count]
     tiles, labels = [], []
     for s in scenes:
@@ -66,11 +68,6 @@ def write_scene_sheet(directory: Path, path: Path, count: int = 16) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-    from samplehd.scene.generate import generate_scenes
-
     config = load_scene_config(args.config)
     console = Console(stderr=True)
     t0 = time.perf_counter()
