@@ -8,17 +8,17 @@ import numpy as np
 import pytest
 
 from samplehd.cli import main
-from samplehd.dataset.config import episode_seed
 from samplehd.dataset.container import read_episode
 from samplehd.dataset.layout import episode_name
 from samplehd.dataset.render import RenderConfig
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.world.seeding import episode_seed
 
 
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
     from samplehd.bench.paths import _bench_scene
-    from samplehd.scene.layout import DIRECTIONS
+    from samplehd.world.layout import DIRECTIONS
 
     root = tmp_path_factory.mktemp("ds")
     scene = _bench_scene()

@@ -65,7 +65,7 @@ def test_steering_in_range_and_grasp_recorded(place_episode):
 
 
 def test_close_gripper_ends_once_the_grasp_has_settled(place_episode):
-    from samplehd.motion.planner import PlannerConfig
+    from samplehd.world.planner_config import PlannerConfig
 
     _, ep = place_episode
     cfg = PlannerConfig()

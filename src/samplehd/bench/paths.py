@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.scene.layout import LAYOUT, OPPOSITE_PART, TABLE_PARTS, table_parts_of
+from samplehd.world.layout import LAYOUT, OPPOSITE_PART, TABLE_PARTS, table_parts_of
 
 __all__ = ["oracle_success", "oracle_table", "random_task", "run", "simple_scene"]
 

@@ -9,8 +9,9 @@ from pathlib import Path
 from samplehd.commands import generate
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
 from samplehd.render.renderer import SceneRenderer
-from samplehd.scene.sampler import sample_scene, scene_seed
+from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import compile_scene
+from samplehd.world.seeding import scene_seed
 
 HELP = "run the main job (tiny dataset + pictures) and say where the outputs are"
 

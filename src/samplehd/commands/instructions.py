@@ -15,9 +15,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from samplehd.errors import ConfigError
 from samplehd.language.instruction_file import generate_instruction_file, parse_split_ratio, write_instructions
-from samplehd.language.reach import make_reachable
 from samplehd.language.scene import load_scenes
 from samplehd.language.templates import load_templates
+from samplehd.world.reach import make_reachable
 
 HELP = "generate instructions (text, programs, tasks) for a scenes file"
 

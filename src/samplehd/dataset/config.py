@@ -18,8 +18,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import ConfigError
 from samplehd.jsonfile import read_json
@@ -30,7 +28,6 @@ __all__ = [
     "PRESETS",
     "GenerateConfig",
     "InstructionConfig",
-    "episode_seed",
     "load_config",
     "preset_config",
 ]
@@ -204,12 +201,6 @@ def load_config(path: Path | None, base: GenerateConfig) -> GenerateConfig:
         return base
     doc = read_json(path, ConfigError, f"--config {path}")
     return GenerateConfig.from_dict(doc, where=str(path), base=base)
-
-
-def episode_seed(base_seed: int, scene_index: int, slot: int) -> int:
-    """The seed of instruction slot ``slot`` of scene ``scene_index`` (independent of everything else)."""
-    ss = np.random.SeedSequence([int(base_seed), 1, int(scene_index), int(slot)])
-    return int(ss.generate_state(1, np.uint32)[0])
 
 
 def candidate_order(keys: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:

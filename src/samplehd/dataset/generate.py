@@ -39,9 +39,8 @@ import h5py
 import mujoco
 import numpy
 
-import samplehd
 from samplehd.catalogue.loader import catalogue_for
-from samplehd.dataset.config import GenerateConfig, candidate_order, episode_seed
+from samplehd.dataset.config import GenerateConfig, candidate_order
 from samplehd.dataset.container import file_digest, read_meta, write_error
 from samplehd.dataset.journal import append_journal, read_journal, repair_journal
 from samplehd.dataset.layout import (
@@ -65,8 +64,9 @@ from samplehd.jsonfile import write_json_atomic
 from samplehd.language.instruction_file import generate_instruction_file
 from samplehd.scene.annotate import image_stem
 from samplehd.scene.generate import SceneJob, scene_split
-from samplehd.scene.sampler import scene_seed
+from samplehd.version import __version__
 from samplehd.workers import Backend
+from samplehd.world.seeding import episode_seed, scene_seed
 
 __all__ = ["GenerateSummary", "generate_dataset", "versions"]
 
@@ -112,7 +112,7 @@ class GenerateSummary:
 
 def versions() -> dict[str, str]:
     """Versions of what decides the content: samplehd, MuJoCo, numpy, h5py, Python."""
-    return {"samplehd": samplehd.__version__, "mujoco": mujoco.__version__, "numpy": numpy.__version__,
+    return {"samplehd": __version__, "mujoco": mujoco.__version__, "numpy": numpy.__version__,
             "h5py": h5py.__version__, "python": platform.python_version()}
 
 
@@ -410,7 +410,7 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
     lang_info = dict(cand_doc["info"])
     lang_info["counts"] = {"families": dict(sorted(families.items())), "splits": dict(sorted(splits.items())),
                            "candidates": len(candidates)}
-    _write_json(out / SCENES_FILE, {"info": {"version": samplehd.__version__, "seed": config.seed,
+    _write_json(out / SCENES_FILE, {"info": {"version": __version__, "seed": config.seed,
                                              "num_scenes": len(scenes), "license": "CC BY 4.0",
                                              "split_rule": f"every {config.test_every}th scene is test"},
                                     "scenes": scenes})

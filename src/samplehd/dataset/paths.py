@@ -23,7 +23,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from samplehd.dataset.config import episode_seed
 from samplehd.dataset.layout import EPISODE_DIR, episode_name
 from samplehd.dataset.render import RenderConfig, check_cameras
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit
@@ -32,6 +31,7 @@ from samplehd.jsonfile import read_json, write_json_atomic
 from samplehd.language.instruction_file import read_instructions
 from samplehd.motion.pipeline import PathConfig
 from samplehd.workers import Backend
+from samplehd.world.seeding import episode_seed
 
 __all__ = ["format_summary", "generate_paths", "load_scenes", "summarise"]
 

@@ -30,14 +30,15 @@ import numpy as np
 
 from samplehd.errors import PlanningError
 from samplehd.motion.execute import AttemptFailed, Rollout
-from samplehd.motion.planner import PlannerConfig
-from samplehd.motion.robot_info import RobotInfo
-from samplehd.record.recorder import _rotvec, steering_from_targets
+from samplehd.record.recorder import steering_from_targets
 from samplehd.robot.constants import GRIPPER_STROKE
 from samplehd.robot.controller import ControlReport, RobotController
 from samplehd.robot.kinematics import fk_tcp
-from samplehd.scene.layout import LAYOUT
-from samplehd.tasks.state import SceneBodies
+from samplehd.world.bodies import SceneBodies
+from samplehd.world.layout import LAYOUT
+from samplehd.world.planner_config import PlannerConfig
+from samplehd.world.robot_info import RobotInfo
+from samplehd.world.transforms import rotvec
 
 __all__ = ["OraclePolicy", "oracle_action"]
 
@@ -58,7 +59,7 @@ def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: flo
     else:
         t0, t1 = fk_tcp(q_now), fk_tcp(q_next)
         lin = t1[:3, 3] - t0[:3, 3]
-        rot = _rotvec(t1[:3, :3] @ t0[:3, :3].T)
+        rot = rotvec(t1[:3, :3] @ t0[:3, :3].T)
         if mode == "ee_delta":
             a = np.concatenate([lin, rot, [gripper]])
         else:

@@ -73,7 +73,7 @@ from samplehd.envs.episodes import EpisodeSpec, SceneCache, episode_from_options
 from samplehd.envs.reward import dense_term
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ActionError
-from samplehd.robot.constants import JOINT_LIMITS
+from samplehd.robot.constants import GRIPPER_STROKE, JOINT_LIMITS
 from samplehd.robot.controller import ControlConfig, RobotController
 
 __all__ = ["INSTRUCTION_CHARSET", "TabletopEnv"]
@@ -231,7 +231,7 @@ class TabletopEnv(gym.Env):
         self._tcp_site = model.site("tcp").id
         self._finger_qpos = np.array([model.jnt_qposadr[model.joint(j).id]
                                       for j in ("robot_left_finger_joint", "robot_right_finger_joint")])
-        from samplehd.tasks.state import SceneBodies
+        from samplehd.world.bodies import SceneBodies
 
         self._gripper_bodies = np.array(sorted(SceneBodies(model, len(episode.scene.objects)).gripper_bodies), int)
         self._start_pos = np.array([o.pos for o in episode.scene.objects], dtype=float).reshape(-1, 3)
@@ -391,7 +391,7 @@ class TabletopEnv(gym.Env):
         mask[:k] = 1
         gripper = np.zeros(3, np.float32)
         gripper[:2] = d.qpos[self._finger_qpos]
-        gripper[2] = ctrl.gripper_width / 0.085 * 2.0 - 1.0
+        gripper[2] = ctrl.gripper_width / GRIPPER_STROKE * 2.0 - 1.0
         obs: dict[str, Any] = {
             "joint_pos": ctrl.joint_positions().astype(np.float32),
             "joint_vel": ctrl.joint_velocities().astype(np.float32),

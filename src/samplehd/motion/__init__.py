@@ -12,9 +12,9 @@ Typical use::
 """
 
 from samplehd.motion.assist import GraspAssist, add_grasp_welds, compile_scene_with_assist
-from samplehd.motion.grasps import GRASP_RULES, Grasp, GraspRule, grasp_candidates, register_grasp_rule
 from samplehd.motion.pipeline import PathConfig, PathRejected, initial_state, plan_and_execute
-from samplehd.motion.planner import PlannerConfig
+from samplehd.world.grasps import GRASP_RULES, Grasp, GraspRule, grasp_candidates, register_grasp_rule
+from samplehd.world.planner_config import PlannerConfig
 
 __all__ = [
     "GRASP_RULES",

@@ -17,23 +17,17 @@ import numpy as np
 
 from samplehd.errors import PlanningError
 from samplehd.motion.assist import GraspAssist
-from samplehd.motion.collision import CollisionChecker, Held
-from samplehd.motion.planner import (
-    PlannerConfig,
-    choose_grasps,
-    destination_candidates,
-    object_pose,
-    plan_joint_move,
-    release_height,
-    straight_move,
-)
-from samplehd.motion.robot_info import RobotInfo
+from samplehd.motion.planner import destination_candidates, plan_joint_move, release_height, straight_move
 from samplehd.record.recorder import FrameRecorder, steering_from_targets, steering_motion
 from samplehd.robot.constants import GRIPPER_ACTUATOR, GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
 from samplehd.robot.controller import RobotController
 from samplehd.robot.kinematics import fk_tcp, ik_batch
-from samplehd.scene.layout import LAYOUT, TableLayout
-from samplehd.tasks.state import SceneBodies, object_world_box
+from samplehd.world.bodies import SceneBodies, object_pose, object_world_box
+from samplehd.world.collision import CollisionChecker, Held
+from samplehd.world.grasps import choose_grasps
+from samplehd.world.layout import LAYOUT, TableLayout
+from samplehd.world.planner_config import PlannerConfig
+from samplehd.world.robot_info import RobotInfo
 
 __all__ = ["AttemptFailed", "Rollout"]
 

@@ -17,15 +17,15 @@ import numpy as np
 from samplehd.errors import ConfigError, PlanningError
 from samplehd.motion.assist import GraspAssist
 from samplehd.motion.execute import AttemptFailed, Rollout
-from samplehd.motion.planner import PlannerConfig
-from samplehd.motion.robot_info import RobotInfo
 from samplehd.record.episode import Episode
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS
 from samplehd.robot.controller import ControlConfig, RobotController
-from samplehd.scene.layout import LAYOUT
 from samplehd.tasks.checker import CheckerConfig, check_success
-from samplehd.tasks.state import SceneBodies
 from samplehd.tasks.task import Task, parse_task
+from samplehd.world.bodies import SceneBodies
+from samplehd.world.layout import LAYOUT
+from samplehd.world.planner_config import PlannerConfig
+from samplehd.world.robot_info import RobotInfo
 
 __all__ = ["PathConfig", "PathRejected", "initial_state", "plan_and_execute"]
 

@@ -15,6 +15,7 @@ import numpy as np
 
 from samplehd.errors import DatasetError
 from samplehd.record.episode import FRAME_FIELDS, Episode
+from samplehd.world.transforms import rotvec, rotvecs
 
 __all__ = [
     "EPISODE_NPZ_VERSION",
@@ -27,39 +28,12 @@ __all__ = [
 ]
 
 
-def _rotvec(r: np.ndarray) -> np.ndarray:
-    """Rotation vector of a rotation matrix [rad]."""
-    cos = float(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))
-    ang = float(np.arccos(cos))
-    if ang < 1e-9:
-        return np.zeros(3)
-    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    s = float(np.linalg.norm(v))
-    if s < 1e-9:
-        w, vec = np.linalg.eigh((r + r.T) / 2)
-        return vec[:, int(np.argmax(w))] * ang
-    return v / s * ang
-
-
-def _rotvecs(r: np.ndarray) -> np.ndarray:
-    """Rotation vectors of (N, 3, 3) rotation matrices [rad], as :func:`_rotvec` row by row."""
-    ang = np.arccos(np.clip((np.trace(r, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
-    v = np.stack([r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]], axis=1)
-    s = np.linalg.norm(v, axis=1)
-    out = np.zeros_like(v)
-    regular = (ang >= 1e-9) & (s >= 1e-9)
-    out[regular] = v[regular] / s[regular, None] * ang[regular, None]
-    for k in np.flatnonzero((ang >= 1e-9) & (s < 1e-9)):  # half turns
-        out[k] = _rotvec(r[k])
-    return out
-
-
 def steering_motion(poses_now: np.ndarray, poses_next: np.ndarray, dt: float, max_linear: float,
                     max_angular: float) -> np.ndarray:
     """The first six steering values (unclipped) of N steps between TCP target poses (N, 4, 4); see
     :func:`steering_from_targets`."""
     lin = (poses_next[:, :3, 3] - poses_now[:, :3, 3]) / (max_linear * dt)
-    rot = _rotvecs(poses_next[:, :3, :3] @ np.swapaxes(poses_now[:, :3, :3], 1, 2)) / (max_angular * dt)
+    rot = rotvecs(poses_next[:, :3, :3] @ np.swapaxes(poses_now[:, :3, :3], 1, 2)) / (max_angular * dt)
     return np.concatenate([lin, rot], axis=1)
 
 
@@ -80,7 +54,7 @@ def steering_from_targets(
         (7,) float32 in [-1, 1]: linear x, y, z, angular x, y, z (base frame), gripper.
     """
     lin = (pose_next[:3, 3] - pose_now[:3, 3]) / (max_linear * dt)
-    rot = _rotvec(pose_next[:3, :3] @ pose_now[:3, :3].T) / (max_angular * dt)
+    rot = rotvec(pose_next[:3, :3] @ pose_now[:3, :3].T) / (max_angular * dt)
     out = np.concatenate([lin, rot, [gripper]])
     return np.clip(out, -1.0, 1.0).astype(np.float32)
 

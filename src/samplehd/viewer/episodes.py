@@ -28,8 +28,8 @@ from samplehd.dataset.reader import DatasetReader
 from samplehd.envs.config import CAMERAS
 from samplehd.errors import DatasetError
 from samplehd.render.renderer import MODALITIES
-from samplehd.scene.layout import LAYOUT
 from samplehd.viewer.index import FileState
+from samplehd.world.layout import LAYOUT
 
 __all__ = ["PLOT_FIELDS", "EpisodeStore", "failure_reason", "open_episode_store", "subtask_segments"]
 
