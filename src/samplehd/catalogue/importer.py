@@ -38,6 +38,7 @@ from samplehd.errors import AssetError, require_extra
 
 # The mesh extra: importing meshes is the only thing that needs trimesh's readers.
 trimesh = require_extra("trimesh", "mesh", "samplehd assets import")
+require_extra("coacd", "mesh", "samplehd assets import")  # runs in a child process; fail here, in one line
 
 __all__ = [
     "MESH_SUFFIXES",

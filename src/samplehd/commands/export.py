@@ -12,7 +12,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from samplehd.commands._options import split_names
 from samplehd.dataset.export_lerobot import export_lerobot
 from samplehd.dataset.export_samplehd import export_samplehd
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, require_extra
 from samplehd.workers import Backend, default_workers
 
 HELP = "export a dataset to the LeRobot v3.0 or the original SAMPLE-HD layout"
@@ -40,6 +40,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.format == "lerobot":
+        require_extra("pyarrow", "lerobot", "samplehd export lerobot")
+        if args.frames_per_file < 1:
+            raise ConfigError("--frames-per-file must be ≥ 1")
     with Progress(TextColumn(f"export {args.format}"), BarColumn(), MofNCompleteColumn(),
                   TimeRemainingColumn()) as bar:
         task = bar.add_task("episodes", total=None)
@@ -48,8 +52,6 @@ def run(args: argparse.Namespace) -> int:
             bar.update(task, completed=done, total=total)
 
         if args.format == "lerobot":
-            if args.frames_per_file < 1:
-                raise ConfigError("--frames-per-file must be ≥ 1")
             res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file,
                                  list(split_names(args.cameras)) or None, progress=tick,
                                  modalities=list(split_names(args.modalities)) or None)
