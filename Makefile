@@ -44,7 +44,7 @@ bench: gl $(STAMP)
 	$(BIN)/samplehd bench --out outputs/bench
 
 lint: $(DEV_STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests
 	$(BIN)/lint-imports
 
 clean:
