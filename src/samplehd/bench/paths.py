@@ -9,14 +9,17 @@ generator, so the oracle statistics are reproducible from their seeds.
 
 from __future__ import annotations
 
+import argparse
+import json
 import math
+from collections import defaultdict
 from typing import Any
 
 import numpy as np
 
 from samplehd.world.layout import LAYOUT, OPPOSITE_PART, TABLE_PARTS, table_parts_of
 
-__all__ = ["oracle_success", "oracle_table", "random_task", "run", "simple_scene"]
+__all__ = ["add_arguments", "oracle_success", "oracle_table", "random_task", "report", "run", "simple_scene"]
 
 
 def _instance(rng: np.random.Generator, classes: list[str] | None = None) -> Any:
@@ -303,3 +306,39 @@ def run(repeats: int = 3) -> list[Any]:
         Figure("paths", "episode frames/CPU-s rgb+depth+seg 320x180 fast", med["cpu 320x180"], "1/s", cpu_note),
         Figure("paths", "episode frames/CPU-s rgb+depth+seg 640x360 fast", med["cpu 640x360"], "1/s", cpu_note),
     ]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``samplehd bench paths speed|oracle|table``: episode frames/s, or the oracle success rate on real
+    sampled scenes and generated instructions (``table`` re-reads an oracle run's JSONL)."""
+    parser.add_argument("what", choices=["speed", "oracle", "table"])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--scenes", type=int, default=70)
+    parser.add_argument("--seed", type=int, default=5000)
+    parser.add_argument("--per-scene", type=int, default=5)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--families", nargs="+", default=None, help="oracle: only these families")
+    parser.add_argument("--out", default="", help="JSONL of per-instruction results (oracle: written, table: read)")
+
+
+def report(args: argparse.Namespace) -> int:
+    """Print the chosen figures."""
+    if args.what == "speed":
+        for f in run(args.repeats):
+            print(f"{f.name:48s} {f.value:10.1f} {f.unit}   ({f.note})")
+        return 0
+    if args.what == "oracle":
+        families = tuple(args.families) if args.families else None
+        results = oracle_success(args.scenes, args.seed, args.per_scene, args.workers, args.out, families)
+    else:
+        with open(args.out, encoding="utf-8") as f:
+            results = [json.loads(line) for line in f]
+    print(oracle_table(results))
+    frames: dict[str, list[int]] = defaultdict(list)
+    for r in results:
+        if r.get("success"):
+            frames[r["family"]].append(int(r["frames"]))
+    print("frames per episode (mean, at 20 Hz):")
+    for fam, v in sorted(frames.items()):
+        print(f"  {fam:15s} {sum(v) / len(v):7.1f}  (n={len(v)})")
+    return 0
