@@ -39,7 +39,7 @@ def _pictures(out: Path) -> list[Path]:
 def run(args: argparse.Namespace) -> int:
     out: Path = args.out
     dataset = out / "dataset"
-    argv = ["generate", "--preset", "tiny", "--out", str(dataset), "--seed", str(args.seed)]
+    argv = ["--preset", "tiny", "--out", str(dataset), "--seed", str(args.seed)]
     if args.workers:
         argv += ["--workers", str(args.workers)]
     if (dataset / "info.json").exists() or (dataset / "config.json").exists():
