@@ -22,7 +22,14 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.bench import Figure, print_figures
+from samplehd.dataset.config import GenerateConfig, preset_config
+from samplehd.dataset.container import read_episode, write_episode
+from samplehd.dataset.generate import generate_dataset
 from samplehd.dataset.journal import read_journal
+from samplehd.dataset.reader import DatasetReader
+from samplehd.dataset.render import RenderConfig
+from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.workers import Backend
 
 __all__ = ["add_arguments", "bench_config", "container_sizes", "projection", "report", "run"]
 
@@ -32,8 +39,6 @@ _MICRO: dict[str, Any] = {"num_scenes": 2, "seed": 0, "test_every": 2, "scene": 
 
 def bench_config(mode: str = "none", width: int = 320, height: int = 180, scenes: int = 6, per_scene: int = 3) -> Any:
     """The benchmark's work set with the given render settings."""
-    from samplehd.dataset.config import GenerateConfig, preset_config
-
     d = json.loads(json.dumps(_MICRO))
     d["render"] = {"mode": mode, "width": width, "height": height}
     d["num_scenes"] = scenes
@@ -42,9 +47,6 @@ def bench_config(mode: str = "none", width: int = 320, height: int = 180, scenes
 
 
 def _generate(config: Any, workers: int, root: Path) -> tuple[float, int, Path]:
-    from samplehd.dataset.generate import generate_dataset
-    from samplehd.workers import Backend
-
     out = Path(tempfile.mkdtemp(dir=root)) / "ds"
     t0 = time.perf_counter()
     s = generate_dataset(out, config, Backend("local", workers))
@@ -59,8 +61,6 @@ def _dir_size(path: Path) -> tuple[int, int]:
 def container_sizes(dataset: Path) -> list[Figure]:
     """Bytes per 1000 frames and write frames/s of every episode of ``dataset`` in HDF5 (the format)
     and in a Zarr v3 directory store (Blosc zstd, one chunk per frame), when zarr is installed."""
-    from samplehd.dataset.container import write_episode
-    from samplehd.dataset.reader import DatasetReader
 
     reader = DatasetReader(dataset)
     eps = [reader.episode(i, images="load") for i in range(len(reader))]
@@ -128,12 +128,6 @@ def projection(unit_seconds: float, success_rate: float, scene_seconds: float, s
 
 def run(repeats: int = 3) -> list[Figure]:
     """Measure everything in the module docstring (about 6-10 minutes on 2 cores)."""
-    from samplehd.dataset.container import read_episode
-    from samplehd.dataset.journal import read_journal
-    from samplehd.dataset.reader import DatasetReader
-    from samplehd.dataset.render import RenderConfig
-    from samplehd.scene.spec import SceneSpec, compile_scene
-
     figures: list[Figure] = []
     root = Path(tempfile.mkdtemp(prefix="bench_dataset_"))
     try:

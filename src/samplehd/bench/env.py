@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.bench import Figure
+from samplehd.envs.tabletop import TabletopEnv
 
 __all__ = ["CONFIGS", "add_arguments", "measure", "report", "robosuite_rates", "run"]
 
@@ -35,7 +36,6 @@ def measure(name: str, steps: int = 100, repeats: int = 3, seed: int = 0) -> dic
     Actions are small random steering commands (so the arm moves without crashing into the table);
     a terminated episode is reset outside the timed region.
     """
-    from samplehd.envs.tabletop import TabletopEnv
 
     env = TabletopEnv(control_mode="steering", num_scenes=1, scene_seed=seed, **CONFIGS[name])
     rng = np.random.default_rng(seed)

@@ -22,14 +22,16 @@ from typing import Any
 import numpy as np
 
 from samplehd.bench import Figure, pin_to_one_core
+from samplehd.language.descriptions import MODIFIER_KINDS, SceneDescriber
+from samplehd.language.generator import TemplateBalancer, generate_instructions
+from samplehd.language.instruction_file import generate_instruction_file
+from samplehd.language.scene import parse_scene
+from samplehd.language.synthetic import synthetic_scene, synthetic_scenes_file
 
 __all__ = ["add_arguments", "bench_attribute_kinds", "bench_dataset", "bench_object_counts", "report", "run"]
 
 
 def _scenes(n_objects: int, count: int, seed: int) -> list[Any]:
-    from samplehd.language.scene import parse_scene
-    from samplehd.language.synthetic import synthetic_scene
-
     rng = np.random.default_rng([seed, n_objects])
     return [parse_scene(synthetic_scene(rng, n_objects, image_index=i)) for i in range(count)]
 
@@ -53,8 +55,6 @@ def bench_object_counts(
         describe_ms_per_scene, instructions}], "slope_ms_per_scene", "slope_describe"}`` (medians
         over ``repeats``; per-scene times are CPU time).
     """
-    from samplehd.language.descriptions import SceneDescriber
-    from samplehd.language.generator import TemplateBalancer, generate_instructions
 
     rows = []
     for n in object_counts:
@@ -104,7 +104,6 @@ def bench_attribute_kinds(n_objects: int = 10, scenes: int = 40, repeats: int = 
     Returns:
         ``{"rows": [{kinds, describe_ms_per_scene, relational_fraction}]}`` (medians).
     """
-    from samplehd.language.descriptions import MODIFIER_KINDS, SceneDescriber
 
     batch = _scenes(n_objects, scenes, seed)
     rows = []
@@ -142,8 +141,6 @@ def bench_dataset(
         ``{scenes, instructions, seconds (CPU), wall_seconds, instructions_per_s, reaches_8360,
         families}`` (medians).
     """
-    from samplehd.language.instruction_file import generate_instruction_file
-    from samplehd.language.synthetic import synthetic_scenes_file
 
     scenes = synthetic_scenes_file(np.random.default_rng(seed), n_scenes, min_objects, max_objects)["scenes"]
     times, walls, made = [], [], 0

@@ -18,9 +18,10 @@ import mujoco
 import numpy as np
 
 from samplehd.bench import Figure, pin_to_one_core
-from samplehd.robot.constants import HOME_QPOS, JOINT_NAMES, POSITION_ACTUATORS, VELOCITY_ACTUATORS
+from samplehd.robot.constants import HOME_QPOS, JOINT_NAMES, POSITION_ACTUATORS, TCP_OFFSET, VELOCITY_ACTUATORS
 from samplehd.robot.controller import ACTION_MODES, ControlConfig, RobotController
-from samplehd.robot.kinematics import fk_tcp, ik_batch, inverse_kinematics, pos_quat_from_pose
+from samplehd.robot.kinematics import fk_tcp, forward_kinematics, ik_batch, inverse_kinematics, pos_quat_from_pose
+from samplehd.scene.world import compile_world
 
 __all__ = [
     "add_arguments",
@@ -35,8 +36,6 @@ __all__ = [
 
 def robot_world() -> tuple[mujoco.MjModel, mujoco.MjData]:
     """The kitchen world with the robot and no objects (arm at home)."""
-    from samplehd.scene.world import compile_world
-
     return compile_world()
 
 
@@ -166,8 +165,6 @@ def ik_solves_per_second(count: int = 20000, repeats: int = 5, seed: int = 0) ->
     rng = np.random.default_rng(seed)
     q = rng.uniform(-np.pi, np.pi, (count, 6))
     seeds = rng.uniform(-np.pi, np.pi, (count, 6))
-    from samplehd.robot.constants import TCP_OFFSET
-    from samplehd.robot.kinematics import forward_kinematics
 
     poses = forward_kinematics(q, TCP_OFFSET)
     n_single = min(count, 5000)

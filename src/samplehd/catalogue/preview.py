@@ -21,6 +21,7 @@ from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.loader import resolve_catalogue
 from samplehd.catalogue.model import Catalogue
 from samplehd.errors import RenderError
+from samplehd.render.renderer import SceneRenderer
 
 _FOVY = 45.0  # vertical field of view of the preview camera [deg]
 
@@ -163,7 +164,6 @@ def render_instances(
     model = spec.compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    from samplehd.render.renderer import SceneRenderer
 
     with SceneRenderer(model, width, height, "hd") as renderer:
         return renderer.render(data, "preview", ("rgb",))["rgb"]
