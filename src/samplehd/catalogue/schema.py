@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.errors import AssetError
-from samplehd.jsonfile import read_json as read_json_file
+from samplehd.fileio import read_json as read_json_file
 
 __all__ = ["Field", "is_identifier", "read_json"]
 

@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
 from samplehd.render.contact_sheet import contact_sheet
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
 from samplehd.scene.config import SceneConfig
@@ -39,12 +40,7 @@ def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
     """Read the 'scene' section of a JSON config file (unknown keys are errors)."""
     if path is None:
         return SceneConfig()
-    try:
-        doc = json.loads(path.read_text())
-    except OSError as exc:
-        raise ConfigError(f"--config {path}: cannot read ({exc.strerror})") from exc
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"--config {path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from exc
+    doc = read_json(path, ConfigError, f"--config {path}")
     if not isinstance(doc, dict):
         raise ConfigError(f"--config {path}: expected a JSON object with a 'scene' section")
     unknown = sorted(set(doc) - {"scene"})

@@ -20,7 +20,7 @@ from typing import Any
 
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import ConfigError
-from samplehd.jsonfile import read_json
+from samplehd.fileio import read_json
 from samplehd.motion.pipeline import PathConfig
 from samplehd.scene.config import SceneConfig
 

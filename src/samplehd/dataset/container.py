@@ -48,7 +48,6 @@ __all__ = [
     "camera_settings",
     "describe_settings",
     "episode_attrs",
-    "file_digest",
     "merge_camera_settings",
     "read_episode",
     "read_frames",
@@ -78,15 +77,6 @@ class EpisodeFile:
     num_frames: int
     size: int
     sha256: str
-
-
-def file_digest(path: Path) -> str:
-    """SHA-256 of a file, read in 1 MiB blocks."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def _nearly_full(path: Path) -> bool:

@@ -41,7 +41,7 @@ import numpy
 
 from samplehd.catalogue.loader import catalogue_for
 from samplehd.dataset.config import GenerateConfig, candidate_order
-from samplehd.dataset.container import file_digest, read_meta, write_error
+from samplehd.dataset.container import read_meta, write_error
 from samplehd.dataset.journal import append_journal, read_journal, repair_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
@@ -60,7 +60,7 @@ from samplehd.dataset.progress import Progress
 from samplehd.dataset.render import check_cameras
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit, run_scene_unit
 from samplehd.errors import ConfigError, DatasetError
-from samplehd.jsonfile import write_json_atomic
+from samplehd.fileio import file_sha256, write_json_atomic
 from samplehd.language.instruction_file import generate_instruction_file
 from samplehd.scene.annotate import image_stem
 from samplehd.scene.generate import SceneJob, scene_split
@@ -319,7 +319,7 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
                 continue
 
             rec = {"scene_index": key[0], "slot": key[1], "status": "ok", "num_frames": int(meta["num_frames"]),
-                   "size": p.stat().st_size, "sha256": file_digest(p), "seconds": 0.0}
+                   "size": p.stat().st_size, "sha256": file_sha256(p), "seconds": 0.0}
             known[key] = rec
             late.append(rec)
     append_journal(out, late)

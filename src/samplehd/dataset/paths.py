@@ -27,7 +27,7 @@ from samplehd.dataset.layout import EPISODE_DIR, episode_name
 from samplehd.dataset.render import RenderConfig, check_cameras
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit
 from samplehd.errors import ConfigError, DatasetError
-from samplehd.jsonfile import read_json, write_json_atomic
+from samplehd.fileio import read_json, write_json_atomic
 from samplehd.language.instruction_file import read_instructions
 from samplehd.motion.pipeline import PathConfig
 from samplehd.workers import Backend

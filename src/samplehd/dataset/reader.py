@@ -30,7 +30,7 @@ from samplehd.dataset.layout import (
     parse_episode_name,
 )
 from samplehd.errors import DatasetError
-from samplehd.jsonfile import read_json
+from samplehd.fileio import read_json
 from samplehd.record.episode import Episode
 
 __all__ = ["DatasetReader", "EpisodeEntry"]

@@ -20,7 +20,6 @@ from typing import Any
 from samplehd.dataset.container import (
     camera_settings,
     describe_settings,
-    file_digest,
     merge_camera_settings,
     read_meta,
     render_record,
@@ -31,7 +30,7 @@ from samplehd.dataset.reader import DatasetReader
 from samplehd.dataset.render import RenderConfig, check_cameras
 from samplehd.dataset.work import RenderUnit, run_render_unit
 from samplehd.errors import DatasetError
-from samplehd.jsonfile import write_json_atomic
+from samplehd.fileio import file_sha256, write_json_atomic
 from samplehd.workers import Backend
 
 __all__ = ["rerender_dataset"]
@@ -107,7 +106,7 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
     for entry in info["episodes"]:
         p = root / entry["file"]
         entry["size"] = p.stat().st_size
-        entry["sha256"] = file_digest(p)
+        entry["sha256"] = file_sha256(p)
     if result is None:  # no episodes: describe what they would hold
         result = merge_camera_settings(camera_settings(info.get("render")), render, add)
     record = render_record(result)

@@ -1,8 +1,9 @@
-"""Read and write JSON files: the one reader (one-line errors naming the file and what is wrong)
-and the one atomic writer every stage uses."""
+"""File helpers every stage shares: the one JSON reader (one-line errors naming the file and what is
+wrong), the one atomic JSON writer and the one file digest."""
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 from pathlib import Path
@@ -10,7 +11,7 @@ from typing import Any
 
 from samplehd.errors import DatasetError, SamplehdError
 
-__all__ = ["read_json", "write_json_atomic"]
+__all__ = ["file_sha256", "read_json", "write_json_atomic"]
 
 
 def read_json(path: str | Path, error: type[SamplehdError] = DatasetError, label: str | None = None) -> Any:
@@ -41,3 +42,12 @@ def write_json_atomic(path: Path, obj: Any, indent: int | None = None) -> None:
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     tmp.write_text(json.dumps(obj, indent=indent))
     os.replace(tmp, path)
+
+
+def file_sha256(path: str | Path) -> str:
+    """SHA-256 (hex) of a file's bytes, read in 1 MiB blocks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
