@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from samplehd.motion.assist import GraspAssist, compile_scene_with_assist
-from samplehd.motion.pipeline import initial_state
+from samplehd.motion.execute import initial_state
 from samplehd.physics import awake_contacts, wake_all
 from samplehd.robot.constants import HOME_QPOS
 from samplehd.robot.controller import ControlConfig, RobotController

@@ -147,7 +147,7 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> li
     import samplehd  # noqa: F401
     from samplehd.language.generator import generate_instructions
     from samplehd.motion.assist import compile_scene_with_assist as compile_scene
-    from samplehd.motion.pipeline import PathRejected, plan_and_execute
+    from samplehd.record.paths import PathRejected, plan_and_execute
     from samplehd.scene.annotate import annotate_scene
     from samplehd.scene.sampler import sample_scene
 
@@ -273,7 +273,7 @@ def run(repeats: int = 3) -> list[Any]:
 
     from samplehd.bench import Figure
     from samplehd.motion.assist import compile_scene_with_assist
-    from samplehd.motion.pipeline import plan_and_execute
+    from samplehd.record.paths import plan_and_execute
     from samplehd.render.renderer import MODALITIES
     from samplehd.render.states import render_states
 

@@ -14,7 +14,7 @@ from samplehd.commands._options import split_names
 from samplehd.dataset.paths import format_summary, generate_paths
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import ConfigError
-from samplehd.motion.pipeline import PathConfig
+from samplehd.record.paths import PathConfig
 from samplehd.render.renderer import MODALITIES
 from samplehd.workers import BACKENDS, Backend
 

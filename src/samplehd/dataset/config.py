@@ -21,7 +21,7 @@ from typing import Any
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
-from samplehd.motion.pipeline import PathConfig
+from samplehd.record.paths import PathConfig
 from samplehd.scene.config import SceneConfig
 
 __all__ = [
@@ -91,7 +91,7 @@ class GenerateConfig:
         test_every: every ``test_every``-th scene (and its instructions) is in the test split.
         scene: scene sampler options.
         instructions: instruction candidate options.
-        paths: ground-truth path options (``samplehd.motion.pipeline.PathConfig``).
+        paths: ground-truth path options (``samplehd.record.paths.PathConfig``).
         render: images stored with each episode.
     """
 

@@ -29,7 +29,7 @@ from samplehd.dataset.work import EpisodeUnit, run_episode_unit
 from samplehd.errors import ConfigError, DatasetError
 from samplehd.fileio import read_json, write_json_atomic
 from samplehd.language.instruction_file import read_instructions
-from samplehd.motion.pipeline import PathConfig
+from samplehd.record.paths import PathConfig
 from samplehd.workers import Backend
 from samplehd.world.seeding import episode_seed
 

@@ -31,7 +31,7 @@ from samplehd.dataset.layout import EPISODE_DIR
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError, PlanningError, RenderError
 from samplehd.motion.assist import compile_scene_with_assist
-from samplehd.motion.pipeline import PathConfig, PathRejected, plan_and_execute
+from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
 from samplehd.scene.generate import render_scene_files
 from samplehd.scene.spec import SceneSpec, compile_scene
 

@@ -23,6 +23,7 @@ __all__ = [
     "ObjectBox",
     "SceneBodies",
     "contact_pairs",
+    "grasped_object",
     "object_body_name",
     "object_footprint",
     "object_local_box",
@@ -196,3 +197,21 @@ def object_footprint(
         wb = object_world_box(bodies.model, data, bodies, k)
         return wb.center[:2], np.eye(2), wb.half[:2]
     return t[:2, 3] + rot @ c_local, rot, half
+
+
+def grasped_object(model: mujoco.MjModel, data: mujoco.MjData, finger_bodies: tuple[int, int],
+                   body_to_object: dict[int, int]) -> int:
+    """The scene object touching both fingers, or -1."""
+    touching: dict[int, set[int]] = {}
+    for k in range(data.ncon):
+        c = data.contact[k]
+        if c.dist > 1e-3:
+            continue
+        b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
+        for f, o in ((b1, b2), (b2, b1)):
+            if f in finger_bodies and o in body_to_object:
+                touching.setdefault(body_to_object[o], set()).add(f)
+    for obj, fingers in touching.items():
+        if len(fingers) == 2:
+            return obj
+    return -1
