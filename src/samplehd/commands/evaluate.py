@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from samplehd.envs.config import CONTROL_MODES, OBS_MODES, TASK_FAMILIES
+from samplehd.envs.config import CONTROL_MODES, OBS_MODES
 from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
+from samplehd.tasks.family import family_names
 
 HELP = "run a policy (MODULE:CALLABLE, oracle or random) on the seeded benchmark split; JSON report"
 
@@ -16,7 +17,7 @@ HELP = "run a policy (MODULE:CALLABLE, oracle or random) on the seeded benchmark
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--policy", required=True, help="oracle, random, or MODULE:CALLABLE (obs -> action)")
     parser.add_argument("--episodes", type=int, default=10, help="episodes of the split (default 10)")
-    parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=TASK_FAMILIES,
+    parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=family_names(),
                         metavar="FAMILY", help=f"families, in rotation (default: {' '.join(DEFAULT_FAMILIES)})")
     parser.add_argument("--seed", type=int, default=0, help="seed of the split (default 0)")
     parser.add_argument("--control-mode", default="steering", choices=list(CONTROL_MODES),

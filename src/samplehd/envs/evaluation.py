@@ -26,9 +26,9 @@ from typing import Any
 import numpy as np
 
 from samplehd.catalogue.loader import catalogue_for
-from samplehd.envs.config import TASK_FAMILIES
 from samplehd.errors import ConfigError, PlanningError
 from samplehd.render.video import write_mp4
+from samplehd.tasks.family import family_names
 from samplehd.workers import Backend
 
 __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "evaluate", "load_policy"]
@@ -67,9 +67,9 @@ class EvalConfig:
     def __post_init__(self) -> None:
         if not (isinstance(self.episodes, int) and self.episodes >= 1):
             raise ConfigError(f"--episodes {self.episodes!r}: must be a positive integer")
-        bad = [f for f in self.families if f not in TASK_FAMILIES]
+        bad = [f for f in self.families if f not in family_names()]
         if bad or not self.families:
-            raise ConfigError(f"--families: unknown {bad or '(none)'}; valid: {', '.join(TASK_FAMILIES)}")
+            raise ConfigError(f"--families: unknown {bad or '(none)'}; valid: {', '.join(family_names())}")
         if not (isinstance(self.workers, int) and self.workers >= 1):
             raise ConfigError(f"--workers {self.workers!r}: must be a positive integer")
         check_policy_spec(self.policy)

@@ -81,6 +81,7 @@ from samplehd.render.renderer import SceneRenderer
 from samplehd.robot.constants import GRIPPER_STROKE, JOINT_LIMITS
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.tasks.checker import check_success
+from samplehd.tasks.family import get_family
 from samplehd.tasks.task import Task, parse_task
 from samplehd.world.bodies import SceneBodies, grasped_object
 
@@ -323,7 +324,7 @@ class TabletopEnv(gym.Env):
         shift = np.linalg.norm(d.xpos[moved] - self._start_pos[list(task.objects)], axis=1)
         if np.any(shift < self._gate_shift):
             return False
-        if task.family == "pick_up":
+        if not get_family(task.family).places:  # held objects touch the gripper
             return True
         if d.ncon:
             bodies = self.model.geom_bodyid[d.contact.geom]
