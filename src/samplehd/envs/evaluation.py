@@ -153,7 +153,7 @@ class _Runner:
     """One environment and policy that run benchmark episodes one at a time."""
 
     def __init__(self, config: EvalConfig) -> None:
-        import samplehd  # noqa: F401  (GL backend before mujoco)
+        # A worker imports this module through the samplehd package, which sets the GL backend first.
         from samplehd.envs.tabletop import TabletopEnv
 
         self.config = config
