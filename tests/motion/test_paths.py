@@ -111,18 +111,6 @@ def test_steering_reproduces_the_tcp_motion(place_episode, scene):
     assert max(err) < 0.01, max(err)
 
 
-def test_episode_file_round_trip(place_episode, tmp_path):
-    from samplehd.record.recorder import read_episode_npz, write_episode_npz
-
-    _, ep = place_episode
-    path = write_episode_npz(tmp_path / "e.npz", ep)
-    back = read_episode_npz(path)
-    assert back.subtasks == ep.subtasks and back.family == ep.family and back.success
-    for k, v in ep.frames.items():
-        assert back.frames[k].dtype == v.dtype and np.array_equal(back.frames[k], v)
-    assert back.info["scene"] == ep.info["scene"]
-
-
 def test_pick_up_ends_holding(scene):
     _, ep = _run(scene, {"type": "pick_up", "objects": [1], "subject": None})
     assert ep.subtasks == SUBTASK_NAMES[:4]
