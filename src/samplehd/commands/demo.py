@@ -8,7 +8,7 @@ from pathlib import Path
 
 from samplehd.commands import generate
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
-from samplehd.render.renderer import SceneRenderer
+from samplehd.render.renderer import MODALITIES, SceneRenderer
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import compile_scene
 from samplehd.world.seeding import scene_seed
@@ -27,7 +27,7 @@ def _pictures(out: Path) -> list[Path]:
     model, data = compile_scene(scene)
     paths = [out / "world_hd.png", out / "world_depth.png", out / "world_segmentation.png", out / "wrist_fast.png"]
     with SceneRenderer(model, 1280, 720, "hd") as r:
-        img = r.render(data, "operator", ("rgb", "depth", "segmentation"))
+        img = r.render(data, "operator", MODALITIES)
     save_rgb(paths[0], img["rgb"])
     save_rgb(paths[1], colorize_depth(img["depth"]))
     save_rgb(paths[2], colorize_segmentation(img["segmentation"]))

@@ -10,6 +10,7 @@ from pathlib import Path
 from samplehd.dataset.progress import RichProgress
 from samplehd.dataset.render import RenderConfig
 from samplehd.dataset.rerender import rerender_dataset
+from samplehd.render.renderer import MODALITIES
 from samplehd.workers import BACKENDS, Backend, default_workers
 
 HELP = "add or replace the images of every episode from the stored states (no re-simulation)"
@@ -20,7 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cameras", nargs="+", default=["scene"], help="cameras (scene, operator, wrist)")
     parser.add_argument("--width", type=int, default=320, help="image width [px]")
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
-    parser.add_argument("--modalities", nargs="+", default=["rgb", "depth", "segmentation"],
+    parser.add_argument("--modalities", nargs="+", default=list(MODALITIES),
                         help="rgb depth segmentation")
     parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
     parser.add_argument("--add", action="store_true",
