@@ -23,6 +23,7 @@ from typing import Any
 
 from samplehd.errors import ConfigError
 from samplehd.fileio import write_json_atomic
+from samplehd.render.renderer import MODALITIES
 from samplehd.scene.config import SceneConfig
 from samplehd.version import __version__
 from samplehd.workers import Backend
@@ -67,7 +68,7 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
         else:
             model, data = compile_scene(result.scene)
         img = renderers.get(model, job.width, job.height, job.preset).render(
-            data, "scene", ("rgb", "depth", "segmentation"))
+            data, "scene", MODALITIES)
     split = scene_split(job.index, job.test_every)
     stem = image_stem(split, job.index)
     out = Path(job.out)
