@@ -22,7 +22,7 @@ from PIL import Image
 
 from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.loader import catalogue_for, load_catalogue
-from samplehd.catalogue.preview import render_instances, write_contact_sheet
+from samplehd.catalogue.preview import render_instances, write_catalogue_table
 from samplehd.catalogue.registry import registered_classes, remove_imported
 from samplehd.commands._options import split_names
 from samplehd.errors import AssetError
@@ -156,7 +156,7 @@ def _preview(args: argparse.Namespace) -> int:
 
 
 def _sheet(args: argparse.Namespace) -> int:
-    path = write_contact_sheet(args.out)
+    path = write_catalogue_table(args.out)
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
     return 0
 
