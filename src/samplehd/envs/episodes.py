@@ -262,7 +262,7 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
     if "task" not in entry:
         if "program" not in entry and "program_sequence" not in entry:
             raise ConfigError("reset: option 'instruction' needs a 'task' or a 'program'")
-        entry["task"] = execute(entry.get("program") or entry["program_sequence"], ann).to_dict()
+        entry["task"] = execute(entry.get("program") or entry["program_sequence"], ann).to_program_dict()
     task = dict(entry["task"])
     entry["task"] = task
     entry.setdefault("family", str(task.get("type", "")).split("[")[0])
