@@ -4,6 +4,8 @@
 --out (``--only`` picks areas). ``samplehd bench AREA ...`` prints that area's detailed report, e.g.
 ``samplehd bench paths oracle --scenes 70 --seed 130000``, ``samplehd bench dataset --project DIR``,
 ``samplehd bench env --robosuite-python PY`` or ``samplehd bench world-options nosleep``.
+``samplehd bench --report README.md`` measures the README's performance table in one run and writes
+it between its markers (see :mod:`samplehd.bench._table`).
 Figures are for reports, never tests. The code of every area lives in :mod:`samplehd.bench`.
 """
 
@@ -38,6 +40,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--only", nargs="+", metavar="AREA", help=f"areas to run (default: all of {_figure_areas()})")
     parser.add_argument("--repeats", type=int, default=3, help="repeats per figure (the median is reported)")
     parser.add_argument("--out", type=Path, default=Path("outputs/bench"), help="directory for bench.json")
+    parser.add_argument("--report", nargs="?", type=Path, const=Path("README.md"), metavar="FILE",
+                        help="measure the performance table in one run (date, machine, load average, commit; "
+                             "wall and per-CPU-second rates; each row's command) and write it between the "
+                             "table's markers in FILE (default README.md), or into a new FILE")
     reports = parser.add_subparsers(dest="area", metavar="AREA", required=False,
                                     help="an area's detailed report (default: the figures table)")
     for name, module in _modules().items():
@@ -51,13 +57,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if getattr(args, "area", None):
         return int(args._report(args) or 0)
+    if args.repeats < 1:
+        raise ConfigError("--repeats must be ≥ 1")
+    if args.report is not None:
+        return _report_table(args)
     areas = _figure_areas()
     chosen = args.only or areas
     unknown = [a for a in chosen if a not in areas]
     if unknown:
         raise ConfigError(f"--only: unknown areas {unknown}; valid: {', '.join(areas)}")
-    if args.repeats < 1:
-        raise ConfigError("--repeats must be ≥ 1")
     console = Console()
     figures = []
     modules = _modules()
@@ -71,4 +79,20 @@ def run(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "bench.json").write_text(json.dumps([f.to_dict() for f in figures], indent=2))
     console.print(f"wrote {args.out / 'bench.json'}")
+    return 0
+
+
+def _report_table(args: argparse.Namespace) -> int:
+    from samplehd.bench import _table
+
+    if args.only:
+        unknown = [a for a in args.only if a not in _table.AREAS]
+        if unknown:
+            raise ConfigError(f"--only with --report: unknown areas {unknown}; valid: {', '.join(_table.AREAS)}")
+    text = _table.check_target(args.report)  # validate before measuring, write only at the end
+    rows, facts = _table.measure(args.repeats, args.only or tuple(_table.AREAS))
+    table = _table.table_markdown(rows, facts)
+    _table.write_report(args.report, table, text)
+    print(table, end="")
+    print(f"wrote the table into {args.report}")
     return 0

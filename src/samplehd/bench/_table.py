@@ -1,0 +1,279 @@
+"""The README's performance table, measured in one run: ``samplehd bench --report [FILE]``.
+
+Every row is measured in the same process, one after another, and carries the command that gives
+its figures on its own. The machine is often shared, so rates are given per wall second and per
+CPU second of this process (``time.process_time``: every thread of it, the rasteriser's threads of
+Mesa's llvmpipe included); the header says when, on what machine, under which load average and at
+which commit the table was measured. The table replaces the text between two markers in FILE.
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+import platform
+import statistics
+import subprocess
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from samplehd.errors import ConfigError
+
+__all__ = ["BEGIN", "END", "Row", "measure", "table_markdown", "write_report"]
+
+BEGIN = "<!-- performance table: made by `samplehd bench --report README.md`; edits here are overwritten -->"
+END = "<!-- end of performance table -->"
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of the table: what, per wall second, per CPU second, and the command to measure it alone."""
+
+    figure: str
+    wall: str
+    cpu: str
+    command: str
+
+
+def _cpu() -> float:
+    return time.process_time()
+
+
+def _median_pair(fn: Callable[[], int], repeats: int) -> tuple[float, float]:
+    """Median count/s over wall time and over this process's CPU time of ``fn`` (which returns a count)."""
+    wall, cpu = [], []
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), _cpu()
+        n = fn()
+        t1, c1 = time.perf_counter(), _cpu()
+        wall.append(n / max(t1 - t0, 1e-9))
+        cpu.append(n / max(c1 - c0, 1e-9))
+    return statistics.median(wall), statistics.median(cpu)
+
+
+def _fmt(x: float) -> str:
+    if x >= 10_000:
+        return f"{x / 1000:,.1f} k"
+    if x >= 100:
+        return f"{x:,.0f}"
+    if x >= 10:
+        return f"{x:.1f}"
+    return f"{x:.2f}"
+
+
+def _language_rows(repeats: int) -> list[Row]:
+    from samplehd.bench import pin_to_one_core
+    from samplehd.bench.language import bench_object_counts
+
+    cores = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
+    pin_to_one_core()
+    try:
+        counts = bench_object_counts(scenes=40, repeats=repeats)
+    finally:
+        if cores is not None:
+            os.sched_setaffinity(0, cores)
+    rows = counts["rows"]
+    wall = " / ".join(_fmt(r["instructions_per_wall_s"]) for r in rows)
+    cpu = " / ".join(_fmt(r["instructions_per_s"]) for r in rows)
+    objects = " / ".join(str(r["objects"]) for r in rows)
+    return [Row(f"instructions/s on one core, scenes of {objects} objects, every constraint on "
+                f"(log-log slope of time per scene {counts['slope_ms_per_scene']:.2f})",
+                wall, cpu, "`samplehd bench --report FILE --only language`")]
+
+
+def _path_rows(repeats: int) -> list[Row]:
+    """Pure render of the paths benchmark scene, and the dataset's real episode unit (plan, execute,
+    check, render from the states, write the HDF5 file) with and without those images."""
+    from samplehd.bench.paths import _bench_scene
+    from samplehd.dataset.layout import EPISODE_DIR
+    from samplehd.dataset.render import RenderConfig
+    from samplehd.dataset.work import EpisodeUnit, run_episode_unit
+    from samplehd.motion.assist import compile_scene_with_assist
+    from samplehd.record.paths import PathConfig
+    from samplehd.render.renderer import MODALITIES, SceneRenderer
+    from samplehd.world.layout import DIRECTIONS
+
+    scene = _bench_scene()
+    task = {"type": "place", "objects": [1], "subject": "left"}
+    rows: list[Row] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        (Path(tmp) / EPISODE_DIR).mkdir()
+
+        def unit(render: RenderConfig, seed: int) -> dict[str, Any]:
+            u = EpisodeUnit(tmp, f"e{seed}.h5", 0, seed, seed, "place", task, "put the soda can on the left",
+                            "train", scene.to_dict(), {k: list(v) for k, v in DIRECTIONS.items()},
+                            PathConfig().to_dict(), render.to_dict())
+            out = run_episode_unit(u)
+            if out["status"] != "ok":
+                raise RuntimeError(f"benchmark episode failed: {out}")
+            return out
+
+        states = RenderConfig(mode="none")
+        frames = int(unit(states, 0)["num_frames"])
+        done = [unit(states, r) for r in range(repeats)]
+        s_wall = statistics.median(d["num_frames"] / d["seconds"] for d in done)
+        s_cpu = statistics.median(d["num_frames"] / d["cpu_seconds"] for d in done)
+        rows.append(Row(f"ground-truth path frames/s, states only (plan, execute, check, write; {frames} frames)",
+                        _fmt(s_wall), _fmt(s_cpu), "`samplehd bench --report FILE --only paths`"))
+        model, data = compile_scene_with_assist(scene)
+        for w, h in ((320, 180), (640, 360)):
+            images = RenderConfig("fast", w, h, ("operator",), MODALITIES)
+            with SceneRenderer(model, w, h, "fast") as r:
+                r.render(data, "operator", MODALITIES)  # warm-up: the first frame uploads textures
+
+                def draw(r: SceneRenderer = r) -> int:
+                    for _ in range(frames):
+                        r.render(data, "operator", MODALITIES)
+                    return frames
+
+                p_wall, p_cpu = _median_pair(draw, repeats)
+            done = [unit(images, r) for r in range(repeats)]
+            i_wall = statistics.median(d["num_frames"] / d["seconds"] for d in done)
+            i_cpu = statistics.median(d["num_frames"] / d["cpu_seconds"] for d in done)
+            what = f"`fast` RGB+depth+segmentation {w}×{h}, operator camera"
+            rows.append(Row(f"render frames/s, {what} (renderer alone)", _fmt(p_wall), _fmt(p_cpu),
+                            "`samplehd bench --report FILE --only paths`"))
+            rows.append(Row(f"ground-truth path frames/s with {what} (as above, images rendered from the states "
+                            f"and written); share of the renderer's rate: {i_wall / p_wall:.0%} wall, "
+                            f"{i_cpu / p_cpu:.0%} CPU", _fmt(i_wall), _fmt(i_cpu), "`samplehd bench --report FILE --only paths`"))
+    return rows
+
+
+def _robot_rows(repeats: int) -> list[Row]:
+    import mujoco
+
+    from samplehd.scene.world import compile_world
+
+    model, data = compile_world()
+    rng = np.random.default_rng(0)
+
+    def steps() -> int:
+        n = 5000
+        for k in range(n):
+            if k % 50 == 0:
+                data.ctrl[:] = rng.uniform(-0.5, 0.5, model.nu)
+            mujoco.mj_step(model, data)
+        return n
+
+    wall, cpu = _median_pair(steps, repeats)
+    return [Row("physics steps/s, kitchen world with the arm moving (raw `mj_step`)", _fmt(wall), _fmt(cpu),
+                "`samplehd bench --only robot`")]
+
+
+AREAS: dict[str, Callable[[int], list[Row]]] = {"robot": _robot_rows, "paths": _path_rows, "language": _language_rows}
+
+
+def _commit() -> str:
+    """The commit measured (with ``+changes`` when the tree differs from it), or the package version."""
+    from samplehd.version import __version__
+
+    here = Path(__file__).resolve().parent
+    try:
+        sha = subprocess.run(["git", "rev-parse", "--short=10", "HEAD"], cwd=here, capture_output=True, text=True,
+                             timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
+                               capture_output=True, text=True, timeout=10, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return f"samplehd {__version__} (not a git checkout)"
+    return f"{sha}{' +changes' if dirty else ''} (samplehd {__version__})"
+
+
+def _machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    mem = ""
+    try:
+        kb = int(Path("/proc/meminfo").read_text().split("MemTotal:")[1].split()[0])
+        mem = f", {kb / 2**20:.0f} GiB"
+    except (OSError, IndexError, ValueError):
+        pass
+    gl = os.environ.get("MUJOCO_GL", "")
+    return (f"{cpu}, {os.cpu_count()} logical cores{mem}, {platform.system()} {platform.release()}, "
+            f"Python {platform.python_version()}, MuJoCo GL backend {gl or 'default'}")
+
+
+def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list[Row], dict[str, Any]]:
+    """Measure every row; returns the rows and the header facts (date, machine, loads, commit)."""
+    from samplehd.render.backend import configure_gl_backend
+
+    configure_gl_backend()
+    start = os.getloadavg() if hasattr(os, "getloadavg") else None
+    when = datetime.datetime.now(datetime.UTC)
+    t0, c0 = time.perf_counter(), _cpu()
+    rows = [row for area in areas for row in AREAS[area](repeats)]
+    facts = {
+        "date": when.strftime("%Y-%m-%d %H:%M UTC"),
+        "machine": _machine(),
+        "load_start": start,
+        "load_end": os.getloadavg() if hasattr(os, "getloadavg") else None,
+        "commit": _commit(),
+        "seconds": time.perf_counter() - t0,
+        "cpu_seconds": _cpu() - c0,
+        "repeats": repeats,
+    }
+    return rows, facts
+
+
+def table_markdown(rows: Sequence[Row], facts: dict[str, Any]) -> str:
+    """The table with its header, between the markers."""
+
+    def load(v: Any) -> str:
+        return " / ".join(f"{x:.1f}" for x in v) if v else "unknown"
+
+    lines = [
+        BEGIN,
+        f"Measured {facts['date']} at commit {facts['commit']}, in one run of `samplehd bench --report` "
+        f"({facts['seconds']:.0f} s wall, {facts['cpu_seconds']:.0f} CPU s, medians of {facts['repeats']} repeats), "
+        f"on {facts['machine']}. Load average (1 / 5 / 15 min) {load(facts['load_start'])} at the start, "
+        f"{load(facts['load_end'])} at the end: where it exceeds the core count, wall rates are "
+        "pessimistic and the per-CPU-second rates (this process's threads, the renderer's included) are the "
+        "ones to compare.",
+        "",
+        "| figure | per wall second | per CPU second | command |",
+        "|---|---|---|---|",
+        *(f"| {r.figure} | {r.wall} | {r.cpu} | {r.command} |" for r in rows),
+        END,
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def check_target(path: Path) -> str | None:
+    """Validate the report's target before measuring: the file's text (None: a new file).
+
+    Raises:
+        ConfigError: the folder is missing, or an existing file lacks the two markers.
+    """
+    if not path.parent.is_dir():
+        raise ConfigError(f"--report {path}: folder {path.parent} does not exist")
+    if not path.exists():
+        return None
+    text = path.read_text(encoding="utf-8")
+    if text.count(BEGIN) != 1 or text.count(END) != 1 or text.index(BEGIN) > text.index(END):
+        raise ConfigError(f"--report {path}: the file must hold the line {BEGIN!r} once, later the line {END!r} "
+                          "once; the table goes between them")
+    return text
+
+
+def write_report(path: Path, table: str, text: str | None) -> None:
+    """Put the table between the markers of ``text`` (the file's text) or write it as a new file."""
+    if text is None:
+        out = table
+    else:
+        head, rest = text.split(BEGIN, 1)
+        tail = rest.split(END, 1)[1]
+        out = head + table.rstrip("\n") + tail
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(out, encoding="utf-8")
+    tmp.replace(path)
