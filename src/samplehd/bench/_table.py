@@ -141,7 +141,8 @@ def _path_rows(repeats: int) -> list[Row]:
                             "`samplehd bench --report FILE --only paths`"))
             rows.append(Row(f"ground-truth path frames/s with {what} (as above, images rendered from the states "
                             f"and written); share of the renderer's rate: {i_wall / p_wall:.0%} wall, "
-                            f"{i_cpu / p_cpu:.0%} CPU", _fmt(i_wall), _fmt(i_cpu), "`samplehd bench --report FILE --only paths`"))
+                            f"{i_cpu / p_cpu:.0%} CPU", _fmt(i_wall), _fmt(i_cpu),
+                            "`samplehd bench --report FILE --only paths`"))
     return rows
 
 
@@ -163,7 +164,7 @@ def _robot_rows(repeats: int) -> list[Row]:
 
     wall, cpu = _median_pair(steps, repeats)
     return [Row("physics steps/s, kitchen world with the arm moving (raw `mj_step`)", _fmt(wall), _fmt(cpu),
-                "`samplehd bench --only robot`")]
+                "`samplehd bench --report FILE --only robot`")]
 
 
 AREAS: dict[str, Callable[[int], list[Row]]] = {"robot": _robot_rows, "paths": _path_rows, "language": _language_rows}
