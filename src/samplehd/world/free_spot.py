@@ -19,6 +19,7 @@ MuJoCo (the planner's footprints in a compiled state come from
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -126,7 +127,7 @@ class _Spots:
 
     grid: _Grid
     centre: np.ndarray  # (m, 2) footprint centres [m]
-    origin: np.ndarray  # (m, 2) frame origins [m]
+    offsets: np.ndarray  # (t, 2) frame origin of the spot minus its footprint centre, per turn [m]
     turn: np.ndarray  # (m,) index into turns
     turns: np.ndarray  # (t,) turns about the vertical [rad]
     rots: np.ndarray  # (t, 2, 2) the object's rotation after each turn
@@ -282,10 +283,11 @@ class FreeSpots:
             picks.append(int(dist.argmax()))
             dist = np.minimum(dist, np.linalg.norm(where - where[picks[-1]], axis=1))
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
-        reached = [int(best[i]) for i in picks if self.reach((*spots.origin[best[i]], z))]
+        reached = [int(best[i]) for i in picks if self.reach((*_origin(spots, best[i]), z))]
         if reached:
             return reached
-        return next(([int(j)] for j in ranked[:placement.SPOT_SHORTLIST] if self.reach((*spots.origin[j], z))), [])
+        return next(([int(j)] for j in ranked[:placement.SPOT_SHORTLIST] if self.reach((*_origin(spots, j), z))),
+                    [])
 
     def _ranks_needed(self, spots: _Spots) -> int:
         """How many best-scored spots surely hold the shortlist's samples and the shortlist itself
@@ -330,29 +332,11 @@ class FreeSpots:
         j = np.arange(count, dtype=float)
         return ((j >= first[..., None]) & (j <= last[..., None])).reshape(n_rect, -1)
 
-    def _part_grid(self, part: str) -> tuple[_Grid, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """A table part's grid (shared by every object), its spots' centres, turns and weights, and
-        the part's bounds shrunk by the part margin."""
-        key = ("grid", part)
-        if key not in self._memo:
-            lo, hi = self.layout.part_bounds(part)
-            lo, hi = lo + self.search.part_margin, hi - self.search.part_margin
-            step = self.search.step
-            xs, ys = _cells(lo[0], hi[0], step), _cells(lo[1], hi[1], step)
-            gx, gy = np.meshgrid(xs, ys, indexing="ij")
-            grid = np.stack([gx.ravel(), gy.ravel()], -1)
-            nt = len(self.turns)
-            turn = np.repeat(np.arange(nt), len(grid))
-            centre = np.tile(grid, (nt, 1))
-            weight = np.repeat(self.turn_share / len(grid), len(grid))
-            frame = _Grid(np.zeros((nt, 2)), np.eye(2), xs, ys, float(lo[1]), float(hi[1] - lo[1]) / len(ys), True)
-            self._memo[key] = (frame, centre, turn, weight, np.stack([lo, hi]))
-        return self._memo[key]
-
     def _part_spots(self, k: int, part: str) -> _Spots:
         key = ("part", k, part)
         if key not in self._memo:
-            grid, centre, turn, weight, (lo, hi) = self._part_grid(part)
+            grid, centre, turn, weight, (lo, hi) = _part_grid(self.layout, self.search.part_margin, self.search.step,
+                                                              part)
             rots = self._turned_rots(k)
             offsets = self._turn_rots @ (self.centre[k] - self.origin[k])  # (t, 2)
             half = np.abs(rots) @ self.half[k]  # (t, 2) world-axis half sizes of the turned rectangles
@@ -368,8 +352,7 @@ class FreeSpots:
             keep = keep_axis[0][:, :, None] & keep_axis[1][:, None, :]
             reach = np.hypot(rel[0][:, :, None], rel[1][:, None, :])
             keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
-            origin = centre - offsets[turn]
-            self._memo[key] = self._spots(k, grid, centre, origin, turn, weight, 0.0, keep.ravel(), reach.ravel())
+            self._memo[key] = self._spots(k, grid, centre, offsets, turn, weight, 0.0, keep.ravel(), reach.ravel())
         return self._memo[key]
 
     def _beside_grid(self, direction: tuple[float, float]) -> tuple[Any, ...]:
@@ -423,26 +406,20 @@ class FreeSpots:
                 centre.append(c)
                 origin.append(o)
                 rel.append(o - base[a])
-            centre_xy, origin_xy = np.stack(centre, -1), np.stack(origin, -1)
+            centre_xy, origin_xy = np.stack(centre, -1), np.stack(origin, -1)  # origin_xy: as _origin() gives
             keep &= (origin_xy - self.origin[ref]) @ d >= self.search.relation_gap + placement.BESIDE_NEED
             reach = np.hypot(rel[0], rel[1])
             keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
             grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
                          np.stack([d, lateral]), dists, lats, v_lo, v_width, False)
-            self._memo[key] = self._spots(x, grid, centre_xy, origin_xy, turn, weight, far, keep, reach)
+            self._memo[key] = self._spots(x, grid, centre_xy, offsets, turn, weight, far, keep, reach)
         return self._memo[key]
 
     def _turned_rots(self, k: int) -> np.ndarray:
         """Object k's rotation after each turn (t, 2, 2)."""
         return self._turn_rots @ self.rot[k]
 
-    def _origins(self, k: int, turn: np.ndarray, centre: np.ndarray) -> np.ndarray:
-        """Frame origins of object k turned by ``turns[turn]`` with its footprint centred at
-        ``centre``: the origin keeps its offset from the footprint centre, turned with it."""
-        offsets = self._turn_rots @ (self.centre[k] - self.origin[k])
-        return centre - offsets[turn]
-
-    def _spots(self, k: int, grid: _Grid, centre: np.ndarray, origin: np.ndarray, turn: np.ndarray,
+    def _spots(self, k: int, grid: _Grid, centre: np.ndarray, offsets: np.ndarray, turn: np.ndarray,
                weight: np.ndarray, score: Any, keep: np.ndarray, reach: np.ndarray) -> _Spots:
         """The spots with their score and their overlaps with the other objects."""
         score = (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
@@ -458,11 +435,38 @@ class FreeSpots:
         near = near[near != k]
         rots = self._turned_rots(k)
         none = np.zeros((0, len(keep)), bool)
-        spots = _Spots(grid, centre, origin, turn, self.turns, rots, weight, score, keep, near, none)
+        spots = _Spots(grid, centre, offsets, turn, self.turns, rots, weight, score, keep, near, none)
         if len(near):
             blocked = self._blocked_by(k, spots, self.centre[near], self.rot[near], self.half[near])
             spots = dataclasses.replace(spots, blocked=blocked)
         return spots
+
+def _origin(spots: _Spots, j: int) -> np.ndarray:
+    """Frame origin (x, y) of spot j: the footprint centre less the turned offset [m]."""
+    return spots.centre[j] - spots.offsets[spots.turn[j]]
+
+
+@functools.lru_cache(maxsize=32)
+def _part_grid(layout: TableLayout, part_margin: float, step: float,
+               part: str) -> tuple[_Grid, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A table part's grid of spots (the same for every object and scene, read only): the grid, its
+    spots' centres, turns and weights, and the part's bounds shrunk by the part margin."""
+    lo, hi = layout.part_bounds(part)
+    lo, hi = lo + part_margin, hi - part_margin
+    xs, ys = _cells(lo[0], hi[0], step), _cells(lo[1], hi[1], step)
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    grid = np.stack([gx.ravel(), gy.ravel()], -1)
+    turns, share = _yaw_weights()
+    nt = len(turns)
+    turn = np.repeat(np.arange(nt), len(grid))
+    centre = np.tile(grid, (nt, 1))
+    weight = np.repeat(share / len(grid), len(grid))
+    frame = _Grid(np.zeros((nt, 2)), np.eye(2), xs, ys, float(lo[1]), float(hi[1] - lo[1]) / len(ys), True)
+    bounds = np.stack([lo, hi])
+    for a in (centre, turn, weight, bounds, xs, ys, frame.base, frame.axes):
+        a.setflags(write=False)
+    return frame, centre, turn, weight, bounds
+
 
 def _best_first(key: np.ndarray, needed: int) -> np.ndarray:
     """The start of ``argsort(key, kind="stable")``, at least ``needed`` long (all of it for short keys):
