@@ -1,0 +1,129 @@
+"""A Mitsuba scene of a compiled MuJoCo model, posed frame by frame from ``MjData``.
+
+The scene is built once per model (parts, materials, lights); a frame moves the parts of bodies that
+are not welded to the world (the arm, the gripper, the objects) to their poses in ``MjData`` and the
+sensor to the camera's pose, then re-renders. The sensor uses the model camera's vertical field of
+view with the principal point at the image centre, as the GL presets do, so pixels line up.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from samplehd.render.photo.geometry import Part, model_parts
+from samplehd.render.photo.look import LookParams, bsdf_for, lights
+from samplehd.render.photo.runtime import load_mitsuba
+from samplehd.render.renderer import SEG_BACKGROUND, segmentation_lut
+
+__all__ = ["PhotoScene"]
+
+MAX_DEPTH = 6  # camera → glass → glass → surface → light: enough for refraction through a glass
+
+
+class PhotoScene:
+    """Mitsuba scene of ``model``; call :meth:`pose` before each render.
+
+    Attributes:
+        parts: the model's parts, in the order of their shapes.
+        shape_seg: segmentation id of each scene shape, in ``scene.shapes()`` order.
+    """
+
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, width: int, height: int, look: LookParams) -> None:
+        mi = load_mitsuba()
+        self.mi = mi
+        self.model = model
+        self.look = look
+        self.parts: list[Part] = model_parts(model)
+        table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "table")
+        table_height = float(data.xpos[table][2]) + 0.75 if table >= 0 else 0.75
+        scene: dict[str, Any] = {"type": "scene"}
+        self._dynamic: list[tuple[str, Part]] = []
+        body_seg = np.full(model.nbody, SEG_BACKGROUND, dtype=np.int64)
+        lut = segmentation_lut(model)
+        body_seg[model.geom_bodyid] = lut
+        self._shape_seg: dict[str, int] = {}
+        for i, part in enumerate(self.parts):
+            key = f"part_{i:04d}"
+            scene[key] = self._mesh(key, part, data)
+            self._shape_seg[key] = int(body_seg[part.body])
+            if not part.static:
+                self._dynamic.append((key, part))
+        for key, shape in lights(look, table_height).items():
+            scene[key] = shape
+            self._shape_seg[key] = SEG_BACKGROUND
+        scene["integrator"] = {
+            "type": "aov",
+            "aovs": "albedo:albedo,nn:sh_normal",
+            "image": {"type": "path", "max_depth": MAX_DEPTH, "rr_depth": MAX_DEPTH, "hide_emitters": False},
+        }
+        scene["sensor"] = self._sensor_dict(width, height, 45.0)
+        self.scene = mi.load_dict(scene)
+        self.params = mi.traverse(self.scene)
+        self.shape_seg = np.array([self._shape_seg[s.id()] for s in self.scene.shapes()], dtype=np.int64)
+        self._fovy: float | None = None
+        self.size = (width, height)
+
+    def _sensor_dict(self, width: int, height: int, fovy: float) -> dict[str, Any]:
+        return {
+            "type": "perspective",
+            "fov": float(fovy),
+            "fov_axis": "y",
+            "near_clip": 0.01,
+            "far_clip": 60.0,
+            "sampler": {"type": "independent", "sample_count": 1},
+            "film": {"type": "hdrfilm", "width": int(width), "height": int(height), "rfilter": {"type": "box"},
+                     "pixel_format": "rgb", "component_format": "float32"},
+        }
+
+    def _mesh(self, key: str, part: Part, data: mujoco.MjData) -> Any:
+        mi = self.mi
+        props = mi.Properties()
+        props["bsdf"] = mi.load_dict(bsdf_for(part, self.look))
+        mesh = mi.Mesh(key, len(part.vertices), len(part.faces), props=props,
+                       has_vertex_normals=True, has_vertex_texcoords=True)
+        p = mi.traverse(mesh)
+        v, n = self._world(part, data)
+        p["vertex_positions"] = mi.Float(v.ravel())
+        p["vertex_normals"] = mi.Float(n.ravel())
+        p["vertex_texcoords"] = mi.Float(part.texcoords.astype(np.float32).ravel())
+        p["faces"] = mi.UInt32(part.faces.astype(np.uint32).ravel())
+        p.update()
+        return mesh
+
+    @staticmethod
+    def _world(part: Part, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        rot = data.xmat[part.body].reshape(3, 3)
+        v = part.vertices @ rot.T + data.xpos[part.body]
+        n = part.normals @ rot.T
+        return v.astype(np.float32), n.astype(np.float32)
+
+    def pose(self, data: mujoco.MjData, camera_id: int, width: int, height: int) -> None:
+        """Move the moving parts and the sensor to ``data``'s state and camera ``camera_id``."""
+        mi = self.mi
+        for key, part in self._dynamic:
+            v, n = self._world(part, data)
+            self.params[f"{key}.vertex_positions"] = mi.Float(v.ravel())
+            self.params[f"{key}.vertex_normals"] = mi.Float(n.ravel())
+        xmat = data.cam_xmat[camera_id].reshape(3, 3)
+        pos = data.cam_xpos[camera_id]
+        # MuJoCo cameras look along their -z with +y up.
+        to_world = mi.ScalarTransform4f().look_at(origin=pos.tolist(), target=(pos - xmat[:, 2]).tolist(),
+                                                  up=xmat[:, 1].tolist())
+        self.params["sensor.to_world"] = to_world
+        fovy = float(self.model.cam_fovy[camera_id])
+        if (width, height) != self.size or fovy != self._fovy:
+            self.params["sensor.film.size"] = mi.ScalarVector2u(width, height)
+            aspect = width / height
+            # Mitsuba keeps the field of view as x_fov: convert from the camera's vertical one.
+            self.params["sensor.x_fov"] = float(np.rad2deg(2 * np.arctan(np.tan(np.deg2rad(fovy) / 2) * aspect)))
+            self.size = (width, height)
+            self._fovy = fovy
+        self.params.update()
+
+    def render(self, spp: int, seed: int) -> np.ndarray:
+        """(H, W, 9) float32: linear RGB, albedo, shading normal."""
+        img = self.mi.render(self.scene, spp=int(spp), seed=int(seed))
+        return np.asarray(img, dtype=np.float32)
