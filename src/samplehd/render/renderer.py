@@ -329,6 +329,9 @@ class SceneRenderer:
             raise RenderError("renderer is closed")
         cid = _camera_id(self.model, camera)
         self._gl.make_current()
+        # Bind this renderer's own offscreen buffer: freeing another renderer's context leaves none bound,
+        # and the render would then read back a stale image.
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._ctx)
         out: dict[str, np.ndarray] = {}
         depth_from_rgb = "depth" in wanted and "segmentation" not in wanted and not (
             self.preset.reflections and self.preset.msaa_samples
