@@ -42,7 +42,7 @@ class LookParams:
     """
 
     light_scale: float = 1.0
-    colour_temperature: float = 4000.0
+    colour_temperature: float = 4800.0
     key_offset: tuple[float, float] = (0.0, 0.0)
     table_seed: int = 7
     floor_seed: int = 11
@@ -104,7 +104,7 @@ def _rgb(v: Any) -> dict[str, Any]:
     return {"type": "rgb", "value": [float(c) for c in np.clip(v, 0.0, 1.0)]}
 
 
-def _bitmap(img: np.ndarray, scale: tuple[float, float] = (1.0, 1.0), clamp: bool = False,
+def _bitmap(img: np.ndarray, scale: tuple[float, float] = (1.0, 1.0), wrap: str = "repeat",
             offset: tuple[float, float] = (0.0, 0.0), swap: bool = False) -> dict[str, Any]:
     """A bitmap texture from a float linear image whose row 0 is v = 0; texture coordinates are
     scaled, then offset (``swap`` exchanges u and v first, to turn a grain direction)."""
@@ -116,7 +116,7 @@ def _bitmap(img: np.ndarray, scale: tuple[float, float] = (1.0, 1.0), clamp: boo
         "bitmap": mi.Bitmap(arr),
         "raw": True,
         "filter_type": "bilinear",
-        "wrap_mode": "clamp" if clamp else "repeat",
+        "wrap_mode": wrap,
     }
     if scale != (1.0, 1.0) or offset != (0.0, 0.0) or swap:
         tf = mi.ScalarTransform4f().translate([offset[0], offset[1], 0.0]).scale([scale[0], scale[1], 1.0])
@@ -129,7 +129,7 @@ def _bitmap(img: np.ndarray, scale: tuple[float, float] = (1.0, 1.0), clamp: boo
 @lru_cache(maxsize=16)
 def _world_texture(kind: str, seed: int, tint: tuple[float, float, float]) -> np.ndarray:
     if kind == "wood":
-        img = wood_texture(512, seed=seed)
+        img = wood_texture(512, light=(200, 162, 122), dark=(140, 100, 68), seed=seed)
     elif kind == "floor":
         img = tile_texture(256, 2, tile_rgb=(176, 164, 146), grout_rgb=(110, 104, 96), seed=seed)
     elif kind == "tiles":
@@ -179,7 +179,7 @@ def _catalogue_bsdf(kind: str, colour_name: str, lin: np.ndarray, srgb: np.ndarr
         return _plastic(_bitmap(np.clip(grain, 0, 1), (1 / 0.3, 1 / 0.3)), 0.35, 0.5)
     if cls == "food_box":
         img = food_box_print(tuple(float(c) for c in srgb[:3]))
-        return _plastic(_bitmap(srgb_to_linear(img), (1 / 3, 1.0), clamp=True), 0.3, 0.6)
+        return _plastic(_bitmap(srgb_to_linear(img), (1 / 3, 1.0), wrap="clamp"), 0.3, 0.6)
     return _plastic(lin, 0.15)  # plastic and anything unnamed
 
 
@@ -197,11 +197,12 @@ def bsdf_for(part: Part, look: LookParams) -> dict[str, Any]:
     if head in _CATALOGUE_MATERIALS and colour:
         return _catalogue_bsdf(head, colour, lin, srgb, part)
     if name == "floor":
-        return _plastic(_bitmap(_world_texture("floor", look.floor_seed, look.floor_tint), (1 / 0.8, 1 / 0.8)), 0.25, 0.6)
+        floor = _world_texture("floor", look.floor_seed, look.floor_tint)
+        return _plastic(_bitmap(floor, (1 / 0.8, 1 / 0.8)), 0.25, 0.6)
     if name == "table_wood":
-        # One texture over the whole top (1.0 × 1.4 m), grain along the long side: no repeat seams.
+        # Grain along the table's long side; mirrored repeats, so no seams (the texture does not tile).
         wood = _world_texture("wood", look.table_seed, look.table_tint)
-        return _plastic(_bitmap(wood, (1 / 1.6, 1 / 1.6), offset=(0.5, 0.5), swap=True), 0.2)
+        return _plastic(_bitmap(wood, (1 / 0.7, 1 / 0.7), wrap="mirror", offset=(0.5, 0.5), swap=True), 0.2)
     if name == "wall":
         return {"type": "diffuse", "reflectance": _bitmap(_world_texture("plaster", look.wall_seed, look.wall_tint),
                                                           (1 / 1.5, 1 / 1.5))}
@@ -223,7 +224,11 @@ def bsdf_for(part: Part, look: LookParams) -> dict[str, Any]:
     return {"type": "diffuse", "reflectance": _rgb(lin)}
 
 
-def lights(look: LookParams, table_height: float) -> dict[str, dict[str, Any]]:
+def _emitter(rgb: np.ndarray) -> dict[str, Any]:
+    return {"type": "area", "radiance": {"type": "rgb", "value": [float(c) for c in rgb]}}
+
+
+def lights(look: LookParams) -> dict[str, dict[str, Any]]:
     """Kitchen lighting: a bright window in the back wall, two ceiling panels and a closed ceiling.
 
     Returns:
@@ -232,24 +237,23 @@ def lights(look: LookParams, table_height: float) -> dict[str, dict[str, Any]]:
     import mitsuba as mi
 
     tf = mi.ScalarTransform4f
+    down = tf().rotate([1, 0, 0], 180)  # a rectangle faces +z; ceiling parts face the floor
     warm = blackbody_rgb(look.colour_temperature)
     day = blackbody_rgb(6500.0) * np.array([0.92, 0.97, 1.08])
     s = look.light_scale
     kx, ky = look.key_offset
-    out: dict[str, dict[str, Any]] = {
+    return {
         # Closed ceiling: light bounces back down as in a room (it is above every camera's view).
-        "photo_ceiling": {"type": "rectangle", "to_world": tf().translate([0.25, 0.0, 3.0]).scale([1.75, 3.0, 1.0])
-                          @ tf().rotate([1, 0, 0], 180), "bsdf": {"type": "diffuse", "reflectance": _rgb(np.full(3, 0.8))}},
-        # The window pane, just in front of the modelled one (which faces +x at x = -1.43).
-        "photo_window": {"type": "rectangle",
-                         "to_world": tf().translate([-1.405, 0.0, 1.75]).rotate([0, 1, 0], 90).scale([0.36, 0.56, 1.0]),
-                         "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [float(c) for c in day * 9.0 * s]}}},
+        "photo_ceiling": {"type": "rectangle",
+                          "to_world": tf().translate([0.25, 0.0, 3.0]).scale([1.75, 3.0, 1.0]) @ down,
+                          "bsdf": {"type": "diffuse", "reflectance": _rgb(np.full(3, 0.8))}},
+        # The window pane, just in front of the modelled one (its face is at x = -1.42, the bar in front).
+        "photo_window": {"type": "rectangle", "emitter": _emitter(day * 9.0 * s),
+                         "to_world": tf().translate([-1.419, 0.0, 1.75]).rotate([0, 1, 0], 90)
+                         .scale([0.36, 0.56, 1.0])},
         # Main panel above the table (its offset sets where the light comes from) and a softer fill.
-        "photo_key": {"type": "rectangle",
-                      "to_world": tf().translate([0.2 + kx, 0.3 + ky, 2.95]).rotate([1, 0, 0], 180).scale([0.45, 0.3, 1.0]),
-                      "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [float(c) for c in warm * 14.0 * s]}}},
-        "photo_fill": {"type": "rectangle",
-                       "to_world": tf().translate([1.2, -0.8, 2.95]).rotate([1, 0, 0], 180).scale([0.4, 0.4, 1.0]),
-                       "emitter": {"type": "area", "radiance": {"type": "rgb", "value": [float(c) for c in warm * 6.0 * s]}}},
+        "photo_key": {"type": "rectangle", "emitter": _emitter(warm * 14.0 * s),
+                      "to_world": tf().translate([0.2 + kx, 0.3 + ky, 2.95]).scale([0.45, 0.3, 1.0]) @ down},
+        "photo_fill": {"type": "rectangle", "emitter": _emitter(warm * 6.0 * s),
+                       "to_world": tf().translate([1.2, -0.8, 2.95]).scale([0.4, 0.4, 1.0]) @ down},
     }
-    return out

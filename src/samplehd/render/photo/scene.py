@@ -37,8 +37,6 @@ class PhotoScene:
         self.model = model
         self.look = look
         self.parts: list[Part] = model_parts(model)
-        table = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "table")
-        table_height = float(data.xpos[table][2]) + 0.75 if table >= 0 else 0.75
         scene: dict[str, Any] = {"type": "scene"}
         self._dynamic: list[tuple[str, Part]] = []
         body_seg = np.full(model.nbody, SEG_BACKGROUND, dtype=np.int64)
@@ -51,7 +49,7 @@ class PhotoScene:
             self._shape_seg[key] = int(body_seg[part.body])
             if not part.static:
                 self._dynamic.append((key, part))
-        for key, shape in lights(look, table_height).items():
+        for key, shape in lights(look).items():
             scene[key] = shape
             self._shape_seg[key] = SEG_BACKGROUND
         scene["integrator"] = {
@@ -60,20 +58,34 @@ class PhotoScene:
             "image": {"type": "path", "max_depth": MAX_DEPTH, "rr_depth": MAX_DEPTH, "hide_emitters": False},
         }
         scene["sensor"] = self._sensor_dict(width, height, 45.0)
+        # A second sensor with one unjittered sample per pixel centre, where the GL rasteriser samples too:
+        # its depth and shape ids check that the path-traced image lines up with GL depth and segmentation.
+        scene["sensor_geometry"] = self._sensor_dict(width, height, 45.0, centre=True)
         self.scene = mi.load_dict(scene)
+        self._sensors = ("sensor", "sensor_geometry")
+        self._geometry_sensor = [s.id() for s in self.scene.sensors()].index("sensor_geometry")
+        self._geometry_integrator = mi.load_dict({"type": "aov", "aovs": "pp:position,si:shape_index"})
         self.params = mi.traverse(self.scene)
-        self.shape_seg = np.array([self._shape_seg[s.id()] for s in self.scene.shapes()], dtype=np.int64)
+        # The shape_index AOV holds each shape's id in Dr.Jit's instance registry (not its list position).
+        import drjit as dr
+
+        shapes = self.scene.shapes()
+        ids = np.asarray(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shapes)), dtype=np.int64)
+        self.shape_seg = np.full(int(ids.max()) + 1, SEG_BACKGROUND, dtype=np.int64)
+        self.shape_seg[ids] = [self._shape_seg[s.id()] for s in shapes]
         self._fovy: float | None = None
         self.size = (width, height)
 
-    def _sensor_dict(self, width: int, height: int, fovy: float) -> dict[str, Any]:
+    def _sensor_dict(self, width: int, height: int, fovy: float, centre: bool = False) -> dict[str, Any]:
+        sampler = ({"type": "stratified", "sample_count": 1, "jitter": False} if centre
+                   else {"type": "independent", "sample_count": 1})
         return {
             "type": "perspective",
             "fov": float(fovy),
             "fov_axis": "y",
             "near_clip": 0.01,
             "far_clip": 60.0,
-            "sampler": {"type": "independent", "sample_count": 1},
+            "sampler": sampler,
             "film": {"type": "hdrfilm", "width": int(width), "height": int(height), "rfilter": {"type": "box"},
                      "pixel_format": "rgb", "component_format": "float32"},
         }
@@ -112,16 +124,31 @@ class PhotoScene:
         # MuJoCo cameras look along their -z with +y up.
         to_world = mi.ScalarTransform4f().look_at(origin=pos.tolist(), target=(pos - xmat[:, 2]).tolist(),
                                                   up=xmat[:, 1].tolist())
-        self.params["sensor.to_world"] = to_world
+        if (width, height) != self.size:
+            raise ValueError(f"this scene renders {self.size[0]}x{self.size[1]} px, not {width}x{height}")
         fovy = float(self.model.cam_fovy[camera_id])
-        if (width, height) != self.size or fovy != self._fovy:
-            self.params["sensor.film.size"] = mi.ScalarVector2u(width, height)
-            aspect = width / height
-            # Mitsuba keeps the field of view as x_fov: convert from the camera's vertical one.
-            self.params["sensor.x_fov"] = float(np.rad2deg(2 * np.arctan(np.tan(np.deg2rad(fovy) / 2) * aspect)))
-            self.size = (width, height)
-            self._fovy = fovy
+        # Mitsuba keeps the field of view as x_fov: convert from the camera's vertical one.
+        x_fov = float(np.rad2deg(2 * np.arctan(np.tan(np.deg2rad(fovy) / 2) * width / height)))
+        for sensor in self._sensors:
+            self.params[f"{sensor}.to_world"] = to_world
+            if fovy != self._fovy:
+                self.params[f"{sensor}.x_fov"] = x_fov
+        self._fovy = fovy
+        self._camera = (pos.copy(), xmat.copy())
         self.params.update()
+
+    def geometry(self) -> tuple[np.ndarray, np.ndarray]:
+        """(depth [m] along the optical axis, segmentation id) at pixel centres, as the path tracer sees the
+        posed scene; depth is inf and id 0 where no surface is hit."""
+        mi = self.mi
+        img = np.asarray(mi.render(self.scene, sensor=self._geometry_sensor, integrator=self._geometry_integrator,
+                                   spp=1, seed=0), dtype=np.float64)
+        pos, xmat = self._camera
+        z = -((img[..., 0:3] - pos) @ xmat[:, 2])  # along the optical axis (the camera's -z)
+        hit = np.linalg.norm(img[..., 0:3], axis=-1) > 0
+        index = np.rint(img[..., 3]).astype(np.int64)
+        seg = np.where(hit, self.shape_seg[np.clip(index, 0, len(self.shape_seg) - 1)], SEG_BACKGROUND)
+        return np.where(hit, z, np.inf).astype(np.float32), seg.astype(np.int32)
 
     def render(self, spp: int, seed: int) -> np.ndarray:
         """(H, W, 9) float32: linear RGB, albedo, shading normal."""
