@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-__all__ = ["Part", "VISIBLE_GROUPS", "geom_triangles", "model_parts"]
+__all__ = ["Part", "VISIBLE_GROUPS", "geom_triangles", "model_parts", "model_texture"]
 
 VISIBLE_GROUPS = (0, 1, 2)  # MuJoCo's default geom-group visibility, as the GL presets render
 _FLOOR_HALF = 12.0  # [m] an infinite plane becomes a square this large (the room is 6 m wide)
@@ -32,6 +32,7 @@ class Part:
         material: material name ('' when the geoms have none).
         rgba: the material's (or first geom's) colour.
         mesh_class: catalogue class of a mesh ('food_box', 'soda_can', ...), '' for primitives.
+        texture: the material's RGB texture id in the model (-1: none).
         static: the body is welded to the world.
         vertices, normals: (n, 3) in the body frame.
         texcoords: (n, 2).
@@ -42,6 +43,7 @@ class Part:
     material: str
     rgba: np.ndarray
     mesh_class: str
+    texture: int
     static: bool
     vertices: np.ndarray
     normals: np.ndarray
@@ -246,9 +248,11 @@ def _label_uv(cls: str, verts: np.ndarray, norms: np.ndarray) -> np.ndarray:
 
 
 LABELLED_CLASSES = ("food_box", "soda_can")
+# Mesh names of catalogue objects start with their class; these classes get their own look.
+NAMED_CLASSES = (*LABELLED_CLASSES, "knife", "fork", "spoon", "scissors")
 
 
-def model_parts(model: mujoco.MjModel, classes: tuple[str, ...] = LABELLED_CLASSES) -> list[Part]:
+def model_parts(model: mujoco.MjModel, classes: tuple[str, ...] = NAMED_CLASSES) -> list[Part]:
     """All visible geoms of the model as parts, one per (body, material, labelled class)."""
     groups: dict[tuple[int, int, str], list[tuple[np.ndarray, ...]]] = {}
     rgba: dict[tuple[int, int, str], np.ndarray] = {}
@@ -261,7 +265,7 @@ def model_parts(model: mujoco.MjModel, classes: tuple[str, ...] = LABELLED_CLASS
         v = v @ rot.T + model.geom_pos[g]
         n = n @ rot.T
         cls = _mesh_class(model, g, classes)
-        if cls:
+        if cls in LABELLED_CLASSES:
             uv = _label_uv(cls, v, n)
         key = (int(model.geom_bodyid[g]), int(model.geom_matid[g]), cls)
         groups.setdefault(key, []).append((v, n, uv, f))
@@ -278,9 +282,20 @@ def model_parts(model: mujoco.MjModel, classes: tuple[str, ...] = LABELLED_CLASS
             offset += len(v)
         welded = int(model.body_weldid[body]) == 0 and int(model.body_mocapid[body]) < 0
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MATERIAL, mat) or "" if mat >= 0 else ""
+        tex = int(model.mat_texid[mat, int(mujoco.mjtTextureRole.mjTEXROLE_RGB)]) if mat >= 0 else -1
         parts.append(Part(
-            body=body, material=name, rgba=rgba[(body, mat, cls)], mesh_class=cls, static=welded,
+            body=body, material=name, rgba=rgba[(body, mat, cls)], mesh_class=cls, texture=tex, static=welded,
             vertices=np.concatenate(verts), normals=np.concatenate(norms), texcoords=np.concatenate(uvs),
             faces=np.concatenate(faces).astype(np.int32),
         ))
     return parts
+
+
+def model_texture(model: mujoco.MjModel, texture: int) -> np.ndarray:
+    """A model texture as an (h, w, 3) uint8 image (a cube texture's first face)."""
+    w, h, c = int(model.tex_width[texture]), int(model.tex_height[texture]), int(model.tex_nchannel[texture])
+    adr = int(model.tex_adr[texture])
+    img = np.asarray(model.tex_data[adr:adr + w * h * c]).reshape(h, w, c)
+    if int(model.tex_type[texture]) == int(mujoco.mjtTexture.mjTEXTURE_CUBE) and h >= 6 * w:
+        img = img[:w]
+    return np.ascontiguousarray(img[..., :3] if c >= 3 else np.repeat(img[..., :1], 3, axis=2))

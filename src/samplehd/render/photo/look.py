@@ -12,14 +12,12 @@ temperature and direction, table/floor/wall textures and exposure, all drawn fro
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
 from samplehd.render.photo.geometry import Part
 from samplehd.render.photo.textures import can_label, food_box_print, srgb_to_linear
-from samplehd.scene.textures import plaster_texture, tile_texture, wood_texture
 
 __all__ = ["LookParams", "bsdf_for", "default_look", "lights", "random_look"]
 
@@ -35,18 +33,18 @@ class LookParams:
         light_scale: multiplies every light's power.
         colour_temperature: of the ceiling lights [K] (the window stays daylight).
         key_offset: (x, y) shift of the main ceiling panel from above the table [m]: the light's direction.
-        table_seed, floor_seed, wall_seed: seeds of the procedural textures.
+        table_seed, floor_seed, wall_seed: seeds of where the textures start (0: as the GL presets).
         table_tint, floor_tint, wall_tint: RGB multipliers of those textures.
         exposure: exposure in stops (0 = the default).
         randomised: whether the values were drawn from a seed.
     """
 
     light_scale: float = 1.0
-    colour_temperature: float = 4800.0
+    colour_temperature: float = 5400.0
     key_offset: tuple[float, float] = (0.0, 0.0)
-    table_seed: int = 7
-    floor_seed: int = 11
-    wall_seed: int = 13
+    table_seed: int = 0
+    floor_seed: int = 0
+    wall_seed: int = 0
     table_tint: tuple[float, float, float] = (1.0, 1.0, 1.0)
     floor_tint: tuple[float, float, float] = (1.0, 1.0, 1.0)
     wall_tint: tuple[float, float, float] = (1.0, 1.0, 1.0)
@@ -79,9 +77,9 @@ def random_look(seed: int) -> LookParams:
         light_scale=float(rng.uniform(0.6, 1.5)),
         colour_temperature=float(rng.uniform(2700.0, 6500.0)),
         key_offset=(float(rng.uniform(-0.8, 0.8)), float(rng.uniform(-0.8, 0.8))),
-        table_seed=int(rng.integers(0, 2**31)),
-        floor_seed=int(rng.integers(0, 2**31)),
-        wall_seed=int(rng.integers(0, 2**31)),
+        table_seed=int(rng.integers(1, 2**31)),
+        floor_seed=int(rng.integers(1, 2**31)),
+        wall_seed=int(rng.integers(1, 2**31)),
         table_tint=tint(0.25),
         floor_tint=tint(0.2),
         wall_tint=tint(0.12),
@@ -126,18 +124,18 @@ def _bitmap(img: np.ndarray, scale: tuple[float, float] = (1.0, 1.0), wrap: str 
     return d
 
 
-@lru_cache(maxsize=16)
-def _world_texture(kind: str, seed: int, tint: tuple[float, float, float]) -> np.ndarray:
-    if kind == "wood":
-        img = wood_texture(512, light=(200, 162, 122), dark=(140, 100, 68), seed=seed)
-    elif kind == "floor":
-        img = tile_texture(256, 2, tile_rgb=(176, 164, 146), grout_rgb=(110, 104, 96), seed=seed)
-    elif kind == "tiles":
-        img = tile_texture(256, 4, seed=seed)
-    else:
-        img = plaster_texture(256, seed=seed)
+def _texture(img: np.ndarray, tint: tuple[float, float, float] = (1.0, 1.0, 1.0)) -> np.ndarray:
+    """A model texture (uint8 sRGB) as linear reflectance, tinted."""
     lin = srgb_to_linear(img.astype(np.float64) / 255.0) * np.asarray(tint)[None, None, :]
     return np.clip(lin, 0.0, 1.0)
+
+
+def _shift(seed: int) -> tuple[float, float]:
+    """Where a texture starts, from a seed: another piece of the same wood, tiles or plaster."""
+    if seed == 0:
+        return (0.0, 0.0)
+    u, v = np.random.default_rng(seed).random(2)
+    return (float(u), float(v))
 
 
 def _plastic(colour: Any, alpha: float, spec: float = 1.0) -> dict[str, Any]:
@@ -153,7 +151,8 @@ def _metal(colour: np.ndarray | None, alpha: float) -> dict[str, Any]:
     return d
 
 
-def _catalogue_bsdf(kind: str, colour_name: str, lin: np.ndarray, srgb: np.ndarray, part: Part) -> dict[str, Any]:
+def _catalogue_bsdf(kind: str, colour_name: str, lin: np.ndarray, srgb: np.ndarray, part: Part,
+                    image: np.ndarray | None) -> dict[str, Any]:
     cls = part.mesh_class
     if kind == "glass":
         tint = np.ones(3) if colour_name == "transparent" else np.clip(0.5 + 0.5 * lin / max(lin.max(), 1e-6), 0, 1)
@@ -172,11 +171,8 @@ def _catalogue_bsdf(kind: str, colour_name: str, lin: np.ndarray, srgb: np.ndarr
         return {"type": "plastic", "int_ior": 1.5, "diffuse_reflectance": _rgb(lin), "nonlinear": True}
     if kind == "rubber":
         return _plastic(lin, 0.6, 0.3)
-    if kind == "wooden":
-        from samplehd.catalogue.textures import wood_grain
-
-        grain = srgb_to_linear(wood_grain().astype(np.float64) / 255.0) * lin[None, None, :]
-        return _plastic(_bitmap(np.clip(grain, 0, 1), (1 / 0.3, 1 / 0.3)), 0.35, 0.5)
+    if kind == "wooden" and image is not None:  # the grain texture, tinted by the colour
+        return _plastic(_bitmap(_texture(image, tuple(lin))), 0.35, 0.5)
     if cls == "food_box":
         img = food_box_print(tuple(float(c) for c in srgb[:3]))
         return _plastic(_bitmap(srgb_to_linear(img), (1 / 3, 1.0), wrap="clamp"), 0.3, 0.6)
@@ -186,29 +182,30 @@ def _catalogue_bsdf(kind: str, colour_name: str, lin: np.ndarray, srgb: np.ndarr
 _CATALOGUE_MATERIALS = ("ceramic", "glass", "metal", "plastic", "rubber", "wooden")
 
 
-def bsdf_for(part: Part, look: LookParams) -> dict[str, Any]:
-    """The Mitsuba BSDF of a part, from its material name and colour."""
+def bsdf_for(part: Part, look: LookParams, image: np.ndarray | None = None) -> dict[str, Any]:
+    """The Mitsuba BSDF of a part, from its material name, colour and RGB texture ``image`` (uint8)."""
     name = part.material
     srgb = np.asarray(part.rgba, dtype=np.float64)
     lin = srgb_to_linear(srgb[:3])
     if part.mesh_class == "food_box":
-        return _catalogue_bsdf("paper", "", lin, srgb, part)
+        return _catalogue_bsdf("paper", "", lin, srgb, part, image)
     head, _, colour = name.partition("_")
     if head in _CATALOGUE_MATERIALS and colour:
-        return _catalogue_bsdf(head, colour, lin, srgb, part)
-    if name == "floor":
-        floor = _world_texture("floor", look.floor_seed, look.floor_tint)
-        return _plastic(_bitmap(floor, (1 / 0.8, 1 / 0.8)), 0.25, 0.6)
-    if name == "table_wood":
+        return _catalogue_bsdf(head, colour, lin, srgb, part, image)
+    if image is not None and name == "floor":  # tiles 40 cm across (the checker's 2×2 squares per image)
+        floor = _texture(image, tuple(np.asarray(look.floor_tint) * np.array([1.0, 0.94, 0.84])))
+        return _plastic(_bitmap(floor, (1 / 0.8, 1 / 0.8), offset=_shift(look.floor_seed)), 0.25, 0.6)
+    if image is not None and name == "table_wood":
         # Grain along the table's long side; mirrored repeats, so no seams (the texture does not tile).
-        wood = _world_texture("wood", look.table_seed, look.table_tint)
-        return _plastic(_bitmap(wood, (1 / 0.7, 1 / 0.7), wrap="mirror", offset=(0.5, 0.5), swap=True), 0.2)
-    if name == "wall":
-        return {"type": "diffuse", "reflectance": _bitmap(_world_texture("plaster", look.wall_seed, look.wall_tint),
-                                                          (1 / 1.5, 1 / 1.5))}
-    if name == "backsplash":
+        wood = _texture(image, look.table_tint)
+        off = np.add((0.5, 0.5), _shift(look.table_seed))
+        return _plastic(_bitmap(wood, (1 / 0.7, 1 / 0.7), wrap="mirror", offset=tuple(off), swap=True), 0.2)
+    if image is not None and name == "wall":
+        plaster = _texture(image, look.wall_tint)
+        return {"type": "diffuse", "reflectance": _bitmap(plaster, (1 / 1.5, 1 / 1.5), offset=_shift(look.wall_seed))}
+    if image is not None and name == "backsplash":  # 15 cm glazed tiles
         return {"type": "plastic", "int_ior": 1.5, "nonlinear": True,
-                "diffuse_reflectance": _bitmap(_world_texture("tiles", 11, (1.0, 1.0, 1.0)), (1 / 0.6, 1 / 0.6))}
+                "diffuse_reflectance": _bitmap(_texture(image), (1 / 0.6, 1 / 0.6))}
     if name in ("leg_metal", "handle", "robot_metal"):
         return _metal(None if name != "leg_metal" else np.full(3, 0.55), 0.15 if name == "leg_metal" else 0.08)
     if name == "countertop":

@@ -13,7 +13,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from samplehd.render.photo.geometry import Part, model_parts
+from samplehd.render.photo.geometry import Part, model_parts, model_texture
 from samplehd.render.photo.look import LookParams, bsdf_for, lights
 from samplehd.render.photo.runtime import load_mitsuba
 from samplehd.render.renderer import SEG_BACKGROUND, segmentation_lut
@@ -93,7 +93,8 @@ class PhotoScene:
     def _mesh(self, key: str, part: Part, data: mujoco.MjData) -> Any:
         mi = self.mi
         props = mi.Properties()
-        props["bsdf"] = mi.load_dict(bsdf_for(part, self.look))
+        image = model_texture(self.model, part.texture) if part.texture >= 0 else None
+        props["bsdf"] = mi.load_dict(bsdf_for(part, self.look, image))
         mesh = mi.Mesh(key, len(part.vertices), len(part.faces), props=props,
                        has_vertex_normals=True, has_vertex_texcoords=True)
         p = mi.traverse(mesh)
