@@ -21,6 +21,7 @@ from samplehd.render.renderer import SEG_BACKGROUND, segmentation_lut
 __all__ = ["PhotoScene"]
 
 MAX_DEPTH = 6  # camera → glass → glass → surface → light: enough for refraction through a glass
+RR_DEPTH = 3  # Russian roulette from the third bounce: dim diffuse paths end early, glass paths go on
 
 
 class PhotoScene:
@@ -55,7 +56,7 @@ class PhotoScene:
         scene["integrator"] = {
             "type": "aov",
             "aovs": "albedo:albedo,nn:sh_normal",
-            "image": {"type": "path", "max_depth": MAX_DEPTH, "rr_depth": MAX_DEPTH, "hide_emitters": False},
+            "image": {"type": "path", "max_depth": MAX_DEPTH, "rr_depth": RR_DEPTH, "hide_emitters": False},
         }
         scene["sensor"] = self._sensor_dict(width, height, 45.0)
         # A second sensor with one unjittered sample per pixel centre, where the GL rasteriser samples too:
