@@ -130,3 +130,25 @@ def test_missing_llvm_says_what_to_install(monkeypatch):
     monkeypatch.setenv("SAMPLEHD_PHOTO_VARIANT", "vulkan")
     with pytest.raises(RenderError, match="PHOTO_VARIANT='vulkan' is invalid; valid: llvm_ad_rgb, cuda_ad_rgb"):
         runtime.photo_backend()
+
+
+def test_env_observes_path_traced_rgb_with_gl_segmentation():
+    from samplehd.envs.tabletop import TabletopEnv
+
+    env = TabletopEnv(scene={"min_objects": 2, "max_objects": 2}, num_scenes=1, scene_seed=7, obs_mode="rgbd_seg",
+                      cameras=("scene",), width=W, height=H, render_preset="photo")
+    try:
+        obs, _ = env.reset(seed=1)
+        assert obs["scene_rgb"].shape == (H, W, 3) and obs["scene_rgb"].mean() > 30
+        assert set(np.unique(obs["scene_segmentation"])) >= {0, 1, 2}
+        assert env.observation_space.contains(obs)
+    finally:
+        env.close()
+
+
+def test_env_rejects_an_unknown_preset_naming_photo():
+    from samplehd.envs.config import EnvConfig
+    from samplehd.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="render_preset.*valid: fast, hd, photo"):
+        EnvConfig(render_preset="raytraced")

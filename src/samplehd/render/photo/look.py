@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.render.photo.geometry import Part
-from samplehd.render.photo.textures import can_label, food_box_print, srgb_to_linear
+from samplehd.render.photo.textures import can_label, food_box_print, srgb_to_linear, window_view
 
 __all__ = ["LookParams", "bsdf_for", "default_look", "lights", "random_look"]
 
@@ -245,11 +245,13 @@ def lights(look: LookParams) -> dict[str, dict[str, Any]]:
                           "to_world": tf().translate([0.25, 0.0, 3.0]).scale([1.75, 3.0, 1.0]) @ down,
                           "bsdf": {"type": "diffuse", "reflectance": _rgb(np.full(3, 0.8))}},
         # The window pane, just in front of the modelled one (its face is at x = -1.42, the bar in front).
-        "photo_window": {"type": "rectangle", "emitter": _emitter(day * 9.0 * s),
+        # It shows a sky over trees, bright enough to light the room, not so bright that it burns out.
+        "photo_window": {"type": "rectangle", "emitter": {"type": "area", "radiance": _bitmap(
+                             window_view() * (day * 2.6 * s)[None, None, :])},
                          "to_world": tf().translate([-1.419, 0.0, 1.75]).rotate([0, 1, 0], 90)
                          .scale([0.36, 0.56, 1.0])},
         # Main panel above the table (its offset sets where the light comes from) and a softer fill.
-        "photo_key": {"type": "rectangle", "emitter": _emitter(warm * 14.0 * s),
+        "photo_key": {"type": "rectangle", "emitter": _emitter(warm * 18.0 * s),
                       "to_world": tf().translate([0.2 + kx, 0.3 + ky, 2.95]).scale([0.45, 0.3, 1.0]) @ down},
         "photo_fill": {"type": "rectangle", "emitter": _emitter(warm * 6.0 * s),
                        "to_world": tf().translate([1.2, -0.8, 2.95]).scale([0.4, 0.4, 1.0]) @ down},

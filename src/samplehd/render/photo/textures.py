@@ -97,3 +97,26 @@ def can_label(rgb: tuple[float, float, float], seed: int = 0, width: int = 512) 
     mask[v < 0.06] = 1.0  # bottom dome and the rolled base
     mask[v > 0.88] = 1.0  # neck, lid and rim
     return img, mask
+
+
+@lru_cache(maxsize=4)
+def window_view(seed: int = 0, across: int = 256, up: int = 160) -> np.ndarray:
+    """What the kitchen window shows, as linear radiance per unit brightness: (across, up, 3).
+
+    A daylight sky, brighter towards the horizon, over a band of trees and a lawn. Axis 0 runs across
+    the window, axis 1 from its top (0) to its bottom, as the window rectangle's texture coordinates do.
+    """
+    rng = np.random.default_rng([seed, 0x51D0])
+    h = 1.0 - (np.arange(up) + 0.5) / up  # height in the window: 1 top, 0 bottom
+    x = (np.arange(across) + 0.5) / across
+    top, horizon = np.array([0.42, 0.60, 0.95]), np.array([0.92, 0.95, 1.0])
+    t = np.clip((h - 0.3) / 0.7, 0.0, 1.0)[None, :, None]
+    img = np.broadcast_to(horizon * (1 - t) + top * t, (across, up, 3)).copy()
+    # A tree line: a wavy silhouette, a little noise in its green.
+    ridge = (0.34 + 0.06 * np.sin(2 * np.pi * (3 * x + rng.uniform()))
+             + 0.03 * np.sin(2 * np.pi * (11 * x + rng.uniform())))
+    trees = h[None, :] < ridge[:, None]
+    green = np.array([0.10, 0.20, 0.08]) * (0.8 + 0.4 * rng.random((across, up, 1)))
+    img[trees] = green[trees]
+    img[:, h < 0.1] = np.array([0.20, 0.32, 0.12])  # lawn
+    return img
