@@ -40,7 +40,7 @@ class EnvConfig:
         cameras: cameras rendered for image observations (``scene``, ``operator``, ``wrist``).
         width: image width [px].
         height: image height [px].
-        render_preset: renderer quality preset (``fast`` or ``hd``).
+        render_preset: renderer quality preset (``fast``, ``hd`` or the path-traced ``photo``).
         render_mode: ``rgb_array`` or None; :meth:`render` shows ``render_camera``.
         render_camera: camera of :meth:`render`.
         control_mode: ``joint_pos``, ``joint_delta``, ``ee_delta`` (TCP delta through IK) or
@@ -115,8 +115,10 @@ class EnvConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and 8 <= v <= 4096):
                 fail(name, "must be an integer in 8..4096 px")
-        if self.render_preset not in ("fast", "hd"):
-            fail("render_preset", "valid: fast, hd")
+        from samplehd.render.renderer import PRESETS
+
+        if self.render_preset not in PRESETS:
+            fail("render_preset", f"valid: {', '.join(PRESETS)}")
         if self.render_mode is not None and self.render_mode not in RENDER_MODES:
             fail("render_mode", f"valid: {', '.join(RENDER_MODES)} or None")
         for name in ("control_hz", "physics_hz"):
