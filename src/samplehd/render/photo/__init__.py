@@ -3,6 +3,7 @@ segmentation (``SceneRenderer(model, w, h, "photo", photo=PhotoOptions(...))``).
 a photo frame is rendered."""
 
 from samplehd.render.photo.look import LookParams, default_look, random_look
-from samplehd.render.photo.renderer import PhotoOptions, PhotoTracer, photo_info
+from samplehd.render.photo.renderer import LOOKS, PhotoOptions, PhotoTracer, photo_info, photo_options
 
-__all__ = ["LookParams", "PhotoOptions", "PhotoTracer", "default_look", "photo_info", "random_look"]
+__all__ = ["LOOKS", "LookParams", "PhotoOptions", "PhotoTracer", "default_look", "photo_info", "photo_options",
+           "random_look"]

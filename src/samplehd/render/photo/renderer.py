@@ -16,10 +16,12 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import RenderError
-from samplehd.render.photo.look import LookParams, default_look
+from samplehd.render.photo.look import LookParams, default_look, random_look
 from samplehd.render.photo.scene import PhotoScene
 
-__all__ = ["DEFAULT_SPP", "PhotoOptions", "PhotoTracer", "denoise", "photo_info", "tonemap"]
+__all__ = ["DEFAULT_SPP", "LOOKS", "PhotoOptions", "PhotoTracer", "denoise", "photo_info", "photo_options", "tonemap"]
+
+LOOKS = ("fixed", "random")  # the photo look: the same for every scene, or drawn from each scene's seed
 
 DEFAULT_SPP = 1
 _CLAMP = 8.0  # [linear radiance] caps rare high-energy paths (fireflies) before denoising
@@ -88,6 +90,19 @@ class PhotoTracer:
             color = denoise(color, np.clip(raw[..., 3:6], 0, 1), np.clip(raw[..., 6:9], -1, 1))
         self.frames += 1
         return tonemap(color, self.options.look.exposure)
+
+
+def photo_options(look: str = "fixed", seed: int = 0, spp: int = DEFAULT_SPP,
+                  where: str = "photo look") -> PhotoOptions:
+    """Photo options for a scene: ``look`` ``fixed`` (the default look) or ``random`` (drawn from ``seed``,
+    the scene's seed: lights, colour temperature, textures and exposure).
+
+    Raises:
+        RenderError: an unknown look or a bad spp (one line, naming ``where``).
+    """
+    if look not in LOOKS:
+        raise RenderError(f"{where}={look!r} is invalid; valid: {', '.join(LOOKS)}")
+    return PhotoOptions(look=random_look(seed) if look == "random" else default_look(), spp=spp, seed=0)
 
 
 def photo_info(options: PhotoOptions) -> dict[str, Any]:
