@@ -19,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
     parser.add_argument("--modalities", nargs="+", default=["rgb", "depth", "segmentation"],
                         help="rgb depth segmentation")
-    parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
+    parser.add_argument("--preset", choices=["fast", "hd", "photo"], default="fast", help="render quality")
     parser.add_argument("--add", action="store_true",
                         help="keep the episodes' other cameras and modalities (a camera + modality rendered "
                              "again is overwritten); default: replace all images")

@@ -17,7 +17,7 @@ from samplehd.errors import ConfigError
 
 __all__ = ["RENDER_MODES", "RenderConfig", "check_cameras", "render_states"]
 
-RENDER_MODES = ("none", "fast", "hd")
+RENDER_MODES = ("none", "fast", "hd", "photo")
 _MODALITIES = ("rgb", "depth", "segmentation")
 
 

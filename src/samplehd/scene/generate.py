@@ -56,6 +56,7 @@ class SceneJob:
     height: int
     preset: str
     test_every: int
+    photo_look: str = "fixed"
 
 
 def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
@@ -75,7 +76,8 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
             model, data = result.model, fresh_state(result.model)
         else:
             model, data = compile_scene(result.scene)
-        img = renderers.get(model, job.width, job.height, job.preset).render(
+        photo = _photo(job)
+        img = renderers.get(model, job.width, job.height, job.preset, photo=photo).render(
             data, "scene", ("rgb", "depth", "segmentation"))
     split = scene_split(job.index, job.test_every)
     stem = image_stem(split, job.index)
@@ -87,8 +89,23 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
     ann = annotate_scene(result.scene, model, data, job.width, job.height, split=split)
     ann["sampling"] = {"attempts": result.attempts, "rejections": dict(result.rejections),
                        "visible_pixels": result.visible_pixels}
+    if photo is not None:  # the path tracer's settings and the (possibly randomised) look of this scene
+        from samplehd.render.photo import photo_info
+
+        ann["render"] = {"preset": job.preset, "photo": photo_info(photo)}
     write_json_atomic(out / "scenes" / f"{stem}.json", ann)
     return ann, dict(result.rejections)
+
+
+def _photo(job: SceneJob) -> Any:
+    """The photo options of a scene (its look drawn from its seed when randomised), or None for GL presets."""
+    from samplehd.render.renderer import get_preset
+
+    if not get_preset(job.preset).path_traced:
+        return None
+    from samplehd.render.photo import photo_options
+
+    return photo_options(job.photo_look, job.seed, where="--photo-look")
 
 
 def _run_jobs(jobs: list[SceneJob], workers: int) -> Iterator[tuple[dict[str, Any], dict[str, int]]]:
@@ -112,8 +129,10 @@ def generate_scenes(
     workers: int = 1,
     test_every: int = 20,
     on_scene: Callable[[int], None] | None = None,
+    photo_look: str = "fixed",
 ) -> dict[str, Any]:
-    """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts."""
+    """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts.
+    ``photo_look`` (preset photo): ``fixed``, or ``random`` to draw each scene's look from its seed."""
     from samplehd.render.renderer import get_preset
     from samplehd.scene.sampler import scene_seed
 
@@ -121,7 +140,10 @@ def generate_scenes(
         raise ConfigError(f"--num {num}: must be ≥ 1")
     if workers < 1:
         raise ConfigError(f"--workers {workers}: must be ≥ 1")
-    get_preset(preset)
+    if get_preset(preset).path_traced:
+        from samplehd.render.photo import photo_options
+
+        photo_options(photo_look, 0, where="--photo-look")  # validate before writing anything
     config = config or SceneConfig()
     try:
         for sub in ("scenes", "images", "depth", "segmentation"):
@@ -133,8 +155,10 @@ def generate_scenes(
         raise ConfigError(f"output directory {out} is not writable: {exc.strerror}") from exc
     resolved = {"scene": config.to_dict(), "num": num, "seed": seed, "width": width, "height": height,
                 "preset": preset, "test_every": test_every, "version": samplehd.__version__}
+    if photo_look != "fixed":
+        resolved["photo_look"] = photo_look
     write_json_atomic(out / "config.json", resolved, indent=2)
-    jobs = [SceneJob(i, scene_seed(seed, i), str(out), config.to_dict(), width, height, preset, test_every)
+    jobs = [SceneJob(i, scene_seed(seed, i), str(out), config.to_dict(), width, height, preset, test_every, photo_look)
             for i in range(num)]
     scenes: list[dict[str, Any]] = []
     rejections: Counter[str] = Counter()
