@@ -26,11 +26,14 @@ class RenderConfig:
     """Which images an episode gets.
 
     Attributes:
-        mode: ``none`` (states only), or the render preset ``fast`` / ``hd``.
+        mode: ``none`` (states only), or the render preset ``fast`` / ``hd`` / ``photo`` (path traced).
         width: image width [px].
         height: image height [px].
         cameras: camera names (``scene`` is the scene's sampled camera; ``operator``, ``wrist``).
         modalities: any of rgb, depth, segmentation.
+        every: images at every N-th frame only (1: every frame; 0: none but the subtask ends).
+        subtask_ends: also (or only) at the first and last frame of each subtask.
+        look: photo preset: ``fixed``, or ``random`` (lights, textures, exposure from the scene's seed).
     """
 
     mode: str = "fast"
@@ -38,6 +41,9 @@ class RenderConfig:
     height: int = 180
     cameras: tuple[str, ...] = ("scene",)
     modalities: tuple[str, ...] = _MODALITIES
+    every: int = 1
+    subtask_ends: bool = False
+    look: str = "fixed"
 
     def __post_init__(self) -> None:
         if self.mode not in RENDER_MODES:
@@ -51,18 +57,39 @@ class RenderConfig:
         bad = [m for m in self.modalities if m not in _MODALITIES]
         if bad or not self.modalities:
             raise ConfigError(f"render.modalities={list(self.modalities)!r}: valid: {', '.join(_MODALITIES)}")
+        if not isinstance(self.subtask_ends, bool):
+            raise ConfigError(f"render.subtask_ends={self.subtask_ends!r}: must be true or false")
+        from samplehd.render.keyframes import keyframe_indices
+
+        keyframe_indices(0, self.every, None, self.subtask_ends)  # validates every
+        if self.look not in ("fixed", "random"):
+            raise ConfigError(f"render.look={self.look!r}: valid: fixed, random")
+
+    def keyframes(self, num_frames: int, subtask_index: np.ndarray | None) -> np.ndarray:
+        """Frames of an episode that get images."""
+        from samplehd.render.keyframes import keyframe_indices
+
+        return keyframe_indices(num_frames, self.every, subtask_index, self.subtask_ends)
 
     @property
     def enabled(self) -> bool:
         return self.mode != "none"
 
     def to_dict(self) -> dict[str, Any]:
-        return {"mode": self.mode, "width": self.width, "height": self.height, "cameras": list(self.cameras),
-                "modalities": list(self.modalities)}
+        d = {"mode": self.mode, "width": self.width, "height": self.height, "cameras": list(self.cameras),
+             "modalities": list(self.modalities)}
+        # Only where set, so that records of every-frame images stay as they were.
+        if self.every != 1:
+            d["every"] = self.every
+        if self.subtask_ends:
+            d["subtask_ends"] = True
+        if self.look != "fixed":
+            d["look"] = self.look
+        return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], where: str = "render") -> RenderConfig:
-        valid = {"mode", "width", "height", "cameras", "modalities"}
+        valid = {"mode", "width", "height", "cameras", "modalities", "every", "subtask_ends", "look"}
         unknown = sorted(set(d) - valid)
         if unknown:
             raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(sorted(valid))}")
@@ -74,18 +101,20 @@ class RenderConfig:
 
 
 def render_states(model: Any, frames: Mapping[str, np.ndarray], config: RenderConfig,
-                  data: Any = None) -> dict[str, dict[str, np.ndarray]]:
-    """Render every frame of an episode from its stored states.
+                  data: Any = None, seed: int = 0) -> dict[str, Any]:
+    """Render every frame (or the keyframes) of an episode from its stored states.
 
     Args:
         model: the compiled scene (``compile_scene(spec)``).
-        frames: the episode's frame arrays (``qpos``, ``qvel``, ``act`` are used).
+        frames: the episode's frame arrays (``qpos``, ``qvel``, ``act`` are used; ``subtask_index``
+            for subtask-end keyframes).
         config: cameras, modalities, resolution and preset (mode must not be ``none``).
         data: an ``MjData`` to reuse (default: a new one).
+        seed: the scene's seed (the photo preset's randomised look is drawn from it).
 
     Returns:
         ``images[camera][modality]`` with first axis T: rgb uint8 (T,H,W,3), depth float32 (T,H,W) [m],
-        segmentation int32 (T,H,W).
+        segmentation int32 (T,H,W); with keyframes, a :class:`~samplehd.dataset.container.SparseFrames`.
 
     Raises:
         RenderError: unknown camera or no GL context.
@@ -96,14 +125,23 @@ def render_states(model: Any, frames: Mapping[str, np.ndarray], config: RenderCo
 
     if not config.enabled:
         return {}
+    from samplehd.dataset.container import SparseFrames
+    from samplehd.render.renderer import get_preset
+
     data = data if data is not None else mujoco.MjData(model)
     qpos, qvel, act = frames["qpos"], frames["qvel"], frames["act"]
     t = len(qpos)
-    out: dict[str, dict[str, np.ndarray]] = {}
-    with SceneRenderer(model, config.width, config.height, config.mode) as r:
+    picks = config.keyframes(t, frames.get("subtask_index"))
+    photo = None
+    if get_preset(config.mode).path_traced:
+        from samplehd.render.photo import photo_options
+
+        photo = photo_options(config.look, seed, where="render.look")
+    out: dict[str, dict[str, Any]] = {}
+    with SceneRenderer(model, config.width, config.height, config.mode, photo=photo) as r:
         for cam in config.cameras:
             stacks: dict[str, list[np.ndarray]] = {m: [] for m in config.modalities}
-            for k in range(t):
+            for k in picks:
                 data.qpos[:] = qpos[k]
                 data.qvel[:] = qvel[k]
                 if model.na:
@@ -114,6 +152,8 @@ def render_states(model: Any, frames: Mapping[str, np.ndarray], config: RenderCo
                     stacks[m].append(img[m])
             out[cam] = {m: (np.stack(v) if v else np.zeros((0, config.height, config.width), np.float32))
                         for m, v in stacks.items()}
+            if len(picks) < t:
+                out[cam] = {m: SparseFrames(picks, v, t) for m, v in out[cam].items()}
     return out
 
 

@@ -27,7 +27,9 @@ __all__ = ["merge_camera_settings", "rerender_dataset"]
 
 
 def _describe(s: Mapping[str, Any]) -> str:
-    return f"{s['width']}x{s['height']} {s['mode']}"
+    frames = (f" every {s['every']}" if s.get("every", 1) != 1 else "") + (
+        " subtask ends" if s.get("subtask_ends") else "")
+    return f"{s['width']}x{s['height']} {s['mode']}{frames}"
 
 
 def merge_camera_settings(old: Mapping[str, Mapping[str, Any]], render: RenderConfig,
@@ -58,7 +60,7 @@ def merge_camera_settings(old: Mapping[str, Mapping[str, Any]], render: RenderCo
         if prev is None:
             out[cam] = s
             continue
-        same = all(prev[k] == s[k] for k in ("mode", "width", "height"))
+        same = all(prev.get(k) == s.get(k) for k in ("mode", "width", "height", "every", "subtask_ends", "look"))
         if same:
             mods = set(prev["modalities"]) | set(s["modalities"])
             out[cam] = {**s, "modalities": [m for m in ("rgb", "depth", "segmentation") if m in mods]}
@@ -101,7 +103,7 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
     from samplehd.scene.generate import write_json_atomic
 
     if not render.enabled:
-        raise DatasetError("rerender needs a render preset (fast or hd), not 'none'")
+        raise DatasetError("rerender needs a render preset (fast, hd or photo), not 'none'")
     check_cameras(render)
     root = Path(root)
     reader = DatasetReader(root)

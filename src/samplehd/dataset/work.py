@@ -114,7 +114,7 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     if render.enabled:
         import dataclasses
 
-        episode = dataclasses.replace(episode, images=render_states(model, episode.frames, render))
+        episode = dataclasses.replace(episode, images=render_states(model, episode.frames, render, seed=scene.seed))
     t2 = time.perf_counter()
     path = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
@@ -160,7 +160,14 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
     Raises:
         DatasetError: the file is unreadable or cannot be written, or (adding) a camera would mix settings.
     """
-    from samplehd.dataset.container import camera_settings, read_episode, read_meta, render_record, write_episode
+    from samplehd.dataset.container import (
+        KEYFRAME_KEYS,
+        camera_settings,
+        read_episode,
+        read_meta,
+        render_record,
+        write_episode,
+    )
     from samplehd.dataset.render import RenderConfig, render_states
     from samplehd.dataset.rerender import merge_camera_settings
     from samplehd.errors import DatasetError
@@ -193,10 +200,10 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
     for cam, mods in episode.images.items():
         prev = old.get(cam)
         same = prev is not None and cam in settings and all(
-            prev[k] == settings[cam][k] for k in ("mode", "width", "height"))
+            prev.get(k) == settings[cam].get(k) for k in ("mode", "width", "height", *KEYFRAME_KEYS))
         if cam not in render.cameras or same:
             images[cam] = dict(mods)  # kept (lazy: copied chunk by chunk); same settings: modalities merge
-    for cam, mods in render_states(model, episode.frames, render).items():
+    for cam, mods in render_states(model, episode.frames, render, seed=scene.seed).items():
         images.setdefault(cam, {}).update(mods)
     written = write_episode(path, dataclasses.replace(episode, images=images), extra, render_record(settings))
     return {"path": str(path), "num_frames": written.num_frames, "size": written.size, "sha256": written.sha256,
