@@ -113,10 +113,10 @@ def window_view(seed: int = 0, across: int = 256, up: int = 160) -> np.ndarray:
     t = np.clip((h - 0.3) / 0.7, 0.0, 1.0)[None, :, None]
     img = np.broadcast_to(horizon * (1 - t) + top * t, (across, up, 3)).copy()
     # A tree line: a wavy silhouette, a little noise in its green.
-    ridge = (0.34 + 0.06 * np.sin(2 * np.pi * (3 * x + rng.uniform()))
+    ridge = (0.2 + 0.05 * np.sin(2 * np.pi * (3 * x + rng.uniform()))
              + 0.03 * np.sin(2 * np.pi * (11 * x + rng.uniform())))
     trees = h[None, :] < ridge[:, None]
     green = np.array([0.10, 0.20, 0.08]) * (0.8 + 0.4 * rng.random((across, up, 1)))
     img[trees] = green[trees]
-    img[:, h < 0.1] = np.array([0.20, 0.32, 0.12])  # lawn
+    img[:, h < 0.05] = np.array([0.20, 0.32, 0.12])  # lawn
     return img
