@@ -138,3 +138,20 @@ def test_viewer_knows_which_frames_have_images(keyframed: tuple[Path, dict]) -> 
     got = app.handle(f"/api/episodes/{name}/frame/{t}", {"camera": "scene", "modality": "rgb"})
     assert got.status == 200
     np.testing.assert_array_equal(np.asarray(Image.open(BytesIO(got.body))), reader.image(0, "scene", "rgb", before))
+
+
+def test_sample_hd_export_writes_the_keyframes_and_lerobot_says_it_needs_every_frame(
+        keyframed: tuple[Path, dict], tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    from samplehd.cli import main
+    from samplehd.dataset.reader import DatasetReader
+    from samplehd.dataset.export_samplehd import export_samplehd
+
+    root, _ = keyframed
+    export_samplehd(root, tmp_path / "shd")
+    frames = DatasetReader(root).episode_meta(0)["image_frames"]["scene"]
+    pngs = sorted((tmp_path / "shd").rglob("*_rgb.png"))
+    assert pngs and {int(p.name[:5]) for p in pngs} >= set(frames)
+    assert len(pngs) < sum(e.num_frames for e in DatasetReader(root).episodes)
+    code = main(["export", "lerobot", str(root), "--out", str(tmp_path / "lr")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "has no image; this camera has images at" in err and len(err.splitlines()) == 1, err

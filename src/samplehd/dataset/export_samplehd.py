@@ -100,6 +100,8 @@ def _export_sequence(unit: _SequenceUnit) -> int:
             tag = "" if len(cams) == 1 else f"_{cam}"
             mods = ep.images[cam]
             for t in range(ep.num_frames):
+                if not all(getattr(a, "has_image", lambda _: True)(t) for a in mods.values()):
+                    continue  # a camera rendered at keyframes only (rerender --every): frames with images
                 if "rgb" in mods:
                     save_rgb(folder / f"{t:05d}{tag}_rgb.png", mods["rgb"][t])
                 if "depth" in mods:
@@ -109,7 +111,8 @@ def _export_sequence(unit: _SequenceUnit) -> int:
     if unit.previews and cams and "rgb" in ep.images[cams[0]]:
         from samplehd.dataset.video import VideoWriter
 
-        rgb = ep.images[cams[0]]["rgb"][:]
+        stream = ep.images[cams[0]]["rgb"]
+        rgb = stream.stored() if getattr(stream, "frames", None) is not None else stream[:]  # keyframes: a flip-book
         h, w = rgb.shape[1] // 2 * 2, rgb.shape[2] // 2 * 2
         with VideoWriter(folder / "preview.mp4", w, h, unit.fps, "libx264", crf=23, gop=unit.fps) as vw:
             vw.write(rgb[:, :h, :w])
