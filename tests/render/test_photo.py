@@ -152,3 +152,37 @@ def test_env_rejects_an_unknown_preset_naming_photo():
 
     with pytest.raises(ConfigError, match="render_preset.*valid: fast, hd, photo"):
         EnvConfig(render_preset="raytraced")
+
+
+def test_a_fresh_renderer_gives_the_same_image(scene_world, photo):
+    """Same scene and state in new renderers (new Mitsuba scenes): the same path-traced radiance, bit for bit
+    (the lights' order, which decides the light a random number picks, must not vary), and the same picture
+    within the denoiser's tolerance."""
+    from samplehd.render.photo import PhotoTracer
+    from samplehd.render.renderer import SceneRenderer
+
+    model, data = scene_world
+    a = photo.render(data, "scene")["rgb"].astype(int)
+    with SceneRenderer(model, W, H, "photo") as fresh:
+        b = fresh.render(data, "scene")["rgb"].astype(int)
+    d = np.abs(a - b)
+    assert d.max() <= 2, (d.max(), d.mean())
+    raws = [PhotoTracer(model).radiance(data, 0, W, H) for _ in range(3)]
+    assert all(np.array_equal(raws[0], r) for r in raws[1:])
+
+
+@pytest.mark.parametrize("argv, msg", [
+    (["render", "--preset", "ultra"], "unknown render preset 'ultra'; valid: fast, hd, photo"),
+    (["scenes", "--num", "1", "--preset", "ultra"], "unknown render preset 'ultra'; valid: fast, hd, photo"),
+    (["scenes", "--num", "1", "--preset", "photo", "--photo-look", "sunny"],
+     "--photo-look='sunny' is invalid; valid: fixed, random"),
+])
+def test_bad_preset_and_photo_options_on_the_command_line(tmp_path, capsys, argv, msg):
+    from samplehd.cli import main
+
+    out = tmp_path / "out"
+    target = ["--out", str(out / "x.png")] if argv[0] == "render" else ["--out", str(out)]
+    assert main([*argv, *target]) == 2
+    err = capsys.readouterr().err.strip()
+    assert msg in err and len(err.splitlines()) == 1, err
+    assert not out.exists()  # nothing written

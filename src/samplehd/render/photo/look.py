@@ -111,7 +111,7 @@ def _bitmap(img: np.ndarray, scale: tuple[float, float] = (1.0, 1.0), wrap: str 
     arr = np.ascontiguousarray(np.flipud(img), dtype=np.float32)  # Mitsuba's row 0 is v = 1
     d: dict[str, Any] = {
         "type": "bitmap",
-        "bitmap": mi.Bitmap(arr),
+        "data": mi.TensorXf(arr if arr.ndim == 3 else arr[..., None]),  # copied: owned by the texture
         "raw": True,
         "filter_type": "bilinear",
         "wrap_mode": wrap,

@@ -51,7 +51,10 @@ class PhotoScene:
             if not part.static:
                 self._dynamic.append((key, part))
         for key, shape in lights(look).items():
-            scene[key] = shape
+            # Made here, one by one: shapes made inside load_dict come out in a varying order, and the
+            # order of the lights decides which one a random number picks (the same seed would give
+            # another picture).
+            scene[key] = mi.load_dict(shape)
             self._shape_seg[key] = SEG_BACKGROUND
         scene["integrator"] = {
             "type": "aov",
@@ -62,7 +65,7 @@ class PhotoScene:
         # A second sensor with one unjittered sample per pixel centre, where the GL rasteriser samples too:
         # its depth and shape ids check that the path-traced image lines up with GL depth and segmentation.
         scene["sensor_geometry"] = self._sensor_dict(width, height, 45.0, centre=True)
-        self.scene = mi.load_dict(scene)
+        self.scene = mi.load_dict(scene, parallel=False)  # sequential: the same scene, object for object
         self._sensors = ("sensor", "sensor_geometry")
         self._geometry_sensor = [s.id() for s in self.scene.sensors()].index("sensor_geometry")
         self._geometry_integrator = mi.load_dict({"type": "aov", "aovs": "pp:position,si:shape_index"})
