@@ -28,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--modalities", default="rgb", help="comma-separated: rgb, depth, segmentation")
     parser.add_argument("--width", type=int, default=320, help="image width [px]")
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
-    parser.add_argument("--preset", default="fast", choices=["fast", "hd", "photo"], help="render quality preset")
+    parser.add_argument("--preset", default="fast", metavar="{fast,hd,photo}", help="render quality preset")
     parser.add_argument("--workers", type=int, default=1, help="parallel worker processes")
     parser.add_argument("--seed", type=int, default=0, help="base seed (per instruction: seed + instruction_index)")
     parser.add_argument("--limit", type=int, default=0, help="only the first N instructions (0: all)")

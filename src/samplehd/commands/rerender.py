@@ -19,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
     parser.add_argument("--modalities", nargs="+", default=["rgb", "depth", "segmentation"],
                         help="rgb depth segmentation")
-    parser.add_argument("--preset", choices=["fast", "hd", "photo"], default="fast", help="render quality")
+    parser.add_argument("--preset", metavar="{fast,hd,photo}", default="fast", help="render quality")
     parser.add_argument("--every", type=int, default=1,
                         help="images at every N-th frame only (keyframes; 0: only --subtask-ends); the dataset "
                              "records which frames of each camera have images")

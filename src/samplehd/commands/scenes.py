@@ -19,7 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, help="JSON file with a 'scene' section of sampler options")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px] (16:9 by default)")
-    parser.add_argument("--preset", choices=["fast", "hd", "photo"], default="fast", help="render quality")
+    parser.add_argument("--preset", metavar="{fast,hd,photo}", default="fast", help="render quality")
     parser.add_argument("--photo-look", default="fixed",
                         help="photo preset: 'fixed' look, or 'random' lights, colour temperature, textures and "
                              "exposure drawn from each scene's seed (recorded in its annotation)")
