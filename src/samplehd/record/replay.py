@@ -11,6 +11,7 @@ import numpy as np
 
 from samplehd.errors import DatasetError
 from samplehd.record.episode import Episode
+from samplehd.render.renderer import SceneRenderer
 
 __all__ = ["contact_sheet", "render_episode", "restore_frame", "subtask_contact_sheet", "write_mp4"]
 
@@ -50,7 +51,6 @@ def render_episode(
         preset: render preset (fast, hd).
         frames: frame indices to render (default: all).
     """
-    from samplehd.render.renderer import SceneRenderer
 
     idx = range(episode.num_frames) if frames is None else frames
     data = mujoco.MjData(model)

@@ -16,11 +16,14 @@ import numpy as np
 from samplehd.catalogue import Catalogue, ObjectInstance, load_catalogue, object_facts
 from samplehd.errors import ConfigError, SceneError
 from samplehd.render.renderer import SEG_OBJECT_OFFSET, RendererCache
+from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene, object_qpos_addresses
 from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec
-from samplehd.world.bodies import object_body_name
+from samplehd.world.bodies import SceneBodies, object_body_name
+from samplehd.world.collision import CollisionChecker
 from samplehd.world.layout import LAYOUT, TableLayout
+from samplehd.world.robot_info import RobotInfo
 from samplehd.world.transforms import quat_from_yaw, quat_to_mat
 
 __all__ = ["SampleResult", "draw_instance", "sample_camera", "sample_scene"]
@@ -192,10 +195,6 @@ def _settle(
 
 def _home_clear(model: mujoco.MjModel, data: mujoco.MjData, count: int) -> bool:
     """Whether the arm at home, gripper fully open, touches no object (every path starts there)."""
-    from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
-    from samplehd.world.bodies import SceneBodies
-    from samplehd.world.collision import CollisionChecker
-    from samplehd.world.robot_info import RobotInfo
 
     if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
         return True
