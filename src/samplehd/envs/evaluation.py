@@ -26,13 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.envs.config import EnvConfig
-from samplehd.envs.oracle import OraclePolicy
-from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, PlanningError
-from samplehd.record.paths import PathConfig, plan_and_execute
-from samplehd.record.replay import write_mp4
-from samplehd.scene.spec import compile_scene
 from samplehd.tasks.family import family_names
 
 __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "evaluate", "load_policy"]
@@ -115,6 +109,8 @@ def load_policy(spec: str, env: Any) -> Callable[[Any], Any]:
     """Build the policy named by ``spec`` for ``env``; see the module docstring."""
     check_policy_spec(spec)
     if spec == "oracle":
+        from samplehd.envs.oracle import OraclePolicy
+
         return OraclePolicy(env)
     if spec == "random":
         return RandomPolicy(env.action_space)
@@ -138,6 +134,9 @@ def load_policy(spec: str, env: Any) -> Callable[[Any], Any]:
 
 
 def _offline_success(env: Any, seed: int) -> bool:
+    from samplehd.record.paths import PathConfig, plan_and_execute
+    from samplehd.scene.spec import compile_scene
+
     ep = env.unwrapped.episode
     try:
         plan_and_execute(ep.scene, ep.instruction["task"], np.random.default_rng(seed), PathConfig(max_attempts=1),
@@ -152,6 +151,9 @@ class _Runner:
     """One environment and policy that run benchmark episodes one at a time."""
 
     def __init__(self, config: EvalConfig) -> None:
+        import samplehd  # noqa: F401  (GL backend before mujoco)
+        from samplehd.envs.tabletop import TabletopEnv
+
         self.config = config
         env_options = dict(config.env)
         if config.video_dir:
@@ -212,6 +214,8 @@ class _Runner:
         if config.compare_offline:
             record["offline_success"] = _offline_success(env, seed)
         if config.video_dir and frames and frames[0] is not None:
+            from samplehd.record.replay import write_mp4
+
             out = Path(config.video_dir)
             out.mkdir(parents=True, exist_ok=True)
             name = f"episode_{index:04d}_{record['family']}_{'ok' if record['success'] else 'fail'}.mp4"
@@ -255,6 +259,7 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
     check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
     """
+    from samplehd.envs.config import EnvConfig
 
     EnvConfig.from_kwargs(**config.env)  # one-line errors before any work
     split = benchmark_split(config.episodes, config.families, config.seed)
@@ -296,6 +301,8 @@ def _write_report(out: str | Path, report: dict[str, Any]) -> None:
 
 
 def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partial: bool = False) -> dict[str, Any]:
+    from samplehd.envs.config import EnvConfig
+
     records = sorted(records, key=lambda r: r["index"])
     by_family = {}
     for fam in dict.fromkeys(r["family"] for r in records):

@@ -11,7 +11,6 @@ import numpy as np
 
 from samplehd.errors import DatasetError
 from samplehd.record.episode import Episode
-from samplehd.render.renderer import SceneRenderer
 
 __all__ = ["contact_sheet", "render_episode", "restore_frame", "subtask_contact_sheet", "write_mp4"]
 
@@ -51,6 +50,7 @@ def render_episode(
         preset: render preset (fast, hd).
         frames: frame indices to render (default: all).
     """
+    from samplehd.render.renderer import SceneRenderer
 
     idx = range(episode.num_frames) if frames is None else frames
     data = mujoco.MjData(model)
