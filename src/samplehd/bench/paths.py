@@ -126,7 +126,7 @@ def oracle_table(results: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def _bench_scene() -> Any:
+def _bench_scene() -> SceneSpec:
     up = (1.0, 0.0, 0.0, 0.0)
     t = LAYOUT.table_height
     return SceneSpec(index=0, seed=0, objects=(
@@ -137,7 +137,7 @@ def _bench_scene() -> Any:
     ))
 
 
-def run(repeats: int = 3) -> list[Any]:
+def run(repeats: int = 3) -> list[Figure]:
     """Episode frames/s: state-only, and with ``fast`` RGB+depth+segmentation at 320×180 and 640×360.
 
     One place episode (about 250 frames at 20 Hz) of a 4-object scene; frames/s counts planning,

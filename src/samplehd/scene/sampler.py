@@ -8,12 +8,11 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any
 
 import mujoco
 import numpy as np
 
-from samplehd.catalogue import Catalogue, ObjectInstance, load_catalogue, object_facts
+from samplehd.catalogue import Catalogue, ObjectFacts, ObjectInstance, load_catalogue, object_facts
 from samplehd.errors import ConfigError, SceneError
 from samplehd.render.renderer import SEG_OBJECT_OFFSET, RendererCache
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
@@ -98,7 +97,7 @@ def draw_instance(rng: np.random.Generator, cat: Catalogue, config: SceneConfig,
             return ObjectInstance(name, variant, colour, material, size)
 
 
-def _footprint_corners(facts: Any, xy: np.ndarray, yaw: float, margin: float) -> np.ndarray:
+def _footprint_corners(facts: ObjectFacts, xy: np.ndarray, yaw: float, margin: float) -> np.ndarray:
     cx, cy = facts.footprint_center
     hx, hy = facts.footprint_half_extents
     hx, hy = hx + margin, hy + margin
@@ -121,7 +120,7 @@ def _rects_overlap(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def _place(
-    rng: np.random.Generator, facts: Any, placed: list[np.ndarray], config: SceneConfig, layout: TableLayout,
+    rng: np.random.Generator, facts: ObjectFacts, placed: list[np.ndarray], config: SceneConfig, layout: TableLayout,
     rejections: Counter[str],
 ) -> tuple[np.ndarray, float, np.ndarray] | None:
     lo, hi = np.asarray(layout.workspace_min), np.asarray(layout.workspace_max)
