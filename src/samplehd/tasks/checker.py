@@ -41,6 +41,7 @@ import numpy as np
 
 from samplehd.errors import ConfigError
 from samplehd.physics import wake_all
+from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.family import get_family
 from samplehd.tasks.judge import Judge
 from samplehd.tasks.task import Task, parse_task
@@ -149,7 +150,7 @@ def _simulate_window(model: mujoco.MjModel, data: mujoco.MjData, window: float) 
 def check_success(
     model: mujoco.MjModel,
     data: mujoco.MjData,
-    scene: Any,
+    scene: SceneSpec,
     task: dict[str, Any] | Task,
     config: CheckerConfig | None = None,
     layout: TableLayout = LAYOUT,
