@@ -20,7 +20,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $@
 
 $(DEV_STAMP): pyproject.toml $(STAMP)
-	$(BIN)/python -m pip install --quiet -e ".[dev,ray]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,mesh,lerobot,ray]"
 	touch $@
 
 gl:
@@ -45,7 +45,7 @@ bench: gl $(STAMP)
 # ruff, then the floors: import-linter's contracts in pyproject.toml (make test checks them too,
 # tests/test_layers.py) and the cycle/local-import counts of scripts/import_graph.py.
 lint: $(DEV_STAMP)
-	$(BIN)/ruff check src tests benchmarks scripts
+	$(BIN)/ruff check src tests scripts
 	$(BIN)/lint-imports --no-cache
 	$(BIN)/python scripts/import_graph.py
 

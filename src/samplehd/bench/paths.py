@@ -6,12 +6,11 @@ oracle statistics are reproducible.
 
 from __future__ import annotations
 
+import argparse
 import json
-import multiprocessing as mp
 import statistics
 import time
 from collections import Counter, defaultdict
-from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 import mujoco
@@ -22,13 +21,15 @@ from samplehd.catalogue import ObjectInstance
 from samplehd.language.generator import generate_instructions
 from samplehd.motion.assist import compile_scene_with_assist
 from samplehd.record.paths import PathRejected, plan_and_execute
-from samplehd.record.replay import render_episode
+from samplehd.render.renderer import MODALITIES
+from samplehd.render.states import render_states
 from samplehd.scene.annotate import annotate_scene
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneObject, SceneSpec
+from samplehd.workers import Backend
 from samplehd.world.layout import LAYOUT
 
-__all__ = ["oracle_success", "oracle_table", "run"]
+__all__ = ["add_arguments", "oracle_success", "oracle_table", "report", "run"]
 
 
 def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> list[dict[str, Any]]:
@@ -88,19 +89,13 @@ def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers:
     """
     jobs = [(i, base_seed + i, per_scene, out, families) for i in range(num_scenes)]
     results: list[dict[str, Any]] = []
-    if workers <= 1:
-        for j in jobs:
-            results += _oracle_scene(j)
-        return results
-    with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
-        for rs in pool.map(_oracle_scene, jobs, chunksize=1):
-            results += rs
+    for _, rs in Backend(workers=workers).map(_oracle_scene, jobs):
+        results += rs
     return results
 
 
 def oracle_table(results: list[dict[str, Any]]) -> str:
     """Per family: attempted, first-try and final success rates, and failure reasons."""
-
     by: dict[str, Counter] = defaultdict(Counter)
     for r in results:
         if r.get("skipped"):
@@ -160,7 +155,7 @@ def run(repeats: int = 3) -> list[Figure]:
         rates["cpu state"].append(frames / sim_cpu)
         for w, h in ((320, 180), (640, 360)):
             t1, c1 = time.perf_counter(), time.process_time()
-            render_episode(model, ep, ("operator",), ("rgb", "depth", "segmentation"), w, h, "fast")
+            render_states(model, ep.frames, ("operator",), MODALITIES, w, h, "fast")
             rates[f"{w}x{h}"].append(frames / (sim + time.perf_counter() - t1))
             rates[f"cpu {w}x{h}"].append(frames / (sim_cpu + time.process_time() - c1))
     note = f"place episode, {frames} frames, 20 Hz control / 500 Hz physics, operator camera"
@@ -174,3 +169,39 @@ def run(repeats: int = 3) -> list[Figure]:
         Figure("paths", "episode frames/CPU-s rgb+depth+seg 320x180 fast", med["cpu 320x180"], "1/s", cpu_note),
         Figure("paths", "episode frames/CPU-s rgb+depth+seg 640x360 fast", med["cpu 640x360"], "1/s", cpu_note),
     ]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``samplehd bench paths speed|oracle|table``: episode frames/s, or the oracle success rate on real
+    sampled scenes and generated instructions (``table`` re-reads an oracle run's JSONL)."""
+    parser.add_argument("what", choices=["speed", "oracle", "table"])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--scenes", type=int, default=70)
+    parser.add_argument("--seed", type=int, default=5000)
+    parser.add_argument("--per-scene", type=int, default=5)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--families", nargs="+", default=None, help="oracle: only these families")
+    parser.add_argument("--out", default="", help="JSONL of per-instruction results (oracle: written, table: read)")
+
+
+def report(args: argparse.Namespace) -> int:
+    """Print the chosen figures."""
+    if args.what == "speed":
+        for f in run(args.repeats):
+            print(f"{f.name:48s} {f.value:10.1f} {f.unit}   ({f.note})")
+        return 0
+    if args.what == "oracle":
+        families = tuple(args.families) if args.families else None
+        results = oracle_success(args.scenes, args.seed, args.per_scene, args.workers, args.out, families)
+    else:
+        with open(args.out, encoding="utf-8") as f:
+            results = [json.loads(line) for line in f]
+    print(oracle_table(results))
+    frames: dict[str, list[int]] = defaultdict(list)
+    for r in results:
+        if r.get("success"):
+            frames[r["family"]].append(int(r["frames"]))
+    print("frames per episode (mean, at 20 Hz):")
+    for fam, v in sorted(frames.items()):
+        print(f"  {fam:15s} {sum(v) / len(v):7.1f}  (n={len(v)})")
+    return 0

@@ -7,6 +7,7 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from samplehd.errors import ConfigError
+from samplehd.render.renderer import MODALITIES
 from samplehd.scene.config import SceneConfig
 from samplehd.tasks.checker import CheckerConfig
 from samplehd.tasks.family import family_names
@@ -18,7 +19,7 @@ OBS_MODES: dict[str, tuple[str, ...]] = {
     "state": (),
     "rgb": ("rgb",),
     "rgbd": ("rgb", "depth"),
-    "rgbd_seg": ("rgb", "depth", "segmentation"),
+    "rgbd_seg": MODALITIES,
 }
 # Environment control modes → robot controller modes (samplehd.robot.controller.ACTION_MODES).
 CONTROL_MODES: dict[str, str] = {

@@ -69,7 +69,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from samplehd.envs.config import CONTROL_MODES, EnvConfig
+from samplehd.envs.config import CAMERAS, CONTROL_MODES, EnvConfig
 from samplehd.envs.episodes import EpisodeSpec, SceneCache, episode_from_options, sample_episode
 from samplehd.envs.plan_tracker import plan_tracker
 from samplehd.envs.reward import dense_term
@@ -204,7 +204,7 @@ class TabletopEnv(gym.Env):
             self.model = model
             self.data = mujoco.MjData(model)
             cams = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)}
-            self._cam_names = {c: (c if c in cams else "operator") for c in ("scene", "operator", "wrist")}
+            self._cam_names = {c: (c if c in cams else "operator") for c in CAMERAS}
         data = self.data
         mujoco.mj_copyData(data, model, pristine)
         self.controller = initial_state(model, data, self.control)
