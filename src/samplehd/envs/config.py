@@ -10,7 +10,7 @@ from samplehd.errors import ConfigError
 from samplehd.render.renderer import MODALITIES
 from samplehd.scene.config import SceneConfig
 from samplehd.tasks.checker import CheckerConfig
-from samplehd.tasks.family import family_names
+from samplehd.tasks.task import family_names
 
 __all__ = ["CAMERAS", "CONTROL_MODES", "EnvConfig", "OBS_MODES", "RENDER_MODES"]
 

@@ -81,8 +81,7 @@ from samplehd.render.renderer import SceneRenderer
 from samplehd.robot.constants import GRIPPER_STROKE, JOINT_LIMITS
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.tasks.checker import check_success
-from samplehd.tasks.family import get_family
-from samplehd.tasks.task import Task, parse_task
+from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies, grasped_object
 
 __all__ = ["INSTRUCTION_CHARSET", "TabletopEnv"]
