@@ -111,22 +111,6 @@ def test_lerobot_selection_errors_are_one_line(rendered_dataset: Path, tmp_path:
     assert len(list((tmp_path / "c" / "data").glob("*/*.parquet"))) > 1  # files split by --frames-per-file
 
 
-def test_samplehd_layout_and_previews(rendered_dataset: Path, tmp_path: Path) -> None:
-    out = tmp_path / "shd"
-    assert main(["export", "sample-hd", str(rendered_dataset), "--out", str(out), "--previews",
-                 "--workers", "1"]) == 0
-    reader = DatasetReader(rendered_dataset)
-    assert len(list((out / "scenes").glob("*.json"))) == len(reader.scenes)
-    assert len(list((out / "images").glob("*.png"))) == len(reader.scenes)
-    assert len(list((out / "instructions").glob("i*.json"))) == len(reader)
-    e = reader.episodes[0]
-    seq = out / "sequences" / f"i{0:06d}_s{e.scene_index:06d}"
-    data = json.loads((seq / "data.json").read_text())
-    assert len(data["frames"]) == e.num_frames and data["markers"] == ["Succeeded", "Completed"]
-    assert {"joints", "steering", "subtask", "effector", "objects"} <= set(data["frames"][0])
-    assert len(list(seq.glob("*_rgb.png"))) == e.num_frames and (seq / "preview.mp4").stat().st_size > 0
-
-
 def test_stats_counts_and_plots(micro_dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     from samplehd.dataset.stats import dataset_stats
 

@@ -1,6 +1,6 @@
 """Export a dataset: `export lerobot DIR --out DIR2` (LeRobot v3.0 layout: parquet + AV1 videos of RGB,
 16-bit PNG image features of depth [mm] and segmentation ids in the parquet) or
-`export sample-hd DIR --out DIR2` (SAMPLE-HD's images/, scenes/, instructions/, sequences/ layout)."""
+`export sample-hd DIR --out DIR2` (the files SAMPLE-HD's own Python code reads; its four families only)."""
 
 from __future__ import annotations
 
@@ -24,12 +24,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     lr.add_argument("--modalities", nargs="+",
                     help="rgb (video), depth (uint16 mm PNG), segmentation (uint16 id PNG); default: all stored")
     lr.add_argument("--frames-per-file", type=int, default=200_000, help="frames per data/video file")
-    sh = sub.add_parser("sample-hd", help="SAMPLE-HD layout (images/, scenes/, instructions/, sequences/)",
-                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    sh = sub.add_parser("sample-hd", help="the files SAMPLE-HD's own code reads (images/, scenes/, instructions/, "
+                        "sequences/); its four families only", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     sh.add_argument("dir", type=Path, help="samplehd dataset")
     sh.add_argument("--out", type=Path, required=True, help="new folder")
     sh.add_argument("--previews", action="store_true", help="write preview.mp4 per sequence")
-    sh.add_argument("--no-images", action="store_true", help="write data.json only, no per-frame PNGs")
+    sh.add_argument("--no-images", action="store_true", help="write data.json/effector.json only, no per-frame images")
+    sh.add_argument("--camera", help="stored camera whose images become the sequence images (default: scene)")
     sh.add_argument("--workers", type=int, default=default_workers(), help="worker processes")
 
 
@@ -57,7 +58,9 @@ def run(args: argparse.Namespace) -> int:
             from samplehd.dataset.export_samplehd import export_samplehd
 
             res = export_samplehd(args.dir, args.out, images=not args.no_images, previews=args.previews,
-                                  backend=Backend("local", args.workers), progress=tick)
+                                  camera=args.camera, backend=Backend("local", args.workers), progress=tick)
+            for reason, n in res["left_out"].items():
+                print(f"left out {n} instruction(s): {reason}")
     print(f"exported {res} to {args.out}")
     return 0
 
