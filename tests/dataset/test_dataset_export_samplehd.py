@@ -68,7 +68,8 @@ def test_layout_instructions_and_left_out_families(shd_export: Path, rendered_da
         assert sorted(u["objectInt"]) == sorted(inst["task"]["objects"])
         t = p["task"][0]
         if inst["family"] in ("stack", "put"):
-            assert u["name"] == inst["family"] and u["subjectInt"] == inst["task"]["subject"] and u["subjectString"] == []
+            assert u["name"] == inst["family"] and u["subjectString"] == []
+            assert u["subjectInt"] == inst["task"]["subject"]
         else:
             assert u["name"] == "place" and u["subjectInt"] == -1 and u["subjectString"] == [inst["task"]["subject"]]
             assert t["type"] == inst["family"]  # remove: the cleared part; place: the destination
@@ -125,7 +126,8 @@ def test_sequences_frames_effector_and_segmentation(shd_export: Path, rendered_d
         assert worst < 1e-3  # [m]: SAMPLE-HD's FK of robot_state reproduces the exported effector
         t = ep.num_frames // 2
         for i, o in enumerate(frames[t]["objects"]):
-            assert np.allclose(vec(o["position"]), unity_from_base(ep.frames["object_pos"][t][i] - WORLD_BASE), atol=1e-6)
+            want = unity_from_base(ep.frames["object_pos"][t][i] - WORLD_BASE)
+            assert np.allclose(vec(o["position"]), want, atol=1e-6)
         assert len(list(seq.glob("sequence_img_*.jpg"))) == len(frames)
         scene = json.loads((shd_export / "scenes" / data["scene_json"]).read_text())
         seg = np.asarray(Image.open(seq / "segmentation" / "sequence_img_00000.png"))
