@@ -1,5 +1,6 @@
-"""Export a dataset: `export lerobot DIR --out DIR2` (LeRobot v3.0 layout: parquet + AV1 videos of RGB,
-16-bit PNG image features of depth [mm] and segmentation ids in the parquet) or
+"""Export a dataset: `export lerobot DIR --out DIR2` (LeRobot v3.0 layout: parquet + AV1 videos of RGB;
+depth [mm] and segmentation ids as opt-in uint16 arrays), `export rerun EPISODE --out FILE.rrd` (one
+episode as a Rerun recording) or
 `export sample-hd DIR --out DIR2` (the files SAMPLE-HD's own Python code reads; its four families only)."""
 
 from __future__ import annotations
@@ -7,7 +8,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-HELP = "export a dataset to the LeRobot v3.0 or the original SAMPLE-HD layout"
+HELP = "export a dataset to LeRobot v3.0 or SAMPLE-HD's layout, or an episode to a Rerun recording"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,8 +23,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     lr.add_argument("--codec", help="video encoder (default: libsvtav1 as LeRobot, else libx264)")
     lr.add_argument("--cameras", nargs="+", help="cameras to export (default: all stored)")
     lr.add_argument("--modalities", nargs="+",
-                    help="rgb (video), depth (uint16 mm PNG), segmentation (uint16 id PNG); default: all stored")
+                    help="rgb (video), depth (uint16 mm array), segmentation (uint16 id array); default: rgb")
     lr.add_argument("--frames-per-file", type=int, default=200_000, help="frames per data/video file")
+    rr = sub.add_parser("rerun", help="one episode as a Rerun recording (.rrd): 3-D scene, cameras, series, subtasks",
+                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    rr.add_argument("episode", type=Path, help="episode file (DIR/episodes/<stem>.h5) or dataset folder with --episode")
+    rr.add_argument("--episode", dest="index", type=int, help="episode index when EPISODE is a dataset folder (0)")
+    rr.add_argument("--out", type=Path, required=True, help="the .rrd file (open it with: rerun FILE.rrd)")
     sh = sub.add_parser("sample-hd", help="the files SAMPLE-HD's own code reads (images/, scenes/, instructions/, "
                         "sequences/); its four families only", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     sh.add_argument("dir", type=Path, help="samplehd dataset")
@@ -35,6 +41,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.format == "rerun":
+        from samplehd.dataset.export_rerun import episode_location, export_rerun
+
+        root, index = episode_location(args.episode, args.index)
+        res = export_rerun(root, index, args.out)
+        print(f"exported episode {index} of {root} ({res}) to {args.out}; open it with: rerun {args.out}")
+        return 0
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from samplehd.dataset.backend import Backend
