@@ -134,7 +134,7 @@ def load_policy(spec: str, env: Any) -> Callable[[Any], Any]:
 
 
 def _offline_success(env: Any, seed: int) -> bool:
-    from samplehd.motion.pipeline import PathConfig, plan_and_execute
+    from samplehd.record.paths import PathConfig, plan_and_execute
     from samplehd.scene.spec import compile_scene
 
     ep = env.unwrapped.episode
