@@ -39,7 +39,7 @@ def _spec_with_objects(scene: Any) -> mujoco.MjSpec:
 
 
 def _home_state(scene: Any) -> dict[str, np.ndarray]:
-    from samplehd.motion.pipeline import initial_state
+    from samplehd.motion.execute import initial_state
     from samplehd.robot.constants import GRIPPER_STROKE
     from samplehd.robot.controller import ControlConfig
     from samplehd.scene.spec import compile_scene

@@ -292,7 +292,7 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
         DatasetError: unfinished dataset, non-empty ``out`` or a camera that no episode stores.
     """
     from samplehd.errors import DatasetError
-    from samplehd.scene.layout import LAYOUT
+    from samplehd.world.layout import LAYOUT
 
     reader, out = export_source(root, out)
     root = Path(root)
