@@ -148,3 +148,31 @@ def test_unfinished_or_nonempty_target_is_refused(rendered_dataset: Path, tmp_pa
     assert "\n" not in err and "not empty" in err and (out / "keep.txt").read_text() == "x"
     assert main(["export", "sample-hd", str(rendered_dataset), "--out", str(tmp_path / "y"), "--camera", "wrist"]) == 2
     assert "--camera wrist" in capsys.readouterr().err and not (tmp_path / "y").exists()
+
+
+def test_export_is_deterministic(rendered_dataset: Path, shd_export: Path, tmp_path: Path) -> None:
+    again = tmp_path / "again"
+    args = ["export", "sample-hd", str(rendered_dataset), "--out", str(again), "--previews", "--workers", "2"]
+    assert main(args) == 0
+    files = sorted(p.relative_to(shd_export) for p in shd_export.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(again) for p in again.rglob("*") if p.is_file())
+    for rel in files:
+        if rel.suffix != ".mp4":  # the MP4 container records its muxer's version and time fields
+            assert (shd_export / rel).read_bytes() == (again / rel).read_bytes(), rel
+
+
+@pytest.mark.slow
+def test_sample_hd_own_code_on_the_export(shd_export: Path, tmp_path: Path) -> None:
+    """Runs SAMPLE-HD's own scripts (not part of samplehd) when a checkout and a Python with their
+    dependencies are named: SAMPLEHD_SAMPLE_HD_CODE=CHECKOUT SAMPLEHD_SAMPLE_HD_PYTHON=PYTHON."""
+    import os
+    import subprocess
+
+    code, python = os.environ.get("SAMPLEHD_SAMPLE_HD_CODE"), os.environ.get("SAMPLEHD_SAMPLE_HD_PYTHON")
+    if not code or not python:
+        pytest.skip("set SAMPLEHD_SAMPLE_HD_CODE and SAMPLEHD_SAMPLE_HD_PYTHON to run SAMPLE-HD's own code")
+    script = Path(__file__).parents[2] / "scripts" / "check_sample_hd.py"
+    done = subprocess.run([python, str(script), str(shd_export), code, "--work", str(tmp_path / "work")],
+                          capture_output=True, text=True, timeout=1800)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert "executor:" in done.stdout and "OK" in done.stdout
