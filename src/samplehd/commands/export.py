@@ -8,12 +8,19 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+from samplehd.commands._options import split_names
+from samplehd.dataset.export_lerobot import export_lerobot
+from samplehd.dataset.export_rerun import episode_location, export_rerun
+from samplehd.dataset.export_samplehd import export_samplehd
+from samplehd.errors import ConfigError, require_extra
+from samplehd.workers import Backend, default_workers
+
 HELP = "export a dataset to LeRobot v3.0 or SAMPLE-HD's layout, or an episode to a Rerun recording"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.dataset.backend import default_workers
-
     sub = parser.add_subparsers(dest="format", metavar="FORMAT", required=True)
     lr = sub.add_parser("lerobot", help="LeRobot v3.0 (meta/, data/, videos/)",
                         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -42,17 +49,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.format == "rerun":
-        from samplehd.dataset.export_rerun import episode_location, export_rerun
-
+        require_extra("rerun", "rerun", "samplehd export rerun")
+        require_extra("trimesh", "rerun", "samplehd export rerun")
         root, index = episode_location(args.episode, args.index)
         res = export_rerun(root, index, args.out)
         print(f"exported episode {index} of {root} ({res}) to {args.out}; open it with: rerun {args.out}")
         return 0
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-    from samplehd.dataset.backend import Backend
-    from samplehd.errors import ConfigError
-
+    if args.format == "lerobot":
+        require_extra("pyarrow", "lerobot", "samplehd export lerobot")
+        if args.frames_per_file < 1:
+            raise ConfigError("--frames-per-file must be ≥ 1")
     with Progress(TextColumn(f"export {args.format}"), BarColumn(), MofNCompleteColumn(),
                   TimeRemainingColumn()) as bar:
         task = bar.add_task("episodes", total=None)
@@ -61,23 +67,13 @@ def run(args: argparse.Namespace) -> int:
             bar.update(task, completed=done, total=total)
 
         if args.format == "lerobot":
-            from samplehd.dataset.export_lerobot import export_lerobot
-
-            if args.frames_per_file < 1:
-                raise ConfigError("--frames-per-file must be ≥ 1")
             res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file,
-                                 _names(args.cameras), progress=tick, modalities=_names(args.modalities))
+                                 list(split_names(args.cameras)) or None, progress=tick,
+                                 modalities=list(split_names(args.modalities)) or None)
         else:
-            from samplehd.dataset.export_samplehd import export_samplehd
-
             res = export_samplehd(args.dir, args.out, images=not args.no_images, previews=args.previews,
                                   camera=args.camera, backend=Backend("local", args.workers), progress=tick)
             for reason, n in res["left_out"].items():
                 print(f"left out {n} instruction(s): {reason}")
     print(f"exported {res} to {args.out}")
     return 0
-
-
-def _names(items: list[str] | None) -> list[str] | None:
-    """Names from the command line (space or comma separated); None when not given."""
-    return None if items is None else [n for item in items for n in item.split(",") if n]

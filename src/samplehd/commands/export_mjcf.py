@@ -6,6 +6,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.dataset.export_mjcf import scene_mjcf_from_dataset, scene_mjcf_from_file
+from samplehd.errors import ConfigError
+from samplehd.scene.mjcf import export_mjcf
+from samplehd.scene.world import build_world
+
 HELP = "export the world, a scene or a dataset episode's scene as an MJCF file MuJoCo's viewer opens"
 
 
@@ -17,24 +22,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.errors import ConfigError
-
     if (args.dataset is None) != (args.episode is None):
         raise ConfigError("--dataset and --episode go together: --dataset DIR --episode I")
     if args.scene is not None and args.dataset is not None:
         raise ConfigError("--scene FILE and --dataset DIR --episode I exclude each other; give one")
     if args.dataset is not None:
-        from samplehd.dataset.export_mjcf import scene_mjcf_from_dataset
-
         path = scene_mjcf_from_dataset(args.dataset, args.episode, args.out)
     elif args.scene is not None:
-        from samplehd.dataset.export_mjcf import scene_mjcf_from_file
-
         path = scene_mjcf_from_file(args.scene, args.out)
     else:
-        from samplehd.scene.mjcf import export_mjcf
-        from samplehd.scene.world import build_world
-
         path = export_mjcf(build_world(), args.out)
     print(f"wrote {path}; open it with: python -m mujoco.viewer --mjcf {path}")
     return 0

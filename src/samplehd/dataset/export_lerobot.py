@@ -43,8 +43,11 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.dataset.container import camera_settings
 from samplehd.dataset.staging import export_source, staged_directory
 from samplehd.errors import DatasetError
+from samplehd.render.renderer import MODALITIES
+from samplehd.render.video import VideoWriter, pick_codec
 
 __all__ = ["CODEBASE_VERSION", "export_lerobot"]
 
@@ -54,7 +57,6 @@ DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
 EPISODES_PATH = "meta/episodes/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 DATA_FILE_MB = 100  # a data file with image columns is closed once it holds this much image data
-_MODALITIES = ("rgb", "depth", "segmentation")
 _QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
 
 _VECTOR_FEATURES: dict[str, tuple[int, list[str]]] = {
@@ -91,7 +93,6 @@ def _hf_features(array_shapes: dict[str, tuple[int, int]]) -> dict[str, Any]:
 
 class _Stats:
     """Running min/max/sum/sumsq and a kept sample for quantiles, per feature."""
-
     def __init__(self) -> None:
         self.parts: dict[str, list[np.ndarray]] = {}
 
@@ -190,8 +191,6 @@ def _write_tasks(path: Path, tasks: list[str]) -> None:
 def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str] | None,
              modalities: list[str] | None) -> tuple[dict[str, dict[str, Any]], list[tuple[str, str]]]:
     """The per-camera settings and the (camera, modality) streams to export; one-line errors."""
-    from samplehd.dataset.container import camera_settings
-
     settings = camera_settings(render)
     cams = list(dict.fromkeys(cameras)) if cameras is not None else list(settings)
     missing = [c for c in cams if c not in settings]
@@ -199,9 +198,9 @@ def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str]
         raise DatasetError(f"--cameras {missing}: not stored in {root}; stored cameras: "
                            f"{', '.join(settings) or 'none (rerender adds images)'}")
     mods = list(dict.fromkeys(modalities)) if modalities is not None else ["rgb"]
-    bad = [m for m in mods if m not in _MODALITIES]
+    bad = [m for m in mods if m not in MODALITIES]
     if bad:
-        raise DatasetError(f"--modalities {bad}: valid: {', '.join(_MODALITIES)}")
+        raise DatasetError(f"--modalities {bad}: valid: {', '.join(MODALITIES)}")
     streams = [(c, m) for c in cams for m in settings[c]["modalities"] if m in mods]
     if modalities is not None:
         absent = [m for m in mods if all(mod != m for _, mod in streams)]
@@ -248,7 +247,6 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     """
     import pyarrow.parquet as pq
 
-    from samplehd.dataset.video import VideoWriter, pick_codec
 
     reader, out = export_source(root, out)
     settings, streams = _streams(root, reader.info.get("render"), cameras, modalities)

@@ -26,24 +26,24 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.dataset.reader import DatasetReader
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.motion.execute import initial_state
+from samplehd.robot.constants import GRIPPER_ACTUATOR, GRIPPER_STROKE
+from samplehd.robot.controller import ControlConfig
+from samplehd.scene.mjcf import export_mjcf
+from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.scene.world import PlacedObject, build_world
 
 __all__ = ["scene_mjcf_from_dataset", "scene_mjcf_from_file", "write_scene_mjcf"]
 
 
 def _spec_with_objects(scene: Any) -> mujoco.MjSpec:
-    from samplehd.scene.world import PlacedObject, build_world
-
     placed = [PlacedObject(o.instance, tuple(o.pos), tuple(o.quat)) for o in scene.objects]
     return build_world(placed, scene.world_config())
 
 
 def _home_state(scene: Any) -> dict[str, np.ndarray]:
-    from samplehd.motion.execute import initial_state
-    from samplehd.robot.constants import GRIPPER_STROKE
-    from samplehd.robot.controller import ControlConfig
-    from samplehd.scene.spec import compile_scene
-
     model, data = compile_scene(scene)
     initial_state(model, data, ControlConfig())
     return {"qpos": data.qpos.copy(), "act": data.act.copy(), "gripper": GRIPPER_STROKE}
@@ -61,16 +61,12 @@ def write_scene_mjcf(scene: Any, out: str | Path, keyframes: dict[str, dict[str,
     Raises:
         ConfigError: ``out`` does not end in .xml or a keyframe does not fit the model.
     """
-    from samplehd.scene.mjcf import export_mjcf
-
     out = Path(out)
     if out.suffix.lower() != ".xml":
         raise ConfigError(f"--out {out}: the MJCF file must end in .xml")
     spec = _spec_with_objects(scene)
     model = spec.copy().compile()
     keyframes = keyframes or {"home": _home_state(scene)}
-    from samplehd.robot.constants import GRIPPER_ACTUATOR
-
     for name, state in keyframes.items():
         for field, n in (("qpos", model.nq), ("act", model.na)):
             if len(state[field]) != n:
@@ -85,8 +81,6 @@ def write_scene_mjcf(scene: Any, out: str | Path, keyframes: dict[str, dict[str,
 def scene_mjcf_from_file(path: str | Path, out: str | Path) -> Path:
     """Export the scene of a scene file: ``scenes/SHD_*.json`` of a dataset, an entry of ``scenes.json``
     or a bare SceneSpec dict (the ``spec`` field)."""
-    from samplehd.scene.spec import SceneSpec
-
     path = Path(path)
     try:
         doc = json.loads(path.read_text())
@@ -111,10 +105,6 @@ def scene_mjcf_from_file(path: str | Path, out: str | Path) -> Path:
 def scene_mjcf_from_dataset(root: str | Path, episode: int, out: str | Path) -> Path:
     """Export the scene of dataset episode ``episode`` with keyframes ``home`` (its first recorded
     state) and ``final`` (its last)."""
-    from samplehd.dataset.reader import DatasetReader
-    from samplehd.robot.constants import GRIPPER_STROKE
-    from samplehd.scene.spec import SceneSpec
-
     reader = DatasetReader(root)
     if not 0 <= episode < len(reader):
         raise DatasetError(f"--episode {episode}: {root} has episodes 0..{len(reader) - 1}")

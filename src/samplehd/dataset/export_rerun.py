@@ -23,7 +23,10 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.dataset.reader import DatasetReader
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.render.renderer import camera_intrinsics
+from samplehd.scene.spec import SceneSpec, compile_scene
 
 __all__ = ["episode_location", "export_rerun"]
 
@@ -81,8 +84,6 @@ def _quat_xyzw(wxyz: np.ndarray) -> list[float]:
 def episode_location(path: str | Path, episode: int | None) -> tuple[Path, int]:
     """(dataset root, episode index) of an episode given as its file (``DIR/episodes/<stem>.h5``) or as
     a dataset folder and an index."""
-    from samplehd.dataset.reader import DatasetReader
-
     path = Path(path)
     if path.is_dir():
         return path, 0 if episode is None else episode
@@ -111,9 +112,6 @@ def export_rerun(root: str | Path, episode: int, out: str | Path) -> dict[str, A
         ConfigError: ``out`` does not end in .rrd. DatasetError: no such episode.
     """
     import rerun as rr
-
-    from samplehd.dataset.reader import DatasetReader
-    from samplehd.scene.spec import SceneSpec, compile_scene
 
     out = Path(out)
     if out.suffix.lower() != ".rrd":
@@ -172,8 +170,6 @@ def export_rerun(root: str | Path, episode: int, out: str | Path) -> dict[str, A
 
     # Cameras: pinhole models; segmentation labels.
     images = ep.images
-    from samplehd.render.renderer import camera_intrinsics
-
     cam_ids = {c: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, c) for c in images}
     labels = [(0, "background", (0, 0, 0)), (1, "table", (150, 110, 70)), (2, "robot", (200, 200, 210))]
     labels += [(3 + i, f"{i}: {o['name']}", None) for i, o in enumerate(scene_doc["objects"])]

@@ -38,8 +38,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
-from samplehd.dataset.backend import Backend
+from samplehd.dataset.container import read_episode
 from samplehd.dataset.staging import export_source, staged_directory
 from samplehd.dataset.unity_frame import (
     joints_to_unity,
@@ -49,6 +50,11 @@ from samplehd.dataset.unity_frame import (
     xyz,
     xyzw,
 )
+from samplehd.errors import DatasetError
+from samplehd.render.image_io import read_segmentation, save_depth
+from samplehd.render.video import VideoWriter
+from samplehd.workers import Backend
+from samplehd.world.layout import LAYOUT
 
 __all__ = [
     "MARKERS",
@@ -213,11 +219,6 @@ def _frame_records(ep: Any, base: np.ndarray) -> tuple[list[dict[str, Any]], lis
 
 
 def _export_sequence(unit: _SequenceUnit) -> int:
-    from PIL import Image
-
-    from samplehd.dataset.container import read_episode
-    from samplehd.render.image_io import save_depth
-
     want_images = unit.images or unit.previews
     ep = read_episode(Path(unit.episode_path), images="lazy" if want_images else "none")
     base = np.asarray(unit.base)
@@ -242,8 +243,6 @@ def _export_sequence(unit: _SequenceUnit) -> int:
             if "depth" in mods:
                 save_depth(folder / "depth" / f"{name}.png", mods["depth"][t])
     if unit.previews and "rgb" in mods:
-        from samplehd.dataset.video import VideoWriter
-
         rgb = mods["rgb"][:]
         h, w = rgb.shape[1] // 2 * 2, rgb.shape[2] // 2 * 2
         with VideoWriter(folder / "preview.mp4", w, h, unit.fps, "libx264", crf=23, gop=unit.fps) as vw:
@@ -252,10 +251,6 @@ def _export_sequence(unit: _SequenceUnit) -> int:
 
 
 def _export_scene_images(root: Path, tmp: Path, scene: dict[str, Any]) -> None:
-    from PIL import Image
-
-    from samplehd.render.image_io import read_segmentation
-
     stem, new = Path(scene["image_filename"]).stem, scene_stem(int(scene["image_index"]))
     for sub, suffix in (("images", ".png"), ("depth", ".png"), ("depth", ".npy")):
         src = root / sub / f"{stem}{suffix}"
@@ -291,9 +286,6 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
     Raises:
         DatasetError: unfinished dataset, non-empty ``out`` or a camera that no episode stores.
     """
-    from samplehd.errors import DatasetError
-    from samplehd.world.layout import LAYOUT
-
     reader, out = export_source(root, out)
     root = Path(root)
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))

@@ -16,6 +16,7 @@ from typing import Any
 
 from samplehd.errors import SceneError
 from samplehd.scene.config import SceneConfig
+from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneSpec
 
 __all__ = ["SceneWorker", "sample_in_child"]
@@ -62,9 +63,6 @@ def sample_in_child(index: int, seed: int, config: SceneConfig) -> SceneSpec:
 
 
 def _serve() -> None:
-    import samplehd  # noqa: F401  (chooses the GL backend before mujoco loads)
-    from samplehd.scene.sampler import sample_scene
-
     for line in sys.stdin:
         req = json.loads(line)
         try:
