@@ -76,6 +76,7 @@ for policy in $policies; do
     --wandb.enable=false --output_dir="$work/$policy" > "$work/$policy.log" 2>&1 \
     || { tail -n 40 "$work/$policy.log" >&2; echo "check_lerobot: $policy training FAILED" >&2; exit 1; }
   done_steps=$(grep -c "step:" "$work/$policy.log" || true)
-  last=$(grep "step:" "$work/$policy.log" | tail -n 1 | sed 's/.*\(step:[^ ]*\).*\(loss:[^ ]*\).*/\1 \2/')
-  echo "check_lerobot: OK: lerobot-train --policy.type=$policy ran $steps steps on $export_dir ($done_steps log lines; last: $last)"
+  first=$(grep "step:" "$work/$policy.log" | head -n 1 | grep -o ' loss:[0-9.e+-]*' | head -n 1)
+  last=$(grep "step:" "$work/$policy.log" | tail -n 1 | grep -o ' loss:[0-9.e+-]*' | head -n 1)
+  echo "check_lerobot: OK: lerobot-train --policy.type=$policy ran $steps steps on $export_dir ($done_steps logged; first step$first, last step$last)"
 done
