@@ -21,8 +21,10 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e ".[photo]"
 	touch $@
 
+# torch 2.13.0 (CPU) before the sb3 extra: asked for by stable-baselines3 alone, pip takes a CUDA build of several GB.
 $(DEV_STAMP): pyproject.toml $(STAMP)
-	$(BIN)/python -m pip install --quiet -e ".[dev,ray,photo]"
+	$(BIN)/python -m pip install --quiet "torch==2.13.0"
+	$(BIN)/python -m pip install --quiet -e ".[dev,mesh,lerobot,ray,sb3,rerun,photo]"
 	touch $@
 
 gl:
@@ -48,8 +50,12 @@ test-all: gl browser photo $(DEV_STAMP)
 bench: gl photo $(STAMP)
 	$(BIN)/samplehd bench --out outputs/bench
 
+# ruff, then the floors: import-linter's contracts in pyproject.toml (make test checks them too,
+# tests/test_layers.py) and the cycle/local-import counts of scripts/import_graph.py.
 lint: $(DEV_STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests scripts
+	$(BIN)/lint-imports --no-cache
+	$(BIN)/python scripts/import_graph.py
 
 clean:
 	rm -rf $(VENV) outputs build src/*.egg-info

@@ -16,7 +16,7 @@ W, H = 32, 18
 
 @pytest.fixture(scope="module")
 def keyframed(tmp_path_factory: pytest.TempPathFactory, micro_dataset: Path) -> tuple[Path, dict]:
-    from samplehd.dataset.backend import Backend
+    from samplehd.workers import Backend
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
 
@@ -65,7 +65,7 @@ def test_keyframes_are_rendered_and_recorded(keyframed: tuple[Path, dict]) -> No
 
 
 def test_rerender_resumes_where_it_stopped(keyframed: tuple[Path, dict], micro_dataset: Path) -> None:
-    from samplehd.dataset.backend import Backend
+    from samplehd.workers import Backend
     from samplehd.dataset.reader import DatasetReader
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
@@ -101,7 +101,7 @@ def test_bad_keyframe_options_are_one_line_errors_and_change_nothing(keyframed: 
 @pytest.mark.slow
 def test_keyframe_rerender_on_ray(tmp_path: Path, micro_dataset: Path) -> None:
     pytest.importorskip("ray")
-    from samplehd.dataset.backend import Backend
+    from samplehd.workers import Backend
     from samplehd.dataset.container import read_meta
     from samplehd.dataset.reader import DatasetReader
     from samplehd.dataset.render import RenderConfig

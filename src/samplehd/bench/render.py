@@ -6,17 +6,18 @@ from __future__ import annotations
 import mujoco
 
 from samplehd.bench import Figure, median_rate
+from samplehd.errors import RenderError
+from samplehd.render.photo.runtime import photo_backend
+from samplehd.render.renderer import MODALITIES, SceneRenderer
+from samplehd.scene.world import compile_world
 
 RESOLUTIONS = ((320, 180), (640, 360), (1280, 720))
-MODALITY_SETS = (("rgb",), ("depth",), ("segmentation",), ("rgb", "depth", "segmentation"))
+MODALITY_SETS = (*((m,) for m in MODALITIES), MODALITIES)
 PHOTO_RESOLUTIONS = ((320, 180), (640, 360))
 
 
 def run(repeats: int = 3) -> list[Figure]:
     """Frames/s of the kitchen world with the robot, from the operator camera."""
-    from samplehd.render.renderer import SceneRenderer
-    from samplehd.scene.world import compile_world
-
     model, data = compile_world()
     figures = []
     for preset in ("fast", "hd"):
@@ -33,10 +34,6 @@ def run(repeats: int = 3) -> list[Figure]:
 
 def _photo(model: mujoco.MjModel, data: mujoco.MjData, repeats: int) -> list[Figure]:
     """Photo frames/s; skipped (with a note) where Mitsuba or LLVM is missing."""
-    from samplehd.errors import RenderError
-    from samplehd.render.photo.runtime import photo_backend
-    from samplehd.render.renderer import SceneRenderer
-
     figures = []
     for w, h in PHOTO_RESOLUTIONS:
         try:
@@ -46,7 +43,7 @@ def _photo(model: mujoco.MjModel, data: mujoco.MjData, repeats: int) -> list[Fig
         with r:
             r.render(data, "operator", ("rgb",))  # warm-up: builds the scene and compiles the kernels
             note = f"{photo_backend()}, 1 spp + denoising"
-            for mods in (("rgb",), ("rgb", "depth", "segmentation")):
+            for mods in (("rgb",), MODALITIES):
                 fps = median_rate(lambda r=r, mods=mods: r.render(data, "operator", mods), 3, repeats)
                 figures.append(Figure("render", f"{'+'.join(mods)} fps {w}x{h} photo", fps, "1/s", note=note))
     return figures

@@ -1,24 +1,27 @@
-"""Render an episode's images from its stored physics states, without re-simulating.
-
-For every frame the stored ``qpos``, ``qvel`` and ``act`` are written into the compiled scene's
-``MjData`` and ``mj_forward`` computes the poses the renderer draws. The same function renders images
-during ``samplehd generate`` and ``samplehd rerender``, so both give identical pixels.
+"""Which images a dataset's episodes get (:class:`RenderConfig`), rendered from the episodes' stored
+physics states with :func:`samplehd.render.states.render_states` during ``samplehd generate``,
+``samplehd rerender`` and ``samplehd paths``, so all give identical pixels.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from samplehd.errors import ConfigError
+from samplehd.render.keyframes import SparseFrames, keyframe_indices
+from samplehd.render.photo import LOOKS, photo_options
+from samplehd.render.renderer import MODALITIES, camera_names, get_preset
+from samplehd.render.states import render_states
+from samplehd.scene.world import compile_world
 
-__all__ = ["RENDER_MODES", "RenderConfig", "check_cameras", "render_states"]
+__all__ = ["RENDER_MODES", "RenderConfig", "check_cameras"]
 
 RENDER_MODES = ("none", "fast", "hd", "photo")
-_MODALITIES = ("rgb", "depth", "segmentation")
 
 
 @dataclass(frozen=True)
@@ -40,7 +43,7 @@ class RenderConfig:
     width: int = 320
     height: int = 180
     cameras: tuple[str, ...] = ("scene",)
-    modalities: tuple[str, ...] = _MODALITIES
+    modalities: tuple[str, ...] = MODALITIES
     every: int = 1
     subtask_ends: bool = False
     look: str = "fixed"
@@ -54,26 +57,44 @@ class RenderConfig:
                 raise ConfigError(f"render.{name}={v!r}: must be an integer in 8..8192 px")
         if not self.cameras or not all(isinstance(c, str) and c for c in self.cameras):
             raise ConfigError(f"render.cameras={list(self.cameras)!r}: must be a non-empty list of camera names")
-        bad = [m for m in self.modalities if m not in _MODALITIES]
+        bad = [m for m in self.modalities if m not in MODALITIES]
         if bad or not self.modalities:
-            raise ConfigError(f"render.modalities={list(self.modalities)!r}: valid: {', '.join(_MODALITIES)}")
+            raise ConfigError(f"render.modalities={list(self.modalities)!r}: valid: {', '.join(MODALITIES)}")
         if not isinstance(self.subtask_ends, bool):
             raise ConfigError(f"render.subtask_ends={self.subtask_ends!r}: must be true or false")
-        from samplehd.render.keyframes import keyframe_indices
-
         keyframe_indices(0, self.every, None, self.subtask_ends)  # validates every
-        if self.look not in ("fixed", "random"):
-            raise ConfigError(f"render.look={self.look!r}: valid: fixed, random")
+        if self.look not in LOOKS:
+            raise ConfigError(f"render.look={self.look!r}: valid: {', '.join(LOOKS)}")
 
     def keyframes(self, num_frames: int, subtask_index: np.ndarray | None) -> np.ndarray:
         """Frames of an episode that get images."""
-        from samplehd.render.keyframes import keyframe_indices
-
         return keyframe_indices(num_frames, self.every, subtask_index, self.subtask_ends)
 
     @property
     def enabled(self) -> bool:
         return self.mode != "none"
+
+    def images(self, model: mujoco.MjModel, frames: Mapping[str, np.ndarray],
+               seed: int = 0) -> dict[str, dict[str, Any]]:
+        """Render an episode's frames from its stored states: ``images[camera][modality]`` (first axis
+        T), or ``{}`` for mode ``none``. With keyframes (``every``, ``subtask_ends``) each stream is a
+        :class:`~samplehd.dataset.container.SparseFrames`. ``seed``: the scene's seed (the photo
+        preset's randomised look is drawn from it).
+
+        Raises:
+            DatasetError: the states do not fit the model.
+            RenderError: unknown camera or no GL context.
+        """
+        if not self.enabled:
+            return {}
+        t = len(frames["qpos"])
+        picks = self.keyframes(t, frames.get("subtask_index"))
+        photo = photo_options(self.look, seed, where="render.look") if get_preset(self.mode).path_traced else None
+        images = render_states(model, frames, self.cameras, self.modalities, self.width, self.height, self.mode,
+                               indices=picks.tolist(), photo=photo)
+        if len(picks) == t:
+            return images
+        return {c: {m: SparseFrames(picks, v, t) for m, v in mods.items()} for c, mods in images.items()}
 
     def to_dict(self) -> dict[str, Any]:
         d = {"mode": self.mode, "width": self.width, "height": self.height, "cameras": list(self.cameras),
@@ -100,63 +121,6 @@ class RenderConfig:
         return cls(**kw)
 
 
-def render_states(model: Any, frames: Mapping[str, np.ndarray], config: RenderConfig,
-                  data: Any = None, seed: int = 0) -> dict[str, Any]:
-    """Render every frame (or the keyframes) of an episode from its stored states.
-
-    Args:
-        model: the compiled scene (``compile_scene(spec)``).
-        frames: the episode's frame arrays (``qpos``, ``qvel``, ``act`` are used; ``subtask_index``
-            for subtask-end keyframes).
-        config: cameras, modalities, resolution and preset (mode must not be ``none``).
-        data: an ``MjData`` to reuse (default: a new one).
-        seed: the scene's seed (the photo preset's randomised look is drawn from it).
-
-    Returns:
-        ``images[camera][modality]`` with first axis T: rgb uint8 (T,H,W,3), depth float32 (T,H,W) [m],
-        segmentation int32 (T,H,W); with keyframes, a :class:`~samplehd.dataset.container.SparseFrames`.
-
-    Raises:
-        RenderError: unknown camera or no GL context.
-    """
-    import mujoco
-
-    from samplehd.render.renderer import SceneRenderer
-
-    if not config.enabled:
-        return {}
-    from samplehd.dataset.container import SparseFrames
-    from samplehd.render.renderer import get_preset
-
-    data = data if data is not None else mujoco.MjData(model)
-    qpos, qvel, act = frames["qpos"], frames["qvel"], frames["act"]
-    t = len(qpos)
-    picks = config.keyframes(t, frames.get("subtask_index"))
-    photo = None
-    if get_preset(config.mode).path_traced:
-        from samplehd.render.photo import photo_options
-
-        photo = photo_options(config.look, seed, where="render.look")
-    out: dict[str, dict[str, Any]] = {}
-    with SceneRenderer(model, config.width, config.height, config.mode, photo=photo) as r:
-        for cam in config.cameras:
-            stacks: dict[str, list[np.ndarray]] = {m: [] for m in config.modalities}
-            for k in picks:
-                data.qpos[:] = qpos[k]
-                data.qvel[:] = qvel[k]
-                if model.na:
-                    data.act[:] = act[k]
-                mujoco.mj_forward(model, data)
-                img = r.render(data, cam, config.modalities)
-                for m in config.modalities:
-                    stacks[m].append(img[m])
-            out[cam] = {m: (np.stack(v) if v else np.zeros((0, config.height, config.width), np.float32))
-                        for m, v in stacks.items()}
-            if len(picks) < t:
-                out[cam] = {m: SparseFrames(picks, v, t) for m, v in out[cam].items()}
-    return out
-
-
 def check_cameras(config: RenderConfig) -> None:
     """Fail early (before any simulation) on a camera name no scene world has.
 
@@ -165,17 +129,8 @@ def check_cameras(config: RenderConfig) -> None:
     """
     if not config.enabled:
         return
-    from samplehd.render.renderer import camera_names
-    from samplehd.scene.world import compile_world
 
     valid = sorted({*camera_names(compile_world()[0]), "scene"})
     bad = [c for c in config.cameras if c not in valid]
     if bad:
         raise ConfigError(f"render.cameras: unknown camera(s) {bad}; valid: {', '.join(valid)}")
-
-
-def camera_list(text: Sequence[str] | None, default: tuple[str, ...]) -> tuple[str, ...]:
-    """Camera names from the command line (space or comma separated)."""
-    if not text:
-        return default
-    return tuple(c for item in text for c in item.split(",") if c)

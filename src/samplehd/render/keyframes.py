@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, DatasetError
 
-__all__ = ["keyframe_indices"]
+__all__ = ["SparseFrames", "keyframe_indices"]
 
 
 def keyframe_indices(num_frames: int, every: int = 1, subtask_index: np.ndarray | None = None,
@@ -36,3 +36,20 @@ def keyframe_indices(num_frames: int, every: int = 1, subtask_index: np.ndarray 
         change = np.flatnonzero(np.diff(idx) != 0)
         picks.update([0, num_frames - 1, *change.tolist(), *(change + 1).tolist()])
     return np.array(sorted(picks), dtype=np.int64)
+
+
+class SparseFrames:
+    """Images of an episode at some of its frames (keyframes): ``images[k]`` is frame ``frames[k]``.
+
+    Stands for a length-T image stream; ``samplehd.dataset.container.write_episode`` stores only the K images.
+    """
+
+    def __init__(self, frames: np.ndarray, images: np.ndarray, num_frames: int) -> None:
+        self.frames = np.asarray(frames, dtype=np.int64)
+        self.images = np.asarray(images)
+        self.num_frames = int(num_frames)
+        if len(self.frames) != len(self.images):
+            raise DatasetError(f"{len(self.images)} keyframe images for {len(self.frames)} frame indices")
+
+    def __len__(self) -> int:
+        return self.num_frames

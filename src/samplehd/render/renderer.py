@@ -30,6 +30,8 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import RenderError
+from samplehd.render.photo.renderer import PhotoOptions, PhotoTracer
+from samplehd.render.photo.runtime import load_mitsuba
 
 __all__ = [
     "MODALITIES",
@@ -218,7 +220,7 @@ class SceneRenderer:
         height: int,
         preset: str | RenderPreset = "fast",
         buffer_size: tuple[int, int] | None = None,
-        photo: Any = None,
+        photo: PhotoOptions | None = None,
     ) -> None:
         """Make the GL resources of ``model`` for renders of ``width``×``height`` px; ``buffer_size``
         allocates a larger offscreen buffer, so that :meth:`resize` can render larger images later.
@@ -226,15 +228,12 @@ class SceneRenderer:
         _check_size(width, height)
         self.model = model
         self.preset = get_preset(preset)
-        self._tracer: Any = None
+        self._lut = segmentation_lut(model)
+        self._tracer: PhotoTracer | None = None
         self._photo_arg = photo
         if self.preset.path_traced:
-            from samplehd.render.photo.renderer import PhotoTracer
-            from samplehd.render.photo.runtime import load_mitsuba
-
             load_mitsuba()  # fails here, in one line, when Mitsuba or LLVM is missing
-            self._tracer = PhotoTracer(model, photo)
-        self._lut = segmentation_lut(model)
+            self._tracer = PhotoTracer(model, photo, self._lut, SEG_BACKGROUND)
         self._gl: Any = None
         self._ctx = None
         bw, bh = buffer_size or (width, height)
@@ -267,7 +266,7 @@ class SceneRenderer:
         self._zfar = np.float32(model.vis.map.zfar * extent)
 
     @property
-    def photo_options(self) -> Any:
+    def photo_options(self) -> PhotoOptions | None:
         """The path tracer's options (``PhotoOptions``), or None for a GL preset."""
         return None if self._tracer is None else self._tracer.options
 
@@ -409,7 +408,7 @@ class RendererCache:
         self._renderer: SceneRenderer | None = None
 
     def get(self, model: mujoco.MjModel, width: int, height: int, preset: str | RenderPreset = "fast",
-            photo: Any = None) -> SceneRenderer:
+            photo: PhotoOptions | None = None) -> SceneRenderer:
         """A renderer of ``model`` at this size and preset: the kept one where it fits, else a new one."""
         r = self._renderer
         want = get_preset(preset)
@@ -437,8 +436,6 @@ class RendererCache:
 
 
 def _gl_backend() -> str:
-    import os
-
     return os.environ.get("MUJOCO_GL", "")
 
 

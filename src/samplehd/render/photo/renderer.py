@@ -17,6 +17,7 @@ import numpy as np
 
 from samplehd.errors import RenderError
 from samplehd.render.photo.look import LookParams, default_look, random_look
+from samplehd.render.photo.runtime import photo_backend
 from samplehd.render.photo.scene import PhotoScene
 
 __all__ = ["DEFAULT_SPP", "LOOKS", "PhotoOptions", "PhotoTracer", "denoise", "photo_info", "photo_options", "tonemap"]
@@ -69,16 +70,19 @@ class PhotoOptions:
 class PhotoTracer:
     """Path-traced RGB frames of one model: builds the Mitsuba scene on the first frame, then poses it."""
 
-    def __init__(self, model: mujoco.MjModel, options: PhotoOptions | None = None) -> None:
+    def __init__(self, model: mujoco.MjModel, options: PhotoOptions | None = None,
+                 segmentation: np.ndarray | None = None, background: int = 0) -> None:
+        """``segmentation``/``background``: per-geom ids for the geometry pass (see :class:`PhotoScene`)."""
         self.model = model
         self.options = options or PhotoOptions()
+        self._segmentation = (segmentation, background)
         self._scene: PhotoScene | None = None
         self.frames = 0
 
     def radiance(self, data: mujoco.MjData, camera_id: int, width: int, height: int) -> np.ndarray:
         """(H, W, 9) float32 linear RGB, albedo and normal of one path-traced frame (before denoising)."""
         if self._scene is None or self._scene.size != (width, height):
-            self._scene = PhotoScene(self.model, data, width, height, self.options.look)
+            self._scene = PhotoScene(self.model, data, width, height, self.options.look, *self._segmentation)
         self._scene.pose(data, camera_id, width, height)
         return self._scene.render(self.options.spp, self.options.seed)
 
@@ -107,7 +111,5 @@ def photo_options(look: str = "fixed", seed: int = 0, spp: int = DEFAULT_SPP,
 
 def photo_info(options: PhotoOptions) -> dict[str, Any]:
     """What to record about photo renders in an annotation."""
-    from samplehd.render.photo.runtime import photo_backend
-
     return {"renderer": "mitsuba3", "variant": photo_backend(), "spp": options.spp, "denoised": options.denoise,
             "seed": options.seed, "look": options.look.to_dict()}

@@ -16,7 +16,6 @@ import numpy as np
 from samplehd.render.photo.geometry import Part, model_parts, model_texture
 from samplehd.render.photo.look import LookParams, bsdf_for, lights
 from samplehd.render.photo.runtime import load_mitsuba
-from samplehd.render.renderer import SEG_BACKGROUND, segmentation_lut
 
 __all__ = ["PhotoScene"]
 
@@ -32,7 +31,10 @@ class PhotoScene:
         shape_seg: segmentation id of each scene shape, in ``scene.shapes()`` order.
     """
 
-    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, width: int, height: int, look: LookParams) -> None:
+    def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, width: int, height: int, look: LookParams,
+                 segmentation: np.ndarray | None = None, background: int = 0) -> None:
+        """``segmentation``: each geom's segmentation id (as the GL renderer has them; default: all
+        ``background``), to name what the geometry pass hits."""
         mi = load_mitsuba()
         self.mi = mi
         self.model = model
@@ -40,9 +42,10 @@ class PhotoScene:
         self.parts: list[Part] = model_parts(model)
         scene: dict[str, Any] = {"type": "scene"}
         self._dynamic: list[tuple[str, Part]] = []
-        body_seg = np.full(model.nbody, SEG_BACKGROUND, dtype=np.int64)
-        lut = segmentation_lut(model)
+        body_seg = np.full(model.nbody, background, dtype=np.int64)
+        lut = np.full(model.ngeom, background) if segmentation is None else np.asarray(segmentation)
         body_seg[model.geom_bodyid] = lut
+        self.background = background
         self._shape_seg: dict[str, int] = {}
         for i, part in enumerate(self.parts):
             key = f"part_{i:04d}"
@@ -55,7 +58,7 @@ class PhotoScene:
             # order of the lights decides which one a random number picks (the same seed would give
             # another picture).
             scene[key] = mi.load_dict(shape)
-            self._shape_seg[key] = SEG_BACKGROUND
+            self._shape_seg[key] = background
         scene["integrator"] = {
             "type": "aov",
             "aovs": "albedo:albedo,nn:sh_normal",
@@ -75,7 +78,7 @@ class PhotoScene:
 
         shapes = self.scene.shapes()
         ids = np.asarray(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shapes)), dtype=np.int64)
-        self.shape_seg = np.full(int(ids.max()) + 1, SEG_BACKGROUND, dtype=np.int64)
+        self.shape_seg = np.full(int(ids.max()) + 1, background, dtype=np.int64)
         self.shape_seg[ids] = [self._shape_seg[s.id()] for s in shapes]
         self._fovy: float | None = None
         self.size = (width, height)
@@ -152,7 +155,7 @@ class PhotoScene:
         z = -((img[..., 0:3] - pos) @ xmat[:, 2])  # along the optical axis (the camera's -z)
         hit = np.linalg.norm(img[..., 0:3], axis=-1) > 0
         index = np.rint(img[..., 3]).astype(np.int64)
-        seg = np.where(hit, self.shape_seg[np.clip(index, 0, len(self.shape_seg) - 1)], SEG_BACKGROUND)
+        seg = np.where(hit, self.shape_seg[np.clip(index, 0, len(self.shape_seg) - 1)], self.background)
         return np.where(hit, z, np.inf).astype(np.float32), seg.astype(np.int32)
 
     def render(self, spp: int, seed: int) -> np.ndarray:
