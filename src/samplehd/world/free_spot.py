@@ -33,7 +33,7 @@ from samplehd.world.layout import TableLayout
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.transforms import yaw_rotation_2d
 
-__all__ = ["FreeSpots", "Footprinted", "SpotSearch", "rect_overlap"]
+__all__ = ["FreeSpots", "Footprinted", "SpotSearch", "rect_overlap", "table_and_reach"]
 
 
 class Footprinted(Protocol):
@@ -342,7 +342,8 @@ class FreeSpots:
             half = np.abs(rots) @ self.half[k]  # (t, 2) world-axis half sizes of the turned rectangles
             table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
             base = np.asarray(self.layout.robot_base)
-            # every test below is on x or y alone, or on the frame origin: per turn, row and column
+            # the tests of table_and_reach and the part's bounds, each on x or y alone or on the frame
+            # origin's distance from the base: computed per turn and row, per turn and column
             keep_axis, rel = [], []
             for a, coords in enumerate((grid.u, grid.v)):
                 o = coords[None] - offsets[:, a, None]  # (t, r or c) origin coordinate
@@ -476,6 +477,28 @@ def _best_first(key: np.ndarray, needed: int) -> np.ndarray:
     kth = np.partition(key, needed - 1)[needed - 1]
     sel = np.flatnonzero(key <= kth)
     return sel[np.argsort(key[sel], kind="stable")]
+
+
+def table_and_reach(centre: np.ndarray, half: np.ndarray, origin: np.ndarray,
+                    layout: TableLayout) -> tuple[np.ndarray, np.ndarray]:
+    """The tests of spots that involve no other object, the planner's and the grid's alike.
+
+    Args:
+        centre: (m, 2) footprint centres [m].
+        half: (m, 2) world-axis half sizes of the turned footprints [m].
+        origin: (m, 2) the objects' frame origins there [m].
+        layout: table geometry.
+
+    Returns:
+        Which spots keep the footprint ``SPOT_TABLE_EDGE`` inside the table's edges with the origin in
+        the arm's reach annulus, and each origin's horizontal distance from the robot base [m].
+    """
+    table = np.asarray(layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
+    keep = np.all((centre - half >= -table) & (centre + half <= table), axis=1)
+    base = np.asarray(layout.robot_base)
+    reach = np.hypot(origin[:, 0] - base[0], origin[:, 1] - base[1])
+    keep &= (reach >= layout.reach_min) & (reach <= layout.reach_max)
+    return keep, reach
 
 
 def rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,
