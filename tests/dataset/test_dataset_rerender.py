@@ -78,12 +78,13 @@ def test_exports_read_cameras_of_different_sizes(added_dataset: Path, tmp_path: 
     import av
 
     out = tmp_path / "lr"
-    assert main(["export", "lerobot", str(added_dataset), "--out", str(out), "--codec", "libx264"]) == 0
+    assert main(["export", "lerobot", str(added_dataset), "--out", str(out), "--codec", "libx264",
+                 "--modalities", "rgb", "depth", "segmentation"]) == 0
     feats = json.loads((out / "meta" / "info.json").read_text())["features"]
     assert feats["observation.images.scene"]["shape"] == [36, 64, 3]
     assert feats["observation.images.wrist"]["shape"] == [48, 48, 3]
-    assert feats["observation.images.wrist.depth"]["shape"] == [48, 48, 1]
-    assert "observation.images.wrist.segmentation" not in feats  # not stored for the wrist
+    assert feats["depth.wrist"]["shape"][:2] == [48, 48]  # depth is opt-in, exact, outside observation.*
+    assert "segmentation.wrist" not in feats  # not stored for the wrist
     with av.open(str(out / "videos/observation.images.wrist/chunk-000/file-000.mp4")) as c:
         frame = next(c.decode(video=0))
         assert (frame.width, frame.height) == (48, 48)
