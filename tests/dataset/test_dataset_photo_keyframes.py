@@ -16,9 +16,9 @@ W, H = 32, 18
 
 @pytest.fixture(scope="module")
 def keyframed(tmp_path_factory: pytest.TempPathFactory, micro_dataset: Path) -> tuple[Path, dict]:
-    from samplehd.workers import Backend
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
+    from samplehd.workers import Backend
 
     out = tmp_path_factory.mktemp("photo") / "ds"
     shutil.copytree(micro_dataset, out)
@@ -65,10 +65,10 @@ def test_keyframes_are_rendered_and_recorded(keyframed: tuple[Path, dict]) -> No
 
 
 def test_rerender_resumes_where_it_stopped(keyframed: tuple[Path, dict], micro_dataset: Path) -> None:
-    from samplehd.workers import Backend
     from samplehd.dataset.reader import DatasetReader
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
+    from samplehd.workers import Backend
 
     root, _ = keyframed
     render = RenderConfig("photo", W, H, ("scene",), ("rgb", "segmentation"), every=40, subtask_ends=True)
@@ -101,11 +101,11 @@ def test_bad_keyframe_options_are_one_line_errors_and_change_nothing(keyframed: 
 @pytest.mark.slow
 def test_keyframe_rerender_on_ray(tmp_path: Path, micro_dataset: Path) -> None:
     pytest.importorskip("ray")
-    from samplehd.workers import Backend
     from samplehd.dataset.container import read_meta
     from samplehd.dataset.reader import DatasetReader
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
+    from samplehd.workers import Backend
 
     out = tmp_path / "ds"
     shutil.copytree(micro_dataset, out)
