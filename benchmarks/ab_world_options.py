@@ -25,10 +25,10 @@ from typing import Any
 import mujoco
 
 import samplehd  # noqa: F401  (picks the GL backend; the renderer works whatever the import order)
-from samplehd.dataset.backend import Backend
 from samplehd.dataset.config import GenerateConfig, preset_config
 from samplehd.dataset.generate import generate_dataset
 from samplehd.scene import world
+from samplehd.workers import Backend
 
 _VALID = "sleep, nosleep, pyramidal, euler, iterN"
 

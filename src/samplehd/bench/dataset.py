@@ -40,8 +40,8 @@ def bench_config(mode: str = "none", width: int = 320, height: int = 180, scenes
 
 
 def _generate(config: Any, workers: int, root: Path) -> tuple[float, int, Path]:
-    from samplehd.dataset.backend import Backend
     from samplehd.dataset.generate import generate_dataset
+    from samplehd.workers import Backend
 
     out = Path(tempfile.mkdtemp(dir=root)) / "ds"
     t0 = time.perf_counter()

@@ -16,8 +16,9 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from samplehd.catalogue.builder import add_object
-from samplehd.catalogue.facts import _catalogue, object_facts
+from samplehd.catalogue.facts import object_facts
 from samplehd.catalogue.instance import ObjectInstance
+from samplehd.catalogue.loader import resolve_catalogue
 from samplehd.catalogue.model import Catalogue
 from samplehd.errors import RenderError
 
@@ -59,7 +60,7 @@ def preview_spec(
     Returns:
         The spec, and the lower and upper corners of the objects' joint bounding box [m].
     """
-    cat = _catalogue(catalogue)
+    cat = resolve_catalogue(catalogue, (i.class_name for i in instances))
     spec = mujoco.MjSpec()
     spec.visual.headlight.ambient = [0.3, 0.3, 0.3]
     spec.visual.headlight.diffuse = [0.25, 0.25, 0.25]
@@ -191,7 +192,7 @@ def contact_sheet(
     Returns:
         The sheet as a PIL image; cells of materials a class's menu does not allow are left blank.
     """
-    cat = _catalogue(catalogue)
+    cat = resolve_catalogue(catalogue, classes or ())
     names = list(classes) if classes is not None else list(cat.classes)
     materials = list(cat.materials)
     cw, ch = cell

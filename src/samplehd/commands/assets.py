@@ -18,6 +18,14 @@ import argparse
 import json
 from pathlib import Path
 
+from PIL import Image
+
+from samplehd.catalogue.instance import ObjectInstance
+from samplehd.catalogue.loader import catalogue_for, load_catalogue
+from samplehd.catalogue.preview import render_instances, write_contact_sheet
+from samplehd.catalogue.registry import registered_classes, remove_imported
+from samplehd.errors import AssetError
+
 HELP = "import meshes as object classes, list the catalogue, render previews"
 
 
@@ -77,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
-    from samplehd.catalogue.importer import ImportOptions, import_mesh
+    from samplehd.catalogue.importer import ImportOptions, import_mesh  # the mesh extra (trimesh, coacd)
 
     options = ImportOptions(scale=args.scale, size=args.size, threshold=args.threshold, max_pieces=args.max_pieces)
     cls, report = import_mesh(
@@ -100,9 +108,7 @@ def _import(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    from samplehd.catalogue.loader import load_catalogue
-
-    cat = load_catalogue()
+    cat = load_catalogue(registered_classes())
     rows = []
     for cls in cat.classes.values():
         for v in cls.variants.values():
@@ -129,14 +135,7 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _preview(args: argparse.Namespace) -> int:
-    from PIL import Image
-
-    from samplehd.catalogue.instance import ObjectInstance
-    from samplehd.catalogue.loader import load_catalogue
-    from samplehd.catalogue.preview import render_instances
-    from samplehd.errors import AssetError
-
-    cat = load_catalogue()
+    cat = catalogue_for((args.name,))
     cls = cat.object_class(args.name)
     cat.size(args.size)
     if args.colour is not None:
@@ -166,16 +165,12 @@ def _preview(args: argparse.Namespace) -> int:
 
 
 def _sheet(args: argparse.Namespace) -> int:
-    from samplehd.catalogue.preview import write_contact_sheet
-
     path = write_contact_sheet(args.out)
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
     return 0
 
 
 def _remove(args: argparse.Namespace) -> int:
-    from samplehd.catalogue.importer import remove_imported
-
     remove_imported(args.name)
     print(f"removed {args.name}")
     return 0

@@ -11,7 +11,7 @@ HELP = "export a dataset to the LeRobot v3.0 or the original SAMPLE-HD layout"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.dataset.backend import default_workers
+    from samplehd.workers import default_workers
 
     sub = parser.add_subparsers(dest="format", metavar="FORMAT", required=True)
     lr = sub.add_parser("lerobot", help="LeRobot v3.0 (meta/, data/, videos/)",
@@ -36,8 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from samplehd.dataset.backend import Backend
     from samplehd.errors import ConfigError
+    from samplehd.workers import Backend
 
     with Progress(TextColumn(f"export {args.format}"), BarColumn(), MofNCompleteColumn(),
                   TimeRemainingColumn()) as bar:

@@ -15,9 +15,9 @@ HELP = "generate a dataset (scenes, instructions, paths, images) with resume, lo
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.dataset.backend import BACKENDS, default_workers
     from samplehd.dataset.config import PRESETS
     from samplehd.dataset.render import RENDER_MODES
+    from samplehd.workers import BACKENDS, default_workers
 
     parser.add_argument("--preset", choices=list(PRESETS), default="tiny", help="base configuration")
     parser.add_argument("--out", type=Path, required=True, help="dataset directory")
@@ -63,9 +63,9 @@ def resolve_config(args: argparse.Namespace):  # noqa: ANN201 - GenerateConfig
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.dataset.backend import Backend
     from samplehd.dataset.generate import generate_dataset
     from samplehd.dataset.progress import RichProgress, print_summary
+    from samplehd.workers import Backend
 
     config = resolve_config(args)
     backend = Backend(args.backend, args.workers, args.ray_address)

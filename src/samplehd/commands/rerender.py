@@ -11,7 +11,7 @@ HELP = "add or replace the images of every episode from the stored states (no re
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.dataset.backend import BACKENDS, default_workers
+    from samplehd.workers import BACKENDS, default_workers
 
     parser.add_argument("dir", type=Path, help="dataset directory")
     parser.add_argument("--cameras", nargs="+", default=["scene"], help="cameras (scene, operator, wrist)")
@@ -30,10 +30,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.dataset.backend import Backend
     from samplehd.dataset.progress import RichProgress
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
+    from samplehd.workers import Backend
 
     cams = tuple(c for item in args.cameras for c in item.split(",") if c)
     mods = tuple(m for item in args.modalities for m in item.split(",") if m)

@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.dataset.backend import Backend
 from samplehd.dataset.staging import export_source, staged_directory
+from samplehd.workers import Backend
 
 __all__ = ["export_samplehd", "sequence_name"]
 

@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any
 
 import samplehd
-from samplehd.dataset.backend import Backend
+from samplehd.catalogue.loader import catalogue_for
 from samplehd.dataset.config import GenerateConfig, candidate_order, episode_seed
 from samplehd.dataset.journal import append_journal, read_journal, repair_journal
 from samplehd.dataset.layout import (
@@ -53,6 +53,7 @@ from samplehd.dataset.layout import (
     parse_episode_name,
 )
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.workers import Backend
 
 __all__ = ["GenerateSummary", "Progress", "generate_dataset", "versions"]
 
@@ -148,13 +149,20 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
             raise DatasetError(f"--out {out}: already holds a dataset; pass --resume to continue it or choose "
                                f"another --out")
         try:
-            stored = json.loads(info_path.read_text())["config"]
-        except (OSError, ValueError, KeyError) as exc:
+            stored_info = json.loads(info_path.read_text())
+            stored = stored_info["config"]
+        except (OSError, ValueError, KeyError, TypeError) as exc:
             raise DatasetError(f"{info_path}: unreadable ({exc}); cannot resume") from None
         diff = _first_difference(stored, json.loads(json.dumps(config.to_dict())))
         if diff:
             raise ConfigError(f"--resume: the config differs from {info_path} at {diff}; resume with the same "
                               f"preset/config/flags")
+        if isinstance(stored_info.get("catalogue"), dict):
+            changed = _catalogue_difference(stored_info["catalogue"], catalogue_in_use(config))
+            if changed:
+                raise ConfigError(f"--resume: {info_path} catalogue.sha256 does not match the catalogue now "
+                                  f"({changed} changed since the dataset was started); resume with the "
+                                  "catalogue it was made with, or start a new --out")
     elif out.is_dir() and any(p for p in out.iterdir() if not is_temporary(p.name)):
         raise DatasetError(f"--out {out}: is not empty and holds no dataset; choose an empty or new directory")
     try:
@@ -172,9 +180,25 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
     repair_journal(out)
 
 
+def catalogue_in_use(config: GenerateConfig) -> dict[str, Any]:
+    """The content hashes of the catalogue a dataset's scenes draw from (built-in data files plus
+    every imported class the config names); recorded in info.json and checked on ``--resume``."""
+    return catalogue_for(config.scene.named_classes).record()
+
+
+def _catalogue_difference(stored: dict[str, Any], now: dict[str, Any]) -> str | None:
+    if stored.get("sha256") == now["sha256"]:
+        return None
+    if stored.get("built_in") != now["built_in"]:
+        return "the built-in catalogue data files"
+    old, new = stored.get("imported", {}), now["imported"]
+    changed = sorted(n for n in set(old) | set(new) if old.get(n) != new.get(n))
+    return "imported class(es) " + ", ".join(changed)
+
+
 def _base_info(config: GenerateConfig) -> dict[str, Any]:
     return {"format_version": FORMAT_VERSION, "status": "in_progress", "versions": versions(),
-            "config": config.to_dict()}
+            "config": config.to_dict(), "catalogue": catalogue_in_use(config)}
 
 
 def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: Progress,

@@ -17,11 +17,11 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from samplehd.dataset.backend import Backend
 from samplehd.dataset.generate import Progress
 from samplehd.dataset.layout import INFO_FILE, RUNS_FILE
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError
+from samplehd.workers import Backend
 
 __all__ = ["merge_camera_settings", "rerender_dataset"]
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 import importlib
 import inspect
 import json
-import multiprocessing
 import re
 import time
 from collections.abc import Callable, Sequence
@@ -26,8 +25,10 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.catalogue.loader import catalogue_for
 from samplehd.envs.config import TASK_FAMILIES
 from samplehd.errors import ConfigError, PlanningError
+from samplehd.workers import Backend
 
 __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "evaluate", "load_policy"]
 
@@ -224,15 +225,18 @@ class _Runner:
         return record
 
 
-_WORKER: dict[str, _Runner] = {}
+_WORKER: dict[str, tuple[EvalConfig, _Runner]] = {}
 
 
-def _init_worker(config: EvalConfig) -> None:
-    _WORKER["runner"] = _Runner(config)
-
-
-def _run_in_worker(item: tuple[int, int, str]) -> dict[str, Any]:
-    return _WORKER["runner"].run(item)
+def _run_in_worker(item: tuple[EvalConfig, int, int, str]) -> dict[str, Any]:
+    """One episode in a worker process; the worker keeps its runner (and environment) between units."""
+    config, *episode = item
+    held = _WORKER.get("runner")
+    if held is None or held[0] != config:
+        if held is not None:
+            held[1].close()
+        _WORKER["runner"] = held = (config, _Runner(config))
+    return held[1].run(tuple(episode))  # type: ignore[arg-type]
 
 
 def _summary(records: list[dict[str, Any]]) -> dict[str, Any]:
@@ -255,7 +259,8 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
 
     Report keys: ``policy``, ``split`` (episodes, families, seed), ``env`` (options),
     ``success_rate``, ``by_family`` (per family: episodes, successes, success_rate, ...),
-    ``safety_stops``, ``mean_steps``, ``wall_s`` and ``records`` (one per episode: index, seed,
+    ``safety_stops``, ``mean_steps``, ``catalogue`` (content hashes of the catalogue in use),
+    ``wall_s`` and ``records`` (one per episode: index, seed,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
     check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
     """
@@ -282,10 +287,9 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
         finally:
             runner.close()
     else:
-        ctx = multiprocessing.get_context("spawn")
-        with ctx.Pool(config.workers, initializer=_init_worker, initargs=(replace(config, workers=1),)) as pool:
-            for record in pool.imap_unordered(_run_in_worker, items):
-                done(record)
+        one = replace(config, workers=1)
+        for _, record in Backend(workers=config.workers).map(_run_in_worker, ((one, *item) for item in items)):
+            done(record)
     report = _report(config, records, t0)
     if out is not None:
         _write_report(out, report)
@@ -307,11 +311,14 @@ def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partia
     by_family = {}
     for fam in dict.fromkeys(r["family"] for r in records):
         by_family[fam] = _summary([r for r in records if r["family"] == fam])
+    env = EnvConfig.from_kwargs(**config.env)
     return {
         "policy": config.policy,
         "partial": partial,
         "split": {"episodes": config.episodes, "families": list(config.families), "seed": config.seed},
-        "env": EnvConfig.from_kwargs(**config.env).to_dict(),
+        "env": env.to_dict(),
+        # The split's scenes draw from the built-in catalogue plus imported classes the env options name.
+        "catalogue": catalogue_for(env.scene.named_classes).record(),
         **_summary(records),
         "by_family": by_family,
         "wall_s": round(time.perf_counter() - t0, 2),

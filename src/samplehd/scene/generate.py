@@ -18,16 +18,15 @@ from __future__ import annotations
 import json
 import os
 from collections import Counter
-from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable
 from dataclasses import dataclass
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
 import samplehd
 from samplehd.errors import ConfigError
 from samplehd.scene.config import SceneConfig
+from samplehd.workers import Backend
 
 __all__ = ["SceneJob", "generate_scenes", "render_scene_files", "scene_split", "write_json_atomic"]
 
@@ -91,16 +90,6 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
     return ann, dict(result.rejections)
 
 
-def _run_jobs(jobs: list[SceneJob], workers: int) -> Iterator[tuple[dict[str, Any], dict[str, int]]]:
-    if workers <= 1:
-        for job in jobs:
-            yield render_scene_files(job)
-        return
-    # spawn, not fork: a forked child must not inherit the parent's GL/EGL state.
-    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
-        yield from pool.map(render_scene_files, jobs, chunksize=1)
-
-
 def generate_scenes(
     out: Path,
     num: int,
@@ -119,8 +108,7 @@ def generate_scenes(
 
     if num < 1:
         raise ConfigError(f"--num {num}: must be ≥ 1")
-    if workers < 1:
-        raise ConfigError(f"--workers {workers}: must be ≥ 1")
+    backend = Backend(workers=workers)
     get_preset(preset)
     config = config or SceneConfig()
     try:
@@ -138,7 +126,7 @@ def generate_scenes(
             for i in range(num)]
     scenes: list[dict[str, Any]] = []
     rejections: Counter[str] = Counter()
-    for ann, rej in _run_jobs(jobs, workers):
+    for _, (ann, rej) in backend.map(render_scene_files, jobs):
         scenes.append(ann)
         rejections.update(rej)
         if on_scene:

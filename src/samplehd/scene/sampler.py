@@ -13,7 +13,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from samplehd.catalogue import Catalogue, ObjectInstance, load_catalogue, object_facts
+from samplehd.catalogue import Catalogue, ObjectInstance, catalogue_for, object_facts
 from samplehd.errors import ConfigError, SceneError
 from samplehd.render.renderer import SEG_OBJECT_OFFSET, RendererCache
 from samplehd.scene.config import SceneConfig
@@ -246,7 +246,8 @@ def sample_scene(
         index: scene index (recorded in the spec).
         seed: the scene's seed; the same seed gives the same scene.
         config: sampler options.
-        catalogue: object catalogue (default: built-in plus imported classes).
+        catalogue: object catalogue (default: the built-in classes plus the imported classes
+            ``config.classes`` names).
         layout: table and workspace.
         renderers: where the occlusion check gets its renderer; pass the cache that renders the
             scene's images next (with ``result.model``) to make the GL resources once. Default: a
@@ -259,7 +260,8 @@ def sample_scene(
         SceneError: no acceptable scene within ``config.scene_attempts``.
     """
     config = config or SceneConfig()
-    cat = catalogue or load_catalogue()
+    # Built-in classes, plus imported ones only where the config names them.
+    cat = catalogue or catalogue_for(config.named_classes)
     classes = _validate_classes(cat, config)
     rng = np.random.default_rng(seed)
     rejections: Counter[str] = Counter()
