@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.errors import ConfigError
+from samplehd.schema import bounded, check_fields, from_mapping
 
 __all__ = ["RENDER_MODES", "RenderConfig", "check_cameras", "render_states"]
 
@@ -33,24 +34,15 @@ class RenderConfig:
         modalities: any of rgb, depth, segmentation.
     """
 
-    mode: str = "fast"
-    width: int = 320
-    height: int = 180
-    cameras: tuple[str, ...] = ("scene",)
-    modalities: tuple[str, ...] = _MODALITIES
+    mode: str = bounded("fast", choices=RENDER_MODES)
+    width: int = bounded(320, lo=8, hi=8192, unit="px")
+    height: int = bounded(180, lo=8, hi=8192, unit="px")
+    # Camera names are checked against the world by check_cameras (it compiles the world).
+    cameras: tuple[str, ...] = bounded(("scene",), nonempty=True, unique=True)
+    modalities: tuple[str, ...] = bounded(_MODALITIES, choices=_MODALITIES, nonempty=True, unique=True)
 
     def __post_init__(self) -> None:
-        if self.mode not in RENDER_MODES:
-            raise ConfigError(f"render.mode={self.mode!r}: valid: {', '.join(RENDER_MODES)}")
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or not 8 <= v <= 8192:
-                raise ConfigError(f"render.{name}={v!r}: must be an integer in 8..8192 px")
-        if not self.cameras or not all(isinstance(c, str) and c for c in self.cameras):
-            raise ConfigError(f"render.cameras={list(self.cameras)!r}: must be a non-empty list of camera names")
-        bad = [m for m in self.modalities if m not in _MODALITIES]
-        if bad or not self.modalities:
-            raise ConfigError(f"render.modalities={list(self.modalities)!r}: valid: {', '.join(_MODALITIES)}")
+        check_fields(self, "render")
 
     @property
     def enabled(self) -> bool:
@@ -62,15 +54,7 @@ class RenderConfig:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], where: str = "render") -> RenderConfig:
-        valid = {"mode", "width", "height", "cameras", "modalities"}
-        unknown = sorted(set(d) - valid)
-        if unknown:
-            raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(sorted(valid))}")
-        kw = dict(d)
-        for k in ("cameras", "modalities"):
-            if k in kw:
-                kw[k] = tuple(kw[k])
-        return cls(**kw)
+        return from_mapping(cls, d, where)
 
 
 def render_states(model: Any, frames: Mapping[str, np.ndarray], config: RenderConfig,

@@ -22,7 +22,7 @@ from samplehd.scene.layout import LAYOUT, TableLayout
 from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene, object_qpos_addresses
 from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec
 
-__all__ = ["SampleResult", "draw_instance", "sample_camera", "sample_scene", "scene_seed"]
+__all__ = ["SampleResult", "check_scene_config", "draw_instance", "sample_camera", "sample_scene", "scene_seed"]
 
 # A scene camera is named "scene"; the fixed "operator" camera stays in every world too.
 SCENE_CAMERA = "scene"
@@ -73,9 +73,19 @@ def _menu_values(cat: Catalogue, config: SceneConfig, class_name: str, variant: 
 
 def _validate_classes(cat: Catalogue, config: SceneConfig) -> list[str]:
     classes = list(config.classes) or list(cat.classes)
-    for name in list(classes) + list((config.menu_overrides or {}).keys()):
-        if name not in cat.classes:
-            raise ConfigError(f"scene: unknown object class {name!r}; valid: {', '.join(cat.classes)}")
+    for where, names in (("classes", classes), ("menu_overrides", list(config.menu_overrides or {}))):
+        for name in names:
+            if name not in cat.classes:
+                raise ConfigError(f"scene.{where}: unknown object class {name!r}; valid: {', '.join(cat.classes)}")
+    vocab = {"colour": cat.colours, "material": cat.materials, "size": cat.sizes}
+    for name, menu in (config.menu_overrides or {}).items():
+        for prop, values in menu.items():
+            bad = [v for v in values if v not in vocab[prop]]
+            if bad:
+                raise ConfigError(f"scene.menu_overrides.{name}.{prop}: unknown {bad}; valid: {', '.join(vocab[prop])}")
+        if not any(all(_menu_values(cat, config, name, v)) for v in cat.object_class(name).variants):
+            raise ConfigError(f"scene.menu_overrides.{name}={menu}: leaves no colour/material/size combination "
+                              f"of the {name} menu")
     usable = []
     for name in classes:
         cls = cat.object_class(name)
@@ -84,6 +94,16 @@ def _validate_classes(cat: Catalogue, config: SceneConfig) -> list[str]:
     if not usable:
         raise ConfigError("scene.menu_overrides leave no colour/material/size combination for any class")
     return usable
+
+
+def check_scene_config(config: SceneConfig, catalogue: Catalogue | None = None) -> None:
+    """Check the names a sampler config uses against the catalogue (classes, override colours,
+    materials and sizes), so a command can refuse a bad config before it writes anything.
+
+    Raises:
+        ConfigError: one line naming the field, the unknown name and the valid ones.
+    """
+    _validate_classes(catalogue or catalogue_for(config.named_classes), config)
 
 
 def draw_instance(rng: np.random.Generator, cat: Catalogue, config: SceneConfig, classes: list[str]) -> ObjectInstance:
