@@ -14,7 +14,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from samplehd.dataset.layout import JOURNAL_FILE
+from samplehd.dataset.layout import JOURNAL_FILE, RESUME_HINT
 
 __all__ = ["append_journal", "read_journal", "repair_journal"]
 
@@ -68,4 +68,4 @@ def append_journal(root: Path, records: Iterable[Mapping[str, Any]]) -> None:
     except OSError as exc:
         from samplehd.dataset.container import write_error
 
-        raise write_error(path, exc) from None
+        raise write_error(path, exc, RESUME_HINT) from None

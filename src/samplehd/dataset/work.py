@@ -13,6 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from samplehd.dataset.layout import RESUME_HINT
+
 __all__ = ["EpisodeUnit", "RenderUnit", "run_episode_unit", "run_render_unit", "run_scene_unit"]
 
 
@@ -28,7 +30,7 @@ def run_scene_unit(job: Any) -> dict[str, Any]:
     except (OSError, RenderError) as exc:
         cause = exc if isinstance(exc, OSError) else exc.__cause__
         if isinstance(cause, OSError):
-            raise write_error(Path(job.out) / "scenes", cause) from None
+            raise write_error(Path(job.out) / "scenes", cause, RESUME_HINT) from None
         raise
     return {"index": job.index, "rejections": rejections, "seconds": time.perf_counter() - t0,
             "cpu_seconds": time.process_time() - c0}
@@ -119,7 +121,8 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     path = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
     try:
-        written = write_episode(path, episode, extra, render.to_dict() if render.enabled else None)
+        written = write_episode(path, episode, extra, render.to_dict() if render.enabled else None,
+                                retry=RESUME_HINT)
     except DatasetError:
         raise
     return {**base, "status": "ok", "num_frames": written.num_frames, "size": written.size,
