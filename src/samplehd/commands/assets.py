@@ -135,6 +135,11 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _preview(args: argparse.Namespace) -> int:
+    from samplehd.commands._options import check_int, check_out_file
+
+    check_int("--width", args.width, 16, 4096)
+    check_int("--height", args.height, 16, 4096)
+    check_out_file("--out", args.out, (".png", ".jpg"))
     cat = catalogue_for((args.name,))
     cls = cat.object_class(args.name)
     cat.size(args.size)
@@ -165,6 +170,9 @@ def _preview(args: argparse.Namespace) -> int:
 
 
 def _sheet(args: argparse.Namespace) -> int:
+    from samplehd.commands._options import check_out_file
+
+    check_out_file("--out", args.out, (".png", ".jpg"))
     path = write_contact_sheet(args.out)
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
     return 0

@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 from pathlib import Path
 
 HELP = "export a dataset to the LeRobot v3.0 or the original SAMPLE-HD layout"
@@ -36,9 +37,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+    from samplehd.commands._options import check_int
     from samplehd.errors import ConfigError
     from samplehd.workers import Backend
 
+    check_int("--frames-per-file", getattr(args, "frames_per_file", None), 1)
+    check_int("--workers", getattr(args, "workers", None), 1)
+    if args.format == "lerobot" and not re.fullmatch(r"[\w.-]+/[\w.-]+", args.repo_id):
+        raise ConfigError(f"--repo-id {args.repo_id!r}: must be OWNER/NAME (letters, digits, '_', '-', '.')")
     with Progress(TextColumn(f"export {args.format}"), BarColumn(), MofNCompleteColumn(),
                   TimeRemainingColumn()) as bar:
         task = bar.add_task("episodes", total=None)
@@ -49,8 +55,6 @@ def run(args: argparse.Namespace) -> int:
         if args.format == "lerobot":
             from samplehd.dataset.export_lerobot import export_lerobot
 
-            if args.frames_per_file < 1:
-                raise ConfigError("--frames-per-file must be ≥ 1")
             res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file,
                                  _names(args.cameras), progress=tick, modalities=_names(args.modalities))
         else:

@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+    from samplehd.commands._options import check_int, check_names, check_out_file, split_names
     from samplehd.errors import ConfigError
     from samplehd.language.instruction_file import (
         generate_instruction_file,
@@ -60,9 +61,13 @@ def run(args: argparse.Namespace) -> int:
     from samplehd.language.reach import make_reachable
     from samplehd.language.scene import load_scenes
     from samplehd.language.templates import load_templates
+    from samplehd.tasks.task import FAMILIES
 
-    if args.per_scene < 1:
-        raise ConfigError(f"--per-scene {args.per_scene}: must be at least 1")
+    check_int("--per-scene", args.per_scene, 1, 99)
+    check_int("--seed", args.seed, 0)
+    args.families = split_names(args.families)
+    check_names("--families", args.families, FAMILIES)
+    check_out_file("--out", args.out, (".json",))
     if args.no_default_templates and not args.templates:
         raise ConfigError("--no-default-templates needs at least one --templates FILE_OR_DIR")
     templates = load_templates(args.templates or [], include_default=not args.no_default_templates)

@@ -24,8 +24,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenes", required=True, type=Path, help="scenes directory (with scenes.json) or file")
     parser.add_argument("--instructions", required=True, type=Path, help="instructions.json")
     parser.add_argument("--out", required=True, type=Path, help="output directory")
-    parser.add_argument("--cameras", default="", help="comma-separated cameras to render per frame (none: states only)")
-    parser.add_argument("--modalities", default="rgb", help="comma-separated: rgb, depth, segmentation")
+    parser.add_argument("--cameras", nargs="*", default=[],
+                        help="cameras to render per frame, space- or comma-separated (none: states only)")
+    parser.add_argument("--modalities", nargs="+", default=["rgb"],
+                        help="rgb depth segmentation, space- or comma-separated")
     parser.add_argument("--width", type=int, default=320, help="image width [px]")
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
     parser.add_argument("--preset", default="fast", choices=["fast", "hd"], help="render quality preset")
@@ -33,10 +35,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="base seed (per instruction: seed + instruction_index)")
     parser.add_argument("--limit", type=int, default=0, help="only the first N instructions (0: all)")
     parser.add_argument("--max-attempts", type=int, default=3, help="attempts per instruction before rejecting")
-
-
-def _split(text: str) -> list[str]:
-    return [t.strip() for t in text.split(",") if t.strip()]
 
 
 def load_scenes(path: Path) -> dict[int, dict[str, Any]]:
@@ -50,14 +48,14 @@ def load_scenes(path: Path) -> dict[int, dict[str, Any]]:
         data = json.loads(file.read_text(encoding="utf-8"))
     except OSError as exc:
         raise DatasetError(f"{file}: cannot read: {exc.strerror}") from None
-    except json.JSONDecodeError as exc:
-        raise DatasetError(f"{file}: not valid JSON: {exc.msg} at line {exc.lineno}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"{file}: not valid JSON: {exc}") from None
     scenes = data.get("scenes") if isinstance(data, dict) else None
     if not isinstance(scenes, list):
         raise DatasetError(f"{file}: expected {{info, scenes: [...]}}")
     out = {}
     for k, s in enumerate(scenes):
-        if "spec" not in s:
+        if not isinstance(s, dict) or "spec" not in s:
             raise DatasetError(f"{file}: scenes[{k}]: spec: missing (write scenes with `samplehd scenes`)")
         out[int(s.get("image_index", k))] = s
     return out
@@ -151,14 +149,17 @@ def run(args: argparse.Namespace) -> int:
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor
 
+    from samplehd.commands._options import check_int, check_names, check_out_dir, split_names
     from samplehd.language.instruction_file import read_instructions
 
-    cams, mods = _split(args.cameras), _split(args.modalities)
-    bad = [m for m in mods if m not in ("rgb", "depth", "segmentation")]
-    if bad:
-        raise ConfigError(f"--modalities: unknown {bad}; valid: rgb, depth, segmentation")
-    if args.workers < 1 or args.max_attempts < 1 or args.width < 16 or args.height < 16:
-        raise ConfigError("--workers and --max-attempts must be >= 1, --width/--height >= 16")
+    cams, mods = split_names(args.cameras) or [], split_names(args.modalities) or []
+    check_names("--cameras", cams, ("scene", "operator", "wrist"), allow_empty=True)
+    check_names("--modalities", mods, ("rgb", "depth", "segmentation"))
+    for flag, value, lo, hi in (("--workers", args.workers, 1, None), ("--max-attempts", args.max_attempts, 1, 100),
+                                ("--width", args.width, 16, 8192), ("--height", args.height, 16, 8192),
+                                ("--seed", args.seed, 0, None), ("--limit", args.limit, 0, None)):
+        check_int(flag, value, lo, hi)
+    check_out_dir("--out", args.out, empty=True)
     scenes = load_scenes(args.scenes)
     entries = read_instructions(args.instructions)["instructions"]
     if args.limit:

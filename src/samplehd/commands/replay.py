@@ -23,13 +23,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from samplehd.commands._options import check_int, check_out_file
     from samplehd.record.recorder import read_episode_npz
     from samplehd.record.replay import render_episode, subtask_contact_sheet, write_mp4
     from samplehd.render.image_io import save_rgb
     from samplehd.scene.spec import SceneSpec, compile_scene
 
-    if args.out.suffix.lower() != ".mp4":
-        raise ConfigError(f"--out {args.out}: must be an .mp4 file")
+    check_int("--width", args.width, 8, 8192)
+    check_int("--height", args.height, 8, 8192)
+    check_out_file("--out", args.out, (".mp4",))
+    check_out_file("--sheet", args.sheet, (".png", ".jpg"))
+    if not args.episode.is_file():
+        raise ConfigError(f"{args.episode}: {'is a folder' if args.episode.is_dir() else 'does not exist'}; "
+                          "give an episode file (.h5 of a dataset, or .npz)")
     if args.episode.suffix.lower() in (".h5", ".hdf5"):
         from samplehd.dataset.container import read_episode
 

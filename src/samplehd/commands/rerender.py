@@ -30,14 +30,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from samplehd.commands._options import split_names
     from samplehd.dataset.progress import RichProgress
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
     from samplehd.workers import Backend
 
-    cams = tuple(c for item in args.cameras for c in item.split(",") if c)
-    mods = tuple(m for item in args.modalities for m in item.split(",") if m)
-    render = RenderConfig(args.preset, args.width, args.height, cams, mods)
+    cams = tuple(split_names(args.cameras) or ())
+    mods = tuple(split_names(args.modalities) or ())
+    render = RenderConfig.from_dict({"mode": args.preset, "width": args.width, "height": args.height,
+                                     "cameras": cams, "modalities": mods}, where="command line")
     backend = Backend(args.backend, args.workers, args.ray_address)
     with RichProgress(disable=args.quiet) as progress:
         res = rerender_dataset(args.dir, render, backend, progress, add=args.add)

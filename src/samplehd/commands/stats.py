@@ -21,8 +21,10 @@ def run(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.table import Table
 
+    from samplehd.commands._options import check_out_dir
     from samplehd.dataset.stats import dataset_stats, write_plots
 
+    check_out_dir("--out", args.out)
     stats = dataset_stats(args.dir)
     console = Console()
     console.print(f"[bold]{args.dir}[/bold]: {stats['scenes']} scenes, {stats['episodes']} episodes, "

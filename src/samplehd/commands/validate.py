@@ -16,8 +16,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from samplehd.commands._options import check_int
     from samplehd.dataset.validate import validate_dataset
 
+    check_int("--max-problems", args.max_problems, 0)
     problems, counts = validate_dataset(args.dir, deep=args.deep)
     if problems:
         for line in problems[: args.max_problems]:

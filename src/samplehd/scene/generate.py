@@ -122,8 +122,10 @@ def generate_scenes(
     resolved = {"scene": config.to_dict(), "num": num, "seed": seed, "width": width, "height": height,
                 "preset": preset, "test_every": test_every, "version": samplehd.__version__}
     write_json_atomic(out / "config.json", resolved, indent=2)
-    jobs = [SceneJob(i, scene_seed(seed, i), str(out), config.to_dict(), width, height, preset, test_every)
-            for i in range(num)]
+    scene_options = config.to_dict()
+    # Made one at a time as workers take them (a large --num holds no list of jobs in memory).
+    jobs = (SceneJob(i, scene_seed(seed, i), str(out), scene_options, width, height, preset, test_every)
+            for i in range(num))
     scenes: list[dict[str, Any]] = []
     rejections: Counter[str] = Counter()
     for _, (ann, rej) in backend.map(render_scene_files, jobs):
