@@ -302,7 +302,8 @@ class TabletopEnv(gym.Env):
             reward += dense_term(obs["tcp_pos"], self.data.xpos[self._object_body[self._task.objects[0]]])
         stopped = self.controller.stopped is not None
         terminated = bool(self._success or (stopped and self.config.terminate_on_safety))
-        truncated = bool(not terminated and self._steps >= self.config.max_episode_steps)
+        limit = self.config.max_episode_steps
+        truncated = bool(not terminated and limit is not None and self._steps >= limit)
         self._track_plan()
         info = self._info(report, event)
         info["action_clipped"] = bool(clipped_box or report.clipped)
