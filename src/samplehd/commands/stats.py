@@ -22,9 +22,11 @@ def run(args: argparse.Namespace) -> int:
     from rich.table import Table
 
     from samplehd.commands._options import check_out_dir
+    from samplehd.dataset.reader import DatasetReader
     from samplehd.dataset.stats import dataset_stats, write_plots
 
     check_out_dir("--out", args.out)
+    DatasetReader(args.dir).check_intact()  # no plots written into a damaged dataset
     stats = dataset_stats(args.dir)
     console = Console()
     console.print(f"[bold]{args.dir}[/bold]: {stats['scenes']} scenes, {stats['episodes']} episodes, "
