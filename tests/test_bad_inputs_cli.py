@@ -441,8 +441,9 @@ DAMAGE_FRAGMENT = {"version": "format_version", "truncated": "bytes", "missing":
                    "noinfo": "info.json"}
 
 
-def _snapshot(root: Path) -> dict[str, str]:
-    """Every path under ``root`` with its bytes' hash ('dir' for folders)."""
+def _snapshot(root: Path, digest: bool = False) -> dict[str, str]:
+    """Every path under ``root`` with its size and modification time, or its bytes' hash
+    (``digest``); 'dir' for folders. Any write changes the modification time."""
     out: dict[str, str] = {}
     for p in sorted(root.rglob("*")):
         rel = str(p.relative_to(root))
@@ -450,8 +451,11 @@ def _snapshot(root: Path) -> dict[str, str]:
             out[rel] = "link"
         elif p.is_dir():
             out[rel] = "dir"
-        else:
+        elif digest:
             out[rel] = hashlib.sha256(p.read_bytes()).hexdigest()
+        else:
+            st = p.stat()
+            out[rel] = f"{st.st_size}:{st.st_mtime_ns}"
     return out
 
 
@@ -505,6 +509,7 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     keep = root / "pristine"
     shutil.copytree(pristine, keep)
     return {"root": root, "ws": pristine, "pristine": keep, "snapshot": _snapshot(pristine),
+            "digests": {how: _snapshot(pristine / f"ds_{how}", digest=True) for how in DAMAGES},
             "episode_file": info["episodes"][0]["file"]}
 
 
@@ -572,8 +577,10 @@ def test_bad_generate_config_is_refused_cleanly(workspace, cid, fragments, capsy
 def test_damaged_dataset_is_refused_and_left_as_it_was(workspace, command, damage, capsys, monkeypatch) -> None:
     argv = [a.replace("{DS}", "{ds_" + damage + "}") for a in DATASET_COMMANDS[command]]
     run_refusal(workspace, argv, ("{ds_" + damage + "}", DAMAGE_FRAGMENT[damage]), capsys, monkeypatch)
+    assert _snapshot(workspace["ws"] / f"ds_{damage}", digest=True) == workspace["digests"][damage]
 
 
+@pytest.mark.slow
 def test_rerender_failing_in_one_episode_changes_no_other(tmp_path: Path, workspace, capsys) -> None:
     """An episode that turns out unreadable half-way (same size, corrupted frames) stops rerender with
     one line naming it; the episodes before it are re-rendered whole, the others untouched, and

@@ -7,6 +7,7 @@ during ``samplehd generate`` and ``samplehd rerender``, so both give identical p
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -109,13 +110,19 @@ def check_cameras(config: RenderConfig) -> None:
     """
     if not config.enabled:
         return
-    from samplehd.render.renderer import camera_names
-    from samplehd.scene.world import compile_world
-
-    valid = sorted({*camera_names(compile_world()[0]), "scene"})
+    valid = _world_cameras()
     bad = [c for c in config.cameras if c not in valid]
     if bad:
         raise ConfigError(f"render.cameras: unknown camera(s) {bad}; valid: {', '.join(valid)}")
+
+
+@functools.cache
+def _world_cameras() -> tuple[str, ...]:
+    """Cameras of every scene world (compiled once per process) plus the scene's own ``scene``."""
+    from samplehd.render.renderer import camera_names
+    from samplehd.scene.world import compile_world
+
+    return tuple(sorted({*camera_names(compile_world()[0]), "scene"}))
 
 
 def camera_list(text: Sequence[str] | None, default: tuple[str, ...]) -> tuple[str, ...]:
