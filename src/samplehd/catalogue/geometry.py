@@ -45,6 +45,7 @@ from samplehd.catalogue.shape import (
     planar_texcoords,
     scale_tuple,
 )
+from samplehd.robot.constants import GRIPPER_STROKE
 
 __all__ = [
     "GRIPPER_STROKE",
@@ -67,7 +68,6 @@ __all__ = [
     "parse_geometry",
 ]
 
-GRIPPER_STROKE = 0.085  # [m] opening of the parallel-jaw gripper
 _SEGMENTS = 48  # circular segments of visual surfaces of revolution
 _HULL_SEGMENTS = 16  # points per circle of convex collision pieces
 _MAX_EDGE = 0.012  # longest profile edge of a visual surface of revolution [m]

@@ -58,10 +58,10 @@ def run(args: argparse.Namespace) -> int:
         parse_split_ratio,
         write_instructions,
     )
-    from samplehd.language.reach import make_reachable
     from samplehd.language.scene import load_scenes
     from samplehd.language.templates import load_templates
     from samplehd.tasks.task import FAMILIES
+    from samplehd.world.reach import make_reachable
 
     check_int("--per-scene", args.per_scene, 1, 99)
     check_int("--seed", args.seed, 0)

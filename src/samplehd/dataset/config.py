@@ -19,11 +19,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import ConfigError
-from samplehd.motion.pipeline import PathConfig
+from samplehd.record.paths import PathConfig
 from samplehd.scene.config import SceneConfig
 from samplehd.schema import bounded, check_fields, from_mapping
 from samplehd.tasks.task import FAMILIES
@@ -33,7 +31,6 @@ __all__ = [
     "GenerateConfig",
     "check_names",
     "InstructionConfig",
-    "episode_seed",
     "load_config",
     "preset_config",
 ]
@@ -81,7 +78,7 @@ class GenerateConfig:
         test_every: every ``test_every``-th scene (and its instructions) is in the test split.
         scene: scene sampler options.
         instructions: instruction candidate options.
-        paths: ground-truth path options (``samplehd.motion.pipeline.PathConfig``).
+        paths: ground-truth path options (``samplehd.record.paths.PathConfig``).
         render: images stored with each episode.
     """
 
@@ -212,12 +209,6 @@ def check_names(config: GenerateConfig, where: str = "config") -> None:
         check_cameras(config.render)
     except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
-
-
-def episode_seed(base_seed: int, scene_index: int, slot: int) -> int:
-    """The seed of instruction slot ``slot`` of scene ``scene_index`` (independent of everything else)."""
-    ss = np.random.SeedSequence([int(base_seed), 1, int(scene_index), int(slot)])
-    return int(ss.generate_state(1, np.uint32)[0])
 
 
 def candidate_order(keys: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:

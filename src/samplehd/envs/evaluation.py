@@ -168,7 +168,7 @@ def check_policy_action(spec: str, action: Any, space: Any) -> np.ndarray:
 
 
 def _offline_success(env: Any, seed: int) -> bool:
-    from samplehd.motion.pipeline import PathConfig, plan_and_execute
+    from samplehd.record.paths import PathConfig, plan_and_execute
     from samplehd.scene.spec import compile_scene
 
     ep = env.unwrapped.episode

@@ -23,9 +23,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import samplehd
 from samplehd.errors import ConfigError
 from samplehd.scene.config import SceneConfig
+from samplehd.version import __version__
 from samplehd.workers import Backend
 
 __all__ = ["SceneJob", "generate_scenes", "render_scene_files", "scene_split", "write_json_atomic"]
@@ -104,7 +104,7 @@ def generate_scenes(
 ) -> dict[str, Any]:
     """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts."""
     from samplehd.render.renderer import get_preset
-    from samplehd.scene.sampler import scene_seed
+    from samplehd.world.seeding import scene_seed
 
     if num < 1:
         raise ConfigError(f"--num {num}: must be ≥ 1")
@@ -120,7 +120,7 @@ def generate_scenes(
     except OSError as exc:
         raise ConfigError(f"output directory {out} is not writable: {exc.strerror}") from exc
     resolved = {"scene": config.to_dict(), "num": num, "seed": seed, "width": width, "height": height,
-                "preset": preset, "test_every": test_every, "version": samplehd.__version__}
+                "preset": preset, "test_every": test_every, "version": __version__}
     write_json_atomic(out / "config.json", resolved, indent=2)
     scene_options = config.to_dict()
     # Made one at a time as workers take them (a large --num holds no list of jobs in memory).
@@ -134,7 +134,7 @@ def generate_scenes(
         if on_scene:
             on_scene(len(scenes))
     scenes.sort(key=lambda s: s["image_index"])
-    info = {"version": samplehd.__version__, "seed": seed, "num_scenes": num, "license": "CC BY 4.0",
+    info = {"version": __version__, "seed": seed, "num_scenes": num, "license": "CC BY 4.0",
             "split_rule": f"every {test_every}th scene is test"}
     write_json_atomic(out / "scenes.json", {"info": info, "scenes": scenes})
     return {"scenes": num, "rejections": dict(sorted(rejections.items())),
