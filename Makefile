@@ -20,7 +20,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $@
 
 $(DEV_STAMP): pyproject.toml $(STAMP)
-	$(BIN)/python -m pip install --quiet -e ".[dev,ray]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,mesh,lerobot,ray]"
 	touch $@
 
 gl:
@@ -34,6 +34,7 @@ demo: gl $(STAMP)
 	$(BIN)/samplehd demo --out outputs/demo
 
 test: gl browser $(DEV_STAMP)
+	$(BIN)/lint-imports
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
 test-all: gl browser $(DEV_STAMP)
@@ -43,7 +44,8 @@ bench: gl $(STAMP)
 	$(BIN)/samplehd bench --out outputs/bench
 
 lint: $(DEV_STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests
+	$(BIN)/lint-imports
 
 clean:
 	rm -rf $(VENV) outputs build src/*.egg-info

@@ -21,7 +21,7 @@ import dataclasses
 import math
 import types
 import typing
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
@@ -42,7 +42,8 @@ class Bounds:
         lo_open: ``lo`` itself is not allowed.
         hi_open: ``hi`` itself is not allowed.
         unit: unit shown in messages (e.g. ``m``, ``s``, ``px``).
-        choices: valid names (a string, or every item of a list of strings).
+        choices: valid names (a string, or every item of a list of strings), or a function returning
+            them (a registry that grows as modules register into it).
         nonempty: a list must have at least one item.
         unique: a list's items must be distinct.
     """
@@ -52,7 +53,7 @@ class Bounds:
     lo_open: bool = False
     hi_open: bool = False
     unit: str = ""
-    choices: tuple[str, ...] | None = None
+    choices: tuple[str, ...] | Callable[[], Sequence[str]] | None = None
     nonempty: bool = False
     unique: bool = False
 
@@ -68,6 +69,12 @@ class Bounds:
             return f"{'<' if self.hi_open else '≤'} {_num(self.hi)}{unit}"
         return ""
 
+    def names(self) -> tuple[str, ...] | None:
+        """The valid names now (None: any)."""
+        if self.choices is None:
+            return None
+        return tuple(self.choices() if callable(self.choices) else self.choices)
+
     def admits(self, v: float) -> bool:
         if self.lo is not None and (v < self.lo or (self.lo_open and v == self.lo)):
             return False
@@ -81,7 +88,7 @@ def _num(v: float) -> str:
 def bounded(default: Any = dataclasses.MISSING, *, default_factory: Any = dataclasses.MISSING,
             **bounds: Any) -> Any:
     """A dataclass field with :class:`Bounds` (keyword arguments) in its metadata."""
-    if "choices" in bounds and bounds["choices"] is not None:
+    if bounds.get("choices") is not None and not callable(bounds["choices"]):
         bounds["choices"] = tuple(bounds["choices"])
     meta = {"bounds": Bounds(**bounds)}
     if default_factory is not dataclasses.MISSING:
@@ -166,7 +173,7 @@ def _check(where: str, name: str, value: Any, hint: Any, b: Bounds) -> Any:
             _fail(where, name, value, _want(hint, b))
         return float(value)
     if hint is str:
-        if not isinstance(value, str) or (b.choices is not None and value not in b.choices):
+        if not isinstance(value, str) or (b.choices is not None and value not in b.names()):
             _fail(where, name, value, _want(hint, b))
         return value
     if origin is tuple:
@@ -179,8 +186,8 @@ def _check(where: str, name: str, value: Any, hint: Any, b: Bounds) -> Any:
             for i, item in enumerate(items):
                 if item_hint is str and not isinstance(item, str):
                     _fail(where, name, value, f"item {i} is {json_type_name(item)}; {_want(hint, b)}")
-                if item_hint is str and b.choices is not None and item not in b.choices:
-                    _fail(where, name, value, f"unknown {item!r}; valid: {', '.join(b.choices)}")
+                if item_hint is str and b.choices is not None and item not in b.names():
+                    _fail(where, name, value, f"unknown {item!r}; valid: {', '.join(b.names())}")
                 if item_hint in (int, float):
                     _check(where, f"{name}[{i}]", item, item_hint, b)
             if b.nonempty and not items:
@@ -210,15 +217,15 @@ def _want(hint: Any, b: Bounds) -> str:
         return f"must be an integer{' ' + rng if rng else ''}"
     if hint is float:
         return f"must be a finite number{' ' + rng if rng else ''}"
+    names = b.names()
     if hint is str:
-        return f"valid: {', '.join(b.choices)}" if b.choices is not None else "must be a string"
+        return f"valid: {', '.join(names)}" if names is not None else "must be a string"
     if typing.get_origin(hint) is tuple:
         args = typing.get_args(hint)
         if len(args) == 2 and args[1] is Ellipsis:
             kind = {str: "names", int: "integers", float: "numbers"}.get(args[0], "values")
-            valid = f" from {', '.join(b.choices)}" if b.choices is not None else ""
-            if b.choices:
-                return f"must be a list of {kind}{valid}, e.g. [\"{b.choices[0]}\"]"
+            if names:
+                return f"must be a list of {kind} from {', '.join(names)}, e.g. [\"{names[0]}\"]"
             return f"must be a list of {kind}{' ' + rng if rng else ''}"
         return f"must be a list of {len(args)} values{' ' + rng if rng else ''}"
     if isinstance(hint, type) and dataclasses.is_dataclass(hint):

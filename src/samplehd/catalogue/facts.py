@@ -6,7 +6,7 @@ include the instance's size factor. Transform them with the body pose to get wor
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -91,8 +91,6 @@ class ObjectFacts:
 
     def to_dict(self) -> dict:
         """Return the facts as a JSON-ready dict (tuples become lists)."""
-        from dataclasses import asdict
-
         d = asdict(self)
         d["instance"] = self.instance.to_dict()
         return _lists(d)

@@ -35,9 +35,11 @@ from samplehd.catalogue.registry import cache_dir, refresh, registry_dir
 from samplehd.catalogue.schema import Field, is_identifier, read_json
 from samplehd.catalogue.shape import GraspSite, TopSurface
 from samplehd.errors import AssetError, require_extra
+from samplehd.fileio import file_sha256
 
 # The mesh extra: importing meshes is the only thing that needs trimesh's readers.
 trimesh = require_extra("trimesh", "mesh", "samplehd assets import")
+require_extra("coacd", "mesh", "samplehd assets import")  # runs in a child process; fail here, in one line
 
 __all__ = [
     "MESH_SUFFIXES",
@@ -183,14 +185,6 @@ def decompose(mesh: trimesh.Trimesh, options: ImportOptions, source: str = "mesh
     return pieces
 
 
-def _hash_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _cached_decomposition(
     mesh: trimesh.Trimesh, key: str, options: ImportOptions, source: str
 ) -> tuple[list[np.ndarray], bool]:
@@ -316,7 +310,7 @@ def import_mesh(
     src = Path(path)
     raw = read_mesh(src)
     mesh = normalise_mesh(clean_mesh(raw, str(src)), options, str(src))
-    digest = _hash_file(src)
+    digest = file_sha256(src)
     params = json.dumps(
         {
             "v": _DECOMPOSITION_VERSION,
@@ -382,7 +376,7 @@ def import_mesh(
             piece_counts=np.array([len(p) for p in pieces], np.int64),
             piece_points=np.vstack(pieces),
         )
-        npz_digest = _hash_file(tmp / "geometry.npz")
+        npz_digest = file_sha256(tmp / "geometry.npz")
         entry["variants"]["default"]["geometry"]["digest"] = npz_digest
         (tmp / "geometry.json").write_text(json.dumps(meta, indent=1) + "\n")
         (tmp / "class.json").write_text(json.dumps(entry, indent=1) + "\n")

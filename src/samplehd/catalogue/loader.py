@@ -38,6 +38,7 @@ from samplehd.catalogue.model import (
 from samplehd.catalogue.registry import generation, registered_classes, registry_dir
 from samplehd.catalogue.schema import Field, read_json
 from samplehd.errors import AssetError
+from samplehd.fileio import file_sha256
 
 __all__ = [
     "DATA_DIR",
@@ -148,11 +149,10 @@ def read_catalogue(data_dir: Path = DATA_DIR, registry: Path | None = None, impo
 
 
 def _digest(paths: Iterable[Path]) -> str:
-    """SHA-256 over the names and bytes of ``paths`` (in the given order)."""
+    """SHA-256 over the names and contents of ``paths`` (in the given order)."""
     h = hashlib.sha256()
     for p in paths:
-        h.update(p.name.encode() + b"\0")
-        h.update(p.read_bytes())
+        h.update(f"{p.name}\0{file_sha256(p)}\n".encode())
     return h.hexdigest()
 
 

@@ -1,5 +1,6 @@
-"""Checks of command-line options shared by the commands: every one raises a one-line ConfigError
-naming the flag, the value and what is valid, before the command writes anything."""
+"""Helpers shared by the command modules (not a command: the name starts with an underscore): names
+from option values, and checks of options that raise a one-line ConfigError naming the flag, the
+value and what is valid, before the command writes anything."""
 
 from __future__ import annotations
 
@@ -32,13 +33,12 @@ def check_number(flag: str, value: float | None, lo: float = 0.0, lo_open: bool 
         raise ConfigError(f"{flag} {value}: must be a finite number {'>' if lo_open else '≥'} {lo:g}")
 
 
-def split_names(values: Sequence[str] | None) -> list[str] | None:
-    """Names given space- or comma-separated (``a b``, ``a,b`` or ``"a, b"``); None when not given."""
-    if values is None:
-        return None
-    if isinstance(values, str):
-        values = [values]
-    return [n.strip() for item in values for n in item.split(",") if n.strip()]
+def split_names(values: str | Sequence[str] | None) -> tuple[str, ...]:
+    """Names from repeated and/or comma-separated option values, in order, without repeats."""
+    if not values:
+        return ()
+    items = [values] if isinstance(values, str) else list(values)
+    return tuple(dict.fromkeys(n.strip() for item in items for n in item.split(",") if n.strip()))
 
 
 def check_names(flag: str, names: Iterable[str] | None, valid: Sequence[str], allow_empty: bool = False) -> None:

@@ -22,21 +22,12 @@ from PIL import Image
 
 from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.loader import catalogue_for, load_catalogue
-from samplehd.catalogue.preview import render_instances, write_contact_sheet
+from samplehd.catalogue.preview import render_instances, write_catalogue_table
 from samplehd.catalogue.registry import registered_classes, remove_imported
+from samplehd.commands._options import check_int, check_out_file, split_names
 from samplehd.errors import AssetError
 
 HELP = "import meshes as object classes, list the catalogue, render previews"
-
-
-def _names(values: list[str] | None) -> tuple[str, ...] | None:
-    """Flatten repeated and comma-separated option values."""
-    if not values:
-        return None
-    out: list[str] = []
-    for v in values:
-        out += [x.strip() for x in v.split(",") if x.strip()]
-    return tuple(dict.fromkeys(out))
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -92,9 +83,9 @@ def _import(args: argparse.Namespace) -> int:
         args.mesh,
         args.name,
         options=options,
-        materials=_names(args.material) or ("plastic",),
-        colours=_names(args.colour),
-        sizes=_names(args.sizes),
+        materials=split_names(args.material) or ("plastic",),
+        colours=split_names(args.colour),
+        sizes=split_names(args.sizes),
         description=args.description,
         overwrite=args.overwrite,
     )
@@ -135,8 +126,6 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _preview(args: argparse.Namespace) -> int:
-    from samplehd.commands._options import check_int, check_out_file
-
     check_int("--width", args.width, 16, 4096)
     check_int("--height", args.height, 16, 4096)
     check_out_file("--out", args.out, (".png", ".jpg"))
@@ -170,10 +159,8 @@ def _preview(args: argparse.Namespace) -> int:
 
 
 def _sheet(args: argparse.Namespace) -> int:
-    from samplehd.commands._options import check_out_file
-
     check_out_file("--out", args.out, (".png", ".jpg"))
-    path = write_contact_sheet(args.out)
+    path = write_catalogue_table(args.out)
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
     return 0
 

@@ -3,19 +3,21 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
+
+from samplehd.envs.config import CONTROL_MODES, OBS_MODES
+from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate
+from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
+from samplehd.tasks.family import family_names
 
 HELP = "run a policy (MODULE:CALLABLE, oracle or random) on the seeded benchmark split; JSON report"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.envs.config import CONTROL_MODES, OBS_MODES, TASK_FAMILIES
-    from samplehd.envs.evaluation import DEFAULT_FAMILIES
-
     parser.add_argument("--policy", required=True, help="oracle, random, or MODULE:CALLABLE (obs -> action)")
     parser.add_argument("--episodes", type=int, default=10, help="episodes of the split (default 10)")
-    parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=TASK_FAMILIES,
+    parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=family_names(),
                         metavar="FAMILY", help=f"families, in rotation (default: {' '.join(DEFAULT_FAMILIES)})")
     parser.add_argument("--seed", type=int, default=0, help="seed of the split (default 0)")
     # These default to the --env-options file's values, then to Tabletop-v0's defaults.
@@ -36,15 +38,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from samplehd.commands._options import check_int, check_out_dir, check_out_file
     from samplehd.envs.config import EnvConfig
-    from samplehd.envs.evaluation import EvalConfig, evaluate, load_policy_module
-    from samplehd.errors import ConfigError
+    from samplehd.envs.evaluation import load_policy_module
 
     env: dict = {}
     if args.env_options is not None:
-        try:
-            env = json.loads(args.env_options.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"--env-options {args.env_options}: cannot read a JSON object ({exc})") from None
+        env = read_json(args.env_options, ConfigError, f"--env-options {args.env_options}")
         if not isinstance(env, dict):
             raise ConfigError(f"--env-options {args.env_options}: expected a JSON object of options")
     # A flag given on the command line overrides the file; a flag left out keeps the file's value.

@@ -8,12 +8,18 @@ import argparse
 import re
 from pathlib import Path
 
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+from samplehd.commands._options import check_int, split_names
+from samplehd.dataset.export_lerobot import export_lerobot
+from samplehd.dataset.export_samplehd import export_samplehd
+from samplehd.errors import ConfigError, require_extra
+from samplehd.workers import Backend, default_workers
+
 HELP = "export a dataset to the LeRobot v3.0 or the original SAMPLE-HD layout"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.workers import default_workers
-
     sub = parser.add_subparsers(dest="format", metavar="FORMAT", required=True)
     lr = sub.add_parser("lerobot", help="LeRobot v3.0 (meta/, data/, videos/)",
                         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -35,16 +41,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-    from samplehd.commands._options import check_int
-    from samplehd.errors import ConfigError
-    from samplehd.workers import Backend
-
     check_int("--frames-per-file", getattr(args, "frames_per_file", None), 1)
     check_int("--workers", getattr(args, "workers", None), 1)
-    if args.format == "lerobot" and not re.fullmatch(r"[\w.-]+/[\w.-]+", args.repo_id):
-        raise ConfigError(f"--repo-id {args.repo_id!r}: must be OWNER/NAME (letters, digits, '_', '-', '.')")
+    if args.format == "lerobot":
+        require_extra("pyarrow", "lerobot", "samplehd export lerobot")
+        if not re.fullmatch(r"[\w.-]+/[\w.-]+", args.repo_id):
+            raise ConfigError(f"--repo-id {args.repo_id!r}: must be OWNER/NAME (letters, digits, '_', '-', '.')")
     with Progress(TextColumn(f"export {args.format}"), BarColumn(), MofNCompleteColumn(),
                   TimeRemainingColumn()) as bar:
         task = bar.add_task("episodes", total=None)
@@ -53,19 +55,11 @@ def run(args: argparse.Namespace) -> int:
             bar.update(task, completed=done, total=total)
 
         if args.format == "lerobot":
-            from samplehd.dataset.export_lerobot import export_lerobot
-
             res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file,
-                                 _names(args.cameras), progress=tick, modalities=_names(args.modalities))
+                                 list(split_names(args.cameras)) or None, progress=tick,
+                                 modalities=list(split_names(args.modalities)) or None)
         else:
-            from samplehd.dataset.export_samplehd import export_samplehd
-
             res = export_samplehd(args.dir, args.out, images=not args.no_images, previews=args.previews,
                                   backend=Backend("local", args.workers), progress=tick)
     print(f"exported {res} to {args.out}")
     return 0
-
-
-def _names(items: list[str] | None) -> list[str] | None:
-    """Names from the command line (space or comma separated); None when not given."""
-    return None if items is None else [n for item in items for n in item.split(",") if n]

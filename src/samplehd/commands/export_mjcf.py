@@ -5,6 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.commands._options import check_out_file
+from samplehd.scene.mjcf import export_mjcf
+from samplehd.scene.world import build_world
+
 HELP = "export the world as an MJCF file MuJoCo's viewer opens"
 
 
@@ -13,10 +17,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.commands._options import check_out_file
-    from samplehd.scene.mjcf import export_mjcf
-    from samplehd.scene.world import build_world
-
     check_out_file("--out", args.out, (".xml",))
     path = export_mjcf(build_world(), args.out)
     print(f"wrote {path}")

@@ -5,6 +5,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.commands._options import check_int, check_out_file
+from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_depth, save_rgb, save_segmentation
+from samplehd.render.renderer import SceneRenderer
+from samplehd.scene.world import compile_world
+
 HELP = "render RGB (and optionally depth / segmentation) from a named camera"
 
 
@@ -20,17 +25,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.commands._options import check_int, check_out_file
-    from samplehd.render.image_io import (
-        colorize_depth,
-        colorize_segmentation,
-        save_depth,
-        save_rgb,
-        save_segmentation,
-    )
-    from samplehd.render.renderer import SceneRenderer
-    from samplehd.scene.world import compile_world
-
     check_int("--width", args.width, 8, 8192)
     check_int("--height", args.height, 8, 8192)
     # Every output is checked before the first is written.

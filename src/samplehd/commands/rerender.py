@@ -7,17 +7,22 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.commands._options import split_names
+from samplehd.dataset.progress import RichProgress
+from samplehd.dataset.render import RenderConfig
+from samplehd.dataset.rerender import rerender_dataset
+from samplehd.render.renderer import MODALITIES
+from samplehd.workers import BACKENDS, Backend, default_workers
+
 HELP = "add or replace the images of every episode from the stored states (no re-simulation)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.workers import BACKENDS, default_workers
-
     parser.add_argument("dir", type=Path, help="dataset directory")
     parser.add_argument("--cameras", nargs="+", default=["scene"], help="cameras (scene, operator, wrist)")
     parser.add_argument("--width", type=int, default=320, help="image width [px]")
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
-    parser.add_argument("--modalities", nargs="+", default=["rgb", "depth", "segmentation"],
+    parser.add_argument("--modalities", nargs="+", default=list(MODALITIES),
                         help="rgb depth segmentation")
     parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
     parser.add_argument("--add", action="store_true",
@@ -30,14 +35,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.commands._options import split_names
-    from samplehd.dataset.progress import RichProgress
-    from samplehd.dataset.render import RenderConfig
-    from samplehd.dataset.rerender import rerender_dataset
-    from samplehd.workers import Backend
-
-    cams = tuple(split_names(args.cameras) or ())
-    mods = tuple(split_names(args.modalities) or ())
+    cams = split_names(args.cameras)
+    mods = split_names(args.modalities)
     render = RenderConfig.from_dict({"mode": args.preset, "width": args.width, "height": args.height,
                                      "cameras": cams, "modalities": mods}, where="command line")
     backend = Backend(args.backend, args.workers, args.ray_address)

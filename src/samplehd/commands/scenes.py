@@ -8,6 +8,21 @@ import os
 import time
 from pathlib import Path
 
+import numpy as np
+from PIL import Image
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+from samplehd.commands._options import check_int, check_out_dir, check_out_file
+from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
+from samplehd.render.contact_sheet import contact_sheet
+from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
+from samplehd.render.renderer import get_preset
+from samplehd.scene.config import SceneConfig
+from samplehd.scene.generate import generate_scenes
+from samplehd.scene.sampler import check_scene_config
+
 HELP = "sample annotated scenes (images, depth, segmentation, scenes.json)"
 
 
@@ -30,17 +45,9 @@ MAX_SCENES = 1_000_000
 
 def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
     """Read the 'scene' section of a JSON config file (unknown keys are errors)."""
-    from samplehd.errors import ConfigError
-    from samplehd.scene.config import SceneConfig
-
     if path is None:
         return SceneConfig()
-    try:
-        doc = json.loads(path.read_text())
-    except OSError as exc:
-        raise ConfigError(f"--config {path}: cannot read ({exc.strerror})") from exc
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"--config {path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from exc
+    doc = read_json(path, ConfigError, f"--config {path}")
     if not isinstance(doc, dict):
         raise ConfigError(f"--config {path}: expected a JSON object with a 'scene' section")
     unknown = sorted(set(doc) - {"scene"})
@@ -51,12 +58,6 @@ def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
 
 def write_scene_sheet(directory: Path, path: Path, count: int = 16) -> None:
     """Contact sheet of the first `count` scenes of a scenes directory: RGB | depth | segmentation."""
-    import numpy as np
-    from PIL import Image
-
-    from samplehd.render.contact_sheet import contact_sheet
-    from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
-
     scenes = json.loads((directory / "scenes.json").read_text())["scenes"][:count]
     tiles, labels = [], []
     for s in scenes:
@@ -70,15 +71,6 @@ def write_scene_sheet(directory: Path, path: Path, count: int = 16) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-    from samplehd.commands._options import check_int, check_out_dir, check_out_file
-    from samplehd.errors import ConfigError
-    from samplehd.render.renderer import get_preset
-    from samplehd.scene.generate import generate_scenes
-    from samplehd.scene.sampler import check_scene_config
-
     check_int("--num", args.num, 1, MAX_SCENES)
     check_int("--seed", args.seed, 0)
     check_int("--workers", args.workers, 1)

@@ -6,6 +6,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.commands._options import check_int
+from samplehd.dataset.validate import validate_dataset
+
 HELP = "verify every file of a dataset against its metadata (exit 1 on problems)"
 
 
@@ -16,9 +19,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.commands._options import check_int
-    from samplehd.dataset.validate import validate_dataset
-
     check_int("--max-problems", args.max_problems, 0)
     problems, counts = validate_dataset(args.dir, deep=args.deep)
     if problems:

@@ -13,7 +13,6 @@ Presets give every field; a config file overrides a preset, command-line flags o
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -21,10 +20,11 @@ from typing import Any
 
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
 from samplehd.record.paths import PathConfig
 from samplehd.scene.config import SceneConfig
 from samplehd.schema import bounded, check_fields, from_mapping
-from samplehd.tasks.task import FAMILIES
+from samplehd.tasks.family import family_names
 
 __all__ = [
     "PRESETS",
@@ -51,7 +51,7 @@ class InstructionConfig:
 
     per_scene: int = bounded(5, lo=1, hi=99)
     balance: str = bounded("templates", choices=_BALANCE)
-    families: tuple[str, ...] | None = bounded(None, choices=FAMILIES, nonempty=True, unique=True)
+    families: tuple[str, ...] | None = bounded(None, choices=family_names, nonempty=True, unique=True)
 
     def __post_init__(self) -> None:
         check_fields(self, "instructions")
@@ -183,12 +183,7 @@ def load_config(path: Path | None, base: GenerateConfig) -> GenerateConfig:
     """Apply a JSON config file to ``base``; errors name the file and field."""
     if path is None:
         return base
-    try:
-        doc = json.loads(Path(path).read_text())
-    except OSError as exc:
-        raise ConfigError(f"--config {path}: cannot read ({exc.strerror})") from None
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"--config {path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    doc = read_json(path, ConfigError, f"--config {path}")
     config = GenerateConfig.from_dict(doc, where=str(path), base=base)
     check_names(config, where=str(path))
     return config

@@ -45,6 +45,7 @@ import numpy as np
 
 from samplehd.dataset.staging import export_source, staged_directory
 from samplehd.errors import DatasetError
+from samplehd.render.renderer import MODALITIES
 
 __all__ = ["CODEBASE_VERSION", "export_lerobot"]
 
@@ -54,7 +55,6 @@ DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
 EPISODES_PATH = "meta/episodes/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 DATA_FILE_MB = 100  # a data file with image columns is closed once it holds this much image data
-_MODALITIES = ("rgb", "depth", "segmentation")
 _QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
 
 _VECTOR_FEATURES: dict[str, tuple[int, list[str]]] = {
@@ -200,10 +200,10 @@ def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str]
     if missing:
         raise DatasetError(f"--cameras {missing}: not stored in {root}; stored cameras: "
                            f"{', '.join(settings) or 'none (rerender adds images)'}")
-    mods = list(dict.fromkeys(modalities)) if modalities is not None else list(_MODALITIES)
-    bad = [m for m in mods if m not in _MODALITIES]
+    mods = list(dict.fromkeys(modalities)) if modalities is not None else list(MODALITIES)
+    bad = [m for m in mods if m not in MODALITIES]
     if bad:
-        raise DatasetError(f"--modalities {bad}: valid: {', '.join(_MODALITIES)}")
+        raise DatasetError(f"--modalities {bad}: valid: {', '.join(MODALITIES)}")
     streams = [(c, m) for c in cams for m in settings[c]["modalities"] if m in mods]
     if modalities is not None:
         absent = [m for m in mods if all(mod != m for _, mod in streams)]
@@ -250,7 +250,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     """
     import pyarrow.parquet as pq
 
-    from samplehd.dataset.video import VideoWriter, pick_codec
+    from samplehd.render.video import VideoWriter, pick_codec
 
     reader, out = export_source(root, out)
     settings, streams = _streams(root, reader.info.get("render"), cameras, modalities)

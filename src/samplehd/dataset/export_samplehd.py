@@ -107,7 +107,7 @@ def _export_sequence(unit: _SequenceUnit) -> int:
                 if "segmentation" in mods:
                     save_segmentation(folder / f"{t:05d}{tag}_seg.png", mods["segmentation"][t])
     if unit.previews and cams and "rgb" in ep.images[cams[0]]:
-        from samplehd.dataset.video import VideoWriter
+        from samplehd.render.video import VideoWriter
 
         rgb = ep.images[cams[0]]["rgb"][:]
         h, w = rgb.shape[1] // 2 * 2, rgb.shape[2] // 2 * 2

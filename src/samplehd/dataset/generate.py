@@ -35,8 +35,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import h5py
+import mujoco
+import numpy
+
 from samplehd.catalogue.loader import catalogue_for
 from samplehd.dataset.config import GenerateConfig, candidate_order
+from samplehd.dataset.container import read_meta, write_error
 from samplehd.dataset.journal import append_journal, read_journal, repair_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
@@ -52,25 +57,19 @@ from samplehd.dataset.layout import (
     is_temporary,
     parse_episode_name,
 )
+from samplehd.dataset.progress import Progress
+from samplehd.dataset.render import check_cameras
+from samplehd.dataset.work import EpisodeUnit, run_episode_unit, run_scene_unit
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.fileio import file_sha256, write_json_atomic
+from samplehd.language.instruction_file import generate_instruction_file
+from samplehd.scene.annotate import image_stem
+from samplehd.scene.generate import SceneJob, scene_split
 from samplehd.version import __version__
 from samplehd.workers import Backend
-from samplehd.world.seeding import episode_seed
+from samplehd.world.seeding import episode_seed, scene_seed
 
-__all__ = ["GenerateSummary", "Progress", "generate_dataset", "versions"]
-
-
-class Progress:
-    """Receives progress events; the default does nothing (the CLI draws rich progress bars)."""
-
-    def stage(self, name: str, total: int, done: int = 0) -> None:
-        """A stage starts with ``total`` units, ``done`` of them already finished (resume)."""
-
-    def advance(self, name: str, n: int = 1, frames: int = 0) -> None:
-        """``n`` units of stage ``name`` finished, producing ``frames`` frames."""
-
-    def note(self, text: str) -> None:
-        """A one-line message."""
+__all__ = ["GenerateSummary", "generate_dataset", "versions"]
 
 
 @dataclass
@@ -114,18 +113,11 @@ class GenerateSummary:
 
 def versions() -> dict[str, str]:
     """Versions of what decides the content: samplehd, MuJoCo, numpy, h5py, Python."""
-    import h5py
-    import mujoco
-    import numpy
-
     return {"samplehd": __version__, "mujoco": mujoco.__version__, "numpy": numpy.__version__,
             "h5py": h5py.__version__, "python": platform.python_version()}
 
 
 def _write_json(path: Path, obj: Any, indent: int | None = None) -> None:
-    from samplehd.dataset.container import write_error
-    from samplehd.scene.generate import write_json_atomic
-
     try:
         write_json_atomic(path, obj, indent)
     except OSError as exc:
@@ -229,10 +221,6 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
                  summary: GenerateSummary) -> Iterator[dict[str, Any]]:
     """Sample the missing scenes; yield every scene's annotation in index order as soon as it and all
     before it exist, so that the instruction stage runs while later scenes are sampled."""
-    from samplehd.dataset.work import run_scene_unit
-    from samplehd.scene.annotate import image_stem
-    from samplehd.scene.generate import SceneJob, scene_split
-    from samplehd.world.seeding import scene_seed
 
     r = config.render
     preset = r.mode if r.enabled else "fast"
@@ -271,7 +259,6 @@ def _instruction_stage(out: Path, config: GenerateConfig, scenes: Iterator[dict[
                        progress: Progress) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Instruction candidates of every scene, made as the scenes arrive (or read back when resuming);
     returns (scenes, candidates)."""
-    from samplehd.language.instruction_file import generate_instruction_file
 
     path = out / CANDIDATES_FILE
     progress.stage("instructions", config.num_scenes)
@@ -334,8 +321,6 @@ class _Cutoff:
 
 def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], candidates: list[dict[str, Any]],
                 backend: Backend, progress: Progress, summary: GenerateSummary) -> _Cutoff:
-    from samplehd.dataset.container import read_meta
-    from samplehd.dataset.work import EpisodeUnit, run_episode_unit
 
     by_key = {(int(c["image_index"]), int(c["slot"])): c for c in candidates}
     order = candidate_order(list(by_key))
@@ -355,10 +340,9 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
             except DatasetError:
                 p.unlink()
                 continue
-            from samplehd.dataset.container import file_digest
 
             rec = {"scene_index": key[0], "slot": key[1], "status": "ok", "num_frames": int(meta["num_frames"]),
-                   "size": p.stat().st_size, "sha256": file_digest(p), "seconds": 0.0}
+                   "size": p.stat().st_size, "sha256": file_sha256(p), "seconds": 0.0}
             known[key] = rec
             late.append(rec)
     append_journal(out, late)
@@ -499,7 +483,6 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
     progress = progress or Progress()
     summary = GenerateSummary()
     t0 = time.perf_counter()
-    from samplehd.dataset.render import check_cameras
     from samplehd.scene.sampler import check_scene_config
 
     # Everything is checked before the first file is written.
@@ -529,7 +512,5 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
         with open(out / RUNS_FILE, "a", encoding="utf-8") as f:
             f.write(json.dumps(run) + "\n")
     except OSError as exc:
-        from samplehd.dataset.container import write_error
-
         raise write_error(out / RUNS_FILE, exc, RESUME_HINT) from None
     return summary

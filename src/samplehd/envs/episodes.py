@@ -285,7 +285,7 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
     if program:
         # The program must run on this scene: an instruction made for another scene is refused.
         try:
-            executed = execute(program, ann).to_dict()
+            executed = execute(program, ann).to_program_dict()
         except (KeyError, TypeError, ValueError, IndexError, SceneError, ConfigError) as exc:
             raise ConfigError(f"reset: the instruction {entry['instruction']!r} does not fit the scene: its program "
                               f"fails on it ({str(exc).splitlines()[0][:160]})") from None

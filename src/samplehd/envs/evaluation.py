@@ -26,8 +26,9 @@ from typing import Any
 import numpy as np
 
 from samplehd.catalogue.loader import catalogue_for
-from samplehd.envs.config import TASK_FAMILIES
 from samplehd.errors import ConfigError, PlanningError
+from samplehd.render.video import write_mp4
+from samplehd.tasks.family import family_names
 from samplehd.workers import Backend
 
 __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action", "evaluate", "load_policy",
@@ -67,9 +68,9 @@ class EvalConfig:
     def __post_init__(self) -> None:
         if not (isinstance(self.episodes, int) and self.episodes >= 1):
             raise ConfigError(f"--episodes {self.episodes!r}: must be a positive integer")
-        bad = [f for f in self.families if f not in TASK_FAMILIES]
+        bad = [f for f in self.families if f not in family_names()]
         if bad or not self.families:
-            raise ConfigError(f"--families: unknown {bad or '(none)'}; valid: {', '.join(TASK_FAMILIES)}")
+            raise ConfigError(f"--families: unknown {bad or '(none)'}; valid: {', '.join(family_names())}")
         if not (isinstance(self.workers, int) and self.workers >= 1):
             raise ConfigError(f"--workers {self.workers!r}: must be a positive integer")
         check_policy_spec(self.policy)
@@ -185,7 +186,7 @@ class _Runner:
     """One environment and policy that run benchmark episodes one at a time."""
 
     def __init__(self, config: EvalConfig) -> None:
-        import samplehd  # noqa: F401  (GL backend before mujoco)
+        # A worker imports this module through the samplehd package, which sets the GL backend first.
         from samplehd.envs.tabletop import TabletopEnv
 
         self.config = config
@@ -248,8 +249,6 @@ class _Runner:
         if config.compare_offline:
             record["offline_success"] = _offline_success(env, seed)
         if config.video_dir and frames and frames[0] is not None:
-            from samplehd.record.replay import write_mp4
-
             out = Path(config.video_dir)
             out.mkdir(parents=True, exist_ok=True)
             name = f"episode_{index:04d}_{record['family']}_{'ok' if record['success'] else 'fail'}.mp4"

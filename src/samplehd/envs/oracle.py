@@ -35,6 +35,7 @@ from samplehd.motion.steering import steering_from_targets
 from samplehd.robot.constants import GRIPPER_STROKE
 from samplehd.robot.controller import ControlReport
 from samplehd.robot.kinematics import fk_tcp
+from samplehd.tasks.family import get_family
 from samplehd.world.bodies import SceneBodies
 from samplehd.world.layout import LAYOUT
 from samplehd.world.planner_config import PlannerConfig
@@ -206,7 +207,7 @@ class OraclePolicy:
                 k = -1
                 try:
                     k = yield from ro.pick(i, tuple(exclude))
-                    if task.family != "pick_up":
+                    if get_family(task.family).places:
                         yield from ro.place(i, task, k)
                     break
                 except AttemptFailed as exc:

@@ -69,7 +69,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from samplehd.envs.config import CONTROL_MODES, EnvConfig
+from samplehd.envs.config import CAMERAS, CONTROL_MODES, EnvConfig
 from samplehd.envs.episodes import EpisodeSpec, SceneCache, episode_from_options, sample_episode
 from samplehd.envs.plan_tracker import plan_tracker
 from samplehd.envs.reward import dense_term
@@ -81,6 +81,7 @@ from samplehd.render.renderer import SceneRenderer
 from samplehd.robot.constants import GRIPPER_STROKE, JOINT_LIMITS
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.tasks.checker import check_success
+from samplehd.tasks.family import get_family
 from samplehd.tasks.task import Task, parse_task
 from samplehd.world.bodies import SceneBodies, grasped_object
 
@@ -210,7 +211,7 @@ class TabletopEnv(gym.Env):
             self.model = model
             self.data = mujoco.MjData(model)
             cams = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)}
-            self._cam_names = {c: (c if c in cams else "operator") for c in ("scene", "operator", "wrist")}
+            self._cam_names = {c: (c if c in cams else "operator") for c in CAMERAS}
         data = self.data
         mujoco.mj_copyData(data, model, pristine)
         self.controller = initial_state(model, data, self.control)
@@ -337,7 +338,7 @@ class TabletopEnv(gym.Env):
         shift = np.linalg.norm(d.xpos[moved] - self._start_pos[list(task.objects)], axis=1)
         if np.any(shift < self._gate_shift):
             return False
-        if task.family == "pick_up":
+        if not get_family(task.family).places:  # held objects touch the gripper
             return True
         if d.ncon:
             bodies = self.model.geom_bodyid[d.contact.geom]

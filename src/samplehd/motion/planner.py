@@ -34,6 +34,8 @@ from samplehd.motion.rrt import rrt_connect
 from samplehd.motion.trajectory import cartesian_path, joint_path
 from samplehd.robot.constants import JOINT_LIMITS
 from samplehd.robot.kinematics import fk_tcp
+from samplehd.tasks.family import get_family
+from samplehd.tasks.task import Task
 from samplehd.world.bodies import SceneBodies, object_footprint, object_pose
 from samplehd.world.collision import CollisionChecker, Held
 from samplehd.world.free_spot import rect_overlap
@@ -71,7 +73,7 @@ def destination_candidates(
     bodies: SceneBodies,
     facts: list[Any],
     i: int,
-    task: Any,
+    task: Task,
     rng: np.random.Generator,
     config: PlannerConfig,
     layout: TableLayout = LAYOUT,
@@ -82,17 +84,20 @@ def destination_candidates(
     """Candidate world (x, y) positions of object ``i``'s frame origin at release and turns about the
     vertical [rad], best first.
 
-    place/remove: free spots inside the destination part; place_relative: free spots past the
-    reference object along the scene's direction; stack/put: the support's top or opening centre.
+    By the family's destination recipe (:attr:`samplehd.tasks.family.TaskFamily.destination`):
+    ``table_part``: free spots inside the destination part; ``beside``: free spots past the
+    reference object along the scene's direction; ``top`` / ``opening``: the support's top or
+    opening centre.
     Where no spot is free, the search runs once more with the gaps to other objects and to the
     part's edges halved (``relaxed``), as a person would squeeze an object in.
     """
     t_obj = object_pose(data, bodies, i)
-    if task.family in ("stack", "put", "stack_three"):
+    recipe = get_family(task.family).destination
+    if recipe in ("top", "opening"):
         base = task.support_of(i)
         t_base = object_pose(data, bodies, base)
         f = facts[base]
-        if task.family == "put" and f is not None and f.opening is not None:
+        if recipe == "opening" and f is not None and f.opening is not None:
             c_local = np.array([*f.opening.center, 0.0])
         elif f is not None:
             c_local = np.array([*f.top.center, 0.0])
@@ -113,7 +118,7 @@ def destination_candidates(
     # The object may turn about the vertical on the way (the wrist turns), which helps long objects fit.
     yaws = rng.choice(np.array(SPOT_TURNS), size=n)
     ref_origin = np.zeros(2)
-    if task.family == "place_relative":
+    if recipe == "beside":
         ref = task.reference
         d = np.asarray((directions or DIRECTIONS)[task.direction], float)[:2]
         d /= np.linalg.norm(d)

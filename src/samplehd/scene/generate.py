@@ -15,8 +15,6 @@ result does not depend on the number of workers.
 
 from __future__ import annotations
 
-import json
-import os
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -24,23 +22,18 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.errors import ConfigError
+from samplehd.fileio import write_json_atomic
+from samplehd.render.renderer import MODALITIES
 from samplehd.scene.config import SceneConfig
 from samplehd.version import __version__
 from samplehd.workers import Backend
 
-__all__ = ["SceneJob", "generate_scenes", "render_scene_files", "scene_split", "write_json_atomic"]
+__all__ = ["SceneJob", "generate_scenes", "render_scene_files", "scene_split"]
 
 
 def scene_split(index: int, test_every: int = 20) -> str:
     """Split of scene `index`: every `test_every`-th scene is in the test split (5 % by default)."""
     return "test" if test_every > 0 and index % test_every == test_every - 1 else "train"
-
-
-def write_json_atomic(path: Path, obj: Any, indent: int | None = None) -> None:
-    """Write JSON to a temporary name in the same directory, then rename over `path`."""
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(json.dumps(obj, indent=indent))
-    os.replace(tmp, path)
 
 
 @dataclass(frozen=True)
@@ -75,7 +68,7 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
         else:
             model, data = compile_scene(result.scene)
         img = renderers.get(model, job.width, job.height, job.preset).render(
-            data, "scene", ("rgb", "depth", "segmentation"))
+            data, "scene", MODALITIES)
     split = scene_split(job.index, job.test_every)
     stem = image_stem(split, job.index)
     out = Path(job.out)

@@ -41,9 +41,11 @@ import numpy as np
 
 from samplehd.physics import wake_all
 from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.tasks.family import get_family
+from samplehd.tasks.judge import Judge
 from samplehd.tasks.task import Task, parse_task
-from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, quat_tilt
-from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout, table_parts_of
+from samplehd.world.bodies import SceneBodies, quat_tilt
+from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
 
 __all__ = ["CheckResult", "CheckerConfig", "check_success"]
 
@@ -127,58 +129,6 @@ class CheckResult:
                    tuple(d.get("disturbed", ())), tuple(d.get("fallen", ())), dict(d.get("details", {})))
 
 
-class _Judge:
-    """Measurements of the final state, shared by the predicates."""
-
-    def __init__(self, model: mujoco.MjModel, start: mujoco.MjData, end: mujoco.MjData, bodies: SceneBodies,
-                 config: CheckerConfig, layout: TableLayout) -> None:
-        self.model, self.start, self.end, self.b, self.cfg, self.layout = model, start, end, bodies, config, layout
-        self.contacts = contact_pairs(model, end)
-
-    def pos(self, i: int, data: mujoco.MjData | None = None) -> np.ndarray:
-        return (data or self.end).xpos[self.b.object_body[i]].copy()
-
-    def touching(self, i: int, bodies: set[int] | int) -> bool:
-        bi = int(self.b.object_body[i])
-        others = {bodies} if isinstance(bodies, int) else bodies
-        return any((min(bi, o), max(bi, o)) in self.contacts for o in others)
-
-    def resting(self, i: int) -> str:
-        """Empty string if object i rests, else why not."""
-        if self.touching(i, self.b.gripper_bodies):
-            return f"object {i} still touches the gripper"
-        drift = float(np.linalg.norm(self.pos(i) - self.pos(i, self.start)))
-        if drift > self.cfg.stable_drift:
-            return f"object {i} moved {drift * 1000:.0f} mm during the {self.cfg.window:.1f} s window"
-        speed = float(np.linalg.norm(self.end.cvel[self.b.object_body[i], 3:]))
-        if speed > self.cfg.rest_speed:
-            return f"object {i} still moves at {speed:.3f} m/s"
-        return ""
-
-    def on_table(self, i: int) -> bool:
-        box = object_world_box(self.model, self.end, self.b, i)
-        return box.lo[2] < self.layout.table_height + 0.01 or self.touching(i, self.b.table_body)
-
-    def stacked(self, top: int, base: int) -> str:
-        if r := self.resting(top):
-            return r
-        if not self.touching(top, int(self.b.object_body[base])):
-            return f"object {top} does not touch object {base}"
-        tb = object_world_box(self.model, self.end, self.b, top)
-        bb = object_world_box(self.model, self.end, self.b, base)
-        if tb.lo[2] < bb.lo[2] + self.cfg.stack_min_rise:
-            return f"object {top} is not above object {base}"
-        if not bb.contains_xy(self.pos(top), -self.cfg.footprint_margin):
-            return f"object {top} is not over the footprint of object {base}"
-        return ""
-
-
-def _welded(model: mujoco.MjModel, data: mujoco.MjData, i: int) -> bool:
-    """Whether object i hangs in the grasp assist's weld (``samplehd.motion.assist``)."""
-    e = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp_weld_{i}")
-    return e >= 0 and bool(data.eq_active[e])
-
-
 def _simulate_window(model: mujoco.MjModel, data: mujoco.MjData, window: float) -> mujoco.MjData:
     end = mujoco.MjData(model)
     mujoco.mj_copyData(end, model, data)
@@ -223,68 +173,8 @@ def check_success(
     mujoco.mj_copyData(start, model, data)
     mujoco.mj_forward(model, start)
     end = _simulate_window(model, start, config.window)
-    j = _Judge(model, start, end, bodies, config, layout)
-    dirs = directions or DIRECTIONS
-    reason = ""
-    details: dict[str, Any] = {}
-
-    if t.family in ("place", "remove"):
-        dest = t.destination_part
-        for i in t.objects:
-            parts = table_parts_of(j.pos(i)[:2], layout)
-            details[str(i)] = {"pos": j.pos(i).round(4).tolist(), "parts": parts}
-            if r := j.resting(i):
-                reason = r
-            elif not j.on_table(i):
-                reason = f"object {i} does not rest on the table"
-            elif t.family == "remove" and t.part in parts:
-                reason = f"object {i} is still in part {t.part}"
-            elif dest not in parts:
-                reason = f"object {i} is not in part {dest}"
-            if reason:
-                break
-    elif t.family == "stack":
-        reason = j.stacked(t.objects[0], t.reference)
-    elif t.family == "stack_three":
-        middle, top = t.objects
-        reason = j.stacked(middle, t.reference) or j.stacked(top, middle)
-    elif t.family == "put":
-        i, c = t.objects[0], t.reference
-        cb = object_world_box(model, end, bodies, c)
-        ob = object_world_box(model, end, bodies, i)
-        details = {"object_bottom": float(ob.lo[2]), "rim": float(cb.hi[2])}
-        if r := j.resting(i):
-            reason = r
-        elif not cb.contains_xy(j.pos(i), config.container_margin):
-            reason = f"object {i} is not inside the footprint of container {c}"
-        elif ob.lo[2] > cb.hi[2] + config.rim_tolerance:
-            reason = f"object {i} is not below the rim of container {c}"
-    elif t.family == "place_relative":
-        i, ref = t.objects[0], t.reference
-        d = np.asarray(dirs[t.direction], dtype=float)[:3]
-        offset = float(np.dot(j.pos(i) - j.pos(ref), d))
-        details = {"offset": offset}
-        if r := j.resting(i):
-            reason = r
-        elif not j.on_table(i):
-            reason = f"object {i} does not rest on the table"
-        elif offset <= config.relation_margin:
-            reason = f"object {i} is not {t.direction} of object {ref} (offset {offset * 1000:.0f} mm)"
-    elif t.family == "pick_up":
-        i = t.objects[0]
-        box = object_world_box(model, end, bodies, i)
-        lift = float(box.lo[2] - layout.table_height)
-        details = {"lift": lift}
-        fingers = {b for b in bodies.gripper_bodies if b in bodies.robot_bodies}
-        touched = {b for b in fingers if j.touching(i, b)}
-        others = {o for (a, b2) in j.contacts for o in (a, b2) if int(bodies.object_body[i]) in (a, b2)} - fingers
-        others.discard(int(bodies.object_body[i]))
-        if lift < config.lift_height:
-            reason = f"object {i} is only {lift * 1000:.0f} mm above the table"
-        elif not touched and not _welded(model, end, i):
-            reason = f"object {i} is not held by the gripper"
-        elif others - bodies.robot_bodies:
-            reason = f"object {i} rests on something besides the gripper"
+    j = Judge(model, start, end, bodies, config, layout, directions or DIRECTIONS)
+    reason, details = get_family(t.family).check(j, t)
     # Disturbance and falls, relative to the scene's initial poses.
     moved_ok = set(t.objects)
     disturbed, fallen = [], []

@@ -1,8 +1,10 @@
-"""Task descriptors: the executor's task dict normalised into one typed value per family.
+"""The one task type: what an instruction asks for, shared by the language executor, the planner, the
+success checker and the environment.
 
-The language executor turns a program into ``{type, objects: [indices], subject}`` where ``subject``
-is a table part name, an object index or a list. :func:`parse_task` accepts the forms below and
-returns a :class:`Task` that the planner and the success checker share.
+A :class:`Task` names its family (:mod:`samplehd.tasks.family`), the objects to move and the family's
+parameter (a table part, a reference object, a direction). The language executor builds one from a
+program; its executor-dict form ``{type, objects, subject, relation}`` (instruction files) is
+:meth:`Task.to_program_dict`, and :func:`parse_task` reads that form (and the forms below) back.
 
 =================  ==========================  ===============================================
 family             objects                     subject
@@ -26,15 +28,16 @@ The type may also carry the parameter in brackets, SAMPLE-HD style: ``place[left
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from samplehd.errors import PlanningError
-from samplehd.world.layout import OPPOSITE_PART, TABLE_PARTS
+from samplehd.tasks.family import family_names, get_family
+from samplehd.world.layout import TABLE_PARTS
 
-__all__ = ["FAMILIES", "RELATION_NAMES", "Task", "parse_task"]
+__all__ = ["RELATION_NAMES", "Task", "parse_task", "parse_part", "parse_relation"]
 
-FAMILIES = ("place", "stack", "put", "remove", "pick_up", "place_relative", "stack_three")
 RELATION_NAMES = ("left", "right", "front", "behind")
 _RELATION_ALIASES = {
     "left": "left", "left_of": "left", "left of": "left", "to the left of": "left",
@@ -46,10 +49,10 @@ _RELATION_ALIASES = {
 
 @dataclass(frozen=True)
 class Task:
-    """A normalised task.
+    """A task.
 
     Attributes:
-        family: one of :data:`FAMILIES`.
+        family: a registered family (:func:`samplehd.tasks.family.family_names`).
         objects: the objects to move, in the order they are moved (stack_three: bottom-up, i.e. the
             middle object first, then the top one).
         part: destination part (place) or cleared part (remove); None otherwise.
@@ -67,25 +70,31 @@ class Task:
     @property
     def destination_part(self) -> str | None:
         """The part objects must end in: the part for place, the opposite part for remove."""
-        if self.family == "place":
-            return self.part
-        if self.family == "remove" and self.part:
-            return OPPOSITE_PART[self.part]
-        return None
+        return get_family(self.family).destination_part(self)
 
     def support_of(self, obj: int) -> int:
         """The object that ``obj`` must end on/in (-1 for the table or the gripper)."""
-        if self.family in ("stack", "put"):
-            return self.reference
-        if self.family == "stack_three":
-            # objects = (middle, top); reference = bottom.
-            return self.reference if obj == self.objects[0] else self.objects[0]
-        return -1
+        return get_family(self.family).support_of(self, obj)
 
     @property
     def involved(self) -> tuple[int, ...]:
-        """Every object the task names (moved objects and the reference)."""
+        """Every object the task names (moved objects, then the reference)."""
         return self.objects + ((self.reference,) if self.reference >= 0 else ())
+
+    @property
+    def type(self) -> str:
+        """The program action the task is written as (a remove is a place to the opposite part)."""
+        return get_family(self.family).program(self)[0]
+
+    @property
+    def subject(self) -> str | int | None:
+        """The executor's subject: a destination part, the reference object, or None."""
+        return get_family(self.family).program(self)[1]
+
+    @property
+    def relation(self) -> str | None:
+        """The executor's relation (place_relative's direction)."""
+        return self.direction
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -97,7 +106,7 @@ class Task:
         }
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> Task:
+    def from_dict(cls, d: Mapping[str, Any]) -> Task:
         return cls(
             family=str(d["family"]),
             objects=tuple(int(i) for i in d["objects"]),
@@ -106,25 +115,42 @@ class Task:
             direction=d.get("direction"),
         )
 
+    def to_program_dict(self) -> dict[str, Any]:
+        """The executor's ``{type, objects, subject, relation}`` (the ``task`` of instruction files)."""
+        return {"type": self.type, "objects": list(self.objects), "subject": self.subject, "relation": self.relation}
 
-def _relation(value: Any) -> str:
+    def to_sample_hd(self) -> dict[str, Any]:
+        """SAMPLE-HD's executor output ``{name, objectInt, subjectString, subjectInt}``."""
+        subject = self.subject
+        return {
+            "name": self.type,
+            "objectInt": list(self.objects),
+            "subjectString": [subject] if isinstance(subject, str) else [],
+            "subjectInt": subject if isinstance(subject, int) else -1,
+        }
+
+
+def parse_relation(value: Any) -> str:
+    """A direction name (or alias) as one of :data:`RELATION_NAMES`; raises PlanningError."""
     key = str(value).strip().lower()
     if key not in _RELATION_ALIASES:
         raise PlanningError(f"unknown direction {value!r}; valid: {', '.join(RELATION_NAMES)}")
     return _RELATION_ALIASES[key]
 
 
-def _part(value: Any) -> str:
+def parse_part(value: Any) -> str:
+    """A table part name; raises PlanningError naming the valid ones."""
     if value not in TABLE_PARTS:
         raise PlanningError(f"unknown table part {value!r}; valid: {', '.join(TABLE_PARTS)}")
     return str(value)
 
 
-def parse_task(task: dict[str, Any] | Task, family: str | None = None) -> Task:
+def parse_task(task: Mapping[str, Any] | Task, family: str | None = None) -> Task:
     """Normalise an executor task dict (or a :class:`Task`) into a :class:`Task`.
 
     Args:
-        task: the executor's ``{type, objects, subject, relation}`` (or a :class:`Task`).
+        task: the executor's ``{type, objects, subject, relation}``, a :meth:`Task.to_dict`, or a
+            :class:`Task`.
         family: the instruction's family when it differs from the task type ("remove" is executed
             as a place to the opposite part).
 
@@ -133,62 +159,26 @@ def parse_task(task: dict[str, Any] | Task, family: str | None = None) -> Task:
             is valid.
     """
     if isinstance(task, Task):
-        return task
-    if "family" in task and "objects" in task and "type" not in task:
-        return Task.from_dict(task)
+        parsed = task
+    elif "family" in task and "objects" in task and "type" not in task:
+        parsed = Task.from_dict(task)
+    else:
+        parsed = _parse_program_dict(task)
+    if family is not None and family != parsed.family:
+        hint = get_family(family)
+        if hint.runs_as == parsed.family and hint.adopt is not None:
+            return hint.adopt(parsed)
+    return parsed
+
+
+def _parse_program_dict(task: Mapping[str, Any]) -> Task:
     raw_type = str(task.get("type", task.get("name", "")))
     m = re.fullmatch(r"([a-z_]+)(?:\[([^\]]+)\])?", raw_type.strip())
     if not m:
-        raise PlanningError(f"malformed task type {raw_type!r}; valid families: {', '.join(FAMILIES)}")
-    hint = family
-    family, param = m.group(1), m.group(2)
+        raise PlanningError(f"malformed task type {raw_type!r}; valid families: {', '.join(family_names())}")
+    name, param = m.group(1), m.group(2)
     objects = [int(i) for i in task.get("objects", task.get("objectInt", []))]
-    subject = task.get("subject")
-    if family not in FAMILIES:
-        raise PlanningError(f"unknown task family {family!r}; valid: {', '.join(FAMILIES)}")
+    spec = get_family(name)
     if not objects:
         raise PlanningError(f"task {raw_type!r} names no objects")
-    if family in ("place", "remove"):
-        dest = _part(subject if subject is not None else param)
-        if family == "remove" or hint == "remove":
-            # The executor's remove is a place to the opposite part; store the cleared part.
-            return Task("remove", tuple(objects), part=OPPOSITE_PART[dest])
-        return Task(family, tuple(objects), part=dest)
-    if family in ("stack", "put"):
-        ref = subject if subject is not None else (objects[1] if len(objects) == 2 else None)
-        if ref is None or isinstance(ref, list | str):
-            raise PlanningError(f"task {family}: subject must be an object index, got {subject!r}")
-        moved = objects[:1]
-        return Task(family, tuple(moved), reference=int(ref))
-    if family == "pick_up":
-        return Task(family, (objects[0],))
-    if family == "place_relative":
-        direction: str | None = _relation(param) if param else None
-        if task.get("relation"):
-            direction = _relation(task["relation"])
-        ref: int | None = None
-        if isinstance(subject, dict):
-            direction = _relation(subject.get("direction", direction))
-            ref = int(subject["reference"])
-        elif isinstance(subject, list | tuple):
-            for v in subject:
-                if isinstance(v, str) and not v.lstrip("-").isdigit():
-                    direction = _relation(v)
-                else:
-                    ref = int(v)
-        elif subject is not None:
-            ref = int(subject)
-        if ref is None and len(objects) == 2:
-            ref = objects[1]
-        if ref is None or direction is None:
-            raise PlanningError(f"task place_relative needs a direction and a reference object, got {task!r}")
-        return Task(family, (objects[0],), reference=ref, direction=direction)
-    # stack_three: "stack R2 on R3, then R1 on R2" -> move middle then top onto bottom.
-    if len(objects) == 3 and subject is None:
-        top, middle, bottom = objects
-    elif len(objects) == 2 and subject is not None:
-        middle, top = objects
-        bottom = int(subject)
-    else:
-        raise PlanningError(f"task stack_three needs three objects (top, middle, bottom), got {task!r}")
-    return Task(family, (middle, top), reference=bottom)
+    return spec.parse(objects, task.get("subject"), param, task)

@@ -5,7 +5,10 @@ Lift with a UR5e, the BASIC composite controller (OSC_POSE on the arm), 20 Hz co
 repeats) and reset time.
 
     python3 -m venv /tmp/rs-venv && /tmp/rs-venv/bin/pip install robosuite "mujoco==3.9.0"
-    MUJOCO_GL=egl /tmp/rs-venv/bin/python benchmarks/robosuite_env.py --configs state rgb128 rgbdseg256
+    MUJOCO_GL=egl /tmp/rs-venv/bin/python src/samplehd/bench/_robosuite_env.py --configs state rgb128 rgbdseg256
+
+``samplehd bench env --robosuite-python /tmp/rs-venv/bin/python`` runs it as a subprocess (this file
+imports nothing of samplehd and is not an area of ``samplehd bench``).
 """
 
 from __future__ import annotations
