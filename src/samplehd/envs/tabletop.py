@@ -74,7 +74,7 @@ from samplehd.envs.episodes import EpisodeSpec, SceneCache, episode_from_options
 from samplehd.envs.plan_tracker import plan_tracker
 from samplehd.envs.reward import dense_term
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
-from samplehd.errors import ActionError, SamplehdError
+from samplehd.errors import ActionError, ConfigError, SamplehdError
 from samplehd.motion.assist import GraspAssist
 from samplehd.motion.execute import initial_state
 from samplehd.render.renderer import SceneRenderer
@@ -187,8 +187,6 @@ class TabletopEnv(gym.Env):
         if self._closed:
             raise ActionError("reset() after close(): the environment is closed; make a new one")
         if options is not None and not isinstance(options, dict):
-            from samplehd.errors import ConfigError
-
             raise ConfigError(f"reset: options must be a dict, got {type(options).__name__}")
         super().reset(seed=seed)
         options = dict(options or {})
