@@ -613,3 +613,15 @@ def test_rerender_failing_in_one_episode_changes_no_other(tmp_path: Path, worksp
         with h5py.File(path, "r") as f:  # each episode holds its old states or its new images, whole
             assert ("images" in f) == (path.read_bytes() != before[e["file"]])
     assert after["rerender"]["done"] == len(episodes) - 1
+
+
+@pytest.mark.slow
+def test_a_start_that_failed_before_info_json_does_not_block_the_next(tmp_path: Path, workspace) -> None:
+    """The empty layout folders of a start that failed before info.json (disk full) are no dataset
+    and no user files: the same command runs there afterwards."""
+    out = tmp_path / "ds"
+    for sub in ("scenes", "episodes", "images", "depth", "segmentation"):
+        (out / sub).mkdir(parents=True)
+    micro = workspace["pristine"] / "cfg" / "micro.json"
+    assert main(["generate", "--quiet", "--out", str(out), "--config", str(micro), "--workers", "1"]) == 0
+    assert json.loads((out / "info.json").read_text())["status"] == "complete"

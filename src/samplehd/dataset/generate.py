@@ -161,10 +161,10 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
                 raise ConfigError(f"--resume: {info_path} catalogue.sha256 does not match the catalogue now "
                                   f"({changed} changed since the dataset was started); resume with the "
                                   "catalogue it was made with, or start a new --out")
-    elif out.is_dir() and any(p for p in out.iterdir() if not is_temporary(p.name)):
+    elif out.is_dir() and _holds_files(out):
         raise DatasetError(f"--out {out}: is not empty and holds no dataset; choose an empty or new directory")
     try:
-        for sub in (SCENE_DIR, EPISODE_DIR, "images", "depth", "segmentation"):
+        for sub in _LAYOUT_DIRS:
             (out / sub).mkdir(parents=True, exist_ok=True)
         probe = out / f".write-test{os.getpid()}"
         probe.write_text("")
@@ -176,6 +176,21 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
             if is_temporary(p.name) and p.is_file():
                 p.unlink()
     repair_journal(out)
+
+
+# The folders a new dataset starts with (made before info.json is written).
+_LAYOUT_DIRS = (SCENE_DIR, EPISODE_DIR, "images", "depth", "segmentation")
+
+
+def _holds_files(out: Path) -> bool:
+    """Whether ``out`` holds anything but temporary files and the empty folders a start that failed
+    before writing info.json leaves (such a stub must not block the next run)."""
+    for p in out.iterdir():
+        if is_temporary(p.name):
+            continue
+        if not (p.name in _LAYOUT_DIRS and p.is_dir() and not any(p.iterdir())):
+            return True
+    return False
 
 
 def _check_resumable(out: Path, info: dict[str, Any]) -> None:
