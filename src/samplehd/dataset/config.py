@@ -83,7 +83,7 @@ class GenerateConfig:
     """
 
     num_scenes: int = bounded(4, lo=1, hi=1_000_000)
-    seed: int = bounded(0, lo=0, hi=2**63 - 1)
+    seed: int = bounded(0, lo=0)
     target_episodes: int = bounded(0, lo=0)
     test_every: int = bounded(20, lo=0)
     scene: SceneConfig = field(default_factory=SceneConfig)
