@@ -59,7 +59,7 @@ def _check_folder(root: Path) -> None:
     from samplehd.errors import DatasetError
 
     if not root.is_dir():
-        raise DatasetError(f"{root}: {'is a file' if root.exists() else 'does not exist'}; give a dataset folder")
+        return  # the viewer names a missing folder or a file itself
     try:
         info = json.loads((root / INFO_FILE).read_text(encoding="utf-8"))
     except (OSError, ValueError):
