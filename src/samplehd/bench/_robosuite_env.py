@@ -19,6 +19,8 @@ import os
 import statistics
 import time
 
+import numpy as np
+
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 CONFIGS = {
@@ -30,7 +32,6 @@ CONFIGS = {
 
 
 def measure(name: str, steps: int, repeats: int) -> dict[str, float]:
-    import numpy as np
     import robosuite as suite
     from robosuite.controllers import load_composite_controller_config
 

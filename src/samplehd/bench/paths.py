@@ -8,11 +8,24 @@ from __future__ import annotations
 
 import argparse
 import json
-from collections import defaultdict
+import statistics
+import time
+from collections import Counter, defaultdict
 from typing import Any
 
+import mujoco
 import numpy as np
 
+from samplehd.bench import Figure
+from samplehd.catalogue import ObjectInstance
+from samplehd.language.generator import generate_instructions
+from samplehd.motion.assist import compile_scene_with_assist
+from samplehd.record.paths import PathRejected, plan_and_execute
+from samplehd.render.renderer import MODALITIES
+from samplehd.render.states import render_states
+from samplehd.scene.annotate import annotate_scene
+from samplehd.scene.sampler import sample_scene
+from samplehd.scene.spec import SceneObject, SceneSpec
 from samplehd.workers import Backend
 from samplehd.world.layout import LAYOUT
 
@@ -22,17 +35,6 @@ __all__ = ["add_arguments", "oracle_success", "oracle_table", "report", "run"]
 def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> list[dict[str, Any]]:
     """Sample one scene with the real sampler, generate instructions with the real generator
     (families balanced), and run the oracle on each; returns one result dict per instruction."""
-    import time
-
-    import mujoco
-
-    import samplehd  # noqa: F401
-    from samplehd.language.generator import generate_instructions
-    from samplehd.motion.assist import compile_scene_with_assist as compile_scene
-    from samplehd.record.paths import PathRejected, plan_and_execute
-    from samplehd.scene.annotate import annotate_scene
-    from samplehd.scene.sampler import sample_scene
-
     index, seed, per_scene, out, families = args
     results = []
     try:
@@ -40,7 +42,7 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> li
     except Exception as exc:  # noqa: BLE001 - a scene the sampler cannot make is skipped, counted
         return [{"scene": index, "family": "-", "success": False, "reason": f"scene: {exc}", "skipped": True}]
     scene = sampled.scene
-    model, data = compile_scene(scene)
+    model, data = compile_scene_with_assist(scene)
     start = mujoco.MjData(model)
     mujoco.mj_copyData(start, model, data)
     ann = annotate_scene(scene, model, data, 640, 360)
@@ -65,8 +67,6 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> li
         r["seconds"] = time.perf_counter() - t0
         results.append(r)
         if out:
-            import json
-
             with open(out, "a", encoding="utf-8") as f:
                 f.write(json.dumps(r) + "\n")
     return results
@@ -96,8 +96,6 @@ def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers:
 
 def oracle_table(results: list[dict[str, Any]]) -> str:
     """Per family: attempted, first-try and final success rates, and failure reasons."""
-    from collections import Counter, defaultdict
-
     by: dict[str, Counter] = defaultdict(Counter)
     for r in results:
         if r.get("skipped"):
@@ -123,10 +121,7 @@ def oracle_table(results: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def _bench_scene() -> Any:
-    from samplehd.catalogue import ObjectInstance
-    from samplehd.scene.spec import SceneObject, SceneSpec
-
+def _bench_scene() -> SceneSpec:
     up = (1.0, 0.0, 0.0, 0.0)
     t = LAYOUT.table_height
     return SceneSpec(index=0, seed=0, objects=(
@@ -137,20 +132,13 @@ def _bench_scene() -> Any:
     ))
 
 
-def run(repeats: int = 3) -> list[Any]:
+def run(repeats: int = 3) -> list[Figure]:
     """Episode frames/s: state-only, and with ``fast`` RGB+depth+segmentation at 320×180 and 640×360.
 
     One place episode (about 250 frames at 20 Hz) of a 4-object scene; frames/s counts planning,
     physics, recording and the checker, plus rendering every frame from the operator camera.
     """
-    import statistics
-    import time
 
-    from samplehd.bench import Figure
-    from samplehd.motion.assist import compile_scene_with_assist
-    from samplehd.record.paths import plan_and_execute
-    from samplehd.render.renderer import MODALITIES
-    from samplehd.render.states import render_states
 
     scene = _bench_scene()
     task = {"type": "place", "objects": [1], "subject": "left"}

@@ -36,16 +36,20 @@ Their stats are in the same native units (mm, ids), per channel with shape (1, 1
 
 from __future__ import annotations
 
+import io
 import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
+from samplehd.dataset.container import camera_settings
 from samplehd.dataset.staging import export_source, staged_directory
 from samplehd.errors import DatasetError
 from samplehd.render.renderer import MODALITIES
+from samplehd.render.video import VideoWriter, pick_codec
 
 __all__ = ["CODEBASE_VERSION", "export_lerobot"]
 
@@ -91,7 +95,6 @@ def _hf_features(image_keys: list[str]) -> dict[str, Any]:
 
 class _Stats:
     """Running min/max/sum/sumsq and a kept sample for quantiles, per feature."""
-
     def __init__(self) -> None:
         self.parts: dict[str, list[np.ndarray]] = {}
 
@@ -133,10 +136,6 @@ def _as_uint16(mod: str, frames: np.ndarray) -> np.ndarray:
 
 def _png16(image: np.ndarray) -> bytes:
     """One (H, W) uint16 image as a 16-bit grayscale PNG (PIL mode I;16, as LeRobot writes depth)."""
-    import io
-
-    from PIL import Image
-
     buf = io.BytesIO()
     Image.fromarray(np.ascontiguousarray(image, dtype=np.uint16)).save(buf, format="PNG", compress_level=1)
     return buf.getvalue()
@@ -192,8 +191,6 @@ def _write_tasks(path: Path, tasks: list[str]) -> None:
 def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str] | None,
              modalities: list[str] | None) -> tuple[dict[str, dict[str, Any]], list[tuple[str, str]]]:
     """The per-camera settings and the (camera, modality) streams to export; one-line errors."""
-    from samplehd.dataset.container import camera_settings
-
     settings = camera_settings(render)
     cams = list(dict.fromkeys(cameras)) if cameras is not None else list(settings)
     missing = [c for c in cams if c not in settings]
@@ -250,7 +247,6 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     """
     import pyarrow.parquet as pq
 
-    from samplehd.render.video import VideoWriter, pick_codec
 
     reader, out = export_source(root, out)
     settings, streams = _streams(root, reader.info.get("render"), cameras, modalities)

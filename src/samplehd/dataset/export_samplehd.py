@@ -30,7 +30,10 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.dataset.container import read_episode
 from samplehd.dataset.staging import export_source, staged_directory
+from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
+from samplehd.render.video import VideoWriter
 from samplehd.workers import Backend
 
 __all__ = ["export_samplehd", "sequence_name"]
@@ -78,9 +81,6 @@ def _frame_records(ep: Any) -> list[dict[str, Any]]:
 
 
 def _export_sequence(unit: _SequenceUnit) -> int:
-    from samplehd.dataset.container import read_episode
-    from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
-
     ep = read_episode(Path(unit.episode_path), images="lazy" if unit.images or unit.previews else "none")
     folder = Path(unit.out) / "sequences" / sequence_name(unit.instruction_index, ep.scene_index)
     folder.mkdir(parents=True, exist_ok=True)
@@ -107,8 +107,6 @@ def _export_sequence(unit: _SequenceUnit) -> int:
                 if "segmentation" in mods:
                     save_segmentation(folder / f"{t:05d}{tag}_seg.png", mods["segmentation"][t])
     if unit.previews and cams and "rgb" in ep.images[cams[0]]:
-        from samplehd.render.video import VideoWriter
-
         rgb = ep.images[cams[0]]["rgb"][:]
         h, w = rgb.shape[1] // 2 * 2, rgb.shape[2] // 2 * 2
         with VideoWriter(folder / "preview.mp4", w, h, unit.fps, "libx264", crf=23, gop=unit.fps) as vw:

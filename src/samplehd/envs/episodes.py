@@ -21,9 +21,16 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.dataset.reader import DatasetReader
 from samplehd.errors import ConfigError, SceneError
+from samplehd.language.executor import execute
+from samplehd.language.generator import generate_instructions
+from samplehd.motion.assist import compile_scene_with_assist
+from samplehd.scene.annotate import annotate_scene
 from samplehd.scene.config import SceneConfig
+from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.world.seeding import scene_seed as pool_seed
 
 __all__ = ["EpisodeSpec", "SceneCache", "episode_from_options", "sample_episode"]
 
@@ -83,7 +90,6 @@ class SceneCache:
 
     def scene(self, seed: int, index: int = 0) -> SceneSpec:
         """The scene sampled from ``seed`` (cached)."""
-        from samplehd.scene.sampler import sample_scene
 
         key = (int(seed), int(index), self._config_key)
         if key in _SAMPLED:
@@ -106,8 +112,6 @@ class SceneCache:
             model, data = self._models[key]
             return model, data, False
         if self.grasp_welds:
-            from samplehd.motion.assist import compile_scene_with_assist
-
             model, data = compile_scene_with_assist(scene, self.timestep)
         else:
             model, data = compile_scene(scene, self.timestep)
@@ -128,8 +132,6 @@ class SceneCache:
 
 
 def _annotation(scene: SceneSpec, model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, Any]:
-    from samplehd.scene.annotate import annotate_scene
-
     camera = "scene" if scene.camera.name == "scene" else "operator"
     return annotate_scene(scene, model, data, 640, 360, camera=camera)
 
@@ -162,8 +164,6 @@ def sample_episode(
     Raises:
         SceneError: no scene in several tries allowed an instruction of the family.
     """
-    from samplehd.language.generator import generate_instructions
-    from samplehd.world.seeding import scene_seed as pool_seed
 
     drawn = family is None
     if family is None:
@@ -208,7 +208,6 @@ def _as_scene(value: Any) -> SceneSpec:
 
 def _dataset_options(options: Mapping[str, Any]) -> dict[str, Any]:
     """Resolve ``dataset`` + ``episode_index`` into the scene, instruction and recorded episode."""
-    from samplehd.dataset.reader import DatasetReader
 
     if "dataset" not in options or "episode_index" not in options:
         raise ConfigError("reset: options 'dataset' (a dataset directory) and 'episode_index' go together")
@@ -260,7 +259,6 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
     Raises:
         ConfigError: a required option is missing or malformed.
     """
-    from samplehd.language.executor import execute
 
     unknown = sorted(set(options) - {"scene", "instruction", "episode", "family", "dataset", "episode_index"})
     if unknown:

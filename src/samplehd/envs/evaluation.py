@@ -26,8 +26,13 @@ from typing import Any
 import numpy as np
 
 from samplehd.catalogue.loader import catalogue_for
+from samplehd.envs.config import EnvConfig
+from samplehd.envs.oracle import OraclePolicy
+from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, PlanningError
+from samplehd.record.paths import PathConfig, plan_and_execute
 from samplehd.render.video import write_mp4
+from samplehd.scene.spec import compile_scene
 from samplehd.tasks.family import family_names
 from samplehd.workers import Backend
 
@@ -95,7 +100,6 @@ def benchmark_split(episodes: int, families: Sequence[str], seed: int) -> list[t
 
 class RandomPolicy:
     """Uniform samples of an action space (the success floor)."""
-
     def __init__(self, action_space: Any, seed: int = 0) -> None:
         self.action_space = action_space
         self.action_space.seed(seed)
@@ -133,8 +137,6 @@ def load_policy(spec: str, env: Any) -> Callable[[Any], Any]:
     """Build the policy named by ``spec`` for ``env``; see the module docstring."""
     check_policy_spec(spec)
     if spec == "oracle":
-        from samplehd.envs.oracle import OraclePolicy
-
         return OraclePolicy(env)
     if spec == "random":
         return RandomPolicy(env.action_space)
@@ -169,9 +171,6 @@ def check_policy_action(spec: str, action: Any, space: Any) -> np.ndarray:
 
 
 def _offline_success(env: Any, seed: int) -> bool:
-    from samplehd.record.paths import PathConfig, plan_and_execute
-    from samplehd.scene.spec import compile_scene
-
     ep = env.unwrapped.episode
     try:
         plan_and_execute(ep.scene, ep.instruction["task"], np.random.default_rng(seed), PathConfig(max_attempts=1),
@@ -184,10 +183,8 @@ def _offline_success(env: Any, seed: int) -> bool:
 
 class _Runner:
     """One environment and policy that run benchmark episodes one at a time."""
-
     def __init__(self, config: EvalConfig) -> None:
         # A worker imports this module through the samplehd package, which sets the GL backend first.
-        from samplehd.envs.tabletop import TabletopEnv
 
         self.config = config
         env_options = dict(config.env)
@@ -296,7 +293,6 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
     check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
     """
-    from samplehd.envs.config import EnvConfig
 
     EnvConfig.from_kwargs(**config.env)  # one-line errors before any work
     split = benchmark_split(config.episodes, config.families, config.seed)
@@ -337,8 +333,6 @@ def _write_report(out: str | Path, report: dict[str, Any]) -> None:
 
 
 def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partial: bool = False) -> dict[str, Any]:
-    from samplehd.envs.config import EnvConfig
-
     records = sorted(records, key=lambda r: r["index"])
     by_family = {}
     for fam in dict.fromkeys(r["family"] for r in records):

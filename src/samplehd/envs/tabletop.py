@@ -368,7 +368,7 @@ class TabletopEnv(gym.Env):
                              directions=directions).to_dict()
 
     # ------------------------------------------------------------------ observations
-    def _renderer_for(self) -> Any:
+    def _renderer_for(self) -> SceneRenderer:
         if self._renderer is None:
             cfg = self.config
             self._renderer = SceneRenderer(self.model, cfg.width, cfg.height, cfg.render_preset)

@@ -29,6 +29,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.catalogue import ObjectFacts
 from samplehd.errors import PlanningError
 from samplehd.motion.rrt import rrt_connect
 from samplehd.motion.trajectory import cartesian_path, joint_path
@@ -71,7 +72,7 @@ __all__ = [
 def destination_candidates(
     data: mujoco.MjData,
     bodies: SceneBodies,
-    facts: list[Any],
+    facts: list[ObjectFacts | None],
     i: int,
     task: Task,
     rng: np.random.Generator,

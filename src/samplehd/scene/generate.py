@@ -23,10 +23,16 @@ from typing import Any
 
 from samplehd.errors import ConfigError
 from samplehd.fileio import write_json_atomic
-from samplehd.render.renderer import MODALITIES
+from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
+from samplehd.render.renderer import MODALITIES, RendererCache, get_preset
+from samplehd.scene.annotate import annotate_scene, image_stem
 from samplehd.scene.config import SceneConfig
+from samplehd.scene.sampler import sample_scene
+from samplehd.scene.spec import compile_scene
+from samplehd.scene.world import fresh_state
 from samplehd.version import __version__
 from samplehd.workers import Backend
+from samplehd.world.seeding import scene_seed
 
 __all__ = ["SceneJob", "generate_scenes", "render_scene_files", "scene_split"]
 
@@ -52,12 +58,6 @@ class SceneJob:
 
 def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
     """Sample, render and annotate one scene; writes its files and returns (annotation, rejections)."""
-    from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
-    from samplehd.render.renderer import RendererCache
-    from samplehd.scene.annotate import annotate_scene, image_stem
-    from samplehd.scene.sampler import sample_scene
-    from samplehd.scene.spec import compile_scene
-    from samplehd.scene.world import fresh_state
 
     config = SceneConfig.from_dict(job.config)
     # The occlusion check and the images share one model and, when their presets agree, its renderer.
@@ -96,8 +96,6 @@ def generate_scenes(
     on_scene: Callable[[int], None] | None = None,
 ) -> dict[str, Any]:
     """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts."""
-    from samplehd.render.renderer import get_preset
-    from samplehd.world.seeding import scene_seed
 
     if num < 1:
         raise ConfigError(f"--num {num}: must be ≥ 1")

@@ -8,19 +8,21 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any
 
 import mujoco
 import numpy as np
 
-from samplehd.catalogue import Catalogue, ObjectInstance, catalogue_for, object_facts
+from samplehd.catalogue import Catalogue, ObjectFacts, ObjectInstance, catalogue_for, object_facts
 from samplehd.errors import ConfigError, SceneError
 from samplehd.render.renderer import SEG_OBJECT_OFFSET, RendererCache
+from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene, object_qpos_addresses
 from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec
-from samplehd.world.bodies import object_body_name
+from samplehd.world.bodies import SceneBodies, object_body_name
+from samplehd.world.collision import CollisionChecker
 from samplehd.world.layout import LAYOUT, TableLayout
+from samplehd.world.robot_info import RobotInfo
 from samplehd.world.transforms import quat_from_yaw, quat_to_mat
 
 __all__ = ["SampleResult", "check_scene_config", "draw_instance", "sample_camera", "sample_scene"]
@@ -115,7 +117,7 @@ def draw_instance(rng: np.random.Generator, cat: Catalogue, config: SceneConfig,
             return ObjectInstance(name, variant, colour, material, size)
 
 
-def _footprint_corners(facts: Any, xy: np.ndarray, yaw: float, margin: float) -> np.ndarray:
+def _footprint_corners(facts: ObjectFacts, xy: np.ndarray, yaw: float, margin: float) -> np.ndarray:
     cx, cy = facts.footprint_center
     hx, hy = facts.footprint_half_extents
     hx, hy = hx + margin, hy + margin
@@ -138,7 +140,7 @@ def _rects_overlap(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def _place(
-    rng: np.random.Generator, facts: Any, placed: list[np.ndarray], config: SceneConfig, layout: TableLayout,
+    rng: np.random.Generator, facts: ObjectFacts, placed: list[np.ndarray], config: SceneConfig, layout: TableLayout,
     rejections: Counter[str],
 ) -> tuple[np.ndarray, float, np.ndarray] | None:
     lo, hi = np.asarray(layout.workspace_min), np.asarray(layout.workspace_max)
@@ -212,10 +214,6 @@ def _settle(
 
 def _home_clear(model: mujoco.MjModel, data: mujoco.MjData, count: int) -> bool:
     """Whether the arm at home, gripper fully open, touches no object (every path starts there)."""
-    from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
-    from samplehd.world.bodies import SceneBodies
-    from samplehd.world.collision import CollisionChecker
-    from samplehd.world.robot_info import RobotInfo
 
     if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
         return True

@@ -40,6 +40,7 @@ import mujoco
 import numpy as np
 
 from samplehd.physics import wake_all
+from samplehd.scene.spec import SceneSpec
 from samplehd.schema import bounded, check_fields, from_mapping
 from samplehd.tasks.family import get_family
 from samplehd.tasks.judge import Judge
@@ -144,7 +145,7 @@ def _simulate_window(model: mujoco.MjModel, data: mujoco.MjData, window: float) 
 def check_success(
     model: mujoco.MjModel,
     data: mujoco.MjData,
-    scene: Any,
+    scene: SceneSpec,
     task: dict[str, Any] | Task,
     config: CheckerConfig | None = None,
     layout: TableLayout = LAYOUT,

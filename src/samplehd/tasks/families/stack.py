@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from samplehd.errors import PlanningError
@@ -11,7 +11,7 @@ from samplehd.tasks.judge import Judge
 from samplehd.tasks.task import Task
 
 
-def parse_on(name: str) -> Any:
+def parse_on(name: str) -> Callable[[list[int], Any, str | None, Mapping[str, Any]], Task]:
     """The executor-dict parser of a family that moves one object onto or into a reference object."""
 
     def parse(objects: list[int], subject: Any, param: str | None, raw: Mapping[str, Any]) -> Task:
