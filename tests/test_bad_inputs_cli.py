@@ -585,7 +585,7 @@ def test_rerender_failing_in_one_episode_changes_no_other(tmp_path: Path, worksp
     info.json matches every file on disk."""
     import h5py
 
-    from samplehd.dataset.container import file_digest
+    from samplehd.fileio import file_sha256
 
     ds = tmp_path / "ds"
     shutil.copytree(workspace["pristine"] / "ds", ds)
@@ -607,7 +607,7 @@ def test_rerender_failing_in_one_episode_changes_no_other(tmp_path: Path, worksp
     assert after["episodes"][-1] == episodes[-1]  # the spoilt one (spoilt behind info.json's back) as it was
     for e in after["episodes"][:-1]:
         path = ds / e["file"]
-        assert (e["size"], e["sha256"]) == (path.stat().st_size, file_digest(path)), e["file"]
+        assert (e["size"], e["sha256"]) == (path.stat().st_size, file_sha256(path)), e["file"]
         with h5py.File(path, "r") as f:  # each episode holds its old states or its new images, whole
             assert ("images" in f) == (path.read_bytes() != before[e["file"]])
     assert after["rerender"]["done"] == len(episodes) - 1
