@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from samplehd.commands import generate
+from samplehd.errors import RenderError
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
 from samplehd.render.renderer import MODALITIES, SceneRenderer
 from samplehd.scene.sampler import sample_scene
@@ -33,7 +34,19 @@ def _pictures(out: Path) -> list[Path]:
     save_rgb(paths[2], colorize_segmentation(img["segmentation"]))
     with SceneRenderer(model, 640, 360, "fast") as r:
         save_rgb(paths[3], r.render(data, "wrist", ("rgb",))["rgb"])
-    return paths
+    return paths + _photo_picture(out, model, data)
+
+
+def _photo_picture(out: Path, model: object, data: object) -> list[Path]:
+    """The same view path traced (the photo preset); one line saying what to install where it cannot run."""
+    path = out / "world_photo.png"
+    try:
+        with SceneRenderer(model, 1280, 720, "photo") as r:
+            save_rgb(path, r.render(data, "operator", ("rgb",))["rgb"])
+    except RenderError as exc:
+        print(f"samplehd demo: no photo picture: {exc}")
+        return []
+    return [path]
 
 
 def run(args: argparse.Namespace) -> int:

@@ -9,7 +9,7 @@ from samplehd.envs.config import CONTROL_MODES, OBS_MODES
 from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
-from samplehd.tasks.family import family_names
+from samplehd.tasks.task import family_names
 
 HELP = "run a policy (MODULE:CALLABLE, oracle or random) on the seeded benchmark split; JSON report"
 

@@ -32,7 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=default_workers(), help="worker processes (local backend)")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="where work units run")
     parser.add_argument("--ray-address", help="Ray cluster address (default: start a local Ray)")
-    parser.add_argument("--render", choices=RENDER_MODES, help="images per episode: none (states only), fast, hd")
+    parser.add_argument("--render", choices=RENDER_MODES, help="images per episode: none (states only), fast, hd, "
+                        "photo (path traced)")
     parser.add_argument("--width", type=int, help="image width [px]")
     parser.add_argument("--height", type=int, help="image height [px]")
     parser.add_argument("--cameras", nargs="+", help="cameras to render (scene, operator, wrist)")

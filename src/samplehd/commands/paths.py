@@ -31,7 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"space- or comma-separated: {', '.join(MODALITIES)}")
     parser.add_argument("--width", type=int, default=320, help="image width [px]")
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
-    parser.add_argument("--preset", default="fast", choices=["fast", "hd"], help="render quality preset")
+    parser.add_argument("--preset", default="fast", metavar="{fast,hd,photo}", help="render quality preset")
     parser.add_argument("--workers", type=int, default=1, help="parallel worker processes")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="where work units run")
     parser.add_argument("--seed", type=int, default=0,

@@ -17,7 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--camera", default="operator", help="camera name (operator, wrist, ...)")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px]")
-    parser.add_argument("--preset", default="hd", choices=["fast", "hd"], help="render quality preset")
+    parser.add_argument("--preset", default="hd", metavar="{fast,hd,photo}", help="render quality preset")
     parser.add_argument("--out", required=True, type=Path, help="RGB output file (.png)")
     parser.add_argument("--depth", type=Path, help="depth output: .png (uint16 mm) or .npy (float32 m)")
     parser.add_argument("--segmentation", type=Path, help="instance-id PNG output")

@@ -26,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--camera", default="operator", help="camera name (operator, scene, wrist)")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px]")
-    parser.add_argument("--preset", default="fast", choices=["fast", "hd"], help="render quality preset")
+    parser.add_argument("--preset", default="fast", metavar="{fast,hd,photo}", help="render quality preset")
     parser.add_argument("--sheet", type=Path, help="also write a per-subtask contact sheet (.png)")
 
 

@@ -34,7 +34,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, help="JSON file with a 'scene' section of sampler options")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px] (16:9 by default)")
-    parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
+    parser.add_argument("--preset", metavar="{fast,hd,photo}", default="fast", help="render quality")
+    parser.add_argument("--photo-look", default="fixed",
+                        help="photo preset: 'fixed' look, or 'random' lights, colour temperature, textures and "
+                             "exposure drawn from each scene's seed (recorded in its annotation)")
     parser.add_argument("--sheet", type=Path, help="also write a contact sheet (RGB | depth | segmentation) "
                         "of up to 16 scenes to this PNG")
 
@@ -95,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
             progress.update(task, completed=done, rate=done / (time.perf_counter() - t0))
 
         summary = generate_scenes(args.out, args.num, args.seed, config, args.width, args.height, args.preset,
-                                  args.workers, on_scene=tick)
+                                  args.workers, on_scene=tick, photo_look=args.photo_look)
     dt = time.perf_counter() - t0
     if args.sheet:
         write_scene_sheet(args.out, args.sheet)

@@ -58,7 +58,7 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
         ConfigError: unknown camera.
     """
     if not render.enabled:
-        raise DatasetError("rerender needs a render preset (fast or hd), not 'none'")
+        raise DatasetError("rerender needs a render preset (fast, hd or photo), not 'none'")
     check_cameras(render)
     root = Path(root)
     reader = DatasetReader(root)

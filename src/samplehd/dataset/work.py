@@ -19,6 +19,7 @@ import h5py
 import numpy as np
 
 from samplehd.dataset.container import (
+    KEYFRAME_KEYS,
     camera_settings,
     merge_camera_settings,
     read_episode,
@@ -122,7 +123,7 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     t1 = time.perf_counter()
     render = RenderConfig.from_dict(unit.render)
     if render.enabled:
-        episode = dataclasses.replace(episode, images=render.images(model, episode.frames))
+        episode = dataclasses.replace(episode, images=render.images(model, episode.frames, seed=scene.seed))
     t2 = time.perf_counter()
     path = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
@@ -195,10 +196,10 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
     for cam, mods in episode.images.items():
         prev = old.get(cam)
         same = prev is not None and cam in settings and all(
-            prev[k] == settings[cam][k] for k in ("mode", "width", "height"))
+            prev.get(k) == settings[cam].get(k) for k in ("mode", "width", "height", *KEYFRAME_KEYS))
         if cam not in render.cameras or same:
             images[cam] = dict(mods)  # kept (lazy: copied chunk by chunk); same settings: modalities merge
-    for cam, mods in render.images(model, episode.frames).items():
+    for cam, mods in render.images(model, episode.frames, seed=scene.seed).items():
         images.setdefault(cam, {}).update(mods)
     written = write_episode(path, dataclasses.replace(episode, images=images), extra, render_record(settings))
     return {"path": str(path), "num_frames": written.num_frames, "size": written.size, "sha256": written.sha256,

@@ -7,10 +7,10 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from samplehd.errors import ConfigError
-from samplehd.render.renderer import MODALITIES
+from samplehd.render.renderer import MODALITIES, PRESETS
 from samplehd.scene.config import SceneConfig
 from samplehd.tasks.checker import CheckerConfig
-from samplehd.tasks.family import family_names
+from samplehd.tasks.task import family_names
 
 __all__ = ["CAMERAS", "CONTROL_MODES", "EnvConfig", "OBS_MODES", "RENDER_MODES"]
 
@@ -41,7 +41,7 @@ class EnvConfig:
         cameras: cameras rendered for image observations (``scene``, ``operator``, ``wrist``).
         width: image width [px].
         height: image height [px].
-        render_preset: renderer quality preset (``fast`` or ``hd``).
+        render_preset: renderer quality preset (``fast``, ``hd`` or the path-traced ``photo``).
         render_mode: ``rgb_array`` or None; :meth:`render` shows ``render_camera``.
         render_camera: camera of :meth:`render`.
         control_mode: ``joint_pos``, ``joint_delta``, ``ee_delta`` (TCP delta through IK) or
@@ -117,8 +117,8 @@ class EnvConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and 8 <= v <= 4096):
                 fail(name, "must be an integer in 8..4096 px")
-        if self.render_preset not in ("fast", "hd"):
-            fail("render_preset", "valid: fast, hd")
+        if self.render_preset not in PRESETS:
+            fail("render_preset", f"valid: {', '.join(PRESETS)}")
         if self.render_mode is not None and self.render_mode not in RENDER_MODES:
             fail("render_mode", f"valid: {', '.join(RENDER_MODES)} or None")
         for name in ("control_hz", "physics_hz"):

@@ -22,6 +22,7 @@ import mujoco
 import numpy as np
 
 from samplehd.dataset.reader import DatasetReader
+from samplehd.envs.scene_worker import sample_in_child
 from samplehd.errors import ConfigError, SceneError
 from samplehd.language.executor import execute
 from samplehd.language.generator import generate_instructions
@@ -77,10 +78,14 @@ class SceneCache:
         size: compiled scenes kept.
         timestep: physics timestep of compiled models [s].
         grasp_welds: compile with the (inactive) grasp-assist welds.
+        gl_free: sample scenes in a child process (:mod:`samplehd.envs.scene_worker`), so that this
+            process makes no GL context (the sampler's occlusion check renders); same scenes either way.
     """
 
-    def __init__(self, config: SceneConfig, size: int = 8, timestep: float = 0.002, grasp_welds: bool = False) -> None:
+    def __init__(self, config: SceneConfig, size: int = 8, timestep: float = 0.002, grasp_welds: bool = False,
+                 gl_free: bool = False) -> None:
         self.config = config
+        self.gl_free = gl_free
         self.grasp_welds = grasp_welds
         self.size = size
         self.timestep = timestep
@@ -95,7 +100,10 @@ class SceneCache:
         if key in _SAMPLED:
             _SAMPLED.move_to_end(key)
             return _SAMPLED[key]
-        scene = sample_scene(index, seed, self.config).scene
+        if self.gl_free:
+            scene = sample_in_child(index, seed, self.config)
+        else:
+            scene = sample_scene(index, seed, self.config).scene
         _SAMPLED[key] = scene
         while len(_SAMPLED) > _SAMPLED_MAX:
             _SAMPLED.popitem(last=False)

@@ -33,7 +33,7 @@ from samplehd.errors import ConfigError, PlanningError
 from samplehd.record.paths import PathConfig, plan_and_execute
 from samplehd.render.video import write_mp4
 from samplehd.scene.spec import compile_scene
-from samplehd.tasks.family import family_names
+from samplehd.tasks.task import family_names
 from samplehd.workers import Backend
 
 __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action", "evaluate", "load_policy",

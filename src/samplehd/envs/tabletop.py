@@ -81,8 +81,7 @@ from samplehd.render.renderer import SceneRenderer
 from samplehd.robot.constants import GRIPPER_STROKE, JOINT_LIMITS
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.tasks.checker import check_success
-from samplehd.tasks.family import get_family
-from samplehd.tasks.task import Task, parse_task
+from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies, grasped_object
 
 __all__ = ["INSTRUCTION_CHARSET", "TabletopEnv"]
@@ -132,7 +131,10 @@ class TabletopEnv(gym.Env):
         self._low, self._high = low.astype(float), high.astype(float)
         self.max_objects = cfg.scene.max_objects
         self.observation_space = self._observation_space()
-        self.cache = SceneCache(cfg.scene, cfg.scene_cache_size, 1.0 / cfg.physics_hz, grasp_welds=cfg.grasp_assist)
+        # A state-only env makes no GL context (a context made before torch's triton import can crash the
+        # process): its scenes are sampled, occlusion renders included, in a child process.
+        self.cache = SceneCache(cfg.scene, cfg.scene_cache_size, 1.0 / cfg.physics_hz, grasp_welds=cfg.grasp_assist,
+                                gl_free=cfg.obs_mode == "state" and cfg.render_mode is None)
         self.episode: EpisodeSpec | None = None
         self.subtask = ""
         self._plan: Any = None

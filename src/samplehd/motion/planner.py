@@ -35,8 +35,7 @@ from samplehd.motion.rrt import rrt_connect
 from samplehd.motion.trajectory import cartesian_path, joint_path
 from samplehd.robot.constants import JOINT_LIMITS
 from samplehd.robot.kinematics import fk_tcp
-from samplehd.tasks.family import get_family
-from samplehd.tasks.task import Task
+from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, object_footprint, object_pose
 from samplehd.world.collision import CollisionChecker, Held
 from samplehd.world.free_spot import rect_overlap, table_and_reach
@@ -85,7 +84,7 @@ def destination_candidates(
     """Candidate world (x, y) positions of object ``i``'s frame origin at release and turns about the
     vertical [rad], best first.
 
-    By the family's destination recipe (:attr:`samplehd.tasks.family.TaskFamily.destination`):
+    By the family's destination recipe (:attr:`samplehd.tasks.task.TaskFamily.destination`):
     ``table_part``: free spots inside the destination part; ``beside``: free spots past the
     reference object along the scene's direction; ``top`` / ``opening``: the support's top or
     opening centre.

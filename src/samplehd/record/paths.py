@@ -27,8 +27,7 @@ from samplehd.robot.controller import ControlConfig
 from samplehd.scene.spec import SceneSpec
 from samplehd.schema import bounded, check_fields, from_mapping
 from samplehd.tasks.checker import CheckerConfig, CheckResult, check_success
-from samplehd.tasks.family import get_family
-from samplehd.tasks.task import Task, parse_task
+from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies
 from samplehd.world.layout import LAYOUT
 from samplehd.world.planner_config import PlannerConfig

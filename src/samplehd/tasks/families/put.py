@@ -4,10 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from samplehd.tasks.checker import Judge
 from samplehd.tasks.families.stack import build_on, parse_on
-from samplehd.tasks.family import TaskFamily, register_family
-from samplehd.tasks.judge import Judge
-from samplehd.tasks.task import Task
+from samplehd.tasks.task import Task, TaskFamily, register_family
 from samplehd.world.bodies import object_world_box
 
 

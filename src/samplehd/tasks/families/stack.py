@@ -6,9 +6,8 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from samplehd.errors import PlanningError
-from samplehd.tasks.family import TaskFamily, register_family
-from samplehd.tasks.judge import Judge
-from samplehd.tasks.task import Task
+from samplehd.tasks.checker import Judge
+from samplehd.tasks.task import Task, TaskFamily, register_family
 
 
 def build_on(name: str) -> Callable[[Sequence[int], Any], Task]:
