@@ -18,7 +18,7 @@ from samplehd.errors import ConfigError
 from samplehd.language.instruction_file import generate_instruction_file, parse_split_ratio, write_instructions
 from samplehd.language.scene import load_scenes
 from samplehd.language.templates import load_templates
-from samplehd.tasks.family import family_names
+from samplehd.tasks.task import family_names
 from samplehd.world.reach import make_reachable
 
 HELP = "generate instructions (text, programs, tasks) for a scenes file"

@@ -24,7 +24,7 @@ from samplehd.fileio import read_json
 from samplehd.record.paths import PathConfig
 from samplehd.scene.config import SceneConfig
 from samplehd.schema import bounded, check_fields, from_mapping
-from samplehd.tasks.family import family_names
+from samplehd.tasks.task import family_names
 
 __all__ = [
     "PRESETS",
