@@ -34,8 +34,12 @@ def added_dataset(rendered_dataset: Path, tmp_path_factory: pytest.TempPathFacto
     e = reader.episodes[0]
     physics_hz = float(reader.config.get("paths", {}).get("physics_hz", 500.0))
     wrist = RenderConfig("fast", 48, 48, ("wrist",), ("rgb", "depth"))
-    run_render_unit(RenderUnit(str(out / e.file), reader.scene(e.scene_index)["spec"], physics_hz, wrist.to_dict(),
-                               replace=False))
+    done = run_render_unit(RenderUnit(str(out / e.file), reader.scene(e.scene_index)["spec"], physics_hz,
+                                      wrist.to_dict(), replace=False))
+    # an interrupted rerender has recorded each finished episode in info.json
+    info = json.loads((out / "info.json").read_text())
+    info["episodes"][0].update(size=done["size"], sha256=done["sha256"])
+    (out / "info.json").write_text(json.dumps(info, indent=1))
     res = rerender_dataset(out, wrist, add=True)
     assert res["skipped"] == 1 and res["rendered"] == res["episodes"] - 1  # resumed: episode 0 was done
     return out

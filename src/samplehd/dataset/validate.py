@@ -119,21 +119,31 @@ def validate_dataset(root: str | Path, deep: bool = False,
 
     Returns:
         (problems, counts) where counts has episodes and frames checked.
+
+    Raises:
+        DatasetError: ``root`` is no dataset (not a folder, no info.json) or one of a format this
+            samplehd cannot check.
     """
     root = Path(root)
     problems: list[str] = []
     if not root.is_dir():
-        return [f"{root}: not a directory"], {}
+        raise DatasetError(f"{root}: {'is a file' if root.exists() else 'does not exist'}; give a dataset folder")
+    if not (root / INFO_FILE).is_file():
+        raise DatasetError(f"{root}: not a samplehd dataset ({INFO_FILE} is missing)")
     info = _load(root / INFO_FILE, problems)
+    if isinstance(info, dict) and info.get("format_version") != FORMAT_VERSION:
+        raise DatasetError(f"{root / INFO_FILE}: format_version {info.get('format_version')!r} is not one this "
+                           f"samplehd reads (valid: {FORMAT_VERSION!r}); use the samplehd version that wrote it")
     if not isinstance(info, dict):
         return problems, {}
     if info.get("status") != "complete":
         problems.append(f"{root / INFO_FILE}: status {info.get('status')!r}: generation has not finished "
                         f"(run samplehd generate --resume)")
         return problems, {}
-    if info.get("format_version") != FORMAT_VERSION:
-        problems.append(f"{root / INFO_FILE}: format_version {info.get('format_version')!r}, this samplehd reads "
-                        f"{FORMAT_VERSION}")
+    if isinstance(info.get("rerender"), dict):
+        r = info["rerender"]
+        problems.append(f"{root / INFO_FILE}: a rerender stopped after {r.get('done')} of {r.get('episodes')} "
+                        "episodes; run the same rerender again to finish it")
     for key in ("versions", "config", "episodes", "counts", "seeds"):
         if key not in info:
             problems.append(f"{root / INFO_FILE}: field {key!r} missing")
