@@ -7,7 +7,7 @@ repeats) and reset time.
     python3 -m venv /tmp/rs-venv && /tmp/rs-venv/bin/pip install robosuite "mujoco==3.9.0"
     MUJOCO_GL=egl /tmp/rs-venv/bin/python src/samplehd/bench/_robosuite_env.py --configs state rgb128 rgbdseg256
 
-``samplehd bench env --robosuite-python /tmp/rs-venv/bin/python`` runs it as a subprocess (this file
+``samplehd bench env --robosuite-python PYTHON`` runs it as a subprocess with that interpreter (this file
 imports nothing of samplehd and is not an area of ``samplehd bench``).
 """
 

@@ -38,7 +38,7 @@ from samplehd.motion.steering import steering_from_targets
 from samplehd.robot.constants import GRIPPER_STROKE
 from samplehd.robot.controller import ControlReport
 from samplehd.robot.kinematics import fk_tcp
-from samplehd.tasks.family import get_family
+from samplehd.tasks.task import get_family
 from samplehd.world.bodies import SceneBodies
 from samplehd.world.layout import LAYOUT
 from samplehd.world.planner_config import PlannerConfig

@@ -1,7 +1,7 @@
 """One executor for both program formats: CLEVR node lists and SAMPLE-HD flat token sequences.
 
 Running a program on a scene gives a :class:`~samplehd.tasks.task.Task`: what to do, to which
-objects, where (each action is a task family's, :mod:`samplehd.tasks.family`). See
+objects, where (each action is a task family's, :mod:`samplehd.tasks.task`). See
 :mod:`samplehd.language.programs` for both formats.
 
 Example:
@@ -25,8 +25,7 @@ from typing import Any
 from samplehd.errors import SamplehdError
 from samplehd.language.programs import ACTION_FUNCTIONS, FLAT_FILTER, FLAT_TASK_TOKENS, NODE_FUNCTIONS
 from samplehd.language.scene import Scene, SceneObject, parse_scene
-from samplehd.tasks.family import get_family
-from samplehd.tasks.task import Task
+from samplehd.tasks.task import Task, get_family
 from samplehd.world.layout import TABLE_PARTS
 from samplehd.world.relations import RELATIONS
 

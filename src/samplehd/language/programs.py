@@ -37,7 +37,7 @@ from __future__ import annotations
 from typing import Any
 
 from samplehd.language.descriptions import Description
-from samplehd.tasks.family import family_names, get_family
+from samplehd.tasks.task import family_names, get_family
 
 __all__ = [
     "ACTION_FUNCTIONS",

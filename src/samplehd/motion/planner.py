@@ -35,11 +35,10 @@ from samplehd.motion.rrt import rrt_connect
 from samplehd.motion.trajectory import cartesian_path, joint_path
 from samplehd.robot.constants import JOINT_LIMITS
 from samplehd.robot.kinematics import fk_tcp
-from samplehd.tasks.family import get_family
-from samplehd.tasks.task import Task
+from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, object_footprint, object_pose
 from samplehd.world.collision import CollisionChecker, Held
-from samplehd.world.free_spot import rect_overlap
+from samplehd.world.free_spot import rect_overlap, table_and_reach
 from samplehd.world.grasps import ik_near
 from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
 from samplehd.world.placement import (
@@ -52,13 +51,13 @@ from samplehd.world.placement import (
     SPOT_REACH_WEIGHT,
     SPOT_ROOM_CAP,
     SPOT_SHORTLIST,
-    SPOT_TABLE_EDGE,
     SPOT_TURN_WEIGHT,
     SPOT_TURNS,
     SPOT_WORKSPACE_SLACK,
 )
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.robot_info import RobotInfo
+from samplehd.world.transforms import yaw_rotation_2d
 
 __all__ = [
     "destination_candidates",
@@ -85,7 +84,7 @@ def destination_candidates(
     """Candidate world (x, y) positions of object ``i``'s frame origin at release and turns about the
     vertical [rad], best first.
 
-    By the family's destination recipe (:attr:`samplehd.tasks.family.TaskFamily.destination`):
+    By the family's destination recipe (:attr:`samplehd.tasks.task.TaskFamily.destination`):
     ``table_part``: free spots inside the destination part; ``beside``: free spots past the
     reference object along the scene's direction; ``top`` / ``opening``: the support's top or
     opening centre.
@@ -113,8 +112,6 @@ def destination_candidates(
     offset0 = c_i - t_obj[:2, 3]  # footprint centre relative to the frame origin (kept on transport)
     others = [k for k in range(bodies.num_objects) if k != i and k not in ignore]
     foot = {k: object_footprint(data, bodies, k, facts[k]) for k in others}
-    table_lo = -np.array(layout.table_size) / 2 + SPOT_TABLE_EDGE
-    table_hi = np.array(layout.table_size) / 2 - SPOT_TABLE_EDGE
     n = int(config.spot_samples)
     # The object may turn about the vertical on the way (the wrist turns), which helps long objects fit.
     yaws = rng.choice(np.array(SPOT_TURNS), size=n)
@@ -142,8 +139,7 @@ def destination_candidates(
         centres = rng.uniform(lo, hi, size=(n, 2))
         d = None
     # Every sample at once: turned footprint, centre, frame origin, then the filters in turn.
-    cy, sy = np.cos(yaws), np.sin(yaws)
-    rz = np.stack([np.stack([cy, -sy], axis=1), np.stack([sy, cy], axis=1)], axis=1)  # (n, 2, 2)
+    rz = yaw_rotation_2d(yaws)  # (n, 2, 2)
     rots = rz @ rot_i0
     offsets = rz @ offset0
     if d is not None:
@@ -155,10 +151,8 @@ def destination_candidates(
     keep = np.all((origins >= lo) & (origins <= hi), axis=1)
     if d is not None:
         keep &= (origins - ref_origin) @ d >= need
-    r = np.abs(rots) @ half_i
-    keep &= np.all((c - r >= table_lo) & (c + r <= table_hi), axis=1)
-    reach = np.hypot(origins[:, 0] - layout.robot_base[0], origins[:, 1] - layout.robot_base[1])
-    keep &= (reach >= layout.reach_min) & (reach <= layout.reach_max)
+    on_table, reach = table_and_reach(c, np.abs(rots) @ half_i, origins, layout)
+    keep &= on_table
     gap = np.full(n, np.inf)
     for k in others:
         ck, rk, hk = foot[k]

@@ -39,16 +39,14 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from samplehd.errors import ConfigError
 from samplehd.physics import wake_all
 from samplehd.scene.spec import SceneSpec
-from samplehd.tasks.family import get_family
-from samplehd.tasks.judge import Judge
-from samplehd.tasks.task import Task, parse_task
-from samplehd.world.bodies import SceneBodies, quat_tilt
+from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.tasks.task import Task, get_family, parse_task
+from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, quat_tilt
 from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
 
-__all__ = ["CheckResult", "CheckerConfig", "check_success"]
+__all__ = ["CheckResult", "CheckerConfig", "Judge", "check_success", "welded"]
 
 
 @dataclass(frozen=True)
@@ -70,33 +68,28 @@ class CheckerConfig:
         fall_angle: tilt that counts as falling over [rad].
     """
 
-    window: float = 1.0
-    rest_speed: float = 0.02
-    stable_drift: float = 0.01
-    footprint_margin: float = 0.01
-    stack_min_rise: float = 0.001
-    container_margin: float = 0.005
-    rim_tolerance: float = 0.01
-    relation_margin: float = 0.02
-    lift_height: float = 0.05
-    disturb_distance: float = 0.02
-    disturb_angle: float = 0.26
-    fall_angle: float = 0.79
+    window: float = bounded(1.0, lo=0.0, unit="s")
+    rest_speed: float = bounded(0.02, lo=0.0, unit="m/s")
+    stable_drift: float = bounded(0.01, lo=0.0, unit="m")
+    footprint_margin: float = bounded(0.01, lo=0.0, unit="m")
+    stack_min_rise: float = bounded(0.001, lo=0.0, unit="m")
+    container_margin: float = bounded(0.005, lo=0.0, unit="m")
+    rim_tolerance: float = bounded(0.01, lo=0.0, unit="m")
+    relation_margin: float = bounded(0.02, lo=0.0, unit="m")
+    lift_height: float = bounded(0.05, lo=0.0, unit="m")
+    disturb_distance: float = bounded(0.02, lo=0.0, unit="m")
+    disturb_angle: float = bounded(0.26, lo=0.0, unit="rad")
+    fall_angle: float = bounded(0.79, lo=0.0, unit="rad")
 
     def __post_init__(self) -> None:
-        for k, v in asdict(self).items():
-            if not np.isfinite(v) or v < 0:
-                raise ConfigError(f"checker.{k}={v} must be a finite non-negative number")
+        check_fields(self, "checker")
 
     def to_dict(self) -> dict[str, float]:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> CheckerConfig:
-        unknown = set(d) - set(cls.__dataclass_fields__)
-        if unknown:
-            raise ConfigError(f"unknown checker options {sorted(unknown)}; valid: {sorted(cls.__dataclass_fields__)}")
-        return cls(**{k: float(v) for k, v in d.items()})
+    def from_dict(cls, d: dict[str, Any], where: str = "checker") -> CheckerConfig:
+        return from_mapping(cls, d, where)
 
 
 @dataclass(frozen=True)
@@ -133,6 +126,59 @@ class CheckResult:
     def from_dict(cls, d: dict[str, Any]) -> CheckResult:
         return cls(bool(d["success"]), str(d["family"]), str(d.get("reason", "")),
                    tuple(d.get("disturbed", ())), tuple(d.get("fallen", ())), dict(d.get("details", {})))
+
+
+class Judge:
+    """Measurements of the final state, shared by the predicates."""
+
+    def __init__(self, model: mujoco.MjModel, start: mujoco.MjData, end: mujoco.MjData, bodies: SceneBodies,
+                 config: CheckerConfig, layout: TableLayout, directions: dict[str, Any]) -> None:
+        self.model, self.start, self.end, self.b, self.cfg, self.layout = model, start, end, bodies, config, layout
+        self.directions = directions
+        self.contacts = contact_pairs(model, end)
+
+    def pos(self, i: int, data: mujoco.MjData | None = None) -> np.ndarray:
+        return (data or self.end).xpos[self.b.object_body[i]].copy()
+
+    def touching(self, i: int, bodies: set[int] | int) -> bool:
+        bi = int(self.b.object_body[i])
+        others = {bodies} if isinstance(bodies, int) else bodies
+        return any((min(bi, o), max(bi, o)) in self.contacts for o in others)
+
+    def resting(self, i: int) -> str:
+        """Empty string if object i rests, else why not."""
+        if self.touching(i, self.b.gripper_bodies):
+            return f"object {i} still touches the gripper"
+        drift = float(np.linalg.norm(self.pos(i) - self.pos(i, self.start)))
+        if drift > self.cfg.stable_drift:
+            return f"object {i} moved {drift * 1000:.0f} mm during the {self.cfg.window:.1f} s window"
+        speed = float(np.linalg.norm(self.end.cvel[self.b.object_body[i], 3:]))
+        if speed > self.cfg.rest_speed:
+            return f"object {i} still moves at {speed:.3f} m/s"
+        return ""
+
+    def on_table(self, i: int) -> bool:
+        box = object_world_box(self.model, self.end, self.b, i)
+        return box.lo[2] < self.layout.table_height + 0.01 or self.touching(i, self.b.table_body)
+
+    def stacked(self, top: int, base: int) -> str:
+        if r := self.resting(top):
+            return r
+        if not self.touching(top, int(self.b.object_body[base])):
+            return f"object {top} does not touch object {base}"
+        tb = object_world_box(self.model, self.end, self.b, top)
+        bb = object_world_box(self.model, self.end, self.b, base)
+        if tb.lo[2] < bb.lo[2] + self.cfg.stack_min_rise:
+            return f"object {top} is not above object {base}"
+        if not bb.contains_xy(self.pos(top), -self.cfg.footprint_margin):
+            return f"object {top} is not over the footprint of object {base}"
+        return ""
+
+
+def welded(model: mujoco.MjModel, data: mujoco.MjData, i: int) -> bool:
+    """Whether object i hangs in the grasp assist's weld (``samplehd.motion.assist``)."""
+    e = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp_weld_{i}")
+    return e >= 0 and bool(data.eq_active[e])
 
 
 def _simulate_window(model: mujoco.MjModel, data: mujoco.MjData, window: float) -> mujoco.MjData:

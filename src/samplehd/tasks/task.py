@@ -1,7 +1,7 @@
 """The one task type: what an instruction asks for, shared by the language executor, the planner, the
 success checker and the environment.
 
-A :class:`Task` names its family (:mod:`samplehd.tasks.family`), the objects to move and the family's
+A :class:`Task` names its family (:mod:`samplehd.tasks.task`), the objects to move and the family's
 parameter (a table part, a reference object, a direction). The language executor builds one from a
 program; its executor-dict form ``{type, objects, subject, relation}`` (instruction files) is
 :meth:`Task.to_program_dict`, and :func:`parse_task` reads that form (and the forms below) back.
@@ -23,20 +23,47 @@ stack_three        [middle, top] (move order)  bottom object index (or objects [
 
 The type may also carry the parameter in brackets, SAMPLE-HD style: ``place[left]``,
 ``place_relative[behind]``. Directions are CLEVR's relations left/right/front/behind.
+
+The registry of task families lives here too: each family is declared once, in its own module of
+:mod:`samplehd.tasks.families`, as a :class:`TaskFamily`:
+
+- **language**: how a program's action builds its :class:`~samplehd.tasks.task.Task` (how many
+  object arguments, whether it takes a set, what its value is) and how an executor dict parses; the
+  constraints its instructions must satisfy are data, in the family's template file
+  (``samplehd/language/templates/<family>.json``), checked by :mod:`samplehd.language.constraints`;
+- **planner recipe**: whether the path ends holding the object (``places``) and where a moved object
+  goes (``destination``: a table part, past a reference object, on a support's top or into its
+  opening); :func:`samplehd.motion.planner.destination_candidates` reads it;
+- **checker predicate**: ``check(judge, task)`` returns why the task is not fulfilled ("" when it is)
+  and details for the report; :func:`samplehd.tasks.checker.check_success` runs it.
+
+Adding a family is one new module in :mod:`samplehd.tasks.families` (it calls :func:`register_family`)
+plus its template data.
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from samplehd.errors import PlanningError
-from samplehd.tasks.family import family_names, get_family
 from samplehd.world.layout import TABLE_PARTS
 
-__all__ = ["RELATION_NAMES", "Task", "parse_task", "parse_part", "parse_relation"]
+__all__ = [
+    "DESTINATIONS",
+    "RELATION_NAMES",
+    "VALUE_KINDS",
+    "Task",
+    "TaskFamily",
+    "family_names",
+    "get_family",
+    "parse_part",
+    "parse_relation",
+    "parse_task",
+    "register_family",
+]
 
 RELATION_NAMES = ("left", "right", "front", "behind")
 _RELATION_ALIASES = {
@@ -47,12 +74,89 @@ _RELATION_ALIASES = {
 }
 
 
+# Where the planner puts a moved object down (None: it keeps holding it).
+DESTINATIONS = ("table_part", "beside", "top", "opening")
+# What a program's action value is.
+VALUE_KINDS = ("part", "relation")
+
+
+@dataclass(frozen=True)
+class TaskFamily:
+    """One task family.
+
+    Attributes:
+        name: the family's name (instructions, templates, episodes).
+        order: place in :func:`family_names` (error messages list families in this order).
+        arity: object arguments of the program's action (a set counts as one).
+        takes_set: the action's one argument is a set of objects (sorted into ``Task.objects``).
+        value: kind of the action's value ("part", "relation") or None.
+        flat_token: the SAMPLE-HD flat program token of the family (None: not expressible flat).
+        build: the task of an action from its objects (in argument order, or the sorted set) and value.
+        parse: the task of an executor dict: (objects, subject, bracket parameter, relation) -> Task.
+        program: the executor dict's ``(type, subject)`` of a task of this family.
+        check: the success predicate: (judge, task) -> (reason, details); reason "" on success (the
+            judge, :class:`samplehd.tasks.checker.Judge`, holds the measurements of the judged state).
+        destination: where the planner puts a moved object (one of :data:`DESTINATIONS`; None: hold it).
+        destination_part: the table part the moved objects must end in (None: none).
+        support_of: the object that object ``obj`` must end on or in (-1: the table or the gripper).
+        runs_as: the family whose program a task of this family is written as (remove runs as a place
+            to the opposite part), with ``adopt`` turning such a task into one of this family.
+    """
+
+    name: str
+    order: int
+    arity: int
+    build: Callable[[Sequence[int], Any], Task]
+    parse: Callable[[list[int], Any, str | None, Any], Task]
+    program: Callable[[Task], tuple[str, Any]]
+    check: Callable[..., tuple[str, dict[str, Any]]]
+    takes_set: bool = False
+    value: str | None = None
+    flat_token: str | None = None
+    destination: str | None = None
+    destination_part: Callable[[Task], str | None] = lambda task: None
+    support_of: Callable[[Task, int], int] = lambda task, obj: -1
+    runs_as: str | None = None
+    adopt: Callable[[Task], Task] | None = None
+
+    @property
+    def places(self) -> bool:
+        """Whether a path of this family puts the moved objects down (pick_up ends holding it)."""
+        return self.destination is not None
+
+
+_REGISTRY: dict[str, TaskFamily] = {}
+
+
+def register_family(family: TaskFamily) -> TaskFamily:
+    """Add a family to the registry (a family's module calls this once); returns it."""
+    if family.destination is not None and family.destination not in DESTINATIONS:
+        raise ValueError(f"family {family.name}: destination {family.destination!r}; valid: {DESTINATIONS}")
+    if family.value is not None and family.value not in VALUE_KINDS:
+        raise ValueError(f"family {family.name}: value {family.value!r}; valid: {VALUE_KINDS}")
+    _REGISTRY[family.name] = family
+    return family
+
+
+def family_names() -> tuple[str, ...]:
+    """Every registered family, in their declared order."""
+    return tuple(sorted(_REGISTRY, key=lambda n: _REGISTRY[n].order))
+
+
+def get_family(name: str) -> TaskFamily:
+    """The family called ``name``; raises PlanningError naming the valid ones."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise PlanningError(f"unknown task family {name!r}; valid: {', '.join(family_names())}") from None
+
+
 @dataclass(frozen=True)
 class Task:
     """A task.
 
     Attributes:
-        family: a registered family (:func:`samplehd.tasks.family.family_names`).
+        family: a registered family (:func:`samplehd.tasks.task.family_names`).
         objects: the objects to move, in the order they are moved (stack_three: bottom-up, i.e. the
             middle object first, then the top one).
         part: destination part (place) or cleared part (remove); None otherwise.

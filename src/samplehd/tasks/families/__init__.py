@@ -1,6 +1,6 @@
 """The built-in task families, one module each; every module registers its family on import.
 
-A new family is one more module here (it calls :func:`samplehd.tasks.family.register_family`) plus its
+A new family is one more module here (it calls :func:`samplehd.tasks.task.register_family`) plus its
 template data (``samplehd/language/templates/<family>.json``); this package imports every module in
 it, so nothing else changes.
 """

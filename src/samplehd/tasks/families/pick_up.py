@@ -5,9 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from samplehd.tasks.family import TaskFamily, register_family
-from samplehd.tasks.judge import Judge, welded
-from samplehd.tasks.task import Task
+from samplehd.tasks.checker import Judge, welded
+from samplehd.tasks.task import Task, TaskFamily, register_family
 from samplehd.world.bodies import object_world_box
 
 

@@ -5,9 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from samplehd.tasks.family import TaskFamily, register_family
-from samplehd.tasks.judge import Judge
-from samplehd.tasks.task import Task, parse_part
+from samplehd.tasks.checker import Judge
+from samplehd.tasks.task import Task, TaskFamily, parse_part, register_family
 from samplehd.world.layout import table_parts_of
 
 

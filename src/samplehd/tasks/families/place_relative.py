@@ -8,9 +8,8 @@ from typing import Any
 import numpy as np
 
 from samplehd.errors import PlanningError
-from samplehd.tasks.family import TaskFamily, register_family
-from samplehd.tasks.judge import Judge
-from samplehd.tasks.task import Task, parse_relation
+from samplehd.tasks.checker import Judge
+from samplehd.tasks.task import Task, TaskFamily, parse_relation, register_family
 
 
 def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from typing import Any
 
-from samplehd.tasks.families.stack import parse_on
-from samplehd.tasks.family import TaskFamily, register_family
-from samplehd.tasks.judge import Judge
-from samplehd.tasks.task import Task
+from samplehd.tasks.checker import Judge
+from samplehd.tasks.families.stack import build_on, parse_on
+from samplehd.tasks.task import Task, TaskFamily, register_family
 from samplehd.world.bodies import object_world_box
 
 
@@ -29,16 +27,12 @@ def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
     return reason, details
 
 
-def _build(objects: Sequence[int], value: Any) -> Task:
-    return Task("put", (objects[0],), reference=objects[1])
-
-
 FAMILY = register_family(TaskFamily(
     name="put",
     order=3,
     arity=2,
     flat_token="put",
-    build=_build,
+    build=build_on("put"),
     parse=parse_on("put"),
     program=lambda t: ("put", t.reference),
     check=_check,

@@ -9,8 +9,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from samplehd.tasks.families.place import in_part
-from samplehd.tasks.family import TaskFamily, register_family
-from samplehd.tasks.task import Task, parse_part
+from samplehd.tasks.task import Task, TaskFamily, parse_part, register_family
 from samplehd.world.layout import OPPOSITE_PART
 
 

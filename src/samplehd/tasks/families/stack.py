@@ -6,9 +6,17 @@ from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from samplehd.errors import PlanningError
-from samplehd.tasks.family import TaskFamily, register_family
-from samplehd.tasks.judge import Judge
-from samplehd.tasks.task import Task
+from samplehd.tasks.checker import Judge
+from samplehd.tasks.task import Task, TaskFamily, register_family
+
+
+def build_on(name: str) -> Callable[[Sequence[int], Any], Task]:
+    """The action builder of a family that moves one object onto or into a reference object."""
+
+    def build(objects: Sequence[int], value: Any) -> Task:
+        return Task(name, (objects[0],), reference=objects[1])
+
+    return build
 
 
 def parse_on(name: str) -> Callable[[list[int], Any, str | None, Mapping[str, Any]], Task]:
@@ -28,16 +36,12 @@ def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
     return j.stacked(t.objects[0], t.reference), {}
 
 
-def _build(objects: Sequence[int], value: Any) -> Task:
-    return Task("stack", (objects[0],), reference=objects[1])
-
-
 FAMILY = register_family(TaskFamily(
     name="stack",
     order=2,
     arity=2,
     flat_token="stack",
-    build=_build,
+    build=build_on("stack"),
     parse=parse_on("stack"),
     program=lambda t: ("stack", t.reference),
     check=_check,

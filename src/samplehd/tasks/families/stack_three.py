@@ -9,9 +9,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from samplehd.errors import PlanningError
-from samplehd.tasks.family import TaskFamily, register_family
-from samplehd.tasks.judge import Judge
-from samplehd.tasks.task import Task
+from samplehd.tasks.checker import Judge
+from samplehd.tasks.task import Task, TaskFamily, register_family
 
 
 def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
