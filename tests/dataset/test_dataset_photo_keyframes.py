@@ -16,9 +16,9 @@ W, H = 32, 18
 
 @pytest.fixture(scope="module")
 def keyframed(tmp_path_factory: pytest.TempPathFactory, micro_dataset: Path) -> tuple[Path, dict]:
-    from samplehd.workers import Backend
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
+    from samplehd.workers import Backend
 
     out = tmp_path_factory.mktemp("photo") / "ds"
     shutil.copytree(micro_dataset, out)
@@ -36,6 +36,10 @@ def test_keyframes_are_rendered_and_recorded(keyframed: tuple[Path, dict]) -> No
     root, res = keyframed
     reader = DatasetReader(root)
     assert res["rendered"] == len(reader.episodes) >= 1
+    from samplehd.dataset.validate import validate_dataset
+
+    problems, _ = validate_dataset(root, deep=True)
+    assert problems == []
     info = json.loads((root / "info.json").read_text())
     assert info["render"]["per_camera"]["scene"]["every"] == 40
     assert info["render"]["per_camera"]["scene"]["subtask_ends"] is True
@@ -65,10 +69,10 @@ def test_keyframes_are_rendered_and_recorded(keyframed: tuple[Path, dict]) -> No
 
 
 def test_rerender_resumes_where_it_stopped(keyframed: tuple[Path, dict], micro_dataset: Path) -> None:
-    from samplehd.workers import Backend
     from samplehd.dataset.reader import DatasetReader
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
+    from samplehd.workers import Backend
 
     root, _ = keyframed
     render = RenderConfig("photo", W, H, ("scene",), ("rgb", "segmentation"), every=40, subtask_ends=True)
@@ -101,11 +105,11 @@ def test_bad_keyframe_options_are_one_line_errors_and_change_nothing(keyframed: 
 @pytest.mark.slow
 def test_keyframe_rerender_on_ray(tmp_path: Path, micro_dataset: Path) -> None:
     pytest.importorskip("ray")
-    from samplehd.workers import Backend
     from samplehd.dataset.container import read_meta
     from samplehd.dataset.reader import DatasetReader
     from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
+    from samplehd.workers import Backend
 
     out = tmp_path / "ds"
     shutil.copytree(micro_dataset, out)
@@ -148,10 +152,11 @@ def test_sample_hd_export_writes_the_keyframes_and_lerobot_says_it_needs_every_f
 
     root, _ = keyframed
     export_samplehd(root, tmp_path / "shd")
-    frames = DatasetReader(root).episode_meta(0)["image_frames"]["scene"]
-    pngs = sorted((tmp_path / "shd").rglob("*_rgb.png"))
-    assert pngs and {int(p.name[:5]) for p in pngs} >= set(frames)
-    assert len(pngs) < sum(e.num_frames for e in DatasetReader(root).episodes)
+    reader = DatasetReader(root)
+    jpgs = sorted((tmp_path / "shd").rglob("sequence_img_*.jpg"))
+    # Only frames that have images are written: at least one per episode, fewer than all frames.
+    assert len(jpgs) >= len(reader.episodes)
+    assert len(jpgs) < sum(e.num_frames for e in reader.episodes)
     code = main(["export", "lerobot", str(root), "--out", str(tmp_path / "lr")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "has no image; this camera has images at" in err and len(err.splitlines()) == 1, err

@@ -41,12 +41,9 @@ def photo(scene_world):
 def test_path_traced_geometry_lines_up_with_gl_depth_and_segmentation(scene_world, photo, camera):
     """What the path tracer hits at each pixel centre is what GL draws there: ids on ≥ 99.5 % of the pixels,
     depth within 1 mm where both see a surface (the depth and ids the photo preset returns are GL's)."""
-    from samplehd.render.renderer import _camera_id
-
     model, data = scene_world
-    gl = photo.render(data, camera, ("depth", "segmentation"))
-    photo._tracer.radiance(data, _camera_id(model, camera), W, H)
-    depth, seg = photo._tracer._scene.geometry()
+    gl = photo.render(data, camera, ("rgb", "depth", "segmentation"))
+    depth, seg = photo.photo_geometry()
     assert (seg == gl["segmentation"]).mean() >= 0.995
     both = np.isfinite(depth) & (gl["depth"] < 25.0)
     assert both.mean() > 0.9
@@ -90,7 +87,7 @@ def test_objects_move_with_the_state(scene_world, photo):
     after = photo.render(moved, "scene", ("rgb", "segmentation"))
     assert np.abs(after["rgb"].astype(int) - before.astype(int)).mean() > 1.0
     # The lifted box is drawn where GL now sees it.
-    depth, seg = photo._tracer._scene.geometry()
+    depth, seg = photo.photo_geometry()
     assert (seg == after["segmentation"]).mean() >= 0.995
 
 

@@ -4,6 +4,7 @@ preset at 320×180 and 640×360 (1 sample per pixel + denoising, on the CPU or o
 from __future__ import annotations
 
 import mujoco
+import numpy as np
 
 from samplehd.bench import Figure, median_rate
 from samplehd.errors import RenderError
@@ -46,4 +47,20 @@ def _photo(model: mujoco.MjModel, data: mujoco.MjData, repeats: int) -> list[Fig
             for mods in (("rgb",), MODALITIES):
                 fps = median_rate(lambda r=r, mods=mods: r.render(data, "operator", mods), 3, repeats)
                 figures.append(Figure("render", f"{'+'.join(mods)} fps {w}x{h} photo", fps, "1/s", note=note))
+            figures += _alignment(r, data, w, h)
     return figures
+
+
+def _alignment(r: SceneRenderer, data: mujoco.MjData, w: int, h: int) -> list[Figure]:
+    """How well the path-traced picture lines up with GL depth and segmentation: what the path tracer hits at
+    each pixel centre against what GL draws there."""
+    gl = r.render(data, "operator", ("depth", "segmentation"))
+    depth, seg = r.photo_geometry()
+    both = np.isfinite(depth) & (gl["depth"] < 25.0)
+    note = "pixel centres, operator camera, kitchen world with the robot"
+    return [
+        Figure("render", f"photo segmentation = GL {w}x{h}", float((seg == gl["segmentation"]).mean()), "ratio",
+               note=note),
+        Figure("render", f"photo depth within 1 mm of GL {w}x{h}",
+               float((np.abs(depth - gl["depth"])[both] < 1e-3).mean()), "ratio", note=note),
+    ]

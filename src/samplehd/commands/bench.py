@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     if getattr(args, "area", None):
         return int(args._report(args) or 0)
     if args.repeats < 1:
-        raise ConfigError("--repeats must be ≥ 1")
+        raise ConfigError(f"--repeats {args.repeats}: must be an integer ≥ 1")
     if args.report is not None:
         return _report_table(args)
     areas = _figure_areas()
@@ -66,6 +66,9 @@ def run(args: argparse.Namespace) -> int:
     unknown = [a for a in chosen if a not in areas]
     if unknown:
         raise ConfigError(f"--only: unknown areas {unknown}; valid: {', '.join(areas)}")
+    from samplehd.commands._options import check_out_dir
+
+    check_out_dir("--out", args.out)
     console = Console()
     figures = []
     modules = _modules()

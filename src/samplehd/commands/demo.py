@@ -50,6 +50,11 @@ def _photo_picture(out: Path, model: object, data: object) -> list[Path]:
 
 
 def run(args: argparse.Namespace) -> int:
+    from samplehd.commands._options import check_int, check_out_dir
+
+    check_int("--workers", args.workers, 1)
+    check_int("--seed", args.seed, 0)
+    check_out_dir("--out", args.out)
     out: Path = args.out
     dataset = out / "dataset"
     argv = ["--preset", "tiny", "--out", str(dataset), "--seed", str(args.seed)]
@@ -66,6 +71,19 @@ def run(args: argparse.Namespace) -> int:
     print("  dataset:  ", dataset, " (info.json, scenes.json, instructions.json, episodes/)")
     for p in _pictures(out):
         print("  picture:  ", p)
-    print(f"\nbrowse it:  .venv/bin/samplehd view {dataset}   (then open http://127.0.0.1:8000/)")
-    print(f"check it:   .venv/bin/samplehd validate {dataset}")
+    prog = _program()
+    print(f"\nbrowse it:  {prog} view {dataset}   (then open http://127.0.0.1:8000/)")
+    print(f"check it:   {prog} validate {dataset}")
     return 0
+
+
+def _program() -> str:
+    """How to run samplehd from the user's shell: ``samplehd`` where that is this installation's
+    command on PATH, else this Python with ``-m samplehd``."""
+    import shutil
+    import sys
+
+    found = shutil.which("samplehd")
+    if found and Path(found).parent == Path(sys.executable).parent:
+        return "samplehd"
+    return f"{sys.executable} -m samplehd"

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.commands._options import split_names
 from samplehd.dataset.progress import RichProgress
 from samplehd.dataset.render import RenderConfig
 from samplehd.dataset.rerender import rerender_dataset
@@ -42,10 +43,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    cams = tuple(c for item in args.cameras for c in item.split(",") if c)
-    mods = tuple(m for item in args.modalities for m in item.split(",") if m)
-    render = RenderConfig(args.preset, args.width, args.height, cams, mods, every=args.every,
-                          subtask_ends=args.subtask_ends, look=args.photo_look)
+    render = RenderConfig.from_dict({"mode": args.preset, "width": args.width, "height": args.height,
+                                     "cameras": split_names(args.cameras), "modalities": split_names(args.modalities),
+                                     "every": args.every, "subtask_ends": args.subtask_ends, "look": args.photo_look},
+                                    where="command line")
     backend = Backend(args.backend, args.workers, args.ray_address)
     with RichProgress(disable=args.quiet) as progress:
         res = rerender_dataset(args.dir, render, backend, progress, add=args.add)

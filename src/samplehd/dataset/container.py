@@ -97,13 +97,19 @@ def _nearly_full(path: Path) -> bool:
         return False
 
 
-def write_error(path: Path, exc: BaseException) -> DatasetError:
-    """A one-line DatasetError for a failed write, naming disk-full and permission problems."""
+def write_error(path: Path, exc: BaseException, retry: str = "run the same command again") -> DatasetError:
+    """A one-line DatasetError for a failed write, naming disk-full and permission problems.
+
+    Args:
+        path: the file that could not be written.
+        exc: the error.
+        retry: how to continue once space is freed (``generate`` says ``run again with --resume``).
+    """
     err = getattr(exc, "errno", None)
     text = str(exc)
     if err in _DISK_FULL or "No space left" in text or "File too large" in text or _nearly_full(path):
         return DatasetError(f"{path}: cannot write: the disk is full (no space left on device); free space "
-                            f"and run again with --resume")
+                            f"and {retry}")
     if err in (errno.EACCES, errno.EPERM, errno.EROFS) or "Permission denied" in text:
         return DatasetError(f"{path}: cannot write: permission denied; choose a writable --out")
     return DatasetError(f"{path}: cannot write: {getattr(exc, 'strerror', None) or text}")
@@ -229,7 +235,7 @@ def episode_attrs(episode: Episode, extra: Mapping[str, Any] | None = None) -> d
 
 
 def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None = None,
-                  render: Mapping[str, Any] | None = None) -> EpisodeFile:
+                  render: Mapping[str, Any] | None = None, retry: str = "run the same command again") -> EpisodeFile:
     """Write ``episode`` atomically to ``path`` (temporary name, flush, rename).
 
     Args:
@@ -238,6 +244,7 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
             given as :class:`FrameImages` (lazy, from another file) is copied chunk by chunk, unchanged.
         extra: more root attributes (slot, instruction text, task); non-scalars are stored as JSON.
         render: the render settings that produced the images (stored as ``/images`` attrs).
+        retry: how to continue after a failed write (see :func:`write_error`).
 
     Returns:
         Name, frame count, size and SHA-256 of the written file.
@@ -274,7 +281,7 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
             tmp.unlink()
         except OSError:
             pass
-        raise write_error(path, exc) from None
+        raise write_error(path, exc, retry) from None
     size = len(data)
     return EpisodeFile(path.name, episode.num_frames, size, digest)
 

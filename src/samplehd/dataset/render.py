@@ -5,6 +5,7 @@ physics states with :func:`samplehd.render.states.render_states` during ``sample
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -18,6 +19,7 @@ from samplehd.render.photo import LOOKS, photo_options
 from samplehd.render.renderer import MODALITIES, camera_names, get_preset
 from samplehd.render.states import render_states
 from samplehd.scene.world import compile_world
+from samplehd.schema import bounded, check_fields, from_mapping
 
 __all__ = ["RENDER_MODES", "RenderConfig", "check_cameras"]
 
@@ -39,32 +41,19 @@ class RenderConfig:
         look: photo preset: ``fixed``, or ``random`` (lights, textures, exposure from the scene's seed).
     """
 
-    mode: str = "fast"
-    width: int = 320
-    height: int = 180
-    cameras: tuple[str, ...] = ("scene",)
-    modalities: tuple[str, ...] = MODALITIES
+    mode: str = bounded("fast", choices=RENDER_MODES)
+    width: int = bounded(320, lo=8, hi=8192, unit="px")
+    height: int = bounded(180, lo=8, hi=8192, unit="px")
+    # Camera names are checked against the world by check_cameras (it compiles the world).
+    cameras: tuple[str, ...] = bounded(("scene",), nonempty=True, unique=True)
+    modalities: tuple[str, ...] = bounded(MODALITIES, choices=MODALITIES, nonempty=True, unique=True)
     every: int = 1
     subtask_ends: bool = False
-    look: str = "fixed"
+    look: str = bounded("fixed", choices=LOOKS)
 
     def __post_init__(self) -> None:
-        if self.mode not in RENDER_MODES:
-            raise ConfigError(f"render.mode={self.mode!r}: valid: {', '.join(RENDER_MODES)}")
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or not 8 <= v <= 8192:
-                raise ConfigError(f"render.{name}={v!r}: must be an integer in 8..8192 px")
-        if not self.cameras or not all(isinstance(c, str) and c for c in self.cameras):
-            raise ConfigError(f"render.cameras={list(self.cameras)!r}: must be a non-empty list of camera names")
-        bad = [m for m in self.modalities if m not in MODALITIES]
-        if bad or not self.modalities:
-            raise ConfigError(f"render.modalities={list(self.modalities)!r}: valid: {', '.join(MODALITIES)}")
-        if not isinstance(self.subtask_ends, bool):
-            raise ConfigError(f"render.subtask_ends={self.subtask_ends!r}: must be true or false")
+        check_fields(self, "render")
         keyframe_indices(0, self.every, None, self.subtask_ends)  # validates every
-        if self.look not in LOOKS:
-            raise ConfigError(f"render.look={self.look!r}: valid: {', '.join(LOOKS)}")
 
     def keyframes(self, num_frames: int, subtask_index: np.ndarray | None) -> np.ndarray:
         """Frames of an episode that get images."""
@@ -110,15 +99,7 @@ class RenderConfig:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], where: str = "render") -> RenderConfig:
-        valid = {"mode", "width", "height", "cameras", "modalities", "every", "subtask_ends", "look"}
-        unknown = sorted(set(d) - valid)
-        if unknown:
-            raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(sorted(valid))}")
-        kw = dict(d)
-        for k in ("cameras", "modalities"):
-            if k in kw:
-                kw[k] = tuple(kw[k])
-        return cls(**kw)
+        return from_mapping(cls, d, where)
 
 
 def check_cameras(config: RenderConfig) -> None:
@@ -129,8 +110,13 @@ def check_cameras(config: RenderConfig) -> None:
     """
     if not config.enabled:
         return
-
-    valid = sorted({*camera_names(compile_world()[0]), "scene"})
+    valid = _world_cameras()
     bad = [c for c in config.cameras if c not in valid]
     if bad:
         raise ConfigError(f"render.cameras: unknown camera(s) {bad}; valid: {', '.join(valid)}")
+
+
+@functools.cache
+def _world_cameras() -> tuple[str, ...]:
+    """Cameras of every scene world (compiled once per process) plus the scene's own ``scene``."""
+    return tuple(sorted({*camera_names(compile_world()[0]), "scene"}))

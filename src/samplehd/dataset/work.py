@@ -28,7 +28,7 @@ from samplehd.dataset.container import (
     write_episode,
     write_error,
 )
-from samplehd.dataset.layout import EPISODE_DIR
+from samplehd.dataset.layout import EPISODE_DIR, RESUME_HINT
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError, PlanningError, RenderError
 from samplehd.motion.assist import compile_scene_with_assist
@@ -47,7 +47,7 @@ def run_scene_unit(job: Any) -> dict[str, Any]:
     except (OSError, RenderError) as exc:
         cause = exc if isinstance(exc, OSError) else exc.__cause__
         if isinstance(cause, OSError):
-            raise write_error(Path(job.out) / "scenes", cause) from None
+            raise write_error(Path(job.out) / "scenes", cause, RESUME_HINT) from None
         raise
     return {"index": job.index, "rejections": rejections, "seconds": time.perf_counter() - t0,
             "cpu_seconds": time.process_time() - c0}
@@ -128,7 +128,8 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     path = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
     try:
-        written = write_episode(path, episode, extra, render.to_dict() if render.enabled else None)
+        written = write_episode(path, episode, extra, render.to_dict() if render.enabled else None,
+                                retry=RESUME_HINT)
     except DatasetError:
         raise
     return {**base, "status": "ok", "attempts": int(episode.info.get("attempts", 1)),

@@ -270,6 +270,13 @@ class SceneRenderer:
         """The path tracer's options (``PhotoOptions``), or None for a GL preset."""
         return None if self._tracer is None else self._tracer.options
 
+    def photo_geometry(self) -> tuple[np.ndarray, np.ndarray]:
+        """Photo preset: (depth [m], segmentation ids) of what the path tracer hits at each pixel centre of
+        the last rendered RGB frame (same pose and camera), to check it lines up with GL's depth and ids."""
+        if self._tracer is None or self._tracer.scene is None:
+            raise RenderError("photo_geometry needs the photo preset and a rendered RGB frame")
+        return self._tracer.scene.geometry()
+
     def resize(self, width: int, height: int) -> None:
         """Render ``width``×``height`` px images from now on, within the offscreen buffer."""
         _check_size(width, height)

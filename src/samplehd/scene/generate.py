@@ -130,8 +130,10 @@ def generate_scenes(
     if photo_look != "fixed":
         resolved["photo_look"] = photo_look
     write_json_atomic(out / "config.json", resolved, indent=2)
-    jobs = [SceneJob(i, scene_seed(seed, i), str(out), config.to_dict(), width, height, preset, test_every, photo_look)
-            for i in range(num)]
+    scene_options = config.to_dict()
+    # Made one at a time as workers take them (a large --num holds no list of jobs in memory).
+    jobs = (SceneJob(i, scene_seed(seed, i), str(out), scene_options, width, height, preset, test_every, photo_look)
+            for i in range(num))
     scenes: list[dict[str, Any]] = []
     rejections: Counter[str] = Counter()
     for _, (ann, rej) in backend.map(render_scene_files, jobs):

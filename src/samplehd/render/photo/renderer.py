@@ -79,6 +79,11 @@ class PhotoTracer:
         self._scene: PhotoScene | None = None
         self.frames = 0
 
+    @property
+    def scene(self) -> PhotoScene | None:
+        """The Mitsuba scene, posed for the last frame (None before the first)."""
+        return self._scene
+
     def radiance(self, data: mujoco.MjData, camera_id: int, width: int, height: int) -> np.ndarray:
         """(H, W, 9) float32 linear RGB, albedo and normal of one path-traced frame (before denoising)."""
         if self._scene is None or self._scene.size != (width, height):
