@@ -184,6 +184,14 @@ class OraclePolicy:
         """End the worker thread."""
         self._stop_worker()
 
+    def episode_task(self) -> Any:
+        """The task to carry out (a :class:`samplehd.tasks.task.Task`): the environment's own.
+
+        A policy that decides the task itself (from a parsed instruction and a perceived scene)
+        overrides this; it runs on the worker thread before planning starts.
+        """
+        return self.env._task
+
     # ------------------------------------------------------------------ worker
     def _hold_action(self) -> np.ndarray:
         env = self.env
@@ -235,7 +243,7 @@ class OraclePolicy:
         env = self.env
         model, data, ctrl = env.model, env.data, env.controller
         scene = env.episode.scene
-        task = env._task
+        task = self.episode_task()
         facts = []
         for o in scene.objects:
             try:
