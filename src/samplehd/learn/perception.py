@@ -306,7 +306,8 @@ def annotation_from_instances(found: Sequence[Mapping[str, Any]], masks: Sequenc
         })
     dirs = dict(directions) if directions else {k: list(map(float, v)) for k, v in DIRECTIONS.items()}
     return {"objects": objects, "directions": dirs,
-            "relationships": compute_relationships(objects, dirs) if objects else {}}
+            "relationships": compute_relationships(objects, dirs) if objects
+            else {r: [] for r in ("left", "right", "front", "behind")}}
 
 
 def _load_scene_images(item: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -446,6 +447,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, se
     data = scene_examples(reader)
     vocab = attribute_vocab()
     width = int(data["train"][0]["annotation"]["camera"]["width"])
+    height = int(data["train"][0]["annotation"]["camera"]["height"])
     factor = 2 if width >= 400 else 1
     dev = pick_device(device)
     set_seed(seed)
@@ -456,6 +458,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, se
         "dataset": str(dataset),
         "model": {"seg_width": seg_width, "attr_width": attr_width},
         "attributes": vocab,
+        "image": {"camera": "scene", "width": width, "height": height},
         "seg_downsample": factor,
         "table_height": LAYOUT.table_height,
         "extents": arrays["extents"],
