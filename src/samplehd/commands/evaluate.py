@@ -58,6 +58,10 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"--env-options {args.env_options}: expected a JSON object of options")
     env.update(control_mode=args.control_mode, obs_mode=args.obs_mode, width=args.width, height=args.height,
                max_episode_steps=args.max_episode_steps)
+    if args.policy == "bc" and args.models is not None:
+        from samplehd.learn.bc import env_options
+
+        env.update(env_options(args.models))  # the cameras, image size and control the policy was trained on
     config = EvalConfig(policy=args.policy, episodes=args.episodes, families=tuple(args.families), seed=args.seed,
                         env=env, video_dir=str(args.video) if args.video else None, workers=args.workers,
                         compare_offline=args.compare_offline,

@@ -215,7 +215,7 @@ def evaluate_parser(parser: InstructionParser, examples: Sequence[Mapping[str, A
 
 def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: int = 0, batch: int = 64,
                  lr: float = 2e-3, embed: int = 64, hidden: int = 128, device: str | None = None,
-                 quiet: bool = False) -> dict[str, Any]:
+                 quiet: bool = False, stop_after: int | None = None) -> dict[str, Any]:
     """Train the parser on a dataset's training instructions and test it on its test split.
 
     Metrics (``metrics.json``): ``test_exact_match`` (flat program, test instructions of seen
@@ -250,7 +250,8 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     src_all = [encode_source(e["instruction"]) for e in train]
     tgt_all = [[index["<START>"], *(index[t] for t in ts), index["<END>"]][:MAX_TARGET + 1] for ts in targets]
     opt = torch.optim.Adam(model.parameters(), lr=lr)
-    run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 10), quiet=quiet)
+    run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 10), quiet=quiet,
+                   stop_after=stop_after)
     run.prepare()
     loss_fn = torch.nn.CrossEntropyLoss(ignore_index=0)
 
@@ -273,6 +274,8 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     with timed() as t:
         for _, loss in run.loop(model, opt, train_step, "parser"):
             losses.append(loss)
+    if run.stopped:
+        return {"stopped_at": len(losses)}
     model.eval()
     seen = [e for e in data["test"] if e["level"] == "L1"]
     heldout = [e for e in data["test"] if e["level"] == "L3"]

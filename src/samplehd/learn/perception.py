@@ -427,7 +427,8 @@ def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[st
 
 
 def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, seed: int = 0, device: str | None = None,
-                     quiet: bool = False, seg_batch: int = 4, attr_batch: int = 64, patch: int = 128,
+                     quiet: bool = False, stop_after: int | None = None, seg_batch: int = 4, attr_batch: int = 64,
+                     patch: int = 128,
                      lr: float = 2e-3, seg_width: int = 12, attr_width: int = 24) -> dict[str, Any]:
     """Train segmentation and attribute networks on a dataset's training scenes; test on its test scenes.
 
@@ -468,7 +469,8 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, se
     model = Perception(config, device=dev)
     net = model.net
     opt = torch.optim.Adam(net.parameters(), lr=lr)
-    run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 10), quiet=quiet)
+    run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 10), quiet=quiet,
+                   stop_after=stop_after)
     run.prepare()
     seg_weight = torch.tensor([1.0, 1.0, 3.0, 6.0], device=dev)
     x_all, y_all = arrays["x"], arrays["y"]
@@ -511,6 +513,8 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, se
     with timed() as t:
         for _, loss in run.loop(net, opt, train_step, "perception"):
             losses.append(loss)
+    if run.stopped:
+        return {"stopped_at": len(losses)}
     net.eval()
     m = evaluate_perception(model, data["test"])
     metrics = {

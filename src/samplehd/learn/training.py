@@ -116,6 +116,8 @@ class TrainRun:
         steps: total optimiser steps.
         checkpoint_every: steps between checkpoints.
         quiet: no progress bar.
+        stop_after: end the loop after this many steps, with a checkpoint, as an interruption
+            would (the tests' stand-in for a killed run); None: run to ``steps``.
     """
 
     out: Path
@@ -123,6 +125,8 @@ class TrainRun:
     steps: int
     checkpoint_every: int = 100
     quiet: bool = False
+    stop_after: int | None = None
+    stopped: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.steps, int) or self.steps < 1:
@@ -191,9 +195,13 @@ class TrainRun:
                 loss = float(train_step(step))
                 ema = loss if ema != ema else 0.95 * ema + 0.05 * loss
                 bars.update(task, completed=step + 1, loss=ema)
-                if (step + 1) % self.checkpoint_every == 0 or step + 1 == self.steps:
+                interrupted = self.stop_after is not None and step + 1 >= self.stop_after and step + 1 < self.steps
+                if (step + 1) % self.checkpoint_every == 0 or step + 1 == self.steps or interrupted:
                     self.checkpoint(model, optimizer, step + 1)
                 yield step, loss
+                if interrupted:
+                    self.stopped = True
+                    return
 
     def finish(self, model: Any, metrics: dict[str, Any]) -> None:
         """Write the final model and ``metrics.json``."""
