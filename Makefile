@@ -19,8 +19,11 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e .
 	touch $@
 
+# torch==2.13.0 first: the CPU build the `learn` extra's range then accepts (an open range would
+# fetch a multi-GB CUDA build).
 $(DEV_STAMP): pyproject.toml $(STAMP)
-	$(BIN)/python -m pip install --quiet -e ".[dev,ray]"
+	$(BIN)/python -m pip install --quiet torch==2.13.0
+	$(BIN)/python -m pip install --quiet -e ".[dev,ray,learn]"
 	touch $@
 
 gl:
