@@ -33,8 +33,7 @@ def instruction_examples(reader: DatasetReader) -> dict[str, list[dict[str, Any]
 
     Returns:
         ``{"train": [...], "test": [...]}``; each item is the instruction entry plus ``level``
-        (L1–L4 or ambiguous) and ``scene`` (its scene annotation). Train leaves out held-out
-        paraphrases.
+        (L1–L4) and ``scene`` (its scene annotation). Train leaves out held-out paraphrases.
     """
     scenes = {s["image_index"]: s for s in reader.scenes}
     entries = reader._candidates() or reader.instructions  # noqa: SLF001 - candidates hold every instruction
