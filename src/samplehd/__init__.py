@@ -9,10 +9,9 @@ configure_gl_backend()
 
 from samplehd.envs import register_envs  # noqa: E402
 from samplehd.errors import SamplehdError  # noqa: E402
+from samplehd.version import __version__  # noqa: E402
 
 # `gymnasium.make("samplehd/Tabletop-v0")` works after `import samplehd` (string entry point: cheap).
 register_envs()
-
-__version__ = "0.1.0"
 
 __all__ = ["SamplehdError", "__version__"]

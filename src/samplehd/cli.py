@@ -15,9 +15,9 @@ import traceback
 from collections.abc import Sequence
 from types import ModuleType
 
-import samplehd
 from samplehd import commands
 from samplehd.errors import SamplehdError
+from samplehd.version import __version__
 
 __all__ = ["build_parser", "main"]
 
@@ -40,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Simulate a UR5e on a kitchen tabletop and generate language-conditioned "
         "manipulation datasets.",
     )
-    parser.add_argument("--version", action="version", version=f"samplehd {samplehd.__version__}")
+    parser.add_argument("--version", action="version", version=f"samplehd {__version__}")
     parser.add_argument("--debug", action="store_true", help="show full tracebacks on errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, module in _command_modules().items():

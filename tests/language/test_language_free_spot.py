@@ -9,9 +9,9 @@ import pytest
 
 from samplehd.errors import ConfigError
 from samplehd.language.constraints import CONSTRAINTS, ConstraintContext
-from samplehd.language.free_spot import SpotSearch
 from samplehd.language.scene import parse_scene
-from samplehd.scene.layout import LAYOUT, table_parts_of
+from samplehd.world.free_spot import SpotSearch
+from samplehd.world.layout import LAYOUT, table_parts_of
 
 TABLE = LAYOUT.table_height
 
@@ -161,7 +161,7 @@ def test_spot_search_settings_are_checked() -> None:
 def test_rect_overlap_broadcasts_like_pairwise_calls() -> None:
     import numpy as np
 
-    from samplehd.motion.planner import rect_overlap
+    from samplehd.world.free_spot import rect_overlap
 
     def rot(yaw: float) -> np.ndarray:
         return np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
@@ -193,7 +193,7 @@ def sampled_scene() -> tuple[Any, ...]:
     from samplehd.motion.assist import compile_scene_with_assist
     from samplehd.scene.annotate import annotate_scene
     from samplehd.scene.sampler import sample_scene
-    from samplehd.tasks.state import SceneBodies
+    from samplehd.world.bodies import SceneBodies
 
     spec = sample_scene(8, 120008).scene
     model, data = compile_scene_with_assist(spec)
@@ -205,8 +205,9 @@ def sampled_scene() -> tuple[Any, ...]:
 def test_accepted_destinations_are_found_by_the_planner(sampled_scene: tuple[Any, ...]) -> None:
     import numpy as np
 
-    from samplehd.motion.planner import PlannerConfig, destination_candidates
+    from samplehd.motion.planner import destination_candidates
     from samplehd.tasks.task import Task
+    from samplehd.world.planner_config import PlannerConfig
 
     data, bodies, facts, annotation = sampled_scene
     scene = parse_scene(annotation)

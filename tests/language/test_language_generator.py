@@ -13,7 +13,7 @@ from samplehd.language.generator import Instruction, TemplateBalancer, generate_
 from samplehd.language.instruction_file import assign_splits, generate_instruction_file, parse_split_ratio
 from samplehd.language.scene import Scene
 from samplehd.language.templates import default_templates
-from samplehd.scene.layout import OPPOSITE_PART
+from samplehd.world.layout import OPPOSITE_PART
 
 FAMILIES = {"place", "stack", "put", "remove", "pick_up", "place_relative", "stack_three"}
 
@@ -153,8 +153,8 @@ def test_shipped_templates_cover_families_with_paraphrases() -> None:
 
 
 def test_ik_reachability_is_no_looser_than_the_annulus(scenes: list[Scene]) -> None:
-    from samplehd.language.reach import IKReachable, make_reachable
-    from samplehd.scene.layout import LAYOUT
+    from samplehd.world.layout import LAYOUT
+    from samplehd.world.reach import IKReachable, make_reachable
 
     ik = IKReachable()
     for x, y in [(0.0, 0.0), (0.2, 0.3), (-0.15, 0.0), (0.3, 0.4), (0.1, -0.35)]:

@@ -6,8 +6,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from samplehd.language.relations import RELATIONS, compute_relationships
-from samplehd.scene.layout import DIRECTIONS
+from samplehd.world.layout import DIRECTIONS
+from samplehd.world.relations import RELATIONS, compute_relationships
 
 
 def test_simple_layout_from_the_operator_viewpoint() -> None:

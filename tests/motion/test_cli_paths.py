@@ -13,7 +13,7 @@ from samplehd.cli import main
 @pytest.fixture(scope="module")
 def dataset(tmp_path_factory):
     from samplehd.bench.paths import _bench_scene
-    from samplehd.scene.layout import DIRECTIONS
+    from samplehd.world.layout import DIRECTIONS
 
     root = tmp_path_factory.mktemp("ds")
     scene = _bench_scene()

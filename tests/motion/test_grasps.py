@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from samplehd.motion.grasps import GRIPPER_STROKE, MIN_CLEARANCE, Grasp, grasp_candidates
+from samplehd.robot.constants import GRIPPER_STROKE
+from samplehd.world.grasps import MIN_CLEARANCE, Grasp, grasp_candidates
 
 
 class Site:

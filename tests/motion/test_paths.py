@@ -29,7 +29,7 @@ def scene():
 
 def _run(scene, task, family=None, seed=0):
     from samplehd.motion.assist import compile_scene_with_assist
-    from samplehd.motion.pipeline import plan_and_execute
+    from samplehd.record.paths import plan_and_execute
 
     model, data = compile_scene_with_assist(scene)
     ep = plan_and_execute(scene, task, np.random.default_rng(seed), family=family, instruction_index=3, seed=seed,
@@ -65,7 +65,7 @@ def test_steering_in_range_and_grasp_recorded(place_episode):
 
 
 def test_close_gripper_ends_once_the_grasp_has_settled(place_episode):
-    from samplehd.motion.planner import PlannerConfig
+    from samplehd.world.planner_config import PlannerConfig
 
     _, ep = place_episode
     cfg = PlannerConfig()
@@ -95,7 +95,7 @@ def test_replay_reproduces_object_poses_exactly(place_episode):
 
 def test_steering_reproduces_the_tcp_motion(place_episode, scene):
     """Driving the controller open-loop with the recorded steering retraces the recorded TCP path."""
-    from samplehd.motion.pipeline import initial_state
+    from samplehd.motion.execute import initial_state
     from samplehd.robot.controller import ControlConfig
     from samplehd.scene.spec import compile_scene
 
@@ -148,7 +148,7 @@ def test_stack_subtasks(scene):
     ],
 )
 def test_subtask_order_other_families(scene, task, family, count):
-    from samplehd.motion.pipeline import PathRejected
+    from samplehd.record.paths import PathRejected
 
     try:
         _, ep = _run(scene, task, family)
@@ -161,7 +161,7 @@ def test_subtask_order_other_families(scene, task, family, count):
 
 def test_bad_task_is_a_planning_error(scene):
     from samplehd.errors import PlanningError
-    from samplehd.motion.pipeline import plan_and_execute
+    from samplehd.record.paths import plan_and_execute
 
     with pytest.raises(PlanningError, match="objects 0..3"):
         plan_and_execute(scene, {"type": "place", "objects": [9], "subject": "left"}, np.random.default_rng(0))

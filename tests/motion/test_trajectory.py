@@ -57,7 +57,7 @@ def test_joint_path_ends_at_every_waypoint_within_the_joint_speed() -> None:
 @pytest.mark.parametrize("value", [-0.1, float("nan"), "fast"])
 def test_bad_planner_timing_is_a_one_line_error(field: str, value: object) -> None:
     from samplehd.errors import ConfigError
-    from samplehd.motion.planner import PlannerConfig
+    from samplehd.world.planner_config import PlannerConfig
 
     with pytest.raises(ConfigError, match=rf"^planner\.{field}=.* must be a finite non-negative number$"):
         PlannerConfig.from_dict({field: value})
@@ -65,7 +65,7 @@ def test_bad_planner_timing_is_a_one_line_error(field: str, value: object) -> No
 
 def test_unknown_planner_option_names_the_valid_ones() -> None:
     from samplehd.errors import ConfigError
-    from samplehd.motion.planner import PlannerConfig
+    from samplehd.world.planner_config import PlannerConfig
 
     with pytest.raises(ConfigError, match=r"unknown planner options \['ramp'\]; valid: .*joint_ramp_time"):
         PlannerConfig.from_dict({"ramp": 0.5})

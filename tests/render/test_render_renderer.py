@@ -12,7 +12,7 @@ from samplehd.render.renderer import (
     camera_intrinsics,
     project_points,
 )
-from samplehd.scene.layout import LAYOUT
+from samplehd.world.layout import LAYOUT
 
 pytestmark = pytest.mark.render
 

@@ -1,5 +1,5 @@
 """affordances.graspable in the scene annotation: the class is graspable AND the ground-truth planner
-finds a top-down grasp from home in this scene (motion.planner.graspable_in_scene)."""
+finds a top-down grasp from home in this scene (world.grasps.graspable_in_scene)."""
 
 from __future__ import annotations
 
@@ -12,14 +12,16 @@ import mujoco
 import pytest
 
 from samplehd.catalogue import ObjectInstance, object_facts
-from samplehd.motion.collision import CollisionChecker
-from samplehd.motion.planner import PlannerConfig, choose_grasps, graspable_in_scene
-from samplehd.motion.robot_info import RobotInfo
 from samplehd.scene.annotate import annotate_scene
-from samplehd.scene.layout import LAYOUT
-from samplehd.scene.sampler import sample_scene, scene_seed
+from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene
-from samplehd.tasks.state import SceneBodies
+from samplehd.world.bodies import SceneBodies
+from samplehd.world.collision import CollisionChecker
+from samplehd.world.grasps import choose_grasps, graspable_in_scene
+from samplehd.world.layout import LAYOUT
+from samplehd.world.planner_config import PlannerConfig
+from samplehd.world.robot_info import RobotInfo
+from samplehd.world.seeding import scene_seed
 
 TABLE = LAYOUT.table_height
 UP = (1.0, 0.0, 0.0, 0.0)

@@ -8,9 +8,10 @@ from samplehd.cli import main
 from samplehd.errors import ConfigError
 from samplehd.render.image_io import read_depth, read_segmentation
 from samplehd.scene.config import SceneConfig
-from samplehd.scene.layout import LAYOUT, table_parts_of
-from samplehd.scene.sampler import sample_scene, scene_seed
+from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.world.layout import LAYOUT, table_parts_of
+from samplehd.world.seeding import scene_seed
 
 
 @pytest.fixture(scope="module")

@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 
 from samplehd.errors import ConfigError
-from samplehd.scene.layout import LAYOUT, table_parts_of
 from samplehd.scene.mjcf import export_mjcf
 from samplehd.scene.world import CameraSpec, WorldConfig, build_world
+from samplehd.world.layout import LAYOUT, table_parts_of
 
 
 def _name(model, objtype, i):

@@ -40,7 +40,7 @@ def compiled(scene):
 
 def _state(compiled, scene, moves: dict[int, tuple[float, float, float]]):
     """Fresh data with the scene's poses and some objects moved (upright)."""
-    from samplehd.motion.pipeline import initial_state
+    from samplehd.motion.execute import initial_state
     from samplehd.robot.controller import ControlConfig
     from samplehd.scene.spec import object_qpos_addresses
 

@@ -12,14 +12,15 @@ import numpy as np
 import pytest
 
 from samplehd.motion.assist import GraspAssist, compile_scene_with_assist
-from samplehd.motion.pipeline import initial_state
+from samplehd.motion.execute import initial_state
 from samplehd.physics import awake_contacts, wake_all
 from samplehd.robot.constants import HOME_QPOS
 from samplehd.robot.controller import ControlConfig, RobotController
-from samplehd.scene.sampler import sample_scene, scene_seed
-from samplehd.scene.spec import SceneSpec, compile_scene, object_body_name, object_qpos_addresses
+from samplehd.scene.sampler import sample_scene
+from samplehd.scene.spec import SceneSpec, compile_scene, object_qpos_addresses
 from samplehd.tasks.checker import _simulate_window
-from samplehd.tasks.state import SceneBodies, contact_pairs
+from samplehd.world.bodies import SceneBodies, contact_pairs, object_body_name
+from samplehd.world.seeding import scene_seed
 
 _SLEEP = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.scene.layout import LAYOUT, OPPOSITE_PART, TABLE_PARTS, table_parts_of
+from samplehd.world.layout import LAYOUT, OPPOSITE_PART, TABLE_PARTS, table_parts_of
 
 __all__ = ["oracle_success", "oracle_table", "random_task", "run", "simple_scene"]
 
@@ -144,7 +144,7 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> li
     import samplehd  # noqa: F401
     from samplehd.language.generator import generate_instructions
     from samplehd.motion.assist import compile_scene_with_assist as compile_scene
-    from samplehd.motion.pipeline import PathRejected, plan_and_execute
+    from samplehd.record.paths import PathRejected, plan_and_execute
     from samplehd.scene.annotate import annotate_scene
     from samplehd.scene.sampler import sample_scene
 
@@ -270,7 +270,7 @@ def run(repeats: int = 3) -> list[Any]:
 
     from samplehd.bench import Figure
     from samplehd.motion.assist import compile_scene_with_assist
-    from samplehd.motion.pipeline import plan_and_execute
+    from samplehd.record.paths import plan_and_execute
     from samplehd.record.replay import render_episode
 
     scene = _bench_scene()

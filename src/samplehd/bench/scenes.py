@@ -14,7 +14,8 @@ from samplehd.bench import Figure
 def run(repeats: int = 3, num: int = 8, stats_scenes: int = 100) -> list[Figure]:
     """Scenes/s end to end (sample, settle, occlusion check, render, annotate, write)."""
     from samplehd.scene.generate import generate_scenes
-    from samplehd.scene.sampler import sample_scene, scene_seed
+    from samplehd.scene.sampler import sample_scene
+    from samplehd.world.seeding import scene_seed
 
     figures = []
     for preset in ("fast", "hd"):

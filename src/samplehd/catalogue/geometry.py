@@ -35,6 +35,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from samplehd.catalogue.schema import Field
+from samplehd.robot.constants import GRIPPER_STROKE
 
 __all__ = [
     "GRIPPER_STROKE",
@@ -57,7 +58,6 @@ __all__ = [
     "parse_geometry",
 ]
 
-GRIPPER_STROKE = 0.085  # [m] opening of the parallel-jaw gripper
 _SEGMENTS = 48  # circular segments of visual surfaces of revolution
 _HULL_SEGMENTS = 16  # points per circle of convex collision pieces
 _MAX_EDGE = 0.012  # longest profile edge of a visual surface of revolution [m]

@@ -18,8 +18,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _pictures(out: Path) -> list[Path]:
     from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
     from samplehd.render.renderer import SceneRenderer
-    from samplehd.scene.sampler import sample_scene, scene_seed
+    from samplehd.scene.sampler import sample_scene
     from samplehd.scene.spec import compile_scene
+    from samplehd.world.seeding import scene_seed
 
     scene = sample_scene(0, scene_seed(2, 0)).scene
     model, data = compile_scene(scene)

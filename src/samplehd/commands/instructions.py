@@ -57,9 +57,9 @@ def run(args: argparse.Namespace) -> int:
         parse_split_ratio,
         write_instructions,
     )
-    from samplehd.language.reach import make_reachable
     from samplehd.language.scene import load_scenes
     from samplehd.language.templates import load_templates
+    from samplehd.world.reach import make_reachable
 
     if args.per_scene < 1:
         raise ConfigError(f"--per-scene {args.per_scene}: must be at least 1")

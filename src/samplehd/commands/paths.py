@@ -72,7 +72,7 @@ def _job(args: tuple[dict[str, Any], dict[str, Any], dict[str, Any]]) -> dict[st
     import samplehd  # noqa: F401  (GL backend before mujoco)
     from samplehd.errors import SamplehdError
     from samplehd.motion.assist import compile_scene_with_assist
-    from samplehd.motion.pipeline import PathConfig, PathRejected, plan_and_execute
+    from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
     from samplehd.record.recorder import write_episode_npz
     from samplehd.scene.spec import SceneSpec
 

@@ -19,8 +19,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import ConfigError
 from samplehd.scene.config import SceneConfig
@@ -29,7 +27,6 @@ __all__ = [
     "PRESETS",
     "GenerateConfig",
     "InstructionConfig",
-    "episode_seed",
     "load_config",
     "preset_config",
 ]
@@ -77,7 +74,7 @@ class InstructionConfig:
 
 
 def _path_config(d: Mapping[str, Any] | None = None) -> Any:
-    from samplehd.motion.pipeline import PathConfig
+    from samplehd.record.paths import PathConfig
 
     return PathConfig.from_dict(dict(d or {}))
 
@@ -95,7 +92,7 @@ class GenerateConfig:
         test_every: every ``test_every``-th scene (and its instructions) is in the test split.
         scene: scene sampler options.
         instructions: instruction candidate options.
-        paths: ground-truth path options (``samplehd.motion.pipeline.PathConfig``).
+        paths: ground-truth path options (``samplehd.record.paths.PathConfig``).
         render: images stored with each episode.
     """
 
@@ -210,12 +207,6 @@ def load_config(path: Path | None, base: GenerateConfig) -> GenerateConfig:
     except json.JSONDecodeError as exc:
         raise ConfigError(f"--config {path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
     return GenerateConfig.from_dict(doc, where=str(path), base=base)
-
-
-def episode_seed(base_seed: int, scene_index: int, slot: int) -> int:
-    """The seed of instruction slot ``slot`` of scene ``scene_index`` (independent of everything else)."""
-    ss = np.random.SeedSequence([int(base_seed), 1, int(scene_index), int(slot)])
-    return int(ss.generate_state(1, np.uint32)[0])
 
 
 def candidate_order(keys: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:

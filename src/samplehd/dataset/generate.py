@@ -35,9 +35,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import samplehd
 from samplehd.dataset.backend import Backend
-from samplehd.dataset.config import GenerateConfig, candidate_order, episode_seed
+from samplehd.dataset.config import GenerateConfig, candidate_order
 from samplehd.dataset.journal import append_journal, read_journal, repair_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
@@ -53,6 +52,8 @@ from samplehd.dataset.layout import (
     parse_episode_name,
 )
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.version import __version__
+from samplehd.world.seeding import episode_seed
 
 __all__ = ["GenerateSummary", "Progress", "generate_dataset", "versions"]
 
@@ -115,7 +116,7 @@ def versions() -> dict[str, str]:
     import mujoco
     import numpy
 
-    return {"samplehd": samplehd.__version__, "mujoco": mujoco.__version__, "numpy": numpy.__version__,
+    return {"samplehd": __version__, "mujoco": mujoco.__version__, "numpy": numpy.__version__,
             "h5py": h5py.__version__, "python": platform.python_version()}
 
 
@@ -184,7 +185,7 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
     from samplehd.dataset.work import run_scene_unit
     from samplehd.scene.annotate import image_stem
     from samplehd.scene.generate import SceneJob, scene_split
-    from samplehd.scene.sampler import scene_seed
+    from samplehd.world.seeding import scene_seed
 
     r = config.render
     preset = r.mode if r.enabled else "fast"
@@ -401,7 +402,7 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
     lang_info = dict(cand_doc["info"])
     lang_info["counts"] = {"families": dict(sorted(families.items())), "splits": dict(sorted(splits.items())),
                            "candidates": len(candidates)}
-    _write_json(out / SCENES_FILE, {"info": {"version": samplehd.__version__, "seed": config.seed,
+    _write_json(out / SCENES_FILE, {"info": {"version": __version__, "seed": config.seed,
                                              "num_scenes": len(scenes), "license": "CC BY 4.0",
                                              "split_rule": f"every {config.test_every}th scene is test"},
                                     "scenes": scenes})

@@ -86,7 +86,7 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     from samplehd.dataset.render import RenderConfig, render_states
     from samplehd.errors import DatasetError, PlanningError
     from samplehd.motion.assist import compile_scene_with_assist
-    from samplehd.motion.pipeline import PathConfig, PathRejected, plan_and_execute
+    from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
     from samplehd.scene.spec import SceneSpec, compile_scene
 
     t0, c0 = time.perf_counter(), time.process_time()

@@ -163,7 +163,7 @@ def sample_episode(
         SceneError: no scene in several tries allowed an instruction of the family.
     """
     from samplehd.language.generator import generate_instructions
-    from samplehd.scene.sampler import scene_seed as pool_seed
+    from samplehd.world.seeding import scene_seed as pool_seed
 
     drawn = family is None
     if family is None:

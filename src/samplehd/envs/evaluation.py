@@ -38,7 +38,10 @@ __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "evaluate", "load_po
 # SAMPLE-HD's families plus the two simple new ones: the default benchmark. stack_three needs scenes
 # with three stackable objects (see the env's ``scene`` option) and is opt-in.
 DEFAULT_FAMILIES = ("place", "remove", "stack", "put", "pick_up", "place_relative")
-BUILT_IN = ("oracle", "random", "neurosymbolic", "bc")
+# Learned baselines: name -> "module:factory(env, EvalConfig)".
+LEARNED = {"neurosymbolic": "samplehd.learn.neurosymbolic:policy_for_evaluation",
+           "bc": "samplehd.learn.bc:policy_for_evaluation"}
+BUILT_IN = ("oracle", "random", *LEARNED)
 _POLICY_SPEC = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:[A-Za-z_][A-Za-z0-9_]*$")
 
 
@@ -133,19 +136,16 @@ class RandomPolicy:
 def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callable[[Any], Any]:
     """Build the policy named by ``spec`` for ``env``; see the module docstring."""
     check_policy_spec(spec)
-    if spec in ("neurosymbolic", "bc"):
+    if spec in LEARNED:
         try:
             import torch  # noqa: F401
         except ImportError:
             raise ConfigError(f"--policy {spec}: PyTorch is not installed; pip install 'samplehd[learn]'") from None
-        c = config or EvalConfig(policy=spec)
-        if spec == "bc":
-            from samplehd.learn.bc import BCPolicy
-
-            return BCPolicy.load(c.models, env)
-        from samplehd.learn.neurosymbolic import NeuroSymbolicPolicy
-
-        return NeuroSymbolicPolicy(env, c.models, programs=c.programs, perception=c.perception)
+        # The learned baselines live on a floor above the environments: named by module path, as
+        # user policies are, and imported only when asked for.
+        module_name, attr = LEARNED[spec].split(":")
+        factory = getattr(importlib.import_module(module_name), attr)
+        return factory(env, config or EvalConfig(policy=spec))
     if spec == "oracle":
         from samplehd.envs.oracle import OraclePolicy
 
@@ -172,7 +172,7 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
 
 
 def _offline_success(env: Any, seed: int) -> bool:
-    from samplehd.motion.pipeline import PathConfig, plan_and_execute
+    from samplehd.record.paths import PathConfig, plan_and_execute
     from samplehd.scene.spec import compile_scene
 
     ep = env.unwrapped.episode

@@ -15,38 +15,36 @@ carries an object it checks every step that the object is still between the fing
 grasp misses or the object slips it opens the gripper, backs off and plans a new grasp of the
 object where it now lies (up to ``max_replans`` times per object).
 
-The planner is written as straight-line code that executes subtasks as it goes; the oracle runs it
-in a worker thread that hands over one action per :meth:`OraclePolicy.__call__` and waits for the
-environment to step. Exactly one of the two threads runs at any time, so episodes are deterministic.
+The planner yields one control target per step (:mod:`samplehd.motion.execute`); the oracle keeps
+that generator and advances it by one target per :meth:`OraclePolicy.__call__`, after the
+environment has stepped — the environment's ``step`` is the plan's step function, as ManiSkill's
+motion-planning solutions drive ``env.step``. No thread, and only public state of the environment
+(``controller``, ``assist``, ``task``, ``episode``) and of the planner (``hand``, ``grasped()``).
 """
 
 from __future__ import annotations
 
-import queue
-import threading
+from collections.abc import Generator
 from typing import Any
 
 import numpy as np
 
 from samplehd.errors import PlanningError
-from samplehd.motion.execute import AttemptFailed, Rollout
-from samplehd.motion.planner import PlannerConfig
-from samplehd.motion.robot_info import RobotInfo
-from samplehd.record.recorder import _rotvec, steering_from_targets
+from samplehd.motion.execute import AttemptFailed, ControlTarget, Plan, Rollout, SubtaskCut, scene_facts
+from samplehd.motion.steering import steering_from_targets
 from samplehd.robot.constants import GRIPPER_STROKE
-from samplehd.robot.controller import ControlReport, RobotController
+from samplehd.robot.controller import ControlReport
 from samplehd.robot.kinematics import fk_tcp
-from samplehd.scene.layout import LAYOUT
-from samplehd.tasks.state import SceneBodies
+from samplehd.world.bodies import SceneBodies
+from samplehd.world.layout import LAYOUT
+from samplehd.world.planner_config import PlannerConfig
+from samplehd.world.robot_info import RobotInfo
+from samplehd.world.transforms import rotvec
 
 __all__ = ["OraclePolicy", "oracle_action"]
 
 # Failures after which the oracle backs off and grasps the object again.
 _REGRASP_REASONS = ("grasp_missed", "grasp_slipped")
-
-
-class _Stop(Exception):
-    """Raised inside the worker to end it (episode over or policy reset)."""
 
 
 def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: float, env: Any) -> np.ndarray:
@@ -58,7 +56,7 @@ def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: flo
     else:
         t0, t1 = fk_tcp(q_now), fk_tcp(q_next)
         lin = t1[:3, 3] - t0[:3, 3]
-        rot = _rotvec(t1[:3, :3] @ t0[:3, :3].T)
+        rot = rotvec(t1[:3, :3] @ t0[:3, :3].T)
         if mode == "ee_delta":
             a = np.concatenate([lin, rot, [gripper]])
         else:
@@ -68,36 +66,6 @@ def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: flo
     # offline paths (float32 would round them by ~1e-7 rad, enough for contacts to diverge).
     lo, hi = env.action_space.low.astype(float), env.action_space.high.astype(float)
     return np.clip(np.asarray(a, dtype=float), lo, hi)
-
-
-class _ActingController:
-    """Stands in for the robot controller inside the planner's Rollout: each ``step`` becomes an
-    action of the environment's control mode, taken by the environment on the caller's thread.
-
-    Everything else (targets, config, state) is the environment's own controller.
-    """
-
-    def __init__(self, policy: OraclePolicy, controller: RobotController) -> None:
-        self._policy = policy
-        self._controller = controller
-        self.rollout: Rollout | None = None
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._controller, name)
-
-    def step(self, action: np.ndarray, mode: str = "joint_position") -> ControlReport:
-        ctrl = self._controller
-        ro = self.rollout
-        name = ro.subtasks[-1] if ro is not None and ro.subtasks else ""
-        if ro is not None and ro.hand is not None and name in ("ObjectMove", "MoveDOWN"):
-            # Closed loop: the object must still be between the fingers.
-            welded = getattr(self._policy.env, "_assist", None)
-            if (welded is None or welded.active != ro.hand.index) and ro._grasped() != ro.hand.index:
-                raise AttemptFailed("grasp_slipped", f"object {ro.hand.index} slipped out of the gripper in {name}")
-        self._policy.subtask = name
-        a = np.asarray(action, dtype=float)
-        self._policy._hand_over(ctrl.target, a[:6], float(a[6]))
-        return ControlReport(time=float(ctrl.data.time), safety_event=self._policy.env.last_safety_event)
 
 
 class OraclePolicy:
@@ -125,16 +93,15 @@ class OraclePolicy:
         self.subtask = ""
         self.failure = ""
         self.replans = 0
-        self._worker: threading.Thread | None = None
-        self._actions: queue.Queue = queue.Queue(maxsize=1)
-        self._resume: queue.Queue = queue.Queue(maxsize=1)
+        self._plan: Generator[ControlTarget | SubtaskCut, ControlReport | None, None] | None = None
+        self._rollout: Rollout | None = None
         self._episode: Any = None
         self._finished = False
 
     # ------------------------------------------------------------------ policy API
     def reset(self, seed: int | None = None) -> None:
         """Forget the current plan (call after ``env.reset``)."""
-        self._stop_worker()
+        self.close()
         if seed is not None:
             self.seed = seed
         self.subtask = ""
@@ -146,129 +113,109 @@ class OraclePolicy:
     def __call__(self, obs: Any = None) -> np.ndarray:
         """The next action; ``obs`` is unused (the oracle reads privileged state)."""
         env = self.env
-        if self._episode is not env.episode or self._worker is None:
+        if self._episode is not env.episode or self._plan is None:
             self.reset()
             self._episode = env.episode
-            self._start_worker()
+            self._plan = self._plan_episode()
+            report: ControlReport | None = None
+            first = True
         elif self._finished:
             return self._hold_action()
         else:
-            self._resume.put("go")
-        kind, payload = self._next()
-        if kind == "action":
-            return payload
-        self._finished = True
-        if kind == "error":
-            raise payload
-        return self._hold_action()  # done or given up: hold still
+            if env.controller.stopped is not None:  # a safety stop ends the plan
+                return self._finish()
+            report = ControlReport(time=float(env.data.time), safety_event=env.last_safety_event)
+            first = False
+        target = self._advance(report, first)
+        if target is None:
+            return self._finish()
+        env.subtask = self.subtask
+        return oracle_action(env.config.control_mode, env.controller.target, target.joints, target.gripper, env)
 
     @property
     def gave_up(self) -> bool:
         """Whether the oracle stopped trying in this episode (it then holds still)."""
         return self._finished and bool(self.failure)
 
-    def _next(self) -> tuple[str, Any]:
-        """Wait for the worker's next message; a worker that ended silently counts as done."""
-        while True:
-            try:
-                return self._actions.get(timeout=0.5)
-            except queue.Empty:
-                w = self._worker
-                if w is None or not w.is_alive():
-                    try:
-                        return self._actions.get_nowait()
-                    except queue.Empty:
-                        return "done", None
-
     def close(self) -> None:
-        """End the worker thread."""
-        self._stop_worker()
+        """Drop the current plan."""
+        if self._plan is not None:
+            self._plan.close()
+        self._plan = None
+        self._rollout = None
 
     def episode_task(self) -> Any:
         """The task to carry out (a :class:`samplehd.tasks.task.Task`): the environment's own.
 
         A policy that decides the task itself (from a parsed instruction and a perceived scene)
-        overrides this; it runs on the worker thread before planning starts.
+        overrides this; it is read once when the episode's plan starts.
         """
-        return self.env._task
+        return self.env.task
 
-    # ------------------------------------------------------------------ worker
+    # ------------------------------------------------------------------ plan
+    def _advance(self, report: ControlReport | None, first: bool) -> ControlTarget | None:
+        """The plan's next control target (None: the plan ended), checked closed-loop: while the
+        object is carried it must still be between the fingers, or the plan hears it slipped."""
+        plan = self._plan
+        try:
+            item = next(plan) if first else plan.send(report)
+            while True:
+                if isinstance(item, SubtaskCut):
+                    item = plan.send(None)
+                    continue
+                slipped = self._slipped()
+                if slipped is None:
+                    return item
+                item = plan.throw(slipped)
+        except StopIteration:
+            return None
+
+    def _slipped(self) -> AttemptFailed | None:
+        ro = self._rollout
+        name = ro.subtasks[-1] if ro is not None and ro.subtasks else ""
+        self.subtask = name
+        if ro is None or ro.hand is None or name not in ("ObjectMove", "MoveDOWN"):
+            return None
+        welded = self.env.assist
+        if (welded is None or welded.active != ro.hand.index) and ro.grasped() != ro.hand.index:
+            return AttemptFailed("grasp_slipped", f"object {ro.hand.index} slipped out of the gripper in {name}")
+        return None
+
+    def _finish(self) -> np.ndarray:
+        self._finished = True
+        self.close()
+        return self._hold_action()
+
     def _hold_action(self) -> np.ndarray:
         env = self.env
         ctrl = env.controller
         g = 2.0 * ctrl.gripper_width / GRIPPER_STROKE - 1.0
         return oracle_action(env.config.control_mode, ctrl.target, ctrl.target, g, env)
 
-    def _hand_over(self, q_now: np.ndarray, q_next: np.ndarray, gripper: float) -> None:
-        env = self.env
-        env.subtask = self.subtask
-        a = oracle_action(env.config.control_mode, q_now, q_next, gripper, env)
-        self._actions.put(("action", a))
-        if self._resume.get() == "stop":
-            raise _Stop("policy reset")
-        if env.controller.stopped is not None:
-            raise _Stop(f"safety stop: {env.controller.stopped}")
-
-    def _start_worker(self) -> None:
-        self._finished = False
-        self._actions = queue.Queue(maxsize=1)
-        self._resume = queue.Queue(maxsize=1)
-        self._worker = threading.Thread(target=self._work, name="samplehd-oracle", daemon=True)
-        self._worker.start()
-
-    def _stop_worker(self) -> None:
-        w = self._worker
-        self._worker = None
-        if w is None or not w.is_alive():
-            return
-        # The worker waits in _hand_over for a resume message (or has finished and waits for nothing).
-        try:
-            self._resume.put_nowait("stop")
-        except queue.Full:
-            pass
-        w.join(timeout=10.0)
-
-    def _work(self) -> None:
-        try:
-            self._plan_and_act()
-            self._actions.put(("done", None))
-        except _Stop:
-            return
-        except Exception as exc:  # noqa: BLE001 - handed to the caller's thread
-            self._actions.put(("error", exc))
-
-    def _plan_and_act(self) -> None:
-        from samplehd.catalogue import object_facts
-
+    def _plan_episode(self) -> Plan[None]:
         env = self.env
         model, data, ctrl = env.model, env.data, env.controller
         scene = env.episode.scene
         task = self.episode_task()
-        facts = []
-        for o in scene.objects:
-            try:
-                facts.append(object_facts(o.instance))
-            except Exception:  # noqa: BLE001 - objects unknown to the catalogue fall back to model geometry
-                facts.append(None)
+        facts = scene_facts(scene)
         # The generator of the offline generator's first attempt (plan_and_execute draws each
         # attempt's generator from the episode's), so both make the same random choices.
         rng = np.random.default_rng(np.random.default_rng(self.seed).integers(2**63))
         directions = env.episode.annotation.get("directions") if env.episode.annotation else None
         robot = RobotInfo.from_model(model, data)
         bodies = SceneBodies(model, len(scene.objects))
-        acting = _ActingController(self, ctrl)
         # The environment's grasp assist (when on) welds for every policy; the planner must not weld itself.
-        ro = Rollout(model, data, acting, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
+        ro = Rollout(model, data, ctrl, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
                      use_assist=False)
-        acting.rollout = ro
+        self._rollout = ro
         for i in task.objects:
             exclude: set[int] = set()
             for attempt in range(self.max_replans + 1):
                 k = -1
                 try:
-                    k = ro.pick(i, tuple(exclude))
+                    k = yield from ro.pick(i, tuple(exclude))
                     if task.family != "pick_up":
-                        ro.place(i, task, k)
+                        yield from ro.place(i, task, k)
                     break
                 except AttemptFailed as exc:
                     grasp = exc.grasp if exc.grasp >= 0 else k
@@ -279,7 +226,7 @@ class OraclePolicy:
                     if grasp >= 0:
                         exclude.add(grasp)
                     try:
-                        self._back_off(ro, i)
+                        yield from self._back_off(ro, i)
                     except PlanningError as back:
                         self.failure = getattr(back, "reason", "no_path_home")
                         return
@@ -289,8 +236,8 @@ class OraclePolicy:
         self.subtask = "Completed"
         env.subtask = "Completed"
 
-    def _back_off(self, ro: Rollout, i: int) -> None:
+    def _back_off(self, ro: Rollout, i: int) -> Plan[None]:
         """Open the gripper and retreat home before grasping object ``i`` again."""
         ro.hand = None
-        ro.hold("OpenGripper", i, self.planner.open_time, 1.0)
-        ro.go_home(i, GRIPPER_STROKE)
+        yield from ro.hold("OpenGripper", i, self.planner.open_time, 1.0)
+        yield from ro.go_home(i, GRIPPER_STROKE)

@@ -52,7 +52,7 @@ def plan_tracker(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, task: d
                  directions: dict[str, Any] | None, seed: int, physics_hz: float,
                  control_hz: float) -> tuple[PlanTracker | None, str]:
     """Plan the episode from a copy of ``data``; returns (tracker, "") or (None, why not)."""
-    from samplehd.motion.pipeline import PathConfig, PathRejected, plan_and_execute
+    from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
 
     copy = mujoco.MjData(model)
     mujoco.mj_copyData(copy, model, data)

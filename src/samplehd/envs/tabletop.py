@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import copy
 import string
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -70,11 +71,18 @@ from gymnasium import spaces
 
 from samplehd.envs.config import CONTROL_MODES, EnvConfig
 from samplehd.envs.episodes import EpisodeSpec, SceneCache, episode_from_options, sample_episode
+from samplehd.envs.plan_tracker import plan_tracker
 from samplehd.envs.reward import dense_term
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
-from samplehd.errors import ActionError
-from samplehd.robot.constants import JOINT_LIMITS
+from samplehd.errors import ActionError, ConfigError, SamplehdError
+from samplehd.motion.assist import GraspAssist
+from samplehd.motion.execute import initial_state
+from samplehd.render.renderer import SceneRenderer
+from samplehd.robot.constants import GRIPPER_STROKE, JOINT_LIMITS
 from samplehd.robot.controller import ControlConfig, RobotController
+from samplehd.tasks.checker import check_success
+from samplehd.tasks.task import Task, parse_task
+from samplehd.world.bodies import SceneBodies, grasped_object
 
 __all__ = ["INSTRUCTION_CHARSET", "TabletopEnv"]
 
@@ -137,10 +145,10 @@ class TabletopEnv(gym.Env):
         self._events: list[dict[str, Any]] = []
         self._success = False
         self._reason = ""
-        self._task: Any = None
+        self.task: Task | None = None
         self._cam_names: dict[str, str] = {}
         self.last_safety_event: Any = None
-        self._assist: Any = None
+        self.assist: GraspAssist | None = None
 
     # ------------------------------------------------------------------ spaces
     def _observation_space(self) -> spaces.Dict:
@@ -181,8 +189,6 @@ class TabletopEnv(gym.Env):
         else:
             family = options.pop("family", None)
             if options:
-                from samplehd.errors import ConfigError
-
                 raise ConfigError(f"reset: unknown option(s) {sorted(options)}; valid: dataset, episode, "
                                   "episode_index, family, instruction, scene")
             episode = sample_episode(self.np_random, self.cache, self.config.task_families, family=family,
@@ -191,9 +197,6 @@ class TabletopEnv(gym.Env):
         return self._observation(), self._info(None, None)
 
     def _start(self, episode: EpisodeSpec) -> None:
-        from samplehd.motion.pipeline import initial_state
-        from samplehd.tasks.task import parse_task
-
         model, pristine, _ = self.cache.compiled(episode.scene)
         if model is not self.model:
             self._close_renderers()
@@ -210,13 +213,10 @@ class TabletopEnv(gym.Env):
             data.act[:] = episode.initial_state["act"]
             mujoco.mj_forward(model, data)
             self.controller.reset(None, gripper=1.0)
-        self._assist = None
+        self.assist = None
         if self.config.grasp_assist:
-            from samplehd.motion.assist import GraspAssist
-            from samplehd.record.recorder import grasped_object
-
-            self._assist = GraspAssist(model, len(episode.scene.objects))
-            self._assist.release(data)
+            self.assist = GraspAssist(model, len(episode.scene.objects))
+            self.assist.release(data)
             fingers = [model.jnt_bodyid[model.joint(j).id] for j in ("robot_left_finger_joint",
                                                                      "robot_right_finger_joint")]
             self._fingers = (int(fingers[0]), int(fingers[1]))
@@ -225,13 +225,12 @@ class TabletopEnv(gym.Env):
         self._last_gripper = 1.0
         self._attach_gripper = 1.0
         self.episode = episode
-        self._task = parse_task(episode.instruction["task"], episode.family)
+        self.task = parse_task(episode.instruction["task"], episode.family)
         self._object_body = np.array(
             [model.body(f"object_{i}").id for i in range(len(episode.scene.objects))], dtype=int)
         self._tcp_site = model.site("tcp").id
         self._finger_qpos = np.array([model.jnt_qposadr[model.joint(j).id]
                                       for j in ("robot_left_finger_joint", "robot_right_finger_joint")])
-        from samplehd.tasks.state import SceneBodies
 
         self._gripper_bodies = np.array(sorted(SceneBodies(model, len(episode.scene.objects)).gripper_bodies), int)
         self._start_pos = np.array([o.pos for o in episode.scene.objects], dtype=float).reshape(-1, 3)
@@ -247,8 +246,6 @@ class TabletopEnv(gym.Env):
         self.last_safety_event = None
         self._plan, self._plan_note, self.plan_subtask = None, "", ""
         if self.config.oracle_subtask:
-            from samplehd.envs.plan_tracker import plan_tracker
-
             directions = episode.annotation.get("directions") if episode.annotation else None
             self._plan, self._plan_note = plan_tracker(
                 model, data, episode.scene, episode.instruction["task"], episode.family, directions,
@@ -259,8 +256,6 @@ class TabletopEnv(gym.Env):
     def step(self, action: Any) -> tuple[dict, float, bool, bool, dict]:
         """Apply one action for one control period; see the module docstring."""
         if self.controller is None:
-            from samplehd.errors import SamplehdError
-
             raise SamplehdError("call reset() before step()")
         a = np.asarray(action, dtype=float)
         if a.shape != self.action_space.shape:
@@ -273,7 +268,7 @@ class TabletopEnv(gym.Env):
             a = np.clip(a, self._low, self._high)
         report = self.controller.step(a, self._mode)
         self.last_safety_event = report.safety_event
-        if self._assist is not None:
+        if self.assist is not None:
             self._update_assist(float(a[-1]))
         self._steps += 1
         event = report.safety_event.to_dict() if report.safety_event is not None else None
@@ -286,7 +281,7 @@ class TabletopEnv(gym.Env):
             reward = 1.0
         obs = self._observation()
         if self.config.dense_reward:
-            reward += dense_term(obs["tcp_pos"], self.data.xpos[self._object_body[self._task.objects[0]]])
+            reward += dense_term(obs["tcp_pos"], self.data.xpos[self._object_body[self.task.objects[0]]])
         stopped = self.controller.stopped is not None
         terminated = bool(self._success or (stopped and self.config.terminate_on_safety))
         truncated = bool(not terminated and self._steps >= self.config.max_episode_steps)
@@ -303,7 +298,7 @@ class TabletopEnv(gym.Env):
     def _update_assist(self, gripper: float) -> None:
         """Grasp assist, the same rule for every policy: weld the object both pads touch while the
         gripper command closes (or stays closed); unweld as soon as the command opens again."""
-        assist = self._assist
+        assist = self.assist
         if assist.active < 0:
             closing = gripper < self._last_gripper - 1e-9 or gripper <= -1.0 + 1e-9
             if closing and self.controller.stopped is None:
@@ -323,7 +318,7 @@ class TabletopEnv(gym.Env):
         (the checker's "resting"); pick_up needs the object lifted.
         """
         d = self.data
-        task = self._task
+        task = self.task
         moved = self._object_body[list(task.objects)]
         shift = np.linalg.norm(d.xpos[moved] - self._start_pos[list(task.objects)], axis=1)
         if np.any(shift < self._gate_shift):
@@ -339,35 +334,28 @@ class TabletopEnv(gym.Env):
         return True
 
     def _check(self) -> tuple[bool, str]:
-        from dataclasses import replace
-
-        from samplehd.tasks.checker import check_success
-
         if not self._may_succeed():
             return False, "the moved objects are still in place or in the gripper"
         ep = self.episode
         directions = ep.annotation.get("directions") if ep.annotation else None
         # A window-free pass is cheap; only a state that passes it is run through the stability window.
-        quick = check_success(self.model, self.data, ep.scene, self._task, replace(self.config.checker, window=0.0),
+        quick = check_success(self.model, self.data, ep.scene, self.task, replace(self.config.checker, window=0.0),
                               directions=directions)
         if not quick.success:
             return False, quick.reason
-        full = check_success(self.model, self.data, ep.scene, self._task, self.config.checker, directions=directions)
+        full = check_success(self.model, self.data, ep.scene, self.task, self.config.checker, directions=directions)
         return full.success, full.reason
 
     def check_success(self) -> dict[str, Any]:
         """The shared checker's full report on the current state (with the stability window)."""
-        from samplehd.tasks.checker import check_success
 
         ep = self.episode
         directions = ep.annotation.get("directions") if ep.annotation else None
-        return check_success(self.model, self.data, ep.scene, self._task, self.config.checker,
+        return check_success(self.model, self.data, ep.scene, self.task, self.config.checker,
                              directions=directions).to_dict()
 
     # ------------------------------------------------------------------ observations
     def _renderer_for(self) -> Any:
-        from samplehd.render.renderer import SceneRenderer
-
         if self._renderer is None:
             cfg = self.config
             self._renderer = SceneRenderer(self.model, cfg.width, cfg.height, cfg.render_preset)
@@ -391,7 +379,7 @@ class TabletopEnv(gym.Env):
         mask[:k] = 1
         gripper = np.zeros(3, np.float32)
         gripper[:2] = d.qpos[self._finger_qpos]
-        gripper[2] = ctrl.gripper_width / 0.085 * 2.0 - 1.0
+        gripper[2] = ctrl.gripper_width / GRIPPER_STROKE * 2.0 - 1.0
         obs: dict[str, Any] = {
             "joint_pos": ctrl.joint_positions().astype(np.float32),
             "joint_vel": ctrl.joint_velocities().astype(np.float32),
@@ -447,7 +435,6 @@ class TabletopEnv(gym.Env):
         """RGB image (H×W×3 uint8) of ``render_camera`` when ``render_mode="rgb_array"``."""
         if self.render_mode != "rgb_array" or self.model is None:
             return None
-        from samplehd.render.renderer import SceneRenderer
 
         cfg = self.config
         if self._render_viewer is None:

@@ -33,7 +33,6 @@ from samplehd.language.descriptions import (
     shortest_unique_description,
 )
 from samplehd.language.executor import ProgramError, Task, execute, execute_nodes, execute_sequence
-from samplehd.language.free_spot import FreeSpots, SpotSearch
 from samplehd.language.generator import (
     GenerationResult,
     Instruction,
@@ -46,12 +45,13 @@ from samplehd.language.instruction_file import (
     write_instructions,
 )
 from samplehd.language.lexicon import Lexicon, default_lexicon
-from samplehd.language.reach import IKReachable, make_reachable
-from samplehd.language.relations import RELATIONS, compute_relationships
 from samplehd.language.scene import Scene, SceneObject, load_scenes, parse_scene
 from samplehd.language.synthetic import synthetic_scene, synthetic_scenes_file
 from samplehd.language.templates import Template, default_templates, load_templates
 from samplehd.language.vocab import SPECIAL_TOKENS, build_vocab, decode, encode, tokenize
+from samplehd.world.free_spot import FreeSpots, SpotSearch
+from samplehd.world.reach import IKReachable, make_reachable
+from samplehd.world.relations import RELATIONS, compute_relationships
 
 __all__ = [
     "CONSTRAINTS",

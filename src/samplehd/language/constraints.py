@@ -10,7 +10,7 @@ Add a constraint with :func:`register_constraint`; its ``param_types`` say what 
 trailing ``"*"`` for one or more of that type.
 
 Room at a destination (``room_in_part``, ``room_opposite``, ``free_beside``) is the ground-truth
-planner's own free-spot test, run on a grid (:mod:`samplehd.language.free_spot`), so an instruction
+planner's own free-spot test, run on a grid (:mod:`samplehd.world.free_spot`), so an instruction
 is only made when the planner will find where to put its objects.
 """
 
@@ -22,9 +22,9 @@ from dataclasses import dataclass, field
 from functools import cache
 from typing import Any
 
-from samplehd.language.free_spot import FreeSpots, SpotSearch
 from samplehd.language.scene import Scene, SceneObject
-from samplehd.scene.layout import LAYOUT, OPPOSITE_PART, TableLayout
+from samplehd.world.free_spot import FreeSpots, SpotSearch
+from samplehd.world.layout import LAYOUT, OPPOSITE_PART, TableLayout
 
 __all__ = [
     "CONSTRAINTS",

@@ -34,8 +34,8 @@ from itertools import combinations, product
 from typing import Any
 
 from samplehd.language.lexicon import Lexicon, default_lexicon
-from samplehd.language.relations import RELATIONS
 from samplehd.language.scene import Scene
+from samplehd.world.relations import RELATIONS
 
 __all__ = [
     "ATTRIBUTE_KINDS",

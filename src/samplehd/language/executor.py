@@ -24,9 +24,9 @@ from typing import Any
 
 from samplehd.errors import SamplehdError
 from samplehd.language.programs import ACTION_FUNCTIONS, FLAT_FILTER, FLAT_TASK_TOKENS, NODE_FUNCTIONS
-from samplehd.language.relations import RELATIONS
 from samplehd.language.scene import Scene, SceneObject, parse_scene
-from samplehd.scene.layout import OPPOSITE_PART, TABLE_PARTS
+from samplehd.world.layout import OPPOSITE_PART, TABLE_PARTS
+from samplehd.world.relations import RELATIONS
 
 __all__ = [
     "ProgramError",

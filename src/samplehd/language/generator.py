@@ -29,10 +29,10 @@ from samplehd.language.executor import ProgramError, Task, execute_nodes, execut
 from samplehd.language.lexicon import Lexicon, default_lexicon
 from samplehd.language.programs import node, reference_nodes, reference_tokens
 from samplehd.language.realise import realise_text
-from samplehd.language.relations import RELATIONS
 from samplehd.language.scene import Scene, parse_scene
 from samplehd.language.templates import Template, TemplateConstraint, default_templates
-from samplehd.scene.layout import OPPOSITE_PART, TABLE_PARTS
+from samplehd.world.layout import OPPOSITE_PART, TABLE_PARTS
+from samplehd.world.relations import RELATIONS
 
 __all__ = [
     "BALANCE_MODES",

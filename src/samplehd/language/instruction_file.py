@@ -38,12 +38,12 @@ from typing import Any
 
 import numpy as np
 
-import samplehd
 from samplehd.errors import ConfigError, DatasetError
 from samplehd.language.constraints import Reachable, default_reachable
 from samplehd.language.generator import TemplateBalancer, generate_instructions
 from samplehd.language.scene import parse_scene
 from samplehd.language.templates import Template, default_templates
+from samplehd.version import __version__
 
 __all__ = [
     "INSTRUCTIONS_FORMAT_VERSION",
@@ -169,7 +169,7 @@ def generate_instruction_file(
             progress(k + 1, count)
     info = {
         "version": INSTRUCTIONS_FORMAT_VERSION,
-        "samplehd_version": samplehd.__version__,
+        "samplehd_version": __version__,
         "seed": seed,
         "per_scene": per_scene,
         "balance": balance,

@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.errors import SceneError
-from samplehd.language.relations import RELATIONS, compute_relationships
-from samplehd.scene.layout import DIRECTIONS, TABLE_PARTS
+from samplehd.world.layout import DIRECTIONS, TABLE_PARTS
+from samplehd.world.relations import RELATIONS, compute_relationships
 
 __all__ = ["Scene", "SceneObject", "load_scenes", "parse_scene"]
 
@@ -289,7 +289,7 @@ def parse_scene(data: Mapping[str, Any], where: str = "scene") -> Scene:
     """Parse and validate one CLEVR-layout scene dict.
 
     Missing ``relationships`` are computed from the objects' ``3d_coords``; missing ``directions``
-    default to :data:`samplehd.scene.layout.DIRECTIONS`.
+    default to :data:`samplehd.world.layout.DIRECTIONS`.
 
     Args:
         data: the scene dict.

@@ -1,8 +1,8 @@
 """Seeded synthetic scenes in the scenes-file layout, for tests and benchmarks of this package.
 
 Not the scene sampler: objects get random classes, sizes, materials, colours and positions on the
-workspace, with table parts from :func:`samplehd.scene.layout.table_parts_of` and relationships
-from :func:`samplehd.language.relations.compute_relationships`. Class prototypes live in
+workspace, with table parts from :func:`samplehd.world.layout.table_parts_of` and relationships
+from :func:`samplehd.world.relations.compute_relationships`. Class prototypes live in
 ``synthetic_objects.json``.
 """
 
@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.language.relations import compute_relationships
-from samplehd.scene.layout import DIRECTIONS, LAYOUT, TableLayout, table_parts_of
+from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout, table_parts_of
+from samplehd.world.relations import compute_relationships
 
 __all__ = ["synthetic_scene", "synthetic_scenes_file"]
 

@@ -111,9 +111,9 @@ def instruction_words(templates: Sequence[Any] | None = None, lexicon: Any | Non
         lexicon: lexicon (default: the shipped one).
     """
     from samplehd.language.lexicon import default_lexicon
-    from samplehd.language.relations import RELATIONS
     from samplehd.language.templates import default_synonyms, default_templates
-    from samplehd.scene.layout import TABLE_PARTS
+    from samplehd.world.layout import TABLE_PARTS
+    from samplehd.world.relations import RELATIONS
 
     lex = lexicon or default_lexicon()
     phrases: list[str] = list(",.;:?!") + list(TABLE_PARTS) + list(RELATIONS)

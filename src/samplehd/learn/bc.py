@@ -19,7 +19,7 @@ import numpy as np
 
 from samplehd.errors import ConfigError
 
-__all__ = ["BCPolicy", "env_options", "train_policy"]
+__all__ = ["BCPolicy", "env_options", "policy_for_evaluation", "train_policy"]
 
 STATE_DIM = 10  # joint positions (6), TCP position (3), finger opening (1)
 CAMERAS = ("scene", "wrist")
@@ -161,6 +161,11 @@ class BCPolicy:
         if not self._queue:
             self._queue = list(self.predict(obs)[: self.execute])
         return np.clip(self._queue.pop(0), -1.0, 1.0).astype(np.float32)
+
+
+def policy_for_evaluation(env: Any, config: Any) -> BCPolicy:
+    """The policy ``samplehd evaluate --policy bc`` runs (``config``: its EvalConfig)."""
+    return BCPolicy.load(config.models, env)
 
 
 def env_options_from_config(config: Mapping[str, Any]) -> dict[str, Any]:

@@ -25,7 +25,7 @@ import numpy as np
 from samplehd.envs.oracle import OraclePolicy
 from samplehd.errors import ConfigError
 
-__all__ = ["NeuroSymbolicPolicy", "make_neurosymbolic"]
+__all__ = ["NeuroSymbolicPolicy", "policy_for_evaluation"]
 
 _CHOICES = ("gt", "predicted")
 
@@ -118,7 +118,8 @@ class NeuroSymbolicPolicy(OraclePolicy):
             rgb, depth, camera = self._scene_image()
             perceived = self.perception.perceive(rgb, depth, camera, ep.annotation.get("directions"))
             scene = parse_scene(perceived)
-            bodies = np.asarray(self.env.data.xpos[self.env._object_body][:, :2], dtype=float)
+            model, data = self.env.model, self.env.data
+            bodies = np.array([data.xpos[model.body(f"object_{i}").id][:2] for i in range(len(ep.scene.objects))])
             mapping = []
             for o in perceived["objects"]:
                 d = np.linalg.norm(bodies - np.asarray(o["3d_coords"][:2]), axis=1)
@@ -178,6 +179,11 @@ class NeuroSymbolicPolicy(OraclePolicy):
             return self._hold_action()
         return super().__call__(obs)
 
+    def reset(self, seed: int | None = None) -> None:
+        renderer, self._renderer = self._renderer, None  # the base reset closes the plan, not the camera
+        super().reset(seed)
+        self._renderer = renderer
+
     def close(self) -> None:
         super().close()
         if self._renderer is not None:
@@ -185,10 +191,6 @@ class NeuroSymbolicPolicy(OraclePolicy):
             self._renderer = None
 
 
-def make_neurosymbolic(models: str | Path | None, programs: str = "predicted", perception: str = "predicted"):  # noqa: ANN201
-    """A factory ``env -> policy`` for :func:`samplehd.envs.evaluation.load_policy`."""
-
-    def factory(env: Any) -> NeuroSymbolicPolicy:
-        return NeuroSymbolicPolicy(env, models, programs=programs, perception=perception)
-
-    return factory
+def policy_for_evaluation(env: Any, config: Any) -> NeuroSymbolicPolicy:
+    """The policy ``samplehd evaluate --policy neurosymbolic`` runs (``config``: its EvalConfig)."""
+    return NeuroSymbolicPolicy(env, config.models, programs=config.programs, perception=config.perception)

@@ -288,8 +288,8 @@ def annotation_from_instances(found: Sequence[Mapping[str, Any]], masks: Sequenc
                               extents: Mapping[str, Sequence[float]],
                               directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Turn perceived instances into a CLEVR-layout scene dict (objects with the fields the executor reads)."""
-    from samplehd.language.relations import compute_relationships
-    from samplehd.scene.layout import DIRECTIONS, table_parts_of
+    from samplehd.world.layout import DIRECTIONS, table_parts_of
+    from samplehd.world.relations import compute_relationships
 
     objects = []
     for f, m in zip(found, masks, strict=True):
@@ -442,7 +442,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, se
 
     from samplehd.learn.data import open_dataset, scene_examples
     from samplehd.learn.training import TrainRun, pick_device, set_seed, step_rng, timed
-    from samplehd.scene.layout import LAYOUT
+    from samplehd.world.layout import LAYOUT
 
     reader = open_dataset(dataset)
     data = scene_examples(reader)

@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 
 from samplehd.physics import wake_all
-from samplehd.scene.spec import object_body_name
+from samplehd.world.bodies import object_body_name
 
 __all__ = ["GRASP_WELD_PREFIX", "GraspAssist", "add_grasp_welds", "compile_scene_with_assist"]
 

@@ -1,41 +1,132 @@
-"""Execution of planned subtasks in physics through the robot controller (joint-position mode at the
-control rate over 500 Hz physics), recording one frame per control step.
+"""The subtask planner as a generator of control targets, and the one loop that drives it.
 
-Planning is interleaved with execution: each subtask is planned from the state the previous one left
-(the object's actual pose, the actual grasp), so small slips in physics do not accumulate.
+:class:`Rollout`'s subtasks (:meth:`~Rollout.pick`, :meth:`~Rollout.place`, :meth:`~Rollout.go_home`,
+...) are generators: each yields one :class:`ControlTarget` per control step (joint targets, gripper
+command, the SAMPLE-HD steering vector of that motion, the subtask and its progress) and receives the
+:class:`~samplehd.robot.controller.ControlReport` of the step that executed it. Planning is
+interleaved with execution: each subtask is planned from the state the previous one left (the
+object's actual pose, the actual grasp), so small slips in physics do not accumulate.
+
+Whoever drives the plan owns the physics: :func:`drive` sends each target to a step function —
+:func:`step_controller` (joint-position mode at the control rate over 500 Hz physics) for the
+dataset, wrapped by the frame recorder (:class:`samplehd.record.recorder.RecordingStep`); the
+environment's own ``step`` for the closed-loop oracle (:mod:`samplehd.envs.oracle`), which turns a
+target into an action of the environment's control mode. No thread, no recorder inside the planner.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import mujoco
 import numpy as np
 
+from samplehd.catalogue import ObjectFacts, object_facts
 from samplehd.errors import PlanningError
 from samplehd.motion.assist import GraspAssist
-from samplehd.motion.collision import CollisionChecker, Held
-from samplehd.motion.planner import (
-    PlannerConfig,
-    choose_grasps,
-    destination_candidates,
-    object_pose,
-    plan_joint_move,
-    release_height,
-    straight_move,
-)
-from samplehd.motion.robot_info import RobotInfo
-from samplehd.record.recorder import FrameRecorder, steering_from_targets, steering_motion
+from samplehd.motion.planner import destination_candidates, plan_joint_move, release_height, straight_move
+from samplehd.motion.steering import steering_from_targets, steering_motion
 from samplehd.robot.constants import GRIPPER_ACTUATOR, GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
-from samplehd.robot.controller import RobotController
+from samplehd.robot.controller import ControlConfig, ControlReport, RobotController
 from samplehd.robot.kinematics import fk_tcp, ik_batch
-from samplehd.scene.layout import LAYOUT, TableLayout
-from samplehd.tasks.state import SceneBodies, object_world_box
+from samplehd.scene.spec import SceneSpec
+from samplehd.tasks.task import Task
+from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box
+from samplehd.world.collision import CollisionChecker, Held
+from samplehd.world.grasps import choose_grasps
+from samplehd.world.layout import LAYOUT, TableLayout
+from samplehd.world.planner_config import PlannerConfig
+from samplehd.world.robot_info import RobotInfo
 
-__all__ = ["AttemptFailed", "Rollout"]
+__all__ = [
+    "AttemptFailed",
+    "ControlTarget",
+    "Plan",
+    "Rollout",
+    "SubtaskCut",
+    "drive",
+    "initial_state",
+    "scene_facts",
+    "step_controller",
+]
+
+
+@dataclass(frozen=True)
+class ControlTarget:
+    """What the planner commands for one control step, and what a recorder stores beside the state.
+
+    Attributes:
+        subtask: index of the subtask in :attr:`Rollout.subtasks`.
+        progress: progress of the subtask in [0, 1] at the start of the step.
+        target_object: scene object the subtask acts on (-1: none).
+        joints: (6,) joint position targets [rad].
+        gripper: gripper command in [-1, 1] (+1 open).
+        steering: (7,) float32 SAMPLE-HD steering vector producing the same TCP motion.
+        held: the object the grasp assist holds (None: read it from the contacts).
+    """
+
+    subtask: int
+    progress: float
+    target_object: int
+    joints: np.ndarray
+    gripper: float
+    steering: np.ndarray
+    held: int | None = None
+
+
+@dataclass(frozen=True)
+class SubtaskCut:
+    """The subtask ended early, after its last ``steps`` control steps (their progress runs 0 to 1)."""
+
+    steps: int
+
+
+T = TypeVar("T")
+# A plan yields control targets (and subtask cuts) and is sent the report of each executed step.
+Plan = Generator[ControlTarget | SubtaskCut, ControlReport | None, T]
+
+
+def step_controller(controller: RobotController, target: ControlTarget) -> ControlReport:
+    """The physics step of one control target: the controller in joint-position mode."""
+    return controller.step(np.concatenate([target.joints, [target.gripper]]), "joint_position")
+
+
+def drive(plan: Plan[T], step: Callable[[ControlTarget | SubtaskCut], ControlReport | None]) -> T:
+    """Run a plan to its end, sending every target it yields to ``step``; returns the plan's value.
+
+    Exceptions of the plan (:class:`AttemptFailed`, ...) propagate to the caller.
+    """
+    try:
+        item = next(plan)
+        while True:
+            item = plan.send(step(item))
+    except StopIteration as stop:
+        return stop.value
+
+
+def initial_state(model: mujoco.MjModel, data: mujoco.MjData, config: ControlConfig) -> RobotController:
+    """Put the arm at home with the gripper open, objects as compiled; returns the controller."""
+    ctrl = RobotController(model, data, config)
+    ctrl.reset(HOME_QPOS, gripper=1.0)
+    robot = RobotInfo.from_model(model, data)
+    data.qpos[robot.finger_qpos] = GRIPPER_STROKE / 2
+    mujoco.mj_forward(model, data)
+    return ctrl
+
+
+def scene_facts(scene: SceneSpec) -> list[ObjectFacts | None]:
+    """Catalogue facts of each scene object (None for objects the catalogue does not know: the
+    planner then falls back to the model's geometry)."""
+    out: list[ObjectFacts | None] = []
+    for o in scene.objects:
+        try:
+            out.append(object_facts(o.instance))
+        except Exception:  # noqa: BLE001 - objects unknown to the catalogue fall back to model geometry
+            out.append(None)
+    return out
 
 
 class AttemptFailed(PlanningError):
@@ -98,7 +189,7 @@ class Rollout:
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
-                 bodies: SceneBodies, facts: list[Any], config: PlannerConfig, rng: np.random.Generator,
+                 bodies: SceneBodies, facts: list[ObjectFacts | None], config: PlannerConfig, rng: np.random.Generator,
                  layout: TableLayout = LAYOUT, directions: dict[str, Any] | None = None,
                  use_assist: bool = True) -> None:
         self.use_assist = use_assist
@@ -107,8 +198,8 @@ class Rollout:
         self.dt = controller.config.control_dt
         fingers = tuple(sorted(b for b in bodies.gripper_bodies
                                if any(model.jnt_bodyid[j] == b for j in range(model.njnt))))
-        self.recorder = FrameRecorder(model, data, robot.arm_qpos, robot.arm_dof, robot.finger_qpos,
-                                      (fingers[0], fingers[-1]), robot.tcp_site, bodies.object_body)
+        self.finger_bodies = (fingers[0], fingers[-1])
+        self.steps = 0  # control targets yielded so far (the frames a recorder holds)
         self.subtasks: list[str] = []
         self.checker = CollisionChecker(model, data, bodies, robot)
         self.gripper = 1.0
@@ -125,8 +216,8 @@ class Rollout:
 
     def run(self, name: str, target: int, targets: np.ndarray,
             gripper: float | np.ndarray | Callable[[int], float] | None = None,
-            until: Callable[[int], bool] | None = None) -> None:
-        """Execute joint targets (one per control step) as subtask ``name`` and record each step.
+            until: Callable[[int], bool] | None = None) -> Plan[None]:
+        """Yield joint targets (one per control step) as subtask ``name``.
 
         Args:
             name: subtask name.
@@ -160,29 +251,26 @@ class Rollout:
                                               cc.max_linear_speed, cc.max_angular_speed)
             previous = q
             held = self.assist.active if self.assist.active >= 0 else None
-            self.recorder.record(idx, k / max(1, n - 1), target, q, self.gripper, steer, held=held)
-            report = self.ctrl.step(np.concatenate([q, [self.gripper]]), "joint_position")
-            if report.safety_event is not None:
-                self.recorder.rows["safety_event"][-1] = np.int8(report.safety_event.code)
+            self.steps += 1
+            report = yield ControlTarget(idx, k / max(1, n - 1), target, q, self.gripper, steer, held)
+            if report is not None and report.safety_event is not None:
                 raise AttemptFailed(f"safety_{report.safety_event.kind}", f"{name}: {report.safety_event}")
             if until is not None and k + 1 < n and until(k):
-                taken = k + 1
-                self.recorder.rows["subtask_progress"][-taken:] = [
-                    np.float32(j / max(1, taken - 1)) for j in range(taken)]
+                yield SubtaskCut(k + 1)
                 break
 
-    def hold(self, name: str, target: int, duration: float, gripper: float) -> None:
+    def hold(self, name: str, target: int, duration: float, gripper: float) -> Plan[None]:
         """Keep the arm still for ``duration`` seconds with a gripper command."""
         n = max(1, int(round(duration / self.dt)))
-        self.run(name, target, np.repeat(self.ctrl.target[None], n, axis=0), gripper)
+        yield from self.run(name, target, np.repeat(self.ctrl.target[None], n, axis=0), gripper)
 
-    def finish(self) -> None:
-        """Record the final state (hold command)."""
+    def final_target(self) -> ControlTarget:
+        """The hold command that goes with the final state (recorded, never executed)."""
         idx = max(0, len(self.subtasks) - 1)
         steer = np.zeros(7, np.float32)
         steer[6] = self.gripper
         held = self.assist.active if self.assist.active >= 0 else None
-        self.recorder.record(idx, 1.0, -1, self.ctrl.target, self.gripper, steer, held=held)
+        return ControlTarget(idx, 1.0, -1, self.ctrl.target, self.gripper, steer, held)
 
     # ------------------------------------------------------------------ helpers
     def _sync(self) -> None:
@@ -208,7 +296,7 @@ class Rollout:
                          self.layout.table_height + self.cfg.min_lift + below))
 
     # ------------------------------------------------------------------ subtasks
-    def pick(self, i: int, exclude: tuple[int, ...] = (), lift: bool = True) -> int:
+    def pick(self, i: int, exclude: tuple[int, ...] = (), lift: bool = True) -> Plan[int]:
         """GripperMoveAvoid, ApproachGrasp, CloseGripper (and MoveUP) for object ``i``.
 
         Returns:
@@ -231,7 +319,7 @@ class Rollout:
             self.info["methods"].append(method)
         except PlanningError as exc:
             raise AttemptFailed("no_path_to_object", str(exc), k) from exc
-        self.run("GripperMoveAvoid", i, path, open_cmd)
+        yield from self.run("GripperMoveAvoid", i, path, open_cmd)
         self._sync()
         try:
             path = straight_move(self.checker, fk_tcp(self.ctrl.target), gp.tcp_grasp, self.ctrl.target,
@@ -239,13 +327,13 @@ class Rollout:
                                  ramp_time=self.cfg.line_ramp_time)
         except PlanningError as exc:
             raise AttemptFailed("approach_blocked", str(exc), k) from exc
-        self.run("ApproachGrasp", i, path, open_cmd)
-        self.close_gripper(i, gp.grasp.opening, gp.grasp.width)
+        yield from self.run("ApproachGrasp", i, path, open_cmd)
+        yield from self.close_gripper(i, gp.grasp.opening, gp.grasp.width)
         self._sync()
         if not self._holding(i):
             raise AttemptFailed("grasp_missed", f"object {i}: the fingers closed without holding it", k)
         if self.use_assist and self.assist.active != i and self.assist.attach(self.data, i):
-            self.info["assist"].append({"object": i, "frame": len(self.recorder), "on": True})
+            self.info["assist"].append({"object": i, "frame": self.steps, "on": True})
             self.gripper = _gripper_command(float(self.data.qpos[self.robot.finger_qpos].sum()) - 0.0005)
         tcp = self._tcp_world()
         # Release with the fingers opened a little beyond the measured grip, not the full approach opening.
@@ -254,10 +342,10 @@ class Rollout:
         self.hand = _Hand(i, np.linalg.inv(tcp) @ object_pose(self.data, self.bodies, i), release_opening,
                           gp.grasp.opening)
         if lift:
-            self.move_up(i, k)
+            yield from self.move_up(i, k)
         return k
 
-    def close_gripper(self, i: int, opening: float, width: float) -> None:
+    def close_gripper(self, i: int, opening: float, width: float) -> Plan[None]:
         """CloseGripper: ramp the finger command down until both pads touch the object, arm still.
 
         With the grasp assist the object is welded to the gripper the moment both pads touch it and
@@ -279,7 +367,7 @@ class Rollout:
             measured = float(self.data.qpos[self.robot.finger_qpos].sum())
             if self.use_assist and self.assist.available and self._holding(i, 0.0005):
                 self.assist.attach(self.data, i)
-                self.info["assist"].append({"object": i, "frame": len(self.recorder), "on": True})
+                self.info["assist"].append({"object": i, "frame": self.steps, "on": True})
                 frozen.append(_gripper_command(max(0.0, measured - 0.0005)))
                 return frozen[0]
             if k < ramp:
@@ -299,13 +387,12 @@ class Rollout:
                 attached_at.append(k)
             return bool(attached_at) and k - attached_at[0] >= settle
 
-        self.run("CloseGripper", i, np.repeat(self.ctrl.target[None], n, axis=0), command,
-                 until=settled if self.use_assist else None)
+        yield from self.run("CloseGripper", i, np.repeat(self.ctrl.target[None], n, axis=0), command,
+                            until=settled if self.use_assist else None)
 
-    def _grasped(self) -> int:
-        from samplehd.record.recorder import grasped_object
-
-        return grasped_object(self.model, self.data, self.recorder.finger_bodies, self.recorder.body_to_object)
+    def grasped(self) -> int:
+        """The scene object touching both fingers now, or -1."""
+        return grasped_object(self.model, self.data, self.finger_bodies, self.bodies.body_to_object)
 
     def _holding(self, i: int, tolerance: float = 0.002) -> bool:
         """Whether object ``i`` is held: in the grasp weld, or within ``tolerance`` [m] of both fingers
@@ -315,7 +402,7 @@ class Rollout:
         m, d = self.model, self.data
         obj = self.bodies.object_geoms(i)
         fromto = np.zeros(6)
-        for fb in self.recorder.finger_bodies:
+        for fb in self.finger_bodies:
             near = False
             for g1 in np.flatnonzero(m.geom_bodyid == fb):
                 if not (m.geom_contype[g1] or m.geom_conaffinity[g1]):
@@ -330,7 +417,7 @@ class Rollout:
                 return False
         return True
 
-    def move_up(self, i: int, grasp_index: int = -1) -> None:
+    def move_up(self, i: int, grasp_index: int = -1) -> Plan[None]:
         """MoveUP: straight lift of the held object to the transport height."""
         z = self._transport_z(i)
         start = fk_tcp(self.ctrl.target)
@@ -348,7 +435,7 @@ class Rollout:
                 continue
         if path is None:
             raise AttemptFailed("lift_unreachable", f"object {i}: no reachable lift", grasp_index)
-        self.run("MoveUP", i, path)
+        yield from self.run("MoveUP", i, path)
         self._sync()
         if not self._holding(i):
             raise AttemptFailed("grasp_slipped", f"object {i} slipped out of the gripper while lifting", grasp_index)
@@ -356,7 +443,7 @@ class Rollout:
         self.hand = _Hand(i, np.linalg.inv(self._tcp_world()) @ object_pose(self.data, self.bodies, i),
                           self.hand.opening, self.hand.approach_opening)
 
-    def place(self, i: int, task: Any, grasp_index: int = -1) -> None:
+    def place(self, i: int, task: Task, grasp_index: int = -1) -> Plan[None]:
         """ObjectMove, MoveDOWN, OpenGripper, MoveToDefaultPos for the held object ``i``."""
         self._sync()
         hand = self.hand
@@ -438,18 +525,18 @@ class Rollout:
                                               "z": float(t_obj_rel[2, 3]), "yaw": float(yaw),
                                               "drop": float(drop[0])})
             self.info["methods"].append(method)
-            self.run("ObjectMove", i, move)
-            self.run("MoveDOWN", i, down)
+            yield from self.run("ObjectMove", i, move)
+            yield from self.run("MoveDOWN", i, down)
             if self.assist.active >= 0:
                 self.assist.release(self.data)
-                self.info["assist"].append({"object": i, "frame": len(self.recorder), "on": False})
-            self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(hand.opening))
+                self.info["assist"].append({"object": i, "frame": self.steps, "on": False})
+            yield from self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(hand.opening))
             self.hand = None
-            self.go_home(i, hand.opening)
+            yield from self.go_home(i, hand.opening)
             return
         raise AttemptFailed("no_release_path", f"object {i}: {last_error}", grasp_index)
 
-    def go_home(self, target: int, opening: float) -> None:
+    def go_home(self, target: int, opening: float) -> Plan[None]:
         """MoveToDefaultPos: straight retreat up, then a joint-space move home."""
         self._sync()
         start = fk_tcp(self.ctrl.target)
@@ -466,4 +553,4 @@ class Rollout:
         except PlanningError as exc:
             raise AttemptFailed("no_path_home", str(exc)) from exc
         path = np.vstack([retreat, home]) if len(home) else retreat
-        self.run("MoveToDefaultPos", target, path, gcmd)
+        yield from self.run("MoveToDefaultPos", target, path, gcmd)

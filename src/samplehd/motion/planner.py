@@ -24,20 +24,22 @@ randomness (destination sampling, RRT) comes only from the generator passed in.
 from __future__ import annotations
 
 import dataclasses
-import math
-from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from samplehd.errors import ConfigError, PlanningError
-from samplehd.motion.collision import CollisionChecker, Held
-from samplehd.motion.grasps import GRIPPER_STROKE, Grasp, grasp_candidates
-from samplehd.motion.robot_info import RobotInfo
+from samplehd.errors import PlanningError
 from samplehd.motion.rrt import rrt_connect
 from samplehd.motion.trajectory import cartesian_path, joint_path
-from samplehd.placement import (
+from samplehd.robot.constants import JOINT_LIMITS
+from samplehd.robot.kinematics import fk_tcp
+from samplehd.world.bodies import SceneBodies, object_footprint, object_pose
+from samplehd.world.collision import CollisionChecker, Held
+from samplehd.world.free_spot import rect_overlap
+from samplehd.world.grasps import ik_near
+from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
+from samplehd.world.placement import (
     BESIDE_FAR,
     BESIDE_NEAR,
     BESIDE_NEED,
@@ -52,342 +54,16 @@ from samplehd.placement import (
     SPOT_TURNS,
     SPOT_WORKSPACE_SLACK,
 )
-from samplehd.robot.constants import JOINT_LIMITS, TCP_OFFSET
-from samplehd.robot.kinematics import fk_tcp, ik_all, ik_batch, wrap_to_limits
-from samplehd.scene.layout import DIRECTIONS, LAYOUT, TableLayout
-from samplehd.tasks.state import SceneBodies, object_world_box
+from samplehd.world.planner_config import PlannerConfig
+from samplehd.world.robot_info import RobotInfo
 
 __all__ = [
-    "GraspPlan",
-    "PlannerConfig",
-    "choose_grasps",
     "destination_candidates",
-    "graspable_in_scene",
-    "object_pose",
     "plan_joint_move",
-    "rect_overlap",
     "release_height",
+    "straight_move",
+    "timed_joint_path",
 ]
-
-
-@dataclass(frozen=True)
-class PlannerConfig:
-    """Distances, speeds and search budgets of the planner.
-
-    Attributes:
-        approach_distance: pre-grasp stand-off along the approach direction [m].
-        retreat_distance: straight retreat after releasing [m].
-        transport_clearance: held object's bottom above the tallest other object in transport [m].
-        min_lift: smallest rise of the held object in MoveUP [m].
-        min_transport_height: lowest TCP height above the table in transport [m].
-        approach_speed: mean TCP speed of approach/descent lines timed minimum-jerk; 1.875× this is
-            their peak, and the cruise speed of long ones [m/s].
-        lift_speed: the same for lifts and retreats [m/s].
-        line_ramp_time: speed-up and slow-down time of long straight lines (0: minimum-jerk) [s].
-        joint_speed: largest joint speed of joint-space moves [rad/s].
-        joint_ramp_time: speed-up and slow-down time of long joint-space moves, which cruise at the
-            speed limits in between (0: minimum-jerk timing, which peaks at 1.875× the mean speed) [s].
-        max_tcp_speed: largest TCP speed in joint-space moves (below the steering scale) [m/s].
-        max_tcp_angular_speed: largest TCP angular speed in joint-space moves [rad/s].
-        finger_clearance: fingertips above the table at the grasp [m].
-        release_gap: object's bottom above its support at release [m].
-        max_drop: how much higher the object may be released where the fingers cannot open at the
-            support (it drops the rest) [m].
-        close_time: longest duration of CloseGripper [s].
-        grip_settle_time: with the grasp assist, CloseGripper ends this long after the object
-            attaches (the fingers hold still from then on) [s].
-        squeeze_force: finger force once the pads touch the object [N].
-        open_time: duration of OpenGripper [s].
-        grasp_candidates: grasps tried per object (best first).
-        spot_samples: candidate destinations sampled per object.
-        spot_margin: free space between the placed object and its neighbours [m].
-        part_margin: placed centre at least this far inside the destination part [m].
-        relation_gap: extra distance beyond the relation margin for place_relative [m].
-        rrt_iterations: RRT-Connect budget per joint-space move.
-    """
-
-    approach_distance: float = 0.08
-    retreat_distance: float = 0.08
-    transport_clearance: float = 0.04
-    min_lift: float = 0.1
-    min_transport_height: float = 0.18
-    approach_speed: float = 0.1
-    lift_speed: float = 0.12
-    joint_speed: float = 1.2
-    joint_ramp_time: float = 0.6
-    line_ramp_time: float = 0.5
-    max_tcp_speed: float = 0.245
-    max_tcp_angular_speed: float = 0.98
-    finger_clearance: float = 0.0015
-    release_gap: float = 0.006
-    max_drop: float = 0.08
-    close_time: float = 1.0
-    grip_settle_time: float = 0.2
-    squeeze_force: float = 20.0
-    open_time: float = 0.5
-    grasp_candidates: int = 8
-    spot_samples: int = 400
-    spot_margin: float = 0.02
-    part_margin: float = 0.03
-    relation_gap: float = 0.03
-    rrt_iterations: int = 1500
-
-    def __post_init__(self) -> None:
-        for k, v in asdict(self).items():
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise ConfigError(f"planner.{k}={v!r} must be a finite non-negative number")
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> PlannerConfig:
-        unknown = set(d) - set(cls.__dataclass_fields__)
-        if unknown:
-            raise ConfigError(f"unknown planner options {sorted(unknown)}; valid: {sorted(cls.__dataclass_fields__)}")
-        return cls(**d)
-
-
-@dataclass(frozen=True, eq=False)
-class GraspPlan:
-    """A chosen grasp of one object in the current state.
-
-    Attributes:
-        grasp: the grasp (object frame).
-        tcp_grasp: TCP pose at the grasp, robot base frame (4×4).
-        tcp_pregrasp: TCP pose at the pre-grasp, robot base frame (4×4).
-        q_grasp: joint configuration at the grasp [rad].
-        q_pregrasp: joint configuration at the pre-grasp [rad].
-    """
-
-    grasp: Grasp
-    tcp_grasp: np.ndarray
-    tcp_pregrasp: np.ndarray
-    q_grasp: np.ndarray
-    q_pregrasp: np.ndarray
-
-
-def object_pose(data: mujoco.MjData, bodies: SceneBodies, i: int) -> np.ndarray:
-    """World pose (4×4) of object ``i`` in the state ``data``."""
-    b = bodies.object_body[i]
-    t = np.eye(4)
-    t[:3, :3] = data.xmat[b].reshape(3, 3)
-    t[:3, 3] = data.xpos[b]
-    return t
-
-
-def _ik_near(pose_base: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
-    q, ok = ik_batch(pose_base[None], np.asarray(seed, float)[None], TCP_OFFSET)
-    return q[0] if ok[0] else None
-
-
-def ik_candidates(pose_base: np.ndarray, seed: np.ndarray) -> list[np.ndarray]:
-    """Every IK solution inside the limits, nearest ``seed`` first (each wrapped towards it) [rad]."""
-    sols = ik_all(pose_base, TCP_OFFSET)
-    out = []
-    for s in sols:
-        q, ok = wrap_to_limits(s, seed)
-        if ok:
-            out.append(q)
-    out.sort(key=lambda q: float(np.sum((q - seed) ** 2)))
-    return out
-
-
-def _elbow_up(q: np.ndarray) -> bool:
-    """Whether a configuration keeps the UR5e's usual pose: elbow above the wrist, wrist down."""
-    # With the standard DH frames, the elbow is up when the lift and elbow joints have opposite signs.
-    return bool(q[1] < 0 and q[2] > 0)
-
-
-# Cost of one place in the grasp registry's order (catalogue preference) in choose_grasps.
-_GRASP_ORDER_COST = 0.05
-
-
-def choose_grasps(
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    bodies: SceneBodies,
-    robot: RobotInfo,
-    checker: CollisionChecker,
-    i: int,
-    facts: Any,
-    seed_q: np.ndarray,
-    config: PlannerConfig,
-    layout: TableLayout = LAYOUT,
-    exclude: tuple[int, ...] = (),
-) -> list[tuple[int, GraspPlan]]:
-    """Feasible grasps of object ``i`` in the current state, best first, with their registry index.
-
-    The cost of a grasp grows with its place in the registry's order, with the wrist turn and with
-    the joint travel from ``seed_q``; the search stops at ``config.grasp_candidates`` feasible grasps
-    or where no later candidate can cost less than the best found (the first entry is the same as
-    with a full search; the others are those found on the way).
-
-    A grasp is feasible when the grasp and pre-grasp poses have an elbow-up IK solution, the
-    fingers (opened to the grasp's opening) touch nothing, the object included, at either pose, and
-    the fingertips stay ``finger_clearance`` above the table (the grasp is raised a little where the
-    open fingers would press on the object).
-    """
-    t_obj = object_pose(data, bodies, i)
-    sites = facts.graspable_sites if facts is not None else ()
-    bmin = facts.bbox_min if facts is not None else bodies.local_box(i).lo
-    bmax = facts.bbox_max if facts is not None else bodies.local_box(i).hi
-    cands = grasp_candidates(sites, np.asarray(bmin), np.asarray(bmax))
-    feasible: list[tuple[float, int, GraspPlan]] = []
-    min_tcp_z = layout.table_height + robot.finger_depth + config.finger_clearance
-    top_z = float(object_world_box(model, data, bodies, i).hi[2])
-    best_cost = math.inf
-    for k, g in enumerate(cands):
-        if k * _GRASP_ORDER_COST >= best_cost:
-            break  # every later candidate costs at least this much: none can beat the best
-        if k in exclude:
-            continue
-        tcp_w = t_obj @ g.pose(robot.finger_axis)
-        app = tcp_w[:3, 2]
-        if app[2] > -0.5:
-            continue  # only top-down grasps: side approaches run the fingers into the table
-        if tcp_w[2, 3] < min_tcp_z:
-            tcp_w[2, 3] = min_tcp_z
-        # Raise the grasp where the open fingers would press on the object (sloped rims), as long
-        # as the pads still reach 4 mm below the object's top.
-        max_tcp_z = top_z - 0.004 + robot.finger_depth
-        best = None
-        # Open wider where the collision hull is thicker than the site's nominal width (sloped rims).
-        openings = sorted({min(GRIPPER_STROKE, g.opening + extra) for extra in (0.0, 0.012, 0.024)})
-        heights = np.arange(0.0, max(0.0, max_tcp_z - tcp_w[2, 3]) + 1e-9, 0.003)[:8]
-        arm_poses: dict[int, _GraspArmPoses] = {}  # the IK of a height serves every opening
-        for opening, h in ((o, h) for o in openings for h in range(len(heights))):
-            if best is not None:
-                break
-            if h not in arm_poses:
-                arm_poses[h] = _grasp_arm_poses(robot, tcp_w, app, float(heights[h]), seed_q, config)
-            poses = arm_poses[h]
-            for b, (q_pre, q_g) in enumerate(poses.branches):
-                if not checker.free(q_g, opening):
-                    break  # the same pose collides for every IK branch: try higher
-                if not checker.free(q_pre, opening):
-                    continue
-                if not poses.lift_free(checker, b, opening, i):
-                    continue
-                best = (q_pre, q_g, poses.tcp_b, poses.pre_b)
-                if opening != g.opening:
-                    g = dataclasses.replace(g, opening=float(opening))
-                break
-        if best is None:
-            continue
-        # Prefer the catalogue's order, then small wrist turns from the seed.
-        cost = (k * _GRASP_ORDER_COST + float(np.abs(best[0][5] - seed_q[5])) * 0.1
-                + float(np.sum(np.abs(best[0] - seed_q))) * 0.02)
-        best_cost = min(best_cost, cost)
-        feasible.append((cost, k, GraspPlan(g, best[2], best[3], best[1], best[0])))
-        if len(feasible) >= config.grasp_candidates:
-            break
-    feasible.sort(key=lambda x: x[0])
-    return [(k, gp) for _, k, gp in feasible]
-
-
-def graspable_in_scene(model: mujoco.MjModel, data: mujoco.MjData, facts: list[Any],
-                       config: PlannerConfig | None = None) -> list[bool]:
-    """Per scene object: whether :func:`choose_grasps` finds a grasp from the arm's current state.
-
-    This is the planner's own test (reachable elbow-up IK, collision-free pre-grasp and grasp,
-    free lift), run once per scene so that instructions only move objects the arm can take.
-
-    Args:
-        model: the compiled scene (with the robot).
-        data: its state (object poses; the arm is taken at home, where every path starts).
-        facts: ``object_facts`` of each scene object, in order.
-        config: planner settings (the grasp search stops at the first feasible grasp).
-    """
-    from samplehd.robot.constants import HOME_QPOS
-
-    config = dataclasses.replace(config or PlannerConfig(), grasp_candidates=1)
-    robot = RobotInfo.from_model(model, data)
-    bodies = SceneBodies(model, len(facts))
-    checker = CollisionChecker(model, data, bodies, robot)
-    return [bool(choose_grasps(model, data, bodies, robot, checker, i, f, HOME_QPOS, config))
-            for i, f in enumerate(facts)]
-
-
-@dataclass
-class _GraspArmPoses:
-    """The arm's configurations for one grasp pose, whatever the finger opening.
-
-    Attributes:
-        tcp_b: grasp pose in the base frame.
-        pre_b: pre-grasp pose in the base frame.
-        branches: per elbow-up IK branch of the pre-grasp (nearest the seed first, at most 4):
-            (pre-grasp q, grasp q).
-        lifts: per branch, the grasp lifted 2 and 5 cm (None: out of reach), solved when first asked.
-    """
-
-    tcp_b: np.ndarray
-    pre_b: np.ndarray
-    branches: list[tuple[np.ndarray, np.ndarray]]
-    lifts: dict[int, list[np.ndarray] | None] = field(default_factory=dict)
-
-    def lift_free(self, checker: CollisionChecker, b: int, opening: float, i: int) -> bool:
-        """Whether the gripper can rise 2 and 5 cm from branch ``b``'s grasp without touching another
-        object (a finger under an overhanging rim, a plate's, would lift it)."""
-        if b not in self.lifts:
-            up = np.repeat(self.tcp_b[None], 2, axis=0)
-            up[:, 2, 3] += (0.02, 0.05)
-            q, ok = ik_batch(up, self.branches[b][1], TCP_OFFSET)
-            self.lifts[b] = list(q) if ok.all() else None
-        qs = self.lifts[b]
-        return qs is not None and all(checker.free(q, opening, allow_objects_with_gripper=(i,)) for q in qs)
-
-
-def _grasp_arm_poses(robot: RobotInfo, tcp_w: np.ndarray, app: np.ndarray, dz: float, seed_q: np.ndarray,
-                     config: PlannerConfig) -> _GraspArmPoses:
-    tcp_k = tcp_w.copy()
-    tcp_k[2, 3] += dz
-    pre_w = tcp_k.copy()
-    pre_w[:3, 3] -= config.approach_distance * app
-    tcp_b, pre_b = robot.world_to_base(tcp_k), robot.world_to_base(pre_w)
-    branches: list[tuple[np.ndarray, np.ndarray]] = []
-    for q_pre in ik_candidates(pre_b, seed_q)[:4]:
-        if not _elbow_up(q_pre):
-            continue
-        q_g = _ik_near(tcp_b, q_pre)
-        if q_g is None or np.max(np.abs(q_g - q_pre)) > 0.6:
-            continue
-        branches.append((q_pre, q_g))
-    return _GraspArmPoses(tcp_b, pre_b, branches)
-
-
-def rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,
-                 h2: np.ndarray, margin: float) -> np.ndarray:
-    """Separating-axis test of oriented rectangles (centres, 2×2 rotations, half sizes) grown by margin.
-
-    Broadcasts over leading dimensions (centres and half sizes ``(..., 2)``, rotations ``(..., 2, 2)``),
-    so one call tests many pairs; returns whether each pair overlaps (a boolean array of the leading
-    shape).
-    """
-    r1, r2 = np.broadcast_arrays(np.asarray(r1, float), np.asarray(r2, float))
-    axes = np.swapaxes(np.concatenate((r1, r2), axis=-1), -1, -2)  # the four candidate axes, as rows
-    reach = (np.abs(axes @ r1) @ (np.asarray(h1) + margin / 2)[..., None]
-             + np.abs(axes @ r2) @ (np.asarray(h2) + margin / 2)[..., None])
-    apart = np.abs(axes @ (np.asarray(c2) - np.asarray(c1))[..., None])
-    return np.all(apart <= reach, axis=(-2, -1))
-
-
-def _footprint(
-    data: mujoco.MjData, bodies: SceneBodies, k: int, facts: Any
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(centre xy, 2×2 rotation, half sizes) of object k's footprint rectangle in the world."""
-    t = object_pose(data, bodies, k)
-    yaw = math.atan2(t[1, 0], t[0, 0])
-    rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
-    if facts is not None:
-        c_local, half = np.asarray(facts.footprint_center), np.asarray(facts.footprint_half_extents)
-    else:
-        box = bodies.local_box(k)
-        c_local, half = box.center[:2], box.half[:2]
-    if abs(t[2, 2]) < 0.9:  # tipped over: fall back to the world box
-        wb = object_world_box(bodies.model, data, bodies, k)
-        return wb.center[:2], np.eye(2), wb.half[:2]
-    return t[:2, 3] + rot @ c_local, rot, half
 
 
 def destination_candidates(
@@ -424,13 +100,13 @@ def destination_candidates(
             c_local = np.array([*bodies.local_box(base).center[:2], 0.0])
         target = (t_base[:3, :3] @ c_local + t_base[:3, 3])[:2]
         # Place the object's footprint centre (not its frame origin) on the target.
-        _, rot_i, _ = _footprint(data, bodies, i, facts[i])
+        _, rot_i, _ = object_footprint(data, bodies, i, facts[i])
         fc = np.asarray(facts[i].footprint_center) if facts[i] is not None else bodies.local_box(i).center[:2]
         return [(target - rot_i @ fc, 0.0)]
-    c_i, rot_i0, half_i = _footprint(data, bodies, i, facts[i])
+    c_i, rot_i0, half_i = object_footprint(data, bodies, i, facts[i])
     offset0 = c_i - t_obj[:2, 3]  # footprint centre relative to the frame origin (kept on transport)
     others = [k for k in range(bodies.num_objects) if k != i and k not in ignore]
-    foot = {k: _footprint(data, bodies, k, facts[k]) for k in others}
+    foot = {k: object_footprint(data, bodies, k, facts[k]) for k in others}
     table_lo = -np.array(layout.table_size) / 2 + SPOT_TABLE_EDGE
     table_hi = np.array(layout.table_size) / 2 - SPOT_TABLE_EDGE
     n = int(config.spot_samples)
@@ -609,7 +285,7 @@ def plan_joint_move(
         for q in (q_start, q_goal):
             t = fk_tcp(q)
             t[2, 3] = max(t[2, 3], lift_z - robot.base_pos[2])
-            qv = _ik_near(t, q)
+            qv = ik_near(t, q)
             if qv is None:
                 break
             via.append(qv)

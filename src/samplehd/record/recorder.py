@@ -3,104 +3,33 @@
 A frame pairs the state observed at the start of a control step with the command issued in that
 step (joint targets, gripper command and the SAMPLE-HD steering vector that produces the same TCP
 motion), as a policy would see and act. The last frame holds the final state with a hold command.
+
+:class:`RecordingStep` wraps the step function that drives a plan's control targets
+(:func:`samplehd.motion.execute.drive`): it records the frame, then steps.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from samplehd.errors import DatasetError
+from samplehd.motion.execute import ControlTarget, SubtaskCut
 from samplehd.record.episode import FRAME_FIELDS, Episode
+from samplehd.robot.controller import ControlReport
+from samplehd.world.bodies import grasped_object
 
 __all__ = [
     "EPISODE_NPZ_VERSION",
     "FrameRecorder",
-    "grasped_object",
+    "RecordingStep",
     "read_episode_npz",
-    "steering_from_targets",
-    "steering_motion",
     "write_episode_npz",
 ]
-
-
-def _rotvec(r: np.ndarray) -> np.ndarray:
-    """Rotation vector of a rotation matrix [rad]."""
-    cos = float(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))
-    ang = float(np.arccos(cos))
-    if ang < 1e-9:
-        return np.zeros(3)
-    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    s = float(np.linalg.norm(v))
-    if s < 1e-9:
-        w, vec = np.linalg.eigh((r + r.T) / 2)
-        return vec[:, int(np.argmax(w))] * ang
-    return v / s * ang
-
-
-def _rotvecs(r: np.ndarray) -> np.ndarray:
-    """Rotation vectors of (N, 3, 3) rotation matrices [rad], as :func:`_rotvec` row by row."""
-    ang = np.arccos(np.clip((np.trace(r, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
-    v = np.stack([r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]], axis=1)
-    s = np.linalg.norm(v, axis=1)
-    out = np.zeros_like(v)
-    regular = (ang >= 1e-9) & (s >= 1e-9)
-    out[regular] = v[regular] / s[regular, None] * ang[regular, None]
-    for k in np.flatnonzero((ang >= 1e-9) & (s < 1e-9)):  # half turns
-        out[k] = _rotvec(r[k])
-    return out
-
-
-def steering_motion(poses_now: np.ndarray, poses_next: np.ndarray, dt: float, max_linear: float,
-                    max_angular: float) -> np.ndarray:
-    """The first six steering values (unclipped) of N steps between TCP target poses (N, 4, 4); see
-    :func:`steering_from_targets`."""
-    lin = (poses_next[:, :3, 3] - poses_now[:, :3, 3]) / (max_linear * dt)
-    rot = _rotvecs(poses_next[:, :3, :3] @ np.swapaxes(poses_now[:, :3, :3], 1, 2)) / (max_angular * dt)
-    return np.concatenate([lin, rot], axis=1)
-
-
-def steering_from_targets(
-    pose_now: np.ndarray, pose_next: np.ndarray, gripper: float, dt: float, max_linear: float, max_angular: float
-) -> np.ndarray:
-    """The 7-D steering vector moving the TCP target from ``pose_now`` to ``pose_next`` in one step.
-
-    Args:
-        pose_now: TCP target pose in the robot base frame (4×4).
-        pose_next: next TCP target pose (4×4).
-        gripper: gripper command in [-1, 1] (+1 open).
-        dt: control period [s].
-        max_linear: TCP speed of a steering value of 1 [m/s].
-        max_angular: TCP angular speed of a steering value of 1 [rad/s].
-
-    Returns:
-        (7,) float32 in [-1, 1]: linear x, y, z, angular x, y, z (base frame), gripper.
-    """
-    lin = (pose_next[:3, 3] - pose_now[:3, 3]) / (max_linear * dt)
-    rot = _rotvec(pose_next[:3, :3] @ pose_now[:3, :3].T) / (max_angular * dt)
-    out = np.concatenate([lin, rot, [gripper]])
-    return np.clip(out, -1.0, 1.0).astype(np.float32)
-
-
-def grasped_object(model: mujoco.MjModel, data: mujoco.MjData, finger_bodies: tuple[int, int],
-                   body_to_object: dict[int, int]) -> int:
-    """The scene object touching both fingers, or -1."""
-    touching: dict[int, set[int]] = {}
-    for k in range(data.ncon):
-        c = data.contact[k]
-        if c.dist > 1e-3:
-            continue
-        b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
-        for f, o in ((b1, b2), (b2, b1)):
-            if f in finger_bodies and o in body_to_object:
-                touching.setdefault(body_to_object[o], set()).add(f)
-    for obj, fingers in touching.items():
-        if len(fingers) == 2:
-            return obj
-    return -1
 
 
 class FrameRecorder:
@@ -167,6 +96,15 @@ class FrameRecorder:
         r["act"].append(d.act.copy())
         return grasped
 
+    def record_target(self, target: ControlTarget, safety_code: int = 0) -> int:
+        """Append the current state with a planner's control target; returns the grasped object."""
+        return self.record(target.subtask, target.progress, target.target_object, target.joints, target.gripper,
+                           target.steering, safety_code, held=target.held)
+
+    def cut(self, steps: int) -> None:
+        """The subtask of the last ``steps`` frames ended early: their progress runs from 0 to 1."""
+        self.rows["subtask_progress"][-steps:] = [np.float32(j / max(1, steps - 1)) for j in range(steps)]
+
     def frames(self) -> dict[str, np.ndarray]:
         """The recorded frames as arrays with the dtypes of :data:`FRAME_FIELDS`."""
         out = {}
@@ -178,6 +116,30 @@ class FrameRecorder:
                 dims = {"N": len(self.object_bodies), "nq": self.model.nq, "nv": self.model.nv, "na": self.model.na}
                 out[k] = np.zeros((0, *(dims[s] if isinstance(s, str) else s for s in shape)), dtype=dtype)
         return out
+
+
+class RecordingStep:
+    """A step function that records a frame before it executes each control target.
+
+    Args:
+        recorder: where frames go.
+        step: the step that executes a target (e.g. :func:`samplehd.motion.execute.step_controller`
+            bound to a controller); its report's safety event is written into the frame.
+    """
+
+    def __init__(self, recorder: FrameRecorder, step: Callable[[ControlTarget], ControlReport]) -> None:
+        self.recorder = recorder
+        self.step = step
+
+    def __call__(self, item: ControlTarget | SubtaskCut) -> ControlReport | None:
+        if isinstance(item, SubtaskCut):
+            self.recorder.cut(item.steps)
+            return None
+        self.recorder.record_target(item)
+        report = self.step(item)
+        if report.safety_event is not None:
+            self.recorder.rows["safety_event"][-1] = np.int8(report.safety_event.code)
+        return report
 
 
 EPISODE_NPZ_VERSION = 1

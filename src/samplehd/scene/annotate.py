@@ -23,9 +23,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-import samplehd
 from samplehd.catalogue import object_facts
-from samplehd.language.relations import compute_relationships
 from samplehd.render.renderer import (
     SEG_BACKGROUND,
     SEG_OBJECT_OFFSET,
@@ -36,9 +34,13 @@ from samplehd.render.renderer import (
     project_points,
 )
 from samplehd.robot.constants import ROBOT_BODY
-from samplehd.scene.geometry import quat_to_mat, yaw_from_quat
-from samplehd.scene.layout import DIRECTIONS, table_parts_of
 from samplehd.scene.spec import SceneSpec
+from samplehd.version import __version__
+from samplehd.world.bodies import object_body_name
+from samplehd.world.grasps import graspable_in_scene
+from samplehd.world.layout import DIRECTIONS, table_parts_of
+from samplehd.world.relations import compute_relationships
+from samplehd.world.transforms import quat_to_mat, yaw_from_quat
 
 __all__ = ["annotate_scene", "image_stem"]
 
@@ -76,8 +78,6 @@ def annotate_scene(
     camera: str = "scene",
 ) -> dict[str, Any]:
     """Build the CLEVR-layout annotation of a compiled scene seen from `camera` at width × height."""
-    from samplehd.motion.planner import graspable_in_scene
-
     objects = []
     centers = []
     all_facts = [object_facts(obj.instance) for obj in scene.objects]
@@ -87,7 +87,7 @@ def annotate_scene(
         reachable = [any(site.approach[2] < -0.7 for site in f.graspable_sites) for f in all_facts]
     for i, obj in enumerate(scene.objects):
         facts = all_facts[i]
-        body = model.body(f"object_{i}").id
+        body = model.body(object_body_name(i)).id
         pos = data.xpos[body].copy()
         quat = data.xquat[body].copy()
         rot = quat_to_mat(quat)
@@ -141,7 +141,7 @@ def annotate_scene(
         "image_index": scene.index,
         "image_filename": f"{image_stem(split, scene.index)}.png",
         "seed": scene.seed,
-        "version": samplehd.__version__,
+        "version": __version__,
         "directions": {k: list(v) for k, v in DIRECTIONS.items()},
         "objects": objects,
         "relationships": compute_relationships(objects),

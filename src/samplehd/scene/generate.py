@@ -25,9 +25,9 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
-import samplehd
 from samplehd.errors import ConfigError
 from samplehd.scene.config import SceneConfig
+from samplehd.version import __version__
 
 __all__ = ["SceneJob", "generate_scenes", "render_scene_files", "scene_split", "write_json_atomic"]
 
@@ -115,7 +115,7 @@ def generate_scenes(
 ) -> dict[str, Any]:
     """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts."""
     from samplehd.render.renderer import get_preset
-    from samplehd.scene.sampler import scene_seed
+    from samplehd.world.seeding import scene_seed
 
     if num < 1:
         raise ConfigError(f"--num {num}: must be ≥ 1")
@@ -132,7 +132,7 @@ def generate_scenes(
     except OSError as exc:
         raise ConfigError(f"output directory {out} is not writable: {exc.strerror}") from exc
     resolved = {"scene": config.to_dict(), "num": num, "seed": seed, "width": width, "height": height,
-                "preset": preset, "test_every": test_every, "version": samplehd.__version__}
+                "preset": preset, "test_every": test_every, "version": __version__}
     write_json_atomic(out / "config.json", resolved, indent=2)
     jobs = [SceneJob(i, scene_seed(seed, i), str(out), config.to_dict(), width, height, preset, test_every)
             for i in range(num)]
@@ -144,7 +144,7 @@ def generate_scenes(
         if on_scene:
             on_scene(len(scenes))
     scenes.sort(key=lambda s: s["image_index"])
-    info = {"version": samplehd.__version__, "seed": seed, "num_scenes": num, "license": "CC BY 4.0",
+    info = {"version": __version__, "seed": seed, "num_scenes": num, "license": "CC BY 4.0",
             "split_rule": f"every {test_every}th scene is test"}
     write_json_atomic(out / "scenes.json", {"info": info, "scenes": scenes})
     return {"scenes": num, "rejections": dict(sorted(rejections.items())),

@@ -17,20 +17,16 @@ from samplehd.catalogue import Catalogue, ObjectInstance, load_catalogue, object
 from samplehd.errors import ConfigError, SceneError
 from samplehd.render.renderer import SEG_OBJECT_OFFSET, RendererCache
 from samplehd.scene.config import SceneConfig
-from samplehd.scene.geometry import quat_from_yaw, quat_to_mat
-from samplehd.scene.layout import LAYOUT, TableLayout
 from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene, object_qpos_addresses
 from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec
+from samplehd.world.bodies import object_body_name
+from samplehd.world.layout import LAYOUT, TableLayout
+from samplehd.world.transforms import quat_from_yaw, quat_to_mat
 
-__all__ = ["SampleResult", "draw_instance", "sample_camera", "sample_scene", "scene_seed"]
+__all__ = ["SampleResult", "draw_instance", "sample_camera", "sample_scene"]
 
 # A scene camera is named "scene"; the fixed "operator" camera stays in every world too.
 SCENE_CAMERA = "scene"
-
-
-def scene_seed(base_seed: int, index: int) -> int:
-    """The seed of scene `index` of a dataset with `base_seed` (independent streams per scene)."""
-    return int(np.random.SeedSequence([int(base_seed), int(index)]).generate_state(1, np.uint32)[0])
 
 
 @dataclass
@@ -180,7 +176,7 @@ def _settle(
     if np.any(np.linalg.norm(end[:, :2] - start[:, :2], axis=1) > config.max_settle_shift):
         rejections["settle_drifted"] += 1
         return None
-    dof = [int(model.jnt_dofadr[model.body_jntadr[model.body(f"object_{i}").id]]) for i in range(len(adr))]
+    dof = [int(model.jnt_dofadr[model.body_jntadr[model.body(object_body_name(i)).id]]) for i in range(len(adr))]
     speeds = [np.linalg.norm(data.qvel[d : d + 3]) for d in dof]
     if max(speeds) > config.max_rest_speed:
         rejections["settle_still_moving"] += 1
@@ -196,10 +192,10 @@ def _settle(
 
 def _home_clear(model: mujoco.MjModel, data: mujoco.MjData, count: int) -> bool:
     """Whether the arm at home, gripper fully open, touches no object (every path starts there)."""
-    from samplehd.motion.collision import CollisionChecker
-    from samplehd.motion.robot_info import RobotInfo
     from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
-    from samplehd.tasks.state import SceneBodies
+    from samplehd.world.bodies import SceneBodies
+    from samplehd.world.collision import CollisionChecker
+    from samplehd.world.robot_info import RobotInfo
 
     if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
         return True

@@ -14,13 +14,9 @@ import numpy as np
 
 from samplehd.errors import SceneError
 from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec, PlacedObject, WorldConfig, compile_world
+from samplehd.world.bodies import object_body_name
 
-__all__ = ["SceneObject", "SceneSpec", "compile_scene", "object_body_name", "object_qpos_addresses"]
-
-
-def object_body_name(index: int) -> str:
-    """Name of the MuJoCo body of scene object `index`."""
-    return f"object_{index}"
+__all__ = ["SceneObject", "SceneSpec", "compile_scene", "object_qpos_addresses"]
 
 
 @dataclass(frozen=True)

@@ -15,9 +15,10 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import ConfigError
-from samplehd.scene.geometry import look_at_quat
-from samplehd.scene.layout import LAYOUT, TableLayout
 from samplehd.scene.textures import plaster_texture, tile_texture, wood_texture
+from samplehd.world.bodies import object_body_name
+from samplehd.world.layout import LAYOUT, TableLayout
+from samplehd.world.transforms import look_at_quat
 
 __all__ = [
     "OPERATOR_CAMERA",
@@ -100,7 +101,7 @@ class WorldConfig:
         shadow_size: shadow map resolution [px].
         sleep: let resting objects sleep (MuJoCo's sleeping islands): a sleeping object costs no
             collision or constraint work until something awake touches it. Contacts of sleeping
-            bodies are not in ``data.contact``; ``samplehd.tasks.state.contact_pairs`` computes them
+            bodies are not in ``data.contact``; ``samplehd.world.bodies.contact_pairs`` computes them
             on an awake copy, and ``samplehd.physics.wake_all`` wakes everything (opening the
             gripper does).
     """
@@ -324,7 +325,7 @@ def build_world(
         from samplehd.catalogue import add_object
 
         for i, placed in enumerate(objects):
-            add_object(spec, placed.instance, f"object_{i}", placed.pos, placed.quat)
+            add_object(spec, placed.instance, object_body_name(i), placed.pos, placed.quat)
     return spec
 
 

@@ -11,7 +11,7 @@ Predicates (tolerances are the fields of :class:`CheckerConfig`):
 - **resting** (used below): the object touches no gripper body, its drift over the window is at
   most ``stable_drift`` and its speed at the end at most ``rest_speed``.
 - **place**: every moved object is resting and its centre lies inside the destination table part
-  (``samplehd.scene.layout.table_parts_of``; the neutral band counts as outside).
+  (``samplehd.world.layout.table_parts_of``; the neutral band counts as outside).
 - **remove**: every moved object is resting, none lies in the cleared part and each lies in the
   opposite part.
 - **stack** / **stack_three**: each moved object is resting, in contact with the object below it,
@@ -41,9 +41,9 @@ import numpy as np
 
 from samplehd.errors import ConfigError
 from samplehd.physics import wake_all
-from samplehd.scene.layout import DIRECTIONS, LAYOUT, TableLayout, table_parts_of
-from samplehd.tasks.state import SceneBodies, contact_pairs, object_world_box, quat_tilt
 from samplehd.tasks.task import Task, parse_task
+from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, quat_tilt
+from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout, table_parts_of
 
 __all__ = ["CheckResult", "CheckerConfig", "check_success"]
 
@@ -215,7 +215,7 @@ def check_success(
         config: tolerances; defaults to :class:`CheckerConfig`.
         layout: table layout (table parts).
         directions: the scene's ground-plane direction vectors (CLEVR ``directions``); defaults to
-            ``samplehd.scene.layout.DIRECTIONS``.
+            ``samplehd.world.layout.DIRECTIONS``.
 
     Returns:
         The verdict with the reason for a failure and the disturbed/fallen objects.

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from samplehd.errors import PlanningError
-from samplehd.scene.layout import OPPOSITE_PART, TABLE_PARTS
+from samplehd.world.layout import OPPOSITE_PART, TABLE_PARTS
 
 __all__ = ["FAMILIES", "RELATION_NAMES", "Task", "parse_task"]
 

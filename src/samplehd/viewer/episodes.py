@@ -68,7 +68,7 @@ def subtask_segments(subtask_index: np.ndarray, target_object: np.ndarray,
 
 
 def _layout() -> dict[str, Any]:
-    from samplehd.scene.layout import LAYOUT
+    from samplehd.world.layout import LAYOUT
 
     return {"table_size": list(LAYOUT.table_size), "robot_base": list(LAYOUT.robot_base),
             "workspace_min": list(LAYOUT.workspace_min), "workspace_max": list(LAYOUT.workspace_max),

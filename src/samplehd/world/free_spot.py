@@ -10,9 +10,10 @@ only when enough of the planner's samples would land on a free spot: a spot too 
 first try to find reliably counts as no spot. Objects stand upright: a footprint is the rectangle
 of half sizes ``footprint_half`` about ``footprint_centre``, turned by the object's yaw.
 
-Rectangles are tested by the planner's own :func:`samplehd.motion.planner.rect_overlap`, and the
-margins are the planner's :class:`~samplehd.motion.planner.PlannerConfig` defaults; both are
-imported when first needed, so reading scenes and most constraints never load MuJoCo.
+Rectangles are tested by :func:`rect_overlap`, the planner's own test, and the margins are the
+planner's :class:`~samplehd.world.planner_config.PlannerConfig` defaults. Nothing here loads
+MuJoCo (the planner's footprints in a compiled state come from
+:func:`samplehd.world.bodies.object_footprint`), so reading scenes and checking constraints stays light.
 """
 
 from __future__ import annotations
@@ -20,19 +21,33 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
-from samplehd import placement
 from samplehd.errors import ConfigError
-from samplehd.language.scene import SceneObject
-from samplehd.scene.layout import TableLayout
+from samplehd.world import placement
+from samplehd.world.layout import TableLayout
+from samplehd.world.planner_config import PlannerConfig
+from samplehd.world.transforms import yaw_rotation_2d
 
-if TYPE_CHECKING:
-    from samplehd.motion.planner import PlannerConfig
+__all__ = ["FreeSpots", "Footprinted", "SpotSearch", "rect_overlap"]
 
-__all__ = ["FreeSpots", "SpotSearch"]
+
+class Footprinted(Protocol):
+    """What the free-spot test reads of a scene object (e.g. :class:`samplehd.language.scene.SceneObject`)."""
+
+    @property
+    def coords(self) -> tuple[float, float, float]: ...
+
+    @property
+    def yaw(self) -> float: ...
+
+    @property
+    def footprint_centre(self) -> tuple[float, float]: ...
+
+    @property
+    def footprint_half(self) -> tuple[float, float]: ...
 
 _TURN_SPREAD = 0.06  # weight of a turn against a distance when spreading the options [m/rad]
 
@@ -72,16 +87,8 @@ class SpotSearch:
     def from_planner(cls, config: PlannerConfig | None = None, step: float = 0.01,
                      min_hits: float = 2.0) -> SpotSearch:
         """The search with a planner config's margins and sample count (default: its defaults)."""
-        from samplehd.motion.planner import PlannerConfig
-
         c = config if config is not None else PlannerConfig()
         return cls(c.spot_margin, c.part_margin, c.relation_gap, int(c.spot_samples), step, min_hits)
-
-
-def _rotation(yaw: np.ndarray) -> np.ndarray:
-    """Rotations (..., 2, 2) about the vertical by yaw [rad]."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
 
 
 def _cells(lo: float, hi: float, step: float) -> np.ndarray:
@@ -127,13 +134,11 @@ class FreeSpots:
 
     def __init__(
         self,
-        objects: Sequence[SceneObject],
+        objects: Sequence[Footprinted],
         search: SpotSearch,
         layout: TableLayout,
         reach: Callable[[Sequence[float]], bool],
     ) -> None:
-        from samplehd.motion.planner import rect_overlap
-
         self._overlap = rect_overlap
         self.objects = tuple(objects)
         self.search = search
@@ -141,7 +146,7 @@ class FreeSpots:
         self.reach = reach
         self.centre = np.array([o.footprint_centre for o in objects], float).reshape(-1, 2)
         self.origin = np.array([o.coords[:2] for o in objects], float).reshape(-1, 2)
-        self.rot = _rotation(np.array([o.yaw for o in objects], float)).reshape(-1, 2, 2)
+        self.rot = yaw_rotation_2d(np.array([o.yaw for o in objects], float)).reshape(-1, 2, 2)
         self.half = np.array([o.footprint_half for o in objects], float).reshape(-1, 2)
         self.turns, self.turn_share = _yaw_weights()
         self._memo: dict[tuple[Any, ...], _Spots] = {}
@@ -300,12 +305,12 @@ class FreeSpots:
 
     def _turned_rots(self, k: int) -> np.ndarray:
         """Object k's rotation after each turn (t, 2, 2)."""
-        return _rotation(self.turns) @ self.rot[k]
+        return yaw_rotation_2d(self.turns) @ self.rot[k]
 
     def _origins(self, k: int, turn: np.ndarray, centre: np.ndarray) -> np.ndarray:
         """Frame origins of object k turned by ``turns[turn]`` with its footprint centred at
         ``centre``: the origin keeps its offset from the footprint centre, turned with it."""
-        offsets = _rotation(self.turns) @ (self.centre[k] - self.origin[k])
+        offsets = yaw_rotation_2d(self.turns) @ (self.centre[k] - self.origin[k])
         return centre - offsets[turn]
 
     def _spots(self, k: int, centre: np.ndarray, origin: np.ndarray, turn: np.ndarray, weight: np.ndarray,
@@ -330,3 +335,19 @@ class FreeSpots:
             if j != k:
                 spots.blocked[:, j] = self._blocks(k, spots, every, self.centre[j], self.rot[j], self.half[j])
         return spots
+
+
+def rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,
+                 h2: np.ndarray, margin: float) -> np.ndarray:
+    """Separating-axis test of oriented rectangles (centres, 2×2 rotations, half sizes) grown by margin.
+
+    Broadcasts over leading dimensions (centres and half sizes ``(..., 2)``, rotations ``(..., 2, 2)``),
+    so one call tests many pairs; returns whether each pair overlaps (a boolean array of the leading
+    shape).
+    """
+    r1, r2 = np.broadcast_arrays(np.asarray(r1, float), np.asarray(r2, float))
+    axes = np.swapaxes(np.concatenate((r1, r2), axis=-1), -1, -2)  # the four candidate axes, as rows
+    reach = (np.abs(axes @ r1) @ (np.asarray(h1) + margin / 2)[..., None]
+             + np.abs(axes @ r2) @ (np.asarray(h2) + margin / 2)[..., None])
+    apart = np.abs(axes @ (np.asarray(c2) - np.asarray(c1))[..., None])
+    return np.all(apart <= reach, axis=(-2, -1))

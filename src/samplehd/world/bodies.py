@@ -1,4 +1,7 @@
-"""Geometric facts about scene objects read from a compiled model and its state.
+"""The model index of a compiled scene and geometric facts about its objects read from the model and
+its state.
+
+Body naming lives here (:func:`object_body_name`), so every stage finds scene objects the same way.
 
 Everything here works from MuJoCo's own geoms, so it holds for procedural and imported objects alike:
 object bounding boxes in the object frame and in the world, contacts between objects, the robot's
@@ -7,15 +10,32 @@ and the gripper's bodies.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from samplehd.physics import awake_contacts
-from samplehd.scene.spec import object_body_name
 
-__all__ = ["ObjectBox", "SceneBodies", "contact_pairs", "object_local_box", "object_world_box", "quat_tilt"]
+__all__ = [
+    "ObjectBox",
+    "SceneBodies",
+    "contact_pairs",
+    "grasped_object",
+    "object_body_name",
+    "object_footprint",
+    "object_local_box",
+    "object_pose",
+    "object_world_box",
+    "quat_tilt",
+]
+
+
+def object_body_name(index: int) -> str:
+    """Name of the MuJoCo body of scene object `index`."""
+    return f"object_{index}"
 
 
 @dataclass(frozen=True)
@@ -150,3 +170,48 @@ def quat_tilt(q0: np.ndarray, q1: np.ndarray) -> float:
         mujoco.mju_quat2Mat(m, np.asarray(q, dtype=float))
         z.append(m.reshape(3, 3)[:, 2])
     return float(np.arccos(np.clip(np.dot(z[0], z[1]), -1.0, 1.0)))
+
+
+def object_pose(data: mujoco.MjData, bodies: SceneBodies, i: int) -> np.ndarray:
+    """World pose (4×4) of object ``i`` in the state ``data``."""
+    b = bodies.object_body[i]
+    t = np.eye(4)
+    t[:3, :3] = data.xmat[b].reshape(3, 3)
+    t[:3, 3] = data.xpos[b]
+    return t
+
+
+def object_footprint(
+    data: mujoco.MjData, bodies: SceneBodies, k: int, facts: Any
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centre xy, 2×2 rotation, half sizes) of object k's footprint rectangle in the world."""
+    t = object_pose(data, bodies, k)
+    yaw = math.atan2(t[1, 0], t[0, 0])
+    rot = np.array([[math.cos(yaw), -math.sin(yaw)], [math.sin(yaw), math.cos(yaw)]])
+    if facts is not None:
+        c_local, half = np.asarray(facts.footprint_center), np.asarray(facts.footprint_half_extents)
+    else:
+        box = bodies.local_box(k)
+        c_local, half = box.center[:2], box.half[:2]
+    if abs(t[2, 2]) < 0.9:  # tipped over: fall back to the world box
+        wb = object_world_box(bodies.model, data, bodies, k)
+        return wb.center[:2], np.eye(2), wb.half[:2]
+    return t[:2, 3] + rot @ c_local, rot, half
+
+
+def grasped_object(model: mujoco.MjModel, data: mujoco.MjData, finger_bodies: tuple[int, int],
+                   body_to_object: dict[int, int]) -> int:
+    """The scene object touching both fingers, or -1."""
+    touching: dict[int, set[int]] = {}
+    for k in range(data.ncon):
+        c = data.contact[k]
+        if c.dist > 1e-3:
+            continue
+        b1, b2 = int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])
+        for f, o in ((b1, b2), (b2, b1)):
+            if f in finger_bodies and o in body_to_object:
+                touching.setdefault(body_to_object[o], set()).add(f)
+    for obj, fingers in touching.items():
+        if len(fingers) == 2:
+            return obj
+    return -1

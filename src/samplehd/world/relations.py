@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.scene.layout import DIRECTIONS
+from samplehd.world.layout import DIRECTIONS
 
 __all__ = ["DEFAULT_RELATION_MARGIN", "RELATIONS", "compute_relationships"]
 

@@ -1,10 +1,23 @@
-"""Small rigid-body geometry helpers shared by the world builder, cameras and annotations."""
+"""The one set of rotation and pose helpers every stage uses: quaternions (w, x, y, z), rotation
+matrices, yaws about the vertical and rotation vectors.
+
+The robot floor below keeps its own scalar forms (robot.kinematics, robot.controller), written for
+its hot loops; everything above it uses these."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["look_at_quat", "quat_from_yaw", "quat_to_mat", "yaw_from_quat"]
+__all__ = [
+    "look_at_quat",
+    "mat_to_quat",
+    "quat_from_yaw",
+    "quat_to_mat",
+    "rotvec",
+    "rotvecs",
+    "yaw_from_quat",
+    "yaw_rotation_2d",
+]
 
 
 def look_at_quat(
@@ -69,3 +82,36 @@ def yaw_from_quat(quat: np.ndarray) -> float:
     """Yaw [rad] of a quaternion (w, x, y, z): the heading of its rotated x axis in the x-y plane."""
     r = quat_to_mat(quat)
     return float(np.arctan2(r[1, 0], r[0, 0]))
+
+
+def yaw_rotation_2d(yaw: np.ndarray) -> np.ndarray:
+    """Rotations (..., 2, 2) about the vertical by yaw [rad]."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], -2)
+
+
+def rotvec(r: np.ndarray) -> np.ndarray:
+    """Rotation vector of a rotation matrix [rad]."""
+    cos = float(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))
+    ang = float(np.arccos(cos))
+    if ang < 1e-9:
+        return np.zeros(3)
+    v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    s = float(np.linalg.norm(v))
+    if s < 1e-9:
+        w, vec = np.linalg.eigh((r + r.T) / 2)
+        return vec[:, int(np.argmax(w))] * ang
+    return v / s * ang
+
+
+def rotvecs(r: np.ndarray) -> np.ndarray:
+    """Rotation vectors of (N, 3, 3) rotation matrices [rad], as :func:`rotvec` row by row."""
+    ang = np.arccos(np.clip((np.trace(r, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
+    v = np.stack([r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]], axis=1)
+    s = np.linalg.norm(v, axis=1)
+    out = np.zeros_like(v)
+    regular = (ang >= 1e-9) & (s >= 1e-9)
+    out[regular] = v[regular] / s[regular, None] * ang[regular, None]
+    for k in np.flatnonzero((ang >= 1e-9) & (s < 1e-9)):  # half turns
+        out[k] = rotvec(r[k])
+    return out

@@ -1,7 +1,9 @@
 """The library entry point: plan and execute one instruction's ground-truth path with retries.
 
 :func:`plan_and_execute` compiles the scene (or takes a compiled one), runs attempts from the
-scene's initial state until one passes the success checker, and returns its :class:`Episode`. A
+scene's initial state until one passes the success checker, and returns its :class:`Episode`. An
+attempt drives the planner's control targets (:class:`samplehd.motion.execute.Rollout`) through the
+controller's step wrapped by the frame recorder (:class:`samplehd.record.recorder.RecordingStep`). A
 failed attempt is retried with another grasp and other destination draws; when every attempt fails
 it raises :class:`PathRejected` with a short, countable reason. A failed path is never returned.
 """
@@ -9,25 +11,28 @@ it raises :class:`PathRejected` with a short, countable reason. A failed path is
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import mujoco
 import numpy as np
 
+from samplehd.catalogue import ObjectFacts
 from samplehd.errors import ConfigError, PlanningError
-from samplehd.motion.assist import GraspAssist
-from samplehd.motion.execute import AttemptFailed, Rollout
-from samplehd.motion.planner import PlannerConfig
-from samplehd.motion.robot_info import RobotInfo
+from samplehd.motion.assist import GraspAssist, compile_scene_with_assist
+from samplehd.motion.execute import AttemptFailed, Plan, Rollout, drive, initial_state, scene_facts, step_controller
 from samplehd.record.episode import Episode
-from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS
-from samplehd.robot.controller import ControlConfig, RobotController
-from samplehd.scene.layout import LAYOUT
-from samplehd.tasks.checker import CheckerConfig, check_success
-from samplehd.tasks.state import SceneBodies
+from samplehd.record.recorder import FrameRecorder, RecordingStep
+from samplehd.robot.controller import ControlConfig
+from samplehd.scene.spec import SceneSpec
+from samplehd.tasks.checker import CheckerConfig, CheckResult, check_success
 from samplehd.tasks.task import Task, parse_task
+from samplehd.world.bodies import SceneBodies
+from samplehd.world.layout import LAYOUT
+from samplehd.world.planner_config import PlannerConfig
+from samplehd.world.robot_info import RobotInfo
 
-__all__ = ["PathConfig", "PathRejected", "initial_state", "plan_and_execute"]
+__all__ = ["PathConfig", "PathRejected", "plan_and_execute"]
 
 
 @dataclass(frozen=True)
@@ -102,16 +107,6 @@ class PathRejected(PlanningError):
         self.failed_episode = failed_episode
 
 
-def initial_state(model: mujoco.MjModel, data: mujoco.MjData, config: ControlConfig) -> RobotController:
-    """Put the arm at home with the gripper open, objects as compiled; returns the controller."""
-    ctrl = RobotController(model, data, config)
-    ctrl.reset(HOME_QPOS, gripper=1.0)
-    robot = RobotInfo.from_model(model, data)
-    data.qpos[robot.finger_qpos] = GRIPPER_STROKE / 2
-    mujoco.mj_forward(model, data)
-    return ctrl
-
-
 def _copy_state(src: mujoco.MjData, dst: mujoco.MjData) -> None:
     dst.qpos[:] = src.qpos
     dst.qvel[:] = src.qvel
@@ -120,61 +115,58 @@ def _copy_state(src: mujoco.MjData, dst: mujoco.MjData) -> None:
     dst.time = src.time
 
 
-def _facts(scene: Any) -> list[Any]:
-    from samplehd.catalogue import object_facts
-
-    out = []
-    for o in scene.objects:
-        try:
-            out.append(object_facts(o.instance))
-        except Exception:  # noqa: BLE001 - objects unknown to the catalogue fall back to model geometry
-            out.append(None)
-    return out
-
-
-def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, rng: np.random.Generator,
-                 config: PathConfig, facts: list[Any], directions: dict[str, Any] | None) -> Rollout:
+def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: SceneSpec, rng: np.random.Generator,
+                 config: PathConfig, facts: list[ObjectFacts | None],
+                 directions: dict[str, Any] | None) -> tuple[Rollout, RecordingStep]:
     control = ControlConfig(physics_hz=config.physics_hz, control_hz=config.control_hz)
     ctrl = initial_state(model, data, control)
     robot = RobotInfo.from_model(model, data)
     bodies = SceneBodies(model, len(scene.objects))
-    return Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions,
-                   use_assist=config.grasp_assist)
+    ro = Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions,
+                 use_assist=config.grasp_assist)
+    recorder = FrameRecorder(model, data, robot.arm_qpos, robot.arm_dof, robot.finger_qpos, ro.finger_bodies,
+                             robot.tcp_site, bodies.object_body)
+    return ro, RecordingStep(recorder, partial(step_controller, ctrl))
 
 
-def _run_attempt(ro: Rollout, scene: Any, task: Task, config: PathConfig, exclude: dict[int, set[int]],
-                 directions: dict[str, Any] | None) -> Any:
+def _attempt(ro: Rollout, task: Task, exclude: dict[int, set[int]]) -> Plan[None]:
+    """The plan of one attempt: pick (and place) each moved object in turn."""
     for i in task.objects:
         k = -1
         try:
-            k = ro.pick(i, tuple(exclude.get(i, ())))
+            k = yield from ro.pick(i, tuple(exclude.get(i, ())))
             if task.family != "pick_up":
-                ro.place(i, task, k)
+                yield from ro.place(i, task, k)
         except AttemptFailed as exc:
             if exc.grasp < 0:
                 exc.grasp = k if k >= 0 else ro.current_grasp
             exc.object = i  # type: ignore[attr-defined]
             raise
-    ro.finish()
+
+
+def _run_attempt(ro: Rollout, step: RecordingStep, scene: SceneSpec, task: Task, config: PathConfig,
+                 exclude: dict[int, set[int]], directions: dict[str, Any] | None) -> CheckResult:
+    drive(_attempt(ro, task, exclude), step)
+    step.recorder.record_target(ro.final_target())
     return check_success(ro.model, ro.data, scene, task, config.checker, LAYOUT, directions)
 
 
-def _episode(ro: Rollout, scene: Any, scene_index: int | None, instruction_index: int, family: str, seed: int,
-             success: bool, info: dict[str, Any]) -> Episode:
+def _episode(ro: Rollout, step: RecordingStep, scene: SceneSpec, scene_index: int | None, instruction_index: int,
+             family: str, seed: int, success: bool, info: dict[str, Any]) -> Episode:
     return Episode(
         scene_index=int(scene.index if scene_index is None else scene_index),
         instruction_index=int(instruction_index),
         family=family,
         seed=int(seed),
         subtasks=tuple(ro.subtasks) or ("GripperMoveAvoid",),
-        frames=ro.recorder.frames(),
+        frames=step.recorder.frames(),
         success=success,
         info=info,
     )
 
 
 def plan_and_execute(
-    scene: Any,
+    scene: SceneSpec,
     task: dict[str, Any] | Task,
     rng: np.random.Generator,
     config: PathConfig | None = None,
@@ -210,8 +202,6 @@ def plan_and_execute(
         PathRejected: every attempt failed; ``reason`` says why.
         PlanningError: the task is malformed.
     """
-    from samplehd.motion.assist import compile_scene_with_assist
-
     config = config or PathConfig()
     t = parse_task(task, family)
     n = len(scene.objects)
@@ -229,19 +219,19 @@ def plan_and_execute(
         mujoco.mj_forward(model, data)
     start = mujoco.MjData(model)
     mujoco.mj_copyData(start, model, data)
-    facts = _facts(scene)
+    facts = scene_facts(scene)
     exclude: dict[int, set[int]] = {}
     attempts: list[dict[str, Any]] = []
     reason, message = "", ""
-    last: Rollout | None = None
+    last: tuple[Rollout, RecordingStep] | None = None
     for attempt in range(config.max_attempts):
         mujoco.mj_copyData(data, model, start)
         sub = np.random.default_rng(rng.integers(2**63))
-        ro = _new_rollout(model, data, scene, sub, config, facts, directions)
+        ro, step = _new_rollout(model, data, scene, sub, config, facts, directions)
         try:
-            result = _run_attempt(ro, scene, t, config, exclude, directions)
+            result = _run_attempt(ro, step, scene, t, config, exclude, directions)
         except AttemptFailed as exc:
-            last = ro
+            last = ro, step
             reason, message = exc.reason, str(exc)
             attempts.append({"attempt": attempt, "reason": reason, "message": message})
             obj = getattr(exc, "object", -1)
@@ -252,7 +242,7 @@ def plan_and_execute(
             reason = "checker_failed" if not result.success else "knocked_over"
             message = result.reason or f"objects {list(result.fallen)} fell over"
             attempts.append({"attempt": attempt, "reason": reason, "message": message})
-            last = ro
+            last = ro, step
             # Try another grasp of the first moved object next time.
             for g in ro.info["grasps"][:1]:
                 exclude.setdefault(int(g["object"]), set()).add(int(g["index"]))
@@ -270,10 +260,11 @@ def plan_and_execute(
         if caller is not None:
             _copy_state(data, caller[1])
             mujoco.mj_forward(*caller)
-        return _episode(ro, scene, scene_index, instruction_index, family or t.family, seed, True, info)
+        return _episode(ro, step, scene, scene_index, instruction_index, family or t.family, seed, True, info)
     if caller is not None:
         _copy_state(data, caller[1])
         mujoco.mj_forward(*caller)
-    failed = _episode(last, scene, scene_index, instruction_index, family or t.family, seed, False,
-                      {"task": t.to_dict(), "failed_attempts": attempts, **last.info})
+    ro, step = last
+    failed = _episode(ro, step, scene, scene_index, instruction_index, family or t.family, seed, False,
+                      {"task": t.to_dict(), "failed_attempts": attempts, **ro.info})
     raise PathRejected(reason, f"instruction {instruction_index}: {message}", attempts, failed)

@@ -17,24 +17,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from samplehd.scene.layout import LAYOUT, TableLayout
+from samplehd.errors import ConfigError
+from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, TCP_OFFSET
+from samplehd.robot.kinematics import ik_batch
+from samplehd.world.layout import LAYOUT, TableLayout
+from samplehd.world.transforms import quat_to_mat
 
 __all__ = ["REACH_MODES", "IKReachable", "make_reachable"]
 
 REACH_MODES = ("annulus", "ik")
-
-
-def _quat_matrix(q: Sequence[float]) -> np.ndarray:
-    w, x, y, z = (float(v) for v in q)
-    n = math.sqrt(w * w + x * x + y * y + z * z) or 1.0
-    w, x, y, z = w / n, x / n, y / n, z / n
-    return np.array(
-        [
-            [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-        ]
-    )
 
 
 @dataclass(frozen=True)
@@ -59,10 +50,7 @@ class IKReachable:
     def __call__(self, xyz: Sequence[float]) -> bool:
         if self.within_annulus and not self.layout.in_reach((float(xyz[0]), float(xyz[1]))):
             return False
-        from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, TCP_OFFSET
-        from samplehd.robot.kinematics import ik_batch
-
-        base_rot = _quat_matrix(ROBOT_BASE_QUAT)
+        base_rot = quat_to_mat(ROBOT_BASE_QUAT)
         base_pos = self.layout.robot_base_position
         z = max(float(xyz[2]), self.layout.table_height + self.min_height)
         poses = []
@@ -87,6 +75,4 @@ def make_reachable(mode: str = "annulus", layout: TableLayout = LAYOUT) -> Calla
         return IKReachable(layout)
     if mode == "annulus":
         return lambda xyz: layout.in_reach((float(xyz[0]), float(xyz[1])))
-    from samplehd.errors import ConfigError
-
     raise ConfigError(f"reach mode {mode!r} is unknown; valid: {', '.join(REACH_MODES)}")

@@ -1,7 +1,7 @@
 """Fixed numbers of the search for a free spot to put an object down on the table.
 
 The ground-truth planner (:func:`samplehd.motion.planner.destination_candidates`) samples spots with
-them, and the language stage's room test (:mod:`samplehd.language.free_spot`) predicts that search
+them, and the language stage's room test (:mod:`samplehd.world.free_spot`) predicts that search
 with the same numbers; this module imports nothing heavy, so the language stage stays free of MuJoCo.
 """
 

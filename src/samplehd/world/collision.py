@@ -10,8 +10,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from samplehd.motion.robot_info import RobotInfo
-from samplehd.tasks.state import SceneBodies
+from samplehd.world.bodies import SceneBodies
+from samplehd.world.robot_info import RobotInfo
 
 __all__ = ["CollisionChecker", "Held"]
 
