@@ -11,15 +11,15 @@ import json
 from pathlib import Path
 
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
-_DEFAULT_STEPS = {"parser": 2000, "perception": 1500, "policy": 4000}
+_DEFAULT_STEPS = {"parser": 1000, "perception": 2000, "policy": 600}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", choices=list(_DEFAULT_STEPS), help="what to train")
     parser.add_argument("--dataset", type=Path, required=True, help="a dataset folder written by `samplehd generate`")
     parser.add_argument("--out", type=Path, required=True, help="output folder (resumes when it holds a checkpoint)")
-    parser.add_argument("--steps", type=int, help="optimiser steps (default: parser 2000, perception 1500, "
-                                                  "policy 4000)")
+    parser.add_argument("--steps", type=int, help="optimiser steps (default: parser 1000, perception 2000, "
+                                                  "policy 600)")
     parser.add_argument("--seed", type=int, default=0, help="seed of initialisation, batches and augmentation")
     parser.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -208,7 +208,8 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     from samplehd.learn.training import TrainRun, pick_device, set_seed, step_rng, timed
 
     reader = open_dataset(dataset)
-    render = reader.info.get("render") or {}
+    # A dataset still being written (or stopped early) has its render settings only in the config.
+    render = reader.info.get("render") or reader.config.get("render") or {}
     cams = camera_settings(render) if render else {}
     if not all(c in cams and "rgb" in cams[c]["modalities"] for c in CAMERAS):
         raise ConfigError(f"--dataset {dataset}: episodes need RGB of cameras {', '.join(CAMERAS)} (generate with "

@@ -426,9 +426,9 @@ def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[st
             "extents": {k: np.median(np.asarray(v), axis=0).round(4).tolist() for k, v in sorted(extents.items())}}
 
 
-def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, seed: int = 0, device: str | None = None,
+def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, seed: int = 0, device: str | None = None,
                      quiet: bool = False, stop_after: int | None = None, seg_batch: int = 4, attr_batch: int = 64,
-                     patch: int = 128,
+                     patch: int = 128, seg_every: int = 4,
                      lr: float = 2e-3, seg_width: int = 12, attr_width: int = 24) -> dict[str, Any]:
     """Train segmentation and attribute networks on a dataset's training scenes; test on its test scenes.
 
@@ -464,7 +464,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, se
         "table_height": LAYOUT.table_height,
         "extents": arrays["extents"],
         "train": {"steps": steps, "seed": seed, "seg_batch": seg_batch, "attr_batch": attr_batch, "patch": patch,
-                  "lr": lr, "scenes": len(data["train"]), "objects": len(arrays["labels"])},
+                  "seg_every": seg_every, "lr": lr, "scenes": len(data["train"]), "objects": len(arrays["labels"])},
     }
     model = Perception(config, device=dev)
     net = model.net
@@ -477,12 +477,8 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, se
     hh, ww = x_all.shape[2], x_all.shape[3]
     ph, pw = min(patch, hh), min(patch, ww)
 
-    def train_step(step: int) -> float:
-        net.train()
-        rng = step_rng(seed, step)
-        for g in opt.param_groups:
-            g["lr"] = lr * min(1.0, 1.5 * (1 - step / steps))
-        # segmentation: random patches
+    def _seg_loss(rng: np.random.Generator) -> Any:
+        """Cross-entropy of the segmenter on random patches (flipped left-right half of the time)."""
         idx = rng.integers(len(x_all), size=seg_batch)
         r0 = rng.integers(hh - ph + 1, size=seg_batch)
         c0 = rng.integers(ww - pw + 1, size=seg_batch)
@@ -493,8 +489,17 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 1500, se
         yb[flip] = yb[flip][..., ::-1]
         xt = torch.as_tensor(xb.astype(np.float32), device=dev)
         yt = torch.as_tensor(yb.astype(np.int64), device=dev)
-        seg_loss = F.cross_entropy(net.segmenter(xt), yt, weight=seg_weight)
-        # attributes: random crops of the padded crops
+        return F.cross_entropy(net.segmenter(xt), yt, weight=seg_weight)
+
+    def train_step(step: int) -> float:
+        net.train()
+        rng = step_rng(seed, step)
+        for g in opt.param_groups:
+            g["lr"] = lr * min(1.0, 1.5 * (1 - step / steps))
+        seg_loss = torch.zeros((), device=dev)
+        if step % seg_every == 0:  # a segmenter step costs several attribute steps; it needs fewer
+            seg_loss = _seg_loss(rng)
+        # attributes: random crops of the padded crops, brightness jitter
         k = rng.integers(len(arrays["labels"]), size=attr_batch)
         off = rng.integers(CROP_PAD - CROP + 1, size=(attr_batch, 2))
         cb = np.stack([arrays["crops"][i, :, a:a + CROP, b:b + CROP] for i, (a, b) in zip(k, off, strict=True)])
