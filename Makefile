@@ -19,11 +19,11 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e .
 	touch $@
 
-# torch==2.13.0 first: the CPU build the `learn` extra's range then accepts (an open range would
-# fetch a multi-GB CUDA build).
+# torch 2.13.0 (CPU) before the sb3 and learn extras: asked for by stable-baselines3 or the `learn`
+# extra alone, pip takes a CUDA build of several GB.
 $(DEV_STAMP): pyproject.toml $(STAMP)
-	$(BIN)/python -m pip install --quiet torch==2.13.0
-	$(BIN)/python -m pip install --quiet -e ".[dev,ray,learn]"
+	$(BIN)/python -m pip install --quiet "torch==2.13.0"
+	$(BIN)/python -m pip install --quiet -e ".[dev,mesh,lerobot,ray,sb3,rerun,learn]"
 	touch $@
 
 gl:
@@ -45,8 +45,12 @@ test-all: gl browser $(DEV_STAMP)
 bench: gl $(STAMP)
 	$(BIN)/samplehd bench --out outputs/bench
 
+# ruff, then the floors: import-linter's contracts in pyproject.toml (make test checks them too,
+# tests/test_layers.py) and the cycle/local-import counts of scripts/import_graph.py.
 lint: $(DEV_STAMP)
-	$(BIN)/ruff check src tests benchmarks
+	$(BIN)/ruff check src tests scripts
+	$(BIN)/lint-imports --no-cache
+	$(BIN)/python scripts/import_graph.py
 
 clean:
 	rm -rf $(VENV) outputs build src/*.egg-info

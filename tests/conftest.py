@@ -1,10 +1,34 @@
-"""Shared fixtures: expensive things (compiled worlds, renderers) are built once per session."""
+"""Shared fixtures: expensive things (compiled worlds, renderers) are built once per session.
+
+The suite is hermetic: before anything reads them, the user registry of imported classes, the
+decomposition cache point at a private empty directory, and every
+subprocess a test starts inherits that. Nothing a user imported can change what the suite sees.
+"""
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
 import pytest
 
-import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+_PRIVATE_HOME = Path(tempfile.mkdtemp(prefix="samplehd-tests-"))
+os.environ["SAMPLEHD_REGISTRY_DIR"] = str(_PRIVATE_HOME / "registry")
+os.environ["SAMPLEHD_CACHE_DIR"] = str(_PRIVATE_HOME / "cache")
+
+import samplehd  # noqa: E402,F401  (sets MUJOCO_GL before mujoco is imported)
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    shutil.rmtree(_PRIVATE_HOME, ignore_errors=True)
+
+
+@pytest.fixture(scope="session")
+def private_user_home() -> Path:
+    """The private directory holding this session's (empty) registry and caches."""
+    return _PRIVATE_HOME
 
 
 @pytest.fixture(scope="session")

@@ -45,3 +45,23 @@ def test_python_dash_m_and_help_everywhere():
     for name in sub.choices:
         r = subprocess.run([sys.executable, "-m", "samplehd", name, "--help"], capture_output=True, text=True)
         assert r.returncode == 0, (name, r.stderr)
+
+
+def test_commands_load_lazily_and_their_help_is_read_from_source():
+    from samplehd.cli import build_parser, command_help, command_names
+
+    full = build_parser(full=True)
+    sub = next(a for a in full._actions if a.dest == "command")
+    assert set(sub.choices) == set(command_names())
+    for module_name in command_names().values():
+        module = __import__(f"samplehd.commands.{module_name}", fromlist=["HELP"])
+        assert command_help(module_name) == module.HELP and "\n" not in module.HELP
+    # `samplehd --help` and a light command load neither MuJoCo nor the stages
+    probe = ("import sys; from samplehd.cli import main; import contextlib, io\n"
+             "with contextlib.redirect_stdout(io.StringIO()):\n"
+             "    try: main(['--help'])\n"
+             "    except SystemExit: pass\n"
+             "print(sorted(m for m in ('mujoco', 'samplehd.dataset.generate', 'samplehd.envs.tabletop') "
+             "if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

@@ -6,12 +6,16 @@ line and exits with status 2. Messages name the file, field or value at fault an
 
 from __future__ import annotations
 
+import importlib
+from types import ModuleType
+
 __all__ = [
     "ActionError",
     "AssetError",
     "ConfigError",
     "DatasetError",
     "KinematicsError",
+    "MissingExtraError",
     "PlanningError",
     "RenderError",
     "SafetyError",
@@ -19,6 +23,7 @@ __all__ = [
     "SceneError",
     "TemplateError",
     "UnreachableError",
+    "require_extra",
 ]
 
 
@@ -68,3 +73,26 @@ class PlanningError(SamplehdError):
 
 class DatasetError(SamplehdError):
     """A dataset directory or file is missing, malformed or cannot be written."""
+
+
+class MissingExtraError(ConfigError):
+    """An optional dependency of the requested feature is not installed."""
+
+
+def require_extra(module: str, extra: str, feature: str) -> ModuleType:
+    """Import an optional dependency, or fail with one line naming the extra that provides it.
+
+    Args:
+        module: module to import (``trimesh``, ``pyarrow.parquet``, ``ray``).
+        extra: the samplehd extra that installs it (``mesh``, ``lerobot``, ``ray``).
+        feature: what needs it, for the message (``samplehd assets import``).
+
+    Raises:
+        MissingExtraError: ``{feature} needs {module}: pip install 'samplehd[{extra}]'``.
+    """
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        top = module.split(".")[0]
+        raise MissingExtraError(f"{feature} needs {top}, which is not installed: pip install 'samplehd[{extra}]'") \
+            from None

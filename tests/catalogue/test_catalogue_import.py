@@ -11,8 +11,8 @@ import pytest
 import trimesh
 
 from samplehd.catalogue import ObjectInstance, add_object, load_catalogue, object_facts
-from samplehd.catalogue.importer import ImportOptions, import_mesh, read_mesh, remove_imported
-from samplehd.catalogue.registry import cache_dir, registry_dir
+from samplehd.catalogue.importer import ImportOptions, import_mesh, read_mesh
+from samplehd.catalogue.registry import cache_dir, registry_dir, remove_imported
 from samplehd.errors import AssetError
 
 
@@ -35,9 +35,14 @@ def test_import_end_to_end(tmp_path: Path) -> None:
     assert max(report["extents"]) == pytest.approx(0.12)
     assert (registry_dir() / "ell_block" / "class.json").is_file()
     assert list((cache_dir() / "decompositions").glob("*.npz"))
-    # the catalogue now knows the class, with the menu given on import
-    cat = load_catalogue()
+    # the built-in catalogue is unchanged; a catalogue that names the class holds it, with its hash
+    assert "ell_block" not in load_catalogue().classes
+    assert load_catalogue().record()["imported"] == {}
+    cat = load_catalogue(["ell_block"])
     assert cat.classes["ell_block"].imported
+    assert set(cat.record()["imported"]) == {"ell_block"}
+    assert cat.record()["built_in"] == load_catalogue().record()["built_in"]
+    assert cat.record()["sha256"] != load_catalogue().record()["sha256"]
     menu = cat.classes["ell_block"].variants["default"].menu
     assert menu.material == ("plastic", "wooden") and "transparent" not in menu.colour
     inst = ObjectInstance("ell_block", "default", "red", "plastic", "medium")
@@ -61,7 +66,8 @@ def test_import_end_to_end(tmp_path: Path) -> None:
     with pytest.raises(AssetError, match="already registered"):
         import_mesh(src, "ell_block", options=ImportOptions(size=0.12))
     remove_imported("ell_block")
-    assert "ell_block" not in load_catalogue().classes
+    with pytest.raises(AssetError, match="neither built-in nor imported"):
+        load_catalogue(["ell_block"])
 
 
 def test_import_convex_stl_without_scaling(tmp_path: Path) -> None:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from samplehd.catalogue import ObjectInstance
-from samplehd.catalogue.preview import contact_sheet, render_instances
+from samplehd.catalogue.preview import catalogue_table, render_instances
 
 
 @pytest.mark.render
@@ -35,6 +35,6 @@ def test_preview_is_deterministic() -> None:
 
 @pytest.mark.render
 @pytest.mark.slow
-def test_contact_sheet_covers_every_class() -> None:
-    sheet = contact_sheet(cell=(64, 48), classes=["mug", "knife"])
+def test_catalogue_table_covers_every_class() -> None:
+    sheet = catalogue_table(cell=(64, 48), classes=["mug", "knife"])
     assert sheet.size == (110 + 6 * 64, 22 + 2 * 48)

@@ -31,7 +31,7 @@ def rendered_dataset(tmp_path_factory: pytest.TempPathFactory, micro_dataset: Pa
 
     out = tmp_path_factory.mktemp("rendered") / "ds"
     shutil.copytree(micro_dataset, out)
-    from samplehd.dataset.backend import Backend
+    from samplehd.workers import Backend
 
     rerender_dataset(out, RenderConfig("fast", 64, 36), Backend("local", 2))
     return out

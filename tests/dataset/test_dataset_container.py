@@ -48,7 +48,7 @@ def test_rendered_images_match_the_render_settings(rendered_dataset: Path) -> No
 def test_rerender_matches_fresh_render_and_resumes(rendered_dataset: Path, tmp_path: Path) -> None:
     """Images rendered from stored states (set qpos/qvel/act, mj_forward; no re-simulation) are
     reproduced exactly, and running rerender again skips finished episodes."""
-    from samplehd.dataset.render import RenderConfig, render_states
+    from samplehd.dataset.render import RenderConfig
     from samplehd.dataset.rerender import rerender_dataset
     from samplehd.scene.spec import SceneSpec, compile_scene
 
@@ -60,7 +60,7 @@ def test_rerender_matches_fresh_render_and_resumes(rendered_dataset: Path, tmp_p
     ep = reader.episode(0)
     model, _ = compile_scene(SceneSpec.from_dict(reader.scene(ep.scene_index)["spec"]))
     picks = [0, ep.num_frames // 2, ep.num_frames - 1]
-    again = render_states(model, {k: v[picks] for k, v in ep.frames.items()}, RenderConfig("fast", 64, 36))
+    again = RenderConfig("fast", 64, 36).images(model, {k: v[picks] for k, v in ep.frames.items()})
     for mod in ("rgb", "depth", "segmentation"):
         stored = np.stack([ep.images["scene"][mod][t] for t in picks])
         assert np.array_equal(again["scene"][mod], stored), mod

@@ -98,8 +98,8 @@ def test_disk_full_while_writing_an_episode_is_one_clear_line(micro_dataset: Pat
 
 def test_ray_backend_gives_the_same_dataset(micro_dataset: Path, tmp_path: Path) -> None:
     ray = pytest.importorskip("ray")
-    from samplehd.dataset.backend import Backend
     from samplehd.dataset.generate import generate_dataset
+    from samplehd.workers import Backend
 
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:

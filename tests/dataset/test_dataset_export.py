@@ -17,7 +17,7 @@ def lerobot_export(rendered_dataset: Path, tmp_path_factory: pytest.TempPathFact
     from samplehd.dataset.export_lerobot import export_lerobot
 
     out = tmp_path_factory.mktemp("lerobot") / "lr"
-    export_lerobot(rendered_dataset, out, "samplehd/test")
+    export_lerobot(rendered_dataset, out, "samplehd/test", modalities=["rgb", "depth", "segmentation"])
     return out
 
 
@@ -33,6 +33,11 @@ def test_lerobot_layout(lerobot_export: Path, rendered_dataset: Path) -> None:
     assert info["features"][key]["dtype"] == "video" and info["features"][key]["shape"] == [36, 64, 3]
     for k in ("timestamp", "frame_index", "episode_index", "index", "task_index", "action", "observation.state"):
         assert k in info["features"]
+    # What LeRobot's policies read (lerobot's dataset_to_policy_features): image/video features are
+    # cameras and must be RGB; keys starting with "action" are actions and there must be one.
+    cams = {k: f for k, f in info["features"].items() if f["dtype"] in ("image", "video")}
+    assert list(cams) == [key] and all(f["shape"][2] == 3 for f in cams.values())
+    assert [k for k in info["features"] if k.startswith("action")] == ["action"]
     data = pq.read_table(lerobot_export / "data/chunk-000/file-000.parquet")
     assert json.loads(data.schema.metadata[b"huggingface"])["info"]["features"]
     assert data.num_rows == info["total_frames"]
@@ -57,40 +62,40 @@ def test_lerobot_layout(lerobot_export: Path, rendered_dataset: Path) -> None:
 
 
 def test_lerobot_depth_and_segmentation_round_trip(lerobot_export: Path, rendered_dataset: Path) -> None:
-    """Depth comes back within 1 mm and segmentation ids exactly, as 16-bit PNG image features."""
-    import io
-
+    """Opt-in depth comes back within 1 mm and segmentation ids exactly, as uint16 arrays under keys that
+    LeRobot's policies ignore."""
     import pyarrow.parquet as pq
-    from PIL import Image
 
     info = json.loads((lerobot_export / "meta" / "info.json").read_text())
     feats = info["features"]
-    depth, seg = feats["observation.images.scene.depth"], feats["observation.images.scene.segmentation"]
-    assert depth["dtype"] == seg["dtype"] == "image" and depth["shape"] == seg["shape"] == [36, 64, 1]
-    assert depth["info"]["is_depth_map"] is True and depth["info"]["depth_unit"] == "mm"
-    assert seg["info"]["is_depth_map"] is False
+    depth, seg = feats["depth.scene"], feats["segmentation.scene"]
+    assert depth["dtype"] == seg["dtype"] == "uint16" and depth["shape"] == seg["shape"] == [36, 64]
+    assert depth["info"]["unit"] == "mm"
     data = pq.read_table(lerobot_export / "data/chunk-000/file-000.parquet")
     hf = json.loads(data.schema.metadata[b"huggingface"])["info"]["features"]
-    assert hf["observation.images.scene.depth"] == {"_type": "Image"}
-    assert data.schema.field("observation.images.scene.depth").type.names == ["bytes", "path"]
+    assert hf["depth.scene"] == {"shape": [36, 64], "dtype": "uint16", "_type": "Array2D"}
     reader = DatasetReader(rendered_dataset)
     eps = pq.read_table(lerobot_export / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
-    depth_col = data.column("observation.images.scene.depth").to_pylist()
-    seg_col = data.column("observation.images.scene.segmentation").to_pylist()
+    depth_col = data.column("depth.scene").to_numpy(zero_copy_only=False)
+    seg_col = data.column("segmentation.scene").to_numpy(zero_copy_only=False)
     for e in eps:
         ep = reader.episode(e["samplehd/instruction_index"], images="load")
         for t in range(e["length"]):
             row = e["dataset_from_index"] + t
-            d = Image.open(io.BytesIO(depth_col[row]["bytes"]))
-            s = Image.open(io.BytesIO(seg_col[row]["bytes"]))
-            assert d.mode == s.mode == "I;16"
-            mm = np.asarray(d, dtype=np.float64)
+            mm = np.stack(depth_col[row]).astype(np.float64)
             assert np.abs(mm / 1000.0 - ep.images["scene"]["depth"][t]).max() <= 1e-3
-            assert np.array_equal(np.asarray(s), ep.images["scene"]["segmentation"][t])
+            assert np.array_equal(np.stack(seg_col[row]), ep.images["scene"]["segmentation"][t])
     stats = json.loads((lerobot_export / "meta/stats.json").read_text())
-    assert np.array(stats["observation.images.scene.depth"]["mean"]).shape == (1, 1, 1)
-    assert 500 < stats["observation.images.scene.depth"]["mean"][0][0][0] < 5000  # millimetres
-    assert stats["observation.images.scene.segmentation"]["max"][0][0][0] >= 3  # ids, not scaled
+    assert np.array(stats["depth.scene"]["mean"]).shape == (1,)
+    assert 500 < stats["depth.scene"]["mean"][0] < 5000  # millimetres
+    assert stats["segmentation.scene"]["max"][0] >= 3  # ids, not scaled
+
+
+def test_lerobot_default_is_rgb_only(rendered_dataset: Path, tmp_path: Path) -> None:
+    assert main(["export", "lerobot", str(rendered_dataset), "--out", str(tmp_path / "d")]) == 0
+    info = json.loads((tmp_path / "d" / "meta" / "info.json").read_text())
+    assert not [k for k in info["features"] if k.startswith(("depth.", "segmentation."))]
+    assert info["features"]["observation.images.scene"]["dtype"] == "video"
 
 
 def test_lerobot_selection_errors_are_one_line(rendered_dataset: Path, tmp_path: Path,
@@ -106,25 +111,9 @@ def test_lerobot_selection_errors_are_one_line(rendered_dataset: Path, tmp_path:
     # Only depth: no videos, one image feature.
     assert main([*base, str(tmp_path / "c"), "--modalities", "depth", "--frames-per-file", "500"]) == 0
     info = json.loads((tmp_path / "c" / "meta" / "info.json").read_text())
-    assert [k for k in info["features"] if k.startswith("observation.images")] == ["observation.images.scene.depth"]
+    assert [k for k in info["features"] if k.startswith(("observation.images", "depth"))] == ["depth.scene"]
     assert info["video_path"] is None and not (tmp_path / "c" / "videos").exists()
     assert len(list((tmp_path / "c" / "data").glob("*/*.parquet"))) > 1  # files split by --frames-per-file
-
-
-def test_samplehd_layout_and_previews(rendered_dataset: Path, tmp_path: Path) -> None:
-    out = tmp_path / "shd"
-    assert main(["export", "sample-hd", str(rendered_dataset), "--out", str(out), "--previews",
-                 "--workers", "1"]) == 0
-    reader = DatasetReader(rendered_dataset)
-    assert len(list((out / "scenes").glob("*.json"))) == len(reader.scenes)
-    assert len(list((out / "images").glob("*.png"))) == len(reader.scenes)
-    assert len(list((out / "instructions").glob("i*.json"))) == len(reader)
-    e = reader.episodes[0]
-    seq = out / "sequences" / f"i{0:06d}_s{e.scene_index:06d}"
-    data = json.loads((seq / "data.json").read_text())
-    assert len(data["frames"]) == e.num_frames and data["markers"] == ["Succeeded", "Completed"]
-    assert {"joints", "steering", "subtask", "effector", "objects"} <= set(data["frames"][0])
-    assert len(list(seq.glob("*_rgb.png"))) == e.num_frames and (seq / "preview.mp4").stat().st_size > 0
 
 
 def test_stats_counts_and_plots(micro_dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture) -> None:

@@ -49,8 +49,8 @@ def test_resume_of_a_finished_dataset_changes_nothing(micro_dataset: Path, tmp_p
 
 
 def test_two_workers_give_the_same_dataset(micro_dataset: Path, tmp_path: Path) -> None:
-    from samplehd.dataset.backend import Backend
     from samplehd.dataset.generate import generate_dataset
+    from samplehd.workers import Backend
 
     out = tmp_path / "ds2"
     generate_dataset(out, micro_config(), Backend("local", 2))

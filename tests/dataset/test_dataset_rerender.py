@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from samplehd.cli import main
-from samplehd.dataset.container import camera_settings, read_meta
+from samplehd.dataset.container import camera_settings, merge_camera_settings, read_meta
 from samplehd.dataset.reader import DatasetReader
 from samplehd.dataset.render import RenderConfig
-from samplehd.dataset.rerender import merge_camera_settings, rerender_dataset
+from samplehd.dataset.rerender import rerender_dataset
 from samplehd.dataset.validate import validate_dataset
 from samplehd.errors import DatasetError
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from samplehd.catalogue import load_catalogue
 from samplehd.envs.config import CONTROL_MODES
 from samplehd.envs.evaluation import EvalConfig, benchmark_split, evaluate
 from samplehd.envs.oracle import OraclePolicy, oracle_action
@@ -68,6 +69,7 @@ def test_evaluate_random_policy_writes_a_report_and_videos(tmp_path: Path, fast_
     saved = json.loads((tmp_path / "report.json").read_text())
     assert saved["episodes"] == 2 and saved["success_rate"] == report["success_rate"] == 0.0
     assert set(saved["by_family"]) <= {"pick_up", "place"}
+    assert saved["catalogue"] == load_catalogue().record() and saved["catalogue"]["imported"] == {}
     rec = saved["records"][0]
     for key in ("seed", "family", "success", "steps", "safety_events"):
         assert key in rec

@@ -62,8 +62,8 @@ def test_instructions_and_vocab(tmp_path: Path, scenes_file: Path) -> None:
         scene = scenes[e["image_index"]]
         for program in (e["program"], e["program_sequence"]):
             task = execute(program, scene)
-            assert task.to_dict() == e["task"]
-            assert list(task.targets) == e["targets"]
+            assert task.to_program_dict() == e["task"]
+            assert list(task.involved) == e["targets"]
     first = out.read_bytes()
     assert main(argv) == 0 and out.read_bytes() == first  # same seed, same file
 

@@ -7,10 +7,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from samplehd.language.executor import ProgramError, Task, execute, execute_nodes, execute_sequence
+from samplehd.language.executor import ProgramError, execute, execute_nodes, execute_sequence
 from samplehd.language.generator import GenerationResult, generate_instructions
 from samplehd.language.scene import Scene, parse_scene
 from samplehd.language.synthetic import synthetic_scene
+from samplehd.tasks.task import Task
 
 
 def _obj(name: str, colour: str, xy: tuple[float, float], parts: list[str]) -> dict:
@@ -43,7 +44,7 @@ def test_sample_hd_examples(kitchen: Scene) -> None:
     assert execute("place[left] scene filter_colour[red] filter_name[mug]", kitchen) == Task("place", (0,), "left")
     assert execute(
         "stack scene filter_colour[white] filter_name[plate] scene filter_name[baking_tray]", kitchen
-    ) == Task("stack", (1,), 2)
+    ) == Task("stack", (1,), reference=2)
     # SAMPLE-HD's "remove right": everything on the right goes to the left
     assert execute("place[left] scene filter_table[right]", kitchen) == Task("place", (0, 3), "left")
 
@@ -70,12 +71,12 @@ def test_node_format_matches_flat_format(kitchen: Scene) -> None:
 
 def test_new_families_in_flat_format(kitchen: Scene) -> None:
     task = execute("place_relative[behind] scene filter_colour[red] scene filter_name[plate]", kitchen)
-    assert task == Task("place_relative", (0,), 1, "behind")
+    assert task == Task("place_relative", (0,), reference=1, direction="behind")
     tower = execute(
         "stack_three scene filter_colour[red] scene filter_name[plate] scene filter_name[baking_tray]", kitchen
     )
-    assert tower == Task("stack_three", (1, 0), 2)  # plate first, then the mug on it
-    assert tower.targets == (1, 0, 2)
+    assert tower == Task("stack_three", (1, 0), reference=2)  # plate first, then the mug on it
+    assert tower.involved == (1, 0, 2)
 
 
 @pytest.mark.parametrize(
@@ -112,7 +113,7 @@ def _check(scene: Scene, result: GenerationResult) -> None:
         nodes_task = execute(list(inst.program), scene)
         flat_task = execute(" ".join(inst.program_sequence), scene)
         assert nodes_task == flat_task == inst.task
-        assert nodes_task.targets == inst.targets
+        assert nodes_task.involved == inst.targets
         assert len(set(inst.targets)) == len(inst.targets)
 
 
@@ -131,7 +132,7 @@ def test_programs_execute_property(seed: int, n: int) -> None:
 
 
 def test_task_round_trip() -> None:
-    t = Task("place_relative", (3,), 1, "left")
+    t = Task("place_relative", (3,), reference=1, direction="left")
     assert Task.from_dict(t.to_dict()) == t
     assert Task("place", (0, 2), "left").to_sample_hd() == {
         "name": "place",
@@ -139,4 +140,4 @@ def test_task_round_trip() -> None:
         "subjectString": ["left"],
         "subjectInt": -1,
     }
-    assert Task("stack", (1,), 4).to_sample_hd()["subjectInt"] == 4
+    assert Task("stack", (1,), reference=4).to_sample_hd()["subjectInt"] == 4

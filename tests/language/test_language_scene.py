@@ -90,7 +90,7 @@ def test_load_scenes_errors(tmp_path: Path) -> None:
     with pytest.raises(SceneError, match="no scenes.json"):
         load_scenes(tmp_path)
     (tmp_path / "broken.json").write_text("[1, 2")
-    with pytest.raises(SceneError, match="not valid JSON"):
+    with pytest.raises(SceneError, match="invalid JSON at line"):
         load_scenes(tmp_path)
 
 

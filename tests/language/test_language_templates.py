@@ -109,7 +109,7 @@ def test_malformed_template_fails_on_one_line(tmp_path: Path, data: dict, field:
 
 
 def test_bad_json_and_duplicate_names(tmp_path: Path) -> None:
-    with pytest.raises(TemplateError, match="not valid JSON"):
+    with pytest.raises(TemplateError, match="invalid JSON at line"):
         load_templates(_write(tmp_path, "{oops"), include_default=False)
     dup = copy.deepcopy(GOOD)
     dup["templates"][0]["name"] = "place_one"

@@ -8,6 +8,11 @@ import numpy as np
 import pytest
 
 from samplehd.cli import main
+from samplehd.dataset.container import read_episode
+from samplehd.dataset.layout import episode_name
+from samplehd.dataset.render import RenderConfig
+from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.world.seeding import episode_seed
 
 
 @pytest.fixture(scope="module")
@@ -28,8 +33,6 @@ def dataset(tmp_path_factory):
 
 
 def test_paths_then_replay(dataset, tmp_path, capsys):
-    from samplehd.record.recorder import read_episode_npz
-
     out = tmp_path / "paths"
     rc = main(["paths", "--scenes", str(dataset), "--instructions", str(dataset / "instructions.json"),
                "--out", str(out), "--cameras", "operator", "--modalities", "rgb,depth,segmentation",
@@ -40,14 +43,22 @@ def test_paths_then_replay(dataset, tmp_path, capsys):
     assert summary["by_family"]["stack"] == {"attempted": 2, "succeeded": 1, "first_try": 1}
     assert sum(summary["rejections"].values()) == 1
     assert "stack" in capsys.readouterr().out
-    ep = read_episode_npz(out / "episodes" / "episode_000000.npz")
-    assert ep.success and ep.family == "stack"
+    # the same HDF5 episode files as `samplehd generate`, named and seeded by the dataset's rule
+    files = sorted(p.name for p in (out / "episodes").iterdir())
+    assert files == [episode_name(0, 0)]
+    ep = read_episode(out / "episodes" / files[0], images="load")
+    assert ep.success and ep.family == "stack" and ep.seed == episode_seed(0, 0, 0)
     imgs = ep.images["operator"]
     assert imgs["rgb"].shape == (ep.num_frames, 36, 64, 3) and imgs["rgb"].dtype == np.uint8
     assert imgs["depth"].shape == (ep.num_frames, 36, 64) and imgs["segmentation"].shape == (ep.num_frames, 36, 64)
-    assert not (out / "episodes" / "episode_000001.npz").exists()
+    # its images are the states rendered again
+    again = RenderConfig("fast", 64, 36, ("operator",)).images(compile_scene(SceneSpec.from_dict(ep.info["scene"]))[0],
+                                                            ep.frames)
+    assert np.array_equal(again["operator"]["rgb"], imgs["rgb"])
+    results = [json.loads(line) for line in (out / "results.jsonl").read_text().splitlines()]
+    assert sorted(r["success"] for r in results) == [False, True]
     video = tmp_path / "e.mp4"
-    assert main(["replay", str(out / "episodes" / "episode_000000.npz"), "--out", str(video),
+    assert main(["replay", str(out / "episodes" / files[0]), "--out", str(video),
                  "--width", "64", "--height", "36"]) == 0
     assert video.stat().st_size > 1000
 
@@ -57,6 +68,6 @@ def test_bad_input_is_exit_2(dataset, tmp_path, capsys):
                  "--out", str(tmp_path / "o")]) == 2
     assert main(["paths", "--scenes", str(dataset), "--instructions", str(dataset / "instructions.json"),
                  "--out", str(tmp_path / "o"), "--modalities", "rgb,normals"]) == 2
-    assert main(["replay", str(tmp_path / "missing.npz"), "--out", str(tmp_path / "x.mp4")]) == 2
+    assert main(["replay", str(tmp_path / "missing.h5"), "--out", str(tmp_path / "x.mp4")]) == 2
     err = capsys.readouterr().err
     assert "error:" in err and "normals" in err

@@ -11,6 +11,7 @@ and the measured 2-worker scaling; the note of each figure says which.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import shutil
@@ -20,9 +21,17 @@ import time
 from pathlib import Path
 from typing import Any
 
-from samplehd.bench import Figure
+from samplehd.bench import Figure, print_figures
+from samplehd.dataset.config import GenerateConfig, preset_config
+from samplehd.dataset.container import read_episode, write_episode
+from samplehd.dataset.generate import generate_dataset
+from samplehd.dataset.journal import read_journal
+from samplehd.dataset.reader import DatasetReader
+from samplehd.dataset.render import RenderConfig
+from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.workers import Backend
 
-__all__ = ["bench_config", "container_sizes", "projection", "run"]
+__all__ = ["add_arguments", "bench_config", "container_sizes", "projection", "report", "run"]
 
 _MICRO: dict[str, Any] = {"num_scenes": 2, "seed": 0, "test_every": 2, "scene": {"min_objects": 3, "max_objects": 3},
                           "instructions": {"per_scene": 2}, "render": {"mode": "none"}}
@@ -30,8 +39,6 @@ _MICRO: dict[str, Any] = {"num_scenes": 2, "seed": 0, "test_every": 2, "scene": 
 
 def bench_config(mode: str = "none", width: int = 320, height: int = 180, scenes: int = 6, per_scene: int = 3) -> Any:
     """The benchmark's work set with the given render settings."""
-    from samplehd.dataset.config import GenerateConfig, preset_config
-
     d = json.loads(json.dumps(_MICRO))
     d["render"] = {"mode": mode, "width": width, "height": height}
     d["num_scenes"] = scenes
@@ -40,9 +47,6 @@ def bench_config(mode: str = "none", width: int = 320, height: int = 180, scenes
 
 
 def _generate(config: Any, workers: int, root: Path) -> tuple[float, int, Path]:
-    from samplehd.dataset.backend import Backend
-    from samplehd.dataset.generate import generate_dataset
-
     out = Path(tempfile.mkdtemp(dir=root)) / "ds"
     t0 = time.perf_counter()
     s = generate_dataset(out, config, Backend("local", workers))
@@ -57,8 +61,6 @@ def _dir_size(path: Path) -> tuple[int, int]:
 def container_sizes(dataset: Path) -> list[Figure]:
     """Bytes per 1000 frames and write frames/s of every episode of ``dataset`` in HDF5 (the format)
     and in a Zarr v3 directory store (Blosc zstd, one chunk per frame), when zarr is installed."""
-    from samplehd.dataset.container import write_episode
-    from samplehd.dataset.reader import DatasetReader
 
     reader = DatasetReader(dataset)
     eps = [reader.episode(i, images="load") for i in range(len(reader))]
@@ -126,12 +128,6 @@ def projection(unit_seconds: float, success_rate: float, scene_seconds: float, s
 
 def run(repeats: int = 3) -> list[Figure]:
     """Measure everything in the module docstring (about 6-10 minutes on 2 cores)."""
-    from samplehd.dataset.container import read_episode
-    from samplehd.dataset.journal import read_journal
-    from samplehd.dataset.reader import DatasetReader
-    from samplehd.dataset.render import RenderConfig, render_states
-    from samplehd.scene.spec import SceneSpec, compile_scene
-
     figures: list[Figure] = []
     root = Path(tempfile.mkdtemp(prefix="bench_dataset_"))
     try:
@@ -163,7 +159,7 @@ def run(repeats: int = 3) -> list[Figure]:
             ep = read_episode(reader.episode_path(i), images="none")
             model, _ = compile_scene(SceneSpec.from_dict(reader.scene(ep.scene_index)["spec"]))
             picks = list(range(0, ep.num_frames, max(1, ep.num_frames // 8)))[:8]
-            render_states(model, {k: v[picks] for k, v in ep.frames.items()}, RenderConfig("hd", 640, 360))
+            RenderConfig("hd", 640, 360).images(model, {k: v[picks] for k, v in ep.frames.items()})
             n += len(picks)
         hd_render = n / (time.perf_counter() - t0)
         figures.append(Figure("dataset", "hd rgb+depth+seg 640x360 render frames/s (from states)", hd_render, "1/s",
@@ -197,3 +193,39 @@ def run(repeats: int = 3) -> list[Figure]:
     finally:
         shutil.rmtree(root, ignore_errors=True)
     return figures
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``samplehd bench dataset``: the figures, or ``--project DIR`` from a bigger states-only run."""
+    parser.add_argument("--repeats", type=int, default=3, help="repeats per figure (medians)")
+    parser.add_argument("--json", type=Path, help="also write the figures here")
+    parser.add_argument("--project", type=Path, help="dataset dir of a bigger states-only run to project from")
+    parser.add_argument("--speedup", type=float, default=1.9, help="2-worker speedup for --project")
+
+
+def report(args: argparse.Namespace) -> int:
+    """Print the figures (or the projection of ``--project``)."""
+    if args.project:
+        _print_projection(args.project, args.speedup)
+        return 0
+    print_figures(run(args.repeats), args.json)
+    return 0
+
+
+def _print_projection(root: Path, speedup: float) -> None:
+    journal = read_journal(root)
+    runs = [json.loads(line) for line in (root / "runs.jsonl").read_text().splitlines()]
+    info = json.loads((root / "info.json").read_text())
+    key = "cpu_seconds" if all("cpu_seconds" in r for r in journal) else "seconds"
+    unit = statistics.mean(float(r[key]) for r in journal)
+    ok = sum(r["status"] == "ok" for r in journal) / len(journal)
+    frames = [int(r["num_frames"]) for r in journal if r["status"] == "ok"]
+    wall = sum(r["seconds"] for r in runs)
+    # scene stage wall time × its workers / scenes = seconds per scene on one worker
+    scene_s = sum(r["stage_seconds"]["scenes"] * r.get("workers", 1) for r in runs) / info["counts"]["scenes"]
+    p = projection(unit, ok, scene_s, speedup)
+    print(f"{root}: {len(journal)} path units, mean {unit:.2f} {key}/unit, success {ok:.1%}, "
+          f"{statistics.mean(frames):.0f} frames/episode, wall {wall:.0f} s for {info['counts']['scenes']} scenes")
+    print(f"sample-hd preset (2000 scenes, 8360 episodes, states only): {p['candidates']:.0f} candidates, "
+          f"serial {p['serial'] / 3600:.2f} h, here with 2 workers {p['here_2_workers'] / 3600:.2f} h, "
+          f"64-core Ray {p['ray_64_cores'] / 3600:.2f} h (2-worker speedup {speedup:.2f} assumed to hold)")

@@ -1,21 +1,27 @@
 """Environment throughput: ``samplehd/Tabletop-v0`` env steps/s per observation config.
 
 Configs (one camera, 20 Hz control, steering actions): ``state`` (no images), ``rgb128`` (RGB
-128×128) and ``rgbdseg256`` (RGB, depth and segmentation 256×256). The robosuite comparison lives in
-``benchmarks/bench_env.py`` (robosuite needs its own venv).
+128×128) and ``rgbdseg256`` (RGB, depth and segmentation 256×256). ``samplehd bench env
+--robosuite-python PY`` measures robosuite 1.5 side by side (it needs its own venv with mujoco 3.x).
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import os
 import statistics
+import subprocess
 import time
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from samplehd.bench import Figure
+from samplehd.envs.tabletop import TabletopEnv
 
-__all__ = ["CONFIGS", "measure", "run"]
+__all__ = ["CONFIGS", "add_arguments", "measure", "report", "robosuite_rates", "run"]
 
 CONFIGS: dict[str, dict[str, Any]] = {
     "state": {"obs_mode": "state"},
@@ -30,7 +36,6 @@ def measure(name: str, steps: int = 100, repeats: int = 3, seed: int = 0) -> dic
     Actions are small random steering commands (so the arm moves without crashing into the table);
     a terminated episode is reset outside the timed region.
     """
-    from samplehd.envs.tabletop import TabletopEnv
 
     env = TabletopEnv(control_mode="steering", num_scenes=1, scene_seed=seed, **CONFIGS[name])
     rng = np.random.default_rng(seed)
@@ -63,3 +68,54 @@ def run(repeats: int = 3) -> list[Figure]:
                               "Tabletop-v0, steering, 20 Hz, one camera, median"))
         figures.append(Figure("env", f"env reset s {name}", m["reset_s"], "s", "scene cached (pool of 1)"))
     return figures
+
+
+_ROBOSUITE_SCRIPT = Path(__file__).with_name("_robosuite_env.py")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``samplehd bench env``: steps/s per config, side by side with robosuite when its venv is given."""
+    parser.add_argument("--robosuite-python", help="python of a venv with robosuite (and mujoco 3.x)")
+    parser.add_argument("--repeats", type=int, default=3, help="repeats (interleaved with robosuite's)")
+    parser.add_argument("--steps", type=int, default=60, help="env steps per repeat")
+    parser.add_argument("--configs", nargs="+", default=list(CONFIGS), choices=list(CONFIGS))
+    parser.add_argument("--json", type=Path, help="also write the results here")
+
+
+def robosuite_rates(python: str, config: str, steps: int) -> dict[str, float]:
+    """robosuite's steps/s and reset time for one config, measured in its own venv."""
+    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    proc = subprocess.run([python, str(_ROBOSUITE_SCRIPT), "--configs", config, "--steps", str(steps),
+                           "--repeats", "1"], capture_output=True, text=True, env=env, check=True)
+    line = [s for s in proc.stdout.splitlines() if s.startswith("{")][-1]
+    return json.loads(line)[config]
+
+
+def report(args: argparse.Namespace) -> int:
+    """Median steps/s per config (and ratios to robosuite, measured interleaved in the same run)."""
+    results = {}
+    for name in args.configs:
+        ours, theirs, ours_reset, theirs_reset = [], [], [], []
+        for r in range(args.repeats):
+            m = measure(name, steps=args.steps, repeats=1, seed=r)
+            ours.append(m["steps_per_s"])
+            ours_reset.append(m["reset_s"])
+            if args.robosuite_python:
+                t = robosuite_rates(args.robosuite_python, name, args.steps)
+                theirs.append(t["steps_per_s"])
+                theirs_reset.append(t["reset_s"])
+        results[name] = {"samplehd_steps_per_s": statistics.median(ours),
+                         "samplehd_reset_s": statistics.median(ours_reset)}
+        if theirs:
+            ratios = [a / b for a, b in zip(ours, theirs, strict=True)]
+            results[name].update(robosuite_steps_per_s=statistics.median(theirs), ratio=statistics.median(ratios),
+                                 ratios=ratios, robosuite_reset_s=statistics.median(theirs_reset))
+    print(f"{'config':<12} {'samplehd':>10} {'robosuite':>10} {'ratio':>7}")
+    for name, r in results.items():
+        rs, ratio = r.get("robosuite_steps_per_s"), r.get("ratio")
+        print(f"{name:<12} {r['samplehd_steps_per_s']:>10.1f} {rs or float('nan'):>10.1f} "
+              f"{ratio or float('nan'):>6.2f}x")
+    if args.json:
+        args.json.parent.mkdir(parents=True, exist_ok=True)
+        args.json.write_text(json.dumps(results, indent=1) + "\n")
+    return 0

@@ -11,22 +11,27 @@ log-log slope of time per scene against object count: a polynomial cost gives a 
 
 from __future__ import annotations
 
+import argparse
+import json
 import statistics
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from samplehd.bench import Figure
+from samplehd.bench import Figure, pin_to_one_core
+from samplehd.language.descriptions import MODIFIER_KINDS, SceneDescriber
+from samplehd.language.generator import TemplateBalancer, generate_instructions
+from samplehd.language.instruction_file import generate_instruction_file
+from samplehd.language.scene import parse_scene
+from samplehd.language.synthetic import synthetic_scene, synthetic_scenes_file
 
-__all__ = ["bench_attribute_kinds", "bench_dataset", "bench_object_counts", "run"]
+__all__ = ["add_arguments", "bench_attribute_kinds", "bench_dataset", "bench_object_counts", "report", "run"]
 
 
 def _scenes(n_objects: int, count: int, seed: int) -> list[Any]:
-    from samplehd.language.scene import parse_scene
-    from samplehd.language.synthetic import synthetic_scene
-
     rng = np.random.default_rng([seed, n_objects])
     return [parse_scene(synthetic_scene(rng, n_objects, image_index=i)) for i in range(count)]
 
@@ -50,8 +55,6 @@ def bench_object_counts(
         describe_ms_per_scene, instructions}], "slope_ms_per_scene", "slope_describe"}`` (medians
         over ``repeats``; per-scene times are CPU time).
     """
-    from samplehd.language.descriptions import SceneDescriber
-    from samplehd.language.generator import TemplateBalancer, generate_instructions
 
     rows = []
     for n in object_counts:
@@ -101,7 +104,6 @@ def bench_attribute_kinds(n_objects: int = 10, scenes: int = 40, repeats: int = 
     Returns:
         ``{"rows": [{kinds, describe_ms_per_scene, relational_fraction}]}`` (medians).
     """
-    from samplehd.language.descriptions import MODIFIER_KINDS, SceneDescriber
 
     batch = _scenes(n_objects, scenes, seed)
     rows = []
@@ -139,8 +141,6 @@ def bench_dataset(
         ``{scenes, instructions, seconds (CPU), wall_seconds, instructions_per_s, reaches_8360,
         families}`` (medians).
     """
-    from samplehd.language.instruction_file import generate_instruction_file
-    from samplehd.language.synthetic import synthetic_scenes_file
 
     scenes = synthetic_scenes_file(np.random.default_rng(seed), n_scenes, min_objects, max_objects)["scenes"]
     times, walls, made = [], [], 0
@@ -210,3 +210,41 @@ def run(repeats: int = 3) -> list[Figure]:
         )
     )
     return figures
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``samplehd bench language``: instructions/s vs object count and modifier kinds, and the time of a
+    SAMPLE-HD-sized instruction set (one core)."""
+    parser.add_argument("--repeats", type=int, default=5, help="repeats per figure (medians)")
+    parser.add_argument("--scenes", type=int, default=2000, help="scenes for the dataset figure")
+    parser.add_argument("--per-count-scenes", type=int, default=40, help="scenes per object count")
+    parser.add_argument("--json", type=Path, help="also write the figures here")
+
+
+def report(args: argparse.Namespace) -> int:
+    """Print the language figures, pinned to one core."""
+    pin_to_one_core()
+    counts = bench_object_counts(scenes=args.per_count_scenes, repeats=args.repeats)
+    print("CPU time of this single-threaded process; the last column is the wall-clock rate")
+    print("objects  instructions/s  ms/scene (generate)  ms/scene (describe all)  instructions/wall-s")
+    for r in counts["rows"]:
+        print(
+            f"{r['objects']:>7}  {r['instructions_per_s']:>14.0f}  {r['ms_per_scene']:>19.2f}  "
+            f"{r['describe_ms_per_scene']:>23.3f}  {r['instructions_per_wall_s']:>19.0f}"
+        )
+    print(f"log-log slope: generate {counts['slope_ms_per_scene']:.2f}, describe {counts['slope_describe']:.2f}")
+    kinds = bench_attribute_kinds(repeats=args.repeats)
+    print("\nmodifier kinds (10 objects)  ms/scene (describe all)  relational descriptions")
+    for r in kinds["rows"]:
+        print(f"{r['kinds']:>27}  {r['describe_ms_per_scene']:>23.3f}  {r['relational_fraction']:>23.2f}")
+    data = bench_dataset(n_scenes=args.scenes, repeats=args.repeats)
+    print(
+        f"\n{data['instructions']} instructions for {data['scenes']} scenes of 3-5 objects in "
+        f"{data['seconds']:.2f} s CPU, {data['wall_seconds']:.2f} s wall (median of {args.repeats}; "
+        f"{data['instructions_per_s']:.0f}/s CPU; ≥8360: {data['reaches_8360']})"
+    )
+    print("per family:", data["families"])
+    if args.json:
+        args.json.write_text(json.dumps({"object_counts": counts, "attribute_kinds": kinds, "dataset": data},
+                                        indent=1))
+    return 0

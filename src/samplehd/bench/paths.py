@@ -1,153 +1,40 @@
-"""Ground-truth path figures and the small scene/task generator the motion tests use.
-
-:func:`simple_scene` places random catalogue objects upright on the workspace without overlap (the
-real sampler in ``samplehd.scene.sampler`` also checks occlusion and settles the objects);
-:func:`random_task` draws a task of a family whose objects satisfy the family's needs (graspable
-moved objects, a container that fits, a flat base, room in the destination). Both take an explicit
-generator, so the oracle statistics are reproducible from their seeds.
+"""Ground-truth path figures: episode frames/s, and the oracle success rate on scenes from the real
+sampler with instructions from the real generator (its language constraints decide which tasks a
+scene affords; nothing here re-implements them). Every draw comes from an explicit seed, so the
+oracle statistics are reproducible.
 """
 
 from __future__ import annotations
 
-import math
+import argparse
+import json
+import statistics
+import time
+from collections import Counter, defaultdict
 from typing import Any
 
+import mujoco
 import numpy as np
 
-from samplehd.world.layout import LAYOUT, OPPOSITE_PART, TABLE_PARTS, table_parts_of
+from samplehd.bench import Figure
+from samplehd.catalogue import ObjectInstance
+from samplehd.language.generator import generate_instructions
+from samplehd.motion.assist import compile_scene_with_assist
+from samplehd.record.paths import PathRejected, plan_and_execute
+from samplehd.render.renderer import MODALITIES
+from samplehd.render.states import render_states
+from samplehd.scene.annotate import annotate_scene
+from samplehd.scene.sampler import sample_scene
+from samplehd.scene.spec import SceneObject, SceneSpec
+from samplehd.workers import Backend
+from samplehd.world.layout import LAYOUT
 
-__all__ = ["oracle_success", "oracle_table", "random_task", "run", "simple_scene"]
-
-
-def _instance(rng: np.random.Generator, classes: list[str] | None = None) -> Any:
-    from samplehd.catalogue import ObjectInstance, load_catalogue
-
-    cat = load_catalogue()
-    names = classes or sorted(cat.classes)
-    cls = cat.object_class(str(rng.choice(names)))
-    variant = cls.variants[str(rng.choice(sorted(cls.variants)))]
-    pairs = [p for p in variant.menu.pairs] or [(c, m) for c in variant.menu.colour for m in variant.menu.material
-                                                  if cat.compatible(c, m)]
-    colour, material = pairs[int(rng.integers(len(pairs)))]
-    size = str(rng.choice(list(variant.menu.size)))
-    return ObjectInstance(cls.name, variant.name, colour, material, size)
-
-
-def simple_scene(rng: np.random.Generator, num_objects: int | None = None, index: int = 0, seed: int = 0,
-                 classes: list[str] | None = None) -> Any:
-    """A scene of 3–5 random objects standing upright, apart, inside the workspace.
-
-    Args:
-        rng: random generator.
-        num_objects: number of objects (default: 3–5 at random).
-        index: scene index.
-        seed: seed recorded in the scene.
-        classes: restrict to these classes.
-
-    Returns:
-        A ``samplehd.scene.spec.SceneSpec``.
-    """
-    from samplehd.catalogue import object_facts
-    from samplehd.scene.spec import SceneObject, SceneSpec
-
-    n = int(num_objects if num_objects is not None else rng.integers(3, 6))
-    placed: list[tuple[np.ndarray, float]] = []
-    objects = []
-    lo, hi = np.array(LAYOUT.workspace_min), np.array(LAYOUT.workspace_max)
-    for _ in range(200):
-        if len(objects) == n:
-            break
-        inst = _instance(rng, classes)
-        f = object_facts(inst)
-        r = float(f.footprint_radius)
-        for _try in range(60):
-            xy = rng.uniform(lo + 0.5 * r, hi - 0.5 * r)
-            if not LAYOUT.in_reach(xy):
-                continue
-            if all(np.linalg.norm(xy - p) > r + pr + 0.03 for p, pr in placed):
-                yaw = float(rng.uniform(-math.pi, math.pi))
-                placed.append((xy, r))
-                objects.append(SceneObject(inst, (float(xy[0]), float(xy[1]), LAYOUT.table_height),
-                                           (math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2))))
-                break
-    return SceneSpec(index=index, seed=seed, objects=tuple(objects))
-
-
-def random_task(scene: Any, family: str, rng: np.random.Generator) -> dict[str, Any] | None:
-    """A task dict of ``family`` on ``scene`` in the language executor's format, or None if the scene
-    has no suitable objects."""
-    from samplehd.catalogue import object_facts
-
-    facts = [object_facts(o.instance) for o in scene.objects]
-    pos = [np.asarray(o.pos[:2]) for o in scene.objects]
-    n = len(facts)
-    movable = [i for i in range(n) if facts[i].affordances.graspable and facts[i].graspable_sites]
-    if not movable:
-        return None
-    if family in ("place", "remove"):
-        if family == "remove":
-            parts = [p for p in TABLE_PARTS if any(p in table_parts_of(pos[i]) for i in range(n))]
-            rng.shuffle(parts)
-            for p in parts:
-                inside = [i for i in range(n) if p in table_parts_of(pos[i])]
-                if all(i in movable for i in inside):
-                    return {"type": "place", "objects": sorted(inside), "subject": OPPOSITE_PART[p]}
-            return None
-        part = str(rng.choice(TABLE_PARTS))
-        cand = [i for i in movable if part not in table_parts_of(pos[i])]
-        if not cand:
-            return None
-        k = 2 if len(cand) >= 2 and rng.random() < 0.3 else 1
-        return {"type": "place", "objects": sorted(int(i) for i in rng.choice(cand, size=k, replace=False)),
-                "subject": part}
-    if family == "pick_up":
-        return {"type": "pick_up", "objects": [int(rng.choice(movable))], "subject": None}
-    if family == "place_relative":
-        i = int(rng.choice(movable))
-        ref = int(rng.choice([j for j in range(n) if j != i]))
-        rel = str(rng.choice(["left", "right", "front", "behind"]))
-        return {"type": "place_relative", "objects": [i], "subject": ref, "relation": rel}
-    if family == "put":
-        pairs = [(i, c) for i in movable for c in range(n) if c != i and facts[c].opening is not None
-                 and facts[c].affordances.container and facts[i].footprint_radius < 0.8 * facts[c].opening.radius]
-        if not pairs:
-            return None
-        i, c = pairs[int(rng.integers(len(pairs)))]
-        return {"type": "put", "objects": [i], "subject": c}
-    if family == "stack":
-        pairs = [(i, b) for i in movable for b in range(n) if b != i and facts[b].affordances.stackable_on
-                 and facts[i].affordances.stackable and facts[b].top.flat]
-        if not pairs:
-            return None
-        i, b = pairs[int(rng.integers(len(pairs)))]
-        return {"type": "stack", "objects": [i], "subject": b}
-    if family == "stack_three":
-        bases = [b for b in range(n) if facts[b].affordances.stackable_on and facts[b].top.flat]
-        for b in rng.permutation(bases) if bases else []:
-            mids = [m for m in movable if m != b and facts[m].affordances.stackable
-                    and facts[m].affordances.stackable_on and facts[m].top.flat]
-            for m in rng.permutation(mids) if mids else []:
-                tops = [t for t in movable if t not in (b, m) and facts[t].affordances.stackable]
-                if tops:
-                    return {"type": "stack_three", "objects": [int(m), int(rng.choice(tops))], "subject": int(b)}
-        return None
-    raise ValueError(f"unknown family {family!r}")
+__all__ = ["add_arguments", "oracle_success", "oracle_table", "report", "run"]
 
 
 def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> list[dict[str, Any]]:
     """Sample one scene with the real sampler, generate instructions with the real generator
     (families balanced), and run the oracle on each; returns one result dict per instruction."""
-    import time
-
-    import mujoco
-
-    import samplehd  # noqa: F401
-    from samplehd.language.generator import generate_instructions
-    from samplehd.motion.assist import compile_scene_with_assist as compile_scene
-    from samplehd.record.paths import PathRejected, plan_and_execute
-    from samplehd.scene.annotate import annotate_scene
-    from samplehd.scene.sampler import sample_scene
-
     index, seed, per_scene, out, families = args
     results = []
     try:
@@ -155,7 +42,7 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> li
     except Exception as exc:  # noqa: BLE001 - a scene the sampler cannot make is skipped, counted
         return [{"scene": index, "family": "-", "success": False, "reason": f"scene: {exc}", "skipped": True}]
     scene = sampled.scene
-    model, data = compile_scene(scene)
+    model, data = compile_scene_with_assist(scene)
     start = mujoco.MjData(model)
     mujoco.mj_copyData(start, model, data)
     ann = annotate_scene(scene, model, data, 640, 360)
@@ -165,11 +52,12 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> li
         mujoco.mj_copyData(data, model, start)
         t0 = time.perf_counter()
         r: dict[str, Any] = {"scene": index, "instruction": k, "family": ins.family, "text": ins.text,
-                             "task": ins.task.to_dict(),
+                             "task": ins.task.to_program_dict(),
                              "classes": [scene.objects[i].instance.class_name for i in ins.targets]}
         try:
-            ep = plan_and_execute(scene, ins.task.to_dict(), np.random.default_rng([seed, k]), family=ins.family,
-                                  instruction_index=k, directions=ann["directions"], compiled=(model, data))
+            ep = plan_and_execute(scene, ins.task.to_program_dict(), np.random.default_rng([seed, k]),
+                                  family=ins.family, instruction_index=k, directions=ann["directions"],
+                                  compiled=(model, data))
             r.update(success=True, attempts=ep.info["attempts"], frames=ep.num_frames,
                      failed=[a["reason"] for a in ep.info["failed_attempts"]],
                      disturbed=ep.info["check"]["disturbed"], fallen=ep.info["check"]["fallen"])
@@ -179,8 +67,6 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> li
         r["seconds"] = time.perf_counter() - t0
         results.append(r)
         if out:
-            import json
-
             with open(out, "a", encoding="utf-8") as f:
                 f.write(json.dumps(r) + "\n")
     return results
@@ -201,25 +87,15 @@ def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers:
     Returns:
         One dict per instruction: family, success, attempts, frames, reason, seconds.
     """
-    import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor
-
     jobs = [(i, base_seed + i, per_scene, out, families) for i in range(num_scenes)]
     results: list[dict[str, Any]] = []
-    if workers <= 1:
-        for j in jobs:
-            results += _oracle_scene(j)
-        return results
-    with ProcessPoolExecutor(workers, mp_context=mp.get_context("spawn")) as pool:
-        for rs in pool.map(_oracle_scene, jobs, chunksize=1):
-            results += rs
+    for _, rs in Backend(workers=workers).map(_oracle_scene, jobs):
+        results += rs
     return results
 
 
 def oracle_table(results: list[dict[str, Any]]) -> str:
     """Per family: attempted, first-try and final success rates, and failure reasons."""
-    from collections import Counter, defaultdict
-
     by: dict[str, Counter] = defaultdict(Counter)
     for r in results:
         if r.get("skipped"):
@@ -245,10 +121,7 @@ def oracle_table(results: list[dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def _bench_scene() -> Any:
-    from samplehd.catalogue import ObjectInstance
-    from samplehd.scene.spec import SceneObject, SceneSpec
-
+def _bench_scene() -> SceneSpec:
     up = (1.0, 0.0, 0.0, 0.0)
     t = LAYOUT.table_height
     return SceneSpec(index=0, seed=0, objects=(
@@ -259,19 +132,13 @@ def _bench_scene() -> Any:
     ))
 
 
-def run(repeats: int = 3) -> list[Any]:
+def run(repeats: int = 3) -> list[Figure]:
     """Episode frames/s: state-only, and with ``fast`` RGB+depth+segmentation at 320×180 and 640×360.
 
     One place episode (about 250 frames at 20 Hz) of a 4-object scene; frames/s counts planning,
     physics, recording and the checker, plus rendering every frame from the operator camera.
     """
-    import statistics
-    import time
 
-    from samplehd.bench import Figure
-    from samplehd.motion.assist import compile_scene_with_assist
-    from samplehd.record.paths import plan_and_execute
-    from samplehd.record.replay import render_episode
 
     scene = _bench_scene()
     task = {"type": "place", "objects": [1], "subject": "left"}
@@ -288,7 +155,7 @@ def run(repeats: int = 3) -> list[Any]:
         rates["cpu state"].append(frames / sim_cpu)
         for w, h in ((320, 180), (640, 360)):
             t1, c1 = time.perf_counter(), time.process_time()
-            render_episode(model, ep, ("operator",), ("rgb", "depth", "segmentation"), w, h, "fast")
+            render_states(model, ep.frames, ("operator",), MODALITIES, w, h, "fast")
             rates[f"{w}x{h}"].append(frames / (sim + time.perf_counter() - t1))
             rates[f"cpu {w}x{h}"].append(frames / (sim_cpu + time.process_time() - c1))
     note = f"place episode, {frames} frames, 20 Hz control / 500 Hz physics, operator camera"
@@ -302,3 +169,39 @@ def run(repeats: int = 3) -> list[Any]:
         Figure("paths", "episode frames/CPU-s rgb+depth+seg 320x180 fast", med["cpu 320x180"], "1/s", cpu_note),
         Figure("paths", "episode frames/CPU-s rgb+depth+seg 640x360 fast", med["cpu 640x360"], "1/s", cpu_note),
     ]
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``samplehd bench paths speed|oracle|table``: episode frames/s, or the oracle success rate on real
+    sampled scenes and generated instructions (``table`` re-reads an oracle run's JSONL)."""
+    parser.add_argument("what", choices=["speed", "oracle", "table"])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--scenes", type=int, default=70)
+    parser.add_argument("--seed", type=int, default=5000)
+    parser.add_argument("--per-scene", type=int, default=5)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--families", nargs="+", default=None, help="oracle: only these families")
+    parser.add_argument("--out", default="", help="JSONL of per-instruction results (oracle: written, table: read)")
+
+
+def report(args: argparse.Namespace) -> int:
+    """Print the chosen figures."""
+    if args.what == "speed":
+        for f in run(args.repeats):
+            print(f"{f.name:48s} {f.value:10.1f} {f.unit}   ({f.note})")
+        return 0
+    if args.what == "oracle":
+        families = tuple(args.families) if args.families else None
+        results = oracle_success(args.scenes, args.seed, args.per_scene, args.workers, args.out, families)
+    else:
+        with open(args.out, encoding="utf-8") as f:
+            results = [json.loads(line) for line in f]
+    print(oracle_table(results))
+    frames: dict[str, list[int]] = defaultdict(list)
+    for r in results:
+        if r.get("success"):
+            frames[r["family"]].append(int(r["frames"]))
+    print("frames per episode (mean, at 20 Hz):")
+    for fam, v in sorted(frames.items()):
+        print(f"  {fam:15s} {sum(v) / len(v):7.1f}  (n={len(v)})")
+    return 0

@@ -3,16 +3,15 @@
 from __future__ import annotations
 
 from samplehd.bench import Figure, median_rate
+from samplehd.render.renderer import MODALITIES, SceneRenderer
+from samplehd.scene.world import compile_world
 
 RESOLUTIONS = ((320, 180), (640, 360), (1280, 720))
-MODALITY_SETS = (("rgb",), ("depth",), ("segmentation",), ("rgb", "depth", "segmentation"))
+MODALITY_SETS = (*((m,) for m in MODALITIES), MODALITIES)
 
 
 def run(repeats: int = 3) -> list[Figure]:
     """Frames/s of the kitchen world with the robot, from the operator camera."""
-    from samplehd.render.renderer import SceneRenderer
-    from samplehd.scene.world import compile_world
-
     model, data = compile_world()
     figures = []
     for preset in ("fast", "hd"):

@@ -7,22 +7,28 @@ same world with the arm moving, both measured in the same run, alternating, medi
 
 from __future__ import annotations
 
+import argparse
+import json
 import statistics
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from samplehd.bench import Figure
-from samplehd.robot.constants import HOME_QPOS, JOINT_NAMES, POSITION_ACTUATORS, VELOCITY_ACTUATORS
+from samplehd.bench import Figure, pin_to_one_core
+from samplehd.robot.constants import HOME_QPOS, JOINT_NAMES, POSITION_ACTUATORS, TCP_OFFSET, VELOCITY_ACTUATORS
 from samplehd.robot.controller import ACTION_MODES, ControlConfig, RobotController
-from samplehd.robot.kinematics import fk_tcp, ik_batch, inverse_kinematics, pos_quat_from_pose
+from samplehd.robot.kinematics import fk_tcp, forward_kinematics, ik_batch, inverse_kinematics, pos_quat_from_pose
+from samplehd.scene.world import compile_world
 
 __all__ = [
+    "add_arguments",
     "control_steps_per_second",
     "ik_solves_per_second",
     "physics_steps_per_second",
+    "report",
     "robot_world",
     "run",
 ]
@@ -30,8 +36,6 @@ __all__ = [
 
 def robot_world() -> tuple[mujoco.MjModel, mujoco.MjData]:
     """The kitchen world with the robot and no objects (arm at home)."""
-    from samplehd.scene.world import compile_world
-
     return compile_world()
 
 
@@ -161,8 +165,6 @@ def ik_solves_per_second(count: int = 20000, repeats: int = 5, seed: int = 0) ->
     rng = np.random.default_rng(seed)
     q = rng.uniform(-np.pi, np.pi, (count, 6))
     seeds = rng.uniform(-np.pi, np.pi, (count, 6))
-    from samplehd.robot.constants import TCP_OFFSET
-    from samplehd.robot.kinematics import forward_kinematics
 
     poses = forward_kinematics(q, TCP_OFFSET)
     n_single = min(count, 5000)
@@ -198,3 +200,34 @@ def run(repeats: int = 3) -> list[Figure]:
     figures.append(Figure("robot", "IK solves/s single", ik["single"], "1/s", "inverse_kinematics, one core"))
     figures.append(Figure("robot", "IK solves/s batch", ik["batch"], "1/s", "ik_batch 20k poses, one core"))
     return figures
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """``samplehd bench robot``: physics steps/s, control steps/s per action mode, IK solves/s (one core)."""
+    parser.add_argument("--repeats", type=int, default=5, help="repeats per figure (medians)")
+    parser.add_argument("--json", type=Path, help="also write the figures here")
+
+
+def report(args: argparse.Namespace) -> int:
+    """Print the robot figures, pinned to one core."""
+    pin_to_one_core(last=True)
+    model, data = robot_world()
+    phys = physics_steps_per_second(model, data, repeats=args.repeats)
+    print("physics steps/s, kitchen world, arm moving (raw mj_step):")
+    print(f"  mj_step once per step      {phys['python_loop']:>10,.0f}")
+    print(f"  mj_step(model, data, 25)   {phys['nstep_25']:>10,.0f}")
+    control = control_steps_per_second(model, data, repeats=args.repeats)
+    print("control at 20 Hz, physics 500 Hz, safety monitor on:")
+    print(f"  {'mode':<16} {'control/s':>10} {'physics/s':>10} {'/raw nstep':>10} {'/raw loop':>10}")
+    for mode, f in control.items():
+        print(
+            f"  {mode:<16} {f['control_steps']:>10,.0f} {f['physics_steps']:>10,.0f} "
+            f"{f['ratio_nstep']:>10.2f} {f['ratio_python_loop']:>10.2f}"
+        )
+    ik = ik_solves_per_second(repeats=args.repeats)
+    print("analytic IK (TCP, random reachable poses and seeds, one core):")
+    print(f"  single pose  {ik['single']:>10,.0f} solves/s")
+    print(f"  batch        {ik['batch']:>10,.0f} solves/s")
+    if args.json:
+        args.json.write_text(json.dumps({"physics": phys, "control": control, "ik": ik}, indent=2))
+    return 0

@@ -9,14 +9,13 @@ from collections import Counter
 from pathlib import Path
 
 from samplehd.bench import Figure
+from samplehd.scene.generate import generate_scenes
+from samplehd.scene.sampler import sample_scene
+from samplehd.world.seeding import scene_seed
 
 
 def run(repeats: int = 3, num: int = 8, stats_scenes: int = 100) -> list[Figure]:
     """Scenes/s end to end (sample, settle, occlusion check, render, annotate, write)."""
-    from samplehd.scene.generate import generate_scenes
-    from samplehd.scene.sampler import sample_scene
-    from samplehd.world.seeding import scene_seed
-
     figures = []
     for preset in ("fast", "hd"):
         for workers in (1, 2):

@@ -30,7 +30,7 @@ from samplehd.catalogue.geometry import (
     build_geometry,
 )
 from samplehd.catalogue.instance import ObjectInstance
-from samplehd.catalogue.loader import load_catalogue, read_catalogue
+from samplehd.catalogue.loader import catalogue_for, load_catalogue, read_catalogue
 from samplehd.catalogue.menu import apply_menu_overrides, validate_menu_overrides
 from samplehd.catalogue.model import (
     PROPERTIES,
@@ -71,6 +71,7 @@ __all__ = [
     "add_object",
     "apply_menu_overrides",
     "build_geometry",
+    "catalogue_for",
     "instance_geometry",
     "load_catalogue",
     "mass_of",

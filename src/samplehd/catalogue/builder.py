@@ -25,9 +25,10 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from samplehd.catalogue.facts import _catalogue, mass_of
+from samplehd.catalogue.facts import mass_of
 from samplehd.catalogue.geometry import ObjectGeometry, build_geometry
 from samplehd.catalogue.instance import ObjectInstance
+from samplehd.catalogue.loader import resolve_catalogue
 from samplehd.catalogue.model import Catalogue, Colour, Material
 from samplehd.catalogue.textures import wood_grain
 from samplehd.errors import AssetError
@@ -73,7 +74,7 @@ def add_object(
     Raises:
         AssetError: the instance is invalid or a body called ``name`` already exists.
     """
-    cat = _catalogue(catalogue)
+    cat = resolve_catalogue(catalogue, (instance.class_name,))
     instance.validate(cat)
     if spec.body(name) is not None:
         raise AssetError(f"add_object: a body named {name!r} already exists in the spec")

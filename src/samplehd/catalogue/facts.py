@@ -6,7 +6,7 @@ include the instance's size factor. Transform them with the body pose to get wor
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -21,6 +21,7 @@ from samplehd.catalogue.geometry import (
     build_geometry,
 )
 from samplehd.catalogue.instance import ObjectInstance
+from samplehd.catalogue.loader import resolve_catalogue
 from samplehd.catalogue.model import Affordances, Catalogue, MassModel, Material
 
 __all__ = ["ObjectFacts", "instance_geometry", "mass_of", "object_facts"]
@@ -90,8 +91,6 @@ class ObjectFacts:
 
     def to_dict(self) -> dict:
         """Return the facts as a JSON-ready dict (tuples become lists)."""
-        from dataclasses import asdict
-
         d = asdict(self)
         d["instance"] = self.instance.to_dict()
         return _lists(d)
@@ -110,9 +109,9 @@ def instance_geometry(instance: ObjectInstance, catalogue: Catalogue | None = No
 
     Args:
         instance: the object.
-        catalogue: catalogue to look it up in (default: :func:`load_catalogue`).
+        catalogue: catalogue to look it up in (default: built-in plus the instance's class if imported).
     """
-    cat = _catalogue(catalogue)
+    cat = resolve_catalogue(catalogue, (instance.class_name,))
     variant = cat.object_class(instance.class_name).variant(instance.variant)
     return build_geometry(variant.geometry, cat.size(instance.size).scale)
 
@@ -138,12 +137,12 @@ def object_facts(instance: ObjectInstance, catalogue: Catalogue | None = None) -
 
     Args:
         instance: the object.
-        catalogue: catalogue to look it up in (default: :func:`load_catalogue`).
+        catalogue: catalogue to look it up in (default: built-in plus the instance's class if imported).
 
     Raises:
         AssetError: the instance names something the catalogue does not know.
     """
-    cat = _catalogue(catalogue)
+    cat = resolve_catalogue(catalogue, (instance.class_name,))
     return _facts(instance, cat)
 
 
@@ -182,11 +181,3 @@ def _facts(instance: ObjectInstance, cat: Catalogue) -> ObjectFacts:
         friction=material.friction,
         num_collision_pieces=len(g.pieces),
     )
-
-
-def _catalogue(catalogue: Catalogue | None) -> Catalogue:
-    if catalogue is not None:
-        return catalogue
-    from samplehd.catalogue.loader import load_catalogue
-
-    return load_catalogue()

@@ -34,7 +34,17 @@ import manifold3d as mf
 import numpy as np
 from scipy.spatial import ConvexHull
 
+from samplehd.catalogue.imported import load_imported_geometry
 from samplehd.catalogue.schema import Field
+from samplehd.catalogue.shape import (
+    CollisionPiece,
+    GraspSite,
+    ObjectGeometry,
+    Opening,
+    TopSurface,
+    planar_texcoords,
+    scale_tuple,
+)
 from samplehd.robot.constants import GRIPPER_STROKE
 
 __all__ = [
@@ -211,136 +221,6 @@ class ImportedSpec:
 GeometrySpec = RevolvedSpec | BoxSpec | TraySpec | BoardSpec | CutlerySpec | ScissorsSpec | ImportedSpec
 
 
-# ---------------------------------------------------------------- results
-@dataclass(frozen=True, eq=False)
-class CollisionPiece:
-    """One convex collision shape in the object frame.
-
-    Attributes:
-        kind: "box" or "mesh".
-        pos: box centre [m] (meshes: zeros, vertices are in the object frame).
-        quat: box orientation (w, x, y, z).
-        half_extents: box half sizes [m].
-        vertices: (n, 3) convex mesh points [m] (boxes: empty).
-        volume: volume of the piece [m^3].
-    """
-
-    kind: str
-    pos: tuple[float, float, float]
-    quat: tuple[float, float, float, float]
-    half_extents: tuple[float, float, float]
-    vertices: np.ndarray
-    volume: float
-
-
-@dataclass(frozen=True)
-class GraspSite:
-    """Where the gripper can hold an object (a hint for the grasp planner).
-
-    Attributes:
-        name: "body", "rim", "handle" or "edge".
-        position: grasp centre in the object frame [m].
-        approach: unit vector along which the gripper moves in to grasp (object frame).
-        closing: unit vector along which the fingers close (object frame).
-        width: extent of the object between the fingers [m].
-        axisymmetric: the site may be rotated freely about the object's z axis.
-    """
-
-    name: str
-    position: tuple[float, float, float]
-    approach: tuple[float, float, float]
-    closing: tuple[float, float, float]
-    width: float
-    axisymmetric: bool = False
-
-    def scaled(self, s: float) -> GraspSite:
-        """Return the site for the object scaled by ``s``."""
-        return GraspSite(
-            self.name, _mul(self.position, s), self.approach, self.closing, self.width * s, self.axisymmetric
-        )
-
-
-@dataclass(frozen=True)
-class TopSurface:
-    """The surface another object placed on this one rests on.
-
-    Attributes:
-        height: z of the surface [m].
-        center: (x, y) of its centre [m].
-        half_extents: (x, y) half sizes of the usable area; equal for round surfaces [m].
-        round: the area is a disc of radius half_extents[0].
-        flat: the surface is flat and large enough (>= 2 cm across) to support another object.
-    """
-
-    height: float
-    center: tuple[float, float]
-    half_extents: tuple[float, float]
-    round: bool
-    flat: bool
-
-    def scaled(self, s: float) -> TopSurface:
-        """Return the surface of the object scaled by ``s``."""
-        return TopSurface(self.height * s, _mul(self.center, s), _mul(self.half_extents, s), self.round, self.flat)
-
-
-@dataclass(frozen=True)
-class Opening:
-    """The inside of a container.
-
-    Attributes:
-        radius: radius of the largest disc that passes through the opening [m].
-        floor_height: z of the inner floor [m].
-        depth: from the inner floor to the rim [m].
-        center: (x, y) of the opening [m].
-    """
-
-    radius: float
-    floor_height: float
-    depth: float
-    center: tuple[float, float] = (0.0, 0.0)
-
-    def scaled(self, s: float) -> Opening:
-        """Return the opening of the object scaled by ``s``."""
-        return Opening(self.radius * s, self.floor_height * s, self.depth * s, _mul(self.center, s))
-
-
-@dataclass(frozen=True, eq=False)
-class ObjectGeometry:
-    """Geometry of one (class, variant, size): meshes, collision pieces and shape facts.
-
-    Attributes:
-        vertices: (n, 3) visual mesh vertices [m].
-        faces: (m, 3) visual mesh triangles (counter-clockwise seen from outside).
-        texcoords: (n, 2) texture coordinates per vertex (planar wood-grain mapping).
-        pieces: convex collision pieces.
-        volume: volume of the modelled material (the visual mesh) [m^3].
-        area: surface area of the visual mesh [m^2].
-        top: surface that supports an object placed on this one.
-        opening: inside of the container, if the shape is open at the top.
-        grasps: grasp sites, best first.
-    """
-
-    vertices: np.ndarray
-    faces: np.ndarray
-    texcoords: np.ndarray
-    pieces: tuple[CollisionPiece, ...]
-    volume: float
-    area: float
-    top: TopSurface
-    opening: Opening | None
-    grasps: tuple[GraspSite, ...]
-
-    @property
-    def pieces_volume(self) -> float:
-        """Total volume of the collision pieces [m^3]."""
-        return float(sum(p.volume for p in self.pieces))
-
-
-def _mul(t: tuple[float, ...], s: float) -> tuple[float, ...]:
-    return tuple(float(v) * s for v in t)
-
-
-# ---------------------------------------------------------------- parsing
 def parse_geometry(f: Field, registry_dir: Path | None = None) -> GeometrySpec:
     """Validate a ``geometry`` object from a class file and return its spec.
 
@@ -511,7 +391,9 @@ def _build_scaled(spec: GeometrySpec, scale: float) -> ObjectGeometry:
         return g
     s = scale
     pieces = tuple(
-        CollisionPiece(p.kind, _mul(p.pos, s), p.quat, _mul(p.half_extents, s), p.vertices * s, p.volume * s**3)
+        CollisionPiece(
+            p.kind, scale_tuple(p.pos, s), p.quat, scale_tuple(p.half_extents, s), p.vertices * s, p.volume * s**3
+        )
         for p in g.pieces
     )
     out = ObjectGeometry(
@@ -532,9 +414,7 @@ def _build_scaled(spec: GeometrySpec, scale: float) -> ObjectGeometry:
 @lru_cache(maxsize=128)
 def _build_base(spec: GeometrySpec) -> ObjectGeometry:
     if isinstance(spec, ImportedSpec):
-        from samplehd.catalogue.importer import load_imported_geometry
-
-        g = load_imported_geometry(spec)
+        g = load_imported_geometry(spec.path)
     else:
         g = _BUILDERS[type(spec)](spec)
     _freeze(g)
@@ -567,17 +447,6 @@ def _finish(
         opening=opening,
         grasps=tuple(grasps),
     )
-
-
-def planar_texcoords(vertices: np.ndarray, repeat: float = 0.3) -> np.ndarray:
-    """Texture coordinates for wood grain: grain runs along x, rings vary with y and z.
-
-    Args:
-        vertices: (n, 3) points [m].
-        repeat: length covered by one copy of the texture [m].
-    """
-    v = np.asarray(vertices, dtype=np.float64)
-    return np.stack([v[:, 0] / repeat, (v[:, 1] + 0.6 * v[:, 2]) / repeat], axis=1)
 
 
 def _mesh_piece(points: np.ndarray) -> CollisionPiece:

@@ -22,35 +22,32 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
-from samplehd.catalogue.geometry import (
-    GRIPPER_STROKE,
-    CollisionPiece,
-    GraspSite,
-    ImportedSpec,
-    ObjectGeometry,
-    TopSurface,
-    planar_texcoords,
-)
+from samplehd.catalogue.geometry import GRIPPER_STROKE
+from samplehd.catalogue.loader import load_catalogue, make_menu, parse_class
 from samplehd.catalogue.model import Catalogue, ObjectClass
 from samplehd.catalogue.registry import cache_dir, refresh, registry_dir
-from samplehd.catalogue.schema import is_identifier
-from samplehd.errors import AssetError
+from samplehd.catalogue.schema import Field, is_identifier, read_json
+from samplehd.catalogue.shape import GraspSite, TopSurface
+from samplehd.errors import AssetError, require_extra
+from samplehd.fileio import file_sha256
+
+# The mesh extra: importing meshes is the only thing that needs trimesh's readers.
+trimesh = require_extra("trimesh", "mesh", "samplehd assets import")
+require_extra("coacd", "mesh", "samplehd assets import")  # runs in a child process; fail here, in one line
 
 __all__ = [
     "MESH_SUFFIXES",
     "ImportOptions",
     "decompose",
     "import_mesh",
-    "load_imported_geometry",
     "normalise_mesh",
     "read_mesh",
-    "remove_imported",
 ]
 
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".glb")
@@ -188,14 +185,6 @@ def decompose(mesh: trimesh.Trimesh, options: ImportOptions, source: str = "mesh
     return pieces
 
 
-def _hash_file(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _cached_decomposition(
     mesh: trimesh.Trimesh, key: str, options: ImportOptions, source: str
 ) -> tuple[list[np.ndarray], bool]:
@@ -297,11 +286,6 @@ def import_mesh(
     Raises:
         AssetError: bad name, unreadable/empty mesh, implausible size, unknown colour/material/size.
     """
-    import time
-
-    from samplehd.catalogue.loader import load_catalogue, make_menu, parse_class
-    from samplehd.catalogue.schema import Field, read_json
-
     t0 = time.perf_counter()
     options = options or ImportOptions()
     cat = catalogue or load_catalogue()
@@ -326,7 +310,7 @@ def import_mesh(
     src = Path(path)
     raw = read_mesh(src)
     mesh = normalise_mesh(clean_mesh(raw, str(src)), options, str(src))
-    digest = _hash_file(src)
+    digest = file_sha256(src)
     params = json.dumps(
         {
             "v": _DECOMPOSITION_VERSION,
@@ -392,7 +376,7 @@ def import_mesh(
             piece_counts=np.array([len(p) for p in pieces], np.int64),
             piece_points=np.vstack(pieces),
         )
-        npz_digest = _hash_file(tmp / "geometry.npz")
+        npz_digest = file_sha256(tmp / "geometry.npz")
         entry["variants"]["default"]["geometry"]["digest"] = npz_digest
         (tmp / "geometry.json").write_text(json.dumps(meta, indent=1) + "\n")
         (tmp / "class.json").write_text(json.dumps(entry, indent=1) + "\n")
@@ -406,7 +390,7 @@ def import_mesh(
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     refresh()
-    cls = load_catalogue().object_class(name)
+    cls = load_catalogue((name,)).object_class(name)
     report = {
         "name": name,
         "pieces": len(pieces),
@@ -418,67 +402,3 @@ def import_mesh(
         "registry": str(target),
     }
     return cls, report
-
-
-def remove_imported(name: str) -> None:
-    """Delete an imported class from the registry.
-
-    Raises:
-        AssetError: no imported class of that name.
-    """
-    target = registry_dir() / name
-    if not is_identifier(name) or not (target / "class.json").is_file():
-        raise AssetError(f"no imported class named {name!r} in {registry_dir()}")
-    shutil.rmtree(target)
-    refresh()
-
-
-def load_imported_geometry(spec: ImportedSpec) -> ObjectGeometry:
-    """Load the geometry of an imported class from its ``geometry.npz`` and ``geometry.json``.
-
-    Raises:
-        AssetError: the files are missing or damaged (re-import the mesh).
-    """
-    path = Path(spec.path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            vertices = np.asarray(z["vertices"], np.float64)
-            faces = np.asarray(z["faces"], np.int32)
-            counts = np.asarray(z["piece_counts"], np.int64)
-            points = np.asarray(z["piece_points"], np.float64)
-        meta = json.loads(path.with_suffix(".json").read_text())
-        pieces = []
-        for pts in np.split(points, np.cumsum(counts)[:-1]):
-            hull = trimesh.convex.convex_hull(pts)
-            pieces.append(
-                CollisionPiece(
-                    "mesh",
-                    (0.0, 0.0, 0.0),
-                    (1.0, 0.0, 0.0, 0.0),
-                    (0.0, 0.0, 0.0),
-                    np.asarray(hull.vertices, np.float64),
-                    float(hull.volume),
-                )
-            )
-        t = meta["top"]
-        top = TopSurface(t["height"], tuple(t["center"]), tuple(t["half_extents"]), False, bool(t["flat"]))
-        grasps = tuple(
-            GraspSite(g["name"], tuple(g["position"]), tuple(g["approach"]), tuple(g["closing"]), g["width"])
-            for g in meta["grasps"]
-        )
-        mesh = trimesh.Trimesh(vertices, faces, process=False)
-        area = float(mesh.area)
-        volume = float(meta["volume"])
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise AssetError(f"{path}: damaged imported geometry ({exc}); re-import the mesh") from None
-    return ObjectGeometry(
-        vertices=vertices,
-        faces=faces,
-        texcoords=planar_texcoords(vertices),
-        pieces=tuple(pieces),
-        volume=volume,
-        area=area,
-        top=top,
-        opening=None,
-        grasps=grasps,
-    )

@@ -6,6 +6,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from samplehd.catalogue.loader import resolve_catalogue
 from samplehd.catalogue.model import Catalogue
 from samplehd.errors import AssetError
 
@@ -47,10 +48,7 @@ class ObjectInstance:
         Raises:
             AssetError: an unknown name or a colour that does not go with the material.
         """
-        if catalogue is None:
-            from samplehd.catalogue.loader import load_catalogue
-
-            catalogue = load_catalogue()
+        catalogue = resolve_catalogue(catalogue, (self.class_name,))
         catalogue.object_class(self.class_name).variant(self.variant)
         catalogue.colour(self.colour)
         catalogue.material(self.material)

@@ -7,7 +7,9 @@ Files (in ``samplehd/catalogue/data`` unless another directory is given):
     classes.json    ``{"format": 1, "classes": {name: {description, affordances, mass, variants, menu}}}``
 
 Imported classes live in the user registry (see :mod:`samplehd.catalogue.registry`), one
-``<name>/class.json`` each with the same layout as one entry of ``classes.json``.
+``<name>/class.json`` each with the same layout as one entry of ``classes.json``. A catalogue holds
+the built-in classes and only those imported classes that are asked for by name, and records a
+content hash of its data files and of every imported class it holds (:meth:`Catalogue.record`).
 
 Every problem is reported as one :class:`~samplehd.errors.AssetError` line naming the file, the
 field and what is valid; unknown keys are errors.
@@ -15,6 +17,8 @@ field and what is valid; unknown keys are errors.
 
 from __future__ import annotations
 
+import hashlib
+from collections.abc import Iterable
 from functools import lru_cache
 from pathlib import Path
 
@@ -31,14 +35,19 @@ from samplehd.catalogue.model import (
     Variant,
     WeightClass,
 )
+from samplehd.catalogue.registry import generation, registered_classes, registry_dir
 from samplehd.catalogue.schema import Field, read_json
+from samplehd.errors import AssetError
+from samplehd.fileio import file_sha256
 
 __all__ = [
     "DATA_DIR",
     "TEXTURES",
+    "catalogue_for",
     "load_catalogue",
     "parse_class",
     "read_catalogue",
+    "resolve_catalogue",
 ]
 
 DATA_DIR = Path(__file__).parent / "data"
@@ -47,37 +56,63 @@ TEXTURES = ("wood_grain",)
 _AFFORDANCES = ("graspable", "handle_pickable", "container", "stackable_on", "stackable")
 
 
-def load_catalogue() -> Catalogue:
-    """Return the catalogue: the built-in data merged with the user registry (cached).
+_DATA_FILES = ("colours.json", "materials.json", "sizes.json", "classes.json")
 
-    Call :func:`samplehd.catalogue.registry.refresh` (done by ``assets import``) after the registry
-    changes.
+
+def load_catalogue(imported: Iterable[str] = ()) -> Catalogue:
+    """Return the built-in catalogue plus the imported classes named in ``imported`` (cached).
+
+    Nothing in the user registry takes part unless named here, so a seeded run gives the same
+    scenes on every machine whatever its user imported. Call
+    :func:`~samplehd.catalogue.registry.refresh` after the registry changes (``assets import`` and
+    ``assets remove`` do).
+
+    Args:
+        imported: names of classes in the user registry to add.
 
     Raises:
-        AssetError: a data file or a registered class is malformed.
+        AssetError: a data file or a named class is malformed, or a name is not in the registry.
     """
-    from samplehd.catalogue.registry import registry_dir
+    return _load_cached(str(DATA_DIR), str(registry_dir()), tuple(sorted(set(imported))), generation())
 
-    return _load_cached(str(DATA_DIR), str(registry_dir()))
+
+def catalogue_for(class_names: Iterable[str]) -> Catalogue:
+    """The catalogue a config naming ``class_names`` needs: the built-in classes plus every named
+    class found in the user registry. Names found in neither are left to the caller's validation,
+    which knows the file and field to name.
+    """
+    builtin = load_catalogue()
+    wanted = [n for n in class_names if n not in builtin.classes]
+    if not wanted:
+        return builtin
+    registered = set(registered_classes())
+    return load_catalogue(n for n in wanted if n in registered)
+
+
+def resolve_catalogue(catalogue: Catalogue | None, class_names: Iterable[str] = ()) -> Catalogue:
+    """``catalogue`` if given, else :func:`catalogue_for` the classes a caller is about to use."""
+    return catalogue if catalogue is not None else catalogue_for(class_names)
 
 
 @lru_cache(maxsize=8)
-def _load_cached(data_dir: str, registry: str) -> Catalogue:
-    return read_catalogue(Path(data_dir), Path(registry))
+def _load_cached(data_dir: str, registry: str, imported: tuple[str, ...], _generation: int) -> Catalogue:
+    return read_catalogue(Path(data_dir), Path(registry), imported)
 
 
-def read_catalogue(data_dir: Path = DATA_DIR, registry: Path | None = None) -> Catalogue:
-    """Read and validate the catalogue files in ``data_dir`` and the classes in ``registry``.
+def read_catalogue(data_dir: Path = DATA_DIR, registry: Path | None = None, imported: Iterable[str] = ()) -> Catalogue:
+    """Read and validate the catalogue files in ``data_dir`` and the named classes of ``registry``.
 
     Args:
         data_dir: directory holding colours.json, materials.json, sizes.json and classes.json.
-        registry: user registry directory with imported classes (None or missing: none).
+        registry: user registry directory with imported classes (default :func:`registry_dir`).
+        imported: names of the registry's classes to add (default: none).
 
     Returns:
-        The validated catalogue.
+        The validated catalogue, with the content hashes of what it was read from.
 
     Raises:
-        AssetError: a file is missing or malformed (one line naming file and field).
+        AssetError: a file is missing or malformed (one line naming file and field), or a named
+            class is not in the registry.
     """
     data_dir = Path(data_dir)
     colours = _read_colours(read_json(data_dir / "colours.json"))
@@ -91,14 +126,34 @@ def read_catalogue(data_dir: Path = DATA_DIR, registry: Path | None = None) -> C
         classes[name] = parse_class(base, entry, name=name)
     if not classes:
         raise doc["classes"].fail("expected at least one class")
-    if registry is not None and Path(registry).is_dir():
-        for path in sorted(Path(registry).glob("*/class.json")):
-            name = path.parent.name
+    digests = {"built-in": _digest(data_dir / f for f in _DATA_FILES)}
+    names = tuple(dict.fromkeys(imported))
+    if names:
+        registry = registry_dir() if registry is None else Path(registry)
+        known = registered_classes(registry)
+        for name in names:
+            if name not in known:
+                raise AssetError(
+                    f"class {name!r}: neither built-in nor imported into {registry}; built-in classes: "
+                    f"{', '.join(classes)}; imported: {', '.join(known) or 'none'} "
+                    "(add one with `samplehd assets import`)"
+                )
+        for name in names:
+            path = registry / name / "class.json"
             f = read_json(path)
             if name in classes:
                 raise f.fail(f"imported class {name!r} clashes with a built-in class; re-import under another name")
             classes[name] = parse_class(base, f, name=name, imported=True, registry_dir=path.parent)
-    return Catalogue(colours, materials, sizes, weights, classes)
+            digests[name] = _digest(sorted(p for p in path.parent.iterdir() if p.is_file()))
+    return Catalogue(colours, materials, sizes, weights, classes, digests)
+
+
+def _digest(paths: Iterable[Path]) -> str:
+    """SHA-256 over the names and contents of ``paths`` (in the given order)."""
+    h = hashlib.sha256()
+    for p in paths:
+        h.update(f"{p.name}\0{file_sha256(p)}\n".encode())
+    return h.hexdigest()
 
 
 def _check_format(f: Field) -> None:

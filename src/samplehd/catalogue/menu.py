@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 from typing import Any
 
-from samplehd.catalogue.loader import make_menu
+from samplehd.catalogue.loader import make_menu, resolve_catalogue
 from samplehd.catalogue.model import PROPERTIES, Catalogue, ObjectClass
 from samplehd.catalogue.schema import Field
 from samplehd.errors import AssetError
@@ -41,7 +41,7 @@ def validate_menu_overrides(
     Raises:
         AssetError: one line naming the target/property at fault and what is valid.
     """
-    cat = _cat(catalogue)
+    cat = resolve_catalogue(catalogue, (t.partition('.')[0] for t in overrides if t != '*'))
     root = Field(overrides, source, "")
     out: dict[str, dict[str, tuple[str, ...]]] = {}
     for target, entry in root.items():
@@ -78,7 +78,7 @@ def apply_menu_overrides(
     Raises:
         AssetError: a malformed override, or a resulting menu whose colours and materials do not fit.
     """
-    cat = _cat(catalogue)
+    cat = resolve_catalogue(catalogue, (t.partition('.')[0] for t in overrides if t != '*'))
     norm = validate_menu_overrides(overrides, cat, source=source)
     if not norm:
         return cat
@@ -100,11 +100,3 @@ def apply_menu_overrides(
             variants[vname] = replace(variant, menu=menu)
         classes[cname] = replace(cls, variants=variants)
     return replace(cat, classes=classes)
-
-
-def _cat(catalogue: Catalogue | None) -> Catalogue:
-    if catalogue is not None:
-        return catalogue
-    from samplehd.catalogue.loader import load_catalogue
-
-    return load_catalogue()

@@ -6,8 +6,10 @@ All are frozen dataclasses built by :mod:`samplehd.catalogue.loader` from the JS
 
 from __future__ import annotations
 
+import hashlib
+import json
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from samplehd.errors import AssetError
 
@@ -241,6 +243,8 @@ class Catalogue:
         sizes: size classes by name (small, medium, large).
         weights: weight classes, lightest first.
         classes: object classes by name (built-in first, then imported).
+        digests: content hashes of what it was read from: ``built-in`` (the data files) and one per
+            imported class (its registry files).
     """
 
     colours: dict[str, Colour] = field(hash=False)
@@ -248,6 +252,19 @@ class Catalogue:
     sizes: dict[str, SizeClass] = field(hash=False)
     weights: tuple[WeightClass, ...]
     classes: dict[str, ObjectClass] = field(hash=False)
+    digests: dict[str, str] = field(default_factory=dict, hash=False, compare=False)
+
+    def record(self) -> dict[str, Any]:
+        """What this catalogue was read from, for a dataset's or report's metadata.
+
+        Returns:
+            ``{"sha256": <hash of all below>, "built_in": <hash of the data files>,
+            "imported": {class: <hash of its registry files>}}`` (imported: only the classes held).
+        """
+        imported = {k: v for k, v in sorted(self.digests.items()) if k != "built-in"}
+        built_in = self.digests.get("built-in", "")
+        whole = hashlib.sha256(json.dumps([built_in, imported], sort_keys=True).encode()).hexdigest()
+        return {"sha256": whole, "built_in": built_in, "imported": imported}
 
     def object_class(self, name: str) -> ObjectClass:
         """Return the class ``name``; AssetError naming the valid classes if unknown."""

@@ -16,22 +16,24 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from samplehd.catalogue.builder import add_object
-from samplehd.catalogue.facts import _catalogue, object_facts
+from samplehd.catalogue.facts import object_facts
 from samplehd.catalogue.instance import ObjectInstance
+from samplehd.catalogue.loader import resolve_catalogue
 from samplehd.catalogue.model import Catalogue
 from samplehd.errors import RenderError
+from samplehd.render.renderer import SceneRenderer
 
 _FOVY = 45.0  # vertical field of view of the preview camera [deg]
 
 __all__ = [
     "PREFERRED_COLOUR",
-    "contact_sheet",
+    "catalogue_table",
     "preview_spec",
     "render_instances",
-    "write_contact_sheet",
+    "write_catalogue_table",
 ]
 
-# The colour a material is shown in on the contact sheet, when the class's menu allows it.
+# The colour a material is shown in on the catalogue table, when the class's menu allows it.
 PREFERRED_COLOUR = {
     "ceramic": ("white", "blue", "red", "yellow"),
     "glass": ("transparent", "green", "blue"),
@@ -59,7 +61,7 @@ def preview_spec(
     Returns:
         The spec, and the lower and upper corners of the objects' joint bounding box [m].
     """
-    cat = _catalogue(catalogue)
+    cat = resolve_catalogue(catalogue, (i.class_name for i in instances))
     spec = mujoco.MjSpec()
     spec.visual.headlight.ambient = [0.3, 0.3, 0.3]
     spec.visual.headlight.diffuse = [0.25, 0.25, 0.25]
@@ -162,7 +164,6 @@ def render_instances(
     model = spec.compile()
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
-    from samplehd.render.renderer import SceneRenderer
 
     with SceneRenderer(model, width, height, "hd") as renderer:
         return renderer.render(data, "preview", ("rgb",))["rgb"]
@@ -176,7 +177,7 @@ def _colour_for(cat: Catalogue, pairs: Sequence[tuple[str, str]], material: str)
     return allowed[0] if allowed else None
 
 
-def contact_sheet(
+def catalogue_table(
     catalogue: Catalogue | None = None,
     cell: tuple[int, int] = (176, 132),
     classes: Sequence[str] | None = None,
@@ -191,7 +192,7 @@ def contact_sheet(
     Returns:
         The sheet as a PIL image; cells of materials a class's menu does not allow are left blank.
     """
-    cat = _catalogue(catalogue)
+    cat = resolve_catalogue(catalogue, classes or ())
     names = list(classes) if classes is not None else list(cat.classes)
     materials = list(cat.materials)
     cw, ch = cell
@@ -220,12 +221,12 @@ def contact_sheet(
     return sheet
 
 
-def write_contact_sheet(path: str | Path, catalogue: Catalogue | None = None) -> Path:
-    """Render :func:`contact_sheet` and save it as a PNG (full colour, about 0.4 MB); returns the path.
+def write_catalogue_table(path: str | Path, catalogue: Catalogue | None = None) -> Path:
+    """Render :func:`catalogue_table` and save it as a PNG (full colour, about 0.4 MB); returns the path.
 
     A 256-colour palette would halve the file but maps the rare wood browns to greys.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    contact_sheet(catalogue).save(path, optimize=True)
+    catalogue_table(catalogue).save(path, optimize=True)
     return path

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.errors import AssetError
+from samplehd.fileio import read_json as read_json_file
 
 __all__ = ["Field", "is_identifier", "read_json"]
 
@@ -31,15 +32,7 @@ def read_json(path: Path) -> Field:
     Raises:
         AssetError: the file is missing or is not valid JSON.
     """
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except OSError as exc:
-        raise AssetError(f"{path}: cannot read catalogue file ({exc.strerror})") from None
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise AssetError(f"{path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
-    return Field(value, str(path), "")
+    return Field(read_json_file(path, AssetError), str(path), "")
 
 
 @dataclass(frozen=True)

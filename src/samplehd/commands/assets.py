@@ -18,17 +18,16 @@ import argparse
 import json
 from pathlib import Path
 
+from PIL import Image
+
+from samplehd.catalogue.instance import ObjectInstance
+from samplehd.catalogue.loader import catalogue_for, load_catalogue
+from samplehd.catalogue.preview import render_instances, write_catalogue_table
+from samplehd.catalogue.registry import registered_classes, remove_imported
+from samplehd.commands._options import split_names
+from samplehd.errors import AssetError
+
 HELP = "import meshes as object classes, list the catalogue, render previews"
-
-
-def _names(values: list[str] | None) -> tuple[str, ...] | None:
-    """Flatten repeated and comma-separated option values."""
-    if not values:
-        return None
-    out: list[str] = []
-    for v in values:
-        out += [x.strip() for x in v.split(",") if x.strip()]
-    return tuple(dict.fromkeys(out))
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -77,16 +76,16 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _import(args: argparse.Namespace) -> int:
-    from samplehd.catalogue.importer import ImportOptions, import_mesh
+    from samplehd.catalogue.importer import ImportOptions, import_mesh  # the mesh extra (trimesh, coacd)
 
     options = ImportOptions(scale=args.scale, size=args.size, threshold=args.threshold, max_pieces=args.max_pieces)
     cls, report = import_mesh(
         args.mesh,
         args.name,
         options=options,
-        materials=_names(args.material) or ("plastic",),
-        colours=_names(args.colour),
-        sizes=_names(args.sizes),
+        materials=split_names(args.material) or ("plastic",),
+        colours=split_names(args.colour),
+        sizes=split_names(args.sizes),
         description=args.description,
         overwrite=args.overwrite,
     )
@@ -100,9 +99,7 @@ def _import(args: argparse.Namespace) -> int:
 
 
 def _list(args: argparse.Namespace) -> int:
-    from samplehd.catalogue.loader import load_catalogue
-
-    cat = load_catalogue()
+    cat = load_catalogue(registered_classes())
     rows = []
     for cls in cat.classes.values():
         for v in cls.variants.values():
@@ -129,14 +126,7 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _preview(args: argparse.Namespace) -> int:
-    from PIL import Image
-
-    from samplehd.catalogue.instance import ObjectInstance
-    from samplehd.catalogue.loader import load_catalogue
-    from samplehd.catalogue.preview import render_instances
-    from samplehd.errors import AssetError
-
-    cat = load_catalogue()
+    cat = catalogue_for((args.name,))
     cls = cat.object_class(args.name)
     cat.size(args.size)
     if args.colour is not None:
@@ -166,16 +156,12 @@ def _preview(args: argparse.Namespace) -> int:
 
 
 def _sheet(args: argparse.Namespace) -> int:
-    from samplehd.catalogue.preview import write_contact_sheet
-
-    path = write_contact_sheet(args.out)
+    path = write_catalogue_table(args.out)
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
     return 0
 
 
 def _remove(args: argparse.Namespace) -> int:
-    from samplehd.catalogue.importer import remove_imported
-
     remove_imported(args.name)
     print(f"removed {args.name}")
     return 0

@@ -1,6 +1,10 @@
 """Measure performance: physics, control, IK, rendering, language, scenes, episodes, datasets.
 
-Prints a table of medians and writes ``bench.json`` to --out. Figures are for reports, never tests.
+``samplehd bench`` prints a table of medians of every area's figures and writes ``bench.json`` to
+--out (``--only`` picks areas). ``samplehd bench AREA ...`` prints that area's detailed report, e.g.
+``samplehd bench paths oracle --scenes 70 --seed 130000``, ``samplehd bench dataset --project DIR``,
+``samplehd bench env --robosuite-python PY`` or ``samplehd bench world-options nosleep``.
+Figures are for reports, never tests. The code of every area lives in :mod:`samplehd.bench`.
 """
 
 from __future__ import annotations
@@ -10,29 +14,44 @@ import importlib
 import json
 import pkgutil
 from pathlib import Path
+from types import ModuleType
+
+from rich.console import Console
+from rich.table import Table
+
+from samplehd import bench
+from samplehd.errors import ConfigError
 
 HELP = "run the performance benchmarks and print/write the figures"
 
 
-def _areas() -> list[str]:
-    from samplehd import bench
+def _modules() -> dict[str, ModuleType]:
+    names = [m.name for m in pkgutil.iter_modules(bench.__path__) if not m.name.startswith("_")]
+    return {name: importlib.import_module(f"samplehd.bench.{name}") for name in sorted(names)}
 
-    return [m.name for m in pkgutil.iter_modules(bench.__path__) if not m.name.startswith("_")]
+
+def _figure_areas() -> list[str]:
+    return [name for name, module in _modules().items() if hasattr(module, "run")]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--only", nargs="+", metavar="AREA", help=f"areas to run (default: all of {_areas()})")
+    parser.add_argument("--only", nargs="+", metavar="AREA", help=f"areas to run (default: all of {_figure_areas()})")
     parser.add_argument("--repeats", type=int, default=3, help="repeats per figure (the median is reported)")
     parser.add_argument("--out", type=Path, default=Path("outputs/bench"), help="directory for bench.json")
+    reports = parser.add_subparsers(dest="area", metavar="AREA", required=False,
+                                    help="an area's detailed report (default: the figures table)")
+    for name, module in _modules().items():
+        if hasattr(module, "add_arguments") and hasattr(module, "report"):
+            p = reports.add_parser(name.replace("_", "-"), help=(module.__doc__ or "").splitlines()[0],
+                                   description=module.__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+            module.add_arguments(p)
+            p.set_defaults(_report=module.report)
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.table import Table
-
-    from samplehd.errors import ConfigError
-
-    areas = _areas()
+    if getattr(args, "area", None):
+        return int(args._report(args) or 0)
+    areas = _figure_areas()
     chosen = args.only or areas
     unknown = [a for a in chosen if a not in areas]
     if unknown:
@@ -41,10 +60,10 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--repeats must be ≥ 1")
     console = Console()
     figures = []
+    modules = _modules()
     for area in chosen:
         console.print(f"[bold]bench {area}[/bold] ...")
-        module = importlib.import_module(f"samplehd.bench.{area}")
-        figures.extend(module.run(repeats=args.repeats))
+        figures.extend(modules[area].run(repeats=args.repeats))
     table = Table("area", "figure", "median", "unit", "note")
     for f in figures:
         table.add_row(f.area, f.name, f"{f.value:,.3g}" if f.value < 100 else f"{f.value:,.0f}", f.unit, f.note)

@@ -6,6 +6,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.commands import generate
+from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
+from samplehd.render.renderer import MODALITIES, SceneRenderer
+from samplehd.scene.sampler import sample_scene
+from samplehd.scene.spec import compile_scene
+from samplehd.world.seeding import scene_seed
+
 HELP = "run the main job (tiny dataset + pictures) and say where the outputs are"
 
 
@@ -16,17 +23,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _pictures(out: Path) -> list[Path]:
-    from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
-    from samplehd.render.renderer import SceneRenderer
-    from samplehd.scene.sampler import sample_scene
-    from samplehd.scene.spec import compile_scene
-    from samplehd.world.seeding import scene_seed
-
     scene = sample_scene(0, scene_seed(2, 0)).scene
     model, data = compile_scene(scene)
     paths = [out / "world_hd.png", out / "world_depth.png", out / "world_segmentation.png", out / "wrist_fast.png"]
     with SceneRenderer(model, 1280, 720, "hd") as r:
-        img = r.render(data, "operator", ("rgb", "depth", "segmentation"))
+        img = r.render(data, "operator", MODALITIES)
     save_rgb(paths[0], img["rgb"])
     save_rgb(paths[1], colorize_depth(img["depth"]))
     save_rgb(paths[2], colorize_segmentation(img["segmentation"]))
@@ -36,16 +37,16 @@ def _pictures(out: Path) -> list[Path]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.cli import main
-
     out: Path = args.out
     dataset = out / "dataset"
-    argv = ["generate", "--preset", "tiny", "--out", str(dataset), "--seed", str(args.seed)]
+    argv = ["--preset", "tiny", "--out", str(dataset), "--seed", str(args.seed)]
     if args.workers:
         argv += ["--workers", str(args.workers)]
     if (dataset / "info.json").exists() or (dataset / "config.json").exists():
         argv.append("--resume")  # a second `make demo` finishes or reuses the first one's dataset
-    status = main(argv)
+    parser = argparse.ArgumentParser(prog="samplehd generate")
+    generate.add_arguments(parser)
+    status = generate.run(parser.parse_args(argv))
     if status != 0:
         return status
     print("\nsamplehd demo: outputs in", out.resolve())

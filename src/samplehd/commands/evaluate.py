@@ -3,17 +3,19 @@
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
+
+from samplehd.envs.config import CONTROL_MODES, OBS_MODES
+from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate
+from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
+from samplehd.tasks.task import family_names
 
 HELP = ("run a policy (oracle, random, neurosymbolic, bc or MODULE:CALLABLE) on the seeded benchmark split; "
         "JSON report")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.envs.config import CONTROL_MODES, OBS_MODES, TASK_FAMILIES
-    from samplehd.envs.evaluation import DEFAULT_FAMILIES
-
     parser.add_argument("--policy", required=True,
                         help="oracle, random, neurosymbolic, bc (learned baselines: need --models), or "
                              "MODULE:CALLABLE (obs -> action)")
@@ -27,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="generalisation level: L1 seen, L2 new colour-class combinations, L3 held-out "
                              "paraphrases, L4 held-out classes (default: the plain split)")
     parser.add_argument("--episodes", type=int, default=10, help="episodes of the split (default 10)")
-    parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=TASK_FAMILIES,
+    parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=family_names(),
                         metavar="FAMILY", help=f"families, in rotation (default: {' '.join(DEFAULT_FAMILIES)})")
     parser.add_argument("--seed", type=int, default=0, help="seed of the split (default 0)")
     parser.add_argument("--control-mode", default="steering", choices=list(CONTROL_MODES),
@@ -45,15 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.envs.evaluation import EvalConfig, evaluate
-    from samplehd.errors import ConfigError
-
     env: dict = {}
     if args.env_options is not None:
-        try:
-            env = json.loads(args.env_options.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"--env-options {args.env_options}: cannot read a JSON object ({exc})") from None
+        env = read_json(args.env_options, ConfigError, f"--env-options {args.env_options}")
         if not isinstance(env, dict):
             raise ConfigError(f"--env-options {args.env_options}: expected a JSON object of options")
     env.update(control_mode=args.control_mode, obs_mode=args.obs_mode, width=args.width, height=args.height,

@@ -1,18 +1,26 @@
-"""Export a dataset: `export lerobot DIR --out DIR2` (LeRobot v3.0 layout: parquet + AV1 videos of RGB,
-16-bit PNG image features of depth [mm] and segmentation ids in the parquet) or
-`export sample-hd DIR --out DIR2` (SAMPLE-HD's images/, scenes/, instructions/, sequences/ layout)."""
+"""Export a dataset: `export lerobot DIR --out DIR2` (LeRobot v3.0 layout: parquet + AV1 videos of RGB;
+depth [mm] and segmentation ids as opt-in uint16 arrays), `export rerun EPISODE --out FILE.rrd` (one
+episode as a Rerun recording) or
+`export sample-hd DIR --out DIR2` (the files SAMPLE-HD's own Python code reads; its four families only)."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-HELP = "export a dataset to the LeRobot v3.0 or the original SAMPLE-HD layout"
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+from samplehd.commands._options import split_names
+from samplehd.dataset.export_lerobot import export_lerobot
+from samplehd.dataset.export_rerun import episode_location, export_rerun
+from samplehd.dataset.export_samplehd import export_samplehd
+from samplehd.errors import ConfigError, require_extra
+from samplehd.workers import Backend, default_workers
+
+HELP = "export a dataset to LeRobot v3.0 or SAMPLE-HD's layout, or an episode to a Rerun recording"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.dataset.backend import default_workers
-
     sub = parser.add_subparsers(dest="format", metavar="FORMAT", required=True)
     lr = sub.add_parser("lerobot", help="LeRobot v3.0 (meta/, data/, videos/)",
                         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
@@ -22,23 +30,35 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     lr.add_argument("--codec", help="video encoder (default: libsvtav1 as LeRobot, else libx264)")
     lr.add_argument("--cameras", nargs="+", help="cameras to export (default: all stored)")
     lr.add_argument("--modalities", nargs="+",
-                    help="rgb (video), depth (uint16 mm PNG), segmentation (uint16 id PNG); default: all stored")
+                    help="rgb (video), depth (uint16 mm array), segmentation (uint16 id array); default: rgb")
     lr.add_argument("--frames-per-file", type=int, default=200_000, help="frames per data/video file")
-    sh = sub.add_parser("sample-hd", help="SAMPLE-HD layout (images/, scenes/, instructions/, sequences/)",
+    rr = sub.add_parser("rerun", help="one episode as a Rerun recording (.rrd): 3-D scene, cameras, series, subtasks",
                         formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    rr.add_argument("episode", type=Path, help="episode file (DIR/episodes/<stem>.h5) or dataset folder with --episode")
+    rr.add_argument("--episode", dest="index", type=int, help="episode index when EPISODE is a dataset folder (0)")
+    rr.add_argument("--out", type=Path, required=True, help="the .rrd file (open it with: rerun FILE.rrd)")
+    sh = sub.add_parser("sample-hd", help="the files SAMPLE-HD's own code reads (images/, scenes/, instructions/, "
+                        "sequences/); its four families only", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     sh.add_argument("dir", type=Path, help="samplehd dataset")
     sh.add_argument("--out", type=Path, required=True, help="new folder")
     sh.add_argument("--previews", action="store_true", help="write preview.mp4 per sequence")
-    sh.add_argument("--no-images", action="store_true", help="write data.json only, no per-frame PNGs")
+    sh.add_argument("--no-images", action="store_true", help="write data.json/effector.json only, no per-frame images")
+    sh.add_argument("--camera", help="stored camera whose images become the sequence images (default: scene)")
     sh.add_argument("--workers", type=int, default=default_workers(), help="worker processes")
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-    from samplehd.dataset.backend import Backend
-    from samplehd.errors import ConfigError
-
+    if args.format == "rerun":
+        require_extra("rerun", "rerun", "samplehd export rerun")
+        require_extra("trimesh", "rerun", "samplehd export rerun")
+        root, index = episode_location(args.episode, args.index)
+        res = export_rerun(root, index, args.out)
+        print(f"exported episode {index} of {root} ({res}) to {args.out}; open it with: rerun {args.out}")
+        return 0
+    if args.format == "lerobot":
+        require_extra("pyarrow", "lerobot", "samplehd export lerobot")
+        if args.frames_per_file < 1:
+            raise ConfigError("--frames-per-file must be ≥ 1")
     with Progress(TextColumn(f"export {args.format}"), BarColumn(), MofNCompleteColumn(),
                   TimeRemainingColumn()) as bar:
         task = bar.add_task("episodes", total=None)
@@ -47,21 +67,13 @@ def run(args: argparse.Namespace) -> int:
             bar.update(task, completed=done, total=total)
 
         if args.format == "lerobot":
-            from samplehd.dataset.export_lerobot import export_lerobot
-
-            if args.frames_per_file < 1:
-                raise ConfigError("--frames-per-file must be ≥ 1")
             res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file,
-                                 _names(args.cameras), progress=tick, modalities=_names(args.modalities))
+                                 list(split_names(args.cameras)) or None, progress=tick,
+                                 modalities=list(split_names(args.modalities)) or None)
         else:
-            from samplehd.dataset.export_samplehd import export_samplehd
-
             res = export_samplehd(args.dir, args.out, images=not args.no_images, previews=args.previews,
-                                  backend=Backend("local", args.workers), progress=tick)
+                                  camera=args.camera, backend=Backend("local", args.workers), progress=tick)
+            for reason, n in res["left_out"].items():
+                print(f"left out {n} instruction(s): {reason}")
     print(f"exported {res} to {args.out}")
     return 0
-
-
-def _names(items: list[str] | None) -> list[str] | None:
-    """Names from the command line (space or comma separated); None when not given."""
-    return None if items is None else [n for item in items for n in item.split(",") if n]

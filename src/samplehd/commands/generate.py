@@ -10,15 +10,22 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from samplehd.commands._options import split_names
+from samplehd.dataset.config import PRESETS, GenerateConfig, load_config, preset_config
+from samplehd.dataset.generate import GenerateSummary, generate_dataset
+from samplehd.dataset.progress import RichProgress
+from samplehd.dataset.render import RENDER_MODES
+from samplehd.workers import BACKENDS, Backend, default_workers
 
 HELP = "generate a dataset (scenes, instructions, paths, images) with resume, local workers or Ray"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.dataset.backend import BACKENDS, default_workers
-    from samplehd.dataset.config import PRESETS
-    from samplehd.dataset.render import RENDER_MODES
-
     parser.add_argument("--preset", choices=list(PRESETS), default="tiny", help="base configuration")
     parser.add_argument("--out", type=Path, required=True, help="dataset directory")
     parser.add_argument("--config", type=Path, help="JSON config overriding the preset (see docs/FORMAT.md)")
@@ -39,8 +46,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def resolve_config(args: argparse.Namespace):  # noqa: ANN201 - GenerateConfig
     """Preset, then --config file, then flags."""
-    from samplehd.dataset.config import GenerateConfig, load_config, preset_config
-
     config = load_config(args.config, preset_config(args.preset))
     top: dict = {}
     render: dict = {}
@@ -54,19 +59,15 @@ def resolve_config(args: argparse.Namespace):  # noqa: ANN201 - GenerateConfig
         if getattr(args, flag) is not None:
             render[key] = getattr(args, flag)
     if args.cameras:
-        render["cameras"] = [c for item in args.cameras for c in item.split(",") if c]
+        render["cameras"] = list(split_names(args.cameras))
     if args.modalities:
-        render["modalities"] = [m for item in args.modalities for m in item.split(",") if m]
+        render["modalities"] = list(split_names(args.modalities))
     if render:
         top["render"] = render
     return GenerateConfig.from_dict(top, where="command line", base=config) if top else config
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.dataset.backend import Backend
-    from samplehd.dataset.generate import generate_dataset
-    from samplehd.dataset.progress import RichProgress, print_summary
-
     config = resolve_config(args)
     backend = Backend(args.backend, args.workers, args.ray_address)
     with RichProgress(disable=args.quiet) as progress:
@@ -75,3 +76,25 @@ def run(args: argparse.Namespace) -> int:
         summary = generate_dataset(args.out, config, backend, resume=args.resume, progress=progress)
     print_summary(args.out, summary, config)
     return 0
+
+
+def print_summary(out: Path, summary: GenerateSummary, config: Any) -> None:
+    """The final summary of a run, on stdout."""
+    console = Console()
+    t = Table(title=f"dataset {out}", show_header=False)
+    t.add_row("scenes", str(summary.scenes))
+    t.add_row("instruction candidates", f"{summary.candidates} ({summary.attempted} attempted)")
+    rate = summary.episodes / max(summary.attempted, 1)
+    t.add_row("episodes", f"{summary.episodes} ({rate:.0%} of attempted paths succeeded)")
+    if config.target_episodes:
+        t.add_row("target", f"{config.target_episodes} ({'reached' if summary.target_reached else 'NOT reached'})")
+    t.add_row("families", ", ".join(f"{k} {v}" for k, v in summary.families.items()))
+    t.add_row("frames", f"{summary.frames} ({summary.frames / max(summary.episodes, 1):.0f} per episode)")
+    t.add_row("path rejections", ", ".join(f"{k} {v}" for k, v in summary.rejections.items()) or "none")
+    t.add_row("scene rejections", ", ".join(f"{k} {v}" for k, v in summary.scene_rejections.items()) or "none")
+    t.add_row("wall time", f"{summary.seconds:.1f} s ({summary.units_run} path units run, "
+                           f"{summary.frames / max(summary.seconds, 1e-9):.0f} frames/s overall)")
+    console.print(t)
+    if not summary.target_reached:
+        console.print(f"[yellow]only {summary.episodes} of the target {config.target_episodes} episodes: "
+                      f"raise instructions.per_scene or num_scenes[/yellow]")

@@ -10,6 +10,15 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+from samplehd.errors import ConfigError
+from samplehd.language.instruction_file import generate_instruction_file, parse_split_ratio, write_instructions
+from samplehd.language.scene import load_scenes
+from samplehd.language.templates import load_templates
+from samplehd.world.reach import make_reachable
+
 HELP = "generate instructions (text, programs, tasks) for a scenes file"
 
 
@@ -48,19 +57,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-    from samplehd.errors import ConfigError
-    from samplehd.language.instruction_file import (
-        generate_instruction_file,
-        parse_split_ratio,
-        write_instructions,
-    )
-    from samplehd.language.scene import load_scenes
-    from samplehd.language.templates import load_templates
-    from samplehd.world.reach import make_reachable
-
     if args.per_scene < 1:
         raise ConfigError(f"--per-scene {args.per_scene}: must be at least 1")
     if args.no_default_templates and not args.templates:

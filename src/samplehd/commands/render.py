@@ -6,6 +6,9 @@ import argparse
 from pathlib import Path
 
 from samplehd.errors import ConfigError
+from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_depth, save_rgb, save_segmentation
+from samplehd.render.renderer import SceneRenderer
+from samplehd.scene.world import compile_world
 
 HELP = "render RGB (and optionally depth / segmentation) from a named camera"
 
@@ -22,16 +25,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.render.image_io import (
-        colorize_depth,
-        colorize_segmentation,
-        save_depth,
-        save_rgb,
-        save_segmentation,
-    )
-    from samplehd.render.renderer import SceneRenderer
-    from samplehd.scene.world import compile_world
-
     if args.out.suffix.lower() not in (".png", ".jpg", ".jpeg"):
         raise ConfigError(f"--out {args.out}: must be a .png or .jpg file")
     model, data = compile_world()

@@ -6,14 +6,21 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.dataset.container import read_episode
 from samplehd.errors import ConfigError
+from samplehd.record.replay import subtask_contact_sheet
+from samplehd.render.image_io import save_rgb
+from samplehd.render.renderer import camera_names
+from samplehd.render.states import render_states
+from samplehd.render.video import write_mp4
+from samplehd.scene.spec import SceneSpec, compile_scene
 
 HELP = "re-render a recorded episode to MP4 from its recorded states"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("episode", type=Path,
-                        help="episode file: .h5 from `samplehd generate` or .npz from `samplehd paths`")
+                        help="episode file (.h5) from `samplehd generate` or `samplehd paths`")
     parser.add_argument("--out", required=True, type=Path, help="output video (.mp4)")
     parser.add_argument("--camera", default="operator", help="camera name (operator, scene, wrist)")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
@@ -23,28 +30,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.record.recorder import read_episode_npz
-    from samplehd.record.replay import render_episode, subtask_contact_sheet, write_mp4
-    from samplehd.render.image_io import save_rgb
-    from samplehd.scene.spec import SceneSpec, compile_scene
-
     if args.out.suffix.lower() != ".mp4":
         raise ConfigError(f"--out {args.out}: must be an .mp4 file")
-    if args.episode.suffix.lower() in (".h5", ".hdf5"):
-        from samplehd.dataset.container import read_episode
-
-        ep = read_episode(args.episode, images="none")
-    else:
-        ep = read_episode_npz(args.episode)
+    ep = read_episode(args.episode, images="none")
     if "scene" not in ep.info:
         raise ConfigError(f"{args.episode}: the episode does not carry its scene spec (info.scene)")
     scene = SceneSpec.from_dict(ep.info["scene"])
     model, _ = compile_scene(scene, 1.0 / float(ep.info.get("physics_hz", 500.0)))
-    from samplehd.render.renderer import camera_names
-
     if args.camera not in camera_names(model):
         raise ConfigError(f"--camera {args.camera!r}: unknown; valid: {', '.join(camera_names(model))}")
-    rgb = render_episode(model, ep, (args.camera,), ("rgb",), args.width, args.height, args.preset)[args.camera]["rgb"]
+    images = render_states(model, ep.frames, (args.camera,), ("rgb",), args.width, args.height, args.preset)
+    rgb = images[args.camera]["rgb"]
     write_mp4(args.out, rgb, float(ep.info.get("control_hz", 20.0)))
     print(f"wrote {args.out} ({len(rgb)} frames)")
     if args.sheet:

@@ -7,17 +7,21 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.dataset.progress import RichProgress
+from samplehd.dataset.render import RenderConfig
+from samplehd.dataset.rerender import rerender_dataset
+from samplehd.render.renderer import MODALITIES
+from samplehd.workers import BACKENDS, Backend, default_workers
+
 HELP = "add or replace the images of every episode from the stored states (no re-simulation)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from samplehd.dataset.backend import BACKENDS, default_workers
-
     parser.add_argument("dir", type=Path, help="dataset directory")
     parser.add_argument("--cameras", nargs="+", default=["scene"], help="cameras (scene, operator, wrist)")
     parser.add_argument("--width", type=int, default=320, help="image width [px]")
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
-    parser.add_argument("--modalities", nargs="+", default=["rgb", "depth", "segmentation"],
+    parser.add_argument("--modalities", nargs="+", default=list(MODALITIES),
                         help="rgb depth segmentation")
     parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
     parser.add_argument("--add", action="store_true",
@@ -30,11 +34,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.dataset.backend import Backend
-    from samplehd.dataset.progress import RichProgress
-    from samplehd.dataset.render import RenderConfig
-    from samplehd.dataset.rerender import rerender_dataset
-
     cams = tuple(c for item in args.cameras for c in item.split(",") if c)
     mods = tuple(m for item in args.modalities for m in item.split(",") if m)
     render = RenderConfig(args.preset, args.width, args.height, cams, mods)

@@ -8,6 +8,18 @@ import os
 import time
 from pathlib import Path
 
+import numpy as np
+from PIL import Image
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
+from samplehd.render.contact_sheet import contact_sheet
+from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
+from samplehd.scene.config import SceneConfig
+from samplehd.scene.generate import generate_scenes
+
 HELP = "sample annotated scenes (images, depth, segmentation, scenes.json)"
 
 
@@ -26,17 +38,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
     """Read the 'scene' section of a JSON config file (unknown keys are errors)."""
-    from samplehd.errors import ConfigError
-    from samplehd.scene.config import SceneConfig
-
     if path is None:
         return SceneConfig()
-    try:
-        doc = json.loads(path.read_text())
-    except OSError as exc:
-        raise ConfigError(f"--config {path}: cannot read ({exc.strerror})") from exc
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"--config {path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from exc
+    doc = read_json(path, ConfigError, f"--config {path}")
     if not isinstance(doc, dict):
         raise ConfigError(f"--config {path}: expected a JSON object with a 'scene' section")
     unknown = sorted(set(doc) - {"scene"})
@@ -47,12 +51,6 @@ def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
 
 def write_scene_sheet(directory: Path, path: Path, count: int = 16) -> None:
     """Contact sheet of the first `count` scenes of a scenes directory: RGB | depth | segmentation."""
-    import numpy as np
-    from PIL import Image
-
-    from samplehd.render.contact_sheet import contact_sheet
-    from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
-
     scenes = json.loads((directory / "scenes.json").read_text())["scenes"][:count]
     tiles, labels = [], []
     for s in scenes:
@@ -66,11 +64,6 @@ def write_scene_sheet(directory: Path, path: Path, count: int = 16) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
-
-    from samplehd.scene.generate import generate_scenes
-
     config = load_scene_config(args.config)
     console = Console(stderr=True)
     t0 = time.perf_counter()

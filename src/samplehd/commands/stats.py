@@ -4,7 +4,14 @@ by reason) and write PNG bar charts and stats.json."""
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
+
+from rich.console import Console
+from rich.table import Table
+
+from samplehd.dataset.stats import dataset_stats, write_plots
+from samplehd.errors import DatasetError
 
 HELP = "print counts per family/class/colour/material, frames per episode, rejections; write PNG plots"
 
@@ -16,13 +23,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import json
-
-    from rich.console import Console
-    from rich.table import Table
-
-    from samplehd.dataset.stats import dataset_stats, write_plots
-
     stats = dataset_stats(args.dir)
     console = Console()
     console.print(f"[bold]{args.dir}[/bold]: {stats['scenes']} scenes, {stats['episodes']} episodes, "
@@ -46,8 +46,6 @@ def run(args: argparse.Namespace) -> int:
             paths = write_plots(stats, out)
             (out / "stats.json").write_text(json.dumps(stats, indent=1))
         except OSError as exc:
-            from samplehd.errors import DatasetError
-
             raise DatasetError(f"{out}: cannot write plots: {exc.strerror}") from None
         console.print(f"wrote {len(paths)} plots and stats.json to {out}")
     return 0

@@ -26,12 +26,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _torch_or_error() -> None:
-    from samplehd.errors import ConfigError
+    from samplehd.errors import require_extra
 
-    try:
-        import torch  # noqa: F401
-    except ImportError:
-        raise ConfigError("PyTorch is not installed; install the extra: pip install 'samplehd[learn]'") from None
+    require_extra("torch", "learn", "samplehd train")
 
 
 def run(args: argparse.Namespace) -> int:

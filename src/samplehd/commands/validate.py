@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.dataset.validate import validate_dataset
+
 HELP = "verify every file of a dataset against its metadata (exit 1 on problems)"
 
 
@@ -16,8 +18,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.dataset.validate import validate_dataset
-
     problems, counts = validate_dataset(args.dir, deep=args.deep)
     if problems:
         for line in problems[: args.max_problems]:

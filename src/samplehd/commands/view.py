@@ -12,6 +12,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.errors import ConfigError
+from samplehd.viewer.server import make_server
+
 HELP = "browse a dataset in a web page (scenes, instructions, programs, episodes)"
 
 
@@ -26,9 +29,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.errors import ConfigError
-    from samplehd.viewer.server import make_server
-
     if not 0 <= args.port <= 65535:
         raise ConfigError(f"--port {args.port}: must be in 0..65535")
     try:

@@ -6,6 +6,10 @@ import argparse
 import json
 from pathlib import Path
 
+from samplehd.errors import ConfigError, DatasetError
+from samplehd.language.instruction_file import read_instructions
+from samplehd.language.vocab import build_vocab
+
 HELP = "write vocab.json (token -> index maps) for an instructions.json"
 
 
@@ -16,10 +20,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.errors import ConfigError, DatasetError
-    from samplehd.language.instruction_file import read_instructions
-    from samplehd.language.vocab import build_vocab
-
     if args.min_count < 1:
         raise ConfigError(f"--min-count {args.min_count}: must be at least 1")
     entries = read_instructions(args.instructions)["instructions"]

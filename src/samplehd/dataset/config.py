@@ -13,7 +13,6 @@ Presets give every field; a config file overrides a preset, command-line flags o
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -21,6 +20,8 @@ from typing import Any
 
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
+from samplehd.record.paths import PathConfig
 from samplehd.scene.config import SceneConfig
 
 __all__ = [
@@ -74,8 +75,6 @@ class InstructionConfig:
 
 
 def _path_config(d: Mapping[str, Any] | None = None) -> Any:
-    from samplehd.record.paths import PathConfig
-
     return PathConfig.from_dict(dict(d or {}))
 
 
@@ -200,12 +199,7 @@ def load_config(path: Path | None, base: GenerateConfig) -> GenerateConfig:
     """Apply a JSON config file to ``base``; errors name the file and field."""
     if path is None:
         return base
-    try:
-        doc = json.loads(Path(path).read_text())
-    except OSError as exc:
-        raise ConfigError(f"--config {path}: cannot read ({exc.strerror})") from None
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"--config {path}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    doc = read_json(path, ConfigError, f"--config {path}")
     return GenerateConfig.from_dict(doc, where=str(path), base=base)
 
 

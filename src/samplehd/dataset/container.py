@@ -27,6 +27,7 @@ import hashlib
 import io
 import json
 import os
+import shutil
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,15 +37,18 @@ import h5py
 import numpy as np
 
 from samplehd.dataset.layout import FORMAT_VERSION, tmp_path
+from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError
 from samplehd.record.episode import FRAME_FIELDS, Episode
+from samplehd.render.renderer import MODALITIES
 
 __all__ = [
     "EpisodeFile",
     "FrameImages",
     "camera_settings",
+    "describe_settings",
     "episode_attrs",
-    "file_digest",
+    "merge_camera_settings",
     "read_episode",
     "read_frames",
     "read_image",
@@ -55,7 +59,6 @@ __all__ = [
 ]
 
 _GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
-_MODALITIES = ("rgb", "depth", "segmentation")
 _DISK_FULL = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
 
 
@@ -76,19 +79,9 @@ class EpisodeFile:
     sha256: str
 
 
-def file_digest(path: Path) -> str:
-    """SHA-256 of a file, read in 1 MiB blocks."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def _nearly_full(path: Path) -> bool:
     """Whether the file system holding ``path`` has (almost) no space left; some writers (numpy's
     ``save``) report a full disk without an errno."""
-    import shutil
 
     p = Path(path)
     while not p.exists() and p != p.parent:
@@ -114,7 +107,7 @@ def write_error(path: Path, exc: BaseException) -> DatasetError:
 def _modality_list(mods: Iterable[str]) -> list[str]:
     """Modalities in the canonical order (rgb, depth, segmentation), unknown names last."""
     names = list(dict.fromkeys(str(m) for m in mods))
-    return sorted(names, key=lambda m: (_MODALITIES.index(m) if m in _MODALITIES else len(_MODALITIES), m))
+    return sorted(names, key=lambda m: (MODALITIES.index(m) if m in MODALITIES else len(MODALITIES), m))
 
 
 def camera_settings(render: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
@@ -396,3 +389,49 @@ def read_episode(path: Path, images: str = "lazy", instruction_index: int | None
         lazy = FrameImages(path, f"images/{cam}/{mod}")
         imgs.setdefault(cam, {})[mod] = lazy if images == "lazy" else np.asarray(lazy)
     return Episode(frames=frames, images=imgs, **meta)
+
+
+def describe_settings(s: Mapping[str, Any]) -> str:
+    """``WxH mode`` of one camera's settings, for messages."""
+    return f"{s['width']}x{s['height']} {s['mode']}"
+
+
+def merge_camera_settings(old: Mapping[str, Mapping[str, Any]], render: RenderConfig,
+                          add: bool) -> dict[str, dict[str, Any]]:
+    """The per-camera settings of an episode's images after rendering ``render`` into it.
+
+    Args:
+        old: the file's current settings (:func:`samplehd.dataset.container.camera_settings`).
+        render: what is rendered now (mode fast or hd).
+        add: keep ``old``'s cameras (a camera + modality rendered again is overwritten); else only
+            the new images remain.
+
+    Returns:
+        ``{camera: {mode, width, height, modalities}}``.
+
+    Raises:
+        DatasetError: with ``add``, a stored camera would keep some modalities at other settings
+            (resolution or preset) than the ones rendered now; one camera has one setting.
+    """
+    new = camera_settings(render.to_dict())
+    if not add:
+        return new
+    out = {c: dict(s) for c, s in camera_settings({"per_camera": old}).items()} if old else {}
+    for cam, s in new.items():
+        prev = out.get(cam)
+        if prev is None:
+            out[cam] = s
+            continue
+        same = all(prev[k] == s[k] for k in ("mode", "width", "height"))
+        if same:
+            mods = set(prev["modalities"]) | set(s["modalities"])
+            out[cam] = {**s, "modalities": [m for m in MODALITIES if m in mods]}
+            continue
+        left = [m for m in prev["modalities"] if m not in s["modalities"]]
+        if left:
+            raise DatasetError(
+                f"camera {cam!r} is stored at {describe_settings(prev)} with {', '.join(left)}, which --add would "
+                f"keep beside new {describe_settings(s)} images; add --modalities {' '.join(prev['modalities'])} "
+                f"to re-render all of them, or re-render without --add")
+        out[cam] = s
+    return out

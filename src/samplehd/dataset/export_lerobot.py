@@ -14,24 +14,24 @@ loads them. Layout (paths and keys as lerobot's ``datasets/utils.py``)::
 
 Frame features: ``observation.state`` (6 joint positions [rad] + gripper opening [m]),
 ``observation.tcp_pose`` (TCP position [m] + quaternion w,x,y,z), ``action`` (SAMPLE-HD's 7-D steering
-vector), ``action.joint`` (commanded joint targets [rad] + gripper command), ``subtask_index``,
+vector; the only feature whose key starts with ``action``, so LeRobot's policies see one action),
+``command.joint`` (commanded joint targets [rad] + gripper command), ``subtask_index``,
 ``grasped_object``, and LeRobot's ``timestamp``, ``frame_index``, ``episode_index``, ``index``,
 ``task_index``; the task is the instruction text. Training episodes come first, then test, and
 ``info.json`` ``splits`` gives both ranges.
 
-Images: RGB is a video feature ``observation.images.<camera>`` (lossy AV1/H.264, as LeRobot).
-Depth and segmentation must stay exact, and LeRobot's video decoders return 8-bit RGB, so they are
-image features stored in the data parquet (one 16-bit grayscale PNG per frame, column type
-``struct<bytes, path>`` as ``datasets.Image``), which lerobot 0.6.1 decodes to float32 ``(1, H, W)``
-in native units:
+Images: by default only RGB, as a video feature ``observation.images.<camera>`` per camera (lossy
+AV1/H.264, as LeRobot): LeRobot's policies (ACT, Diffusion, ...) take every ``image``/``video``
+feature for an RGB camera, so nothing else is one. Depth and segmentation are opt-in
+(``modalities``) and stay exact, as uint16 arrays in the data parquet (``datasets.Array2D``,
+``(H, W)``) under keys that LeRobot's policies ignore (neither ``observation.*`` nor ``action*``):
 
-* ``observation.images.<camera>.depth``: uint16 millimetres (rounded: within 0.5 mm; 0 = no data,
-  clipped at 65.535 m); ``info``: ``is_depth_map: true``, ``depth_unit: "mm"`` (LeRobot converts to
-  its ``depth_output_unit``, millimetres by default).
-* ``observation.images.<camera>.segmentation``: uint16 instance ids, exact (0 background, 1 table,
-  2 robot, 3 + i scene object i); ``info``: ``is_depth_map: false``.
+* ``depth.<camera>``: uint16 millimetres (rounded: within 0.5 mm; 0 = no data, clipped at
+  65.535 m); ``info``: ``unit: "mm"``.
+* ``segmentation.<camera>``: uint16 instance ids, exact (0 background, 1 table, 2 robot, 3 + i
+  scene object i).
 
-Their stats are in the same native units (mm, ids), per channel with shape (1, 1, 1).
+lerobot 0.6.1 returns them as (H, W) integer tensors; their stats are scalars in the same units.
 """
 
 from __future__ import annotations
@@ -43,8 +43,11 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.dataset.container import camera_settings
 from samplehd.dataset.staging import export_source, staged_directory
 from samplehd.errors import DatasetError
+from samplehd.render.renderer import MODALITIES
+from samplehd.render.video import VideoWriter, pick_codec
 
 __all__ = ["CODEBASE_VERSION", "export_lerobot"]
 
@@ -54,14 +57,13 @@ DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
 EPISODES_PATH = "meta/episodes/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 DATA_FILE_MB = 100  # a data file with image columns is closed once it holds this much image data
-_MODALITIES = ("rgb", "depth", "segmentation")
 _QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
 
 _VECTOR_FEATURES: dict[str, tuple[int, list[str]]] = {
     "observation.state": (7, [f"joint_{i}" for i in range(6)] + ["gripper_opening"]),
     "observation.tcp_pose": (7, ["x", "y", "z", "qw", "qx", "qy", "qz"]),
     "action": (7, ["vx", "vy", "vz", "wx", "wy", "wz", "gripper"]),
-    "action.joint": (7, [f"joint_{i}" for i in range(6)] + ["gripper"]),
+    "command.joint": (7, [f"joint_{i}" for i in range(6)] + ["gripper"]),
 }
 _SCALAR_FEATURES = {"subtask_index": "int64", "grasped_object": "int64", "timestamp": "float32",
                     "frame_index": "int64", "episode_index": "int64", "index": "int64", "task_index": "int64"}
@@ -72,26 +74,25 @@ def _episode_columns(frames: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         "observation.state": np.concatenate([frames["joint_pos"], frames["gripper_opening"][:, None]], 1),
         "observation.tcp_pose": np.concatenate([frames["tcp_pos"], frames["tcp_quat"]], 1),
         "action": frames["steering"],
-        "action.joint": np.concatenate([frames["command_joint_pos"], frames["gripper_command"][:, None]], 1),
+        "command.joint": np.concatenate([frames["command_joint_pos"], frames["gripper_command"][:, None]], 1),
         "subtask_index": frames["subtask_index"].astype(np.int64),
         "grasped_object": frames["grasped_object"].astype(np.int64),
     }
 
 
-def _hf_features(image_keys: list[str]) -> dict[str, Any]:
+def _hf_features(array_shapes: dict[str, tuple[int, int]]) -> dict[str, Any]:
     feats: dict[str, Any] = {}
     for k, (n, _) in _VECTOR_FEATURES.items():
         feats[k] = {"feature": {"dtype": "float32", "_type": "Value"}, "length": n, "_type": "List"}
     for k, dtype in _SCALAR_FEATURES.items():
         feats[k] = {"dtype": dtype, "_type": "Value"}
-    for k in image_keys:
-        feats[k] = {"_type": "Image"}
+    for k, shape in array_shapes.items():
+        feats[k] = {"shape": list(shape), "dtype": "uint16", "_type": "Array2D"}
     return {"info": {"features": feats}}
 
 
 class _Stats:
     """Running min/max/sum/sumsq and a kept sample for quantiles, per feature."""
-
     def __init__(self) -> None:
         self.parts: dict[str, list[np.ndarray]] = {}
 
@@ -110,15 +111,15 @@ class _Stats:
         return out
 
 
-def _image_stats(sample: list[np.ndarray], scale: float = 255.0) -> dict[str, list]:
-    """Per-channel stats (LeRobot's (C, 1, 1) layout) of sampled (H, W, C) or (H, W) frames, divided
-    by ``scale`` (255 for RGB, which LeRobot returns in [0, 1]; 1 for native-unit images)."""
-    x = np.stack(sample).astype(np.float64) / scale
-    flat = x.reshape(-1, 1 if x.ndim == 3 else x.shape[-1])
+def _image_stats(sample: list[np.ndarray], rgb: bool) -> dict[str, list]:
+    """Stats of sampled frames: RGB (H, W, 3) per channel in LeRobot's (3, 1, 1) layout and in [0, 1]
+    (as LeRobot returns RGB); depth/segmentation (H, W) as one value (shape (1,)) in native units."""
+    x = np.stack(sample).astype(np.float64) / (255.0 if rgb else 1.0)
+    flat = x.reshape(-1, 3 if rgb else 1)
     d = {"min": flat.min(0), "max": flat.max(0), "mean": flat.mean(0), "std": flat.std(0)}
     for q in _QUANTILES:
         d[f"q{int(round(q * 100)):02d}"] = np.quantile(flat, q, axis=0)
-    out = {k: [[[float(c)]] for c in v] for k, v in d.items()}
+    out = {k: ([[[float(c)]] for c in v] if rgb else [float(c) for c in v]) for k, v in d.items()}
     out["count"] = [int(len(sample))]
     return out
 
@@ -131,20 +132,19 @@ def _as_uint16(mod: str, frames: np.ndarray) -> np.ndarray:
     return np.asarray(frames).astype(np.uint16)
 
 
-def _png16(image: np.ndarray) -> bytes:
-    """One (H, W) uint16 image as a 16-bit grayscale PNG (PIL mode I;16, as LeRobot writes depth)."""
-    import io
+def _uint16_lists(frames16: np.ndarray) -> Any:
+    """(T, H, W) uint16 frames as a pyarrow ``list<list<uint16>>`` column (``datasets.Array2D`` storage)."""
+    import pyarrow as pa
 
-    from PIL import Image
-
-    buf = io.BytesIO()
-    Image.fromarray(np.ascontiguousarray(image, dtype=np.uint16)).save(buf, format="PNG", compress_level=1)
-    return buf.getvalue()
+    t, h, w = frames16.shape
+    rows = pa.ListArray.from_arrays(pa.array(np.arange(0, t * h * w + 1, w, dtype=np.int32)),
+                                    pa.array(np.ascontiguousarray(frames16).ravel(), pa.uint16()))
+    return pa.ListArray.from_arrays(pa.array(np.arange(0, t * h + 1, h, dtype=np.int32)), rows)
 
 
 def _table(columns: dict[str, Any], hf: dict[str, Any] | None = None) -> Any:
-    """A pyarrow table: 2-D arrays as fixed-size float32 lists, lists of PNG bytes as
-    ``datasets.Image`` structs ``{bytes, path}``, everything else as is."""
+    """A pyarrow table: 2-D arrays as fixed-size float32 lists, pyarrow arrays as they are, everything
+    else through ``pa.array``."""
     import pyarrow as pa
 
     arrays, names = [], []
@@ -152,9 +152,8 @@ def _table(columns: dict[str, Any], hf: dict[str, Any] | None = None) -> Any:
         if isinstance(v, np.ndarray) and v.ndim == 2:
             flat = pa.array(v.astype(np.float32).ravel())
             arrays.append(pa.FixedSizeListArray.from_arrays(flat, v.shape[1]))
-        elif isinstance(v, list) and v and isinstance(v[0], bytes):
-            arrays.append(pa.StructArray.from_arrays(
-                [pa.array(v, pa.binary()), pa.array([None] * len(v), pa.string())], names=["bytes", "path"]))
+        elif isinstance(v, pa.Array):
+            arrays.append(v)
         else:
             arrays.append(pa.array(v))
         names.append(k)
@@ -192,18 +191,16 @@ def _write_tasks(path: Path, tasks: list[str]) -> None:
 def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str] | None,
              modalities: list[str] | None) -> tuple[dict[str, dict[str, Any]], list[tuple[str, str]]]:
     """The per-camera settings and the (camera, modality) streams to export; one-line errors."""
-    from samplehd.dataset.container import camera_settings
-
     settings = camera_settings(render)
     cams = list(dict.fromkeys(cameras)) if cameras is not None else list(settings)
     missing = [c for c in cams if c not in settings]
     if missing:
         raise DatasetError(f"--cameras {missing}: not stored in {root}; stored cameras: "
                            f"{', '.join(settings) or 'none (rerender adds images)'}")
-    mods = list(dict.fromkeys(modalities)) if modalities is not None else list(_MODALITIES)
-    bad = [m for m in mods if m not in _MODALITIES]
+    mods = list(dict.fromkeys(modalities)) if modalities is not None else ["rgb"]
+    bad = [m for m in mods if m not in MODALITIES]
     if bad:
-        raise DatasetError(f"--modalities {bad}: valid: {', '.join(_MODALITIES)}")
+        raise DatasetError(f"--modalities {bad}: valid: {', '.join(MODALITIES)}")
     streams = [(c, m) for c in cams for m in settings[c]["modalities"] if m in mods]
     if modalities is not None:
         absent = [m for m in mods if all(mod != m for _, mod in streams)]
@@ -219,7 +216,7 @@ def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str]
 
 
 def _feature_key(cam: str, mod: str) -> str:
-    return f"observation.images.{cam}" if mod == "rgb" else f"observation.images.{cam}.{mod}"
+    return f"observation.images.{cam}" if mod == "rgb" else f"{mod}.{cam}"
 
 
 def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/dataset", codec: str | None = None,
@@ -238,8 +235,8 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             depth/segmentation images is also closed once it holds ``DATA_FILE_MB`` of them).
         cameras: cameras to export (default: every stored camera).
         progress: ``progress(done, total)`` per episode.
-        modalities: which of rgb (video), depth, segmentation (PNG image features) to export
-            (default: every stored one).
+        modalities: which of rgb (video features), depth and segmentation (uint16 arrays under
+            ``depth.<camera>`` / ``segmentation.<camera>``) to export (default: rgb only).
 
     Returns:
         ``{episodes, frames, tasks, videos: [keys], images: [keys], codec}``.
@@ -250,7 +247,6 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     """
     import pyarrow.parquet as pq
 
-    from samplehd.dataset.video import VideoWriter, pick_codec
 
     reader, out = export_source(root, out)
     settings, streams = _streams(root, reader.info.get("render"), cameras, modalities)
@@ -270,7 +266,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     in_file = 0  # frames in the current data/video file
     in_bytes = 0  # image bytes in the current data file
     index = 0
-    hf = _hf_features(image_keys)
+    hf = _hf_features({_feature_key(c, m): (settings[c]["height"], settings[c]["width"]) for c, m in images})
 
     def flush_file() -> None:
         if "writer" in data:
@@ -304,9 +300,8 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             for cam, mod in images:
                 key = _feature_key(cam, mod)
                 frames16 = _as_uint16(mod, ep.images[cam][mod][:])
-                pngs = [_png16(f) for f in frames16]
-                in_bytes += sum(len(b) for b in pngs)
-                cols[key] = pngs
+                in_bytes += frames16.nbytes
+                cols[key] = _uint16_lists(frames16)
                 samples[key].extend(frames16[picks][:4])
             if "writer" not in data:
                 path = tmp / DATA_PATH.format(chunk_index=chunk, file_index=file)
@@ -348,7 +343,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
         for cam, mod in streams:
             key = _feature_key(cam, mod)
             if samples[key]:
-                all_stats[key] = _image_stats(samples[key], 255.0 if mod == "rgb" else 1.0)
+                all_stats[key] = _image_stats(samples[key], rgb=mod == "rgb")
         (tmp / "meta" / "stats.json").write_text(json.dumps(all_stats, indent=1))
         features: dict[str, Any] = {}
         for k, (dim, names) in _VECTOR_FEATURES.items():
@@ -364,14 +359,12 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                 features[_feature_key(cam, mod)] = {"dtype": "video", "shape": [h, w, 3], "names": names, "info": info}
             elif mod == "depth":
                 features[_feature_key(cam, mod)] = {
-                    "dtype": "image", "shape": [h, w, 1], "names": names,
-                    "info": {"is_depth_map": True, "depth_unit": "mm", "image.format": "png", "image.dtype": "uint16",
-                             "samplehd.source": f"images/{cam}/depth (float32 m), rounded to mm"}}
+                    "dtype": "uint16", "shape": [h, w], "names": ["height", "width"],
+                    "info": {"unit": "mm", "samplehd.source": f"images/{cam}/depth (float32 m), rounded to mm"}}
             else:
                 features[_feature_key(cam, mod)] = {
-                    "dtype": "image", "shape": [h, w, 1], "names": names,
-                    "info": {"is_depth_map": False, "image.format": "png", "image.dtype": "uint16",
-                             "samplehd.ids": "0 background, 1 table, 2 robot, 3 + i scene object i"}}
+                    "dtype": "uint16", "shape": [h, w], "names": ["height", "width"],
+                    "info": {"samplehd.ids": "0 background, 1 table, 2 robot, 3 + i scene object i"}}
         for k, dtype in _SCALAR_FEATURES.items():
             features[k] = {"dtype": dtype, "shape": [1], "names": None}
         n_train = sum(1 for i in order if reader.episodes[i].split == "train")
@@ -388,4 +381,4 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             {"repo_id": repo_id, "source": str(Path(root).resolve()), "source_format": reader.info.get(
                 "format_version"), "versions": reader.info.get("versions")}, indent=1))
     return {"episodes": len(order), "frames": index, "tasks": len(tasks),
-            "videos": [_feature_key(c, "rgb") for c, _ in videos], "images": image_keys, "codec": codec}
+            "videos": [_feature_key(c, "rgb") for c, _ in videos], "arrays": image_keys, "codec": codec}

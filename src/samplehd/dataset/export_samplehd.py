@@ -1,39 +1,97 @@
-"""Export a samplehd dataset in the original SAMPLE-HD folder layout.
+"""Export a samplehd dataset as the files SAMPLE-HD's own Python code reads.
 
-::
+The layout, field names and conventions are those that SAMPLE-HD's ``model/executor.py``,
+``tools/exec.py``, ``preprocessing/*.py``, ``datasets/SAMPLE.py`` and ``utils/robot.py`` consume::
 
-    images/<scene stem>.png                 the scene images (SHD_<split>_<index:06d>.png)
-    scenes/<scene stem>.json                one CLEVR-layout scene annotation each
-    instructions/i<instruction:06d>.json    one instruction each (text, programs, task, targets, ...)
+    images/SAMPLE_HD_train_<scene:06d>.png         scene image (every split keeps this name, as theirs)
+    depth/SAMPLE_HD_train_<scene:06d>.png          scene depth, uint16 millimetres
+    segmentation/SAMPLE_HD_train_<scene:06d>.png   scene segmentation in colour (RGB, see below)
+    scenes/SAMPLE_HD_train_<scene:06d>.json        CLEVR scene + SAMPLE-HD object fields
+    instructions/instructions_program.json         {info, instructions: [...]}, sorted by instruction_idx
+    instructions/instructions_unityGT_filtered.json  the ground-truth Unity programs, aligned with it
     sequences/i<instruction:06d>_s<scene:06d>/
-        data.json                           the episode: header + one record per frame
-        <frame:05d>_rgb.png                 per camera suffix when several: <frame:05d>_<camera>_rgb.png
-        <frame:05d>_depth.png               uint16 millimetres
-        <frame:05d>_seg.png                 instance ids (0 background, 1 table, 2 robot, 3+i object i)
-        preview.mp4                         with --previews (H.264)
+        data.json                                  {scene_json, instruction_idx, sequence: [frame, ...]}
+        effector.json                              {data: [effector per frame_number]}
+        sequence_img_<frame:05d>.jpg               RGB (JPEG, quality 95)
+        segmentation/sequence_img_<frame:05d>.png  colour segmentation (RGB PNG)
+        depth/sequence_img_<frame:05d>.png         uint16 millimetres
+    info.json                                      counts and what was left out, with reasons
 
-A frame record of data.json: ``frame``, ``time`` [s], ``subtask`` (SAMPLE-HD's names), ``subtask_index``,
-``subtask_progress``, ``target_object``, ``joints`` (6 arm angles [deg], as SAMPLE-HD's Unity
-recorder), ``joints_rad``, ``gripper_opening`` [m], ``steering`` (7 values in [-1, 1]),
-``effector`` {position [m], rotation (quaternion w,x,y,z)}, ``objects`` [{id, position, rotation}],
-``grasped_object``, ``safety_event``. Sequences end with the ``Succeeded`` / ``Completed`` markers.
+Only SAMPLE-HD's four families (place, stack, put, remove) are exported: its code cannot express
+pick_up, place_relative or stack_three (``Executor.parse_unity`` reads ``'place' in
+'place_relative'`` as place and crashes on pick_up). An instruction is also left out when one of its
+``filter_table[P]`` tokens would select another set of objects on SAMPLE-HD's table, which has no
+neutral band between halves (every exported object's ``table_part`` names one of left/right and
+one of front/back, the nearer half where samplehd's object lies in the band). ``info.json`` counts
+both. Positions, rotations, joint angles and effector points follow SAMPLE-HD's Unity conventions
+(:mod:`samplehd.dataset.unity_frame`); docs/FORMAT.md documents every field.
 """
 
 from __future__ import annotations
 
 import json
 import shutil
+from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
-from samplehd.dataset.backend import Backend
+from samplehd.dataset.container import read_episode
 from samplehd.dataset.staging import export_source, staged_directory
+from samplehd.dataset.unity_frame import (
+    joints_to_unity,
+    point_to_unity,
+    quat_to_unity,
+    unity_effector_end,
+    xyz,
+    xyzw,
+)
+from samplehd.errors import DatasetError
+from samplehd.render.image_io import read_segmentation, save_depth
+from samplehd.render.video import VideoWriter
+from samplehd.workers import Backend
+from samplehd.world.layout import LAYOUT
 
-__all__ = ["export_samplehd", "sequence_name"]
+__all__ = [
+    "MARKERS",
+    "SAMPLE_HD_FAMILIES",
+    "colour_segmentation",
+    "export_samplehd",
+    "scene_stem",
+    "segmentation_colour",
+    "sequence_name",
+    "unity_program",
+]
+
+SAMPLE_HD_FAMILIES = ("place", "stack", "put", "remove")
+# Frames SAMPLE-HD appends to every successful sequence (its datasets/SAMPLE.py skips them).
+MARKERS = ("Succeeded", "Completed")
+_OPPOSITE = {"left": "right", "right": "left", "front": "back", "back": "front"}
+_AXIS = {"left": 1, "right": 1, "front": 0, "back": 0}  # world axis that decides each part
+_JPEG_QUALITY = 95
+# Colours of the non-object classes of the colour segmentation (ids 0 background, 1 table, 2 robot):
+# greys that no object colour comes near (every object colour has a channel at 0 or 255 and differs).
+_CLASS_COLOURS = np.array([[0, 0, 0], [100, 100, 100], [200, 200, 200]], dtype=np.uint8)
+
+
+def _object_palette() -> np.ndarray:
+    levels = (0, 85, 170, 255)
+    cols = [(r, g, b) for r in levels for g in levels for b in levels if not r == g == b]
+    # Most saturated first, so scenes of few objects get the most distinct colours.
+    cols.sort(key=lambda c: (-(max(c) - min(c)), -max(c), c))
+    return np.array(cols, dtype=np.uint8)
+
+
+_OBJECT_COLOURS = _object_palette()
+
+
+def scene_stem(index: int) -> str:
+    """SAMPLE-HD's name of scene ``index`` (its code reads ``SAMPLE_HD_train_%06d`` for every split)."""
+    return f"SAMPLE_HD_train_{index:06d}"
 
 
 def sequence_name(instruction_index: int, scene_index: int) -> str:
@@ -41,118 +99,250 @@ def sequence_name(instruction_index: int, scene_index: int) -> str:
     return f"i{instruction_index:06d}_s{scene_index:06d}"
 
 
+def segmentation_colour(obj: int) -> dict[str, int]:
+    """``segmentation_colour`` {r, g, b, a} (0–255) of scene object ``obj`` in the colour segmentation."""
+    if not 0 <= obj < len(_OBJECT_COLOURS):
+        raise ValueError(f"object {obj}: the colour segmentation has colours for objects 0..{len(_OBJECT_COLOURS) - 1}")
+    r, g, b = (int(v) for v in _OBJECT_COLOURS[obj])
+    return {"r": r, "g": g, "b": b, "a": 255}
+
+
+def colour_segmentation(ids: np.ndarray, num_objects: int) -> np.ndarray:
+    """H×W×3 uint8 colour image of instance ids (0 background, 1 table, 2 robot, 3 + i object i)."""
+    lut = np.concatenate([_CLASS_COLOURS, _OBJECT_COLOURS[:num_objects]])
+    ids = np.asarray(ids)
+    if ids.size and (ids.min() < 0 or ids.max() >= len(lut)):
+        raise ValueError(f"segmentation ids outside 0..{len(lut) - 1} for a scene of {num_objects} objects")
+    return lut[ids]
+
+
+def _sample_hd_table_part(obj: dict[str, Any]) -> list[str]:
+    """One of left/right and one of front/back: samplehd's parts, the nearer half where it lies in the band."""
+    parts = list(obj.get("table_part") or [])
+    x, y = obj["3d_coords"][0], obj["3d_coords"][1]
+    horizontal = next((p for p in parts if p in ("left", "right")), "left" if y < 0 else "right")
+    vertical = next((p for p in parts if p in ("front", "back")), "front" if x >= 0 else "back")
+    return [horizontal, vertical]
+
+
+def unity_program(instruction: dict[str, Any]) -> dict[str, Any]:
+    """The ground-truth ``unity_program`` {name, objectInt, subjectString, subjectInt} of an instruction
+    of SAMPLE-HD's four families, from samplehd's task (what the ground-truth path carried out)."""
+    task, family = instruction["task"], instruction["family"]
+    objects = [int(i) for i in task["objects"]]
+    if family in ("stack", "put"):
+        return {"name": family, "objectInt": objects, "subjectString": [], "subjectInt": int(task["subject"])}
+    if family in ("place", "remove"):  # remove is executed, and written, as place to the opposite part
+        return {"name": "place", "objectInt": objects, "subjectString": [str(task["subject"])], "subjectInt": -1}
+    raise ValueError(f"family {family!r} has no SAMPLE-HD program; valid: {', '.join(SAMPLE_HD_FAMILIES)}")
+
+
+def _original_task(instruction: dict[str, Any]) -> list[dict[str, Any]]:
+    """SAMPLE-HD's ``task`` list [{type, object, subject}] (preprocessing/sequence_data_preprocessing.py)."""
+    task, family = instruction["task"], instruction["family"]
+    objects = [int(i) for i in task["objects"]]
+    if family == "remove":
+        return [{"type": "remove", "object": objects, "subject": _OPPOSITE[str(task["subject"])]}]
+    if family == "place":
+        return [{"type": "place", "object": objects, "subject": str(task["subject"])}]
+    return [{"type": family, "object": objects, "subject": int(task["subject"])}]
+
+
+def _band_mismatch(tokens: list[str], strict: list[list[str]], sample_hd: list[list[str]]) -> bool:
+    for tok in tokens:
+        if tok.startswith("filter_table[") and tok.endswith("]"):
+            part = tok[len("filter_table["):-1]
+            if [part in p for p in strict] != [part in p for p in sample_hd]:
+                return True
+    return False
+
+
+def _scene_doc(scene: dict[str, Any], base: np.ndarray) -> dict[str, Any]:
+    doc = {k: v for k, v in scene.items() if k != "spec"}
+    doc["image_filename"] = scene_stem(int(scene["image_index"])) + ".png"
+    rel = scene.get("relationships", {})
+    objects = []
+    for i, obj in enumerate(scene["objects"]):
+        o = dict(obj)
+        o["samplehd_table_part"] = list(obj.get("table_part") or [])
+        o["table_part"] = _sample_hd_table_part(obj)
+        o["segmentation_colour"] = segmentation_colour(i)
+        o["position"] = xyz(point_to_unity(np.asarray(obj["3d_coords"]), base))
+        o["rotation"] = xyzw(quat_to_unity(np.asarray(obj["orientation"])))
+        ext = obj["bbox"]["extents"]  # object frame x, y, z [m] → Unity local x = y, y = z, z = x
+        o["bounding_box_size"] = xyz((ext[1], ext[2], ext[0]))
+        o["scaling"] = {"x": 1.0, "y": 1.0, "z": 1.0}
+        o["directions"] = {r: list(rel[r][i]) for r in ("left", "right", "front", "behind") if r in rel}
+        objects.append(o)
+    doc["objects"] = objects
+    return doc
+
+
 @dataclass(frozen=True)
 class _SequenceUnit:
     episode_path: str
     out: str
     instruction_index: int
-    instruction: dict[str, Any]
+    num_objects: int
+    camera: str | None
     images: bool
     previews: bool
     fps: int
+    base: tuple[float, float, float]
 
 
-def _frame_records(ep: Any) -> list[dict[str, Any]]:
+def _frame_records(ep: Any, base: np.ndarray) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     f = ep.frames
-    out = []
+    joints = joints_to_unity(f["joint_pos"]).round(6)
+    obj_pos = point_to_unity(f["object_pos"], base)
+    obj_rot = quat_to_unity(f["object_quat"])
+    eff = unity_effector_end(f["tcp_pos"], f["tcp_quat"], base)
+    eff_rot = quat_to_unity(f["tcp_quat"])
+    frames, effector = [], []
     for t in range(ep.num_frames):
-        out.append({
-            "frame": t,
+        frames.append({
+            "frame_number": t,
             "time": round(float(f["time"][t]), 6),
             "subtask": ep.subtasks[int(f["subtask_index"][t])],
-            "subtask_index": int(f["subtask_index"][t]),
-            "subtask_progress": round(float(f["subtask_progress"][t]), 5),
-            "target_object": int(f["target_object"][t]),
-            "joints": np.degrees(f["joint_pos"][t]).round(5).tolist(),
-            "joints_rad": f["joint_pos"][t].tolist(),
-            "gripper_opening": round(float(f["gripper_opening"][t]), 6),
-            "gripper_command": float(f["gripper_command"][t]),
+            "robot_state": [float(v) for v in joints[t]] + [round(float(f["gripper_opening"][t]), 6)],
             "steering": [round(float(v), 6) for v in f["steering"][t]],
-            "effector": {"position": f["tcp_pos"][t].tolist(), "rotation": f["tcp_quat"][t].tolist()},
-            "objects": [{"id": i, "position": p.tolist(), "rotation": q.tolist()}
-                        for i, (p, q) in enumerate(zip(f["object_pos"][t], f["object_quat"][t], strict=True))],
+            "objects": [{"position": xyz(p), "rotation": xyzw(q)} for p, q in zip(obj_pos[t], obj_rot[t], strict=True)],
+            "target_object": int(f["target_object"][t]),
             "grasped_object": int(f["grasped_object"][t]),
-            "safety_event": int(f["safety_event"][t]),
         })
-    return out
+        effector.append({"position": xyz(eff[t]), "rotation": xyzw(eff_rot[t])})
+    last = ep.num_frames - 1
+    for k, marker in enumerate(MARKERS if ep.success else MARKERS[1:]):
+        frames.append({**frames[last], "frame_number": last + 1 + k, "subtask": marker})
+        effector.append(effector[last])
+    return frames, effector
 
 
 def _export_sequence(unit: _SequenceUnit) -> int:
-    from samplehd.dataset.container import read_episode
-    from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
-
-    ep = read_episode(Path(unit.episode_path), images="lazy" if unit.images or unit.previews else "none")
+    want_images = unit.images or unit.previews
+    ep = read_episode(Path(unit.episode_path), images="lazy" if want_images else "none")
+    base = np.asarray(unit.base)
     folder = Path(unit.out) / "sequences" / sequence_name(unit.instruction_index, ep.scene_index)
     folder.mkdir(parents=True, exist_ok=True)
-    inst = unit.instruction
-    doc = {
-        "instruction_index": unit.instruction_index, "scene_index": ep.scene_index,
-        "instruction": inst.get("instruction"), "family": ep.family, "task": inst.get("task"),
-        "program": inst.get("program"), "program_sequence": inst.get("program_sequence"),
-        "targets": inst.get("targets"), "seed": ep.seed, "success": ep.success, "subtasks": list(ep.subtasks),
-        "fps": unit.fps, "num_frames": ep.num_frames, "markers": ["Succeeded", "Completed"] if ep.success else [],
-        "check": ep.info.get("check"), "frames": _frame_records(ep),
-    }
+    frames, effector = _frame_records(ep, base)
+    doc = {"scene_json": scene_stem(ep.scene_index) + ".json", "instruction_idx": unit.instruction_index,
+           "fps": unit.fps, "sequence": frames}
     (folder / "data.json").write_text(json.dumps(doc))
-    cams = list(ep.images)
-    if unit.images:
-        for cam in cams:
-            tag = "" if len(cams) == 1 else f"_{cam}"
-            mods = ep.images[cam]
-            for t in range(ep.num_frames):
-                if "rgb" in mods:
-                    save_rgb(folder / f"{t:05d}{tag}_rgb.png", mods["rgb"][t])
-                if "depth" in mods:
-                    save_depth(folder / f"{t:05d}{tag}_depth.png", mods["depth"][t])
-                if "segmentation" in mods:
-                    save_segmentation(folder / f"{t:05d}{tag}_seg.png", mods["segmentation"][t])
-    if unit.previews and cams and "rgb" in ep.images[cams[0]]:
-        from samplehd.dataset.video import VideoWriter
-
-        rgb = ep.images[cams[0]]["rgb"][:]
+    (folder / "effector.json").write_text(json.dumps({"data": effector}))
+    mods = ep.images.get(unit.camera, {}) if unit.camera else {}
+    if unit.images and mods:
+        last = ep.num_frames - 1
+        for fr in frames:
+            t, name = min(fr["frame_number"], last), f"sequence_img_{fr['frame_number']:05d}"
+            if "rgb" in mods:
+                Image.fromarray(np.asarray(mods["rgb"][t])).save(folder / f"{name}.jpg", quality=_JPEG_QUALITY)
+            if "segmentation" in mods:
+                (folder / "segmentation").mkdir(exist_ok=True)
+                colour = colour_segmentation(mods["segmentation"][t], unit.num_objects)
+                Image.fromarray(colour).save(folder / "segmentation" / f"{name}.png", compress_level=3)
+            if "depth" in mods:
+                save_depth(folder / "depth" / f"{name}.png", mods["depth"][t])
+    if unit.previews and "rgb" in mods:
+        rgb = mods["rgb"][:]
         h, w = rgb.shape[1] // 2 * 2, rgb.shape[2] // 2 * 2
         with VideoWriter(folder / "preview.mp4", w, h, unit.fps, "libx264", crf=23, gop=unit.fps) as vw:
             vw.write(rgb[:, :h, :w])
     return ep.num_frames
 
 
+def _export_scene_images(root: Path, tmp: Path, scene: dict[str, Any]) -> None:
+    stem, new = Path(scene["image_filename"]).stem, scene_stem(int(scene["image_index"]))
+    for sub, suffix in (("images", ".png"), ("depth", ".png"), ("depth", ".npy")):
+        src = root / sub / f"{stem}{suffix}"
+        if src.exists():
+            (tmp / sub).mkdir(exist_ok=True)
+            shutil.copyfile(src, tmp / sub / f"{new}{suffix}")
+    seg = root / "segmentation" / f"{stem}.png"
+    if seg.exists():
+        (tmp / "segmentation").mkdir(exist_ok=True)
+        colour = colour_segmentation(read_segmentation(seg), len(scene["objects"]))
+        Image.fromarray(colour).save(tmp / "segmentation" / f"{new}.png", compress_level=3)
+
+
 def export_samplehd(root: str | Path, out: str | Path, images: bool = True, previews: bool = False,
-                    backend: Backend | None = None, progress: Callable[[int, int], None] | None = None
-                    ) -> dict[str, Any]:
-    """Write the SAMPLE-HD layout of a complete dataset into ``out`` (a temporary folder, renamed).
+                    camera: str | None = None, backend: Backend | None = None,
+                    progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Write SAMPLE-HD's layout of a complete dataset into ``out`` (a temporary folder, renamed).
 
     Args:
         root: the samplehd dataset.
         out: the new folder (must not exist or be empty).
-        images: write per-frame PNGs (when the episodes store images).
-        previews: write ``preview.mp4`` per sequence (first camera's RGB).
+        images: write per-frame images (when the episodes store images).
+        previews: write ``preview.mp4`` per sequence (H.264 of the camera's RGB).
+        camera: the stored camera whose images become the sequence images (default: ``scene``,
+            else the first stored one).
         backend: where sequences are written (default: in this process).
         progress: ``progress(done, total)`` per sequence.
 
     Returns:
-        ``{scenes, instructions, sequences, frames}``.
+        ``{scenes, instructions, sequences, frames, left_out}``; ``left_out`` counts the
+        instructions not exported, by reason.
+
+    Raises:
+        DatasetError: unfinished dataset, non-empty ``out`` or a camera that no episode stores.
     """
     reader, out = export_source(root, out)
+    root = Path(root)
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
+    base = LAYOUT.robot_base_position
+    stored = sorted({c for e in range(len(reader)) for c in (reader.episode_meta(e).get("images") or {})})
+    if camera is not None and camera not in stored:
+        raise DatasetError(f"--camera {camera}: not stored in {root}; stored cameras: {', '.join(stored) or 'none'}")
+    cam = camera or ("scene" if "scene" in stored else (stored[0] if stored else None))
+    scenes = {int(s["image_index"]): _scene_doc(s, base) for s in reader.scenes}
+    programs, unity, chosen = [], [], []
+    left_out: Counter[str] = Counter()
+    for k in range(len(reader)):
+        inst = reader.instruction(k)
+        if inst["family"] not in SAMPLE_HD_FAMILIES:
+            left_out[f"family {inst['family']} (not one of SAMPLE-HD's)"] += 1
+            continue
+        tokens = str(inst["program_sequence"]).split()
+        src_scene = reader.scene(int(inst["image_index"]))
+        doc = scenes[int(inst["image_index"])]
+        if _band_mismatch(tokens, [list(o.get("table_part") or []) for o in src_scene["objects"]],
+                          [o["table_part"] for o in doc["objects"]]):
+            left_out["filter_table over an object in the neutral band"] += 1
+            continue
+        image = doc["image_filename"]
+        programs.append({
+            "instruction_idx": k, "image_index": int(inst["image_index"]), "image_filename": image,
+            "split": inst.get("split"), "instruction": inst["instruction"], "program_sequence": tokens,
+            "task": _original_task(inst), "task_id": inst["family"], "family": inst["family"],
+            "template_filename": inst.get("template_filename"), "template_index": inst.get("template_index"),
+            "program": inst.get("program"),
+        })
+        unity.append({"image_filename": image, "image_index": int(inst["image_index"]), "instruction_idx": k,
+                      "unity_program": unity_program(inst)})
+        chosen.append(k)
+    info = {"source": "samplehd", "version": reader.info.get("package_version"),
+            "families": list(SAMPLE_HD_FAMILIES)}
     with staged_directory(out) as tmp:
         for sub in ("images", "scenes", "instructions", "sequences"):
             (tmp / sub).mkdir(parents=True, exist_ok=True)
-        root = Path(root)
         for s in reader.scenes:
-            stem = Path(s["image_filename"]).stem
-            (tmp / "scenes" / f"{stem}.json").write_text(json.dumps(s))
-            src = root / "images" / f"{stem}.png"
-            if src.exists():
-                shutil.copyfile(src, tmp / "images" / f"{stem}.png")
-        for i, inst in enumerate(reader.instructions):
-            (tmp / "instructions" / f"i{i:06d}.json").write_text(json.dumps(inst))
-        units = [_SequenceUnit(str(reader.episode_path(i)), str(tmp), i, reader.instruction(i), images, previews, fps)
-                 for i in range(len(reader))]
+            doc = scenes[int(s["image_index"])]
+            (tmp / "scenes" / f"{scene_stem(int(s['image_index']))}.json").write_text(json.dumps(doc))
+            _export_scene_images(root, tmp, s)
+        (tmp / "instructions" / "instructions_program.json").write_text(
+            json.dumps({"info": info, "instructions": programs}))
+        (tmp / "instructions" / "instructions_unityGT_filtered.json").write_text(
+            json.dumps({"info": info, "instructions": unity}))
+        units = [_SequenceUnit(str(reader.episode_path(k)), str(tmp), k,
+                               len(reader.scene(int(reader.instruction(k)["image_index"]))["objects"]),
+                               cam, images, previews, fps, tuple(float(v) for v in base)) for k in chosen]
         frames = 0
         for done, (_, n) in enumerate((backend or Backend()).map(_export_sequence, iter(units)), 1):
             frames += n
             if progress:
                 progress(done, len(units))
-        (tmp / "info.json").write_text(json.dumps({"source": str(root.resolve()), "layout": "SAMPLE-HD",
-                                                   "fps": fps, "info": reader.info.get("counts")}, indent=1))
-    return {"scenes": len(reader.scenes), "instructions": len(reader), "sequences": len(reader), "frames": frames}
+        summary = {"scenes": len(reader.scenes), "instructions": len(programs), "sequences": len(units),
+                   "frames": frames, "left_out": dict(left_out)}
+        (tmp / "info.json").write_text(json.dumps({"layout": "SAMPLE-HD", "fps": fps, "camera": cam,
+                                                   **info, **summary}, indent=1))
+    return summary

@@ -35,8 +35,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from samplehd.dataset.backend import Backend
+import h5py
+import mujoco
+import numpy
+
+from samplehd.catalogue.loader import catalogue_for
 from samplehd.dataset.config import GenerateConfig, candidate_order
+from samplehd.dataset.container import read_meta, write_error
 from samplehd.dataset.journal import append_journal, read_journal, repair_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
@@ -51,24 +56,19 @@ from samplehd.dataset.layout import (
     is_temporary,
     parse_episode_name,
 )
+from samplehd.dataset.progress import Progress
+from samplehd.dataset.render import check_cameras
+from samplehd.dataset.work import EpisodeUnit, run_episode_unit, run_scene_unit
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.fileio import file_sha256, write_json_atomic
+from samplehd.language.instruction_file import generate_instruction_file
+from samplehd.scene.annotate import image_stem
+from samplehd.scene.generate import SceneJob, scene_split
 from samplehd.version import __version__
-from samplehd.world.seeding import episode_seed
+from samplehd.workers import Backend
+from samplehd.world.seeding import episode_seed, scene_seed
 
-__all__ = ["GenerateSummary", "Progress", "generate_dataset", "versions"]
-
-
-class Progress:
-    """Receives progress events; the default does nothing (the CLI draws rich progress bars)."""
-
-    def stage(self, name: str, total: int, done: int = 0) -> None:
-        """A stage starts with ``total`` units, ``done`` of them already finished (resume)."""
-
-    def advance(self, name: str, n: int = 1, frames: int = 0) -> None:
-        """``n`` units of stage ``name`` finished, producing ``frames`` frames."""
-
-    def note(self, text: str) -> None:
-        """A one-line message."""
+__all__ = ["GenerateSummary", "generate_dataset", "versions"]
 
 
 @dataclass
@@ -112,18 +112,11 @@ class GenerateSummary:
 
 def versions() -> dict[str, str]:
     """Versions of what decides the content: samplehd, MuJoCo, numpy, h5py, Python."""
-    import h5py
-    import mujoco
-    import numpy
-
     return {"samplehd": __version__, "mujoco": mujoco.__version__, "numpy": numpy.__version__,
             "h5py": h5py.__version__, "python": platform.python_version()}
 
 
 def _write_json(path: Path, obj: Any, indent: int | None = None) -> None:
-    from samplehd.dataset.container import write_error
-    from samplehd.scene.generate import write_json_atomic
-
     try:
         write_json_atomic(path, obj, indent)
     except OSError as exc:
@@ -149,13 +142,20 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
             raise DatasetError(f"--out {out}: already holds a dataset; pass --resume to continue it or choose "
                                f"another --out")
         try:
-            stored = json.loads(info_path.read_text())["config"]
-        except (OSError, ValueError, KeyError) as exc:
+            stored_info = json.loads(info_path.read_text())
+            stored = stored_info["config"]
+        except (OSError, ValueError, KeyError, TypeError) as exc:
             raise DatasetError(f"{info_path}: unreadable ({exc}); cannot resume") from None
         diff = _first_difference(stored, json.loads(json.dumps(config.to_dict())))
         if diff:
             raise ConfigError(f"--resume: the config differs from {info_path} at {diff}; resume with the same "
                               f"preset/config/flags")
+        if isinstance(stored_info.get("catalogue"), dict):
+            changed = _catalogue_difference(stored_info["catalogue"], catalogue_in_use(config))
+            if changed:
+                raise ConfigError(f"--resume: {info_path} catalogue.sha256 does not match the catalogue now "
+                                  f"({changed} changed since the dataset was started); resume with the "
+                                  "catalogue it was made with, or start a new --out")
     elif out.is_dir() and any(p for p in out.iterdir() if not is_temporary(p.name)):
         raise DatasetError(f"--out {out}: is not empty and holds no dataset; choose an empty or new directory")
     try:
@@ -173,19 +173,31 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
     repair_journal(out)
 
 
+def catalogue_in_use(config: GenerateConfig) -> dict[str, Any]:
+    """The content hashes of the catalogue a dataset's scenes draw from (built-in data files plus
+    every imported class the config names); recorded in info.json and checked on ``--resume``."""
+    return catalogue_for(config.scene.named_classes).record()
+
+
+def _catalogue_difference(stored: dict[str, Any], now: dict[str, Any]) -> str | None:
+    if stored.get("sha256") == now["sha256"]:
+        return None
+    if stored.get("built_in") != now["built_in"]:
+        return "the built-in catalogue data files"
+    old, new = stored.get("imported", {}), now["imported"]
+    changed = sorted(n for n in set(old) | set(new) if old.get(n) != new.get(n))
+    return "imported class(es) " + ", ".join(changed)
+
+
 def _base_info(config: GenerateConfig) -> dict[str, Any]:
     return {"format_version": FORMAT_VERSION, "status": "in_progress", "versions": versions(),
-            "config": config.to_dict()}
+            "config": config.to_dict(), "catalogue": catalogue_in_use(config)}
 
 
 def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: Progress,
                  summary: GenerateSummary) -> Iterator[dict[str, Any]]:
     """Sample the missing scenes; yield every scene's annotation in index order as soon as it and all
     before it exist, so that the instruction stage runs while later scenes are sampled."""
-    from samplehd.dataset.work import run_scene_unit
-    from samplehd.scene.annotate import image_stem
-    from samplehd.scene.generate import SceneJob, scene_split
-    from samplehd.world.seeding import scene_seed
 
     r = config.render
     preset = r.mode if r.enabled else "fast"
@@ -224,7 +236,6 @@ def _instruction_stage(out: Path, config: GenerateConfig, scenes: Iterator[dict[
                        progress: Progress) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Instruction candidates of every scene, made as the scenes arrive (or read back when resuming);
     returns (scenes, candidates)."""
-    from samplehd.language.instruction_file import generate_instruction_file
 
     path = out / CANDIDATES_FILE
     progress.stage("instructions", config.num_scenes)
@@ -287,8 +298,6 @@ class _Cutoff:
 
 def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], candidates: list[dict[str, Any]],
                 backend: Backend, progress: Progress, summary: GenerateSummary) -> _Cutoff:
-    from samplehd.dataset.container import read_meta
-    from samplehd.dataset.work import EpisodeUnit, run_episode_unit
 
     by_key = {(int(c["image_index"]), int(c["slot"])): c for c in candidates}
     order = candidate_order(list(by_key))
@@ -308,10 +317,9 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
             except DatasetError:
                 p.unlink()
                 continue
-            from samplehd.dataset.container import file_digest
 
             rec = {"scene_index": key[0], "slot": key[1], "status": "ok", "num_frames": int(meta["num_frames"]),
-                   "size": p.stat().st_size, "sha256": file_digest(p), "seconds": 0.0}
+                   "size": p.stat().st_size, "sha256": file_sha256(p), "seconds": 0.0}
             known[key] = rec
             late.append(rec)
     append_journal(out, late)
@@ -452,7 +460,6 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
     progress = progress or Progress()
     summary = GenerateSummary()
     t0 = time.perf_counter()
-    from samplehd.dataset.render import check_cameras
 
     check_cameras(config.render)
     _prepare(out, config, resume)
@@ -479,7 +486,5 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
         with open(out / RUNS_FILE, "a", encoding="utf-8") as f:
             f.write(json.dumps(run) + "\n")
     except OSError as exc:
-        from samplehd.dataset.container import write_error
-
         raise write_error(out / RUNS_FILE, exc) from None
     return summary

@@ -14,6 +14,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from samplehd.dataset.container import write_error
 from samplehd.dataset.layout import JOURNAL_FILE
 
 __all__ = ["append_journal", "read_journal", "repair_journal"]
@@ -66,6 +67,4 @@ def append_journal(root: Path, records: Iterable[Mapping[str, Any]]) -> None:
             f.flush()
             os.fsync(f.fileno())
     except OSError as exc:
-        from samplehd.dataset.container import write_error
-
         raise write_error(path, exc) from None

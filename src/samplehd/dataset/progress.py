@@ -1,15 +1,36 @@
-"""Rich progress bars for dataset generation: overall and per stage, with rate and ETA."""
+"""Progress of dataset jobs: the receiver interface and its rich progress bars (overall and per
+stage, with rate and ETA)."""
 
 from __future__ import annotations
 
 import time
-from pathlib import Path
 from types import TracebackType
 from typing import Any
 
-from samplehd.dataset.generate import GenerateSummary, Progress
+from rich.console import Console
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
+from rich.progress import Progress as RichBars
 
-__all__ = ["RichProgress", "print_summary"]
+__all__ = ["Progress", "RichProgress"]
+
+
+class Progress:
+    """Receives progress events; the default does nothing (the CLI draws rich progress bars)."""
+
+    def stage(self, name: str, total: int, done: int = 0) -> None:
+        """A stage starts with ``total`` units, ``done`` of them already finished (resume)."""
+
+    def advance(self, name: str, n: int = 1, frames: int = 0) -> None:
+        """``n`` units of stage ``name`` finished, producing ``frames`` frames."""
+
+    def note(self, text: str) -> None:
+        """A one-line message."""
 
 
 class RichProgress(Progress):
@@ -20,16 +41,6 @@ class RichProgress(Progress):
     """
 
     def __init__(self, disable: bool = False) -> None:
-        from rich.console import Console
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
-        from rich.progress import Progress as RichBars
-
         self.console = Console(stderr=True, quiet=disable)
         self.bars = RichBars(
             TextColumn("{task.description:>12}"), BarColumn(), MofNCompleteColumn(),
@@ -85,28 +96,3 @@ class RichProgress(Progress):
 
     def note(self, text: str) -> None:
         self.console.log(text)
-
-
-def print_summary(out: Path, summary: GenerateSummary, config: Any) -> None:
-    """The final summary of a run, on stdout."""
-    from rich.console import Console
-    from rich.table import Table
-
-    console = Console()
-    t = Table(title=f"dataset {out}", show_header=False)
-    t.add_row("scenes", str(summary.scenes))
-    t.add_row("instruction candidates", f"{summary.candidates} ({summary.attempted} attempted)")
-    rate = summary.episodes / max(summary.attempted, 1)
-    t.add_row("episodes", f"{summary.episodes} ({rate:.0%} of attempted paths succeeded)")
-    if config.target_episodes:
-        t.add_row("target", f"{config.target_episodes} ({'reached' if summary.target_reached else 'NOT reached'})")
-    t.add_row("families", ", ".join(f"{k} {v}" for k, v in summary.families.items()))
-    t.add_row("frames", f"{summary.frames} ({summary.frames / max(summary.episodes, 1):.0f} per episode)")
-    t.add_row("path rejections", ", ".join(f"{k} {v}" for k, v in summary.rejections.items()) or "none")
-    t.add_row("scene rejections", ", ".join(f"{k} {v}" for k, v in summary.scene_rejections.items()) or "none")
-    t.add_row("wall time", f"{summary.seconds:.1f} s ({summary.units_run} path units run, "
-                           f"{summary.frames / max(summary.seconds, 1e-9):.0f} frames/s overall)")
-    console.print(t)
-    if not summary.target_reached:
-        console.print(f"[yellow]only {summary.episodes} of the target {config.target_episodes} episodes: "
-                      f"raise instructions.per_scene or num_scenes[/yellow]")

@@ -12,12 +12,13 @@ written so far (skipping temporary files) and the instruction candidates they be
 
 from __future__ import annotations
 
-import json
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from samplehd.dataset.container import read_episode, read_frames, read_image, read_meta
+from samplehd.dataset.journal import read_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
     EPISODE_DIR,
@@ -29,6 +30,7 @@ from samplehd.dataset.layout import (
     parse_episode_name,
 )
 from samplehd.errors import DatasetError
+from samplehd.fileio import read_json
 from samplehd.record.episode import Episode
 
 __all__ = ["DatasetReader", "EpisodeEntry"]
@@ -70,17 +72,6 @@ class EpisodeEntry:
         return cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
 
 
-def _read_json(path: Path) -> Any:
-    try:
-        return json.loads(path.read_text())
-    except FileNotFoundError:
-        raise DatasetError(f"{path}: missing") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DatasetError(f"{path}: cannot read: {exc}") from None
-    except json.JSONDecodeError as exc:
-        raise DatasetError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno})") from None
-
-
 class DatasetReader:
     """Read access to a dataset directory written by ``samplehd generate``.
 
@@ -103,7 +94,7 @@ class DatasetReader:
         info_path = self.root / INFO_FILE
         if not info_path.exists():
             raise DatasetError(f"{self.root}: not a samplehd dataset ({INFO_FILE} is missing)")
-        self.info: dict[str, Any] = _read_json(info_path)
+        self.info: dict[str, Any] = read_json(info_path)
         self.complete = self.info.get("status") == "complete"
         self._scenes: list[dict[str, Any]] | None = None
         self._instructions: list[dict[str, Any]] | None = None
@@ -121,13 +112,13 @@ class DatasetReader:
         if self._scenes is None:
             path = self.root / SCENES_FILE
             if path.exists():
-                self._scenes = list(_read_json(path)["scenes"])
+                self._scenes = list(read_json(path)["scenes"])
             else:
                 found = []
                 for p in sorted((self.root / SCENE_DIR).glob("*.json")):
                     if not is_temporary(p.name):
                         try:
-                            found.append(_read_json(p))
+                            found.append(read_json(p))
                         except DatasetError:
                             continue  # being written
                 self._scenes = sorted(found, key=lambda s: s["image_index"])
@@ -145,7 +136,7 @@ class DatasetReader:
         """Instructions with episodes, in ``instruction_index`` order (CLEVR question-file entries)."""
         if self._instructions is None:
             if self.complete:
-                self._instructions = list(_read_json(self.root / INSTRUCTIONS_FILE)["instructions"])
+                self._instructions = list(read_json(self.root / INSTRUCTIONS_FILE)["instructions"])
             else:
                 by_key = {(c["image_index"], c["slot"]): c for c in self._candidates()}
                 self._instructions = []
@@ -157,7 +148,7 @@ class DatasetReader:
 
     def _candidates(self) -> list[dict[str, Any]]:
         path = self.root / CANDIDATES_FILE
-        return list(_read_json(path)["instructions"]) if path.exists() else []
+        return list(read_json(path)["instructions"]) if path.exists() else []
 
     @property
     def episodes(self) -> list[EpisodeEntry]:
@@ -210,7 +201,6 @@ class DatasetReader:
         Raises:
             DatasetError: no such episode, or its file is truncated or corrupted.
         """
-        from samplehd.dataset.container import read_episode
 
         return read_episode(self.episode_path(index), images=images, instruction_index=index)
 
@@ -219,7 +209,6 @@ class DatasetReader:
         :func:`samplehd.dataset.container.read_meta`): stem, family, success, num_frames, subtasks,
         info (checker report, control_hz), task, render settings and stored ``images`` {camera:
         [modalities]} (empty, with ``render`` None, for an episode stored without images)."""
-        from samplehd.dataset.container import read_meta
 
         meta = read_meta(self.episode_path(index))
         meta["instruction_index"] = index
@@ -240,20 +229,14 @@ class DatasetReader:
 
     def frames(self, index: int, fields: list[str] | tuple[str, ...] | None = None) -> dict[str, Any]:
         """Selected frame fields of episode ``index`` (no images, no other fields are read)."""
-        from samplehd.dataset.container import read_frames
-
         return read_frames(self.episode_path(index), fields)
 
     def image(self, index: int, camera: str, modality: str, frame: int) -> Any:
         """One decoded image frame: rgb uint8 H×W×3, depth float32 [m], segmentation ids."""
-        from samplehd.dataset.container import read_image
-
         return read_image(self.episode_path(index), camera, modality, frame)
 
     def rejections(self) -> list[dict[str, Any]]:
         """Instruction candidates whose ground-truth path failed: {scene_index, slot, reason, message}."""
-        from samplehd.dataset.journal import read_journal
-
         return [r for r in read_journal(self.root) if r.get("status") == "rejected"]
 
     def instruction(self, index: int) -> dict[str, Any]:

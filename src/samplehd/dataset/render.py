@@ -1,24 +1,25 @@
-"""Render an episode's images from its stored physics states, without re-simulating.
-
-For every frame the stored ``qpos``, ``qvel`` and ``act`` are written into the compiled scene's
-``MjData`` and ``mj_forward`` computes the poses the renderer draws. The same function renders images
-during ``samplehd generate`` and ``samplehd rerender``, so both give identical pixels.
+"""Which images a dataset's episodes get (:class:`RenderConfig`), rendered from the episodes' stored
+physics states with :func:`samplehd.render.states.render_states` during ``samplehd generate``,
+``samplehd rerender`` and ``samplehd paths``, so all give identical pixels.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from samplehd.errors import ConfigError
+from samplehd.render.renderer import MODALITIES, camera_names
+from samplehd.render.states import render_states
+from samplehd.scene.world import compile_world
 
-__all__ = ["RENDER_MODES", "RenderConfig", "check_cameras", "render_states"]
+__all__ = ["RENDER_MODES", "RenderConfig", "check_cameras"]
 
 RENDER_MODES = ("none", "fast", "hd")
-_MODALITIES = ("rgb", "depth", "segmentation")
 
 
 @dataclass(frozen=True)
@@ -37,7 +38,7 @@ class RenderConfig:
     width: int = 320
     height: int = 180
     cameras: tuple[str, ...] = ("scene",)
-    modalities: tuple[str, ...] = _MODALITIES
+    modalities: tuple[str, ...] = MODALITIES
 
     def __post_init__(self) -> None:
         if self.mode not in RENDER_MODES:
@@ -48,13 +49,25 @@ class RenderConfig:
                 raise ConfigError(f"render.{name}={v!r}: must be an integer in 8..8192 px")
         if not self.cameras or not all(isinstance(c, str) and c for c in self.cameras):
             raise ConfigError(f"render.cameras={list(self.cameras)!r}: must be a non-empty list of camera names")
-        bad = [m for m in self.modalities if m not in _MODALITIES]
+        bad = [m for m in self.modalities if m not in MODALITIES]
         if bad or not self.modalities:
-            raise ConfigError(f"render.modalities={list(self.modalities)!r}: valid: {', '.join(_MODALITIES)}")
+            raise ConfigError(f"render.modalities={list(self.modalities)!r}: valid: {', '.join(MODALITIES)}")
 
     @property
     def enabled(self) -> bool:
         return self.mode != "none"
+
+    def images(self, model: mujoco.MjModel, frames: Mapping[str, np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
+        """Render an episode's frames from its stored states: ``images[camera][modality]`` (first axis
+        T), or ``{}`` for mode ``none``.
+
+        Raises:
+            DatasetError: the states do not fit the model.
+            RenderError: unknown camera or no GL context.
+        """
+        if not self.enabled:
+            return {}
+        return render_states(model, frames, self.cameras, self.modalities, self.width, self.height, self.mode)
 
     def to_dict(self) -> dict[str, Any]:
         return {"mode": self.mode, "width": self.width, "height": self.height, "cameras": list(self.cameras),
@@ -73,50 +86,6 @@ class RenderConfig:
         return cls(**kw)
 
 
-def render_states(model: Any, frames: Mapping[str, np.ndarray], config: RenderConfig,
-                  data: Any = None) -> dict[str, dict[str, np.ndarray]]:
-    """Render every frame of an episode from its stored states.
-
-    Args:
-        model: the compiled scene (``compile_scene(spec)``).
-        frames: the episode's frame arrays (``qpos``, ``qvel``, ``act`` are used).
-        config: cameras, modalities, resolution and preset (mode must not be ``none``).
-        data: an ``MjData`` to reuse (default: a new one).
-
-    Returns:
-        ``images[camera][modality]`` with first axis T: rgb uint8 (T,H,W,3), depth float32 (T,H,W) [m],
-        segmentation int32 (T,H,W).
-
-    Raises:
-        RenderError: unknown camera or no GL context.
-    """
-    import mujoco
-
-    from samplehd.render.renderer import SceneRenderer
-
-    if not config.enabled:
-        return {}
-    data = data if data is not None else mujoco.MjData(model)
-    qpos, qvel, act = frames["qpos"], frames["qvel"], frames["act"]
-    t = len(qpos)
-    out: dict[str, dict[str, np.ndarray]] = {}
-    with SceneRenderer(model, config.width, config.height, config.mode) as r:
-        for cam in config.cameras:
-            stacks: dict[str, list[np.ndarray]] = {m: [] for m in config.modalities}
-            for k in range(t):
-                data.qpos[:] = qpos[k]
-                data.qvel[:] = qvel[k]
-                if model.na:
-                    data.act[:] = act[k]
-                mujoco.mj_forward(model, data)
-                img = r.render(data, cam, config.modalities)
-                for m in config.modalities:
-                    stacks[m].append(img[m])
-            out[cam] = {m: (np.stack(v) if v else np.zeros((0, config.height, config.width), np.float32))
-                        for m, v in stacks.items()}
-    return out
-
-
 def check_cameras(config: RenderConfig) -> None:
     """Fail early (before any simulation) on a camera name no scene world has.
 
@@ -125,17 +94,8 @@ def check_cameras(config: RenderConfig) -> None:
     """
     if not config.enabled:
         return
-    from samplehd.render.renderer import camera_names
-    from samplehd.scene.world import compile_world
 
     valid = sorted({*camera_names(compile_world()[0]), "scene"})
     bad = [c for c in config.cameras if c not in valid]
     if bad:
         raise ConfigError(f"render.cameras: unknown camera(s) {bad}; valid: {', '.join(valid)}")
-
-
-def camera_list(text: Sequence[str] | None, default: tuple[str, ...]) -> tuple[str, ...]:
-    """Camera names from the command line (space or comma separated)."""
-    if not text:
-        return default
-    return tuple(c for item in text for c in item.split(",") if c)

@@ -17,60 +17,23 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from samplehd.dataset.backend import Backend
-from samplehd.dataset.generate import Progress
+from samplehd.dataset.container import (
+    camera_settings,
+    describe_settings,
+    merge_camera_settings,
+    read_meta,
+    render_record,
+)
 from samplehd.dataset.layout import INFO_FILE, RUNS_FILE
-from samplehd.dataset.render import RenderConfig
+from samplehd.dataset.progress import Progress
+from samplehd.dataset.reader import DatasetReader
+from samplehd.dataset.render import RenderConfig, check_cameras
+from samplehd.dataset.work import RenderUnit, run_render_unit
 from samplehd.errors import DatasetError
+from samplehd.fileio import file_sha256, write_json_atomic
+from samplehd.workers import Backend
 
-__all__ = ["merge_camera_settings", "rerender_dataset"]
-
-
-def _describe(s: Mapping[str, Any]) -> str:
-    return f"{s['width']}x{s['height']} {s['mode']}"
-
-
-def merge_camera_settings(old: Mapping[str, Mapping[str, Any]], render: RenderConfig,
-                          add: bool) -> dict[str, dict[str, Any]]:
-    """The per-camera settings of an episode's images after rendering ``render`` into it.
-
-    Args:
-        old: the file's current settings (:func:`samplehd.dataset.container.camera_settings`).
-        render: what is rendered now (mode fast or hd).
-        add: keep ``old``'s cameras (a camera + modality rendered again is overwritten); else only
-            the new images remain.
-
-    Returns:
-        ``{camera: {mode, width, height, modalities}}``.
-
-    Raises:
-        DatasetError: with ``add``, a stored camera would keep some modalities at other settings
-            (resolution or preset) than the ones rendered now; one camera has one setting.
-    """
-    from samplehd.dataset.container import camera_settings
-
-    new = camera_settings(render.to_dict())
-    if not add:
-        return new
-    out = {c: dict(s) for c, s in camera_settings({"per_camera": old}).items()} if old else {}
-    for cam, s in new.items():
-        prev = out.get(cam)
-        if prev is None:
-            out[cam] = s
-            continue
-        same = all(prev[k] == s[k] for k in ("mode", "width", "height"))
-        if same:
-            mods = set(prev["modalities"]) | set(s["modalities"])
-            out[cam] = {**s, "modalities": [m for m in ("rgb", "depth", "segmentation") if m in mods]}
-            continue
-        left = [m for m in prev["modalities"] if m not in s["modalities"]]
-        if left:
-            raise DatasetError(
-                f"camera {cam!r} is stored at {_describe(prev)} with {', '.join(left)}, which --add would keep "
-                f"beside new {_describe(s)} images; add --modalities {' '.join(prev['modalities'])} to re-render "
-                f"all of them, or re-render without --add")
-        out[cam] = s
-    return out
+__all__ = ["rerender_dataset"]
 
 
 def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | None = None,
@@ -90,16 +53,10 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
 
     Raises:
         DatasetError: not a complete dataset, conflicting settings (see
-            :func:`merge_camera_settings`), episodes whose images differ before an add (an
+            :func:`~samplehd.dataset.container.merge_camera_settings`), episodes whose images differ before an add (an
             interrupted different rerender), or a file cannot be written.
         ConfigError: unknown camera.
     """
-    from samplehd.dataset.container import camera_settings, file_digest, read_meta, render_record
-    from samplehd.dataset.reader import DatasetReader
-    from samplehd.dataset.render import check_cameras
-    from samplehd.dataset.work import RenderUnit, run_render_unit
-    from samplehd.scene.generate import write_json_atomic
-
     if not render.enabled:
         raise DatasetError("rerender needs a render preset (fast or hd), not 'none'")
     check_cameras(render)
@@ -149,7 +106,7 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
     for entry in info["episodes"]:
         p = root / entry["file"]
         entry["size"] = p.stat().st_size
-        entry["sha256"] = file_digest(p)
+        entry["sha256"] = file_sha256(p)
     if result is None:  # no episodes: describe what they would hold
         result = merge_camera_settings(camera_settings(info.get("render")), render, add)
     record = render_record(result)
@@ -166,4 +123,5 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
 
 
 def _cameras(settings: Mapping[str, Mapping[str, Any]]) -> str:
-    return ", ".join(f"{c} ({_describe(s)}: {' '.join(s['modalities'])})" for c, s in settings.items()) or "none"
+    described = [f"{c} ({describe_settings(s)}: {' '.join(s['modalities'])})" for c, s in settings.items()]
+    return ", ".join(described) or "none"

@@ -7,12 +7,10 @@ import shutil
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING
 
+from samplehd.dataset.container import write_error
+from samplehd.dataset.reader import DatasetReader
 from samplehd.errors import DatasetError
-
-if TYPE_CHECKING:
-    from samplehd.dataset.reader import DatasetReader
 
 __all__ = ["export_source", "staged_directory"]
 
@@ -25,7 +23,6 @@ def staged_directory(out: Path) -> Iterator[Path]:
     Raises:
         DatasetError: writing failed (disk full, permissions), with one line naming `out`.
     """
-    from samplehd.dataset.container import write_error
 
     tmp = out.with_name(f".{out.name}.tmp-{os.getpid()}")
     shutil.rmtree(tmp, ignore_errors=True)
@@ -50,7 +47,6 @@ def export_source(root: str | Path, out: str | Path) -> tuple[DatasetReader, Pat
     Raises:
         DatasetError: generation has not finished, or `out` holds files (one line).
     """
-    from samplehd.dataset.reader import DatasetReader
 
     reader = DatasetReader(root)
     if not reader.complete:

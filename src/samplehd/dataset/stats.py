@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image, ImageDraw, ImageFont
 
 from samplehd.dataset.reader import DatasetReader
 
@@ -53,8 +54,6 @@ def dataset_stats(root: str | Path) -> dict[str, Any]:
 
 def plot_bars(path: Path, title: str, counts: dict[Any, int], width: int = 720) -> Path:
     """A horizontal bar chart PNG of ``counts`` (Pillow only)."""
-    from PIL import Image, ImageDraw, ImageFont
-
     font = ImageFont.load_default()
     items = list(counts.items())
     row, top, left = 18, 30, 170

@@ -16,6 +16,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from samplehd.dataset.container import camera_settings, read_episode
 from samplehd.dataset.layout import (
     EPISODE_DIR,
     FORMAT_VERSION,
@@ -26,6 +27,7 @@ from samplehd.dataset.layout import (
     is_temporary,
 )
 from samplehd.errors import DatasetError
+from samplehd.fileio import file_sha256
 
 __all__ = ["validate_dataset", "validate_episode_file"]
 
@@ -45,7 +47,6 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
     """Problems of one episode file compared with its ``info.json`` entry and the render settings
     (``info.json``'s ``render``: every camera with its own resolution and modalities, see
     :func:`samplehd.dataset.container.camera_settings`)."""
-    from samplehd.dataset.container import camera_settings, file_digest, read_episode
 
     problems: list[str] = []
     if not path.exists():
@@ -53,7 +54,7 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
     size = path.stat().st_size
     if entry.get("size", -1) >= 0 and size != entry["size"]:
         problems.append(f"{path}: size {size} bytes, info.json says {entry['size']} (truncated or modified)")
-    if entry.get("sha256") and file_digest(path) != entry["sha256"]:
+    if entry.get("sha256") and file_sha256(path) != entry["sha256"]:
         problems.append(f"{path}: SHA-256 differs from info.json (corrupted or modified)")
     try:
         ep = read_episode(path, images="none")

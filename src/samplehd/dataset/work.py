@@ -7,21 +7,39 @@ any unit in any order and the files come out the same.
 
 from __future__ import annotations
 
+import dataclasses
+import json
 import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import h5py
+import numpy as np
+
+from samplehd.dataset.container import (
+    camera_settings,
+    merge_camera_settings,
+    read_episode,
+    read_meta,
+    render_record,
+    write_episode,
+    write_error,
+)
+from samplehd.dataset.layout import EPISODE_DIR
+from samplehd.dataset.render import RenderConfig
+from samplehd.errors import DatasetError, PlanningError, RenderError
+from samplehd.motion.assist import compile_scene_with_assist
+from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
+from samplehd.scene.generate import render_scene_files
+from samplehd.scene.spec import SceneSpec, compile_scene
+
 __all__ = ["EpisodeUnit", "RenderUnit", "run_episode_unit", "run_render_unit", "run_scene_unit"]
 
 
 def run_scene_unit(job: Any) -> dict[str, Any]:
     """Sample, render and annotate one scene (``samplehd.scene.generate.SceneJob``)."""
-    from samplehd.dataset.container import write_error
-    from samplehd.errors import RenderError
-    from samplehd.scene.generate import render_scene_files
-
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         ann, rejections = render_scene_files(job)
@@ -73,21 +91,12 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     """Plan and execute one instruction, render its images from the stored states, write the file.
 
     Returns:
-        ``{scene_index, slot, status: ok|rejected, reason, message, num_frames, size, sha256, seconds,
-        render_seconds}``.
+        ``{scene_index, slot, status: ok|rejected, reason, message, attempts, num_frames, size, sha256,
+        seconds, render_seconds}``.
 
     Raises:
         DatasetError: the episode file cannot be written (disk full, permissions).
     """
-    import numpy as np
-
-    from samplehd.dataset.container import write_episode
-    from samplehd.dataset.layout import EPISODE_DIR
-    from samplehd.dataset.render import RenderConfig, render_states
-    from samplehd.errors import DatasetError, PlanningError
-    from samplehd.motion.assist import compile_scene_with_assist
-    from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
-    from samplehd.scene.spec import SceneSpec, compile_scene
 
     t0, c0 = time.perf_counter(), time.process_time()
     base = {"scene_index": unit.scene_index, "slot": unit.slot}
@@ -102,7 +111,8 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
                                    directions=unit.directions, compiled=(model, data))
     except PathRejected as exc:
         return {**base, "status": "rejected", "reason": exc.reason, "message": str(exc).splitlines()[0][:300],
-                "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
+                "attempts": len(exc.attempts), "seconds": time.perf_counter() - t0,
+                "cpu_seconds": time.process_time() - c0}
     except (PlanningError, ValueError, IndexError, KeyError, ArithmeticError) as exc:
         # A planner bug on one instance must not stop a 10-hour run; it is counted and reported.
         where = traceback.extract_tb(exc.__traceback__)[-1]
@@ -112,9 +122,7 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     t1 = time.perf_counter()
     render = RenderConfig.from_dict(unit.render)
     if render.enabled:
-        import dataclasses
-
-        episode = dataclasses.replace(episode, images=render_states(model, episode.frames, render))
+        episode = dataclasses.replace(episode, images=render.images(model, episode.frames))
     t2 = time.perf_counter()
     path = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
@@ -122,7 +130,8 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
         written = write_episode(path, episode, extra, render.to_dict() if render.enabled else None)
     except DatasetError:
         raise
-    return {**base, "status": "ok", "num_frames": written.num_frames, "size": written.size,
+    return {**base, "status": "ok", "attempts": int(episode.info.get("attempts", 1)),
+            "num_frames": written.num_frames, "size": written.size,
             "sha256": written.sha256, "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0,
             "path_seconds": t1 - t0,
             "render_seconds": t2 - t1}
@@ -160,17 +169,9 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
     Raises:
         DatasetError: the file is unreadable or cannot be written, or (adding) a camera would mix settings.
     """
-    from samplehd.dataset.container import camera_settings, read_episode, read_meta, render_record, write_episode
-    from samplehd.dataset.render import RenderConfig, render_states
-    from samplehd.dataset.rerender import merge_camera_settings
-    from samplehd.errors import DatasetError
-    from samplehd.scene.spec import SceneSpec, compile_scene
 
     t0 = time.perf_counter()
-    import dataclasses
-    import json
 
-    import h5py
 
     path = Path(unit.path)
     render = RenderConfig.from_dict(unit.render)
@@ -196,7 +197,7 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
             prev[k] == settings[cam][k] for k in ("mode", "width", "height"))
         if cam not in render.cameras or same:
             images[cam] = dict(mods)  # kept (lazy: copied chunk by chunk); same settings: modalities merge
-    for cam, mods in render_states(model, episode.frames, render).items():
+    for cam, mods in render.images(model, episode.frames).items():
         images.setdefault(cam, {}).update(mods)
     written = write_episode(path, dataclasses.replace(episode, images=images), extra, render_record(settings))
     return {"path": str(path), "num_frames": written.num_frames, "size": written.size, "sha256": written.sha256,

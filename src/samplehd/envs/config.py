@@ -7,17 +7,19 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from samplehd.errors import ConfigError
+from samplehd.render.renderer import MODALITIES
 from samplehd.scene.config import SceneConfig
 from samplehd.tasks.checker import CheckerConfig
+from samplehd.tasks.task import family_names
 
-__all__ = ["CAMERAS", "CONTROL_MODES", "EnvConfig", "OBS_MODES", "RENDER_MODES", "TASK_FAMILIES"]
+__all__ = ["CAMERAS", "CONTROL_MODES", "EnvConfig", "OBS_MODES", "RENDER_MODES"]
 
 # Observation modes → image modalities rendered per camera.
 OBS_MODES: dict[str, tuple[str, ...]] = {
     "state": (),
     "rgb": ("rgb",),
     "rgbd": ("rgb", "depth"),
-    "rgbd_seg": ("rgb", "depth", "segmentation"),
+    "rgbd_seg": MODALITIES,
 }
 # Environment control modes → robot controller modes (samplehd.robot.controller.ACTION_MODES).
 CONTROL_MODES: dict[str, str] = {
@@ -28,7 +30,6 @@ CONTROL_MODES: dict[str, str] = {
 }
 CAMERAS = ("scene", "operator", "wrist")
 RENDER_MODES = ("rgb_array",)
-TASK_FAMILIES = ("place", "remove", "stack", "put", "pick_up", "place_relative", "stack_three")
 
 
 @dataclass(frozen=True)
@@ -127,11 +128,11 @@ class EnvConfig:
         if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
             fail("physics_hz", f"must be an integer multiple of control_hz ({self.control_hz})")
         if isinstance(self.families, str) or not isinstance(self.families, tuple | list):
-            fail("families", f"must be a list from {', '.join(TASK_FAMILIES)}")
+            fail("families", f"must be a list from {', '.join(family_names())}")
         object.__setattr__(self, "families", tuple(self.families))
-        bad = [f for f in self.families if f not in TASK_FAMILIES]
+        bad = [f for f in self.families if f not in family_names()]
         if bad:
-            fail("families", f"unknown {bad}; valid: {', '.join(TASK_FAMILIES)}")
+            fail("families", f"unknown {bad}; valid: {', '.join(family_names())}")
         if isinstance(self.scene, dict):
             object.__setattr__(self, "scene", SceneConfig.from_dict(self.scene, where="Tabletop-v0 option scene"))
         if not isinstance(self.scene, SceneConfig):
@@ -157,7 +158,7 @@ class EnvConfig:
     @property
     def task_families(self) -> tuple[str, ...]:
         """Families episodes are drawn from."""
-        return self.families or TASK_FAMILIES
+        return self.families or family_names()
 
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> EnvConfig:

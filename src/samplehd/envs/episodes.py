@@ -21,9 +21,17 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.dataset.reader import DatasetReader
+from samplehd.envs.scene_worker import sample_in_child
 from samplehd.errors import ConfigError, SceneError
+from samplehd.language.executor import execute
+from samplehd.language.generator import generate_instructions
+from samplehd.motion.assist import compile_scene_with_assist
+from samplehd.scene.annotate import annotate_scene
 from samplehd.scene.config import SceneConfig
+from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.world.seeding import scene_seed as pool_seed
 
 __all__ = ["EpisodeSpec", "SceneCache", "episode_from_options", "sample_episode"]
 
@@ -70,10 +78,14 @@ class SceneCache:
         size: compiled scenes kept.
         timestep: physics timestep of compiled models [s].
         grasp_welds: compile with the (inactive) grasp-assist welds.
+        gl_free: sample scenes in a child process (:mod:`samplehd.envs.scene_worker`), so that this
+            process makes no GL context (the sampler's occlusion check renders); same scenes either way.
     """
 
-    def __init__(self, config: SceneConfig, size: int = 8, timestep: float = 0.002, grasp_welds: bool = False) -> None:
+    def __init__(self, config: SceneConfig, size: int = 8, timestep: float = 0.002, grasp_welds: bool = False,
+                 gl_free: bool = False) -> None:
         self.config = config
+        self.gl_free = gl_free
         self.grasp_welds = grasp_welds
         self.size = size
         self.timestep = timestep
@@ -83,13 +95,15 @@ class SceneCache:
 
     def scene(self, seed: int, index: int = 0) -> SceneSpec:
         """The scene sampled from ``seed`` (cached)."""
-        from samplehd.scene.sampler import sample_scene
 
         key = (int(seed), int(index), self._config_key)
         if key in _SAMPLED:
             _SAMPLED.move_to_end(key)
             return _SAMPLED[key]
-        scene = sample_scene(index, seed, self.config).scene
+        if self.gl_free:
+            scene = sample_in_child(index, seed, self.config)
+        else:
+            scene = sample_scene(index, seed, self.config).scene
         _SAMPLED[key] = scene
         while len(_SAMPLED) > _SAMPLED_MAX:
             _SAMPLED.popitem(last=False)
@@ -106,8 +120,6 @@ class SceneCache:
             model, data = self._models[key]
             return model, data, False
         if self.grasp_welds:
-            from samplehd.motion.assist import compile_scene_with_assist
-
             model, data = compile_scene_with_assist(scene, self.timestep)
         else:
             model, data = compile_scene(scene, self.timestep)
@@ -128,8 +140,6 @@ class SceneCache:
 
 
 def _annotation(scene: SceneSpec, model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, Any]:
-    from samplehd.scene.annotate import annotate_scene
-
     camera = "scene" if scene.camera.name == "scene" else "operator"
     return annotate_scene(scene, model, data, 640, 360, camera=camera)
 
@@ -162,8 +172,6 @@ def sample_episode(
     Raises:
         SceneError: no scene in several tries allowed an instruction of the family.
     """
-    from samplehd.language.generator import generate_instructions
-    from samplehd.world.seeding import scene_seed as pool_seed
 
     drawn = family is None
     if family is None:
@@ -208,7 +216,6 @@ def _as_scene(value: Any) -> SceneSpec:
 
 def _dataset_options(options: Mapping[str, Any]) -> dict[str, Any]:
     """Resolve ``dataset`` + ``episode_index`` into the scene, instruction and recorded episode."""
-    from samplehd.dataset.reader import DatasetReader
 
     if "dataset" not in options or "episode_index" not in options:
         raise ConfigError("reset: options 'dataset' (a dataset directory) and 'episode_index' go together")
@@ -242,7 +249,6 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
     Raises:
         ConfigError: a required option is missing or malformed.
     """
-    from samplehd.language.executor import execute
 
     unknown = sorted(set(options) - {"scene", "instruction", "episode", "family", "dataset", "episode_index"})
     if unknown:
@@ -262,7 +268,7 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
     if "task" not in entry:
         if "program" not in entry and "program_sequence" not in entry:
             raise ConfigError("reset: option 'instruction' needs a 'task' or a 'program'")
-        entry["task"] = execute(entry.get("program") or entry["program_sequence"], ann).to_dict()
+        entry["task"] = execute(entry.get("program") or entry["program_sequence"], ann).to_program_dict()
     task = dict(entry["task"])
     entry["task"] = task
     entry.setdefault("family", str(task.get("type", "")).split("[")[0])

@@ -20,7 +20,6 @@ from __future__ import annotations
 import importlib
 import inspect
 import json
-import multiprocessing
 import re
 import time
 from collections.abc import Callable, Sequence
@@ -30,8 +29,16 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.envs.config import TASK_FAMILIES
+from samplehd.catalogue.loader import catalogue_for
+from samplehd.envs.config import EnvConfig
+from samplehd.envs.oracle import OraclePolicy
+from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, PlanningError
+from samplehd.record.paths import PathConfig, plan_and_execute
+from samplehd.render.video import write_mp4
+from samplehd.scene.spec import compile_scene
+from samplehd.tasks.task import family_names
+from samplehd.workers import Backend
 
 __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "evaluate", "load_policy"]
 
@@ -82,9 +89,9 @@ class EvalConfig:
     def __post_init__(self) -> None:
         if not (isinstance(self.episodes, int) and self.episodes >= 1):
             raise ConfigError(f"--episodes {self.episodes!r}: must be a positive integer")
-        bad = [f for f in self.families if f not in TASK_FAMILIES]
+        bad = [f for f in self.families if f not in family_names()]
         if bad or not self.families:
-            raise ConfigError(f"--families: unknown {bad or '(none)'}; valid: {', '.join(TASK_FAMILIES)}")
+            raise ConfigError(f"--families: unknown {bad or '(none)'}; valid: {', '.join(family_names())}")
         if not (isinstance(self.workers, int) and self.workers >= 1):
             raise ConfigError(f"--workers {self.workers!r}: must be a positive integer")
         check_policy_spec(self.policy)
@@ -120,7 +127,6 @@ def benchmark_split(episodes: int, families: Sequence[str], seed: int) -> list[t
 
 class RandomPolicy:
     """Uniform samples of an action space (the success floor)."""
-
     def __init__(self, action_space: Any, seed: int = 0) -> None:
         self.action_space = action_space
         self.action_space.seed(seed)
@@ -137,18 +143,15 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
     """Build the policy named by ``spec`` for ``env``; see the module docstring."""
     check_policy_spec(spec)
     if spec in LEARNED:
-        try:
-            import torch  # noqa: F401
-        except ImportError:
-            raise ConfigError(f"--policy {spec}: PyTorch is not installed; pip install 'samplehd[learn]'") from None
+        from samplehd.errors import require_extra
+
+        require_extra("torch", "learn", f"--policy {spec}")
         # The learned baselines live on a floor above the environments: named by module path, as
         # user policies are, and imported only when asked for.
         module_name, attr = LEARNED[spec].split(":")
         factory = getattr(importlib.import_module(module_name), attr)
         return factory(env, config or EvalConfig(policy=spec))
     if spec == "oracle":
-        from samplehd.envs.oracle import OraclePolicy
-
         return OraclePolicy(env)
     if spec == "random":
         return RandomPolicy(env.action_space)
@@ -172,9 +175,6 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
 
 
 def _offline_success(env: Any, seed: int) -> bool:
-    from samplehd.record.paths import PathConfig, plan_and_execute
-    from samplehd.scene.spec import compile_scene
-
     ep = env.unwrapped.episode
     try:
         plan_and_execute(ep.scene, ep.instruction["task"], np.random.default_rng(seed), PathConfig(max_attempts=1),
@@ -187,10 +187,8 @@ def _offline_success(env: Any, seed: int) -> bool:
 
 class _Runner:
     """One environment and policy that run benchmark episodes one at a time."""
-
     def __init__(self, config: EvalConfig) -> None:
-        import samplehd  # noqa: F401  (GL backend before mujoco)
-        from samplehd.envs.tabletop import TabletopEnv
+        # A worker imports this module through the samplehd package, which sets the GL backend first.
 
         self.config = config
         env_options = dict(config.env)
@@ -260,8 +258,6 @@ class _Runner:
         if config.compare_offline:
             record["offline_success"] = _offline_success(env, seed)
         if config.video_dir and frames and frames[0] is not None:
-            from samplehd.record.replay import write_mp4
-
             out = Path(config.video_dir)
             out.mkdir(parents=True, exist_ok=True)
             name = f"episode_{index:04d}_{record['family']}_{'ok' if record['success'] else 'fail'}.mp4"
@@ -270,15 +266,18 @@ class _Runner:
         return record
 
 
-_WORKER: dict[str, _Runner] = {}
+_WORKER: dict[str, tuple[EvalConfig, _Runner]] = {}
 
 
-def _init_worker(config: EvalConfig) -> None:
-    _WORKER["runner"] = _Runner(config)
-
-
-def _run_in_worker(item: tuple[int, int, str]) -> dict[str, Any]:
-    return _WORKER["runner"].run(item)
+def _run_in_worker(item: tuple[EvalConfig, int, int, str]) -> dict[str, Any]:
+    """One episode in a worker process; the worker keeps its runner (and environment) between units."""
+    config, *episode = item
+    held = _WORKER.get("runner")
+    if held is None or held[0] != config:
+        if held is not None:
+            held[1].close()
+        _WORKER["runner"] = held = (config, _Runner(config))
+    return held[1].run(tuple(episode))  # type: ignore[arg-type]
 
 
 def _summary(records: list[dict[str, Any]]) -> dict[str, Any]:
@@ -304,11 +303,11 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
 
     Report keys: ``policy``, ``split`` (episodes, families, seed), ``env`` (options),
     ``success_rate``, ``by_family`` (per family: episodes, successes, success_rate, ...),
-    ``safety_stops``, ``mean_steps``, ``wall_s`` and ``records`` (one per episode: index, seed,
+    ``safety_stops``, ``mean_steps``, ``catalogue`` (content hashes of the catalogue in use),
+    ``wall_s`` and ``records`` (one per episode: index, seed,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
     check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
     """
-    from samplehd.envs.config import EnvConfig
 
     EnvConfig.from_kwargs(**config.env)  # one-line errors before any work
     split = benchmark_split(config.episodes, config.families, config.seed)
@@ -331,10 +330,9 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
         finally:
             runner.close()
     else:
-        ctx = multiprocessing.get_context("spawn")
-        with ctx.Pool(config.workers, initializer=_init_worker, initargs=(replace(config, workers=1),)) as pool:
-            for record in pool.imap_unordered(_run_in_worker, items):
-                done(record)
+        one = replace(config, workers=1)
+        for _, record in Backend(workers=config.workers).map(_run_in_worker, ((one, *item) for item in items)):
+            done(record)
     report = _report(config, records, t0)
     if out is not None:
         _write_report(out, report)
@@ -350,12 +348,11 @@ def _write_report(out: str | Path, report: dict[str, Any]) -> None:
 
 
 def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partial: bool = False) -> dict[str, Any]:
-    from samplehd.envs.config import EnvConfig
-
     records = sorted(records, key=lambda r: r["index"])
     by_family = {}
     for fam in dict.fromkeys(r["family"] for r in records):
         by_family[fam] = _summary([r for r in records if r["family"] == fam])
+    env = EnvConfig.from_kwargs(**config.env)
     return {
         "policy": config.policy,
         "partial": partial,
@@ -364,7 +361,9 @@ def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partia
         "models": config.models,
         "programs": config.programs if config.policy == "neurosymbolic" else None,
         "perception": config.perception if config.policy == "neurosymbolic" else None,
-        "env": EnvConfig.from_kwargs(**config.env).to_dict(),
+        "env": env.to_dict(),
+        # The split's scenes draw from the built-in catalogue plus imported classes the env options name.
+        "catalogue": catalogue_for(env.scene.named_classes).record(),
         **_summary(records),
         "by_family": by_family,
         "wall_s": round(time.perf_counter() - t0, 2),

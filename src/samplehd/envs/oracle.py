@@ -27,14 +27,18 @@ from __future__ import annotations
 from collections.abc import Generator
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
+from samplehd.envs.episodes import EpisodeSpec
+from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import PlanningError
 from samplehd.motion.execute import AttemptFailed, ControlTarget, Plan, Rollout, SubtaskCut, scene_facts
 from samplehd.motion.steering import steering_from_targets
 from samplehd.robot.constants import GRIPPER_STROKE
 from samplehd.robot.controller import ControlReport
 from samplehd.robot.kinematics import fk_tcp
+from samplehd.tasks.task import get_family
 from samplehd.world.bodies import SceneBodies
 from samplehd.world.layout import LAYOUT
 from samplehd.world.planner_config import PlannerConfig
@@ -47,7 +51,7 @@ __all__ = ["OraclePolicy", "oracle_action"]
 _REGRASP_REASONS = ("grasp_missed", "grasp_slipped")
 
 
-def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: float, env: Any) -> np.ndarray:
+def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: float, env: TabletopEnv) -> np.ndarray:
     """Action of an environment control mode that moves the joint target from ``q_now`` to ``q_next``."""
     if mode == "joint_pos":
         a = np.append(q_next, gripper)
@@ -85,8 +89,8 @@ class OraclePolicy:
         >>> obs, *_ = env.step(oracle(obs))            # doctest: +SKIP
     """
 
-    def __init__(self, env: Any, seed: int = 0, planner: PlannerConfig | None = None, max_replans: int = 2) -> None:
-        self.env = env.unwrapped
+    def __init__(self, env: gym.Env, seed: int = 0, planner: PlannerConfig | None = None, max_replans: int = 2) -> None:
+        self.env: TabletopEnv = env.unwrapped
         self.planner = planner or PlannerConfig()
         self.max_replans = max_replans
         self.seed = seed
@@ -95,7 +99,7 @@ class OraclePolicy:
         self.replans = 0
         self._plan: Generator[ControlTarget | SubtaskCut, ControlReport | None, None] | None = None
         self._rollout: Rollout | None = None
-        self._episode: Any = None
+        self._episode: EpisodeSpec | None = None
         self._finished = False
 
     # ------------------------------------------------------------------ policy API
@@ -214,7 +218,7 @@ class OraclePolicy:
                 k = -1
                 try:
                     k = yield from ro.pick(i, tuple(exclude))
-                    if task.family != "pick_up":
+                    if get_family(task.family).places:
                         yield from ro.place(i, task, k)
                     break
                 except AttemptFailed as exc:

@@ -13,6 +13,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
+
 __all__ = ["PlanTracker", "plan_tracker"]
 
 # How far ahead of the last matched frame the tracker looks (frames of the plan).
@@ -52,7 +54,6 @@ def plan_tracker(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, task: d
                  directions: dict[str, Any] | None, seed: int, physics_hz: float,
                  control_hz: float) -> tuple[PlanTracker | None, str]:
     """Plan the episode from a copy of ``data``; returns (tracker, "") or (None, why not)."""
-    from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
 
     copy = mujoco.MjData(model)
     mujoco.mj_copyData(copy, model, data)

@@ -69,7 +69,7 @@ import mujoco
 import numpy as np
 from gymnasium import spaces
 
-from samplehd.envs.config import CONTROL_MODES, EnvConfig
+from samplehd.envs.config import CAMERAS, CONTROL_MODES, EnvConfig
 from samplehd.envs.episodes import EpisodeSpec, SceneCache, episode_from_options, sample_episode
 from samplehd.envs.plan_tracker import plan_tracker
 from samplehd.envs.reward import dense_term
@@ -81,7 +81,7 @@ from samplehd.render.renderer import SceneRenderer
 from samplehd.robot.constants import GRIPPER_STROKE, JOINT_LIMITS
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.tasks.checker import check_success
-from samplehd.tasks.task import Task, parse_task
+from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies, grasped_object
 
 __all__ = ["INSTRUCTION_CHARSET", "TabletopEnv"]
@@ -131,7 +131,10 @@ class TabletopEnv(gym.Env):
         self._low, self._high = low.astype(float), high.astype(float)
         self.max_objects = cfg.scene.max_objects
         self.observation_space = self._observation_space()
-        self.cache = SceneCache(cfg.scene, cfg.scene_cache_size, 1.0 / cfg.physics_hz, grasp_welds=cfg.grasp_assist)
+        # A state-only env makes no GL context (a context made before torch's triton import can crash the
+        # process): its scenes are sampled, occlusion renders included, in a child process.
+        self.cache = SceneCache(cfg.scene, cfg.scene_cache_size, 1.0 / cfg.physics_hz, grasp_welds=cfg.grasp_assist,
+                                gl_free=cfg.obs_mode == "state" and cfg.render_mode is None)
         self.episode: EpisodeSpec | None = None
         self.subtask = ""
         self._plan: Any = None
@@ -203,7 +206,7 @@ class TabletopEnv(gym.Env):
             self.model = model
             self.data = mujoco.MjData(model)
             cams = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)}
-            self._cam_names = {c: (c if c in cams else "operator") for c in ("scene", "operator", "wrist")}
+            self._cam_names = {c: (c if c in cams else "operator") for c in CAMERAS}
         data = self.data
         mujoco.mj_copyData(data, model, pristine)
         self.controller = initial_state(model, data, self.control)
@@ -323,7 +326,7 @@ class TabletopEnv(gym.Env):
         shift = np.linalg.norm(d.xpos[moved] - self._start_pos[list(task.objects)], axis=1)
         if np.any(shift < self._gate_shift):
             return False
-        if task.family == "pick_up":
+        if not get_family(task.family).places:  # held objects touch the gripper
             return True
         if d.ncon:
             bodies = self.model.geom_bodyid[d.contact.geom]
@@ -355,7 +358,7 @@ class TabletopEnv(gym.Env):
                              directions=directions).to_dict()
 
     # ------------------------------------------------------------------ observations
-    def _renderer_for(self) -> Any:
+    def _renderer_for(self) -> SceneRenderer:
         if self._renderer is None:
             cfg = self.config
             self._renderer = SceneRenderer(self.model, cfg.width, cfg.height, cfg.render_preset)

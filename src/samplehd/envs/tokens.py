@@ -13,6 +13,10 @@ from functools import cache
 
 import numpy as np
 
+from samplehd.catalogue import load_catalogue
+from samplehd.language.lexicon import default_lexicon
+from samplehd.language.templates import default_synonyms, default_templates
+
 __all__ = ["SPECIAL_TOKENS", "encode_instruction", "instruction_vocabulary", "tokenize"]
 
 SPECIAL_TOKENS: dict[str, int] = {"<NULL>": 0, "<START>": 1, "<END>": 2, "<UNK>": 3}
@@ -26,10 +30,6 @@ def tokenize(text: str) -> list[str]:
 
 
 def _phrases() -> list[str]:
-    from samplehd.catalogue import load_catalogue
-    from samplehd.language.lexicon import default_lexicon
-    from samplehd.language.templates import default_synonyms, default_templates
-
     out: list[str] = list(",.;:?!")
     for t in default_templates():
         out += [_MARKUP.sub(" ", text) for text in t.text]

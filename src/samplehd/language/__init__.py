@@ -32,7 +32,7 @@ from samplehd.language.descriptions import (
     render_description,
     shortest_unique_description,
 )
-from samplehd.language.executor import ProgramError, Task, execute, execute_nodes, execute_sequence
+from samplehd.language.executor import ProgramError, execute, execute_nodes, execute_sequence
 from samplehd.language.generator import (
     GenerationResult,
     Instruction,
@@ -69,7 +69,6 @@ __all__ = [
     "SceneDescriber",
     "SceneObject",
     "SpotSearch",
-    "Task",
     "Template",
     "TemplateBalancer",
     "build_vocab",

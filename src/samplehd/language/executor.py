@@ -1,6 +1,7 @@
 """One executor for both program formats: CLEVR node lists and SAMPLE-HD flat token sequences.
 
-Running a program on a scene gives a :class:`Task`: what to do, to which objects, where. See
+Running a program on a scene gives a :class:`~samplehd.tasks.task.Task`: what to do, to which
+objects, where (each action is a task family's, :mod:`samplehd.tasks.task`). See
 :mod:`samplehd.language.programs` for both formats.
 
 Example:
@@ -9,7 +10,7 @@ Example:
     ...     return {"name": name, "colour": colour, "material": "ceramic", "size": "small",
     ...             "table_part": parts, "3d_coords": [0.0, y, 0.8], "bbox": {"extents": [0.1, 0.1, 0.1]}}
     >>> scene = parse_scene({"objects": [obj("mug", "red", 0.2, ["right"]), obj("plate", "white", -0.2, ["left"])]})
-    >>> execute("place[left] scene filter_colour[red] filter_name[mug]", scene).to_dict()
+    >>> execute("place[left] scene filter_colour[red] filter_name[mug]", scene).to_program_dict()
     {'type': 'place', 'objects': [0], 'subject': 'left', 'relation': None}
     >>> execute("place[left] scene filter_table[right]", scene).objects  # SAMPLE-HD's "remove right"
     (0,)
@@ -19,18 +20,17 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 from samplehd.errors import SamplehdError
 from samplehd.language.programs import ACTION_FUNCTIONS, FLAT_FILTER, FLAT_TASK_TOKENS, NODE_FUNCTIONS
 from samplehd.language.scene import Scene, SceneObject, parse_scene
-from samplehd.world.layout import OPPOSITE_PART, TABLE_PARTS
+from samplehd.tasks.task import Task, get_family
+from samplehd.world.layout import TABLE_PARTS
 from samplehd.world.relations import RELATIONS
 
 __all__ = [
     "ProgramError",
-    "Task",
     "execute",
     "execute_nodes",
     "execute_sequence",
@@ -42,58 +42,6 @@ Subject = str | int | None
 
 class ProgramError(SamplehdError, ValueError):
     """A program is malformed or does not evaluate on the scene (e.g. ``unique`` of two objects)."""
-
-
-@dataclass(frozen=True)
-class Task:
-    """What an instruction asks for.
-
-    Attributes:
-        type: place, stack, put, pick_up, place_relative or stack_three (remove is a place: the
-            cleared part's objects go to the opposite part).
-        objects: indices of the objects to move, in the order they are moved.
-        subject: destination: a table part (place), an object index (stack, put, place_relative,
-            stack_three: the bottom object) or None (pick_up).
-        relation: for place_relative, the direction from the subject ("left": left of it).
-    """
-
-    type: str
-    objects: tuple[int, ...]
-    subject: Subject = None
-    relation: str | None = None
-
-    @property
-    def targets(self) -> tuple[int, ...]:
-        """Every object the task involves: the moved objects, then the subject object if any."""
-        return self.objects + ((self.subject,) if isinstance(self.subject, int) else ())
-
-    def to_dict(self) -> dict[str, Any]:
-        """Return ``{type, objects, subject, relation}``."""
-        return {
-            "type": self.type,
-            "objects": list(self.objects),
-            "subject": self.subject,
-            "relation": self.relation,
-        }
-
-    def to_sample_hd(self) -> dict[str, Any]:
-        """Return SAMPLE-HD's executor output ``{name, objectInt, subjectString, subjectInt}``."""
-        return {
-            "name": self.type,
-            "objectInt": list(self.objects),
-            "subjectString": [self.subject] if isinstance(self.subject, str) else [],
-            "subjectInt": self.subject if isinstance(self.subject, int) else -1,
-        }
-
-    @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Task:
-        """Inverse of :meth:`to_dict`."""
-        return cls(
-            type=str(data["type"]),
-            objects=tuple(int(i) for i in data["objects"]),
-            subject=data.get("subject"),
-            relation=data.get("relation"),
-        )
 
 
 def _filter(objects: Sequence[SceneObject], items: frozenset[int], kind: str, value: str) -> frozenset[int]:
@@ -137,29 +85,25 @@ def _describe(value: Any) -> str:
 
 
 def _make_task(type_: str, groups: list[Any], value: str | None, where: str) -> Task:
-    """Build the task of an action from its (object or set) arguments."""
-    if type_ in ("place", "remove"):
+    """Build the task of an action (its family's) from its (object or set) arguments."""
+    family = get_family(type_)
+    if family.takes_set:
         if len(groups) != 1:
             raise ProgramError(f"{where}: {type_} takes one object set, got {len(groups)}")
-        part = _check_part(str(value), where)
-        objects = tuple(sorted(_as_set(groups[0], where)))
-        if not objects:
+        objs = tuple(sorted(_as_set(groups[0], where)))
+        if not objs:
             raise ProgramError(f"{where}: {type_} of an empty set")
-        return Task("place", objects, OPPOSITE_PART[part] if type_ == "remove" else part)
-    arity = {"stack": 2, "put": 2, "pick_up": 1, "place_relative": 2, "stack_three": 3}[type_]
-    if len(groups) != arity:
-        raise ProgramError(f"{where}: {type_} takes {arity} objects, got {len(groups)}")
-    objs = [_as_object(g, where) for g in groups]
-    if len(set(objs)) != len(objs):
-        raise ProgramError(f"{where}: {type_} needs distinct objects, got {objs}")
-    if type_ == "pick_up":
-        return Task("pick_up", (objs[0],))
-    if type_ == "place_relative":
-        return Task("place_relative", (objs[0],), objs[1], _check_relation(str(value), where))
-    if type_ == "stack_three":
-        top, middle, bottom = objs
-        return Task("stack_three", (middle, top), bottom)
-    return Task(type_, (objs[0],), objs[1])
+    else:
+        if len(groups) != family.arity:
+            raise ProgramError(f"{where}: {type_} takes {family.arity} objects, got {len(groups)}")
+        objs = tuple(_as_object(g, where) for g in groups)
+        if len(set(objs)) != len(objs):
+            raise ProgramError(f"{where}: {type_} needs distinct objects, got {list(objs)}")
+    if family.value == "part":
+        value = _check_part(str(value), where)
+    elif family.value == "relation":
+        value = _check_relation(str(value), where)
+    return family.build(objs, value)
 
 
 def execute_nodes(program: Sequence[Mapping[str, Any]], scene: Scene) -> Task:

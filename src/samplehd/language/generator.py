@@ -25,12 +25,13 @@ import numpy as np
 from samplehd.errors import ConfigError
 from samplehd.language.constraints import CONSTRAINTS, ConstraintContext, Reachable, default_reachable
 from samplehd.language.descriptions import Description, SceneDescriber, render_description
-from samplehd.language.executor import ProgramError, Task, execute_nodes, execute_sequence
+from samplehd.language.executor import ProgramError, execute_nodes, execute_sequence
 from samplehd.language.lexicon import Lexicon, default_lexicon
 from samplehd.language.programs import node, reference_nodes, reference_tokens
 from samplehd.language.realise import realise_text
 from samplehd.language.scene import Scene, parse_scene
 from samplehd.language.templates import Template, TemplateConstraint, default_templates
+from samplehd.tasks.task import Task, parse_task
 from samplehd.world.layout import OPPOSITE_PART, TABLE_PARTS
 from samplehd.world.relations import RELATIONS
 
@@ -77,7 +78,7 @@ class Instruction:
     @property
     def targets(self) -> tuple[int, ...]:
         """Every object index the task involves (moved objects, then the subject object)."""
-        return self.task.targets
+        return self.task.involved
 
     def to_dict(self) -> dict[str, Any]:
         """Return the instruction-file entry fields this instruction owns."""
@@ -87,7 +88,7 @@ class Instruction:
             "template_name": self.template_name,
             "template_filename": self.template_filename,
             "template_index": self.template_index,
-            "task": self.task.to_dict(),
+            "task": self.task.to_program_dict(),
             "targets": list(self.targets),
             "program": [dict(n) for n in self.program],
             "program_sequence": " ".join(self.program_sequence),
@@ -105,7 +106,7 @@ class Instruction:
             template_name=str(data.get("template_name", "")),
             template_filename=str(data["template_filename"]),
             template_index=int(data["template_index"]),
-            task=Task.from_dict(data["task"]),
+            task=parse_task(data["task"]),
             program=tuple(dict(n) for n in data["program"]),
             program_sequence=tuple(seq.split() if isinstance(seq, str) else seq),
             params={k: tuple(v) if isinstance(v, list) else v for k, v in data.get("params", {}).items()},

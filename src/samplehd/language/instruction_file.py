@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.fileio import read_json
 from samplehd.language.constraints import Reachable, default_reachable
 from samplehd.language.generator import TemplateBalancer, generate_instructions
 from samplehd.language.scene import parse_scene
@@ -214,13 +215,7 @@ def read_instructions(path: str | Path) -> dict[str, Any]:
         DatasetError: the file is missing, not JSON, or an entry lacks a field.
     """
     path = Path(path)
-    try:
-        with path.open(encoding="utf-8") as f:
-            data = json.load(f)
-    except OSError as exc:
-        raise DatasetError(f"{path}: cannot read: {exc.strerror}") from None
-    except json.JSONDecodeError as exc:
-        raise DatasetError(f"{path}: not valid JSON: {exc.msg} at line {exc.lineno}") from None
+    data = read_json(path, DatasetError)
     if not isinstance(data, Mapping):
         raise DatasetError(f"{path}: expected {{info, instructions: [...]}}")
     entries = data.get("instructions", data.get("questions"))

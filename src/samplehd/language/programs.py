@@ -37,6 +37,7 @@ from __future__ import annotations
 from typing import Any
 
 from samplehd.language.descriptions import Description
+from samplehd.tasks.task import family_names, get_family
 
 __all__ = [
     "ACTION_FUNCTIONS",
@@ -63,16 +64,8 @@ FLAT_FILTER = {
     "size": "filter_size",
     "table_part": "filter_table",
 }
-# Node functions -> number of value inputs they take.
-ACTION_FUNCTIONS: dict[str, int] = {
-    "place": 1,
-    "remove": 1,
-    "stack": 0,
-    "put": 0,
-    "pick_up": 0,
-    "place_relative": 1,
-    "stack_three": 0,
-}
+# Action node functions (one per task family) -> number of value inputs they take.
+ACTION_FUNCTIONS: dict[str, int] = {name: int(get_family(name).value is not None) for name in family_names()}
 NODE_FUNCTIONS: dict[str, int] = {
     "scene": 0,
     **{f: 1 for f in NODE_FILTER.values()},
@@ -82,14 +75,9 @@ NODE_FUNCTIONS: dict[str, int] = {
     "intersect": 0,
     **ACTION_FUNCTIONS,
 }
-# Flat task tokens -> whether they take a [value].
+# Flat task tokens -> whether they take a [value] (families without a flat form are written as another).
 FLAT_TASK_TOKENS: dict[str, bool] = {
-    "place": True,
-    "stack": False,
-    "put": False,
-    "pick_up": False,
-    "place_relative": True,
-    "stack_three": False,
+    f.flat_token: f.value is not None for f in map(get_family, family_names()) if f.flat_token is not None
 }
 
 

@@ -7,7 +7,6 @@ scene index and the field, on one line.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -15,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.errors import SceneError
+from samplehd.fileio import read_json
 from samplehd.world.layout import DIRECTIONS, TABLE_PARTS
 from samplehd.world.relations import RELATIONS, compute_relationships
 
@@ -351,13 +351,7 @@ def parse_scene(data: Mapping[str, Any], where: str = "scene") -> Scene:
 
 
 def _scene_dicts(path: Path) -> tuple[dict[str, Any], list[tuple[str, Any]]]:
-    try:
-        with path.open(encoding="utf-8") as f:
-            data = json.load(f)
-    except OSError as exc:
-        raise SceneError(f"{path}: cannot read: {exc.strerror}") from None
-    except json.JSONDecodeError as exc:
-        raise SceneError(f"{path}: not valid JSON: {exc.msg} at line {exc.lineno}") from None
+    data = read_json(path, SceneError)
     if isinstance(data, Mapping) and "scenes" in data:
         scenes = data["scenes"]
         if not isinstance(scenes, list):

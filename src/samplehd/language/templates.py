@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.errors import TemplateError
+from samplehd.fileio import read_json
 from samplehd.language.constraints import CONSTRAINTS
 from samplehd.language.programs import ACTION_FUNCTIONS, FLAT_TASK_TOKENS, NODE_FUNCTIONS
 
@@ -404,13 +405,7 @@ def load_templates(
     out: list[Template] = []
     seen: dict[str, str] = {}
     for file in files:
-        try:
-            with file.open(encoding="utf-8") as f:
-                data = json.load(f)
-        except json.JSONDecodeError as exc:
-            raise TemplateError(f"{file}: not valid JSON: {exc.msg} at line {exc.lineno}") from None
-        except OSError as exc:
-            raise TemplateError(f"{file}: cannot read: {exc.strerror}") from None
+        data = read_json(file, TemplateError)
         for parsed in parse_template_file(data, str(file)):
             t = replace(parsed, filename=file.name)
             if t.name in seen:

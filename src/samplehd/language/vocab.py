@@ -16,6 +16,11 @@ import re
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
+from samplehd.language.lexicon import default_lexicon
+from samplehd.language.templates import default_synonyms, default_templates
+from samplehd.world.layout import TABLE_PARTS
+from samplehd.world.relations import RELATIONS
+
 __all__ = [
     "SPECIAL_TOKENS",
     "instruction_words",
@@ -110,10 +115,6 @@ def instruction_words(templates: Sequence[Any] | None = None, lexicon: Any | Non
         templates: templates (default: the shipped ones).
         lexicon: lexicon (default: the shipped one).
     """
-    from samplehd.language.lexicon import default_lexicon
-    from samplehd.language.templates import default_synonyms, default_templates
-    from samplehd.world.layout import TABLE_PARTS
-    from samplehd.world.relations import RELATIONS
 
     lex = lexicon or default_lexicon()
     phrases: list[str] = list(",.;:?!") + list(TABLE_PARTS) + list(RELATIONS)

@@ -14,12 +14,12 @@ state dimension (nq, nv, na), so episodes replay on models compiled with or with
 
 from __future__ import annotations
 
-from typing import Any
-
 import mujoco
 import numpy as np
 
 from samplehd.physics import wake_all
+from samplehd.scene.spec import SceneSpec
+from samplehd.scene.world import PlacedObject, build_world, reset_robot_home
 from samplehd.world.bodies import object_body_name
 
 __all__ = ["GRASP_WELD_PREFIX", "GraspAssist", "add_grasp_welds", "compile_scene_with_assist"]
@@ -41,9 +41,8 @@ def add_grasp_welds(spec: mujoco.MjSpec, num_objects: int) -> None:
         eq.solref = [0.01, 1.0]
 
 
-def compile_scene_with_assist(scene: Any, timestep: float = 0.002) -> tuple[mujoco.MjModel, mujoco.MjData]:
+def compile_scene_with_assist(scene: SceneSpec, timestep: float = 0.002) -> tuple[mujoco.MjModel, mujoco.MjData]:
     """Like ``samplehd.scene.spec.compile_scene`` (arm at home, gripper open), with the grasp welds added."""
-    from samplehd.scene.world import PlacedObject, build_world, reset_robot_home
 
     placed = [PlacedObject(o.instance, tuple(o.pos), tuple(o.quat)) for o in scene.objects]
     spec = build_world(placed, scene.world_config(timestep))

@@ -29,14 +29,16 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.catalogue import ObjectFacts
 from samplehd.errors import PlanningError
 from samplehd.motion.rrt import rrt_connect
 from samplehd.motion.trajectory import cartesian_path, joint_path
 from samplehd.robot.constants import JOINT_LIMITS
 from samplehd.robot.kinematics import fk_tcp
+from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, object_footprint, object_pose
 from samplehd.world.collision import CollisionChecker, Held
-from samplehd.world.free_spot import rect_overlap
+from samplehd.world.free_spot import rect_overlap, table_and_reach
 from samplehd.world.grasps import ik_near
 from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
 from samplehd.world.placement import (
@@ -49,13 +51,13 @@ from samplehd.world.placement import (
     SPOT_REACH_WEIGHT,
     SPOT_ROOM_CAP,
     SPOT_SHORTLIST,
-    SPOT_TABLE_EDGE,
     SPOT_TURN_WEIGHT,
     SPOT_TURNS,
     SPOT_WORKSPACE_SLACK,
 )
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.robot_info import RobotInfo
+from samplehd.world.transforms import yaw_rotation_2d
 
 __all__ = [
     "destination_candidates",
@@ -69,9 +71,9 @@ __all__ = [
 def destination_candidates(
     data: mujoco.MjData,
     bodies: SceneBodies,
-    facts: list[Any],
+    facts: list[ObjectFacts | None],
     i: int,
-    task: Any,
+    task: Task,
     rng: np.random.Generator,
     config: PlannerConfig,
     layout: TableLayout = LAYOUT,
@@ -82,17 +84,20 @@ def destination_candidates(
     """Candidate world (x, y) positions of object ``i``'s frame origin at release and turns about the
     vertical [rad], best first.
 
-    place/remove: free spots inside the destination part; place_relative: free spots past the
-    reference object along the scene's direction; stack/put: the support's top or opening centre.
+    By the family's destination recipe (:attr:`samplehd.tasks.task.TaskFamily.destination`):
+    ``table_part``: free spots inside the destination part; ``beside``: free spots past the
+    reference object along the scene's direction; ``top`` / ``opening``: the support's top or
+    opening centre.
     Where no spot is free, the search runs once more with the gaps to other objects and to the
     part's edges halved (``relaxed``), as a person would squeeze an object in.
     """
     t_obj = object_pose(data, bodies, i)
-    if task.family in ("stack", "put", "stack_three"):
+    recipe = get_family(task.family).destination
+    if recipe in ("top", "opening"):
         base = task.support_of(i)
         t_base = object_pose(data, bodies, base)
         f = facts[base]
-        if task.family == "put" and f is not None and f.opening is not None:
+        if recipe == "opening" and f is not None and f.opening is not None:
             c_local = np.array([*f.opening.center, 0.0])
         elif f is not None:
             c_local = np.array([*f.top.center, 0.0])
@@ -107,13 +112,11 @@ def destination_candidates(
     offset0 = c_i - t_obj[:2, 3]  # footprint centre relative to the frame origin (kept on transport)
     others = [k for k in range(bodies.num_objects) if k != i and k not in ignore]
     foot = {k: object_footprint(data, bodies, k, facts[k]) for k in others}
-    table_lo = -np.array(layout.table_size) / 2 + SPOT_TABLE_EDGE
-    table_hi = np.array(layout.table_size) / 2 - SPOT_TABLE_EDGE
     n = int(config.spot_samples)
     # The object may turn about the vertical on the way (the wrist turns), which helps long objects fit.
     yaws = rng.choice(np.array(SPOT_TURNS), size=n)
     ref_origin = np.zeros(2)
-    if task.family == "place_relative":
+    if recipe == "beside":
         ref = task.reference
         d = np.asarray((directions or DIRECTIONS)[task.direction], float)[:2]
         d /= np.linalg.norm(d)
@@ -136,8 +139,7 @@ def destination_candidates(
         centres = rng.uniform(lo, hi, size=(n, 2))
         d = None
     # Every sample at once: turned footprint, centre, frame origin, then the filters in turn.
-    cy, sy = np.cos(yaws), np.sin(yaws)
-    rz = np.stack([np.stack([cy, -sy], axis=1), np.stack([sy, cy], axis=1)], axis=1)  # (n, 2, 2)
+    rz = yaw_rotation_2d(yaws)  # (n, 2, 2)
     rots = rz @ rot_i0
     offsets = rz @ offset0
     if d is not None:
@@ -149,10 +151,8 @@ def destination_candidates(
     keep = np.all((origins >= lo) & (origins <= hi), axis=1)
     if d is not None:
         keep &= (origins - ref_origin) @ d >= need
-    r = np.abs(rots) @ half_i
-    keep &= np.all((c - r >= table_lo) & (c + r <= table_hi), axis=1)
-    reach = np.hypot(origins[:, 0] - layout.robot_base[0], origins[:, 1] - layout.robot_base[1])
-    keep &= (reach >= layout.reach_min) & (reach <= layout.reach_max)
+    on_table, reach = table_and_reach(c, np.abs(rots) @ half_i, origins, layout)
+    keep &= on_table
     gap = np.full(n, np.inf)
     for k in others:
         ck, rk, hk = foot[k]

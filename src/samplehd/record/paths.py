@@ -26,7 +26,7 @@ from samplehd.record.recorder import FrameRecorder, RecordingStep
 from samplehd.robot.controller import ControlConfig
 from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.checker import CheckerConfig, CheckResult, check_success
-from samplehd.tasks.task import Task, parse_task
+from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies
 from samplehd.world.layout import LAYOUT
 from samplehd.world.planner_config import PlannerConfig
@@ -135,7 +135,7 @@ def _attempt(ro: Rollout, task: Task, exclude: dict[int, set[int]]) -> Plan[None
         k = -1
         try:
             k = yield from ro.pick(i, tuple(exclude.get(i, ())))
-            if task.family != "pick_up":
+            if get_family(task.family).places:
                 yield from ro.place(i, task, k)
         except AttemptFailed as exc:
             if exc.grasp < 0:

@@ -10,25 +10,19 @@ motion), as a policy would see and act. The last frame holds the final state wit
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
-from pathlib import Path
 
 import mujoco
 import numpy as np
 
-from samplehd.errors import DatasetError
 from samplehd.motion.execute import ControlTarget, SubtaskCut
-from samplehd.record.episode import FRAME_FIELDS, Episode
+from samplehd.record.episode import FRAME_FIELDS
 from samplehd.robot.controller import ControlReport
 from samplehd.world.bodies import grasped_object
 
 __all__ = [
-    "EPISODE_NPZ_VERSION",
     "FrameRecorder",
     "RecordingStep",
-    "read_episode_npz",
-    "write_episode_npz",
 ]
 
 
@@ -140,81 +134,3 @@ class RecordingStep:
         if report.safety_event is not None:
             self.recorder.rows["safety_event"][-1] = np.int8(report.safety_event.code)
         return report
-
-
-EPISODE_NPZ_VERSION = 1
-
-
-def write_episode_npz(path: str | Path, episode: Episode) -> Path:
-    """Write an episode as one compressed ``.npz`` (the interim container of ``samplehd paths``).
-
-    Layout (all keys at the top level of the archive):
-
-    - ``meta``: 0-d unicode array holding JSON ``{format, scene_index, instruction_index, family, seed,
-      subtasks, success, info}``.
-    - ``frames/<field>``: every :data:`~samplehd.record.episode.FRAME_FIELDS` array, first axis T.
-    - ``images/<camera>/<modality>``: optional rendered images, first axis T (rgb uint8 (T, H, W, 3),
-      depth float32 metres (T, H, W), segmentation int32 ids (T, H, W)).
-
-    Returns:
-        The path written.
-    """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    meta = {
-        "format": EPISODE_NPZ_VERSION,
-        "scene_index": episode.scene_index,
-        "instruction_index": episode.instruction_index,
-        "family": episode.family,
-        "seed": episode.seed,
-        "subtasks": list(episode.subtasks),
-        "success": episode.success,
-        "info": episode.info,
-    }
-    arrays: dict[str, np.ndarray] = {"meta": np.array(json.dumps(meta, default=_json_default))}
-    for k, v in episode.frames.items():
-        arrays[f"frames/{k}"] = v
-    for cam, mods in episode.images.items():
-        for mod, v in mods.items():
-            arrays[f"images/{cam}/{mod}"] = v
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez_compressed(tmp, **arrays)
-    tmp.replace(path)
-    return path
-
-
-def read_episode_npz(path: str | Path) -> Episode:
-    """Read an episode written by :func:`write_episode_npz`; raises DatasetError if malformed."""
-    path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            meta = json.loads(str(z["meta"]))
-            frames = {k.removeprefix("frames/"): z[k] for k in z.files if k.startswith("frames/")}
-            images: dict[str, dict[str, np.ndarray]] = {}
-            for k in z.files:
-                if k.startswith("images/"):
-                    _, cam, mod = k.split("/", 2)
-                    images.setdefault(cam, {})[mod] = z[k]
-    except (OSError, KeyError, ValueError) as exc:
-        raise DatasetError(f"{path}: not an episode file ({exc})") from exc
-    if meta.get("format") != EPISODE_NPZ_VERSION:
-        raise DatasetError(f"{path}: episode format {meta.get('format')!r}, expected {EPISODE_NPZ_VERSION}")
-    return Episode(
-        scene_index=int(meta["scene_index"]),
-        instruction_index=int(meta["instruction_index"]),
-        family=str(meta["family"]),
-        seed=int(meta["seed"]),
-        subtasks=tuple(meta["subtasks"]),
-        frames=frames,
-        success=bool(meta["success"]),
-        info=meta["info"],
-        images=images,
-    )
-
-
-def _json_default(o: object) -> object:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(f"not JSON-serialisable: {type(o).__name__}")

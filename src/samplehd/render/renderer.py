@@ -411,8 +411,6 @@ class RendererCache:
 
 
 def _gl_backend() -> str:
-    import os
-
     return os.environ.get("MUJOCO_GL", "")
 
 

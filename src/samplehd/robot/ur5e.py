@@ -4,7 +4,7 @@ The kinematic chain is the published DH chain of the UR5e: body ``robot_<link>``
 (a hinge about its local z axis), and its child sits at ``Tz(d_i) Tx(a_i) Rx(alpha_i)``; so the
 site ``flange`` is exactly DH frame 6 and forward kinematics equal :mod:`samplehd.robot.kinematics`.
 
-Names (relied upon by other packages, see docs/CONTRACTS.md):
+Names (relied upon by other packages, see docs/ARCHITECTURE.md):
 
 - root body ``robot_base``; every robot body descends from it and is named ``robot_*``;
   every robot geom is named ``robot_*``;
@@ -68,7 +68,7 @@ from samplehd.robot.constants import (
 __all__ = ["add_robot", "robot_spec"]
 
 # The robot is built in its own MjSpec and attached without a name prefix, so the names in
-# docs/CONTRACTS.md hold in the world. MuJoCo warns that prefix-less attachment "may prevent the
+# docs/ARCHITECTURE.md hold in the world. MuJoCo warns that prefix-less attachment "may prevent the
 # model from being saved correctly" at every later compile; the names are unique (robot_* or the UR
 # joint names), so saving works and the warning is noise. add_robot installs this filter on each
 # call, because test runners reset warning filters between tests.

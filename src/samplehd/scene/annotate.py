@@ -33,7 +33,7 @@ from samplehd.render.renderer import (
     camera_pose,
     project_points,
 )
-from samplehd.robot.constants import ROBOT_BODY
+from samplehd.robot.constants import JOINT_NAMES, ROBOT_BODY
 from samplehd.scene.spec import SceneSpec
 from samplehd.version import __version__
 from samplehd.world.bodies import object_body_name
@@ -51,8 +51,6 @@ def image_stem(split: str, index: int) -> str:
 
 
 def _manipulator(model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, Any]:
-    from samplehd.robot.constants import JOINT_NAMES
-
     q = [float(data.qpos[model.jnt_qposadr[model.joint(j).id]]) for j in JOINT_NAMES]
     sid = model.site("tcp").id
     quat = np.empty(4)

@@ -113,6 +113,12 @@ class SceneConfig:
         except TypeError as exc:
             raise ConfigError(f"{where}: {exc}") from exc
 
+    @property
+    def named_classes(self) -> tuple[str, ...]:
+        """Every class this config names (``classes`` and the ``menu_overrides`` keys): the imported
+        classes among them are the only ones that join the built-in catalogue."""
+        return (*self.classes, *(self.menu_overrides or {}))
+
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["classes"] = list(self.classes)

@@ -15,33 +15,31 @@ result does not depend on the number of workers.
 
 from __future__ import annotations
 
-import json
-import os
 from collections import Counter
-from collections.abc import Callable, Iterator
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable
 from dataclasses import dataclass
-from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
 from samplehd.errors import ConfigError
+from samplehd.fileio import write_json_atomic
+from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
+from samplehd.render.renderer import MODALITIES, RendererCache, get_preset
+from samplehd.scene.annotate import annotate_scene, image_stem
 from samplehd.scene.config import SceneConfig
+from samplehd.scene.sampler import sample_scene
+from samplehd.scene.spec import compile_scene
+from samplehd.scene.world import fresh_state
 from samplehd.version import __version__
+from samplehd.workers import Backend
+from samplehd.world.seeding import scene_seed
 
-__all__ = ["SceneJob", "generate_scenes", "render_scene_files", "scene_split", "write_json_atomic"]
+__all__ = ["SceneJob", "generate_scenes", "render_scene_files", "scene_split"]
 
 
 def scene_split(index: int, test_every: int = 20) -> str:
     """Split of scene `index`: every `test_every`-th scene is in the test split (5 % by default)."""
     return "test" if test_every > 0 and index % test_every == test_every - 1 else "train"
-
-
-def write_json_atomic(path: Path, obj: Any, indent: int | None = None) -> None:
-    """Write JSON to a temporary name in the same directory, then rename over `path`."""
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    tmp.write_text(json.dumps(obj, indent=indent))
-    os.replace(tmp, path)
 
 
 @dataclass(frozen=True)
@@ -60,12 +58,6 @@ class SceneJob:
 
 def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
     """Sample, render and annotate one scene; writes its files and returns (annotation, rejections)."""
-    from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
-    from samplehd.render.renderer import RendererCache
-    from samplehd.scene.annotate import annotate_scene, image_stem
-    from samplehd.scene.sampler import sample_scene
-    from samplehd.scene.spec import compile_scene
-    from samplehd.scene.world import fresh_state
 
     config = SceneConfig.from_dict(job.config)
     # The occlusion check and the images share one model and, when their presets agree, its renderer.
@@ -76,7 +68,7 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
         else:
             model, data = compile_scene(result.scene)
         img = renderers.get(model, job.width, job.height, job.preset).render(
-            data, "scene", ("rgb", "depth", "segmentation"))
+            data, "scene", MODALITIES)
     split = scene_split(job.index, job.test_every)
     stem = image_stem(split, job.index)
     out = Path(job.out)
@@ -89,16 +81,6 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
                        "visible_pixels": result.visible_pixels}
     write_json_atomic(out / "scenes" / f"{stem}.json", ann)
     return ann, dict(result.rejections)
-
-
-def _run_jobs(jobs: list[SceneJob], workers: int) -> Iterator[tuple[dict[str, Any], dict[str, int]]]:
-    if workers <= 1:
-        for job in jobs:
-            yield render_scene_files(job)
-        return
-    # spawn, not fork: a forked child must not inherit the parent's GL/EGL state.
-    with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
-        yield from pool.map(render_scene_files, jobs, chunksize=1)
 
 
 def generate_scenes(
@@ -114,13 +96,10 @@ def generate_scenes(
     on_scene: Callable[[int], None] | None = None,
 ) -> dict[str, Any]:
     """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts."""
-    from samplehd.render.renderer import get_preset
-    from samplehd.world.seeding import scene_seed
 
     if num < 1:
         raise ConfigError(f"--num {num}: must be ≥ 1")
-    if workers < 1:
-        raise ConfigError(f"--workers {workers}: must be ≥ 1")
+    backend = Backend(workers=workers)
     get_preset(preset)
     config = config or SceneConfig()
     try:
@@ -138,7 +117,7 @@ def generate_scenes(
             for i in range(num)]
     scenes: list[dict[str, Any]] = []
     rejections: Counter[str] = Counter()
-    for ann, rej in _run_jobs(jobs, workers):
+    for _, (ann, rej) in backend.map(render_scene_files, jobs):
         scenes.append(ann)
         rejections.update(rej)
         if on_scene:

@@ -8,19 +8,21 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any
 
 import mujoco
 import numpy as np
 
-from samplehd.catalogue import Catalogue, ObjectInstance, load_catalogue, object_facts
+from samplehd.catalogue import Catalogue, ObjectFacts, ObjectInstance, catalogue_for, object_facts
 from samplehd.errors import ConfigError, SceneError
 from samplehd.render.renderer import SEG_OBJECT_OFFSET, RendererCache
+from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene, object_qpos_addresses
 from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec
-from samplehd.world.bodies import object_body_name
+from samplehd.world.bodies import SceneBodies, object_body_name
+from samplehd.world.collision import CollisionChecker
 from samplehd.world.layout import LAYOUT, TableLayout
+from samplehd.world.robot_info import RobotInfo
 from samplehd.world.transforms import quat_from_yaw, quat_to_mat
 
 __all__ = ["SampleResult", "draw_instance", "sample_camera", "sample_scene"]
@@ -95,7 +97,7 @@ def draw_instance(rng: np.random.Generator, cat: Catalogue, config: SceneConfig,
             return ObjectInstance(name, variant, colour, material, size)
 
 
-def _footprint_corners(facts: Any, xy: np.ndarray, yaw: float, margin: float) -> np.ndarray:
+def _footprint_corners(facts: ObjectFacts, xy: np.ndarray, yaw: float, margin: float) -> np.ndarray:
     cx, cy = facts.footprint_center
     hx, hy = facts.footprint_half_extents
     hx, hy = hx + margin, hy + margin
@@ -118,7 +120,7 @@ def _rects_overlap(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def _place(
-    rng: np.random.Generator, facts: Any, placed: list[np.ndarray], config: SceneConfig, layout: TableLayout,
+    rng: np.random.Generator, facts: ObjectFacts, placed: list[np.ndarray], config: SceneConfig, layout: TableLayout,
     rejections: Counter[str],
 ) -> tuple[np.ndarray, float, np.ndarray] | None:
     lo, hi = np.asarray(layout.workspace_min), np.asarray(layout.workspace_max)
@@ -192,10 +194,6 @@ def _settle(
 
 def _home_clear(model: mujoco.MjModel, data: mujoco.MjData, count: int) -> bool:
     """Whether the arm at home, gripper fully open, touches no object (every path starts there)."""
-    from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
-    from samplehd.world.bodies import SceneBodies
-    from samplehd.world.collision import CollisionChecker
-    from samplehd.world.robot_info import RobotInfo
 
     if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
         return True
@@ -242,7 +240,8 @@ def sample_scene(
         index: scene index (recorded in the spec).
         seed: the scene's seed; the same seed gives the same scene.
         config: sampler options.
-        catalogue: object catalogue (default: built-in plus imported classes).
+        catalogue: object catalogue (default: the built-in classes plus the imported classes
+            ``config.classes`` names).
         layout: table and workspace.
         renderers: where the occlusion check gets its renderer; pass the cache that renders the
             scene's images next (with ``result.model``) to make the GL resources once. Default: a
@@ -255,7 +254,8 @@ def sample_scene(
         SceneError: no acceptable scene within ``config.scene_attempts``.
     """
     config = config or SceneConfig()
-    cat = catalogue or load_catalogue()
+    # Built-in classes, plus imported ones only where the config names them.
+    cat = catalogue or catalogue_for(config.named_classes)
     classes = _validate_classes(cat, config)
     rng = np.random.default_rng(seed)
     rejections: Counter[str] = Counter()

@@ -12,6 +12,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.catalogue import ObjectInstance
 from samplehd.errors import SceneError
 from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec, PlacedObject, WorldConfig, compile_world
 from samplehd.world.bodies import object_body_name
@@ -38,8 +39,6 @@ class SceneObject:
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SceneObject:
-        from samplehd.catalogue import ObjectInstance
-
         try:
             return cls(
                 instance=ObjectInstance.from_dict(d["instance"]),

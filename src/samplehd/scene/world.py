@@ -14,7 +14,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.catalogue import add_object
 from samplehd.errors import ConfigError
+from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, ROBOT_BODY
+from samplehd.robot.controller import ControlConfig, RobotController
+from samplehd.robot.ur5e import add_robot
 from samplehd.scene.textures import plaster_texture, tile_texture, wood_texture
 from samplehd.world.bodies import object_body_name
 from samplehd.world.layout import LAYOUT, TableLayout
@@ -317,13 +321,8 @@ def build_world(
             name=cam.name, pos=list(cam.pos), quat=list(look_at_quat(cam.pos, cam.target)), fovy=cam.fovy
         )
     if config.with_robot:
-        from samplehd.robot.constants import ROBOT_BASE_QUAT
-        from samplehd.robot.ur5e import add_robot
-
         add_robot(spec.worldbody, layout.robot_base_position, ROBOT_BASE_QUAT)
     if objects:
-        from samplehd.catalogue import add_object
-
         for i, placed in enumerate(objects):
             add_object(spec, placed.instance, object_body_name(i), placed.pos, placed.quat)
     return spec
@@ -352,11 +351,9 @@ def fresh_state(model: mujoco.MjModel) -> mujoco.MjData:
 
 def reset_robot_home(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     """Put the arm (if the model has one) at its home configuration, holding still, gripper open."""
-    from samplehd.robot.constants import HOME_QPOS, ROBOT_BODY
 
     if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
         return
-    from samplehd.robot.controller import ControlConfig, RobotController
 
     physics_hz = round(1.0 / model.opt.timestep)
     RobotController(model, data, ControlConfig(physics_hz=physics_hz, safety=None)).reset(HOME_QPOS, gripper=1.0)

@@ -1,6 +1,5 @@
-"""Task families and the success checker shared by path generation, the environment and evaluation."""
+"""Tasks: the one Task type, the registry of task families (each declared in its own module of
+:mod:`samplehd.tasks.families`) and the success checker shared by path generation, the environment
+and evaluation."""
 
-from samplehd.tasks.checker import CheckerConfig, CheckResult, check_success
-from samplehd.tasks.task import FAMILIES, Task, parse_task
-
-__all__ = ["FAMILIES", "CheckResult", "CheckerConfig", "Task", "check_success", "parse_task"]
+import samplehd.tasks.families  # noqa: F401  (registers the built-in families)

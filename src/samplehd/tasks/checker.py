@@ -41,11 +41,12 @@ import numpy as np
 
 from samplehd.errors import ConfigError
 from samplehd.physics import wake_all
-from samplehd.tasks.task import Task, parse_task
+from samplehd.scene.spec import SceneSpec
+from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, quat_tilt
-from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout, table_parts_of
+from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
 
-__all__ = ["CheckResult", "CheckerConfig", "check_success"]
+__all__ = ["CheckResult", "CheckerConfig", "Judge", "check_success", "welded"]
 
 
 @dataclass(frozen=True)
@@ -132,12 +133,13 @@ class CheckResult:
                    tuple(d.get("disturbed", ())), tuple(d.get("fallen", ())), dict(d.get("details", {})))
 
 
-class _Judge:
+class Judge:
     """Measurements of the final state, shared by the predicates."""
 
     def __init__(self, model: mujoco.MjModel, start: mujoco.MjData, end: mujoco.MjData, bodies: SceneBodies,
-                 config: CheckerConfig, layout: TableLayout) -> None:
+                 config: CheckerConfig, layout: TableLayout, directions: dict[str, Any]) -> None:
         self.model, self.start, self.end, self.b, self.cfg, self.layout = model, start, end, bodies, config, layout
+        self.directions = directions
         self.contacts = contact_pairs(model, end)
 
     def pos(self, i: int, data: mujoco.MjData | None = None) -> np.ndarray:
@@ -178,7 +180,7 @@ class _Judge:
         return ""
 
 
-def _welded(model: mujoco.MjModel, data: mujoco.MjData, i: int) -> bool:
+def welded(model: mujoco.MjModel, data: mujoco.MjData, i: int) -> bool:
     """Whether object i hangs in the grasp assist's weld (``samplehd.motion.assist``)."""
     e = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, f"grasp_weld_{i}")
     return e >= 0 and bool(data.eq_active[e])
@@ -199,7 +201,7 @@ def _simulate_window(model: mujoco.MjModel, data: mujoco.MjData, window: float) 
 def check_success(
     model: mujoco.MjModel,
     data: mujoco.MjData,
-    scene: Any,
+    scene: SceneSpec,
     task: dict[str, Any] | Task,
     config: CheckerConfig | None = None,
     layout: TableLayout = LAYOUT,
@@ -228,68 +230,8 @@ def check_success(
     mujoco.mj_copyData(start, model, data)
     mujoco.mj_forward(model, start)
     end = _simulate_window(model, start, config.window)
-    j = _Judge(model, start, end, bodies, config, layout)
-    dirs = directions or DIRECTIONS
-    reason = ""
-    details: dict[str, Any] = {}
-
-    if t.family in ("place", "remove"):
-        dest = t.destination_part
-        for i in t.objects:
-            parts = table_parts_of(j.pos(i)[:2], layout)
-            details[str(i)] = {"pos": j.pos(i).round(4).tolist(), "parts": parts}
-            if r := j.resting(i):
-                reason = r
-            elif not j.on_table(i):
-                reason = f"object {i} does not rest on the table"
-            elif t.family == "remove" and t.part in parts:
-                reason = f"object {i} is still in part {t.part}"
-            elif dest not in parts:
-                reason = f"object {i} is not in part {dest}"
-            if reason:
-                break
-    elif t.family == "stack":
-        reason = j.stacked(t.objects[0], t.reference)
-    elif t.family == "stack_three":
-        middle, top = t.objects
-        reason = j.stacked(middle, t.reference) or j.stacked(top, middle)
-    elif t.family == "put":
-        i, c = t.objects[0], t.reference
-        cb = object_world_box(model, end, bodies, c)
-        ob = object_world_box(model, end, bodies, i)
-        details = {"object_bottom": float(ob.lo[2]), "rim": float(cb.hi[2])}
-        if r := j.resting(i):
-            reason = r
-        elif not cb.contains_xy(j.pos(i), config.container_margin):
-            reason = f"object {i} is not inside the footprint of container {c}"
-        elif ob.lo[2] > cb.hi[2] + config.rim_tolerance:
-            reason = f"object {i} is not below the rim of container {c}"
-    elif t.family == "place_relative":
-        i, ref = t.objects[0], t.reference
-        d = np.asarray(dirs[t.direction], dtype=float)[:3]
-        offset = float(np.dot(j.pos(i) - j.pos(ref), d))
-        details = {"offset": offset}
-        if r := j.resting(i):
-            reason = r
-        elif not j.on_table(i):
-            reason = f"object {i} does not rest on the table"
-        elif offset <= config.relation_margin:
-            reason = f"object {i} is not {t.direction} of object {ref} (offset {offset * 1000:.0f} mm)"
-    elif t.family == "pick_up":
-        i = t.objects[0]
-        box = object_world_box(model, end, bodies, i)
-        lift = float(box.lo[2] - layout.table_height)
-        details = {"lift": lift}
-        fingers = {b for b in bodies.gripper_bodies if b in bodies.robot_bodies}
-        touched = {b for b in fingers if j.touching(i, b)}
-        others = {o for (a, b2) in j.contacts for o in (a, b2) if int(bodies.object_body[i]) in (a, b2)} - fingers
-        others.discard(int(bodies.object_body[i]))
-        if lift < config.lift_height:
-            reason = f"object {i} is only {lift * 1000:.0f} mm above the table"
-        elif not touched and not _welded(model, end, i):
-            reason = f"object {i} is not held by the gripper"
-        elif others - bodies.robot_bodies:
-            reason = f"object {i} rests on something besides the gripper"
+    j = Judge(model, start, end, bodies, config, layout, directions or DIRECTIONS)
+    reason, details = get_family(t.family).check(j, t)
     # Disturbance and falls, relative to the scene's initial poses.
     moved_ok = set(t.objects)
     disturbed, fallen = [], []

@@ -1,8 +1,10 @@
-"""Task descriptors: the executor's task dict normalised into one typed value per family.
+"""The one task type: what an instruction asks for, shared by the language executor, the planner, the
+success checker and the environment.
 
-The language executor turns a program into ``{type, objects: [indices], subject}`` where ``subject``
-is a table part name, an object index or a list. :func:`parse_task` accepts the forms below and
-returns a :class:`Task` that the planner and the success checker share.
+A :class:`Task` names its family (:mod:`samplehd.tasks.task`), the objects to move and the family's
+parameter (a table part, a reference object, a direction). The language executor builds one from a
+program; its executor-dict form ``{type, objects, subject, relation}`` (instruction files) is
+:meth:`Task.to_program_dict`, and :func:`parse_task` reads that form (and the forms below) back.
 
 =================  ==========================  ===============================================
 family             objects                     subject
@@ -21,20 +23,48 @@ stack_three        [middle, top] (move order)  bottom object index (or objects [
 
 The type may also carry the parameter in brackets, SAMPLE-HD style: ``place[left]``,
 ``place_relative[behind]``. Directions are CLEVR's relations left/right/front/behind.
+
+The registry of task families lives here too: each family is declared once, in its own module of
+:mod:`samplehd.tasks.families`, as a :class:`TaskFamily`:
+
+- **language**: how a program's action builds its :class:`~samplehd.tasks.task.Task` (how many
+  object arguments, whether it takes a set, what its value is) and how an executor dict parses; the
+  constraints its instructions must satisfy are data, in the family's template file
+  (``samplehd/language/templates/<family>.json``), checked by :mod:`samplehd.language.constraints`;
+- **planner recipe**: whether the path ends holding the object (``places``) and where a moved object
+  goes (``destination``: a table part, past a reference object, on a support's top or into its
+  opening); :func:`samplehd.motion.planner.destination_candidates` reads it;
+- **checker predicate**: ``check(judge, task)`` returns why the task is not fulfilled ("" when it is)
+  and details for the report; :func:`samplehd.tasks.checker.check_success` runs it.
+
+Adding a family is one new module in :mod:`samplehd.tasks.families` (it calls :func:`register_family`)
+plus its template data.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from samplehd.errors import PlanningError
-from samplehd.world.layout import OPPOSITE_PART, TABLE_PARTS
+from samplehd.world.layout import TABLE_PARTS
 
-__all__ = ["FAMILIES", "RELATION_NAMES", "Task", "parse_task"]
+__all__ = [
+    "DESTINATIONS",
+    "RELATION_NAMES",
+    "VALUE_KINDS",
+    "Task",
+    "TaskFamily",
+    "family_names",
+    "get_family",
+    "parse_part",
+    "parse_relation",
+    "parse_task",
+    "register_family",
+]
 
-FAMILIES = ("place", "stack", "put", "remove", "pick_up", "place_relative", "stack_three")
 RELATION_NAMES = ("left", "right", "front", "behind")
 _RELATION_ALIASES = {
     "left": "left", "left_of": "left", "left of": "left", "to the left of": "left",
@@ -44,12 +74,89 @@ _RELATION_ALIASES = {
 }
 
 
+# Where the planner puts a moved object down (None: it keeps holding it).
+DESTINATIONS = ("table_part", "beside", "top", "opening")
+# What a program's action value is.
+VALUE_KINDS = ("part", "relation")
+
+
 @dataclass(frozen=True)
-class Task:
-    """A normalised task.
+class TaskFamily:
+    """One task family.
 
     Attributes:
-        family: one of :data:`FAMILIES`.
+        name: the family's name (instructions, templates, episodes).
+        order: place in :func:`family_names` (error messages list families in this order).
+        arity: object arguments of the program's action (a set counts as one).
+        takes_set: the action's one argument is a set of objects (sorted into ``Task.objects``).
+        value: kind of the action's value ("part", "relation") or None.
+        flat_token: the SAMPLE-HD flat program token of the family (None: not expressible flat).
+        build: the task of an action from its objects (in argument order, or the sorted set) and value.
+        parse: the task of an executor dict: (objects, subject, bracket parameter, relation) -> Task.
+        program: the executor dict's ``(type, subject)`` of a task of this family.
+        check: the success predicate: (judge, task) -> (reason, details); reason "" on success (the
+            judge, :class:`samplehd.tasks.checker.Judge`, holds the measurements of the judged state).
+        destination: where the planner puts a moved object (one of :data:`DESTINATIONS`; None: hold it).
+        destination_part: the table part the moved objects must end in (None: none).
+        support_of: the object that object ``obj`` must end on or in (-1: the table or the gripper).
+        runs_as: the family whose program a task of this family is written as (remove runs as a place
+            to the opposite part), with ``adopt`` turning such a task into one of this family.
+    """
+
+    name: str
+    order: int
+    arity: int
+    build: Callable[[Sequence[int], Any], Task]
+    parse: Callable[[list[int], Any, str | None, Any], Task]
+    program: Callable[[Task], tuple[str, Any]]
+    check: Callable[..., tuple[str, dict[str, Any]]]
+    takes_set: bool = False
+    value: str | None = None
+    flat_token: str | None = None
+    destination: str | None = None
+    destination_part: Callable[[Task], str | None] = lambda task: None
+    support_of: Callable[[Task, int], int] = lambda task, obj: -1
+    runs_as: str | None = None
+    adopt: Callable[[Task], Task] | None = None
+
+    @property
+    def places(self) -> bool:
+        """Whether a path of this family puts the moved objects down (pick_up ends holding it)."""
+        return self.destination is not None
+
+
+_REGISTRY: dict[str, TaskFamily] = {}
+
+
+def register_family(family: TaskFamily) -> TaskFamily:
+    """Add a family to the registry (a family's module calls this once); returns it."""
+    if family.destination is not None and family.destination not in DESTINATIONS:
+        raise ValueError(f"family {family.name}: destination {family.destination!r}; valid: {DESTINATIONS}")
+    if family.value is not None and family.value not in VALUE_KINDS:
+        raise ValueError(f"family {family.name}: value {family.value!r}; valid: {VALUE_KINDS}")
+    _REGISTRY[family.name] = family
+    return family
+
+
+def family_names() -> tuple[str, ...]:
+    """Every registered family, in their declared order."""
+    return tuple(sorted(_REGISTRY, key=lambda n: _REGISTRY[n].order))
+
+
+def get_family(name: str) -> TaskFamily:
+    """The family called ``name``; raises PlanningError naming the valid ones."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise PlanningError(f"unknown task family {name!r}; valid: {', '.join(family_names())}") from None
+
+
+@dataclass(frozen=True)
+class Task:
+    """A task.
+
+    Attributes:
+        family: a registered family (:func:`samplehd.tasks.task.family_names`).
         objects: the objects to move, in the order they are moved (stack_three: bottom-up, i.e. the
             middle object first, then the top one).
         part: destination part (place) or cleared part (remove); None otherwise.
@@ -67,25 +174,31 @@ class Task:
     @property
     def destination_part(self) -> str | None:
         """The part objects must end in: the part for place, the opposite part for remove."""
-        if self.family == "place":
-            return self.part
-        if self.family == "remove" and self.part:
-            return OPPOSITE_PART[self.part]
-        return None
+        return get_family(self.family).destination_part(self)
 
     def support_of(self, obj: int) -> int:
         """The object that ``obj`` must end on/in (-1 for the table or the gripper)."""
-        if self.family in ("stack", "put"):
-            return self.reference
-        if self.family == "stack_three":
-            # objects = (middle, top); reference = bottom.
-            return self.reference if obj == self.objects[0] else self.objects[0]
-        return -1
+        return get_family(self.family).support_of(self, obj)
 
     @property
     def involved(self) -> tuple[int, ...]:
-        """Every object the task names (moved objects and the reference)."""
+        """Every object the task names (moved objects, then the reference)."""
         return self.objects + ((self.reference,) if self.reference >= 0 else ())
+
+    @property
+    def type(self) -> str:
+        """The program action the task is written as (a remove is a place to the opposite part)."""
+        return get_family(self.family).program(self)[0]
+
+    @property
+    def subject(self) -> str | int | None:
+        """The executor's subject: a destination part, the reference object, or None."""
+        return get_family(self.family).program(self)[1]
+
+    @property
+    def relation(self) -> str | None:
+        """The executor's relation (place_relative's direction)."""
+        return self.direction
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -97,7 +210,7 @@ class Task:
         }
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> Task:
+    def from_dict(cls, d: Mapping[str, Any]) -> Task:
         return cls(
             family=str(d["family"]),
             objects=tuple(int(i) for i in d["objects"]),
@@ -106,25 +219,42 @@ class Task:
             direction=d.get("direction"),
         )
 
+    def to_program_dict(self) -> dict[str, Any]:
+        """The executor's ``{type, objects, subject, relation}`` (the ``task`` of instruction files)."""
+        return {"type": self.type, "objects": list(self.objects), "subject": self.subject, "relation": self.relation}
 
-def _relation(value: Any) -> str:
+    def to_sample_hd(self) -> dict[str, Any]:
+        """SAMPLE-HD's executor output ``{name, objectInt, subjectString, subjectInt}``."""
+        subject = self.subject
+        return {
+            "name": self.type,
+            "objectInt": list(self.objects),
+            "subjectString": [subject] if isinstance(subject, str) else [],
+            "subjectInt": subject if isinstance(subject, int) else -1,
+        }
+
+
+def parse_relation(value: Any) -> str:
+    """A direction name (or alias) as one of :data:`RELATION_NAMES`; raises PlanningError."""
     key = str(value).strip().lower()
     if key not in _RELATION_ALIASES:
         raise PlanningError(f"unknown direction {value!r}; valid: {', '.join(RELATION_NAMES)}")
     return _RELATION_ALIASES[key]
 
 
-def _part(value: Any) -> str:
+def parse_part(value: Any) -> str:
+    """A table part name; raises PlanningError naming the valid ones."""
     if value not in TABLE_PARTS:
         raise PlanningError(f"unknown table part {value!r}; valid: {', '.join(TABLE_PARTS)}")
     return str(value)
 
 
-def parse_task(task: dict[str, Any] | Task, family: str | None = None) -> Task:
+def parse_task(task: Mapping[str, Any] | Task, family: str | None = None) -> Task:
     """Normalise an executor task dict (or a :class:`Task`) into a :class:`Task`.
 
     Args:
-        task: the executor's ``{type, objects, subject, relation}`` (or a :class:`Task`).
+        task: the executor's ``{type, objects, subject, relation}``, a :meth:`Task.to_dict`, or a
+            :class:`Task`.
         family: the instruction's family when it differs from the task type ("remove" is executed
             as a place to the opposite part).
 
@@ -133,62 +263,26 @@ def parse_task(task: dict[str, Any] | Task, family: str | None = None) -> Task:
             is valid.
     """
     if isinstance(task, Task):
-        return task
-    if "family" in task and "objects" in task and "type" not in task:
-        return Task.from_dict(task)
+        parsed = task
+    elif "family" in task and "objects" in task and "type" not in task:
+        parsed = Task.from_dict(task)
+    else:
+        parsed = _parse_program_dict(task)
+    if family is not None and family != parsed.family:
+        hint = get_family(family)
+        if hint.runs_as == parsed.family and hint.adopt is not None:
+            return hint.adopt(parsed)
+    return parsed
+
+
+def _parse_program_dict(task: Mapping[str, Any]) -> Task:
     raw_type = str(task.get("type", task.get("name", "")))
     m = re.fullmatch(r"([a-z_]+)(?:\[([^\]]+)\])?", raw_type.strip())
     if not m:
-        raise PlanningError(f"malformed task type {raw_type!r}; valid families: {', '.join(FAMILIES)}")
-    hint = family
-    family, param = m.group(1), m.group(2)
+        raise PlanningError(f"malformed task type {raw_type!r}; valid families: {', '.join(family_names())}")
+    name, param = m.group(1), m.group(2)
     objects = [int(i) for i in task.get("objects", task.get("objectInt", []))]
-    subject = task.get("subject")
-    if family not in FAMILIES:
-        raise PlanningError(f"unknown task family {family!r}; valid: {', '.join(FAMILIES)}")
+    spec = get_family(name)
     if not objects:
         raise PlanningError(f"task {raw_type!r} names no objects")
-    if family in ("place", "remove"):
-        dest = _part(subject if subject is not None else param)
-        if family == "remove" or hint == "remove":
-            # The executor's remove is a place to the opposite part; store the cleared part.
-            return Task("remove", tuple(objects), part=OPPOSITE_PART[dest])
-        return Task(family, tuple(objects), part=dest)
-    if family in ("stack", "put"):
-        ref = subject if subject is not None else (objects[1] if len(objects) == 2 else None)
-        if ref is None or isinstance(ref, list | str):
-            raise PlanningError(f"task {family}: subject must be an object index, got {subject!r}")
-        moved = objects[:1]
-        return Task(family, tuple(moved), reference=int(ref))
-    if family == "pick_up":
-        return Task(family, (objects[0],))
-    if family == "place_relative":
-        direction: str | None = _relation(param) if param else None
-        if task.get("relation"):
-            direction = _relation(task["relation"])
-        ref: int | None = None
-        if isinstance(subject, dict):
-            direction = _relation(subject.get("direction", direction))
-            ref = int(subject["reference"])
-        elif isinstance(subject, list | tuple):
-            for v in subject:
-                if isinstance(v, str) and not v.lstrip("-").isdigit():
-                    direction = _relation(v)
-                else:
-                    ref = int(v)
-        elif subject is not None:
-            ref = int(subject)
-        if ref is None and len(objects) == 2:
-            ref = objects[1]
-        if ref is None or direction is None:
-            raise PlanningError(f"task place_relative needs a direction and a reference object, got {task!r}")
-        return Task(family, (objects[0],), reference=ref, direction=direction)
-    # stack_three: "stack R2 on R3, then R1 on R2" -> move middle then top onto bottom.
-    if len(objects) == 3 and subject is None:
-        top, middle, bottom = objects
-    elif len(objects) == 2 and subject is not None:
-        middle, top = objects
-        bottom = int(subject)
-    else:
-        raise PlanningError(f"task stack_three needs three objects (top, middle, bottom), got {task!r}")
-    return Task(family, (middle, top), reference=bottom)
+    return spec.parse(objects, task.get("subject"), param, task)

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.errors import DatasetError
+from samplehd.render.renderer import MODALITIES
 from samplehd.viewer import imaging
 from samplehd.viewer.index import FILTER_KEYS, DatasetIndex, filter_scene_summaries, matches_instruction
 from samplehd.viewer.paths import resolve_inside
@@ -300,7 +301,7 @@ class ViewerApp:
     def _scene(self, i: int) -> Response:
         scene = self.index.scene(i)
         images = {}
-        for modality in ("rgb", "depth", "segmentation"):
+        for modality in MODALITIES:
             images[modality] = self.index.image_path(i, modality).is_file()
         offset = int(scene.get("segmentation_ids", {}).get("object_offset", 3))
         colours = [imaging.object_colour(k) for k in range(len(scene.get("objects", [])))]

@@ -20,9 +20,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image
 
+from samplehd.dataset.journal import read_journal
+from samplehd.dataset.layout import CANDIDATES_FILE, EPISODE_DIR, INFO_FILE, JOURNAL_FILE
+from samplehd.dataset.reader import DatasetReader
+from samplehd.envs.config import CAMERAS
 from samplehd.errors import DatasetError
+from samplehd.render.renderer import MODALITIES
 from samplehd.viewer.index import FileState
+from samplehd.world.layout import LAYOUT
 
 __all__ = ["PLOT_FIELDS", "EpisodeStore", "failure_reason", "open_episode_store", "subtask_segments"]
 
@@ -68,8 +75,6 @@ def subtask_segments(subtask_index: np.ndarray, target_object: np.ndarray,
 
 
 def _layout() -> dict[str, Any]:
-    from samplehd.world.layout import LAYOUT
-
     return {"table_size": list(LAYOUT.table_size), "robot_base": list(LAYOUT.robot_base),
             "workspace_min": list(LAYOUT.workspace_min), "workspace_max": list(LAYOUT.workspace_max),
             "workspace_center": [float(v) for v in LAYOUT.workspace_center], "band": LAYOUT.band}
@@ -137,9 +142,6 @@ class EpisodeStore:
 
     def reader(self) -> Any:
         """The current DatasetReader, or None when the folder is not a ``samplehd generate`` dataset."""
-        from samplehd.dataset.layout import CANDIDATES_FILE, EPISODE_DIR, INFO_FILE, JOURNAL_FILE
-        from samplehd.dataset.reader import DatasetReader
-
         key = tuple(self._stamp(n) for n in (INFO_FILE, CANDIDATES_FILE, JOURNAL_FILE, EPISODE_DIR))
         with self._lock:
             if key == self._reader_key:
@@ -236,8 +238,6 @@ class EpisodeStore:
 
     def _journal_frames(self) -> dict[tuple[int, int], int]:
         """Frame counts of written episodes from the generation journal (empty when absent)."""
-        from samplehd.dataset.journal import read_journal
-
         key = self._stamp("journal.jsonl")
         with self._lock:
             if self._journal_key == key:
@@ -289,9 +289,7 @@ class EpisodeStore:
         summary["cameras"] = dict(meta.get("images") or {})
         summary["rendered_on_demand"] = False
         if not summary["cameras"] and self._renderable(entry.scene_index):
-            from samplehd.viewer.state_render import CAMERAS
-
-            summary["cameras"] = {c: ["rgb", "depth", "segmentation"] for c in CAMERAS}
+            summary["cameras"] = {c: list(MODALITIES) for c in CAMERAS}
             summary["rendered_on_demand"] = True
         stems = [stem for stem, _, _ in self._entries()]
         position = stems.index(name)
@@ -330,7 +328,6 @@ class EpisodeStore:
         except IndexError as exc:
             raise DatasetError(f"episode {name}: frame {t} out of range ({exc})") from None
         if pixels.ndim == 1 and pixels.dtype == np.uint8:  # an encoded frame (PNG bytes): decode, never execute
-            from PIL import Image
 
             with Image.open(io.BytesIO(pixels.tobytes())) as image:
                 pixels = np.asarray(image.convert("RGB"))
@@ -373,9 +370,5 @@ class EpisodeStore:
 
 def open_episode_store(root: Path, instructions: Any = None, scene: Any = None,
                        renderer: Any = None) -> EpisodeStore | None:
-    """The episode store of a dataset folder, or None when the dataset reader cannot be imported."""
-    try:
-        import samplehd.dataset.reader  # noqa: F401
-    except ImportError:
-        return None
+    """The episode store of a dataset folder."""
     return EpisodeStore(root, instructions, scene, renderer)

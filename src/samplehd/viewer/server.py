@@ -13,7 +13,9 @@ from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
 from samplehd.viewer.app import SECURITY_HEADERS, Response, ViewerApp
+from samplehd.viewer.episodes import open_episode_store
 from samplehd.viewer.index import DatasetIndex
+from samplehd.viewer.state_render import StateRenderer
 
 __all__ = ["ViewerServer", "make_server", "open_dataset"]
 
@@ -138,8 +140,6 @@ def open_dataset(root: Path, render: bool = True) -> DatasetIndex:
     Raises:
         DatasetError: not a folder, or not a dataset.
     """
-    from samplehd.viewer.episodes import open_episode_store
-    from samplehd.viewer.state_render import StateRenderer
 
     index = DatasetIndex(root)
     renderer = None

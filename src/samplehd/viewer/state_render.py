@@ -1,5 +1,5 @@
 """Frames of episodes stored without images (``--render none``), rendered on demand from their
-recorded physics states: set ``qpos/qvel/act``, ``mj_forward``, render — as ``samplehd rerender``
+recorded physics states with :func:`samplehd.render.states.set_state` — as ``samplehd rerender``
 does, one frame at a time, without writing anything.
 
 GL contexts belong to the thread that made them, and the HTTP server answers on many threads, so
@@ -9,6 +9,7 @@ renderers are kept for the few most recent scenes.
 
 from __future__ import annotations
 
+import json
 import queue
 import threading
 from collections import OrderedDict
@@ -18,13 +19,13 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.envs.config import CAMERAS
 from samplehd.errors import DatasetError, RenderError
+from samplehd.render.renderer import MODALITIES, SceneRenderer
+from samplehd.render.states import set_state
+from samplehd.scene.spec import SceneSpec, compile_scene
 
-__all__ = ["CAMERAS", "StateRenderer"]
-
-# Cameras every compiled scene has: the scene's sampled camera, the operator's and the wrist camera.
-CAMERAS = ("scene", "operator", "wrist")
-_MODALITIES = ("rgb", "depth", "segmentation")
+__all__ = ["StateRenderer"]
 
 
 class StateRenderer:
@@ -59,9 +60,9 @@ class StateRenderer:
         """
         if self._broken:
             raise RenderError(self._broken)
-        if camera not in CAMERAS or modality not in _MODALITIES:
+        if camera not in CAMERAS or modality not in MODALITIES:
             raise DatasetError(f"camera {camera!r} / modality {modality!r}: valid cameras {list(CAMERAS)}, "
-                               f"modalities {list(_MODALITIES)}")
+                               f"modalities {list(MODALITIES)}")
         if not isinstance(scene.get("spec"), Mapping):
             raise DatasetError(f"scene {scene.get('image_index')}: has no 'spec' to rebuild its world from")
         self._ensure_thread()
@@ -101,11 +102,6 @@ class StateRenderer:
         self._worlds.clear()
 
     def _world(self, scene: Mapping[str, Any]) -> tuple[Any, Any, Any]:
-        import json
-
-        from samplehd.render.renderer import SceneRenderer
-        from samplehd.scene.spec import SceneSpec, compile_scene
-
         key = json.dumps(scene["spec"], sort_keys=True)
         if key in self._worlds:
             self._worlds.move_to_end(key)
@@ -119,16 +115,6 @@ class StateRenderer:
 
     def _render_now(self, scene: Mapping[str, Any], state: Mapping[str, np.ndarray], camera: str,
                     modality: str) -> np.ndarray:
-        import mujoco
-
         model, data, renderer = self._world(scene)
-        qpos, qvel = np.asarray(state["qpos"]), np.asarray(state["qvel"])
-        if qpos.shape != (model.nq,) or qvel.shape != (model.nv,):
-            raise DatasetError(f"recorded state has nq={qpos.shape[-1]}, nv={qvel.shape[-1]} but the scene's "
-                               f"world has nq={model.nq}, nv={model.nv}")
-        data.qpos[:] = qpos
-        data.qvel[:] = qvel
-        if model.na:
-            data.act[:] = np.asarray(state["act"])
-        mujoco.mj_forward(model, data)
+        set_state(model, data, state["qpos"], state["qvel"], state.get("act"))
         return renderer.render(data, camera, (modality,))[modality]

@@ -12,11 +12,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import mujoco
 import numpy as np
 
+from samplehd.catalogue import ObjectFacts
 from samplehd.physics import awake_contacts
 
 __all__ = [
@@ -182,7 +182,7 @@ def object_pose(data: mujoco.MjData, bodies: SceneBodies, i: int) -> np.ndarray:
 
 
 def object_footprint(
-    data: mujoco.MjData, bodies: SceneBodies, k: int, facts: Any
+    data: mujoco.MjData, bodies: SceneBodies, k: int, facts: ObjectFacts | None
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(centre xy, 2×2 rotation, half sizes) of object k's footprint rectangle in the world."""
     t = object_pose(data, bodies, k)

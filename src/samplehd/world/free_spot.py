@@ -31,7 +31,7 @@ from samplehd.world.layout import TableLayout
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.transforms import yaw_rotation_2d
 
-__all__ = ["FreeSpots", "Footprinted", "SpotSearch", "rect_overlap"]
+__all__ = ["FreeSpots", "Footprinted", "SpotSearch", "rect_overlap", "table_and_reach"]
 
 
 class Footprinted(Protocol):
@@ -318,11 +318,8 @@ class FreeSpots:
         """Spots that pass the tests not involving other objects, with their overlaps with them."""
         rots = self._turned_rots(k)
         half = (np.abs(rots) @ self.half[k])[turn]  # world-axis half sizes of the turned rectangles
-        table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
-        keep = keep & np.all((centre - half >= -table) & (centre + half <= table), axis=1)
-        base = np.asarray(self.layout.robot_base)
-        reach = np.hypot(origin[:, 0] - base[0], origin[:, 1] - base[1])
-        keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
+        on_table, reach = table_and_reach(centre, half, origin, self.layout)
+        keep = keep & on_table
         centre, origin, turn = centre[keep], origin[keep], turn[keep]
         score = (score[keep] + placement.SPOT_REACH_WEIGHT * np.abs(reach[keep] - placement.SPOT_COMFORT_REACH)
                  + placement.SPOT_TURN_WEIGHT * np.abs(self.turns[turn]))
@@ -335,6 +332,28 @@ class FreeSpots:
             if j != k:
                 spots.blocked[:, j] = self._blocks(k, spots, every, self.centre[j], self.rot[j], self.half[j])
         return spots
+
+
+def table_and_reach(centre: np.ndarray, half: np.ndarray, origin: np.ndarray,
+                    layout: TableLayout) -> tuple[np.ndarray, np.ndarray]:
+    """The tests of spots that involve no other object, the planner's and the grid's alike.
+
+    Args:
+        centre: (m, 2) footprint centres [m].
+        half: (m, 2) world-axis half sizes of the turned footprints [m].
+        origin: (m, 2) the objects' frame origins there [m].
+        layout: table geometry.
+
+    Returns:
+        Which spots keep the footprint ``SPOT_TABLE_EDGE`` inside the table's edges with the origin in
+        the arm's reach annulus, and each origin's horizontal distance from the robot base [m].
+    """
+    table = np.asarray(layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
+    keep = np.all((centre - half >= -table) & (centre + half <= table), axis=1)
+    base = np.asarray(layout.robot_base)
+    reach = np.hypot(origin[:, 0] - base[0], origin[:, 1] - base[1])
+    keep &= (reach >= layout.reach_min) & (reach <= layout.reach_max)
+    return keep, reach
 
 
 def rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray, r2: np.ndarray,

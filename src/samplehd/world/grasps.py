@@ -27,6 +27,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from samplehd.catalogue import ObjectFacts
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
 from samplehd.robot.kinematics import ik_all, ik_batch, wrap_to_limits
 from samplehd.world.bodies import SceneBodies, object_pose, object_world_box
@@ -303,7 +304,7 @@ def choose_grasps(
     robot: RobotInfo,
     checker: CollisionChecker,
     i: int,
-    facts: Any,
+    facts: ObjectFacts | None,
     seed_q: np.ndarray,
     config: PlannerConfig,
     layout: TableLayout = LAYOUT,
@@ -379,7 +380,7 @@ def choose_grasps(
     return [(k, gp) for _, k, gp in feasible]
 
 
-def graspable_in_scene(model: mujoco.MjModel, data: mujoco.MjData, facts: list[Any],
+def graspable_in_scene(model: mujoco.MjModel, data: mujoco.MjData, facts: list[ObjectFacts | None],
                        config: PlannerConfig | None = None) -> list[bool]:
     """Per scene object: whether :func:`choose_grasps` finds a grasp from the arm's current state.
 

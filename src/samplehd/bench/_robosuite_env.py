@@ -5,7 +5,10 @@ Lift with a UR5e, the BASIC composite controller (OSC_POSE on the arm), 20 Hz co
 repeats) and reset time.
 
     python3 -m venv /tmp/rs-venv && /tmp/rs-venv/bin/pip install robosuite "mujoco==3.9.0"
-    MUJOCO_GL=egl /tmp/rs-venv/bin/python benchmarks/robosuite_env.py --configs state rgb128 rgbdseg256
+    MUJOCO_GL=egl /tmp/rs-venv/bin/python src/samplehd/bench/_robosuite_env.py --configs state rgb128 rgbdseg256
+
+``samplehd bench env --robosuite-python PYTHON`` runs it as a subprocess with that interpreter (this file
+imports nothing of samplehd and is not an area of ``samplehd bench``).
 """
 
 from __future__ import annotations
@@ -15,6 +18,8 @@ import json
 import os
 import statistics
 import time
+
+import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
@@ -27,7 +32,6 @@ CONFIGS = {
 
 
 def measure(name: str, steps: int, repeats: int) -> dict[str, float]:
-    import numpy as np
     import robosuite as suite
     from robosuite.controllers import load_composite_controller_config
 

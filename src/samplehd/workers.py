@@ -1,4 +1,5 @@
-"""Run work units in parallel: local worker processes or a Ray cluster.
+"""Run work units in parallel: local worker processes or a Ray cluster — the one worker backend
+of every parallel job (``scenes``, ``paths``, ``generate``, ``rerender``, ``export``, ``evaluate``).
 
 Both backends take units lazily from an iterator (so the caller can stop feeding them, e.g. once
 ``target_episodes`` is reached) and yield ``(unit, result)`` as units finish, in completion order.
@@ -11,15 +12,17 @@ be on a file system every node can write (workers write their episode files them
 
 from __future__ import annotations
 
+import ctypes
 import os
+import signal
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from multiprocessing import get_context
 from typing import Any
 
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, require_extra
 
 __all__ = ["BACKENDS", "Backend", "default_workers"]
 
@@ -60,12 +63,14 @@ class Backend:
             return f"ray ({self.ray_address or 'local'})"
         return f"local, {self.workers} worker{'s' if self.workers > 1 else ''}"
 
-    def map(self, fn: Callable[[Any], Any], units: Iterator[Any]) -> Iterator[tuple[Any, Any]]:
+    def map(self, fn: Callable[[Any], Any], units: Iterable[Any]) -> Iterator[tuple[Any, Any]]:
         """Run ``fn`` on every unit; yield ``(unit, result)`` as they finish.
 
+        ``fn`` must be a module-level function (workers import it by name). Units are taken lazily.
         The first exception raised by a unit stops the run: pending units are cancelled and the
         exception is re-raised here.
         """
+        units = iter(units)
         if self.kind == "ray":
             yield from _ray_map(fn, units, self.workers, self.ray_address)
         elif self.workers <= 1:
@@ -81,9 +86,6 @@ def _die_with_parent() -> None:
     if not sys.platform.startswith("linux"):
         return
     try:
-        import ctypes
-        import signal
-
         libc = ctypes.CDLL("libc.so.6", use_errno=True)
         libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
     except OSError:
@@ -142,10 +144,7 @@ def _windowed(
 
 def _ray_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int,
              address: str | None) -> Iterator[tuple[Any, Any]]:
-    try:
-        import ray
-    except ImportError:
-        raise ConfigError("--backend ray needs Ray: pip install 'samplehd[ray]'") from None
+    ray = require_extra("ray", "ray", "--backend ray")
     if not ray.is_initialized():
         if address:
             ray.init(address=address, include_dashboard=False, log_to_driver=False)

@@ -1,16 +1,19 @@
-"""MP4 encoding with PyAV: LeRobot's concatenated episode videos and per-episode previews."""
+"""MP4 encoding with PyAV, the one video writer: LeRobot's concatenated episode videos, SAMPLE-HD
+export previews, ``samplehd replay`` and evaluation videos."""
 
 from __future__ import annotations
 
 import os
 from collections.abc import Iterable
+from fractions import Fraction
 from pathlib import Path
 
+import av
 import numpy as np
 
 from samplehd.errors import DatasetError
 
-__all__ = ["VideoWriter", "pick_codec"]
+__all__ = ["VideoWriter", "pick_codec", "write_mp4"]
 
 # LeRobot's default is AV1 (SVT-AV1, CRF 30, GOP 2); H.264 and MPEG-4 are fallbacks for PyAV builds
 # without it.
@@ -19,8 +22,6 @@ _CODECS = ("libsvtav1", "libx264", "mpeg4")
 
 def pick_codec(preferred: str | None = None) -> str:
     """The first available codec of ``preferred`` then LeRobot's default and the fallbacks."""
-    import av
-
     for name in ((preferred,) if preferred else ()) + _CODECS:
         if name in av.codecs_available:
             return name
@@ -37,13 +38,11 @@ class VideoWriter:
         fps: frames per second.
         codec: PyAV encoder name (default: :func:`pick_codec`).
         crf: constant rate factor (quality; lower is better).
-        gop: keyframe interval [frames] (LeRobot uses 2 for fast random access).
+        gop: keyframe interval [frames] (LeRobot uses 2 for fast random access); None: the codec's.
     """
 
     def __init__(self, path: Path, width: int, height: int, fps: int, codec: str | None = None, crf: int = 30,
-                 gop: int = 2) -> None:
-        import av
-
+                 gop: int | None = 2) -> None:
         # SVT-AV1 logs its whole configuration to stderr unless told otherwise (1 = errors only).
         os.environ.setdefault("SVT_LOG", "1")
         if width % 2 or height % 2:
@@ -52,23 +51,20 @@ class VideoWriter:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self.codec = pick_codec(codec)
         self.container = av.open(str(self.path), mode="w")
-        options = {"crf": str(crf), "g": str(gop)}
+        keyframes = {} if gop is None else {"g": str(gop)}
+        options = {"crf": str(crf), **keyframes}
         if self.codec == "libsvtav1":
             options.update({"preset": "12"})
         if self.codec == "mpeg4":
-            options = {"qscale": "3", "g": str(gop)}
+            options = {"qscale": "3", **keyframes}
         self.stream = self.container.add_stream(self.codec, rate=fps, options=options)
         self.stream.width, self.stream.height = width, height
         self.stream.pix_fmt = "yuv420p"
-        from fractions import Fraction
-
         self.stream.time_base = Fraction(1, fps)
         self.frames = 0
 
     def write(self, frames: Iterable[np.ndarray]) -> None:
         """Append H×W×3 uint8 frames."""
-        import av
-
         for rgb in frames:
             frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb, dtype=np.uint8), format="rgb24")
             frame.pts = self.frames
@@ -86,3 +82,19 @@ class VideoWriter:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def write_mp4(path: str | Path, rgb: np.ndarray, fps: float = 20.0, crf: int = 20) -> Path:
+    """Write (T, H, W, 3) uint8 frames as one H.264 MP4 (odd sides lose their last row/column).
+
+    Args:
+        path: output file (parent folders are created).
+        rgb: the frames.
+        fps: frames per second.
+        crf: constant rate factor (quality; lower is better).
+    """
+    h, w = rgb.shape[1:3]
+    h2, w2 = h - h % 2, w - w % 2
+    with VideoWriter(Path(path), w2, h2, int(round(fps)), codec="libx264", crf=crf, gop=None) as video:
+        video.write(frame[:h2, :w2] for frame in rgb)
+    return Path(path)

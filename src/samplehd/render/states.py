@@ -1,0 +1,86 @@
+"""Render from stored physics states, without re-simulating: the one way every stage does it.
+
+For every frame the stored ``qpos``, ``qvel``, ``act`` (and ``time`` when recorded) are written into
+the compiled scene's ``MjData``, ``mj_forward`` computes the poses, and the renderer draws them.
+``samplehd generate`` and ``samplehd rerender`` (episode images), ``samplehd replay`` (videos and
+contact sheets), ``samplehd paths`` and the web viewer (frames of state-only episodes) all call
+:func:`set_state` / :func:`render_states`, so they give identical pixels for the same state.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import mujoco
+import numpy as np
+
+from samplehd.errors import DatasetError
+from samplehd.render.renderer import SceneRenderer
+
+__all__ = ["render_states", "set_state"]
+
+
+def set_state(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray,
+              act: np.ndarray | None = None, time: float | None = None) -> None:
+    """Write one recorded state into ``data`` and run ``mj_forward``.
+
+    Raises:
+        DatasetError: the state's sizes do not fit the model (the episode belongs to another scene).
+    """
+    qpos, qvel = np.asarray(qpos), np.asarray(qvel)
+    if qpos.shape != (model.nq,) or qvel.shape != (model.nv,):
+        raise DatasetError(f"recorded state has nq={qpos.shape[-1]}, nv={qvel.shape[-1]}, but the model has "
+                           f"nq={model.nq}, nv={model.nv}; compile the episode's own scene")
+    data.qpos[:] = qpos
+    data.qvel[:] = qvel
+    if model.na and act is not None:
+        data.act[:] = act
+    if time is not None:
+        data.time = float(time)
+    mujoco.mj_forward(model, data)
+
+
+def render_states(
+    model: mujoco.MjModel,
+    frames: Mapping[str, np.ndarray],
+    cameras: Sequence[str],
+    modalities: Sequence[str],
+    width: int,
+    height: int,
+    preset: str = "fast",
+    indices: Sequence[int] | None = None,
+    data: mujoco.MjData | None = None,
+) -> dict[str, dict[str, np.ndarray]]:
+    """Render recorded frames: ``images[camera][modality]`` with the frame as first axis.
+
+    Args:
+        model: the episode's compiled scene (``compile_scene(spec)``).
+        frames: per-frame arrays; ``qpos`` and ``qvel`` are used, ``act`` and ``time`` when present.
+        cameras: camera names.
+        modalities: any of rgb (T,H,W,3 uint8), depth (T,H,W float32 [m]), segmentation (T,H,W int32).
+        width: image width [px].
+        height: image height [px].
+        preset: render preset (``fast``, ``hd``).
+        indices: frames to render (default: all).
+        data: an ``MjData`` to reuse (default: a new one).
+
+    Raises:
+        DatasetError: the states do not fit the model.
+        RenderError: unknown camera or modality, or no GL context.
+    """
+    data = data if data is not None else mujoco.MjData(model)
+    picks = range(len(frames["qpos"])) if indices is None else indices
+    act, time = frames.get("act"), frames.get("time")
+    out: dict[str, dict[str, list[np.ndarray]]] = {c: {m: [] for m in modalities} for c in cameras}
+    with SceneRenderer(model, width, height, preset) as renderer:
+        for k in picks:
+            set_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
+                      None if time is None else time[k])
+            for cam in cameras:
+                images = renderer.render(data, cam, modalities)
+                for m in modalities:
+                    out[cam][m].append(images[m])
+    empty = {"rgb": (0, height, width, 3), "depth": (0, height, width), "segmentation": (0, height, width)}
+    dtypes = {"rgb": np.uint8, "depth": np.float32, "segmentation": np.int32}
+    return {c: {m: (np.stack(v) if v else np.zeros(empty[m], dtypes[m])) for m, v in mods.items()}
+            for c, mods in out.items()}

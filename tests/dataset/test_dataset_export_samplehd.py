@@ -1,0 +1,178 @@
+"""`samplehd export sample-hd`: the fields and conventions SAMPLE-HD's own code reads, checked on our terms.
+
+What SAMPLE-HD's scripts read (model/executor.py, tools/exec.py, preprocessing/*.py, datasets/SAMPLE.py,
+utils/robot.py) is restated here from docs/FORMAT.md; the scripts themselves are not part of samplehd
+(scripts/check_sample_hd.py runs them on an export when a checkout is at hand).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from samplehd.cli import main
+from samplehd.dataset.export_samplehd import SAMPLE_HD_FAMILIES
+from samplehd.dataset.reader import DatasetReader
+from samplehd.robot.kinematics import fk_flange
+
+# SAMPLE-HD's conventions, as docs/FORMAT.md states them (independent of samplehd.dataset.unity_frame).
+UNITY_BASE = np.array([-0.422, 0.7728171, 0.2028])
+WORLD_BASE = np.array([-0.40, 0.0, 0.75])
+
+
+def dh_from_unity(j: list[float]) -> np.ndarray:
+    """utils/robot.py: θ1 = −j1 − 90, θ2 = −j2 − 90, θ3 = −j3, θ4 = −j4 − 90, θ5 = −j5, θ6 = −j6 [deg]."""
+    return np.radians(-np.asarray(j[:6]) - np.array([90.0, 90.0, 0.0, 90.0, 0.0, 0.0]))
+
+
+def unity_from_base(p: np.ndarray) -> np.ndarray:
+    """utils/robot.py: Unity = base + (p_y, p_z, −p_x) for a point p of the DH base frame."""
+    return UNITY_BASE + np.array([p[1], p[2], -p[0]])
+
+
+def vec(d: dict[str, float]) -> np.ndarray:
+    return np.array(list(d.values()))
+
+
+@pytest.fixture(scope="module")
+def shd_export(rendered_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    out = tmp_path_factory.mktemp("shd") / "export"
+    assert main(["export", "sample-hd", str(rendered_dataset), "--out", str(out), "--previews", "--workers", "1"]) == 0
+    return out
+
+
+def test_layout_instructions_and_left_out_families(shd_export: Path, rendered_dataset: Path) -> None:
+    reader = DatasetReader(rendered_dataset)
+    for s in reader.scenes:
+        stem = f"SAMPLE_HD_train_{s['image_index']:06d}"  # every split: SAMPLE-HD's code reads only this name
+        assert (shd_export / "scenes" / f"{stem}.json").exists() and (shd_export / "images" / f"{stem}.png").exists()
+    programs = json.loads((shd_export / "instructions" / "instructions_program.json").read_text())["instructions"]
+    gt = json.loads((shd_export / "instructions" / "instructions_unityGT_filtered.json").read_text())["instructions"]
+    info = json.loads((shd_export / "info.json").read_text())
+    ours = [k for k in range(len(reader)) if reader.instruction(k)["family"] in SAMPLE_HD_FAMILIES]
+    others = len(reader) - len(ours)
+    assert programs, "the test dataset must hold an instruction of SAMPLE-HD's families"
+    assert sum(n for r, n in info["left_out"].items() if r.startswith("family")) == others
+    assert len(programs) + sum(info["left_out"].values()) == len(reader)
+    assert [p["instruction_idx"] for p in programs] == [g["instruction_idx"] for g in gt]
+    for p, g in zip(programs, gt, strict=True):
+        inst = reader.instruction(p["instruction_idx"])
+        assert p["program_sequence"] == inst["program_sequence"].split() and p["instruction"] == inst["instruction"]
+        assert p["program_sequence"][0].split("[")[0] in ("place", "stack", "put")  # no samplehd-only tokens
+        assert g["image_filename"] == f"SAMPLE_HD_train_{p['image_index']:06d}.png"
+        u = g["unity_program"]
+        assert sorted(u["objectInt"]) == sorted(inst["task"]["objects"])
+        t = p["task"][0]
+        if inst["family"] in ("stack", "put"):
+            assert u["name"] == inst["family"] and u["subjectString"] == []
+            assert u["subjectInt"] == inst["task"]["subject"]
+        else:
+            assert u["name"] == "place" and u["subjectInt"] == -1 and u["subjectString"] == [inst["task"]["subject"]]
+            assert t["type"] == inst["family"]  # remove: the cleared part; place: the destination
+        assert sorted(t["object"]) == sorted(inst["task"]["objects"])
+
+
+def test_scene_objects_carry_sample_hd_fields(shd_export: Path, rendered_dataset: Path) -> None:
+    reader = DatasetReader(rendered_dataset)
+    for s in reader.scenes:
+        doc = json.loads((shd_export / "scenes" / f"SAMPLE_HD_train_{s['image_index']:06d}.json").read_text())
+        colours = set()
+        for i, (o, src) in enumerate(zip(doc["objects"], s["objects"], strict=True)):
+            assert len([p for p in o["table_part"] if p in ("left", "right")]) == 1
+            assert len([p for p in o["table_part"] if p in ("front", "back")]) == 1
+            assert set(src["table_part"]) <= set(o["table_part"])
+            c = o["segmentation_colour"]
+            assert list(c) == ["r", "g", "b", "a"] and c["a"] == 255 and all(0 <= v <= 255 for v in c.values())
+            colours.add((c["r"], c["g"], c["b"]))
+            assert list(o["position"]) == ["x", "y", "z"] and list(o["bounding_box_size"]) == ["x", "y", "z"]
+            assert o["scaling"]["x"] > 0
+            p = np.asarray(src["3d_coords"]) - WORLD_BASE
+            assert np.allclose(vec(o["position"]), unity_from_base(p), atol=1e-6)
+            for r in ("left", "right", "front", "behind"):
+                assert o["directions"][r] == s["relationships"][r][i]
+            for key in ("name", "colour", "material", "size"):
+                assert o[key] == src[key]
+        assert len(colours) == len(doc["objects"])
+        for ours in colours:  # SAMPLE-HD matches colours within a distance of 3; background/table/robot stay away
+            for other in colours | {(0, 0, 0), (100, 100, 100), (200, 200, 200)}:
+                assert other == ours or np.linalg.norm(np.subtract(ours, other)) >= 3
+
+
+def test_sequences_frames_effector_and_segmentation(shd_export: Path, rendered_dataset: Path) -> None:
+    reader = DatasetReader(rendered_dataset)
+    programs = json.loads((shd_export / "instructions" / "instructions_program.json").read_text())["instructions"]
+    for p in programs:
+        k = p["instruction_idx"]
+        ep = reader.episode(k)
+        seq = shd_export / "sequences" / f"i{k:06d}_s{ep.scene_index:06d}"
+        data = json.loads((seq / "data.json").read_text())
+        frames = data["sequence"]
+        assert data["scene_json"] == f"SAMPLE_HD_train_{ep.scene_index:06d}.json"
+        assert [f["subtask"] for f in frames[-2:]] == ["Succeeded", "Completed"]
+        assert len(frames) == ep.num_frames + 2 and [f["frame_number"] for f in frames] == list(range(len(frames)))
+        assert [f["subtask"] for f in frames[:-2]] == [ep.subtasks[i] for i in ep.frames["subtask_index"]]
+        assert all("subtask_name" not in f for f in frames)  # SAMPLE-HD's preprocessing adds it
+        eff = json.loads((seq / "effector.json").read_text())["data"]
+        assert len(eff) == len(frames)
+        worst = 0.0
+        for f in frames:
+            flange = fk_flange(dh_from_unity(f["robot_state"]))
+            tip = flange[:3, 3] + 0.09 * flange[:3, 2]  # utils/robot.py's effector point
+            worst = max(worst, float(np.linalg.norm(unity_from_base(tip) - vec(eff[f["frame_number"]]["position"]))))
+        assert worst < 1e-3  # [m]: SAMPLE-HD's FK of robot_state reproduces the exported effector
+        t = ep.num_frames // 2
+        for i, o in enumerate(frames[t]["objects"]):
+            want = unity_from_base(ep.frames["object_pos"][t][i] - WORLD_BASE)
+            assert np.allclose(vec(o["position"]), want, atol=1e-6)
+        assert len(list(seq.glob("sequence_img_*.jpg"))) == len(frames)
+        scene = json.loads((shd_export / "scenes" / data["scene_json"]).read_text())
+        seg = np.asarray(Image.open(seq / "segmentation" / "sequence_img_00000.png"))
+        assert seg.ndim == 3 and seg.shape[2] == 3  # RGB: SAMPLE-HD subtracts an RGB colour
+        ids = ep.images["scene"]["segmentation"][0]
+        for i, o in enumerate(scene["objects"]):
+            c = o["segmentation_colour"]
+            assert np.array_equal(np.all(seg == [c["r"], c["g"], c["b"]], axis=2), ids == 3 + i)
+        assert (seq / "preview.mp4").stat().st_size > 0
+
+
+def test_unfinished_or_nonempty_target_is_refused(rendered_dataset: Path, tmp_path: Path, capsys) -> None:
+    out = tmp_path / "x"
+    out.mkdir()
+    (out / "keep.txt").write_text("x")
+    assert main(["export", "sample-hd", str(rendered_dataset), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "not empty" in err and (out / "keep.txt").read_text() == "x"
+    assert main(["export", "sample-hd", str(rendered_dataset), "--out", str(tmp_path / "y"), "--camera", "wrist"]) == 2
+    assert "--camera wrist" in capsys.readouterr().err and not (tmp_path / "y").exists()
+
+
+def test_export_is_deterministic(rendered_dataset: Path, shd_export: Path, tmp_path: Path) -> None:
+    again = tmp_path / "again"
+    args = ["export", "sample-hd", str(rendered_dataset), "--out", str(again), "--previews", "--workers", "2"]
+    assert main(args) == 0
+    files = sorted(p.relative_to(shd_export) for p in shd_export.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(again) for p in again.rglob("*") if p.is_file())
+    for rel in files:
+        if rel.suffix != ".mp4":  # the MP4 container records its muxer's version and time fields
+            assert (shd_export / rel).read_bytes() == (again / rel).read_bytes(), rel
+
+
+@pytest.mark.slow
+def test_sample_hd_own_code_on_the_export(shd_export: Path, tmp_path: Path) -> None:
+    """Runs SAMPLE-HD's own scripts (not part of samplehd) when a checkout and a Python with their
+    dependencies are named: SAMPLEHD_SAMPLE_HD_CODE=CHECKOUT SAMPLEHD_SAMPLE_HD_PYTHON=PYTHON."""
+    import os
+    import subprocess
+
+    code, python = os.environ.get("SAMPLEHD_SAMPLE_HD_CODE"), os.environ.get("SAMPLEHD_SAMPLE_HD_PYTHON")
+    if not code or not python:
+        pytest.skip("set SAMPLEHD_SAMPLE_HD_CODE and SAMPLEHD_SAMPLE_HD_PYTHON to run SAMPLE-HD's own code")
+    script = Path(__file__).parents[2] / "scripts" / "check_sample_hd.py"
+    done = subprocess.run([python, str(script), str(shd_export), code, "--work", str(tmp_path / "work")],
+                          capture_output=True, text=True, timeout=1800)
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    assert "executor:" in done.stdout and "OK" in done.stdout
