@@ -52,8 +52,8 @@ def test_parser_decodes_both_formats_and_runs_the_executor(nano_dataset: Path) -
     for ins in r.instructions:
         parsed = decode_target(encode_target(ins["program_sequence"], ins["program"]))
         scene = r.scene(ins["image_index"])
-        assert execute(list(parsed.flat), scene).to_dict() == ins["task"]
-        assert execute(list(parsed.nodes), scene).to_dict() == ins["task"]
+        assert execute(list(parsed.flat), scene).to_program_dict() == ins["task"]
+        assert execute(list(parsed.nodes), scene).to_program_dict() == ins["task"]
 
 
 def test_perception_trains_and_perceives_a_scene(nano_dataset: Path, tmp_path: Path) -> None:
@@ -90,7 +90,7 @@ def test_perception_trains_and_perceives_a_scene(nano_dataset: Path, tmp_path: P
     masks = [seg == o["segmentation_id"] for o in item["annotation"]["objects"]]
     rebuilt = annotation_from_instances(found, masks, {})
     ins = next(i for i in open_dataset(nano_dataset).instructions if i["image_index"] == 1)
-    assert execute(ins["program_sequence"], rebuilt).to_dict() == ins["task"]
+    assert execute(ins["program_sequence"], rebuilt).to_program_dict() == ins["task"]
 
 
 def test_policy_trains_and_acts_in_the_env(nano_dataset: Path, tmp_path: Path) -> None:

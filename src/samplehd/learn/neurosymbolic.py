@@ -109,7 +109,7 @@ class NeuroSymbolicPolicy(OraclePolicy):
 
         def run(prog: list[str], scene: Any) -> dict[str, Any] | None:
             try:
-                return execute(prog, scene).to_dict()
+                return execute(prog, scene).to_program_dict()
             except (ProgramError, ValueError):
                 return None
 

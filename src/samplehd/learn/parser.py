@@ -182,7 +182,7 @@ def _task_equal(program: Any, scene: Mapping[str, Any], task: Mapping[str, Any])
     from samplehd.language.scene import parse_scene
 
     try:
-        got = execute(list(program), parse_scene(scene)).to_dict()
+        got = execute(list(program), parse_scene(scene)).to_program_dict()
     except (ProgramError, ValueError, KeyError, IndexError):
         return False
     return got == {k: task.get(k) for k in got}
