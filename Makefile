@@ -8,22 +8,24 @@ PYTEST_ARGS ?= -m "not slow"
 
 GL_DEBS := libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6
 BROWSER_DEBS := chromium chromium-driver
+# Mitsuba's CPU backend compiles with LLVM; Debian 12's default LLVM 15 crashes it, LLVM 19 works.
+PHOTO_DEBS := libllvm19
 
-.PHONY: demo test test-all bench lint gl browser clean
+.PHONY: demo test test-all bench lint gl browser photo clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
 $(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e .
+	$(BIN)/python -m pip install --quiet -e ".[photo]"
 	touch $@
 
 # torch 2.13.0 (CPU) before the sb3 and learn extras: asked for by stable-baselines3 or the `learn`
 # extra alone, pip takes a CUDA build of several GB.
 $(DEV_STAMP): pyproject.toml $(STAMP)
 	$(BIN)/python -m pip install --quiet "torch==2.13.0"
-	$(BIN)/python -m pip install --quiet -e ".[dev,mesh,lerobot,ray,sb3,rerun,learn]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,mesh,lerobot,ray,sb3,rerun,photo,learn]"
 	touch $@
 
 gl:
@@ -33,16 +35,20 @@ gl:
 browser:
 	@bash scripts/ensure-debs.sh $(BROWSER_DEBS)
 
-demo: gl $(STAMP)
+# The path-traced `photo` preset (Mitsuba's LLVM backend); samplehd finds the library by itself.
+photo:
+	@bash scripts/ensure-debs.sh $(PHOTO_DEBS)
+
+demo: gl photo $(STAMP)
 	$(BIN)/samplehd demo --out outputs/demo
 
-test: gl browser $(DEV_STAMP)
+test: gl browser photo $(DEV_STAMP)
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
-test-all: gl browser $(DEV_STAMP)
+test-all: gl browser photo $(DEV_STAMP)
 	$(BIN)/python -m pytest
 
-bench: gl $(STAMP)
+bench: gl photo $(STAMP)
 	$(BIN)/samplehd bench --out outputs/bench
 
 # ruff, then the floors: import-linter's contracts in pyproject.toml (make test checks them too,

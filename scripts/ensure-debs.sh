@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Install the named Debian packages when any is missing (offscreen GL for rendering, chromium for the
-# viewer's browser tests). Waits for a busy apt lock instead of failing.
+# viewer's browser tests, LLVM for the photo preset). Waits for a busy apt lock instead of failing.
 set -euo pipefail
 missing=()
 for pkg in "$@"; do

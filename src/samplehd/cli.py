@@ -18,6 +18,7 @@ import traceback
 from collections.abc import Sequence
 from pathlib import Path
 from types import ModuleType
+from typing import NoReturn
 
 from samplehd import commands
 from samplehd.errors import SamplehdError
@@ -54,10 +55,17 @@ def _chosen(argv: Sequence[str], names: dict[str, str]) -> str | None:
     return None
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line (like every other samplehd error), exit 2."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser(command: str | None = None, *, full: bool = False) -> argparse.ArgumentParser:
     """Return the top-level parser: ``command``'s subparser complete (every one with ``full``), the
     others with their one-line help."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="samplehd",
         description="Simulate a UR5e on a kitchen tabletop and generate language-conditioned "
         "manipulation datasets.",

@@ -34,8 +34,12 @@ def added_dataset(rendered_dataset: Path, tmp_path_factory: pytest.TempPathFacto
     e = reader.episodes[0]
     physics_hz = float(reader.config.get("paths", {}).get("physics_hz", 500.0))
     wrist = RenderConfig("fast", 48, 48, ("wrist",), ("rgb", "depth"))
-    run_render_unit(RenderUnit(str(out / e.file), reader.scene(e.scene_index)["spec"], physics_hz, wrist.to_dict(),
-                               replace=False))
+    done = run_render_unit(RenderUnit(str(out / e.file), reader.scene(e.scene_index)["spec"], physics_hz,
+                                      wrist.to_dict(), replace=False))
+    # an interrupted rerender has recorded each finished episode in info.json
+    info = json.loads((out / "info.json").read_text())
+    info["episodes"][0].update(size=done["size"], sha256=done["sha256"])
+    (out / "info.json").write_text(json.dumps(info, indent=1))
     res = rerender_dataset(out, wrist, add=True)
     assert res["skipped"] == 1 and res["rendered"] == res["episodes"] - 1  # resumed: episode 0 was done
     return out
@@ -78,12 +82,13 @@ def test_exports_read_cameras_of_different_sizes(added_dataset: Path, tmp_path: 
     import av
 
     out = tmp_path / "lr"
-    assert main(["export", "lerobot", str(added_dataset), "--out", str(out), "--codec", "libx264"]) == 0
+    assert main(["export", "lerobot", str(added_dataset), "--out", str(out), "--codec", "libx264",
+                 "--modalities", "rgb", "depth", "segmentation"]) == 0
     feats = json.loads((out / "meta" / "info.json").read_text())["features"]
     assert feats["observation.images.scene"]["shape"] == [36, 64, 3]
     assert feats["observation.images.wrist"]["shape"] == [48, 48, 3]
-    assert feats["observation.images.wrist.depth"]["shape"] == [48, 48, 1]
-    assert "observation.images.wrist.segmentation" not in feats  # not stored for the wrist
+    assert feats["depth.wrist"]["shape"][:2] == [48, 48]  # depth is opt-in, exact, outside observation.*
+    assert "segmentation.wrist" not in feats  # not stored for the wrist
     with av.open(str(out / "videos/observation.images.wrist/chunk-000/file-000.mp4")) as c:
         frame = next(c.decode(video=0))
         assert (frame.width, frame.height) == (48, 48)

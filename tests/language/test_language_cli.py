@@ -85,7 +85,7 @@ def test_families_option(tmp_path: Path, scenes_file: Path) -> None:
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--families", "juggle"], "family 'juggle'"),
+        (["--families", "juggle"], "--families: unknown 'juggle'"),
         (["--per-scene", "0"], "--per-scene"),
         (["--split-ratio", "oops"], "NAME=FRACTION"),
     ],

@@ -59,7 +59,7 @@ def test_bad_planner_timing_is_a_one_line_error(field: str, value: object) -> No
     from samplehd.errors import ConfigError
     from samplehd.world.planner_config import PlannerConfig
 
-    with pytest.raises(ConfigError, match=rf"^planner\.{field}=.* must be a finite non-negative number$"):
+    with pytest.raises(ConfigError, match=rf"^paths\.planner\.{field}=.*: must be a finite number [>≥] 0 "):
         PlannerConfig.from_dict({field: value})
 
 
@@ -67,5 +67,5 @@ def test_unknown_planner_option_names_the_valid_ones() -> None:
     from samplehd.errors import ConfigError
     from samplehd.world.planner_config import PlannerConfig
 
-    with pytest.raises(ConfigError, match=r"unknown planner options \['ramp'\]; valid: .*joint_ramp_time"):
+    with pytest.raises(ConfigError, match=r"paths.planner: unknown option\(s\) \['ramp'\]; valid: .*joint_ramp_time"):
         PlannerConfig.from_dict({"ramp": 0.5})

@@ -126,3 +126,26 @@ def test_renderer_cache_reuses_a_renderer_only_for_the_same_model_and_preset(wor
         assert c is not b and c.buffer_size == (400, 200)
         assert c.render(data, "operator", ("rgb",))["rgb"].shape == (200, 400, 3)
     assert c._ctx is None
+
+
+def test_a_renderer_still_renders_new_states_after_another_renderer_is_closed(world):
+    """Closing one renderer must not leave another reading back a stale frame."""
+    import mujoco
+
+    model, data = world
+    keep = SceneRenderer(model, 64, 48, "fast")
+    try:
+        before = keep.render(data, "operator", ("segmentation",))["segmentation"]
+        with SceneRenderer(model, 64, 48, "fast") as other:
+            other.render(data, "operator", ("segmentation",))
+        moved = mujoco.MjData(model)
+        moved.qpos[:] = data.qpos
+        moved.qpos[:6] += 0.6  # swing the arm
+        mujoco.mj_forward(model, moved)
+        after = keep.render(moved, "operator", ("segmentation",))["segmentation"]
+        with SceneRenderer(model, 64, 48, "fast") as fresh:
+            want = fresh.render(moved, "operator", ("segmentation",))["segmentation"]
+        np.testing.assert_array_equal(after, want)
+        assert (after != before).any()
+    finally:
+        keep.close()

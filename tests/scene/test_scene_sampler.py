@@ -51,7 +51,7 @@ def test_spec_roundtrip_rebuilds_identical_world(sampled):
 
 
 def test_bad_config_is_one_line_error():
-    with pytest.raises(ConfigError, match=r"scene.max_objects=2: must be in min_objects..30"):
+    with pytest.raises(ConfigError, match=r"scene.max_objects=2: must be ≥ min_objects \(3\)"):
         SceneConfig(min_objects=3, max_objects=2)
     with pytest.raises(ConfigError, match=r"unknown option\(s\) \['objets'\]; valid:"):
         SceneConfig.from_dict({"objets": 3})

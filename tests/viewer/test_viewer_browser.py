@@ -215,7 +215,7 @@ def test_episode_list_and_refused_paths(browser: Any, viewer_url: str, dataset_f
     _wait(browser, lambda b: len(b.find_elements(By.CSS_SELECTOR, "#episode-table tr")) == 1 + len(
         dataset_files.episodes))
     Select(browser.find_element(By.CSS_SELECTOR, "select[data-filter=success]")).select_by_value("failure")
-    _wait(browser, lambda b: len(b.find_elements(By.CSS_SELECTOR, "#episode-table tr")) == 1)  # failed paths
+    _wait(browser, lambda b: b.find_elements(By.ID, "episodes-empty"))  # failed paths
     rejections = browser.find_element(By.ID, "rejection-table").text  # are rejected, not recorded
     assert all(r["reason"] in rejections for r in dataset_files.rejections)
     assert _console_errors(browser) == []

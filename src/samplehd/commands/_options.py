@@ -1,10 +1,36 @@
-"""Helpers shared by the command modules (not a command: the name starts with an underscore)."""
+"""Helpers shared by the command modules (not a command: the name starts with an underscore): names
+from option values, and checks of options that raise a one-line ConfigError naming the flag, the
+value and what is valid, before the command writes anything."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Iterable, Sequence
+from pathlib import Path
 
-__all__ = ["split_names"]
+from samplehd.errors import ConfigError
+
+__all__ = ["check_int", "check_names", "check_number", "check_out_dir", "check_out_file", "split_names"]
+
+
+def check_int(flag: str, value: int | None, lo: int | None = None, hi: int | None = None) -> None:
+    """``value`` (None: not given) is an integer in ``lo..hi``."""
+    if value is None:
+        return
+    if (lo is not None and value < lo) or (hi is not None and value > hi):
+        if lo is not None and hi is not None:
+            want = f"in {lo}..{hi}"
+        else:
+            want = f"≥ {lo}" if lo is not None else f"≤ {hi}"
+        raise ConfigError(f"{flag} {value}: must be an integer {want}")
+
+
+def check_number(flag: str, value: float | None, lo: float = 0.0, lo_open: bool = True) -> None:
+    """``value`` (None: not given) is finite and above ``lo`` (or at least ``lo``)."""
+    if value is None:
+        return
+    if not math.isfinite(value) or value < lo or (lo_open and value == lo):
+        raise ConfigError(f"{flag} {value}: must be a finite number {'>' if lo_open else '≥'} {lo:g}")
 
 
 def split_names(values: str | Sequence[str] | None) -> tuple[str, ...]:
@@ -13,3 +39,48 @@ def split_names(values: str | Sequence[str] | None) -> tuple[str, ...]:
         return ()
     items = [values] if isinstance(values, str) else list(values)
     return tuple(dict.fromkeys(n.strip() for item in items for n in item.split(",") if n.strip()))
+
+
+def check_names(flag: str, names: Iterable[str] | None, valid: Sequence[str], allow_empty: bool = False) -> None:
+    """Every name is one of ``valid``, none twice, and (unless ``allow_empty``) at least one."""
+    if names is None:
+        return
+    names = list(names)
+    bad = [n for n in names if n not in valid]
+    if bad:
+        raise ConfigError(f"{flag}: unknown {', '.join(map(repr, bad))}; valid: {', '.join(valid)}")
+    if not names and not allow_empty:
+        raise ConfigError(f"{flag}: give at least one of {', '.join(valid)}")
+    if len(set(names)) != len(names):
+        raise ConfigError(f"{flag} {' '.join(names)}: names an item twice")
+
+
+def check_out_file(flag: str, path: Path | None, suffixes: Sequence[str]) -> None:
+    """``path`` (None: not given) can become a file: the right suffix, not a folder, its parent not a file."""
+    if path is None:
+        return
+    if suffixes and path.suffix.lower() not in suffixes:
+        raise ConfigError(f"{flag} {path}: must end in {' or '.join(suffixes)}")
+    if path.is_dir():
+        raise ConfigError(f"{flag} {path}: is a folder; give a file name ending in {' or '.join(suffixes)}")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ConfigError(f"{flag} {path}: {parent} is a file, not a folder")
+            break
+
+
+def check_out_dir(flag: str, path: Path | None, empty: bool = False) -> None:
+    """``path`` (None: not given) can become a folder: not a file, no file among its parents, and
+    (with ``empty``) new or empty."""
+    if path is None:
+        return
+    if path.exists() and not path.is_dir():
+        raise ConfigError(f"{flag} {path}: is a file; give a folder")
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise ConfigError(f"{flag} {path}: {parent} is a file, not a folder")
+            break
+    if empty and path.is_dir() and any(path.iterdir()):
+        raise ConfigError(f"{flag} {path}: exists and is not empty; choose a new or empty folder")

@@ -57,7 +57,10 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise ConfigError(f"--only: unknown areas {unknown}; valid: {', '.join(areas)}")
     if args.repeats < 1:
-        raise ConfigError("--repeats must be ≥ 1")
+        raise ConfigError(f"--repeats {args.repeats}: must be an integer ≥ 1")
+    from samplehd.commands._options import check_out_dir
+
+    check_out_dir("--out", args.out)
     console = Console()
     figures = []
     modules = _modules()

@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from samplehd.commands import generate
+from samplehd.errors import RenderError
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
 from samplehd.render.renderer import MODALITIES, SceneRenderer
 from samplehd.scene.sampler import sample_scene
@@ -33,10 +34,27 @@ def _pictures(out: Path) -> list[Path]:
     save_rgb(paths[2], colorize_segmentation(img["segmentation"]))
     with SceneRenderer(model, 640, 360, "fast") as r:
         save_rgb(paths[3], r.render(data, "wrist", ("rgb",))["rgb"])
-    return paths
+    return paths + _photo_picture(out, model, data)
+
+
+def _photo_picture(out: Path, model: object, data: object) -> list[Path]:
+    """The same view path traced (the photo preset); one line saying what to install where it cannot run."""
+    path = out / "world_photo.png"
+    try:
+        with SceneRenderer(model, 1280, 720, "photo") as r:
+            save_rgb(path, r.render(data, "operator", ("rgb",))["rgb"])
+    except RenderError as exc:
+        print(f"samplehd demo: no photo picture: {exc}")
+        return []
+    return [path]
 
 
 def run(args: argparse.Namespace) -> int:
+    from samplehd.commands._options import check_int, check_out_dir
+
+    check_int("--workers", args.workers, 1)
+    check_int("--seed", args.seed, 0)
+    check_out_dir("--out", args.out)
     out: Path = args.out
     dataset = out / "dataset"
     argv = ["--preset", "tiny", "--out", str(dataset), "--seed", str(args.seed)]
@@ -53,6 +71,19 @@ def run(args: argparse.Namespace) -> int:
     print("  dataset:  ", dataset, " (info.json, scenes.json, instructions.json, episodes/)")
     for p in _pictures(out):
         print("  picture:  ", p)
-    print(f"\nbrowse it:  .venv/bin/samplehd view {dataset}   (then open http://127.0.0.1:8000/)")
-    print(f"check it:   .venv/bin/samplehd validate {dataset}")
+    prog = _program()
+    print(f"\nbrowse it:  {prog} view {dataset}   (then open http://127.0.0.1:8000/)")
+    print(f"check it:   {prog} validate {dataset}")
     return 0
+
+
+def _program() -> str:
+    """How to run samplehd from the user's shell: ``samplehd`` where that is this installation's
+    command on PATH, else this Python with ``-m samplehd``."""
+    import shutil
+    import sys
+
+    found = shutil.which("samplehd")
+    if found and Path(found).parent == Path(sys.executable).parent:
+        return "samplehd"
+    return f"{sys.executable} -m samplehd"

@@ -32,13 +32,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=family_names(),
                         metavar="FAMILY", help=f"families, in rotation (default: {' '.join(DEFAULT_FAMILIES)})")
     parser.add_argument("--seed", type=int, default=0, help="seed of the split (default 0)")
-    parser.add_argument("--control-mode", default="steering", choices=list(CONTROL_MODES),
-                        help="action interface (default steering)")
-    parser.add_argument("--obs-mode", default="state", choices=list(OBS_MODES), help="observations (default state)")
-    parser.add_argument("--width", type=int, default=128, help="image width [px] (default 128)")
-    parser.add_argument("--height", type=int, default=128, help="image height [px] (default 128)")
-    parser.add_argument("--max-episode-steps", type=int, default=1500, help="step limit (default 1500)")
-    parser.add_argument("--env-options", type=Path, help="JSON file with further Tabletop-v0 options")
+    # These default to the --env-options file's values, then to Tabletop-v0's defaults.
+    parser.add_argument("--control-mode", choices=list(CONTROL_MODES), help="action interface (default steering)")
+    parser.add_argument("--obs-mode", choices=list(OBS_MODES), help="observations (default state)")
+    parser.add_argument("--width", type=int, help="image width [px] (default 128)")
+    parser.add_argument("--height", type=int, help="image height [px] (default 128)")
+    parser.add_argument("--max-episode-steps", type=int, help="step limit (default 1500)")
+    parser.add_argument("--env-options", type=Path,
+                        help="JSON file with further Tabletop-v0 options (flags given on the command line win)")
     parser.add_argument("--video", type=Path, metavar="DIR", help="write one MP4 per episode here")
     parser.add_argument("--workers", type=int, default=1, help="parallel processes (default 1)")
     parser.add_argument("--compare-offline", action="store_true",
@@ -47,17 +48,32 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from samplehd.commands._options import check_int, check_out_dir, check_out_file
+    from samplehd.envs.config import EnvConfig
+    from samplehd.envs.evaluation import load_policy_module
+
     env: dict = {}
     if args.env_options is not None:
         env = read_json(args.env_options, ConfigError, f"--env-options {args.env_options}")
         if not isinstance(env, dict):
             raise ConfigError(f"--env-options {args.env_options}: expected a JSON object of options")
-    env.update(control_mode=args.control_mode, obs_mode=args.obs_mode, width=args.width, height=args.height,
-               max_episode_steps=args.max_episode_steps)
+    # A flag given on the command line overrides the file; a flag left out keeps the file's value.
+    flags = {"control_mode": args.control_mode, "obs_mode": args.obs_mode, "width": args.width,
+             "height": args.height, "max_episode_steps": args.max_episode_steps}
+    env.update({k: v for k, v in flags.items() if v is not None})
     if args.policy == "bc" and args.models is not None:
         from samplehd.learn.bc import env_options
 
         env.update(env_options(args.models))  # the cameras, image size and control the policy was trained on
+    where = f"--env-options {args.env_options}" if args.env_options else "command line"
+    try:
+        EnvConfig.from_kwargs(**env)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
+    check_int("--seed", args.seed, 0)
+    check_out_file("--out", args.out, (".json",))
+    check_out_dir("--video", args.video)
+    load_policy_module(args.policy)
     config = EvalConfig(policy=args.policy, episodes=args.episodes, families=tuple(args.families), seed=args.seed,
                         env=env, video_dir=str(args.video) if args.video else None, workers=args.workers,
                         compare_offline=args.compare_offline,

@@ -6,11 +6,12 @@ episode as a Rerun recording) or
 from __future__ import annotations
 
 import argparse
+import re
 from pathlib import Path
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from samplehd.commands._options import split_names
+from samplehd.commands._options import check_int, split_names
 from samplehd.dataset.export_lerobot import export_lerobot
 from samplehd.dataset.export_rerun import episode_location, export_rerun
 from samplehd.dataset.export_samplehd import export_samplehd
@@ -48,6 +49,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_int("--frames-per-file", getattr(args, "frames_per_file", None), 1)
+    check_int("--workers", getattr(args, "workers", None), 1)
     if args.format == "rerun":
         require_extra("rerun", "rerun", "samplehd export rerun")
         require_extra("trimesh", "rerun", "samplehd export rerun")
@@ -57,8 +60,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.format == "lerobot":
         require_extra("pyarrow", "lerobot", "samplehd export lerobot")
-        if args.frames_per_file < 1:
-            raise ConfigError("--frames-per-file must be ≥ 1")
+        if not re.fullmatch(r"[\w.-]+/[\w.-]+", args.repo_id):
+            raise ConfigError(f"--repo-id {args.repo_id!r}: must be OWNER/NAME (letters, digits, '_', '-', '.')")
     with Progress(TextColumn(f"export {args.format}"), BarColumn(), MofNCompleteColumn(),
                   TimeRemainingColumn()) as bar:
         task = bar.add_task("episodes", total=None)

@@ -32,7 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=default_workers(), help="worker processes (local backend)")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="where work units run")
     parser.add_argument("--ray-address", help="Ray cluster address (default: start a local Ray)")
-    parser.add_argument("--render", choices=RENDER_MODES, help="images per episode: none (states only), fast, hd")
+    parser.add_argument("--render", choices=RENDER_MODES, help="images per episode: none (states only), fast, hd, "
+                        "photo (path traced)")
     parser.add_argument("--width", type=int, help="image width [px]")
     parser.add_argument("--height", type=int, help="image height [px]")
     parser.add_argument("--cameras", nargs="+", help="cameras to render (scene, operator, wrist)")
@@ -45,26 +46,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def resolve_config(args: argparse.Namespace):  # noqa: ANN201 - GenerateConfig
-    """Preset, then --config file, then flags."""
+    """Preset, then --config file, then flags; a bad flag's message names the flag."""
     config = load_config(args.config, preset_config(args.preset))
-    top: dict = {}
-    render: dict = {}
-    if args.seed is not None:
-        top["seed"] = args.seed
-    if args.scenes is not None:
-        top["num_scenes"] = args.scenes
-    if args.target is not None:
-        top["target_episodes"] = args.target
+    flags: list[tuple[str, dict]] = []
+    for flag, key in (("seed", "seed"), ("scenes", "num_scenes"), ("target", "target_episodes")):
+        if getattr(args, flag) is not None:
+            flags.append((f"--{flag}", {key: getattr(args, flag)}))
     for flag, key in (("render", "mode"), ("width", "width"), ("height", "height")):
         if getattr(args, flag) is not None:
-            render[key] = getattr(args, flag)
-    if args.cameras:
-        render["cameras"] = list(split_names(args.cameras))
-    if args.modalities:
-        render["modalities"] = list(split_names(args.modalities))
-    if render:
-        top["render"] = render
-    return GenerateConfig.from_dict(top, where="command line", base=config) if top else config
+            flags.append((f"--{flag}", {"render": {key: getattr(args, flag)}}))
+    for flag in ("cameras", "modalities"):
+        names = getattr(args, flag)
+        if names is not None:
+            flags.append((f"--{flag}", {"render": {flag: list(split_names(names))}}))
+    for flag, top in flags:
+        config = GenerateConfig.from_dict(top, where=flag, base=config)
+    return config
 
 
 def run(args: argparse.Namespace) -> int:

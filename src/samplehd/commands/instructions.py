@@ -13,10 +13,12 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+from samplehd.commands._options import check_int, check_names, check_out_file, split_names
 from samplehd.errors import ConfigError
 from samplehd.language.instruction_file import generate_instruction_file, parse_split_ratio, write_instructions
 from samplehd.language.scene import load_scenes
 from samplehd.language.templates import load_templates
+from samplehd.tasks.task import family_names
 from samplehd.world.reach import make_reachable
 
 HELP = "generate instructions (text, programs, tasks) for a scenes file"
@@ -57,8 +59,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.per_scene < 1:
-        raise ConfigError(f"--per-scene {args.per_scene}: must be at least 1")
+    check_int("--per-scene", args.per_scene, 1, 99)
+    check_int("--seed", args.seed, 0)
+    args.families = split_names(args.families) or None
+    check_names("--families", args.families, family_names())
+    check_out_file("--out", args.out, (".json",))
     if args.no_default_templates and not args.templates:
         raise ConfigError("--no-default-templates needs at least one --templates FILE_OR_DIR")
     templates = load_templates(args.templates or [], include_default=not args.no_default_templates)

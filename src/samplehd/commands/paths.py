@@ -10,10 +10,10 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from samplehd.commands._options import split_names
+from samplehd.commands._options import check_int, check_names, check_out_dir, split_names
 from samplehd.dataset.paths import format_summary, generate_paths
 from samplehd.dataset.render import RenderConfig
-from samplehd.errors import ConfigError
+from samplehd.envs.config import CAMERAS
 from samplehd.record.paths import PathConfig
 from samplehd.render.renderer import MODALITIES
 from samplehd.workers import BACKENDS, Backend
@@ -25,11 +25,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenes", required=True, type=Path, help="scenes directory (with scenes.json) or file")
     parser.add_argument("--instructions", required=True, type=Path, help="instructions.json")
     parser.add_argument("--out", required=True, type=Path, help="output directory")
-    parser.add_argument("--cameras", default="", help="comma-separated cameras to render per frame (none: states only)")
-    parser.add_argument("--modalities", default="rgb", help=f"comma-separated: {', '.join(MODALITIES)}")
+    parser.add_argument("--cameras", nargs="*", default=[],
+                        help="cameras to render per frame, space- or comma-separated (none: states only)")
+    parser.add_argument("--modalities", nargs="+", default=["rgb"],
+                        help=f"space- or comma-separated: {', '.join(MODALITIES)}")
     parser.add_argument("--width", type=int, default=320, help="image width [px]")
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
-    parser.add_argument("--preset", default="fast", choices=["fast", "hd"], help="render quality preset")
+    parser.add_argument("--preset", default="fast", metavar="{fast,hd,photo}", help="render quality preset")
     parser.add_argument("--workers", type=int, default=1, help="parallel worker processes")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="where work units run")
     parser.add_argument("--seed", type=int, default=0,
@@ -40,9 +42,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     cameras, modalities = split_names(args.cameras), split_names(args.modalities)
-    bad = [m for m in modalities if m not in MODALITIES]
-    if bad or not modalities:
-        raise ConfigError(f"--modalities: unknown {bad or '(none)'}; valid: {', '.join(MODALITIES)}")
+    check_names("--cameras", cameras, CAMERAS, allow_empty=True)
+    check_names("--modalities", modalities, MODALITIES)
+    for flag, value, lo, hi in (("--workers", args.workers, 1, None), ("--max-attempts", args.max_attempts, 1, 100),
+                                ("--width", args.width, 16, 8192), ("--height", args.height, 16, 8192),
+                                ("--seed", args.seed, 0, None), ("--limit", args.limit, 0, None)):
+        check_int(flag, value, lo, hi)
+    check_out_dir("--out", args.out, empty=True)
     render = (RenderConfig(args.preset, args.width, args.height, cameras, modalities) if cameras
               else RenderConfig("none", args.width, args.height))
     paths = PathConfig(max_attempts=args.max_attempts)

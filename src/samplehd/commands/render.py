@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from samplehd.errors import ConfigError
+from samplehd.commands._options import check_int, check_out_file
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_depth, save_rgb, save_segmentation
 from samplehd.render.renderer import SceneRenderer
 from samplehd.scene.world import compile_world
@@ -17,7 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--camera", default="operator", help="camera name (operator, wrist, ...)")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px]")
-    parser.add_argument("--preset", default="hd", choices=["fast", "hd"], help="render quality preset")
+    parser.add_argument("--preset", default="hd", metavar="{fast,hd,photo}", help="render quality preset")
     parser.add_argument("--out", required=True, type=Path, help="RGB output file (.png)")
     parser.add_argument("--depth", type=Path, help="depth output: .png (uint16 mm) or .npy (float32 m)")
     parser.add_argument("--segmentation", type=Path, help="instance-id PNG output")
@@ -25,8 +25,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.out.suffix.lower() not in (".png", ".jpg", ".jpeg"):
-        raise ConfigError(f"--out {args.out}: must be a .png or .jpg file")
+    check_int("--width", args.width, 8, 8192)
+    check_int("--height", args.height, 8, 8192)
+    # Every output is checked before the first is written.
+    check_out_file("--out", args.out, (".png", ".jpg", ".jpeg"))
+    check_out_file("--depth", args.depth, (".png", ".npy"))
+    check_out_file("--segmentation", args.segmentation, (".png",))
     model, data = compile_world()
     modalities = ["rgb"]
     if args.depth:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.commands._options import check_int, check_out_file
 from samplehd.dataset.container import read_episode
 from samplehd.errors import ConfigError
 from samplehd.record.replay import subtask_contact_sheet
@@ -25,13 +26,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--camera", default="operator", help="camera name (operator, scene, wrist)")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px]")
-    parser.add_argument("--preset", default="fast", choices=["fast", "hd"], help="render quality preset")
+    parser.add_argument("--preset", default="fast", metavar="{fast,hd,photo}", help="render quality preset")
     parser.add_argument("--sheet", type=Path, help="also write a per-subtask contact sheet (.png)")
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.out.suffix.lower() != ".mp4":
-        raise ConfigError(f"--out {args.out}: must be an .mp4 file")
+    check_int("--width", args.width, 8, 8192)
+    check_int("--height", args.height, 8, 8192)
+    check_out_file("--out", args.out, (".mp4",))
+    check_out_file("--sheet", args.sheet, (".png", ".jpg"))
+    if not args.episode.is_file():
+        raise ConfigError(f"{args.episode}: {'is a folder' if args.episode.is_dir() else 'does not exist'}; "
+                          "give an episode file (.h5)")
     ep = read_episode(args.episode, images="none")
     if "scene" not in ep.info:
         raise ConfigError(f"{args.episode}: the episode does not carry its scene spec (info.scene)")

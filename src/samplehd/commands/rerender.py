@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.commands._options import split_names
 from samplehd.dataset.progress import RichProgress
 from samplehd.dataset.render import RenderConfig
 from samplehd.dataset.rerender import rerender_dataset
@@ -23,7 +24,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
     parser.add_argument("--modalities", nargs="+", default=list(MODALITIES),
                         help="rgb depth segmentation")
-    parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
+    parser.add_argument("--preset", metavar="{fast,hd,photo}", default="fast", help="render quality")
+    parser.add_argument("--every", type=int, default=1,
+                        help="images at every N-th frame only (keyframes; 0: only --subtask-ends); the dataset "
+                             "records which frames of each camera have images")
+    parser.add_argument("--subtask-ends", action="store_true",
+                        help="also render the first and last frame of each subtask")
+    parser.add_argument("--photo-look", default="fixed",
+                        help="photo preset: 'fixed', or 'random' lights, textures and exposure drawn from each "
+                             "scene's seed")
     parser.add_argument("--add", action="store_true",
                         help="keep the episodes' other cameras and modalities (a camera + modality rendered "
                              "again is overwritten); default: replace all images")
@@ -34,9 +43,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    cams = tuple(c for item in args.cameras for c in item.split(",") if c)
-    mods = tuple(m for item in args.modalities for m in item.split(",") if m)
-    render = RenderConfig(args.preset, args.width, args.height, cams, mods)
+    render = RenderConfig.from_dict({"mode": args.preset, "width": args.width, "height": args.height,
+                                     "cameras": split_names(args.cameras), "modalities": split_names(args.modalities),
+                                     "every": args.every, "subtask_ends": args.subtask_ends, "look": args.photo_look},
+                                    where="command line")
     backend = Backend(args.backend, args.workers, args.ray_address)
     with RichProgress(disable=args.quiet) as progress:
         res = rerender_dataset(args.dir, render, backend, progress, add=args.add)

@@ -13,12 +13,15 @@ from PIL import Image
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
+from samplehd.commands._options import check_int, check_out_dir, check_out_file
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.render.contact_sheet import contact_sheet
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
+from samplehd.render.renderer import get_preset
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.generate import generate_scenes
+from samplehd.scene.sampler import check_scene_config
 
 HELP = "sample annotated scenes (images, depth, segmentation, scenes.json)"
 
@@ -31,9 +34,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, help="JSON file with a 'scene' section of sampler options")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px] (16:9 by default)")
-    parser.add_argument("--preset", choices=["fast", "hd"], default="fast", help="render quality")
+    parser.add_argument("--preset", metavar="{fast,hd,photo}", default="fast", help="render quality")
+    parser.add_argument("--photo-look", default="fixed",
+                        help="photo preset: 'fixed' look, or 'random' lights, colour temperature, textures and "
+                             "exposure drawn from each scene's seed (recorded in its annotation)")
     parser.add_argument("--sheet", type=Path, help="also write a contact sheet (RGB | depth | segmentation) "
                         "of up to 16 scenes to this PNG")
+
+
+# The most scenes one run makes (SAMPLE-HD has 2000).
+MAX_SCENES = 1_000_000
 
 
 def load_scene_config(path: Path | None):  # noqa: ANN201 - returns SceneConfig
@@ -64,7 +74,19 @@ def write_scene_sheet(directory: Path, path: Path, count: int = 16) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_int("--num", args.num, 1, MAX_SCENES)
+    check_int("--seed", args.seed, 0)
+    check_int("--workers", args.workers, 1)
+    check_int("--width", args.width, 16, 8192)
+    check_int("--height", args.height, 16, 8192)
+    check_out_dir("--out", args.out)
+    if (args.out / "info.json").exists() or (args.out.is_dir() and any(args.out.iterdir())
+                                              and not (args.out / "config.json").is_file()):
+        raise ConfigError(f"--out {args.out}: holds other files (a dataset?); choose a new or empty folder")
+    check_out_file("--sheet", args.sheet, (".png", ".jpg"))
+    get_preset(args.preset)
     config = load_scene_config(args.config)
+    check_scene_config(config)
     console = Console(stderr=True)
     t0 = time.perf_counter()
     with Progress(TextColumn("scenes"), BarColumn(), MofNCompleteColumn(),
@@ -76,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
             progress.update(task, completed=done, rate=done / (time.perf_counter() - t0))
 
         summary = generate_scenes(args.out, args.num, args.seed, config, args.width, args.height, args.preset,
-                                  args.workers, on_scene=tick)
+                                  args.workers, on_scene=tick, photo_look=args.photo_look)
     dt = time.perf_counter() - t0
     if args.sheet:
         write_scene_sheet(args.out, args.sheet)

@@ -10,6 +10,8 @@ from pathlib import Path
 from rich.console import Console
 from rich.table import Table
 
+from samplehd.commands._options import check_out_dir
+from samplehd.dataset.reader import DatasetReader
 from samplehd.dataset.stats import dataset_stats, write_plots
 from samplehd.errors import DatasetError
 
@@ -23,6 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_out_dir("--out", args.out)
+    DatasetReader(args.dir).check_intact()  # no plots written into a damaged dataset
     stats = dataset_stats(args.dir)
     console = Console()
     console.print(f"[bold]{args.dir}[/bold]: {stats['scenes']} scenes, {stats['episodes']} episodes, "

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.commands._options import check_int
 from samplehd.dataset.validate import validate_dataset
 
 HELP = "verify every file of a dataset against its metadata (exit 1 on problems)"
@@ -18,6 +19,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_int("--max-problems", args.max_problems, 0)
     problems, counts = validate_dataset(args.dir, deep=args.deep)
     if problems:
         for line in problems[: args.max_problems]:

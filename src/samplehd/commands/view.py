@@ -31,6 +31,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise ConfigError(f"--port {args.port}: must be in 0..65535")
+    _check_folder(args.dataset)
     try:
         server = make_server(args.dataset, args.host, args.port, verbose=args.verbose, render=not args.no_render)
     except OSError as exc:
@@ -48,3 +49,22 @@ def run(args: argparse.Namespace) -> int:
     finally:
         server.server_close()
     return 0
+
+
+def _check_folder(root: Path) -> None:
+    """A dataset or scenes folder, of a format this samplehd reads (the viewer shows one being written)."""
+    import json
+
+    from samplehd.dataset.layout import FORMAT_VERSION, INFO_FILE
+    from samplehd.errors import DatasetError
+
+    if not root.is_dir():
+        return  # the viewer names a missing folder or a file itself
+    try:
+        info = json.loads((root / INFO_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return  # no or partial info.json: a scenes folder, or a dataset being started
+    version = info.get("format_version") if isinstance(info, dict) else None
+    if version != FORMAT_VERSION:
+        raise DatasetError(f"{root / INFO_FILE}: format_version {version!r} is not one this samplehd reads "
+                           f"(valid: {FORMAT_VERSION!r})")

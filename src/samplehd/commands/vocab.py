@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from samplehd.commands._options import check_out_file
 from samplehd.errors import ConfigError, DatasetError
 from samplehd.language.instruction_file import read_instructions
 from samplehd.language.vocab import build_vocab
@@ -22,6 +23,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if args.min_count < 1:
         raise ConfigError(f"--min-count {args.min_count}: must be at least 1")
+    check_out_file("--out", args.out, (".json",))
     entries = read_instructions(args.instructions)["instructions"]
     vocab = build_vocab(entries, min_count=args.min_count)
     try:

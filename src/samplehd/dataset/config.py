@@ -23,10 +23,13 @@ from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.record.paths import PathConfig
 from samplehd.scene.config import SceneConfig
+from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.tasks.task import family_names
 
 __all__ = [
     "PRESETS",
     "GenerateConfig",
+    "check_names",
     "InstructionConfig",
     "load_config",
     "preset_config",
@@ -46,17 +49,12 @@ class InstructionConfig:
         families: only these task families (None: all of SAMPLE-HD's and samplehd's).
     """
 
-    per_scene: int = 5
-    balance: str = "templates"
-    families: tuple[str, ...] | None = None
+    per_scene: int = bounded(5, lo=1, hi=99)
+    balance: str = bounded("templates", choices=_BALANCE)
+    families: tuple[str, ...] | None = bounded(None, choices=family_names, nonempty=True, unique=True)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.per_scene, int) or isinstance(self.per_scene, bool) or not 1 <= self.per_scene <= 99:
-            raise ConfigError(f"instructions.per_scene={self.per_scene!r}: must be an integer in 1..99")
-        if self.balance not in _BALANCE:
-            raise ConfigError(f"instructions.balance={self.balance!r}: valid: {', '.join(_BALANCE)}")
-        if self.families is not None and (not self.families or not all(isinstance(f, str) for f in self.families)):
-            raise ConfigError(f"instructions.families={self.families!r}: must be null or a non-empty list of names")
+        check_fields(self, "instructions")
 
     def to_dict(self) -> dict[str, Any]:
         return {"per_scene": self.per_scene, "balance": self.balance,
@@ -64,18 +62,7 @@ class InstructionConfig:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], where: str = "instructions") -> InstructionConfig:
-        valid = {"per_scene", "balance", "families"}
-        unknown = sorted(set(d) - valid)
-        if unknown:
-            raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(sorted(valid))}")
-        kw = dict(d)
-        if kw.get("families") is not None:
-            kw["families"] = tuple(kw["families"])
-        return cls(**kw)
-
-
-def _path_config(d: Mapping[str, Any] | None = None) -> Any:
-    return PathConfig.from_dict(dict(d or {}))
+        return from_mapping(cls, d, where)
 
 
 @dataclass(frozen=True)
@@ -95,20 +82,17 @@ class GenerateConfig:
         render: images stored with each episode.
     """
 
-    num_scenes: int = 4
-    seed: int = 0
-    target_episodes: int = 0
-    test_every: int = 20
+    num_scenes: int = bounded(4, lo=1, hi=1_000_000)
+    seed: int = bounded(0, lo=0)
+    target_episodes: int = bounded(0, lo=0)
+    test_every: int = bounded(20, lo=0)
     scene: SceneConfig = field(default_factory=SceneConfig)
     instructions: InstructionConfig = field(default_factory=InstructionConfig)
-    paths: Any = field(default_factory=_path_config)
+    paths: PathConfig = field(default_factory=PathConfig)
     render: RenderConfig = field(default_factory=RenderConfig)
 
     def __post_init__(self) -> None:
-        for name, lo in (("num_scenes", 1), ("seed", 0), ("target_episodes", 0), ("test_every", 0)):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or v < lo:
-                raise ConfigError(f"{name}={v!r}: must be an integer ≥ {lo}")
+        check_fields(self, "config")
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -145,7 +129,7 @@ class GenerateConfig:
             "scene": lambda s: SceneConfig.from_dict({**base.scene.to_dict(), **s}, where=f"{where}: scene"),
             "instructions": lambda s: InstructionConfig.from_dict({**base.instructions.to_dict(), **s},
                                                                   where=f"{where}: instructions"),
-            "paths": lambda s: _path_config({**base.paths.to_dict(), **s}),
+            "paths": lambda s: PathConfig.from_dict({**base.paths.to_dict(), **s}, where=f"{where}: paths"),
             "render": lambda s: RenderConfig.from_dict({**base.render.to_dict(), **s}, where=f"{where}: render"),
         }
         for k, make in sections.items():
@@ -200,7 +184,26 @@ def load_config(path: Path | None, base: GenerateConfig) -> GenerateConfig:
     if path is None:
         return base
     doc = read_json(path, ConfigError, f"--config {path}")
-    return GenerateConfig.from_dict(doc, where=str(path), base=base)
+    config = GenerateConfig.from_dict(doc, where=str(path), base=base)
+    check_names(config, where=str(path))
+    return config
+
+
+def check_names(config: GenerateConfig, where: str = "config") -> None:
+    """Check the names a config uses against the catalogue and the world (object classes, menu
+    colours/materials/sizes, cameras): the part of validation that needs them.
+
+    Raises:
+        ConfigError: one line starting with ``where``.
+    """
+    from samplehd.dataset.render import check_cameras
+    from samplehd.scene.sampler import check_scene_config
+
+    try:
+        check_scene_config(config.scene)
+        check_cameras(config.render)
+    except ConfigError as exc:
+        raise ConfigError(f"{where}: {exc}") from None
 
 
 def candidate_order(keys: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:

@@ -14,6 +14,9 @@ Layout of ``episodes/s{scene:06d}_{slot:02d}.h5``::
     /images/<cam>/depth     (T, H, W) float32 metres, exact; gzip + shuffle, one chunk per frame
     /images/<cam>/segmentation  (T, H, W) uint8 (uint16 when ids exceed 255) instance ids; gzip,
                             one chunk per frame
+    /images/<cam>           attrs: frame_index (K,) int64, only when the camera has images at K < T
+                            keyframes (``rerender --every N`` / ``--subtask-ends``): its streams are
+                            then (K, ...), frame ``frame_index[k]`` stored at position k
 
 Files are written under a temporary name (``.NAME.tmp-PID``) in the same directory, flushed, then
 renamed over the final name, so a reader never sees a half-written episode and a killed writer
@@ -40,10 +43,12 @@ from samplehd.dataset.layout import FORMAT_VERSION, tmp_path
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError
 from samplehd.record.episode import FRAME_FIELDS, Episode
+from samplehd.render.keyframes import SparseFrames
 from samplehd.render.renderer import MODALITIES
 
 __all__ = [
     "EpisodeFile",
+    "KEYFRAME_KEYS",
     "FrameImages",
     "camera_settings",
     "describe_settings",
@@ -92,13 +97,19 @@ def _nearly_full(path: Path) -> bool:
         return False
 
 
-def write_error(path: Path, exc: BaseException) -> DatasetError:
-    """A one-line DatasetError for a failed write, naming disk-full and permission problems."""
+def write_error(path: Path, exc: BaseException, retry: str = "run the same command again") -> DatasetError:
+    """A one-line DatasetError for a failed write, naming disk-full and permission problems.
+
+    Args:
+        path: the file that could not be written.
+        exc: the error.
+        retry: how to continue once space is freed (``generate`` says ``run again with --resume``).
+    """
     err = getattr(exc, "errno", None)
     text = str(exc)
     if err in _DISK_FULL or "No space left" in text or "File too large" in text or _nearly_full(path):
         return DatasetError(f"{path}: cannot write: the disk is full (no space left on device); free space "
-                            f"and run again with --resume")
+                            f"and {retry}")
     if err in (errno.EACCES, errno.EPERM, errno.EROFS) or "Permission denied" in text:
         return DatasetError(f"{path}: cannot write: permission denied; choose a writable --out")
     return DatasetError(f"{path}: cannot write: {getattr(exc, 'strerror', None) or text}")
@@ -108,6 +119,10 @@ def _modality_list(mods: Iterable[str]) -> list[str]:
     """Modalities in the canonical order (rgb, depth, segmentation), unknown names last."""
     names = list(dict.fromkeys(str(m) for m in mods))
     return sorted(names, key=lambda m: (MODALITIES.index(m) if m in MODALITIES else len(MODALITIES), m))
+
+
+# Render settings beyond mode and size, kept per camera when set: which frames have images, the photo look.
+KEYFRAME_KEYS = ("every", "subtask_ends", "look")
 
 
 def camera_settings(render: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
@@ -134,7 +149,8 @@ def camera_settings(render: Mapping[str, Any] | None) -> dict[str, dict[str, Any
                 return {}
             per = {c: render for c in render.get("cameras", [])}
         return {str(c): {"mode": str(s["mode"]), "width": int(s["width"]), "height": int(s["height"]),
-                         "modalities": _modality_list(s["modalities"])} for c, s in per.items()}
+                         "modalities": _modality_list(s["modalities"]),
+                         **{k: s[k] for k in KEYFRAME_KEYS if k in s}} for c, s in per.items()}
     except (AttributeError, KeyError, TypeError, ValueError) as exc:
         raise DatasetError(f"malformed render settings {dict(render)!r}: {exc!r}") from None
 
@@ -159,10 +175,23 @@ def render_record(per_camera: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]
             "cameras": list(per), "modalities": shared("modalities"), "per_camera": per}
 
 
+def _missing_frame(where: str, t: int, frames: np.ndarray) -> DatasetError:
+    shown = ", ".join(str(int(f)) for f in frames[:8]) + (", ..." if len(frames) > 8 else "")
+    return DatasetError(f"{where}: frame {t} has no image; this camera has images at {len(frames)} keyframes "
+                        f"({shown}); re-render without --every/--subtask-ends for every frame")
+
+
 def _write_images(group: h5py.Group, images: Mapping[str, Mapping[str, np.ndarray]]) -> None:
     for cam, mods in images.items():
         g = group.require_group(cam)
         for mod, arr in mods.items():
+            frames = arr.frames if isinstance(arr, (SparseFrames, FrameImages)) else None
+            if frames is not None:
+                if "frame_index" in g.attrs and not np.array_equal(g.attrs["frame_index"], frames):
+                    raise DatasetError(f"camera {cam!r}: modalities with images at different frames")
+                g.attrs["frame_index"] = frames
+            if isinstance(arr, SparseFrames):
+                arr = arr.images
             if isinstance(arr, FrameImages):
                 # Kept from an existing file: copy the stored (compressed) chunks unchanged.
                 try:
@@ -206,7 +235,7 @@ def episode_attrs(episode: Episode, extra: Mapping[str, Any] | None = None) -> d
 
 
 def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None = None,
-                  render: Mapping[str, Any] | None = None) -> EpisodeFile:
+                  render: Mapping[str, Any] | None = None, retry: str = "run the same command again") -> EpisodeFile:
     """Write ``episode`` atomically to ``path`` (temporary name, flush, rename).
 
     Args:
@@ -215,6 +244,7 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
             given as :class:`FrameImages` (lazy, from another file) is copied chunk by chunk, unchanged.
         extra: more root attributes (slot, instruction text, task); non-scalars are stored as JSON.
         render: the render settings that produced the images (stored as ``/images`` attrs).
+        retry: how to continue after a failed write (see :func:`write_error`).
 
     Returns:
         Name, frame count, size and SHA-256 of the written file.
@@ -251,7 +281,7 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
             tmp.unlink()
         except OSError:
             pass
-        raise write_error(path, exc) from None
+        raise write_error(path, exc, retry) from None
     size = len(data)
     return EpisodeFile(path.name, episode.num_frames, size, digest)
 
@@ -277,12 +307,44 @@ class FrameImages:
             self._len = int(ds.shape[0])
             self.shape = tuple(int(v) for v in ds.shape)
             self.dtype = ds.dtype
+            group = ds.parent
+            # Keyframes only: the stream stands for all T frames, of which ``frames`` have images.
+            self.frames: np.ndarray | None = (np.asarray(group.attrs["frame_index"], dtype=np.int64)
+                                              if "frame_index" in group.attrs else None)
+            if self.frames is not None:
+                self._len = int(f.attrs["num_frames"])
+                self.shape = (self._len, *self.shape[1:])
 
     def __len__(self) -> int:
         return self._len
 
+    def has_image(self, frame: int) -> bool:
+        """Whether frame ``frame`` has an image (always, unless the camera has keyframes only)."""
+        return 0 <= frame < self._len and (self.frames is None or bool(np.isin(frame, self.frames)))
+
+    def stored(self) -> np.ndarray:
+        """All stored images: T frames, or the K keyframes (see :attr:`frames`)."""
+        try:
+            with h5py.File(self.path, "r") as f:
+                return f[self.key][:]
+        except (OSError, KeyError, RuntimeError) as exc:
+            raise DatasetError(f"{self.path}: cannot read {self.key}: {exc}") from None
+
     def __getitem__(self, index: int | slice) -> np.ndarray:
-        if not isinstance(index, slice):
+        if self.frames is not None:  # keyframes: a frame maps to its stored position, or has no image
+            if isinstance(index, slice):
+                ts = list(range(self._len)[index])
+            else:
+                t = int(index) + (self._len if int(index) < 0 else 0)
+                if not 0 <= t < self._len:
+                    raise IndexError(f"frame {index} outside 0..{self._len - 1}")
+                ts = [t]
+            pos = np.searchsorted(self.frames, ts)
+            for t, p in zip(ts, pos, strict=True):
+                if p >= len(self.frames) or self.frames[p] != t:
+                    raise _missing_frame(f"{self.path}: {self.key}", t, self.frames)
+            index = [int(p) for p in pos] if isinstance(index, slice) else int(pos[0])  # type: ignore[assignment]
+        elif not isinstance(index, slice):
             t = int(index)
             t += self._len if t < 0 else 0
             if not 0 <= t < self._len:
@@ -340,6 +402,8 @@ def read_meta(path: Path) -> dict[str, Any]:
                 out[k] = json.loads(v) if k in ("subtasks", "info", "task") and isinstance(v, str) else v
             out["render"] = json.loads(f["images"].attrs["render"]) if "images" in f else None
             out["images"] = {cam: list(f["images"][cam]) for cam in f["images"]} if "images" in f else {}
+            out["image_frames"] = {cam: [int(v) for v in f["images"][cam].attrs["frame_index"]]
+                                   for cam in out["images"] if "frame_index" in f["images"][cam].attrs}
         except (KeyError, OSError, RuntimeError, ValueError) as exc:
             raise DatasetError(f"{path}: corrupted episode file: {exc}") from None
     return out
@@ -387,13 +451,20 @@ def read_episode(path: Path, images: str = "lazy", instruction_index: int | None
     imgs: dict[str, dict[str, Any]] = {}
     for cam, mod in keys:
         lazy = FrameImages(path, f"images/{cam}/{mod}")
-        imgs.setdefault(cam, {})[mod] = lazy if images == "lazy" else np.asarray(lazy)
+        if images == "lazy":
+            imgs.setdefault(cam, {})[mod] = lazy
+        elif lazy.frames is not None:
+            imgs.setdefault(cam, {})[mod] = SparseFrames(lazy.frames, lazy.stored(), len(lazy))
+        else:
+            imgs.setdefault(cam, {})[mod] = np.asarray(lazy)
     return Episode(frames=frames, images=imgs, **meta)
 
 
 def describe_settings(s: Mapping[str, Any]) -> str:
-    """``WxH mode`` of one camera's settings, for messages."""
-    return f"{s['width']}x{s['height']} {s['mode']}"
+    """``WxH mode`` of one camera's settings (and its keyframes), for messages."""
+    frames = (f" every {s['every']}" if s.get("every", 1) != 1 else "") + (
+        " subtask ends" if s.get("subtask_ends") else "")
+    return f"{s['width']}x{s['height']} {s['mode']}{frames}"
 
 
 def merge_camera_settings(old: Mapping[str, Mapping[str, Any]], render: RenderConfig,
@@ -422,7 +493,7 @@ def merge_camera_settings(old: Mapping[str, Mapping[str, Any]], render: RenderCo
         if prev is None:
             out[cam] = s
             continue
-        same = all(prev[k] == s[k] for k in ("mode", "width", "height"))
+        same = all(prev.get(k) == s.get(k) for k in ("mode", "width", "height", *KEYFRAME_KEYS))
         if same:
             mods = set(prev["modalities"]) | set(s["modalities"])
             out[cam] = {**s, "modalities": [m for m in MODALITIES if m in mods]}

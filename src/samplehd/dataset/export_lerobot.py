@@ -254,7 +254,9 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     images = [(c, m) for c, m in streams if m != "rgb"]
     image_keys = [_feature_key(c, m) for c, m in images]
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
-    codec = pick_codec(codec) if videos else None
+    if codec is not None:
+        codec = pick_codec(codec)  # a bad --codec is refused even where no video would be written
+    codec = (codec or pick_codec()) if videos else None
     order = sorted(range(len(reader)), key=lambda i: (reader.episodes[i].split != "train", i))
     tasks: dict[str, int] = {}
     stats = _Stats()

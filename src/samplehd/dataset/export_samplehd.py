@@ -234,6 +234,8 @@ def _export_sequence(unit: _SequenceUnit) -> int:
         last = ep.num_frames - 1
         for fr in frames:
             t, name = min(fr["frame_number"], last), f"sequence_img_{fr['frame_number']:05d}"
+            if not all(getattr(a, "has_image", lambda _: True)(t) for a in mods.values()):
+                continue  # a camera rendered at keyframes only (rerender --every): the frames with images
             if "rgb" in mods:
                 Image.fromarray(np.asarray(mods["rgb"][t])).save(folder / f"{name}.jpg", quality=_JPEG_QUALITY)
             if "segmentation" in mods:
@@ -243,7 +245,8 @@ def _export_sequence(unit: _SequenceUnit) -> int:
             if "depth" in mods:
                 save_depth(folder / "depth" / f"{name}.png", mods["depth"][t])
     if unit.previews and "rgb" in mods:
-        rgb = mods["rgb"][:]
+        stream = mods["rgb"]
+        rgb = stream.stored() if getattr(stream, "frames", None) is not None else stream[:]  # keyframes: a flip-book
         h, w = rgb.shape[1] // 2 * 2, rgb.shape[2] // 2 * 2
         with VideoWriter(folder / "preview.mp4", w, h, unit.fps, "libx264", crf=23, gop=unit.fps) as vw:
             vw.write(rgb[:, :h, :w])

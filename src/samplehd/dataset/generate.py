@@ -49,6 +49,7 @@ from samplehd.dataset.layout import (
     FORMAT_VERSION,
     INFO_FILE,
     INSTRUCTIONS_FILE,
+    RESUME_HINT,
     RUNS_FILE,
     SCENE_DIR,
     SCENES_FILE,
@@ -120,7 +121,7 @@ def _write_json(path: Path, obj: Any, indent: int | None = None) -> None:
     try:
         write_json_atomic(path, obj, indent)
     except OSError as exc:
-        raise write_error(path, exc) from None
+        raise write_error(path, exc, RESUME_HINT) from None
 
 
 def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
@@ -137,6 +138,9 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
     info_path = out / INFO_FILE
     if out.exists() and not out.is_dir():
         raise DatasetError(f"--out {out}: exists and is not a directory")
+    if resume and not info_path.exists():
+        what = "does not exist" if not out.exists() else "holds no dataset (no info.json)"
+        raise DatasetError(f"--resume: {out} {what}; leave out --resume to start a new dataset there")
     if info_path.exists():
         if not resume:
             raise DatasetError(f"--out {out}: already holds a dataset; pass --resume to continue it or choose "
@@ -146,6 +150,7 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
             stored = stored_info["config"]
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise DatasetError(f"{info_path}: unreadable ({exc}); cannot resume") from None
+        _check_resumable(out, stored_info)
         diff = _first_difference(stored, json.loads(json.dumps(config.to_dict())))
         if diff:
             raise ConfigError(f"--resume: the config differs from {info_path} at {diff}; resume with the same "
@@ -156,10 +161,10 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
                 raise ConfigError(f"--resume: {info_path} catalogue.sha256 does not match the catalogue now "
                                   f"({changed} changed since the dataset was started); resume with the "
                                   "catalogue it was made with, or start a new --out")
-    elif out.is_dir() and any(p for p in out.iterdir() if not is_temporary(p.name)):
+    elif out.is_dir() and _holds_files(out):
         raise DatasetError(f"--out {out}: is not empty and holds no dataset; choose an empty or new directory")
     try:
-        for sub in (SCENE_DIR, EPISODE_DIR, "images", "depth", "segmentation"):
+        for sub in _LAYOUT_DIRS:
             (out / sub).mkdir(parents=True, exist_ok=True)
         probe = out / f".write-test{os.getpid()}"
         probe.write_text("")
@@ -171,6 +176,39 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
             if is_temporary(p.name) and p.is_file():
                 p.unlink()
     repair_journal(out)
+
+
+# The folders a new dataset starts with (made before info.json is written).
+_LAYOUT_DIRS = (SCENE_DIR, EPISODE_DIR, "images", "depth", "segmentation")
+
+
+def _holds_files(out: Path) -> bool:
+    """Whether ``out`` holds anything but temporary files and the empty folders a start that failed
+    before writing info.json leaves (such a stub must not block the next run)."""
+    for p in out.iterdir():
+        if is_temporary(p.name):
+            continue
+        if not (p.name in _LAYOUT_DIRS and p.is_dir() and not any(p.iterdir())):
+            return True
+    return False
+
+
+def _check_resumable(out: Path, info: dict[str, Any]) -> None:
+    """Refuse to resume a dataset of another format, or one whose finished episodes are missing or
+    damaged (resuming would build on them); nothing is changed."""
+    from samplehd.dataset.reader import DatasetReader
+
+    reader = DatasetReader(out)  # checks format_version
+    reader.check_intact()
+    for record in read_journal(out):
+        if record.get("status") != "ok":
+            continue
+        path = out / EPISODE_DIR / episode_name(int(record["scene_index"]), int(record["slot"]))
+        size = path.stat().st_size if path.is_file() else -1
+        if size != record.get("size", size):
+            state = "missing" if size < 0 else f"{size} bytes, the journal records {record['size']}"
+            raise DatasetError(f"{path}: {state} (damaged); nothing was changed; `samplehd validate {out}` lists "
+                               "every problem")
 
 
 def catalogue_in_use(config: GenerateConfig) -> dict[str, Any]:
@@ -460,8 +498,11 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
     progress = progress or Progress()
     summary = GenerateSummary()
     t0 = time.perf_counter()
+    from samplehd.scene.sampler import check_scene_config
 
+    # Everything is checked before the first file is written.
     check_cameras(config.render)
+    check_scene_config(config.scene)
     _prepare(out, config, resume)
     if not (out / INFO_FILE).exists():
         _write_json(out / INFO_FILE, _base_info(config), indent=1)
@@ -486,5 +527,5 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
         with open(out / RUNS_FILE, "a", encoding="utf-8") as f:
             f.write(json.dumps(run) + "\n")
     except OSError as exc:
-        raise write_error(out / RUNS_FILE, exc) from None
+        raise write_error(out / RUNS_FILE, exc, RESUME_HINT) from None
     return summary

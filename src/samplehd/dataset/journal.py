@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.dataset.container import write_error
-from samplehd.dataset.layout import JOURNAL_FILE
+from samplehd.dataset.layout import JOURNAL_FILE, RESUME_HINT
 
 __all__ = ["append_journal", "read_journal", "repair_journal"]
 
@@ -67,4 +67,4 @@ def append_journal(root: Path, records: Iterable[Mapping[str, Any]]) -> None:
             f.flush()
             os.fsync(f.fileno())
     except OSError as exc:
-        raise write_error(path, exc) from None
+        raise write_error(path, exc, RESUME_HINT) from None

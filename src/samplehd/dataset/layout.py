@@ -16,6 +16,7 @@ __all__ = [
     "INFO_FILE",
     "INSTRUCTIONS_FILE",
     "JOURNAL_FILE",
+    "RESUME_HINT",
     "RUNS_FILE",
     "SCENES_FILE",
     "SCENE_DIR",
@@ -37,6 +38,8 @@ RUNS_FILE = "runs.jsonl"
 SCENE_DIR = "scenes"
 EPISODE_DIR = "episodes"
 EPISODE_SUFFIX = ".h5"
+# What a failed write during generation tells the user to do once the cause is fixed.
+RESUME_HINT = "run the same generate command again with --resume"
 # Temporary files start with a dot and contain this mark; readers skip them.
 TMP_MARK = ".tmp-"
 

@@ -22,6 +22,7 @@ from samplehd.dataset.journal import read_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
     EPISODE_DIR,
+    FORMAT_VERSION,
     INFO_FILE,
     INSTRUCTIONS_FILE,
     SCENE_DIR,
@@ -95,6 +96,12 @@ class DatasetReader:
         if not info_path.exists():
             raise DatasetError(f"{self.root}: not a samplehd dataset ({INFO_FILE} is missing)")
         self.info: dict[str, Any] = read_json(info_path)
+        if not isinstance(self.info, dict):
+            raise DatasetError(f"{info_path}: expected a JSON object, got {type(self.info).__name__}")
+        version = self.info.get("format_version")
+        if version != FORMAT_VERSION:
+            raise DatasetError(f"{info_path}: format_version {version!r} is not one this samplehd reads "
+                               f"(valid: {FORMAT_VERSION!r}); use the samplehd version that wrote it")
         self.complete = self.info.get("status") == "complete"
         self._scenes: list[dict[str, Any]] | None = None
         self._instructions: list[dict[str, Any]] | None = None
@@ -174,6 +181,26 @@ class DatasetReader:
             out.append(EpisodeEntry(i, scene, slot, f"{EPISODE_DIR}/{p.name}", int(c.get("seed", -1)),
                                     str(c.get("family", "")), str(c.get("split", ""))))
         return out
+
+    def check_intact(self) -> None:
+        """Check that every listed episode file is there with its recorded size, before a command
+        changes or exports the dataset (so a damaged dataset is refused, never made worse).
+
+        Raises:
+            DatasetError: one line naming the first missing or damaged file (``samplehd validate``
+                lists them all).
+        """
+        if self.complete and not isinstance(self.info.get("episodes"), list):
+            raise DatasetError(f"{self.root / INFO_FILE}: episodes: missing or not a list")
+        for e in self.episodes:
+            path = self.root / e.file
+            hint = f"nothing was changed; `samplehd validate {self.root}` lists every problem"
+            if not path.is_file():
+                raise DatasetError(f"{path}: missing, but {INFO_FILE} lists it; {hint}")
+            size = path.stat().st_size
+            if e.size >= 0 and size != e.size:
+                raise DatasetError(f"{path}: {size} bytes, but {INFO_FILE} records {e.size} (damaged or "
+                                   f"truncated); {hint}")
 
     def __len__(self) -> int:
         return len(self.episodes)

@@ -5,6 +5,7 @@ physics states with :func:`samplehd.render.states.render_states` during ``sample
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -13,13 +14,16 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import ConfigError
-from samplehd.render.renderer import MODALITIES, camera_names
+from samplehd.render.keyframes import SparseFrames, keyframe_indices
+from samplehd.render.photo import LOOKS, photo_options
+from samplehd.render.renderer import MODALITIES, camera_names, get_preset
 from samplehd.render.states import render_states
 from samplehd.scene.world import compile_world
+from samplehd.schema import bounded, check_fields, from_mapping
 
 __all__ = ["RENDER_MODES", "RenderConfig", "check_cameras"]
 
-RENDER_MODES = ("none", "fast", "hd")
+RENDER_MODES = ("none", "fast", "hd", "photo")
 
 
 @dataclass(frozen=True)
@@ -27,39 +31,44 @@ class RenderConfig:
     """Which images an episode gets.
 
     Attributes:
-        mode: ``none`` (states only), or the render preset ``fast`` / ``hd``.
+        mode: ``none`` (states only), or the render preset ``fast`` / ``hd`` / ``photo`` (path traced).
         width: image width [px].
         height: image height [px].
         cameras: camera names (``scene`` is the scene's sampled camera; ``operator``, ``wrist``).
         modalities: any of rgb, depth, segmentation.
+        every: images at every N-th frame only (1: every frame; 0: none but the subtask ends).
+        subtask_ends: also (or only) at the first and last frame of each subtask.
+        look: photo preset: ``fixed``, or ``random`` (lights, textures, exposure from the scene's seed).
     """
 
-    mode: str = "fast"
-    width: int = 320
-    height: int = 180
-    cameras: tuple[str, ...] = ("scene",)
-    modalities: tuple[str, ...] = MODALITIES
+    mode: str = bounded("fast", choices=RENDER_MODES)
+    width: int = bounded(320, lo=8, hi=8192, unit="px")
+    height: int = bounded(180, lo=8, hi=8192, unit="px")
+    # Camera names are checked against the world by check_cameras (it compiles the world).
+    cameras: tuple[str, ...] = bounded(("scene",), nonempty=True, unique=True)
+    modalities: tuple[str, ...] = bounded(MODALITIES, choices=MODALITIES, nonempty=True, unique=True)
+    every: int = 1
+    subtask_ends: bool = False
+    look: str = bounded("fixed", choices=LOOKS)
 
     def __post_init__(self) -> None:
-        if self.mode not in RENDER_MODES:
-            raise ConfigError(f"render.mode={self.mode!r}: valid: {', '.join(RENDER_MODES)}")
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if not isinstance(v, int) or isinstance(v, bool) or not 8 <= v <= 8192:
-                raise ConfigError(f"render.{name}={v!r}: must be an integer in 8..8192 px")
-        if not self.cameras or not all(isinstance(c, str) and c for c in self.cameras):
-            raise ConfigError(f"render.cameras={list(self.cameras)!r}: must be a non-empty list of camera names")
-        bad = [m for m in self.modalities if m not in MODALITIES]
-        if bad or not self.modalities:
-            raise ConfigError(f"render.modalities={list(self.modalities)!r}: valid: {', '.join(MODALITIES)}")
+        check_fields(self, "render")
+        keyframe_indices(0, self.every, None, self.subtask_ends)  # validates every
+
+    def keyframes(self, num_frames: int, subtask_index: np.ndarray | None) -> np.ndarray:
+        """Frames of an episode that get images."""
+        return keyframe_indices(num_frames, self.every, subtask_index, self.subtask_ends)
 
     @property
     def enabled(self) -> bool:
         return self.mode != "none"
 
-    def images(self, model: mujoco.MjModel, frames: Mapping[str, np.ndarray]) -> dict[str, dict[str, np.ndarray]]:
+    def images(self, model: mujoco.MjModel, frames: Mapping[str, np.ndarray],
+               seed: int = 0) -> dict[str, dict[str, Any]]:
         """Render an episode's frames from its stored states: ``images[camera][modality]`` (first axis
-        T), or ``{}`` for mode ``none``.
+        T), or ``{}`` for mode ``none``. With keyframes (``every``, ``subtask_ends``) each stream is a
+        :class:`~samplehd.dataset.container.SparseFrames`. ``seed``: the scene's seed (the photo
+        preset's randomised look is drawn from it).
 
         Raises:
             DatasetError: the states do not fit the model.
@@ -67,23 +76,30 @@ class RenderConfig:
         """
         if not self.enabled:
             return {}
-        return render_states(model, frames, self.cameras, self.modalities, self.width, self.height, self.mode)
+        t = len(frames["qpos"])
+        picks = self.keyframes(t, frames.get("subtask_index"))
+        photo = photo_options(self.look, seed, where="render.look") if get_preset(self.mode).path_traced else None
+        images = render_states(model, frames, self.cameras, self.modalities, self.width, self.height, self.mode,
+                               indices=picks.tolist(), photo=photo)
+        if len(picks) == t:
+            return images
+        return {c: {m: SparseFrames(picks, v, t) for m, v in mods.items()} for c, mods in images.items()}
 
     def to_dict(self) -> dict[str, Any]:
-        return {"mode": self.mode, "width": self.width, "height": self.height, "cameras": list(self.cameras),
-                "modalities": list(self.modalities)}
+        d = {"mode": self.mode, "width": self.width, "height": self.height, "cameras": list(self.cameras),
+             "modalities": list(self.modalities)}
+        # Only where set, so that records of every-frame images stay as they were.
+        if self.every != 1:
+            d["every"] = self.every
+        if self.subtask_ends:
+            d["subtask_ends"] = True
+        if self.look != "fixed":
+            d["look"] = self.look
+        return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], where: str = "render") -> RenderConfig:
-        valid = {"mode", "width", "height", "cameras", "modalities"}
-        unknown = sorted(set(d) - valid)
-        if unknown:
-            raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(sorted(valid))}")
-        kw = dict(d)
-        for k in ("cameras", "modalities"):
-            if k in kw:
-                kw[k] = tuple(kw[k])
-        return cls(**kw)
+        return from_mapping(cls, d, where)
 
 
 def check_cameras(config: RenderConfig) -> None:
@@ -94,8 +110,13 @@ def check_cameras(config: RenderConfig) -> None:
     """
     if not config.enabled:
         return
-
-    valid = sorted({*camera_names(compile_world()[0]), "scene"})
+    valid = _world_cameras()
     bad = [c for c in config.cameras if c not in valid]
     if bad:
         raise ConfigError(f"render.cameras: unknown camera(s) {bad}; valid: {', '.join(valid)}")
+
+
+@functools.cache
+def _world_cameras() -> tuple[str, ...]:
+    """Cameras of every scene world (compiled once per process) plus the scene's own ``scene``."""
+    return tuple(sorted({*camera_names(compile_world()[0]), "scene"}))

@@ -58,12 +58,13 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
         ConfigError: unknown camera.
     """
     if not render.enabled:
-        raise DatasetError("rerender needs a render preset (fast or hd), not 'none'")
+        raise DatasetError("rerender needs a render preset (fast, hd or photo), not 'none'")
     check_cameras(render)
     root = Path(root)
     reader = DatasetReader(root)
     if not reader.complete:
         raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
+    reader.check_intact()
     backend = backend or Backend()
     progress = progress or Progress()
     t0 = time.perf_counter()
@@ -75,12 +76,8 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
     first = ""
     for e in reader.episodes:
         path = root / e.file
-        try:
-            old = camera_settings(read_meta(path)["render"])
-        except DatasetError:
-            if add:
-                raise
-            old = None
+        # An unreadable episode stops the command before any episode is re-rendered.
+        old = camera_settings(read_meta(path)["render"])
         try:
             want = merge_camera_settings(old or {}, render, add)
         except DatasetError as exc:
@@ -97,19 +94,32 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
         else:
             units.append(RenderUnit(str(path), scenes[e.scene_index], physics_hz, render.to_dict(), replace=not add))
     progress.stage("rerender", len(reader.episodes), skipped)
+    # info.json follows the disk at every moment: each episode is replaced atomically by its unit, and
+    # its size and digest are written to info.json (atomically) as soon as it is done; while the
+    # command runs, info.json says so (``rerender``), so an interrupted run is visible and finished
+    # by running the same command again.
+    info = json.loads((root / INFO_FILE).read_text())
+    by_file = {str((root / e["file"]).resolve()): e for e in info["episodes"]}
+    if result is None:  # no episodes: describe what they would hold
+        result = merge_camera_settings(camera_settings(info.get("render")), render, add)
+    record = render_record(result)
+    info["rerender"] = {"render": record, "episodes": len(units), "done": 0}
+    if units:
+        write_json_atomic(root / INFO_FILE, info, indent=1)
     frames = 0
     for _, res in backend.map(run_render_unit, iter(units)):
         frames += int(res["num_frames"])
+        entry = by_file[str(Path(res["path"]).resolve())]
+        entry["size"], entry["sha256"] = int(res["size"]), str(res["sha256"])
+        info["rerender"]["done"] += 1
+        write_json_atomic(root / INFO_FILE, info, indent=1)
         progress.advance("rerender", 1, int(res["num_frames"]))
     # Refresh sizes and digests of every file (also those finished by an interrupted earlier run).
-    info = json.loads((root / INFO_FILE).read_text())
     for entry in info["episodes"]:
         p = root / entry["file"]
         entry["size"] = p.stat().st_size
         entry["sha256"] = file_sha256(p)
-    if result is None:  # no episodes: describe what they would hold
-        result = merge_camera_settings(camera_settings(info.get("render")), render, add)
-    record = render_record(result)
+    del info["rerender"]
     info.setdefault("render_history", []).append(info.get("render"))
     info["render"] = record
     write_json_atomic(root / INFO_FILE, info, indent=1)

@@ -45,13 +45,19 @@ def export_source(root: str | Path, out: str | Path) -> tuple[DatasetReader, Pat
     """Open a finished dataset to export and check the export target is new or empty.
 
     Raises:
-        DatasetError: generation has not finished, or `out` holds files (one line).
+        DatasetError: generation has not finished, an episode file is missing or damaged, or `out`
+            is a file, holds files or lies inside the dataset (one line).
     """
 
     reader = DatasetReader(root)
     if not reader.complete:
         raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise DatasetError(f"--out {out}: is a file; choose a new folder")
+    if out.resolve() == reader.root.resolve() or reader.root.resolve() in out.resolve().parents:
+        raise DatasetError(f"--out {out}: lies inside the dataset {root}; choose a folder outside it")
     if out.exists() and any(out.iterdir()):
         raise DatasetError(f"--out {out}: exists and is not empty; choose a new folder")
+    reader.check_intact()
     return reader, out

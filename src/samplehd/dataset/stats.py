@@ -20,7 +20,8 @@ def dataset_stats(root: str | Path) -> dict[str, Any]:
 
     Returns:
         ``{scenes, episodes, frames, families, splits, classes, colours, materials, objects_per_scene,
-        frames_per_episode: {min, median, mean, max, histogram: {bin_start: count}},
+        frames_per_episode: {min, median, mean, max, bin_width, histogram: {bin_start: count}} (every
+        bin from the lowest to the highest, empty ones too; bin ``k`` holds ``k .. k + bin_width - 1``),
         rejections: {scenes, instructions, paths}}`` — classes/colours/materials count scene objects.
     """
     reader = DatasetReader(root)
@@ -30,9 +31,10 @@ def dataset_stats(root: str | Path) -> dict[str, Any]:
     fpe: dict[str, Any] = {}
     if len(frames):
         width = max(25, int(np.ceil((frames.max() - frames.min() + 1) / 12 / 25.0)) * 25)
-        bins = (frames // width) * width
+        counts = Counter(int(b) for b in (frames // width) * width)
+        starts = range(min(counts), max(counts) + width, width)
         fpe = {"min": int(frames.min()), "median": float(np.median(frames)), "mean": float(frames.mean()),
-               "max": int(frames.max()), "histogram": {int(k): int(v) for k, v in sorted(Counter(bins).items())}}
+               "max": int(frames.max()), "bin_width": width, "histogram": {k: counts.get(k, 0) for k in starts}}
     rej = dict(reader.info.get("rejections", {}))
     if not rej.get("paths"):
         rej["paths"] = dict(Counter(r.get("reason", "?") for r in reader.rejections()))
@@ -79,10 +81,11 @@ def write_plots(stats: dict[str, Any], out: Path) -> list[Path]:
     for key in ("families", "classes", "colours", "materials", "splits", "objects_per_scene"):
         if stats.get(key):
             written.append(plot_bars(out / f"{key}.png", key.replace("_", " "), stats[key]))
-    hist = stats.get("frames_per_episode", {}).get("histogram")
+    fpe = stats.get("frames_per_episode", {})
+    hist = fpe.get("histogram")
     if hist:
-        width = sorted(hist)[1] - sorted(hist)[0] if len(hist) > 1 else 25
-        labels = {f"{k}-{k + width - 1}": v for k, v in hist.items()}
+        width = int(fpe["bin_width"])
+        labels = {f"{k}-{k + width - 1}": v for k, v in sorted((int(k), v) for k, v in hist.items())}
         written.append(plot_bars(out / "frames_per_episode.png", "frames per episode", labels))
     for kind, counts in stats.get("rejections", {}).items():
         if counts:

@@ -28,6 +28,7 @@ from samplehd.dataset.layout import (
 )
 from samplehd.errors import DatasetError
 from samplehd.fileio import file_sha256
+from samplehd.render.keyframes import keyframe_indices
 
 __all__ = ["validate_dataset", "validate_episode_file"]
 
@@ -91,13 +92,24 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
                         problems.append(f"{path}: images/ render settings {stored} differ from info.json's {want}")
                     for cam, s in want.items():
                         h, w = s["height"], s["width"]
+                        # Keyframes only (rerender --every/--subtask-ends): the recorded frames are the
+                        # ones the settings choose, and each stream holds one image per recorded frame.
+                        chosen = keyframe_indices(ep.num_frames, s.get("every", 1), ep.frames["subtask_index"],
+                                                  bool(s.get("subtask_ends", False)))
+                        group = f["images"].get(cam)
+                        recorded = (np.asarray(group.attrs["frame_index"]) if group is not None
+                                    and "frame_index" in group.attrs else np.arange(ep.num_frames))
+                        if not np.array_equal(recorded, chosen):
+                            problems.append(f"{path}: images/{cam} has images at {len(recorded)} frames, its "
+                                            f"settings choose {len(chosen)}")
                         for mod in s["modalities"]:
                             key = f"images/{cam}/{mod}"
                             if key not in f:
                                 problems.append(f"{path}: {key} missing")
                                 continue
                             ds = f[key]
-                            shape = (ep.num_frames, h, w, 3) if mod == "rgb" else (ep.num_frames, h, w)
+                            n = len(recorded)
+                            shape = (n, h, w, 3) if mod == "rgb" else (n, h, w)
                             if tuple(ds.shape) != shape:
                                 problems.append(f"{path}: {key} has shape {tuple(ds.shape)}, expected {shape}")
                             elif deep:
@@ -119,21 +131,31 @@ def validate_dataset(root: str | Path, deep: bool = False,
 
     Returns:
         (problems, counts) where counts has episodes and frames checked.
+
+    Raises:
+        DatasetError: ``root`` is no dataset (not a folder, no info.json) or one of a format this
+            samplehd cannot check.
     """
     root = Path(root)
     problems: list[str] = []
     if not root.is_dir():
-        return [f"{root}: not a directory"], {}
+        raise DatasetError(f"{root}: {'is a file' if root.exists() else 'does not exist'}; give a dataset folder")
+    if not (root / INFO_FILE).is_file():
+        raise DatasetError(f"{root}: not a samplehd dataset ({INFO_FILE} is missing)")
     info = _load(root / INFO_FILE, problems)
+    if isinstance(info, dict) and info.get("format_version") != FORMAT_VERSION:
+        raise DatasetError(f"{root / INFO_FILE}: format_version {info.get('format_version')!r} is not one this "
+                           f"samplehd reads (valid: {FORMAT_VERSION!r}); use the samplehd version that wrote it")
     if not isinstance(info, dict):
         return problems, {}
     if info.get("status") != "complete":
         problems.append(f"{root / INFO_FILE}: status {info.get('status')!r}: generation has not finished "
                         f"(run samplehd generate --resume)")
         return problems, {}
-    if info.get("format_version") != FORMAT_VERSION:
-        problems.append(f"{root / INFO_FILE}: format_version {info.get('format_version')!r}, this samplehd reads "
-                        f"{FORMAT_VERSION}")
+    if isinstance(info.get("rerender"), dict):
+        r = info["rerender"]
+        problems.append(f"{root / INFO_FILE}: a rerender stopped after {r.get('done')} of {r.get('episodes')} "
+                        "episodes; run the same rerender again to finish it")
     for key in ("versions", "config", "episodes", "counts", "seeds"):
         if key not in info:
             problems.append(f"{root / INFO_FILE}: field {key!r} missing")

@@ -19,6 +19,7 @@ import h5py
 import numpy as np
 
 from samplehd.dataset.container import (
+    KEYFRAME_KEYS,
     camera_settings,
     merge_camera_settings,
     read_episode,
@@ -27,7 +28,7 @@ from samplehd.dataset.container import (
     write_episode,
     write_error,
 )
-from samplehd.dataset.layout import EPISODE_DIR
+from samplehd.dataset.layout import EPISODE_DIR, RESUME_HINT
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError, PlanningError, RenderError
 from samplehd.motion.assist import compile_scene_with_assist
@@ -46,7 +47,7 @@ def run_scene_unit(job: Any) -> dict[str, Any]:
     except (OSError, RenderError) as exc:
         cause = exc if isinstance(exc, OSError) else exc.__cause__
         if isinstance(cause, OSError):
-            raise write_error(Path(job.out) / "scenes", cause) from None
+            raise write_error(Path(job.out) / "scenes", cause, RESUME_HINT) from None
         raise
     return {"index": job.index, "rejections": rejections, "seconds": time.perf_counter() - t0,
             "cpu_seconds": time.process_time() - c0}
@@ -122,12 +123,13 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     t1 = time.perf_counter()
     render = RenderConfig.from_dict(unit.render)
     if render.enabled:
-        episode = dataclasses.replace(episode, images=render.images(model, episode.frames))
+        episode = dataclasses.replace(episode, images=render.images(model, episode.frames, seed=scene.seed))
     t2 = time.perf_counter()
     path = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
     try:
-        written = write_episode(path, episode, extra, render.to_dict() if render.enabled else None)
+        written = write_episode(path, episode, extra, render.to_dict() if render.enabled else None,
+                                retry=RESUME_HINT)
     except DatasetError:
         raise
     return {**base, "status": "ok", "attempts": int(episode.info.get("attempts", 1)),
@@ -194,10 +196,10 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
     for cam, mods in episode.images.items():
         prev = old.get(cam)
         same = prev is not None and cam in settings and all(
-            prev[k] == settings[cam][k] for k in ("mode", "width", "height"))
+            prev.get(k) == settings[cam].get(k) for k in ("mode", "width", "height", *KEYFRAME_KEYS))
         if cam not in render.cameras or same:
             images[cam] = dict(mods)  # kept (lazy: copied chunk by chunk); same settings: modalities merge
-    for cam, mods in render.images(model, episode.frames).items():
+    for cam, mods in render.images(model, episode.frames, seed=scene.seed).items():
         images.setdefault(cam, {}).update(mods)
     written = write_episode(path, dataclasses.replace(episode, images=images), extra, render_record(settings))
     return {"path": str(path), "num_frames": written.num_frames, "size": written.size, "sha256": written.sha256,

@@ -16,9 +16,13 @@ def register_envs() -> None:
 
     if ENV_ID in gymnasium.registry:
         return
+    # gymnasium.make consumes its own max_episode_steps (a TimeLimit wrapper; -1: none) and never
+    # passes it on, so environments it makes leave the limit to that wrapper: its value is then the
+    # one in force (the environment's own limit would otherwise cut every episode at 1500).
     gymnasium.register(
         id=ENV_ID,
         entry_point="samplehd.envs.tabletop:TabletopEnv",
-        max_episode_steps=None,
+        max_episode_steps=1500,
+        kwargs={"max_episode_steps": None},
         disable_env_checker=False,
     )

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from samplehd.errors import ConfigError
-from samplehd.render.renderer import MODALITIES
+from samplehd.render.renderer import MODALITIES, PRESETS
 from samplehd.scene.config import SceneConfig
 from samplehd.tasks.checker import CheckerConfig
 from samplehd.tasks.task import family_names
@@ -41,7 +41,7 @@ class EnvConfig:
         cameras: cameras rendered for image observations (``scene``, ``operator``, ``wrist``).
         width: image width [px].
         height: image height [px].
-        render_preset: renderer quality preset (``fast`` or ``hd``).
+        render_preset: renderer quality preset (``fast``, ``hd`` or the path-traced ``photo``).
         render_mode: ``rgb_array`` or None; :meth:`render` shows ``render_camera``.
         render_camera: camera of :meth:`render`.
         control_mode: ``joint_pos``, ``joint_delta``, ``ee_delta`` (TCP delta through IK) or
@@ -53,7 +53,8 @@ class EnvConfig:
         num_scenes: 0 draws a fresh scene every episode; N > 0 draws scenes from a fixed pool of N
             scenes made from ``scene_seed`` (build-time randomness kept apart from episodes).
         scene_seed: base seed of the scene pool.
-        max_episode_steps: control steps after which an episode is truncated.
+        max_episode_steps: control steps after which an episode is truncated (None: no limit of the
+            environment's own; ``gymnasium.make`` uses this, its TimeLimit wrapper truncates).
         max_instruction_tokens: length of the padded token-id observation.
         max_instruction_chars: longest instruction text the Text space admits.
         dense_reward: add a shaping term (see :mod:`samplehd.envs.reward`).
@@ -83,7 +84,7 @@ class EnvConfig:
     scene: SceneConfig = field(default_factory=SceneConfig)
     num_scenes: int = 0
     scene_seed: int = 0
-    max_episode_steps: int = 1500
+    max_episode_steps: int | None = 1500
     max_instruction_tokens: int = 48
     max_instruction_chars: int = 256
     dense_reward: bool = False
@@ -116,8 +117,8 @@ class EnvConfig:
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and 8 <= v <= 4096):
                 fail(name, "must be an integer in 8..4096 px")
-        if self.render_preset not in ("fast", "hd"):
-            fail("render_preset", "valid: fast, hd")
+        if self.render_preset not in PRESETS:
+            fail("render_preset", f"valid: {', '.join(PRESETS)}")
         if self.render_mode is not None and self.render_mode not in RENDER_MODES:
             fail("render_mode", f"valid: {', '.join(RENDER_MODES)} or None")
         for name in ("control_hz", "physics_hz"):
@@ -141,7 +142,10 @@ class EnvConfig:
             object.__setattr__(self, "checker", CheckerConfig.from_dict(self.checker))
         if not isinstance(self.checker, CheckerConfig):
             fail("checker", "must be a CheckerConfig or a dict of its options")
-        for name, lo in (("num_scenes", 0), ("scene_seed", 0), ("max_episode_steps", 1), ("max_instruction_tokens", 4),
+        steps = self.max_episode_steps
+        if steps is not None and not (isinstance(steps, int) and not isinstance(steps, bool) and steps >= 1):
+            fail("max_episode_steps", "must be an integer >= 1 (or None: no limit)")
+        for name, lo in (("num_scenes", 0), ("scene_seed", 0), ("max_instruction_tokens", 4),
                          ("max_instruction_chars", 16), ("success_check_every", 1), ("scene_cache_size", 1)):
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and v >= lo):

@@ -234,6 +234,24 @@ def _dataset_options(options: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _task_objects(task: Mapping[str, Any], family: Any, count: int) -> list[int]:
+    """The objects a task names (moved ones and its reference), each checked to be one of the
+    scene's ``count`` objects."""
+    from samplehd.errors import SamplehdError
+    from samplehd.tasks.task import parse_task
+
+    try:
+        parsed = parse_task(dict(task), family if isinstance(family, str) else None)
+    except (SamplehdError, KeyError, TypeError, ValueError) as exc:
+        raise ConfigError(f"reset: instruction task {dict(task)!r}: {str(exc).splitlines()[0]}") from None
+    named = [*parsed.objects] + ([parsed.reference] if parsed.reference != -1 else [])
+    bad = [i for i in named if not 0 <= i < count]
+    if bad:
+        raise ConfigError(f"reset: instruction task names object(s) {bad}, but the scene has objects "
+                          f"0..{count - 1}")
+    return sorted(named)
+
+
 def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> EpisodeSpec:
     """Rebuild an episode from reset options.
 
@@ -262,14 +280,33 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
     model, _, _ = cache.compiled(scene)
     ann = cache.annotation(scene)
     raw = options["instruction"]
+    if not hasattr(raw, "to_dict") and not isinstance(raw, Mapping):
+        raise ConfigError(f"reset: option 'instruction' must be an instructions.json entry (a dict), got "
+                          f"{type(raw).__name__}")
     entry = _instruction_entry(raw) if hasattr(raw, "to_dict") else dict(raw)
-    if "instruction" not in entry:
+    if not isinstance(entry.get("instruction"), str) or not entry["instruction"].strip():
         raise ConfigError("reset: option 'instruction' needs the instruction text under key 'instruction'")
+    program = entry.get("program") or entry.get("program_sequence")
+    executed = None
+    if program:
+        # The program must run on this scene: an instruction made for another scene is refused.
+        try:
+            executed = execute(program, ann).to_program_dict()
+        except (KeyError, TypeError, ValueError, IndexError, SceneError, ConfigError) as exc:
+            raise ConfigError(f"reset: the instruction {entry['instruction']!r} does not fit the scene: its program "
+                              f"fails on it ({str(exc).splitlines()[0][:160]})") from None
     if "task" not in entry:
-        if "program" not in entry and "program_sequence" not in entry:
+        if executed is None:
             raise ConfigError("reset: option 'instruction' needs a 'task' or a 'program'")
-        entry["task"] = execute(entry.get("program") or entry["program_sequence"], ann).to_program_dict()
+        entry["task"] = executed
+    if not isinstance(entry["task"], Mapping):
+        raise ConfigError(f"reset: instruction 'task' must be a dict (type, objects, subject), got "
+                          f"{type(entry['task']).__name__}")
     task = dict(entry["task"])
+    named = _task_objects(task, entry.get("family"), len(scene.objects))
+    if executed is not None and _task_objects(executed, entry.get("family"), len(scene.objects)) != named:
+        raise ConfigError(f"reset: the instruction's task names objects {named}, but its program picks other "
+                          "objects in this scene; the instruction was made for another scene")
     entry["task"] = task
     entry.setdefault("family", str(task.get("type", "")).split("[")[0])
     entry.setdefault("targets", list(task.get("objects", [])) + (

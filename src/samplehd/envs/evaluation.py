@@ -40,7 +40,8 @@ from samplehd.scene.spec import compile_scene
 from samplehd.tasks.task import family_names
 from samplehd.workers import Backend
 
-__all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "evaluate", "load_policy"]
+__all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action", "evaluate", "load_policy",
+           "load_policy_module"]
 
 # SAMPLE-HD's families plus the two simple new ones: the default benchmark. stack_three needs scenes
 # with three stackable objects (see the env's ``scene`` option) and is opt-in.
@@ -139,6 +140,27 @@ class RandomPolicy:
         return self.action_space.sample()
 
 
+def load_policy_module(spec: str) -> Any:
+    """Import a ``MODULE:CALLABLE`` policy's callable (None for built-in policies), so a bad --policy is
+    refused before anything runs.
+
+    Raises:
+        ConfigError: the spec is malformed, the module cannot be imported or has no such callable.
+    """
+    check_policy_spec(spec)
+    if spec in BUILT_IN:
+        return None
+    module_name, attr = spec.split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise ConfigError(f"--policy {spec!r}: cannot import module {module_name!r} ({exc})") from None
+    obj = getattr(module, attr, None)
+    if obj is None or not callable(obj):
+        raise ConfigError(f"--policy {spec!r}: module {module_name!r} has no callable {attr!r}")
+    return obj
+
+
 def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callable[[Any], Any]:
     """Build the policy named by ``spec`` for ``env``; see the module docstring."""
     check_policy_spec(spec)
@@ -155,14 +177,7 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
         return OraclePolicy(env)
     if spec == "random":
         return RandomPolicy(env.action_space)
-    module_name, attr = spec.split(":")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as exc:
-        raise ConfigError(f"--policy {spec!r}: cannot import module {module_name!r} ({exc})") from None
-    obj = getattr(module, attr, None)
-    if obj is None or not callable(obj):
-        raise ConfigError(f"--policy {spec!r}: module {module_name!r} has no callable {attr!r}")
+    obj = load_policy_module(spec)
     try:
         params = inspect.signature(obj).parameters
     except (TypeError, ValueError):
@@ -172,6 +187,24 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
         if not callable(obj):
             raise ConfigError(f"--policy {spec!r}: the factory did not return a callable policy")
     return obj
+
+
+def check_policy_action(spec: str, action: Any, space: Any) -> np.ndarray:
+    """The policy's action as an array, or a one-line error saying what it returned and what is expected.
+
+    Raises:
+        ConfigError: ``policy returned …; expected …`` (not a real array of the action shape, or NaN).
+    """
+    expected = f"expected {space.shape[0]} finite numbers (a sequence or numpy array) for this control mode"
+    try:
+        a = np.asarray(action)
+    except Exception:  # noqa: BLE001 - any object can be returned
+        a = np.asarray(None)
+    text = repr(action)
+    text = text if len(text) <= 60 else text[:57] + "..."
+    if a.dtype.kind not in "biuf" or a.shape != space.shape or not np.all(np.isfinite(a)):
+        raise ConfigError(f"--policy {spec}: policy returned {text} ({type(action).__name__}); {expected}")
+    return a.astype(float)
 
 
 def _offline_success(env: Any, seed: int) -> bool:
@@ -221,7 +254,7 @@ class _Runner:
             except PlanningError as exc:  # the oracle could not go on: a failed episode, not a failed run
                 gave_up = f"{type(exc).__name__}: {exc}"
                 break
-            obs, reward, term, trunc, info = env.step(action)
+            obs, reward, term, trunc, info = env.step(check_policy_action(config.policy, action, env.action_space))
             steps += 1
             ret += reward
             if config.video_dir:

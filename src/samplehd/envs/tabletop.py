@@ -152,6 +152,7 @@ class TabletopEnv(gym.Env):
         self._cam_names: dict[str, str] = {}
         self.last_safety_event: Any = None
         self.assist: GraspAssist | None = None
+        self._closed = False
 
     # ------------------------------------------------------------------ spaces
     def _observation_space(self) -> spaces.Dict:
@@ -185,6 +186,10 @@ class TabletopEnv(gym.Env):
     # ------------------------------------------------------------------ episodes
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict, dict]:
         """Start an episode: draw a scene and an instruction from ``np_random`` or reproduce given ones."""
+        if self._closed:
+            raise ActionError("reset() after close(): the environment is closed; make a new one")
+        if options is not None and not isinstance(options, dict):
+            raise ConfigError(f"reset: options must be a dict, got {type(options).__name__}")
         super().reset(seed=seed)
         options = dict(options or {})
         if {"scene", "instruction", "episode", "dataset", "episode_index"} & set(options):
@@ -258,9 +263,15 @@ class TabletopEnv(gym.Env):
     # ------------------------------------------------------------------ stepping
     def step(self, action: Any) -> tuple[dict, float, bool, bool, dict]:
         """Apply one action for one control period; see the module docstring."""
+        if self._closed:
+            raise ActionError("step() after close(): the environment is closed; make a new one")
         if self.controller is None:
             raise SamplehdError("call reset() before step()")
-        a = np.asarray(action, dtype=float)
+        raw = np.asarray(action)
+        if raw.dtype.kind not in "biuf":
+            raise ActionError(f"action must be real numbers of shape {self.action_space.shape}, got dtype "
+                              f"{raw.dtype} ({_describe(action)})")
+        a = raw.astype(float)
         if a.shape != self.action_space.shape:
             raise ActionError(f"action must have shape {self.action_space.shape} for control_mode "
                               f"{self.config.control_mode!r}, got {a.shape}")
@@ -287,7 +298,8 @@ class TabletopEnv(gym.Env):
             reward += dense_term(obs["tcp_pos"], self.data.xpos[self._object_body[self.task.objects[0]]])
         stopped = self.controller.stopped is not None
         terminated = bool(self._success or (stopped and self.config.terminate_on_safety))
-        truncated = bool(not terminated and self._steps >= self.config.max_episode_steps)
+        limit = self.config.max_episode_steps
+        truncated = bool(not terminated and limit is not None and self._steps >= limit)
         self._track_plan()
         info = self._info(report, event)
         info["action_clipped"] = bool(clipped_box or report.clipped)
@@ -453,6 +465,13 @@ class TabletopEnv(gym.Env):
         self._render_viewer = None
 
     def close(self) -> None:
-        """Free the renderers."""
+        """Free the renderers; the environment cannot step or reset afterwards."""
         self._close_renderers()
+        self._closed = True
         super().close()
+
+
+def _describe(value: Any) -> str:
+    """A short description of a value for messages."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."

@@ -31,6 +31,7 @@ is the template's position in ``template_filename``, as CLEVR's ``question_famil
 from __future__ import annotations
 
 import json
+import math
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
@@ -71,14 +72,14 @@ def parse_split_ratio(text: str) -> dict[str, float]:
             fraction = float(value)
         except ValueError:
             fraction = -1.0
-        if not sep or not name.strip() or fraction < 0:
+        if not sep or not name.strip() or not math.isfinite(fraction) or fraction < 0:
             raise ConfigError(
-                f"split ratio {text!r}: expected NAME=FRACTION[,NAME=FRACTION...], e.g. train=0.9,test=0.1"
+                f"--split-ratio {text!r}: expected NAME=FRACTION[,NAME=FRACTION...], e.g. train=0.9,test=0.1"
             )
         out[name.strip()] = fraction
     total = sum(out.values())
     if total <= 0:
-        raise ConfigError(f"split ratio {text!r}: fractions sum to 0")
+        raise ConfigError(f"--split-ratio {text!r}: fractions sum to 0")
     return {k: v / total for k, v in out.items()}
 
 

@@ -25,6 +25,7 @@ from samplehd.record.episode import Episode
 from samplehd.record.recorder import FrameRecorder, RecordingStep
 from samplehd.robot.controller import ControlConfig
 from samplehd.scene.spec import SceneSpec
+from samplehd.schema import bounded, check_fields, from_mapping
 from samplehd.tasks.checker import CheckerConfig, CheckResult, check_success
 from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies
@@ -52,15 +53,18 @@ class PathConfig:
 
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     checker: CheckerConfig = field(default_factory=CheckerConfig)
-    control_hz: float = 20.0
-    physics_hz: float = 500.0
-    max_attempts: int = 3
+    control_hz: float = bounded(20.0, lo=0.0, hi=1000.0, lo_open=True, unit="Hz")
+    physics_hz: float = bounded(500.0, lo=0.0, hi=100_000.0, lo_open=True, unit="Hz")
+    max_attempts: int = bounded(3, lo=1, hi=100)
     grasp_assist: bool = True
     reject_fallen: bool = True
 
     def __post_init__(self) -> None:
-        if self.max_attempts < 1:
-            raise ConfigError(f"paths.max_attempts={self.max_attempts} must be >= 1")
+        check_fields(self, "paths")
+        ratio = self.physics_hz / self.control_hz
+        if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
+            raise ConfigError(f"paths.physics_hz={self.physics_hz!r}: must be an integer multiple of control_hz "
+                              f"({self.control_hz})")
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -74,19 +78,8 @@ class PathConfig:
         }
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> PathConfig:
-        unknown = set(d) - set(cls.__dataclass_fields__)
-        if unknown:
-            raise ConfigError(f"unknown paths options {sorted(unknown)}; valid: {sorted(cls.__dataclass_fields__)}")
-        return cls(
-            planner=PlannerConfig.from_dict(d.get("planner", {})),
-            checker=CheckerConfig.from_dict(d.get("checker", {})),
-            control_hz=float(d.get("control_hz", 20.0)),
-            physics_hz=float(d.get("physics_hz", 500.0)),
-            max_attempts=int(d.get("max_attempts", 3)),
-            grasp_assist=bool(d.get("grasp_assist", True)),
-            reject_fallen=bool(d.get("reject_fallen", True)),
-        )
+    def from_dict(cls, d: dict[str, Any], where: str = "paths") -> PathConfig:
+        return from_mapping(cls, d, where)
 
 
 class PathRejected(PlanningError):

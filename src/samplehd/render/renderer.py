@@ -30,6 +30,8 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import RenderError
+from samplehd.render.photo.renderer import PhotoOptions, PhotoTracer
+from samplehd.render.photo.runtime import load_mitsuba
 
 __all__ = [
     "MODALITIES",
@@ -70,6 +72,8 @@ class RenderPreset:
         msaa_samples: multisample anti-aliasing samples (0 = off).
         reflections: render reflective materials with a mirror pass.
         shadow_size: shadow map resolution [px] (allocated even when shadows are off, so keep it small).
+        path_traced: RGB comes from the path tracer of ``samplehd.render.photo``; depth and segmentation
+            still come from GL, so they are identical to the other presets'.
     """
 
     name: str
@@ -77,11 +81,13 @@ class RenderPreset:
     msaa_samples: int
     reflections: bool
     shadow_size: int
+    path_traced: bool = False
 
 
 PRESETS: dict[str, RenderPreset] = {
     "fast": RenderPreset("fast", shadows=False, msaa_samples=0, reflections=False, shadow_size=64),
     "hd": RenderPreset("hd", shadows=True, msaa_samples=4, reflections=True, shadow_size=2048),
+    "photo": RenderPreset("photo", shadows=False, msaa_samples=0, reflections=False, shadow_size=64, path_traced=True),
 }
 
 
@@ -214,13 +220,20 @@ class SceneRenderer:
         height: int,
         preset: str | RenderPreset = "fast",
         buffer_size: tuple[int, int] | None = None,
+        photo: PhotoOptions | None = None,
     ) -> None:
         """Make the GL resources of ``model`` for renders of ``width``×``height`` px; ``buffer_size``
-        allocates a larger offscreen buffer, so that :meth:`resize` can render larger images later."""
+        allocates a larger offscreen buffer, so that :meth:`resize` can render larger images later.
+        ``photo`` (a ``samplehd.render.photo.PhotoOptions``) sets the path tracer of the ``photo`` preset."""
         _check_size(width, height)
         self.model = model
         self.preset = get_preset(preset)
         self._lut = segmentation_lut(model)
+        self._tracer: PhotoTracer | None = None
+        self._photo_arg = photo
+        if self.preset.path_traced:
+            load_mitsuba()  # fails here, in one line, when Mitsuba or LLVM is missing
+            self._tracer = PhotoTracer(model, photo, self._lut, SEG_BACKGROUND)
         self._gl: Any = None
         self._ctx = None
         bw, bh = buffer_size or (width, height)
@@ -252,6 +265,18 @@ class SceneRenderer:
         self._znear = np.float32(model.vis.map.znear * extent)
         self._zfar = np.float32(model.vis.map.zfar * extent)
 
+    @property
+    def photo_options(self) -> PhotoOptions | None:
+        """The path tracer's options (``PhotoOptions``), or None for a GL preset."""
+        return None if self._tracer is None else self._tracer.options
+
+    def photo_geometry(self) -> tuple[np.ndarray, np.ndarray]:
+        """Photo preset: (depth [m], segmentation ids) of what the path tracer hits at each pixel centre of
+        the last rendered RGB frame (same pose and camera), to check it lines up with GL's depth and ids."""
+        if self._tracer is None or self._tracer.scene is None:
+            raise RenderError("photo_geometry needs the photo preset and a rendered RGB frame")
+        return self._tracer.scene.geometry()
+
     def resize(self, width: int, height: int) -> None:
         """Render ``width``×``height`` px images from now on, within the offscreen buffer."""
         _check_size(width, height)
@@ -279,6 +304,7 @@ class SceneRenderer:
                 self._gl.make_current()
             self._ctx.free()
             self._ctx = None
+        self._tracer = None
         self._gl = None  # the shared context lives on for the next renderer
 
     def __del__(self) -> None:
@@ -329,11 +355,16 @@ class SceneRenderer:
             raise RenderError("renderer is closed")
         cid = _camera_id(self.model, camera)
         self._gl.make_current()
+        # Bind this renderer's own offscreen buffer: freeing another renderer's context leaves none bound,
+        # and the render would then read back a stale image.
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._ctx)
         out: dict[str, np.ndarray] = {}
         depth_from_rgb = "depth" in wanted and "segmentation" not in wanted and not (
             self.preset.reflections and self.preset.msaa_samples
         )
-        if "rgb" in wanted:
+        if "rgb" in wanted and self._tracer is not None:
+            out["rgb"] = self._tracer.rgb(data, cid, self.width, self.height)
+        elif "rgb" in wanted:
             self._update(data, cid, segment=False)
             mujoco.mjr_render(self._rect, self._scene, self._ctx)
             mujoco.mjr_readPixels(self._rgb, self._depth if depth_from_rgb else None, self._rect, self._ctx)
@@ -383,16 +414,17 @@ class RendererCache:
         self.buffer_size = buffer_size
         self._renderer: SceneRenderer | None = None
 
-    def get(self, model: mujoco.MjModel, width: int, height: int, preset: str | RenderPreset = "fast") -> SceneRenderer:
+    def get(self, model: mujoco.MjModel, width: int, height: int, preset: str | RenderPreset = "fast",
+            photo: PhotoOptions | None = None) -> SceneRenderer:
         """A renderer of ``model`` at this size and preset: the kept one where it fits, else a new one."""
         r = self._renderer
         want = get_preset(preset)
-        if (r is not None and r.model is model and r.preset == want
+        if (r is not None and r.model is model and r.preset == want and r._photo_arg == photo
                 and width <= r.buffer_size[0] and height <= r.buffer_size[1]):
             r.resize(width, height)
             return r
         self.close()
-        self._renderer = SceneRenderer(model, width, height, want, self.buffer_size)
+        self._renderer = SceneRenderer(model, width, height, want, self.buffer_size, photo)
         return self._renderer
 
     def close(self) -> None:

@@ -10,6 +10,7 @@ contact sheets), ``samplehd paths`` and the web viewer (frames of state-only epi
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -50,6 +51,7 @@ def render_states(
     preset: str = "fast",
     indices: Sequence[int] | None = None,
     data: mujoco.MjData | None = None,
+    photo: Any = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Render recorded frames: ``images[camera][modality]`` with the frame as first axis.
 
@@ -60,9 +62,10 @@ def render_states(
         modalities: any of rgb (T,H,W,3 uint8), depth (T,H,W float32 [m]), segmentation (T,H,W int32).
         width: image width [px].
         height: image height [px].
-        preset: render preset (``fast``, ``hd``).
+        preset: render preset (``fast``, ``hd``, ``photo``).
         indices: frames to render (default: all).
         data: an ``MjData`` to reuse (default: a new one).
+        photo: the photo preset's options (``samplehd.render.photo.PhotoOptions``; default: the fixed look).
 
     Raises:
         DatasetError: the states do not fit the model.
@@ -72,7 +75,7 @@ def render_states(
     picks = range(len(frames["qpos"])) if indices is None else indices
     act, time = frames.get("act"), frames.get("time")
     out: dict[str, dict[str, list[np.ndarray]]] = {c: {m: [] for m in modalities} for c in cameras}
-    with SceneRenderer(model, width, height, preset) as renderer:
+    with SceneRenderer(model, width, height, preset, photo=photo) as renderer:
         for k in picks:
             set_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
                       None if time is None else time[k])

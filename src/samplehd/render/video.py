@@ -11,7 +11,7 @@ from pathlib import Path
 import av
 import numpy as np
 
-from samplehd.errors import DatasetError
+from samplehd.errors import ConfigError, DatasetError
 
 __all__ = ["VideoWriter", "pick_codec", "write_mp4"]
 
@@ -22,6 +22,13 @@ _CODECS = ("libsvtav1", "libx264", "mpeg4")
 
 def pick_codec(preferred: str | None = None) -> str:
     """The first available codec of ``preferred`` then LeRobot's default and the fallbacks."""
+    if preferred:
+        try:
+            av.codec.Codec(preferred, "w")
+        except Exception:  # noqa: BLE001 - PyAV raises several types for an unknown or decode-only codec
+            usable = [c for c in _CODECS if c in av.codecs_available]
+            raise ConfigError(f"--codec {preferred!r}: not a video encoder of this PyAV build; try one of "
+                              f"{', '.join(usable)}") from None
     for name in ((preferred,) if preferred else ()) + _CODECS:
         if name in av.codecs_available:
             return name

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from samplehd.errors import ConfigError
+from samplehd.schema import bounded, check_fields, from_mapping
 
 __all__ = ["SceneConfig"]
+
+# The properties an asset menu randomises, which ``menu_overrides`` may narrow.
+_OVERRIDE_PROPERTIES = ("colour", "material", "size")
 
 
 @dataclass(frozen=True)
@@ -38,80 +43,37 @@ class SceneConfig:
         max_rest_speed: largest object speed at the end of settling [m/s].
     """
 
-    min_objects: int = 3
-    max_objects: int = 5
-    classes: tuple[str, ...] = ()
+    min_objects: int = bounded(3, lo=1, hi=30)
+    max_objects: int = bounded(5, lo=1, hi=30)
+    classes: tuple[str, ...] = bounded((), unique=True)
     menu_overrides: dict[str, dict[str, list[str]]] | None = None
-    placement_margin: float = 0.025
-    placement_tries: int = 60
-    object_tries: int = 20
-    scene_attempts: int = 30
-    camera_yaw_deg: float = 12.0
-    camera_pitch_deg: float = 5.0
-    camera_distance_jitter: float = 0.08
-    camera_target_jitter: float = 0.04
-    min_visible_pixels: int = 120
-    min_visible_fraction: float = 0.3
-    occlusion_resolution: tuple[int, int] = (320, 180)
-    settle_time: float = 0.6
-    max_settle_shift: float = 0.01
-    max_settle_tilt_deg: float = 8.0
-    max_rest_speed: float = 0.02
+    placement_margin: float = bounded(0.025, lo=0.0, hi=0.2, unit="m")
+    placement_tries: int = bounded(60, lo=1)
+    object_tries: int = bounded(20, lo=1)
+    scene_attempts: int = bounded(30, lo=1)
+    camera_yaw_deg: float = bounded(12.0, lo=0.0, hi=60.0, unit="degrees")
+    camera_pitch_deg: float = bounded(5.0, lo=0.0, hi=30.0, unit="degrees")
+    camera_distance_jitter: float = bounded(0.08, lo=0.0, hi=0.5, hi_open=True)
+    camera_target_jitter: float = bounded(0.04, lo=0.0, hi=0.2, unit="m")
+    min_visible_pixels: int = bounded(120, lo=0)
+    min_visible_fraction: float = bounded(0.3, lo=0.0, hi=1.0)
+    occlusion_resolution: tuple[int, int] = bounded((320, 180), lo=16, hi=4096, unit="px")
+    settle_time: float = bounded(0.6, lo=0.0, hi=10.0, lo_open=True, unit="s")
+    max_settle_shift: float = bounded(0.01, lo=0.0, lo_open=True, unit="m")
+    max_settle_tilt_deg: float = bounded(8.0, lo=0.0, hi=90.0, lo_open=True, unit="degrees")
+    max_rest_speed: float = bounded(0.02, lo=0.0, lo_open=True, unit="m/s")
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value, default = getattr(self, f.name), f.default
-            if isinstance(default, bool) or default is None:
-                continue
-            if isinstance(default, int) and (not isinstance(value, int) or isinstance(value, bool)):
-                raise ConfigError(f"scene.{f.name}={value!r}: must be an integer")
-            if isinstance(default, float) and (not isinstance(value, (int, float)) or isinstance(value, bool)):
-                raise ConfigError(f"scene.{f.name}={value!r}: must be a number")
-            if isinstance(default, tuple) and not (
-                isinstance(value, tuple) and all(isinstance(v, type(default[0]) if default else str) for v in value)
-            ):
-                raise ConfigError(f"scene.{f.name}={value!r}: must be a list of "
-                                  f"{type(default[0]).__name__ if default else 'str'}")
-        if self.menu_overrides is not None and not isinstance(self.menu_overrides, dict):
-            raise ConfigError(f"scene.menu_overrides={self.menu_overrides!r}: must be a mapping class → menu")
-
-        def need(ok: bool, field_name: str, what: str) -> None:
-            if not ok:
-                raise ConfigError(f"scene.{field_name}={getattr(self, field_name)!r}: {what}")
-
-        need(1 <= self.min_objects <= 30, "min_objects", "must be an integer in 1..30")
-        need(self.min_objects <= self.max_objects <= 30, "max_objects", "must be in min_objects..30")
-        need(0.0 <= self.placement_margin <= 0.2, "placement_margin", "must be in [0, 0.2] m")
-        for name in ("placement_tries", "object_tries", "scene_attempts"):
-            need(isinstance(getattr(self, name), int) and getattr(self, name) >= 1, name, "must be an integer ≥ 1")
-        need(0.0 <= self.camera_yaw_deg <= 60.0, "camera_yaw_deg", "must be in [0, 60] degrees")
-        need(0.0 <= self.camera_pitch_deg <= 30.0, "camera_pitch_deg", "must be in [0, 30] degrees")
-        need(0.0 <= self.camera_distance_jitter < 0.5, "camera_distance_jitter", "must be in [0, 0.5)")
-        need(0.0 <= self.camera_target_jitter <= 0.2, "camera_target_jitter", "must be in [0, 0.2] m")
-        need(self.min_visible_pixels >= 0, "min_visible_pixels", "must be ≥ 0")
-        need(0.0 <= self.min_visible_fraction <= 1.0, "min_visible_fraction", "must be in [0, 1]")
-        w, h = self.occlusion_resolution
-        need(16 <= w <= 4096 and 16 <= h <= 4096, "occlusion_resolution", "must be two sizes in 16..4096 px")
-        need(0.0 < self.settle_time <= 10.0, "settle_time", "must be in (0, 10] s")
+        check_fields(self, "scene")
+        if self.max_objects < self.min_objects:
+            raise ConfigError(f"scene.max_objects={self.max_objects!r}: must be ≥ min_objects ({self.min_objects})")
+        if self.menu_overrides is not None:
+            object.__setattr__(self, "menu_overrides", _check_overrides(self.menu_overrides))
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], where: str = "scene") -> SceneConfig:
         """Build from a config-file section; unknown keys are errors naming the valid ones."""
-        if not isinstance(d, dict):
-            raise ConfigError(f"{where}: expected a mapping of scene options, got {type(d).__name__}")
-        valid = {f.name for f in fields(cls)}
-        unknown = sorted(set(d) - valid)
-        if unknown:
-            raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(sorted(valid))}")
-        kw = dict(d)
-        if "classes" in kw:
-            kw["classes"] = tuple(kw["classes"])
-        if "occlusion_resolution" in kw:
-            kw["occlusion_resolution"] = tuple(kw["occlusion_resolution"])
-        try:
-            return cls(**kw)
-        except TypeError as exc:
-            raise ConfigError(f"{where}: {exc}") from exc
+        return from_mapping(cls, d, where)
 
     @property
     def named_classes(self) -> tuple[str, ...]:
@@ -124,3 +86,27 @@ class SceneConfig:
         d["classes"] = list(self.classes)
         d["occlusion_resolution"] = list(self.occlusion_resolution)
         return d
+
+
+def _check_overrides(overrides: Any) -> dict[str, dict[str, list[str]]]:
+    """The shape of ``menu_overrides``: class → {colour|material|size: [names]}. The names are checked
+    against the catalogue by :func:`samplehd.scene.sampler.check_scene_config`."""
+    if not isinstance(overrides, Mapping):
+        raise ConfigError(f"scene.menu_overrides={overrides!r}: must be a JSON object class → "
+                          "{\"colour\": [...], \"material\": [...], \"size\": [...]}")
+    out: dict[str, dict[str, list[str]]] = {}
+    for cls_name, menu in overrides.items():
+        where = f"scene.menu_overrides.{cls_name}"
+        if not isinstance(menu, Mapping) or not menu:
+            raise ConfigError(f"{where}={menu!r}: must be a non-empty JSON object with any of "
+                              f"{', '.join(_OVERRIDE_PROPERTIES)}")
+        unknown = sorted(set(menu) - set(_OVERRIDE_PROPERTIES))
+        if unknown:
+            raise ConfigError(f"{where}: unknown properties {unknown}; valid: {', '.join(_OVERRIDE_PROPERTIES)}")
+        for prop, values in menu.items():
+            if isinstance(values, str) or not isinstance(values, list | tuple) or not values \
+                    or not all(isinstance(v, str) for v in values):
+                raise ConfigError(f"{where}.{prop}={values!r}: must be a non-empty list of names, "
+                                  f"e.g. [\"red\"]")
+        out[str(cls_name)] = {p: list(v) for p, v in menu.items()}
+    return out

@@ -24,6 +24,7 @@ from typing import Any
 from samplehd.errors import ConfigError
 from samplehd.fileio import write_json_atomic
 from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
+from samplehd.render.photo import PhotoOptions, photo_info, photo_options
 from samplehd.render.renderer import MODALITIES, RendererCache, get_preset
 from samplehd.scene.annotate import annotate_scene, image_stem
 from samplehd.scene.config import SceneConfig
@@ -54,6 +55,7 @@ class SceneJob:
     height: int
     preset: str
     test_every: int
+    photo_look: str = "fixed"
 
 
 def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
@@ -67,7 +69,8 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
             model, data = result.model, fresh_state(result.model)
         else:
             model, data = compile_scene(result.scene)
-        img = renderers.get(model, job.width, job.height, job.preset).render(
+        photo = _photo(job)
+        img = renderers.get(model, job.width, job.height, job.preset, photo=photo).render(
             data, "scene", MODALITIES)
     split = scene_split(job.index, job.test_every)
     stem = image_stem(split, job.index)
@@ -79,8 +82,17 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
     ann = annotate_scene(result.scene, model, data, job.width, job.height, split=split)
     ann["sampling"] = {"attempts": result.attempts, "rejections": dict(result.rejections),
                        "visible_pixels": result.visible_pixels}
+    if photo is not None:  # the path tracer's settings and the (possibly randomised) look of this scene
+        ann["render"] = {"preset": job.preset, "photo": photo_info(photo)}
     write_json_atomic(out / "scenes" / f"{stem}.json", ann)
     return ann, dict(result.rejections)
+
+
+def _photo(job: SceneJob) -> PhotoOptions | None:
+    """The photo options of a scene (its look drawn from its seed when randomised), or None for GL presets."""
+    if not get_preset(job.preset).path_traced:
+        return None
+    return photo_options(job.photo_look, job.seed, where="--photo-look")
 
 
 def generate_scenes(
@@ -94,13 +106,16 @@ def generate_scenes(
     workers: int = 1,
     test_every: int = 20,
     on_scene: Callable[[int], None] | None = None,
+    photo_look: str = "fixed",
 ) -> dict[str, Any]:
-    """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts."""
+    """Sample `num` scenes into `out` and write scenes.json; returns a summary with rejection counts.
+    ``photo_look`` (preset photo): ``fixed``, or ``random`` to draw each scene's look from its seed."""
 
     if num < 1:
         raise ConfigError(f"--num {num}: must be ≥ 1")
     backend = Backend(workers=workers)
-    get_preset(preset)
+    if get_preset(preset).path_traced:
+        photo_options(photo_look, 0, where="--photo-look")  # validate before writing anything
     config = config or SceneConfig()
     try:
         for sub in ("scenes", "images", "depth", "segmentation"):
@@ -112,9 +127,13 @@ def generate_scenes(
         raise ConfigError(f"output directory {out} is not writable: {exc.strerror}") from exc
     resolved = {"scene": config.to_dict(), "num": num, "seed": seed, "width": width, "height": height,
                 "preset": preset, "test_every": test_every, "version": __version__}
+    if photo_look != "fixed":
+        resolved["photo_look"] = photo_look
     write_json_atomic(out / "config.json", resolved, indent=2)
-    jobs = [SceneJob(i, scene_seed(seed, i), str(out), config.to_dict(), width, height, preset, test_every)
-            for i in range(num)]
+    scene_options = config.to_dict()
+    # Made one at a time as workers take them (a large --num holds no list of jobs in memory).
+    jobs = (SceneJob(i, scene_seed(seed, i), str(out), scene_options, width, height, preset, test_every, photo_look)
+            for i in range(num))
     scenes: list[dict[str, Any]] = []
     rejections: Counter[str] = Counter()
     for _, (ann, rej) in backend.map(render_scene_files, jobs):

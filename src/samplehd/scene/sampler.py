@@ -25,7 +25,7 @@ from samplehd.world.layout import LAYOUT, TableLayout
 from samplehd.world.robot_info import RobotInfo
 from samplehd.world.transforms import quat_from_yaw, quat_to_mat
 
-__all__ = ["SampleResult", "draw_instance", "sample_camera", "sample_scene"]
+__all__ = ["SampleResult", "check_scene_config", "draw_instance", "sample_camera", "sample_scene"]
 
 # A scene camera is named "scene"; the fixed "operator" camera stays in every world too.
 SCENE_CAMERA = "scene"
@@ -71,9 +71,19 @@ def _menu_values(cat: Catalogue, config: SceneConfig, class_name: str, variant: 
 
 def _validate_classes(cat: Catalogue, config: SceneConfig) -> list[str]:
     classes = list(config.classes) or list(cat.classes)
-    for name in list(classes) + list((config.menu_overrides or {}).keys()):
-        if name not in cat.classes:
-            raise ConfigError(f"scene: unknown object class {name!r}; valid: {', '.join(cat.classes)}")
+    for where, names in (("classes", classes), ("menu_overrides", list(config.menu_overrides or {}))):
+        for name in names:
+            if name not in cat.classes:
+                raise ConfigError(f"scene.{where}: unknown object class {name!r}; valid: {', '.join(cat.classes)}")
+    vocab = {"colour": cat.colours, "material": cat.materials, "size": cat.sizes}
+    for name, menu in (config.menu_overrides or {}).items():
+        for prop, values in menu.items():
+            bad = [v for v in values if v not in vocab[prop]]
+            if bad:
+                raise ConfigError(f"scene.menu_overrides.{name}.{prop}: unknown {bad}; valid: {', '.join(vocab[prop])}")
+        if not any(all(_menu_values(cat, config, name, v)) for v in cat.object_class(name).variants):
+            raise ConfigError(f"scene.menu_overrides.{name}={menu}: leaves no colour/material/size combination "
+                              f"of the {name} menu")
     usable = []
     for name in classes:
         cls = cat.object_class(name)
@@ -82,6 +92,16 @@ def _validate_classes(cat: Catalogue, config: SceneConfig) -> list[str]:
     if not usable:
         raise ConfigError("scene.menu_overrides leave no colour/material/size combination for any class")
     return usable
+
+
+def check_scene_config(config: SceneConfig, catalogue: Catalogue | None = None) -> None:
+    """Check the names a sampler config uses against the catalogue (classes, override colours,
+    materials and sizes), so a command can refuse a bad config before it writes anything.
+
+    Raises:
+        ConfigError: one line naming the field, the unknown name and the valid ones.
+    """
+    _validate_classes(catalogue or catalogue_for(config.named_classes), config)
 
 
 def draw_instance(rng: np.random.Generator, cat: Catalogue, config: SceneConfig, classes: list[str]) -> ObjectInstance:

@@ -20,6 +20,10 @@ from samplehd.world.bodies import object_body_name
 __all__ = ["SceneObject", "SceneSpec", "compile_scene", "object_qpos_addresses"]
 
 
+# Largest |coordinate| of an object in a scene spec [m].
+_MAX_COORD = 2.0
+
+
 @dataclass(frozen=True)
 class SceneObject:
     """One object of a scene.
@@ -40,13 +44,21 @@ class SceneObject:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SceneObject:
         try:
-            return cls(
+            obj = cls(
                 instance=ObjectInstance.from_dict(d["instance"]),
                 pos=tuple(float(v) for v in d["pos"]),  # type: ignore[arg-type]
                 quat=tuple(float(v) for v in d["quat"]),  # type: ignore[arg-type]
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise SceneError(f"malformed scene object {d!r}: {exc}") from exc
+        pos, quat = np.asarray(obj.pos), np.asarray(obj.quat)
+        # Objects stand on the table (about 1.2 m × 0.8 m around the origin); 2 m is far outside it.
+        if pos.shape != (3,) or not np.all(np.isfinite(pos)) or np.any(np.abs(pos) > _MAX_COORD):
+            raise SceneError(f"scene object pos={list(obj.pos)!r}: must be 3 finite coordinates within "
+                             f"±{_MAX_COORD} m of the table centre")
+        if quat.shape != (4,) or not np.all(np.isfinite(quat)) or not 0.5 < np.linalg.norm(quat) < 1.5:
+            raise SceneError(f"scene object quat={list(obj.quat)!r}: must be a unit quaternion (w, x, y, z)")
+        return obj
 
 
 @dataclass(frozen=True)

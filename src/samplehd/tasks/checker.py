@@ -39,9 +39,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from samplehd.errors import ConfigError
 from samplehd.physics import wake_all
 from samplehd.scene.spec import SceneSpec
+from samplehd.schema import bounded, check_fields, from_mapping
 from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, quat_tilt
 from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
@@ -68,33 +68,28 @@ class CheckerConfig:
         fall_angle: tilt that counts as falling over [rad].
     """
 
-    window: float = 1.0
-    rest_speed: float = 0.02
-    stable_drift: float = 0.01
-    footprint_margin: float = 0.01
-    stack_min_rise: float = 0.001
-    container_margin: float = 0.005
-    rim_tolerance: float = 0.01
-    relation_margin: float = 0.02
-    lift_height: float = 0.05
-    disturb_distance: float = 0.02
-    disturb_angle: float = 0.26
-    fall_angle: float = 0.79
+    window: float = bounded(1.0, lo=0.0, unit="s")
+    rest_speed: float = bounded(0.02, lo=0.0, unit="m/s")
+    stable_drift: float = bounded(0.01, lo=0.0, unit="m")
+    footprint_margin: float = bounded(0.01, lo=0.0, unit="m")
+    stack_min_rise: float = bounded(0.001, lo=0.0, unit="m")
+    container_margin: float = bounded(0.005, lo=0.0, unit="m")
+    rim_tolerance: float = bounded(0.01, lo=0.0, unit="m")
+    relation_margin: float = bounded(0.02, lo=0.0, unit="m")
+    lift_height: float = bounded(0.05, lo=0.0, unit="m")
+    disturb_distance: float = bounded(0.02, lo=0.0, unit="m")
+    disturb_angle: float = bounded(0.26, lo=0.0, unit="rad")
+    fall_angle: float = bounded(0.79, lo=0.0, unit="rad")
 
     def __post_init__(self) -> None:
-        for k, v in asdict(self).items():
-            if not np.isfinite(v) or v < 0:
-                raise ConfigError(f"checker.{k}={v} must be a finite non-negative number")
+        check_fields(self, "checker")
 
     def to_dict(self) -> dict[str, float]:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> CheckerConfig:
-        unknown = set(d) - set(cls.__dataclass_fields__)
-        if unknown:
-            raise ConfigError(f"unknown checker options {sorted(unknown)}; valid: {sorted(cls.__dataclass_fields__)}")
-        return cls(**{k: float(v) for k, v in d.items()})
+    def from_dict(cls, d: dict[str, Any], where: str = "checker") -> CheckerConfig:
+        return from_mapping(cls, d, where)
 
 
 @dataclass(frozen=True)

@@ -201,6 +201,7 @@ class EpisodeStore:
             meta = {"success": success, "failure_reason": failure_reason(success, info),
                     "num_frames": int(meta.get("num_frames", entry.num_frames)),
                     "instruction": str(meta.get("instruction", "")), "cameras": dict(meta.get("images") or {}),
+                    "image_frames": dict(meta.get("image_frames") or {}),
                     "family": str(meta.get("family", entry.family)), "readable": True}
         except DatasetError as exc:
             meta = {"success": False, "failure_reason": f"unreadable: {exc}", "readable": False, "cameras": {}}
@@ -287,6 +288,8 @@ class EpisodeStore:
         self._episode_meta(reader, i, entry)  # caches success, failure reason and cameras for the listing
         summary = next(s for s in self.summaries() if s["episode"] == name)
         summary["cameras"] = dict(meta.get("images") or {})
+        # Cameras with images at keyframes only (rerender --every/--subtask-ends): the frames that have them.
+        summary["image_frames"] = dict(meta.get("image_frames") or {})
         summary["rendered_on_demand"] = False
         if not summary["cameras"] and self._renderable(entry.scene_index):
             summary["cameras"] = {c: list(MODALITIES) for c in CAMERAS}
@@ -323,6 +326,9 @@ class EpisodeStore:
         if camera not in cameras or modality not in cameras[camera]:
             valid = ", ".join(f"{c}/{m}" for c, ms in cameras.items() for m in ms)
             raise DatasetError(f"episode {name}: no {camera}/{modality} images; stored: {valid}")
+        keyframes = self._episode_meta(reader, i, entry).get("image_frames", {}).get(camera)
+        if keyframes and t not in keyframes:  # keyframes only: show the latest keyframe at or before t
+            t = max([k for k in keyframes if k <= t] or [keyframes[0]])
         try:
             pixels = np.asarray(reader.image(i, camera, modality, t))
         except IndexError as exc:

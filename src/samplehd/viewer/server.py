@@ -148,7 +148,8 @@ def open_dataset(root: Path, render: bool = True) -> DatasetIndex:
         config = info.get("config") if isinstance(info.get("config"), dict) else {}
         size = config.get("render") if isinstance(config.get("render"), dict) else {}
         width, height = int(size.get("width") or 320), int(size.get("height") or 180)
-        renderer = StateRenderer(width, height, "hd" if size.get("mode") == "hd" else "fast")
+        mode = size.get("mode")
+        renderer = StateRenderer(width, height, mode if mode in ("fast", "hd", "photo") else "fast")
     index.episodes = open_episode_store(index.root, index.instructions, index.scene, renderer)
     return index
 

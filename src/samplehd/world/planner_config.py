@@ -3,11 +3,10 @@ spots) that scenes and instructions ask and by the subtask planner itself."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from samplehd.errors import ConfigError
+from samplehd.schema import bounded, check_fields, from_mapping
 
 __all__ = ["PlannerConfig"]
 
@@ -48,43 +47,38 @@ class PlannerConfig:
         rrt_iterations: RRT-Connect budget per joint-space move.
     """
 
-    approach_distance: float = 0.08
-    retreat_distance: float = 0.08
-    transport_clearance: float = 0.04
-    min_lift: float = 0.1
-    min_transport_height: float = 0.18
-    approach_speed: float = 0.1
-    lift_speed: float = 0.12
-    joint_speed: float = 1.2
-    joint_ramp_time: float = 0.6
-    line_ramp_time: float = 0.5
-    max_tcp_speed: float = 0.245
-    max_tcp_angular_speed: float = 0.98
-    finger_clearance: float = 0.0015
-    release_gap: float = 0.006
-    max_drop: float = 0.08
-    close_time: float = 1.0
-    grip_settle_time: float = 0.2
-    squeeze_force: float = 20.0
-    open_time: float = 0.5
-    grasp_candidates: int = 8
-    spot_samples: int = 400
-    spot_margin: float = 0.02
-    part_margin: float = 0.03
-    relation_gap: float = 0.03
-    rrt_iterations: int = 1500
+    approach_distance: float = bounded(0.08, lo=0.0, unit="m")
+    retreat_distance: float = bounded(0.08, lo=0.0, unit="m")
+    transport_clearance: float = bounded(0.04, lo=0.0, unit="m")
+    min_lift: float = bounded(0.1, lo=0.0, unit="m")
+    min_transport_height: float = bounded(0.18, lo=0.0, unit="m")
+    approach_speed: float = bounded(0.1, lo=0.0, lo_open=True, unit="m/s")
+    lift_speed: float = bounded(0.12, lo=0.0, lo_open=True, unit="m/s")
+    joint_speed: float = bounded(1.2, lo=0.0, lo_open=True, unit="rad/s")
+    joint_ramp_time: float = bounded(0.6, lo=0.0, unit="s")
+    line_ramp_time: float = bounded(0.5, lo=0.0, unit="s")
+    max_tcp_speed: float = bounded(0.245, lo=0.0, lo_open=True, unit="m/s")
+    max_tcp_angular_speed: float = bounded(0.98, lo=0.0, lo_open=True, unit="rad/s")
+    finger_clearance: float = bounded(0.0015, lo=0.0, unit="m")
+    release_gap: float = bounded(0.006, lo=0.0, unit="m")
+    max_drop: float = bounded(0.08, lo=0.0, unit="m")
+    close_time: float = bounded(1.0, lo=0.0, lo_open=True, unit="s")
+    grip_settle_time: float = bounded(0.2, lo=0.0, unit="s")
+    squeeze_force: float = bounded(20.0, lo=0.0, lo_open=True, unit="N")
+    open_time: float = bounded(0.5, lo=0.0, lo_open=True, unit="s")
+    grasp_candidates: int = bounded(8, lo=1)
+    spot_samples: int = bounded(400, lo=1)
+    spot_margin: float = bounded(0.02, lo=0.0, unit="m")
+    part_margin: float = bounded(0.03, lo=0.0, unit="m")
+    relation_gap: float = bounded(0.03, lo=0.0, unit="m")
+    rrt_iterations: int = bounded(1500, lo=1)
 
     def __post_init__(self) -> None:
-        for k, v in asdict(self).items():
-            if not (isinstance(v, int | float) and math.isfinite(v) and v >= 0):
-                raise ConfigError(f"planner.{k}={v!r} must be a finite non-negative number")
+        check_fields(self, "paths.planner")
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> PlannerConfig:
-        unknown = set(d) - set(cls.__dataclass_fields__)
-        if unknown:
-            raise ConfigError(f"unknown planner options {sorted(unknown)}; valid: {sorted(cls.__dataclass_fields__)}")
-        return cls(**d)
+    def from_dict(cls, d: dict[str, Any], where: str = "paths.planner") -> PlannerConfig:
+        return from_mapping(cls, d, where)

@@ -17,9 +17,11 @@ const REFERENCE = [0, 170, 255];
 const view = document.getElementById("view");
 let cleanup = () => {};
 let status = null;
-let lastCounts = null;
+let shownCounts = null;  // the counts when the current page was drawn
 
 // ---------------------------------------------------------------- status banner (polled: datasets grow)
+// A dataset being written grows. A list page is not redrawn under the user's eyes: it says how many
+// new items arrived and redraws (keeping filters and scroll position) when the user asks.
 async function refreshStatus() {
   try {
     status = await getJSON("/api/status");
@@ -29,17 +31,28 @@ async function refreshStatus() {
   }
   document.getElementById("dataset-name").textContent = status.name;
   const c = status.counts;
-  const changed = lastCounts !== null && JSON.stringify(c) !== lastCounts;
-  lastCounts = JSON.stringify(c);
-  // a dataset being written grows: refresh the lists (not a page the user is looking at in detail)
-  const page = parseHash(location.hash).parts[0] || "scenes";
-  if (changed && (page === "scenes" || page === "episodes")) route();
+  if (shownCounts === null) shownCounts = {...c};
+  showNewItems();
   document.getElementById("counts").textContent =
     `${c.scenes} scenes · ${c.instructions} instructions · ${c.episodes} episodes`;
   const notes = status.files
     .filter((f) => f.state === "partial" || (f.state === "missing" && f.name !== "info.json" && f.name !== "episodes"))
     .map((f) => `${f.name}: ${f.state} — ${f.detail}`);
   showBanner(notes.length ? ["This dataset is incomplete or still being written:", ...notes] : []);
+}
+
+/** On a list page, "N new scenes — refresh" once the dataset has grown since the page was drawn. */
+function showNewItems() {
+  const notice = document.getElementById("new-items");
+  if (!notice || !status || !shownCounts) return;
+  const page = parseHash(location.hash).parts[0] || "scenes";
+  const key = page === "scenes" ? "scenes" : page === "episodes" ? "episodes" : null;
+  const grown = key ? status.counts[key] - shownCounts[key] : 0;
+  notice.hidden = !(grown > 0);
+  if (grown > 0) {
+    notice.replaceChildren(el("button", {type: "button", id: "refresh-list", onclick: () => route({refresh: true})},
+      `${grown} new ${grown === 1 ? key.replace(/s$/, "") : key} — refresh`));
+  }
 }
 
 function showBanner(lines) {
@@ -50,30 +63,64 @@ function showBanner(lines) {
 }
 
 // ---------------------------------------------------------------- routing
-async function route() {
+// Each navigation gets a number; a page is drawn off-screen and shown only if the user is still on
+// it when its answers arrive (a slow answer for a page the user has left is dropped).
+let routeNumber = 0;
+
+async function route({refresh = false} = {}) {
+  const number = ++routeNumber;
+  const hash = location.hash;
+  const scrollY = window.scrollY;
   cleanup();
   cleanup = () => {};
-  const {parts, query} = parseHash(location.hash);
+  const {parts, query} = parseHash(hash);
   const page = parts[0] || "scenes";
   for (const a of document.querySelectorAll("[data-nav]")) {
     a.classList.toggle("active", a.dataset.nav === page || (a.dataset.nav === "scenes" && page === "scene")
       || (a.dataset.nav === "episodes" && page === "episode"));
   }
-  view.replaceChildren(el("p", {class: "muted"}, "loading…"));
+  if (!refresh) view.replaceChildren(el("p", {class: "muted"}, "loading…"));
+  const counts = status ? {...status.counts} : null;
+  const target = el("div", {class: "page"});
+  let close = () => {};
   try {
-    if (page === "scenes") await sceneGrid(query);
-    else if (page === "scene") await scenePage(Number(parts[1]));
-    else if (page === "instruction") await instructionPage(Number(parts[1]));
-    else if (page === "episodes") await episodeList(query);
-    else if (page === "dataset") await datasetPage();
-    else if (page === "episode") cleanup = await openPlayer(view, parts[1]);
-    else view.replaceChildren(el("p", {class: "error"}, `no page ${page}`));
+    if (page === "scenes") await sceneGrid(target, query);
+    else if (page === "scene") await scenePage(target, wholeNumber(parts[1], "scene"));
+    else if (page === "instruction") await instructionPage(target, wholeNumber(parts[1], "instruction"));
+    else if (page === "episodes") await episodeList(target, query);
+    else if (page === "dataset") await datasetPage(target);
+    else if (page === "episode") close = await openPlayer(target, parts[1]);
+    else target.replaceChildren(el("p", {class: "error"}, `no page ${page}`));
   } catch (err) {
     const missing = err instanceof HttpError && (err.status === 404 || err.status === 503);
-    view.replaceChildren(el("div", {class: missing ? "placeholder" : "error", "data-error": "1"}, err.message));
+    target.replaceChildren(el("div", {class: missing ? "placeholder" : "error", "data-error": "1"}, err.message));
     if (!(err instanceof HttpError)) console.warn(err);
   }
+  if (number !== routeNumber) {  // the user has gone elsewhere meanwhile
+    close();
+    return;
+  }
+  cleanup = close;
+  if (counts) shownCounts = counts;
+  if (page === "scenes" || page === "episodes") target.prepend(el("div", {class: "new-items", id: "new-items", hidden: true}));
+  view.replaceChildren(target);
+  showNewItems();
+  const saved = refresh ? scrollY : Number(sessionStorage.getItem(`scroll:${hash}`) || 0);
+  window.scrollTo(0, saved);
 }
+
+/** A page number from the address: a whole number ≥ 0, else an error saying so. */
+function wholeNumber(text, what) {
+  if (!/^\d+$/.test(text || "")) throw new HttpError(404, `no ${what} ${text ?? ""}: give a number from 0`);
+  return Number(text);
+}
+
+// Where the user was on each page, so a reload (or coming back) keeps the scroll position.
+let scrollSave = 0;
+window.addEventListener("scroll", () => {
+  clearTimeout(scrollSave);
+  scrollSave = setTimeout(() => sessionStorage.setItem(`scroll:${location.hash}`, String(window.scrollY)), 150);
+});
 
 function setHash(parts, query = {}) {
   const q = new URLSearchParams(Object.entries(query).filter(([, v]) => v !== "" && v !== undefined));
@@ -81,8 +128,16 @@ function setHash(parts, query = {}) {
   if (location.hash !== text) location.hash = text;
 }
 
+/** Previous / next links of item ``i`` of ``total`` (null: unknown); the ends are shown disabled. */
+function stepLinks(kind, i, total, prev, next) {
+  const link = (k, label, rel) => (k >= 0 && (total === null || total === undefined || k < total)
+    ? el("a", {href: `#/${kind}/${k}`, "data-step": rel}, label)
+    : el("span", {class: "muted disabled", "data-step": rel, "aria-disabled": "true"}, label));
+  return [link(i - 1, prev, "prev"), link(i + 1, next, "next")];
+}
+
 // ---------------------------------------------------------------- scene grid
-async function sceneGrid(query) {
+async function sceneGrid(target, query) {
   const pageNo = Math.max(1, Number(query.page || 1));
   const criteria = Object.fromEntries(FILTERS.map(([k]) => [k, query[k] || ""]));
   const params = new URLSearchParams({...criteria, offset: (pageNo - 1) * PAGE, limit: PAGE});
@@ -110,7 +165,7 @@ async function sceneGrid(query) {
     el("button", {type: "button", disabled: pageNo <= 1, onclick: () => setHash([], {...criteria, page: pageNo - 1})}, "‹ prev"),
     el("span", {}, `page ${pageNo} / ${pages}`),
     el("button", {type: "button", disabled: pageNo >= pages, onclick: () => setHash([], {...criteria, page: pageNo + 1})}, "next ›"));
-  view.replaceChildren(el("h1", {}, "Scenes"), filters, line, grid, pager);
+  target.replaceChildren(el("h1", {}, "Scenes"), filters, line, grid, pager);
 }
 
 function sceneCard(s) {
@@ -234,7 +289,7 @@ function outcomeChips(q) {
 }
 
 // ---------------------------------------------------------------- scene page
-async function scenePage(i) {
+async function scenePage(target, i) {
   const data = await getJSON(`/api/scenes/${i}`);
   const scene = data.scene;
   const objects = scene.objects || [];
@@ -296,10 +351,10 @@ async function scenePage(i) {
     man.tcp_position && ["TCP [m]", man.tcp_position.map((v) => num(v, 3)).join(", ")],
   ]);
   const nav = el("div", {class: "toolbar"},
-    el("a", {href: `#/scene/${i - 1}`}, "‹ previous scene"), el("a", {href: `#/scene/${i + 1}`}, "next scene ›"),
+    ...stepLinks("scene", i, status && status.counts.scenes, "‹ previous scene", "next scene ›"),
     el("a", {href: `/files/scenes/${encodeURIComponent((scene.image_filename || "").replace(/\.png$/, ".json"))}`,
       target: "_blank"}, "scene JSON"));
-  fill(view,
+  fill(target,
     el("h1", {}, `Scene ${i} — ${(scene.image_filename || "").replace(/\.png$/, "")}`), nav,
     el("div", {class: "row"},
       el("div", {class: "col-main"},
@@ -336,7 +391,7 @@ function targetGroups(q, offset) {
   };
 }
 
-async function instructionPage(j) {
+async function instructionPage(target, j) {
   const data = await getJSON(`/api/instructions/${j}`);
   const q = data.instruction;
   const scene = data.scene;
@@ -361,10 +416,10 @@ async function instructionPage(j) {
       + (e.num_frames >= 0 ? ` · ${e.num_frames} frames` : ""))),
     ...data.rejections.map((r) => el("span", {class: "chip bad", title: r.message}, `path rejected: ${r.reason} — ${r.message}`)),
   ];
-  fill(view,
+  fill(target,
     el("h1", {}, `Instruction ${j}`),
     el("div", {class: "toolbar"},
-      el("a", {href: `#/instruction/${j - 1}`}, "‹ previous"), el("a", {href: `#/instruction/${j + 1}`}, "next ›"),
+      ...stepLinks("instruction", j, status && status.counts.instructions, "‹ previous", "next ›"),
       el("a", {href: `#/scene/${sceneIndex}`}, `scene ${sceneIndex}`)),
     el("div", {class: "row"},
       el("div", {class: "col-main"}, imageBlock),
@@ -391,7 +446,7 @@ function legend(indices, colour, label, name) {
 }
 
 // ---------------------------------------------------------------- episode list
-async function episodeList(query) {
+async function episodeList(target, query) {
   const params = new URLSearchParams(Object.entries({family: query.family || "", success: query.success || ""})
     .filter(([, v]) => v));
   const data = await getJSON(`/api/episodes?${params}`);
@@ -416,11 +471,19 @@ async function episodeList(query) {
     el("td", {}, r.family || ""), el("td", {}, el("span", {class: "chip bad"}, r.reason)), el("td", {class: "muted"}, r.message)));
   const reasons = {};
   for (const r of data.rejections) reasons[r.reason] = (reasons[r.reason] || 0) + 1;
-  fill(view, el("h1", {}, "Episodes"),
-    el("div", {class: "filters"}, pick("family", families), pick("success", ["success", "failure"])),
+  const filtered = Boolean(query.family || query.success);
+  const empty = !rows.length ? el("div", {class: "placeholder", id: "episodes-empty"},
+    filtered && all.episodes.length ? `no episode matches these filters (${all.episodes.length} episodes in all)`
+      : data.state.state === "ok" ? "this dataset has no episodes" : "no episodes written yet") : null;
+  fill(target, el("h1", {}, "Episodes"),
+    el("div", {class: "filters"}, pick("family", families), pick("success", ["success", "failure"]),
+      filtered ? el("button", {type: "button", onclick: () => setHash(["episodes"])}, "clear filters") : null),
+    el("div", {class: "summary-line", id: "episode-summary"},
+      `${data.episodes.length} of ${all.episodes.length} episodes match`),
     data.state.state !== "ok" ? el("p", {class: "muted"}, data.state.detail) : null,
-    el("table", {class: "objects", id: "episode-table"},
-      el("tr", {}, ["episode", "scene", "instruction", "family", "frames", "outcome"].map((h) => el("th", {}, h))), rows),
+    rows.length ? el("table", {class: "objects", id: "episode-table"},
+      el("tr", {}, ["episode", "scene", "instruction", "family", "frames", "outcome"].map((h) => el("th", {}, h))), rows)
+      : empty,
     data.rejections.length ? el("h2", {}, `Rejected paths (${data.rejections.length}): `
       + Object.entries(reasons).sort((a, b) => b[1] - a[1]).map(([k, v]) => `${k} ${v}`).join(", ")) : null,
     data.rejections.length ? el("table", {class: "objects", id: "rejection-table"},
@@ -428,11 +491,11 @@ async function episodeList(query) {
 }
 
 // ---------------------------------------------------------------- dataset page
-async function datasetPage() {
+async function datasetPage(target) {
   const st = await getJSON("/api/status");
   const info = st.info || {};
   const versions = info.versions || {};
-  fill(view, el("h1", {}, `Dataset ${st.name}`),
+  fill(target, el("h1", {}, `Dataset ${st.name}`),
     kv([["folder", st.root], ["status", info.status || "–"], ["format version", info.format_version || "–"],
       ...Object.entries(versions).map(([k, v]) => [`${k} version`, String(v)]),
       ...Object.entries(st.counts).map(([k, v]) => [k, String(v)])]),
