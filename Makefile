@@ -21,10 +21,11 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e ".[photo]"
 	touch $@
 
-# torch 2.13.0 (CPU) before the sb3 extra: asked for by stable-baselines3 alone, pip takes a CUDA build of several GB.
+# torch 2.13.0 (CPU) before the sb3 and learn extras: asked for by stable-baselines3 or the `learn`
+# extra alone, pip takes a CUDA build of several GB.
 $(DEV_STAMP): pyproject.toml $(STAMP)
 	$(BIN)/python -m pip install --quiet "torch==2.13.0"
-	$(BIN)/python -m pip install --quiet -e ".[dev,mesh,lerobot,ray,sb3,rerun,photo]"
+	$(BIN)/python -m pip install --quiet -e ".[dev,mesh,lerobot,ray,sb3,rerun,photo,learn]"
 	touch $@
 
 gl:

@@ -11,11 +11,23 @@ from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.tasks.task import family_names
 
-HELP = "run a policy (MODULE:CALLABLE, oracle or random) on the seeded benchmark split; JSON report"
+HELP = ("run a policy (oracle, random, neurosymbolic, bc or MODULE:CALLABLE) on the seeded benchmark split; "
+        "JSON report")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--policy", required=True, help="oracle, random, or MODULE:CALLABLE (obs -> action)")
+    parser.add_argument("--policy", required=True,
+                        help="oracle, random, neurosymbolic, bc (learned baselines: need --models), or "
+                             "MODULE:CALLABLE (obs -> action)")
+    parser.add_argument("--models", type=Path, help="trained models: neurosymbolic: a folder with parser/ and "
+                                                    "perception/; bc: the folder of `samplehd train policy`")
+    parser.add_argument("--programs", choices=("gt", "predicted"), default="predicted",
+                        help="neurosymbolic: the instruction's program (gt) or the parser's")
+    parser.add_argument("--perception", choices=("gt", "predicted"), default="predicted",
+                        help="neurosymbolic: the scene's annotation (gt) or the perception model's")
+    parser.add_argument("--level", choices=("L1", "L2", "L3", "L4"),
+                        help="generalisation level: L1 seen, L2 new colour-class combinations, L3 held-out "
+                             "paraphrases, L4 held-out classes (default: the plain split)")
     parser.add_argument("--episodes", type=int, default=10, help="episodes of the split (default 10)")
     parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=family_names(),
                         metavar="FAMILY", help=f"families, in rotation (default: {' '.join(DEFAULT_FAMILIES)})")
@@ -49,6 +61,10 @@ def run(args: argparse.Namespace) -> int:
     flags = {"control_mode": args.control_mode, "obs_mode": args.obs_mode, "width": args.width,
              "height": args.height, "max_episode_steps": args.max_episode_steps}
     env.update({k: v for k, v in flags.items() if v is not None})
+    if args.policy == "bc" and args.models is not None:
+        from samplehd.learn.bc import env_options
+
+        env.update(env_options(args.models))  # the cameras, image size and control the policy was trained on
     where = f"--env-options {args.env_options}" if args.env_options else "command line"
     try:
         EnvConfig.from_kwargs(**env)
@@ -60,7 +76,9 @@ def run(args: argparse.Namespace) -> int:
     load_policy_module(args.policy)
     config = EvalConfig(policy=args.policy, episodes=args.episodes, families=tuple(args.families), seed=args.seed,
                         env=env, video_dir=str(args.video) if args.video else None, workers=args.workers,
-                        compare_offline=args.compare_offline)
+                        compare_offline=args.compare_offline,
+                        models=str(args.models) if args.models else None, programs=args.programs,
+                        perception=args.perception, level=args.level)
 
     def show(r: dict) -> None:
         mark = "ok  " if r["success"] else "fail"
@@ -72,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"success_rate {report['success_rate']:.3f} over {report['episodes']} episodes "
           f"({report['wall_s']:.0f} s)")
     for fam, s in report["by_family"].items():
-        print(f"  {fam:<15} {s['successes']}/{s['episodes']}")
+        stages = s.get("failures_by_stage")
+        print(f"  {fam:<15} {s['successes']}/{s['episodes']}" + (f"  failures: {stages}" if stages else ""))
     if args.out:
         print(f"wrote {args.out}")
     return 0

@@ -6,9 +6,13 @@ The split is a pure function of (number of episodes, families, seed): episode ``
 
 A policy is any callable ``obs -> action``; if it has a ``reset(seed=...)`` method it is called at
 the start of every episode. Built in: ``oracle`` (:class:`samplehd.envs.oracle.OraclePolicy`) and
-``random`` (uniform samples of the action space). ``MODULE:CALLABLE`` imports user code (that is the
-point of the API); the callable may also be a factory taking the environment and returning the
-policy (it is called with the environment when it accepts a keyword ``env``).
+``random`` (uniform samples of the action space), and the learned baselines of :mod:`samplehd.learn`
+(``neurosymbolic``, ``bc``; they read trained models from ``models``). ``MODULE:CALLABLE`` imports
+user code (that is the point of the API); the callable may also be a factory taking the environment
+and returning the policy (it is called with the environment when it accepts a keyword ``env``).
+
+With a ``level`` (L1–L4, :mod:`samplehd.envs.levels`) episode ``k`` is the first episode of its
+family in that generalisation level among reset seeds derived from the split's seed for ``k``.
 """
 
 from __future__ import annotations
@@ -42,6 +46,10 @@ __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action
 # SAMPLE-HD's families plus the two simple new ones: the default benchmark. stack_three needs scenes
 # with three stackable objects (see the env's ``scene`` option) and is opt-in.
 DEFAULT_FAMILIES = ("place", "remove", "stack", "put", "pick_up", "place_relative")
+# Learned baselines: name -> "module:factory(env, EvalConfig)".
+LEARNED = {"neurosymbolic": "samplehd.learn.neurosymbolic:policy_for_evaluation",
+           "bc": "samplehd.learn.bc:policy_for_evaluation"}
+BUILT_IN = ("oracle", "random", *LEARNED)
 _POLICY_SPEC = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:[A-Za-z_][A-Za-z0-9_]*$")
 
 
@@ -59,6 +67,11 @@ class EvalConfig:
         workers: processes running episodes in parallel.
         compare_offline: also run the offline ground-truth path generator (one attempt) on every
             episode and record whether it succeeds (the oracle's reference).
+        models: folder of trained models (``neurosymbolic``: parser/ and perception/; ``bc``: the
+            policy's folder).
+        programs: ``neurosymbolic``: ``predicted`` or ``gt`` programs.
+        perception: ``neurosymbolic``: ``predicted`` or ``gt`` scene annotations.
+        level: generalisation level L1–L4, or None (the plain split).
     """
 
     policy: str = "oracle"
@@ -69,6 +82,10 @@ class EvalConfig:
     video_dir: str | None = None
     workers: int = 1
     compare_offline: bool = False
+    models: str | None = None
+    programs: str = "predicted"
+    perception: str = "predicted"
+    level: str | None = None
 
     def __post_init__(self) -> None:
         if not (isinstance(self.episodes, int) and self.episodes >= 1):
@@ -79,14 +96,25 @@ class EvalConfig:
         if not (isinstance(self.workers, int) and self.workers >= 1):
             raise ConfigError(f"--workers {self.workers!r}: must be a positive integer")
         check_policy_spec(self.policy)
+        if self.level is not None:
+            from samplehd.envs.levels import LEVELS
+
+            if self.level not in LEVELS:
+                raise ConfigError(f"--level {self.level!r}: valid: {', '.join(LEVELS)}")
+        for name, value in (("--programs", self.programs), ("--perception", self.perception)):
+            if value not in ("gt", "predicted"):
+                raise ConfigError(f"{name} {value!r}: valid: gt, predicted")
+        if self.policy == "bc" and not self.models:
+            raise ConfigError("--policy bc: needs --models (the folder of `samplehd train policy`)")
 
 
 def check_policy_spec(spec: str) -> None:
-    """Raise ConfigError unless ``spec`` is ``oracle``, ``random`` or ``MODULE:CALLABLE``."""
-    if spec in ("oracle", "random"):
+    """Raise ConfigError unless ``spec`` is a built-in policy or ``MODULE:CALLABLE``."""
+    if spec in BUILT_IN:
         return
     if not _POLICY_SPEC.match(spec):
-        raise ConfigError(f"--policy {spec!r}: expected oracle, random or MODULE:CALLABLE (e.g. mypkg.agents:act)")
+        raise ConfigError(f"--policy {spec!r}: expected {', '.join(BUILT_IN)} or MODULE:CALLABLE "
+                          "(e.g. mypkg.agents:act)")
 
 
 def benchmark_split(episodes: int, families: Sequence[str], seed: int) -> list[tuple[int, str]]:
@@ -113,14 +141,14 @@ class RandomPolicy:
 
 
 def load_policy_module(spec: str) -> Any:
-    """Import a ``MODULE:CALLABLE`` policy's callable (None for oracle and random), so a bad --policy is
+    """Import a ``MODULE:CALLABLE`` policy's callable (None for built-in policies), so a bad --policy is
     refused before anything runs.
 
     Raises:
         ConfigError: the spec is malformed, the module cannot be imported or has no such callable.
     """
     check_policy_spec(spec)
-    if spec in ("oracle", "random"):
+    if spec in BUILT_IN:
         return None
     module_name, attr = spec.split(":")
     try:
@@ -133,9 +161,18 @@ def load_policy_module(spec: str) -> Any:
     return obj
 
 
-def load_policy(spec: str, env: Any) -> Callable[[Any], Any]:
+def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callable[[Any], Any]:
     """Build the policy named by ``spec`` for ``env``; see the module docstring."""
     check_policy_spec(spec)
+    if spec in LEARNED:
+        from samplehd.errors import require_extra
+
+        require_extra("torch", "learn", f"--policy {spec}")
+        # The learned baselines live on a floor above the environments: named by module path, as
+        # user policies are, and imported only when asked for.
+        module_name, attr = LEARNED[spec].split(":")
+        factory = getattr(importlib.import_module(module_name), attr)
+        return factory(env, config or EvalConfig(policy=spec))
     if spec == "oracle":
         return OraclePolicy(env)
     if spec == "random":
@@ -191,7 +228,7 @@ class _Runner:
         if config.video_dir:
             env_options["render_mode"] = "rgb_array"
         self.env = TabletopEnv(**env_options)
-        self.policy = load_policy(config.policy, self.env)
+        self.policy = load_policy(config.policy, self.env, config)
 
     def close(self) -> None:
         if hasattr(self.policy, "close"):
@@ -203,7 +240,9 @@ class _Runner:
         index, seed, family = item
         config, env, policy = self.config, self.env, self.policy
         t0 = time.perf_counter()
-        obs, info = env.reset(seed=seed, options={"family": family})
+        from samplehd.envs.levels import reset_at_level
+
+        obs, info, seed = reset_at_level(env, seed, family, config.level)
         if hasattr(policy, "reset"):
             policy.reset(seed=seed)
         frames = [env.render()] if config.video_dir else []
@@ -241,6 +280,12 @@ class _Runner:
         }
         if gave_up:
             record["gave_up"] = gave_up
+        if config.level is not None:
+            record["level"] = config.level
+        if getattr(policy, "diagnosis", None):
+            record["diagnosis"] = dict(policy.diagnosis)
+            if not record["success"]:
+                record["failure_stage"] = policy.diagnosis.get("stage", "motion")
         if hasattr(policy, "replans"):
             record["replans"] = int(policy.replans)
         if config.compare_offline:
@@ -278,6 +323,9 @@ def _summary(records: list[dict[str, Any]]) -> dict[str, Any]:
         out["success_rate_where_offline_succeeds"] = (
             sum(r["success"] for r in feasible) / len(feasible) if feasible else None)
     out["safety_stops"] = sum(bool(r["safety_events"]) for r in records)
+    stages = [r["failure_stage"] for r in records if "failure_stage" in r]
+    if stages:
+        out["failures_by_stage"] = {s: stages.count(s) for s in sorted(set(stages))}
     out["mean_steps"] = float(np.mean([r["steps"] for r in records])) if records else 0.0
     return out
 
@@ -341,7 +389,11 @@ def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partia
     return {
         "policy": config.policy,
         "partial": partial,
-        "split": {"episodes": config.episodes, "families": list(config.families), "seed": config.seed},
+        "split": {"episodes": config.episodes, "families": list(config.families), "seed": config.seed,
+                  "level": config.level},
+        "models": config.models,
+        "programs": config.programs if config.policy == "neurosymbolic" else None,
+        "perception": config.perception if config.policy == "neurosymbolic" else None,
         "env": env.to_dict(),
         # The split's scenes draw from the built-in catalogue plus imported classes the env options name.
         "catalogue": catalogue_for(env.scene.named_classes).record(),

@@ -148,6 +148,14 @@ class OraclePolicy:
         self._plan = None
         self._rollout = None
 
+    def episode_task(self) -> Any:
+        """The task to carry out (a :class:`samplehd.tasks.task.Task`): the environment's own.
+
+        A policy that decides the task itself (from a parsed instruction and a perceived scene)
+        overrides this; it is read once when the episode's plan starts.
+        """
+        return self.env.task
+
     # ------------------------------------------------------------------ plan
     def _advance(self, report: ControlReport | None, first: bool) -> ControlTarget | None:
         """The plan's next control target (None: the plan ended), checked closed-loop: while the
@@ -192,7 +200,7 @@ class OraclePolicy:
         env = self.env
         model, data, ctrl = env.model, env.data, env.controller
         scene = env.episode.scene
-        task = env.task
+        task = self.episode_task()
         facts = scene_facts(scene)
         # The generator of the offline generator's first attempt (plan_and_execute draws each
         # attempt's generator from the episode's), so both make the same random choices.

@@ -1,0 +1,59 @@
+"""Train a learned baseline on a generated dataset: the instruction parser, the perception model or
+the visuomotor behaviour-cloning policy (PyTorch: `pip install 'samplehd[learn]'`).
+
+Each run writes config.json, checkpoint.pt (resume point), model.pt and metrics.json into --out;
+running the same command again after an interruption resumes from the last checkpoint."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
+_DEFAULT_STEPS = {"parser": 1000, "perception": 2000, "policy": 600}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", choices=list(_DEFAULT_STEPS), help="what to train")
+    parser.add_argument("--dataset", type=Path, required=True, help="a dataset folder written by `samplehd generate`")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (resumes when it holds a checkpoint)")
+    parser.add_argument("--steps", type=int, help="optimiser steps (default: parser 1000, perception 2000, "
+                                                  "policy 600)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of initialisation, batches and augmentation")
+    parser.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def _torch_or_error() -> None:
+    from samplehd.errors import require_extra
+
+    require_extra("torch", "learn", "samplehd train")
+
+
+def run(args: argparse.Namespace) -> int:
+    from samplehd.errors import ConfigError
+
+    _torch_or_error()
+    steps = _DEFAULT_STEPS[args.model] if args.steps is None else args.steps
+    if steps < 1:
+        raise ConfigError(f"--steps {steps}: must be a positive integer")
+    if args.seed < 0:
+        raise ConfigError(f"--seed {args.seed}: must be ≥ 0")
+    kw = dict(steps=steps, seed=args.seed, device=args.device, quiet=args.quiet)
+    if args.model == "parser":
+        from samplehd.learn.parser import train_parser
+
+        metrics = train_parser(args.dataset, args.out, **kw)
+    elif args.model == "perception":
+        from samplehd.learn.perception import train_perception
+
+        metrics = train_perception(args.dataset, args.out, **kw)
+    else:
+        from samplehd.learn.bc import train_policy
+
+        metrics = train_policy(args.dataset, args.out, **kw)
+    shown = {k: v for k, v in metrics.items() if not isinstance(v, (dict, list))}
+    print(json.dumps(shown, indent=1))
+    print(f"wrote {args.out / 'metrics.json'}")
+    return 0

@@ -1,0 +1,196 @@
+"""The neuro-symbolic closed-loop policy: parse the instruction, perceive the scene, run the program
+with the project's executor on the perceived scene, then plan and act with the project's planner,
+one action per ``env.step``.
+
+Stages and where a failure is charged (``policy.diagnosis``, copied into evaluation records):
+
+- ``parse``: the predicted program, run on the true scene annotation, gives another task;
+- ``perception``: the true program, run on the perceived scene, gives another task;
+- ``execution``: each alone was right but together they pick another task (or none);
+- ``motion``: the task was right and the planner or the physics did not finish it.
+
+The perceived objects that a task names are handed to the planner as the simulator's objects nearest
+to their perceived positions (within ``match_radius``): the planner plans grasps on the simulator's
+object models, and perception decides which objects and where to. With ``perception="gt"`` the
+episode's own scene annotation is used; with ``programs="gt"`` the instruction's own program.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from samplehd.envs.oracle import OraclePolicy
+from samplehd.errors import ConfigError
+
+__all__ = ["NeuroSymbolicPolicy", "policy_for_evaluation"]
+
+_CHOICES = ("gt", "predicted")
+
+
+def _same(a: dict[str, Any] | None, b: dict[str, Any]) -> bool:
+    return a is not None and all(a.get(k) == b.get(k) for k in ("type", "objects", "subject", "relation"))
+
+
+class NeuroSymbolicPolicy(OraclePolicy):
+    """Parser + perception + executor + planner, acting through the environment's step.
+
+    Args:
+        env: the environment.
+        models: folder with ``parser/`` and ``perception/`` (from ``samplehd train``).
+        programs: ``predicted`` (the parser) or ``gt`` (the instruction's program).
+        perception: ``predicted`` (the perception model on the scene camera) or ``gt``.
+        match_radius: largest distance [m] between a perceived object and the simulator object it stands for.
+    """
+
+    def __init__(self, env: Any, models: str | Path | None = None, programs: str = "predicted",
+                 perception: str = "predicted", match_radius: float = 0.08, seed: int = 0) -> None:
+        super().__init__(env, seed=seed)
+        for name, value in (("--programs", programs), ("--perception", perception)):
+            if value not in _CHOICES:
+                raise ConfigError(f"{name} {value!r}: valid: {', '.join(_CHOICES)}")
+        self.programs, self.perception_mode, self.match_radius = programs, perception, match_radius
+        self.parser = self.perception = None
+        if "predicted" in (programs, perception) and models is None:
+            raise ConfigError("--models: needed for predicted programs or perception (a folder with parser/ and "
+                              "perception/ from `samplehd train`)")
+        from samplehd.learn.training import set_seed
+
+        set_seed(seed)
+        if programs == "predicted":
+            from samplehd.learn.parser import InstructionParser
+
+            self.parser = InstructionParser.load(Path(models) / "parser")
+        if perception == "predicted":
+            from samplehd.learn.perception import Perception
+
+            self.perception = Perception.load(Path(models) / "perception")
+        self._renderer: Any = None
+        self._renderer_model: Any = None
+        self._decided: tuple[Any, Any] | None = None
+        self.diagnosis: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ stages
+    def _scene_image(self) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        from samplehd.render.renderer import SceneRenderer, camera_intrinsics, camera_pose
+
+        env = self.env
+        cfg = self.perception.config["image"]
+        w, h, cam = int(cfg["width"]), int(cfg["height"]), str(cfg["camera"])
+        if self._renderer_model is not env.model:
+            if self._renderer is not None:
+                self._renderer.close()
+            self._renderer = SceneRenderer(env.model, w, h, "fast")
+            self._renderer_model = env.model
+            self._renderer.render(env.data, cam, ("rgb", "depth"))  # first frame of a context differs
+        images = self._renderer.render(env.data, cam, ("rgb", "depth"))
+        camera = {"width": w, "height": h, "intrinsics": camera_intrinsics(env.model, cam, w, h).tolist(),
+                  "extrinsics": camera_pose(env.model, env.data, cam).tolist()}
+        return images["rgb"], images["depth"], camera
+
+    def _decide(self) -> tuple[Any, dict[str, Any]]:
+        """(planner task or None, diagnosis) for the current episode."""
+        from samplehd.language.executor import ProgramError, execute
+        from samplehd.language.scene import parse_scene
+        from samplehd.tasks.task import parse_task
+
+        ep = self.env.episode
+        gt_task = dict(ep.instruction["task"])
+        gt_program = str(ep.instruction["program_sequence"]).split()
+        gt_scene = parse_scene(ep.annotation)
+        diag: dict[str, Any] = {"programs": self.programs, "perception": self.perception_mode}
+
+        program = gt_program
+        if self.parser is not None:
+            program = list(self.parser.parse([ep.text])[0].flat)
+            diag["program"] = " ".join(program)
+
+        def run(prog: list[str], scene: Any) -> dict[str, Any] | None:
+            try:
+                return execute(prog, scene).to_program_dict()
+            except (ProgramError, ValueError):
+                return None
+
+        mapping: list[int] | None = None
+        if self.perception is not None:
+            rgb, depth, camera = self._scene_image()
+            perceived = self.perception.perceive(rgb, depth, camera, ep.annotation.get("directions"))
+            scene = parse_scene(perceived)
+            model, data = self.env.model, self.env.data
+            bodies = np.array([data.xpos[model.body(f"object_{i}").id][:2] for i in range(len(ep.scene.objects))])
+            mapping = []
+            for o in perceived["objects"]:
+                d = np.linalg.norm(bodies - np.asarray(o["3d_coords"][:2]), axis=1)
+                mapping.append(int(np.argmin(d)) if d.min() <= self.match_radius else -1)
+            diag["perceived_objects"] = len(perceived["objects"])
+        else:
+            scene = gt_scene
+
+        def grounded(task: dict[str, Any] | None) -> dict[str, Any] | None:
+            if task is None or mapping is None:
+                return task
+            objs = [mapping[i] for i in task["objects"]]
+            subj = task["subject"]
+            if isinstance(subj, int):
+                subj = mapping[subj]
+            if min(objs + ([subj] if isinstance(subj, int) else [])) < 0:
+                return None
+            return {**task, "objects": objs, "subject": subj}
+
+        chosen = grounded(run(program, scene))
+        parse_ok = self.parser is None or _same(run(program, gt_scene), gt_task)
+        perception_ok = self.perception is None or _same(grounded(run(gt_program, scene)), gt_task)
+        diag["task_correct"] = _same(chosen, gt_task)
+        diag["parse_ok"], diag["perception_ok"] = parse_ok, perception_ok
+        if not diag["task_correct"]:
+            diag["stage"] = "parse" if not parse_ok else ("perception" if not perception_ok else "execution")
+        if chosen is None:
+            return None, diag
+        family = chosen["type"]
+        if family == "place" and len(program) == 3 and program[2].startswith("filter_table["):
+            family = "remove"
+        try:
+            return parse_task(chosen, family), diag
+        except Exception as exc:  # noqa: BLE001 - a malformed predicted task is a failed decision
+            diag["error"] = str(exc)
+            return None, diag
+
+    # ------------------------------------------------------------------ policy API
+    def episode_task(self) -> Any:
+        decided = self._decided
+        if decided is None or decided[0] is not self.env.episode:
+            raise ConfigError("the neuro-symbolic policy has not decided a task for this episode")
+        return decided[1]
+
+    def __call__(self, obs: Any = None) -> np.ndarray:
+        env = self.env
+        if self._decided is None or self._decided[0] is not env.episode:
+            task, diag = self._decide()
+            self._decided = (env.episode, task)
+            self.diagnosis = diag
+            if task is None:
+                self.reset()
+                self.failure = f"no task: {diag.get('stage', 'execution')}"
+                self._finished = True
+                self._episode = env.episode
+        if self._decided[1] is None:
+            return self._hold_action()
+        return super().__call__(obs)
+
+    def reset(self, seed: int | None = None) -> None:
+        renderer, self._renderer = self._renderer, None  # the base reset closes the plan, not the camera
+        super().reset(seed)
+        self._renderer = renderer
+
+    def close(self) -> None:
+        super().close()
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+def policy_for_evaluation(env: Any, config: Any) -> NeuroSymbolicPolicy:
+    """The policy ``samplehd evaluate --policy neurosymbolic`` runs (``config``: its EvalConfig)."""
+    return NeuroSymbolicPolicy(env, config.models, programs=config.programs, perception=config.perception)

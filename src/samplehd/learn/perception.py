@@ -1,0 +1,548 @@
+"""Perception: scene-camera RGB-D → object instances with class, colour, material, size and 3-D
+position, as a CLEVR-layout scene annotation the executor and planner consume.
+
+Two small networks:
+
+- a U-Net on the image at half resolution labels every pixel background, robot, object, or
+  *contact* (an object pixel touching another object's pixel); instances are the connected components
+  of the object pixels, and contact pixels join the nearest instance;
+- an attribute network looks at each instance's crop (RGB, mask, relative depth) plus its metric size
+  from the depth (width, depth, height [m]) and names its class, colour, material and size.
+
+The position is geometry, not learning: the instance's pixels are lifted to 3-D with the depth and the
+camera's calibration; the centre of their ground-plane bounding box, on the table top, is the
+object's ``3d_coords``. Table parts and relationships follow from positions as in the dataset.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Perception", "backproject", "evaluate_perception", "train_perception"]
+
+SEG_CLASSES = ("background", "robot", "object", "contact")
+CROP = 48
+CROP_PAD = 56
+MIN_PIXELS = 6
+DEPTH_CENTRE, DEPTH_SCALE = 1.5, 0.5
+ATTRIBUTES = ("name", "colour", "material", "size")
+
+
+def attribute_vocab() -> dict[str, list[str]]:
+    """Values of each attribute, from the catalogue (sorted)."""
+    from samplehd.catalogue import load_catalogue
+
+    cat = load_catalogue()
+    colours, materials, sizes = set(), set(), set()
+    for name in cat.classes:
+        cls = cat.object_class(name)
+        for v in cls.variants:
+            menu = cls.variant(v).menu
+            for c, m in menu.pairs:
+                colours.add(c)
+                materials.add(m)
+            sizes |= set(menu.size)
+    return {"name": sorted(cat.classes), "colour": sorted(colours), "material": sorted(materials),
+            "size": sorted(sizes)}
+
+
+def backproject(depth: np.ndarray, rows: np.ndarray, cols: np.ndarray, camera: Mapping[str, Any]) -> np.ndarray:
+    """World points (N, 3) [m] of pixels (rows, cols) of a depth image [m] from a scene annotation's camera.
+
+    The image may be a scaled copy of the camera's (intrinsics scale with it).
+    """
+    k = np.asarray(camera["intrinsics"], dtype=float)
+    pose = np.asarray(camera["extrinsics"], dtype=float)
+    s = depth.shape[1] / float(camera["width"])
+    f, cx, cy = k[0, 0] * s, k[0, 2] * s, k[1, 2] * s
+    d = depth[rows, cols].astype(float)
+    u, v = cols + 0.5, rows + 0.5
+    cam = np.stack([(u - cx) * d / f, -(v - cy) * d / f, -d], axis=1)
+    return cam @ pose[:3, :3].T + pose[:3, 3]
+
+
+def seg_labels(seg: np.ndarray) -> np.ndarray:
+    """Per-pixel training labels from an instance-id image (0 bg, 1 table, 2 robot, 3+ objects)."""
+    out = np.zeros(seg.shape, dtype=np.int64)
+    out[seg == 2] = 1
+    obj = seg >= 3
+    out[obj] = 2
+    contact = np.zeros_like(obj)
+    for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = seg[max(dr, 0):seg.shape[0], max(dc, 0):seg.shape[1] + min(dc, 0)]
+        b = seg[0:seg.shape[0] - dr, max(-dc, 0):seg.shape[1] - max(dc, 0)]
+        touch = (a >= 3) & (b >= 3) & (a != b)
+        contact[max(dr, 0):, max(dc, 0):seg.shape[1] + min(dc, 0)] |= touch
+        contact[:seg.shape[0] - dr, max(-dc, 0):seg.shape[1] - max(dc, 0)] |= touch
+    out[contact] = 3
+    return out
+
+
+def _downsample(img: np.ndarray, factor: int, nearest: bool) -> np.ndarray:
+    if factor == 1:
+        return img
+    if nearest:
+        return img[factor // 2::factor, factor // 2::factor]
+    h, w = img.shape[0] // factor * factor, img.shape[1] // factor * factor
+    x = img[:h, :w].astype(np.float32)
+    return x.reshape(h // factor, factor, w // factor, factor, *img.shape[2:]).mean(axis=(1, 3))
+
+
+def _net_input(rgb: np.ndarray, depth: np.ndarray) -> np.ndarray:
+    """(4, H, W) float32: RGB in [0, 1] and normalised depth."""
+    d = (np.clip(depth, 0.0, 4.0) - DEPTH_CENTRE) / DEPTH_SCALE
+    return np.concatenate([np.moveaxis(rgb.astype(np.float32) / 255.0, -1, 0), d[None].astype(np.float32)])
+
+
+def instance_masks(labels: np.ndarray) -> list[np.ndarray]:
+    """Instances from per-pixel labels: components of object pixels; contact pixels join the nearest."""
+    from scipy import ndimage
+
+    comp, n = ndimage.label(labels == 2)
+    if n == 0:
+        return []
+    contact = labels == 3
+    if contact.any():
+        _, (ri, ci) = ndimage.distance_transform_edt(comp == 0, return_indices=True)
+        nearest = comp[ri, ci]
+        comp = np.where(contact, nearest, comp)
+    masks = [comp == i for i in range(1, n + 1)]
+    return [m for m in masks if m.sum() >= MIN_PIXELS]
+
+
+def _crop(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, size: int, jitter: np.ndarray | None = None
+          ) -> np.ndarray:
+    """(5, size, size) crop around a mask: RGB, mask, depth relative to the instance's median."""
+    rows, cols = np.nonzero(mask)
+    r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
+    side = max(r1 - r0, c1 - c0) * 1.3 + 4
+    cr, cc = (r0 + r1) / 2, (c0 + c1) / 2
+    if jitter is not None:
+        cr, cc, side = cr + jitter[0] * side, cc + jitter[1] * side, side * (1 + jitter[2])
+    t = (np.arange(size) + 0.5) / size - 0.5
+    rr = np.clip(np.round(cr + t * side - 0.5).astype(int), 0, mask.shape[0] - 1)
+    cc_ = np.clip(np.round(cc + t * side - 0.5).astype(int), 0, mask.shape[1] - 1)
+    grid = np.ix_(rr, cc_)
+    med = float(np.median(depth[mask]))
+    out = np.empty((5, size, size), np.float32)
+    out[:3] = np.moveaxis(rgb[grid].astype(np.float32) / 255.0, -1, 0)
+    out[3] = mask[grid]
+    out[4] = np.clip((depth[grid] - med) / 0.1, -3, 3)
+    return out
+
+
+def _geometry(depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any], table_height: float
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """(position [x, y, z] of the object's base, metric size features [width, depth, height]) of a mask."""
+    rows, cols = np.nonzero(mask)
+    pts = backproject(depth, rows, cols, camera)
+    lo, hi = np.percentile(pts, 3, axis=0), np.percentile(pts, 97, axis=0)
+    centre = (lo + hi) / 2
+    pos = np.array([centre[0], centre[1], table_height])
+    size = np.array([hi[0] - lo[0], hi[1] - lo[1], max(hi[2] - table_height, 0.0)])
+    return pos, size
+
+
+def _model_classes() -> tuple[Any, Any]:
+    import torch
+    from torch import nn
+
+    def block(cin: int, cout: int) -> nn.Module:
+        return nn.Sequential(nn.Conv2d(cin, cout, 3, padding=1), nn.BatchNorm2d(cout), nn.ReLU(inplace=True),
+                             nn.Conv2d(cout, cout, 3, padding=1), nn.BatchNorm2d(cout), nn.ReLU(inplace=True))
+
+    class UNet(nn.Module):
+        def __init__(self, width: int) -> None:
+            super().__init__()
+            w = width
+            self.e1, self.e2, self.e3 = block(4, w), block(w, 2 * w), block(2 * w, 4 * w)
+            self.mid = block(4 * w, 4 * w)
+            self.d3, self.d2, self.d1 = block(8 * w, 2 * w), block(4 * w, w), block(2 * w, w)
+            self.head = nn.Conv2d(w, len(SEG_CLASSES), 1)
+            self.pool = nn.MaxPool2d(2)
+
+        def forward(self, x: torch.Tensor) -> torch.Tensor:
+            import torch.nn.functional as F
+
+            e1 = self.e1(x)
+            e2 = self.e2(self.pool(e1))
+            e3 = self.e3(self.pool(e2))
+            m = self.mid(self.pool(e3))
+
+            def up(t: torch.Tensor, ref: torch.Tensor) -> torch.Tensor:
+                return F.interpolate(t, size=ref.shape[-2:], mode="nearest")
+
+            d3 = self.d3(torch.cat([up(m, e3), e3], 1))
+            d2 = self.d2(torch.cat([up(d3, e2), e2], 1))
+            d1 = self.d1(torch.cat([up(d2, e1), e1], 1))
+            return self.head(d1)
+
+    class AttributeNet(nn.Module):
+        def __init__(self, width: int, sizes: Sequence[int]) -> None:
+            super().__init__()
+            w = width
+            self.features = nn.Sequential(
+                nn.Conv2d(5, w, 3, padding=1), nn.BatchNorm2d(w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
+                nn.Conv2d(w, 2 * w, 3, padding=1), nn.BatchNorm2d(2 * w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
+                nn.Conv2d(2 * w, 4 * w, 3, padding=1), nn.BatchNorm2d(4 * w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
+                nn.Conv2d(4 * w, 4 * w, 3, padding=1), nn.BatchNorm2d(4 * w), nn.ReLU(inplace=True),
+                nn.AdaptiveAvgPool2d(1), nn.Flatten())
+            self.geometry = nn.Sequential(nn.Linear(3, 32), nn.ReLU(inplace=True))
+            self.trunk = nn.Sequential(nn.Linear(4 * w + 32, 128), nn.ReLU(inplace=True))
+            self.heads = nn.ModuleList([nn.Linear(128, n) for n in sizes])
+
+        def forward(self, crops: torch.Tensor, geometry: torch.Tensor) -> list[torch.Tensor]:
+            h = self.trunk(torch.cat([self.features(crops), self.geometry(geometry * 10.0)], 1))
+            return [head(h) for head in self.heads]
+
+    class PerceptionNet(nn.Module):
+        def __init__(self, seg_width: int, attr_width: int, sizes: Sequence[int]) -> None:
+            super().__init__()
+            self.segmenter = UNet(seg_width)
+            self.attributes = AttributeNet(attr_width, sizes)
+
+    return PerceptionNet, None
+
+
+class Perception:
+    """A trained perception model: ``perceive(rgb, depth, camera)`` → CLEVR-layout scene annotation.
+
+    Args:
+        config: the model config (``config.json`` of ``samplehd train perception``).
+        state: its state dict (None: fresh weights).
+        device: torch device (default: CPU).
+    """
+
+    def __init__(self, config: Mapping[str, Any], state: Mapping[str, Any] | None = None, device: Any = None) -> None:
+        import torch
+
+        self.config = dict(config)
+        self.vocab: dict[str, list[str]] = {k: list(v) for k, v in config["attributes"].items()}
+        self.device = device or torch.device("cpu")
+        arch = config["model"]
+        net_cls, _ = _model_classes()
+        self.net = net_cls(arch["seg_width"], arch["attr_width"],
+                           [len(self.vocab[a]) for a in ATTRIBUTES]).to(self.device)
+        if state is not None:
+            self.net.load_state_dict(state)
+        self.net.eval()
+        self.factor = int(config["seg_downsample"])
+        self.table_height = float(config["table_height"])
+
+    @classmethod
+    def load(cls, folder: str | Path, device: Any = None) -> Perception:
+        """Load ``config.json`` + ``model.pt`` written by ``samplehd train perception``."""
+        from samplehd.learn.training import load_model_files
+
+        config, state = load_model_files(folder, "perception")
+        return cls(config, state, device)
+
+    def segment(self, rgb: np.ndarray, depth: np.ndarray) -> list[np.ndarray]:
+        """Instance masks at the image's full resolution."""
+        import torch
+
+        f = self.factor
+        x = _net_input(_downsample(rgb, f, False), _downsample(depth, f, False))
+        with torch.no_grad():
+            logits = self.net.segmenter(torch.as_tensor(x[None], device=self.device))
+        labels = logits.argmax(1)[0].cpu().numpy()
+        masks = instance_masks(labels)
+        if f > 1:
+            masks = [np.kron(m, np.ones((f, f), bool))[: rgb.shape[0], : rgb.shape[1]] for m in masks]
+            masks = [np.pad(m, ((0, rgb.shape[0] - m.shape[0]), (0, rgb.shape[1] - m.shape[1]))) for m in masks]
+        return masks
+
+    def classify(self, rgb: np.ndarray, depth: np.ndarray, masks: Sequence[np.ndarray],
+                 camera: Mapping[str, Any]) -> list[dict[str, Any]]:
+        """Attributes and geometry of each mask."""
+        import torch
+
+        if not masks:
+            return []
+        crops = np.stack([_crop(rgb, depth, m, CROP) for m in masks])
+        geo = [_geometry(depth, m, camera, self.table_height) for m in masks]
+        sizes = np.stack([g[1] for g in geo]).astype(np.float32)
+        with torch.no_grad():
+            outs = self.net.attributes(torch.as_tensor(crops, device=self.device),
+                                       torch.as_tensor(sizes, device=self.device))
+        idx = [o.argmax(1).cpu().numpy() for o in outs]
+        result = []
+        for k, (pos, size) in enumerate(geo):
+            attrs = {a: self.vocab[a][int(idx[j][k])] for j, a in enumerate(ATTRIBUTES)}
+            result.append({**attrs, "position": pos, "metric_size": size})
+        return result
+
+    def perceive(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
+                 directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
+        """A scene annotation (``objects``, ``relationships``, ``directions``) from one RGB-D image."""
+        masks = self.segment(rgb, depth)
+        found = self.classify(rgb, depth, masks, camera)
+        return annotation_from_instances(found, masks, self.config.get("extents", {}), directions)
+
+
+def annotation_from_instances(found: Sequence[Mapping[str, Any]], masks: Sequence[np.ndarray],
+                              extents: Mapping[str, Sequence[float]],
+                              directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Turn perceived instances into a CLEVR-layout scene dict (objects with the fields the executor reads)."""
+    from samplehd.world.layout import DIRECTIONS, table_parts_of
+    from samplehd.world.relations import compute_relationships
+
+    objects = []
+    for f, m in zip(found, masks, strict=True):
+        pos = [float(v) for v in f["position"]]
+        ext = extents.get(f"{f['name']}/{f['size']}") or [float(max(f["metric_size"][0], 0.02)),
+                                                          float(max(f["metric_size"][1], 0.02)),
+                                                          float(max(f["metric_size"][2], 0.01))]
+        rows, cols = np.nonzero(m)
+        objects.append({
+            "name": f["name"], "shape": f["name"], "colour": f["colour"], "color": f["colour"],
+            "material": f["material"], "size": f["size"], "table_part": table_parts_of(np.array(pos[:2])),
+            "3d_coords": pos, "bbox": {"extents": [float(e) for e in ext]},
+            "pixel_coords": [float(cols.mean()), float(rows.mean()), 0.0],
+        })
+    dirs = dict(directions) if directions else {k: list(map(float, v)) for k, v in DIRECTIONS.items()}
+    return {"objects": objects, "directions": dirs,
+            "relationships": compute_relationships(objects, dirs) if objects
+            else {r: [] for r in ("left", "right", "front", "behind")}}
+
+
+def _load_scene_images(item: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    from PIL import Image
+
+    rgb = np.asarray(Image.open(item["rgb"]).convert("RGB"))
+    depth = np.load(item["depth"], allow_pickle=False).astype(np.float32)
+    seg = np.asarray(Image.open(item["segmentation"])).astype(np.int64)
+    return rgb, depth, seg
+
+
+def _match(pred: Sequence[np.ndarray], gt: Sequence[np.ndarray]) -> list[tuple[int, int, float]]:
+    """Greedy one-to-one matching by IoU: (pred index, gt index, IoU) for pairs with IoU > 0."""
+    pairs = []
+    for i, p in enumerate(pred):
+        for j, g in enumerate(gt):
+            inter = np.logical_and(p, g).sum()
+            if inter:
+                pairs.append((inter / np.logical_or(p, g).sum(), i, j))
+    used_p, used_g, out = set(), set(), []
+    for iou, i, j in sorted(pairs, reverse=True):
+        if i not in used_p and j not in used_g:
+            used_p.add(i)
+            used_g.add(j)
+            out.append((i, j, float(iou)))
+    return out
+
+
+def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """Mask IoU, detection F1 (IoU ≥ 0.5), attribute accuracy (per attribute and all four right, on
+    detected objects) and position error [cm], over test scenes; attributes split by L1 objects and
+    held-out ones."""
+    from samplehd.envs.levels import HELD_OUT_CLASSES, held_out_object
+
+    ious, tp, n_pred, n_gt = [], 0, 0, 0
+    rows: list[dict[str, Any]] = []
+    gt_attr_rows: list[dict[str, Any]] = []
+    for item in scenes:
+        ann = item["annotation"]
+        rgb, depth, seg = _load_scene_images(item)
+        masks = model.segment(rgb, depth)
+        found = model.classify(rgb, depth, masks, ann["camera"])
+        objs = ann["objects"]
+        gt_masks = [seg == o["segmentation_id"] for o in objs]
+        matches = _match(masks, gt_masks)
+        n_pred += len(masks)
+        n_gt += len(objs)
+        best = dict.fromkeys(range(len(objs)), 0.0)
+        for i, j, iou in matches:
+            best[j] = iou
+            if iou >= 0.5:
+                tp += 1
+                o = objs[j]
+                kind = "L4" if o["name"] in HELD_OUT_CLASSES else ("L2" if held_out_object(o) else "L1")
+                err = float(np.linalg.norm(np.asarray(found[i]["position"][:2]) - np.asarray(o["3d_coords"][:2])))
+                rows.append({"kind": kind, "error_cm": 100 * err,
+                             **{a: found[i][a] == (o["name"] if a == "name" else o[a]) for a in ATTRIBUTES}})
+        ious += list(best.values())
+        # Attributes on ground-truth masks too: the classifier alone, without segmentation errors.
+        visible = [j for j, g in enumerate(gt_masks) if g.sum() >= MIN_PIXELS]
+        got = model.classify(rgb, depth, [gt_masks[j] for j in visible], ann["camera"])
+        for j, f in zip(visible, got, strict=True):
+            o = objs[j]
+            kind = "L4" if o["name"] in HELD_OUT_CLASSES else ("L2" if held_out_object(o) else "L1")
+            gt_attr_rows.append({"kind": kind, **{a: f[a] == (o["name"] if a == "name" else o[a])
+                                                  for a in ATTRIBUTES}})
+
+    def acc(rs: list[dict[str, Any]]) -> dict[str, Any]:
+        if not rs:
+            return {"n": 0}
+        out: dict[str, Any] = {"n": len(rs), **{a: float(np.mean([r[a] for r in rs])) for a in ATTRIBUTES}}
+        out["mean"] = float(np.mean([out[a] for a in ATTRIBUTES]))
+        out["all_four"] = float(np.mean([all(r[a] for a in ATTRIBUTES) for r in rs]))
+        return out
+
+    prec = tp / n_pred if n_pred else 0.0
+    rec = tp / n_gt if n_gt else 0.0
+    seen = [r for r in rows if r["kind"] == "L1"]
+    return {
+        "mask_iou": float(np.mean(ious)) if ious else 0.0,
+        "detection_precision": prec, "detection_recall": rec,
+        "detection_f1": 2 * prec * rec / (prec + rec) if prec + rec else 0.0,
+        "attributes_detected": acc(seen),
+        "attributes_detected_by_level": {k: acc([r for r in rows if r["kind"] == k]) for k in ("L1", "L2", "L4")},
+        "attributes_gt_masks": acc([r for r in gt_attr_rows if r["kind"] == "L1"]),
+        "position_error_cm_median": float(np.median([r["error_cm"] for r in rows])) if rows else None,
+        "position_error_cm_mean": float(np.mean([r["error_cm"] for r in rows])) if rows else None,
+        "objects": n_gt,
+        "scenes": len(scenes),
+    }
+
+
+def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], factor: int,
+             table_height: float) -> dict[str, Any]:
+    """Arrays for training: downsampled net inputs + labels, and crops of every training object."""
+    from scipy import ndimage
+
+    xs, ys, crops, geos, labels, extents = [], [], [], [], [], {}
+    for item in items:
+        ann = item["annotation"]
+        rgb, depth, seg = _load_scene_images(item)
+        xs.append(_net_input(_downsample(rgb, factor, False), _downsample(depth, factor, False)).astype(np.float16))
+        ys.append(seg_labels(_downsample(seg, factor, True)).astype(np.int8))
+        for j in item["train_objects"]:
+            o = ann["objects"][j]
+            mask = seg == o["segmentation_id"]
+            if mask.sum() < MIN_PIXELS:
+                continue
+            mask = ndimage.binary_fill_holes(mask)
+            crops.append(_crop(rgb, depth, mask, CROP_PAD).astype(np.float16))
+            geos.append(_geometry(depth, mask, ann["camera"], table_height)[1].astype(np.float32))
+            labels.append([vocab[a].index(o["name"] if a == "name" else o[a]) for a in ATTRIBUTES])
+            extents.setdefault(f"{o['name']}/{o['size']}", []).append(o["bbox"]["extents"])
+    return {"x": np.stack(xs), "y": np.stack(ys), "crops": np.stack(crops), "geo": np.stack(geos),
+            "labels": np.asarray(labels, np.int64),
+            "extents": {k: np.median(np.asarray(v), axis=0).round(4).tolist() for k, v in sorted(extents.items())}}
+
+
+def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, seed: int = 0, device: str | None = None,
+                     quiet: bool = False, stop_after: int | None = None, seg_batch: int = 4, attr_batch: int = 64,
+                     patch: int = 128, seg_every: int = 4,
+                     lr: float = 2e-3, seg_width: int = 12, attr_width: int = 24) -> dict[str, Any]:
+    """Train segmentation and attribute networks on a dataset's training scenes; test on its test scenes.
+
+    Metrics (``metrics.json``): ``test_mask_iou`` (mean best IoU per ground-truth object),
+    ``test_detection_f1``, ``test_attribute_accuracy`` (mean of the four attribute accuracies on
+    detected objects of seen classes and combinations), ``test_attribute_all_four``,
+    ``test_position_error_cm`` (median, ground plane) and held-out (L2, L4) figures.
+    """
+    import torch
+    import torch.nn.functional as F
+
+    from samplehd.learn.data import open_dataset, scene_examples
+    from samplehd.learn.training import TrainRun, pick_device, set_seed, step_rng, timed
+    from samplehd.world.layout import LAYOUT
+
+    reader = open_dataset(dataset)
+    data = scene_examples(reader)
+    vocab = attribute_vocab()
+    width = int(data["train"][0]["annotation"]["camera"]["width"])
+    height = int(data["train"][0]["annotation"]["camera"]["height"])
+    factor = 2 if width >= 400 else 1
+    dev = pick_device(device)
+    set_seed(seed)
+    arrays = _prepare(data["train"], vocab, factor, LAYOUT.table_height)
+    config = {
+        "kind": "perception",
+        "format": 1,
+        "dataset": str(dataset),
+        "model": {"seg_width": seg_width, "attr_width": attr_width},
+        "attributes": vocab,
+        "image": {"camera": "scene", "width": width, "height": height},
+        "seg_downsample": factor,
+        "table_height": LAYOUT.table_height,
+        "extents": arrays["extents"],
+        "train": {"steps": steps, "seed": seed, "seg_batch": seg_batch, "attr_batch": attr_batch, "patch": patch,
+                  "seg_every": seg_every, "lr": lr, "scenes": len(data["train"]), "objects": len(arrays["labels"])},
+    }
+    model = Perception(config, device=dev)
+    net = model.net
+    opt = torch.optim.Adam(net.parameters(), lr=lr)
+    run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 10), quiet=quiet,
+                   stop_after=stop_after)
+    run.prepare()
+    seg_weight = torch.tensor([1.0, 1.0, 3.0, 6.0], device=dev)
+    x_all, y_all = arrays["x"], arrays["y"]
+    hh, ww = x_all.shape[2], x_all.shape[3]
+    ph, pw = min(patch, hh), min(patch, ww)
+
+    def _seg_loss(rng: np.random.Generator) -> Any:
+        """Cross-entropy of the segmenter on random patches (flipped left-right half of the time)."""
+        idx = rng.integers(len(x_all), size=seg_batch)
+        r0 = rng.integers(hh - ph + 1, size=seg_batch)
+        c0 = rng.integers(ww - pw + 1, size=seg_batch)
+        xb = np.stack([x_all[i, :, r:r + ph, c:c + pw] for i, r, c in zip(idx, r0, c0, strict=True)])
+        yb = np.stack([y_all[i, r:r + ph, c:c + pw] for i, r, c in zip(idx, r0, c0, strict=True)])
+        flip = rng.random(seg_batch) < 0.5
+        xb[flip] = xb[flip][..., ::-1]
+        yb[flip] = yb[flip][..., ::-1]
+        xt = torch.as_tensor(xb.astype(np.float32), device=dev)
+        yt = torch.as_tensor(yb.astype(np.int64), device=dev)
+        return F.cross_entropy(net.segmenter(xt), yt, weight=seg_weight)
+
+    def train_step(step: int) -> float:
+        net.train()
+        rng = step_rng(seed, step)
+        for g in opt.param_groups:
+            g["lr"] = lr * min(1.0, 1.5 * (1 - step / steps))
+        seg_loss = torch.zeros((), device=dev)
+        if step % seg_every == 0:  # a segmenter step costs several attribute steps; it needs fewer
+            seg_loss = _seg_loss(rng)
+        # attributes: random crops of the padded crops, brightness jitter
+        k = rng.integers(len(arrays["labels"]), size=attr_batch)
+        off = rng.integers(CROP_PAD - CROP + 1, size=(attr_batch, 2))
+        cb = np.stack([arrays["crops"][i, :, a:a + CROP, b:b + CROP] for i, (a, b) in zip(k, off, strict=True)])
+        cb = cb.astype(np.float32)
+        cb[:, :3] *= rng.uniform(0.9, 1.1, size=(attr_batch, 1, 1, 1)).astype(np.float32)
+        outs = net.attributes(torch.as_tensor(cb, device=dev), torch.as_tensor(arrays["geo"][k], device=dev))
+        lab = torch.as_tensor(arrays["labels"][k], device=dev)
+        attr_loss = sum(F.cross_entropy(o, lab[:, j]) for j, o in enumerate(outs))
+        loss = seg_loss + attr_loss
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        return float(loss.detach())
+
+    losses: list[float] = []
+    with timed() as t:
+        for _, loss in run.loop(net, opt, train_step, "perception"):
+            losses.append(loss)
+    if run.stopped:
+        return {"stopped_at": len(losses)}
+    net.eval()
+    m = evaluate_perception(model, data["test"])
+    metrics = {
+        "test_attribute_accuracy": m["attributes_detected"].get("mean"),
+        "test_attribute_all_four": m["attributes_detected"].get("all_four"),
+        "test_attribute_accuracy_by_attribute": {a: m["attributes_detected"].get(a) for a in ATTRIBUTES},
+        "test_attribute_accuracy_gt_masks": m["attributes_gt_masks"].get("mean"),
+        "test_mask_iou": m["mask_iou"],
+        "test_detection_f1": m["detection_f1"],
+        "test_detection_precision": m["detection_precision"],
+        "test_detection_recall": m["detection_recall"],
+        "test_position_error_cm": m["position_error_cm_median"],
+        "test_position_error_cm_mean": m["position_error_cm_mean"],
+        "test_by_level": m["attributes_detected_by_level"],
+        "test_scenes": m["scenes"],
+        "test_objects": m["objects"],
+        "train_scenes": len(data["train"]),
+        "train_objects": len(arrays["labels"]),
+        "train_loss": float(np.mean(losses[-50:])) if losses else None,
+        "steps": steps,
+        "seed": seed,
+        "device": str(dev),
+        **t,
+    }
+    run.finish(net, metrics)
+    return metrics

@@ -1,0 +1,238 @@
+"""What every training run shares: device choice, seeding, checkpoints, resume, progress, metrics.
+
+A run writes into its ``--out`` folder::
+
+    config.json       the model's JSON config (architecture, vocabularies, training options)
+    checkpoint.pt     model + optimiser state dicts and the step reached (resume point)
+    model.pt          the final model state dict
+    metrics.json      the test metrics and the training figures (steps, final loss, wall time, device)
+
+Every file is written under a temporary name and renamed. Weights are plain state dicts, read back
+with ``torch.load(..., weights_only=True)`` (no pickled objects). The batches of step ``k`` and every
+random draw inside it depend only on ``(seed, k)``, so a run resumed from a checkpoint makes the same
+model as one that was never interrupted, and on the CPU two runs with one seed give identical weights.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from samplehd.errors import ConfigError
+
+__all__ = [
+    "TrainRun",
+    "load_model_files",
+    "pick_device",
+    "step_rng",
+    "write_json",
+]
+
+CONFIG_FILE = "config.json"
+CHECKPOINT_FILE = "checkpoint.pt"
+MODEL_FILE = "model.pt"
+METRICS_FILE = "metrics.json"
+
+
+def pick_device(requested: str | None = None) -> Any:
+    """The torch device: ``requested`` if given, else CUDA when present, else the CPU."""
+    import torch
+
+    if requested:
+        if requested.startswith("cuda") and not torch.cuda.is_available():
+            raise ConfigError(f"--device {requested!r}: no CUDA device here; valid: cpu" )
+        return torch.device(requested)
+    return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+
+
+def step_rng(seed: int, step: int, stream: int = 0) -> np.random.Generator:
+    """The generator of training step ``step`` (batches, augmentations): a function of its arguments only."""
+    return np.random.default_rng(np.random.SeedSequence([int(seed), int(step), int(stream)]))
+
+
+def write_json(path: Path, data: Any) -> None:
+    """Write JSON atomically (temporary name, rename)."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    tmp.replace(path)
+
+
+def _save_torch(path: Path, obj: Any) -> None:
+    import torch
+
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    torch.save(obj, tmp)
+    tmp.replace(path)
+
+
+def load_model_files(folder: str | Path, kind: str) -> tuple[dict[str, Any], dict[str, Any]]:
+    """Read ``config.json`` and ``model.pt`` of a trained model; one-line errors.
+
+    Args:
+        folder: the ``--out`` folder of ``samplehd train KIND``.
+        kind: parser, perception or policy (checked against the config's ``kind``).
+
+    Returns:
+        (config, state dict) — the state dict loaded with ``weights_only=True`` onto the CPU.
+    """
+    import torch
+
+    folder = Path(folder)
+    cfg_path = folder / CONFIG_FILE
+    try:
+        config = json.loads(cfg_path.read_text(encoding="utf-8"))
+    except OSError:
+        raise ConfigError(f"{cfg_path}: no trained {kind} model here (run `samplehd train {kind}` first)") from None
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{cfg_path}: invalid JSON at line {exc.lineno}: {exc.msg}") from None
+    if not isinstance(config, dict) or config.get("kind") != kind:
+        got = config.get("kind") if isinstance(config, dict) else None
+        raise ConfigError(f"{cfg_path}: kind={got!r}, expected {kind!r}")
+    weights = folder / MODEL_FILE
+    if not weights.exists():
+        raise ConfigError(f"{weights}: missing (the {kind} training did not finish; run it again to resume)")
+    try:
+        state = torch.load(weights, map_location="cpu", weights_only=True)
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is one user-facing error
+        raise ConfigError(f"{weights}: not a state dict readable with weights_only=True ({exc})") from None
+    return config, state
+
+
+@dataclass
+class TrainRun:
+    """One training run in an output folder: resume, checkpoints, progress bar, final files.
+
+    Args:
+        out: the output folder.
+        config: the model's JSON config; a resumed run must have the same one.
+        steps: total optimiser steps.
+        checkpoint_every: steps between checkpoints.
+        quiet: no progress bar.
+        stop_after: end the loop after this many steps, with a checkpoint, as an interruption
+            would (the tests' stand-in for a killed run); None: run to ``steps``.
+    """
+
+    out: Path
+    config: dict[str, Any]
+    steps: int
+    checkpoint_every: int = 100
+    quiet: bool = False
+    stop_after: int | None = None
+    stopped: bool = False
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.steps, int) or self.steps < 1:
+            raise ConfigError(f"--steps {self.steps!r}: must be a positive integer")
+        self.out = Path(self.out)
+
+    def prepare(self) -> None:
+        """Create the folder; refuse to resume a run whose config differs (names the field)."""
+        self.out.mkdir(parents=True, exist_ok=True)
+        path = self.out / CONFIG_FILE
+        if path.exists() and (self.out / CHECKPOINT_FILE).exists():
+            try:
+                old = json.loads(path.read_text(encoding="utf-8"))
+            except json.JSONDecodeError:
+                old = None
+            if isinstance(old, dict):
+                for key in sorted(set(old) | set(self.config)):
+                    if key == "train":  # step count may grow on resume
+                        continue
+                    if old.get(key) != self.config.get(key):
+                        raise ConfigError(f"{path}: {key} differs from this run's; use another --out or delete "
+                                          f"{self.out / CHECKPOINT_FILE} to start over")
+        write_json(path, self.config)
+
+    def resume(self, model: Any, optimizer: Any) -> int:
+        """Load the checkpoint if there is one; return the step to continue from."""
+        import torch
+
+        ckpt = self.out / CHECKPOINT_FILE
+        if not ckpt.exists():
+            return 0
+        state = torch.load(ckpt, map_location="cpu", weights_only=True)
+        model.load_state_dict(state["model"])
+        optimizer.load_state_dict(state["optimizer"])
+        return int(state["step"])
+
+    def checkpoint(self, model: Any, optimizer: Any, step: int) -> None:
+        _save_torch(self.out / CHECKPOINT_FILE, {"model": model.state_dict(), "optimizer": optimizer.state_dict(),
+                                                 "step": step})
+
+    def loop(self, model: Any, optimizer: Any, train_step: Callable[[int], float],
+             description: str) -> Iterator[tuple[int, float]]:
+        """Run ``train_step(step)`` (returns the loss) from the resume point to ``steps``.
+
+        Yields (step, loss) after every step; checkpoints every ``checkpoint_every`` steps and at the end.
+        """
+        from rich.console import Console
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        start = self.resume(model, optimizer)
+        console = Console(stderr=True, quiet=self.quiet)
+        bars = Progress(TextColumn("{task.description:>12}"), BarColumn(), MofNCompleteColumn(),
+                        TextColumn("loss {task.fields[loss]:.4f}"), TimeElapsedColumn(), TextColumn("eta"),
+                        TimeRemainingColumn(), console=console, disable=self.quiet, refresh_per_second=4)
+        ema = float("nan")
+        with bars:
+            task = bars.add_task(description, total=self.steps, completed=start, loss=float("nan"))
+            for step in range(start, self.steps):
+                loss = float(train_step(step))
+                ema = loss if ema != ema else 0.95 * ema + 0.05 * loss
+                bars.update(task, completed=step + 1, loss=ema)
+                interrupted = self.stop_after is not None and step + 1 >= self.stop_after and step + 1 < self.steps
+                if (step + 1) % self.checkpoint_every == 0 or step + 1 == self.steps or interrupted:
+                    self.checkpoint(model, optimizer, step + 1)
+                yield step, loss
+                if interrupted:
+                    self.stopped = True
+                    return
+
+    def finish(self, model: Any, metrics: dict[str, Any]) -> None:
+        """Write the final model and ``metrics.json``."""
+        state = {k: v.detach().cpu() for k, v in model.state_dict().items()}
+        _save_torch(self.out / MODEL_FILE, state)
+        write_json(self.out / METRICS_FILE, metrics)
+
+
+@contextmanager
+def timed() -> Iterator[dict[str, float]]:
+    """Measure wall time and the 1-minute load average around a block."""
+    out: dict[str, float] = {}
+    t0 = time.perf_counter()
+    try:
+        yield out
+    finally:
+        out["wall_s"] = round(time.perf_counter() - t0, 2)
+        try:
+            out["load_average_1min"] = round(os.getloadavg()[0], 2)
+        except OSError:
+            pass
+
+
+def set_seed(seed: int) -> None:
+    """Seed torch for model initialisation and make CPU kernels deterministic.
+
+    Also runs torch's CPU kernels on one thread (``SAMPLEHD_TORCH_THREADS`` overrides): these models
+    are small, and on a loaded 2-core machine two spinning threads made a step 5–20× slower than one.
+    """
+    import torch
+
+    torch.set_num_threads(max(1, int(os.environ.get("SAMPLEHD_TORCH_THREADS", "1"))))
+    torch.manual_seed(int(seed))
+    torch.use_deterministic_algorithms(True, warn_only=True)
