@@ -7,6 +7,7 @@ subprocess a test starts inherits that. Nothing a user imported can change what 
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import shutil
 import tempfile
@@ -19,6 +20,12 @@ os.environ["SAMPLEHD_REGISTRY_DIR"] = str(_PRIVATE_HOME / "registry")
 os.environ["SAMPLEHD_CACHE_DIR"] = str(_PRIVATE_HOME / "cache")
 
 import samplehd  # noqa: E402,F401  (sets MUJOCO_GL before mujoco is imported)
+
+# Importing triton (torch's compiler, present beside CUDA builds of torch) after an EGL context exists
+# crashes the process (SIGSEGV in triton's module init). The suite renders before it trains
+# (Stable-Baselines3, samplehd.learn), so where triton is installed it is loaded before any context.
+if importlib.util.find_spec("triton") is not None:
+    import triton  # noqa: E402,F401
 
 
 def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
