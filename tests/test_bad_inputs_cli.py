@@ -194,7 +194,7 @@ CLI_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("rerender-width-zero", ["rerender", "--quiet", "{ds}", "--width", "0"], ("width", "0")),
     ("rerender-height-neg", ["rerender", "--quiet", "{ds}", "--height", "-5"], ("height", "-5")),
     ("rerender-workers-zero", ["rerender", "--quiet", "{ds}", "--workers", "0"], ("--workers", "0")),
-    ("rerender-preset-bogus", ["rerender", "--quiet", "{ds}", "--preset", "bogus"], ("--preset", "bogus")),
+    ("rerender-preset-bogus", ["rerender", "--quiet", "{ds}", "--preset", "bogus"], ("'bogus'",)),
     # export
     ("export-lerobot-missing", ["export", "lerobot", "{new}", "--out", "{new}2"], ("{new}",)),
     ("export-lerobot-out-file", ["export", "lerobot", "{ds}", "--out", "{file}"], ("--out", "{file}")),
@@ -257,7 +257,7 @@ CLI_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
      ("min_objects",)),
     ("scenes-config-classes-str", ["scenes", "--num", "1", "--out", "{new}", "--config", "{cfg:scene_classes.json}"],
      ("classes",)),
-    ("scenes-preset-bogus", ["scenes", "--num", "1", "--out", "{new}", "--preset", "bogus"], ("--preset",)),
+    ("scenes-preset-bogus", ["scenes", "--num", "1", "--out", "{new}", "--preset", "bogus"], ("'bogus'",)),
     # instructions
     ("instructions-scenes-missing", ["instructions", "--scenes", "{new}", "--out", "{new}.json"], ("{new}",)),
     ("instructions-scenes-badjson", ["instructions", "--scenes", "{cfg:bad_json.json}", "--out", "{new}.json"],
@@ -316,7 +316,7 @@ CLI_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("paths-max-attempts", ["paths", "--scenes", "{ds}", "--instructions", "{instructions}", "--out", "{new}",
                             "--max-attempts", "0"], ("--max-attempts", "0")),
     ("paths-preset", ["paths", "--scenes", "{ds}", "--instructions", "{instructions}", "--out", "{new}",
-                      "--preset", "bogus"], ("--preset",)),
+                      "--preset", "bogus"], ("'bogus'",)),
     # render
     ("render-camera", ["render", "--camera", "bogus", "--out", "{new}.png"], ("bogus",)),
     ("render-width-zero", ["render", "--width", "0", "--out", "{new}.png"], ("--width", "0")),
@@ -327,7 +327,7 @@ CLI_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("render-out-parent-file", ["render", "--out", "{file}/x.png"], ("--out",)),
     ("render-depth-suffix", ["render", "--out", "{new}.png", "--depth", "{new}.txt"], ("--depth",)),
     ("render-seg-npy", ["render", "--out", "{new}.png", "--segmentation", "{new}.npy"], ("--segmentation",)),
-    ("render-preset", ["render", "--out", "{new}.png", "--preset", "bogus"], ("--preset",)),
+    ("render-preset", ["render", "--out", "{new}.png", "--preset", "bogus"], ("'bogus'",)),
     # replay
     ("replay-missing", ["replay", "{new}.h5", "--out", "{new}.mp4"], ("{new}.h5",)),
     ("replay-not-episode", ["replay", "{file}", "--out", "{new}.mp4"], ("{file}",)),

@@ -15,7 +15,7 @@ from samplehd.dataset.paths import format_summary, generate_paths
 from samplehd.dataset.render import RenderConfig
 from samplehd.envs.config import CAMERAS
 from samplehd.record.paths import PathConfig
-from samplehd.render.renderer import MODALITIES
+from samplehd.render.renderer import MODALITIES, get_preset
 from samplehd.workers import BACKENDS, Backend
 
 HELP = "generate ground-truth motion paths (HDF5 episodes) for instructions"
@@ -49,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
                                 ("--seed", args.seed, 0, None), ("--limit", args.limit, 0, None)):
         check_int(flag, value, lo, hi)
     check_out_dir("--out", args.out, empty=True)
+    get_preset(args.preset)  # also when no camera is rendered: a bad --preset is never ignored
     render = (RenderConfig(args.preset, args.width, args.height, cameras, modalities) if cameras
               else RenderConfig("none", args.width, args.height))
     paths = PathConfig(max_attempts=args.max_attempts)
