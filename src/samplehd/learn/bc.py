@@ -205,7 +205,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     from samplehd.envs.levels import episode_level, held_out_instruction
     from samplehd.envs.tokens import instruction_vocabulary
     from samplehd.learn.data import open_dataset
-    from samplehd.learn.training import TrainRun, pick_device, set_seed, step_rng, timed
+    from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng
 
     reader = open_dataset(dataset)
     # A dataset still being written (or stopped early) has its render settings only in the config.
@@ -277,15 +277,9 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         pairs = [index[i] for i in rng.integers(len(index), size=batch)]
         ims, toks, st, tgt = batch_of(data, pairs, rng)
         loss = F.l1_loss(net(ims, toks, st), tgt)
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-        return float(loss.detach())
+        return descend(opt, loss)
 
-    losses: list[float] = []
-    with timed() as t:
-        for _, loss in run.loop(net, opt, train_step, "policy"):
-            losses.append(loss)
+    losses, t = run.train(net, opt, train_step, "policy")
     if run.stopped:
         return {"stopped_at": len(losses)}
     net.eval()

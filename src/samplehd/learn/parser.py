@@ -226,7 +226,7 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     import torch
 
     from samplehd.learn.data import instruction_examples, open_dataset
-    from samplehd.learn.training import TrainRun, pick_device, set_seed, step_rng, timed
+    from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng
 
     reader = open_dataset(dataset)
     data = instruction_examples(reader)
@@ -264,16 +264,9 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
         tgt = torch.as_tensor(_pad([tgt_all[i] for i in rows]), device=dev)
         logits = model(src, tgt[:, :-1])
         loss = loss_fn(logits.reshape(-1, logits.shape[-1]), tgt[:, 1:].reshape(-1))
-        opt.zero_grad()
-        loss.backward()
-        torch.nn.utils.clip_grad_norm_(model.parameters(), 5.0)
-        opt.step()
-        return float(loss.detach())
+        return descend(opt, loss, clip=model.parameters())
 
-    losses: list[float] = []
-    with timed() as t:
-        for _, loss in run.loop(model, opt, train_step, "parser"):
-            losses.append(loss)
+    losses, t = run.train(model, opt, train_step, "parser")
     if run.stopped:
         return {"stopped_at": len(losses)}
     model.eval()

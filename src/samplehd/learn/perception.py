@@ -441,7 +441,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
     import torch.nn.functional as F
 
     from samplehd.learn.data import open_dataset, scene_examples
-    from samplehd.learn.training import TrainRun, pick_device, set_seed, step_rng, timed
+    from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng
     from samplehd.world.layout import LAYOUT
 
     reader = open_dataset(dataset)
@@ -509,15 +509,9 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
         lab = torch.as_tensor(arrays["labels"][k], device=dev)
         attr_loss = sum(F.cross_entropy(o, lab[:, j]) for j, o in enumerate(outs))
         loss = seg_loss + attr_loss
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-        return float(loss.detach())
+        return descend(opt, loss)
 
-    losses: list[float] = []
-    with timed() as t:
-        for _, loss in run.loop(net, opt, train_step, "perception"):
-            losses.append(loss)
+    losses, t = run.train(net, opt, train_step, "perception")
     if run.stopped:
         return {"stopped_at": len(losses)}
     net.eval()

@@ -203,6 +203,19 @@ class TrainRun:
                     self.stopped = True
                     return
 
+    def train(self, model: Any, optimizer: Any, train_step: Callable[[int], float],
+              description: str) -> tuple[list[float], dict[str, float]]:
+        """Run :meth:`loop` to its end (or the interruption point).
+
+        Returns:
+            The losses of the steps run now, and the wall time [s] and load average around them.
+        """
+        losses: list[float] = []
+        with timed() as times:
+            for _, loss in self.loop(model, optimizer, train_step, description):
+                losses.append(loss)
+        return losses, times
+
     def finish(self, model: Any, metrics: dict[str, Any]) -> None:
         """Write the final model and ``metrics.json``."""
         state = {k: v.detach().cpu() for k, v in model.state_dict().items()}
@@ -223,6 +236,22 @@ def timed() -> Iterator[dict[str, float]]:
             out["load_average_1min"] = round(os.getloadavg()[0], 2)
         except OSError:
             pass
+
+
+def descend(optimizer: Any, loss: Any, clip: Any = None, max_norm: float = 5.0) -> float:
+    """One optimiser step on ``loss``; gradients of the parameters ``clip`` are clipped to ``max_norm``.
+
+    Returns:
+        The loss as a float.
+    """
+    import torch
+
+    optimizer.zero_grad()
+    loss.backward()
+    if clip is not None:
+        torch.nn.utils.clip_grad_norm_(clip, max_norm)
+    optimizer.step()
+    return float(loss.detach())
 
 
 def set_seed(seed: int) -> None:
