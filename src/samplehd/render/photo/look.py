@@ -168,7 +168,7 @@ def _catalogue_bsdf(kind: str, colour_name: str, lin: np.ndarray, srgb: np.ndarr
                     "bsdf_0": _plastic(_bitmap(srgb_to_linear(img)), 0.08), "bsdf_1": _metal(None, 0.12)}
         return _metal(tint, 0.04 if cls in _POLISHED_CLASSES else 0.18)
     if kind == "ceramic":
-        return {"type": "plastic", "int_ior": 1.5, "diffuse_reflectance": _rgb(lin), "nonlinear": True}
+        return {"type": "plastic", "int_ior": 1.5, "diffuse_reflectance": _rgb(lin)}
     if kind == "rubber":
         return _plastic(lin, 0.6, 0.3)
     if kind == "wooden" and image is not None:  # the grain texture, tinted by the colour
