@@ -23,7 +23,20 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.bench import pin_to_one_core
+from samplehd.bench.language import bench_object_counts
+from samplehd.bench.paths import _bench_scene
+from samplehd.dataset.layout import EPISODE_DIR
+from samplehd.dataset.render import RenderConfig
+from samplehd.dataset.work import EpisodeUnit, run_episode_unit
 from samplehd.errors import ConfigError
+from samplehd.motion.assist import compile_scene_with_assist
+from samplehd.record.paths import PathConfig
+from samplehd.render.backend import configure_gl_backend
+from samplehd.render.renderer import MODALITIES, SceneRenderer
+from samplehd.scene.world import compile_world
+from samplehd.version import __version__
+from samplehd.world.layout import DIRECTIONS
 
 __all__ = ["BEGIN", "END", "Row", "measure", "table_markdown", "write_report"]
 
@@ -68,8 +81,6 @@ def _fmt(x: float) -> str:
 
 
 def _language_rows(repeats: int) -> list[Row]:
-    from samplehd.bench import pin_to_one_core
-    from samplehd.bench.language import bench_object_counts
 
     cores = os.sched_getaffinity(0) if hasattr(os, "sched_getaffinity") else None
     pin_to_one_core()
@@ -90,14 +101,6 @@ def _language_rows(repeats: int) -> list[Row]:
 def _path_rows(repeats: int) -> list[Row]:
     """Pure render of the paths benchmark scene, and the dataset's real episode unit (plan, execute,
     check, render from the states, write the HDF5 file) with and without those images."""
-    from samplehd.bench.paths import _bench_scene
-    from samplehd.dataset.layout import EPISODE_DIR
-    from samplehd.dataset.render import RenderConfig
-    from samplehd.dataset.work import EpisodeUnit, run_episode_unit
-    from samplehd.motion.assist import compile_scene_with_assist
-    from samplehd.record.paths import PathConfig
-    from samplehd.render.renderer import MODALITIES, SceneRenderer
-    from samplehd.world.layout import DIRECTIONS
 
     scene = _bench_scene()
     task = {"type": "place", "objects": [1], "subject": "left"}
@@ -149,7 +152,6 @@ def _path_rows(repeats: int) -> list[Row]:
 def _robot_rows(repeats: int) -> list[Row]:
     import mujoco
 
-    from samplehd.scene.world import compile_world
 
     model, data = compile_world()
     rng = np.random.default_rng(0)
@@ -172,7 +174,6 @@ AREAS: dict[str, Callable[[int], list[Row]]] = {"robot": _robot_rows, "paths": _
 
 def _commit() -> str:
     """The commit measured (with ``+changes`` when the tree differs from it), or the package version."""
-    from samplehd.version import __version__
 
     here = Path(__file__).resolve().parent
     try:
@@ -207,7 +208,6 @@ def _machine() -> str:
 
 def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list[Row], dict[str, Any]]:
     """Measure every row; returns the rows and the header facts (date, machine, loads, commit)."""
-    from samplehd.render.backend import configure_gl_backend
 
     configure_gl_backend()
     start = os.getloadavg() if hasattr(os, "getloadavg") else None

@@ -22,6 +22,8 @@ from rich.console import Console
 from rich.table import Table
 
 from samplehd import bench
+from samplehd.bench import _table
+from samplehd.commands._options import check_out_dir
 from samplehd.errors import ConfigError
 
 HELP = "run the performance benchmarks and print/write the figures"
@@ -66,7 +68,6 @@ def run(args: argparse.Namespace) -> int:
     unknown = [a for a in chosen if a not in areas]
     if unknown:
         raise ConfigError(f"--only: unknown areas {unknown}; valid: {', '.join(areas)}")
-    from samplehd.commands._options import check_out_dir
 
     check_out_dir("--out", args.out)
     console = Console()
@@ -86,7 +87,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _report_table(args: argparse.Namespace) -> int:
-    from samplehd.bench import _table
 
     if args.only:
         unknown = [a for a in args.only if a not in _table.AREAS]

@@ -4,9 +4,11 @@ paths → images), render pictures of the world, and say where everything is."""
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from samplehd.commands import generate
+from samplehd.commands._options import check_int, check_out_dir
 from samplehd.errors import RenderError
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
 from samplehd.render.renderer import MODALITIES, SceneRenderer
@@ -50,7 +52,6 @@ def _photo_picture(out: Path, model: object, data: object) -> list[Path]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.commands._options import check_int, check_out_dir
 
     check_int("--workers", args.workers, 1)
     check_int("--seed", args.seed, 0)
@@ -81,7 +82,6 @@ def _program() -> str:
     """How to run samplehd from the user's shell: ``samplehd`` where that is this installation's
     command on PATH, else this Python with ``-m samplehd``."""
     import shutil
-    import sys
 
     found = shutil.which("samplehd")
     if found and Path(found).parent == Path(sys.executable).parent:

@@ -5,10 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from samplehd.envs.config import CONTROL_MODES, OBS_MODES
-from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate
+from samplehd.commands._options import check_int, check_out_dir, check_out_file
+from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
+from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate, load_policy_module
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
+from samplehd.learn.bc import env_options
 from samplehd.tasks.task import family_names
 
 HELP = ("run a policy (oracle, random, neurosymbolic, bc or MODULE:CALLABLE) on the seeded benchmark split; "
@@ -48,9 +50,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.commands._options import check_int, check_out_dir, check_out_file
-    from samplehd.envs.config import EnvConfig
-    from samplehd.envs.evaluation import load_policy_module
 
     env: dict = {}
     if args.env_options is not None:
@@ -62,7 +61,6 @@ def run(args: argparse.Namespace) -> int:
              "height": args.height, "max_episode_steps": args.max_episode_steps}
     env.update({k: v for k, v in flags.items() if v is not None})
     if args.policy == "bc" and args.models is not None:
-        from samplehd.learn.bc import env_options
 
         env.update(env_options(args.models))  # the cameras, image size and control the policy was trained on
     where = f"--env-options {args.env_options}" if args.env_options else "command line"

@@ -10,6 +10,11 @@ import argparse
 import json
 from pathlib import Path
 
+from samplehd.errors import ConfigError, require_extra
+from samplehd.learn.bc import train_policy
+from samplehd.learn.parser import train_parser
+from samplehd.learn.perception import train_perception
+
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
 _DEFAULT_STEPS = {"parser": 1000, "perception": 2000, "policy": 600}
 
@@ -26,13 +31,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _torch_or_error() -> None:
-    from samplehd.errors import require_extra
 
     require_extra("torch", "learn", "samplehd train")
 
 
 def run(args: argparse.Namespace) -> int:
-    from samplehd.errors import ConfigError
 
     _torch_or_error()
     steps = _DEFAULT_STEPS[args.model] if args.steps is None else args.steps
@@ -42,15 +45,12 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--seed {args.seed}: must be ≥ 0")
     kw = dict(steps=steps, seed=args.seed, device=args.device, quiet=args.quiet)
     if args.model == "parser":
-        from samplehd.learn.parser import train_parser
 
         metrics = train_parser(args.dataset, args.out, **kw)
     elif args.model == "perception":
-        from samplehd.learn.perception import train_perception
 
         metrics = train_perception(args.dataset, args.out, **kw)
     else:
-        from samplehd.learn.bc import train_policy
 
         metrics = train_policy(args.dataset, args.out, **kw)
     shown = {k: v for k, v in metrics.items() if not isinstance(v, (dict, list))}

@@ -10,9 +10,11 @@ being written can be browsed: missing files are shown as such and appear when wr
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
-from samplehd.errors import ConfigError
+from samplehd.dataset.layout import FORMAT_VERSION, INFO_FILE
+from samplehd.errors import ConfigError, DatasetError
 from samplehd.viewer.server import make_server
 
 HELP = "browse a dataset in a web page (scenes, instructions, programs, episodes)"
@@ -53,10 +55,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_folder(root: Path) -> None:
     """A dataset or scenes folder, of a format this samplehd reads (the viewer shows one being written)."""
-    import json
 
-    from samplehd.dataset.layout import FORMAT_VERSION, INFO_FILE
-    from samplehd.errors import DatasetError
 
     if not root.is_dir():
         return  # the viewer names a missing folder or a file itself

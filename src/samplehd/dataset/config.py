@@ -18,11 +18,12 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from samplehd.dataset.render import RenderConfig
+from samplehd.dataset.render import RenderConfig, check_cameras
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.record.paths import PathConfig
 from samplehd.scene.config import SceneConfig
+from samplehd.scene.sampler import check_scene_config
 from samplehd.schema import bounded, check_fields, from_mapping
 from samplehd.tasks.task import family_names
 
@@ -196,8 +197,6 @@ def check_names(config: GenerateConfig, where: str = "config") -> None:
     Raises:
         ConfigError: one line starting with ``where``.
     """
-    from samplehd.dataset.render import check_cameras
-    from samplehd.scene.sampler import check_scene_config
 
     try:
         check_scene_config(config.scene)

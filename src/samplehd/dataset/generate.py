@@ -58,6 +58,7 @@ from samplehd.dataset.layout import (
     parse_episode_name,
 )
 from samplehd.dataset.progress import Progress
+from samplehd.dataset.reader import DatasetReader
 from samplehd.dataset.render import check_cameras
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit, run_scene_unit
 from samplehd.errors import ConfigError, DatasetError
@@ -65,6 +66,7 @@ from samplehd.fileio import file_sha256, write_json_atomic
 from samplehd.language.instruction_file import generate_instruction_file
 from samplehd.scene.annotate import image_stem
 from samplehd.scene.generate import SceneJob, scene_split
+from samplehd.scene.sampler import check_scene_config
 from samplehd.version import __version__
 from samplehd.workers import Backend
 from samplehd.world.seeding import episode_seed, scene_seed
@@ -196,7 +198,6 @@ def _holds_files(out: Path) -> bool:
 def _check_resumable(out: Path, info: dict[str, Any]) -> None:
     """Refuse to resume a dataset of another format, or one whose finished episodes are missing or
     damaged (resuming would build on them); nothing is changed."""
-    from samplehd.dataset.reader import DatasetReader
 
     reader = DatasetReader(out)  # checks format_version
     reader.check_intact()
@@ -498,7 +499,6 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
     progress = progress or Progress()
     summary = GenerateSummary()
     t0 = time.perf_counter()
-    from samplehd.scene.sampler import check_scene_config
 
     # Everything is checked before the first file is written.
     check_cameras(config.render)

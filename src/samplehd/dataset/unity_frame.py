@@ -18,6 +18,7 @@ which is why Unity's frame is left-handed), and a rotation ``R`` to ``M R Mᵀ``
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from samplehd.robot.constants import TCP_OFFSET
 
@@ -66,7 +67,6 @@ def _mat_from_quat(q: np.ndarray) -> np.ndarray:
 
 def _quat_from_mat(m: np.ndarray) -> np.ndarray:
     """(w, x, y, z) of rotation matrices (…, 3, 3), w ≥ 0."""
-    from scipy.spatial.transform import Rotation
 
     xyzw_ = Rotation.from_matrix(m.reshape(-1, 3, 3)).as_quat()
     wxyz = np.concatenate([xyzw_[:, 3:], xyzw_[:, :3]], axis=1)

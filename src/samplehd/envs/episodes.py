@@ -23,7 +23,7 @@ import numpy as np
 
 from samplehd.dataset.reader import DatasetReader
 from samplehd.envs.scene_worker import sample_in_child
-from samplehd.errors import ConfigError, SceneError
+from samplehd.errors import ConfigError, SamplehdError, SceneError
 from samplehd.language.executor import execute
 from samplehd.language.generator import generate_instructions
 from samplehd.motion.assist import compile_scene_with_assist
@@ -31,6 +31,7 @@ from samplehd.scene.annotate import annotate_scene
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.tasks.task import parse_task
 from samplehd.world.seeding import scene_seed as pool_seed
 
 __all__ = ["EpisodeSpec", "SceneCache", "episode_from_options", "sample_episode"]
@@ -237,8 +238,6 @@ def _dataset_options(options: Mapping[str, Any]) -> dict[str, Any]:
 def _task_objects(task: Mapping[str, Any], family: Any, count: int) -> list[int]:
     """The objects a task names (moved ones and its reference), each checked to be one of the
     scene's ``count`` objects."""
-    from samplehd.errors import SamplehdError
-    from samplehd.tasks.task import parse_task
 
     try:
         parsed = parse_task(dict(task), family if isinstance(family, str) else None)

@@ -31,9 +31,10 @@ import numpy as np
 
 from samplehd.catalogue.loader import catalogue_for
 from samplehd.envs.config import EnvConfig
+from samplehd.envs.levels import LEVELS, reset_at_level
 from samplehd.envs.oracle import OraclePolicy
 from samplehd.envs.tabletop import TabletopEnv
-from samplehd.errors import ConfigError, PlanningError
+from samplehd.errors import ConfigError, PlanningError, require_extra
 from samplehd.record.paths import PathConfig, plan_and_execute
 from samplehd.render.video import write_mp4
 from samplehd.scene.spec import compile_scene
@@ -97,7 +98,6 @@ class EvalConfig:
             raise ConfigError(f"--workers {self.workers!r}: must be a positive integer")
         check_policy_spec(self.policy)
         if self.level is not None:
-            from samplehd.envs.levels import LEVELS
 
             if self.level not in LEVELS:
                 raise ConfigError(f"--level {self.level!r}: valid: {', '.join(LEVELS)}")
@@ -165,7 +165,6 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
     """Build the policy named by ``spec`` for ``env``; see the module docstring."""
     check_policy_spec(spec)
     if spec in LEARNED:
-        from samplehd.errors import require_extra
 
         require_extra("torch", "learn", f"--policy {spec}")
         # The learned baselines live on a floor above the environments: named by module path, as
@@ -240,7 +239,6 @@ class _Runner:
         index, seed, family = item
         config, env, policy = self.config, self.env, self.policy
         t0 = time.perf_counter()
-        from samplehd.envs.levels import reset_at_level
 
         obs, info, seed = reset_at_level(env, seed, family, config.level)
         if hasattr(policy, "reset"):

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.errors import ConfigError
+from samplehd.language.templates import default_synonyms, default_templates
 
 __all__ = [
     "HELD_OUT_CLASSES",
@@ -78,7 +79,6 @@ def _variant_regex(text: str, synonyms: Mapping[str, Sequence[str]]) -> re.Patte
 
 @cache
 def _templates() -> dict[tuple[str, int], list[re.Pattern[str]]]:
-    from samplehd.language.templates import default_synonyms, default_templates
 
     base = default_synonyms()
     out = {}

@@ -11,13 +11,19 @@ test episodes' error. In the environment, :class:`BCPolicy` predicts a chunk and
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from samplehd.dataset.container import camera_settings
+from samplehd.envs.levels import episode_level, held_out_instruction
+from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
+from samplehd.learn.data import open_dataset
+from samplehd.learn.training import TrainRun, descend, load_model_files, pick_device, set_seed, step_rng
 
 __all__ = ["BCPolicy", "env_options", "policy_for_evaluation", "train_policy"]
 
@@ -81,7 +87,6 @@ def _model_class() -> Any:
 
 def env_options(folder: str | Path) -> dict[str, Any]:
     """The environment options a trained policy needs (cameras, image size, steering control)."""
-    import json
 
     try:
         cfg = json.loads((Path(folder) / "config.json").read_text(encoding="utf-8"))
@@ -105,8 +110,6 @@ class BCPolicy:
                  device: Any = None) -> None:
         import torch
 
-        from samplehd.envs.tokens import instruction_vocabulary
-        from samplehd.learn.training import set_seed
 
         set_seed(int(config["train"]["seed"]))
         self.config = dict(config)
@@ -131,7 +134,6 @@ class BCPolicy:
 
     @classmethod
     def load(cls, folder: str | Path | None, env: Any = None) -> BCPolicy:
-        from samplehd.learn.training import load_model_files
 
         if folder is None:
             raise ConfigError("--policy bc: needs --models (the folder of `samplehd train policy`)")
@@ -145,7 +147,6 @@ class BCPolicy:
         """The chunk (chunk, 7) for one observation of the environment."""
         import torch
 
-        from samplehd.envs.tokens import encode_instruction
 
         imgs = [torch.as_tensor(np.ascontiguousarray(obs[f"{c}_rgb"]).transpose(2, 0, 1)[None].astype(np.float32)
                                 / 255.0, device=self.device) for c in CAMERAS]
@@ -174,7 +175,6 @@ def env_options_from_config(config: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int) -> dict[str, np.ndarray]:
-    from samplehd.envs.tokens import encode_instruction
 
     ep = reader.episode(k)
     f = ep.frames
@@ -201,11 +201,6 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     import torch
     import torch.nn.functional as F
 
-    from samplehd.dataset.container import camera_settings
-    from samplehd.envs.levels import episode_level, held_out_instruction
-    from samplehd.envs.tokens import instruction_vocabulary
-    from samplehd.learn.data import open_dataset
-    from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng
 
     reader = open_dataset(dataset)
     # A dataset still being written (or stopped early) has its render settings only in the config.

@@ -24,6 +24,13 @@ import numpy as np
 
 from samplehd.envs.oracle import OraclePolicy
 from samplehd.errors import ConfigError
+from samplehd.language.executor import ProgramError, execute
+from samplehd.language.scene import parse_scene
+from samplehd.learn.parser import InstructionParser
+from samplehd.learn.perception import Perception
+from samplehd.learn.training import set_seed
+from samplehd.render.renderer import SceneRenderer, camera_intrinsics, camera_pose
+from samplehd.tasks.task import parse_task
 
 __all__ = ["NeuroSymbolicPolicy", "policy_for_evaluation"]
 
@@ -56,15 +63,12 @@ class NeuroSymbolicPolicy(OraclePolicy):
         if "predicted" in (programs, perception) and models is None:
             raise ConfigError("--models: needed for predicted programs or perception (a folder with parser/ and "
                               "perception/ from `samplehd train`)")
-        from samplehd.learn.training import set_seed
 
         set_seed(seed)
         if programs == "predicted":
-            from samplehd.learn.parser import InstructionParser
 
             self.parser = InstructionParser.load(Path(models) / "parser")
         if perception == "predicted":
-            from samplehd.learn.perception import Perception
 
             self.perception = Perception.load(Path(models) / "perception")
         self._renderer: Any = None
@@ -74,7 +78,6 @@ class NeuroSymbolicPolicy(OraclePolicy):
 
     # ------------------------------------------------------------------ stages
     def _scene_image(self) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        from samplehd.render.renderer import SceneRenderer, camera_intrinsics, camera_pose
 
         env = self.env
         cfg = self.perception.config["image"]
@@ -92,9 +95,6 @@ class NeuroSymbolicPolicy(OraclePolicy):
 
     def _decide(self) -> tuple[Any, dict[str, Any]]:
         """(planner task or None, diagnosis) for the current episode."""
-        from samplehd.language.executor import ProgramError, execute
-        from samplehd.language.scene import parse_scene
-        from samplehd.tasks.task import parse_task
 
         ep = self.env.episode
         gt_task = dict(ep.instruction["task"])

@@ -16,6 +16,11 @@ from typing import Any
 import numpy as np
 
 from samplehd.envs.tokens import SPECIAL_TOKENS, instruction_vocabulary, tokenize
+from samplehd.language.executor import ProgramError, execute
+from samplehd.language.scene import parse_scene
+from samplehd.language.vocab import program_node_tokens
+from samplehd.learn.data import instruction_examples, open_dataset
+from samplehd.learn.training import TrainRun, descend, load_model_files, pick_device, set_seed, step_rng
 
 __all__ = ["InstructionParser", "ParsedProgram", "decode_target", "encode_target", "train_parser"]
 
@@ -26,7 +31,6 @@ MAX_TARGET = 96
 
 def encode_target(flat: str | Sequence[str], nodes: Sequence[Mapping[str, Any]]) -> list[str]:
     """The decoder's target tokens for one program in both formats."""
-    from samplehd.language.vocab import program_node_tokens
 
     out = list(flat.split() if isinstance(flat, str) else flat) + [SEP]
     for token, node in zip(program_node_tokens(nodes), nodes, strict=True):
@@ -154,7 +158,6 @@ class InstructionParser:
     @classmethod
     def load(cls, folder: str | Path, device: Any = None) -> InstructionParser:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train parser``."""
-        from samplehd.learn.training import load_model_files
 
         config, state = load_model_files(folder, "parser")
         return cls(config, state, device)
@@ -178,8 +181,6 @@ class InstructionParser:
 
 
 def _task_equal(program: Any, scene: Mapping[str, Any], task: Mapping[str, Any]) -> bool:
-    from samplehd.language.executor import ProgramError, execute
-    from samplehd.language.scene import parse_scene
 
     try:
         got = execute(list(program), parse_scene(scene)).to_program_dict()
@@ -225,8 +226,6 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     """
     import torch
 
-    from samplehd.learn.data import instruction_examples, open_dataset
-    from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng
 
     reader = open_dataset(dataset)
     data = instruction_examples(reader)

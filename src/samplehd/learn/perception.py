@@ -21,6 +21,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from PIL import Image
+from scipy import ndimage
+
+from samplehd.catalogue import load_catalogue
+from samplehd.envs.levels import HELD_OUT_CLASSES, held_out_object
+from samplehd.learn.data import open_dataset, scene_examples
+from samplehd.learn.training import TrainRun, descend, load_model_files, pick_device, set_seed, step_rng
+from samplehd.world.layout import DIRECTIONS, LAYOUT, table_parts_of
+from samplehd.world.relations import compute_relationships
 
 __all__ = ["Perception", "backproject", "evaluate_perception", "train_perception"]
 
@@ -34,7 +43,6 @@ ATTRIBUTES = ("name", "colour", "material", "size")
 
 def attribute_vocab() -> dict[str, list[str]]:
     """Values of each attribute, from the catalogue (sorted)."""
-    from samplehd.catalogue import load_catalogue
 
     cat = load_catalogue()
     colours, materials, sizes = set(), set(), set()
@@ -100,7 +108,6 @@ def _net_input(rgb: np.ndarray, depth: np.ndarray) -> np.ndarray:
 
 def instance_masks(labels: np.ndarray) -> list[np.ndarray]:
     """Instances from per-pixel labels: components of object pixels; contact pixels join the nearest."""
-    from scipy import ndimage
 
     comp, n = ndimage.label(labels == 2)
     if n == 0:
@@ -236,7 +243,6 @@ class Perception:
     @classmethod
     def load(cls, folder: str | Path, device: Any = None) -> Perception:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train perception``."""
-        from samplehd.learn.training import load_model_files
 
         config, state = load_model_files(folder, "perception")
         return cls(config, state, device)
@@ -288,8 +294,6 @@ def annotation_from_instances(found: Sequence[Mapping[str, Any]], masks: Sequenc
                               extents: Mapping[str, Sequence[float]],
                               directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Turn perceived instances into a CLEVR-layout scene dict (objects with the fields the executor reads)."""
-    from samplehd.world.layout import DIRECTIONS, table_parts_of
-    from samplehd.world.relations import compute_relationships
 
     objects = []
     for f, m in zip(found, masks, strict=True):
@@ -311,7 +315,6 @@ def annotation_from_instances(found: Sequence[Mapping[str, Any]], masks: Sequenc
 
 
 def _load_scene_images(item: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    from PIL import Image
 
     rgb = np.asarray(Image.open(item["rgb"]).convert("RGB"))
     depth = np.load(item["depth"], allow_pickle=False).astype(np.float32)
@@ -340,7 +343,6 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
     """Mask IoU, detection F1 (IoU ≥ 0.5), attribute accuracy (per attribute and all four right, on
     detected objects) and position error [cm], over test scenes; attributes split by L1 objects and
     held-out ones."""
-    from samplehd.envs.levels import HELD_OUT_CLASSES, held_out_object
 
     ious, tp, n_pred, n_gt = [], 0, 0, 0
     rows: list[dict[str, Any]] = []
@@ -403,7 +405,6 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
 def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], factor: int,
              table_height: float) -> dict[str, Any]:
     """Arrays for training: downsampled net inputs + labels, and crops of every training object."""
-    from scipy import ndimage
 
     xs, ys, crops, geos, labels, extents = [], [], [], [], [], {}
     for item in items:
@@ -440,9 +441,6 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
     import torch
     import torch.nn.functional as F
 
-    from samplehd.learn.data import open_dataset, scene_examples
-    from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng
-    from samplehd.world.layout import LAYOUT
 
     reader = open_dataset(dataset)
     data = scene_examples(reader)

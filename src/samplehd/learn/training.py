@@ -25,6 +25,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from samplehd.errors import ConfigError
 
@@ -173,15 +175,6 @@ class TrainRun:
 
         Yields (step, loss) after every step; checkpoints every ``checkpoint_every`` steps and at the end.
         """
-        from rich.console import Console
-        from rich.progress import (
-            BarColumn,
-            MofNCompleteColumn,
-            Progress,
-            TextColumn,
-            TimeElapsedColumn,
-            TimeRemainingColumn,
-        )
 
         start = self.resume(model, optimizer)
         console = Console(stderr=True, quiet=self.quiet)
