@@ -101,7 +101,6 @@ def _language_rows(repeats: int) -> list[Row]:
 def _path_rows(repeats: int) -> list[Row]:
     """Pure render of the paths benchmark scene, and the dataset's real episode unit (plan, execute,
     check, render from the states, write the HDF5 file) with and without those images."""
-
     scene = _bench_scene()
     task = {"type": "place", "objects": [1], "subject": "left"}
     rows: list[Row] = []
@@ -174,7 +173,6 @@ AREAS: dict[str, Callable[[int], list[Row]]] = {"robot": _robot_rows, "paths": _
 
 def _commit() -> str:
     """The commit measured (with ``+changes`` when the tree differs from it), or the package version."""
-
     here = Path(__file__).resolve().parent
     try:
         sha = subprocess.run(["git", "rev-parse", "--short=10", "HEAD"], cwd=here, capture_output=True, text=True,
@@ -208,7 +206,6 @@ def _machine() -> str:
 
 def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list[Row], dict[str, Any]]:
     """Measure every row; returns the rows and the header facts (date, machine, loads, commit)."""
-
     configure_gl_backend()
     start = os.getloadavg() if hasattr(os, "getloadavg") else None
     when = datetime.datetime.now(datetime.UTC)
@@ -229,7 +226,6 @@ def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list
 
 def table_markdown(rows: Sequence[Row], facts: dict[str, Any]) -> str:
     """The table with its header, between the markers."""
-
     def load(v: Any) -> str:
         return " / ".join(f"{x:.1f}" for x in v) if v else "unknown"
 

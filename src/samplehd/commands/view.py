@@ -55,8 +55,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_folder(root: Path) -> None:
     """A dataset or scenes folder, of a format this samplehd reads (the viewer shows one being written)."""
-
-
     if not root.is_dir():
         return  # the viewer names a missing folder or a file itself
     try:

@@ -197,7 +197,6 @@ def check_names(config: GenerateConfig, where: str = "config") -> None:
     Raises:
         ConfigError: one line starting with ``where``.
     """
-
     try:
         check_scene_config(config.scene)
         check_cameras(config.render)

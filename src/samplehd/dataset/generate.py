@@ -198,7 +198,6 @@ def _holds_files(out: Path) -> bool:
 def _check_resumable(out: Path, info: dict[str, Any]) -> None:
     """Refuse to resume a dataset of another format, or one whose finished episodes are missing or
     damaged (resuming would build on them); nothing is changed."""
-
     reader = DatasetReader(out)  # checks format_version
     reader.check_intact()
     for record in read_journal(out):
@@ -237,7 +236,6 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
                  summary: GenerateSummary) -> Iterator[dict[str, Any]]:
     """Sample the missing scenes; yield every scene's annotation in index order as soon as it and all
     before it exist, so that the instruction stage runs while later scenes are sampled."""
-
     r = config.render
     preset = r.mode if r.enabled else "fast"
 
@@ -275,7 +273,6 @@ def _instruction_stage(out: Path, config: GenerateConfig, scenes: Iterator[dict[
                        progress: Progress) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     """Instruction candidates of every scene, made as the scenes arrive (or read back when resuming);
     returns (scenes, candidates)."""
-
     path = out / CANDIDATES_FILE
     progress.stage("instructions", config.num_scenes)
     if path.exists():

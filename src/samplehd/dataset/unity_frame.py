@@ -67,7 +67,6 @@ def _mat_from_quat(q: np.ndarray) -> np.ndarray:
 
 def _quat_from_mat(m: np.ndarray) -> np.ndarray:
     """(w, x, y, z) of rotation matrices (…, 3, 3), w ≥ 0."""
-
     xyzw_ = Rotation.from_matrix(m.reshape(-1, 3, 3)).as_quat()
     wxyz = np.concatenate([xyzw_[:, 3:], xyzw_[:, :3]], axis=1)
     wxyz *= np.where(wxyz[:, :1] < 0, -1.0, 1.0)

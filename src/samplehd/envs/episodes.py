@@ -96,7 +96,6 @@ class SceneCache:
 
     def scene(self, seed: int, index: int = 0) -> SceneSpec:
         """The scene sampled from ``seed`` (cached)."""
-
         key = (int(seed), int(index), self._config_key)
         if key in _SAMPLED:
             _SAMPLED.move_to_end(key)
@@ -173,7 +172,6 @@ def sample_episode(
     Raises:
         SceneError: no scene in several tries allowed an instruction of the family.
     """
-
     drawn = family is None
     if family is None:
         family = families[int(rng.integers(len(families)))]
@@ -217,7 +215,6 @@ def _as_scene(value: Any) -> SceneSpec:
 
 def _dataset_options(options: Mapping[str, Any]) -> dict[str, Any]:
     """Resolve ``dataset`` + ``episode_index`` into the scene, instruction and recorded episode."""
-
     if "dataset" not in options or "episode_index" not in options:
         raise ConfigError("reset: options 'dataset' (a dataset directory) and 'episode_index' go together")
     if {"scene", "instruction", "episode"} & set(options):
@@ -238,7 +235,6 @@ def _dataset_options(options: Mapping[str, Any]) -> dict[str, Any]:
 def _task_objects(task: Mapping[str, Any], family: Any, count: int) -> list[int]:
     """The objects a task names (moved ones and its reference), each checked to be one of the
     scene's ``count`` objects."""
-
     try:
         parsed = parse_task(dict(task), family if isinstance(family, str) else None)
     except (SamplehdError, KeyError, TypeError, ValueError) as exc:
@@ -266,7 +262,6 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
     Raises:
         ConfigError: a required option is missing or malformed.
     """
-
     unknown = sorted(set(options) - {"scene", "instruction", "episode", "family", "dataset", "episode_index"})
     if unknown:
         raise ConfigError(f"reset: unknown option(s) {unknown}; valid: dataset, episode, episode_index, family, "

@@ -339,7 +339,6 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
     check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
     """
-
     EnvConfig.from_kwargs(**config.env)  # one-line errors before any work
     split = benchmark_split(config.episodes, config.families, config.seed)
     items = [(k, s, f) for k, (s, f) in enumerate(split)]

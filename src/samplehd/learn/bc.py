@@ -87,7 +87,6 @@ def _model_class() -> Any:
 
 def env_options(folder: str | Path) -> dict[str, Any]:
     """The environment options a trained policy needs (cameras, image size, steering control)."""
-
     try:
         cfg = json.loads((Path(folder) / "config.json").read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:

@@ -95,7 +95,6 @@ class NeuroSymbolicPolicy(OraclePolicy):
 
     def _decide(self) -> tuple[Any, dict[str, Any]]:
         """(planner task or None, diagnosis) for the current episode."""
-
         ep = self.env.episode
         gt_task = dict(ep.instruction["task"])
         gt_program = str(ep.instruction["program_sequence"]).split()

@@ -31,7 +31,6 @@ MAX_TARGET = 96
 
 def encode_target(flat: str | Sequence[str], nodes: Sequence[Mapping[str, Any]]) -> list[str]:
     """The decoder's target tokens for one program in both formats."""
-
     out = list(flat.split() if isinstance(flat, str) else flat) + [SEP]
     for token, node in zip(program_node_tokens(nodes), nodes, strict=True):
         out.append(token)
@@ -158,7 +157,6 @@ class InstructionParser:
     @classmethod
     def load(cls, folder: str | Path, device: Any = None) -> InstructionParser:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train parser``."""
-
         config, state = load_model_files(folder, "parser")
         return cls(config, state, device)
 

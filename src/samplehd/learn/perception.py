@@ -43,7 +43,6 @@ ATTRIBUTES = ("name", "colour", "material", "size")
 
 def attribute_vocab() -> dict[str, list[str]]:
     """Values of each attribute, from the catalogue (sorted)."""
-
     cat = load_catalogue()
     colours, materials, sizes = set(), set(), set()
     for name in cat.classes:
@@ -108,7 +107,6 @@ def _net_input(rgb: np.ndarray, depth: np.ndarray) -> np.ndarray:
 
 def instance_masks(labels: np.ndarray) -> list[np.ndarray]:
     """Instances from per-pixel labels: components of object pixels; contact pixels join the nearest."""
-
     comp, n = ndimage.label(labels == 2)
     if n == 0:
         return []
@@ -243,7 +241,6 @@ class Perception:
     @classmethod
     def load(cls, folder: str | Path, device: Any = None) -> Perception:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train perception``."""
-
         config, state = load_model_files(folder, "perception")
         return cls(config, state, device)
 
@@ -294,7 +291,6 @@ def annotation_from_instances(found: Sequence[Mapping[str, Any]], masks: Sequenc
                               extents: Mapping[str, Sequence[float]],
                               directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Turn perceived instances into a CLEVR-layout scene dict (objects with the fields the executor reads)."""
-
     objects = []
     for f, m in zip(found, masks, strict=True):
         pos = [float(v) for v in f["position"]]
@@ -343,7 +339,6 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
     """Mask IoU, detection F1 (IoU ≥ 0.5), attribute accuracy (per attribute and all four right, on
     detected objects) and position error [cm], over test scenes; attributes split by L1 objects and
     held-out ones."""
-
     ious, tp, n_pred, n_gt = [], 0, 0, 0
     rows: list[dict[str, Any]] = []
     gt_attr_rows: list[dict[str, Any]] = []
@@ -405,7 +400,6 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
 def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], factor: int,
              table_height: float) -> dict[str, Any]:
     """Arrays for training: downsampled net inputs + labels, and crops of every training object."""
-
     xs, ys, crops, geos, labels, extents = [], [], [], [], [], {}
     for item in items:
         ann = item["annotation"]

@@ -175,7 +175,6 @@ class TrainRun:
 
         Yields (step, loss) after every step; checkpoints every ``checkpoint_every`` steps and at the end.
         """
-
         start = self.resume(model, optimizer)
         console = Console(stderr=True, quiet=self.quiet)
         bars = Progress(TextColumn("{task.description:>12}"), BarColumn(), MofNCompleteColumn(),
