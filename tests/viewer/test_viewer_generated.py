@@ -41,20 +41,18 @@ def test_every_page_of_a_generated_dataset_answers(tiny_dataset: Path) -> None:
 
 
 def test_browser_plays_a_generated_episode(browser: Any, viewer_url: str, dataset_files: DatasetFiles) -> None:
+    import page
     from selenium.webdriver.common.by import By
-    from selenium.webdriver.support.ui import WebDriverWait
 
-    wait = WebDriverWait(browser, 20, poll_frequency=0.1)
     browser.get(viewer_url)
-    wait.until(lambda b: len(b.find_elements(By.CSS_SELECTOR, "#scene-grid .card")) == len(dataset_files.scenes))
+    page.wait(browser, lambda b: len(page.scene_cards(b)) == len(dataset_files.scenes), 20)
     browser.get(f"{viewer_url}#/instruction/0")
-    wait.until(lambda b: b.find_elements(By.CSS_SELECTOR, "#program-tree svg.tree g.node"))
+    page.wait(browser, lambda b: b.find_elements(By.CSS_SELECTOR, "#program-tree svg.tree g.node"), 20)
     browser.get(f"{viewer_url}#/episode/{dataset_files.stems[0]}")
-    wait.until(lambda b: b.find_elements(By.ID, "frame-label"))
-    image = browser.find_element(By.ID, "episode-frame")
-    wait.until(lambda b: int(image.get_attribute("naturalWidth") or 0) > 0)
+    page.wait(browser, lambda b: b.find_elements(By.ID, "frame-label"), 20)
+    page.wait(browser, lambda b: int(b.find_element(By.ID, "episode-frame").get_attribute("naturalWidth") or 0) > 0, 20)
     browser.find_element(By.ID, "play").click()
-    wait.until(lambda b: int(b.find_element(By.ID, "frame-label").text.split()[1]) >= 10)
+    page.wait(browser, lambda b: int(b.find_element(By.ID, "frame-label").text.split()[1]) >= 10, 20)
     browser.find_element(By.ID, "play").click()
     assert [e for e in browser.get_log("browser") if e["level"] == "SEVERE"] == []
 

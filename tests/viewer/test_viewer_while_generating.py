@@ -16,24 +16,20 @@ from dataset_states import DatasetFiles
 
 pytest.importorskip("selenium", reason="headless browser tests need selenium (pip install selenium)")
 
-from selenium.common.exceptions import StaleElementReferenceException  # noqa: E402
+import page  # noqa: E402
 from selenium.webdriver.common.by import By  # noqa: E402
-from selenium.webdriver.support.ui import WebDriverWait  # noqa: E402
 
 
 def _wait(browser: Any, condition: Any, timeout: float = 15.0) -> Any:
-    return WebDriverWait(browser, timeout, poll_frequency=0.05).until(condition)
+    return page.wait(browser, condition, timeout)
 
 
 def _errors(browser: Any) -> list[str]:
     return [e["message"] for e in browser.get_log("browser") if e["level"] == "SEVERE"]
 
 
-def _cards(browser: Any) -> list[int] | None:
-    try:
-        return [int(c.get_attribute("data-scene")) for c in browser.find_elements(By.CSS_SELECTOR, "#scene-grid .card")]
-    except StaleElementReferenceException:  # the grid was redrawn while being read
-        return None
+def _cards(browser: Any) -> list[int]:
+    return page.scene_cards(browser)
 
 
 @pytest.fixture()
