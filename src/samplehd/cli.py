@@ -21,7 +21,7 @@ from types import ModuleType
 from typing import NoReturn
 
 from samplehd import commands
-from samplehd.errors import SamplehdError
+from samplehd.errors import MissingExtraError, SamplehdError
 from samplehd.version import __version__
 
 __all__ = ["build_parser", "main"]
@@ -92,7 +92,12 @@ def build_parser(command: str | None = None, *, full: bool = False) -> argparse.
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the CLI; returns the process exit status (0 ok, 1 check failed, 2 bad input)."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    parser = build_parser(_chosen(argv, command_names()))
+    chosen = _chosen(argv, command_names())
+    try:
+        parser = build_parser(chosen)
+    except MissingExtraError as exc:  # the command's module needs an extra that is not installed
+        print(f"samplehd {chosen}: error: {exc}", file=sys.stderr)
+        return 2
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):
         parser.print_help()
