@@ -155,3 +155,39 @@ def test_levels_hold_out_what_training_leaves_out() -> None:
     ann_box = {"objects": [{"name": "food_box", "colour": "red"}]}
     assert episode_level(ins, ann_box) == "L4"
     assert isinstance(held_out_instruction(ins), bool)
+
+
+_NO_TORCH = """
+import importlib, json, sys
+sys.modules["torch"] = None  # what an install without the learn extra looks like
+from samplehd.cli import command_names, main
+from samplehd.errors import MissingExtraError
+failed = []
+for name, module in command_names().items():
+    try:
+        importlib.import_module("samplehd.commands." + module)
+    except (ImportError, MissingExtraError) as exc:
+        failed.append((name, str(exc)))
+codes = [main(["train", "parser", "--dataset", sys.argv[1], "--out", sys.argv[2]]),
+         main(["evaluate", "--policy", "bc", "--models", sys.argv[3], "--episodes", "1"])]
+print(json.dumps({"failed": failed, "codes": codes}))
+"""
+
+
+def test_without_torch_only_the_learned_baselines_refuse_in_one_line(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    policy = tmp_path / "policy"
+    policy.mkdir()
+    (policy / "config.json").write_text(json.dumps({"kind": "policy", "image": 32}))
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-c", _NO_TORCH, str(tmp_path), str(out), str(policy)],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert [name for name, _ in result["failed"]] == ["train"]  # every other command imports without torch
+    assert result["codes"] == [2, 2]
+    errors = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert len(errors) == 2 and all(e.endswith("pip install 'samplehd[learn]'") for e in errors), errors
+    assert not out.exists()

@@ -10,7 +10,7 @@ from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
 from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate, load_policy_module
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
-from samplehd.learn.bc import env_options
+from samplehd.learn.options import env_options
 from samplehd.tasks.task import family_names
 
 HELP = ("run a policy (oracle, random, neurosymbolic, bc or MODULE:CALLABLE) on the seeded benchmark split; "

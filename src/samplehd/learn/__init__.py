@@ -1,14 +1,16 @@
 """The learning side: an instruction parser, a perception model, a neuro-symbolic closed-loop policy
 and a visuomotor behaviour-cloning policy, trained on samplehd datasets with PyTorch (the optional
-``learn`` extra). Modules import torch only inside functions, so ``import samplehd.learn`` works
-without it.
+``learn`` extra). The model modules import torch at module level through
+:mod:`samplehd.learn.training` (without it: one line naming the extra); :mod:`samplehd.learn.data`
+and :mod:`samplehd.learn.options` need no torch.
 
 - :mod:`samplehd.learn.parser`: instruction → flat program and CLEVR node list (``samplehd train parser``)
 - :mod:`samplehd.learn.perception`: RGB-D → scene annotation (``samplehd train perception``)
 - :mod:`samplehd.learn.neurosymbolic`: parse, perceive, execute, plan, act (``evaluate --policy neurosymbolic``)
 - :mod:`samplehd.learn.bc`: images + tokens + state → steering chunks (``samplehd train policy``,
   ``evaluate --policy bc``)
-- :mod:`samplehd.learn.training`: checkpoints, resume, progress, determinism
+- :mod:`samplehd.learn.training`: torch, checkpoints, resume, progress, determinism
+- :mod:`samplehd.learn.options`: the environment a trained policy needs (no torch)
 """
 
-__all__ = ["bc", "data", "neurosymbolic", "parser", "perception", "training"]
+__all__ = ["bc", "data", "neurosymbolic", "options", "parser", "perception", "training"]

@@ -11,7 +11,6 @@ test episodes' error. In the environment, :class:`BCPolicy` predicts a chunk and
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -23,12 +22,13 @@ from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset
-from samplehd.learn.training import TrainRun, descend, load_model_files, pick_device, set_seed, step_rng
+from samplehd.learn.options import POLICY_CAMERAS, env_options, env_options_from_config
+from samplehd.learn.training import F, TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
 
 __all__ = ["BCPolicy", "env_options", "policy_for_evaluation", "train_policy"]
 
 STATE_DIM = 10  # joint positions (6), TCP position (3), finger opening (1)
-CAMERAS = ("scene", "wrist")
+CAMERAS = POLICY_CAMERAS
 
 
 def _state(joint_pos: np.ndarray, tcp_pos: np.ndarray, opening: np.ndarray) -> np.ndarray:
@@ -36,65 +36,52 @@ def _state(joint_pos: np.ndarray, tcp_pos: np.ndarray, opening: np.ndarray) -> n
                            if np.ndim(opening) else [opening * 10.0]], axis=-1).astype(np.float32)
 
 
-def _model_class() -> Any:
-    import torch
-    from torch import nn
+class Encoder(nn.Module):
+    """A camera's CNN; its last block is FiLM-modulated by the instruction code ``c``."""
 
-    class Encoder(nn.Module):
-        def __init__(self, w: int, cond: int) -> None:
-            super().__init__()
-            self.convs = nn.Sequential(
-                nn.Conv2d(3, w, 3, stride=2, padding=1), nn.GroupNorm(8, w), nn.ReLU(inplace=True),
-                nn.Conv2d(w, 2 * w, 3, stride=2, padding=1), nn.GroupNorm(8, 2 * w), nn.ReLU(inplace=True),
-                nn.Conv2d(2 * w, 2 * w, 3, stride=2, padding=1), nn.GroupNorm(8, 2 * w))
-            self.film = nn.Linear(cond, 4 * w)
-            self.out = nn.Sequential(nn.ReLU(inplace=True), nn.Conv2d(2 * w, 2 * w, 3, stride=2, padding=1),
-                                     nn.ReLU(inplace=True), nn.Flatten())
+    def __init__(self, w: int, cond: int) -> None:
+        super().__init__()
+        self.convs = nn.Sequential(
+            nn.Conv2d(3, w, 3, stride=2, padding=1), nn.GroupNorm(8, w), nn.ReLU(inplace=True),
+            nn.Conv2d(w, 2 * w, 3, stride=2, padding=1), nn.GroupNorm(8, 2 * w), nn.ReLU(inplace=True),
+            nn.Conv2d(2 * w, 2 * w, 3, stride=2, padding=1), nn.GroupNorm(8, 2 * w))
+        self.film = nn.Linear(cond, 4 * w)
+        self.out = nn.Sequential(nn.ReLU(inplace=True), nn.Conv2d(2 * w, 2 * w, 3, stride=2, padding=1),
+                                 nn.ReLU(inplace=True), nn.Flatten())
 
-        def forward(self, x: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
-            h = self.convs(x)
-            gamma, beta = self.film(c).chunk(2, dim=1)
-            h = h * (1 + gamma[:, :, None, None]) + beta[:, :, None, None]
-            return self.out(h)
-
-    class BCNet(nn.Module):
-        def __init__(self, vocab: int, image: int, chunk: int, width: int, hidden: int) -> None:
-            super().__init__()
-            self.chunk = chunk
-            self.embed = nn.Embedding(vocab, 64, padding_idx=0)
-            self.text = nn.GRU(64, 128, batch_first=True)
-            self.encoders = nn.ModuleList([Encoder(width, 128) for _ in CAMERAS])
-            side = image
-            for _ in range(4):
-                side = (side + 1) // 2
-            feat = 2 * width * side * side
-            self.state = nn.Sequential(nn.Linear(STATE_DIM, 64), nn.ReLU(inplace=True))
-            self.head = nn.Sequential(nn.Linear(len(CAMERAS) * feat + 64 + 128, hidden), nn.ReLU(inplace=True),
-                                      nn.Linear(hidden, hidden), nn.ReLU(inplace=True), nn.Linear(hidden, chunk * 7))
-
-        def forward(self, images: Sequence[torch.Tensor], tokens: torch.Tensor, state: torch.Tensor) -> torch.Tensor:
-            lengths = (tokens != 0).sum(1).clamp(min=1).cpu()
-            packed = nn.utils.rnn.pack_padded_sequence(self.embed(tokens), lengths, batch_first=True,
-                                                       enforce_sorted=False)
-            _, h = self.text(packed)
-            c = h[-1]
-            feats = [enc(img, c) for enc, img in zip(self.encoders, images, strict=True)]
-            out = self.head(torch.cat([*feats, self.state(state), c], 1))
-            return torch.tanh(out).view(-1, self.chunk, 7)
-
-    return BCNet
+    def forward(self, x: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+        h = self.convs(x)
+        gamma, beta = self.film(c).chunk(2, dim=1)
+        h = h * (1 + gamma[:, :, None, None]) + beta[:, :, None, None]
+        return self.out(h)
 
 
-def env_options(folder: str | Path) -> dict[str, Any]:
-    """The environment options a trained policy needs (cameras, image size, steering control)."""
-    try:
-        cfg = json.loads((Path(folder) / "config.json").read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ConfigError(f"--models {folder}: no readable config.json of a trained policy ({exc})") from None
-    if cfg.get("kind") != "policy":
-        raise ConfigError(f"--models {folder}: config.json is a {cfg.get('kind')!r} model, expected a policy")
-    return {"obs_mode": "rgb", "cameras": list(CAMERAS), "width": cfg["image"], "height": cfg["image"],
-            "control_mode": "steering"}
+class BCNet(nn.Module):
+    """Images + instruction tokens + robot state → ``chunk`` steering vectors in [-1, 1]."""
+
+    def __init__(self, vocab: int, image: int, chunk: int, width: int, hidden: int) -> None:
+        super().__init__()
+        self.chunk = chunk
+        self.embed = nn.Embedding(vocab, 64, padding_idx=0)
+        self.text = nn.GRU(64, 128, batch_first=True)
+        self.encoders = nn.ModuleList([Encoder(width, 128) for _ in CAMERAS])
+        side = image
+        for _ in range(4):
+            side = (side + 1) // 2
+        feat = 2 * width * side * side
+        self.state = nn.Sequential(nn.Linear(STATE_DIM, 64), nn.ReLU(inplace=True))
+        self.head = nn.Sequential(nn.Linear(len(CAMERAS) * feat + 64 + 128, hidden), nn.ReLU(inplace=True),
+                                  nn.Linear(hidden, hidden), nn.ReLU(inplace=True), nn.Linear(hidden, chunk * 7))
+
+    def forward(self, images: Sequence[torch.Tensor], tokens: torch.Tensor, state: torch.Tensor) -> torch.Tensor:
+        lengths = (tokens != 0).sum(1).clamp(min=1).cpu()
+        packed = nn.utils.rnn.pack_padded_sequence(self.embed(tokens), lengths, batch_first=True,
+                                                   enforce_sorted=False)
+        _, h = self.text(packed)
+        c = h[-1]
+        feats = [enc(img, c) for enc, img in zip(self.encoders, images, strict=True)]
+        out = self.head(torch.cat([*feats, self.state(state), c], 1))
+        return torch.tanh(out).view(-1, self.chunk, 7)
 
 
 class BCPolicy:
@@ -107,14 +94,11 @@ class BCPolicy:
 
     def __init__(self, config: Mapping[str, Any], state: Mapping[str, Any] | None, env: Any = None,
                  device: Any = None) -> None:
-        import torch
-
-
         set_seed(int(config["train"]["seed"]))
         self.config = dict(config)
         self.device = device or torch.device("cpu")
         m = config["model"]
-        self.net = _model_class()(len(instruction_vocabulary()), config["image"], config["chunk"], m["width"],
+        self.net = BCNet(len(instruction_vocabulary()), config["image"], config["chunk"], m["width"],
                                   m["hidden"]).to(self.device)
         if state is not None:
             self.net.load_state_dict(state)
@@ -133,7 +117,6 @@ class BCPolicy:
 
     @classmethod
     def load(cls, folder: str | Path | None, env: Any = None) -> BCPolicy:
-
         if folder is None:
             raise ConfigError("--policy bc: needs --models (the folder of `samplehd train policy`)")
         config, state = load_model_files(folder, "policy")
@@ -144,8 +127,6 @@ class BCPolicy:
 
     def predict(self, obs: Mapping[str, Any]) -> np.ndarray:
         """The chunk (chunk, 7) for one observation of the environment."""
-        import torch
-
 
         imgs = [torch.as_tensor(np.ascontiguousarray(obs[f"{c}_rgb"]).transpose(2, 0, 1)[None].astype(np.float32)
                                 / 255.0, device=self.device) for c in CAMERAS]
@@ -168,13 +149,7 @@ def policy_for_evaluation(env: Any, config: Any) -> BCPolicy:
     return BCPolicy.load(config.models, env)
 
 
-def env_options_from_config(config: Mapping[str, Any]) -> dict[str, Any]:
-    return {"obs_mode": "rgb", "cameras": list(CAMERAS), "width": config["image"], "height": config["image"],
-            "control_mode": "steering"}
-
-
 def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int) -> dict[str, np.ndarray]:
-
     ep = reader.episode(k)
     f = ep.frames
     imgs = {c: np.asarray(ep.images[c]["rgb"][:]) for c in CAMERAS}
@@ -197,9 +172,6 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     Metrics (``metrics.json``): ``train_loss`` (L1 over the chunk, last 50 steps), ``test_l1``
     (the test episodes' frames), ``test_l1_first`` (first action only), episode and frame counts.
     """
-    import torch
-    import torch.nn.functional as F
-
 
     reader = open_dataset(dataset)
     # A dataset still being written (or stopped early) has its render settings only in the config.
@@ -235,7 +207,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         "train": {"steps": steps, "seed": seed, "batch": batch, "stride": stride, "lr": lr,
                   "episodes": len(train_k), "frames": int(sum(len(d["frames"]) for d in data))},
     }
-    net = _model_class()(len(instruction_vocabulary()), image, chunk, width, hidden).to(dev)
+    net = BCNet(len(instruction_vocabulary()), image, chunk, width, hidden).to(dev)
     opt = torch.optim.Adam(net.parameters(), lr=lr)
     run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
                    stop_after=stop_after)

@@ -78,7 +78,6 @@ class NeuroSymbolicPolicy(OraclePolicy):
 
     # ------------------------------------------------------------------ stages
     def _scene_image(self) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-
         env = self.env
         cfg = self.perception.config["image"]
         w, h, cam = int(cfg["width"]), int(cfg["height"]), str(cfg["camera"])

@@ -20,7 +20,7 @@ from samplehd.language.executor import ProgramError, execute
 from samplehd.language.scene import parse_scene
 from samplehd.language.vocab import program_node_tokens
 from samplehd.learn.data import instruction_examples, open_dataset
-from samplehd.learn.training import TrainRun, descend, load_model_files, pick_device, set_seed, step_rng
+from samplehd.learn.training import TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
 
 __all__ = ["InstructionParser", "ParsedProgram", "decode_target", "encode_target", "train_parser"]
 
@@ -73,54 +73,48 @@ def encode_source(text: str) -> list[int]:
     return ids[:MAX_SOURCE]
 
 
-def _model_class() -> Any:
-    import torch
-    from torch import nn
+class Seq2Seq(nn.Module):
+    """Bidirectional GRU encoder, GRU decoder, bilinear attention over the encoder states."""
 
-    class Seq2Seq(nn.Module):
-        """Bidirectional GRU encoder, GRU decoder, bilinear attention over the encoder states."""
+    def __init__(self, n_source: int, n_target: int, embed: int, hidden: int) -> None:
+        super().__init__()
+        self.src_embed = nn.Embedding(n_source, embed, padding_idx=0)
+        self.encoder = nn.GRU(embed, hidden, batch_first=True, bidirectional=True)
+        self.bridge = nn.Linear(2 * hidden, hidden)
+        self.tgt_embed = nn.Embedding(n_target, embed, padding_idx=0)
+        self.decoder = nn.GRU(embed, hidden, batch_first=True)
+        self.attend = nn.Linear(hidden, 2 * hidden, bias=False)
+        self.out = nn.Sequential(nn.Linear(3 * hidden, hidden), nn.Tanh(), nn.Linear(hidden, n_target))
 
-        def __init__(self, n_source: int, n_target: int, embed: int, hidden: int) -> None:
-            super().__init__()
-            self.src_embed = nn.Embedding(n_source, embed, padding_idx=0)
-            self.encoder = nn.GRU(embed, hidden, batch_first=True, bidirectional=True)
-            self.bridge = nn.Linear(2 * hidden, hidden)
-            self.tgt_embed = nn.Embedding(n_target, embed, padding_idx=0)
-            self.decoder = nn.GRU(embed, hidden, batch_first=True)
-            self.attend = nn.Linear(hidden, 2 * hidden, bias=False)
-            self.out = nn.Sequential(nn.Linear(3 * hidden, hidden), nn.Tanh(), nn.Linear(hidden, n_target))
+    def encode(self, src: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        enc, _ = self.encoder(self.src_embed(src))
+        mask = src != 0
+        pooled = (enc * mask.unsqueeze(-1)).sum(1) / mask.sum(1, keepdim=True).clamp(min=1)
+        return enc, mask, torch.tanh(self.bridge(pooled)).unsqueeze(0)
 
-        def encode(self, src: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-            enc, _ = self.encoder(self.src_embed(src))
-            mask = src != 0
-            pooled = (enc * mask.unsqueeze(-1)).sum(1) / mask.sum(1, keepdim=True).clamp(min=1)
-            return enc, mask, torch.tanh(self.bridge(pooled)).unsqueeze(0)
+    def step(self, tgt: torch.Tensor, enc: torch.Tensor, mask: torch.Tensor, h: torch.Tensor
+             ) -> tuple[torch.Tensor, torch.Tensor]:
+        dec, h = self.decoder(self.tgt_embed(tgt), h)
+        scores = torch.bmm(self.attend(dec), enc.transpose(1, 2))
+        scores = scores.masked_fill(~mask.unsqueeze(1), -1e9)
+        context = torch.bmm(torch.softmax(scores, dim=-1), enc)
+        return self.out(torch.cat([dec, context], dim=-1)), h
 
-        def step(self, tgt: torch.Tensor, enc: torch.Tensor, mask: torch.Tensor, h: torch.Tensor
-                 ) -> tuple[torch.Tensor, torch.Tensor]:
-            dec, h = self.decoder(self.tgt_embed(tgt), h)
-            scores = torch.bmm(self.attend(dec), enc.transpose(1, 2))
-            scores = scores.masked_fill(~mask.unsqueeze(1), -1e9)
-            context = torch.bmm(torch.softmax(scores, dim=-1), enc)
-            return self.out(torch.cat([dec, context], dim=-1)), h
+    def forward(self, src: torch.Tensor, tgt_in: torch.Tensor) -> torch.Tensor:
+        enc, mask, h = self.encode(src)
+        logits, _ = self.step(tgt_in, enc, mask, h)
+        return logits
 
-        def forward(self, src: torch.Tensor, tgt_in: torch.Tensor) -> torch.Tensor:
-            enc, mask, h = self.encode(src)
-            logits, _ = self.step(tgt_in, enc, mask, h)
-            return logits
-
-        @torch.no_grad()
-        def greedy(self, src: torch.Tensor, max_len: int) -> torch.Tensor:
-            enc, mask, h = self.encode(src)
-            tok = torch.full((src.shape[0], 1), SPECIAL_TOKENS["<START>"], dtype=torch.long, device=src.device)
-            out = []
-            for _ in range(max_len):
-                logits, h = self.step(tok, enc, mask, h)
-                tok = logits.argmax(-1)
-                out.append(tok)
-            return torch.cat(out, dim=1)
-
-    return Seq2Seq
+    @torch.no_grad()
+    def greedy(self, src: torch.Tensor, max_len: int) -> torch.Tensor:
+        enc, mask, h = self.encode(src)
+        tok = torch.full((src.shape[0], 1), SPECIAL_TOKENS["<START>"], dtype=torch.long, device=src.device)
+        out = []
+        for _ in range(max_len):
+            logits, h = self.step(tok, enc, mask, h)
+            tok = logits.argmax(-1)
+            out.append(tok)
+        return torch.cat(out, dim=1)
 
 
 def _pad(seqs: Sequence[Sequence[int]]) -> np.ndarray:
@@ -141,14 +135,12 @@ class InstructionParser:
     """
 
     def __init__(self, config: Mapping[str, Any], state: Mapping[str, Any] | None = None, device: Any = None) -> None:
-        import torch
-
         self.config = dict(config)
         self.target_vocab: list[str] = list(config["target_vocab"])
         self.target_index = {t: i for i, t in enumerate(self.target_vocab)}
         self.device = device or torch.device("cpu")
         arch = config["model"]
-        self.model = _model_class()(len(instruction_vocabulary()), len(self.target_vocab), arch["embed"],
+        self.model = Seq2Seq(len(instruction_vocabulary()), len(self.target_vocab), arch["embed"],
                                     arch["hidden"]).to(self.device)
         if state is not None:
             self.model.load_state_dict(state)
@@ -161,8 +153,6 @@ class InstructionParser:
         return cls(config, state, device)
 
     def parse(self, texts: Sequence[str], batch: int = 256) -> list[ParsedProgram]:
-        import torch
-
         out: list[ParsedProgram] = []
         end = self.target_index["<END>"]
         for k in range(0, len(texts), batch):
@@ -179,7 +169,6 @@ class InstructionParser:
 
 
 def _task_equal(program: Any, scene: Mapping[str, Any], task: Mapping[str, Any]) -> bool:
-
     try:
         got = execute(list(program), parse_scene(scene)).to_program_dict()
     except (ProgramError, ValueError, KeyError, IndexError):
@@ -222,8 +211,6 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     program selects the same task on the scene), the same on held-out paraphrases (``l3_*``), and
     the training figures.
     """
-    import torch
-
 
     reader = open_dataset(dataset)
     data = instruction_examples(reader)

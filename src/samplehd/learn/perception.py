@@ -27,7 +27,7 @@ from scipy import ndimage
 from samplehd.catalogue import load_catalogue
 from samplehd.envs.levels import HELD_OUT_CLASSES, held_out_object
 from samplehd.learn.data import open_dataset, scene_examples
-from samplehd.learn.training import TrainRun, descend, load_model_files, pick_device, set_seed, step_rng
+from samplehd.learn.training import F, TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
 from samplehd.world.layout import DIRECTIONS, LAYOUT, table_parts_of
 from samplehd.world.relations import compute_relationships
 
@@ -152,65 +152,66 @@ def _geometry(depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any], ta
     return pos, size
 
 
-def _model_classes() -> tuple[Any, Any]:
-    import torch
-    from torch import nn
+def _block(cin: int, cout: int) -> nn.Module:
+    return nn.Sequential(nn.Conv2d(cin, cout, 3, padding=1), nn.BatchNorm2d(cout), nn.ReLU(inplace=True),
+                         nn.Conv2d(cout, cout, 3, padding=1), nn.BatchNorm2d(cout), nn.ReLU(inplace=True))
 
-    def block(cin: int, cout: int) -> nn.Module:
-        return nn.Sequential(nn.Conv2d(cin, cout, 3, padding=1), nn.BatchNorm2d(cout), nn.ReLU(inplace=True),
-                             nn.Conv2d(cout, cout, 3, padding=1), nn.BatchNorm2d(cout), nn.ReLU(inplace=True))
 
-    class UNet(nn.Module):
-        def __init__(self, width: int) -> None:
-            super().__init__()
-            w = width
-            self.e1, self.e2, self.e3 = block(4, w), block(w, 2 * w), block(2 * w, 4 * w)
-            self.mid = block(4 * w, 4 * w)
-            self.d3, self.d2, self.d1 = block(8 * w, 2 * w), block(4 * w, w), block(2 * w, w)
-            self.head = nn.Conv2d(w, len(SEG_CLASSES), 1)
-            self.pool = nn.MaxPool2d(2)
+class UNet(nn.Module):
+    """Per-pixel labels (:data:`SEG_CLASSES`) from the 4-channel RGB-D input."""
 
-        def forward(self, x: torch.Tensor) -> torch.Tensor:
-            import torch.nn.functional as F
+    def __init__(self, width: int) -> None:
+        super().__init__()
+        w = width
+        self.e1, self.e2, self.e3 = _block(4, w), _block(w, 2 * w), _block(2 * w, 4 * w)
+        self.mid = _block(4 * w, 4 * w)
+        self.d3, self.d2, self.d1 = _block(8 * w, 2 * w), _block(4 * w, w), _block(2 * w, w)
+        self.head = nn.Conv2d(w, len(SEG_CLASSES), 1)
+        self.pool = nn.MaxPool2d(2)
 
-            e1 = self.e1(x)
-            e2 = self.e2(self.pool(e1))
-            e3 = self.e3(self.pool(e2))
-            m = self.mid(self.pool(e3))
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        e1 = self.e1(x)
+        e2 = self.e2(self.pool(e1))
+        e3 = self.e3(self.pool(e2))
+        m = self.mid(self.pool(e3))
 
-            def up(t: torch.Tensor, ref: torch.Tensor) -> torch.Tensor:
-                return F.interpolate(t, size=ref.shape[-2:], mode="nearest")
+        def up(t: torch.Tensor, ref: torch.Tensor) -> torch.Tensor:
+            return F.interpolate(t, size=ref.shape[-2:], mode="nearest")
 
-            d3 = self.d3(torch.cat([up(m, e3), e3], 1))
-            d2 = self.d2(torch.cat([up(d3, e2), e2], 1))
-            d1 = self.d1(torch.cat([up(d2, e1), e1], 1))
-            return self.head(d1)
+        d3 = self.d3(torch.cat([up(m, e3), e3], 1))
+        d2 = self.d2(torch.cat([up(d3, e2), e2], 1))
+        d1 = self.d1(torch.cat([up(d2, e1), e1], 1))
+        return self.head(d1)
 
-    class AttributeNet(nn.Module):
-        def __init__(self, width: int, sizes: Sequence[int]) -> None:
-            super().__init__()
-            w = width
-            self.features = nn.Sequential(
-                nn.Conv2d(5, w, 3, padding=1), nn.BatchNorm2d(w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
-                nn.Conv2d(w, 2 * w, 3, padding=1), nn.BatchNorm2d(2 * w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
-                nn.Conv2d(2 * w, 4 * w, 3, padding=1), nn.BatchNorm2d(4 * w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
-                nn.Conv2d(4 * w, 4 * w, 3, padding=1), nn.BatchNorm2d(4 * w), nn.ReLU(inplace=True),
-                nn.AdaptiveAvgPool2d(1), nn.Flatten())
-            self.geometry = nn.Sequential(nn.Linear(3, 32), nn.ReLU(inplace=True))
-            self.trunk = nn.Sequential(nn.Linear(4 * w + 32, 128), nn.ReLU(inplace=True))
-            self.heads = nn.ModuleList([nn.Linear(128, n) for n in sizes])
 
-        def forward(self, crops: torch.Tensor, geometry: torch.Tensor) -> list[torch.Tensor]:
-            h = self.trunk(torch.cat([self.features(crops), self.geometry(geometry * 10.0)], 1))
-            return [head(h) for head in self.heads]
+class AttributeNet(nn.Module):
+    """Class, colour, material and size logits from an instance crop and its metric size."""
 
-    class PerceptionNet(nn.Module):
-        def __init__(self, seg_width: int, attr_width: int, sizes: Sequence[int]) -> None:
-            super().__init__()
-            self.segmenter = UNet(seg_width)
-            self.attributes = AttributeNet(attr_width, sizes)
+    def __init__(self, width: int, sizes: Sequence[int]) -> None:
+        super().__init__()
+        w = width
+        self.features = nn.Sequential(
+            nn.Conv2d(5, w, 3, padding=1), nn.BatchNorm2d(w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
+            nn.Conv2d(w, 2 * w, 3, padding=1), nn.BatchNorm2d(2 * w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
+            nn.Conv2d(2 * w, 4 * w, 3, padding=1), nn.BatchNorm2d(4 * w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
+            nn.Conv2d(4 * w, 4 * w, 3, padding=1), nn.BatchNorm2d(4 * w), nn.ReLU(inplace=True),
+            nn.AdaptiveAvgPool2d(1), nn.Flatten())
+        self.geometry = nn.Sequential(nn.Linear(3, 32), nn.ReLU(inplace=True))
+        self.trunk = nn.Sequential(nn.Linear(4 * w + 32, 128), nn.ReLU(inplace=True))
+        self.heads = nn.ModuleList([nn.Linear(128, n) for n in sizes])
 
-    return PerceptionNet, None
+    def forward(self, crops: torch.Tensor, geometry: torch.Tensor) -> list[torch.Tensor]:
+        h = self.trunk(torch.cat([self.features(crops), self.geometry(geometry * 10.0)], 1))
+        return [head(h) for head in self.heads]
+
+
+class PerceptionNet(nn.Module):
+    """The two networks in one state dict."""
+
+    def __init__(self, seg_width: int, attr_width: int, sizes: Sequence[int]) -> None:
+        super().__init__()
+        self.segmenter = UNet(seg_width)
+        self.attributes = AttributeNet(attr_width, sizes)
 
 
 class Perception:
@@ -223,14 +224,11 @@ class Perception:
     """
 
     def __init__(self, config: Mapping[str, Any], state: Mapping[str, Any] | None = None, device: Any = None) -> None:
-        import torch
-
         self.config = dict(config)
         self.vocab: dict[str, list[str]] = {k: list(v) for k, v in config["attributes"].items()}
         self.device = device or torch.device("cpu")
         arch = config["model"]
-        net_cls, _ = _model_classes()
-        self.net = net_cls(arch["seg_width"], arch["attr_width"],
+        self.net = PerceptionNet(arch["seg_width"], arch["attr_width"],
                            [len(self.vocab[a]) for a in ATTRIBUTES]).to(self.device)
         if state is not None:
             self.net.load_state_dict(state)
@@ -246,7 +244,6 @@ class Perception:
 
     def segment(self, rgb: np.ndarray, depth: np.ndarray) -> list[np.ndarray]:
         """Instance masks at the image's full resolution."""
-        import torch
 
         f = self.factor
         x = _net_input(_downsample(rgb, f, False), _downsample(depth, f, False))
@@ -262,7 +259,6 @@ class Perception:
     def classify(self, rgb: np.ndarray, depth: np.ndarray, masks: Sequence[np.ndarray],
                  camera: Mapping[str, Any]) -> list[dict[str, Any]]:
         """Attributes and geometry of each mask."""
-        import torch
 
         if not masks:
             return []
@@ -311,7 +307,6 @@ def annotation_from_instances(found: Sequence[Mapping[str, Any]], masks: Sequenc
 
 
 def _load_scene_images(item: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-
     rgb = np.asarray(Image.open(item["rgb"]).convert("RGB"))
     depth = np.load(item["depth"], allow_pickle=False).astype(np.float32)
     seg = np.asarray(Image.open(item["segmentation"])).astype(np.int64)
@@ -432,9 +427,6 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
     detected objects of seen classes and combinations), ``test_attribute_all_four``,
     ``test_position_error_cm`` (median, ground plane) and held-out (L2, L4) figures.
     """
-    import torch
-    import torch.nn.functional as F
-
 
     reader = open_dataset(dataset)
     data = scene_examples(reader)

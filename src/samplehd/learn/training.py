@@ -28,13 +28,22 @@ import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, require_extra
+
+# The `learn` extra: without PyTorch, importing any model module is one line naming the extra.
+FEATURE = "samplehd.learn (samplehd train, evaluate --policy neurosymbolic|bc)"
+torch = require_extra("torch", "learn", FEATURE)
+nn = require_extra("torch.nn", "learn", FEATURE)
+F = require_extra("torch.nn.functional", "learn", FEATURE)
 
 __all__ = [
+    "F",
     "TrainRun",
     "load_model_files",
+    "nn",
     "pick_device",
     "step_rng",
+    "torch",
     "write_json",
 ]
 
@@ -46,8 +55,6 @@ METRICS_FILE = "metrics.json"
 
 def pick_device(requested: str | None = None) -> Any:
     """The torch device: ``requested`` if given, else CUDA when present, else the CPU."""
-    import torch
-
     if requested:
         if requested.startswith("cuda") and not torch.cuda.is_available():
             raise ConfigError(f"--device {requested!r}: no CUDA device here; valid: cpu" )
@@ -68,8 +75,6 @@ def write_json(path: Path, data: Any) -> None:
 
 
 def _save_torch(path: Path, obj: Any) -> None:
-    import torch
-
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
     torch.save(obj, tmp)
     tmp.replace(path)
@@ -85,8 +90,6 @@ def load_model_files(folder: str | Path, kind: str) -> tuple[dict[str, Any], dic
     Returns:
         (config, state dict) — the state dict loaded with ``weights_only=True`` onto the CPU.
     """
-    import torch
-
     folder = Path(folder)
     cfg_path = folder / CONFIG_FILE
     try:
@@ -155,7 +158,6 @@ class TrainRun:
 
     def resume(self, model: Any, optimizer: Any) -> int:
         """Load the checkpoint if there is one; return the step to continue from."""
-        import torch
 
         ckpt = self.out / CHECKPOINT_FILE
         if not ckpt.exists():
@@ -236,8 +238,6 @@ def descend(optimizer: Any, loss: Any, clip: Any = None, max_norm: float = 5.0) 
     Returns:
         The loss as a float.
     """
-    import torch
-
     optimizer.zero_grad()
     loss.backward()
     if clip is not None:
@@ -252,8 +252,6 @@ def set_seed(seed: int) -> None:
     Also runs torch's CPU kernels on one thread (``SAMPLEHD_TORCH_THREADS`` overrides): these models
     are small, and on a loaded 2-core machine two spinning threads made a step 5–20× slower than one.
     """
-    import torch
-
     torch.set_num_threads(max(1, int(os.environ.get("SAMPLEHD_TORCH_THREADS", "1"))))
     torch.manual_seed(int(seed))
     torch.use_deterministic_algorithms(True, warn_only=True)

@@ -1,0 +1,38 @@
+"""What a trained behaviour-cloning policy asks of the environment, read from its ``config.json``.
+
+Needs no PyTorch: ``samplehd evaluate`` sets the environment up from it before any model is loaded,
+and works for the other policies where the ``learn`` extra is not installed.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from samplehd.errors import ConfigError
+
+__all__ = ["POLICY_CAMERAS", "env_options", "env_options_from_config"]
+
+POLICY_CAMERAS = ("scene", "wrist")  # the cameras the policy looks through, in the network's order
+
+
+def env_options_from_config(config: Mapping[str, Any]) -> dict[str, Any]:
+    """The environment options of a policy config: RGB of both cameras at its image size, steering control."""
+    return {"obs_mode": "rgb", "cameras": list(POLICY_CAMERAS), "width": config["image"], "height": config["image"],
+            "control_mode": "steering"}
+
+
+def env_options(folder: str | Path) -> dict[str, Any]:
+    """The environment options the trained policy in ``folder`` needs; one-line errors."""
+    try:
+        cfg = json.loads((Path(folder) / "config.json").read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ConfigError(f"--models {folder}: no readable config.json of a trained policy ({exc})") from None
+    if not isinstance(cfg, dict) or cfg.get("kind") != "policy":
+        kind = cfg.get("kind") if isinstance(cfg, dict) else None
+        raise ConfigError(f"--models {folder}: config.json is a {kind!r} model, expected a policy")
+    if not isinstance(cfg.get("image"), int) or cfg["image"] < 1:
+        raise ConfigError(f"--models {folder}: config.json image={cfg.get('image')!r}, expected a positive integer")
+    return env_options_from_config(cfg)
