@@ -37,6 +37,12 @@ __all__ = ["NeuroSymbolicPolicy", "policy_for_evaluation"]
 _CHOICES = ("gt", "predicted")
 
 
+def _describe(obj: dict[str, Any]) -> str:
+    """One object of a scene annotation in a few words, for the reports: ``small red metal mug @ (x, y)``."""
+    x, y = obj["3d_coords"][:2]
+    return f"{obj['size']} {obj['colour']} {obj['material']} {obj['name']} @ ({x:.3f}, {y:.3f})"
+
+
 def _same(a: dict[str, Any] | None, b: dict[str, Any]) -> bool:
     return a is not None and all(a.get(k) == b.get(k) for k in ("type", "objects", "subject", "relation"))
 
@@ -123,6 +129,8 @@ class NeuroSymbolicPolicy(OraclePolicy):
                 d = np.linalg.norm(bodies - np.asarray(o["3d_coords"][:2]), axis=1)
                 mapping.append(int(np.argmin(d)) if d.min() <= self.match_radius else -1)
             diag["perceived_objects"] = len(perceived["objects"])
+            diag["perceived"] = [_describe(o) for o in perceived["objects"]]
+            diag["true"] = [_describe(o) for o in ep.annotation["objects"]]
         else:
             scene = gt_scene
 

@@ -16,27 +16,48 @@ object's ``3d_coords``. Table parts and relationships follow from positions as i
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+import json
+import os
+from collections.abc import Callable, Mapping, Sequence
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from PIL import Image
+from rich.console import Console
 from scipy import ndimage
 
 from samplehd.catalogue import load_catalogue
 from samplehd.envs.levels import HELD_OUT_CLASSES, held_out_object
+from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset, scene_examples
-from samplehd.learn.training import F, TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
+from samplehd.learn.training import (
+    F,
+    TrainRun,
+    descend,
+    load_model_files,
+    nn,
+    pick_device,
+    set_seed,
+    step_rng,
+    timed,
+    torch,
+)
 from samplehd.world.layout import DIRECTIONS, LAYOUT, table_parts_of
 from samplehd.world.relations import compute_relationships
 
 __all__ = ["Perception", "backproject", "evaluate_perception", "train_perception"]
 
+FORMAT = 3  # bump when the inputs or networks change (older models: train again)
 SEG_CLASSES = ("background", "robot", "object", "contact")
+SEG_CHANNELS = 5  # RGB, depth, height above the table
 CROP = 48
-CROP_PAD = 56
+CROP_CHANNELS = 6  # RGB, mask, relative depth, height above the table
+CROP_VIEWS = 4  # training views of every object: the mask's own crop, then jittered crops of altered masks
 MIN_PIXELS = 6
+N_FEATURES = 18  # measured size and appearance features of an instance (see _geometry)
+PREPARED_FILE = "prepared.npz"
 DEPTH_CENTRE, DEPTH_SCALE = 1.5, 0.5
 ATTRIBUTES = ("name", "colour", "material", "size")
 
@@ -99,10 +120,19 @@ def _downsample(img: np.ndarray, factor: int, nearest: bool) -> np.ndarray:
     return x.reshape(h // factor, factor, w // factor, factor, *img.shape[2:]).mean(axis=(1, 3))
 
 
-def _net_input(rgb: np.ndarray, depth: np.ndarray) -> np.ndarray:
-    """(4, H, W) float32: RGB in [0, 1] and normalised depth."""
+def height_map(depth: np.ndarray, camera: Mapping[str, Any], table_height: float) -> np.ndarray:
+    """Height [m] above the table top of every pixel of a depth image (the image may be a scaled copy)."""
+    rows, cols = np.indices(depth.shape)
+    z = backproject(depth, rows.ravel(), cols.ravel(), camera)[:, 2]
+    return (z - table_height).reshape(depth.shape).astype(np.float32)
+
+
+def _net_input(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray) -> np.ndarray:
+    """(5, H, W) float32: RGB in [0, 1], normalised depth, height above the table [dm]."""
     d = (np.clip(depth, 0.0, 4.0) - DEPTH_CENTRE) / DEPTH_SCALE
-    return np.concatenate([np.moveaxis(rgb.astype(np.float32) / 255.0, -1, 0), d[None].astype(np.float32)])
+    h = np.clip(height, -0.2, 0.5) * 10.0
+    return np.concatenate([np.moveaxis(rgb.astype(np.float32) / 255.0, -1, 0), d[None].astype(np.float32),
+                           h[None].astype(np.float32)])
 
 
 def instance_masks(labels: np.ndarray) -> list[np.ndarray]:
@@ -119,9 +149,11 @@ def instance_masks(labels: np.ndarray) -> list[np.ndarray]:
     return [m for m in masks if m.sum() >= MIN_PIXELS]
 
 
-def _crop(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, size: int, jitter: np.ndarray | None = None
-          ) -> np.ndarray:
-    """(5, size, size) crop around a mask: RGB, mask, depth relative to the instance's median."""
+def _crop(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray, mask: np.ndarray, size: int,
+          jitter: np.ndarray | None = None) -> np.ndarray:
+    """(6, size, size) crop around a mask at the image's full resolution: RGB, mask, depth relative to
+    the instance's median [dm], height above the table [dm]. ``jitter`` (row, column, scale), as
+    fractions of the crop's side, moves and scales the window (training augmentation)."""
     rows, cols = np.nonzero(mask)
     r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
     side = max(r1 - r0, c1 - c0) * 1.3 + 4
@@ -133,23 +165,48 @@ def _crop(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, size: int, jitte
     cc_ = np.clip(np.round(cc + t * side - 0.5).astype(int), 0, mask.shape[1] - 1)
     grid = np.ix_(rr, cc_)
     med = float(np.median(depth[mask]))
-    out = np.empty((5, size, size), np.float32)
+    out = np.empty((CROP_CHANNELS, size, size), np.float32)
     out[:3] = np.moveaxis(rgb[grid].astype(np.float32) / 255.0, -1, 0)
     out[3] = mask[grid]
     out[4] = np.clip((depth[grid] - med) / 0.1, -3, 3)
+    out[5] = np.clip(height[grid], -0.1, 0.5) * 10.0
     return out
 
 
-def _geometry(depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any], table_height: float
-              ) -> tuple[np.ndarray, np.ndarray]:
-    """(position [x, y, z] of the object's base, metric size features [width, depth, height]) of a mask."""
+def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any],
+              table_height: float) -> tuple[np.ndarray, np.ndarray]:
+    """(position [x, y, z] of the object's base, the :data:`N_FEATURES` measured features) of a mask.
+
+    Size: the extents of the visible points along their principal horizontal axes (long, short) and
+    the height of the top above the table (none depends on the object's rotation about the vertical),
+    their logarithms, and the metric side of the crop window. Appearance, at the image's full
+    resolution (the crop may shrink a highlight away): percentiles of the brightness and the spread of
+    the saturation over the mask, which tell shiny materials from matte ones.
+    """
     rows, cols = np.nonzero(mask)
     pts = backproject(depth, rows, cols, camera)
     lo, hi = np.percentile(pts, 3, axis=0), np.percentile(pts, 97, axis=0)
     centre = (lo + hi) / 2
     pos = np.array([centre[0], centre[1], table_height])
-    size = np.array([hi[0] - lo[0], hi[1] - lo[1], max(hi[2] - table_height, 0.0)])
-    return pos, size
+    xy = pts[:, :2] - pts[:, :2].mean(axis=0)
+    if len(xy) >= 3:
+        _, vecs = np.linalg.eigh(np.cov(xy.T) + 1e-12 * np.eye(2))
+        proj = xy @ vecs[:, ::-1]
+        ext = np.percentile(proj, 99.5, axis=0) - np.percentile(proj, 0.5, axis=0)
+    else:
+        ext = np.zeros(2)
+    top = max(float(np.percentile(pts[:, 2], 99.5)) - table_height, 0.0)
+    focal = float(np.asarray(camera["intrinsics"], dtype=float)[0, 0]) * depth.shape[1] / float(camera["width"])
+    side_px = max(rows.max() - rows.min() + 1, cols.max() - cols.min() + 1) * 1.3 + 4
+    side_m = side_px * float(np.median(depth[rows, cols])) / focal
+    px = rgb[rows, cols].astype(np.float32) / 255.0
+    v, lo_c = px.max(axis=1), px.min(axis=1)
+    sat = (v - lo_c) / np.maximum(v, 1e-3)
+    vp = np.percentile(v, (10, 50, 90, 98, 100))
+    size = [ext[0] * 10, ext[1] * 10, top * 10, np.log(ext[0] + 0.005), np.log(ext[1] + 0.005), np.log(top + 0.005),
+            side_m * 10]
+    look = [*vp, vp[3] - vp[1], float(np.mean(v > vp[1] + 0.25)), float(np.std(v)), *np.percentile(sat, (10, 50, 90))]
+    return pos, np.asarray(size + look, dtype=np.float32)
 
 
 def _block(cin: int, cout: int) -> nn.Module:
@@ -163,7 +220,7 @@ class UNet(nn.Module):
     def __init__(self, width: int) -> None:
         super().__init__()
         w = width
-        self.e1, self.e2, self.e3 = _block(4, w), _block(w, 2 * w), _block(2 * w, 4 * w)
+        self.e1, self.e2, self.e3 = _block(SEG_CHANNELS, w), _block(w, 2 * w), _block(2 * w, 4 * w)
         self.mid = _block(4 * w, 4 * w)
         self.d3, self.d2, self.d1 = _block(8 * w, 2 * w), _block(4 * w, w), _block(2 * w, w)
         self.head = nn.Conv2d(w, len(SEG_CLASSES), 1)
@@ -191,17 +248,18 @@ class AttributeNet(nn.Module):
         super().__init__()
         w = width
         self.features = nn.Sequential(
-            nn.Conv2d(5, w, 3, padding=1), nn.BatchNorm2d(w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
+            nn.Conv2d(CROP_CHANNELS, w, 3, padding=1), nn.BatchNorm2d(w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
             nn.Conv2d(w, 2 * w, 3, padding=1), nn.BatchNorm2d(2 * w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
             nn.Conv2d(2 * w, 4 * w, 3, padding=1), nn.BatchNorm2d(4 * w), nn.ReLU(inplace=True), nn.MaxPool2d(2),
             nn.Conv2d(4 * w, 4 * w, 3, padding=1), nn.BatchNorm2d(4 * w), nn.ReLU(inplace=True),
             nn.AdaptiveAvgPool2d(1), nn.Flatten())
-        self.geometry = nn.Sequential(nn.Linear(3, 32), nn.ReLU(inplace=True))
-        self.trunk = nn.Sequential(nn.Linear(4 * w + 32, 128), nn.ReLU(inplace=True))
+        self.geometry = nn.Sequential(nn.Linear(N_FEATURES, 64), nn.ReLU(inplace=True), nn.Linear(64, 64),
+                                      nn.ReLU(inplace=True))
+        self.trunk = nn.Sequential(nn.Linear(4 * w + 64, 128), nn.ReLU(inplace=True))
         self.heads = nn.ModuleList([nn.Linear(128, n) for n in sizes])
 
-    def forward(self, crops: torch.Tensor, geometry: torch.Tensor) -> list[torch.Tensor]:
-        h = self.trunk(torch.cat([self.features(crops), self.geometry(geometry * 10.0)], 1))
+    def forward(self, crops: torch.Tensor, features: torch.Tensor) -> list[torch.Tensor]:
+        h = self.trunk(torch.cat([self.features(crops), self.geometry(features)], 1))
         return [head(h) for head in self.heads]
 
 
@@ -224,12 +282,15 @@ class Perception:
     """
 
     def __init__(self, config: Mapping[str, Any], state: Mapping[str, Any] | None = None, device: Any = None) -> None:
+        if config.get("format") != FORMAT:
+            raise ConfigError(f"perception model format {config.get('format')!r}: this samplehd reads format "
+                              f"{FORMAT} (train it again with `samplehd train perception`)")
         self.config = dict(config)
         self.vocab: dict[str, list[str]] = {k: list(v) for k, v in config["attributes"].items()}
         self.device = device or torch.device("cpu")
         arch = config["model"]
         self.net = PerceptionNet(arch["seg_width"], arch["attr_width"],
-                           [len(self.vocab[a]) for a in ATTRIBUTES]).to(self.device)
+                                 [len(self.vocab[a]) for a in ATTRIBUTES]).to(self.device)
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
@@ -240,13 +301,18 @@ class Perception:
     def load(cls, folder: str | Path, device: Any = None) -> Perception:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train perception``."""
         config, state = load_model_files(folder, "perception")
-        return cls(config, state, device)
+        try:
+            return cls(config, state, device)
+        except ConfigError as exc:
+            raise ConfigError(f"{Path(folder) / 'config.json'}: {exc}") from None
 
-    def segment(self, rgb: np.ndarray, depth: np.ndarray) -> list[np.ndarray]:
-        """Instance masks at the image's full resolution."""
-
+    def segment(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
+                height: np.ndarray | None = None) -> list[np.ndarray]:
+        """Instance masks at the image's full resolution (``height``: :func:`height_map`, if at hand)."""
         f = self.factor
-        x = _net_input(_downsample(rgb, f, False), _downsample(depth, f, False))
+        if height is None:
+            height = height_map(depth, camera, self.table_height)
+        x = _net_input(_downsample(rgb, f, False), _downsample(depth, f, False), _downsample(height, f, False))
         with torch.no_grad():
             logits = self.net.segmenter(torch.as_tensor(x[None], device=self.device))
         labels = logits.argmax(1)[0].cpu().numpy()
@@ -257,29 +323,33 @@ class Perception:
         return masks
 
     def classify(self, rgb: np.ndarray, depth: np.ndarray, masks: Sequence[np.ndarray],
-                 camera: Mapping[str, Any]) -> list[dict[str, Any]]:
-        """Attributes and geometry of each mask."""
-
+                 camera: Mapping[str, Any], height: np.ndarray | None = None) -> list[dict[str, Any]]:
+        """Attributes and geometry of each mask (logits averaged over the crop and its mirror image)."""
         if not masks:
             return []
-        crops = np.stack([_crop(rgb, depth, m, CROP) for m in masks])
-        geo = [_geometry(depth, m, camera, self.table_height) for m in masks]
-        sizes = np.stack([g[1] for g in geo]).astype(np.float32)
+        if height is None:
+            height = height_map(depth, camera, self.table_height)
+        crops = np.stack([_crop(rgb, depth, height, m, CROP) for m in masks])
+        geo = [_geometry(rgb, depth, m, camera, self.table_height) for m in masks]
+        sizes = torch.as_tensor(np.stack([g[1] for g in geo]).astype(np.float32), device=self.device)
         with torch.no_grad():
-            outs = self.net.attributes(torch.as_tensor(crops, device=self.device),
-                                       torch.as_tensor(sizes, device=self.device))
-        idx = [o.argmax(1).cpu().numpy() for o in outs]
+            x = torch.as_tensor(crops, device=self.device)
+            outs = self.net.attributes(x, sizes)
+            mirrored = self.net.attributes(torch.flip(x, dims=(3,)), sizes)
+            probs = [torch.softmax(o, 1) + torch.softmax(m, 1) for o, m in zip(outs, mirrored, strict=True)]
+        idx = [p.argmax(1).cpu().numpy() for p in probs]
         result = []
         for k, (pos, size) in enumerate(geo):
             attrs = {a: self.vocab[a][int(idx[j][k])] for j, a in enumerate(ATTRIBUTES)}
-            result.append({**attrs, "position": pos, "metric_size": size})
+            result.append({**attrs, "position": pos, "metric_size": size[:3] / 10.0})
         return result
 
     def perceive(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
                  directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """A scene annotation (``objects``, ``relationships``, ``directions``) from one RGB-D image."""
-        masks = self.segment(rgb, depth)
-        found = self.classify(rgb, depth, masks, camera)
+        height = height_map(depth, camera, self.table_height)
+        masks = self.segment(rgb, depth, camera, height)
+        found = self.classify(rgb, depth, masks, camera, height)
         return annotation_from_instances(found, masks, self.config.get("extents", {}), directions)
 
 
@@ -340,8 +410,9 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
     for item in scenes:
         ann = item["annotation"]
         rgb, depth, seg = _load_scene_images(item)
-        masks = model.segment(rgb, depth)
-        found = model.classify(rgb, depth, masks, ann["camera"])
+        height = height_map(depth, ann["camera"], model.table_height)
+        masks = model.segment(rgb, depth, ann["camera"], height)
+        found = model.classify(rgb, depth, masks, ann["camera"], height)
         objs = ann["objects"]
         gt_masks = [seg == o["segmentation_id"] for o in objs]
         matches = _match(masks, gt_masks)
@@ -360,7 +431,7 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
         ious += list(best.values())
         # Attributes on ground-truth masks too: the classifier alone, without segmentation errors.
         visible = [j for j, g in enumerate(gt_masks) if g.sum() >= MIN_PIXELS]
-        got = model.classify(rgb, depth, [gt_masks[j] for j in visible], ann["camera"])
+        got = model.classify(rgb, depth, [gt_masks[j] for j in visible], ann["camera"], height)
         for j, f in zip(visible, got, strict=True):
             o = objs[j]
             kind = "L4" if o["name"] in HELD_OUT_CLASSES else ("L2" if held_out_object(o) else "L1")
@@ -392,33 +463,92 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
     }
 
 
+def _view_mask(mask: np.ndarray, factor: int, rng: np.random.Generator) -> np.ndarray:
+    """A ground-truth mask as the segmenter would hand it over: at its resolution, blown up, its
+    border moved by up to a pixel there (worked on a window around the mask)."""
+    rows, cols = np.nonzero(mask)
+    r0, c0 = max(rows.min() // factor - 2, 0) * factor, max(cols.min() // factor - 2, 0) * factor
+    r1, c1 = min(rows.max() + 3 * factor, mask.shape[0]), min(cols.max() + 3 * factor, mask.shape[1])
+    small = _downsample(mask[r0:r1, c0:c1], factor, True)
+    grow = int(rng.integers(-1, 2))
+    if grow > 0:
+        small = ndimage.binary_dilation(small)
+    elif grow < 0 and small.sum() > 4 * MIN_PIXELS:
+        small = ndimage.binary_erosion(small)
+    if small.sum() < MIN_PIXELS:
+        return mask
+    out = np.zeros_like(mask)
+    big = np.kron(small, np.ones((factor, factor), bool))[: r1 - r0, : c1 - c0]
+    out[r0:r0 + big.shape[0], c0:c0 + big.shape[1]] = big
+    return out
+
+
 def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], factor: int,
-             table_height: float) -> dict[str, Any]:
-    """Arrays for training: downsampled net inputs + labels, and crops of every training object."""
-    xs, ys, crops, geos, labels, extents = [], [], [], [], [], {}
-    for item in items:
-        ann = item["annotation"]
-        rgb, depth, seg = _load_scene_images(item)
-        xs.append(_net_input(_downsample(rgb, factor, False), _downsample(depth, factor, False)).astype(np.float16))
-        ys.append(seg_labels(_downsample(seg, factor, True)).astype(np.int8))
-        for j in item["train_objects"]:
-            o = ann["objects"][j]
-            mask = seg == o["segmentation_id"]
-            if mask.sum() < MIN_PIXELS:
-                continue
-            mask = ndimage.binary_fill_holes(mask)
-            crops.append(_crop(rgb, depth, mask, CROP_PAD).astype(np.float16))
-            geos.append(_geometry(depth, mask, ann["camera"], table_height)[1].astype(np.float32))
-            labels.append([vocab[a].index(o["name"] if a == "name" else o[a]) for a in ATTRIBUTES])
-            extents.setdefault(f"{o['name']}/{o['size']}", []).append(o["bbox"]["extents"])
-    return {"x": np.stack(xs), "y": np.stack(ys), "crops": np.stack(crops), "geo": np.stack(geos),
-            "labels": np.asarray(labels, np.int64),
+             table_height: float, seed: int, quiet: bool = True) -> dict[str, Any]:
+    """Arrays for training: the segmenter's downsampled inputs and labels, and :data:`CROP_VIEWS`
+    crops (with their size features) of every training object."""
+    rgbs, dhs, ys, crops, geos, labels, extents = [], [], [], [], [], [], {}
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 7]))
+    console = Console(stderr=True, quiet=quiet)
+    with console.status("reading and cropping the training scenes") if not quiet else nullcontext():
+        for item in items:
+            ann = item["annotation"]
+            rgb, depth, seg = _load_scene_images(item)
+            height = height_map(depth, ann["camera"], table_height)
+            x = _net_input(_downsample(rgb, factor, False), _downsample(depth, factor, False),
+                           _downsample(height, factor, False))
+            rgbs.append(np.round(x[:3] * 255).astype(np.uint8))
+            dhs.append(x[3:].astype(np.float16))
+            ys.append(seg_labels(_downsample(seg, factor, True)).astype(np.int8))
+            for j in item["train_objects"]:
+                o = ann["objects"][j]
+                mask = seg == o["segmentation_id"]
+                if mask.sum() < MIN_PIXELS:
+                    continue
+                for view in range(CROP_VIEWS):
+                    m = mask if view == 0 else _view_mask(mask, factor, rng)
+                    jitter = None if view == 0 else rng.uniform([-0.06, -0.06, -0.12], [0.06, 0.06, 0.12])
+                    crops.append(_crop(rgb, depth, height, m, CROP, jitter).astype(np.float16))
+                    geos.append(_geometry(rgb, depth, m, ann["camera"], table_height)[1])
+                labels.append([vocab[a].index(o["name"] if a == "name" else o[a]) for a in ATTRIBUTES])
+                extents.setdefault(f"{o['name']}/{o['size']}", []).append(o["bbox"]["extents"])
+    n = len(labels)
+    return {"rgb": np.stack(rgbs), "dh": np.stack(dhs), "y": np.stack(ys),
+            "crops": np.stack(crops).reshape(n, CROP_VIEWS, CROP_CHANNELS, CROP, CROP),
+            "geo": np.stack(geos).reshape(n, CROP_VIEWS, N_FEATURES), "labels": np.asarray(labels, np.int64),
             "extents": {k: np.median(np.asarray(v), axis=0).round(4).tolist() for k, v in sorted(extents.items())}}
 
 
-def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, seed: int = 0, device: str | None = None,
+def prepared_arrays(out: Path, key: Mapping[str, Any], make: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+    """The prepared training arrays, cached in ``out/prepared.npz`` (made again when ``key`` differs).
+
+    Decoding and cropping the scenes takes longer than many training steps; a resumed run reads them
+    back instead. The cache holds plain arrays (read without pickle) and is removed when the run
+    finishes.
+    """
+    path = out / PREPARED_FILE
+    text = json.dumps(key, sort_keys=True)
+    if path.exists():
+        try:
+            with np.load(path, allow_pickle=False) as f:
+                if str(f["key"]) == text:
+                    arrays = {k: f[k] for k in f.files if k not in ("key", "extents")}
+                    arrays["extents"] = json.loads(str(f["extents"]))
+                    return arrays
+        except (OSError, ValueError, KeyError):
+            pass  # unreadable or stale: make it again
+    arrays = make()
+    out.mkdir(parents=True, exist_ok=True)
+    tmp = out / f".{PREPARED_FILE}.tmp-{os.getpid()}.npz"
+    np.savez(tmp, key=np.array(text), extents=np.array(json.dumps(arrays["extents"])),
+             **{k: v for k, v in arrays.items() if k != "extents"})
+    tmp.replace(path)
+    return arrays
+
+
+def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, seed: int = 0, device: str | None = None,
                      quiet: bool = False, stop_after: int | None = None, seg_batch: int = 4, attr_batch: int = 64,
-                     patch: int = 128, seg_every: int = 4,
+                     patch: int = 128, seg_every: int = 2,
                      lr: float = 2e-3, seg_width: int = 12, attr_width: int = 24) -> dict[str, Any]:
     """Train segmentation and attribute networks on a dataset's training scenes; test on its test scenes.
 
@@ -427,7 +557,6 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
     detected objects of seen classes and combinations), ``test_attribute_all_four``,
     ``test_position_error_cm`` (median, ground plane) and held-out (L2, L4) figures.
     """
-
     reader = open_dataset(dataset)
     data = scene_examples(reader)
     vocab = attribute_vocab()
@@ -436,10 +565,15 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
     factor = 2 if width >= 400 else 1
     dev = pick_device(device)
     set_seed(seed)
-    arrays = _prepare(data["train"], vocab, factor, LAYOUT.table_height)
+    key = {"format": FORMAT, "features": N_FEATURES, "dataset": str(Path(dataset).resolve()), "factor": factor,
+           "crop": CROP, "views": CROP_VIEWS, "seed": seed, "table_height": LAYOUT.table_height,
+           "scenes": [str(Path(item["rgb"]).name) for item in data["train"]], "vocab": vocab}
+    with timed() as prep_time:
+        arrays = prepared_arrays(Path(out), key, lambda: _prepare(data["train"], vocab, factor, LAYOUT.table_height,
+                                                                  seed, quiet))
     config = {
         "kind": "perception",
-        "format": 1,
+        "format": FORMAT,
         "dataset": str(dataset),
         "model": {"seg_width": seg_width, "attr_width": attr_width},
         "attributes": vocab,
@@ -457,21 +591,24 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
                    stop_after=stop_after)
     run.prepare()
     seg_weight = torch.tensor([1.0, 1.0, 3.0, 6.0], device=dev)
-    x_all, y_all = arrays["x"], arrays["y"]
-    hh, ww = x_all.shape[2], x_all.shape[3]
+    rgb_all, dh_all, y_all = arrays["rgb"], arrays["dh"], arrays["y"]
+    hh, ww = y_all.shape[1], y_all.shape[2]
     ph, pw = min(patch, hh), min(patch, ww)
+    n_obj = len(arrays["labels"])
 
     def _seg_loss(rng: np.random.Generator) -> Any:
         """Cross-entropy of the segmenter on random patches (flipped left-right half of the time)."""
-        idx = rng.integers(len(x_all), size=seg_batch)
+        idx = rng.integers(len(y_all), size=seg_batch)
         r0 = rng.integers(hh - ph + 1, size=seg_batch)
         c0 = rng.integers(ww - pw + 1, size=seg_batch)
-        xb = np.stack([x_all[i, :, r:r + ph, c:c + pw] for i, r, c in zip(idx, r0, c0, strict=True)])
-        yb = np.stack([y_all[i, r:r + ph, c:c + pw] for i, r, c in zip(idx, r0, c0, strict=True)])
+        win = list(zip(idx, r0, c0, strict=True))
+        xb = np.concatenate([np.stack([rgb_all[i, :, r:r + ph, c:c + pw] for i, r, c in win]).astype(np.float32) / 255,
+                             np.stack([dh_all[i, :, r:r + ph, c:c + pw] for i, r, c in win]).astype(np.float32)], 1)
+        yb = np.stack([y_all[i, r:r + ph, c:c + pw] for i, r, c in win])
         flip = rng.random(seg_batch) < 0.5
         xb[flip] = xb[flip][..., ::-1]
         yb[flip] = yb[flip][..., ::-1]
-        xt = torch.as_tensor(xb.astype(np.float32), device=dev)
+        xt = torch.as_tensor(np.ascontiguousarray(xb), device=dev)
         yt = torch.as_tensor(yb.astype(np.int64), device=dev)
         return F.cross_entropy(net.segmenter(xt), yt, weight=seg_weight)
 
@@ -483,13 +620,15 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
         seg_loss = torch.zeros((), device=dev)
         if step % seg_every == 0:  # a segmenter step costs several attribute steps; it needs fewer
             seg_loss = _seg_loss(rng)
-        # attributes: random crops of the padded crops, brightness jitter
-        k = rng.integers(len(arrays["labels"]), size=attr_batch)
-        off = rng.integers(CROP_PAD - CROP + 1, size=(attr_batch, 2))
-        cb = np.stack([arrays["crops"][i, :, a:a + CROP, b:b + CROP] for i, (a, b) in zip(k, off, strict=True)])
-        cb = cb.astype(np.float32)
+        # attributes: one of each object's views, mirrored half of the time, brightness jitter
+        k = rng.integers(n_obj, size=attr_batch)
+        v = rng.integers(CROP_VIEWS, size=attr_batch)
+        cb = arrays["crops"][k, v].astype(np.float32)
+        flip = rng.random(attr_batch) < 0.5
+        cb[flip] = cb[flip][..., ::-1]
         cb[:, :3] *= rng.uniform(0.9, 1.1, size=(attr_batch, 1, 1, 1)).astype(np.float32)
-        outs = net.attributes(torch.as_tensor(cb, device=dev), torch.as_tensor(arrays["geo"][k], device=dev))
+        outs = net.attributes(torch.as_tensor(np.ascontiguousarray(cb), device=dev),
+                              torch.as_tensor(arrays["geo"][k, v], device=dev))
         lab = torch.as_tensor(arrays["labels"][k], device=dev)
         attr_loss = sum(F.cross_entropy(o, lab[:, j]) for j, o in enumerate(outs))
         loss = seg_loss + attr_loss
@@ -505,6 +644,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
         "test_attribute_all_four": m["attributes_detected"].get("all_four"),
         "test_attribute_accuracy_by_attribute": {a: m["attributes_detected"].get(a) for a in ATTRIBUTES},
         "test_attribute_accuracy_gt_masks": m["attributes_gt_masks"].get("mean"),
+        "test_attribute_accuracy_gt_masks_by_attribute": {a: m["attributes_gt_masks"].get(a) for a in ATTRIBUTES},
         "test_mask_iou": m["mask_iou"],
         "test_detection_f1": m["detection_f1"],
         "test_detection_precision": m["detection_precision"],
@@ -517,10 +657,12 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 2000, se
         "train_scenes": len(data["train"]),
         "train_objects": len(arrays["labels"]),
         "train_loss": float(np.mean(losses[-50:])) if losses else None,
+        "prepare_s": prep_time["wall_s"],
         "steps": steps,
         "seed": seed,
         "device": str(dev),
         **t,
     }
     run.finish(net, metrics)
+    (Path(out) / PREPARED_FILE).unlink(missing_ok=True)  # only a resumed run needs it
     return metrics

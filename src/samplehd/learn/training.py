@@ -6,6 +6,7 @@ A run writes into its ``--out`` folder::
     checkpoint.pt     model + optimiser state dicts and the step reached (resume point)
     model.pt          the final model state dict
     metrics.json      the test metrics and the training figures (steps, final loss, wall time, device)
+    prepared.npz      perception only: the decoded and cropped training scenes, kept until the run ends
 
 Every file is written under a temporary name and renamed. Weights are plain state dicts, read back
 with ``torch.load(..., weights_only=True)`` (no pickled objects). The batches of step ``k`` and every
