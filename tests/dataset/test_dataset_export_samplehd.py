@@ -219,13 +219,14 @@ def sample_hd_order(out: Path, instruction: dict) -> tuple[list[int], list[int]]
     return [frames[t]["target_object"] for t in starts], computed
 
 
-def test_pick_order_is_what_sample_hd_preprocessing_computes(tmp_path: Path) -> None:
+def test_pick_order_is_what_sample_hd_preprocessing_computes(tmp_path: Path, capsys) -> None:
     """A dataset made with ``paths.planner.order: nearest`` (the sample-hd preset's) records the pick
     order SAMPLE-HD's preprocessing assigns; one made in the task's order does not, and the export says so."""
     out = _remove_export(tmp_path / "nearest", "nearest")
     programs = json.loads((out / "instructions" / "instructions_program.json").read_text())["instructions"]
     info = json.loads((out / "info.json").read_text())
     assert info["pick_order"] == "nearest" and info["pick_order_differs"] == 0
+    assert "pick their objects in another order" not in capsys.readouterr().out
     several = 0
     for p in programs:
         recorded, computed = sample_hd_order(out, p)
@@ -236,6 +237,7 @@ def test_pick_order_is_what_sample_hd_preprocessing_computes(tmp_path: Path) -> 
     other = _remove_export(tmp_path / "instruction", "instruction")
     info = json.loads((other / "info.json").read_text())
     assert info["pick_order"] == "instruction" and info["pick_order_differs"] >= 1
+    assert "generate with paths.planner.order nearest" in capsys.readouterr().out
     programs = json.loads((other / "instructions" / "instructions_program.json").read_text())["instructions"]
     differs = 0
     for p in programs:
