@@ -160,5 +160,8 @@ class PhotoScene:
 
     def render(self, spp: int, seed: int) -> np.ndarray:
         """(H, W, 9) float32: linear RGB, albedo, shading normal."""
-        img = self.mi.render(self.scene, spp=int(spp), seed=int(seed))
-        return np.asarray(img, dtype=np.float32)
+        return np.asarray(self.render_tensor(spp, seed), dtype=np.float32)
+
+    def render_tensor(self, spp: int, seed: int) -> Any:
+        """The same as :meth:`render`, as Mitsuba's tensor on its device (the GPU for ``cuda_ad_rgb``)."""
+        return self.mi.render(self.scene, spp=int(spp), seed=int(seed))
