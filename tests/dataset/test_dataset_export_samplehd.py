@@ -161,21 +161,39 @@ def test_export_is_deterministic(rendered_dataset: Path, shd_export: Path, tmp_p
             assert (shd_export / rel).read_bytes() == (again / rel).read_bytes(), rel
 
 
+# SAMPLE-HD's four families on scenes of 4-5 objects, picked in SAMPLE-HD's order, small images.
+SAMPLE_HD_LIKE = {"num_scenes": 2, "seed": 6, "test_every": 2, "scene": {"min_objects": 4, "max_objects": 5},
+                  "instructions": {"per_scene": 3, "balance": "families",
+                                   "families": ["place", "stack", "put", "remove"]},
+                  "paths": {"planner": {"order": "nearest"}}, "render": {"mode": "fast", "width": 64, "height": 36}}
+
+
 @pytest.mark.slow
-def test_sample_hd_own_code_on_the_export(shd_export: Path, tmp_path: Path) -> None:
+def test_sample_hd_own_code_on_the_export(tmp_path: Path) -> None:
     """Runs SAMPLE-HD's own scripts (not part of samplehd) when a checkout and a Python with their
     dependencies are named: SAMPLEHD_SAMPLE_HD_CODE=CHECKOUT SAMPLEHD_SAMPLE_HD_PYTHON=PYTHON."""
     import os
+    import re
     import subprocess
+
+    from samplehd.dataset.config import GenerateConfig, preset_config
+    from samplehd.dataset.generate import generate_dataset
 
     code, python = os.environ.get("SAMPLEHD_SAMPLE_HD_CODE"), os.environ.get("SAMPLEHD_SAMPLE_HD_PYTHON")
     if not code or not python:
         pytest.skip("set SAMPLEHD_SAMPLE_HD_CODE and SAMPLEHD_SAMPLE_HD_PYTHON to run SAMPLE-HD's own code")
+    generate_dataset(tmp_path / "ds", GenerateConfig.from_dict(SAMPLE_HD_LIKE, base=preset_config("tiny")))
+    out = tmp_path / "shd"
+    assert main(["export", "sample-hd", str(tmp_path / "ds"), "--out", str(out), "--workers", "1"]) == 0
+    programs = json.loads((out / "instructions" / "instructions_program.json").read_text())["instructions"]
+    assert any(len(p["task"][0]["object"]) > 1 for p in programs), "the seed must give a task moving several objects"
     script = Path(__file__).parents[2] / "scripts" / "check_sample_hd.py"
-    done = subprocess.run([python, str(script), str(shd_export), code, "--work", str(tmp_path / "work")],
+    done = subprocess.run([python, str(script), str(out), code, "--work", str(tmp_path / "work")],
                           capture_output=True, text=True, timeout=1800)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert "executor:" in done.stdout and "OK" in done.stdout
+    orders = re.search(r"pick orders (\d+)/(\d+)", done.stdout)
+    assert orders and orders[1] == orders[2] != "0", done.stdout[-3000:]
 
 
 # One scene of 5 objects, one remove instruction that moves three (seed 6), states only: a few seconds.

@@ -126,3 +126,21 @@ def test_nearest_order_is_deterministic(scene, nearest_episode) -> None:
     assert sorted(again.frames) == sorted(nearest_episode.frames)
     for k, a in nearest_episode.frames.items():
         assert np.array_equal(a, again.frames[k]), k
+
+
+def test_only_sets_are_reordered(scene) -> None:
+    """place/remove move a set; stack_three's objects are its order (middle, then top) and stay so."""
+    from samplehd.motion.assist import compile_scene_with_assist
+    from samplehd.motion.execute import scene_facts
+    from samplehd.record.paths import PathConfig, _new_rollout
+    from samplehd.tasks.task import parse_task
+
+    model, data = compile_scene_with_assist(scene)
+    config = PathConfig(planner=PlannerConfig(order="nearest"))
+    ro, _ = _new_rollout(model, data, scene, np.random.default_rng(0), config, scene_facts(scene), None)
+    place = parse_task({"type": "place", "objects": [0, 1], "subject": "front"})
+    remove = parse_task({"type": "place", "objects": [0, 1], "subject": "right"}, family="remove")
+    stack3 = parse_task({"type": "stack_three", "objects": [0, 1], "subject": 2})
+    assert ro.next_object(place, [0, 1]) == 1 and ro.next_object(remove, [0, 1]) == 1
+    assert ro.next_object(place, [0]) == 0
+    assert stack3.objects == (0, 1) and ro.next_object(stack3, [0, 1]) == 0

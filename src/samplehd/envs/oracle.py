@@ -214,7 +214,7 @@ class OraclePolicy:
         self._rollout = ro
         remaining = list(task.objects)
         while remaining:
-            i = ro.next_object(remaining)
+            i = ro.next_object(task, remaining)
             remaining.remove(i)
             exclude: set[int] = set()
             for attempt in range(self.max_replans + 1):

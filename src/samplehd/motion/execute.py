@@ -35,7 +35,7 @@ from samplehd.robot.constants import GRIPPER_ACTUATOR, GRIPPER_STROKE, HOME_QPOS
 from samplehd.robot.controller import ControlConfig, ControlReport, RobotController
 from samplehd.robot.kinematics import fk_tcp, ik_batch
 from samplehd.scene.spec import SceneSpec
-from samplehd.tasks.task import Task
+from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box
 from samplehd.world.collision import CollisionChecker, Held
 from samplehd.world.grasps import choose_grasps
@@ -301,10 +301,11 @@ class Rollout:
                          self.layout.table_height + self.cfg.min_lift + below))
 
     # ------------------------------------------------------------------ subtasks
-    def next_object(self, remaining: list[int]) -> int:
+    def next_object(self, task: Task, remaining: list[int]) -> int:
         """The object of ``remaining`` (the task's objects not moved yet, in its order) to pick next,
-        by the planner's ``order`` (:mod:`samplehd.motion.order`)."""
-        if self.cfg.order == "instruction":
+        by the planner's ``order`` (:mod:`samplehd.motion.order`). Only a family whose moved objects
+        are a set (place, remove) is reordered; stack_three's order is its meaning (middle, then top)."""
+        if self.cfg.order == "instruction" or not get_family(task.family).takes_set:
             return order_next_object("instruction", remaining)
         mujoco.mj_kinematics(self.model, self.data)  # positions as the next recorded frame has them
         tcp = self._tcp_world()

@@ -3,7 +3,8 @@
 ``instruction``
     As the task lists them (the language executor's order: scene order of the selected objects).
 ``nearest``
-    SAMPLE-HD's order. Before each pick, the remaining object whose position at the start of the
+    SAMPLE-HD's order, for a family whose moved objects are a set (place, remove; stack_three keeps
+    its middle-then-top order). Before each pick, the remaining object whose position at the start of the
     episode is nearest (Euclidean distance) to the effector point, SAMPLE-HD's "effector end"
     :data:`EFFECTOR_POINT_OFFSET` beyond the flange on the tool axis, where the arm is when that
     object's approach (GripperMoveAvoid) begins; a tie goes to the one listed first.

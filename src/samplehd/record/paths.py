@@ -126,7 +126,7 @@ def _attempt(ro: Rollout, task: Task, exclude: dict[int, set[int]]) -> Plan[None
     """The plan of one attempt: pick (and place) each moved object in turn, in the planner's order."""
     remaining = list(task.objects)
     while remaining:
-        i = ro.next_object(remaining)
+        i = ro.next_object(task, remaining)
         remaining.remove(i)
         k = -1
         try:

@@ -10,9 +10,10 @@ from samplehd.schema import bounded, check_fields, from_mapping
 
 __all__ = ["PICK_ORDERS", "PlannerConfig"]
 
-# The orders in which the planner moves the objects of a task that moves several (remove, place of
-# a plural): ``instruction``: as the task lists them; ``nearest``: SAMPLE-HD's, before each pick the
-# remaining object whose start position is nearest the effector point (:mod:`samplehd.motion.order`).
+# The orders in which the planner moves the objects of a task that moves a set of several (remove,
+# place of a plural): ``instruction``: as the task lists them; ``nearest``: SAMPLE-HD's, before each
+# pick the remaining object whose start position is nearest the effector point
+# (:mod:`samplehd.motion.order`). stack_three always moves middle, then top.
 PICK_ORDERS = ("instruction", "nearest")
 
 
