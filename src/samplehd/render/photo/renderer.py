@@ -18,7 +18,7 @@ import numpy as np
 
 from samplehd.errors import RenderError
 from samplehd.render.photo.look import LookParams, default_look, random_look
-from samplehd.render.photo.runtime import photo_backend
+from samplehd.render.photo.runtime import load_drjit, photo_backend
 from samplehd.render.photo.scene import PhotoScene
 
 __all__ = ["DEFAULT_SPP", "LOOKS", "PhotoOptions", "PhotoTracer", "denoise", "photo_info", "photo_options", "tonemap"]
@@ -68,10 +68,10 @@ def _gpu_finish() -> bool:
 
 def _finish_on_gpu(raw: Any, options: PhotoOptions) -> np.ndarray:
     """:meth:`PhotoTracer.rgb`'s clamp → denoise → tone curve on the GPU, for Mitsuba's CUDA tensor ``raw``."""
-    import drjit as dr
     import pyoidn
     import torch
 
+    dr = load_drjit()
     dr.eval(raw)
     dr.sync_thread()  # the trace finished before torch reads its buffer
     t = raw.torch()
