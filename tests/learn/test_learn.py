@@ -93,6 +93,51 @@ def test_perception_trains_and_perceives_a_scene(nano_dataset: Path, tmp_path: P
     assert execute(ins["program_sequence"], rebuilt).to_program_dict() == ins["task"]
 
 
+def test_perception_resumes_from_its_cache_to_the_same_model(nano_dataset: Path, tmp_path: Path) -> None:
+    from samplehd.learn.perception import PREPARED_FILE, Perception, train_perception
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    train_perception(nano_dataset, a, steps=3, quiet=True)
+    assert not (a / PREPARED_FILE).exists(), "a finished run leaves no cache behind"
+    assert train_perception(nano_dataset, b, steps=3, quiet=True, stop_after=1) == {"stopped_at": 1}
+    assert (b / PREPARED_FILE).exists()  # the decoded scenes wait for the resumed run
+    train_perception(nano_dataset, b, steps=3, quiet=True)
+    assert _same(_weights(a), _weights(b))
+    config = json.loads((b / "config.json").read_text())
+    config["format"] = 1  # a model of an older revision: one line saying to train again
+    (b / "config.json").write_text(json.dumps(config))
+    from samplehd.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="train it again"):
+        Perception.load(b)
+
+
+def test_relaxed_execution_tries_the_next_likeliest_label() -> None:
+    from samplehd.language.executor import ProgramError, execute
+    from samplehd.language.scene import parse_scene
+    from samplehd.learn.neurosymbolic import _relaxed
+
+    def obj(name: str, colour: str, x: float, y: float) -> dict:
+        return {"name": name, "shape": name, "colour": colour, "color": colour, "material": "plastic",
+                "size": "medium", "3d_coords": [x, y, 0.75], "table_part": ["front"], "bbox": {"extents": [0.08] * 3}}
+
+    # The perception model called the mug a glass, with the mug its second guess.
+    perceived = {"objects": [obj("glass", "red", 0.2, -0.2), obj("bowl", "blue", 0.2, 0.2)],
+                 "attribute_scores": [{"name": {"glass": 0.6, "mug": 0.35}}, {"name": {"bowl": 0.99}}]}
+
+    def run(prog: list[str], scene: object) -> dict | None:
+        try:
+            return execute(prog, scene).to_program_dict()
+        except (ProgramError, ValueError):
+            return None
+
+    program = ["pick_up", "scene", "filter_name[mug]"]
+    assert run(program, parse_scene(perceived)) is None
+    task = _relaxed(program, perceived, run)
+    assert task is not None and task["objects"] == [0]
+    assert _relaxed(["pick_up", "scene", "filter_name[pan]"], perceived, run) is None  # nobody's guess
+
+
 def test_policy_trains_and_acts_in_the_env(nano_dataset: Path, tmp_path: Path) -> None:
     out = tmp_path / "policy"
     assert main(["train", "policy", "--dataset", str(nano_dataset), "--out", str(out), "--steps", "3",

@@ -16,15 +16,15 @@ from samplehd.learn.parser import train_parser
 from samplehd.learn.perception import train_perception
 
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
-_DEFAULT_STEPS = {"parser": 1000, "perception": 2000, "policy": 600}
+_DEFAULT_STEPS = {"parser": 1000, "perception": 3000, "policy": 4000}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", choices=list(_DEFAULT_STEPS), help="what to train")
     parser.add_argument("--dataset", type=Path, required=True, help="a dataset folder written by `samplehd generate`")
     parser.add_argument("--out", type=Path, required=True, help="output folder (resumes when it holds a checkpoint)")
-    parser.add_argument("--steps", type=int, help="optimiser steps (default: parser 1000, perception 2000, "
-                                                  "policy 600)")
+    parser.add_argument("--steps", type=int, help="optimiser steps (default: parser 1000, perception 3000, "
+                                                  "policy 4000)")
     parser.add_argument("--seed", type=int, default=0, help="seed of initialisation, batches and augmentation")
     parser.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -17,13 +17,14 @@ episode's own scene annotation is used; with ``programs="gt"`` the instruction's
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from samplehd.envs.oracle import OraclePolicy
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, SamplehdError
 from samplehd.language.executor import ProgramError, execute
 from samplehd.language.scene import parse_scene
 from samplehd.learn.parser import InstructionParser
@@ -41,6 +42,61 @@ def _describe(obj: dict[str, Any]) -> str:
     """One object of a scene annotation in a few words, for the reports: ``small red metal mug @ (x, y)``."""
     x, y = obj["3d_coords"][:2]
     return f"{obj['size']} {obj['colour']} {obj['material']} {obj['name']} @ ({x:.3f}, {y:.3f})"
+
+
+_FILTERS = {"filter_name": "name", "filter_shape": "name", "filter_color": "colour", "filter_colour": "colour",
+            "filter_material": "material", "filter_size": "size"}
+_MIN_SCORE = 0.05  # an alternative label below this probability is not tried
+_MAX_TRIES = 8
+
+
+def _relabel(scene: dict[str, Any], changes: Sequence[tuple[int, str, str]]) -> dict[str, Any]:
+    objects = [dict(o) for o in scene["objects"]]
+    for i, attr, value in changes:
+        objects[i][attr] = value
+        if attr == "name":
+            objects[i]["shape"] = value
+        if attr == "colour":
+            objects[i]["color"] = value
+    return {**scene, "objects": objects}
+
+
+def _relaxed(program: Sequence[str], perceived: dict[str, Any],
+             run: Callable[[list[str], Any], dict[str, Any] | None]) -> dict[str, Any] | None:
+    """Run ``program`` on the perceived scene with the next most likely labels where its top labels fail.
+
+    A filter of the program that finds no object (or too many) is retried with one or two objects
+    relabelled: an object given the filter's value where the perception model found it likely, or an
+    object that has it given its own next likeliest value, most probable changes first (the
+    probabilistic execution of neuro-symbolic VQA, in its simplest form).
+    """
+    scores = perceived.get("attribute_scores") or []
+    moves: list[tuple[float, int, str, str]] = []
+    for token in program:
+        name, _, rest = token.partition("[")
+        attr = _FILTERS.get(name)
+        if attr is None or not rest.endswith("]"):
+            continue
+        value = rest[:-1]
+        for i, (obj, sc) in enumerate(zip(perceived["objects"], scores, strict=False)):
+            probs = sc.get(attr, {})
+            if obj[attr] != value and probs.get(value, 0.0) >= _MIN_SCORE:
+                moves.append((probs[value], i, attr, value))
+            elif obj[attr] == value:
+                others = sorted(((q, v) for v, q in probs.items() if v != value), reverse=True)
+                if others and others[0][0] >= _MIN_SCORE:
+                    moves.append((others[0][0], i, attr, others[0][1]))
+    moves = sorted(set(moves), reverse=True)[:_MAX_TRIES]
+    tries = [[m] for m in moves] + [[a, b] for k, a in enumerate(moves) for b in moves[k + 1:] if a[1] != b[1]]
+    for changes in tries:
+        try:
+            scene = parse_scene(_relabel(perceived, [(i, attr, v) for _, i, attr, v in changes]))
+        except SamplehdError:
+            continue
+        task = run(list(program), scene)
+        if task is not None:
+            return task
+    return None
 
 
 def _same(a: dict[str, Any] | None, b: dict[str, Any]) -> bool:
@@ -145,9 +201,15 @@ class NeuroSymbolicPolicy(OraclePolicy):
                 return None
             return {**task, "objects": objs, "subject": subj}
 
-        chosen = grounded(run(program, scene))
+        def decide(prog: list[str]) -> dict[str, Any] | None:
+            task = grounded(run(prog, scene))
+            if task is None and self.perception is not None:  # a filter found no object, or too many
+                task = grounded(_relaxed(prog, perceived, run))
+            return task
+
+        chosen = decide(program)
         parse_ok = self.parser is None or _same(run(program, gt_scene), gt_task)
-        perception_ok = self.perception is None or _same(grounded(run(gt_program, scene)), gt_task)
+        perception_ok = self.perception is None or _same(decide(gt_program), gt_task)
         diag["task_correct"] = _same(chosen, gt_task)
         diag["parse_ok"], diag["perception_ok"] = parse_ok, perception_ok
         if not diag["task_correct"]:

@@ -337,20 +337,25 @@ class Perception:
             outs = self.net.attributes(x, sizes)
             mirrored = self.net.attributes(torch.flip(x, dims=(3,)), sizes)
             probs = [torch.softmax(o, 1) + torch.softmax(m, 1) for o, m in zip(outs, mirrored, strict=True)]
-        idx = [p.argmax(1).cpu().numpy() for p in probs]
+        probs = [(p / 2).cpu().numpy() for p in probs]
         result = []
         for k, (pos, size) in enumerate(geo):
-            attrs = {a: self.vocab[a][int(idx[j][k])] for j, a in enumerate(ATTRIBUTES)}
-            result.append({**attrs, "position": pos, "metric_size": size[:3] / 10.0})
+            attrs = {a: self.vocab[a][int(probs[j][k].argmax())] for j, a in enumerate(ATTRIBUTES)}
+            scores = {a: {v: round(float(q), 4) for v, q in zip(self.vocab[a], probs[j][k], strict=True) if q >= 0.01}
+                      for j, a in enumerate(ATTRIBUTES)}
+            result.append({**attrs, "position": pos, "metric_size": size[:3] / 10.0, "scores": scores})
         return result
 
     def perceive(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
                  directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
-        """A scene annotation (``objects``, ``relationships``, ``directions``) from one RGB-D image."""
+        """A scene annotation (``objects``, ``relationships``, ``directions``) from one RGB-D image, and
+        ``attribute_scores``: per object, the probability of each likely value of each attribute."""
         height = height_map(depth, camera, self.table_height)
         masks = self.segment(rgb, depth, camera, height)
         found = self.classify(rgb, depth, masks, camera, height)
-        return annotation_from_instances(found, masks, self.config.get("extents", {}), directions)
+        ann = annotation_from_instances(found, masks, self.config.get("extents", {}), directions)
+        ann["attribute_scores"] = [f["scores"] for f in found]
+        return ann
 
 
 def annotation_from_instances(found: Sequence[Mapping[str, Any]], masks: Sequence[np.ndarray],
@@ -549,7 +554,7 @@ def prepared_arrays(out: Path, key: Mapping[str, Any], make: Callable[[], dict[s
 def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, seed: int = 0, device: str | None = None,
                      quiet: bool = False, stop_after: int | None = None, seg_batch: int = 4, attr_batch: int = 64,
                      patch: int = 128, seg_every: int = 2,
-                     lr: float = 2e-3, seg_width: int = 12, attr_width: int = 24) -> dict[str, Any]:
+                     lr: float = 2e-3, seg_width: int = 8, attr_width: int = 24) -> dict[str, Any]:
     """Train segmentation and attribute networks on a dataset's training scenes; test on its test scenes.
 
     Metrics (``metrics.json``): ``test_mask_iou`` (mean best IoU per ground-truth object),
