@@ -72,7 +72,8 @@ def test_perception_trains_and_perceives_a_scene(nano_dataset: Path, tmp_path: P
 
     rgb, depth, seg = _load_scene_images(item)
     ann = model.perceive(rgb, depth, item["annotation"]["camera"])
-    assert set(ann) == {"objects", "directions", "relationships"}
+    assert set(ann) == {"objects", "directions", "relationships", "attribute_scores"}
+    assert len(ann["attribute_scores"]) == len(ann["objects"])
     # Geometry: lifting an object's pixels with the stored camera lands on that object.
     obj = item["annotation"]["objects"][0]
     import numpy as np
