@@ -114,3 +114,25 @@ def test_replace_keeps_frames(micro_dataset: Path, tmp_path: Path) -> None:
     ep2 = dataclasses.replace(ep, info={"note": "x"})
     write_episode(tmp_path / "x.h5", ep2)
     assert read_episode(tmp_path / "x.h5").info == {"note": "x"}
+
+
+def test_image_chunks_are_plain_gzip_any_hdf5_reader_decodes(rendered_dataset: Path, tmp_path: Path) -> None:
+    """Image chunks are deflated outside HDF5 and written as they are: each one must be a zlib stream
+    that HDF5's own gzip filter (and plain zlib) decodes to the exact frame."""
+    import zlib
+
+    import h5py
+
+    ep = DatasetReader(rendered_dataset).episode(0, images="load")
+    out = tmp_path / "e.h5"
+    write_episode(out, ep)
+    with h5py.File(out, "r") as f:
+        for cam, mods in ep.images.items():
+            for mod, arr in mods.items():
+                ds = f[f"images/{cam}/{mod}"]
+                assert ds.compression == "gzip" and not ds.shuffle and ds.chunks == (1, *arr.shape[1:])
+                assert ds.dtype == (np.uint8 if mod != "depth" else np.float32)
+                assert np.array_equal(ds[()], arr), f"{cam}/{mod}: HDF5's gzip filter decodes other values"
+                last = len(arr) - 1
+                mask, raw = ds.id.read_direct_chunk((last, *(0,) * (arr.ndim - 1)))
+                assert mask == 0 and zlib.decompress(raw) == np.ascontiguousarray(arr[last], ds.dtype).tobytes()
