@@ -74,16 +74,15 @@ def render_states(
     data = data if data is not None else mujoco.MjData(model)
     picks = range(len(frames["qpos"])) if indices is None else indices
     act, time = frames.get("act"), frames.get("time")
-    out: dict[str, dict[str, list[np.ndarray]]] = {c: {m: [] for m in modalities} for c in cameras}
+    # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
+    shapes = {"rgb": ((height, width, 3), np.uint8), "depth": ((height, width), np.float32),
+              "segmentation": ((height, width), np.int32)}
+    out = {c: {m: np.empty((len(picks), *shapes[m][0]), dtype=shapes[m][1]) for m in modalities if m in shapes}
+           for c in cameras}
     with SceneRenderer(model, width, height, preset, photo=photo) as renderer:
-        for k in picks:
+        for i, k in enumerate(picks):
             set_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
                       None if time is None else time[k])
             for cam in cameras:
-                images = renderer.render(data, cam, modalities)
-                for m in modalities:
-                    out[cam][m].append(images[m])
-    empty = {"rgb": (0, height, width, 3), "depth": (0, height, width), "segmentation": (0, height, width)}
-    dtypes = {"rgb": np.uint8, "depth": np.float32, "segmentation": np.int32}
-    return {c: {m: (np.stack(v) if v else np.zeros(empty[m], dtypes[m])) for m, v in mods.items()}
-            for c, mods in out.items()}
+                renderer.render(data, cam, modalities, out={m: a[i] for m, a in out[cam].items()})
+    return out
