@@ -187,3 +187,10 @@ def test_segmentation_ids_decode_all_three_colour_bytes(world):
             idcolor[..., 2].astype(np.int64) << 16)
         np.testing.assert_array_equal(seg, table[np.minimum(code, n)][::-1])
         assert seg[7, 2] == SEG_BACKGROUND and seg[7, 3] == table[n]  # past every geom: clipped to the last
+
+
+def test_gl_device_names_vendor_and_renderer():
+    from samplehd.render.renderer import gl_device
+
+    vendor, renderer = gl_device().split(", ", 1)
+    assert vendor and renderer and "?" not in (vendor, renderer)

@@ -29,11 +29,11 @@ from samplehd.bench.paths import _bench_scene
 from samplehd.dataset.layout import EPISODE_DIR
 from samplehd.dataset.render import RenderConfig
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, RenderError
 from samplehd.motion.assist import compile_scene_with_assist
 from samplehd.record.paths import PathConfig
 from samplehd.render.backend import configure_gl_backend
-from samplehd.render.renderer import MODALITIES, SceneRenderer
+from samplehd.render.renderer import MODALITIES, SceneRenderer, gl_device
 from samplehd.scene.world import compile_world
 from samplehd.version import __version__
 from samplehd.world.layout import DIRECTIONS
@@ -138,13 +138,19 @@ def _path_rows(repeats: int) -> list[Row]:
             done = [unit(images, r) for r in range(repeats)]
             i_wall = statistics.median(d["num_frames"] / d["seconds"] for d in done)
             i_cpu = statistics.median(d["num_frames"] / d["cpu_seconds"] for d in done)
+
+            def ms(key: str, done: list[dict[str, Any]] = done) -> float:
+                return 1000 * statistics.median(d[key] / d["num_frames"] for d in done)
+
             what = f"`fast` RGB+depth+segmentation {w}×{h}, operator camera"
-            rows.append(Row(f"render frames/s, {what} (renderer alone)", _fmt(p_wall), _fmt(p_cpu),
-                            "`samplehd bench --report FILE --only paths`"))
+            rows.append(Row(f"render frames/s, {what} (renderer alone; {1000 / p_cpu:.1f} CPU ms per frame)",
+                            _fmt(p_wall), _fmt(p_cpu), "`samplehd bench --report FILE --only paths`"))
             rows.append(Row(f"ground-truth path frames/s with {what} (as above, images rendered from the states "
                             f"and written); share of the renderer's rate: {i_wall / p_wall:.0%} wall, "
-                            f"{i_cpu / p_cpu:.0%} CPU", _fmt(i_wall), _fmt(i_cpu),
-                            "`samplehd bench --report FILE --only paths`"))
+                            f"{i_cpu / p_cpu:.0%} CPU; CPU ms per frame: plan and execute "
+                            f"{ms('path_cpu_seconds'):.1f}, render from the states {ms('render_cpu_seconds'):.1f}, "
+                            f"write {ms('write_cpu_seconds'):.1f}",
+                            _fmt(i_wall), _fmt(i_cpu), "`samplehd bench --report FILE --only paths`"))
     return rows
 
 
@@ -200,8 +206,12 @@ def _machine() -> str:
     except (OSError, IndexError, ValueError):
         pass
     gl = os.environ.get("MUJOCO_GL", "")
+    try:
+        device = f" ({gl_device()})"
+    except RenderError:
+        device = " (no GL context)"
     return (f"{cpu}, {os.cpu_count()} logical cores{mem}, {platform.system()} {platform.release()}, "
-            f"Python {platform.python_version()}, MuJoCo GL backend {gl or 'default'}")
+            f"Python {platform.python_version()}, MuJoCo GL backend {gl or 'default'}{device}")
 
 
 def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list[Row], dict[str, Any]]:

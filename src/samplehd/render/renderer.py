@@ -47,6 +47,7 @@ __all__ = [
     "camera_names",
     "camera_pose",
     "get_preset",
+    "gl_device",
     "project_points",
     "render_images",
     "segmentation_lut",
@@ -184,6 +185,23 @@ def _shared_gl_context() -> Any:
         ctx = _context_class()(64, 64)
         _THREAD.gl = ctx
     return ctx
+
+
+def gl_device() -> str:
+    """What renders: the GL vendor and renderer strings of this thread's context, e.g. ``Mesa, llvmpipe
+    (LLVM 15.0.6, 256 bits)`` (the CPU rasteriser) or ``NVIDIA Corporation, NVIDIA H100 PCIe/PCIe/SSE2``.
+
+    Raises:
+        RenderError: no GL context can be made.
+    """
+    from OpenGL import GL  # PyOpenGL, the platform matching MUJOCO_GL (set by configure_gl_backend)
+
+    try:
+        _shared_gl_context().make_current()
+        vendor, renderer = (GL.glGetString(k) for k in (GL.GL_VENDOR, GL.GL_RENDERER))
+    except Exception as exc:  # GL failures surface as many exception types
+        raise RenderError(f"cannot create an offscreen GL context with MUJOCO_GL={_gl_backend()}: {exc}") from exc
+    return ", ".join((v or b"?").decode(errors="replace") for v in (vendor, renderer))
 
 
 def _context_class() -> Any:
