@@ -136,3 +136,37 @@ def test_image_chunks_are_plain_gzip_any_hdf5_reader_decodes(rendered_dataset: P
                 last = len(arr) - 1
                 mask, raw = ds.id.read_direct_chunk((last, *(0,) * (arr.ndim - 1)))
                 assert mask == 0 and zlib.decompress(raw) == np.ascontiguousarray(arr[last], ds.dtype).tobytes()
+
+
+@pytest.mark.parametrize("every", [1, 2])
+def test_frames_deflated_as_rendered_write_the_same_file(world, tmp_path: Path, every: int) -> None:
+    """`generate` deflates each frame as soon as it is rendered: the same images (decoded) and the same file
+    bytes as rendering every frame first and writing the arrays."""
+    from samplehd.dataset.render import RenderConfig
+    from samplehd.record.episode import FRAME_FIELDS, Episode
+    from samplehd.render.deflated import DeflatedFrames
+
+    model, data = world
+    t = 4
+    sizes = {"N": 0, "nq": model.nq, "nv": model.nv, "na": model.na}
+    frames = {k: np.zeros((t, *(sizes.get(d, d) for d in shape)), dtype) for k, (shape, dtype) in FRAME_FIELDS.items()}
+    frames["qpos"] = np.repeat(data.qpos[None], t, axis=0)
+    frames["qpos"][:, 0] += np.linspace(0.0, 0.6, t)  # swing the arm
+    config = RenderConfig("fast", 32, 24, ("operator", "wrist"), every=every)
+    raw = config.images(model, frames)
+    packed = config.images(model, frames, deflated=True)
+    digests = []
+    for name, images in (("raw", raw), ("packed", packed)):
+        for cam in ("operator", "wrist"):
+            for mod in ("rgb", "depth", "segmentation"):
+                stream = images[cam][mod]
+                inner = stream.images if every > 1 else stream
+                assert isinstance(inner, DeflatedFrames) == (name == "packed")
+                want = raw[cam][mod].images if every > 1 else raw[cam][mod]
+                assert np.array_equal(np.asarray(inner), want)
+        ep = Episode(scene_index=0, instruction_index=0, family="pick", seed=0, subtasks=("Pick",), frames=frames,
+                     success=True, info={}, images=images)
+        digests.append(write_episode(tmp_path / f"{name}.h5", ep, render=config.to_dict()).sha256)
+    assert digests[0] == digests[1]
+    back = read_episode(tmp_path / "packed.h5", images="lazy")
+    assert back.images["operator"]["segmentation"].dtype == np.uint8

@@ -22,10 +22,12 @@ Files are written under a temporary name (``.NAME.tmp-PID``) in the same directo
 renamed over the final name, so a reader never sees a half-written episode and a killed writer
 leaves only a temporary file behind. Every image access is per frame (one chunk or one PNG).
 
-Image chunks are deflated by ISA-L (:data:`IMAGE_DEFLATE_LEVEL`) and written as they are
-(``write_direct_chunk``) into datasets with HDF5's standard gzip filter, so any HDF5 reader decodes
-them; ISA-L's deflate is several times faster than zlib's at a slightly larger size, and image
-compression is most of an episode's writing time.
+Image chunks are deflated by ISA-L (:data:`samplehd.render.deflated.IMAGE_DEFLATE_LEVEL`) and written as
+they are (``write_direct_chunk``) into datasets with HDF5's standard gzip filter, so any HDF5 reader
+decodes them; ISA-L's deflate is several times faster than zlib's at a slightly larger size, and image
+compression is most of an episode's writing time. Streams given already deflated
+(:class:`~samplehd.render.deflated.DeflatedFrames`, as ``samplehd generate`` renders them) are stored as
+they come.
 """
 
 from __future__ import annotations
@@ -43,12 +45,12 @@ from typing import Any
 
 import h5py
 import numpy as np
-from isal import isal_zlib
 
 from samplehd.dataset.layout import FORMAT_VERSION, tmp_path
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError
 from samplehd.record.episode import FRAME_FIELDS, Episode
+from samplehd.render.deflated import IMAGE_DEFLATE_LEVEL, DeflatedFrames, deflate_frame
 from samplehd.render.keyframes import SparseFrames
 from samplehd.render.renderer import MODALITIES
 
@@ -70,9 +72,6 @@ __all__ = [
 ]
 
 _GZIP = {"compression": "gzip", "compression_opts": 4, "shuffle": True}
-# ISA-L's deflate level (0-3) of image chunks; level 2 measured about 7x faster than zlib's level 4 on
-# 320x180 RGB, depth and segmentation frames, with files ~14 % larger.
-IMAGE_DEFLATE_LEVEL = 2
 _DISK_FULL = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
 
 
@@ -209,6 +208,11 @@ def _write_images(group: h5py.Group, images: Mapping[str, Mapping[str, np.ndarra
                 except (OSError, KeyError, RuntimeError) as exc:
                     raise DatasetError(f"{arr.path}: cannot copy {arr.key}: {exc}") from None
                 continue
+            if isinstance(arr, DeflatedFrames):
+                if mod not in MODALITIES:
+                    raise DatasetError(f"unknown image modality {mod!r}; valid: rgb, depth, segmentation")
+                _store_chunks(g, mod, arr.shape, arr.dtype, arr.chunks)
+                continue
             arr = np.asarray(arr)
             if mod == "rgb":
                 _write_frames(g, mod, arr, np.uint8)
@@ -225,12 +229,17 @@ def _write_images(group: h5py.Group, images: Mapping[str, Mapping[str, np.ndarra
 
 def _write_frames(group: h5py.Group, name: str, arr: np.ndarray, dtype: type[np.generic]) -> None:
     """Store ``arr`` (T, ...) as ``dtype``, one gzip chunk per frame, each deflated by ISA-L."""
-    ds = group.create_dataset(name, shape=arr.shape, dtype=dtype, chunks=(1, *arr.shape[1:]),
+    _store_chunks(group, name, arr.shape, np.dtype(dtype), (deflate_frame(frame, dtype) for frame in arr))
+
+
+def _store_chunks(group: h5py.Group, name: str, shape: tuple[int, ...], dtype: np.dtype,
+                  chunks: Iterable[bytes]) -> None:
+    """A (T, ...) dataset with HDF5's gzip filter, one chunk per frame, written from deflated frames."""
+    ds = group.create_dataset(name, shape=shape, dtype=dtype, chunks=(1, *shape[1:]),
                               compression="gzip", compression_opts=IMAGE_DEFLATE_LEVEL)
-    zeros = (0,) * (arr.ndim - 1)
-    for t in range(arr.shape[0]):
-        frame = np.ascontiguousarray(arr[t], dtype=dtype)  # no copy when it already is
-        ds.id.write_direct_chunk((t, *zeros), isal_zlib.compress(frame, IMAGE_DEFLATE_LEVEL))
+    zeros = (0,) * (len(shape) - 1)
+    for t, chunk in enumerate(chunks):
+        ds.id.write_direct_chunk((t, *zeros), chunk)
 
 
 def episode_attrs(episode: Episode, extra: Mapping[str, Any] | None = None) -> dict[str, Any]:

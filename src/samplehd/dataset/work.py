@@ -125,7 +125,8 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     t1, c1 = time.perf_counter(), time.process_time()
     render = RenderConfig.from_dict(unit.render)
     if render.enabled:
-        episode = dataclasses.replace(episode, images=render.images(model, episode.frames, seed=scene.seed))
+        episode = dataclasses.replace(episode, images=render.images(model, episode.frames, seed=scene.seed,
+                                                                        deflated=True))
     t2, c2 = time.perf_counter(), time.process_time()
     path = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
@@ -202,7 +203,7 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
             prev.get(k) == settings[cam].get(k) for k in ("mode", "width", "height", *KEYFRAME_KEYS))
         if cam not in render.cameras or same:
             images[cam] = dict(mods)  # kept (lazy: copied chunk by chunk); same settings: modalities merge
-    for cam, mods in render.images(model, episode.frames, seed=scene.seed).items():
+    for cam, mods in render.images(model, episode.frames, seed=scene.seed, deflated=True).items():
         images.setdefault(cam, {}).update(mods)
     written = write_episode(path, dataclasses.replace(episode, images=images), extra, render_record(settings))
     return {"path": str(path), "num_frames": written.num_frames, "size": written.size, "sha256": written.sha256,
