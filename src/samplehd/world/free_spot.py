@@ -184,17 +184,40 @@ class FreeSpots:
         (its best-scored free spots: room around, comfortable reach, least turn), namely the one
         that leaves the next object least room, so the answer holds whichever the planner picks.
         """
-        arriving = [k for k in sorted(set(moved)) if part not in self.objects[k].table_part]
+        arriving = tuple(k for k in sorted(set(moved)) if part not in self.objects[k].table_part)
+        key = ("room in part", arriving, part)
+        answer = self._memo.get(key)
+        if answer is None:
+            answer = self._memo[key] = self._room_in_part(arriving, part)
+        return answer
+
+    def _first_options(self, k: int, part: str) -> list[int]:
+        """The spots the planner may put object k on in a part when it is the first moved (memoised:
+        they depend on nothing else)."""
+        key = ("first options", k, part)
+        if key not in self._memo:
+            spots = self._part_spots(k, part)
+            present = np.ones(len(self.objects), bool)
+            free = self._free(k, spots, present, [])
+            self._memo[key] = self._options(k, spots, free, self._neighbours(k, present, []))
+        return self._memo[key]
+
+    def _room_in_part(self, arriving: Sequence[int], part: str) -> bool:
+        """:meth:`room_in_part` for the objects arriving in the part, in index order."""
         present = np.ones(len(self.objects), bool)  # objects still where the scene has them
         placed: list[_Rect] = []
         free: np.ndarray | None = None  # the next object's free spots, where already known
         for n, k in enumerate(arriving):
             spots = self._part_spots(k, part)
-            if free is None:
-                free = self._free(k, spots, present, placed)
-            if n + 1 == len(arriving) and self.reach_is_annulus:
-                return self._enough(spots, free)
-            options = self._options(k, spots, free, self._neighbours(k, present, placed))
+            last = n + 1 == len(arriving)
+            if n == 0 and not (last and self.reach_is_annulus):
+                options = self._first_options(k, part)
+            else:
+                if free is None:
+                    free = self._free(k, spots, present, placed)
+                if last and self.reach_is_annulus:
+                    return self._enough(spots, free)
+                options = self._options(k, spots, free, self._neighbours(k, present, placed))
             if not options:
                 return False
             present[k] = False
