@@ -126,16 +126,27 @@ class _Spots:
     each one overlaps."""
 
     grid: _Grid
-    centre: np.ndarray  # (m, 2) footprint centres [m]
+    centre_of: Callable[[], np.ndarray]  # makes ``centre`` when first asked for
     offsets: np.ndarray  # (t, 2) frame origin of the spot minus its footprint centre, per turn [m]
     turn: np.ndarray  # (m,) index into turns
     turns: np.ndarray  # (t,) turns about the vertical [rad]
     rots: np.ndarray  # (t, 2, 2) the object's rotation after each turn
     weight: np.ndarray  # (m,) share of the planner's first-try samples landing on the spot
-    score: np.ndarray  # (m,) the planner's score terms that do not depend on the neighbours
+    score_of: Callable[[], np.ndarray]  # makes ``score`` when first asked for
     keep: np.ndarray  # (m,) passes the tests not involving other objects
     near: np.ndarray  # (b,) the other objects that come close enough to block some spot
-    blocked: np.ndarray  # (b, m) object near[i] overlaps the spot
+    first: np.ndarray  # (b, t, r) first column of the run of spots object near[i] overlaps, per turn and row
+    last: np.ndarray  # (b, t, r) its last column (before the first: none)
+
+    @functools.cached_property
+    def centre(self) -> np.ndarray:
+        """(m, 2) footprint centres [m] (only the ranking of spots needs them)."""
+        return self.centre_of()
+
+    @functools.cached_property
+    def score(self) -> np.ndarray:
+        """(m,) the planner's score terms that do not depend on the neighbours."""
+        return self.score_of()
 
 
 class FreeSpots:
@@ -260,10 +271,11 @@ class FreeSpots:
         rectangles of those already moved."""
         others = present.copy()
         others[k] = False
-        free = spots.keep & ~spots.blocked[others[spots.near]].any(axis=0)
+        there = others[spots.near]
+        free = spots.keep & ~_covered(spots, spots.first[there], spots.last[there])
         if placed:
             c, r, h = (np.stack(a) for a in zip(*placed, strict=True))
-            free &= ~self._blocked_by(k, spots, c, r, h).any(axis=0)
+            free &= ~_covered(spots, *self._runs(k, spots, c, r, h))
         return free
 
     def _neighbours(self, k: int, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
@@ -322,7 +334,15 @@ class FreeSpots:
 
     def _blocked_by(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray, h: np.ndarray) -> np.ndarray:
         """Which of object k's spots overlap each rectangle (centres (R, 2), rotations (R, 2, 2),
-        half sizes (R, 2)), by the planner's separating-axis test with its margin: (R, m).
+        half sizes (R, 2)), by the planner's separating-axis test with its margin: (R, m)."""
+        first, last = self._runs(k, spots, c, r, h)
+        j = np.arange(len(spots.grid.v), dtype=float)
+        return ((j >= first[..., None]) & (j <= last[..., None])).reshape(len(c), -1)
+
+    def _runs(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray,
+              h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The spots of object k each rectangle overlaps (see :meth:`_blocked_by`), as the first and
+        last column of a run per turn and row: (R, t, r) each.
 
         On a row of the grid, each of the test's four axes bounds the column coordinate from both
         sides, so the spots a rectangle blocks are one run of columns per turn and row."""
@@ -352,8 +372,7 @@ class FreeSpots:
         count = len(g.v)
         first = np.clip(np.ceil((low.max(axis=2) - g.lo) / g.width - 0.5), 0, count)  # (R, t, r)
         last = np.clip(np.floor((high.min(axis=2) - g.lo) / g.width - 0.5), -1, count - 1)
-        j = np.arange(count, dtype=float)
-        return ((j >= first[..., None]) & (j <= last[..., None])).reshape(n_rect, -1)
+        return first, last
 
     def _part_spots(self, k: int, part: str) -> _Spots:
         key = ("part", k, part)
@@ -376,7 +395,8 @@ class FreeSpots:
             keep = keep_axis[0][:, :, None] & keep_axis[1][:, None, :]
             reach = np.hypot(rel[0][:, :, None], rel[1][:, None, :])
             keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
-            self._memo[key] = self._spots(k, grid, centre, offsets, turn, weight, 0.0, keep.ravel(), reach.ravel())
+            self._memo[key] = self._spots(k, grid, lambda: centre, offsets, turn, weight, 0.0, keep.ravel(),
+                                          reach.ravel())
         return self._memo[key]
 
     def _beside_grid(self, direction: tuple[float, float]) -> tuple[Any, ...]:
@@ -412,42 +432,59 @@ class FreeSpots:
             ext_ref = np.abs(d @ self.rot[ref]) @ self.half[ref]
             rots = self._turned_rots(x)
             ext_x = np.abs(d @ rots) @ self.half[x]
-            along = ext_ref + ext_x[turn] + self.search.spot_margin + dist
+            # the distance past the reference per (turn, row) and the lateral offset per column: each
+            # coordinate below is computed on the axes it depends on, then broadcast over (t, r, c)
+            along = ((ext_ref + ext_x) + self.search.spot_margin)[:, None, None] + dists[None, :, None]
+            across = lats[None, None, :]
             offsets = self._turn_rots @ (self.centre[x] - self.origin[x])  # (t, 2)
             half = np.abs(rots) @ self.half[x]  # (t, 2) world-axis half sizes of the turned rectangles
             lo = np.asarray(self.layout.workspace_min) - placement.SPOT_WORKSPACE_SLACK
             hi = np.asarray(self.layout.workspace_max) + placement.SPOT_WORKSPACE_SLACK
             table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
             base = np.asarray(self.layout.robot_base)
-            # x and y apart: footprint centre, frame origin, and the tests on each
+            # x and y apart: footprint centre, frame origin, and the tests on each (a zero component of
+            # the direction or its lateral adds nothing, so that term is left out: same numbers)
             centre, origin, rel = [], [], []
-            keep = np.ones(len(dist), bool)
+            keep = np.ones((len(self.turns), len(dists), len(lats)), bool)
             for a in range(2):
-                c = self.centre[ref, a] + along * d[a] + lat * lateral[a]
-                o = c - offsets[turn, a]
-                h = half[turn, a]
+                c: Any = self.centre[ref, a]
+                if d[a] != 0:
+                    c = c + along * d[a]
+                if lateral[a] != 0:
+                    c = c + across * lateral[a]
+                o = c - offsets[:, a, None, None]
+                h = half[:, a, None, None]
                 keep &= (o >= lo[a]) & (o <= hi[a]) & (c - h >= -table[a]) & (c + h <= table[a])
                 centre.append(c)
                 origin.append(o)
                 rel.append(o - base[a])
-            centre_xy, origin_xy = np.stack(centre, -1), np.stack(origin, -1)  # origin_xy: as _origin() gives
-            keep &= (origin_xy - self.origin[ref]) @ d >= self.search.relation_gap + placement.BESIDE_NEED
+            need = self.search.relation_gap + placement.BESIDE_NEED
+            if d[0] == 0 or d[1] == 0:  # along an axis: the projection is the one coordinate's difference
+                a = 0 if d[0] != 0 else 1
+                keep &= (origin[a] - self.origin[ref, a]) * d[a] >= need
+            else:
+                keep &= ((_flat_xy(origin, keep.shape) - self.origin[ref]) @ d >= need).reshape(keep.shape)
             reach = np.hypot(rel[0], rel[1])
             keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
             grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
                          np.stack([d, lateral]), dists, lats, v_lo, v_width, False)
-            self._memo[key] = self._spots(x, grid, centre_xy, offsets, turn, weight, far, keep, reach)
+            self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
+                                          weight, far, keep.ravel(), reach.ravel())
         return self._memo[key]
 
     def _turned_rots(self, k: int) -> np.ndarray:
         """Object k's rotation after each turn (t, 2, 2)."""
         return self._turn_rots @ self.rot[k]
 
-    def _spots(self, k: int, grid: _Grid, centre: np.ndarray, offsets: np.ndarray, turn: np.ndarray,
+    def _spots(self, k: int, grid: _Grid, centre: Callable[[], np.ndarray], offsets: np.ndarray, turn: np.ndarray,
                weight: np.ndarray, score: Any, keep: np.ndarray, reach: np.ndarray) -> _Spots:
         """The spots with their score and their overlaps with the other objects."""
-        score = (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
-                 + placement.SPOT_TURN_WEIGHT * np.abs(self.turns[turn]))
+        turns = self.turns
+
+        def score_of() -> np.ndarray:
+            return (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
+                    + placement.SPOT_TURN_WEIGHT * np.abs(turns[turn]))
+
         # the objects whose rectangle, with both margins, comes within reach of the grid's box
         g = grid
         corners = (g.base[:, None, None, :] + g.u[[0, -1]][None, :, None, None] * g.axes[0]
@@ -458,12 +495,34 @@ class FreeSpots:
         near = np.flatnonzero(np.all(np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None]), axis=1))
         near = near[near != k]
         rots = self._turned_rots(k)
-        none = np.zeros((0, len(keep)), bool)
-        spots = _Spots(grid, centre, offsets, turn, self.turns, rots, weight, score, keep, near, none)
+        none = np.zeros((0, len(self.turns), len(grid.u)))
+        spots = _Spots(grid, centre, offsets, turn, self.turns, rots, weight, score_of, keep, near, none, none)
         if len(near):
-            blocked = self._blocked_by(k, spots, self.centre[near], self.rot[near], self.half[near])
-            spots = dataclasses.replace(spots, blocked=blocked)
+            first, last = self._runs(k, spots, self.centre[near], self.rot[near], self.half[near])
+            spots = dataclasses.replace(spots, first=first, last=last)
         return spots
+
+def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
+    """Stack x and y coordinates given on axes of a (t, r, c) grid as (m, 2), in the spots' order."""
+    return np.stack([np.broadcast_to(v, shape).ravel() for v in coords], -1)
+
+
+def _covered(spots: _Spots, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Which spots lie in any of the runs of columns ``first``..``last`` (R, t, r): (m,).
+
+    Each run adds one at its first column and takes one off past its last, on rows one column
+    longer than the grid's; a spot is covered where the running sum along its row is positive."""
+    nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
+    if not len(first):
+        return np.zeros(nt * nr * nc, bool)
+    row = np.arange(nt * nr) * (nc + 1)
+    start, stop = first.reshape(len(first), -1), last.reshape(len(last), -1) + 1
+    some = start < stop
+    size = nt * nr * (nc + 1)
+    diff = (np.bincount((row + start.astype(np.intp))[some], minlength=size)
+            - np.bincount((row + stop.astype(np.intp))[some], minlength=size))
+    return (np.cumsum(diff).reshape(nt * nr, nc + 1)[:, :nc] > 0).ravel()
+
 
 def _origin(spots: _Spots, j: int) -> np.ndarray:
     """Frame origin (x, y) of spot j: the footprint centre less the turned offset [m]."""
