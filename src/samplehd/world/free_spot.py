@@ -18,7 +18,6 @@ MuJoCo (the planner's footprints in a compiled state come from
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from collections.abc import Callable, Sequence
@@ -134,9 +133,26 @@ class _Spots:
     weight: np.ndarray  # (m,) share of the planner's first-try samples landing on the spot
     score_of: Callable[[], np.ndarray]  # makes ``score`` when first asked for
     keep: np.ndarray  # (m,) passes the tests not involving other objects
-    near: np.ndarray  # (b,) the other objects that come close enough to block some spot
-    first: np.ndarray  # (b, t, r) first column of the run of spots object near[i] overlaps, per turn and row
-    last: np.ndarray  # (b, t, r) its last column (before the first: none)
+    blockers_of: Callable[[_Spots], tuple[np.ndarray, np.ndarray, np.ndarray]]  # makes near, first, last
+
+    @functools.cached_property
+    def _blockers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.blockers_of(self)
+
+    @property
+    def near(self) -> np.ndarray:
+        """(b,) the other objects that come close enough to block some spot."""
+        return self._blockers[0]
+
+    @property
+    def first(self) -> np.ndarray:
+        """(b, t, r) first column of the run of spots object near[i] overlaps, per turn and row."""
+        return self._blockers[1]
+
+    @property
+    def last(self) -> np.ndarray:
+        """(b, t, r) the run's last column (before the first: none)."""
+        return self._blockers[2]
 
     @functools.cached_property
     def centre(self) -> np.ndarray:
@@ -248,6 +264,8 @@ class FreeSpots:
     def room_beside(self, x: int, ref: int, direction: Sequence[float]) -> bool:
         """Whether object ``x`` finds a free spot past object ``ref`` along a direction (x, y)."""
         spots = self._beside_spots(x, ref, (float(direction[0]), float(direction[1])))
+        if self._too_few(spots):
+            return False
         present = np.ones(len(self.objects), bool)
         free = self._free(x, spots, present, [])
         if self.reach_is_annulus:
@@ -261,6 +279,11 @@ class FreeSpots:
     def _hits(self, spots: _Spots, free: np.ndarray) -> float:
         """How many of the planner's first-try samples are expected on the free spots."""
         return self.search.samples * float(spots.weight[free].sum())
+
+    def _too_few(self, spots: _Spots) -> bool:
+        """Whether the tests not involving other objects already leave too few of the planner's samples
+        (with room for rounding: the free spots' sum is then below ``min_hits`` whatever they are)."""
+        return self._hits(spots, spots.keep) < self.search.min_hits - 1e-9
 
     def _enough(self, spots: _Spots, free: np.ndarray) -> bool:
         """Whether enough of the planner's first-try samples land on free spots (and there is one)."""
@@ -485,22 +508,26 @@ class FreeSpots:
             return (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
                     + placement.SPOT_TURN_WEIGHT * np.abs(turns[turn]))
 
-        # the objects whose rectangle, with both margins, comes within reach of the grid's box
-        g = grid
-        corners = (g.base[:, None, None, :] + g.u[[0, -1]][None, :, None, None] * g.axes[0]
-                   + g.v[[0, -1]][None, None, :, None] * g.axes[1]).reshape(-1, 2)
-        lo, hi = corners.min(axis=0), corners.max(axis=0)
-        grow = self.search.spot_margin / 2
-        radius = np.hypot(*(self.half[k] + grow)) + np.hypot(*(self.half + grow).T) + 1e-9
-        near = np.flatnonzero(np.all(np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None]), axis=1))
-        near = near[near != k]
-        rots = self._turned_rots(k)
-        none = np.zeros((0, len(self.turns), len(grid.u)))
-        spots = _Spots(grid, centre, offsets, turn, self.turns, rots, weight, score_of, keep, near, none, none)
-        if len(near):
-            first, last = self._runs(k, spots, self.centre[near], self.rot[near], self.half[near])
-            spots = dataclasses.replace(spots, first=first, last=last)
-        return spots
+        def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            # the objects whose rectangle, with both margins, comes within reach of the grid's box
+            g = grid
+            corners = (g.base[:, None, None, :] + g.u[[0, -1]][None, :, None, None] * g.axes[0]
+                       + g.v[[0, -1]][None, None, :, None] * g.axes[1]).reshape(-1, 2)
+            lo, hi = corners.min(axis=0), corners.max(axis=0)
+            grow = self.search.spot_margin / 2
+            radius = np.hypot(*(self.half[k] + grow)) + np.hypot(*(self.half + grow).T) + 1e-9
+            near = np.flatnonzero(np.all(np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None]),
+                                         axis=1))
+            near = near[near != k]
+            if not len(near):
+                none = np.zeros((0, len(self.turns), len(grid.u)))
+                return near, none, none
+            return near, *self._runs(k, spots, self.centre[near], self.rot[near], self.half[near])
+
+        # the other objects' overlaps are found when first asked for: a spot search whose tests without
+        # them already leave too few spots needs none
+        return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, score_of, keep,
+                      blockers_of)
 
 def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
     """Stack x and y coordinates given on axes of a (t, r, c) grid as (m, 2), in the spots' order."""
