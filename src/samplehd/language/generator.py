@@ -226,12 +226,14 @@ class _SceneGenerator:
 
     def _fails(self, constraints: Sequence[TemplateConstraint], values: Mapping[str, Any]) -> str | None:
         """Name of the first constraint the bound values violate (memoised per scene), or None."""
+        memo = self._memo
+        get = values.__getitem__
         for c in constraints:
-            args = tuple(values[x] for x in c.params)
+            args = tuple(map(get, c.params))
             key = (c.type, args)
-            ok = self._memo.get(key)
+            ok = memo.get(key)
             if ok is None:
-                ok = self._memo[key] = bool(CONSTRAINTS[c.type].check(self.ctx, args))
+                ok = memo[key] = bool(CONSTRAINTS[c.type].check(self.ctx, args))
                 if not ok:
                     # counted once per distinct rejected candidate, not per draw
                     self.rejections[c.type] += 1
@@ -281,8 +283,8 @@ class _SceneGenerator:
             # candidates in random order, each checked only when reached: the first valid one is a
             # uniform draw among the valid ones, and most draws stop long before the whole domain
             any_valid = False
-            for j in rng.permutation(len(domain)):
-                candidate = domain[int(j)]
+            for j in rng.permutation(len(domain)).tolist():
+                candidate = domain[j]
                 members: tuple[int, ...] = ()
                 if p.type == "object_set":
                     members = self.set_members[candidate]

@@ -117,6 +117,13 @@ class _Grid:
     width: float
     on_axes: bool  # e1, e2 are x, y and base is 0: centre (u[i], v[j]) exactly
 
+    @functools.cached_property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners (x, y) of the box around every spot's footprint centre [m]."""
+        corners = (self.base[:, None, None, :] + self.u[[0, -1]][None, :, None, None] * self.axes[0]
+                   + self.v[[0, -1]][None, None, :, None] * self.axes[1]).reshape(-1, 2)
+        return corners.min(axis=0), corners.max(axis=0)
+
 
 @dataclass(frozen=True)
 class _Spots:
@@ -201,6 +208,8 @@ class FreeSpots:
         self.half = np.array([o.footprint_half for o in objects], float).reshape(-1, 2)
         self.turns, self.turn_share = _yaw_weights()
         self._turn_rots = yaw_rotation_2d(self.turns)
+        # the half diagonal of each footprint grown by half the margin: how far it reaches [m]
+        self._radius = np.hypot(*(self.half + search.spot_margin / 2).T)
         self._memo: dict[tuple[Any, ...], Any] = {}
 
     def room_in_part(self, moved: Sequence[int], part: str) -> bool:
@@ -369,16 +378,34 @@ class FreeSpots:
 
         On a row of the grid, each of the test's four axes bounds the column coordinate from both
         sides, so the spots a rectangle blocks are one run of columns per turn and row."""
-        g = spots.grid
+        axes, reach = self._axes_reach(k, spots.rots, r, h)
+        return self._runs_on(spots, c, axes, reach)
+
+    def _axes_reach(self, k: int, rt: np.ndarray, r: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The separating-axis test's four axes for object k turned by each of ``rt`` (t, 2, 2) against
+        each rectangle (rotations (R, 2, 2), half sizes (R, 2)), and how far apart along each axis the
+        two centres may be for an overlap: (R, t, 4, 2) and (R, t, 4)."""
         grow = self.search.spot_margin / 2
-        rt = spots.rots  # (t, 2, 2)
-        n_rect, n_turn = len(c), len(rt)
+        n_rect, n_turn = len(r), len(rt)
         # the four axes of each pair (rect, turn), as rows: the turned object's, then the rectangle's
         axes = np.concatenate([np.broadcast_to(np.swapaxes(rt, -1, -2)[None], (n_rect, n_turn, 2, 2)),
                                np.broadcast_to(np.swapaxes(r, -1, -2)[:, None], (n_rect, n_turn, 2, 2))], axis=2)
         # reach along each axis: the projected half sizes of both, grown by half the margin each
         reach = (np.abs(axes @ rt[None]) @ (self.half[k] + grow)
                  + (np.abs(axes @ r[:, None]) @ (h + grow)[:, None, :, None])[..., 0])
+        return axes, reach
+
+    def _scene_axes_reach(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_axes_reach` of object k against every object where the scene has it (memoised)."""
+        key = ("axes reach", k)
+        if key not in self._memo:
+            self._memo[key] = self._axes_reach(k, self._turned_rots(k), self.rot, self.half)
+        return self._memo[key]
+
+    def _runs_on(self, spots: _Spots, c: np.ndarray, axes: np.ndarray,
+                 reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_runs` for rectangles with centres ``c`` (R, 2), given their test's axes and reach."""
+        g = spots.grid
         q0 = np.einsum("rtad,rtd->rta", axes, c[:, None, :] - g.base[None])  # (R, t, 4)
         along = axes @ g.axes[0]  # (R, t, 4): how the projection moves per metre along a row
         across = (axes @ g.axes[1])[..., None]  # ... and along a column
@@ -496,8 +523,11 @@ class FreeSpots:
         return self._memo[key]
 
     def _turned_rots(self, k: int) -> np.ndarray:
-        """Object k's rotation after each turn (t, 2, 2)."""
-        return self._turn_rots @ self.rot[k]
+        """Object k's rotation after each turn (t, 2, 2) (memoised)."""
+        key = ("turned", k)
+        if key not in self._memo:
+            self._memo[key] = self._turn_rots @ self.rot[k]
+        return self._memo[key]
 
     def _spots(self, k: int, grid: _Grid, centre: Callable[[], np.ndarray], offsets: np.ndarray, turn: np.ndarray,
                weight: np.ndarray, score: Any, keep: np.ndarray, reach: np.ndarray) -> _Spots:
@@ -510,19 +540,17 @@ class FreeSpots:
 
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             # the objects whose rectangle, with both margins, comes within reach of the grid's box
-            g = grid
-            corners = (g.base[:, None, None, :] + g.u[[0, -1]][None, :, None, None] * g.axes[0]
-                       + g.v[[0, -1]][None, None, :, None] * g.axes[1]).reshape(-1, 2)
-            lo, hi = corners.min(axis=0), corners.max(axis=0)
+            lo, hi = grid.box
             grow = self.search.spot_margin / 2
-            radius = np.hypot(*(self.half[k] + grow)) + np.hypot(*(self.half + grow).T) + 1e-9
+            radius = np.hypot(*(self.half[k] + grow)) + self._radius + 1e-9
             near = np.flatnonzero(np.all(np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None]),
                                          axis=1))
             near = near[near != k]
             if not len(near):
                 none = np.zeros((0, len(self.turns), len(grid.u)))
                 return near, none, none
-            return near, *self._runs(k, spots, self.centre[near], self.rot[near], self.half[near])
+            axes, reach = self._scene_axes_reach(k)
+            return near, *self._runs_on(spots, self.centre[near], axes[near], reach[near])
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
         # them already leave too few spots needs none
