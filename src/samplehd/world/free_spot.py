@@ -208,6 +208,10 @@ class FreeSpots:
         self.half = np.array([o.footprint_half for o in objects], float).reshape(-1, 2)
         self.turns, self.turn_share = _yaw_weights()
         self._turn_rots = yaw_rotation_2d(self.turns)
+        self._table = np.asarray(layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
+        self._base = np.asarray(layout.robot_base)
+        self._workspace = (np.asarray(layout.workspace_min) - placement.SPOT_WORKSPACE_SLACK,
+                           np.asarray(layout.workspace_max) + placement.SPOT_WORKSPACE_SLACK)
         # the half diagonal of each footprint grown by half the margin: how far it reaches [m]
         self._radius = np.hypot(*(self.half + search.spot_margin / 2).T)
         self._memo: dict[tuple[Any, ...], Any] = {}
@@ -429,11 +433,8 @@ class FreeSpots:
         if key not in self._memo:
             grid, centre, turn, weight, (lo, hi) = _part_grid(self.layout, self.search.part_margin, self.search.step,
                                                               part)
-            rots = self._turned_rots(k)
-            offsets = self._turn_rots @ (self.centre[k] - self.origin[k])  # (t, 2)
-            half = np.abs(rots) @ self.half[k]  # (t, 2) world-axis half sizes of the turned rectangles
-            table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
-            base = np.asarray(self.layout.robot_base)
+            _, offsets, half = self._turned(k)
+            table, base = self._table, self._base
             # the tests of table_and_reach and the part's bounds, each on x or y alone or on the frame
             # origin's distance from the base: computed per turn and row, per turn and column
             keep_axis, rel = [], []
@@ -480,22 +481,17 @@ class FreeSpots:
         if key not in self._memo:
             d, lateral, dists, lats, dist, lat, turn, weight, far, v_lo, v_width = self._beside_grid(direction)
             ext_ref = np.abs(d @ self.rot[ref]) @ self.half[ref]
-            rots = self._turned_rots(x)
+            rots, offsets, half = self._turned(x)
             ext_x = np.abs(d @ rots) @ self.half[x]
             # the distance past the reference per (turn, row) and the lateral offset per column: each
             # coordinate below is computed on the axes it depends on, then broadcast over (t, r, c)
             along = ((ext_ref + ext_x) + self.search.spot_margin)[:, None, None] + dists[None, :, None]
             across = lats[None, None, :]
-            offsets = self._turn_rots @ (self.centre[x] - self.origin[x])  # (t, 2)
-            half = np.abs(rots) @ self.half[x]  # (t, 2) world-axis half sizes of the turned rectangles
-            lo = np.asarray(self.layout.workspace_min) - placement.SPOT_WORKSPACE_SLACK
-            hi = np.asarray(self.layout.workspace_max) + placement.SPOT_WORKSPACE_SLACK
-            table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
-            base = np.asarray(self.layout.robot_base)
+            lo, hi = self._workspace
+            table, base = self._table, self._base
             # x and y apart: footprint centre, frame origin, and the tests on each (a zero component of
             # the direction or its lateral adds nothing, so that term is left out: same numbers)
-            centre, origin, rel = [], [], []
-            keep = np.ones((len(self.turns), len(dists), len(lats)), bool)
+            centre, origin, rel, tests = [], [], [], []
             for a in range(2):
                 c: Any = self.centre[ref, a]
                 if d[a] != 0:
@@ -504,10 +500,11 @@ class FreeSpots:
                     c = c + across * lateral[a]
                 o = c - offsets[:, a, None, None]
                 h = half[:, a, None, None]
-                keep &= (o >= lo[a]) & (o <= hi[a]) & (c - h >= -table[a]) & (c + h <= table[a])
+                tests.append((o >= lo[a]) & (o <= hi[a]) & (c - h >= -table[a]) & (c + h <= table[a]))
                 centre.append(c)
                 origin.append(o)
                 rel.append(o - base[a])
+            keep = np.broadcast_to(tests[0] & tests[1], (len(self.turns), len(dists), len(lats))).copy()
             need = self.search.relation_gap + placement.BESIDE_NEED
             if d[0] == 0 or d[1] == 0:  # along an axis: the projection is the one coordinate's difference
                 a = 0 if d[0] != 0 else 1
@@ -520,6 +517,15 @@ class FreeSpots:
                          np.stack([d, lateral]), dists, lats, v_lo, v_width, False)
             self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
                                           weight, far, keep.ravel(), reach.ravel())
+        return self._memo[key]
+
+    def _turned(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Object k after each turn: its rotations (t, 2, 2), frame origin less footprint centre (t, 2) and
+        world-axis half sizes (t, 2) [m] (memoised)."""
+        key = ("turned footprint", k)
+        if key not in self._memo:
+            rots = self._turned_rots(k)
+            self._memo[key] = (rots, self._turn_rots @ (self.centre[k] - self.origin[k]), np.abs(rots) @ self.half[k])
         return self._memo[key]
 
     def _turned_rots(self, k: int) -> np.ndarray:
