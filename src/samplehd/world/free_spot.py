@@ -444,10 +444,10 @@ class FreeSpots:
                 keep_axis.append((o >= lo[a]) & (o <= hi[a]) & (c_lo >= -table[a]) & (c_hi <= table[a]))
                 rel.append(o - base[a])
             keep = keep_axis[0][:, :, None] & keep_axis[1][:, None, :]
-            reach = np.hypot(rel[0][:, :, None], rel[1][:, None, :])
-            keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
+            rel_x, rel_y = rel[0][:, :, None], rel[1][:, None, :]
+            keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
             self._memo[key] = self._spots(k, grid, lambda: centre, offsets, turn, weight, 0.0, keep.ravel(),
-                                          reach.ravel())
+                                          lambda: np.hypot(rel_x, rel_y).ravel())
         return self._memo[key]
 
     def _beside_grid(self, direction: tuple[float, float]) -> tuple[Any, ...]:
@@ -511,12 +511,13 @@ class FreeSpots:
                 keep &= (origin[a] - self.origin[ref, a]) * d[a] >= need
             else:
                 keep &= ((_flat_xy(origin, keep.shape) - self.origin[ref]) @ d >= need).reshape(keep.shape)
-            reach = np.hypot(rel[0], rel[1])
-            keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
+            rel_x, rel_y = rel
+            keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
             grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
                          np.stack([d, lateral]), dists, lats, v_lo, v_width, False)
             self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
-                                          weight, far, keep.ravel(), reach.ravel())
+                                          weight, far, keep.ravel(),
+                                          lambda: np.broadcast_to(np.hypot(rel_x, rel_y), keep.shape).ravel())
         return self._memo[key]
 
     def _turned(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -536,11 +537,13 @@ class FreeSpots:
         return self._memo[key]
 
     def _spots(self, k: int, grid: _Grid, centre: Callable[[], np.ndarray], offsets: np.ndarray, turn: np.ndarray,
-               weight: np.ndarray, score: Any, keep: np.ndarray, reach: np.ndarray) -> _Spots:
-        """The spots with their score and their overlaps with the other objects."""
+               weight: np.ndarray, score: Any, keep: np.ndarray, reach_of: Callable[[], np.ndarray]) -> _Spots:
+        """The spots with their score (from the frame origins' distances from the base that ``reach_of``
+        makes) and their overlaps with the other objects."""
         turns = self.turns
 
         def score_of() -> np.ndarray:
+            reach = reach_of()
             return (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
                     + placement.SPOT_TURN_WEIGHT * np.abs(turns[turn]))
 
@@ -562,6 +565,21 @@ class FreeSpots:
         # them already leave too few spots needs none
         return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, score_of, keep,
                       blockers_of)
+
+def _in_annulus(rel_x: np.ndarray, rel_y: np.ndarray, shape: tuple[int, ...], layout: TableLayout) -> np.ndarray:
+    """``reach_min <= hypot(rel_x, rel_y) <= reach_max`` (broadcast to ``shape``), with the hypotenuse
+    taken only where the squared distance is too near either bound to decide it: the same answers.
+    """
+    sq = rel_x * rel_x + rel_y * rel_y
+    lo, hi = layout.reach_min ** 2, layout.reach_max ** 2
+    tol = 1e-9  # far above the rounding of the squares, far below any real distance
+    inside = np.broadcast_to((sq >= lo * (1 + tol)) & (sq <= hi * (1 - tol)), shape).copy()
+    unsure = np.broadcast_to((np.abs(sq - lo) < lo * 2 * tol) | (np.abs(sq - hi) < hi * 2 * tol), shape)
+    if unsure.any():
+        reach = np.hypot(np.broadcast_to(rel_x, shape)[unsure], np.broadcast_to(rel_y, shape)[unsure])
+        inside[unsure] = (reach >= layout.reach_min) & (reach <= layout.reach_max)
+    return inside
+
 
 def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
     """Stack x and y coordinates given on axes of a (t, r, c) grid as (m, 2), in the spots' order."""
