@@ -327,7 +327,9 @@ class FreeSpots:
         g = spots.grid
         if g.on_axes:  # squared distances split along x and y: computed per row and per column
             dx, dy = g.u[:, None] - neighbours[:, 0], g.v[:, None] - neighbours[:, 1]
-            nearest = np.sqrt(((dx * dx)[:, None, :] + (dy * dy)[None, :, :]).min(axis=2)).ravel()
+            # neighbours along the first axis, the minimum taken slab by slab (exact, so the same numbers)
+            nearest = np.sqrt(functools.reduce(np.minimum, (dx * dx).T[:, :, None] + (dy * dy).T[:, None, :]))
+            nearest = nearest.ravel()
             return nearest[idx % len(nearest)]
         return np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
 
@@ -349,10 +351,10 @@ class FreeSpots:
         # spread: farthest-point picks over position and turn (a long object's turn matters as much)
         where = np.column_stack([spots.centre[best], _TURN_SPREAD * spots.turns[spots.turn[best]]])
         picks = [0]
-        dist = np.linalg.norm(where - where[0], axis=1)
+        dist = _norms(where - where[0])
         while len(picks) < placement.SPOT_OPTIONS and dist.max() > 0:
             picks.append(int(dist.argmax()))
-            dist = np.minimum(dist, np.linalg.norm(where - where[picks[-1]], axis=1))
+            dist = np.minimum(dist, _norms(where - where[picks[-1]]))
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
         reached = [int(best[i]) for i in picks if self.reach((*_origin(spots, best[i]), z))]
         if reached:
@@ -424,8 +426,11 @@ class FreeSpots:
             low = np.where(flat, np.where(inside, -np.inf, np.inf), low)
             high = np.where(flat, np.where(inside, np.inf, -np.inf), high)
         count = len(g.v)
-        first = np.clip(np.ceil((low.max(axis=2) - g.lo) / g.width - 0.5), 0, count)  # (R, t, r)
-        last = np.clip(np.floor((high.min(axis=2) - g.lo) / g.width - 0.5), -1, count - 1)
+        # the tightest of the four bounds, pairwise (max and min are exact: the same numbers), as columns
+        low = np.maximum(np.maximum(low[:, :, 0], low[:, :, 1]), np.maximum(low[:, :, 2], low[:, :, 3]))
+        high = np.minimum(np.minimum(high[:, :, 0], high[:, :, 1]), np.minimum(high[:, :, 2], high[:, :, 3]))
+        first = np.clip(np.ceil((low - g.lo) / g.width - 0.5), 0, count)  # (R, t, r)
+        last = np.clip(np.floor((high - g.lo) / g.width - 0.5), -1, count - 1)
         return first, last
 
     def _part_spots(self, k: int, part: str) -> _Spots:
@@ -552,8 +557,8 @@ class FreeSpots:
             lo, hi = grid.box
             grow = self.search.spot_margin / 2
             radius = np.hypot(*(self.half[k] + grow)) + self._radius + 1e-9
-            near = np.flatnonzero(np.all(np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None]),
-                                         axis=1))
+            close = np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None])
+            near = np.flatnonzero(close[:, 0] & close[:, 1])
             near = near[near != k]
             if not len(near):
                 none = np.zeros((0, len(self.turns), len(grid.u)))
@@ -565,6 +570,11 @@ class FreeSpots:
         # them already leave too few spots needs none
         return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, score_of, keep,
                       blockers_of)
+
+def _norms(rows: np.ndarray) -> np.ndarray:
+    """Euclidean length of each row, as ``np.linalg.norm(rows, axis=1)`` computes it for real rows."""
+    return np.sqrt(np.add.reduce(rows * rows, axis=1))
+
 
 def _in_annulus(rel_x: np.ndarray, rel_y: np.ndarray, shape: tuple[int, ...], layout: TableLayout) -> np.ndarray:
     """``reach_min <= hypot(rel_x, rel_y) <= reach_max`` (broadcast to ``shape``), with the hypotenuse
