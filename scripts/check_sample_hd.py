@@ -19,7 +19,8 @@ What runs, each exactly as committed there:
 3. ``preprocessing/*.py`` with their own command-line arguments, in the order their inputs need:
    sequence_data_preprocessing, subtask_collapse, effector_preproc, effector_h5, annotation_preprocessing,
    filter_instructions, instructions_preprocessing_seq, instructions_preprocessing_ans. Their subtask
-   masks are compared with the exported segmentation, their pick orders with the recorded targets.
+   masks are compared with the exported segmentation, their pick orders with the recorded targets
+   (equal only for a dataset made with ``paths.planner.order: nearest``, the sample-hd preset's).
 4. ``datasets/SAMPLE.py``: every dataset class built on those outputs and indexed.
 Prints one summary line per check and exits 1 when any check fails.
 """
@@ -95,7 +96,7 @@ def run_script(code: Path, script: str, *args: str) -> None:
     print(f"  ran preprocessing/{script} {' '.join(args)}")
 
 
-def check_masks_and_orders(out: Path) -> tuple[int, int, int, int]:
+def check_masks_and_orders(out: Path) -> tuple[int, int, int, int, int]:
     """Masks of sequence_data_preprocessing against the exported segmentation; its pick order against the
     recorded target objects. Returns (masks equal, masks, empty masks, orders equal, sequences)."""
     import numpy as np
@@ -187,10 +188,11 @@ def main(argv: list[str] | None = None) -> int:
     program = str(out / "instructions" / "instructions_program.json")
     run_script(code, "sequence_data_preprocessing.py", "-i", seqs, "-s", scenes, "-ins", program)
     masks_ok, masks, empty, orders_ok, n = check_masks_and_orders(out)
-    ok &= masks_ok == masks
+    ok &= masks_ok == masks and orders_ok == n
     print(f"sequence_data_preprocessing: masks {masks_ok}/{masks} equal the segmentation ({empty} empty: object "
-          f"hidden in that frame); pick orders {orders_ok}/{n} equal the recorded ones (the script assumes the "
-          "object nearest to the effector at each approach's start is moved next)")
+          f"hidden in that frame); pick orders {orders_ok}/{n} equal the recorded ones (the script gives each "
+          "approach the remaining object nearest the effector at its first frame: a dataset made with "
+          "paths.planner.order nearest, as the sample-hd preset)")
     run_script(code, "subtask_collapse.py", "-i", seqs)
     run_script(code, "effector_preproc.py", "-i", seqs, "-o", "data_effector.json")
     run_script(code, "effector_h5.py", "-i", seqs, "-j", "data_effector.json", "-o", str(out / "effector.h5"))

@@ -141,6 +141,8 @@ def _config_cases() -> list[tuple[str, dict[str, Any], tuple[str, ...]]]:
         add(f"planner-{k}-float", {"paths": {"planner": {k: 1.5}}}, k)
     for k in ("approach_distance", "min_lift", "spot_margin"):
         add(f"planner-{k}-neg", {"paths": {"planner": {k: -0.1}}}, k)
+    add("planner-order-bogus", {"paths": {"planner": {"order": "closest"}}}, "order", "closest", "nearest")
+    add("planner-order-int", {"paths": {"planner": {"order": 1}}}, "order")
     add("checker-neg", {"paths": {"checker": {"lift_height": -1}}}, "lift_height")
     add("checker-str", {"paths": {"checker": {"lift_height": "x"}}}, "lift_height")
     return c

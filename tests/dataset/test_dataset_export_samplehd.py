@@ -161,18 +161,105 @@ def test_export_is_deterministic(rendered_dataset: Path, shd_export: Path, tmp_p
             assert (shd_export / rel).read_bytes() == (again / rel).read_bytes(), rel
 
 
+# SAMPLE-HD's four families on scenes of 4-5 objects, picked in SAMPLE-HD's order, small images.
+SAMPLE_HD_LIKE = {"num_scenes": 2, "seed": 6, "test_every": 2, "scene": {"min_objects": 4, "max_objects": 5},
+                  "instructions": {"per_scene": 3, "balance": "families",
+                                   "families": ["place", "stack", "put", "remove"]},
+                  "paths": {"planner": {"order": "nearest"}}, "render": {"mode": "fast", "width": 64, "height": 36}}
+
+
 @pytest.mark.slow
-def test_sample_hd_own_code_on_the_export(shd_export: Path, tmp_path: Path) -> None:
+def test_sample_hd_own_code_on_the_export(tmp_path: Path) -> None:
     """Runs SAMPLE-HD's own scripts (not part of samplehd) when a checkout and a Python with their
     dependencies are named: SAMPLEHD_SAMPLE_HD_CODE=CHECKOUT SAMPLEHD_SAMPLE_HD_PYTHON=PYTHON."""
     import os
+    import re
     import subprocess
+
+    from samplehd.dataset.config import GenerateConfig, preset_config
+    from samplehd.dataset.generate import generate_dataset
 
     code, python = os.environ.get("SAMPLEHD_SAMPLE_HD_CODE"), os.environ.get("SAMPLEHD_SAMPLE_HD_PYTHON")
     if not code or not python:
         pytest.skip("set SAMPLEHD_SAMPLE_HD_CODE and SAMPLEHD_SAMPLE_HD_PYTHON to run SAMPLE-HD's own code")
+    generate_dataset(tmp_path / "ds", GenerateConfig.from_dict(SAMPLE_HD_LIKE, base=preset_config("tiny")))
+    out = tmp_path / "shd"
+    assert main(["export", "sample-hd", str(tmp_path / "ds"), "--out", str(out), "--workers", "1"]) == 0
+    programs = json.loads((out / "instructions" / "instructions_program.json").read_text())["instructions"]
+    assert any(len(p["task"][0]["object"]) > 1 for p in programs), "the seed must give a task moving several objects"
     script = Path(__file__).parents[2] / "scripts" / "check_sample_hd.py"
-    done = subprocess.run([python, str(script), str(shd_export), code, "--work", str(tmp_path / "work")],
+    done = subprocess.run([python, str(script), str(out), code, "--work", str(tmp_path / "work")],
                           capture_output=True, text=True, timeout=1800)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     assert "executor:" in done.stdout and "OK" in done.stdout
+    orders = re.search(r"pick orders (\d+)/(\d+)", done.stdout)
+    assert orders and orders[1] == orders[2] != "0", done.stdout[-3000:]
+
+
+# One scene of 5 objects, one remove instruction that moves three (seed 6), states only: a few seconds.
+REMOVE_MANY = {"num_scenes": 1, "seed": 6, "test_every": 2, "scene": {"min_objects": 5, "max_objects": 5},
+               "instructions": {"per_scene": 1, "families": ["remove"]}, "render": {"mode": "none"}}
+
+
+def _remove_export(root: Path, order: str) -> Path:
+    from samplehd.dataset.config import GenerateConfig, preset_config
+    from samplehd.dataset.generate import generate_dataset
+
+    doc = {**REMOVE_MANY, "paths": {"planner": {"order": order}}}
+    generate_dataset(root / "ds", GenerateConfig.from_dict(doc, base=preset_config("tiny")))
+    assert main(["export", "sample-hd", str(root / "ds"), "--out", str(root / "shd"), "--no-images",
+                 "--workers", "1"]) == 0
+    return root / "shd"
+
+
+def sample_hd_order(out: Path, instruction: dict) -> tuple[list[int], list[int]]:
+    """(recorded, computed) pick order of one exported sequence, the way preprocessing/
+    sequence_data_preprocessing.py reads the fields: ``task[0]`` (a remove: every scene object whose
+    ``table_part`` names the subject), the first frame of each ``GripperMoveAvoid`` run, FK of that
+    frame's ``robot_state[0:6]`` (utils/robot.py's effector end), the objects' ``position`` in frame 0."""
+    scene = json.loads((out / "scenes" / f"SAMPLE_HD_train_{instruction['image_index']:06d}.json").read_text())
+    seq = out / "sequences" / f"i{instruction['instruction_idx']:06d}_s{instruction['image_index']:06d}"
+    frames = json.loads((seq / "data.json").read_text())["sequence"]
+    task = instruction["task"][0]
+    objects = list(task["object"])
+    if task["type"] == "remove":
+        objects = [i for i, o in enumerate(scene["objects"]) if task["subject"] in o["table_part"]]
+    starts = [t for t, f in enumerate(frames) if f["subtask"] == "GripperMoveAvoid"
+              and (t == 0 or frames[t - 1]["subtask"] != "GripperMoveAvoid")]
+    positions = [vec(frames[0]["objects"][i]["position"]) for i in objects]
+    computed = []
+    for t in starts:
+        flange = fk_flange(dh_from_unity(frames[t]["robot_state"]))
+        tip = unity_from_base(flange[:3, 3] + 0.09 * flange[:3, 2])
+        k = int(np.argmin([np.linalg.norm(tip - p) for p in positions]))
+        computed.append(objects.pop(k))
+        positions.pop(k)
+    return [frames[t]["target_object"] for t in starts], computed
+
+
+def test_pick_order_is_what_sample_hd_preprocessing_computes(tmp_path: Path, capsys) -> None:
+    """A dataset made with ``paths.planner.order: nearest`` (the sample-hd preset's) records the pick
+    order SAMPLE-HD's preprocessing assigns; one made in the task's order does not, and the export says so."""
+    out = _remove_export(tmp_path / "nearest", "nearest")
+    programs = json.loads((out / "instructions" / "instructions_program.json").read_text())["instructions"]
+    info = json.loads((out / "info.json").read_text())
+    assert info["pick_order"] == "nearest" and info["pick_order_differs"] == 0
+    assert "pick their objects in another order" not in capsys.readouterr().out
+    several = 0
+    for p in programs:
+        recorded, computed = sample_hd_order(out, p)
+        assert recorded == computed, p["instruction_idx"]
+        assert sorted(recorded) == sorted(p["task"][0]["object"]) or p["task"][0]["type"] == "remove"
+        several += len(recorded) > 1 and recorded != sorted(recorded)
+    assert several, "the seed must give a remove of several objects whose nearest order is not the listed one"
+    other = _remove_export(tmp_path / "instruction", "instruction")
+    info = json.loads((other / "info.json").read_text())
+    assert info["pick_order"] == "instruction" and info["pick_order_differs"] >= 1
+    assert "generate with paths.planner.order nearest" in capsys.readouterr().out
+    programs = json.loads((other / "instructions" / "instructions_program.json").read_text())["instructions"]
+    differs = 0
+    for p in programs:
+        recorded, computed = sample_hd_order(other, p)
+        assert recorded == sorted(recorded)  # the task's (scene) order
+        differs += recorded != computed
+    assert differs == info["pick_order_differs"]

@@ -183,3 +183,42 @@ def test_bad_preset_and_photo_options_on_the_command_line(tmp_path, capsys, argv
     err = capsys.readouterr().err.strip()
     assert msg in err and len(err.splitlines()) == 1, err
     assert not out.exists()  # nothing written
+
+
+def test_the_gpu_finish_gives_the_cpu_finish_image(scene_world, photo):
+    """Clamp → denoise → tone curve as the GPU path runs it (torch tensors handed to Open Image Denoise),
+    here on the CPU tensors of the CPU variant: the same picture as the NumPy path, within a level or two."""
+    pytest.importorskip("torch", reason="the GPU finish hands frames over as torch tensors")
+    from samplehd.render.photo.renderer import _finish_on_gpu
+
+    model, data = scene_world
+    want = photo.render(data, "scene")["rgb"]
+    tracer = photo._tracer
+    got = _finish_on_gpu(tracer.scene.render_tensor(tracer.options.spp, tracer.options.seed), tracer.options)
+    assert got.shape == want.shape and got.dtype == np.uint8
+    assert np.abs(got.astype(int) - want.astype(int)).max() <= 3
+    assert want.std() > 10  # a picture, not a flat field
+
+
+def test_a_replayed_gpu_frame_is_a_fresh_trace(scene_world, photo):
+    """On the GPU the trace is recorded once and replayed: after the arm moves, the replay gives exactly what
+    tracing the posed scene anew gives. (Runs where the CUDA variant is in use.)"""
+    import mujoco
+
+    from samplehd.render.photo.runtime import photo_backend
+
+    if photo_backend() != "cuda_ad_rgb":
+        pytest.skip("the trace is replayed only on an NVIDIA GPU")
+    model, data = scene_world
+    photo.render(data, "scene")
+    scene = photo._tracer.scene
+    camera = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, "scene")
+    moved = mujoco.MjData(model)
+    moved.qpos[:] = data.qpos
+    for _ in range(3):
+        moved.qpos[:6] += 0.1
+        mujoco.mj_forward(model, moved)
+        scene.pose(moved, camera, W, H)
+        replay = np.asarray(scene.render_tensor(1, 0))
+        fresh = np.asarray(scene.mi.render(scene.scene, spp=1, seed=0))
+        np.testing.assert_array_equal(replay, fresh)

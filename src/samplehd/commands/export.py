@@ -78,5 +78,9 @@ def run(args: argparse.Namespace) -> int:
                                   camera=args.camera, backend=Backend("local", args.workers), progress=tick)
             for reason, n in res["left_out"].items():
                 print(f"left out {n} instruction(s): {reason}")
+            if res["pick_order_differs"]:
+                print(f"{res['pick_order_differs']} sequence(s) pick their objects in another order than SAMPLE-HD's "
+                      f"preprocessing assumes (nearest the effector first; this dataset: paths.planner.order "
+                      f"{res['pick_order']}); generate with paths.planner.order nearest, as the sample-hd preset does")
     print(f"exported {res} to {args.out}")
     return 0

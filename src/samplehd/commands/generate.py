@@ -1,7 +1,8 @@
 """Generate a dataset: scenes → instructions → ground-truth paths → images, resumable and parallel.
 
 Presets: tiny (4 scenes, ~8 candidates, 128×72 images, about a minute on 2 cores), small (40 scenes,
-320×180), sample-hd (2000 scenes of 3–5 objects, stop at 8360 successful instructions, 640×360).
+320×180), sample-hd (2000 scenes of 3–5 objects, stop at 8360 successful instructions, 640×360,
+several moved objects picked nearest the arm first: paths.planner.order nearest, SAMPLE-HD's order).
 A --config JSON file overrides the preset; flags override both. The same config and seed give the
 same dataset whatever --workers or --backend; --resume finishes an interrupted run.
 """

@@ -51,6 +51,7 @@ from samplehd.dataset.unity_frame import (
     xyzw,
 )
 from samplehd.errors import DatasetError
+from samplehd.motion.order import pick_order
 from samplehd.render.image_io import read_segmentation, save_depth
 from samplehd.render.video import VideoWriter
 from samplehd.workers import Backend
@@ -60,7 +61,9 @@ __all__ = [
     "MARKERS",
     "SAMPLE_HD_FAMILIES",
     "colour_segmentation",
+    "approach_starts",
     "export_samplehd",
+    "sample_hd_pick_order",
     "scene_stem",
     "segmentation_colour",
     "sequence_name",
@@ -191,6 +194,27 @@ class _SequenceUnit:
     base: tuple[float, float, float]
 
 
+def approach_starts(subtasks: list[str]) -> list[int]:
+    """Frames where a GripperMoveAvoid run begins (one per picked object)."""
+    return [t for t, name in enumerate(subtasks)
+            if name == "GripperMoveAvoid" and (t == 0 or subtasks[t - 1] != name)]
+
+
+def sample_hd_pick_order(frames: list[dict[str, Any]], effector: list[dict[str, Any]]) -> tuple[list[int], list[int]]:
+    """(the recorded pick order, the one SAMPLE-HD's preprocessing computes from the exported fields).
+
+    ``preprocessing/sequence_data_preprocessing.py`` assigns the approaches to the moved objects
+    greedily: for each GripperMoveAvoid in turn, the remaining object whose ``position`` in frame 0
+    is nearest to the effector (``effector_end`` of ``robot_state``, i.e. ``effector.json``) at the
+    approach's first frame.
+    """
+    starts = approach_starts([f["subtask"] for f in frames])
+    recorded = [int(frames[t]["target_object"]) for t in starts]
+    start_pos = np.array([list(o["position"].values()) for o in frames[0]["objects"]])
+    effs = [np.array(list(effector[t]["position"].values())) for t in starts]
+    return recorded, pick_order("nearest", sorted(recorded), effs, start_pos)
+
+
 def _frame_records(ep: Any, base: np.ndarray) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
     f = ep.frames
     joints = joints_to_unity(f["joint_pos"]).round(6)
@@ -218,7 +242,9 @@ def _frame_records(ep: Any, base: np.ndarray) -> tuple[list[dict[str, Any]], lis
     return frames, effector
 
 
-def _export_sequence(unit: _SequenceUnit) -> int:
+def _export_sequence(unit: _SequenceUnit) -> tuple[int, bool]:
+    """Write one sequence; returns (its frames, whether its pick order is the one SAMPLE-HD's
+    preprocessing computes)."""
     want_images = unit.images or unit.previews
     ep = read_episode(Path(unit.episode_path), images="lazy" if want_images else "none")
     base = np.asarray(unit.base)
@@ -250,7 +276,8 @@ def _export_sequence(unit: _SequenceUnit) -> int:
         h, w = rgb.shape[1] // 2 * 2, rgb.shape[2] // 2 * 2
         with VideoWriter(folder / "preview.mp4", w, h, unit.fps, "libx264", crf=23, gop=unit.fps) as vw:
             vw.write(rgb[:, :h, :w])
-    return ep.num_frames
+    recorded, computed = sample_hd_pick_order(frames, effector)
+    return ep.num_frames, recorded == computed
 
 
 def _export_scene_images(root: Path, tmp: Path, scene: dict[str, Any]) -> None:
@@ -283,8 +310,11 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
         progress: ``progress(done, total)`` per sequence.
 
     Returns:
-        ``{scenes, instructions, sequences, frames, left_out}``; ``left_out`` counts the
-        instructions not exported, by reason.
+        ``{scenes, instructions, sequences, frames, left_out, pick_order, pick_order_differs}``;
+        ``left_out`` counts the instructions not exported, by reason; ``pick_order`` is the source
+        dataset's ``paths.planner.order``; ``pick_order_differs`` counts the sequences whose recorded
+        pick order is not the one SAMPLE-HD's preprocessing computes (:func:`sample_hd_pick_order`;
+        0 for a dataset made with ``order: nearest``, as the sample-hd preset does).
 
     Raises:
         DatasetError: unfinished dataset, non-empty ``out`` or a camera that no episode stores.
@@ -292,6 +322,7 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
     reader, out = export_source(root, out)
     root = Path(root)
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
+    order = str(reader.config.get("paths", {}).get("planner", {}).get("order", "instruction"))
     base = LAYOUT.robot_base_position
     stored = sorted({c for e in range(len(reader)) for c in (reader.episode_meta(e).get("images") or {})})
     if camera is not None and camera not in stored:
@@ -339,13 +370,15 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
         units = [_SequenceUnit(str(reader.episode_path(k)), str(tmp), k,
                                len(reader.scene(int(reader.instruction(k)["image_index"]))["objects"]),
                                cam, images, previews, fps, tuple(float(v) for v in base)) for k in chosen]
-        frames = 0
-        for done, (_, n) in enumerate((backend or Backend()).map(_export_sequence, iter(units)), 1):
+        frames = other_order = 0
+        for done, (_, (n, same)) in enumerate((backend or Backend()).map(_export_sequence, iter(units)), 1):
             frames += n
+            other_order += int(not same)
             if progress:
                 progress(done, len(units))
         summary = {"scenes": len(reader.scenes), "instructions": len(programs), "sequences": len(units),
-                   "frames": frames, "left_out": dict(left_out)}
+                   "frames": frames, "left_out": dict(left_out), "pick_order": order,
+                   "pick_order_differs": other_order}
         (tmp / "info.json").write_text(json.dumps({"layout": "SAMPLE-HD", "fps": fps, "camera": cam,
                                                    **info, **summary}, indent=1))
     return summary

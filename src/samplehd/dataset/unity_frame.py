@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from samplehd.motion.order import EFFECTOR_POINT_OFFSET
 from samplehd.robot.constants import TCP_OFFSET
 
 __all__ = [
@@ -36,8 +37,9 @@ __all__ = [
 
 # Where SAMPLE-HD's Unity scene has the UR5e base (utils/robot.py, UR5e.position) [m].
 UNITY_ROBOT_BASE = np.array([-0.422, 0.7728171, 0.2028])
-# SAMPLE-HD's effector point: 0.09 m beyond the flange along the tool z axis (UR5e.effector_transform) [m].
-UNITY_EFFECTOR_OFFSET = 0.09
+# SAMPLE-HD's effector point: 0.09 m beyond the flange along the tool z axis (UR5e.effector_transform) [m];
+# the planner's ``nearest`` pick order measures from the same point.
+UNITY_EFFECTOR_OFFSET = EFFECTOR_POINT_OFFSET
 # Rows: Unity x = base y, Unity y = base z (up), Unity z = −base x.
 WORLD_TO_UNITY = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0]])
 # Unity joint j [deg] = _JOINT_SIGN * θ_DH [deg] + _JOINT_SHIFT (the inverse of utils/robot.py's map).

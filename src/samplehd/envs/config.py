@@ -99,27 +99,30 @@ class EnvConfig:
         def fail(name: str, what: str) -> None:
             raise ConfigError(f"Tabletop-v0 option {name}={getattr(self, name)!r}: {what}")
 
-        if self.obs_mode not in OBS_MODES:
+        def named(value: object, valid: Any) -> bool:  # a list or dict is no name (and is unhashable)
+            return isinstance(value, str) and value in valid
+
+        if not named(self.obs_mode, OBS_MODES):
             fail("obs_mode", f"valid: {', '.join(OBS_MODES)}")
-        if self.control_mode not in CONTROL_MODES:
+        if not named(self.control_mode, CONTROL_MODES):
             fail("control_mode", f"valid: {', '.join(CONTROL_MODES)}")
         if isinstance(self.cameras, str) or not isinstance(self.cameras, tuple | list):
             fail("cameras", f"must be a list of camera names from {', '.join(CAMERAS)}")
         object.__setattr__(self, "cameras", tuple(self.cameras))
-        bad = [c for c in self.cameras if c not in CAMERAS]
+        bad = [c for c in self.cameras if not named(c, CAMERAS)]
         if bad or len(set(self.cameras)) != len(self.cameras):
             fail("cameras", f"must be distinct names from {', '.join(CAMERAS)}")
         if self.obs_mode != "state" and not self.cameras:
             fail("cameras", f"obs_mode {self.obs_mode!r} needs at least one camera")
-        if self.render_camera not in CAMERAS:
+        if not named(self.render_camera, CAMERAS):
             fail("render_camera", f"valid: {', '.join(CAMERAS)}")
         for name in ("width", "height"):
             v = getattr(self, name)
             if not (isinstance(v, int) and not isinstance(v, bool) and 8 <= v <= 4096):
                 fail(name, "must be an integer in 8..4096 px")
-        if self.render_preset not in PRESETS:
+        if not named(self.render_preset, PRESETS):
             fail("render_preset", f"valid: {', '.join(PRESETS)}")
-        if self.render_mode is not None and self.render_mode not in RENDER_MODES:
+        if self.render_mode is not None and not named(self.render_mode, RENDER_MODES):
             fail("render_mode", f"valid: {', '.join(RENDER_MODES)} or None")
         for name in ("control_hz", "physics_hz"):
             v = getattr(self, name)
@@ -131,7 +134,7 @@ class EnvConfig:
         if isinstance(self.families, str) or not isinstance(self.families, tuple | list):
             fail("families", f"must be a list from {', '.join(family_names())}")
         object.__setattr__(self, "families", tuple(self.families))
-        bad = [f for f in self.families if f not in family_names()]
+        bad = [f for f in self.families if not named(f, family_names())]
         if bad:
             fail("families", f"unknown {bad}; valid: {', '.join(family_names())}")
         if isinstance(self.scene, dict):

@@ -212,7 +212,10 @@ class OraclePolicy:
         ro = Rollout(model, data, ctrl, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
                      use_assist=False)
         self._rollout = ro
-        for i in task.objects:
+        remaining = list(task.objects)
+        while remaining:
+            i = ro.next_object(task, remaining)
+            remaining.remove(i)
             exclude: set[int] = set()
             for attempt in range(self.max_replans + 1):
                 k = -1

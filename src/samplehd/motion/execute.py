@@ -27,13 +27,15 @@ import numpy as np
 from samplehd.catalogue import ObjectFacts, object_facts
 from samplehd.errors import PlanningError
 from samplehd.motion.assist import GraspAssist
+from samplehd.motion.order import effector_point
+from samplehd.motion.order import next_object as order_next_object
 from samplehd.motion.planner import destination_candidates, plan_joint_move, release_height, straight_move
 from samplehd.motion.steering import steering_from_targets, steering_motion
 from samplehd.robot.constants import GRIPPER_ACTUATOR, GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
 from samplehd.robot.controller import ControlConfig, ControlReport, RobotController
 from samplehd.robot.kinematics import fk_tcp, ik_batch
 from samplehd.scene.spec import SceneSpec
-from samplehd.tasks.task import Task
+from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box
 from samplehd.world.collision import CollisionChecker, Held
 from samplehd.world.grasps import choose_grasps
@@ -208,6 +210,9 @@ class Rollout:
         self.current_grasp = -1
         self.assist = GraspAssist(model, bodies.num_objects)
         self.assist.release(data)
+        # Where the objects are at the start of the attempt (the first recorded frame): the
+        # ``nearest`` pick order measures from these.
+        self.start_positions = data.xpos[bodies.object_body].copy()
 
     # ------------------------------------------------------------------ stepping
     def _begin(self, name: str) -> int:
@@ -296,6 +301,17 @@ class Rollout:
                          self.layout.table_height + self.cfg.min_lift + below))
 
     # ------------------------------------------------------------------ subtasks
+    def next_object(self, task: Task, remaining: list[int]) -> int:
+        """The object of ``remaining`` (the task's objects not moved yet, in its order) to pick next,
+        by the planner's ``order`` (:mod:`samplehd.motion.order`). Only a family whose moved objects
+        are a set (place, remove) is reordered; stack_three's order is its meaning (middle, then top)."""
+        if self.cfg.order == "instruction" or not get_family(task.family).takes_set:
+            return order_next_object("instruction", remaining)
+        mujoco.mj_kinematics(self.model, self.data)  # positions as the next recorded frame has them
+        tcp = self._tcp_world()
+        return order_next_object(self.cfg.order, remaining, effector_point(tcp[:3, 3], tcp[:3, :3]),
+                                 self.start_positions)
+
     def pick(self, i: int, exclude: tuple[int, ...] = (), lift: bool = True) -> Plan[int]:
         """GripperMoveAvoid, ApproachGrasp, CloseGripper (and MoveUP) for object ``i``.
 

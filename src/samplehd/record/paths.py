@@ -123,8 +123,11 @@ def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: SceneSpec, r
 
 
 def _attempt(ro: Rollout, task: Task, exclude: dict[int, set[int]]) -> Plan[None]:
-    """The plan of one attempt: pick (and place) each moved object in turn."""
-    for i in task.objects:
+    """The plan of one attempt: pick (and place) each moved object in turn, in the planner's order."""
+    remaining = list(task.objects)
+    while remaining:
+        i = ro.next_object(task, remaining)
+        remaining.remove(i)
         k = -1
         try:
             k = yield from ro.pick(i, tuple(exclude.get(i, ())))

@@ -8,7 +8,13 @@ from typing import Any
 
 from samplehd.schema import bounded, check_fields, from_mapping
 
-__all__ = ["PlannerConfig"]
+__all__ = ["PICK_ORDERS", "PlannerConfig"]
+
+# The orders in which the planner moves the objects of a task that moves a set of several (remove,
+# place of a plural): ``instruction``: as the task lists them; ``nearest``: SAMPLE-HD's, before each
+# pick the remaining object whose start position is nearest the effector point
+# (:mod:`samplehd.motion.order`). stack_three always moves middle, then top.
+PICK_ORDERS = ("instruction", "nearest")
 
 
 @dataclass(frozen=True)
@@ -45,6 +51,9 @@ class PlannerConfig:
         part_margin: placed centre at least this far inside the destination part [m].
         relation_gap: extra distance beyond the relation margin for place_relative [m].
         rrt_iterations: RRT-Connect budget per joint-space move.
+        order: the order in which a task's moved objects are picked, one of :data:`PICK_ORDERS`:
+            ``instruction`` (as the task lists them) or ``nearest`` (SAMPLE-HD's: the remaining object
+            nearest the effector at each approach's start, see :mod:`samplehd.motion.order`).
     """
 
     approach_distance: float = bounded(0.08, lo=0.0, unit="m")
@@ -72,6 +81,7 @@ class PlannerConfig:
     part_margin: float = bounded(0.03, lo=0.0, unit="m")
     relation_gap: float = bounded(0.03, lo=0.0, unit="m")
     rrt_iterations: int = bounded(1500, lo=1)
+    order: str = bounded("instruction", choices=PICK_ORDERS)
 
     def __post_init__(self) -> None:
         check_fields(self, "paths.planner")

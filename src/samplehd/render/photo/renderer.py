@@ -9,6 +9,7 @@ principal point; ``tests/render/test_photo.py`` checks it against Mitsuba's own 
 
 from __future__ import annotations
 
+import importlib.util
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -17,7 +18,7 @@ import numpy as np
 
 from samplehd.errors import RenderError
 from samplehd.render.photo.look import LookParams, default_look, random_look
-from samplehd.render.photo.runtime import photo_backend
+from samplehd.render.photo.runtime import load_drjit, photo_backend
 from samplehd.render.photo.scene import PhotoScene
 
 __all__ = ["DEFAULT_SPP", "LOOKS", "PhotoOptions", "PhotoTracer", "denoise", "photo_info", "photo_options", "tonemap"]
@@ -27,13 +28,19 @@ LOOKS = ("fixed", "random")  # the photo look: the same for every scene, or draw
 DEFAULT_SPP = 1
 _CLAMP = 8.0  # [linear radiance] caps rare high-energy paths (fireflies) before denoising
 _WHITE = 1.1  # linear radiance shown as white (before exposure)
+_FINISH: dict[str, bool] = {}  # whether frames are finished on the GPU (decided once per process)
+
+
+def _filmic(x: Any) -> Any:
+    """The ACES fit of the filmic shoulder; arithmetic only, so NumPy arrays and torch tensors alike."""
+    a, b, c, d, e = 2.51, 0.03, 2.43, 0.59, 0.14
+    return (x * (a * x + b)) / (x * (c * x + d) + e)
 
 
 def tonemap(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
     """Linear HDR → sRGB uint8 with a filmic shoulder (ACES fit), so highlights roll off instead of clipping."""
     x = np.maximum(rgb, 0.0) * (2.0 ** exposure) * (0.8 / _WHITE)
-    a, b, c, d, e = 2.51, 0.03, 2.43, 0.59, 0.14
-    y = np.clip((x * (a * x + b)) / (x * (c * x + d) + e), 0.0, 1.0)
+    y = np.clip(_filmic(x), 0.0, 1.0)
     srgb = np.where(y <= 0.0031308, 12.92 * y, 1.055 * np.power(y, 1 / 2.4) - 0.055)
     return np.round(srgb * 255.0).astype(np.uint8)
 
@@ -44,6 +51,38 @@ def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.nda
 
     return pyoidn.denoise(np.ascontiguousarray(color, dtype=np.float32), np.ascontiguousarray(albedo, dtype=np.float32),
                           np.ascontiguousarray(normal, dtype=np.float32), hdr=True, quality="balanced")
+
+
+def _gpu_finish() -> bool:
+    """Whether a frame can stay on the GPU from path tracing to 8-bit image: the CUDA variant, with torch
+    and Open Image Denoise's CUDA device to hand it between them (no copy to the host before the end)."""
+    if "gpu" not in _FINISH:
+        _FINISH["gpu"] = False
+        if photo_backend() == "cuda_ad_rgb" and importlib.util.find_spec("torch") is not None:
+            import pyoidn
+            import torch
+
+            _FINISH["gpu"] = bool(torch.cuda.is_available() and pyoidn.Device.is_cuda_available())
+    return _FINISH["gpu"]
+
+
+def _finish_on_gpu(raw: Any, options: PhotoOptions) -> np.ndarray:
+    """:meth:`PhotoTracer.rgb`'s clamp → denoise → tone curve on the GPU, for Mitsuba's CUDA tensor ``raw``."""
+    import pyoidn
+    import torch
+
+    dr = load_drjit()
+    dr.eval(raw)
+    dr.sync_thread()  # the trace finished before torch reads its buffer
+    t = raw.torch()
+    color = torch.nan_to_num(t[..., :3], nan=0.0, posinf=_CLAMP).clamp(max=_CLAMP).contiguous()
+    if options.denoise:
+        color = pyoidn.denoise(color, t[..., 3:6].clamp(0, 1).contiguous(), t[..., 6:9].clamp(-1, 1).contiguous(),
+                               hdr=True, quality="balanced")
+    x = color.clamp(min=0.0) * (2.0 ** options.look.exposure) * (0.8 / _WHITE)
+    y = _filmic(x).clamp(0.0, 1.0)
+    srgb = torch.where(y <= 0.0031308, 12.92 * y, 1.055 * y.pow(1 / 2.4) - 0.055)
+    return torch.round(srgb * 255.0).to(torch.uint8).cpu().numpy()
 
 
 @dataclass(frozen=True)
@@ -86,13 +125,22 @@ class PhotoTracer:
 
     def radiance(self, data: mujoco.MjData, camera_id: int, width: int, height: int) -> np.ndarray:
         """(H, W, 9) float32 linear RGB, albedo and normal of one path-traced frame (before denoising)."""
+        scene = self._pose(data, camera_id, width, height)
+        return scene.render(self.options.spp, self.options.seed)
+
+    def _pose(self, data: mujoco.MjData, camera_id: int, width: int, height: int) -> PhotoScene:
         if self._scene is None or self._scene.size != (width, height):
             self._scene = PhotoScene(self.model, data, width, height, self.options.look, *self._segmentation)
         self._scene.pose(data, camera_id, width, height)
-        return self._scene.render(self.options.spp, self.options.seed)
+        return self._scene
 
     def rgb(self, data: mujoco.MjData, camera_id: int, width: int, height: int) -> np.ndarray:
-        """(H, W, 3) uint8 path-traced, denoised, tone-mapped image."""
+        """(H, W, 3) uint8 path-traced, denoised, tone-mapped image (finished on the GPU where it was traced
+        there)."""
+        if _gpu_finish():
+            scene = self._pose(data, camera_id, width, height)
+            self.frames += 1
+            return _finish_on_gpu(scene.render_tensor(self.options.spp, self.options.seed), self.options)
         raw = self.radiance(data, camera_id, width, height)
         color = np.minimum(np.nan_to_num(raw[..., :3], nan=0.0, posinf=_CLAMP), _CLAMP)
         if self.options.denoise:

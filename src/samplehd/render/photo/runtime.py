@@ -19,7 +19,7 @@ from typing import Any
 
 from samplehd.errors import RenderError
 
-__all__ = ["INSTALL_HINT", "find_llvm", "load_mitsuba", "photo_backend"]
+__all__ = ["INSTALL_HINT", "find_llvm", "load_drjit", "load_mitsuba", "photo_backend"]
 
 INSTALL_HINT = "pip install 'samplehd[photo]' (mitsuba, pyoidn)"
 LLVM_HINT = "apt-get install libllvm19 (Debian 12; LLVM 15 crashes Mitsuba), or set DRJIT_LIBLLVM_PATH"
@@ -81,6 +81,7 @@ def load_mitsuba() -> Any:
                 raise RenderError(f"the photo preset needs LLVM >= {_MIN_LLVM} for Mitsuba's CPU backend: {LLVM_HINT}")
             os.environ["DRJIT_LIBLLVM_PATH"] = llvm
         try:
+            import drjit
             import mitsuba as mi
             import pyoidn  # noqa: F401
         except ImportError as exc:
@@ -91,5 +92,12 @@ def load_mitsuba() -> Any:
             hint = LLVM_HINT if variant.startswith("llvm") else "an NVIDIA driver with CUDA"
             raise RenderError(f"cannot start Mitsuba's {variant} backend ({exc}); needs {hint}") from None
         _STATE["mi"] = mi
+        _STATE["dr"] = drjit
         _STATE["variant"] = variant
         return mi
+
+
+def load_drjit() -> Any:
+    """Dr.Jit, Mitsuba's array library, once :func:`load_mitsuba` has set the variant."""
+    load_mitsuba()
+    return _STATE["dr"]

@@ -15,7 +15,7 @@ import numpy as np
 
 from samplehd.render.photo.geometry import Part, model_parts, model_texture
 from samplehd.render.photo.look import LookParams, bsdf_for, lights
-from samplehd.render.photo.runtime import load_mitsuba
+from samplehd.render.photo.runtime import load_drjit, load_mitsuba, photo_backend
 
 __all__ = ["PhotoScene"]
 
@@ -73,6 +73,15 @@ class PhotoScene:
         self._geometry_sensor = [s.id() for s in self.scene.sensors()].index("sensor_geometry")
         self._geometry_integrator = mi.load_dict({"type": "aov", "aovs": "pp:position,si:shape_index"})
         self.params = mi.traverse(self.scene)
+        # On the GPU, recorded on the second frame (the first also uploads the scene) and replayed after:
+        # tracing the integrator into a kernel costs ~50 ms a frame there, ten times the kernel itself, and
+        # a replay gives the same image as a fresh trace. (The CPU variant cannot record this scene's
+        # virtual calls, and gains little.)
+        self._trace = self._replay = lambda scene, seed, spp: mi.render(scene, spp=spp, seed=seed)
+        if photo_backend() == "cuda_ad_rgb":
+            self._replay = load_drjit().freeze(self._trace)
+        self._traced = False
+        self._posed: dict[str, np.ndarray] = {}
         # The shape_index AOV holds each shape's id in Dr.Jit's instance registry (not its list position).
         import drjit as dr
 
@@ -124,6 +133,10 @@ class PhotoScene:
         """Move the moving parts and the sensor to ``data``'s state and camera ``camera_id``."""
         mi = self.mi
         for key, part in self._dynamic:
+            where = np.concatenate([data.xpos[part.body], data.xmat[part.body]])
+            if key in self._posed and np.array_equal(self._posed[key], where):
+                continue  # not moved since the last frame
+            self._posed[key] = where
             v, n = self._world(part, data)
             self.params[f"{key}.vertex_positions"] = mi.Float(v.ravel())
             self.params[f"{key}.vertex_normals"] = mi.Float(n.ravel())
@@ -160,5 +173,10 @@ class PhotoScene:
 
     def render(self, spp: int, seed: int) -> np.ndarray:
         """(H, W, 9) float32: linear RGB, albedo, shading normal."""
-        img = self.mi.render(self.scene, spp=int(spp), seed=int(seed))
-        return np.asarray(img, dtype=np.float32)
+        return np.asarray(self.render_tensor(spp, seed), dtype=np.float32)
+
+    def render_tensor(self, spp: int, seed: int) -> Any:
+        """The same as :meth:`render`, as Mitsuba's tensor on its device (the GPU for ``cuda_ad_rgb``)."""
+        trace = self._replay if self._traced else self._trace
+        self._traced = True
+        return trace(self.scene, self.mi.UInt32(int(seed)), int(spp))
