@@ -429,8 +429,9 @@ class FreeSpots:
         # the tightest of the four bounds, pairwise (max and min are exact: the same numbers), as columns
         low = np.maximum(np.maximum(low[:, :, 0], low[:, :, 1]), np.maximum(low[:, :, 2], low[:, :, 3]))
         high = np.minimum(np.minimum(high[:, :, 0], high[:, :, 1]), np.minimum(high[:, :, 2], high[:, :, 3]))
-        first = np.clip(np.ceil((low - g.lo) / g.width - 0.5), 0, count)  # (R, t, r)
-        last = np.clip(np.floor((high - g.lo) / g.width - 0.5), -1, count - 1)
+        # (R, t, r), clipped to the grid's columns (np.clip's dispatch costs more than the arithmetic)
+        first = np.minimum(np.maximum(np.ceil((low - g.lo) / g.width - 0.5), 0), count)
+        last = np.minimum(np.maximum(np.floor((high - g.lo) / g.width - 0.5), -1), count - 1)
         return first, last
 
     def _part_spots(self, k: int, part: str) -> _Spots:
@@ -509,7 +510,9 @@ class FreeSpots:
                 centre.append(c)
                 origin.append(o)
                 rel.append(o - base[a])
-            keep = np.broadcast_to(tests[0] & tests[1], (len(self.turns), len(dists), len(lats))).copy()
+            keep = tests[0] & tests[1]
+            if keep.shape != (len(self.turns), len(dists), len(lats)):
+                keep = np.broadcast_to(keep, (len(self.turns), len(dists), len(lats))).copy()
             need = self.search.relation_gap + placement.BESIDE_NEED
             if d[0] == 0 or d[1] == 0:  # along an axis: the projection is the one coordinate's difference
                 a = 0 if d[0] != 0 else 1
@@ -583,9 +586,15 @@ def _in_annulus(rel_x: np.ndarray, rel_y: np.ndarray, shape: tuple[int, ...], la
     sq = rel_x * rel_x + rel_y * rel_y
     lo, hi = layout.reach_min ** 2, layout.reach_max ** 2
     tol = 1e-9  # far above the rounding of the squares, far below any real distance
-    inside = np.broadcast_to((sq >= lo * (1 + tol)) & (sq <= hi * (1 - tol)), shape).copy()
-    unsure = np.broadcast_to((np.abs(sq - lo) < lo * 2 * tol) | (np.abs(sq - hi) < hi * 2 * tol), shape)
+    inside = (sq >= lo * (1 + tol)) & (sq <= hi * (1 - tol))
+    gap = np.abs(sq - lo)
+    unsure = gap < lo * 2 * tol
+    np.abs(np.subtract(sq, hi, out=gap), out=gap)
+    unsure |= gap < hi * 2 * tol
+    if inside.shape != shape:
+        inside = np.broadcast_to(inside, shape).copy()
     if unsure.any():
+        unsure = np.broadcast_to(unsure, shape)
         reach = np.hypot(np.broadcast_to(rel_x, shape)[unsure], np.broadcast_to(rel_y, shape)[unsure])
         inside[unsure] = (reach >= layout.reach_min) & (reach <= layout.reach_max)
     return inside
