@@ -58,3 +58,37 @@ def test_renders_headless_when_mujoco_is_imported_before_samplehd() -> None:
     assert proc.returncode == 0, proc.stderr[-3000:]
     colours = int(proc.stdout.split("colours", 1)[1].split()[0])
     assert colours > 1, "the image is all one colour"
+
+
+def test_nvidia_egl_driver_outside_the_standard_folders_is_found_ahead_of_mesa(tmp_path):
+    from samplehd.render.backend import egl_vendor_dirs
+
+    standard = [tmp_path / "etc", tmp_path / "share"]
+    nvidia = tmp_path / "usr_local_nvidia"
+    for d in (*standard, nvidia):
+        d.mkdir()
+    (standard[1] / "50_mesa.json").write_text("{}")
+    std, extra = [str(d) for d in standard], [str(nvidia)]
+    assert egl_vendor_dirs({}, std, extra) is None  # no NVIDIA driver: Mesa alone, nothing to set
+    (nvidia / "10_nvidia.json").write_text("{}")
+    assert egl_vendor_dirs({}, std, extra) == ":".join([str(nvidia), *std])
+    # a user's glvnd settings win; a driver in a standard folder needs nothing
+    assert egl_vendor_dirs({"__EGL_VENDOR_LIBRARY_FILENAMES": "/x/10_nvidia.json"}, std, extra) is None
+    assert egl_vendor_dirs({"__EGL_VENDOR_LIBRARY_DIRS": "/x"}, std, extra) is None
+    (standard[0] / "10_nvidia.json").write_text("{}")
+    assert egl_vendor_dirs({}, std, extra) is None
+
+
+def test_configure_adds_the_nvidia_folder_for_egl_only(tmp_path, monkeypatch):
+    import samplehd.render.backend as backend
+
+    (tmp_path / "nvidia").mkdir()
+    (tmp_path / "nvidia" / "10_nvidia.json").write_text("{}")
+    monkeypatch.setattr(backend, "STANDARD_EGL_VENDOR_DIRS", (str(tmp_path / "share"),))
+    monkeypatch.setattr(backend, "EXTRA_EGL_VENDOR_DIRS", (str(tmp_path / "nvidia"),))
+    env: dict[str, str] = {"MUJOCO_GL": "egl"}
+    configure_gl_backend(env)
+    assert env["__EGL_VENDOR_LIBRARY_DIRS"] == f"{tmp_path / 'nvidia'}:{tmp_path / 'share'}"
+    env = {"MUJOCO_GL": "osmesa"}
+    configure_gl_backend(env)
+    assert "__EGL_VENDOR_LIBRARY_DIRS" not in env

@@ -114,3 +114,59 @@ def test_replace_keeps_frames(micro_dataset: Path, tmp_path: Path) -> None:
     ep2 = dataclasses.replace(ep, info={"note": "x"})
     write_episode(tmp_path / "x.h5", ep2)
     assert read_episode(tmp_path / "x.h5").info == {"note": "x"}
+
+
+def test_image_chunks_are_plain_gzip_any_hdf5_reader_decodes(rendered_dataset: Path, tmp_path: Path) -> None:
+    """Image chunks are deflated outside HDF5 and written as they are: each one must be a zlib stream
+    that HDF5's own gzip filter (and plain zlib) decodes to the exact frame."""
+    import zlib
+
+    import h5py
+
+    ep = DatasetReader(rendered_dataset).episode(0, images="load")
+    out = tmp_path / "e.h5"
+    write_episode(out, ep)
+    with h5py.File(out, "r") as f:
+        for cam, mods in ep.images.items():
+            for mod, arr in mods.items():
+                ds = f[f"images/{cam}/{mod}"]
+                assert ds.compression == "gzip" and not ds.shuffle and ds.chunks == (1, *arr.shape[1:])
+                assert ds.dtype == (np.uint8 if mod != "depth" else np.float32)
+                assert np.array_equal(ds[()], arr), f"{cam}/{mod}: HDF5's gzip filter decodes other values"
+                last = len(arr) - 1
+                mask, raw = ds.id.read_direct_chunk((last, *(0,) * (arr.ndim - 1)))
+                assert mask == 0 and zlib.decompress(raw) == np.ascontiguousarray(arr[last], ds.dtype).tobytes()
+
+
+@pytest.mark.parametrize("every", [1, 2])
+def test_frames_deflated_as_rendered_write_the_same_file(world, tmp_path: Path, every: int) -> None:
+    """`generate` deflates each frame as soon as it is rendered: the same images (decoded) and the same file
+    bytes as rendering every frame first and writing the arrays."""
+    from samplehd.dataset.render import RenderConfig
+    from samplehd.record.episode import FRAME_FIELDS, Episode
+    from samplehd.render.deflated import DeflatedFrames
+
+    model, data = world
+    t = 4
+    sizes = {"N": 0, "nq": model.nq, "nv": model.nv, "na": model.na}
+    frames = {k: np.zeros((t, *(sizes.get(d, d) for d in shape)), dtype) for k, (shape, dtype) in FRAME_FIELDS.items()}
+    frames["qpos"] = np.repeat(data.qpos[None], t, axis=0)
+    frames["qpos"][:, 0] += np.linspace(0.0, 0.6, t)  # swing the arm
+    config = RenderConfig("fast", 32, 24, ("operator", "wrist"), every=every)
+    raw = config.images(model, frames)
+    packed = config.images(model, frames, deflated=True)
+    digests = []
+    for name, images in (("raw", raw), ("packed", packed)):
+        for cam in ("operator", "wrist"):
+            for mod in ("rgb", "depth", "segmentation"):
+                stream = images[cam][mod]
+                inner = stream.images if every > 1 else stream
+                assert isinstance(inner, DeflatedFrames) == (name == "packed")
+                want = raw[cam][mod].images if every > 1 else raw[cam][mod]
+                assert np.array_equal(np.asarray(inner), want)
+        ep = Episode(scene_index=0, instruction_index=0, family="pick", seed=0, subtasks=("Pick",), frames=frames,
+                     success=True, info={}, images=images)
+        digests.append(write_episode(tmp_path / f"{name}.h5", ep, render=config.to_dict()).sha256)
+    assert digests[0] == digests[1]
+    back = read_episode(tmp_path / "packed.h5", images="lazy")
+    assert back.images["operator"]["segmentation"].dtype == np.uint8

@@ -25,5 +25,5 @@ def test_sample_hd_sized_dataset(balance: str) -> None:
     assert top[-1] - top[0] <= 0.05 * top[-1], counts
     for e in entries[::50]:
         scene = scenes[e["image_index"]]
-        assert execute(e["program"], scene).to_dict() == e["task"]
-        assert execute(e["program_sequence"], scene).to_dict() == e["task"]
+        assert execute(e["program"], scene).to_program_dict() == e["task"]
+        assert execute(e["program_sequence"], scene).to_program_dict() == e["task"]

@@ -231,3 +231,31 @@ def test_accepted_destinations_are_found_by_the_planner(sampled_scene: tuple[Any
                                            directions=annotation["directions"], relaxed=True)
             assert spots, (task, name)
     assert accepted >= 10 and rejected >= 3
+
+
+def test_reach_annulus_from_squares_answers_as_the_hypotenuse() -> None:
+    """The annulus test on squared distances decides every point as ``hypot`` and the bounds do,
+    including points within a few units in the last place of either bound."""
+    import numpy as np
+
+    from samplehd.world.free_spot import _in_annulus
+
+    rng = np.random.default_rng(4)
+    near = []
+    for bound in (LAYOUT.reach_min, LAYOUT.reach_max):
+        r = np.array([bound])
+        for _ in range(6):  # the bound and the numbers a few units in the last place either side of it
+            near += [r, 2 * bound - r]
+            r = np.nextafter(r, np.inf)
+    radii = np.concatenate([rng.uniform(0.0, 1.0, 1000), np.repeat(np.concatenate(near), 50)])
+    angles = rng.uniform(0, 2 * np.pi, len(radii))
+    x, y = radii * np.cos(angles), radii * np.sin(angles)
+    reach = np.hypot(x, y)
+    expected = (reach >= LAYOUT.reach_min) & (reach <= LAYOUT.reach_max)
+    assert expected.any() and not expected.all()
+    np.testing.assert_array_equal(_in_annulus(x[:, None], y[:, None], (len(x), 1), LAYOUT)[:, 0], expected)
+    # broadcast over a grid of rows and columns, as the part grids use it
+    gx, gy = x[:60, None], y[None, :70]
+    reach = np.hypot(gx, gy)
+    np.testing.assert_array_equal(_in_annulus(gx, gy, (60, 70), LAYOUT),
+                                  (reach >= LAYOUT.reach_min) & (reach <= LAYOUT.reach_max))

@@ -12,9 +12,6 @@ from samplehd.robot.constants import HOME_QPOS
 from samplehd.robot.kinematics import fk_flange, fk_tcp
 from samplehd.world.planner_config import PICK_ORDERS, PlannerConfig
 
-TABLE = 0.75
-UP = (1.0, 0.0, 0.0, 0.0)
-
 
 def test_next_object_and_whole_order() -> None:
     pos = np.array([[0.3, 0.0, 0.0], [0.1, 0.0, 0.0], [0.2, 0.0, 0.0], [0.1, 0.0, 0.0]])
@@ -65,20 +62,6 @@ def test_order_is_validated_and_presets_choose_it() -> None:
     assert mine.paths.checker.window == 2.0 and mine.paths.checker.fall_angle == shd.paths.checker.fall_angle
     back = GenerateConfig.from_dict({"paths": {"planner": {"order": "instruction"}}}, base=shd)
     assert back.paths.planner.order == "instruction"
-
-
-@pytest.fixture(scope="module")
-def scene():
-    from samplehd.catalogue import ObjectInstance
-    from samplehd.scene.spec import SceneObject, SceneSpec
-
-    objs = (
-        SceneObject(ObjectInstance("food_box", "flat", "red", "plastic", "medium"), (0.02, -0.25, TABLE), UP),
-        SceneObject(ObjectInstance("soda_can", "standard", "red", "metal", "medium"), (0.05, 0.12, TABLE), UP),
-        SceneObject(ObjectInstance("bowl", "round", "white", "ceramic", "medium"), (0.20, -0.05, TABLE), UP),
-        SceneObject(ObjectInstance("glass", "short", "transparent", "glass", "medium"), (-0.08, -0.05, TABLE), UP),
-    )
-    return SceneSpec(index=7, seed=0, objects=objs)
 
 
 def _path(scene, order: str, seed: int = 0):

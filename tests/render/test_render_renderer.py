@@ -149,3 +149,48 @@ def test_a_renderer_still_renders_new_states_after_another_renderer_is_closed(wo
         assert (after != before).any()
     finally:
         keep.close()
+
+
+def test_rendering_into_given_arrays_gives_the_same_images(world, fast_images):
+    model, data = world
+    out = {"rgb": np.zeros((180, 320, 3), np.uint8), "depth": np.zeros((180, 320), np.float32),
+           "segmentation": np.zeros((180, 320), np.int32)}
+    with SceneRenderer(model, 320, 180, "fast") as r:
+        got = r.render(data, "operator", ("rgb", "depth", "segmentation"), out=out)
+        assert all(got[m] is out[m] for m in out)
+        for m, want in fast_images.items():
+            np.testing.assert_array_equal(out[m], want)
+        wrong = r"out\['depth'\]: needs a \(180, 320\) float32 array, got \(180, 320\) float64"
+        with pytest.raises(RenderError, match=wrong):
+            r.render(data, "operator", ("depth",), out={"depth": np.zeros((180, 320))})
+        with pytest.raises(RenderError, match=r"out\['rgb'\]: needs a \(180, 320, 3\) uint8 array, got nothing"):
+            r.render(data, "operator", ("rgb",), out={})
+
+
+def test_segmentation_ids_decode_all_three_colour_bytes(world):
+    """The id pass encodes scene geom index + 1 as r + 256 g + 65536 b (0: nothing drawn); each pixel gets
+    its geom's class, rows flipped to run from the top (any colour, the blue byte included)."""
+    model, data = world
+    with SceneRenderer(model, 16, 8, "fast") as r:
+        r.render(data, "operator", ("segmentation",))  # fills the scene's geoms
+        n = r._scene.ngeom
+        rng = np.random.default_rng(0)
+        idcolor = rng.integers(0, 256, (8, 16, 3), dtype=np.uint8)
+        idcolor[..., 1] = rng.integers(0, 2, (8, 16))
+        idcolor[..., 2] = 0
+        idcolor[0, :4] = [(1, 0, 0), (n % 256, n // 256, 0), (0, 0, 0), (1, 0, 1)]  # first, last, none, past all
+        seg = np.full((8, 16), -1, np.int32)
+        r._segment_ids(idcolor, seg)
+        geoms = r._scene.geoms
+        table = np.array([SEG_BACKGROUND] + [r._lut[geoms[i].objid] for i in range(n)], np.int32)
+        code = idcolor[..., 0].astype(np.int64) + (idcolor[..., 1].astype(np.int64) << 8) + (
+            idcolor[..., 2].astype(np.int64) << 16)
+        np.testing.assert_array_equal(seg, table[np.minimum(code, n)][::-1])
+        assert seg[7, 2] == SEG_BACKGROUND and seg[7, 3] == table[n]  # past every geom: clipped to the last
+
+
+def test_gl_device_names_vendor_and_renderer():
+    from samplehd.render.renderer import gl_device
+
+    vendor, renderer = gl_device().split(", ", 1)
+    assert vendor and renderer and "?" not in (vendor, renderer)

@@ -21,19 +21,22 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from samplehd.bench import pin_to_one_core
 from samplehd.bench.language import bench_object_counts
 from samplehd.bench.paths import _bench_scene
+from samplehd.dataset.container import read_frames
 from samplehd.dataset.layout import EPISODE_DIR
 from samplehd.dataset.render import RenderConfig
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, RenderError
 from samplehd.motion.assist import compile_scene_with_assist
 from samplehd.record.paths import PathConfig
 from samplehd.render.backend import configure_gl_backend
-from samplehd.render.renderer import MODALITIES, SceneRenderer
+from samplehd.render.renderer import MODALITIES, SceneRenderer, gl_device
+from samplehd.render.states import set_state
 from samplehd.scene.world import compile_world
 from samplehd.version import __version__
 from samplehd.world.layout import DIRECTIONS
@@ -126,6 +129,9 @@ def _path_rows(repeats: int) -> list[Row]:
         model, data = compile_scene_with_assist(scene)
         for w, h in ((320, 180), (640, 360)):
             images = RenderConfig("fast", w, h, ("operator",), MODALITIES)
+            # Side by side, repeat by repeat (the load of a shared machine drifts): the renderer alone on the
+            # scene's first state, the episode unit with images, and the renderer alone on that episode's states.
+            pure, done, replay = [], [], []
             with SceneRenderer(model, w, h, "fast") as r:
                 r.render(data, "operator", MODALITIES)  # warm-up: the first frame uploads textures
 
@@ -134,23 +140,50 @@ def _path_rows(repeats: int) -> list[Row]:
                         r.render(data, "operator", MODALITIES)
                     return frames
 
-                p_wall, p_cpu = _median_pair(draw, repeats)
-            done = [unit(images, r) for r in range(repeats)]
+                for k in range(repeats):
+                    pure.append(_rate_pair(draw))
+                    done.append(unit(images, k))
+                    stored = read_frames(Path(tmp) / EPISODE_DIR / f"e{k}.h5", ("qpos", "qvel", "act", "time"))
+                    replay.append(_rate_pair(lambda r=r, stored=stored: _draw_states(r, stored)))
+            p_wall, p_cpu = (statistics.median(x[i] for x in pure) for i in (0, 1))
             i_wall = statistics.median(d["num_frames"] / d["seconds"] for d in done)
             i_cpu = statistics.median(d["num_frames"] / d["cpu_seconds"] for d in done)
+            s_ms = 1000 / statistics.median(x[1] for x in replay)
+
+            def ms(key: str, done: list[dict[str, Any]] = done) -> float:
+                return 1000 * statistics.median(d[key] / d["num_frames"] for d in done)
+
             what = f"`fast` RGB+depth+segmentation {w}×{h}, operator camera"
-            rows.append(Row(f"render frames/s, {what} (renderer alone)", _fmt(p_wall), _fmt(p_cpu),
-                            "`samplehd bench --report FILE --only paths`"))
+            rows.append(Row(f"render frames/s, {what} (renderer alone; {1000 / p_cpu:.1f} CPU ms per frame, "
+                            f"{s_ms:.1f} on the states of the episode below)",
+                            _fmt(p_wall), _fmt(p_cpu), "`samplehd bench --report FILE --only paths`"))
             rows.append(Row(f"ground-truth path frames/s with {what} (as above, images rendered from the states "
                             f"and written); share of the renderer's rate: {i_wall / p_wall:.0%} wall, "
-                            f"{i_cpu / p_cpu:.0%} CPU", _fmt(i_wall), _fmt(i_cpu),
-                            "`samplehd bench --report FILE --only paths`"))
+                            f"{i_cpu / p_cpu:.0%} CPU; CPU ms per frame: plan and execute "
+                            f"{ms('path_cpu_seconds'):.1f}, render from the states {ms('render_cpu_seconds'):.1f}, "
+                            f"write {ms('write_cpu_seconds'):.1f}",
+                            _fmt(i_wall), _fmt(i_cpu), "`samplehd bench --report FILE --only paths`"))
     return rows
 
 
-def _robot_rows(repeats: int) -> list[Row]:
-    import mujoco
+def _rate_pair(fn: Callable[[], int]) -> tuple[float, float]:
+    """count/s over wall time and over this process's CPU time of one call of ``fn`` (which returns a count)."""
+    t0, c0 = time.perf_counter(), _cpu()
+    n = fn()
+    t1, c1 = time.perf_counter(), _cpu()
+    return n / max(t1 - t0, 1e-9), n / max(c1 - c0, 1e-9)
 
+
+def _draw_states(r: SceneRenderer, frames: dict[str, np.ndarray]) -> int:
+    """Render every recorded state once (set state, ``mj_forward``, render; nothing kept)."""
+    d = mujoco.MjData(r.model)
+    for k in range(len(frames["qpos"])):
+        set_state(r.model, d, frames["qpos"][k], frames["qvel"][k], frames["act"][k], frames["time"][k])
+        r.render(d, "operator", MODALITIES)
+    return len(frames["qpos"])
+
+
+def _robot_rows(repeats: int) -> list[Row]:
 
     model, data = compile_world()
     rng = np.random.default_rng(0)
@@ -200,8 +233,12 @@ def _machine() -> str:
     except (OSError, IndexError, ValueError):
         pass
     gl = os.environ.get("MUJOCO_GL", "")
+    try:
+        device = f" ({gl_device()})"
+    except RenderError:
+        device = " (no GL context)"
     return (f"{cpu}, {os.cpu_count()} logical cores{mem}, {platform.system()} {platform.release()}, "
-            f"Python {platform.python_version()}, MuJoCo GL backend {gl or 'default'}")
+            f"Python {platform.python_version()}, MuJoCo GL backend {gl or 'default'}{device}")
 
 
 def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list[Row], dict[str, Any]]:

@@ -73,7 +73,8 @@ def container_sizes(dataset: Path) -> list[Figure]:
         size = sum(write_episode(Path(tmp) / f"{k}.h5", e).size for k, e in enumerate(eps))
         dt = time.perf_counter() - t0
         out.append(Figure("dataset", f"hdf5 bytes/1000 frames ({tag})", size / frames * 1000, "B",
-                          f"{len(eps)} episodes, {frames} frames, gzip-4 (+shuffle on floats), 1 file/episode"))
+                          f"{len(eps)} episodes, {frames} frames, states gzip-4 (+shuffle on floats), "
+                          "images ISA-L deflate, 1 file/episode"))
         out.append(Figure("dataset", f"hdf5 write frames/s ({tag})", frames / dt, "1/s", "build + fsync + rename"))
         try:
             import zarr

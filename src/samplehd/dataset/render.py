@@ -14,9 +14,10 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import ConfigError
+from samplehd.render.deflated import DeflatedFrames
 from samplehd.render.keyframes import SparseFrames, keyframe_indices
 from samplehd.render.photo import LOOKS, photo_options
-from samplehd.render.renderer import MODALITIES, camera_names, get_preset
+from samplehd.render.renderer import MODALITIES, camera_names, get_preset, segmentation_lut
 from samplehd.render.states import render_states
 from samplehd.scene.world import compile_world
 from samplehd.schema import bounded, check_fields, from_mapping
@@ -64,11 +65,14 @@ class RenderConfig:
         return self.mode != "none"
 
     def images(self, model: mujoco.MjModel, frames: Mapping[str, np.ndarray],
-               seed: int = 0) -> dict[str, dict[str, Any]]:
+               seed: int = 0, deflated: bool = False) -> dict[str, dict[str, Any]]:
         """Render an episode's frames from its stored states: ``images[camera][modality]`` (first axis
         T), or ``{}`` for mode ``none``. With keyframes (``every``, ``subtask_ends``) each stream is a
-        :class:`~samplehd.dataset.container.SparseFrames`. ``seed``: the scene's seed (the photo
-        preset's randomised look is drawn from it).
+        :class:`~samplehd.render.keyframes.SparseFrames`. ``seed``: the scene's seed (the photo
+        preset's randomised look is drawn from it). ``deflated``: each stream is a
+        :class:`~samplehd.render.deflated.DeflatedFrames`, every frame deflated as soon as it is rendered,
+        in the dtype the episode file stores (segmentation uint8, or uint16 for a scene with ids past 255),
+        for writing (about a tenth of the memory of the raw frames, and no fresh memory per frame).
 
         Raises:
             DatasetError: the states do not fit the model.
@@ -79,8 +83,23 @@ class RenderConfig:
         t = len(frames["qpos"])
         picks = self.keyframes(t, frames.get("subtask_index"))
         photo = photo_options(self.look, seed, where="render.look") if get_preset(self.mode).path_traced else None
-        images = render_states(model, frames, self.cameras, self.modalities, self.width, self.height, self.mode,
-                               indices=picks.tolist(), photo=photo)
+        args = (model, frames, self.cameras, self.modalities, self.width, self.height, self.mode)
+        if deflated:
+            # Ids are at most the segmentation table's largest (0 = background): its size decides the dtype.
+            seg = np.uint8 if int(segmentation_lut(model).max(initial=0)) < 256 else np.uint16
+            dtypes = {"rgb": np.uint8, "depth": np.float32, "segmentation": seg}
+            shapes = {"rgb": (self.height, self.width, 3), "depth": (self.height, self.width),
+                      "segmentation": (self.height, self.width)}
+            images: dict[str, dict[str, Any]] = {
+                c: {m: DeflatedFrames(shapes[m], dtypes[m]) for m in self.modalities} for c in self.cameras}
+
+            def keep(camera: str, frame: dict[str, np.ndarray]) -> None:
+                for m, a in frame.items():
+                    images[camera][m].append(a)
+
+            render_states(*args, indices=picks.tolist(), photo=photo, on_frame=keep)
+        else:
+            images = render_states(*args, indices=picks.tolist(), photo=photo)
         if len(picks) == t:
             return images
         return {c: {m: SparseFrames(picks, v, t) for m, v in mods.items()} for c, mods in images.items()}

@@ -93,7 +93,9 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
 
     Returns:
         ``{scene_index, slot, status: ok|rejected, reason, message, attempts, num_frames, size, sha256,
-        seconds, render_seconds}``.
+        seconds, cpu_seconds}``; an ok one also ``path_seconds``, ``render_seconds`` (wall) and
+        ``path_cpu_seconds``, ``render_cpu_seconds``, ``write_cpu_seconds`` (CPU time of planning and
+        execution, of the images, of writing the file).
 
     Raises:
         DatasetError: the episode file cannot be written (disk full, permissions).
@@ -120,11 +122,12 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
         return {**base, "status": "rejected", "reason": f"error_{type(exc).__name__}",
                 "message": f"{exc} ({Path(where.filename).name}:{where.lineno})"[:300],
                 "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     render = RenderConfig.from_dict(unit.render)
     if render.enabled:
-        episode = dataclasses.replace(episode, images=render.images(model, episode.frames, seed=scene.seed))
-    t2 = time.perf_counter()
+        episode = dataclasses.replace(episode, images=render.images(model, episode.frames, seed=scene.seed,
+                                                                        deflated=True))
+    t2, c2 = time.perf_counter(), time.process_time()
     path = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
     try:
@@ -132,11 +135,12 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
                                 retry=RESUME_HINT)
     except DatasetError:
         raise
+    c3 = time.process_time()
     return {**base, "status": "ok", "attempts": int(episode.info.get("attempts", 1)),
             "num_frames": written.num_frames, "size": written.size,
-            "sha256": written.sha256, "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0,
-            "path_seconds": t1 - t0,
-            "render_seconds": t2 - t1}
+            "sha256": written.sha256, "seconds": time.perf_counter() - t0, "cpu_seconds": c3 - c0,
+            "path_seconds": t1 - t0, "render_seconds": t2 - t1,
+            "path_cpu_seconds": c1 - c0, "render_cpu_seconds": c2 - c1, "write_cpu_seconds": c3 - c2}
 
 
 @dataclass(frozen=True)
@@ -199,7 +203,7 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
             prev.get(k) == settings[cam].get(k) for k in ("mode", "width", "height", *KEYFRAME_KEYS))
         if cam not in render.cameras or same:
             images[cam] = dict(mods)  # kept (lazy: copied chunk by chunk); same settings: modalities merge
-    for cam, mods in render.images(model, episode.frames, seed=scene.seed).items():
+    for cam, mods in render.images(model, episode.frames, seed=scene.seed, deflated=True).items():
         images.setdefault(cam, {}).update(mods)
     written = write_episode(path, dataclasses.replace(episode, images=images), extra, render_record(settings))
     return {"path": str(path), "num_frames": written.num_frames, "size": written.size, "sha256": written.sha256,

@@ -281,16 +281,17 @@ class SceneDescriber:
             best: dict[int, tuple[tuple[int, int, list[int]], Description]] = {}
             for size in range(1, self.max_set_filters + 1):
                 for combo in combinations(keys, size):
+                    m = self.full
+                    for f in combo:
+                        m &= self.masks[f]
+                    # the cheap test first: most combinations match fewer than two objects
+                    if m.bit_count() < 2:
+                        continue
                     if len({k for k, _ in combo}) < size or not self._allowed(combo):
                         continue
                     name = dict(combo).get("name")
                     material = dict(combo).get("material")
                     if name and material and self.lexicon.material_is_redundant(name, material):
-                        continue
-                    m = self.full
-                    for f in combo:
-                        m &= self.masks[f]
-                    if m.bit_count() < 2:
                         continue
                     rank = (size, 0 if name else 1, [_KIND_RANK[k] for k, _ in combo])
                     if m not in best or rank < best[m][0]:

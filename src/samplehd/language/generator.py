@@ -226,12 +226,14 @@ class _SceneGenerator:
 
     def _fails(self, constraints: Sequence[TemplateConstraint], values: Mapping[str, Any]) -> str | None:
         """Name of the first constraint the bound values violate (memoised per scene), or None."""
+        memo = self._memo
+        get = values.__getitem__
         for c in constraints:
-            args = tuple(values[x] for x in c.params)
+            args = tuple(map(get, c.params))
             key = (c.type, args)
-            ok = self._memo.get(key)
+            ok = memo.get(key)
             if ok is None:
-                ok = self._memo[key] = bool(CONSTRAINTS[c.type].check(self.ctx, args))
+                ok = memo[key] = bool(CONSTRAINTS[c.type].check(self.ctx, args))
                 if not ok:
                     # counted once per distinct rejected candidate, not per draw
                     self.rejections[c.type] += 1
@@ -281,25 +283,26 @@ class _SceneGenerator:
             # candidates in random order, each checked only when reached: the first valid one is a
             # uniform draw among the valid ones, and most draws stop long before the whole domain
             any_valid = False
-            for j in rng.permutation(len(domain)):
-                candidate = domain[int(j)]
+            kind, name, checks, fails = p.type, p.name, schedule[k], self._fails
+            for j in rng.permutation(len(domain)).tolist():
+                candidate = domain[j]
                 members: tuple[int, ...] = ()
-                if p.type == "object_set":
+                if kind == "object_set":
                     members = self.set_members[candidate]
-                    values[p.name] = members
-                elif p.type == "object":
+                    values[name] = members
+                elif kind == "object":
                     members = (candidate,)
-                    values[p.name] = candidate
+                    values[name] = candidate
                 else:
-                    values[p.name] = candidate
+                    values[name] = candidate
                 if self.budget <= 0:
                     break
                 self.budget -= 1
-                if self._fails(schedule[k], values) is not None:
+                if checks and fails(checks, values) is not None:
                     continue
                 any_valid = True
-                if p.type == "object_set":
-                    refs[p.name] = self.sets[candidate]
+                if kind == "object_set":
+                    refs[name] = self.sets[candidate]
                 used.update(members)
                 if assign(k + 1):
                     return True

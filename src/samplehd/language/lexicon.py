@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from functools import cache
+from functools import cache, cached_property
 from pathlib import Path
 from typing import Any
 
@@ -92,7 +92,12 @@ class Lexicon:
 
     def are_exclusive(self, a: tuple[str, str], b: tuple[str, str]) -> bool:
         """Whether two (kind, value) modifiers must not be said together."""
-        return any({a, b} == {x, y} for x, y in self.exclusive_modifiers)
+        return frozenset((a, b)) in self._exclusive_pairs
+
+    @cached_property
+    def _exclusive_pairs(self) -> frozenset[frozenset[tuple[str, str]]]:
+        """``exclusive_modifiers`` as unordered pairs, for look-ups."""
+        return frozenset(frozenset(pair) for pair in self.exclusive_modifiers)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Lexicon:

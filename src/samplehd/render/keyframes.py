@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.render.deflated import DeflatedFrames
 
 __all__ = ["SparseFrames", "keyframe_indices"]
 
@@ -44,9 +45,9 @@ class SparseFrames:
     Stands for a length-T image stream; ``samplehd.dataset.container.write_episode`` stores only the K images.
     """
 
-    def __init__(self, frames: np.ndarray, images: np.ndarray, num_frames: int) -> None:
+    def __init__(self, frames: np.ndarray, images: np.ndarray | DeflatedFrames, num_frames: int) -> None:
         self.frames = np.asarray(frames, dtype=np.int64)
-        self.images = np.asarray(images)
+        self.images = images if isinstance(images, DeflatedFrames) else np.asarray(images)
         self.num_frames = int(num_frames)
         if len(self.frames) != len(self.images):
             raise DatasetError(f"{len(self.images)} keyframe images for {len(self.frames)} frame indices")

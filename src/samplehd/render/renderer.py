@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import os
 import threading
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from types import TracebackType
 from typing import Any
@@ -47,6 +47,7 @@ __all__ = [
     "camera_names",
     "camera_pose",
     "get_preset",
+    "gl_device",
     "project_points",
     "render_images",
     "segmentation_lut",
@@ -186,6 +187,23 @@ def _shared_gl_context() -> Any:
     return ctx
 
 
+def gl_device() -> str:
+    """What renders: the GL vendor and renderer strings of this thread's context, e.g. ``Mesa, llvmpipe
+    (LLVM 15.0.6, 256 bits)`` (the CPU rasteriser) or ``NVIDIA Corporation, NVIDIA H100 PCIe/PCIe/SSE2``.
+
+    Raises:
+        RenderError: no GL context can be made.
+    """
+    from OpenGL import GL  # PyOpenGL, the platform matching MUJOCO_GL (set by configure_gl_backend)
+
+    try:
+        _shared_gl_context().make_current()
+        vendor, renderer = (GL.glGetString(k) for k in (GL.GL_VENDOR, GL.GL_RENDERER))
+    except Exception as exc:  # GL failures surface as many exception types
+        raise RenderError(f"cannot create an offscreen GL context with MUJOCO_GL={_gl_backend()}: {exc}") from exc
+    return ", ".join((v or b"?").decode(errors="replace") for v in (vendor, renderer))
+
+
 def _context_class() -> Any:
     """The GL context class of the chosen backend.
 
@@ -286,8 +304,12 @@ class SceneRenderer:
         self.width = width
         self.height = height
         self._rect = mujoco.MjrRect(0, 0, width, height)
+        # Read-back buffers and the scratch arrays of depth and ids, made once per size.
         self._rgb = np.empty((height, width, 3), dtype=np.uint8)
         self._depth = np.empty((height, width), dtype=np.float32)
+        self._depth64 = np.empty((height, width), dtype=np.float64)
+        self._segid = np.empty((height, width), dtype=np.int32)
+        self._segid_b = np.empty((height, width), dtype=np.int32)
 
     def __enter__(self) -> SceneRenderer:
         return self
@@ -325,16 +347,24 @@ class SceneRenderer:
         flags[_FLAG.mjRND_REFLECTION] = self.preset.reflections and not segment
         flags[_FLAG.mjRND_SKYBOX] = False
 
-    def _metric_depth(self, raw: np.ndarray) -> np.ndarray:
-        # Reverse-Z perspective depth buffer → distance along the optical axis, as MuJoCo's Renderer.
+    def _metric_depth(self, raw: np.ndarray, dest: np.ndarray) -> None:
+        """Reverse-Z perspective depth buffer → distance along the optical axis (as MuJoCo's Renderer), in
+        float64 then rounded to float32, written into ``dest`` with rows from the top."""
         c = -(self._zfar + self._znear) / (self._zfar - self._znear)
         d = -(np.float32(2) * self._zfar * self._znear) / (self._zfar - self._znear)
         c = np.float32(-0.5) * c - np.float32(0.5)
         d = np.float32(-0.5) * d
-        return (d / (raw.astype(np.float64) + c)).astype(np.float32)
+        buf = self._depth64
+        np.add(raw, c, out=buf, dtype=np.float64)
+        np.divide(d, buf, out=buf, dtype=np.float64)
+        np.copyto(dest, buf[::-1], casting="same_kind")
 
     def render(
-        self, data: mujoco.MjData, camera: str | int, modalities: Iterable[str] = ("rgb",)
+        self,
+        data: mujoco.MjData,
+        camera: str | int,
+        modalities: Iterable[str] = ("rgb",),
+        out: Mapping[str, np.ndarray] | None = None,
     ) -> dict[str, np.ndarray]:
         """Render the requested modalities from a camera.
 
@@ -343,9 +373,11 @@ class SceneRenderer:
             camera: camera name or id.
             modalities: any of ``rgb`` (H×W×3 uint8), ``depth`` (H×W float32 [m]) and
                 ``segmentation`` (H×W int32 ids, see module docstring).
+            out: arrays to write the images into, one per requested modality with that modality's shape
+                and dtype (e.g. the frame's slot of an episode's preallocated stream); default: new arrays.
 
         Returns:
-            A dict from modality to a new array, rows from the top of the image.
+            A dict from modality to its array (``out``'s, or new ones), rows from the top of the image.
         """
         wanted = tuple(dict.fromkeys(modalities))
         bad = [m for m in wanted if m not in MODALITIES]
@@ -354,36 +386,59 @@ class SceneRenderer:
         if self._ctx is None:
             raise RenderError("renderer is closed")
         cid = _camera_id(self.model, camera)
+        dest = self._destinations(wanted, out)
         self._gl.make_current()
         # Bind this renderer's own offscreen buffer: freeing another renderer's context leaves none bound,
         # and the render would then read back a stale image.
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._ctx)
-        out: dict[str, np.ndarray] = {}
         depth_from_rgb = "depth" in wanted and "segmentation" not in wanted and not (
             self.preset.reflections and self.preset.msaa_samples
         )
+        depth_done = False
         if "rgb" in wanted and self._tracer is not None:
-            out["rgb"] = self._tracer.rgb(data, cid, self.width, self.height)
+            dest["rgb"][...] = self._tracer.rgb(data, cid, self.width, self.height)
         elif "rgb" in wanted:
             self._update(data, cid, segment=False)
             mujoco.mjr_render(self._rect, self._scene, self._ctx)
             mujoco.mjr_readPixels(self._rgb, self._depth if depth_from_rgb else None, self._rect, self._ctx)
-            out["rgb"] = np.flipud(self._rgb).copy()
+            np.copyto(dest["rgb"], self._rgb[::-1])
             if depth_from_rgb:
-                out["depth"] = np.flipud(self._metric_depth(self._depth))
-        if "segmentation" in wanted or ("depth" in wanted and "depth" not in out):
+                self._metric_depth(self._depth, dest["depth"])
+                depth_done = True
+        if "segmentation" in wanted or ("depth" in wanted and not depth_done):
             self._update(data, cid, segment=True)
             mujoco.mjr_render(self._rect, self._scene, self._ctx)
             mujoco.mjr_readPixels(self._rgb, self._depth, self._rect, self._ctx)
             if "depth" in wanted:
-                out["depth"] = np.flipud(self._metric_depth(self._depth))
+                self._metric_depth(self._depth, dest["depth"])
             if "segmentation" in wanted:
-                out["segmentation"] = np.flipud(self._segment_ids(self._rgb)).copy()
-        return {m: out[m] for m in wanted}
+                self._segment_ids(self._rgb, dest["segmentation"])
+        return dest
 
-    def _segment_ids(self, idcolor: np.ndarray) -> np.ndarray:
-        rgb = idcolor.astype(np.int32)
-        segid = rgb[..., 0] + (rgb[..., 1] << 8) + (rgb[..., 2] << 16)  # 0 = nothing drawn
+    def _destinations(self, wanted: tuple[str, ...], out: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray]:
+        """The arrays to render ``wanted`` into: ``out``'s (checked) or new ones."""
+        h, w = self.height, self.width
+        spec = {"rgb": ((h, w, 3), np.uint8), "depth": ((h, w), np.float32), "segmentation": ((h, w), np.int32)}
+        if out is None:
+            return {m: np.empty(spec[m][0], dtype=spec[m][1]) for m in wanted}
+        dest = {}
+        for m in wanted:
+            arr = out.get(m)
+            shape, dtype = spec[m]
+            if not isinstance(arr, np.ndarray) or arr.shape != shape or arr.dtype != dtype:
+                got = "nothing" if arr is None else f"{getattr(arr, 'shape', '?')} {getattr(arr, 'dtype', '?')}"
+                raise RenderError(f"out[{m!r}]: needs a {shape} {np.dtype(dtype)} array, got {got}")
+            dest[m] = arr
+        return dest
+
+    def _segment_ids(self, idcolor: np.ndarray, dest: np.ndarray) -> None:
+        """Per-pixel ids from the segmentation pass's colours (rows from the bottom) into ``dest`` (from the top)."""
+        segid = self._segid  # r + (g << 8) + (b << 16) is the scene geom's index + 1; 0 = nothing drawn
+        np.left_shift(idcolor[..., 1], 8, out=segid, dtype=np.int32)
+        np.bitwise_or(segid, idcolor[..., 0], out=segid)
+        if idcolor[..., 2].any():
+            np.left_shift(idcolor[..., 2], 16, out=self._segid_b, dtype=np.int32)
+            np.bitwise_or(segid, self._segid_b, out=segid)
         n = self._scene.ngeom
         table = np.full(n + 1, SEG_BACKGROUND, dtype=np.int32)
         geoms = self._scene.geoms
@@ -392,7 +447,8 @@ class SceneRenderer:
             g = geoms[i]
             if g.objtype == geom_type and g.segid >= 0:
                 table[g.segid + 1] = self._lut[g.objid]
-        return table[np.minimum(segid, n)]
+        np.minimum(segid, n, out=segid)
+        np.take(table, segid[::-1], out=dest, mode="clip")  # ids are in 0..n here
 
 
 def _check_size(width: int, height: int) -> None:

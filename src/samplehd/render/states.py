@@ -9,7 +9,7 @@ contact sheets), ``samplehd paths`` and the web viewer (frames of state-only epi
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import mujoco
@@ -52,6 +52,7 @@ def render_states(
     indices: Sequence[int] | None = None,
     data: mujoco.MjData | None = None,
     photo: Any = None,
+    on_frame: Callable[[str, dict[str, np.ndarray]], None] | None = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Render recorded frames: ``images[camera][modality]`` with the frame as first axis.
 
@@ -66,6 +67,8 @@ def render_states(
         indices: frames to render (default: all).
         data: an ``MjData`` to reuse (default: a new one).
         photo: the photo preset's options (``samplehd.render.photo.PhotoOptions``; default: the fixed look).
+        on_frame: called with each camera and its images of each frame in turn, instead of keeping them; the
+            arrays are reused for the next frame (copy what must outlive the call). ``{}`` is then returned.
 
     Raises:
         DatasetError: the states do not fit the model.
@@ -74,16 +77,20 @@ def render_states(
     data = data if data is not None else mujoco.MjData(model)
     picks = range(len(frames["qpos"])) if indices is None else indices
     act, time = frames.get("act"), frames.get("time")
-    out: dict[str, dict[str, list[np.ndarray]]] = {c: {m: [] for m in modalities} for c in cameras}
+    # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
+    # With on_frame, one frame's arrays serve every frame (no fresh memory per frame).
+    shapes = {"rgb": ((height, width, 3), np.uint8), "depth": ((height, width), np.float32),
+              "segmentation": ((height, width), np.int32)}
+    n = 1 if on_frame is not None else len(picks)
+    out = {c: {m: np.empty((n, *shapes[m][0]), dtype=shapes[m][1]) for m in modalities if m in shapes}
+           for c in cameras}
     with SceneRenderer(model, width, height, preset, photo=photo) as renderer:
-        for k in picks:
+        for i, k in enumerate(picks):
             set_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
                       None if time is None else time[k])
             for cam in cameras:
-                images = renderer.render(data, cam, modalities)
-                for m in modalities:
-                    out[cam][m].append(images[m])
-    empty = {"rgb": (0, height, width, 3), "depth": (0, height, width), "segmentation": (0, height, width)}
-    dtypes = {"rgb": np.uint8, "depth": np.float32, "segmentation": np.int32}
-    return {c: {m: (np.stack(v) if v else np.zeros(empty[m], dtypes[m])) for m, v in mods.items()}
-            for c, mods in out.items()}
+                slot = 0 if on_frame is not None else i
+                images = renderer.render(data, cam, modalities, out={m: a[slot] for m, a in out[cam].items()})
+                if on_frame is not None:
+                    on_frame(cam, images)
+    return {} if on_frame is not None else out

@@ -18,7 +18,6 @@ MuJoCo (the planner's footprints in a compiled state come from
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import math
 from collections.abc import Callable, Sequence
@@ -118,6 +117,13 @@ class _Grid:
     width: float
     on_axes: bool  # e1, e2 are x, y and base is 0: centre (u[i], v[j]) exactly
 
+    @functools.cached_property
+    def box(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners (x, y) of the box around every spot's footprint centre [m]."""
+        corners = (self.base[:, None, None, :] + self.u[[0, -1]][None, :, None, None] * self.axes[0]
+                   + self.v[[0, -1]][None, None, :, None] * self.axes[1]).reshape(-1, 2)
+        return corners.min(axis=0), corners.max(axis=0)
+
 
 @dataclass(frozen=True)
 class _Spots:
@@ -126,16 +132,44 @@ class _Spots:
     each one overlaps."""
 
     grid: _Grid
-    centre: np.ndarray  # (m, 2) footprint centres [m]
+    centre_of: Callable[[], np.ndarray]  # makes ``centre`` when first asked for
     offsets: np.ndarray  # (t, 2) frame origin of the spot minus its footprint centre, per turn [m]
     turn: np.ndarray  # (m,) index into turns
     turns: np.ndarray  # (t,) turns about the vertical [rad]
     rots: np.ndarray  # (t, 2, 2) the object's rotation after each turn
     weight: np.ndarray  # (m,) share of the planner's first-try samples landing on the spot
-    score: np.ndarray  # (m,) the planner's score terms that do not depend on the neighbours
+    score_of: Callable[[], np.ndarray]  # makes ``score`` when first asked for
     keep: np.ndarray  # (m,) passes the tests not involving other objects
-    near: np.ndarray  # (b,) the other objects that come close enough to block some spot
-    blocked: np.ndarray  # (b, m) object near[i] overlaps the spot
+    blockers_of: Callable[[_Spots], tuple[np.ndarray, np.ndarray, np.ndarray]]  # makes near, first, last
+
+    @functools.cached_property
+    def _blockers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        return self.blockers_of(self)
+
+    @property
+    def near(self) -> np.ndarray:
+        """(b,) the other objects that come close enough to block some spot."""
+        return self._blockers[0]
+
+    @property
+    def first(self) -> np.ndarray:
+        """(b, t, r) first column of the run of spots object near[i] overlaps, per turn and row."""
+        return self._blockers[1]
+
+    @property
+    def last(self) -> np.ndarray:
+        """(b, t, r) the run's last column (before the first: none)."""
+        return self._blockers[2]
+
+    @functools.cached_property
+    def centre(self) -> np.ndarray:
+        """(m, 2) footprint centres [m] (only the ranking of spots needs them)."""
+        return self.centre_of()
+
+    @functools.cached_property
+    def score(self) -> np.ndarray:
+        """(m,) the planner's score terms that do not depend on the neighbours."""
+        return self.score_of()
 
 
 class FreeSpots:
@@ -174,6 +208,12 @@ class FreeSpots:
         self.half = np.array([o.footprint_half for o in objects], float).reshape(-1, 2)
         self.turns, self.turn_share = _yaw_weights()
         self._turn_rots = yaw_rotation_2d(self.turns)
+        self._table = np.asarray(layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
+        self._base = np.asarray(layout.robot_base)
+        self._workspace = (np.asarray(layout.workspace_min) - placement.SPOT_WORKSPACE_SLACK,
+                           np.asarray(layout.workspace_max) + placement.SPOT_WORKSPACE_SLACK)
+        # the half diagonal of each footprint grown by half the margin: how far it reaches [m]
+        self._radius = np.hypot(*(self.half + search.spot_margin / 2).T)
         self._memo: dict[tuple[Any, ...], Any] = {}
 
     def room_in_part(self, moved: Sequence[int], part: str) -> bool:
@@ -184,17 +224,40 @@ class FreeSpots:
         (its best-scored free spots: room around, comfortable reach, least turn), namely the one
         that leaves the next object least room, so the answer holds whichever the planner picks.
         """
-        arriving = [k for k in sorted(set(moved)) if part not in self.objects[k].table_part]
+        arriving = tuple(k for k in sorted(set(moved)) if part not in self.objects[k].table_part)
+        key = ("room in part", arriving, part)
+        answer = self._memo.get(key)
+        if answer is None:
+            answer = self._memo[key] = self._room_in_part(arriving, part)
+        return answer
+
+    def _first_options(self, k: int, part: str) -> list[int]:
+        """The spots the planner may put object k on in a part when it is the first moved (memoised:
+        they depend on nothing else)."""
+        key = ("first options", k, part)
+        if key not in self._memo:
+            spots = self._part_spots(k, part)
+            present = np.ones(len(self.objects), bool)
+            free = self._free(k, spots, present, [])
+            self._memo[key] = self._options(k, spots, free, self._neighbours(k, present, []))
+        return self._memo[key]
+
+    def _room_in_part(self, arriving: Sequence[int], part: str) -> bool:
+        """:meth:`room_in_part` for the objects arriving in the part, in index order."""
         present = np.ones(len(self.objects), bool)  # objects still where the scene has them
         placed: list[_Rect] = []
         free: np.ndarray | None = None  # the next object's free spots, where already known
         for n, k in enumerate(arriving):
             spots = self._part_spots(k, part)
-            if free is None:
-                free = self._free(k, spots, present, placed)
-            if n + 1 == len(arriving) and self.reach_is_annulus:
-                return self._enough(spots, free)
-            options = self._options(k, spots, free, self._neighbours(k, present, placed))
+            last = n + 1 == len(arriving)
+            if n == 0 and not (last and self.reach_is_annulus):
+                options = self._first_options(k, part)
+            else:
+                if free is None:
+                    free = self._free(k, spots, present, placed)
+                if last and self.reach_is_annulus:
+                    return self._enough(spots, free)
+                options = self._options(k, spots, free, self._neighbours(k, present, placed))
             if not options:
                 return False
             present[k] = False
@@ -214,6 +277,8 @@ class FreeSpots:
     def room_beside(self, x: int, ref: int, direction: Sequence[float]) -> bool:
         """Whether object ``x`` finds a free spot past object ``ref`` along a direction (x, y)."""
         spots = self._beside_spots(x, ref, (float(direction[0]), float(direction[1])))
+        if self._too_few(spots):
+            return False
         present = np.ones(len(self.objects), bool)
         free = self._free(x, spots, present, [])
         if self.reach_is_annulus:
@@ -228,6 +293,11 @@ class FreeSpots:
         """How many of the planner's first-try samples are expected on the free spots."""
         return self.search.samples * float(spots.weight[free].sum())
 
+    def _too_few(self, spots: _Spots) -> bool:
+        """Whether the tests not involving other objects already leave too few of the planner's samples
+        (with room for rounding: the free spots' sum is then below ``min_hits`` whatever they are)."""
+        return self._hits(spots, spots.keep) < self.search.min_hits - 1e-9
+
     def _enough(self, spots: _Spots, free: np.ndarray) -> bool:
         """Whether enough of the planner's first-try samples land on free spots (and there is one)."""
         return self._hits(spots, free) >= self.search.min_hits and bool(free.any())
@@ -237,10 +307,11 @@ class FreeSpots:
         rectangles of those already moved."""
         others = present.copy()
         others[k] = False
-        free = spots.keep & ~spots.blocked[others[spots.near]].any(axis=0)
+        there = others[spots.near]
+        free = spots.keep & ~_covered(spots, spots.first[there], spots.last[there])
         if placed:
             c, r, h = (np.stack(a) for a in zip(*placed, strict=True))
-            free &= ~self._blocked_by(k, spots, c, r, h).any(axis=0)
+            free &= ~_covered(spots, *self._runs(k, spots, c, r, h))
         return free
 
     def _neighbours(self, k: int, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
@@ -256,7 +327,9 @@ class FreeSpots:
         g = spots.grid
         if g.on_axes:  # squared distances split along x and y: computed per row and per column
             dx, dy = g.u[:, None] - neighbours[:, 0], g.v[:, None] - neighbours[:, 1]
-            nearest = np.sqrt(((dx * dx)[:, None, :] + (dy * dy)[None, :, :]).min(axis=2)).ravel()
+            # neighbours along the first axis, the minimum taken slab by slab (exact, so the same numbers)
+            nearest = np.sqrt(functools.reduce(np.minimum, (dx * dx).T[:, :, None] + (dy * dy).T[:, None, :]))
+            nearest = nearest.ravel()
             return nearest[idx % len(nearest)]
         return np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
 
@@ -278,10 +351,10 @@ class FreeSpots:
         # spread: farthest-point picks over position and turn (a long object's turn matters as much)
         where = np.column_stack([spots.centre[best], _TURN_SPREAD * spots.turns[spots.turn[best]]])
         picks = [0]
-        dist = np.linalg.norm(where - where[0], axis=1)
+        dist = _norms(where - where[0])
         while len(picks) < placement.SPOT_OPTIONS and dist.max() > 0:
             picks.append(int(dist.argmax()))
-            dist = np.minimum(dist, np.linalg.norm(where - where[picks[-1]], axis=1))
+            dist = np.minimum(dist, _norms(where - where[picks[-1]]))
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
         reached = [int(best[i]) for i in picks if self.reach((*_origin(spots, best[i]), z))]
         if reached:
@@ -299,20 +372,46 @@ class FreeSpots:
 
     def _blocked_by(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray, h: np.ndarray) -> np.ndarray:
         """Which of object k's spots overlap each rectangle (centres (R, 2), rotations (R, 2, 2),
-        half sizes (R, 2)), by the planner's separating-axis test with its margin: (R, m).
+        half sizes (R, 2)), by the planner's separating-axis test with its margin: (R, m)."""
+        first, last = self._runs(k, spots, c, r, h)
+        j = np.arange(len(spots.grid.v), dtype=float)
+        return ((j >= first[..., None]) & (j <= last[..., None])).reshape(len(c), -1)
+
+    def _runs(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray,
+              h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The spots of object k each rectangle overlaps (see :meth:`_blocked_by`), as the first and
+        last column of a run per turn and row: (R, t, r) each.
 
         On a row of the grid, each of the test's four axes bounds the column coordinate from both
         sides, so the spots a rectangle blocks are one run of columns per turn and row."""
-        g = spots.grid
+        axes, reach = self._axes_reach(k, spots.rots, r, h)
+        return self._runs_on(spots, c, axes, reach)
+
+    def _axes_reach(self, k: int, rt: np.ndarray, r: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The separating-axis test's four axes for object k turned by each of ``rt`` (t, 2, 2) against
+        each rectangle (rotations (R, 2, 2), half sizes (R, 2)), and how far apart along each axis the
+        two centres may be for an overlap: (R, t, 4, 2) and (R, t, 4)."""
         grow = self.search.spot_margin / 2
-        rt = spots.rots  # (t, 2, 2)
-        n_rect, n_turn = len(c), len(rt)
+        n_rect, n_turn = len(r), len(rt)
         # the four axes of each pair (rect, turn), as rows: the turned object's, then the rectangle's
         axes = np.concatenate([np.broadcast_to(np.swapaxes(rt, -1, -2)[None], (n_rect, n_turn, 2, 2)),
                                np.broadcast_to(np.swapaxes(r, -1, -2)[:, None], (n_rect, n_turn, 2, 2))], axis=2)
         # reach along each axis: the projected half sizes of both, grown by half the margin each
         reach = (np.abs(axes @ rt[None]) @ (self.half[k] + grow)
                  + (np.abs(axes @ r[:, None]) @ (h + grow)[:, None, :, None])[..., 0])
+        return axes, reach
+
+    def _scene_axes_reach(self, k: int) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_axes_reach` of object k against every object where the scene has it (memoised)."""
+        key = ("axes reach", k)
+        if key not in self._memo:
+            self._memo[key] = self._axes_reach(k, self._turned_rots(k), self.rot, self.half)
+        return self._memo[key]
+
+    def _runs_on(self, spots: _Spots, c: np.ndarray, axes: np.ndarray,
+                 reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_runs` for rectangles with centres ``c`` (R, 2), given their test's axes and reach."""
+        g = spots.grid
         q0 = np.einsum("rtad,rtd->rta", axes, c[:, None, :] - g.base[None])  # (R, t, 4)
         along = axes @ g.axes[0]  # (R, t, 4): how the projection moves per metre along a row
         across = (axes @ g.axes[1])[..., None]  # ... and along a column
@@ -327,21 +426,21 @@ class FreeSpots:
             low = np.where(flat, np.where(inside, -np.inf, np.inf), low)
             high = np.where(flat, np.where(inside, np.inf, -np.inf), high)
         count = len(g.v)
-        first = np.clip(np.ceil((low.max(axis=2) - g.lo) / g.width - 0.5), 0, count)  # (R, t, r)
-        last = np.clip(np.floor((high.min(axis=2) - g.lo) / g.width - 0.5), -1, count - 1)
-        j = np.arange(count, dtype=float)
-        return ((j >= first[..., None]) & (j <= last[..., None])).reshape(n_rect, -1)
+        # the tightest of the four bounds, pairwise (max and min are exact: the same numbers), as columns
+        low = np.maximum(np.maximum(low[:, :, 0], low[:, :, 1]), np.maximum(low[:, :, 2], low[:, :, 3]))
+        high = np.minimum(np.minimum(high[:, :, 0], high[:, :, 1]), np.minimum(high[:, :, 2], high[:, :, 3]))
+        # (R, t, r), clipped to the grid's columns (np.clip's dispatch costs more than the arithmetic)
+        first = np.minimum(np.maximum(np.ceil((low - g.lo) / g.width - 0.5), 0), count)
+        last = np.minimum(np.maximum(np.floor((high - g.lo) / g.width - 0.5), -1), count - 1)
+        return first, last
 
     def _part_spots(self, k: int, part: str) -> _Spots:
         key = ("part", k, part)
         if key not in self._memo:
             grid, centre, turn, weight, (lo, hi) = _part_grid(self.layout, self.search.part_margin, self.search.step,
                                                               part)
-            rots = self._turned_rots(k)
-            offsets = self._turn_rots @ (self.centre[k] - self.origin[k])  # (t, 2)
-            half = np.abs(rots) @ self.half[k]  # (t, 2) world-axis half sizes of the turned rectangles
-            table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
-            base = np.asarray(self.layout.robot_base)
+            _, offsets, half = self._turned(k)
+            table, base = self._table, self._base
             # the tests of table_and_reach and the part's bounds, each on x or y alone or on the frame
             # origin's distance from the base: computed per turn and row, per turn and column
             keep_axis, rel = [], []
@@ -351,9 +450,10 @@ class FreeSpots:
                 keep_axis.append((o >= lo[a]) & (o <= hi[a]) & (c_lo >= -table[a]) & (c_hi <= table[a]))
                 rel.append(o - base[a])
             keep = keep_axis[0][:, :, None] & keep_axis[1][:, None, :]
-            reach = np.hypot(rel[0][:, :, None], rel[1][:, None, :])
-            keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
-            self._memo[key] = self._spots(k, grid, centre, offsets, turn, weight, 0.0, keep.ravel(), reach.ravel())
+            rel_x, rel_y = rel[0][:, :, None], rel[1][:, None, :]
+            keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
+            self._memo[key] = self._spots(k, grid, lambda: centre, offsets, turn, weight, 0.0, keep.ravel(),
+                                          lambda: np.hypot(rel_x, rel_y).ravel())
         return self._memo[key]
 
     def _beside_grid(self, direction: tuple[float, float]) -> tuple[Any, ...]:
@@ -387,60 +487,140 @@ class FreeSpots:
         if key not in self._memo:
             d, lateral, dists, lats, dist, lat, turn, weight, far, v_lo, v_width = self._beside_grid(direction)
             ext_ref = np.abs(d @ self.rot[ref]) @ self.half[ref]
-            rots = self._turned_rots(x)
+            rots, offsets, half = self._turned(x)
             ext_x = np.abs(d @ rots) @ self.half[x]
-            along = ext_ref + ext_x[turn] + self.search.spot_margin + dist
-            offsets = self._turn_rots @ (self.centre[x] - self.origin[x])  # (t, 2)
-            half = np.abs(rots) @ self.half[x]  # (t, 2) world-axis half sizes of the turned rectangles
-            lo = np.asarray(self.layout.workspace_min) - placement.SPOT_WORKSPACE_SLACK
-            hi = np.asarray(self.layout.workspace_max) + placement.SPOT_WORKSPACE_SLACK
-            table = np.asarray(self.layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
-            base = np.asarray(self.layout.robot_base)
-            # x and y apart: footprint centre, frame origin, and the tests on each
-            centre, origin, rel = [], [], []
-            keep = np.ones(len(dist), bool)
+            # the distance past the reference per (turn, row) and the lateral offset per column: each
+            # coordinate below is computed on the axes it depends on, then broadcast over (t, r, c)
+            along = ((ext_ref + ext_x) + self.search.spot_margin)[:, None, None] + dists[None, :, None]
+            across = lats[None, None, :]
+            lo, hi = self._workspace
+            table, base = self._table, self._base
+            # x and y apart: footprint centre, frame origin, and the tests on each (a zero component of
+            # the direction or its lateral adds nothing, so that term is left out: same numbers)
+            centre, origin, rel, tests = [], [], [], []
             for a in range(2):
-                c = self.centre[ref, a] + along * d[a] + lat * lateral[a]
-                o = c - offsets[turn, a]
-                h = half[turn, a]
-                keep &= (o >= lo[a]) & (o <= hi[a]) & (c - h >= -table[a]) & (c + h <= table[a])
+                c: Any = self.centre[ref, a]
+                if d[a] != 0:
+                    c = c + along * d[a]
+                if lateral[a] != 0:
+                    c = c + across * lateral[a]
+                o = c - offsets[:, a, None, None]
+                h = half[:, a, None, None]
+                tests.append((o >= lo[a]) & (o <= hi[a]) & (c - h >= -table[a]) & (c + h <= table[a]))
                 centre.append(c)
                 origin.append(o)
                 rel.append(o - base[a])
-            centre_xy, origin_xy = np.stack(centre, -1), np.stack(origin, -1)  # origin_xy: as _origin() gives
-            keep &= (origin_xy - self.origin[ref]) @ d >= self.search.relation_gap + placement.BESIDE_NEED
-            reach = np.hypot(rel[0], rel[1])
-            keep &= (reach >= self.layout.reach_min) & (reach <= self.layout.reach_max)
+            keep = tests[0] & tests[1]
+            if keep.shape != (len(self.turns), len(dists), len(lats)):
+                keep = np.broadcast_to(keep, (len(self.turns), len(dists), len(lats))).copy()
+            need = self.search.relation_gap + placement.BESIDE_NEED
+            if d[0] == 0 or d[1] == 0:  # along an axis: the projection is the one coordinate's difference
+                a = 0 if d[0] != 0 else 1
+                keep &= (origin[a] - self.origin[ref, a]) * d[a] >= need
+            else:
+                keep &= ((_flat_xy(origin, keep.shape) - self.origin[ref]) @ d >= need).reshape(keep.shape)
+            rel_x, rel_y = rel
+            keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
             grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
                          np.stack([d, lateral]), dists, lats, v_lo, v_width, False)
-            self._memo[key] = self._spots(x, grid, centre_xy, offsets, turn, weight, far, keep, reach)
+            self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
+                                          weight, far, keep.ravel(),
+                                          lambda: np.broadcast_to(np.hypot(rel_x, rel_y), keep.shape).ravel())
+        return self._memo[key]
+
+    def _turned(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Object k after each turn: its rotations (t, 2, 2), frame origin less footprint centre (t, 2) and
+        world-axis half sizes (t, 2) [m] (memoised)."""
+        key = ("turned footprint", k)
+        if key not in self._memo:
+            rots = self._turned_rots(k)
+            self._memo[key] = (rots, self._turn_rots @ (self.centre[k] - self.origin[k]), np.abs(rots) @ self.half[k])
         return self._memo[key]
 
     def _turned_rots(self, k: int) -> np.ndarray:
-        """Object k's rotation after each turn (t, 2, 2)."""
-        return self._turn_rots @ self.rot[k]
+        """Object k's rotation after each turn (t, 2, 2) (memoised)."""
+        key = ("turned", k)
+        if key not in self._memo:
+            self._memo[key] = self._turn_rots @ self.rot[k]
+        return self._memo[key]
 
-    def _spots(self, k: int, grid: _Grid, centre: np.ndarray, offsets: np.ndarray, turn: np.ndarray,
-               weight: np.ndarray, score: Any, keep: np.ndarray, reach: np.ndarray) -> _Spots:
-        """The spots with their score and their overlaps with the other objects."""
-        score = (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
-                 + placement.SPOT_TURN_WEIGHT * np.abs(self.turns[turn]))
-        # the objects whose rectangle, with both margins, comes within reach of the grid's box
-        g = grid
-        corners = (g.base[:, None, None, :] + g.u[[0, -1]][None, :, None, None] * g.axes[0]
-                   + g.v[[0, -1]][None, None, :, None] * g.axes[1]).reshape(-1, 2)
-        lo, hi = corners.min(axis=0), corners.max(axis=0)
-        grow = self.search.spot_margin / 2
-        radius = np.hypot(*(self.half[k] + grow)) + np.hypot(*(self.half + grow).T) + 1e-9
-        near = np.flatnonzero(np.all(np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None]), axis=1))
-        near = near[near != k]
-        rots = self._turned_rots(k)
-        none = np.zeros((0, len(keep)), bool)
-        spots = _Spots(grid, centre, offsets, turn, self.turns, rots, weight, score, keep, near, none)
-        if len(near):
-            blocked = self._blocked_by(k, spots, self.centre[near], self.rot[near], self.half[near])
-            spots = dataclasses.replace(spots, blocked=blocked)
-        return spots
+    def _spots(self, k: int, grid: _Grid, centre: Callable[[], np.ndarray], offsets: np.ndarray, turn: np.ndarray,
+               weight: np.ndarray, score: Any, keep: np.ndarray, reach_of: Callable[[], np.ndarray]) -> _Spots:
+        """The spots with their score (from the frame origins' distances from the base that ``reach_of``
+        makes) and their overlaps with the other objects."""
+        turns = self.turns
+
+        def score_of() -> np.ndarray:
+            reach = reach_of()
+            return (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
+                    + placement.SPOT_TURN_WEIGHT * np.abs(turns[turn]))
+
+        def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            # the objects whose rectangle, with both margins, comes within reach of the grid's box
+            lo, hi = grid.box
+            grow = self.search.spot_margin / 2
+            radius = np.hypot(*(self.half[k] + grow)) + self._radius + 1e-9
+            close = np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None])
+            near = np.flatnonzero(close[:, 0] & close[:, 1])
+            near = near[near != k]
+            if not len(near):
+                none = np.zeros((0, len(self.turns), len(grid.u)))
+                return near, none, none
+            axes, reach = self._scene_axes_reach(k)
+            return near, *self._runs_on(spots, self.centre[near], axes[near], reach[near])
+
+        # the other objects' overlaps are found when first asked for: a spot search whose tests without
+        # them already leave too few spots needs none
+        return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, score_of, keep,
+                      blockers_of)
+
+def _norms(rows: np.ndarray) -> np.ndarray:
+    """Euclidean length of each row, as ``np.linalg.norm(rows, axis=1)`` computes it for real rows."""
+    return np.sqrt(np.add.reduce(rows * rows, axis=1))
+
+
+def _in_annulus(rel_x: np.ndarray, rel_y: np.ndarray, shape: tuple[int, ...], layout: TableLayout) -> np.ndarray:
+    """``reach_min <= hypot(rel_x, rel_y) <= reach_max`` (broadcast to ``shape``), with the hypotenuse
+    taken only where the squared distance is too near either bound to decide it: the same answers.
+    """
+    sq = rel_x * rel_x + rel_y * rel_y
+    lo, hi = layout.reach_min ** 2, layout.reach_max ** 2
+    tol = 1e-9  # far above the rounding of the squares, far below any real distance
+    inside = (sq >= lo * (1 + tol)) & (sq <= hi * (1 - tol))
+    gap = np.abs(sq - lo)
+    unsure = gap < lo * 2 * tol
+    np.abs(np.subtract(sq, hi, out=gap), out=gap)
+    unsure |= gap < hi * 2 * tol
+    if inside.shape != shape:
+        inside = np.broadcast_to(inside, shape).copy()
+    if unsure.any():
+        unsure = np.broadcast_to(unsure, shape)
+        reach = np.hypot(np.broadcast_to(rel_x, shape)[unsure], np.broadcast_to(rel_y, shape)[unsure])
+        inside[unsure] = (reach >= layout.reach_min) & (reach <= layout.reach_max)
+    return inside
+
+
+def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
+    """Stack x and y coordinates given on axes of a (t, r, c) grid as (m, 2), in the spots' order."""
+    return np.stack([np.broadcast_to(v, shape).ravel() for v in coords], -1)
+
+
+def _covered(spots: _Spots, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """Which spots lie in any of the runs of columns ``first``..``last`` (R, t, r): (m,).
+
+    Each run adds one at its first column and takes one off past its last, on rows one column
+    longer than the grid's; a spot is covered where the running sum along its row is positive."""
+    nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
+    if not len(first):
+        return np.zeros(nt * nr * nc, bool)
+    row = np.arange(nt * nr) * (nc + 1)
+    start, stop = first.reshape(len(first), -1), last.reshape(len(last), -1) + 1
+    some = start < stop
+    size = nt * nr * (nc + 1)
+    diff = (np.bincount((row + start.astype(np.intp))[some], minlength=size)
+            - np.bincount((row + stop.astype(np.intp))[some], minlength=size))
+    return (np.cumsum(diff).reshape(nt * nr, nc + 1)[:, :nc] > 0).ravel()
+
 
 def _origin(spots: _Spots, j: int) -> np.ndarray:
     """Frame origin (x, y) of spot j: the footprint centre less the turned offset [m]."""
