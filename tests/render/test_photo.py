@@ -188,13 +188,13 @@ def test_bad_preset_and_photo_options_on_the_command_line(tmp_path, capsys, argv
 def test_the_gpu_finish_gives_the_cpu_finish_image(scene_world, photo):
     """Clamp → denoise → tone curve as the GPU path runs it (torch tensors handed to Open Image Denoise),
     here on the CPU tensors of the CPU variant: the same picture as the NumPy path, within a level or two."""
-    pytest.importorskip("torch", reason="the GPU finish hands frames over as torch tensors")
+    torch = pytest.importorskip("torch", reason="the GPU finish hands frames over as torch tensors")
     from samplehd.render.photo.renderer import _finish_on_gpu
 
     model, data = scene_world
     want = photo.render(data, "scene")["rgb"]
     tracer = photo._tracer
-    got = _finish_on_gpu(tracer.scene.render_tensor(tracer.options.spp, tracer.options.seed), tracer.options)
+    got = _finish_on_gpu(tracer.scene.render_tensor(tracer.options.spp, tracer.options.seed), tracer.options, torch)
     assert got.shape == want.shape and got.dtype == np.uint8
     assert np.abs(got.astype(int) - want.astype(int)).max() <= 3
     assert want.std() > 10  # a picture, not a flat field

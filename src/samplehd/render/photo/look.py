@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.render.photo.geometry import Part
+from samplehd.render.photo.runtime import load_mitsuba
 from samplehd.render.photo.textures import can_label, food_box_print, srgb_to_linear, window_view
 
 __all__ = ["LookParams", "bsdf_for", "default_look", "lights", "random_look"]
@@ -106,8 +107,7 @@ def _bitmap(img: np.ndarray, scale: tuple[float, float] = (1.0, 1.0), wrap: str 
             offset: tuple[float, float] = (0.0, 0.0), swap: bool = False) -> dict[str, Any]:
     """A bitmap texture from a float linear image whose row 0 is v = 0; texture coordinates are
     scaled, then offset (``swap`` exchanges u and v first, to turn a grain direction)."""
-    import mitsuba as mi
-
+    mi = load_mitsuba()
     arr = np.ascontiguousarray(np.flipud(img), dtype=np.float32)  # Mitsuba's row 0 is v = 1
     d: dict[str, Any] = {
         "type": "bitmap",
@@ -231,8 +231,7 @@ def lights(look: LookParams) -> dict[str, dict[str, Any]]:
     Returns:
         Named Mitsuba shapes (emitting rectangles and the ceiling) to add to the scene.
     """
-    import mitsuba as mi
-
+    mi = load_mitsuba()
     tf = mi.ScalarTransform4f
     down = tf().rotate([1, 0, 0], 180)  # a rectangle faces +z; ceiling parts face the floor
     warm = blackbody_rgb(look.colour_temperature)

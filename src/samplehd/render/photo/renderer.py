@@ -18,7 +18,7 @@ import numpy as np
 
 from samplehd.errors import RenderError
 from samplehd.render.photo.look import LookParams, default_look, random_look
-from samplehd.render.photo.runtime import load_drjit, photo_backend
+from samplehd.render.photo.runtime import load_drjit, load_oidn, photo_backend
 from samplehd.render.photo.scene import PhotoScene
 
 __all__ = ["DEFAULT_SPP", "LOOKS", "PhotoOptions", "PhotoTracer", "denoise", "photo_info", "photo_options", "tonemap"]
@@ -28,7 +28,7 @@ LOOKS = ("fixed", "random")  # the photo look: the same for every scene, or draw
 DEFAULT_SPP = 1
 _CLAMP = 8.0  # [linear radiance] caps rare high-energy paths (fireflies) before denoising
 _WHITE = 1.1  # linear radiance shown as white (before exposure)
-_FINISH: dict[str, bool] = {}  # whether frames are finished on the GPU (decided once per process)
+_FINISH: dict[str, Any] = {}  # torch where frames are finished on the GPU (decided once per process)
 
 
 def _filmic(x: Any) -> Any:
@@ -47,38 +47,35 @@ def tonemap(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
 
 def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """Open Image Denoise (RT filter, HDR) of a linear image with its albedo and normal guides."""
-    import pyoidn
+    return load_oidn().denoise(np.ascontiguousarray(color, dtype=np.float32),
+                               np.ascontiguousarray(albedo, dtype=np.float32),
+                               np.ascontiguousarray(normal, dtype=np.float32), hdr=True, quality="balanced")
 
-    return pyoidn.denoise(np.ascontiguousarray(color, dtype=np.float32), np.ascontiguousarray(albedo, dtype=np.float32),
-                          np.ascontiguousarray(normal, dtype=np.float32), hdr=True, quality="balanced")
 
-
-def _gpu_finish() -> bool:
-    """Whether a frame can stay on the GPU from path tracing to 8-bit image: the CUDA variant, with torch
-    and Open Image Denoise's CUDA device to hand it between them (no copy to the host before the end)."""
-    if "gpu" not in _FINISH:
-        _FINISH["gpu"] = False
+def _gpu_torch() -> Any:
+    """torch, where a frame can stay on the GPU from path tracing to 8-bit image (the CUDA variant, with
+    torch and Open Image Denoise's CUDA device to hand it between them); None elsewhere. Decided once."""
+    if "torch" not in _FINISH:
+        _FINISH["torch"] = None
         if photo_backend() == "cuda_ad_rgb" and importlib.util.find_spec("torch") is not None:
-            import pyoidn
             import torch
 
-            _FINISH["gpu"] = bool(torch.cuda.is_available() and pyoidn.Device.is_cuda_available())
-    return _FINISH["gpu"]
+            if torch.cuda.is_available() and load_oidn().Device.is_cuda_available():
+                _FINISH["torch"] = torch
+    return _FINISH["torch"]
 
 
-def _finish_on_gpu(raw: Any, options: PhotoOptions) -> np.ndarray:
-    """:meth:`PhotoTracer.rgb`'s clamp → denoise → tone curve on the GPU, for Mitsuba's CUDA tensor ``raw``."""
-    import pyoidn
-    import torch
-
+def _finish_on_gpu(raw: Any, options: PhotoOptions, torch: Any) -> np.ndarray:
+    """:meth:`PhotoTracer.rgb`'s clamp → denoise → tone curve as torch operations on Mitsuba's tensor
+    ``raw`` (on the GPU for the CUDA variant): only the 8-bit image comes back to the host."""
     dr = load_drjit()
     dr.eval(raw)
     dr.sync_thread()  # the trace finished before torch reads its buffer
     t = raw.torch()
     color = torch.nan_to_num(t[..., :3], nan=0.0, posinf=_CLAMP).clamp(max=_CLAMP).contiguous()
     if options.denoise:
-        color = pyoidn.denoise(color, t[..., 3:6].clamp(0, 1).contiguous(), t[..., 6:9].clamp(-1, 1).contiguous(),
-                               hdr=True, quality="balanced")
+        color = load_oidn().denoise(color, t[..., 3:6].clamp(0, 1).contiguous(),
+                                    t[..., 6:9].clamp(-1, 1).contiguous(), hdr=True, quality="balanced")
     x = color.clamp(min=0.0) * (2.0 ** options.look.exposure) * (0.8 / _WHITE)
     y = _filmic(x).clamp(0.0, 1.0)
     srgb = torch.where(y <= 0.0031308, 12.92 * y, 1.055 * y.pow(1 / 2.4) - 0.055)
@@ -137,10 +134,11 @@ class PhotoTracer:
     def rgb(self, data: mujoco.MjData, camera_id: int, width: int, height: int) -> np.ndarray:
         """(H, W, 3) uint8 path-traced, denoised, tone-mapped image (finished on the GPU where it was traced
         there)."""
-        if _gpu_finish():
+        torch = _gpu_torch()
+        if torch is not None:
             scene = self._pose(data, camera_id, width, height)
             self.frames += 1
-            return _finish_on_gpu(scene.render_tensor(self.options.spp, self.options.seed), self.options)
+            return _finish_on_gpu(scene.render_tensor(self.options.spp, self.options.seed), self.options, torch)
         raw = self.radiance(data, camera_id, width, height)
         color = np.minimum(np.nan_to_num(raw[..., :3], nan=0.0, posinf=_CLAMP), _CLAMP)
         if self.options.denoise:

@@ -19,7 +19,7 @@ from typing import Any
 
 from samplehd.errors import RenderError
 
-__all__ = ["INSTALL_HINT", "find_llvm", "load_drjit", "load_mitsuba", "photo_backend"]
+__all__ = ["INSTALL_HINT", "find_llvm", "load_drjit", "load_mitsuba", "load_oidn", "photo_backend"]
 
 INSTALL_HINT = "pip install 'samplehd[photo]' (mitsuba, pyoidn)"
 LLVM_HINT = "apt-get install libllvm19 (Debian 12; LLVM 15 crashes Mitsuba), or set DRJIT_LIBLLVM_PATH"
@@ -83,7 +83,7 @@ def load_mitsuba() -> Any:
         try:
             import drjit
             import mitsuba as mi
-            import pyoidn  # noqa: F401
+            import pyoidn
         except ImportError as exc:
             raise RenderError(f"the photo preset needs {exc.name}: {INSTALL_HINT}") from None
         try:
@@ -93,6 +93,7 @@ def load_mitsuba() -> Any:
             raise RenderError(f"cannot start Mitsuba's {variant} backend ({exc}); needs {hint}") from None
         _STATE["mi"] = mi
         _STATE["dr"] = drjit
+        _STATE["oidn"] = pyoidn
         _STATE["variant"] = variant
         return mi
 
@@ -101,3 +102,9 @@ def load_drjit() -> Any:
     """Dr.Jit, Mitsuba's array library, once :func:`load_mitsuba` has set the variant."""
     load_mitsuba()
     return _STATE["dr"]
+
+
+def load_oidn() -> Any:
+    """Open Image Denoise's Python module (``pyoidn``), loaded with Mitsuba."""
+    load_mitsuba()
+    return _STATE["oidn"]

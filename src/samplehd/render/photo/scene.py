@@ -78,13 +78,12 @@ class PhotoScene:
         # a replay gives the same image as a fresh trace. (The CPU variant cannot record this scene's
         # virtual calls, and gains little.)
         self._trace = self._replay = lambda scene, seed, spp: mi.render(scene, spp=spp, seed=seed)
+        dr = load_drjit()
         if photo_backend() == "cuda_ad_rgb":
-            self._replay = load_drjit().freeze(self._trace)
+            self._replay = dr.freeze(self._trace)
         self._traced = False
         self._posed: dict[str, np.ndarray] = {}
         # The shape_index AOV holds each shape's id in Dr.Jit's instance registry (not its list position).
-        import drjit as dr
-
         shapes = self.scene.shapes()
         ids = np.asarray(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shapes)), dtype=np.int64)
         self.shape_seg = np.full(int(ids.max()) + 1, background, dtype=np.int64)
