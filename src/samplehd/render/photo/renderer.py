@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import RenderError
-from samplehd.render.photo.look import LookParams, default_look, random_look
+from samplehd.render.photo.look import LookParams, blackbody_rgb, default_look, random_look
 from samplehd.render.photo.runtime import load_drjit, load_oidn, photo_backend
 from samplehd.render.photo.scene import PhotoScene
 
@@ -35,6 +35,13 @@ def _filmic(x: Any) -> Any:
     """The ACES fit of the filmic shoulder; arithmetic only, so NumPy arrays and torch tensors alike."""
     a, b, c, d, e = 2.51, 0.03, 2.43, 0.59, 0.14
     return (x * (a * x + b)) / (x * (c * x + d) + e)
+
+
+def white_balance(look: LookParams) -> np.ndarray:
+    """Per-channel gains of a camera balanced for the ceiling lights' colour temperature (as a camera's
+    white balance would be): a white object under them comes out white, and a purple one purple, not the
+    magenta of warm light on it; the daylight window keeps its relative tint."""
+    return 1.0 / blackbody_rgb(look.colour_temperature)
 
 
 def tonemap(rgb: np.ndarray, exposure: float = 0.0) -> np.ndarray:
@@ -76,7 +83,8 @@ def _finish_on_gpu(raw: Any, options: PhotoOptions, torch: Any) -> np.ndarray:
     if options.denoise:
         color = load_oidn().denoise(color, t[..., 3:6].clamp(0, 1).contiguous(),
                                     t[..., 6:9].clamp(-1, 1).contiguous(), hdr=True, quality="balanced")
-    x = color.clamp(min=0.0) * (2.0 ** options.look.exposure) * (0.8 / _WHITE)
+    gains = torch.as_tensor(white_balance(options.look), dtype=color.dtype, device=color.device)
+    x = (color * gains).clamp(min=0.0) * (2.0 ** options.look.exposure) * (0.8 / _WHITE)
     y = _filmic(x).clamp(0.0, 1.0)
     srgb = torch.where(y <= 0.0031308, 12.92 * y, 1.055 * y.pow(1 / 2.4) - 0.055)
     return torch.round(srgb * 255.0).to(torch.uint8).cpu().numpy()
@@ -144,7 +152,7 @@ class PhotoTracer:
         if self.options.denoise:
             color = denoise(color, np.clip(raw[..., 3:6], 0, 1), np.clip(raw[..., 6:9], -1, 1))
         self.frames += 1
-        return tonemap(color, self.options.look.exposure)
+        return tonemap(color * white_balance(self.options.look).astype(np.float32), self.options.look.exposure)
 
 
 def photo_options(look: str = "fixed", seed: int = 0, spp: int = DEFAULT_SPP,
