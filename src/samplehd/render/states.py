@@ -88,6 +88,7 @@ def render_states(
     data: mujoco.MjData | None = None,
     photo: Any = None,
     on_frame: Callable[[str, dict[str, np.ndarray]], None] | None = None,
+    segmentation_dtype: Any = np.int32,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Render recorded frames: ``images[camera][modality]`` with the frame as first axis.
 
@@ -105,6 +106,7 @@ def render_states(
         photo: the photo preset's options (``samplehd.render.photo.PhotoOptions``; default: the fixed look).
         on_frame: called with each camera and its images of each frame in turn, instead of keeping them; the
             arrays are reused for the next frame (copy what must outlive the call). ``{}`` is then returned.
+        segmentation_dtype: int32, or uint8/uint16 where the model's ids fit (the dtype episode files store).
 
     Raises:
         DatasetError: the states do not fit the model.
@@ -116,7 +118,7 @@ def render_states(
     # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
     # With on_frame, one frame's arrays serve every frame (no fresh memory per frame).
     shapes = {"rgb": ((height, width, 3), np.uint8), "depth": ((height, width), np.float32),
-              "segmentation": ((height, width), np.int32)}
+              "segmentation": ((height, width), segmentation_dtype)}
     n = 1 if on_frame is not None else len(picks)
     out = {c: {m: np.empty((n, *shapes[m][0]), dtype=shapes[m][1]) for m in modalities if m in shapes}
            for c in cameras}
