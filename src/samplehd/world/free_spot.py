@@ -98,10 +98,14 @@ def _cells(lo: float, hi: float, step: float) -> np.ndarray:
     return lo + (np.arange(n) + 0.5) * (hi - lo) / n
 
 
-def _yaw_weights() -> tuple[np.ndarray, np.ndarray]:
-    """The distinct turns the planner samples and how often it samples each."""
+@functools.cache
+def _yaw_weights() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The distinct turns the planner samples, how often it samples each, and their rotations (read only)."""
     turns, counts = np.unique(np.array(placement.SPOT_TURNS), return_counts=True)
-    return turns, counts / len(placement.SPOT_TURNS)
+    out = (turns, counts / len(placement.SPOT_TURNS), yaw_rotation_2d(turns))
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 @dataclass(frozen=True)
@@ -206,8 +210,7 @@ class FreeSpots:
         self.origin = np.array([o.coords[:2] for o in objects], float).reshape(-1, 2)
         self.rot = yaw_rotation_2d(np.array([o.yaw for o in objects], float)).reshape(-1, 2, 2)
         self.half = np.array([o.footprint_half for o in objects], float).reshape(-1, 2)
-        self.turns, self.turn_share = _yaw_weights()
-        self._turn_rots = yaw_rotation_2d(self.turns)
+        self.turns, self.turn_share, self._turn_rots = _yaw_weights()
         self._table = np.asarray(layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
         self._base = np.asarray(layout.robot_base)
         self._workspace = (np.asarray(layout.workspace_min) - placement.SPOT_WORKSPACE_SLACK,
@@ -355,12 +358,24 @@ class FreeSpots:
         while len(picks) < placement.SPOT_OPTIONS and dist.max() > 0:
             picks.append(int(dist.argmax()))
             dist = np.minimum(dist, _norms(where - where[picks[-1]]))
+        if self.reach_is_annulus and self._surely_in_reach(spots, best[picks]):
+            return [int(j) for j in best[picks]]
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
         reached = [int(best[i]) for i in picks if self.reach((*_origin(spots, best[i]), z))]
         if reached:
             return reached
         return next(([int(j)] for j in ranked[:placement.SPOT_SHORTLIST] if self.reach((*_origin(spots, j), z))),
                     [])
+
+    def _surely_in_reach(self, spots: _Spots, chosen: np.ndarray) -> bool:
+        """Whether ``reach`` (the annulus, memoised on coordinates rounded to a micrometre) surely says yes
+        on every chosen spot: they passed the annulus test, and none lies within 10 micrometres of its
+        bounds, so neither this answer nor a memoised one for a point rounding alike can be no."""
+        origin = spots.centre[chosen] - spots.offsets[spots.turn[chosen]]
+        base, layout = self._base, self.layout
+        reach = np.hypot(origin[:, 0] - base[0], origin[:, 1] - base[1])
+        margin = 1e-5
+        return bool(((reach >= layout.reach_min + margin) & (reach <= layout.reach_max - margin)).all())
 
     def _ranks_needed(self, spots: _Spots) -> int:
         """How many best-scored spots surely hold the shortlist's samples and the shortlist itself
@@ -457,30 +472,9 @@ class FreeSpots:
         return self._memo[key]
 
     def _beside_grid(self, direction: tuple[float, float]) -> tuple[Any, ...]:
-        """What the spots past a reference along a direction share, whichever the objects: the
-        direction and its lateral, the (distance, lateral offset) cells of every turn, flattened,
-        their turns, weights and far penalty."""
-        key = ("beside grid", direction)
-        if key not in self._memo:
-            d = np.asarray(direction, float)
-            d /= np.linalg.norm(d)
-            lateral = np.array([-d[1], d[0]])
-            (near_dist, near_lat), (far_dist, far_lat) = placement.BESIDE_NEAR, placement.BESIDE_FAR
-            step = self.search.step
-            dists, lats = _cells(0.0, far_dist, step), _cells(-far_lat, far_lat, step)
-            dist, lat = np.meshgrid(dists, lats, indexing="ij")
-            dist, lat = dist.ravel(), lat.ravel()
-            near = (dist <= near_dist) & (np.abs(lat) <= near_lat)
-            # half the planner's samples fall in the near box, half in the far one
-            cell = 0.5 / len(dist) + np.where(near, 0.5 / max(1, int(near.sum())), 0.0)
-            nt = len(self.turns)
-            turn = np.repeat(np.arange(nt), len(dist))
-            weight = np.repeat(self.turn_share, len(dist)) * np.tile(cell, nt)
-            dist, lat = np.tile(dist, nt), np.tile(lat, nt)
-            far = placement.SPOT_FAR_PENALTY * (np.maximum(0.0, dist - near_dist)
-                                                + np.maximum(0.0, np.abs(lat) - near_lat))
-            self._memo[key] = (d, lateral, dists, lats, dist, lat, turn, weight, far, -far_lat, 2 * far_lat / len(lats))
-        return self._memo[key]
+        """What the spots past a reference along a direction share, whichever the objects (see
+        :func:`_beside_cells`)."""
+        return _beside_cells(direction, self.search.step)
 
     def _beside_spots(self, x: int, ref: int, direction: tuple[float, float]) -> _Spots:
         key = ("beside", x, ref, direction)
@@ -637,7 +631,7 @@ def _part_grid(layout: TableLayout, part_margin: float, step: float,
     xs, ys = _cells(lo[0], hi[0], step), _cells(lo[1], hi[1], step)
     gx, gy = np.meshgrid(xs, ys, indexing="ij")
     grid = np.stack([gx.ravel(), gy.ravel()], -1)
-    turns, share = _yaw_weights()
+    turns, share, _ = _yaw_weights()
     nt = len(turns)
     turn = np.repeat(np.arange(nt), len(grid))
     centre = np.tile(grid, (nt, 1))
@@ -647,6 +641,32 @@ def _part_grid(layout: TableLayout, part_margin: float, step: float,
     for a in (centre, turn, weight, bounds, xs, ys, frame.base, frame.axes):
         a.setflags(write=False)
     return frame, centre, turn, weight, bounds
+
+
+@functools.lru_cache(maxsize=64)
+def _beside_cells(direction: tuple[float, float], step: float) -> tuple[Any, ...]:
+    """What the spots past a reference along a direction share, whichever the objects and scene (read
+    only): the direction and its lateral, the (distance, lateral offset) cells of every turn, flattened,
+    their turns, weights and far penalty, and the columns' start and width."""
+    d = np.asarray(direction, float)
+    d /= np.linalg.norm(d)
+    lateral = np.array([-d[1], d[0]])
+    (near_dist, near_lat), (far_dist, far_lat) = placement.BESIDE_NEAR, placement.BESIDE_FAR
+    dists, lats = _cells(0.0, far_dist, step), _cells(-far_lat, far_lat, step)
+    dist, lat = np.meshgrid(dists, lats, indexing="ij")
+    dist, lat = dist.ravel(), lat.ravel()
+    near = (dist <= near_dist) & (np.abs(lat) <= near_lat)
+    # half the planner's samples fall in the near box, half in the far one
+    cell = 0.5 / len(dist) + np.where(near, 0.5 / max(1, int(near.sum())), 0.0)
+    _, turn_share, _ = _yaw_weights()
+    nt = len(turn_share)
+    turn = np.repeat(np.arange(nt), len(dist))
+    weight = np.repeat(turn_share, len(dist)) * np.tile(cell, nt)
+    dist, lat = np.tile(dist, nt), np.tile(lat, nt)
+    far = placement.SPOT_FAR_PENALTY * (np.maximum(0.0, dist - near_dist) + np.maximum(0.0, np.abs(lat) - near_lat))
+    for a in (d, lateral, dists, lats, dist, lat, turn, weight, far):
+        a.setflags(write=False)
+    return (d, lateral, dists, lats, dist, lat, turn, weight, far, -far_lat, 2 * far_lat / len(lats))
 
 
 def _best_first(key: np.ndarray, needed: int) -> np.ndarray:
