@@ -280,7 +280,7 @@ class FreeSpots:
     def room_beside(self, x: int, ref: int, direction: Sequence[float]) -> bool:
         """Whether object ``x`` finds a free spot past object ``ref`` along a direction (x, y)."""
         spots = self._beside_spots(x, ref, (float(direction[0]), float(direction[1])))
-        if self._too_few(spots):
+        if spots is None or self._too_few(spots):
             return False
         present = np.ones(len(self.objects), bool)
         free = self._free(x, spots, present, [])
@@ -476,7 +476,10 @@ class FreeSpots:
         :func:`_beside_cells`)."""
         return _beside_cells(direction, self.search.step)
 
-    def _beside_spots(self, x: int, ref: int, direction: tuple[float, float]) -> _Spots:
+    def _beside_spots(self, x: int, ref: int, direction: tuple[float, float]) -> _Spots | None:
+        """Object x's spots past object ref along a direction; None where the tests on the table, the
+        workspace and the distance past the reference already leave surely too few (:meth:`_too_few`
+        with room for the rounding of either sum), before the reach annulus is tested."""
         key = ("beside", x, ref, direction)
         if key not in self._memo:
             d, lateral, dists, lats, dist, lat, turn, weight, far, v_lo, v_width = self._beside_grid(direction)
@@ -513,6 +516,9 @@ class FreeSpots:
                 keep &= (origin[a] - self.origin[ref, a]) * d[a] >= need
             else:
                 keep &= ((_flat_xy(origin, keep.shape) - self.origin[ref]) @ d >= need).reshape(keep.shape)
+            if self.search.samples * float(weight @ keep.ravel()) < self.search.min_hits - 1e-6:
+                self._memo[key] = None
+                return None
             rel_x, rel_y = rel
             keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
             grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
