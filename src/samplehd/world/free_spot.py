@@ -272,7 +272,7 @@ class FreeSpots:
                 rects = [self._rect(k, spots, j) for j in options]
                 left = nxt_free & ~self._blocked_by(nxt, nxt_spots, *(np.stack(a) for a in zip(*rects, strict=True)))
                 room_left = [self._hits(nxt_spots, f) for f in left]
-                best = int(np.argmin(room_left))
+                best = room_left.index(min(room_left))  # the first smallest, as np.argmin
                 chosen, free = options[best], left[best]
             placed.append(self._rect(k, spots, chosen))
         return True
@@ -409,8 +409,9 @@ class FreeSpots:
         grow = self.search.spot_margin / 2
         n_rect, n_turn = len(r), len(rt)
         # the four axes of each pair (rect, turn), as rows: the turned object's, then the rectangle's
-        axes = np.concatenate([np.broadcast_to(np.swapaxes(rt, -1, -2)[None], (n_rect, n_turn, 2, 2)),
-                               np.broadcast_to(np.swapaxes(r, -1, -2)[:, None], (n_rect, n_turn, 2, 2))], axis=2)
+        axes = np.empty((n_rect, n_turn, 4, 2))
+        axes[:, :, :2] = np.swapaxes(rt, -1, -2)
+        axes[:, :, 2:] = np.swapaxes(r, -1, -2)[:, None]
         # reach along each axis: the projected half sizes of both, grown by half the margin each
         reach = (np.abs(axes @ rt[None]) @ (self.half[k] + grow)
                  + (np.abs(axes @ r[:, None]) @ (h + grow)[:, None, :, None])[..., 0])
@@ -433,10 +434,13 @@ class FreeSpots:
         q = q0[..., None] - along[..., None] * g.u  # (R, t, 4, r): the projection at column v = 0
         lim = reach[..., None]
         flat = across == 0  # an axis that ignores the column: all or none, by the row
-        with np.errstate(divide="ignore", invalid="ignore"):
+        if not flat.any():
             a, b = (q - lim) / across, (q + lim) / across
-        low, high = np.minimum(a, b), np.maximum(a, b)
-        if flat.any():
+            low, high = np.minimum(a, b), np.maximum(a, b)
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                a, b = (q - lim) / across, (q + lim) / across
+            low, high = np.minimum(a, b), np.maximum(a, b)
             inside = np.abs(q) <= lim
             low = np.where(flat, np.where(inside, -np.inf, np.inf), low)
             high = np.where(flat, np.where(inside, np.inf, -np.inf), high)
