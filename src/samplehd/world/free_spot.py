@@ -270,10 +270,17 @@ class FreeSpots:
                 nxt_spots = self._part_spots(nxt, part)
                 nxt_free = self._free(nxt, nxt_spots, present, placed)
                 rects = [self._rect(k, spots, j) for j in options]
-                left = nxt_free & ~self._blocked_by(nxt, nxt_spots, *(np.stack(a) for a in zip(*rects, strict=True)))
-                room_left = [self._hits(nxt_spots, f) for f in left]
+                first, lst = self._runs(nxt, nxt_spots, *(np.stack(a) for a in zip(*rects, strict=True)))
+                # the next object's free spots each option leaves, counted per turn: the samples on them
+                # are summed exactly as over the spots themselves (a part's spots weigh alike per turn)
+                counts = _counts_outside(nxt_spots, nxt_free, first, lst)
+                room_left = [self._hits_counted(nxt_spots, c) for c in counts.tolist()]
                 best = room_left.index(min(room_left))  # the first smallest, as np.argmin
-                chosen, free = options[best], left[best]
+                chosen = options[best]
+                if n + 2 == len(arriving) and self.reach_is_annulus:  # the next is the last to arrive
+                    return room_left[best] >= self.search.min_hits and sum(counts[best]) > 0
+                j = np.arange(len(nxt_spots.grid.v), dtype=float)
+                free = nxt_free & ~((j >= first[best][..., None]) & (j <= lst[best][..., None])).ravel()
             placed.append(self._rect(k, spots, chosen))
         return True
 
@@ -295,6 +302,13 @@ class FreeSpots:
     def _hits(self, spots: _Spots, free: np.ndarray) -> float:
         """How many of the planner's first-try samples are expected on the free spots."""
         return self.search.samples * float(spots.weight[free].sum())
+
+    def _hits_counted(self, spots: _Spots, counts: Sequence[int]) -> float:
+        """:meth:`_hits` of a part's spots from how many are free per turn (the same sum: a part's spots of
+        one turn weigh alike, so the free spots' weights are those counts of each turn's weight, in order)."""
+        nt = len(spots.turns)
+        return self.search.samples * _repeated_sum(tuple(spots.weight[:: len(spots.weight) // nt].tolist()),
+                                                   tuple(counts))
 
     def _too_few(self, spots: _Spots) -> bool:
         """Whether the tests not involving other objects already leave too few of the planner's samples
@@ -385,17 +399,11 @@ class FreeSpots:
             return len(spots.weight)
         return max(placement.SPOT_SHORTLIST, int(1.01 * placement.SPOT_SHORTLIST / least) + 2)
 
-    def _blocked_by(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray, h: np.ndarray) -> np.ndarray:
-        """Which of object k's spots overlap each rectangle (centres (R, 2), rotations (R, 2, 2),
-        half sizes (R, 2)), by the planner's separating-axis test with its margin: (R, m)."""
-        first, last = self._runs(k, spots, c, r, h)
-        j = np.arange(len(spots.grid.v), dtype=float)
-        return ((j >= first[..., None]) & (j <= last[..., None])).reshape(len(c), -1)
-
     def _runs(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray,
               h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The spots of object k each rectangle overlaps (see :meth:`_blocked_by`), as the first and
-        last column of a run per turn and row: (R, t, r) each.
+        """The spots of object k each rectangle (centres (R, 2), rotations (R, 2, 2), half sizes (R, 2))
+        overlaps by the planner's separating-axis test with its margin, as the first and last column of a
+        run per turn and row: (R, t, r) each.
 
         On a row of the grid, each of the test's four axes bounds the column coordinate from both
         sides, so the spots a rectangle blocks are one run of columns per turn and row."""
@@ -624,6 +632,26 @@ def _covered(spots: _Spots, first: np.ndarray, last: np.ndarray) -> np.ndarray:
     diff = (np.bincount((row + start.astype(np.intp))[some], minlength=size)
             - np.bincount((row + stop.astype(np.intp))[some], minlength=size))
     return (np.cumsum(diff).reshape(nt * nr, nc + 1)[:, :nc] > 0).ravel()
+
+
+def _counts_outside(spots: _Spots, free: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """How many free spots of each turn lie outside each rectangle's runs of columns ``first``..``last``
+    (R, t, r): (R, t), from running counts of the free spots along each row."""
+    nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
+    running = np.zeros((nt * nr, nc + 1), np.intp)
+    np.cumsum(free.reshape(nt * nr, nc), axis=1, out=running[:, 1:])
+    total = running[:, -1].reshape(nt, nr).sum(axis=1)
+    start, stop = first.reshape(len(first), -1).astype(np.intp), last.reshape(len(last), -1).astype(np.intp) + 1
+    row = np.arange(nt * nr) * (nc + 1)
+    flat = running.ravel()
+    inside = np.where(start < stop, flat[row + stop] - flat[row + start], 0)
+    return total - inside.reshape(len(first), nt, nr).sum(axis=2)
+
+
+@functools.lru_cache(maxsize=4096)
+def _repeated_sum(values: tuple[float, ...], counts: tuple[int, ...]) -> float:
+    """``sum`` of ``counts[i]`` copies of each ``values[i]``, in order, as numpy sums that array."""
+    return float(np.repeat(np.array(values), counts).sum())
 
 
 def _origin(spots: _Spots, j: int) -> np.ndarray:
