@@ -638,13 +638,12 @@ def _counts_outside(spots: _Spots, free: np.ndarray, first: np.ndarray, last: np
     """How many free spots of each turn lie outside each rectangle's runs of columns ``first``..``last``
     (R, t, r): (R, t), from running counts of the free spots along each row."""
     nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
-    running = np.zeros((nt * nr, nc + 1), np.intp)
-    np.cumsum(free.reshape(nt * nr, nc), axis=1, out=running[:, 1:])
-    total = running[:, -1].reshape(nt, nr).sum(axis=1)
+    running = np.zeros(len(free) + 1, np.intp)  # free spots before each spot, in the spots' order
+    np.cumsum(free, out=running[1:])
+    total = running[nr * nc :: nr * nc] - running[: -1 : nr * nc]
     start, stop = first.reshape(len(first), -1).astype(np.intp), last.reshape(len(last), -1).astype(np.intp) + 1
-    row = np.arange(nt * nr) * (nc + 1)
-    flat = running.ravel()
-    inside = np.where(start < stop, flat[row + stop] - flat[row + start], 0)
+    row = np.arange(nt * nr) * nc
+    inside = np.where(start < stop, running[row + stop] - running[row + start], 0)
     return total - inside.reshape(len(first), nt, nr).sum(axis=2)
 
 
