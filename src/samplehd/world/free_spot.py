@@ -269,8 +269,9 @@ class FreeSpots:
                 nxt = arriving[n + 1]
                 nxt_spots = self._part_spots(nxt, part)
                 nxt_free = self._free(nxt, nxt_spots, present, placed)
-                rects = [self._rect(k, spots, j) for j in options]
-                first, lst = self._runs(nxt, nxt_spots, *(np.stack(a) for a in zip(*rects, strict=True)))
+                at = np.array(options)
+                first, lst = self._runs(nxt, nxt_spots, spots.centre[at], spots.rots[spots.turn[at]],
+                                        np.broadcast_to(self.half[k], (len(at), 2)))
                 # the next object's free spots each option leaves, counted per turn: the samples on them
                 # are summed exactly as over the spots themselves (a part's spots weigh alike per turn)
                 counts = _counts_outside(nxt_spots, nxt_free, first, lst)
@@ -366,7 +367,9 @@ class FreeSpots:
         samples = np.cumsum(self.search.samples * spots.weight[ranked])
         best = ranked[: max(1, int(np.searchsorted(samples, placement.SPOT_SHORTLIST, side="right")))]
         # spread: farthest-point picks over position and turn (a long object's turn matters as much)
-        where = np.column_stack([spots.centre[best], _TURN_SPREAD * spots.turns[spots.turn[best]]])
+        where = np.empty((len(best), 3))
+        where[:, :2] = spots.centre[best]
+        where[:, 2] = _TURN_SPREAD * spots.turns[spots.turn[best]]
         picks = [0]
         dist = _norms(where - where[0])
         while len(picks) < placement.SPOT_OPTIONS and dist.max() > 0:
@@ -457,8 +460,13 @@ class FreeSpots:
         low = np.maximum(np.maximum(low[:, :, 0], low[:, :, 1]), np.maximum(low[:, :, 2], low[:, :, 3]))
         high = np.minimum(np.minimum(high[:, :, 0], high[:, :, 1]), np.minimum(high[:, :, 2], high[:, :, 3]))
         # (R, t, r), clipped to the grid's columns (np.clip's dispatch costs more than the arithmetic)
-        first = np.minimum(np.maximum(np.ceil((low - g.lo) / g.width - 0.5), 0), count)
-        last = np.minimum(np.maximum(np.floor((high - g.lo) / g.width - 0.5), -1), count - 1)
+        both = np.stack([low, high])
+        both -= g.lo
+        both /= g.width
+        both -= 0.5
+        first, last = np.ceil(both[0]), np.floor(both[1])
+        np.minimum(np.maximum(first, 0, out=first), count, out=first)
+        np.minimum(np.maximum(last, -1, out=last), count - 1, out=last)
         return first, last
 
     def _part_spots(self, k: int, part: str) -> _Spots:
@@ -570,8 +578,7 @@ class FreeSpots:
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             # the objects whose rectangle, with both margins, comes within reach of the grid's box
             lo, hi = grid.box
-            grow = self.search.spot_margin / 2
-            radius = np.hypot(*(self.half[k] + grow)) + self._radius + 1e-9
+            radius = self._radius[k] + self._radius + 1e-9
             close = np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None])
             near = np.flatnonzero(close[:, 0] & close[:, 1])
             near = near[near != k]
@@ -620,18 +627,21 @@ def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
 def _covered(spots: _Spots, first: np.ndarray, last: np.ndarray) -> np.ndarray:
     """Which spots lie in any of the runs of columns ``first``..``last`` (R, t, r): (m,).
 
-    Each run adds one at its first column and takes one off past its last, on rows one column
-    longer than the grid's; a spot is covered where the running sum along its row is positive."""
+    Each run adds one at its first spot and takes one off at the spot past its last (the next row's
+    first where it ends its row), in the spots' order; a spot is covered where the running sum is positive."""
     nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
+    size = nt * nr * nc
     if not len(first):
-        return np.zeros(nt * nr * nc, bool)
-    row = np.arange(nt * nr) * (nc + 1)
-    start, stop = first.reshape(len(first), -1), last.reshape(len(last), -1) + 1
+        return np.zeros(size, bool)
+    row = np.arange(0, size, nc)
+    start, stop = first.reshape(len(first), -1).astype(np.intp), last.reshape(len(last), -1).astype(np.intp)
+    stop += 1
     some = start < stop
-    size = nt * nr * (nc + 1)
-    diff = (np.bincount((row + start.astype(np.intp))[some], minlength=size)
-            - np.bincount((row + stop.astype(np.intp))[some], minlength=size))
-    return (np.cumsum(diff).reshape(nt * nr, nc + 1)[:, :nc] > 0).ravel()
+    start += row
+    stop += row
+    diff = np.bincount(start[some], minlength=size + 1)
+    diff -= np.bincount(stop[some], minlength=size + 1)
+    return np.cumsum(diff[:size]) > 0
 
 
 def _counts_outside(spots: _Spots, free: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
