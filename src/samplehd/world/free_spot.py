@@ -121,11 +121,11 @@ class _Grid:
     width: float
     on_axes: bool  # e1, e2 are x, y and base is 0: centre (u[i], v[j]) exactly
 
-    @functools.cached_property
-    def box(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper corners (x, y) of the box around every spot's footprint centre [m]."""
-        corners = (self.base[:, None, None, :] + self.u[[0, -1]][None, :, None, None] * self.axes[0]
-                   + self.v[[0, -1]][None, None, :, None] * self.axes[1]).reshape(-1, 2)
+    def box(self, rows: tuple[int, int], cols: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners (x, y) of the box around the footprint centres of every turn's spots
+        in rows ``rows[0]``..``rows[1]`` and columns ``cols[0]``..``cols[1]`` [m]."""
+        corners = (self.base[:, None, None, :] + self.u[list(rows)][None, :, None, None] * self.axes[0]
+                   + self.v[list(cols)][None, None, :, None] * self.axes[1]).reshape(-1, 2)
         return corners.min(axis=0), corners.max(axis=0)
 
 
@@ -576,12 +576,17 @@ class FreeSpots:
                     + placement.SPOT_TURN_WEIGHT * np.abs(turns[turn]))
 
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-            # the objects whose rectangle, with both margins, comes within reach of the grid's box
-            lo, hi = grid.box
-            radius = self._radius[k] + self._radius + 1e-9
-            close = np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None])
-            near = np.flatnonzero(close[:, 0] & close[:, 1])
-            near = near[near != k]
+            # the objects whose rectangle, with both margins, comes within reach of the box around the
+            # spots that pass the tests without other objects (the others' overlaps matter nowhere else)
+            kept = spots.keep.reshape(len(self.turns), len(grid.u), len(grid.v)).any(axis=0)
+            rows, cols = np.flatnonzero(kept.any(axis=1)), np.flatnonzero(kept.any(axis=0))
+            near = rows[:0]
+            if len(rows):
+                lo, hi = grid.box((rows[0], rows[-1]), (cols[0], cols[-1]))
+                radius = self._radius[k] + self._radius + 1e-9
+                close = np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None])
+                near = np.flatnonzero(close[:, 0] & close[:, 1])
+                near = near[near != k]
             if not len(near):
                 none = np.zeros((0, len(self.turns), len(grid.u)))
                 return near, none, none
