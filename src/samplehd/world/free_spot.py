@@ -502,10 +502,10 @@ class FreeSpots:
         with room for the rounding of either sum), before the reach annulus is tested."""
         key = ("beside", x, ref, direction)
         if key not in self._memo:
-            d, lateral, dists, lats, dist, lat, turn, weight, far, v_lo, v_width = self._beside_grid(direction)
-            ext_ref = np.abs(d @ self.rot[ref]) @ self.half[ref]
+            d, lateral, grid_axes, dists, lats, dist, lat, turn, weight, far, v_lo, v_width = self._beside_grid(
+                direction)
+            ext_ref, ext_x = self._extent_along(ref, direction, False), self._extent_along(x, direction, True)
             rots, offsets, half = self._turned(x)
-            ext_x = np.abs(d @ rots) @ self.half[x]
             # the distance past the reference per (turn, row) and the lateral offset per column: each
             # coordinate below is computed on the axes it depends on, then broadcast over (t, r, c)
             along = ((ext_ref + ext_x) + self.search.spot_margin)[:, None, None] + dists[None, :, None]
@@ -542,10 +542,19 @@ class FreeSpots:
             rel_x, rel_y = rel
             keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
             grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
-                         np.stack([d, lateral]), dists, lats, v_lo, v_width, False)
+                         grid_axes, dists, lats, v_lo, v_width, False)
             self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
                                           weight, far, keep.ravel(),
                                           lambda: np.broadcast_to(np.hypot(rel_x, rel_y), keep.shape).ravel())
+        return self._memo[key]
+
+    def _extent_along(self, k: int, direction: tuple[float, float], turned: bool) -> Any:
+        """How far object k's footprint reaches from its centre along a direction [m], as it stands or
+        after each turn ((t,)) (memoised)."""
+        key = ("extent", k, direction, turned)
+        if key not in self._memo:
+            d = _beside_cells(direction, self.search.step)[0]
+            self._memo[key] = np.abs(d @ (self._turned(k)[0] if turned else self.rot[k])) @ self.half[k]
         return self._memo[key]
 
     def _turned(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -698,8 +707,8 @@ def _part_grid(layout: TableLayout, part_margin: float, step: float,
 @functools.lru_cache(maxsize=64)
 def _beside_cells(direction: tuple[float, float], step: float) -> tuple[Any, ...]:
     """What the spots past a reference along a direction share, whichever the objects and scene (read
-    only): the direction and its lateral, the (distance, lateral offset) cells of every turn, flattened,
-    their turns, weights and far penalty, and the columns' start and width."""
+    only): the direction and its lateral (and both as rows), the (distance, lateral offset) cells of every
+    turn, flattened, their turns, weights and far penalty, and the columns' start and width."""
     d = np.asarray(direction, float)
     d /= np.linalg.norm(d)
     lateral = np.array([-d[1], d[0]])
@@ -716,9 +725,10 @@ def _beside_cells(direction: tuple[float, float], step: float) -> tuple[Any, ...
     weight = np.repeat(turn_share, len(dist)) * np.tile(cell, nt)
     dist, lat = np.tile(dist, nt), np.tile(lat, nt)
     far = placement.SPOT_FAR_PENALTY * (np.maximum(0.0, dist - near_dist) + np.maximum(0.0, np.abs(lat) - near_lat))
-    for a in (d, lateral, dists, lats, dist, lat, turn, weight, far):
+    axes = np.stack([d, lateral])
+    for a in (d, lateral, axes, dists, lats, dist, lat, turn, weight, far):
         a.setflags(write=False)
-    return (d, lateral, dists, lats, dist, lat, turn, weight, far, -far_lat, 2 * far_lat / len(lats))
+    return (d, lateral, axes, dists, lats, dist, lat, turn, weight, far, -far_lat, 2 * far_lat / len(lats))
 
 
 def _best_first(key: np.ndarray, needed: int) -> np.ndarray:
