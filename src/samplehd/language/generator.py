@@ -246,21 +246,6 @@ class _SceneGenerator:
         self.search_budget = search_budget
         self.budget = self.search_budget
 
-    def _fails(self, constraints: Sequence[_Check], values: Mapping[str, Any]) -> str | None:
-        """Name of the first constraint the bound values violate (memoised per scene), or None."""
-        memo = self._memo
-        for ctype, args_of in constraints:
-            key = (ctype, args_of(values))
-            ok = memo.get(key)
-            if ok is None:
-                ok = memo[key] = bool(CONSTRAINTS[ctype].check(self.ctx, key[1]))
-                if not ok:
-                    # counted once per distinct rejected candidate, not per draw
-                    self.rejections[ctype] += 1
-            if not ok:
-                return ctype
-        return None
-
     def draw(
         self, template: Template, exclude: set[tuple[Any, ...]] | None = None
     ) -> tuple[dict[str, Any], dict[str, Description]] | None:
@@ -302,8 +287,9 @@ class _SceneGenerator:
                 domain = list(RELATIONS)
             # candidates in random order, each checked only when reached: the first valid one is a
             # uniform draw among the valid ones, and most draws stop long before the whole domain
+            nonlocal budget
             any_valid = False
-            kind, name, checks, fails = p.type, p.name, schedule[k], self._fails
+            kind, name, checks = p.type, p.name, schedule[k]
             for j in rng.permutation(len(domain)).tolist():
                 candidate = domain[j]
                 members: tuple[int, ...] = ()
@@ -315,10 +301,23 @@ class _SceneGenerator:
                     values[name] = candidate
                 else:
                     values[name] = candidate
-                if self.budget <= 0:
+                if budget <= 0:
                     break
-                self.budget -= 1
-                if checks and fails(checks, values) is not None:
+                budget -= 1
+                # the constraints that become checkable here, in order, memoised per scene; a rejection is
+                # counted once per distinct rejected candidate, not per draw (inline: runs for every candidate)
+                failed = False
+                for ctype, args_of in checks:
+                    key = (ctype, args_of(values))
+                    ok = memo.get(key)
+                    if ok is None:
+                        ok = memo[key] = bool(CONSTRAINTS[ctype].check(ctx, key[1]))
+                        if not ok:
+                            rejections[ctype] += 1
+                    if not ok:
+                        failed = True
+                        break
+                if failed:
                     continue
                 any_valid = True
                 if kind == "object_set":
@@ -333,9 +332,12 @@ class _SceneGenerator:
             refs.pop(p.name, None)
             return False
 
-        self.budget = self.search_budget
-        if not assign(0):
-            if self.budget <= 0:
+        budget = self.search_budget
+        memo, rejections, ctx = self._memo, self.rejections, self.ctx
+        found = assign(0)
+        self.budget = budget
+        if not found:
+            if budget <= 0:
                 self.rejections["search_budget"] += 1
             return None
         for p in params:
