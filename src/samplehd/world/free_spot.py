@@ -733,11 +733,20 @@ def _beside_cells(direction: tuple[float, float], step: float) -> tuple[Any, ...
 
 def _best_first(key: np.ndarray, needed: int) -> np.ndarray:
     """The start of ``argsort(key, kind="stable")``, at least ``needed`` long (all of it for short keys):
-    the keys up to the ``needed``-th smallest, ties included, sorted stably."""
+    the keys up to a bound at or above the ``needed``-th smallest, ties included, sorted stably.
+
+    The bound is taken among every 8th key, a little past the share of them the needed ones make,
+    and checked to hold enough keys (else the ``needed``-th smallest itself): selecting among an
+    eighth of the keys costs an eighth of selecting among all of them."""
     if needed >= len(key):
         return np.argsort(key, kind="stable")
-    kth = np.partition(key, needed - 1)[needed - 1]
-    sel = np.flatnonzero(key <= kth)
+    sel = None
+    sub = key[::8]
+    m = needed // 8 + 8
+    if m < len(sub):
+        sel = np.flatnonzero(key <= np.partition(sub, m)[m])
+    if sel is None or len(sel) < needed:
+        sel = np.flatnonzero(key <= np.partition(key, needed - 1)[needed - 1])
     return sel[np.argsort(key[sel], kind="stable")]
 
 
