@@ -435,14 +435,15 @@ class FreeSpots:
             self._memo[key] = self._axes_reach(k, self._turned_rots(k), self.rot, self.half)
         return self._memo[key]
 
-    def _runs_on(self, spots: _Spots, c: np.ndarray, axes: np.ndarray,
-                 reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_runs` for rectangles with centres ``c`` (R, 2), given their test's axes and reach."""
+    def _runs_on(self, spots: _Spots, c: np.ndarray, axes: np.ndarray, reach: np.ndarray,
+                 rows: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_runs` for rectangles with centres ``c`` (R, 2), given their test's axes and reach, on the
+        grid's rows ``rows`` (the same numbers on each row as for the whole grid)."""
         g = spots.grid
         q0 = np.einsum("rtad,rtd->rta", axes, c[:, None, :] - g.base[None])  # (R, t, 4)
         along = axes @ g.axes[0]  # (R, t, 4): how the projection moves per metre along a row
         across = (axes @ g.axes[1])[..., None]  # ... and along a column
-        q = q0[..., None] - along[..., None] * g.u  # (R, t, 4, r): the projection at column v = 0
+        q = q0[..., None] - along[..., None] * g.u[rows]  # (R, t, 4, r): the projection at column v = 0
         lim = reach[..., None]
         flat = across == 0  # an axis that ignores the column: all or none, by the row
         if not flat.any():
@@ -600,7 +601,13 @@ class FreeSpots:
                 none = np.zeros((0, len(self.turns), len(grid.u)))
                 return near, none, none
             axes, reach = self._scene_axes_reach(k)
-            return near, *self._runs_on(spots, self.centre[near], axes[near], reach[near])
+            # on the rows holding such spots only: elsewhere no run is marked (no spot there can be free)
+            shape = (len(near), len(self.turns), len(grid.u))
+            first, last = np.full(shape, float(len(grid.v))), np.full(shape, -1.0)
+            held = slice(rows[0], rows[-1] + 1)
+            first[:, :, held], last[:, :, held] = self._runs_on(spots, self.centre[near], axes[near], reach[near],
+                                                                held)
+            return near, first, last
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
         # them already leave too few spots needs none
