@@ -72,8 +72,11 @@ def test_pose_state_gives_the_poses_of_mj_forward_bit_for_bit_and_the_same_image
     assert full.ncon > 0 and poses.ncon == 0  # the collision stage did not run
 
 
-def test_a_renderer_whose_scene_is_full_makes_it_larger_and_draws_everything(world):
-    model, data = world
+def test_a_renderer_whose_scene_is_full_makes_it_larger_and_draws_everything(world, tmp_path, monkeypatch):
+    model, shared = world
+    data = mujoco.MjData(model)  # the full scene's warning is counted in this MjData, not the shared one
+    mujoco.mj_copyData(data, model, shared)
+    monkeypatch.chdir(tmp_path)  # and MuJoCo logs it to MUJOCO_LOG.TXT here
     with SceneRenderer(model, 64, 48, "fast") as r:
         want = r.render(data, "operator", MODALITIES)
         r._scene = mujoco.MjvScene(model, maxgeom=4)  # room for 4 of the world's geoms
