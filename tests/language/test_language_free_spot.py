@@ -284,7 +284,7 @@ def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
     with their samples summed from the counts, give what a spot-by-spot mask and sum give."""
     import numpy as np
 
-    from samplehd.world.free_spot import _counts_outside, _covered
+    from samplehd.world.spot_kernels import counts_outside, uncovered
 
     objects = [_obj("mug", (0.05, -0.25), (0.08, 0.1), 30.0), _obj("plate", (0.15, -0.15), (0.2, 0.2)),
                _obj("bowl", (-0.05, 0.2), (0.14, 0.14))]
@@ -299,10 +299,72 @@ def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
         last = rng.integers(-1, nc, (4, nt, nr)).astype(float)
         last[:, :, ::5] = nc - 1  # runs that end their row
         runs = (col >= first[..., None]) & (col <= last[..., None])  # (R, t, r, c)
-        np.testing.assert_array_equal(_covered(spots, first, last), runs.any(axis=0).ravel())
         free = rng.random(nt * nr * nc) < 0.7
-        counts = _counts_outside(spots, free, first, last)
+        use = np.array([True, False, True, True])
+        np.testing.assert_array_equal(uncovered(free, first, last, use, nc), free & ~runs[use].any(axis=0).ravel())
+        counts = counts_outside(free, first, last, nc)
         for i in range(len(first)):
             left = free & ~runs[i].ravel()
             np.testing.assert_array_equal(counts[i], left.reshape(nt, -1).sum(axis=1))
             assert spots_of._hits_counted(spots, counts[i].tolist()) == spots_of._hits(spots, left)
+
+
+def _runs_by_arrays(q0, along, across, lim, u, lo, width, count):  # type: ignore[no-untyped-def]
+    """The runs of columns computed on whole arrays, the four slabs' bounds per row then their
+    intersection: the reference the compiled loop must equal bit for bit."""
+    import numpy as np
+
+    q = q0[..., None] - along[..., None] * u  # (R, t, 4, r)
+    lim, across = lim[..., None], across[..., None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a, b = (q - lim) / across, (q + lim) / across
+    inside = np.abs(q) <= lim
+    low = np.where(across == 0, np.where(inside, -np.inf, np.inf), np.minimum(a, b)).max(axis=2)
+    high = np.where(across == 0, np.where(inside, np.inf, -np.inf), np.maximum(a, b)).min(axis=2)
+    first = np.clip(np.ceil((low - lo) / width - 0.5), 0, count)
+    last = np.clip(np.floor((high - lo) / width - 0.5), -1, count - 1)
+    return first, last
+
+
+def test_compiled_runs_equal_the_array_computation_bit_for_bit() -> None:
+    """The compiled runs of columns equal the whole-array computation exactly, on the spots of real
+    scenes (part grids and grids past a reference) against every object, rows outside those asked for
+    left without a run, and on random slabs including axes that ignore the columns."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import column_runs
+
+    checked = 0
+    for n in (5, 12):
+        for scene in _scenes(n, 2, 4):
+            fs = ConstraintContext(scene).free_spots()
+            for k in range(len(scene.objects)):
+                grids = [fs._part_spots(k, part) for part in ("left", "front")]
+                grids += [s for s in (fs._beside_spots(k, (k + 1) % n, d) for d in ((1.0, 0.0), (0.6, -0.8)))
+                          if s is not None]
+                axes, reach = fs._scene_axes_reach(k)
+                for spots in grids:
+                    g = spots.grid
+                    q0 = np.einsum("rtad,rtd->rta", axes, fs.centre[:, None, :] - g.base[None])
+                    along, across = axes @ g.axes[0], axes @ g.axes[1]
+                    args = (q0, along, across, reach, g.u)
+                    want = _runs_by_arrays(*args, g.lo, g.width, len(g.v))
+                    got = column_runs(*args, 0, len(g.u), float(g.lo), float(g.width), len(g.v))
+                    np.testing.assert_array_equal(got[0], want[0])
+                    np.testing.assert_array_equal(got[1], want[1])
+                    r0, r1 = len(g.u) // 3, len(g.u) // 2
+                    part = column_runs(*args, r0, r1, float(g.lo), float(g.width), len(g.v))
+                    np.testing.assert_array_equal(part[0][:, :, r0:r1], want[0][:, :, r0:r1])
+                    assert (part[0][:, :, :r0] == len(g.v)).all() and (part[1][:, :, r1:] == -1).all()
+                    checked += int(((want[0] <= want[1]) & (want[1] < len(g.v) - 1)).sum())
+    assert checked > 1000  # runs ending inside the rows, not only empty or whole rows
+    rng = np.random.default_rng(8)
+    q0, along, across = rng.normal(size=(3, 6, 5, 4)) * 0.3
+    across[:, :, ::2] = 0.0  # axes that ignore the column
+    lim, u = rng.random((6, 5, 4)) * 0.2, np.linspace(-0.3, 0.3, 40)
+    want = _runs_by_arrays(q0, along, across, lim, u, -0.25, 0.01, 50)
+    got = column_runs(q0, along, across, lim, u, 0, len(u), -0.25, 0.01, 50)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+    assert (want[0] <= want[1]).any() and (want[0] > want[1]).any()

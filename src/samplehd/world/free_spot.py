@@ -92,6 +92,15 @@ class SpotSearch:
         return cls(c.spot_margin, c.part_margin, c.relation_gap, int(c.spot_samples), step, min_hits)
 
 
+@functools.cache
+def _kernels() -> Any:
+    """The compiled loops (:mod:`samplehd.world.spot_kernels`), loaded when a spot is first tested: importing
+    numba and compiling cost seconds that a process which never tests a spot should not pay."""
+    from samplehd.world import spot_kernels
+
+    return spot_kernels
+
+
 def _cells(lo: float, hi: float, step: float) -> np.ndarray:
     """Centres of equal cells about ``step`` wide covering [lo, hi] (one cell if it is narrower)."""
     n = max(1, math.ceil((hi - lo) / step - 1e-9))
@@ -274,14 +283,14 @@ class FreeSpots:
                                         np.broadcast_to(self.half[k], (len(at), 2)))
                 # the next object's free spots each option leaves, counted per turn: the samples on them
                 # are summed exactly as over the spots themselves (a part's spots weigh alike per turn)
-                counts = _counts_outside(nxt_spots, nxt_free, first, lst)
+                counts = _kernels().counts_outside(nxt_free, first, lst, len(nxt_spots.grid.v))
                 room_left = [self._hits_counted(nxt_spots, c) for c in counts.tolist()]
                 best = room_left.index(min(room_left))  # the first smallest, as np.argmin
                 chosen = options[best]
                 if n + 2 == len(arriving) and self.reach_is_annulus:  # the next is the last to arrive
                     return room_left[best] >= self.search.min_hits and sum(counts[best]) > 0
-                j = np.arange(len(nxt_spots.grid.v), dtype=float)
-                free = nxt_free & ~((j >= first[best][..., None]) & (j <= lst[best][..., None])).ravel()
+                free = _kernels().uncovered(nxt_free, first[best : best + 1], lst[best : best + 1], np.ones(1, bool),
+                                            len(nxt_spots.grid.v))
             placed.append(self._rect(k, spots, chosen))
         return True
 
@@ -325,11 +334,12 @@ class FreeSpots:
         rectangles of those already moved."""
         others = present.copy()
         others[k] = False
-        there = others[spots.near]
-        free = spots.keep & ~_covered(spots, spots.first[there], spots.last[there])
+        kernels, count = _kernels(), len(spots.grid.v)
+        free = kernels.uncovered(spots.keep, spots.first, spots.last, others[spots.near], count)
         if placed:
             c, r, h = (np.stack(a) for a in zip(*placed, strict=True))
-            free &= ~_covered(spots, *self._runs(k, spots, c, r, h))
+            first, last = self._runs(k, spots, c, r, h)
+            free = kernels.uncovered(free, first, last, np.ones(len(first), bool), count)
         return free
 
     def _neighbours(self, k: int, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
@@ -438,37 +448,17 @@ class FreeSpots:
     def _runs_on(self, spots: _Spots, c: np.ndarray, axes: np.ndarray, reach: np.ndarray,
                  rows: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`_runs` for rectangles with centres ``c`` (R, 2), given their test's axes and reach, on the
-        grid's rows ``rows`` (the same numbers on each row as for the whole grid)."""
+        grid's rows ``rows`` (the same numbers on each row as for the whole grid; no run on the others).
+
+        The axes' projections (R, t, 4) are taken here; the four slabs per row, their intersection and its
+        columns are one compiled loop (:func:`samplehd.world.spot_kernels.column_runs`)."""
         g = spots.grid
         q0 = np.einsum("rtad,rtd->rta", axes, c[:, None, :] - g.base[None])  # (R, t, 4)
         along = axes @ g.axes[0]  # (R, t, 4): how the projection moves per metre along a row
-        across = (axes @ g.axes[1])[..., None]  # ... and along a column
-        q = q0[..., None] - along[..., None] * g.u[rows]  # (R, t, 4, r): the projection at column v = 0
-        lim = reach[..., None]
-        flat = across == 0  # an axis that ignores the column: all or none, by the row
-        if not flat.any():
-            a, b = (q - lim) / across, (q + lim) / across
-            low, high = np.minimum(a, b), np.maximum(a, b)
-        else:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                a, b = (q - lim) / across, (q + lim) / across
-            low, high = np.minimum(a, b), np.maximum(a, b)
-            inside = np.abs(q) <= lim
-            low = np.where(flat, np.where(inside, -np.inf, np.inf), low)
-            high = np.where(flat, np.where(inside, np.inf, -np.inf), high)
-        count = len(g.v)
-        # the tightest of the four bounds, pairwise (max and min are exact: the same numbers), as columns
-        low = np.maximum(np.maximum(low[:, :, 0], low[:, :, 1]), np.maximum(low[:, :, 2], low[:, :, 3]))
-        high = np.minimum(np.minimum(high[:, :, 0], high[:, :, 1]), np.minimum(high[:, :, 2], high[:, :, 3]))
-        # (R, t, r), clipped to the grid's columns (np.clip's dispatch costs more than the arithmetic)
-        both = np.stack([low, high])
-        both -= g.lo
-        both /= g.width
-        both -= 0.5
-        first, last = np.ceil(both[0]), np.floor(both[1])
-        np.minimum(np.maximum(first, 0, out=first), count, out=first)
-        np.minimum(np.maximum(last, -1, out=last), count - 1, out=last)
-        return first, last
+        across = axes @ g.axes[1]  # ... and along a column
+        r0, r1, _ = rows.indices(len(g.u))
+        return _kernels().column_runs(np.ascontiguousarray(q0), along, across, reach, g.u, r0, r1, float(g.lo),
+                                      float(g.width), len(g.v))
 
     def _part_spots(self, k: int, part: str) -> _Spots:
         key = ("part", k, part)
@@ -602,11 +592,8 @@ class FreeSpots:
                 return near, none, none
             axes, reach = self._scene_axes_reach(k)
             # on the rows holding such spots only: elsewhere no run is marked (no spot there can be free)
-            shape = (len(near), len(self.turns), len(grid.u))
-            first, last = np.full(shape, float(len(grid.v))), np.full(shape, -1.0)
-            held = slice(rows[0], rows[-1] + 1)
-            first[:, :, held], last[:, :, held] = self._runs_on(spots, self.centre[near], axes[near], reach[near],
-                                                                held)
+            first, last = self._runs_on(spots, self.centre[near], axes[near], reach[near],
+                                        slice(int(rows[0]), int(rows[-1]) + 1))
             return near, first, last
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
@@ -643,39 +630,6 @@ def _in_annulus(rel_x: np.ndarray, rel_y: np.ndarray, shape: tuple[int, ...], la
 def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
     """Stack x and y coordinates given on axes of a (t, r, c) grid as (m, 2), in the spots' order."""
     return np.stack([np.broadcast_to(v, shape).ravel() for v in coords], -1)
-
-
-def _covered(spots: _Spots, first: np.ndarray, last: np.ndarray) -> np.ndarray:
-    """Which spots lie in any of the runs of columns ``first``..``last`` (R, t, r): (m,).
-
-    Each run adds one at its first spot and takes one off at the spot past its last (the next row's
-    first where it ends its row), in the spots' order; a spot is covered where the running sum is positive."""
-    nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
-    size = nt * nr * nc
-    if not len(first):
-        return np.zeros(size, bool)
-    row = np.arange(0, size, nc)
-    start, stop = first.reshape(len(first), -1).astype(np.intp), last.reshape(len(last), -1).astype(np.intp)
-    stop += 1
-    some = start < stop
-    start += row
-    stop += row
-    diff = np.bincount(start[some], minlength=size + 1)
-    diff -= np.bincount(stop[some], minlength=size + 1)
-    return np.cumsum(diff[:size]) > 0
-
-
-def _counts_outside(spots: _Spots, free: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
-    """How many free spots of each turn lie outside each rectangle's runs of columns ``first``..``last``
-    (R, t, r): (R, t), from running counts of the free spots along each row."""
-    nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
-    running = np.zeros(len(free) + 1, np.intp)  # free spots before each spot, in the spots' order
-    np.cumsum(free, out=running[1:])
-    total = running[nr * nc :: nr * nc] - running[: -1 : nr * nc]
-    start, stop = first.reshape(len(first), -1).astype(np.intp), last.reshape(len(last), -1).astype(np.intp) + 1
-    row = np.arange(nt * nr) * nc
-    inside = np.where(start < stop, running[row + stop] - running[row + start], 0)
-    return total - inside.reshape(len(first), nt, nr).sum(axis=2)
 
 
 @functools.lru_cache(maxsize=4096)
