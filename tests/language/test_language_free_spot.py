@@ -368,3 +368,50 @@ def test_compiled_runs_equal_the_array_computation_bit_for_bit() -> None:
     np.testing.assert_array_equal(got[0], want[0])
     np.testing.assert_array_equal(got[1], want[1])
     assert (want[0] <= want[1]).any() and (want[0] > want[1]).any()
+
+
+def test_compiled_near_objects_and_farthest_picks_equal_the_array_computation() -> None:
+    """The objects near a grid's kept spots and the farthest-point picks equal their whole-array
+    computation exactly: on real scenes' grids, and on random points with ties and twins."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import farthest_picks, near_objects
+
+    some = 0
+    for scene in _scenes(12, 2, 5):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(len(scene.objects)):
+            for spots in [fs._part_spots(k, part) for part in ("right", "back")] + [
+                    s for s in (fs._beside_spots(k, (k + 3) % 12, (0.0, -1.0)),) if s is not None]:
+                g, nt = spots.grid, len(spots.turns)
+                kept = spots.keep.reshape(nt, len(g.u), len(g.v)).any(axis=0)
+                rows, cols = np.flatnonzero(kept.any(axis=1)), np.flatnonzero(kept.any(axis=0))
+                near, r0, r1 = near_objects(spots.keep, nt, g.base, g.axes, g.u, g.v, fs.centre, fs._radius, k)
+                if not len(rows):
+                    assert (len(near), r0, r1) == (0, 0, 0)
+                    continue
+                corners = (g.base[:, None, None, :] + g.u[[rows[0], rows[-1]]][None, :, None, None] * g.axes[0]
+                           + g.v[[cols[0], cols[-1]]][None, None, :, None] * g.axes[1]).reshape(-1, 2)
+                lo, hi = corners.min(axis=0), corners.max(axis=0)
+                grow = (fs._radius[k] + fs._radius + 1e-9)[:, None]
+                close = np.abs(fs.centre - (lo + hi) / 2) <= (hi - lo) / 2 + grow
+                want = np.flatnonzero(close[:, 0] & close[:, 1])
+                np.testing.assert_array_equal(near, want[want != k])
+                assert (r0, r1) == (rows[0], rows[-1] + 1)
+                some += 0 < len(near) < len(scene.objects) - 1
+    assert some > 5  # some objects near, some not
+
+    def norms(rows: np.ndarray) -> np.ndarray:
+        return np.sqrt(np.add.reduce(rows * rows, axis=1))
+
+    rng = np.random.default_rng(9)
+    for n in (1, 2, 7, 40, 300):
+        where = rng.normal(size=(n, 3)) * 0.1
+        where[n // 2 :: 3] = where[0]  # twins of the first
+        where[:, 2] = np.round(where[:, 2], 1)  # ties
+        picks, dist = [0], norms(where - where[0])
+        while len(picks) < 6 and dist.max() > 0:
+            picks.append(int(dist.argmax()))
+            dist = np.minimum(dist, norms(where - where[picks[-1]]))
+        np.testing.assert_array_equal(farthest_picks(where, 6), picks)

@@ -130,13 +130,6 @@ class _Grid:
     width: float
     on_axes: bool  # e1, e2 are x, y and base is 0: centre (u[i], v[j]) exactly
 
-    def box(self, rows: tuple[int, int], cols: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper corners (x, y) of the box around the footprint centres of every turn's spots
-        in rows ``rows[0]``..``rows[1]`` and columns ``cols[0]``..``cols[1]`` [m]."""
-        corners = (self.base[:, None, None, :] + self.u[list(rows)][None, :, None, None] * self.axes[0]
-                   + self.v[list(cols)][None, None, :, None] * self.axes[1]).reshape(-1, 2)
-        return corners.min(axis=0), corners.max(axis=0)
-
 
 @dataclass(frozen=True)
 class _Spots:
@@ -380,11 +373,7 @@ class FreeSpots:
         where = np.empty((len(best), 3))
         where[:, :2] = spots.centre[best]
         where[:, 2] = _TURN_SPREAD * spots.turns[spots.turn[best]]
-        picks = [0]
-        dist = _norms(where - where[0])
-        while len(picks) < placement.SPOT_OPTIONS and dist.max() > 0:
-            picks.append(int(dist.argmax()))
-            dist = np.minimum(dist, _norms(where - where[picks[-1]]))
+        picks = _kernels().farthest_picks(where, placement.SPOT_OPTIONS)
         if self.reach_is_annulus and self._surely_in_reach(spots, best[picks]):
             return [int(j) for j in best[picks]]
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
@@ -578,33 +567,20 @@ class FreeSpots:
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             # the objects whose rectangle, with both margins, comes within reach of the box around the
             # spots that pass the tests without other objects (the others' overlaps matter nowhere else)
-            kept = spots.keep.reshape(len(self.turns), len(grid.u), len(grid.v)).any(axis=0)
-            rows, cols = np.flatnonzero(kept.any(axis=1)), np.flatnonzero(kept.any(axis=0))
-            near = rows[:0]
-            if len(rows):
-                lo, hi = grid.box((rows[0], rows[-1]), (cols[0], cols[-1]))
-                radius = self._radius[k] + self._radius + 1e-9
-                close = np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None])
-                near = np.flatnonzero(close[:, 0] & close[:, 1])
-                near = near[near != k]
+            near, r0, r1 = _kernels().near_objects(spots.keep, len(self.turns), grid.base, grid.axes, grid.u, grid.v,
+                                                   self.centre, self._radius, k)
             if not len(near):
                 none = np.zeros((0, len(self.turns), len(grid.u)))
                 return near, none, none
             axes, reach = self._scene_axes_reach(k)
             # on the rows holding such spots only: elsewhere no run is marked (no spot there can be free)
-            first, last = self._runs_on(spots, self.centre[near], axes[near], reach[near],
-                                        slice(int(rows[0]), int(rows[-1]) + 1))
+            first, last = self._runs_on(spots, self.centre[near], axes[near], reach[near], slice(r0, r1))
             return near, first, last
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
         # them already leave too few spots needs none
         return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, score_of, keep,
                       blockers_of)
-
-def _norms(rows: np.ndarray) -> np.ndarray:
-    """Euclidean length of each row, as ``np.linalg.norm(rows, axis=1)`` computes it for real rows."""
-    return np.sqrt(np.add.reduce(rows * rows, axis=1))
-
 
 def _in_annulus(rel_x: np.ndarray, rel_y: np.ndarray, shape: tuple[int, ...], layout: TableLayout) -> np.ndarray:
     """``reach_min <= hypot(rel_x, rel_y) <= reach_max`` (broadcast to ``shape``), with the hypotenuse

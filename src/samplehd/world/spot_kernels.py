@@ -18,7 +18,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["column_runs", "counts_outside", "uncovered"]
+__all__ = ["column_runs", "counts_outside", "farthest_picks", "near_objects", "uncovered"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -131,3 +131,90 @@ def counts_outside(free: np.ndarray, first: np.ndarray, last: np.ndarray, count:
                     n -= running[row + stop] - running[row + start]
             out[k, t] = n
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def near_objects(keep: np.ndarray, n_turn: int, base: np.ndarray, axes: np.ndarray, u: np.ndarray, v: np.ndarray,
+                 centre: np.ndarray, radius: np.ndarray, k: int) -> tuple[np.ndarray, int, int]:
+    """The objects whose rectangle may block a spot of object k in ``keep``, and the rows holding such spots.
+
+    The box around the footprint centres of every turn's spots in the first and last row and column
+    holding a spot in ``keep`` is grown by both objects' reach (``radius``, with 1e-9 for rounding); an
+    object whose centre lies outside it overlaps no such spot.
+
+    Args:
+        keep: (m,) spots in the order (turn, row, column).
+        n_turn: the number of turns.
+        base: (t, 2) origin of each turn's grid [m]; axes: (2, 2) the rows' and columns' directions.
+        u, v: row and column coordinates [m].
+        centre: (N, 2) footprint centres of the scene's objects [m]; radius: (N,) their reach [m].
+        k: the object placed (never its own neighbour).
+
+    Returns:
+        The near objects in index order, and the rows ``r0``..``r1 - 1`` holding spots in ``keep``
+        (0, 0: none, and no object is near).
+    """
+    n_row, n_col = u.shape[0], v.shape[0]
+    row_any = np.zeros(n_row, np.bool_)
+    col_any = np.zeros(n_col, np.bool_)
+    for t in range(n_turn):
+        for i in range(n_row):
+            at = (t * n_row + i) * n_col
+            for j in range(n_col):
+                if keep[at + j]:
+                    row_any[i] = True
+                    col_any[j] = True
+    rows, cols = np.flatnonzero(row_any), np.flatnonzero(col_any)
+    if rows.shape[0] == 0:
+        return np.zeros(0, np.int64), 0, 0
+    lo = np.full(2, math.inf)
+    hi = np.full(2, -math.inf)
+    for t in range(base.shape[0]):
+        for i in (rows[0], rows[-1]):
+            for j in (cols[0], cols[-1]):
+                for a in range(2):
+                    corner = base[t, a] + u[i] * axes[0, a] + v[j] * axes[1, a]
+                    lo[a] = min(lo[a], corner)
+                    hi[a] = max(hi[a], corner)
+    near = np.zeros(centre.shape[0], np.bool_)
+    for n in range(centre.shape[0]):
+        if n == k:
+            continue
+        grow = radius[k] + radius[n] + 1e-9
+        near[n] = (abs(centre[n, 0] - (lo[0] + hi[0]) / 2) <= (hi[0] - lo[0]) / 2 + grow
+                   and abs(centre[n, 1] - (lo[1] + hi[1]) / 2) <= (hi[1] - lo[1]) / 2 + grow)
+    return np.flatnonzero(near), int(rows[0]), int(rows[-1]) + 1
+
+
+@numba.njit(cache=True, nogil=True)
+def farthest_picks(where: np.ndarray, most: int) -> np.ndarray:
+    """Farthest-point picks among the rows of ``where`` (n, d): the first row, then each time the row
+    farthest from every row picked (the first such), until ``most`` are picked or every row is picked's
+    twin. Distances are ``sqrt`` of the squared differences summed left to right, as numpy sums a row."""
+    n, dim = where.shape
+    dist = np.empty(n)
+    picks = np.empty(most, np.int64)
+    picks[0] = 0
+    count = 1
+    for i in range(n):
+        total = 0.0
+        for a in range(dim):
+            d = where[i, a] - where[0, a]
+            total += d * d
+        dist[i] = math.sqrt(total)
+    while count < most:
+        best, far = 0, dist[0]
+        for i in range(1, n):
+            if dist[i] > far:
+                best, far = i, dist[i]
+        if not far > 0:
+            break
+        picks[count] = best
+        count += 1
+        for i in range(n):
+            total = 0.0
+            for a in range(dim):
+                d = where[i, a] - where[best, a]
+                total += d * d
+            dist[i] = min(dist[i], math.sqrt(total))
+    return picks[:count]
