@@ -253,30 +253,49 @@ def test_reach_annulus_from_squares_answers_as_the_hypotenuse() -> None:
     reach = np.hypot(x, y)
     expected = (reach >= LAYOUT.reach_min) & (reach <= LAYOUT.reach_max)
     assert expected.any() and not expected.all()
-    np.testing.assert_array_equal(_in_annulus(x[:, None], y[:, None], (len(x), 1), LAYOUT)[:, 0], expected)
-    # broadcast over a grid of rows and columns, as the part grids use it
-    gx, gy = x[:60, None], y[None, :70]
+    keep = np.ones((1, len(x), 1), bool)
+    _in_annulus(keep, x[None, :, None], y[None, :, None], LAYOUT)
+    np.testing.assert_array_equal(keep[0, :, 0], expected)
+    # broadcast over a grid of rows and columns, as the part grids use it, on the spots kept only
+    gx, gy = x[None, :60, None], y[None, None, :70]
     reach = np.hypot(gx, gy)
-    np.testing.assert_array_equal(_in_annulus(gx, gy, (60, 70), LAYOUT),
-                                  (reach >= LAYOUT.reach_min) & (reach <= LAYOUT.reach_max))
+    keep = rng.random((1, 60, 70)) < 0.8
+    want = keep & (reach >= LAYOUT.reach_min) & (reach <= LAYOUT.reach_max)
+    _in_annulus(keep, gx, gy, LAYOUT)
+    np.testing.assert_array_equal(keep, want)
 
 
-def test_best_first_is_a_prefix_of_the_stable_order_long_enough() -> None:
-    """The best spots come as the start of the stable argsort, ties included, at least as many as asked
-    for, whether the bound found among every 8th key holds enough keys or not."""
+def test_best_spots_are_a_prefix_of_the_stable_order_long_enough() -> None:
+    """The best spots come as the start of the stable argsort of their scores, ties included, at least
+    as many as asked for; the gap to the nearest neighbour (on a part grid from its rows and columns, past
+    a reference from the centres), the cap and the shortlist's running sum are numpy's numbers."""
     import numpy as np
 
-    from samplehd.world.free_spot import _best_first
+    from samplehd.world.spot_kernels import best_spots
 
     rng = np.random.default_rng(5)
-    for n, needed, levels in ((4910, 221, 0), (3000, 2000, 0), (500, 400, 0), (2000, 150, 7), (64, 63, 3), (40, 50, 0)):
-        key = rng.normal(size=n) if not levels else rng.integers(0, levels, n).astype(float)  # many ties
-        if n == 3000:
-            key[::8] = -10.0  # every 8th key the smallest: the bound among them holds too few, the fallback runs
-        got = _best_first(key, needed)
-        order = np.argsort(key, kind="stable")
-        assert len(got) >= min(needed, n)
-        np.testing.assert_array_equal(got, order[: len(got)])
+    objects = [_obj("mug", (0.05, -0.25), (0.08, 0.1), 30.0), _obj("plate", (0.15, -0.15), (0.2, 0.2)),
+               _obj("bowl", (-0.05, 0.2), (0.14, 0.14))]
+    fs = ConstraintContext(parse_scene({"objects": objects})).free_spots()
+    for spots in (fs._part_spots(0, "right"), fs._beside_spots(0, 2, (1.0, 0.0))):
+        assert spots is not None
+        g, m = spots.grid, len(spots.keep)
+        for needed, levels, n_near in ((221, 0, 2), (2000, 0, 3), (50, 7, 1), (10**6, 3, 0), (400, 0, 2)):
+            free = spots.keep & (rng.random(m) < 0.7)
+            score = rng.normal(size=m) if not levels else rng.integers(0, levels, m).astype(float)  # many ties
+            neighbours = rng.uniform(-0.4, 0.4, (n_near, 2))
+            shares = rng.uniform(0.0, 0.05, m)
+            ranked, count = best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, score, shares, 0.25,
+                                       needed, 12.0)
+            idx = np.flatnonzero(free)
+            gap = np.full(len(idx), np.inf)
+            if n_near:
+                gap = np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
+            order = idx[np.argsort(-np.minimum(gap, 0.25) + score[idx], kind="stable")]
+            assert len(ranked) >= min(needed, len(idx))
+            np.testing.assert_array_equal(ranked, order[: len(ranked)])
+            want = max(1, int(np.searchsorted(np.cumsum(shares[ranked]), 12.0, side="right")))
+            assert count == want
 
 
 def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
@@ -415,3 +434,44 @@ def test_compiled_near_objects_and_farthest_picks_equal_the_array_computation() 
             picks.append(int(dist.argmax()))
             dist = np.minimum(dist, norms(where - where[picks[-1]]))
         np.testing.assert_array_equal(farthest_picks(where, 6), picks)
+
+
+def test_compiled_part_tests_and_annulus_equal_the_array_computation() -> None:
+    """A part's spot tests (bounds, table, reach annulus) from the compiled loops equal the whole-array
+    computation, the annulus decided on the distance itself where the squared one is too near a bound."""
+    import numpy as np
+
+    from samplehd.world.free_spot import _in_annulus
+    from samplehd.world.layout import TableLayout
+    from samplehd.world.spot_kernels import part_keep
+
+    layout = TableLayout()
+    rng = np.random.default_rng(10)
+    table, base = np.asarray(layout.table_size) / 2 - 0.02, np.asarray(layout.robot_base)
+    for _ in range(10):
+        u, v = np.sort(rng.uniform(-0.8, 0.8, 30)), np.sort(rng.uniform(-0.6, 0.6, 25))
+        offsets, half = rng.normal(size=(4, 2)) * 0.03, rng.uniform(0.01, 0.1, (4, 2))
+        lo, hi = np.array([-0.5, -0.4]), np.array([0.4, 0.3])
+        keep, rel_x, rel_y = part_keep(u, v, offsets, half, lo, hi, table, base)
+        ok = []
+        for a, coords in enumerate((u, v)):
+            o = coords[None] - offsets[:, a, None]
+            ok.append((o >= lo[a]) & (o <= hi[a]) & (coords[None] - half[:, a, None] >= -table[a])
+                      & (coords[None] + half[:, a, None] <= table[a]))
+            np.testing.assert_array_equal((rel_x[:, :, 0], rel_y[:, 0, :])[a], o - base[a])
+        want = ok[0][:, :, None] & ok[1][:, None, :]
+        np.testing.assert_array_equal(keep, want)
+        # points on the annulus' bounds and a rounding away from them: the distance itself decides
+        ang = rng.uniform(-np.pi, np.pi, (4, 30, 25))
+        radius = rng.choice([layout.reach_min, layout.reach_max], ang.shape) * (1 + rng.choice([-1, 0, 1], ang.shape)
+                                                                                 * rng.choice([1e-16, 1e-12, 1e-3],
+                                                                                              ang.shape))
+        rx, ry = radius * np.cos(ang), radius * np.sin(ang)
+        got = want.copy()
+        _in_annulus(got, rx, ry, layout)
+        reach = np.hypot(rx, ry)
+        np.testing.assert_array_equal(got, want & (reach >= layout.reach_min) & (reach <= layout.reach_max))
+        got = want.copy()
+        _in_annulus(got, rel_x, rel_y, layout)  # broadcast offsets
+        reach = np.hypot(rel_x, rel_y)
+        np.testing.assert_array_equal(got, want & (reach >= layout.reach_min) & (reach <= layout.reach_max))

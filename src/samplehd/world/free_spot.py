@@ -172,6 +172,13 @@ class _Spots:
         """(m, 2) footprint centres [m] (only the ranking of spots needs them)."""
         return self.centre_of()
 
+    def shares(self, samples: int) -> np.ndarray:
+        """(m,) how many of ``samples`` first-try samples are expected on each spot (memoised)."""
+        memo = self.__dict__.setdefault("_shares", {})
+        if samples not in memo:
+            memo[samples] = samples * self.weight
+        return memo[samples]
+
     @functools.cached_property
     def score(self) -> np.ndarray:
         """(m,) the planner's score terms that do not depend on the neighbours."""
@@ -341,19 +348,6 @@ class FreeSpots:
         others[k] = False
         return np.concatenate([self.centre[others], *(rect[0][None] for rect in placed)])
 
-    def _gaps(self, spots: _Spots, idx: np.ndarray, neighbours: np.ndarray) -> np.ndarray:
-        """Distance from each spot in ``idx`` to the nearest neighbour centre [m] (inf: none)."""
-        if not len(neighbours):
-            return np.full(len(idx), np.inf)
-        g = spots.grid
-        if g.on_axes:  # squared distances split along x and y: computed per row and per column
-            dx, dy = g.u[:, None] - neighbours[:, 0], g.v[:, None] - neighbours[:, 1]
-            # neighbours along the first axis, the minimum taken slab by slab (exact, so the same numbers)
-            nearest = np.sqrt(functools.reduce(np.minimum, (dx * dx).T[:, :, None] + (dy * dy).T[:, None, :]))
-            nearest = nearest.ravel()
-            return nearest[idx % len(nearest)]
-        return np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
-
     def _options(self, k: int, spots: _Spots, free: np.ndarray, neighbours: np.ndarray) -> list[int]:
         """Free spots the planner may put object k on, spread over the ones it may pick; none where
         too few of its first-try samples would land on a free spot or the gripper reaches none.
@@ -363,17 +357,16 @@ class FreeSpots:
         """
         if self._hits(spots, free) < self.search.min_hits:
             return []
-        idx = np.flatnonzero(free)
-        gap = self._gaps(spots, idx, neighbours)
-        ranked = idx[_best_first(-np.minimum(gap, placement.SPOT_ROOM_CAP) + spots.score[idx],
-                                 self._ranks_needed(spots))]
-        samples = np.cumsum(self.search.samples * spots.weight[ranked])
-        best = ranked[: max(1, int(np.searchsorted(samples, placement.SPOT_SHORTLIST, side="right")))]
+        g, kernels = spots.grid, _kernels()
+        ranked, count = kernels.best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, spots.score,
+                                           spots.shares(self.search.samples), placement.SPOT_ROOM_CAP,
+                                           self._ranks_needed(spots), float(placement.SPOT_SHORTLIST))
+        best = ranked[:count]
         # spread: farthest-point picks over position and turn (a long object's turn matters as much)
         where = np.empty((len(best), 3))
         where[:, :2] = spots.centre[best]
         where[:, 2] = _TURN_SPREAD * spots.turns[spots.turn[best]]
-        picks = _kernels().farthest_picks(where, placement.SPOT_OPTIONS)
+        picks = kernels.farthest_picks(where, placement.SPOT_OPTIONS)
         if self.reach_is_annulus and self._surely_in_reach(spots, best[picks]):
             return [int(j) for j in best[picks]]
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
@@ -458,15 +451,8 @@ class FreeSpots:
             table, base = self._table, self._base
             # the tests of table_and_reach and the part's bounds, each on x or y alone or on the frame
             # origin's distance from the base: computed per turn and row, per turn and column
-            keep_axis, rel = [], []
-            for a, coords in enumerate((grid.u, grid.v)):
-                o = coords[None] - offsets[:, a, None]  # (t, r or c) origin coordinate
-                c_lo, c_hi = coords[None] - half[:, a, None], coords[None] + half[:, a, None]
-                keep_axis.append((o >= lo[a]) & (o <= hi[a]) & (c_lo >= -table[a]) & (c_hi <= table[a]))
-                rel.append(o - base[a])
-            keep = keep_axis[0][:, :, None] & keep_axis[1][:, None, :]
-            rel_x, rel_y = rel[0][:, :, None], rel[1][:, None, :]
-            keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
+            keep, rel_x, rel_y = _kernels().part_keep(grid.u, grid.v, offsets, half, lo, hi, table, base)
+            _in_annulus(keep, rel_x, rel_y, self.layout)
             self._memo[key] = self._spots(k, grid, lambda: centre, offsets, turn, weight, 0.0, keep.ravel(),
                                           lambda: np.hypot(rel_x, rel_y).ravel())
         return self._memo[key]
@@ -520,7 +506,7 @@ class FreeSpots:
                 self._memo[key] = None
                 return None
             rel_x, rel_y = rel
-            keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
+            _in_annulus(keep, rel_x, rel_y, self.layout)
             grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
                          grid_axes, dists, lats, v_lo, v_width, False)
             self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
@@ -582,25 +568,17 @@ class FreeSpots:
         return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, score_of, keep,
                       blockers_of)
 
-def _in_annulus(rel_x: np.ndarray, rel_y: np.ndarray, shape: tuple[int, ...], layout: TableLayout) -> np.ndarray:
-    """``reach_min <= hypot(rel_x, rel_y) <= reach_max`` (broadcast to ``shape``), with the hypotenuse
-    taken only where the squared distance is too near either bound to decide it: the same answers.
-    """
-    sq = rel_x * rel_x + rel_y * rel_y
+def _in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, layout: TableLayout) -> None:
+    """Keep (in place, keep (t, r, c)) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``
+    (offsets of shapes that broadcast to keep's), with the hypotenuse taken only where the squared distance
+    is too near either bound to decide it: the same answers."""
     lo, hi = layout.reach_min ** 2, layout.reach_max ** 2
     tol = 1e-9  # far above the rounding of the squares, far below any real distance
-    inside = (sq >= lo * (1 + tol)) & (sq <= hi * (1 - tol))
-    gap = np.abs(sq - lo)
-    unsure = gap < lo * 2 * tol
-    np.abs(np.subtract(sq, hi, out=gap), out=gap)
-    unsure |= gap < hi * 2 * tol
-    if inside.shape != shape:
-        inside = np.broadcast_to(inside, shape).copy()
-    if unsure.any():
-        unsure = np.broadcast_to(unsure, shape)
-        reach = np.hypot(np.broadcast_to(rel_x, shape)[unsure], np.broadcast_to(rel_y, shape)[unsure])
-        inside[unsure] = (reach >= layout.reach_min) & (reach <= layout.reach_max)
-    return inside
+    unsure, xs, ys = _kernels().annulus_and(keep, rel_x, rel_y, lo, hi, lo * (1 + tol), hi * (1 - tol), lo * 2 * tol,
+                                            hi * 2 * tol)
+    if len(unsure):
+        reach = np.hypot(xs, ys)
+        keep.reshape(-1)[unsure] = (reach >= layout.reach_min) & (reach <= layout.reach_max)
 
 
 def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
@@ -666,25 +644,6 @@ def _beside_cells(direction: tuple[float, float], step: float) -> tuple[Any, ...
     for a in (d, lateral, axes, dists, lats, dist, lat, turn, weight, far):
         a.setflags(write=False)
     return (d, lateral, axes, dists, lats, dist, lat, turn, weight, far, -far_lat, 2 * far_lat / len(lats))
-
-
-def _best_first(key: np.ndarray, needed: int) -> np.ndarray:
-    """The start of ``argsort(key, kind="stable")``, at least ``needed`` long (all of it for short keys):
-    the keys up to a bound at or above the ``needed``-th smallest, ties included, sorted stably.
-
-    The bound is taken among every 8th key, a little past the share of them the needed ones make,
-    and checked to hold enough keys (else the ``needed``-th smallest itself): selecting among an
-    eighth of the keys costs an eighth of selecting among all of them."""
-    if needed >= len(key):
-        return np.argsort(key, kind="stable")
-    sel = None
-    sub = key[::8]
-    m = needed // 8 + 8
-    if m < len(sub):
-        sel = np.flatnonzero(key <= np.partition(sub, m)[m])
-    if sel is None or len(sel) < needed:
-        sel = np.flatnonzero(key <= np.partition(key, needed - 1)[needed - 1])
-    return sel[np.argsort(key[sel], kind="stable")]
 
 
 def table_and_reach(centre: np.ndarray, half: np.ndarray, origin: np.ndarray,

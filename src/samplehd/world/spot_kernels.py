@@ -18,7 +18,8 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["column_runs", "counts_outside", "farthest_picks", "near_objects", "uncovered"]
+__all__ = ["annulus_and", "best_spots", "column_runs", "counts_outside", "farthest_picks", "near_objects", "part_keep",
+           "uncovered"]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -218,3 +219,139 @@ def farthest_picks(where: np.ndarray, most: int) -> np.ndarray:
                 total += d * d
             dist[i] = min(dist[i], math.sqrt(total))
     return picks[:count]
+
+
+@numba.njit(cache=True, nogil=True)
+def annulus_and(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, sq_lo: float, sq_hi: float, sure_lo: float,
+                sure_hi: float, gap_lo: float, gap_hi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Keep (in place) only the spots whose squared distance ``rel_x**2 + rel_y**2`` lies surely inside
+    [``sure_lo``, ``sure_hi``], and list the kept ones it leaves unsure (within ``gap_lo`` of ``sq_lo`` or
+    ``gap_hi`` of ``sq_hi``) for the caller to decide on the distance itself.
+
+    Args:
+        keep: (t, r, c) spots; rel_x, rel_y: offsets from the centre of the annulus, each of a shape that
+            broadcasts to keep's (its axes of length 1 repeat) [m].
+
+    Returns:
+        The flat indices of the unsure spots (left kept) and their ``rel_x``, ``rel_y``.
+    """
+    n_turn, n_row, n_col = keep.shape
+    unsure = np.empty(keep.size, np.int64)
+    found = 0
+    for t in range(n_turn):
+        tx, ty = min(t, rel_x.shape[0] - 1), min(t, rel_y.shape[0] - 1)
+        for i in range(n_row):
+            ix, iy = min(i, rel_x.shape[1] - 1), min(i, rel_y.shape[1] - 1)
+            for j in range(n_col):
+                if not keep[t, i, j]:
+                    continue
+                x, y = rel_x[tx, ix, min(j, rel_x.shape[2] - 1)], rel_y[ty, iy, min(j, rel_y.shape[2] - 1)]
+                sq = x * x + y * y
+                if abs(sq - sq_lo) < gap_lo or abs(sq - sq_hi) < gap_hi:
+                    unsure[found] = (t * n_row + i) * n_col + j
+                    found += 1
+                elif not (sq >= sure_lo and sq <= sure_hi):
+                    keep[t, i, j] = False
+    xs, ys = np.empty(found), np.empty(found)
+    for n in range(found):
+        t, rest = divmod(unsure[n], n_row * n_col)
+        i, j = divmod(rest, n_col)
+        xs[n] = rel_x[min(t, rel_x.shape[0] - 1), min(i, rel_x.shape[1] - 1), min(j, rel_x.shape[2] - 1)]
+        ys[n] = rel_y[min(t, rel_y.shape[0] - 1), min(i, rel_y.shape[1] - 1), min(j, rel_y.shape[2] - 1)]
+    return unsure[:found], xs, ys
+
+
+@numba.njit(cache=True, nogil=True)
+def part_keep(u: np.ndarray, v: np.ndarray, offsets: np.ndarray, half: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+              table: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The tests of a table part's spots that need no other object and no distance: the frame origin
+    inside the part's bounds and the footprint inside the table's, each on x (rows) or y (columns) alone.
+
+    Args:
+        u, v: the rows' x and the columns' y of the footprint centres [m].
+        offsets: (t, 2) footprint centre minus frame origin per turn; half: (t, 2) the turned footprint's
+            world-axis half sizes [m].
+        lo, hi: (2,) the part's bounds for the origin; table: (2,) the table's half sizes less its edge;
+        base: (2,) the robot base [m].
+
+    Returns:
+        keep (t, r, c), and the origins' offsets from the base: x (t, r, 1) and y (t, 1, c) [m].
+    """
+    n_turn = offsets.shape[0]
+    rel_x = np.empty((n_turn, u.shape[0], 1))
+    rel_y = np.empty((n_turn, 1, v.shape[0]))
+    row_ok = np.empty((n_turn, u.shape[0]), np.bool_)
+    col_ok = np.empty((n_turn, v.shape[0]), np.bool_)
+    for t in range(n_turn):
+        for a, coords, ok in ((0, u, row_ok), (1, v, col_ok)):
+            for i in range(coords.shape[0]):
+                o = coords[i] - offsets[t, a]
+                ok[t, i] = ((o >= lo[a]) and (o <= hi[a]) and (coords[i] - half[t, a] >= -table[a])
+                            and (coords[i] + half[t, a] <= table[a]))
+                if a == 0:
+                    rel_x[t, i, 0] = o - base[0]
+                else:
+                    rel_y[t, 0, i] = o - base[1]
+    keep = np.empty((n_turn, u.shape[0], v.shape[0]), np.bool_)
+    for t in range(n_turn):
+        for i in range(u.shape[0]):
+            for j in range(v.shape[0]):
+                keep[t, i, j] = row_ok[t, i] and col_ok[t, j]
+    return keep, rel_x, rel_y
+
+
+@numba.njit(cache=True, nogil=True)
+def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, centre: np.ndarray,
+               neighbours: np.ndarray, score: np.ndarray, shares: np.ndarray, room_cap: float,
+               needed: int, shortlist: float) -> tuple[np.ndarray, np.ndarray]:
+    """The free spots ranked best first by the planner's score, and how many of them hold the shortlist.
+
+    A spot's score is its ``score`` less its distance to the nearest neighbour centre capped at
+    ``room_cap``; the ranking is the start of the stable order of the scores, at least ``needed`` long
+    (every score up to the ``needed``-th smallest, ties included). The best are the first spots whose
+    running sum of ``shares`` (summed left to right, as numpy's cumulative sum) stays within
+    ``shortlist``, at least one.
+
+    Args:
+        free: (m,) the free spots.
+        on_axes: the grid's rows and columns are x and y: spot ``s`` is centred at ``(u[i], v[j])`` with
+            ``i, j`` its row and column (``centre`` is then not read).
+        u, v: the grid's row and column coordinates [m]; centre: (m, 2) the spots' centres [m].
+        neighbours: (N, 2) the other objects' footprint centres [m].
+        score: (m,) the planner's score terms that do not depend on the neighbours.
+        shares: (m,) the planner's samples expected on each spot.
+
+    Returns:
+        ranked (the spots, best first) and how many of them are the best.
+    """
+    idx = np.flatnonzero(free)
+    n_row, n_col = u.shape[0], v.shape[0]
+    key = np.empty(idx.shape[0])
+    for m in range(idx.shape[0]):
+        s = idx[m]
+        gap = math.inf
+        if on_axes:
+            i, j = divmod(s % (n_row * n_col), n_col)
+            for n in range(neighbours.shape[0]):
+                dx, dy = u[i] - neighbours[n, 0], v[j] - neighbours[n, 1]
+                gap = min(gap, dx * dx + dy * dy)
+            gap = math.sqrt(gap)  # the square root is monotone: the root of the least square is the least root
+        else:
+            for n in range(neighbours.shape[0]):
+                dx, dy = centre[s, 0] - neighbours[n, 0], centre[s, 1] - neighbours[n, 1]
+                gap = min(gap, math.sqrt(dx * dx + dy * dy))
+        key[m] = -min(gap, room_cap) + score[s]
+    if needed >= key.shape[0]:
+        order = np.argsort(key, kind="mergesort")
+    else:
+        bound = np.partition(key, needed - 1)[needed - 1]
+        sel = np.flatnonzero(key <= bound)
+        order = sel[np.argsort(key[sel], kind="mergesort")]
+    ranked = idx[order]
+    total, count = 0.0, 0
+    for m in range(ranked.shape[0]):
+        total += shares[ranked[m]]
+        if total > shortlist:
+            break
+        count += 1
+    return ranked, max(1, count)
