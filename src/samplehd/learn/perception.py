@@ -7,7 +7,10 @@ Two small networks:
   *contact* (an object pixel touching another object's pixel); instances are the connected components
   of the object pixels, and contact pixels join the nearest instance;
 - an attribute network looks at each instance's crop (RGB, mask, relative depth) plus its metric size
-  from the depth (width, depth, height [m]) and names its class, colour, material and size.
+  from the depth (width, depth, height [m]) and appearance measures (highlights, fine texture) and names
+  its class, colour, material and size, and its *kind* (class, shape variant and size together, which
+  fixes the metric dimensions): the class and size it names are the averages of their own heads and of
+  the kind head (its class marginal; its sizes within the class found).
 
 The position is geometry, not learning: the instance's pixels are lifted to 3-D with the depth and the
 camera's calibration; the centre of their ground-plane bounding box, on the table top, is the
@@ -49,17 +52,18 @@ from samplehd.world.relations import compute_relationships
 
 __all__ = ["Perception", "backproject", "evaluate_perception", "train_perception"]
 
-FORMAT = 3  # bump when the inputs or networks change (older models: train again)
+FORMAT = 4  # bump when the inputs or networks change (older models: train again)
 SEG_CLASSES = ("background", "robot", "object", "contact")
 SEG_CHANNELS = 5  # RGB, depth, height above the table
 CROP = 48
 CROP_CHANNELS = 6  # RGB, mask, relative depth, height above the table
 CROP_VIEWS = 4  # training views of every object: the mask's own crop, then jittered crops of altered masks
 MIN_PIXELS = 6
-N_FEATURES = 18  # measured size and appearance features of an instance (see _geometry)
+N_FEATURES = 21  # measured size and appearance features of an instance (see _geometry)
 PREPARED_FILE = "prepared.npz"
 DEPTH_CENTRE, DEPTH_SCALE = 1.5, 0.5
 ATTRIBUTES = ("name", "colour", "material", "size")
+HEADS = (*ATTRIBUTES, "kind")  # kind: class/variant/size together, whose metric dimensions are fixed
 
 
 def attribute_vocab() -> dict[str, list[str]]:
@@ -76,6 +80,23 @@ def attribute_vocab() -> dict[str, list[str]]:
             sizes |= set(menu.size)
     return {"name": sorted(cat.classes), "colour": sorted(colours), "material": sorted(materials),
             "size": sorted(sizes)}
+
+
+def kind_vocab() -> list[str]:
+    """Every ``class/variant/size`` of the catalogue (sorted): each has one set of metric dimensions, so
+    that the network can learn size as the dimensions of a recognised shape, not as a class-wide
+    threshold (a large dessert fork and a medium dinner fork differ by 4 %)."""
+    cat = load_catalogue()
+    out = set()
+    for name in cat.classes:
+        cls = cat.object_class(name)
+        for v in cls.variants:
+            out |= {f"{name}/{v}/{s}" for s in cls.variant(v).menu.size}
+    return sorted(out)
+
+
+def _kind(o: Mapping[str, Any]) -> str:
+    return f"{o['name']}/{o.get('variant', '')}/{o['size']}"
 
 
 def backproject(depth: np.ndarray, rows: np.ndarray, cols: np.ndarray, camera: Mapping[str, Any]) -> np.ndarray:
@@ -206,7 +227,23 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
     size = [ext[0] * 10, ext[1] * 10, top * 10, np.log(ext[0] + 0.005), np.log(ext[1] + 0.005), np.log(top + 0.005),
             side_m * 10]
     look = [*vp, vp[3] - vp[1], float(np.mean(v > vp[1] + 0.25)), float(np.std(v)), *np.percentile(sat, (10, 50, 90))]
-    return pos, np.asarray(size + look, dtype=np.float32)
+    return pos, np.asarray(size + look + _texture_energy(rgb, mask), dtype=np.float32)
+
+
+def _texture_energy(rgb: np.ndarray, mask: np.ndarray) -> list[float]:
+    """Fine texture inside a mask at full resolution (brushed metal's streaks, rubber's grain, wood's
+    rings against smooth plastic and ceramic): the mean absolute brightness step to the right and
+    downward neighbours where both pixels are the object's, relative to the mean brightness, and the
+    ratio of the two (streaks run one way)."""
+    r0, r1 = np.nonzero(mask.any(axis=1))[0][[0, -1]]
+    c0, c1 = np.nonzero(mask.any(axis=0))[0][[0, -1]]
+    m = mask[r0:r1 + 1, c0:c1 + 1]
+    v = rgb[r0:r1 + 1, c0:c1 + 1].astype(np.float32).max(axis=2) / 255.0
+    mean = float(v[m].mean()) + 0.05
+    both_x, both_y = m[:, 1:] & m[:, :-1], m[1:] & m[:-1]
+    dx = float(np.abs(np.diff(v, axis=1))[both_x].mean()) if both_x.any() else 0.0
+    dy = float(np.abs(np.diff(v, axis=0))[both_y].mean()) if both_y.any() else 0.0
+    return [10 * dx / mean, 10 * dy / mean, (max(dx, dy) + 1e-3) / (min(dx, dy) + 1e-3) - 1]
 
 
 def _block(cin: int, cout: int) -> nn.Module:
@@ -287,10 +324,15 @@ class Perception:
                               f"{FORMAT} (train it again with `samplehd train perception`)")
         self.config = dict(config)
         self.vocab: dict[str, list[str]] = {k: list(v) for k, v in config["attributes"].items()}
+        self.kinds: list[str] = list(config["kinds"])
         self.device = device or torch.device("cpu")
         arch = config["model"]
         self.net = PerceptionNet(arch["seg_width"], arch["attr_width"],
-                                 [len(self.vocab[a]) for a in ATTRIBUTES]).to(self.device)
+                                 [*(len(self.vocab[a]) for a in ATTRIBUTES), len(self.kinds)]).to(self.device)
+        # kind -> class and size index, to turn the kind head's probabilities into class and size ones
+        parts = [k.split("/") for k in self.kinds]
+        self._kind_class = np.array([self.vocab["name"].index(p[0]) for p in parts])
+        self._kind_size = np.array([self.vocab["size"].index(p[2]) for p in parts])
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
@@ -338,6 +380,7 @@ class Perception:
             mirrored = self.net.attributes(torch.flip(x, dims=(3,)), sizes)
             probs = [torch.softmax(o, 1) + torch.softmax(m, 1) for o, m in zip(outs, mirrored, strict=True)]
         probs = [(p / 2).cpu().numpy() for p in probs]
+        probs = self._with_kinds(probs)
         result = []
         for k, (pos, size) in enumerate(geo):
             attrs = {a: self.vocab[a][int(probs[j][k].argmax())] for j, a in enumerate(ATTRIBUTES)}
@@ -345,6 +388,23 @@ class Perception:
                       for j, a in enumerate(ATTRIBUTES)}
             result.append({**attrs, "position": pos, "metric_size": size[:3] / 10.0, "scores": scores})
         return result
+
+    def _with_kinds(self, probs: list[np.ndarray]) -> list[np.ndarray]:
+        """Class and size probabilities averaged with the kind head's: its class marginal, and its size
+        distribution given the class so found (the four attribute heads' probabilities, in order)."""
+        name_p, colour_p, material_p, size_p, kind_p = probs
+        n = len(kind_p)
+        by_class = np.zeros_like(name_p)
+        np.add.at(by_class.T, self._kind_class, kind_p.T)
+        name_p = (name_p + by_class) / 2
+        best = name_p.argmax(axis=1)
+        size_given = np.zeros_like(size_p)
+        for i in range(n):
+            mine = self._kind_class == best[i]
+            np.add.at(size_given[i], self._kind_size[mine], kind_p[i, mine])
+        total = size_given.sum(axis=1, keepdims=True)
+        size_given = np.where(total > 1e-6, size_given / np.maximum(total, 1e-6), size_p)
+        return [name_p, colour_p, material_p, (size_p + size_given) / 2]
 
     def perceive(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
                  directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -488,8 +548,8 @@ def _view_mask(mask: np.ndarray, factor: int, rng: np.random.Generator) -> np.nd
     return out
 
 
-def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], factor: int,
-             table_height: float, seed: int, quiet: bool = True) -> dict[str, Any]:
+def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], kinds: Sequence[str],
+             factor: int, table_height: float, seed: int, quiet: bool = True) -> dict[str, Any]:
     """Arrays for training: the segmenter's downsampled inputs and labels, and :data:`CROP_VIEWS`
     crops (with their size features) of every training object."""
     rgbs, dhs, ys, crops, geos, labels, extents = [], [], [], [], [], [], {}
@@ -515,7 +575,8 @@ def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[st
                     jitter = None if view == 0 else rng.uniform([-0.06, -0.06, -0.12], [0.06, 0.06, 0.12])
                     crops.append(_crop(rgb, depth, height, m, CROP, jitter).astype(np.float16))
                     geos.append(_geometry(rgb, depth, m, ann["camera"], table_height)[1])
-                labels.append([vocab[a].index(o["name"] if a == "name" else o[a]) for a in ATTRIBUTES])
+                labels.append([*(vocab[a].index(o["name"] if a == "name" else o[a]) for a in ATTRIBUTES),
+                               kinds.index(_kind(o))])
                 extents.setdefault(f"{o['name']}/{o['size']}", []).append(o["bbox"]["extents"])
     n = len(labels)
     return {"rgb": np.stack(rgbs), "dh": np.stack(dhs), "y": np.stack(ys),
@@ -565,6 +626,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     reader = open_dataset(dataset)
     data = scene_examples(reader)
     vocab = attribute_vocab()
+    kinds = kind_vocab()
     width = int(data["train"][0]["annotation"]["camera"]["width"])
     height = int(data["train"][0]["annotation"]["camera"]["height"])
     factor = 2 if width >= 400 else 1
@@ -572,16 +634,17 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     set_seed(seed)
     key = {"format": FORMAT, "features": N_FEATURES, "dataset": str(Path(dataset).resolve()), "factor": factor,
            "crop": CROP, "views": CROP_VIEWS, "seed": seed, "table_height": LAYOUT.table_height,
-           "scenes": [str(Path(item["rgb"]).name) for item in data["train"]], "vocab": vocab}
+           "scenes": [str(Path(item["rgb"]).name) for item in data["train"]], "vocab": vocab, "kinds": kinds}
     with timed() as prep_time:
-        arrays = prepared_arrays(Path(out), key, lambda: _prepare(data["train"], vocab, factor, LAYOUT.table_height,
-                                                                  seed, quiet))
+        arrays = prepared_arrays(Path(out), key, lambda: _prepare(data["train"], vocab, kinds, factor,
+                                                                  LAYOUT.table_height, seed, quiet))
     config = {
         "kind": "perception",
         "format": FORMAT,
         "dataset": str(dataset),
         "model": {"seg_width": seg_width, "attr_width": attr_width},
         "attributes": vocab,
+        "kinds": kinds,
         "image": {"camera": "scene", "width": width, "height": height},
         "seg_downsample": factor,
         "table_height": LAYOUT.table_height,
