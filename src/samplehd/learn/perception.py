@@ -59,6 +59,8 @@ CROP = 48
 CROP_CHANNELS = 6  # RGB, mask, relative depth, height above the table
 CROP_VIEWS = 4  # training views of every object: the mask's own crop, then jittered crops of altered masks
 MIN_PIXELS = 6
+MIN_RISE = 0.002  # [m] an instance lower than this above the table (95th percentile) is the table
+REACH_MARGIN = 0.10  # [m] an instance this far beyond the arm's reach is not a scene object
 N_FEATURES = 21  # measured size and appearance features of an instance (see _geometry)
 PREPARED_FILE = "prepared.npz"
 DEPTH_CENTRE, DEPTH_SCALE = 1.5, 0.5
@@ -362,7 +364,17 @@ class Perception:
         if f > 1:
             masks = [np.kron(m, np.ones((f, f), bool))[: rgb.shape[0], : rgb.shape[1]] for m in masks]
             masks = [np.pad(m, ((0, rgb.shape[0] - m.shape[0]), (0, rgb.shape[1] - m.shape[1]))) for m in masks]
-        return masks
+        return [m for m in masks if self._plausible(m, depth, height, camera)]
+
+    def _plausible(self, mask: np.ndarray, depth: np.ndarray, height: np.ndarray, camera: Mapping[str, Any]) -> bool:
+        """Whether an instance can be an object: it rises above the table top (a patch of the table's
+        grain or a highlight on it does not: the thinnest object part, a small fork's head, is 2.4 mm),
+        and it lies within the arm's reach, where scenes place objects (with a margin)."""
+        if float(np.percentile(height[mask], 95)) < MIN_RISE:
+            return False
+        rows, cols = np.nonzero(mask)
+        xy = backproject(depth, rows, cols, camera)[:, :2].mean(axis=0)
+        return float(np.hypot(*(xy - np.asarray(LAYOUT.robot_base)))) <= LAYOUT.reach_max + REACH_MARGIN
 
     def classify(self, rgb: np.ndarray, depth: np.ndarray, masks: Sequence[np.ndarray],
                  camera: Mapping[str, Any], height: np.ndarray | None = None) -> list[dict[str, Any]]:
