@@ -335,6 +335,8 @@ class Perception:
         parts = [k.split("/") for k in self.kinds]
         self._kind_class = np.array([self.vocab["name"].index(p[0]) for p in parts])
         self._kind_size = np.array([self.vocab["size"].index(p[2]) for p in parts])
+        templates = config.get("size_templates") or {}
+        self._templates = {k: (np.asarray(v[0], float), np.asarray(v[1], float)) for k, v in templates.items()}
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
@@ -392,7 +394,7 @@ class Perception:
             mirrored = self.net.attributes(torch.flip(x, dims=(3,)), sizes)
             probs = [torch.softmax(o, 1) + torch.softmax(m, 1) for o, m in zip(outs, mirrored, strict=True)]
         probs = [(p / 2).cpu().numpy() for p in probs]
-        probs = self._with_kinds(probs)
+        probs = self._with_kinds(probs, [g[1] for g in geo])
         result = []
         for k, (pos, size) in enumerate(geo):
             attrs = {a: self.vocab[a][int(probs[j][k].argmax())] for j, a in enumerate(ATTRIBUTES)}
@@ -401,9 +403,12 @@ class Perception:
             result.append({**attrs, "position": pos, "metric_size": size[:3] / 10.0, "scores": scores})
         return result
 
-    def _with_kinds(self, probs: list[np.ndarray]) -> list[np.ndarray]:
+    def _with_kinds(self, probs: list[np.ndarray], features: Sequence[np.ndarray] | None = None) -> list[np.ndarray]:
         """Class and size probabilities averaged with the kind head's: its class marginal, and its size
-        distribution given the class so found (the four attribute heads' probabilities, in order)."""
+        distribution given the class so found (the four attribute heads' probabilities, in order).
+
+        With size templates in the config and the instances' measured ``features``, the size is the
+        measured dimensions' nearest kind of that class instead (:func:`size_templates`)."""
         name_p, colour_p, material_p, size_p, kind_p = probs
         n = len(kind_p)
         by_class = np.zeros_like(name_p)
@@ -416,7 +421,30 @@ class Perception:
             np.add.at(size_given[i], self._kind_size[mine], kind_p[i, mine])
         total = size_given.sum(axis=1, keepdims=True)
         size_given = np.where(total > 1e-6, size_given / np.maximum(total, 1e-6), size_p)
-        return [name_p, colour_p, material_p, (size_p + size_given) / 2]
+        size_p = (size_p + size_given) / 2
+        if self._templates and features is not None:
+            for i in range(n):
+                measured = self._size_by_template(self.vocab["name"][best[i]], features[i])
+                if measured is not None:
+                    size_p[i] = measured
+        return [name_p, colour_p, material_p, size_p]
+
+    def _size_by_template(self, name: str, features: np.ndarray) -> np.ndarray | None:
+        """Size probabilities from the measured dimensions (log long and short extent, log top height):
+        a Gaussian score of each kind of the class around its training median, summed by size."""
+        x = np.asarray(features[3:6], float)
+        scores, sizes = [], []
+        for kind, (mu, sd) in self._templates.items():
+            cls, _, size = kind.split("/")
+            if cls == name:
+                scores.append(-0.5 * float(np.sum(((x - mu) / sd) ** 2)))
+                sizes.append(self.vocab["size"].index(size))
+        if not scores:
+            return None
+        w = np.exp(np.asarray(scores) - max(scores))
+        out = np.zeros(len(self.vocab["size"]))
+        np.add.at(out, sizes, w)
+        return out / out.sum()
 
     def perceive(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
                  directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -597,6 +625,24 @@ def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[st
             "extents": {k: np.median(np.asarray(v), axis=0).round(4).tolist() for k, v in sorted(extents.items())}}
 
 
+def size_templates(geo: np.ndarray, kinds_of: np.ndarray, kinds: Sequence[str]) -> dict[str, list[list[float]]]:
+    """Per kind (class/variant/size) of the training objects: the median and spread (standard deviation
+    + 0.03) of the measured log dimensions (:func:`_geometry`'s long and short extent and top height)
+    over every training view. A size is a scale of a variant, so within a recognised class the nearest
+    kind names the size; measured the same way in training and use, the templates carry the
+    measurement's own bias (a cylinder's visible depth is its radius, not its diameter).
+
+    Args:
+        geo: (objects, views, :data:`N_FEATURES`) measured features.
+        kinds_of: (objects,) index of each object's kind in ``kinds``.
+    """
+    out = {}
+    for k in np.unique(kinds_of):
+        x = geo[kinds_of == k][:, :, 3:6].reshape(-1, 3).astype(float)
+        out[kinds[int(k)]] = [np.median(x, axis=0).round(4).tolist(), (x.std(axis=0) + 0.03).round(4).tolist()]
+    return out
+
+
 def prepared_arrays(out: Path, key: Mapping[str, Any], make: Callable[[], dict[str, Any]]) -> dict[str, Any]:
     """The prepared training arrays, cached in ``out/prepared.npz`` (made again when ``key`` differs).
 
@@ -661,6 +707,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
         "seg_downsample": factor,
         "table_height": LAYOUT.table_height,
         "extents": arrays["extents"],
+        "size_templates": size_templates(arrays["geo"], arrays["labels"][:, len(ATTRIBUTES)], kinds),
         "train": {"steps": steps, "seed": seed, "seg_batch": seg_batch, "attr_batch": attr_batch, "patch": patch,
                   "seg_every": seg_every, "lr": lr, "scenes": len(data["train"]), "objects": len(arrays["labels"])},
     }
