@@ -61,6 +61,7 @@ CROP_VIEWS = 4  # training views of every object: the mask's own crop, then jitt
 MIN_PIXELS = 6
 MIN_RISE = 0.002  # [m] an instance lower than this above the table (95th percentile) is the table
 REACH_MARGIN = 0.10  # [m] an instance this far beyond the arm's reach is not a scene object
+RAISED = 0.0015  # [m] points this far above the table top are the object's when measuring its extents
 N_FEATURES = 21  # measured size and appearance features of an instance (see _geometry)
 PREPARED_FILE = "prepared.npz"
 DEPTH_CENTRE, DEPTH_SCALE = 1.5, 0.5
@@ -200,7 +201,7 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
               table_height: float) -> tuple[np.ndarray, np.ndarray]:
     """(position [x, y, z] of the object's base, the :data:`N_FEATURES` measured features) of a mask.
 
-    Size: the extents of the visible points along their principal horizontal axes (long, short) and
+    Size: the extents of the visible points above the table along their principal horizontal axes (long, short) and
     the height of the top above the table (none depends on the object's rotation about the vertical),
     their logarithms, and the metric side of the crop window. Appearance, at the image's full
     resolution (the crop may shrink a highlight away): percentiles of the brightness and the spread of
@@ -211,7 +212,11 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
     lo, hi = np.percentile(pts, 3, axis=0), np.percentile(pts, 97, axis=0)
     centre = (lo + hi) / 2
     pos = np.array([centre[0], centre[1], table_height])
-    xy = pts[:, :2] - pts[:, :2].mean(axis=0)
+    # Extents from the points above the table only: a mask from the segmenter's coarser grid takes in
+    # a rim of table around the object, which would add a pixel or two to every side.
+    raised = pts[pts[:, 2] > table_height + RAISED]
+    xy = (raised if len(raised) >= 3 else pts)[:, :2]
+    xy = xy - xy.mean(axis=0)
     if len(xy) >= 3:
         _, vecs = np.linalg.eigh(np.cov(xy.T) + 1e-12 * np.eye(2))
         proj = xy @ vecs[:, ::-1]
