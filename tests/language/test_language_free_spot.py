@@ -259,3 +259,50 @@ def test_reach_annulus_from_squares_answers_as_the_hypotenuse() -> None:
     reach = np.hypot(gx, gy)
     np.testing.assert_array_equal(_in_annulus(gx, gy, (60, 70), LAYOUT),
                                   (reach >= LAYOUT.reach_min) & (reach <= LAYOUT.reach_max))
+
+
+def test_best_first_is_a_prefix_of_the_stable_order_long_enough() -> None:
+    """The best spots come as the start of the stable argsort, ties included, at least as many as asked
+    for, whether the bound found among every 8th key holds enough keys or not."""
+    import numpy as np
+
+    from samplehd.world.free_spot import _best_first
+
+    rng = np.random.default_rng(5)
+    for n, needed, levels in ((4910, 221, 0), (3000, 2000, 0), (500, 400, 0), (2000, 150, 7), (64, 63, 3), (40, 50, 0)):
+        key = rng.normal(size=n) if not levels else rng.integers(0, levels, n).astype(float)  # many ties
+        if n == 3000:
+            key[::8] = -10.0  # every 8th key the smallest: the bound among them holds too few, the fallback runs
+        got = _best_first(key, needed)
+        order = np.argsort(key, kind="stable")
+        assert len(got) >= min(needed, n)
+        np.testing.assert_array_equal(got, order[: len(got)])
+
+
+def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
+    """Runs of columns marked on the spots, and free spots counted per turn outside each rectangle's runs
+    with their samples summed from the counts, give what a spot-by-spot mask and sum give."""
+    import numpy as np
+
+    from samplehd.world.free_spot import _counts_outside, _covered
+
+    objects = [_obj("mug", (0.05, -0.25), (0.08, 0.1), 30.0), _obj("plate", (0.15, -0.15), (0.2, 0.2)),
+               _obj("bowl", (-0.05, 0.2), (0.14, 0.14))]
+    scene = parse_scene({"objects": objects})
+    spots_of = ConstraintContext(scene).free_spots()
+    spots = spots_of._part_spots(0, "left")
+    nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
+    rng = np.random.default_rng(6)
+    col = np.arange(nc)
+    for _ in range(20):
+        first = rng.integers(0, nc + 1, (4, nt, nr)).astype(float)
+        last = rng.integers(-1, nc, (4, nt, nr)).astype(float)
+        last[:, :, ::5] = nc - 1  # runs that end their row
+        runs = (col >= first[..., None]) & (col <= last[..., None])  # (R, t, r, c)
+        np.testing.assert_array_equal(_covered(spots, first, last), runs.any(axis=0).ravel())
+        free = rng.random(nt * nr * nc) < 0.7
+        counts = _counts_outside(spots, free, first, last)
+        for i in range(len(first)):
+            left = free & ~runs[i].ravel()
+            np.testing.assert_array_equal(counts[i], left.reshape(nt, -1).sum(axis=1))
+            assert spots_of._hits_counted(spots, counts[i].tolist()) == spots_of._hits(spots, left)

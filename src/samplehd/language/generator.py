@@ -15,8 +15,9 @@ instruction is polynomial in the number of objects.
 
 from __future__ import annotations
 
+import operator
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -197,6 +198,27 @@ def _schedule(template: Template) -> list[list[TemplateConstraint]]:
     return out
 
 
+# A scheduled constraint as the search reads it: its name, and what reads its arguments (a tuple of the
+# bound values of its parameters) from the values bound so far.
+_Check = tuple[str, Callable[[Mapping[str, Any]], tuple[Any, ...]]]
+
+
+def _compiled_schedule(template: Template) -> list[tuple[_Check, ...]]:
+    """:func:`_schedule` with each constraint's arguments read by one ``itemgetter`` call."""
+    out = []
+    for checks in _schedule(template):
+        level = []
+        for c in checks:
+            get = operator.itemgetter(*c.params)
+            level.append((c.type, get if len(c.params) > 1 else _single(get)))
+        out.append(tuple(level))
+    return out
+
+
+def _single(get: Callable[[Mapping[str, Any]], Any]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
+    return lambda values: (get(values),)
+
+
 class _SceneGenerator:
     """Per-scene state: descriptions, constraint context, counts."""
 
@@ -218,28 +240,11 @@ class _SceneGenerator:
         self.set_members = [self.describer.matches(d) for d in self.sets]
         self.rejections: Counter[str] = Counter()
         self.attempts = 0
-        self._schedules: dict[str, list[list[TemplateConstraint]]] = {}
+        self._schedules: dict[str, list[tuple[_Check, ...]]] = {}
         self._memo: dict[tuple[Any, ...], bool] = {}
         # candidate checks one draw may make before giving up (bounds the search for any scene)
         self.search_budget = search_budget
         self.budget = self.search_budget
-
-    def _fails(self, constraints: Sequence[TemplateConstraint], values: Mapping[str, Any]) -> str | None:
-        """Name of the first constraint the bound values violate (memoised per scene), or None."""
-        memo = self._memo
-        get = values.__getitem__
-        for c in constraints:
-            args = tuple(map(get, c.params))
-            key = (c.type, args)
-            ok = memo.get(key)
-            if ok is None:
-                ok = memo[key] = bool(CONSTRAINTS[c.type].check(self.ctx, args))
-                if not ok:
-                    # counted once per distinct rejected candidate, not per draw
-                    self.rejections[c.type] += 1
-            if not ok:
-                return c.type
-        return None
 
     def draw(
         self, template: Template, exclude: set[tuple[Any, ...]] | None = None
@@ -256,7 +261,7 @@ class _SceneGenerator:
         """
         self.attempts += 1
         if template.name not in self._schedules:
-            self._schedules[template.name] = _schedule(template)
+            self._schedules[template.name] = _compiled_schedule(template)
         schedule = self._schedules[template.name]
         params = template.params
         values: dict[str, Any] = {}
@@ -282,8 +287,9 @@ class _SceneGenerator:
                 domain = list(RELATIONS)
             # candidates in random order, each checked only when reached: the first valid one is a
             # uniform draw among the valid ones, and most draws stop long before the whole domain
+            nonlocal budget
             any_valid = False
-            kind, name, checks, fails = p.type, p.name, schedule[k], self._fails
+            kind, name, checks = p.type, p.name, schedule[k]
             for j in rng.permutation(len(domain)).tolist():
                 candidate = domain[j]
                 members: tuple[int, ...] = ()
@@ -295,10 +301,23 @@ class _SceneGenerator:
                     values[name] = candidate
                 else:
                     values[name] = candidate
-                if self.budget <= 0:
+                if budget <= 0:
                     break
-                self.budget -= 1
-                if checks and fails(checks, values) is not None:
+                budget -= 1
+                # the constraints that become checkable here, in order, memoised per scene; a rejection is
+                # counted once per distinct rejected candidate, not per draw (inline: runs for every candidate)
+                failed = False
+                for ctype, args_of in checks:
+                    key = (ctype, args_of(values))
+                    ok = memo.get(key)
+                    if ok is None:
+                        ok = memo[key] = bool(CONSTRAINTS[ctype].check(ctx, key[1]))
+                        if not ok:
+                            rejections[ctype] += 1
+                    if not ok:
+                        failed = True
+                        break
+                if failed:
                     continue
                 any_valid = True
                 if kind == "object_set":
@@ -313,9 +332,12 @@ class _SceneGenerator:
             refs.pop(p.name, None)
             return False
 
-        self.budget = self.search_budget
-        if not assign(0):
-            if self.budget <= 0:
+        budget = self.search_budget
+        memo, rejections, ctx = self._memo, self.rejections, self.ctx
+        found = assign(0)
+        self.budget = budget
+        if not found:
+            if budget <= 0:
                 self.rejections["search_budget"] += 1
             return None
         for p in params:

@@ -98,10 +98,14 @@ def _cells(lo: float, hi: float, step: float) -> np.ndarray:
     return lo + (np.arange(n) + 0.5) * (hi - lo) / n
 
 
-def _yaw_weights() -> tuple[np.ndarray, np.ndarray]:
-    """The distinct turns the planner samples and how often it samples each."""
+@functools.cache
+def _yaw_weights() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The distinct turns the planner samples, how often it samples each, and their rotations (read only)."""
     turns, counts = np.unique(np.array(placement.SPOT_TURNS), return_counts=True)
-    return turns, counts / len(placement.SPOT_TURNS)
+    out = (turns, counts / len(placement.SPOT_TURNS), yaw_rotation_2d(turns))
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 @dataclass(frozen=True)
@@ -117,11 +121,11 @@ class _Grid:
     width: float
     on_axes: bool  # e1, e2 are x, y and base is 0: centre (u[i], v[j]) exactly
 
-    @functools.cached_property
-    def box(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper corners (x, y) of the box around every spot's footprint centre [m]."""
-        corners = (self.base[:, None, None, :] + self.u[[0, -1]][None, :, None, None] * self.axes[0]
-                   + self.v[[0, -1]][None, None, :, None] * self.axes[1]).reshape(-1, 2)
+    def box(self, rows: tuple[int, int], cols: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper corners (x, y) of the box around the footprint centres of every turn's spots
+        in rows ``rows[0]``..``rows[1]`` and columns ``cols[0]``..``cols[1]`` [m]."""
+        corners = (self.base[:, None, None, :] + self.u[list(rows)][None, :, None, None] * self.axes[0]
+                   + self.v[list(cols)][None, None, :, None] * self.axes[1]).reshape(-1, 2)
         return corners.min(axis=0), corners.max(axis=0)
 
 
@@ -206,8 +210,7 @@ class FreeSpots:
         self.origin = np.array([o.coords[:2] for o in objects], float).reshape(-1, 2)
         self.rot = yaw_rotation_2d(np.array([o.yaw for o in objects], float)).reshape(-1, 2, 2)
         self.half = np.array([o.footprint_half for o in objects], float).reshape(-1, 2)
-        self.turns, self.turn_share = _yaw_weights()
-        self._turn_rots = yaw_rotation_2d(self.turns)
+        self.turns, self.turn_share, self._turn_rots = _yaw_weights()
         self._table = np.asarray(layout.table_size) / 2 - placement.SPOT_TABLE_EDGE
         self._base = np.asarray(layout.robot_base)
         self._workspace = (np.asarray(layout.workspace_min) - placement.SPOT_WORKSPACE_SLACK,
@@ -266,18 +269,26 @@ class FreeSpots:
                 nxt = arriving[n + 1]
                 nxt_spots = self._part_spots(nxt, part)
                 nxt_free = self._free(nxt, nxt_spots, present, placed)
-                rects = [self._rect(k, spots, j) for j in options]
-                left = nxt_free & ~self._blocked_by(nxt, nxt_spots, *(np.stack(a) for a in zip(*rects, strict=True)))
-                room_left = [self._hits(nxt_spots, f) for f in left]
-                best = int(np.argmin(room_left))
-                chosen, free = options[best], left[best]
+                at = np.array(options)
+                first, lst = self._runs(nxt, nxt_spots, spots.centre[at], spots.rots[spots.turn[at]],
+                                        np.broadcast_to(self.half[k], (len(at), 2)))
+                # the next object's free spots each option leaves, counted per turn: the samples on them
+                # are summed exactly as over the spots themselves (a part's spots weigh alike per turn)
+                counts = _counts_outside(nxt_spots, nxt_free, first, lst)
+                room_left = [self._hits_counted(nxt_spots, c) for c in counts.tolist()]
+                best = room_left.index(min(room_left))  # the first smallest, as np.argmin
+                chosen = options[best]
+                if n + 2 == len(arriving) and self.reach_is_annulus:  # the next is the last to arrive
+                    return room_left[best] >= self.search.min_hits and sum(counts[best]) > 0
+                j = np.arange(len(nxt_spots.grid.v), dtype=float)
+                free = nxt_free & ~((j >= first[best][..., None]) & (j <= lst[best][..., None])).ravel()
             placed.append(self._rect(k, spots, chosen))
         return True
 
     def room_beside(self, x: int, ref: int, direction: Sequence[float]) -> bool:
         """Whether object ``x`` finds a free spot past object ``ref`` along a direction (x, y)."""
         spots = self._beside_spots(x, ref, (float(direction[0]), float(direction[1])))
-        if self._too_few(spots):
+        if spots is None or self._too_few(spots):
             return False
         present = np.ones(len(self.objects), bool)
         free = self._free(x, spots, present, [])
@@ -292,6 +303,13 @@ class FreeSpots:
     def _hits(self, spots: _Spots, free: np.ndarray) -> float:
         """How many of the planner's first-try samples are expected on the free spots."""
         return self.search.samples * float(spots.weight[free].sum())
+
+    def _hits_counted(self, spots: _Spots, counts: Sequence[int]) -> float:
+        """:meth:`_hits` of a part's spots from how many are free per turn (the same sum: a part's spots of
+        one turn weigh alike, so the free spots' weights are those counts of each turn's weight, in order)."""
+        nt = len(spots.turns)
+        return self.search.samples * _repeated_sum(tuple(spots.weight[:: len(spots.weight) // nt].tolist()),
+                                                   tuple(counts))
 
     def _too_few(self, spots: _Spots) -> bool:
         """Whether the tests not involving other objects already leave too few of the planner's samples
@@ -349,18 +367,32 @@ class FreeSpots:
         samples = np.cumsum(self.search.samples * spots.weight[ranked])
         best = ranked[: max(1, int(np.searchsorted(samples, placement.SPOT_SHORTLIST, side="right")))]
         # spread: farthest-point picks over position and turn (a long object's turn matters as much)
-        where = np.column_stack([spots.centre[best], _TURN_SPREAD * spots.turns[spots.turn[best]]])
+        where = np.empty((len(best), 3))
+        where[:, :2] = spots.centre[best]
+        where[:, 2] = _TURN_SPREAD * spots.turns[spots.turn[best]]
         picks = [0]
         dist = _norms(where - where[0])
         while len(picks) < placement.SPOT_OPTIONS and dist.max() > 0:
             picks.append(int(dist.argmax()))
             dist = np.minimum(dist, _norms(where - where[picks[-1]]))
+        if self.reach_is_annulus and self._surely_in_reach(spots, best[picks]):
+            return [int(j) for j in best[picks]]
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
         reached = [int(best[i]) for i in picks if self.reach((*_origin(spots, best[i]), z))]
         if reached:
             return reached
         return next(([int(j)] for j in ranked[:placement.SPOT_SHORTLIST] if self.reach((*_origin(spots, j), z))),
                     [])
+
+    def _surely_in_reach(self, spots: _Spots, chosen: np.ndarray) -> bool:
+        """Whether ``reach`` (the annulus, memoised on coordinates rounded to a micrometre) surely says yes
+        on every chosen spot: they passed the annulus test, and none lies within 10 micrometres of its
+        bounds, so neither this answer nor a memoised one for a point rounding alike can be no."""
+        origin = spots.centre[chosen] - spots.offsets[spots.turn[chosen]]
+        base, layout = self._base, self.layout
+        reach = np.hypot(origin[:, 0] - base[0], origin[:, 1] - base[1])
+        margin = 1e-5
+        return bool(((reach >= layout.reach_min + margin) & (reach <= layout.reach_max - margin)).all())
 
     def _ranks_needed(self, spots: _Spots) -> int:
         """How many best-scored spots surely hold the shortlist's samples and the shortlist itself
@@ -370,17 +402,11 @@ class FreeSpots:
             return len(spots.weight)
         return max(placement.SPOT_SHORTLIST, int(1.01 * placement.SPOT_SHORTLIST / least) + 2)
 
-    def _blocked_by(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray, h: np.ndarray) -> np.ndarray:
-        """Which of object k's spots overlap each rectangle (centres (R, 2), rotations (R, 2, 2),
-        half sizes (R, 2)), by the planner's separating-axis test with its margin: (R, m)."""
-        first, last = self._runs(k, spots, c, r, h)
-        j = np.arange(len(spots.grid.v), dtype=float)
-        return ((j >= first[..., None]) & (j <= last[..., None])).reshape(len(c), -1)
-
     def _runs(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray,
               h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The spots of object k each rectangle overlaps (see :meth:`_blocked_by`), as the first and
-        last column of a run per turn and row: (R, t, r) each.
+        """The spots of object k each rectangle (centres (R, 2), rotations (R, 2, 2), half sizes (R, 2))
+        overlaps by the planner's separating-axis test with its margin, as the first and last column of a
+        run per turn and row: (R, t, r) each.
 
         On a row of the grid, each of the test's four axes bounds the column coordinate from both
         sides, so the spots a rectangle blocks are one run of columns per turn and row."""
@@ -394,8 +420,9 @@ class FreeSpots:
         grow = self.search.spot_margin / 2
         n_rect, n_turn = len(r), len(rt)
         # the four axes of each pair (rect, turn), as rows: the turned object's, then the rectangle's
-        axes = np.concatenate([np.broadcast_to(np.swapaxes(rt, -1, -2)[None], (n_rect, n_turn, 2, 2)),
-                               np.broadcast_to(np.swapaxes(r, -1, -2)[:, None], (n_rect, n_turn, 2, 2))], axis=2)
+        axes = np.empty((n_rect, n_turn, 4, 2))
+        axes[:, :, :2] = np.swapaxes(rt, -1, -2)
+        axes[:, :, 2:] = np.swapaxes(r, -1, -2)[:, None]
         # reach along each axis: the projected half sizes of both, grown by half the margin each
         reach = (np.abs(axes @ rt[None]) @ (self.half[k] + grow)
                  + (np.abs(axes @ r[:, None]) @ (h + grow)[:, None, :, None])[..., 0])
@@ -408,20 +435,24 @@ class FreeSpots:
             self._memo[key] = self._axes_reach(k, self._turned_rots(k), self.rot, self.half)
         return self._memo[key]
 
-    def _runs_on(self, spots: _Spots, c: np.ndarray, axes: np.ndarray,
-                 reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_runs` for rectangles with centres ``c`` (R, 2), given their test's axes and reach."""
+    def _runs_on(self, spots: _Spots, c: np.ndarray, axes: np.ndarray, reach: np.ndarray,
+                 rows: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_runs` for rectangles with centres ``c`` (R, 2), given their test's axes and reach, on the
+        grid's rows ``rows`` (the same numbers on each row as for the whole grid)."""
         g = spots.grid
         q0 = np.einsum("rtad,rtd->rta", axes, c[:, None, :] - g.base[None])  # (R, t, 4)
         along = axes @ g.axes[0]  # (R, t, 4): how the projection moves per metre along a row
         across = (axes @ g.axes[1])[..., None]  # ... and along a column
-        q = q0[..., None] - along[..., None] * g.u  # (R, t, 4, r): the projection at column v = 0
+        q = q0[..., None] - along[..., None] * g.u[rows]  # (R, t, 4, r): the projection at column v = 0
         lim = reach[..., None]
         flat = across == 0  # an axis that ignores the column: all or none, by the row
-        with np.errstate(divide="ignore", invalid="ignore"):
+        if not flat.any():
             a, b = (q - lim) / across, (q + lim) / across
-        low, high = np.minimum(a, b), np.maximum(a, b)
-        if flat.any():
+            low, high = np.minimum(a, b), np.maximum(a, b)
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                a, b = (q - lim) / across, (q + lim) / across
+            low, high = np.minimum(a, b), np.maximum(a, b)
             inside = np.abs(q) <= lim
             low = np.where(flat, np.where(inside, -np.inf, np.inf), low)
             high = np.where(flat, np.where(inside, np.inf, -np.inf), high)
@@ -430,8 +461,13 @@ class FreeSpots:
         low = np.maximum(np.maximum(low[:, :, 0], low[:, :, 1]), np.maximum(low[:, :, 2], low[:, :, 3]))
         high = np.minimum(np.minimum(high[:, :, 0], high[:, :, 1]), np.minimum(high[:, :, 2], high[:, :, 3]))
         # (R, t, r), clipped to the grid's columns (np.clip's dispatch costs more than the arithmetic)
-        first = np.minimum(np.maximum(np.ceil((low - g.lo) / g.width - 0.5), 0), count)
-        last = np.minimum(np.maximum(np.floor((high - g.lo) / g.width - 0.5), -1), count - 1)
+        both = np.stack([low, high])
+        both -= g.lo
+        both /= g.width
+        both -= 0.5
+        first, last = np.ceil(both[0]), np.floor(both[1])
+        np.minimum(np.maximum(first, 0, out=first), count, out=first)
+        np.minimum(np.maximum(last, -1, out=last), count - 1, out=last)
         return first, last
 
     def _part_spots(self, k: int, part: str) -> _Spots:
@@ -457,38 +493,20 @@ class FreeSpots:
         return self._memo[key]
 
     def _beside_grid(self, direction: tuple[float, float]) -> tuple[Any, ...]:
-        """What the spots past a reference along a direction share, whichever the objects: the
-        direction and its lateral, the (distance, lateral offset) cells of every turn, flattened,
-        their turns, weights and far penalty."""
-        key = ("beside grid", direction)
-        if key not in self._memo:
-            d = np.asarray(direction, float)
-            d /= np.linalg.norm(d)
-            lateral = np.array([-d[1], d[0]])
-            (near_dist, near_lat), (far_dist, far_lat) = placement.BESIDE_NEAR, placement.BESIDE_FAR
-            step = self.search.step
-            dists, lats = _cells(0.0, far_dist, step), _cells(-far_lat, far_lat, step)
-            dist, lat = np.meshgrid(dists, lats, indexing="ij")
-            dist, lat = dist.ravel(), lat.ravel()
-            near = (dist <= near_dist) & (np.abs(lat) <= near_lat)
-            # half the planner's samples fall in the near box, half in the far one
-            cell = 0.5 / len(dist) + np.where(near, 0.5 / max(1, int(near.sum())), 0.0)
-            nt = len(self.turns)
-            turn = np.repeat(np.arange(nt), len(dist))
-            weight = np.repeat(self.turn_share, len(dist)) * np.tile(cell, nt)
-            dist, lat = np.tile(dist, nt), np.tile(lat, nt)
-            far = placement.SPOT_FAR_PENALTY * (np.maximum(0.0, dist - near_dist)
-                                                + np.maximum(0.0, np.abs(lat) - near_lat))
-            self._memo[key] = (d, lateral, dists, lats, dist, lat, turn, weight, far, -far_lat, 2 * far_lat / len(lats))
-        return self._memo[key]
+        """What the spots past a reference along a direction share, whichever the objects (see
+        :func:`_beside_cells`)."""
+        return _beside_cells(direction, self.search.step)
 
-    def _beside_spots(self, x: int, ref: int, direction: tuple[float, float]) -> _Spots:
+    def _beside_spots(self, x: int, ref: int, direction: tuple[float, float]) -> _Spots | None:
+        """Object x's spots past object ref along a direction; None where the tests on the table, the
+        workspace and the distance past the reference already leave surely too few (:meth:`_too_few`
+        with room for the rounding of either sum), before the reach annulus is tested."""
         key = ("beside", x, ref, direction)
         if key not in self._memo:
-            d, lateral, dists, lats, dist, lat, turn, weight, far, v_lo, v_width = self._beside_grid(direction)
-            ext_ref = np.abs(d @ self.rot[ref]) @ self.half[ref]
+            d, lateral, grid_axes, dists, lats, dist, lat, turn, weight, far, v_lo, v_width = self._beside_grid(
+                direction)
+            ext_ref, ext_x = self._extent_along(ref, direction, False), self._extent_along(x, direction, True)
             rots, offsets, half = self._turned(x)
-            ext_x = np.abs(d @ rots) @ self.half[x]
             # the distance past the reference per (turn, row) and the lateral offset per column: each
             # coordinate below is computed on the axes it depends on, then broadcast over (t, r, c)
             along = ((ext_ref + ext_x) + self.search.spot_margin)[:, None, None] + dists[None, :, None]
@@ -519,13 +537,25 @@ class FreeSpots:
                 keep &= (origin[a] - self.origin[ref, a]) * d[a] >= need
             else:
                 keep &= ((_flat_xy(origin, keep.shape) - self.origin[ref]) @ d >= need).reshape(keep.shape)
+            if self.search.samples * float(weight @ keep.ravel()) < self.search.min_hits - 1e-6:
+                self._memo[key] = None
+                return None
             rel_x, rel_y = rel
             keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
             grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
-                         np.stack([d, lateral]), dists, lats, v_lo, v_width, False)
+                         grid_axes, dists, lats, v_lo, v_width, False)
             self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
                                           weight, far, keep.ravel(),
                                           lambda: np.broadcast_to(np.hypot(rel_x, rel_y), keep.shape).ravel())
+        return self._memo[key]
+
+    def _extent_along(self, k: int, direction: tuple[float, float], turned: bool) -> Any:
+        """How far object k's footprint reaches from its centre along a direction [m], as it stands or
+        after each turn ((t,)) (memoised)."""
+        key = ("extent", k, direction, turned)
+        if key not in self._memo:
+            d = _beside_cells(direction, self.search.step)[0]
+            self._memo[key] = np.abs(d @ (self._turned(k)[0] if turned else self.rot[k])) @ self.half[k]
         return self._memo[key]
 
     def _turned(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -556,18 +586,28 @@ class FreeSpots:
                     + placement.SPOT_TURN_WEIGHT * np.abs(turns[turn]))
 
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-            # the objects whose rectangle, with both margins, comes within reach of the grid's box
-            lo, hi = grid.box
-            grow = self.search.spot_margin / 2
-            radius = np.hypot(*(self.half[k] + grow)) + self._radius + 1e-9
-            close = np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None])
-            near = np.flatnonzero(close[:, 0] & close[:, 1])
-            near = near[near != k]
+            # the objects whose rectangle, with both margins, comes within reach of the box around the
+            # spots that pass the tests without other objects (the others' overlaps matter nowhere else)
+            kept = spots.keep.reshape(len(self.turns), len(grid.u), len(grid.v)).any(axis=0)
+            rows, cols = np.flatnonzero(kept.any(axis=1)), np.flatnonzero(kept.any(axis=0))
+            near = rows[:0]
+            if len(rows):
+                lo, hi = grid.box((rows[0], rows[-1]), (cols[0], cols[-1]))
+                radius = self._radius[k] + self._radius + 1e-9
+                close = np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None])
+                near = np.flatnonzero(close[:, 0] & close[:, 1])
+                near = near[near != k]
             if not len(near):
                 none = np.zeros((0, len(self.turns), len(grid.u)))
                 return near, none, none
             axes, reach = self._scene_axes_reach(k)
-            return near, *self._runs_on(spots, self.centre[near], axes[near], reach[near])
+            # on the rows holding such spots only: elsewhere no run is marked (no spot there can be free)
+            shape = (len(near), len(self.turns), len(grid.u))
+            first, last = np.full(shape, float(len(grid.v))), np.full(shape, -1.0)
+            held = slice(rows[0], rows[-1] + 1)
+            first[:, :, held], last[:, :, held] = self._runs_on(spots, self.centre[near], axes[near], reach[near],
+                                                                held)
+            return near, first, last
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
         # them already leave too few spots needs none
@@ -608,18 +648,40 @@ def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
 def _covered(spots: _Spots, first: np.ndarray, last: np.ndarray) -> np.ndarray:
     """Which spots lie in any of the runs of columns ``first``..``last`` (R, t, r): (m,).
 
-    Each run adds one at its first column and takes one off past its last, on rows one column
-    longer than the grid's; a spot is covered where the running sum along its row is positive."""
+    Each run adds one at its first spot and takes one off at the spot past its last (the next row's
+    first where it ends its row), in the spots' order; a spot is covered where the running sum is positive."""
     nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
+    size = nt * nr * nc
     if not len(first):
-        return np.zeros(nt * nr * nc, bool)
-    row = np.arange(nt * nr) * (nc + 1)
-    start, stop = first.reshape(len(first), -1), last.reshape(len(last), -1) + 1
+        return np.zeros(size, bool)
+    row = np.arange(0, size, nc)
+    start, stop = first.reshape(len(first), -1).astype(np.intp), last.reshape(len(last), -1).astype(np.intp)
+    stop += 1
     some = start < stop
-    size = nt * nr * (nc + 1)
-    diff = (np.bincount((row + start.astype(np.intp))[some], minlength=size)
-            - np.bincount((row + stop.astype(np.intp))[some], minlength=size))
-    return (np.cumsum(diff).reshape(nt * nr, nc + 1)[:, :nc] > 0).ravel()
+    start += row
+    stop += row
+    diff = np.bincount(start[some], minlength=size + 1)
+    diff -= np.bincount(stop[some], minlength=size + 1)
+    return np.cumsum(diff[:size]) > 0
+
+
+def _counts_outside(spots: _Spots, free: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
+    """How many free spots of each turn lie outside each rectangle's runs of columns ``first``..``last``
+    (R, t, r): (R, t), from running counts of the free spots along each row."""
+    nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
+    running = np.zeros(len(free) + 1, np.intp)  # free spots before each spot, in the spots' order
+    np.cumsum(free, out=running[1:])
+    total = running[nr * nc :: nr * nc] - running[: -1 : nr * nc]
+    start, stop = first.reshape(len(first), -1).astype(np.intp), last.reshape(len(last), -1).astype(np.intp) + 1
+    row = np.arange(nt * nr) * nc
+    inside = np.where(start < stop, running[row + stop] - running[row + start], 0)
+    return total - inside.reshape(len(first), nt, nr).sum(axis=2)
+
+
+@functools.lru_cache(maxsize=4096)
+def _repeated_sum(values: tuple[float, ...], counts: tuple[int, ...]) -> float:
+    """``sum`` of ``counts[i]`` copies of each ``values[i]``, in order, as numpy sums that array."""
+    return float(np.repeat(np.array(values), counts).sum())
 
 
 def _origin(spots: _Spots, j: int) -> np.ndarray:
@@ -637,7 +699,7 @@ def _part_grid(layout: TableLayout, part_margin: float, step: float,
     xs, ys = _cells(lo[0], hi[0], step), _cells(lo[1], hi[1], step)
     gx, gy = np.meshgrid(xs, ys, indexing="ij")
     grid = np.stack([gx.ravel(), gy.ravel()], -1)
-    turns, share = _yaw_weights()
+    turns, share, _ = _yaw_weights()
     nt = len(turns)
     turn = np.repeat(np.arange(nt), len(grid))
     centre = np.tile(grid, (nt, 1))
@@ -649,13 +711,49 @@ def _part_grid(layout: TableLayout, part_margin: float, step: float,
     return frame, centre, turn, weight, bounds
 
 
+@functools.lru_cache(maxsize=64)
+def _beside_cells(direction: tuple[float, float], step: float) -> tuple[Any, ...]:
+    """What the spots past a reference along a direction share, whichever the objects and scene (read
+    only): the direction and its lateral (and both as rows), the (distance, lateral offset) cells of every
+    turn, flattened, their turns, weights and far penalty, and the columns' start and width."""
+    d = np.asarray(direction, float)
+    d /= np.linalg.norm(d)
+    lateral = np.array([-d[1], d[0]])
+    (near_dist, near_lat), (far_dist, far_lat) = placement.BESIDE_NEAR, placement.BESIDE_FAR
+    dists, lats = _cells(0.0, far_dist, step), _cells(-far_lat, far_lat, step)
+    dist, lat = np.meshgrid(dists, lats, indexing="ij")
+    dist, lat = dist.ravel(), lat.ravel()
+    near = (dist <= near_dist) & (np.abs(lat) <= near_lat)
+    # half the planner's samples fall in the near box, half in the far one
+    cell = 0.5 / len(dist) + np.where(near, 0.5 / max(1, int(near.sum())), 0.0)
+    _, turn_share, _ = _yaw_weights()
+    nt = len(turn_share)
+    turn = np.repeat(np.arange(nt), len(dist))
+    weight = np.repeat(turn_share, len(dist)) * np.tile(cell, nt)
+    dist, lat = np.tile(dist, nt), np.tile(lat, nt)
+    far = placement.SPOT_FAR_PENALTY * (np.maximum(0.0, dist - near_dist) + np.maximum(0.0, np.abs(lat) - near_lat))
+    axes = np.stack([d, lateral])
+    for a in (d, lateral, axes, dists, lats, dist, lat, turn, weight, far):
+        a.setflags(write=False)
+    return (d, lateral, axes, dists, lats, dist, lat, turn, weight, far, -far_lat, 2 * far_lat / len(lats))
+
+
 def _best_first(key: np.ndarray, needed: int) -> np.ndarray:
     """The start of ``argsort(key, kind="stable")``, at least ``needed`` long (all of it for short keys):
-    the keys up to the ``needed``-th smallest, ties included, sorted stably."""
+    the keys up to a bound at or above the ``needed``-th smallest, ties included, sorted stably.
+
+    The bound is taken among every 8th key, a little past the share of them the needed ones make,
+    and checked to hold enough keys (else the ``needed``-th smallest itself): selecting among an
+    eighth of the keys costs an eighth of selecting among all of them."""
     if needed >= len(key):
         return np.argsort(key, kind="stable")
-    kth = np.partition(key, needed - 1)[needed - 1]
-    sel = np.flatnonzero(key <= kth)
+    sel = None
+    sub = key[::8]
+    m = needed // 8 + 8
+    if m < len(sub):
+        sel = np.flatnonzero(key <= np.partition(sub, m)[m])
+    if sel is None or len(sel) < needed:
+        sel = np.flatnonzero(key <= np.partition(key, needed - 1)[needed - 1])
     return sel[np.argsort(key[sel], kind="stable")]
 
 
