@@ -5,7 +5,7 @@
 #
 # usage: scripts/baselines/run.sh [OUT]          (default OUT: outputs/baselines)
 #   env: WORKERS (generate/evaluate processes, default: all cores), DEVICE (default: automatic),
-#        PERCEPTION_STEPS (3000), PARSER_STEPS (1000), POLICY_STEPS (4000), BC_EPISODES (300),
+#        PERCEPTION_STEPS (4000), PARSER_STEPS (1000), POLICY_STEPS (4000), BC_EPISODES (300),
 #        EPISODES (closed-loop episodes per evaluation, 48)
 #
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
@@ -38,7 +38,7 @@ gen bc --config "$here/bc.json" --target "${BC_EPISODES:-300}"
 "$bin" train parser --dataset "$out/data/small400" --out "$out/models/parser" --steps "${PARSER_STEPS:-1000}" \
   "${device[@]}"
 "$bin" train perception --dataset "$out/data/small400" --out "$out/models/perception" \
-  --steps "${PERCEPTION_STEPS:-3000}" "${device[@]}"
+  --steps "${PERCEPTION_STEPS:-4000}" "${device[@]}"
 "$bin" train policy --dataset "$out/data/bc" --out "$out/models/policy" --steps "${POLICY_STEPS:-4000}" \
   "${device[@]}"
 

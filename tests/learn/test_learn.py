@@ -237,3 +237,26 @@ def test_without_torch_only_the_learned_baselines_refuse_in_one_line(tmp_path: P
     errors = [line for line in proc.stderr.splitlines() if line.strip()]
     assert len(errors) == 2 and all(e.endswith("pip install 'samplehd[learn]'") for e in errors), errors
     assert not out.exists()
+
+
+def test_kind_head_sharpens_class_and_size() -> None:
+    """The class/variant/size head's probabilities join the class and size heads': the size is read
+    within the class found (a kind of another class does not vote for a size)."""
+    import numpy as np
+
+    from samplehd.learn.perception import FORMAT, Perception, attribute_vocab
+
+    vocab = attribute_vocab()
+    kinds = ["fork/dessert/large", "fork/dinner/medium", "spoon/tea/small"]
+    model = Perception({"format": FORMAT, "attributes": vocab, "kinds": kinds,
+                        "model": {"seg_width": 2, "attr_width": 2}, "seg_downsample": 1, "table_height": 0.75})
+    one = {a: np.full((1, len(vocab[a])), 1.0 / len(vocab[a])) for a in vocab}
+    name = np.zeros((1, len(vocab["name"])))
+    name[0, vocab["name"].index("fork")] = 0.6
+    name[0, vocab["name"].index("spoon")] = 0.4
+    kind = np.array([[0.2, 0.3, 0.5]])  # spoon/tea/small likeliest, but the class is fork
+    out = model._with_kinds([name, one["colour"], one["material"], one["size"], kind])
+    assert vocab["name"][int(out[0].argmax())] == "fork"
+    size = out[3][0]
+    assert vocab["size"][int(size.argmax())] == "medium"
+    assert np.isclose(size.sum(), 1.0) and np.isclose(out[0].sum(), 1.0)

@@ -52,7 +52,7 @@ __all__ = [
 
 DATA_DIR = Path(__file__).parent / "data"
 FORMAT = 1
-TEXTURES = ("wood_grain",)
+TEXTURES = ("wood_grain", "brushed_metal", "rubber_grain")
 _AFFORDANCES = ("graspable", "handle_pickable", "container", "stackable_on", "stackable")
 
 

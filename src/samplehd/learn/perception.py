@@ -7,7 +7,10 @@ Two small networks:
   *contact* (an object pixel touching another object's pixel); instances are the connected components
   of the object pixels, and contact pixels join the nearest instance;
 - an attribute network looks at each instance's crop (RGB, mask, relative depth) plus its metric size
-  from the depth (width, depth, height [m]) and names its class, colour, material and size.
+  from the depth (width, depth, height [m]) and appearance measures (highlights, fine texture) and names
+  its class, colour, material and size, and its *kind* (class, shape variant and size together, which
+  fixes the metric dimensions): the class and size it names are the averages of their own heads and of
+  the kind head (its class marginal; its sizes within the class found).
 
 The position is geometry, not learning: the instance's pixels are lifted to 3-D with the depth and the
 camera's calibration; the centre of their ground-plane bounding box, on the table top, is the
@@ -49,17 +52,21 @@ from samplehd.world.relations import compute_relationships
 
 __all__ = ["Perception", "backproject", "evaluate_perception", "train_perception"]
 
-FORMAT = 3  # bump when the inputs or networks change (older models: train again)
+FORMAT = 4  # bump when the inputs or networks change (older models: train again)
 SEG_CLASSES = ("background", "robot", "object", "contact")
 SEG_CHANNELS = 5  # RGB, depth, height above the table
 CROP = 48
 CROP_CHANNELS = 6  # RGB, mask, relative depth, height above the table
 CROP_VIEWS = 4  # training views of every object: the mask's own crop, then jittered crops of altered masks
 MIN_PIXELS = 6
-N_FEATURES = 18  # measured size and appearance features of an instance (see _geometry)
+MIN_RISE = 0.002  # [m] an instance lower than this above the table (95th percentile) is the table
+REACH_MARGIN = 0.10  # [m] an instance this far beyond the arm's reach is not a scene object
+RAISED = 0.0015  # [m] points this far above the table top are the object's when measuring its extents
+N_FEATURES = 21  # measured size and appearance features of an instance (see _geometry)
 PREPARED_FILE = "prepared.npz"
 DEPTH_CENTRE, DEPTH_SCALE = 1.5, 0.5
 ATTRIBUTES = ("name", "colour", "material", "size")
+HEADS = (*ATTRIBUTES, "kind")  # kind: class/variant/size together, whose metric dimensions are fixed
 
 
 def attribute_vocab() -> dict[str, list[str]]:
@@ -76,6 +83,23 @@ def attribute_vocab() -> dict[str, list[str]]:
             sizes |= set(menu.size)
     return {"name": sorted(cat.classes), "colour": sorted(colours), "material": sorted(materials),
             "size": sorted(sizes)}
+
+
+def kind_vocab() -> list[str]:
+    """Every ``class/variant/size`` of the catalogue (sorted): each has one set of metric dimensions, so
+    that the network can learn size as the dimensions of a recognised shape, not as a class-wide
+    threshold (a large dessert fork and a medium dinner fork differ by 4 %)."""
+    cat = load_catalogue()
+    out = set()
+    for name in cat.classes:
+        cls = cat.object_class(name)
+        for v in cls.variants:
+            out |= {f"{name}/{v}/{s}" for s in cls.variant(v).menu.size}
+    return sorted(out)
+
+
+def _kind(o: Mapping[str, Any]) -> str:
+    return f"{o['name']}/{o.get('variant', '')}/{o['size']}"
 
 
 def backproject(depth: np.ndarray, rows: np.ndarray, cols: np.ndarray, camera: Mapping[str, Any]) -> np.ndarray:
@@ -177,7 +201,7 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
               table_height: float) -> tuple[np.ndarray, np.ndarray]:
     """(position [x, y, z] of the object's base, the :data:`N_FEATURES` measured features) of a mask.
 
-    Size: the extents of the visible points along their principal horizontal axes (long, short) and
+    Size: the extents of the visible points above the table along their principal horizontal axes (long, short) and
     the height of the top above the table (none depends on the object's rotation about the vertical),
     their logarithms, and the metric side of the crop window. Appearance, at the image's full
     resolution (the crop may shrink a highlight away): percentiles of the brightness and the spread of
@@ -188,7 +212,11 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
     lo, hi = np.percentile(pts, 3, axis=0), np.percentile(pts, 97, axis=0)
     centre = (lo + hi) / 2
     pos = np.array([centre[0], centre[1], table_height])
-    xy = pts[:, :2] - pts[:, :2].mean(axis=0)
+    # Extents from the points above the table only: a mask from the segmenter's coarser grid takes in
+    # a rim of table around the object, which would add a pixel or two to every side.
+    raised = pts[pts[:, 2] > table_height + RAISED]
+    xy = (raised if len(raised) >= 3 else pts)[:, :2]
+    xy = xy - xy.mean(axis=0)
     if len(xy) >= 3:
         _, vecs = np.linalg.eigh(np.cov(xy.T) + 1e-12 * np.eye(2))
         proj = xy @ vecs[:, ::-1]
@@ -206,7 +234,23 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
     size = [ext[0] * 10, ext[1] * 10, top * 10, np.log(ext[0] + 0.005), np.log(ext[1] + 0.005), np.log(top + 0.005),
             side_m * 10]
     look = [*vp, vp[3] - vp[1], float(np.mean(v > vp[1] + 0.25)), float(np.std(v)), *np.percentile(sat, (10, 50, 90))]
-    return pos, np.asarray(size + look, dtype=np.float32)
+    return pos, np.asarray(size + look + _texture_energy(rgb, mask), dtype=np.float32)
+
+
+def _texture_energy(rgb: np.ndarray, mask: np.ndarray) -> list[float]:
+    """Fine texture inside a mask at full resolution (brushed metal's streaks, rubber's grain, wood's
+    rings against smooth plastic and ceramic): the mean absolute brightness step to the right and
+    downward neighbours where both pixels are the object's, relative to the mean brightness, and the
+    ratio of the two (streaks run one way)."""
+    r0, r1 = np.nonzero(mask.any(axis=1))[0][[0, -1]]
+    c0, c1 = np.nonzero(mask.any(axis=0))[0][[0, -1]]
+    m = mask[r0:r1 + 1, c0:c1 + 1]
+    v = rgb[r0:r1 + 1, c0:c1 + 1].astype(np.float32).max(axis=2) / 255.0
+    mean = float(v[m].mean()) + 0.05
+    both_x, both_y = m[:, 1:] & m[:, :-1], m[1:] & m[:-1]
+    dx = float(np.abs(np.diff(v, axis=1))[both_x].mean()) if both_x.any() else 0.0
+    dy = float(np.abs(np.diff(v, axis=0))[both_y].mean()) if both_y.any() else 0.0
+    return [10 * dx / mean, 10 * dy / mean, (max(dx, dy) + 1e-3) / (min(dx, dy) + 1e-3) - 1]
 
 
 def _block(cin: int, cout: int) -> nn.Module:
@@ -287,10 +331,17 @@ class Perception:
                               f"{FORMAT} (train it again with `samplehd train perception`)")
         self.config = dict(config)
         self.vocab: dict[str, list[str]] = {k: list(v) for k, v in config["attributes"].items()}
+        self.kinds: list[str] = list(config["kinds"])
         self.device = device or torch.device("cpu")
         arch = config["model"]
         self.net = PerceptionNet(arch["seg_width"], arch["attr_width"],
-                                 [len(self.vocab[a]) for a in ATTRIBUTES]).to(self.device)
+                                 [*(len(self.vocab[a]) for a in ATTRIBUTES), len(self.kinds)]).to(self.device)
+        # kind -> class and size index, to turn the kind head's probabilities into class and size ones
+        parts = [k.split("/") for k in self.kinds]
+        self._kind_class = np.array([self.vocab["name"].index(p[0]) for p in parts])
+        self._kind_size = np.array([self.vocab["size"].index(p[2]) for p in parts])
+        templates = config.get("size_templates") or {}
+        self._templates = {k: (np.asarray(v[0], float), np.asarray(v[1], float)) for k, v in templates.items()}
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
@@ -320,7 +371,17 @@ class Perception:
         if f > 1:
             masks = [np.kron(m, np.ones((f, f), bool))[: rgb.shape[0], : rgb.shape[1]] for m in masks]
             masks = [np.pad(m, ((0, rgb.shape[0] - m.shape[0]), (0, rgb.shape[1] - m.shape[1]))) for m in masks]
-        return masks
+        return [m for m in masks if self._plausible(m, depth, height, camera)]
+
+    def _plausible(self, mask: np.ndarray, depth: np.ndarray, height: np.ndarray, camera: Mapping[str, Any]) -> bool:
+        """Whether an instance can be an object: it rises above the table top (a patch of the table's
+        grain or a highlight on it does not: the thinnest object part, a small fork's head, is 2.4 mm),
+        and it lies within the arm's reach, where scenes place objects (with a margin)."""
+        if float(np.percentile(height[mask], 95)) < MIN_RISE:
+            return False
+        rows, cols = np.nonzero(mask)
+        xy = backproject(depth, rows, cols, camera)[:, :2].mean(axis=0)
+        return float(np.hypot(*(xy - np.asarray(LAYOUT.robot_base)))) <= LAYOUT.reach_max + REACH_MARGIN
 
     def classify(self, rgb: np.ndarray, depth: np.ndarray, masks: Sequence[np.ndarray],
                  camera: Mapping[str, Any], height: np.ndarray | None = None) -> list[dict[str, Any]]:
@@ -338,6 +399,7 @@ class Perception:
             mirrored = self.net.attributes(torch.flip(x, dims=(3,)), sizes)
             probs = [torch.softmax(o, 1) + torch.softmax(m, 1) for o, m in zip(outs, mirrored, strict=True)]
         probs = [(p / 2).cpu().numpy() for p in probs]
+        probs = self._with_kinds(probs, [g[1] for g in geo])
         result = []
         for k, (pos, size) in enumerate(geo):
             attrs = {a: self.vocab[a][int(probs[j][k].argmax())] for j, a in enumerate(ATTRIBUTES)}
@@ -345,6 +407,49 @@ class Perception:
                       for j, a in enumerate(ATTRIBUTES)}
             result.append({**attrs, "position": pos, "metric_size": size[:3] / 10.0, "scores": scores})
         return result
+
+    def _with_kinds(self, probs: list[np.ndarray], features: Sequence[np.ndarray] | None = None) -> list[np.ndarray]:
+        """Class and size probabilities averaged with the kind head's: its class marginal, and its size
+        distribution given the class so found (the four attribute heads' probabilities, in order).
+
+        With size templates in the config and the instances' measured ``features``, the size is the
+        measured dimensions' nearest kind of that class instead (:func:`size_templates`)."""
+        name_p, colour_p, material_p, size_p, kind_p = probs
+        n = len(kind_p)
+        by_class = np.zeros_like(name_p)
+        np.add.at(by_class.T, self._kind_class, kind_p.T)
+        name_p = (name_p + by_class) / 2
+        best = name_p.argmax(axis=1)
+        size_given = np.zeros_like(size_p)
+        for i in range(n):
+            mine = self._kind_class == best[i]
+            np.add.at(size_given[i], self._kind_size[mine], kind_p[i, mine])
+        total = size_given.sum(axis=1, keepdims=True)
+        size_given = np.where(total > 1e-6, size_given / np.maximum(total, 1e-6), size_p)
+        size_p = (size_p + size_given) / 2
+        if self._templates and features is not None:
+            for i in range(n):
+                measured = self._size_by_template(self.vocab["name"][best[i]], features[i])
+                if measured is not None:
+                    size_p[i] = measured
+        return [name_p, colour_p, material_p, size_p]
+
+    def _size_by_template(self, name: str, features: np.ndarray) -> np.ndarray | None:
+        """Size probabilities from the measured dimensions (log long and short extent, log top height):
+        a Gaussian score of each kind of the class around its training median, summed by size."""
+        x = np.asarray(features[3:6], float)
+        scores, sizes = [], []
+        for kind, (mu, sd) in self._templates.items():
+            cls, _, size = kind.split("/")
+            if cls == name:
+                scores.append(-0.5 * float(np.sum(((x - mu) / sd) ** 2)))
+                sizes.append(self.vocab["size"].index(size))
+        if not scores:
+            return None
+        w = np.exp(np.asarray(scores) - max(scores))
+        out = np.zeros(len(self.vocab["size"]))
+        np.add.at(out, sizes, w)
+        return out / out.sum()
 
     def perceive(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
                  directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
@@ -488,8 +593,8 @@ def _view_mask(mask: np.ndarray, factor: int, rng: np.random.Generator) -> np.nd
     return out
 
 
-def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], factor: int,
-             table_height: float, seed: int, quiet: bool = True) -> dict[str, Any]:
+def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], kinds: Sequence[str],
+             factor: int, table_height: float, seed: int, quiet: bool = True) -> dict[str, Any]:
     """Arrays for training: the segmenter's downsampled inputs and labels, and :data:`CROP_VIEWS`
     crops (with their size features) of every training object."""
     rgbs, dhs, ys, crops, geos, labels, extents = [], [], [], [], [], [], {}
@@ -515,13 +620,32 @@ def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[st
                     jitter = None if view == 0 else rng.uniform([-0.06, -0.06, -0.12], [0.06, 0.06, 0.12])
                     crops.append(_crop(rgb, depth, height, m, CROP, jitter).astype(np.float16))
                     geos.append(_geometry(rgb, depth, m, ann["camera"], table_height)[1])
-                labels.append([vocab[a].index(o["name"] if a == "name" else o[a]) for a in ATTRIBUTES])
+                labels.append([*(vocab[a].index(o["name"] if a == "name" else o[a]) for a in ATTRIBUTES),
+                               kinds.index(_kind(o))])
                 extents.setdefault(f"{o['name']}/{o['size']}", []).append(o["bbox"]["extents"])
     n = len(labels)
     return {"rgb": np.stack(rgbs), "dh": np.stack(dhs), "y": np.stack(ys),
             "crops": np.stack(crops).reshape(n, CROP_VIEWS, CROP_CHANNELS, CROP, CROP),
             "geo": np.stack(geos).reshape(n, CROP_VIEWS, N_FEATURES), "labels": np.asarray(labels, np.int64),
             "extents": {k: np.median(np.asarray(v), axis=0).round(4).tolist() for k, v in sorted(extents.items())}}
+
+
+def size_templates(geo: np.ndarray, kinds_of: np.ndarray, kinds: Sequence[str]) -> dict[str, list[list[float]]]:
+    """Per kind (class/variant/size) of the training objects: the median and spread (standard deviation
+    + 0.03) of the measured log dimensions (:func:`_geometry`'s long and short extent and top height)
+    over every training view. A size is a scale of a variant, so within a recognised class the nearest
+    kind names the size; measured the same way in training and use, the templates carry the
+    measurement's own bias (a cylinder's visible depth is its radius, not its diameter).
+
+    Args:
+        geo: (objects, views, :data:`N_FEATURES`) measured features.
+        kinds_of: (objects,) index of each object's kind in ``kinds``.
+    """
+    out = {}
+    for k in np.unique(kinds_of):
+        x = geo[kinds_of == k][:, :, 3:6].reshape(-1, 3).astype(float)
+        out[kinds[int(k)]] = [np.median(x, axis=0).round(4).tolist(), (x.std(axis=0) + 0.03).round(4).tolist()]
+    return out
 
 
 def prepared_arrays(out: Path, key: Mapping[str, Any], make: Callable[[], dict[str, Any]]) -> dict[str, Any]:
@@ -565,6 +689,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     reader = open_dataset(dataset)
     data = scene_examples(reader)
     vocab = attribute_vocab()
+    kinds = kind_vocab()
     width = int(data["train"][0]["annotation"]["camera"]["width"])
     height = int(data["train"][0]["annotation"]["camera"]["height"])
     factor = 2 if width >= 400 else 1
@@ -572,20 +697,22 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     set_seed(seed)
     key = {"format": FORMAT, "features": N_FEATURES, "dataset": str(Path(dataset).resolve()), "factor": factor,
            "crop": CROP, "views": CROP_VIEWS, "seed": seed, "table_height": LAYOUT.table_height,
-           "scenes": [str(Path(item["rgb"]).name) for item in data["train"]], "vocab": vocab}
+           "scenes": [str(Path(item["rgb"]).name) for item in data["train"]], "vocab": vocab, "kinds": kinds}
     with timed() as prep_time:
-        arrays = prepared_arrays(Path(out), key, lambda: _prepare(data["train"], vocab, factor, LAYOUT.table_height,
-                                                                  seed, quiet))
+        arrays = prepared_arrays(Path(out), key, lambda: _prepare(data["train"], vocab, kinds, factor,
+                                                                  LAYOUT.table_height, seed, quiet))
     config = {
         "kind": "perception",
         "format": FORMAT,
         "dataset": str(dataset),
         "model": {"seg_width": seg_width, "attr_width": attr_width},
         "attributes": vocab,
+        "kinds": kinds,
         "image": {"camera": "scene", "width": width, "height": height},
         "seg_downsample": factor,
         "table_height": LAYOUT.table_height,
         "extents": arrays["extents"],
+        "size_templates": size_templates(arrays["geo"], arrays["labels"][:, len(ATTRIBUTES)], kinds),
         "train": {"steps": steps, "seed": seed, "seg_batch": seg_batch, "attr_batch": attr_batch, "patch": patch,
                   "seg_every": seg_every, "lr": lr, "scenes": len(data["train"]), "objects": len(arrays["labels"])},
     }

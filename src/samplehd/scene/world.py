@@ -263,8 +263,8 @@ def _add_backdrop(spec: mujoco.MjSpec) -> None:
 def _add_lights(spec: mujoco.MjSpec) -> None:
     wb = spec.worldbody
     key = wb.add_light(name="key_light", pos=[0.9, 0.6, 2.8], dir=[-0.35, -0.2, -1.0])
-    key.diffuse = [0.65, 0.63, 0.60]
-    key.specular = [0.3, 0.3, 0.3]
+    key.diffuse = [0.56, 0.54, 0.52]
+    key.specular = [0.5, 0.5, 0.5]
     key.castshadow = True
     key.cutoff = 60
     fill = wb.add_light(name="fill_light", pos=[1.5, -1.5, 2.2], dir=[-0.5, 0.5, -0.6])
@@ -272,9 +272,17 @@ def _add_lights(spec: mujoco.MjSpec) -> None:
     fill.specular = [0.05, 0.05, 0.05]
     fill.castshadow = False
     fill.cutoff = 80
+    # The window in the back wall: little light, but its reflection on glossy tops (plates, boards,
+    # trays) faces the scene camera, so materials show by their highlights (see materials.json).
+    window = wb.add_light(name="window_light", pos=[-1.40, 0.0, 1.75], dir=[1.0, 0.0, -0.62])
+    window.diffuse = [0.10, 0.10, 0.11]
+    window.specular = [0.25, 0.25, 0.25]
+    window.castshadow = False
+    window.cutoff = 60
     spec.visual.headlight.ambient = [0.28, 0.28, 0.28]
     spec.visual.headlight.diffuse = [0.12, 0.12, 0.12]
-    spec.visual.headlight.specular = [0.0, 0.0, 0.0]
+    # A camera-side highlight: broad on metal and plastic, sharp on ceramic, none on rubber.
+    spec.visual.headlight.specular = [0.6, 0.6, 0.6]
 
 
 def build_world(
