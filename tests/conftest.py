@@ -1,7 +1,7 @@
 """Shared fixtures: expensive things (compiled worlds, renderers) are built once per session.
 
 The suite is hermetic: before anything reads them, the user registry of imported classes, the
-decomposition cache point at a private empty directory, and every
+decomposition cache and numba's cache of compiled code point at a private empty directory, and every
 subprocess a test starts inherits that. Nothing a user imported can change what the suite sees.
 """
 
@@ -18,6 +18,8 @@ import pytest
 _PRIVATE_HOME = Path(tempfile.mkdtemp(prefix="samplehd-tests-"))
 os.environ["SAMPLEHD_REGISTRY_DIR"] = str(_PRIVATE_HOME / "registry")
 os.environ["SAMPLEHD_CACHE_DIR"] = str(_PRIVATE_HOME / "cache")
+# numba's compiled-code cache (the free-spot loops) goes there too, not beside the sources or in the home
+os.environ["NUMBA_CACHE_DIR"] = str(_PRIVATE_HOME / "numba")
 
 import samplehd  # noqa: E402,F401  (sets MUJOCO_GL before mujoco is imported)
 

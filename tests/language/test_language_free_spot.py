@@ -253,30 +253,49 @@ def test_reach_annulus_from_squares_answers_as_the_hypotenuse() -> None:
     reach = np.hypot(x, y)
     expected = (reach >= LAYOUT.reach_min) & (reach <= LAYOUT.reach_max)
     assert expected.any() and not expected.all()
-    np.testing.assert_array_equal(_in_annulus(x[:, None], y[:, None], (len(x), 1), LAYOUT)[:, 0], expected)
-    # broadcast over a grid of rows and columns, as the part grids use it
-    gx, gy = x[:60, None], y[None, :70]
+    keep = np.ones((1, len(x), 1), bool)
+    _in_annulus(keep, x[None, :, None], y[None, :, None], LAYOUT)
+    np.testing.assert_array_equal(keep[0, :, 0], expected)
+    # broadcast over a grid of rows and columns, as the part grids use it, on the spots kept only
+    gx, gy = x[None, :60, None], y[None, None, :70]
     reach = np.hypot(gx, gy)
-    np.testing.assert_array_equal(_in_annulus(gx, gy, (60, 70), LAYOUT),
-                                  (reach >= LAYOUT.reach_min) & (reach <= LAYOUT.reach_max))
+    keep = rng.random((1, 60, 70)) < 0.8
+    want = keep & (reach >= LAYOUT.reach_min) & (reach <= LAYOUT.reach_max)
+    _in_annulus(keep, gx, gy, LAYOUT)
+    np.testing.assert_array_equal(keep, want)
 
 
-def test_best_first_is_a_prefix_of_the_stable_order_long_enough() -> None:
-    """The best spots come as the start of the stable argsort, ties included, at least as many as asked
-    for, whether the bound found among every 8th key holds enough keys or not."""
+def test_best_spots_are_a_prefix_of_the_stable_order_long_enough() -> None:
+    """The best spots come as the start of the stable argsort of their scores, ties included, at least
+    as many as asked for; the gap to the nearest neighbour (on a part grid from its rows and columns, past
+    a reference from the centres), the cap and the shortlist's running sum are numpy's numbers."""
     import numpy as np
 
-    from samplehd.world.free_spot import _best_first
+    from samplehd.world.spot_kernels import best_spots
 
     rng = np.random.default_rng(5)
-    for n, needed, levels in ((4910, 221, 0), (3000, 2000, 0), (500, 400, 0), (2000, 150, 7), (64, 63, 3), (40, 50, 0)):
-        key = rng.normal(size=n) if not levels else rng.integers(0, levels, n).astype(float)  # many ties
-        if n == 3000:
-            key[::8] = -10.0  # every 8th key the smallest: the bound among them holds too few, the fallback runs
-        got = _best_first(key, needed)
-        order = np.argsort(key, kind="stable")
-        assert len(got) >= min(needed, n)
-        np.testing.assert_array_equal(got, order[: len(got)])
+    objects = [_obj("mug", (0.05, -0.25), (0.08, 0.1), 30.0), _obj("plate", (0.15, -0.15), (0.2, 0.2)),
+               _obj("bowl", (-0.05, 0.2), (0.14, 0.14))]
+    fs = ConstraintContext(parse_scene({"objects": objects})).free_spots()
+    for spots in (fs._part_spots(0, "right"), fs._beside_spots(0, 2, (1.0, 0.0))):
+        assert spots is not None
+        g, m = spots.grid, len(spots.keep)
+        for needed, levels, n_near in ((221, 0, 2), (2000, 0, 3), (50, 7, 1), (10**6, 3, 0), (400, 0, 2)):
+            free = spots.keep & (rng.random(m) < 0.7)
+            score = rng.normal(size=m) if not levels else rng.integers(0, levels, m).astype(float)  # many ties
+            neighbours = rng.uniform(-0.4, 0.4, (n_near, 2))
+            shares = rng.uniform(0.0, 0.05, m)
+            ranked, count = best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, score, shares, 0.25,
+                                       needed, 12.0)
+            idx = np.flatnonzero(free)
+            gap = np.full(len(idx), np.inf)
+            if n_near:
+                gap = np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
+            order = idx[np.argsort(-np.minimum(gap, 0.25) + score[idx], kind="stable")]
+            assert len(ranked) >= min(needed, len(idx))
+            np.testing.assert_array_equal(ranked, order[: len(ranked)])
+            want = max(1, int(np.searchsorted(np.cumsum(shares[ranked]), 12.0, side="right")))
+            assert count == want
 
 
 def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
@@ -284,7 +303,7 @@ def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
     with their samples summed from the counts, give what a spot-by-spot mask and sum give."""
     import numpy as np
 
-    from samplehd.world.free_spot import _counts_outside, _covered
+    from samplehd.world.spot_kernels import counts_outside, uncovered
 
     objects = [_obj("mug", (0.05, -0.25), (0.08, 0.1), 30.0), _obj("plate", (0.15, -0.15), (0.2, 0.2)),
                _obj("bowl", (-0.05, 0.2), (0.14, 0.14))]
@@ -299,10 +318,160 @@ def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
         last = rng.integers(-1, nc, (4, nt, nr)).astype(float)
         last[:, :, ::5] = nc - 1  # runs that end their row
         runs = (col >= first[..., None]) & (col <= last[..., None])  # (R, t, r, c)
-        np.testing.assert_array_equal(_covered(spots, first, last), runs.any(axis=0).ravel())
         free = rng.random(nt * nr * nc) < 0.7
-        counts = _counts_outside(spots, free, first, last)
+        use = np.array([True, False, True, True])
+        np.testing.assert_array_equal(uncovered(free, first, last, use, nc), free & ~runs[use].any(axis=0).ravel())
+        counts = counts_outside(free, first, last, nc)
         for i in range(len(first)):
             left = free & ~runs[i].ravel()
             np.testing.assert_array_equal(counts[i], left.reshape(nt, -1).sum(axis=1))
             assert spots_of._hits_counted(spots, counts[i].tolist()) == spots_of._hits(spots, left)
+
+
+def _runs_by_arrays(q0, along, across, lim, u, lo, width, count):  # type: ignore[no-untyped-def]
+    """The runs of columns computed on whole arrays, the four slabs' bounds per row then their
+    intersection: the reference the compiled loop must equal bit for bit."""
+    import numpy as np
+
+    q = q0[..., None] - along[..., None] * u  # (R, t, 4, r)
+    lim, across = lim[..., None], across[..., None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a, b = (q - lim) / across, (q + lim) / across
+    inside = np.abs(q) <= lim
+    low = np.where(across == 0, np.where(inside, -np.inf, np.inf), np.minimum(a, b)).max(axis=2)
+    high = np.where(across == 0, np.where(inside, np.inf, -np.inf), np.maximum(a, b)).min(axis=2)
+    first = np.clip(np.ceil((low - lo) / width - 0.5), 0, count)
+    last = np.clip(np.floor((high - lo) / width - 0.5), -1, count - 1)
+    return first, last
+
+
+def test_compiled_runs_equal_the_array_computation_bit_for_bit() -> None:
+    """The compiled runs of columns equal the whole-array computation exactly, on the spots of real
+    scenes (part grids and grids past a reference) against every object, rows outside those asked for
+    left without a run, and on random slabs including axes that ignore the columns."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import column_runs
+
+    checked = 0
+    for n in (5, 12):
+        for scene in _scenes(n, 2, 4):
+            fs = ConstraintContext(scene).free_spots()
+            for k in range(len(scene.objects)):
+                grids = [fs._part_spots(k, part) for part in ("left", "front")]
+                grids += [s for s in (fs._beside_spots(k, (k + 1) % n, d) for d in ((1.0, 0.0), (0.6, -0.8)))
+                          if s is not None]
+                axes, reach = fs._scene_axes_reach(k)
+                for spots in grids:
+                    g = spots.grid
+                    q0 = np.einsum("rtad,rtd->rta", axes, fs.centre[:, None, :] - g.base[None])
+                    along, across = axes @ g.axes[0], axes @ g.axes[1]
+                    args = (q0, along, across, reach, g.u)
+                    want = _runs_by_arrays(*args, g.lo, g.width, len(g.v))
+                    got = column_runs(*args, 0, len(g.u), float(g.lo), float(g.width), len(g.v))
+                    np.testing.assert_array_equal(got[0], want[0])
+                    np.testing.assert_array_equal(got[1], want[1])
+                    r0, r1 = len(g.u) // 3, len(g.u) // 2
+                    part = column_runs(*args, r0, r1, float(g.lo), float(g.width), len(g.v))
+                    np.testing.assert_array_equal(part[0][:, :, r0:r1], want[0][:, :, r0:r1])
+                    assert (part[0][:, :, :r0] == len(g.v)).all() and (part[1][:, :, r1:] == -1).all()
+                    checked += int(((want[0] <= want[1]) & (want[1] < len(g.v) - 1)).sum())
+    assert checked > 1000  # runs ending inside the rows, not only empty or whole rows
+    rng = np.random.default_rng(8)
+    q0, along, across = rng.normal(size=(3, 6, 5, 4)) * 0.3
+    across[:, :, ::2] = 0.0  # axes that ignore the column
+    lim, u = rng.random((6, 5, 4)) * 0.2, np.linspace(-0.3, 0.3, 40)
+    want = _runs_by_arrays(q0, along, across, lim, u, -0.25, 0.01, 50)
+    got = column_runs(q0, along, across, lim, u, 0, len(u), -0.25, 0.01, 50)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+    assert (want[0] <= want[1]).any() and (want[0] > want[1]).any()
+
+
+def test_compiled_near_objects_and_farthest_picks_equal_the_array_computation() -> None:
+    """The objects near a grid's kept spots and the farthest-point picks equal their whole-array
+    computation exactly: on real scenes' grids, and on random points with ties and twins."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import farthest_picks, near_objects
+
+    some = 0
+    for scene in _scenes(12, 2, 5):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(len(scene.objects)):
+            for spots in [fs._part_spots(k, part) for part in ("right", "back")] + [
+                    s for s in (fs._beside_spots(k, (k + 3) % 12, (0.0, -1.0)),) if s is not None]:
+                g, nt = spots.grid, len(spots.turns)
+                kept = spots.keep.reshape(nt, len(g.u), len(g.v)).any(axis=0)
+                rows, cols = np.flatnonzero(kept.any(axis=1)), np.flatnonzero(kept.any(axis=0))
+                near, r0, r1 = near_objects(spots.keep, nt, g.base, g.axes, g.u, g.v, fs.centre, fs._radius, k)
+                if not len(rows):
+                    assert (len(near), r0, r1) == (0, 0, 0)
+                    continue
+                corners = (g.base[:, None, None, :] + g.u[[rows[0], rows[-1]]][None, :, None, None] * g.axes[0]
+                           + g.v[[cols[0], cols[-1]]][None, None, :, None] * g.axes[1]).reshape(-1, 2)
+                lo, hi = corners.min(axis=0), corners.max(axis=0)
+                grow = (fs._radius[k] + fs._radius + 1e-9)[:, None]
+                close = np.abs(fs.centre - (lo + hi) / 2) <= (hi - lo) / 2 + grow
+                want = np.flatnonzero(close[:, 0] & close[:, 1])
+                np.testing.assert_array_equal(near, want[want != k])
+                assert (r0, r1) == (rows[0], rows[-1] + 1)
+                some += 0 < len(near) < len(scene.objects) - 1
+    assert some > 5  # some objects near, some not
+
+    def norms(rows: np.ndarray) -> np.ndarray:
+        return np.sqrt(np.add.reduce(rows * rows, axis=1))
+
+    rng = np.random.default_rng(9)
+    for n in (1, 2, 7, 40, 300):
+        where = rng.normal(size=(n, 3)) * 0.1
+        where[n // 2 :: 3] = where[0]  # twins of the first
+        where[:, 2] = np.round(where[:, 2], 1)  # ties
+        picks, dist = [0], norms(where - where[0])
+        while len(picks) < 6 and dist.max() > 0:
+            picks.append(int(dist.argmax()))
+            dist = np.minimum(dist, norms(where - where[picks[-1]]))
+        np.testing.assert_array_equal(farthest_picks(where, 6), picks)
+
+
+def test_compiled_part_tests_and_annulus_equal_the_array_computation() -> None:
+    """A part's spot tests (bounds, table, reach annulus) from the compiled loops equal the whole-array
+    computation, the annulus decided on the distance itself where the squared one is too near a bound."""
+    import numpy as np
+
+    from samplehd.world.free_spot import _in_annulus
+    from samplehd.world.layout import TableLayout
+    from samplehd.world.spot_kernels import part_keep
+
+    layout = TableLayout()
+    rng = np.random.default_rng(10)
+    table, base = np.asarray(layout.table_size) / 2 - 0.02, np.asarray(layout.robot_base)
+    for _ in range(10):
+        u, v = np.sort(rng.uniform(-0.8, 0.8, 30)), np.sort(rng.uniform(-0.6, 0.6, 25))
+        offsets, half = rng.normal(size=(4, 2)) * 0.03, rng.uniform(0.01, 0.1, (4, 2))
+        lo, hi = np.array([-0.5, -0.4]), np.array([0.4, 0.3])
+        keep, rel_x, rel_y = part_keep(u, v, offsets, half, lo, hi, table, base)
+        ok = []
+        for a, coords in enumerate((u, v)):
+            o = coords[None] - offsets[:, a, None]
+            ok.append((o >= lo[a]) & (o <= hi[a]) & (coords[None] - half[:, a, None] >= -table[a])
+                      & (coords[None] + half[:, a, None] <= table[a]))
+            np.testing.assert_array_equal((rel_x[:, :, 0], rel_y[:, 0, :])[a], o - base[a])
+        want = ok[0][:, :, None] & ok[1][:, None, :]
+        np.testing.assert_array_equal(keep, want)
+        # points on the annulus' bounds and a rounding away from them: the distance itself decides
+        ang = rng.uniform(-np.pi, np.pi, (4, 30, 25))
+        radius = rng.choice([layout.reach_min, layout.reach_max], ang.shape) * (1 + rng.choice([-1, 0, 1], ang.shape)
+                                                                                 * rng.choice([1e-16, 1e-12, 1e-3],
+                                                                                              ang.shape))
+        rx, ry = radius * np.cos(ang), radius * np.sin(ang)
+        got = want.copy()
+        _in_annulus(got, rx, ry, layout)
+        reach = np.hypot(rx, ry)
+        np.testing.assert_array_equal(got, want & (reach >= layout.reach_min) & (reach <= layout.reach_max))
+        got = want.copy()
+        _in_annulus(got, rel_x, rel_y, layout)  # broadcast offsets
+        reach = np.hypot(rel_x, rel_y)
+        np.testing.assert_array_equal(got, want & (reach >= layout.reach_min) & (reach <= layout.reach_max))

@@ -28,7 +28,7 @@ from samplehd.viewer.server import open_dataset
 def _get(url: str, path: str, method: str = "GET") -> tuple[int, dict[str, str], bytes]:
     """Send ``path`` verbatim (no client-side normalisation of ``..``)."""
     parts = urlsplit(url)
-    conn = http.client.HTTPConnection(parts.hostname, parts.port, timeout=10)
+    conn = http.client.HTTPConnection(parts.hostname, parts.port, timeout=60)
     conn.request(method, path)
     response = conn.getresponse()
     body = response.read()
@@ -321,7 +321,7 @@ def test_cli_view_serves_until_interrupted(tiny_dataset: Path, dataset_files: Da
         assert status == 200 and json.loads(body)["counts"]["scenes"] == len(dataset_files.scenes)
     finally:
         proc.send_signal(signal.SIGINT)
-        deadline = time.monotonic() + 10
+        deadline = time.monotonic() + 60  # a loaded machine may be slow to shut down
         while proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
         if proc.poll() is None:

@@ -92,6 +92,15 @@ class SpotSearch:
         return cls(c.spot_margin, c.part_margin, c.relation_gap, int(c.spot_samples), step, min_hits)
 
 
+@functools.cache
+def _kernels() -> Any:
+    """The compiled loops (:mod:`samplehd.world.spot_kernels`), loaded when a spot is first tested: importing
+    numba and compiling cost seconds that a process which never tests a spot should not pay."""
+    from samplehd.world import spot_kernels
+
+    return spot_kernels
+
+
 def _cells(lo: float, hi: float, step: float) -> np.ndarray:
     """Centres of equal cells about ``step`` wide covering [lo, hi] (one cell if it is narrower)."""
     n = max(1, math.ceil((hi - lo) / step - 1e-9))
@@ -120,13 +129,6 @@ class _Grid:
     lo: float
     width: float
     on_axes: bool  # e1, e2 are x, y and base is 0: centre (u[i], v[j]) exactly
-
-    def box(self, rows: tuple[int, int], cols: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper corners (x, y) of the box around the footprint centres of every turn's spots
-        in rows ``rows[0]``..``rows[1]`` and columns ``cols[0]``..``cols[1]`` [m]."""
-        corners = (self.base[:, None, None, :] + self.u[list(rows)][None, :, None, None] * self.axes[0]
-                   + self.v[list(cols)][None, None, :, None] * self.axes[1]).reshape(-1, 2)
-        return corners.min(axis=0), corners.max(axis=0)
 
 
 @dataclass(frozen=True)
@@ -169,6 +171,13 @@ class _Spots:
     def centre(self) -> np.ndarray:
         """(m, 2) footprint centres [m] (only the ranking of spots needs them)."""
         return self.centre_of()
+
+    def shares(self, samples: int) -> np.ndarray:
+        """(m,) how many of ``samples`` first-try samples are expected on each spot (memoised)."""
+        memo = self.__dict__.setdefault("_shares", {})
+        if samples not in memo:
+            memo[samples] = samples * self.weight
+        return memo[samples]
 
     @functools.cached_property
     def score(self) -> np.ndarray:
@@ -274,14 +283,14 @@ class FreeSpots:
                                         np.broadcast_to(self.half[k], (len(at), 2)))
                 # the next object's free spots each option leaves, counted per turn: the samples on them
                 # are summed exactly as over the spots themselves (a part's spots weigh alike per turn)
-                counts = _counts_outside(nxt_spots, nxt_free, first, lst)
+                counts = _kernels().counts_outside(nxt_free, first, lst, len(nxt_spots.grid.v))
                 room_left = [self._hits_counted(nxt_spots, c) for c in counts.tolist()]
                 best = room_left.index(min(room_left))  # the first smallest, as np.argmin
                 chosen = options[best]
                 if n + 2 == len(arriving) and self.reach_is_annulus:  # the next is the last to arrive
                     return room_left[best] >= self.search.min_hits and sum(counts[best]) > 0
-                j = np.arange(len(nxt_spots.grid.v), dtype=float)
-                free = nxt_free & ~((j >= first[best][..., None]) & (j <= lst[best][..., None])).ravel()
+                free = _kernels().uncovered(nxt_free, first[best : best + 1], lst[best : best + 1], np.ones(1, bool),
+                                            len(nxt_spots.grid.v))
             placed.append(self._rect(k, spots, chosen))
         return True
 
@@ -325,11 +334,12 @@ class FreeSpots:
         rectangles of those already moved."""
         others = present.copy()
         others[k] = False
-        there = others[spots.near]
-        free = spots.keep & ~_covered(spots, spots.first[there], spots.last[there])
+        kernels, count = _kernels(), len(spots.grid.v)
+        free = kernels.uncovered(spots.keep, spots.first, spots.last, others[spots.near], count)
         if placed:
             c, r, h = (np.stack(a) for a in zip(*placed, strict=True))
-            free &= ~_covered(spots, *self._runs(k, spots, c, r, h))
+            first, last = self._runs(k, spots, c, r, h)
+            free = kernels.uncovered(free, first, last, np.ones(len(first), bool), count)
         return free
 
     def _neighbours(self, k: int, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
@@ -337,19 +347,6 @@ class FreeSpots:
         others = present.copy()
         others[k] = False
         return np.concatenate([self.centre[others], *(rect[0][None] for rect in placed)])
-
-    def _gaps(self, spots: _Spots, idx: np.ndarray, neighbours: np.ndarray) -> np.ndarray:
-        """Distance from each spot in ``idx`` to the nearest neighbour centre [m] (inf: none)."""
-        if not len(neighbours):
-            return np.full(len(idx), np.inf)
-        g = spots.grid
-        if g.on_axes:  # squared distances split along x and y: computed per row and per column
-            dx, dy = g.u[:, None] - neighbours[:, 0], g.v[:, None] - neighbours[:, 1]
-            # neighbours along the first axis, the minimum taken slab by slab (exact, so the same numbers)
-            nearest = np.sqrt(functools.reduce(np.minimum, (dx * dx).T[:, :, None] + (dy * dy).T[:, None, :]))
-            nearest = nearest.ravel()
-            return nearest[idx % len(nearest)]
-        return np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
 
     def _options(self, k: int, spots: _Spots, free: np.ndarray, neighbours: np.ndarray) -> list[int]:
         """Free spots the planner may put object k on, spread over the ones it may pick; none where
@@ -360,21 +357,16 @@ class FreeSpots:
         """
         if self._hits(spots, free) < self.search.min_hits:
             return []
-        idx = np.flatnonzero(free)
-        gap = self._gaps(spots, idx, neighbours)
-        ranked = idx[_best_first(-np.minimum(gap, placement.SPOT_ROOM_CAP) + spots.score[idx],
-                                 self._ranks_needed(spots))]
-        samples = np.cumsum(self.search.samples * spots.weight[ranked])
-        best = ranked[: max(1, int(np.searchsorted(samples, placement.SPOT_SHORTLIST, side="right")))]
+        g, kernels = spots.grid, _kernels()
+        ranked, count = kernels.best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, spots.score,
+                                           spots.shares(self.search.samples), placement.SPOT_ROOM_CAP,
+                                           self._ranks_needed(spots), float(placement.SPOT_SHORTLIST))
+        best = ranked[:count]
         # spread: farthest-point picks over position and turn (a long object's turn matters as much)
         where = np.empty((len(best), 3))
         where[:, :2] = spots.centre[best]
         where[:, 2] = _TURN_SPREAD * spots.turns[spots.turn[best]]
-        picks = [0]
-        dist = _norms(where - where[0])
-        while len(picks) < placement.SPOT_OPTIONS and dist.max() > 0:
-            picks.append(int(dist.argmax()))
-            dist = np.minimum(dist, _norms(where - where[picks[-1]]))
+        picks = kernels.farthest_picks(where, placement.SPOT_OPTIONS)
         if self.reach_is_annulus and self._surely_in_reach(spots, best[picks]):
             return [int(j) for j in best[picks]]
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
@@ -438,37 +430,17 @@ class FreeSpots:
     def _runs_on(self, spots: _Spots, c: np.ndarray, axes: np.ndarray, reach: np.ndarray,
                  rows: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`_runs` for rectangles with centres ``c`` (R, 2), given their test's axes and reach, on the
-        grid's rows ``rows`` (the same numbers on each row as for the whole grid)."""
+        grid's rows ``rows`` (the same numbers on each row as for the whole grid; no run on the others).
+
+        The axes' projections (R, t, 4) are taken here; the four slabs per row, their intersection and its
+        columns are one compiled loop (:func:`samplehd.world.spot_kernels.column_runs`)."""
         g = spots.grid
         q0 = np.einsum("rtad,rtd->rta", axes, c[:, None, :] - g.base[None])  # (R, t, 4)
         along = axes @ g.axes[0]  # (R, t, 4): how the projection moves per metre along a row
-        across = (axes @ g.axes[1])[..., None]  # ... and along a column
-        q = q0[..., None] - along[..., None] * g.u[rows]  # (R, t, 4, r): the projection at column v = 0
-        lim = reach[..., None]
-        flat = across == 0  # an axis that ignores the column: all or none, by the row
-        if not flat.any():
-            a, b = (q - lim) / across, (q + lim) / across
-            low, high = np.minimum(a, b), np.maximum(a, b)
-        else:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                a, b = (q - lim) / across, (q + lim) / across
-            low, high = np.minimum(a, b), np.maximum(a, b)
-            inside = np.abs(q) <= lim
-            low = np.where(flat, np.where(inside, -np.inf, np.inf), low)
-            high = np.where(flat, np.where(inside, np.inf, -np.inf), high)
-        count = len(g.v)
-        # the tightest of the four bounds, pairwise (max and min are exact: the same numbers), as columns
-        low = np.maximum(np.maximum(low[:, :, 0], low[:, :, 1]), np.maximum(low[:, :, 2], low[:, :, 3]))
-        high = np.minimum(np.minimum(high[:, :, 0], high[:, :, 1]), np.minimum(high[:, :, 2], high[:, :, 3]))
-        # (R, t, r), clipped to the grid's columns (np.clip's dispatch costs more than the arithmetic)
-        both = np.stack([low, high])
-        both -= g.lo
-        both /= g.width
-        both -= 0.5
-        first, last = np.ceil(both[0]), np.floor(both[1])
-        np.minimum(np.maximum(first, 0, out=first), count, out=first)
-        np.minimum(np.maximum(last, -1, out=last), count - 1, out=last)
-        return first, last
+        across = axes @ g.axes[1]  # ... and along a column
+        r0, r1, _ = rows.indices(len(g.u))
+        return _kernels().column_runs(np.ascontiguousarray(q0), along, across, reach, g.u, r0, r1, float(g.lo),
+                                      float(g.width), len(g.v))
 
     def _part_spots(self, k: int, part: str) -> _Spots:
         key = ("part", k, part)
@@ -479,15 +451,8 @@ class FreeSpots:
             table, base = self._table, self._base
             # the tests of table_and_reach and the part's bounds, each on x or y alone or on the frame
             # origin's distance from the base: computed per turn and row, per turn and column
-            keep_axis, rel = [], []
-            for a, coords in enumerate((grid.u, grid.v)):
-                o = coords[None] - offsets[:, a, None]  # (t, r or c) origin coordinate
-                c_lo, c_hi = coords[None] - half[:, a, None], coords[None] + half[:, a, None]
-                keep_axis.append((o >= lo[a]) & (o <= hi[a]) & (c_lo >= -table[a]) & (c_hi <= table[a]))
-                rel.append(o - base[a])
-            keep = keep_axis[0][:, :, None] & keep_axis[1][:, None, :]
-            rel_x, rel_y = rel[0][:, :, None], rel[1][:, None, :]
-            keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
+            keep, rel_x, rel_y = _kernels().part_keep(grid.u, grid.v, offsets, half, lo, hi, table, base)
+            _in_annulus(keep, rel_x, rel_y, self.layout)
             self._memo[key] = self._spots(k, grid, lambda: centre, offsets, turn, weight, 0.0, keep.ravel(),
                                           lambda: np.hypot(rel_x, rel_y).ravel())
         return self._memo[key]
@@ -541,7 +506,7 @@ class FreeSpots:
                 self._memo[key] = None
                 return None
             rel_x, rel_y = rel
-            keep &= _in_annulus(rel_x, rel_y, keep.shape, self.layout)
+            _in_annulus(keep, rel_x, rel_y, self.layout)
             grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
                          grid_axes, dists, lats, v_lo, v_width, False)
             self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
@@ -588,25 +553,14 @@ class FreeSpots:
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             # the objects whose rectangle, with both margins, comes within reach of the box around the
             # spots that pass the tests without other objects (the others' overlaps matter nowhere else)
-            kept = spots.keep.reshape(len(self.turns), len(grid.u), len(grid.v)).any(axis=0)
-            rows, cols = np.flatnonzero(kept.any(axis=1)), np.flatnonzero(kept.any(axis=0))
-            near = rows[:0]
-            if len(rows):
-                lo, hi = grid.box((rows[0], rows[-1]), (cols[0], cols[-1]))
-                radius = self._radius[k] + self._radius + 1e-9
-                close = np.abs(self.centre - (lo + hi) / 2) <= ((hi - lo) / 2 + radius[:, None])
-                near = np.flatnonzero(close[:, 0] & close[:, 1])
-                near = near[near != k]
+            near, r0, r1 = _kernels().near_objects(spots.keep, len(self.turns), grid.base, grid.axes, grid.u, grid.v,
+                                                   self.centre, self._radius, k)
             if not len(near):
                 none = np.zeros((0, len(self.turns), len(grid.u)))
                 return near, none, none
             axes, reach = self._scene_axes_reach(k)
             # on the rows holding such spots only: elsewhere no run is marked (no spot there can be free)
-            shape = (len(near), len(self.turns), len(grid.u))
-            first, last = np.full(shape, float(len(grid.v))), np.full(shape, -1.0)
-            held = slice(rows[0], rows[-1] + 1)
-            first[:, :, held], last[:, :, held] = self._runs_on(spots, self.centre[near], axes[near], reach[near],
-                                                                held)
+            first, last = self._runs_on(spots, self.centre[near], axes[near], reach[near], slice(r0, r1))
             return near, first, last
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
@@ -614,68 +568,22 @@ class FreeSpots:
         return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, score_of, keep,
                       blockers_of)
 
-def _norms(rows: np.ndarray) -> np.ndarray:
-    """Euclidean length of each row, as ``np.linalg.norm(rows, axis=1)`` computes it for real rows."""
-    return np.sqrt(np.add.reduce(rows * rows, axis=1))
-
-
-def _in_annulus(rel_x: np.ndarray, rel_y: np.ndarray, shape: tuple[int, ...], layout: TableLayout) -> np.ndarray:
-    """``reach_min <= hypot(rel_x, rel_y) <= reach_max`` (broadcast to ``shape``), with the hypotenuse
-    taken only where the squared distance is too near either bound to decide it: the same answers.
-    """
-    sq = rel_x * rel_x + rel_y * rel_y
+def _in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, layout: TableLayout) -> None:
+    """Keep (in place, keep (t, r, c)) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``
+    (offsets of shapes that broadcast to keep's), with the hypotenuse taken only where the squared distance
+    is too near either bound to decide it: the same answers."""
     lo, hi = layout.reach_min ** 2, layout.reach_max ** 2
     tol = 1e-9  # far above the rounding of the squares, far below any real distance
-    inside = (sq >= lo * (1 + tol)) & (sq <= hi * (1 - tol))
-    gap = np.abs(sq - lo)
-    unsure = gap < lo * 2 * tol
-    np.abs(np.subtract(sq, hi, out=gap), out=gap)
-    unsure |= gap < hi * 2 * tol
-    if inside.shape != shape:
-        inside = np.broadcast_to(inside, shape).copy()
-    if unsure.any():
-        unsure = np.broadcast_to(unsure, shape)
-        reach = np.hypot(np.broadcast_to(rel_x, shape)[unsure], np.broadcast_to(rel_y, shape)[unsure])
-        inside[unsure] = (reach >= layout.reach_min) & (reach <= layout.reach_max)
-    return inside
+    unsure, xs, ys = _kernels().annulus_and(keep, rel_x, rel_y, lo, hi, lo * (1 + tol), hi * (1 - tol), lo * 2 * tol,
+                                            hi * 2 * tol)
+    if len(unsure):
+        reach = np.hypot(xs, ys)
+        keep.reshape(-1)[unsure] = (reach >= layout.reach_min) & (reach <= layout.reach_max)
 
 
 def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
     """Stack x and y coordinates given on axes of a (t, r, c) grid as (m, 2), in the spots' order."""
     return np.stack([np.broadcast_to(v, shape).ravel() for v in coords], -1)
-
-
-def _covered(spots: _Spots, first: np.ndarray, last: np.ndarray) -> np.ndarray:
-    """Which spots lie in any of the runs of columns ``first``..``last`` (R, t, r): (m,).
-
-    Each run adds one at its first spot and takes one off at the spot past its last (the next row's
-    first where it ends its row), in the spots' order; a spot is covered where the running sum is positive."""
-    nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
-    size = nt * nr * nc
-    if not len(first):
-        return np.zeros(size, bool)
-    row = np.arange(0, size, nc)
-    start, stop = first.reshape(len(first), -1).astype(np.intp), last.reshape(len(last), -1).astype(np.intp)
-    stop += 1
-    some = start < stop
-    start += row
-    stop += row
-    diff = np.bincount(start[some], minlength=size + 1)
-    diff -= np.bincount(stop[some], minlength=size + 1)
-    return np.cumsum(diff[:size]) > 0
-
-
-def _counts_outside(spots: _Spots, free: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:
-    """How many free spots of each turn lie outside each rectangle's runs of columns ``first``..``last``
-    (R, t, r): (R, t), from running counts of the free spots along each row."""
-    nt, nr, nc = len(spots.turns), len(spots.grid.u), len(spots.grid.v)
-    running = np.zeros(len(free) + 1, np.intp)  # free spots before each spot, in the spots' order
-    np.cumsum(free, out=running[1:])
-    total = running[nr * nc :: nr * nc] - running[: -1 : nr * nc]
-    start, stop = first.reshape(len(first), -1).astype(np.intp), last.reshape(len(last), -1).astype(np.intp) + 1
-    row = np.arange(nt * nr) * nc
-    inside = np.where(start < stop, running[row + stop] - running[row + start], 0)
-    return total - inside.reshape(len(first), nt, nr).sum(axis=2)
 
 
 @functools.lru_cache(maxsize=4096)
@@ -736,25 +644,6 @@ def _beside_cells(direction: tuple[float, float], step: float) -> tuple[Any, ...
     for a in (d, lateral, axes, dists, lats, dist, lat, turn, weight, far):
         a.setflags(write=False)
     return (d, lateral, axes, dists, lats, dist, lat, turn, weight, far, -far_lat, 2 * far_lat / len(lats))
-
-
-def _best_first(key: np.ndarray, needed: int) -> np.ndarray:
-    """The start of ``argsort(key, kind="stable")``, at least ``needed`` long (all of it for short keys):
-    the keys up to a bound at or above the ``needed``-th smallest, ties included, sorted stably.
-
-    The bound is taken among every 8th key, a little past the share of them the needed ones make,
-    and checked to hold enough keys (else the ``needed``-th smallest itself): selecting among an
-    eighth of the keys costs an eighth of selecting among all of them."""
-    if needed >= len(key):
-        return np.argsort(key, kind="stable")
-    sel = None
-    sub = key[::8]
-    m = needed // 8 + 8
-    if m < len(sub):
-        sel = np.flatnonzero(key <= np.partition(sub, m)[m])
-    if sel is None or len(sel) < needed:
-        sel = np.flatnonzero(key <= np.partition(key, needed - 1)[needed - 1])
-    return sel[np.argsort(key[sel], kind="stable")]
 
 
 def table_and_reach(centre: np.ndarray, half: np.ndarray, origin: np.ndarray,
