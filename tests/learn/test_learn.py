@@ -295,3 +295,37 @@ def test_depth_jumps_split_objects_that_touch_in_the_image(tmp_path: Path) -> No
     assert min(iou for _, _, iou in _match(split, gt)) > 0.8
     # Without the camera (or depth) nothing is split.
     assert len(instance_masks(labels, depth, None)) == len(plain)
+
+
+def test_policy_scene_depth_sees_glass_as_the_dataset_does() -> None:
+    """The neuro-symbolic policy's scene images give glass objects the depth of their surface (as the
+    dataset's depth, which perception learnt from, does), not the table's behind them."""
+    import numpy as np
+
+    from samplehd.envs.tabletop import TabletopEnv
+    from samplehd.learn.neurosymbolic import SCENE_MODALITIES
+    from samplehd.learn.perception import height_map
+    from samplehd.render.renderer import SceneRenderer, camera_intrinsics, camera_pose
+    from samplehd.world.layout import LAYOUT
+
+    env = TabletopEnv()
+    try:
+        env.reset(seed=2)
+        glass = [o for o in env.episode.annotation["objects"] if o["material"] == "glass"]
+        assert glass
+        w, h = 160, 90
+        renderer = SceneRenderer(env.model, w, h, "fast")
+        try:
+            renderer.render(env.data, "scene", SCENE_MODALITIES)
+            img = renderer.render(env.data, "scene", SCENE_MODALITIES)
+        finally:
+            renderer.close()
+        camera = {"width": w, "height": h, "intrinsics": camera_intrinsics(env.model, "scene", w, h).tolist(),
+                  "extrinsics": camera_pose(env.model, env.data, "scene").tolist()}
+        above = height_map(img["depth"], camera, LAYOUT.table_height)
+        for o in glass:
+            pixels = img["segmentation"] == o["segmentation_id"]
+            assert pixels.sum() > 0
+            assert np.percentile(above[pixels], 90) > 0.03, o["name"]
+    finally:
+        env.close()
