@@ -24,7 +24,7 @@ from typing import Any
 
 from samplehd.errors import ConfigError, require_extra
 
-__all__ = ["BACKENDS", "Backend", "default_workers"]
+__all__ = ["BACKENDS", "Backend", "default_workers", "keep_freed_memory"]
 
 BACKENDS = ("local", "ray")
 
@@ -74,6 +74,7 @@ class Backend:
         if self.kind == "ray":
             yield from _ray_map(fn, units, self.workers, self.ray_address)
         elif self.workers <= 1:
+            keep_freed_memory()
             for unit in units:
                 yield unit, fn(unit)
         else:
@@ -82,13 +83,35 @@ class Backend:
 
 def _die_with_parent() -> None:
     """Worker initializer: on Linux, get SIGKILL when the coordinating process dies (killed or
-    terminated), so no orphaned worker keeps writing into the dataset."""
+    terminated), so no orphaned worker keeps writing into the dataset; and keep freed memory."""
+    keep_freed_memory()
     if not sys.platform.startswith("linux"):
         return
     try:
         libc = ctypes.CDLL("libc.so.6", use_errno=True)
         libc.prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG
     except OSError:
+        pass
+
+
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3  # glibc's mallopt parameters
+
+
+def keep_freed_memory() -> None:
+    """Let this process reuse the memory its work units free instead of handing it back to the system.
+
+    An episode with images allocates tens of MB of deflated frames and file buffer and frees them at its
+    end; glibc returns such blocks to the system, and the next episode faults fresh pages in again, which
+    costs CPU (most on virtual machines: measured 0.2 CPU ms per 640x360 frame). Blocks up to 256 MB now
+    come from the heap, and the heap keeps up to 1 GB free for the next unit. glibc on Linux only.
+    """
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL("libc.so.6")
+        libc.mallopt(_M_MMAP_THRESHOLD, 256 << 20)
+        libc.mallopt(_M_TRIM_THRESHOLD, 1 << 30)
+    except (OSError, AttributeError):  # another C library: its defaults stay
         pass
 
 

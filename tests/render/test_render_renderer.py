@@ -165,6 +165,13 @@ def test_rendering_into_given_arrays_gives_the_same_images(world, fast_images):
             r.render(data, "operator", ("depth",), out={"depth": np.zeros((180, 320))})
         with pytest.raises(RenderError, match=r"out\['rgb'\]: needs a \(180, 320, 3\) uint8 array, got nothing"):
             r.render(data, "operator", ("rgb",), out={})
+        for dtype in (np.uint8, np.uint16):  # the dtypes episode files store segmentation in
+            seg = np.zeros((180, 320), dtype)
+            r.render(data, "operator", ("segmentation",), out={"segmentation": seg})
+            np.testing.assert_array_equal(seg, fast_images["segmentation"])
+        wrong = r"out\['segmentation'\]: needs a \(180, 320\) int32 or uint8 or uint16 array, got \(180, 320\) int16"
+        with pytest.raises(RenderError, match=wrong):
+            r.render(data, "operator", ("segmentation",), out={"segmentation": np.zeros((180, 320), np.int16)})
 
 
 def test_segmentation_ids_decode_all_three_colour_bytes(world):

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from samplehd.render.renderer import MODALITIES, SceneRenderer
-from samplehd.render.states import render_states, set_state
+from samplehd.render.states import pose_state, render_states, set_state
 
 pytestmark = pytest.mark.render
 
@@ -27,3 +27,60 @@ def test_render_states_equals_one_render_per_state(world):
     assert not np.array_equal(got["operator"]["rgb"][0], got["operator"]["rgb"][1])
     empty = render_states(model, frames, ("operator",), ("depth",), 64, 48, "fast", indices=[])
     assert empty["operator"]["depth"].shape == (0, 48, 64) and empty["operator"]["depth"].dtype == np.float32
+
+
+POSE_FIELDS = ("xpos", "xquat", "xmat", "xipos", "ximat", "geom_xpos", "geom_xmat", "site_xpos", "site_xmat",
+               "cam_xpos", "cam_xmat", "light_xpos", "light_xdir", "subtree_com", "wrap_xpos", "wrap_obj",
+               "ten_wrapadr", "ten_wrapnum", "ten_length")
+
+
+def _scene_with_objects():
+    from samplehd.catalogue import ObjectInstance
+    from samplehd.motion.assist import compile_scene_with_assist
+    from samplehd.scene.spec import SceneObject, SceneSpec
+    from samplehd.world.layout import LAYOUT
+
+    up, t = (1.0, 0.0, 0.0, 0.0), LAYOUT.table_height
+    return compile_scene_with_assist(SceneSpec(index=0, seed=0, objects=(
+        SceneObject(ObjectInstance("soda_can", "standard", "red", "metal", "medium"), (0.05, 0.12, t), up),
+        SceneObject(ObjectInstance("bowl", "round", "white", "ceramic", "medium"), (0.20, -0.05, t), up),
+    )))
+
+
+def test_pose_state_gives_the_poses_of_mj_forward_bit_for_bit_and_the_same_images():
+    model, data = _scene_with_objects()
+    states = []
+    for arm, obj in ((0.0, 0.0), (0.4, 0.03), (-0.5, -0.07)):
+        q = data.qpos.copy()
+        q[:6] += arm  # the arm (tendon-driven fingers follow their joints)
+        q[-7:-4] += obj  # the last object's free joint: moved and tilted
+        q[-3] += obj
+        states.append(q)
+    full, poses = mujoco.MjData(model), mujoco.MjData(model)
+    # A frame's pixels depend a little on the renderer's previous frame (a fresh renderer's first frame, and hd
+    # after a change of state): each way renders the same sequence with a renderer of its own.
+    with SceneRenderer(model, 96, 64, "hd") as a, SceneRenderer(model, 96, 64, "hd") as b:
+        for q in states:
+            set_state(model, full, q, np.zeros(model.nv))
+            pose_state(model, poses, q, np.zeros(model.nv))
+            for f in POSE_FIELDS:
+                np.testing.assert_array_equal(getattr(poses, f), getattr(full, f), err_msg=f)
+            for cam in ("operator", "wrist"):
+                want = a.render(full, cam, MODALITIES)
+                for m, got in b.render(poses, cam, MODALITIES).items():
+                    np.testing.assert_array_equal(got, want[m], err_msg=f"{cam} {m}")
+    assert full.ncon > 0 and poses.ncon == 0  # the collision stage did not run
+
+
+def test_a_renderer_whose_scene_is_full_makes_it_larger_and_draws_everything(world, tmp_path, monkeypatch):
+    model, shared = world
+    data = mujoco.MjData(model)  # the full scene's warning is counted in this MjData, not the shared one
+    mujoco.mj_copyData(data, model, shared)
+    monkeypatch.chdir(tmp_path)  # and MuJoCo logs it to MUJOCO_LOG.TXT here
+    with SceneRenderer(model, 64, 48, "fast") as r:
+        want = r.render(data, "operator", MODALITIES)
+        r._scene = mujoco.MjvScene(model, maxgeom=4)  # room for 4 of the world's geoms
+        got = r.render(data, "operator", MODALITIES)
+        assert r._scene.maxgeom > r._scene.ngeom > 4
+    for m in MODALITIES:
+        np.testing.assert_array_equal(got[m], want[m], err_msg=m)

@@ -301,6 +301,7 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
+            _drop_cached(fh.fileno())
         os.replace(tmp, path)
     except OSError as exc:
         try:
@@ -310,6 +311,21 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
         raise write_error(path, exc, retry) from None
     size = len(data)
     return EpisodeFile(path.name, episode.num_frames, size, digest)
+
+
+def _drop_cached(fd: int) -> None:
+    """Let the kernel reuse the (clean, synced) page cache of a file just written, which nothing reads soon.
+
+    An episode with images is tens of MB; kept cached, every episode takes fresh pages, and on a machine
+    whose free memory was never touched (a virtual machine) or whose cache is full, getting them cost
+    ~7x the CPU of the copy itself (measured: 140 vs 20 ms per 68 MB). Released, the next episode's pages
+    are the ones this one used.
+    """
+    if hasattr(os, "posix_fadvise"):
+        try:
+            os.posix_fadvise(fd, 0, 0, os.POSIX_FADV_DONTNEED)
+        except OSError:
+            pass  # only advice
 
 
 class FrameImages:

@@ -97,7 +97,7 @@ class RenderConfig:
                 for m, a in frame.items():
                     images[camera][m].append(a)
 
-            render_states(*args, indices=picks.tolist(), photo=photo, on_frame=keep)
+            render_states(*args, indices=picks.tolist(), photo=photo, on_frame=keep, segmentation_dtype=seg)
         else:
             images = render_states(*args, indices=picks.tolist(), photo=photo)
         if len(picks) == t:

@@ -247,6 +247,10 @@ class SceneRenderer:
         self.model = model
         self.preset = get_preset(preset)
         self._lut = segmentation_lut(model)
+        # Segmentation may be written as int32, or as the narrowest of uint8/uint16 that holds every id.
+        top = int(self._lut.max(initial=0))
+        self._segment_dtypes = (np.dtype(np.int32), *(np.dtype(t) for t in (np.uint8, np.uint16)
+                                                       if top <= np.iinfo(t).max))
         self._tracer: PhotoTracer | None = None
         self._photo_arg = photo
         if self.preset.path_traced:
@@ -274,7 +278,7 @@ class SceneRenderer:
             ) from exc
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._ctx)
         self._ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
-        self._scene = mujoco.MjvScene(model, maxgeom=10000)
+        self._scene = mujoco.MjvScene(model, maxgeom=_scene_capacity(model))
         self._option = mujoco.MjvOption()
         self._camera = mujoco.MjvCamera()
         self._camera.type = mujoco.mjtCamera.mjCAMERA_FIXED
@@ -340,6 +344,11 @@ class SceneRenderer:
         mujoco.mjv_updateScene(
             self.model, data, self._option, None, self._camera, mujoco.mjtCatBit.mjCAT_ALL.value, self._scene
         )
+        while self._scene.ngeom >= self._scene.maxgeom:  # full: geoms may have been left out; make room, again
+            self._scene = mujoco.MjvScene(self.model, maxgeom=2 * self._scene.maxgeom)
+            mujoco.mjv_updateScene(
+                self.model, data, self._option, None, self._camera, mujoco.mjtCatBit.mjCAT_ALL.value, self._scene
+            )
         flags = self._scene.flags
         flags[_FLAG.mjRND_SEGMENT] = segment
         flags[_FLAG.mjRND_IDCOLOR] = segment
@@ -374,7 +383,8 @@ class SceneRenderer:
             modalities: any of ``rgb`` (H×W×3 uint8), ``depth`` (H×W float32 [m]) and
                 ``segmentation`` (H×W int32 ids, see module docstring).
             out: arrays to write the images into, one per requested modality with that modality's shape
-                and dtype (e.g. the frame's slot of an episode's preallocated stream); default: new arrays.
+                and dtype (e.g. the frame's slot of an episode's preallocated stream); segmentation may also
+                be uint8 or uint16 where this model's ids fit (as episode files store it); default: new arrays.
 
         Returns:
             A dict from modality to its array (``out``'s, or new ones), rows from the top of the image.
@@ -425,9 +435,11 @@ class SceneRenderer:
         for m in wanted:
             arr = out.get(m)
             shape, dtype = spec[m]
-            if not isinstance(arr, np.ndarray) or arr.shape != shape or arr.dtype != dtype:
+            dtypes = self._segment_dtypes if m == "segmentation" else (np.dtype(dtype),)
+            if not isinstance(arr, np.ndarray) or arr.shape != shape or arr.dtype not in dtypes:
                 got = "nothing" if arr is None else f"{getattr(arr, 'shape', '?')} {getattr(arr, 'dtype', '?')}"
-                raise RenderError(f"out[{m!r}]: needs a {shape} {np.dtype(dtype)} array, got {got}")
+                raise RenderError(f"out[{m!r}]: needs a {shape} {' or '.join(str(d) for d in dtypes)} array, "
+                                  f"got {got}")
             dest[m] = arr
         return dest
 
@@ -440,7 +452,7 @@ class SceneRenderer:
             np.left_shift(idcolor[..., 2], 16, out=self._segid_b, dtype=np.int32)
             np.bitwise_or(segid, self._segid_b, out=segid)
         n = self._scene.ngeom
-        table = np.full(n + 1, SEG_BACKGROUND, dtype=np.int32)
+        table = np.full(n + 1, SEG_BACKGROUND, dtype=dest.dtype)
         geoms = self._scene.geoms
         geom_type = int(mujoco.mjtObj.mjOBJ_GEOM)
         for i in range(n):
@@ -449,6 +461,14 @@ class SceneRenderer:
                 table[g.segid + 1] = self._lut[g.objid]
         np.minimum(segid, n, out=segid)
         np.take(table, segid[::-1], out=dest, mode="clip")  # ids are in 0..n here
+
+
+def _scene_capacity(model: mujoco.MjModel) -> int:
+    """Room for the abstract geoms of one frame: every geom and site, tendon segments and sensor rays, with a
+    margin. A full scene is made larger and updated again (``SceneRenderer._update``), so this only has to be a
+    good first guess: allocating the scene costs time in proportion (about 14 ms for 10,000 geoms, once per
+    renderer)."""
+    return 2 * int(model.ngeom + model.nsite + model.nwrap + model.ntendon + model.nsensor + model.nbody) + 64
 
 
 def _check_size(width: int, height: int) -> None:

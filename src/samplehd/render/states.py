@@ -1,10 +1,15 @@
 """Render from stored physics states, without re-simulating: the one way every stage does it.
 
 For every frame the stored ``qpos``, ``qvel``, ``act`` (and ``time`` when recorded) are written into
-the compiled scene's ``MjData``, ``mj_forward`` computes the poses, and the renderer draws them.
+the compiled scene's ``MjData``, the poses are computed, and the renderer draws them.
 ``samplehd generate`` and ``samplehd rerender`` (episode images), ``samplehd replay`` (videos and
 contact sheets), ``samplehd paths`` and the web viewer (frames of state-only episodes) all call
 :func:`set_state` / :func:`render_states`, so they give identical pixels for the same state.
+
+:func:`set_state` runs all of ``mj_forward``; :func:`pose_state`, which :func:`render_states` uses, runs only
+the stages of it whose results a frame is drawn from (body, geom, site, camera and light poses, tendon
+paths), in the same order, so their poses are bit for bit those of ``mj_forward`` without its collision
+detection and dynamics (most of its cost, paid every frame of an episode).
 """
 
 from __future__ import annotations
@@ -18,7 +23,7 @@ import numpy as np
 from samplehd.errors import DatasetError
 from samplehd.render.renderer import SceneRenderer
 
-__all__ = ["render_states", "set_state"]
+__all__ = ["pose_state", "render_states", "set_state"]
 
 
 def set_state(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray,
@@ -28,6 +33,37 @@ def set_state(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray, qvel
     Raises:
         DatasetError: the state's sizes do not fit the model (the episode belongs to another scene).
     """
+    _write_state(model, data, qpos, qvel, act, time)
+    mujoco.mj_forward(model, data)
+
+
+def pose_state(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray,
+               act: np.ndarray | None = None, time: float | None = None) -> None:
+    """Write one recorded state into ``data`` and compute what drawing it needs: the position stages of
+    ``mj_forward`` that give poses (kinematics, centres of mass, cameras and lights, flexes, tendon paths),
+    without collision detection, constraints and dynamics. The poses are bit for bit ``mj_forward``'s.
+    A model with rangefinder sensors (drawn as rays from the sensor readings) gets all of ``mj_forward``.
+
+    Raises:
+        DatasetError: the state's sizes do not fit the model (the episode belongs to another scene).
+    """
+    _write_state(model, data, qpos, qvel, act, time)
+    if _draws_sensors(model):
+        mujoco.mj_forward(model, data)
+        return
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    mujoco.mj_camlight(model, data)
+    mujoco.mj_flex(model, data)
+    mujoco.mj_tendon(model, data)
+
+
+def _draws_sensors(model: mujoco.MjModel) -> bool:
+    return bool(model.nsensor) and bool(np.any(model.sensor_type == mujoco.mjtSensor.mjSENS_RANGEFINDER))
+
+
+def _write_state(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray,
+                 act: np.ndarray | None, time: float | None) -> None:
     qpos, qvel = np.asarray(qpos), np.asarray(qvel)
     if qpos.shape != (model.nq,) or qvel.shape != (model.nv,):
         raise DatasetError(f"recorded state has nq={qpos.shape[-1]}, nv={qvel.shape[-1]}, but the model has "
@@ -38,7 +74,6 @@ def set_state(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray, qvel
         data.act[:] = act
     if time is not None:
         data.time = float(time)
-    mujoco.mj_forward(model, data)
 
 
 def render_states(
@@ -53,6 +88,7 @@ def render_states(
     data: mujoco.MjData | None = None,
     photo: Any = None,
     on_frame: Callable[[str, dict[str, np.ndarray]], None] | None = None,
+    segmentation_dtype: Any = np.int32,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Render recorded frames: ``images[camera][modality]`` with the frame as first axis.
 
@@ -65,10 +101,12 @@ def render_states(
         height: image height [px].
         preset: render preset (``fast``, ``hd``, ``photo``).
         indices: frames to render (default: all).
-        data: an ``MjData`` to reuse (default: a new one).
+        data: an ``MjData`` to reuse (default: a new one); it is left holding the last frame's poses
+            (:func:`pose_state`: no contacts or forces).
         photo: the photo preset's options (``samplehd.render.photo.PhotoOptions``; default: the fixed look).
         on_frame: called with each camera and its images of each frame in turn, instead of keeping them; the
             arrays are reused for the next frame (copy what must outlive the call). ``{}`` is then returned.
+        segmentation_dtype: int32, or uint8/uint16 where the model's ids fit (the dtype episode files store).
 
     Raises:
         DatasetError: the states do not fit the model.
@@ -80,14 +118,14 @@ def render_states(
     # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
     # With on_frame, one frame's arrays serve every frame (no fresh memory per frame).
     shapes = {"rgb": ((height, width, 3), np.uint8), "depth": ((height, width), np.float32),
-              "segmentation": ((height, width), np.int32)}
+              "segmentation": ((height, width), segmentation_dtype)}
     n = 1 if on_frame is not None else len(picks)
     out = {c: {m: np.empty((n, *shapes[m][0]), dtype=shapes[m][1]) for m in modalities if m in shapes}
            for c in cameras}
     with SceneRenderer(model, width, height, preset, photo=photo) as renderer:
         for i, k in enumerate(picks):
-            set_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
-                      None if time is None else time[k])
+            pose_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
+                       None if time is None else time[k])
             for cam in cameras:
                 slot = 0 if on_frame is not None else i
                 images = renderer.render(data, cam, modalities, out={m: a[slot] for m, a in out[cam].items()})
