@@ -103,6 +103,12 @@ def _same(a: dict[str, Any] | None, b: dict[str, Any]) -> bool:
     return a is not None and all(a.get(k) == b.get(k) for k in ("type", "objects", "subject", "relation"))
 
 
+# The modalities of the dataset's scene images, which perception was trained on: asked for together, depth
+# comes from the segmentation pass, where glass is opaque; depth from the RGB pass alone sees through
+# transparent geoms (glasses, wine glasses), which perception then misses.
+SCENE_MODALITIES = ("rgb", "depth", "segmentation")
+
+
 class NeuroSymbolicPolicy(OraclePolicy):
     """Parser + perception + executor + planner, acting through the environment's step.
 
@@ -148,8 +154,8 @@ class NeuroSymbolicPolicy(OraclePolicy):
                 self._renderer.close()
             self._renderer = SceneRenderer(env.model, w, h, "fast")
             self._renderer_model = env.model
-            self._renderer.render(env.data, cam, ("rgb", "depth"))  # first frame of a context differs
-        images = self._renderer.render(env.data, cam, ("rgb", "depth"))
+            self._renderer.render(env.data, cam, SCENE_MODALITIES)  # first frame of a context differs
+        images = self._renderer.render(env.data, cam, SCENE_MODALITIES)
         camera = {"width": w, "height": h, "intrinsics": camera_intrinsics(env.model, cam, w, h).tolist(),
                   "extrinsics": camera_pose(env.model, env.data, cam).tolist()}
         return images["rgb"], images["depth"], camera

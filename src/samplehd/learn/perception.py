@@ -61,6 +61,9 @@ CROP_VIEWS = 4  # training views of every object: the mask's own crop, then jitt
 MIN_PIXELS = 6
 MIN_RISE = 0.002  # [m] an instance lower than this above the table (95th percentile) is the table
 REACH_MARGIN = 0.10  # [m] an instance this far beyond the arm's reach is not a scene object
+DEPTH_JUMP = 0.03  # [m] a depth step this large between neighbouring pixels may part two objects
+MIN_PART = 12  # pixels of the segmenter's grid: a part split off by a depth jump must be this large
+GROUND_GAP = 0.01  # [m] parts this far apart on the ground plane are different objects
 RAISED = 0.0015  # [m] points this far above the table top are the object's when measuring its extents
 N_FEATURES = 21  # measured size and appearance features of an instance (see _geometry)
 PREPARED_FILE = "prepared.npz"
@@ -159,18 +162,106 @@ def _net_input(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray) -> np.nda
                            h[None].astype(np.float32)])
 
 
-def instance_masks(labels: np.ndarray) -> list[np.ndarray]:
-    """Instances from per-pixel labels: components of object pixels; contact pixels join the nearest."""
+def instance_masks(labels: np.ndarray, depth: np.ndarray | None = None,
+                   camera: Mapping[str, Any] | None = None) -> list[np.ndarray]:
+    """Instances from per-pixel labels: components of object pixels; contact pixels join the nearest.
+
+    With the ``depth`` of the labels' pixels [m] and the ``camera``, a component is also split where the
+    depth jumps between neighbouring pixels (an object in front of another) into parts that stand apart
+    on the ground plane (:func:`split_by_depth`)."""
+    return [m for m, _ in instance_parts(labels, depth, camera)]
+
+
+def instance_parts(labels: np.ndarray, depth: np.ndarray | None = None,
+                   camera: Mapping[str, Any] | None = None) -> list[tuple[np.ndarray, int]]:
+    """:func:`instance_masks` with, for each mask, the connected component of object pixels it came
+    from (masks split from one component by a depth jump share it)."""
     comp, n = ndimage.label(labels == 2)
     if n == 0:
         return []
+    parent = np.arange(n + 1)
+    if depth is not None and camera is not None:
+        comp, n, parent = split_by_depth(comp, n, depth, camera)
     contact = labels == 3
     if contact.any():
         _, (ri, ci) = ndimage.distance_transform_edt(comp == 0, return_indices=True)
         nearest = comp[ri, ci]
         comp = np.where(contact, nearest, comp)
-    masks = [comp == i for i in range(1, n + 1)]
-    return [m for m in masks if m.sum() >= MIN_PIXELS]
+    masks = [(comp == i, int(parent[i])) for i in range(1, n + 1)]
+    return [(m, p) for m, p in masks if m.sum() >= MIN_PIXELS]
+
+
+def split_by_depth(comp: np.ndarray, n: int, depth: np.ndarray, camera: Mapping[str, Any],
+                   jump: float = DEPTH_JUMP, min_part: int = MIN_PART,
+                   gap: float = GROUND_GAP) -> tuple[np.ndarray, int, np.ndarray]:
+    """Split labelled components (``comp``: 0 background, 1..n) where the depth jumps.
+
+    In each component, the farther pixel of every pair of 4-neighbours whose depths differ by more than
+    ``jump`` [m] is set aside; the rest falls into parts (4-connected). Parts of at least ``min_part``
+    pixels become instances of their own when their 3-D points are more than ``gap`` [m] apart on the
+    ground plane from every other such part (two objects, one in front of the other); otherwise they
+    stay together (a bowl's near rim before its inside, a mug's handle before its body, one object with
+    a depth jump within it). Set-aside pixels and small parts join the nearest instance. Returns the new
+    labels, their count, and each new label's component (``parent[label]``)."""
+    out = np.zeros_like(comp)
+    count = 0
+    parent = [0]
+    dz = np.abs(np.diff(depth, axis=0)) > jump
+    dx = np.abs(np.diff(depth, axis=1)) > jump
+    for i in range(1, n + 1):
+        mine = comp == i
+        far = np.zeros_like(mine)
+        cut = dz & mine[1:] & mine[:-1]
+        down = depth[1:] > depth[:-1]
+        far[1:] |= cut & down
+        far[:-1] |= cut & ~down
+        cut = dx & mine[:, 1:] & mine[:, :-1]
+        right = depth[:, 1:] > depth[:, :-1]
+        far[:, 1:] |= cut & right
+        far[:, :-1] |= cut & ~right
+        parts, k = ndimage.label(mine & ~far)
+        sizes = np.bincount(parts.ravel(), minlength=k + 1)
+        big = [j for j in range(1, k + 1) if sizes[j] >= min_part]
+        groups = _ground_groups(parts, big, depth, camera, gap) if len(big) > 1 else [big]
+        if len(groups) <= 1:
+            count += 1
+            parent.append(i)
+            out[mine] = count
+            continue
+        sub = np.zeros_like(comp)
+        for g in groups:
+            count += 1
+            parent.append(i)
+            sub[np.isin(parts, g)] = count
+        _, (ri, ci) = ndimage.distance_transform_edt(sub == 0, return_indices=True)
+        out[mine] = sub[ri, ci][mine]
+    return out, count, np.asarray(parent)
+
+
+def _ground_groups(parts: np.ndarray, big: Sequence[int], depth: np.ndarray, camera: Mapping[str, Any],
+                   gap: float) -> list[list[int]]:
+    """Parts whose ground-plane points come within ``gap`` of each other, grouped (transitively)."""
+    from scipy.spatial import cKDTree
+
+    trees = []
+    for j in big:
+        rows, cols = np.nonzero(parts == j)
+        trees.append(cKDTree(backproject(depth, rows, cols, camera)[:, :2]))
+    root = list(range(len(big)))
+
+    def find(a: int) -> int:
+        while root[a] != a:
+            a = root[a]
+        return a
+
+    for a in range(len(big)):
+        for b in range(a + 1, len(big)):
+            if find(a) != find(b) and trees[a].count_neighbors(trees[b], gap) > 0:
+                root[find(b)] = find(a)
+    groups: dict[int, list[int]] = {}
+    for a, j in enumerate(big):
+        groups.setdefault(find(a), []).append(j)
+    return list(groups.values())
 
 
 def _crop(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray, mask: np.ndarray, size: int,
@@ -367,11 +458,37 @@ class Perception:
         with torch.no_grad():
             logits = self.net.segmenter(torch.as_tensor(x[None], device=self.device))
         labels = logits.argmax(1)[0].cpu().numpy()
-        masks = instance_masks(labels)
+        found = instance_parts(labels, _downsample(depth, f, True), camera)
+        masks = [m for m, _ in found]
         if f > 1:
             masks = [np.kron(m, np.ones((f, f), bool))[: rgb.shape[0], : rgb.shape[1]] for m in masks]
             masks = [np.pad(m, ((0, rgb.shape[0] - m.shape[0]), (0, rgb.shape[1] - m.shape[1]))) for m in masks]
-        return [m for m in masks if self._plausible(m, depth, height, camera)]
+        keep = [k for k, m in enumerate(masks) if self._plausible(m, depth, height, camera)]
+        return self._join_alike([masks[k] for k in keep], [found[k][1] for k in keep], rgb, depth, camera, height)
+
+    def _join_alike(self, masks: list[np.ndarray], parents: Sequence[int], rgb: np.ndarray, depth: np.ndarray,
+                    camera: Mapping[str, Any], height: np.ndarray) -> list[np.ndarray]:
+        """Keep the parts split from one component (by a depth jump) apart only where the attribute network
+        is surer of the parts than of their union: the inside of a bowl or pan behind its near rim, or a wine
+        glass's bowl above its stem, are one object that the network knows whole; a glass in front of a tray
+        are two it knows apart. Parts it names the same class are joined in any case."""
+        split = sorted({p for p in parents if list(parents).count(p) > 1})
+        if not split:
+            return masks
+        out = [m for m, p in zip(masks, parents, strict=True) if p not in split]
+        for p in split:
+            parts = [m for m, q in zip(masks, parents, strict=True) if q == p]
+            union = np.logical_or.reduce(parts)
+            found = self.classify(rgb, depth, [*parts, union], camera, height)
+            sure = [max(f["scores"]["name"].values()) for f in found]
+            if sure[-1] >= max(sure[:-1]):
+                out.append(union)
+                continue
+            by_name: dict[str, np.ndarray] = {}
+            for m, f in zip(parts, found, strict=False):
+                by_name[f["name"]] = by_name[f["name"]] | m if f["name"] in by_name else m
+            out += list(by_name.values())
+        return out
 
     def _plausible(self, mask: np.ndarray, depth: np.ndarray, height: np.ndarray, camera: Mapping[str, Any]) -> bool:
         """Whether an instance can be an object: it rises above the table top (a patch of the table's
