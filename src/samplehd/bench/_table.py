@@ -196,7 +196,6 @@ def _draw_states(r: SceneRenderer, frames: dict[str, np.ndarray],
 
 
 def _robot_rows(repeats: int) -> list[Row]:
-
     model, data = compile_world()
     rng = np.random.default_rng(0)
 

@@ -30,7 +30,7 @@ from samplehd.catalogue.geometry import ObjectGeometry, build_geometry
 from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.loader import resolve_catalogue
 from samplehd.catalogue.model import Catalogue, Colour, Material
-from samplehd.catalogue.textures import brushed_metal, rubber_grain, wood_grain
+from samplehd.catalogue.textures import TEXTURES
 from samplehd.errors import AssetError
 
 __all__ = [
@@ -181,10 +181,9 @@ def _ensure_material(spec: mujoco.MjSpec, material: Material, colour: Colour) ->
 def _ensure_texture(spec: mujoco.MjSpec, texture: str) -> str:
     if spec.texture(texture) is not None:
         return texture
-    makers = {"wood_grain": wood_grain, "brushed_metal": brushed_metal, "rubber_grain": rubber_grain}
-    if texture not in makers:  # the loader only accepts known textures
-        raise AssetError(f"unknown texture {texture!r}; valid textures are {', '.join(makers)}")
-    img = makers[texture]()
+    if texture not in TEXTURES:  # the loader only accepts known textures
+        raise AssetError(f"unknown texture {texture!r}; valid textures are {', '.join(TEXTURES)}")
+    img = TEXTURES[texture]()
     tex = spec.add_texture(
         name=texture,
         type=mujoco.mjtTexture.mjTEXTURE_2D,

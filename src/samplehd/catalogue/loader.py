@@ -37,6 +37,7 @@ from samplehd.catalogue.model import (
 )
 from samplehd.catalogue.registry import generation, registered_classes, registry_dir
 from samplehd.catalogue.schema import Field, read_json
+from samplehd.catalogue.textures import TEXTURES
 from samplehd.errors import AssetError
 from samplehd.fileio import file_sha256
 
@@ -52,7 +53,6 @@ __all__ = [
 
 DATA_DIR = Path(__file__).parent / "data"
 FORMAT = 1
-TEXTURES = ("wood_grain", "brushed_metal", "rubber_grain")
 _AFFORDANCES = ("graspable", "handle_pickable", "container", "stackable_on", "stackable")
 
 
@@ -195,7 +195,7 @@ def _read_materials(doc: Field, colours: dict[str, Colour]) -> dict[str, Materia
             shininess=look["shininess"].number(0.0, 1.0),
             reflectance=look["reflectance"].number(0.0, 1.0),
             alpha=look["alpha"].number(0.05, 1.0) if "alpha" in look else 1.0,
-            texture=look["texture"].choice(TEXTURES) if "texture" in look else None,
+            texture=look["texture"].choice(tuple(TEXTURES)) if "texture" in look else None,
             density=density,
             friction=(friction[0], friction[1], friction[2]),
             sheet_factor=phys["sheet_factor"].number(0.01, 1.0) if "sheet_factor" in phys else 1.0,

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
-__all__ = ["METAL_SEED", "RUBBER_SEED", "WOOD_SEED", "brushed_metal", "rubber_grain", "wood_grain"]
+__all__ = ["METAL_SEED", "RUBBER_SEED", "TEXTURES", "WOOD_SEED", "brushed_metal", "rubber_grain", "wood_grain"]
 
 WOOD_SEED = 20240611  # fixed: every wooden object shows the same grain pattern, run after run
 METAL_SEED = 20240612
@@ -87,3 +89,8 @@ def rubber_grain(width: int = 128, height: int = 128, rng: np.random.Generator |
     n = (n + np.roll(n, 1, 0) + np.roll(n, 1, 1) + np.roll(n, (1, 1), (0, 1))) / 4  # soften a little
     lum = np.clip(0.8 + 0.05 * n / n.std(), 0.7, 0.9)
     return np.round(np.repeat(lum[..., None], 3, axis=2) * 255.0).astype(np.uint8)
+
+
+# The textures a material's look may name, and the function that makes each (RGB uint8 image).
+TEXTURES: dict[str, Callable[[], np.ndarray]] = {
+    "wood_grain": wood_grain, "brushed_metal": brushed_metal, "rubber_grain": rubber_grain}

@@ -17,7 +17,14 @@ from samplehd.errors import ConfigError
 from samplehd.render.deflated import DeflatedFrames
 from samplehd.render.keyframes import SparseFrames, keyframe_indices
 from samplehd.render.photo import LOOKS, photo_options
-from samplehd.render.renderer import MODALITIES, camera_names, get_preset, segmentation_lut
+from samplehd.render.renderer import (
+    IMAGE_DTYPES,
+    MODALITIES,
+    camera_names,
+    get_preset,
+    image_shape,
+    stored_segmentation_dtype,
+)
 from samplehd.render.states import render_states
 from samplehd.scene.world import compile_world
 from samplehd.schema import bounded, check_fields, from_mapping
@@ -85,13 +92,11 @@ class RenderConfig:
         photo = photo_options(self.look, seed, where="render.look") if get_preset(self.mode).path_traced else None
         args = (model, frames, self.cameras, self.modalities, self.width, self.height, self.mode)
         if deflated:
-            # Ids are at most the segmentation table's largest (0 = background): its size decides the dtype.
-            seg = np.uint8 if int(segmentation_lut(model).max(initial=0)) < 256 else np.uint16
-            dtypes = {"rgb": np.uint8, "depth": np.float32, "segmentation": seg}
-            shapes = {"rgb": (self.height, self.width, 3), "depth": (self.height, self.width),
-                      "segmentation": (self.height, self.width)}
+            seg = stored_segmentation_dtype(model)
+            dtypes = {**IMAGE_DTYPES, "segmentation": seg}
             images: dict[str, dict[str, Any]] = {
-                c: {m: DeflatedFrames(shapes[m], dtypes[m]) for m in self.modalities} for c in self.cameras}
+                c: {m: DeflatedFrames(image_shape(m, self.width, self.height), dtypes[m]) for m in self.modalities}
+                for c in self.cameras}
 
             def keep(camera: str, frame: dict[str, np.ndarray]) -> None:
                 for m, a in frame.items():

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import nullcontext
 from pathlib import Path
@@ -30,6 +31,7 @@ import numpy as np
 from PIL import Image
 from rich.console import Console
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from samplehd.catalogue import load_catalogue
 from samplehd.envs.levels import HELD_OUT_CLASSES, held_out_object
@@ -241,8 +243,6 @@ def split_by_depth(comp: np.ndarray, n: int, depth: np.ndarray, camera: Mapping[
 def _ground_groups(parts: np.ndarray, big: Sequence[int], depth: np.ndarray, camera: Mapping[str, Any],
                    gap: float) -> list[list[int]]:
     """Parts whose ground-plane points come within ``gap`` of each other, grouped (transitively)."""
-    from scipy.spatial import cKDTree
-
     trees = []
     for j in big:
         rows, cols = np.nonzero(parts == j)
@@ -472,7 +472,7 @@ class Perception:
         is surer of the parts than of their union: the inside of a bowl or pan behind its near rim, or a wine
         glass's bowl above its stem, are one object that the network knows whole; a glass in front of a tray
         are two it knows apart. Parts it names the same class are joined in any case."""
-        split = sorted({p for p in parents if list(parents).count(p) > 1})
+        split = sorted(p for p, k in Counter(parents).items() if k > 1)
         if not split:
             return masks
         out = [m for m, p in zip(masks, parents, strict=True) if p not in split]

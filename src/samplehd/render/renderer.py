@@ -48,9 +48,11 @@ __all__ = [
     "camera_pose",
     "get_preset",
     "gl_device",
+    "image_shape",
     "project_points",
     "render_images",
     "segmentation_lut",
+    "stored_segmentation_dtype",
 ]
 
 SEG_BACKGROUND = 0
@@ -59,6 +61,14 @@ SEG_ROBOT = 2
 SEG_OBJECT_OFFSET = 3
 
 MODALITIES = ("rgb", "depth", "segmentation")
+# What ``SceneRenderer.render`` returns for each modality (segmentation may also be written narrower:
+# :func:`stored_segmentation_dtype`).
+IMAGE_DTYPES = {"rgb": np.dtype(np.uint8), "depth": np.dtype(np.float32), "segmentation": np.dtype(np.int32)}
+
+
+def image_shape(modality: str, width: int, height: int) -> tuple[int, ...]:
+    """The shape of one image of ``modality``: (H, W, 3) for rgb, (H, W) for depth and segmentation."""
+    return (height, width, 3) if modality == "rgb" else (height, width)
 
 _FLAG = mujoco.mjtRndFlag
 
@@ -116,6 +126,11 @@ def _camera_id(model: mujoco.MjModel, camera: str | int) -> int:
         if cid >= 0:
             return cid
     raise RenderError(f"unknown camera {camera!r}; valid: {', '.join(camera_names(model)) or '(none)'}")
+
+
+def stored_segmentation_dtype(model: mujoco.MjModel) -> np.dtype:
+    """The dtype episode files store ``model``'s segmentation in: uint8, or uint16 when an id exceeds 255."""
+    return np.dtype(np.uint8 if int(segmentation_lut(model).max(initial=0)) < 256 else np.uint16)
 
 
 def segmentation_lut(model: mujoco.MjModel) -> np.ndarray:
@@ -249,8 +264,8 @@ class SceneRenderer:
         self._lut = segmentation_lut(model)
         # Segmentation may be written as int32, or as the narrowest of uint8/uint16 that holds every id.
         top = int(self._lut.max(initial=0))
-        self._segment_dtypes = (np.dtype(np.int32), *(np.dtype(t) for t in (np.uint8, np.uint16)
-                                                       if top <= np.iinfo(t).max))
+        self._segment_dtypes = (IMAGE_DTYPES["segmentation"], *(np.dtype(t) for t in (np.uint8, np.uint16)
+                                                                 if top <= np.iinfo(t).max))
         self._tracer: PhotoTracer | None = None
         self._photo_arg = photo
         if self.preset.path_traced:
@@ -427,15 +442,13 @@ class SceneRenderer:
 
     def _destinations(self, wanted: tuple[str, ...], out: Mapping[str, np.ndarray] | None) -> dict[str, np.ndarray]:
         """The arrays to render ``wanted`` into: ``out``'s (checked) or new ones."""
-        h, w = self.height, self.width
-        spec = {"rgb": ((h, w, 3), np.uint8), "depth": ((h, w), np.float32), "segmentation": ((h, w), np.int32)}
         if out is None:
-            return {m: np.empty(spec[m][0], dtype=spec[m][1]) for m in wanted}
+            return {m: np.empty(image_shape(m, self.width, self.height), dtype=IMAGE_DTYPES[m]) for m in wanted}
         dest = {}
         for m in wanted:
             arr = out.get(m)
-            shape, dtype = spec[m]
-            dtypes = self._segment_dtypes if m == "segmentation" else (np.dtype(dtype),)
+            shape = image_shape(m, self.width, self.height)
+            dtypes = self._segment_dtypes if m == "segmentation" else (IMAGE_DTYPES[m],)
             if not isinstance(arr, np.ndarray) or arr.shape != shape or arr.dtype not in dtypes:
                 got = "nothing" if arr is None else f"{getattr(arr, 'shape', '?')} {getattr(arr, 'dtype', '?')}"
                 raise RenderError(f"out[{m!r}]: needs a {shape} {' or '.join(str(d) for d in dtypes)} array, "

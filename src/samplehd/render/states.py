@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import DatasetError
-from samplehd.render.renderer import SceneRenderer
+from samplehd.render.renderer import IMAGE_DTYPES, SceneRenderer, image_shape
 
 __all__ = ["pose_state", "render_states", "set_state"]
 
@@ -117,11 +117,10 @@ def render_states(
     act, time = frames.get("act"), frames.get("time")
     # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
     # With on_frame, one frame's arrays serve every frame (no fresh memory per frame).
-    shapes = {"rgb": ((height, width, 3), np.uint8), "depth": ((height, width), np.float32),
-              "segmentation": ((height, width), segmentation_dtype)}
+    dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
     n = 1 if on_frame is not None else len(picks)
-    out = {c: {m: np.empty((n, *shapes[m][0]), dtype=shapes[m][1]) for m in modalities if m in shapes}
-           for c in cameras}
+    out = {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
+               if m in dtypes} for c in cameras}
     with SceneRenderer(model, width, height, preset, photo=photo) as renderer:
         for i, k in enumerate(picks):
             pose_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
