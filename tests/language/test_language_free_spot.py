@@ -285,7 +285,9 @@ def test_best_spots_are_a_prefix_of_the_stable_order_long_enough() -> None:
             score = rng.normal(size=m) if not levels else rng.integers(0, levels, m).astype(float)  # many ties
             neighbours = rng.uniform(-0.4, 0.4, (n_near, 2))
             shares = rng.uniform(0.0, 0.05, m)
-            ranked, count = best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, score, shares, 0.25,
+            # the score given whole (no reach or turn term)
+            ranked, count = best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, score, np.zeros((1, 1, 1)),
+                                       np.zeros((1, 1, 1)), spots.turns, spots.turn, np.zeros(3), shares, 0.25,
                                        needed, 12.0)
             idx = np.flatnonzero(free)
             gap = np.full(len(idx), np.inf)
@@ -630,3 +632,30 @@ def test_sums_of_weights_decide_as_numpy_sums_them() -> None:
                     assert fs._hits_below(spots, mask, bound) == (exact < bound, bool(mask.any()))
                     near += abs(exact - bound) < 1e-9
     assert near > 100
+
+
+def test_compiled_scores_equal_the_array_computation() -> None:
+    """The planner's score terms that do not depend on the neighbours, computed per spot in the compiled
+    loop, equal the whole-array expression exactly, on parts' spots and on spots past a reference."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world import placement
+
+    checked = 0
+    for scene in _scenes(6, 2, 8):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(6):
+            grids = [fs._part_spots(k, part) for part in ("left", "right", "front", "back")]
+            grids += [s for s in (fs._beside_spots(k, (k + 1) % 6, d) for d in ((0.0, 1.0), (0.6, -0.8)))
+                      if s is not None]
+            for spots in grids:
+                score, rel_x, rel_y = spots.score_terms
+                reach = np.broadcast_to(np.hypot(rel_x, rel_y), (len(spots.turns), len(spots.grid.u),
+                                                                 len(spots.grid.v))).ravel()
+                want = ((score if len(score) > 1 else float(score[0]))
+                        + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
+                        + placement.SPOT_TURN_WEIGHT * np.abs(spots.turns[spots.turn]))
+                np.testing.assert_array_equal(spots.score(), want)
+                checked += len(want)
+    assert checked > 100000

@@ -53,6 +53,11 @@ class Footprinted(Protocol):
 _TURN_SPREAD = 0.06  # weight of a turn against a distance when spreading the options [m/rad]
 
 _Rect = tuple[np.ndarray, np.ndarray, np.ndarray]  # footprint centre, 2x2 rotation, half sizes
+# the weights of the planner's score terms that do not depend on the neighbours (spot_kernels.spot_scores)
+_SCORE_WEIGHTS = np.array([placement.SPOT_REACH_WEIGHT, placement.SPOT_COMFORT_REACH, placement.SPOT_TURN_WEIGHT])
+_SCORE_WEIGHTS.setflags(write=False)
+_NO_SCORE = np.zeros(1)  # a part's spots have no score of their own
+_NO_SCORE.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -144,7 +149,7 @@ class _Spots:
     turns: np.ndarray  # (t,) turns about the vertical [rad]
     rots: np.ndarray  # (t, 2, 2) the object's rotation after each turn
     weight: np.ndarray  # (m,) share of the planner's first-try samples landing on the spot
-    score_of: Callable[[], np.ndarray]  # makes ``score`` when first asked for
+    score_terms: tuple[np.ndarray, np.ndarray, np.ndarray]  # score, rel_x, rel_y of spot_kernels.spot_scores
     keep: np.ndarray  # (m,) passes the tests not involving other objects
     blockers_of: Callable[[_Spots], tuple[np.ndarray, np.ndarray, np.ndarray]]  # makes near, first, last
 
@@ -180,9 +185,15 @@ class _Spots:
         return memo[samples]
 
     @functools.cached_property
+    def turn_weights(self) -> tuple[float, ...]:
+        """The weight of each turn's first spot (a part's spots of one turn weigh alike)."""
+        return tuple(self.weight[:: len(self.weight) // len(self.turns)].tolist())
+
     def score(self) -> np.ndarray:
-        """(m,) the planner's score terms that do not depend on the neighbours."""
-        return self.score_of()
+        """(m,) the planner's score terms that do not depend on the neighbours (the ranking computes them on the
+        free spots only)."""
+        return _kernels().spot_scores(*self.score_terms, self.turns, self.turn, _SCORE_WEIGHTS, len(self.grid.u),
+                                      len(self.grid.v))
 
 
 class FreeSpots:
@@ -316,9 +327,7 @@ class FreeSpots:
     def _hits_counted(self, spots: _Spots, counts: Sequence[int]) -> float:
         """:meth:`_hits` of a part's spots from how many are free per turn (the same sum: a part's spots of
         one turn weigh alike, so the free spots' weights are those counts of each turn's weight, in order)."""
-        nt = len(spots.turns)
-        return self.search.samples * _repeated_sum(tuple(spots.weight[:: len(spots.weight) // nt].tolist()),
-                                                   tuple(counts))
+        return self.search.samples * _repeated_sum(spots.turn_weights, tuple(counts))
 
     def _below(self, approx: float, terms: int, bound: float, exact: Callable[[], float]) -> bool:
         """Whether ``samples`` times a sum of weights is below a bound, from the sum ``approx`` taken in any
@@ -375,7 +384,8 @@ class FreeSpots:
         if self._hits_below(spots, free, self.search.min_hits)[0]:
             return []
         g, kernels = spots.grid, _kernels()
-        ranked, count = kernels.best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, spots.score,
+        ranked, count = kernels.best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, *spots.score_terms,
+                                           spots.turns, spots.turn, _SCORE_WEIGHTS,
                                            spots.shares(self.search.samples), placement.SPOT_ROOM_CAP,
                                            self._ranks_needed(spots), float(placement.SPOT_SHORTLIST))
         best = ranked[:count]
@@ -444,8 +454,8 @@ class FreeSpots:
             # origin's distance from the base: computed per turn and row, per turn and column
             keep, rel_x, rel_y = _kernels().part_keep(grid.u, grid.v, offsets, half, lo, hi, table, base)
             _in_annulus(keep, rel_x, rel_y, self.layout)
-            self._memo[key] = self._spots(k, grid, lambda: centre, offsets, turn, weight, 0.0, keep.ravel(),
-                                          lambda: np.broadcast_to(np.hypot(rel_x, rel_y), keep.shape).ravel())
+            self._memo[key] = self._spots(k, grid, lambda: centre, offsets, turn, weight, _NO_SCORE, keep.ravel(),
+                                          rel_x, rel_y)
         return self._memo[key]
 
     def _beside_grid(self, direction: tuple[float, float]) -> tuple[Any, ...]:
@@ -479,8 +489,7 @@ class FreeSpots:
             grid = _Grid(self.centre[ref] + start[:, None] * d,
                          grid_axes, dists, lats, v_lo, v_width, False)
             self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
-                                          weight, far, keep.ravel(),
-                                          lambda: np.broadcast_to(np.hypot(rel_x, rel_y), keep.shape).ravel())
+                                          weight, far, keep.ravel(), rel_x, rel_y)
         return self._memo[key]
 
     def _extent_along(self, k: int, direction: tuple[float, float], turned: bool) -> Any:
@@ -509,15 +518,10 @@ class FreeSpots:
         return self._memo[key]
 
     def _spots(self, k: int, grid: _Grid, centre: Callable[[], np.ndarray], offsets: np.ndarray, turn: np.ndarray,
-               weight: np.ndarray, score: Any, keep: np.ndarray, reach_of: Callable[[], np.ndarray]) -> _Spots:
-        """The spots with their score (from the frame origins' distances from the base that ``reach_of``
-        makes) and their overlaps with the other objects."""
-        turns = self.turns
-
-        def score_of() -> np.ndarray:
-            reach = reach_of()
-            return (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
-                    + placement.SPOT_TURN_WEIGHT * np.abs(turns[turn]))
+               weight: np.ndarray, score: np.ndarray, keep: np.ndarray, rel_x: np.ndarray,
+               rel_y: np.ndarray) -> _Spots:
+        """The spots with their score terms (``score``, (m,) or (1,), and the frame origins' offsets from the
+        base, (t, r or 1, c or 1)) and their overlaps with the other objects."""
 
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             # the objects whose rectangle, with both margins, comes within reach of the box around the
@@ -533,8 +537,8 @@ class FreeSpots:
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
         # them already leave too few spots needs none
-        return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, score_of, keep,
-                      blockers_of)
+        return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, (score, rel_x, rel_y),
+                      keep, blockers_of)
 
 def _in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, layout: TableLayout) -> None:
     """Keep (in place, keep (t, r, c)) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``

@@ -21,8 +21,8 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["annulus_and", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma", "near_objects",
-           "part_keep", "rect_runs", "uncovered"]
+__all__ = ["annulus_and", "beside_keep", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma",
+           "near_objects", "part_keep", "rect_runs", "spot_scores", "uncovered", "weight_sum"]
 
 
 @intrinsic
@@ -380,15 +380,16 @@ def part_keep(u: np.ndarray, v: np.ndarray, offsets: np.ndarray, half: np.ndarra
 
 @numba.njit(cache=True, nogil=True)
 def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, centre: np.ndarray,
-               neighbours: np.ndarray, score: np.ndarray, shares: np.ndarray, room_cap: float,
+               neighbours: np.ndarray, score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray,
+               turn: np.ndarray, weights: np.ndarray, shares: np.ndarray, room_cap: float,
                needed: int, shortlist: float) -> tuple[np.ndarray, np.ndarray]:
     """The free spots ranked best first by the planner's score, and how many of them hold the shortlist.
 
-    A spot's score is its ``score`` less its distance to the nearest neighbour centre capped at
-    ``room_cap``; the ranking is the start of the stable order of the scores, at least ``needed`` long
-    (every score up to the ``needed``-th smallest, ties included). The best are the first spots whose
-    running sum of ``shares`` (summed left to right, as numpy's cumulative sum) stays within
-    ``shortlist``, at least one.
+    A spot's score is its terms that do not depend on the neighbours (:func:`spot_scores`) less its
+    distance to the nearest neighbour centre capped at ``room_cap``; the ranking is the start of the stable
+    order of the scores, at least ``needed`` long (every score up to the ``needed``-th smallest, ties
+    included). The best are the first spots whose running sum of ``shares`` (summed left to right, as
+    numpy's cumulative sum) stays within ``shortlist``, at least one.
 
     Args:
         free: (m,) the free spots.
@@ -396,29 +397,46 @@ def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, ce
             ``i, j`` its row and column (``centre`` is then not read).
         u, v: the grid's row and column coordinates [m]; centre: (m, 2) the spots' centres [m].
         neighbours: (N, 2) the other objects' footprint centres [m].
-        score: (m,) the planner's score terms that do not depend on the neighbours.
+        score, rel_x, rel_y, turns, turn, weights: the score terms' arguments, as :func:`spot_scores`.
         shares: (m,) the planner's samples expected on each spot.
 
     Returns:
         ranked (the spots, best first) and how many of them are the best.
     """
     idx = np.flatnonzero(free)
-    n_row, n_col = u.shape[0], v.shape[0]
+    n_row, n_col, n_near = u.shape[0], v.shape[0], neighbours.shape[0]
     key = np.empty(idx.shape[0])
+    # on a part's grid every turn's spot in a cell has the cell's centre: its gap is found once (-1: not yet),
+    # from the squared offsets per row and per column
+    cells = n_row * n_col if on_axes else 0
+    gaps = np.full(cells, -1.0)
+    row_sq, col_sq = np.empty((n_row if on_axes else 0, n_near)), np.empty((n_col if on_axes else 0, n_near))
+    if on_axes:
+        for n in range(n_near):
+            for i in range(n_row):
+                dx = u[i] - neighbours[n, 0]
+                row_sq[i, n] = dx * dx
+            for j in range(n_col):
+                dy = v[j] - neighbours[n, 1]
+                col_sq[j, n] = dy * dy
     for m in range(idx.shape[0]):
         s = idx[m]
         gap = math.inf
         if on_axes:
-            i, j = divmod(s % (n_row * n_col), n_col)
-            for n in range(neighbours.shape[0]):
-                dx, dy = u[i] - neighbours[n, 0], v[j] - neighbours[n, 1]
-                gap = min(gap, dx * dx + dy * dy)
-            gap = math.sqrt(gap)  # the square root is monotone: the root of the least square is the least root
+            cell = s % cells
+            gap = gaps[cell]
+            if gap < 0:
+                i, j = divmod(cell, n_col)
+                gap = math.inf
+                for n in range(n_near):
+                    gap = min(gap, row_sq[i, n] + col_sq[j, n])
+                gap = math.sqrt(gap)  # the square root is monotone: the root of the least square is the least root
+                gaps[cell] = gap
         else:
             for n in range(neighbours.shape[0]):
                 dx, dy = centre[s, 0] - neighbours[n, 0], centre[s, 1] - neighbours[n, 1]
                 gap = min(gap, math.sqrt(dx * dx + dy * dy))
-        key[m] = -min(gap, room_cap) + score[s]
+        key[m] = -min(gap, room_cap) + _spot_score(s, score, rel_x, rel_y, turns, turn, weights, n_row, n_col)
     if needed >= key.shape[0]:
         order = np.argsort(key, kind="mergesort")
     else:
@@ -532,3 +550,37 @@ def weight_sum(mask: np.ndarray, weight: np.ndarray) -> tuple[float, bool]:
             total += weight[j]
             found = True
     return total, found
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _spot_score(s: int, score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray,
+                turn: np.ndarray, weights: np.ndarray, n_row: int, n_col: int) -> float:
+    """:func:`spot_scores` of spot ``s``."""
+    t, rest = divmod(s, n_row * n_col)
+    i, j = divmod(rest, n_col)
+    x = rel_x[min(t, rel_x.shape[0] - 1), min(i, rel_x.shape[1] - 1), min(j, rel_x.shape[2] - 1)]
+    y = rel_y[min(t, rel_y.shape[0] - 1), min(i, rel_y.shape[1] - 1), min(j, rel_y.shape[2] - 1)]
+    reach = math.hypot(x, y)
+    return (score[min(s, score.shape[0] - 1)] + weights[0] * abs(reach - weights[1])) + weights[2] * abs(turns[turn[s]])
+
+
+@numba.njit(cache=True, nogil=True)
+def spot_scores(score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray, turn: np.ndarray,
+                weights: np.ndarray, n_row: int, n_col: int) -> np.ndarray:
+    """The planner's score terms of a grid's spots that do not depend on the neighbours, as the array
+    expression ``score + w0 * |hypot(rel_x, rel_y) - w1| + w2 * |turns[turn]|`` gives them.
+
+    Args:
+        score: (m,) or (1,) a score of each spot (or of all) to add to [-].
+        rel_x, rel_y: the frame origins' offsets from the robot base, (t, r or 1, c or 1) [m].
+        turns: (t,) the turns [rad]; turn: (m,) each spot's.
+        weights: the reach weight, the comfortable reach [m] and the turn weight [1/rad].
+        n_row, n_col: the grid's rows and columns.
+
+    Returns:
+        (m,) the scores, spots in the order (turn, row, column).
+    """
+    out = np.empty(turn.shape[0])
+    for s in range(turn.shape[0]):
+        out[s] = _spot_score(s, score, rel_x, rel_y, turns, turn, weights, n_row, n_col)
+    return out
