@@ -305,7 +305,7 @@ def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
     with their samples summed from the counts, give what a spot-by-spot mask and sum give."""
     import numpy as np
 
-    from samplehd.world.spot_kernels import counts_outside, uncovered
+    from samplehd.world.spot_kernels import counts_outside, uncovered, uncovered_weight
 
     objects = [_obj("mug", (0.05, -0.25), (0.08, 0.1), 30.0), _obj("plate", (0.15, -0.15), (0.2, 0.2)),
                _obj("bowl", (-0.05, 0.2), (0.14, 0.14))]
@@ -323,6 +323,9 @@ def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
         free = rng.random(nt * nr * nc) < 0.7
         use = np.array([True, False, True, True])
         np.testing.assert_array_equal(uncovered(free, first, last, use, nc), free & ~runs[use].any(axis=0).ravel())
+        left = free & ~runs[use].any(axis=0).ravel()
+        total, found = uncovered_weight(free, first, last, use, nc, spots.weight)
+        assert found == left.any() and abs(total - spots.weight[left].sum()) < 1e-12
         counts = counts_outside(free, first, last, nc)
         for i in range(len(first)):
             left = free & ~runs[i].ravel()

@@ -209,14 +209,13 @@ def _compiled_schedule(template: Template) -> list[tuple[_Check, ...]]:
     for checks in _schedule(template):
         level = []
         for c in checks:
-            get = operator.itemgetter(*c.params)
-            level.append((c.type, get if len(c.params) > 1 else _single(get)))
+            level.append((c.type, operator.itemgetter(*c.params) if len(c.params) > 1 else _single(c.params[0])))
         out.append(tuple(level))
     return out
 
 
-def _single(get: Callable[[Mapping[str, Any]], Any]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
-    return lambda values: (get(values),)
+def _single(name: str) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
+    return lambda values: (values[name],)
 
 
 class _SceneGenerator:

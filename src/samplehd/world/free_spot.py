@@ -122,7 +122,7 @@ def _yaw_weights() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return out
 
 
-@dataclass(frozen=True)
+@dataclass
 class _Grid:
     """A grid of spots for one object: footprint centre ``base[t] + u[i] e1 + v[j] e2`` for the turn
     ``t`` about the vertical, row ``i`` and column ``j``, flattened in the order (turn, row, column)."""
@@ -136,7 +136,7 @@ class _Grid:
     on_axes: bool  # e1, e2 are x, y and base is 0: centre (u[i], v[j]) exactly
 
 
-@dataclass(frozen=True)
+@dataclass(eq=False)
 class _Spots:
     """Candidate spots of one object: every spot of its grid, the ones that pass the tests not
     involving other objects marked in ``keep``, and which other objects (where the scene has them)
@@ -267,6 +267,9 @@ class FreeSpots:
 
     def _room_in_part(self, arriving: Sequence[int], part: str) -> bool:
         """:meth:`room_in_part` for the objects arriving in the part, in index order."""
+        if len(arriving) > 1 or (arriving and not self.reach_is_annulus):
+            if not self._first_options(arriving[0], part):  # the first one's options, as the loop takes them
+                return False
         present = np.ones(len(self.objects), bool)  # objects still where the scene has them
         placed: list[_Rect] = []
         free: np.ndarray | None = None  # the next object's free spots, where already known
@@ -311,9 +314,15 @@ class FreeSpots:
         if spots is None or self._too_few(spots):
             return False
         present = np.ones(len(self.objects), bool)
+        if self.reach_is_annulus:  # :meth:`_enough` of the free spots, their weights summed as they are found
+            others = present.copy()
+            others[x] = False
+            total, found = _kernels().uncovered_weight(spots.keep, spots.first, spots.last, others[spots.near],
+                                                       len(spots.grid.v), spots.weight)
+            below = self._below(total, len(spots.weight), self.search.min_hits,
+                                lambda: float(spots.weight[self._free(x, spots, present, [])].sum()))
+            return not below and found
         free = self._free(x, spots, present, [])
-        if self.reach_is_annulus:
-            return self._enough(spots, free)
         return bool(self._options(x, spots, free, self._neighbours(x, present, [])))
 
     def _rect(self, k: int, spots: _Spots, j: int) -> _Rect:

@@ -22,7 +22,8 @@ from numba.core import types
 from numba.extending import intrinsic
 
 __all__ = ["annulus_and", "beside_keep", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma",
-           "near_objects", "part_keep", "rect_runs", "spot_scores", "uncovered", "weight_sum"]
+           "near_objects", "part_keep", "rect_runs", "spot_scores", "uncovered",
+           "uncovered_weight", "weight_sum"]
 
 
 @intrinsic
@@ -584,3 +585,10 @@ def spot_scores(score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, turns: 
     for s in range(turn.shape[0]):
         out[s] = _spot_score(s, score, rel_x, rel_y, turns, turn, weights, n_row, n_col)
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def uncovered_weight(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.ndarray, count: int,
+                     weight: np.ndarray) -> tuple[float, bool]:
+    """:func:`weight_sum` of :func:`uncovered`'s spots (its arguments but the weights), without keeping them."""
+    return weight_sum(uncovered(keep, first, last, use, count), weight)
