@@ -31,6 +31,8 @@ import numpy as np
 from PIL import Image
 from rich.console import Console
 from scipy import ndimage
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from samplehd.catalogue import load_catalogue
@@ -65,6 +67,9 @@ MIN_RISE = 0.002  # [m] an instance lower than this above the table (95th percen
 REACH_MARGIN = 0.10  # [m] an instance this far beyond the arm's reach is not a scene object
 DEPTH_JUMP = 0.03  # [m] a depth step this large between neighbouring pixels may part two objects
 MIN_PART = 12  # pixels of the segmenter's grid: a part split off by a depth jump must be this large
+CLUSTER_LINK = 0.02  # [m] points of one object's surface lie this near one another (see object_points)
+FLOAT_LIFT = 0.02  # [m] an instance whose lowest points are this far above the table is an object's upper piece
+STACK_NEAR = 0.03  # [m] ... joined with the instance whose ground-plane centre is this near its own
 GROUND_GAP = 0.01  # [m] parts this far apart on the ground plane are different objects
 RAISED = 0.0015  # [m] points this far above the table top are the object's when measuring its extents
 N_FEATURES = 21  # measured size and appearance features of an instance (see _geometry)
@@ -264,6 +269,48 @@ def _ground_groups(parts: np.ndarray, big: Sequence[int], depth: np.ndarray, cam
     return list(groups.values())
 
 
+def join_stacked(masks: Sequence[np.ndarray], depth: np.ndarray, camera: Mapping[str, Any], table_height: float,
+                 lift: float = FLOAT_LIFT, near: float = STACK_NEAR) -> list[np.ndarray]:
+    """Join each instance that floats above the table with the instance beneath it on the ground plane.
+
+    Every scene object stands on the table top, so an instance whose lowest own points
+    (:func:`object_points`, 5th percentile) are ``lift`` [m] above it is the upper piece of an object
+    whose lower piece the segmenter labelled apart: a wine glass's bowl above its stem, a glass's rim above
+    its body where the thin wall was missed. It joins the lower instance whose ground-plane centre is nearest
+    to its own, when within ``near`` [m]: no two objects stand there, as scene objects do not overlap on the
+    table. An object seen only above a nearer one (its foot hidden) has its centre at least the two
+    objects' radii from the nearer one's and stays apart."""
+    masks = list(masks)
+    if len(masks) < 2:
+        return masks
+    centre, low = [], []
+    for m in masks:
+        rows, cols = np.nonzero(m)
+        pts = object_points(backproject(depth, rows, cols, camera), table_height)
+        lo, hi = np.percentile(pts[:, :2], 3, axis=0), np.percentile(pts[:, :2], 97, axis=0)
+        centre.append((lo + hi) / 2)
+        low.append(float(np.percentile(pts[:, 2], 5)) - table_height)
+    root = list(range(len(masks)))
+
+    def find(a: int) -> int:
+        while root[a] != a:
+            a = root[a]
+        return a
+
+    for a in sorted(range(len(masks)), key=lambda k: (-low[k], k)):  # highest piece first
+        if low[a] < lift:
+            continue
+        below = [(float(np.linalg.norm(centre[a] - centre[b])), b) for b in range(len(masks)) if low[b] < low[a]]
+        d, b = min(below, default=(np.inf, a))
+        if d <= near and find(a) != find(b):
+            root[find(a)] = find(b)
+    groups: dict[int, np.ndarray] = {}
+    for k, m in enumerate(masks):
+        r = find(k)
+        groups[r] = groups[r] | m if r in groups else m
+    return list(groups.values())
+
+
 def _crop(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray, mask: np.ndarray, size: int,
           jitter: np.ndarray | None = None) -> np.ndarray:
     """(6, size, size) crop around a mask at the image's full resolution: RGB, mask, depth relative to
@@ -288,6 +335,24 @@ def _crop(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray, mask: np.ndarr
     return out
 
 
+def object_points(pts: np.ndarray, table_height: float, link: float = CLUSTER_LINK) -> np.ndarray:
+    """The points of a mask (N, 3) [m] that lie on the object itself.
+
+    A mask from the segmenter's coarser grid takes in a rim of what lies around the object, and beside a
+    tall object that is not the table next to it but the table top, floor, wall or robot far behind it
+    (the depth jumps at the silhouette). The object's own points are those above the table top whose
+    largest cluster (points within ``link`` [m] of one another, transitively) they fall in; a flat object
+    with fewer than three raised points keeps them all."""
+    raised = pts[pts[:, 2] > table_height + RAISED]
+    if len(raised) < 3:
+        return pts
+    pairs = cKDTree(raised).query_pairs(link, output_type="ndarray")
+    n = len(raised)
+    graph = csr_matrix((np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    return raised[label == np.bincount(label).argmax()]
+
+
 def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any],
               table_height: float) -> tuple[np.ndarray, np.ndarray]:
     """(position [x, y, z] of the object's base, the :data:`N_FEATURES` measured features) of a mask.
@@ -300,7 +365,8 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
     """
     rows, cols = np.nonzero(mask)
     pts = backproject(depth, rows, cols, camera)
-    lo, hi = np.percentile(pts, 3, axis=0), np.percentile(pts, 97, axis=0)
+    own = object_points(pts, table_height)
+    lo, hi = np.percentile(own, 3, axis=0), np.percentile(own, 97, axis=0)
     centre = (lo + hi) / 2
     pos = np.array([centre[0], centre[1], table_height])
     # Extents from the points above the table only: a mask from the segmenter's coarser grid takes in
@@ -464,7 +530,8 @@ class Perception:
             masks = [np.kron(m, np.ones((f, f), bool))[: rgb.shape[0], : rgb.shape[1]] for m in masks]
             masks = [np.pad(m, ((0, rgb.shape[0] - m.shape[0]), (0, rgb.shape[1] - m.shape[1]))) for m in masks]
         keep = [k for k, m in enumerate(masks) if self._plausible(m, depth, height, camera)]
-        return self._join_alike([masks[k] for k in keep], [found[k][1] for k in keep], rgb, depth, camera, height)
+        masks = self._join_alike([masks[k] for k in keep], [found[k][1] for k in keep], rgb, depth, camera, height)
+        return join_stacked(masks, depth, camera, self.table_height)
 
     def _join_alike(self, masks: list[np.ndarray], parents: Sequence[int], rgb: np.ndarray, depth: np.ndarray,
                     camera: Mapping[str, Any], height: np.ndarray) -> list[np.ndarray]:
