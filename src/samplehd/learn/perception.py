@@ -56,7 +56,7 @@ from samplehd.world.relations import compute_relationships
 
 __all__ = ["Perception", "backproject", "evaluate_perception", "train_perception"]
 
-FORMAT = 4  # bump when the inputs or networks change (older models: train again)
+FORMAT = 5  # bump when the inputs or networks change (older models: train again)
 SEG_CLASSES = ("background", "robot", "object", "contact")
 SEG_CHANNELS = 5  # RGB, depth, height above the table
 CROP = 48
@@ -357,11 +357,11 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
               table_height: float) -> tuple[np.ndarray, np.ndarray]:
     """(position [x, y, z] of the object's base, the :data:`N_FEATURES` measured features) of a mask.
 
-    Size: the extents of the visible points above the table along their principal horizontal axes (long, short) and
-    the height of the top above the table (none depends on the object's rotation about the vertical),
-    their logarithms, and the metric side of the crop window. Appearance, at the image's full
-    resolution (the crop may shrink a highlight away): percentiles of the brightness and the spread of
-    the saturation over the mask, which tell shiny materials from matte ones.
+    Size: the extents of the object's visible points (:func:`object_points`) along their principal
+    horizontal axes (long, short) and the height of the top above the table (none depends on the
+    object's rotation about the vertical), their logarithms, and the metric side of the crop window.
+    Appearance, at the image's full resolution (the crop may shrink a highlight away): percentiles of the
+    brightness and the spread of the saturation over the mask, which tell shiny materials from matte ones.
     """
     rows, cols = np.nonzero(mask)
     pts = backproject(depth, rows, cols, camera)
@@ -369,18 +369,17 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
     lo, hi = np.percentile(own, 3, axis=0), np.percentile(own, 97, axis=0)
     centre = (lo + hi) / 2
     pos = np.array([centre[0], centre[1], table_height])
-    # Extents from the points above the table only: a mask from the segmenter's coarser grid takes in
-    # a rim of table around the object, which would add a pixel or two to every side.
-    raised = pts[pts[:, 2] > table_height + RAISED]
-    xy = (raised if len(raised) >= 3 else pts)[:, :2]
-    xy = xy - xy.mean(axis=0)
+    # Position, extents and height from the object's own points only: a mask from the segmenter's coarser
+    # grid takes in a rim of table around the object, which would add a pixel or two to every side, and
+    # beside a tall object the table, wall or robot far behind it.
+    xy = own[:, :2] - own[:, :2].mean(axis=0)
     if len(xy) >= 3:
         _, vecs = np.linalg.eigh(np.cov(xy.T) + 1e-12 * np.eye(2))
         proj = xy @ vecs[:, ::-1]
         ext = np.percentile(proj, 99.5, axis=0) - np.percentile(proj, 0.5, axis=0)
     else:
         ext = np.zeros(2)
-    top = max(float(np.percentile(pts[:, 2], 99.5)) - table_height, 0.0)
+    top = max(float(np.percentile(own[:, 2], 99.5)) - table_height, 0.0)
     focal = float(np.asarray(camera["intrinsics"], dtype=float)[0, 0]) * depth.shape[1] / float(camera["width"])
     side_px = max(rows.max() - rows.min() + 1, cols.max() - cols.min() + 1) * 1.3 + 4
     side_m = side_px * float(np.median(depth[rows, cols])) / focal
