@@ -54,7 +54,7 @@ from samplehd.learn.training import (
 from samplehd.world.layout import DIRECTIONS, LAYOUT, table_parts_of
 from samplehd.world.relations import compute_relationships
 
-__all__ = ["Perception", "backproject", "evaluate_perception", "train_perception"]
+__all__ = ["Perception", "backproject", "evaluate_perception", "score_perception", "train_perception"]
 
 FORMAT = 5  # bump when the inputs or networks change (older models: train again)
 SEG_CLASSES = ("background", "robot", "object", "contact")
@@ -953,8 +953,26 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     if run.stopped:
         return {"stopped_at": len(losses)}
     net.eval()
-    m = evaluate_perception(model, data["test"])
     metrics = {
+        **perception_test_metrics(model, data["test"]),
+        "train_scenes": len(data["train"]),
+        "train_objects": len(arrays["labels"]),
+        "train_loss": float(np.mean(losses[-50:])) if losses else None,
+        "prepare_s": prep_time["wall_s"],
+        "steps": steps,
+        "seed": seed,
+        "device": str(dev),
+        **t,
+    }
+    run.finish(net, metrics)
+    (Path(out) / PREPARED_FILE).unlink(missing_ok=True)  # only a resumed run needs it
+    return metrics
+
+
+def perception_test_metrics(model: Perception, scenes: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The ``test_*`` entries of a perception model's ``metrics.json`` (:func:`evaluate_perception`)."""
+    m = evaluate_perception(model, scenes)
+    return {
         "test_attribute_accuracy": m["attributes_detected"].get("mean"),
         "test_attribute_all_four": m["attributes_detected"].get("all_four"),
         "test_attribute_accuracy_by_attribute": {a: m["attributes_detected"].get(a) for a in ATTRIBUTES},
@@ -969,15 +987,27 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
         "test_by_level": m["attributes_detected_by_level"],
         "test_scenes": m["scenes"],
         "test_objects": m["objects"],
-        "train_scenes": len(data["train"]),
-        "train_objects": len(arrays["labels"]),
-        "train_loss": float(np.mean(losses[-50:])) if losses else None,
-        "prepare_s": prep_time["wall_s"],
-        "steps": steps,
-        "seed": seed,
-        "device": str(dev),
-        **t,
     }
-    run.finish(net, metrics)
-    (Path(out) / PREPARED_FILE).unlink(missing_ok=True)  # only a resumed run needs it
-    return metrics
+
+
+def score_perception(dataset: str | Path, models: str | Path, device: str | None = None) -> dict[str, Any]:
+    """Test a trained perception model (the ``--out`` folder of ``samplehd train perception``) on a
+    dataset's test scenes without training: the ``test_*`` metrics of ``metrics.json``, with the wall
+    time and load average of the test (``test_wall_s``, ``test_load_average_1min``).
+
+    Raises:
+        ConfigError: no trained model in ``models``, no dataset (or test scenes) in ``dataset``, or
+            scene images of another size than the model was trained on.
+    """
+    model = Perception.load(models, pick_device(device))
+    data = scene_examples(open_dataset(dataset))
+    if not data["test"]:
+        raise ConfigError(f"--dataset {dataset}: no test scenes (generate with a test split)")
+    want = model.config["image"]
+    cam = data["test"][0]["annotation"]["camera"]
+    if (int(cam["width"]), int(cam["height"])) != (int(want["width"]), int(want["height"])):
+        raise ConfigError(f"--dataset {dataset}: scene images are {cam['width']}x{cam['height']}; the model in "
+                          f"{models} was trained on {want['width']}x{want['height']}")
+    with timed() as t:
+        metrics = perception_test_metrics(model, data["test"])
+    return {**metrics, **{f"test_{k}": v for k, v in t.items()}}
