@@ -56,7 +56,7 @@ from samplehd.world.relations import compute_relationships
 
 __all__ = ["Perception", "backproject", "evaluate_perception", "score_perception", "train_perception"]
 
-FORMAT = 5  # bump when the inputs or networks change (older models: train again)
+FORMAT = 4  # bump when the inputs or networks change (older models: train again)
 SEG_CLASSES = ("background", "robot", "object", "contact")
 SEG_CHANNELS = 5  # RGB, depth, height above the table
 CROP = 48
