@@ -382,6 +382,12 @@ def test_tall_objects_are_placed_by_their_own_points_and_floating_pieces_join(tm
         true = np.asarray(o["3d_coords"][:2])
         assert np.linalg.norm(naive - true) > 0.10, o["name"]  # the background behind it is in the mask
         assert np.linalg.norm(_geometry(rgb, depth, coarse, camera, table)[0][:2] - true) < 0.025, o["name"]
+    # A union of two objects (judged whole or in parts when split at a depth jump) measures both.
+    a, b = tall[0], tall[1]
+    union = (seg == a["segmentation_id"]) | (seg == b["segmentation_id"])
+    apart = float(np.linalg.norm(np.subtract(a["3d_coords"][:2], b["3d_coords"][:2])))
+    assert _geometry(rgb, depth, union, camera, table, whole=True)[1][0] / 10 > apart
+    assert _geometry(rgb, depth, union, camera, table)[1][0] / 10 < apart  # one of them: the larger cluster
     glass = next(o for o in ann["objects"] if o["name"] == "wine_glass")
     whole = seg == glass["segmentation_id"]
     width = whole.sum(axis=1)

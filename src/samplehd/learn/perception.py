@@ -354,7 +354,7 @@ def object_points(pts: np.ndarray, table_height: float, link: float = CLUSTER_LI
 
 
 def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any],
-              table_height: float) -> tuple[np.ndarray, np.ndarray]:
+              table_height: float, whole: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(position [x, y, z] of the object's base, the :data:`N_FEATURES` measured features) of a mask.
 
     Size: the extents of the object's visible points (:func:`object_points`) along their principal
@@ -362,10 +362,13 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
     object's rotation about the vertical), their logarithms, and the metric side of the crop window.
     Appearance, at the image's full resolution (the crop may shrink a highlight away): percentiles of the
     brightness and the spread of the saturation over the mask, which tell shiny materials from matte ones.
+    With ``whole``, the mask may hold several objects (a union to be judged): all its points above the
+    table count, not only the largest cluster's.
     """
     rows, cols = np.nonzero(mask)
     pts = backproject(depth, rows, cols, camera)
-    own = object_points(pts, table_height)
+    own = pts[pts[:, 2] > table_height + RAISED] if whole else object_points(pts, table_height)
+    own = own if len(own) >= 3 else pts
     lo, hi = np.percentile(own, 3, axis=0), np.percentile(own, 97, axis=0)
     centre = (lo + hi) / 2
     pos = np.array([centre[0], centre[1], table_height])
@@ -545,7 +548,7 @@ class Perception:
         for p in split:
             parts = [m for m, q in zip(masks, parents, strict=True) if q == p]
             union = np.logical_or.reduce(parts)
-            found = self.classify(rgb, depth, [*parts, union], camera, height)
+            found = self.classify(rgb, depth, [*parts, union], camera, height, [False] * len(parts) + [True])
             sure = [max(f["scores"]["name"].values()) for f in found]
             if sure[-1] >= max(sure[:-1]):
                 out.append(union)
@@ -567,14 +570,17 @@ class Perception:
         return float(np.hypot(*(xy - np.asarray(LAYOUT.robot_base)))) <= LAYOUT.reach_max + REACH_MARGIN
 
     def classify(self, rgb: np.ndarray, depth: np.ndarray, masks: Sequence[np.ndarray],
-                 camera: Mapping[str, Any], height: np.ndarray | None = None) -> list[dict[str, Any]]:
-        """Attributes and geometry of each mask (logits averaged over the crop and its mirror image)."""
+                 camera: Mapping[str, Any], height: np.ndarray | None = None,
+                 whole: Sequence[bool] | None = None) -> list[dict[str, Any]]:
+        """Attributes and geometry of each mask (logits averaged over the crop and its mirror image);
+        ``whole[k]``: mask ``k`` may hold several objects (see :func:`_geometry`)."""
         if not masks:
             return []
         if height is None:
             height = height_map(depth, camera, self.table_height)
         crops = np.stack([_crop(rgb, depth, height, m, CROP) for m in masks])
-        geo = [_geometry(rgb, depth, m, camera, self.table_height) for m in masks]
+        whole = whole or [False] * len(masks)
+        geo = [_geometry(rgb, depth, m, camera, self.table_height, w) for m, w in zip(masks, whole, strict=True)]
         sizes = torch.as_tensor(np.stack([g[1] for g in geo]).astype(np.float32), device=self.device)
         with torch.no_grad():
             x = torch.as_tensor(crops, device=self.device)
