@@ -263,7 +263,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
                  quiet: bool = False, stop_after: int | None = None, batch: int = 64, chunk: int = 8,
                  execute: int = 4, stride: int = 2,
                  lr: float = 1e-3, width: int = 16, hidden: int = 256, tokens: int = 32,
-                 families: Sequence[str] | None = None, near_weight: float = 1.0,
+                 families: Sequence[str] | None = None, loss: str = "mse", near_weight: float = 1.0,
                  ensemble: float | None = None, floor: bool = True) -> dict[str, Any]:
     """Train the behaviour-cloning policy on a dataset's training episodes (images needed).
 
@@ -273,13 +273,15 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     height of the demonstrations (the grasps and releases near the table). ``ensemble`` and
     ``floor`` go into the config's ``inference`` options (see :class:`BCPolicy`).
 
-    Metrics (``metrics.json``): ``train_loss`` (L1 over the chunk, last 50 steps), ``test_l1``
+    Metrics (``metrics.json``): ``train_loss`` (the loss over the chunk, last 50 steps), ``test_l1``
     (the test episodes' frames), ``test_l1_first`` (first action only), ``test_l1_by_axis`` (first
     action, per steering value), ``test_l1_near_table`` and ``test_z_near_table`` (the chunk's
     error and the first action's z error on test frames within 3 cm of the lowest TCP height),
     episode and frame counts.
     """
 
+    if loss not in ("mse", "l1"):
+        raise ConfigError(f"train_policy: loss={loss!r}; valid: mse, l1")
     reader = open_dataset(dataset)
     # A dataset still being written (or stopped early) has its render settings only in the config.
     render = reader.info.get("render") or reader.config.get("render") or {}
@@ -316,7 +318,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         "inference": {"ensemble": ensemble, "z_floor": round(z_floor, 6) if floor else None},
         "families": sorted({reader.instruction(k)["family"] for k in train_k}),
         "train": {"steps": steps, "seed": seed, "batch": batch, "stride": stride, "lr": lr,
-                  "near_weight": near_weight, "episodes": len(train_k),
+                  "loss": loss, "near_weight": near_weight, "episodes": len(train_k),
                   "frames": int(sum(len(d["frames"]) for d in data))},
     }
     net = BCNet(len(instruction_vocabulary()), image, chunk, width, hidden).to(dev)
@@ -360,19 +362,20 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
             g["lr"] = lr * min(1.0, 1.5 * (1 - step / steps))
         pairs = [index[i] for i in rng.integers(len(index), size=batch)]
         ims, toks, st, tgt = batch_of(data, pairs, rng)
-        err = (net(ims, toks, st) - tgt).abs().mean(dim=(1, 2))
+        diff = net(ims, toks, st) - tgt
+        err = (diff.square() if loss == "mse" else diff.abs()).mean(dim=(1, 2))
         if near_weight != 1.0:
             w = torch.as_tensor(np.where(near(data, pairs), near_weight, 1.0), dtype=err.dtype, device=dev)
-            loss = (err * w).sum() / w.sum()
+            total = (err * w).sum() / w.sum()
         else:
-            loss = err.mean()
-        return descend(opt, loss)
+            total = err.mean()
+        return descend(opt, total)
 
     losses, t = run.train(net, opt, train_step, "policy")
     if run.stopped:
         return {"stopped_at": len(losses)}
     net.eval()
-    chunk_err, first_err, near_err, near_z, nears = [], [], [], [], []
+    chunk_err, first_err, zero_err, nears = [], [], [], []
     with torch.no_grad():
         tpairs = [(i, j) for i, d in enumerate(test) for j in range(len(d["frames"]))]
         for k in range(0, len(tpairs), 256):
@@ -380,6 +383,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
             ims, toks, st, tgt = batch_of(test, part, None)
             diff = (net(ims, toks, st) - tgt).abs().cpu().numpy().astype(np.float64)
             chunk_err.append(diff.mean(axis=(1, 2)))
+            zero_err.append(tgt[:, 0].abs().cpu().numpy().astype(np.float64))
             first_err.append(diff[:, 0])
             nears.append(near(test, part))
     metrics: dict[str, Any] = {"train_loss": float(np.mean(losses[-50:])) if losses else None}
@@ -389,6 +393,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         metrics.update({
             "test_l1": float(ce.mean()), "test_l1_first": float(fe.mean()),
             "test_l1_by_axis": [round(float(v), 5) for v in fe.mean(0)],
+            "test_l1_by_axis_zero_action": [round(float(v), 5) for v in np.concatenate(zero_err).mean(0)],
             "test_l1_near_table": near_err, "test_z_near_table": near_z, "test_frames_near_table": int(nr.sum()),
         })
     else:
