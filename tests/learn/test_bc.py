@@ -44,6 +44,13 @@ def test_policy_training_is_deterministic_resumes_and_normalises_its_state(nano_
     train_policy(nano_dataset, d, steps=4, quiet=True, near_weight=3.0)
     assert json.loads((d / "config.json").read_text())["train"]["near_weight"] == 3.0
     assert not _same(_weights(a), _weights(d))
+    # The L1 loss of the first version is still there (its median is a zero velocity on most frames).
+    e = tmp_path / "e"
+    train_policy(nano_dataset, e, steps=2, quiet=True, loss="l1")
+    assert json.loads((e / "config.json").read_text())["train"]["loss"] == "l1"
+    with pytest.raises(ConfigError, match="loss='huber'"):
+        train_policy(nano_dataset, tmp_path / "f", steps=2, quiet=True, loss="huber")
+    assert not (tmp_path / "f").exists()
 
 
 def test_rotation_columns_are_those_of_the_matrix_and_ignore_the_quaternion_sign() -> None:
