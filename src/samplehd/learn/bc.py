@@ -2,11 +2,18 @@
 the next ``chunk`` steering vectors of the dataset (SAMPLE-HD's 7-D steering, action chunking).
 
 The network: one small CNN per camera whose last block is FiLM-modulated by the instruction (a GRU
-over the token ids of :mod:`samplehd.envs.tokens`), a state MLP, and an MLP head that writes
-``chunk`` × 7 values in [-1, 1]. Training samples frames of the dataset's training episodes (random
-shifts of the images, as in DrQ), minimises the L1 error to the recorded chunk, and reports the
-test episodes' error. In the environment, :class:`BCPolicy` predicts a chunk and executes its first
-``execute`` actions before looking again.
+over the token ids of :mod:`samplehd.envs.tokens`), a state MLP over the robot state normalised per
+dimension (joint positions, TCP position and orientation, finger opening), and an MLP head that
+writes ``chunk`` × 7 values in [-1, 1]. Training samples frames of the dataset's training episodes
+(random shifts of the images, as in DrQ), minimises the squared error to the recorded chunk, and
+reports the test episodes' error. The squared error, not the L1 error of the first version: more
+than half of the frames hold the TCP still along x and y, so the L1 error's optimum under
+uncertainty (the median) is a zero velocity, and an L1-trained policy barely moved.
+
+In the environment, :class:`BCPolicy` predicts a chunk and executes its first ``execute`` actions
+before looking again (or, with ``inference.ensemble``, averages every chunk's action for the step);
+with ``inference.z_floor`` it keeps its TCP target at or above the lowest TCP height of its
+demonstrations.
 """
 
 from __future__ import annotations
