@@ -194,3 +194,22 @@ def test_scissors_take_plural_agreement_in_relative_clause() -> None:
 def test_description_round_trip() -> None:
     d = Description.of([("name", "mug"), ("colour", "red")], "left", Description.of([("name", "bowl")]))
     assert Description.from_dict(d.to_dict()) == d
+
+
+def test_matching_combinations_are_those_of_itertools_that_share_two_objects() -> None:
+    from samplehd.language.descriptions import _matching_combinations
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        n, full = int(rng.integers(0, 10)), 0b111111
+        keys = [("colour", str(i)) for i in range(n)]
+        masks = [int(m) for m in rng.integers(0, 64, n)]
+        for size in (1, 2, 3):
+            expected = []
+            for combo in combinations(range(n), size):
+                m = full
+                for i in combo:
+                    m &= masks[i]
+                if m.bit_count() >= 2:
+                    expected.append((tuple(keys[i] for i in combo), m))
+            assert list(_matching_combinations(keys, masks, size, full)) == expected

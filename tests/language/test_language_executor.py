@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from samplehd.language.executor import ProgramError, execute, execute_nodes, execute_sequence
+from samplehd.language.executor import ProgramError, execute, execute_nodes, execute_sequence, parse_token
 from samplehd.language.generator import GenerationResult, generate_instructions
 from samplehd.language.scene import Scene, parse_scene
 from samplehd.language.synthetic import synthetic_scene
@@ -141,3 +141,25 @@ def test_task_round_trip() -> None:
         "subjectInt": -1,
     }
     assert Task("stack", (1,), reference=4).to_sample_hd()["subjectInt"] == 4
+
+
+def test_error_messages_name_the_node_or_token(kitchen: Scene) -> None:
+    # locations are formatted only when an error is raised: the message still names where it is
+    with pytest.raises(ProgramError, match=r"^node 0 \(unique\): inputs must be indices of earlier nodes, got \[0\]$"):
+        execute_nodes([{"type": "unique", "inputs": [0], "value_inputs": []}], kitchen)
+    scene_node = {"type": "scene", "inputs": [], "value_inputs": []}
+    with pytest.raises(ProgramError, match=r"^node 1 \(filter_table_part\): unknown table part 'middle'; valid: "):
+        execute_nodes([scene_node, {"type": "filter_table_part", "inputs": [0], "value_inputs": ["middle"]}], kitchen)
+    with pytest.raises(ProgramError, match=r"^token 3 \(filter_relate\[up\]\): unknown relation 'up'; valid: "):
+        execute_sequence("pick_up scene filter_name[plate] filter_relate[up]", kitchen)
+    with pytest.raises(ProgramError, match=r"^task place\[middle\]: unknown table part 'middle'"):
+        execute_sequence("place[middle] scene", kitchen)
+
+
+def test_parsed_tokens_are_reused_and_malformed_ones_still_fail() -> None:
+    assert parse_token("filter_colour[red]") == ("filter_colour", "red")
+    assert parse_token("filter_colour[red]") == ("filter_colour", "red")
+    assert parse_token("scene") == ("scene", None)
+    for bad in ("filter_colour[red", "Scene", "filter[a][b]"):
+        with pytest.raises(ProgramError, match="malformed token"):
+            parse_token(bad)

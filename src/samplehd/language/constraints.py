@@ -67,6 +67,20 @@ class ConstraintContext:
 
     def reach(self, xyz: Sequence[float]) -> bool:
         """Memoised ``reachable``."""
+        if type(xyz) is not tuple:
+            return self._reach_rounded(xyz)
+        # an object's coordinates, asked again and again: by the exact point first (same point, same rounding)
+        exact = ("reach exact", xyz)
+        try:
+            known = self.cache.get(exact)
+        except TypeError:  # unhashable coordinates
+            return self._reach_rounded(xyz)
+        if known is None:
+            known = self.cache[exact] = self._reach_rounded(xyz)
+        return known
+
+    def _reach_rounded(self, xyz: Sequence[float]) -> bool:
+        """``reachable``, memoised on the point rounded to a micrometre."""
         key = ("reach", *(round(float(v), 6) for v in xyz))
         if key not in self.cache:
             self.cache[key] = bool(self.reachable(xyz))

@@ -28,7 +28,7 @@ Example:
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from itertools import combinations, product
 from typing import Any
@@ -297,14 +297,9 @@ class SceneDescriber:
             kinds = {*self.modifier_kinds, "name"}
             keys = sorted((k for k in self.masks if k[0] in kinds), key=lambda k: (_KIND_RANK[k[0]], k[1]))
             best: dict[int, tuple[tuple[int, int, list[int]], Description]] = {}
+            masks = [self.masks[k] for k in keys]
             for size in range(1, self.max_set_filters + 1):
-                for combo in combinations(keys, size):
-                    m = self.full
-                    for f in combo:
-                        m &= self.masks[f]
-                    # the cheap test first: most combinations match fewer than two objects
-                    if m.bit_count() < 2:
-                        continue
+                for combo, m in _matching_combinations(keys, masks, size, self.full):
                     if len({k for k, _ in combo}) < size or not self._allowed(combo):
                         continue
                     name = dict(combo).get("name")
@@ -316,6 +311,30 @@ class SceneDescriber:
                         best[m] = (rank, Description.of(combo))
             self._sets = tuple(best[m][1] for m in sorted(best))
         return self._sets
+
+
+def _matching_combinations(
+    keys: Sequence[tuple[str, str]], masks: Sequence[int], size: int, full: int
+) -> Iterator[tuple[tuple[tuple[str, str], ...], int]]:
+    """The combinations of ``size`` keys (in ``itertools.combinations`` order) whose masks share two or
+    more objects, with that shared mask. A prefix sharing fewer than two objects is not extended: no
+    combination that starts with it shares more (most combinations match fewer than two objects)."""
+
+    def extend(
+        start: int, prefix: tuple[tuple[str, str], ...], m: int
+    ) -> Iterator[tuple[tuple[tuple[str, str], ...], int]]:
+        last = len(prefix) + 1 == size
+        for i in range(start, len(keys) - (size - len(prefix) - 1)):
+            shared = m & masks[i]
+            if shared.bit_count() < 2:
+                continue
+            combo = (*prefix, keys[i])
+            if last:
+                yield combo, shared
+            else:
+                yield from extend(i + 1, combo, shared)
+
+    return extend(0, (), full)
 
 
 def shortest_unique_description(scene: Scene, index: int, lexicon: Lexicon | None = None) -> Description | None:

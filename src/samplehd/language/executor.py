@@ -46,36 +46,45 @@ class ProgramError(SamplehdError, ValueError):
 
 def _filter(objects: Sequence[SceneObject], items: frozenset[int], kind: str, value: str) -> frozenset[int]:
     if kind == "table_part":
-        return frozenset(i for i in items if value in objects[i].table_part)
-    return frozenset(i for i in items if getattr(objects[i], kind) == value)
+        return frozenset([i for i in items if value in objects[i].table_part])
+    return frozenset([i for i in items if getattr(objects[i], kind) == value])
 
 
-def _check_part(value: str, where: str) -> str:
+# Where an error is: a message prefix, or ("node", index, function) / ("token", index, token), formatted
+# only when an error is raised (programs are executed for every generated instruction, errors are rare).
+Where = str | tuple[str, int, str]
+
+
+def _at(where: Where) -> str:
+    return where if isinstance(where, str) else f"{where[0]} {where[1]} ({where[2]})"
+
+
+def _check_part(value: str, where: Where) -> str:
     if value not in TABLE_PARTS:
-        raise ProgramError(f"{where}: unknown table part {value!r}; valid: {', '.join(TABLE_PARTS)}")
+        raise ProgramError(f"{_at(where)}: unknown table part {value!r}; valid: {', '.join(TABLE_PARTS)}")
     return value
 
 
-def _check_relation(value: str, where: str) -> str:
+def _check_relation(value: str, where: Where) -> str:
     if value not in RELATIONS:
-        raise ProgramError(f"{where}: unknown relation {value!r}; valid: {', '.join(RELATIONS)}")
+        raise ProgramError(f"{_at(where)}: unknown relation {value!r}; valid: {', '.join(RELATIONS)}")
     return value
 
 
-def _as_object(value: Any, where: str) -> int:
+def _as_object(value: Any, where: Where) -> int:
     if isinstance(value, int):
         return value
     if isinstance(value, frozenset) and len(value) == 1:
         return next(iter(value))
-    raise ProgramError(f"{where}: expected one object, got {_describe(value)}")
+    raise ProgramError(f"{_at(where)}: expected one object, got {_describe(value)}")
 
 
-def _as_set(value: Any, where: str) -> frozenset[int]:
+def _as_set(value: Any, where: Where) -> frozenset[int]:
     if isinstance(value, int):
         return frozenset((value,))
     if isinstance(value, frozenset):
         return value
-    raise ProgramError(f"{where}: expected objects, got {_describe(value)}")
+    raise ProgramError(f"{_at(where)}: expected objects, got {_describe(value)}")
 
 
 def _describe(value: Any) -> str:
@@ -84,21 +93,21 @@ def _describe(value: Any) -> str:
     return repr(value)
 
 
-def _make_task(type_: str, groups: list[Any], value: str | None, where: str) -> Task:
+def _make_task(type_: str, groups: list[Any], value: str | None, where: Where) -> Task:
     """Build the task of an action (its family's) from its (object or set) arguments."""
     family = get_family(type_)
     if family.takes_set:
         if len(groups) != 1:
-            raise ProgramError(f"{where}: {type_} takes one object set, got {len(groups)}")
+            raise ProgramError(f"{_at(where)}: {type_} takes one object set, got {len(groups)}")
         objs = tuple(sorted(_as_set(groups[0], where)))
         if not objs:
-            raise ProgramError(f"{where}: {type_} of an empty set")
+            raise ProgramError(f"{_at(where)}: {type_} of an empty set")
     else:
         if len(groups) != family.arity:
-            raise ProgramError(f"{where}: {type_} takes {family.arity} objects, got {len(groups)}")
+            raise ProgramError(f"{_at(where)}: {type_} takes {family.arity} objects, got {len(groups)}")
         objs = tuple(_as_object(g, where) for g in groups)
         if len(set(objs)) != len(objs):
-            raise ProgramError(f"{where}: {type_} needs distinct objects, got {list(objs)}")
+            raise ProgramError(f"{_at(where)}: {type_} needs distinct objects, got {list(objs)}")
     if family.value == "part":
         value = _check_part(str(value), where)
     elif family.value == "relation":
@@ -116,47 +125,48 @@ def execute_nodes(program: Sequence[Mapping[str, Any]], scene: Scene) -> Task:
     values: list[Any] = []
     task: Task | None = None
     for k, nd in enumerate(program):
-        where = f"node {k}"
-        if not isinstance(nd, Mapping) or "type" not in nd:
-            raise ProgramError(f"{where}: expected {{type, inputs, value_inputs}}, got {nd!r}")
+        if not (type(nd) is dict or isinstance(nd, Mapping)) or "type" not in nd:
+            raise ProgramError(f"node {k}: expected {{type, inputs, value_inputs}}, got {nd!r}")
         type_ = str(nd["type"])
-        where = f"node {k} ({type_})"
-        if type_ not in NODE_FUNCTIONS:
-            raise ProgramError(f"{where}: unknown function; valid: {', '.join(sorted(NODE_FUNCTIONS))}")
+        where = ("node", k, type_)
+        arity = NODE_FUNCTIONS.get(type_)
+        if arity is None:
+            raise ProgramError(f"{_at(where)}: unknown function; valid: {', '.join(sorted(NODE_FUNCTIONS))}")
         inputs = list(nd.get("inputs", []))
-        vals = [str(v) for v in nd.get("value_inputs", [])]
-        if any(not isinstance(i, int) or not 0 <= i < k for i in inputs):
-            raise ProgramError(f"{where}: inputs must be indices of earlier nodes, got {inputs}")
-        if len(vals) != NODE_FUNCTIONS[type_]:
-            raise ProgramError(f"{where}: takes {NODE_FUNCTIONS[type_]} value inputs, got {vals}")
+        vals = [v if type(v) is str else str(v) for v in nd.get("value_inputs", [])]
+        for i in inputs:
+            if not isinstance(i, int) or not 0 <= i < k:
+                raise ProgramError(f"{_at(where)}: inputs must be indices of earlier nodes, got {inputs}")
+        if len(vals) != arity:
+            raise ProgramError(f"{_at(where)}: takes {arity} value inputs, got {vals}")
         args = [values[i] for i in inputs]
         result: Any
         if type_ in ACTION_FUNCTIONS:
             if task is not None:
-                raise ProgramError(f"{where}: a program has one action")
+                raise ProgramError(f"{_at(where)}: a program has one action")
             task = _make_task(type_, args, vals[0] if vals else None, where)
             result = task
         elif type_ == "scene":
             result = frozenset(range(len(objects)))
         elif type_.startswith("filter_"):
-            kind = next(kd for kd, f in _NODE_FILTER_KIND.items() if f == type_)
+            kind = _NODE_FILTER_OF[type_]
             if len(args) != 1:
-                raise ProgramError(f"{where}: takes one input")
+                raise ProgramError(f"{_at(where)}: takes one input")
             if kind == "table_part":
                 _check_part(vals[0], where)
             result = _filter(objects, _as_set(args[0], where), kind, vals[0])
         elif type_ == "unique":
             if len(args) != 1:
-                raise ProgramError(f"{where}: takes one input")
+                raise ProgramError(f"{_at(where)}: takes one input")
             result = _as_object(args[0], where)
         elif type_ == "relate":
             if len(args) != 1:
-                raise ProgramError(f"{where}: takes one input")
+                raise ProgramError(f"{_at(where)}: takes one input")
             rel = _check_relation(vals[0], where)
             result = frozenset(scene.relationships[rel][_as_object(args[0], where)])
         else:  # union, intersect
             if len(args) != 2:
-                raise ProgramError(f"{where}: takes two inputs")
+                raise ProgramError(f"{_at(where)}: takes two inputs")
             a, b = (_as_set(x, where) for x in args)
             result = a | b if type_ == "union" else a & b
         values.append(result)
@@ -174,16 +184,26 @@ _NODE_FILTER_KIND = {
     "size": "filter_size",
     "table_part": "filter_table_part",
 }
+_NODE_FILTER_OF = {f: k for k, f in _NODE_FILTER_KIND.items()}
 _FLAT_FILTER_KIND = {f: k for k, f in FLAT_FILTER.items()}
 _TOKEN = re.compile(r"^([a-z_]+)(?:\[([^\[\]]+)\])?$")
 
 
+_PARSED: dict[str, tuple[str, str | None]] = {}  # well-formed tokens seen (a program's tokens repeat a lot)
+
+
 def parse_token(token: str) -> tuple[str, str | None]:
     """Split a flat token ``"filter_colour[red]"`` into ``("filter_colour", "red")``."""
+    parsed = _PARSED.get(token)
+    if parsed is not None:
+        return parsed
     match = _TOKEN.match(token)
     if not match:
         raise ProgramError(f"malformed token {token!r}; expected name or name[value]")
-    return match.group(1), match.group(2)
+    if len(_PARSED) > 4096:  # tokens made afresh again and again: start over
+        _PARSED.clear()
+    parsed = _PARSED[token] = (match.group(1), match.group(2))
+    return parsed
 
 
 def execute_sequence(program: str | Sequence[str], scene: Scene) -> Task:
@@ -204,12 +224,12 @@ def execute_sequence(program: str | Sequence[str], scene: Scene) -> Task:
     groups: list[frozenset[int]] = []
     for k, token in enumerate(tokens[1:], start=1):
         name, val = parse_token(token)
-        where = f"token {k} ({token})"
+        where: Where = ("token", k, token)
         if name == "scene":
             groups.append(frozenset(range(len(objects))))
             continue
         if not groups:
-            raise ProgramError(f"{where}: an object group must start with 'scene'")
+            raise ProgramError(f"{_at(where)}: an object group must start with 'scene'")
         if name == "filter_relate":
             rel = _check_relation(str(val), where)
             groups[-1] = frozenset(scene.relationships[rel][_as_object(groups[-1], where)])
@@ -220,7 +240,7 @@ def execute_sequence(program: str | Sequence[str], scene: Scene) -> Task:
             groups[-1] = _filter(objects, groups[-1], kind, val)
         else:
             valid = ", ".join([*(f"{f}[v]" for f in FLAT_FILTER.values()), "filter_relate[r]", "scene"])
-            raise ProgramError(f"{where}: unknown token; valid: {valid}")
+            raise ProgramError(f"{_at(where)}: unknown token; valid: {valid}")
     where = f"task {tokens[0]}"
     if action == "place":
         return _make_task("place", [frozenset().union(*groups)] if groups else [], value, where)

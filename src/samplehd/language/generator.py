@@ -418,8 +418,8 @@ class _SceneGenerator:
             name = token[1:-1] if token.startswith("<") and token.endswith(">") else None
             if name in types and types[name] in _META:
                 sequence += reference_tokens(refs[name])
-            else:
-                sequence.append(substitute(token))
+            else:  # (a token without a placeholder stays as it is)
+                sequence.append(substitute(token) if "<" in token else token)
         try:
             task = execute_nodes(nodes, self.scene)
             if execute_sequence(sequence, self.scene) != task:

@@ -12,6 +12,7 @@ __all__ = ["realise_text"]
 _OPTIONAL = re.compile(r"\[([^\[\]]*)\]")
 _SYNONYM = re.compile(r"\{([A-Za-z0-9_]+)\}")
 _PLACEHOLDER = re.compile(r"<([A-Za-z0-9_]+)(?::([a-z]+))?>")
+_SPACE_BEFORE_PUNCTUATION = re.compile(r" ([,.;:?!])")
 
 
 def realise_text(
@@ -32,11 +33,17 @@ def realise_text(
         synonyms: synonym groups.
         rng: random generator for optional phrases and synonyms.
     """
-    text = _OPTIONAL.sub(lambda m: m.group(1) if rng.random() < 0.5 else "", text)
-    text = _SYNONYM.sub(lambda m: str(synonyms[m.group(1)][rng.integers(len(synonyms[m.group(1)]))]), text)
+    # (a variant without brackets or braces skips their pass: no match draws nothing)
+    if "[" in text:
+        text = _OPTIONAL.sub(lambda m: m.group(1) if rng.random() < 0.5 else "", text)
+    if "{" in text:
+        text = _SYNONYM.sub(lambda m: str(synonyms[m.group(1)][rng.integers(len(synonyms[m.group(1)]))]), text)
     text = _PLACEHOLDER.sub(lambda m: phrase(m.group(1), m.group(2)), text)
-    text = re.sub(r"\s+", " ", text).strip()
-    text = re.sub(r"\s+([,.;:?!])", r"\1", text)
+    # whitespace runs become one space (str.split splits on exactly the characters \s matches), then no
+    # space before punctuation
+    text = " ".join(text.split())
+    if " " in text:
+        text = _SPACE_BEFORE_PUNCTUATION.sub(r"\1", text)
     if text and text[-1] not in ".?!":
         text += "."
     return text[:1].upper() + text[1:]
