@@ -102,7 +102,8 @@ class RenderConfig:
                 for m, a in frame.items():
                     images[camera][m].append(a)
 
-            render_states(*args, indices=picks.tolist(), photo=photo, on_frame=keep, segmentation_dtype=seg)
+            render_states(*args, indices=picks.tolist(), photo=photo, on_frame=keep, segmentation_dtype=seg,
+                          overlap=True)
         else:
             images = render_states(*args, indices=picks.tolist(), photo=photo)
         if len(picks) == t:
