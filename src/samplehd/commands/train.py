@@ -2,7 +2,9 @@
 the visuomotor behaviour-cloning policy (PyTorch: `pip install 'samplehd[learn]'`).
 
 Each run writes config.json, checkpoint.pt (resume point), model.pt and metrics.json into --out;
-running the same command again after an interruption resumes from the last checkpoint."""
+running the same command again after an interruption resumes from the last checkpoint. With
+--evaluate-only, the parser or perception model already in --out is tested on the dataset's test split
+(no training; nothing written): its test metrics go to stdout as JSON."""
 
 from __future__ import annotations
 
@@ -12,8 +14,8 @@ from pathlib import Path
 
 from samplehd.errors import ConfigError, require_extra
 from samplehd.learn.bc import train_policy
-from samplehd.learn.parser import train_parser
-from samplehd.learn.perception import train_perception
+from samplehd.learn.parser import score_parser, train_parser
+from samplehd.learn.perception import score_perception, train_perception
 
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
 _DEFAULT_STEPS = {"parser": 1000, "perception": 3000, "policy": 4000}
@@ -28,6 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of initialisation, batches and augmentation")
     parser.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    parser.add_argument("--evaluate-only", action="store_true",
+                        help="parser, perception: test the model already trained in --out on the dataset's test "
+                             "split, without training; print its test metrics (JSON), write nothing")
 
 
 def _torch_or_error() -> None:
@@ -38,6 +43,8 @@ def _torch_or_error() -> None:
 def run(args: argparse.Namespace) -> int:
 
     _torch_or_error()
+    if args.evaluate_only:
+        return _evaluate_only(args)
     steps = _DEFAULT_STEPS[args.model] if args.steps is None else args.steps
     if steps < 1:
         raise ConfigError(f"--steps {steps}: must be a positive integer")
@@ -56,4 +63,17 @@ def run(args: argparse.Namespace) -> int:
     shown = {k: v for k, v in metrics.items() if not isinstance(v, (dict, list))}
     print(json.dumps(shown, indent=1))
     print(f"wrote {args.out / 'metrics.json'}")
+    return 0
+
+
+def _evaluate_only(args: argparse.Namespace) -> int:
+    if args.model == "policy":
+        raise ConfigError("--evaluate-only: for parser and perception; a policy is tested in the environment "
+                          "(`samplehd evaluate --policy bc --models DIR`)")
+    if args.steps is not None:
+        raise ConfigError(f"--steps {args.steps}: not used with --evaluate-only (the model in --out is tested as "
+                          "it is)")
+    score = score_parser if args.model == "parser" else score_perception
+    metrics = score(args.dataset, args.out, device=args.device)
+    print(json.dumps(metrics, indent=1))
     return 0

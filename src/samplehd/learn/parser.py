@@ -16,13 +16,24 @@ from typing import Any
 import numpy as np
 
 from samplehd.envs.tokens import SPECIAL_TOKENS, instruction_vocabulary, tokenize
+from samplehd.errors import ConfigError
 from samplehd.language.executor import ProgramError, execute
 from samplehd.language.scene import parse_scene
 from samplehd.language.vocab import program_node_tokens
 from samplehd.learn.data import instruction_examples, open_dataset
-from samplehd.learn.training import TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
+from samplehd.learn.training import (
+    TrainRun,
+    descend,
+    load_model_files,
+    nn,
+    pick_device,
+    set_seed,
+    step_rng,
+    timed,
+    torch,
+)
 
-__all__ = ["InstructionParser", "ParsedProgram", "decode_target", "encode_target", "train_parser"]
+__all__ = ["InstructionParser", "ParsedProgram", "decode_target", "encode_target", "score_parser", "train_parser"]
 
 SEP = "<SEP>"
 MAX_SOURCE = 48
@@ -254,21 +265,8 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     if run.stopped:
         return {"stopped_at": len(losses)}
     model.eval()
-    seen = [e for e in data["test"] if e["level"] == "L1"]
-    heldout = [e for e in data["test"] if e["level"] == "L3"]
-    m_seen = evaluate_parser(parser, seen) if seen else {"all": {}}
-    m_l3 = evaluate_parser(parser, heldout) if heldout else {"all": {}}
-    m_all = evaluate_parser(parser, data["test"]) if data["test"] else {"all": {}, "by_level": {}}
     metrics = {
-        "test_exact_match": m_seen["all"].get("exact"),
-        "test_node_exact_match": m_seen["all"].get("nodes_exact"),
-        "test_executor_accuracy": m_seen["all"].get("executor"),
-        "test_executor_accuracy_nodes": m_seen["all"].get("executor_nodes"),
-        "test_examples": m_seen["all"].get("n", 0),
-        "l3_exact_match": m_l3["all"].get("exact"),
-        "l3_executor_accuracy": m_l3["all"].get("executor"),
-        "l3_examples": m_l3["all"].get("n", 0),
-        "test_by_level": m_all.get("by_level", {}),
+        **parser_test_metrics(parser, data["test"]),
         "train_examples": len(train),
         "train_loss": float(np.mean(losses[-50:])) if losses else None,
         "steps": steps,
@@ -278,3 +276,40 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     }
     run.finish(model, metrics)
     return metrics
+
+
+def parser_test_metrics(parser: InstructionParser, test: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The ``test_*`` and ``l3_*`` entries of a parser's ``metrics.json`` (:func:`evaluate_parser`)."""
+    seen = [e for e in test if e["level"] == "L1"]
+    heldout = [e for e in test if e["level"] == "L3"]
+    m_seen = evaluate_parser(parser, seen) if seen else {"all": {}}
+    m_l3 = evaluate_parser(parser, heldout) if heldout else {"all": {}}
+    m_all = evaluate_parser(parser, test) if test else {"all": {}, "by_level": {}}
+    return {
+        "test_exact_match": m_seen["all"].get("exact"),
+        "test_node_exact_match": m_seen["all"].get("nodes_exact"),
+        "test_executor_accuracy": m_seen["all"].get("executor"),
+        "test_executor_accuracy_nodes": m_seen["all"].get("executor_nodes"),
+        "test_examples": m_seen["all"].get("n", 0),
+        "l3_exact_match": m_l3["all"].get("exact"),
+        "l3_executor_accuracy": m_l3["all"].get("executor"),
+        "l3_examples": m_l3["all"].get("n", 0),
+        "test_by_level": m_all.get("by_level", {}),
+    }
+
+
+def score_parser(dataset: str | Path, models: str | Path, device: str | None = None) -> dict[str, Any]:
+    """Test a trained parser (the ``--out`` folder of ``samplehd train parser``) on a dataset's test
+    instructions without training: the ``test_*`` and ``l3_*`` metrics of ``metrics.json``, with the
+    wall time and load average of the test (``test_wall_s``, ``test_load_average_1min``).
+
+    Raises:
+        ConfigError: no trained parser in ``models``, or no dataset (or test instructions) in ``dataset``.
+    """
+    parser = InstructionParser.load(models, pick_device(device))
+    data = instruction_examples(open_dataset(dataset))
+    if not data["test"]:
+        raise ConfigError(f"--dataset {dataset}: no test instructions (generate with a test split)")
+    with timed() as t:
+        metrics = parser_test_metrics(parser, data["test"])
+    return {**metrics, **{f"test_{k}": v for k, v in t.items()}}

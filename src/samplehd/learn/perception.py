@@ -31,6 +31,8 @@ import numpy as np
 from PIL import Image
 from rich.console import Console
 from scipy import ndimage
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from samplehd.catalogue import load_catalogue
@@ -52,7 +54,7 @@ from samplehd.learn.training import (
 from samplehd.world.layout import DIRECTIONS, LAYOUT, table_parts_of
 from samplehd.world.relations import compute_relationships
 
-__all__ = ["Perception", "backproject", "evaluate_perception", "train_perception"]
+__all__ = ["Perception", "backproject", "evaluate_perception", "score_perception", "train_perception"]
 
 FORMAT = 4  # bump when the inputs or networks change (older models: train again)
 SEG_CLASSES = ("background", "robot", "object", "contact")
@@ -65,6 +67,9 @@ MIN_RISE = 0.002  # [m] an instance lower than this above the table (95th percen
 REACH_MARGIN = 0.10  # [m] an instance this far beyond the arm's reach is not a scene object
 DEPTH_JUMP = 0.03  # [m] a depth step this large between neighbouring pixels may part two objects
 MIN_PART = 12  # pixels of the segmenter's grid: a part split off by a depth jump must be this large
+CLUSTER_LINK = 0.02  # [m] points of one object's surface lie this near one another (see object_points)
+FLOAT_LIFT = 0.02  # [m] an instance whose lowest points are this far above the table is an object's upper piece
+STACK_NEAR = 0.03  # [m] ... joined with the instance whose ground-plane centre is this near its own
 GROUND_GAP = 0.01  # [m] parts this far apart on the ground plane are different objects
 RAISED = 0.0015  # [m] points this far above the table top are the object's when measuring its extents
 N_FEATURES = 21  # measured size and appearance features of an instance (see _geometry)
@@ -264,6 +269,48 @@ def _ground_groups(parts: np.ndarray, big: Sequence[int], depth: np.ndarray, cam
     return list(groups.values())
 
 
+def join_stacked(masks: Sequence[np.ndarray], depth: np.ndarray, camera: Mapping[str, Any], table_height: float,
+                 lift: float = FLOAT_LIFT, near: float = STACK_NEAR) -> list[np.ndarray]:
+    """Join each instance that floats above the table with the instance beneath it on the ground plane.
+
+    Every scene object stands on the table top, so an instance whose lowest own points
+    (:func:`object_points`, 5th percentile) are ``lift`` [m] above it is the upper piece of an object
+    whose lower piece the segmenter labelled apart: a wine glass's bowl above its stem, a glass's rim above
+    its body where the thin wall was missed. It joins the lower instance whose ground-plane centre is nearest
+    to its own, when within ``near`` [m]: no two objects stand there, as scene objects do not overlap on the
+    table. An object seen only above a nearer one (its foot hidden) has its centre at least the two
+    objects' radii from the nearer one's and stays apart."""
+    masks = list(masks)
+    if len(masks) < 2:
+        return masks
+    centre, low = [], []
+    for m in masks:
+        rows, cols = np.nonzero(m)
+        pts = object_points(backproject(depth, rows, cols, camera), table_height)
+        lo, hi = np.percentile(pts[:, :2], 3, axis=0), np.percentile(pts[:, :2], 97, axis=0)
+        centre.append((lo + hi) / 2)
+        low.append(float(np.percentile(pts[:, 2], 5)) - table_height)
+    root = list(range(len(masks)))
+
+    def find(a: int) -> int:
+        while root[a] != a:
+            a = root[a]
+        return a
+
+    for a in sorted(range(len(masks)), key=lambda k: (-low[k], k)):  # highest piece first
+        if low[a] < lift:
+            continue
+        below = [(float(np.linalg.norm(centre[a] - centre[b])), b) for b in range(len(masks)) if low[b] < low[a]]
+        d, b = min(below, default=(np.inf, a))
+        if d <= near and find(a) != find(b):
+            root[find(a)] = find(b)
+    groups: dict[int, np.ndarray] = {}
+    for k, m in enumerate(masks):
+        r = find(k)
+        groups[r] = groups[r] | m if r in groups else m
+    return list(groups.values())
+
+
 def _crop(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray, mask: np.ndarray, size: int,
           jitter: np.ndarray | None = None) -> np.ndarray:
     """(6, size, size) crop around a mask at the image's full resolution: RGB, mask, depth relative to
@@ -288,33 +335,54 @@ def _crop(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray, mask: np.ndarr
     return out
 
 
+def object_points(pts: np.ndarray, table_height: float, link: float = CLUSTER_LINK) -> np.ndarray:
+    """The points of a mask (N, 3) [m] that lie on the object itself.
+
+    A mask from the segmenter's coarser grid takes in a rim of what lies around the object, and beside a
+    tall object that is not the table next to it but the table top, floor, wall or robot far behind it
+    (the depth jumps at the silhouette). The object's own points are those above the table top whose
+    largest cluster (points within ``link`` [m] of one another, transitively) they fall in; a flat object
+    with fewer than three raised points keeps them all."""
+    raised = pts[pts[:, 2] > table_height + RAISED]
+    if len(raised) < 3:
+        return pts
+    pairs = cKDTree(raised).query_pairs(link, output_type="ndarray")
+    n = len(raised)
+    graph = csr_matrix((np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    return raised[label == np.bincount(label).argmax()]
+
+
 def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any],
-              table_height: float) -> tuple[np.ndarray, np.ndarray]:
+              table_height: float, whole: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(position [x, y, z] of the object's base, the :data:`N_FEATURES` measured features) of a mask.
 
-    Size: the extents of the visible points above the table along their principal horizontal axes (long, short) and
-    the height of the top above the table (none depends on the object's rotation about the vertical),
-    their logarithms, and the metric side of the crop window. Appearance, at the image's full
-    resolution (the crop may shrink a highlight away): percentiles of the brightness and the spread of
-    the saturation over the mask, which tell shiny materials from matte ones.
+    Size: the extents of the object's visible points (:func:`object_points`) along their principal
+    horizontal axes (long, short) and the height of the top above the table (none depends on the
+    object's rotation about the vertical), their logarithms, and the metric side of the crop window.
+    Appearance, at the image's full resolution (the crop may shrink a highlight away): percentiles of the
+    brightness and the spread of the saturation over the mask, which tell shiny materials from matte ones.
+    With ``whole``, the mask may hold several objects (a union to be judged): all its points above the
+    table count, not only the largest cluster's.
     """
     rows, cols = np.nonzero(mask)
     pts = backproject(depth, rows, cols, camera)
-    lo, hi = np.percentile(pts, 3, axis=0), np.percentile(pts, 97, axis=0)
+    own = pts[pts[:, 2] > table_height + RAISED] if whole else object_points(pts, table_height)
+    own = own if len(own) >= 3 else pts
+    lo, hi = np.percentile(own, 3, axis=0), np.percentile(own, 97, axis=0)
     centre = (lo + hi) / 2
     pos = np.array([centre[0], centre[1], table_height])
-    # Extents from the points above the table only: a mask from the segmenter's coarser grid takes in
-    # a rim of table around the object, which would add a pixel or two to every side.
-    raised = pts[pts[:, 2] > table_height + RAISED]
-    xy = (raised if len(raised) >= 3 else pts)[:, :2]
-    xy = xy - xy.mean(axis=0)
+    # Position, extents and height from the object's own points only: a mask from the segmenter's coarser
+    # grid takes in a rim of table around the object, which would add a pixel or two to every side, and
+    # beside a tall object the table, wall or robot far behind it.
+    xy = own[:, :2] - own[:, :2].mean(axis=0)
     if len(xy) >= 3:
         _, vecs = np.linalg.eigh(np.cov(xy.T) + 1e-12 * np.eye(2))
         proj = xy @ vecs[:, ::-1]
         ext = np.percentile(proj, 99.5, axis=0) - np.percentile(proj, 0.5, axis=0)
     else:
         ext = np.zeros(2)
-    top = max(float(np.percentile(pts[:, 2], 99.5)) - table_height, 0.0)
+    top = max(float(np.percentile(own[:, 2], 99.5)) - table_height, 0.0)
     focal = float(np.asarray(camera["intrinsics"], dtype=float)[0, 0]) * depth.shape[1] / float(camera["width"])
     side_px = max(rows.max() - rows.min() + 1, cols.max() - cols.min() + 1) * 1.3 + 4
     side_m = side_px * float(np.median(depth[rows, cols])) / focal
@@ -464,7 +532,8 @@ class Perception:
             masks = [np.kron(m, np.ones((f, f), bool))[: rgb.shape[0], : rgb.shape[1]] for m in masks]
             masks = [np.pad(m, ((0, rgb.shape[0] - m.shape[0]), (0, rgb.shape[1] - m.shape[1]))) for m in masks]
         keep = [k for k, m in enumerate(masks) if self._plausible(m, depth, height, camera)]
-        return self._join_alike([masks[k] for k in keep], [found[k][1] for k in keep], rgb, depth, camera, height)
+        masks = self._join_alike([masks[k] for k in keep], [found[k][1] for k in keep], rgb, depth, camera, height)
+        return join_stacked(masks, depth, camera, self.table_height)
 
     def _join_alike(self, masks: list[np.ndarray], parents: Sequence[int], rgb: np.ndarray, depth: np.ndarray,
                     camera: Mapping[str, Any], height: np.ndarray) -> list[np.ndarray]:
@@ -479,7 +548,7 @@ class Perception:
         for p in split:
             parts = [m for m, q in zip(masks, parents, strict=True) if q == p]
             union = np.logical_or.reduce(parts)
-            found = self.classify(rgb, depth, [*parts, union], camera, height)
+            found = self.classify(rgb, depth, [*parts, union], camera, height, [False] * len(parts) + [True])
             sure = [max(f["scores"]["name"].values()) for f in found]
             if sure[-1] >= max(sure[:-1]):
                 out.append(union)
@@ -501,14 +570,17 @@ class Perception:
         return float(np.hypot(*(xy - np.asarray(LAYOUT.robot_base)))) <= LAYOUT.reach_max + REACH_MARGIN
 
     def classify(self, rgb: np.ndarray, depth: np.ndarray, masks: Sequence[np.ndarray],
-                 camera: Mapping[str, Any], height: np.ndarray | None = None) -> list[dict[str, Any]]:
-        """Attributes and geometry of each mask (logits averaged over the crop and its mirror image)."""
+                 camera: Mapping[str, Any], height: np.ndarray | None = None,
+                 whole: Sequence[bool] | None = None) -> list[dict[str, Any]]:
+        """Attributes and geometry of each mask (logits averaged over the crop and its mirror image);
+        ``whole[k]``: mask ``k`` may hold several objects (see :func:`_geometry`)."""
         if not masks:
             return []
         if height is None:
             height = height_map(depth, camera, self.table_height)
         crops = np.stack([_crop(rgb, depth, height, m, CROP) for m in masks])
-        geo = [_geometry(rgb, depth, m, camera, self.table_height) for m in masks]
+        whole = whole or [False] * len(masks)
+        geo = [_geometry(rgb, depth, m, camera, self.table_height, w) for m, w in zip(masks, whole, strict=True)]
         sizes = torch.as_tensor(np.stack([g[1] for g in geo]).astype(np.float32), device=self.device)
         with torch.no_grad():
             x = torch.as_tensor(crops, device=self.device)
@@ -887,8 +959,26 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     if run.stopped:
         return {"stopped_at": len(losses)}
     net.eval()
-    m = evaluate_perception(model, data["test"])
     metrics = {
+        **perception_test_metrics(model, data["test"]),
+        "train_scenes": len(data["train"]),
+        "train_objects": len(arrays["labels"]),
+        "train_loss": float(np.mean(losses[-50:])) if losses else None,
+        "prepare_s": prep_time["wall_s"],
+        "steps": steps,
+        "seed": seed,
+        "device": str(dev),
+        **t,
+    }
+    run.finish(net, metrics)
+    (Path(out) / PREPARED_FILE).unlink(missing_ok=True)  # only a resumed run needs it
+    return metrics
+
+
+def perception_test_metrics(model: Perception, scenes: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The ``test_*`` entries of a perception model's ``metrics.json`` (:func:`evaluate_perception`)."""
+    m = evaluate_perception(model, scenes)
+    return {
         "test_attribute_accuracy": m["attributes_detected"].get("mean"),
         "test_attribute_all_four": m["attributes_detected"].get("all_four"),
         "test_attribute_accuracy_by_attribute": {a: m["attributes_detected"].get(a) for a in ATTRIBUTES},
@@ -903,15 +993,27 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
         "test_by_level": m["attributes_detected_by_level"],
         "test_scenes": m["scenes"],
         "test_objects": m["objects"],
-        "train_scenes": len(data["train"]),
-        "train_objects": len(arrays["labels"]),
-        "train_loss": float(np.mean(losses[-50:])) if losses else None,
-        "prepare_s": prep_time["wall_s"],
-        "steps": steps,
-        "seed": seed,
-        "device": str(dev),
-        **t,
     }
-    run.finish(net, metrics)
-    (Path(out) / PREPARED_FILE).unlink(missing_ok=True)  # only a resumed run needs it
-    return metrics
+
+
+def score_perception(dataset: str | Path, models: str | Path, device: str | None = None) -> dict[str, Any]:
+    """Test a trained perception model (the ``--out`` folder of ``samplehd train perception``) on a
+    dataset's test scenes without training: the ``test_*`` metrics of ``metrics.json``, with the wall
+    time and load average of the test (``test_wall_s``, ``test_load_average_1min``).
+
+    Raises:
+        ConfigError: no trained model in ``models``, no dataset (or test scenes) in ``dataset``, or
+            scene images of another size than the model was trained on.
+    """
+    model = Perception.load(models, pick_device(device))
+    data = scene_examples(open_dataset(dataset))
+    if not data["test"]:
+        raise ConfigError(f"--dataset {dataset}: no test scenes (generate with a test split)")
+    want = model.config["image"]
+    cam = data["test"][0]["annotation"]["camera"]
+    if (int(cam["width"]), int(cam["height"])) != (int(want["width"]), int(want["height"])):
+        raise ConfigError(f"--dataset {dataset}: scene images are {cam['width']}x{cam['height']}; the model in "
+                          f"{models} was trained on {want['width']}x{want['height']}")
+    with timed() as t:
+        metrics = perception_test_metrics(model, data["test"])
+    return {**metrics, **{f"test_{k}": v for k, v in t.items()}}
