@@ -285,7 +285,9 @@ def test_best_spots_are_a_prefix_of_the_stable_order_long_enough() -> None:
             score = rng.normal(size=m) if not levels else rng.integers(0, levels, m).astype(float)  # many ties
             neighbours = rng.uniform(-0.4, 0.4, (n_near, 2))
             shares = rng.uniform(0.0, 0.05, m)
-            ranked, count = best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, score, shares, 0.25,
+            # the score given whole (no reach or turn term)
+            ranked, count = best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, score, np.zeros((1, 1, 1)),
+                                       np.zeros((1, 1, 1)), spots.turns, spots.turn, np.zeros(3), shares, 0.25,
                                        needed, 12.0)
             idx = np.flatnonzero(free)
             gap = np.full(len(idx), np.inf)
@@ -303,7 +305,7 @@ def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
     with their samples summed from the counts, give what a spot-by-spot mask and sum give."""
     import numpy as np
 
-    from samplehd.world.spot_kernels import counts_outside, uncovered
+    from samplehd.world.spot_kernels import counts_outside, uncovered, uncovered_weight
 
     objects = [_obj("mug", (0.05, -0.25), (0.08, 0.1), 30.0), _obj("plate", (0.15, -0.15), (0.2, 0.2)),
                _obj("bowl", (-0.05, 0.2), (0.14, 0.14))]
@@ -321,6 +323,9 @@ def test_counted_room_and_marked_runs_match_the_spots_one_by_one() -> None:
         free = rng.random(nt * nr * nc) < 0.7
         use = np.array([True, False, True, True])
         np.testing.assert_array_equal(uncovered(free, first, last, use, nc), free & ~runs[use].any(axis=0).ravel())
+        left = free & ~runs[use].any(axis=0).ravel()
+        total, found = uncovered_weight(free, first, last, use, nc, spots.weight)
+        assert found == left.any() and abs(total - spots.weight[left].sum()) < 1e-12
         counts = counts_outside(free, first, last, nc)
         for i in range(len(first)):
             left = free & ~runs[i].ravel()
@@ -345,39 +350,90 @@ def _runs_by_arrays(q0, along, across, lim, u, lo, width, count):  # type: ignor
     return first, last
 
 
+def _axes_reach_by_arrays(rt, half, r, h, grow):  # type: ignore[no-untyped-def]
+    """The separating-axis test's four axes of an object turned by each of ``rt`` (t, 2, 2) against each
+    rectangle (rotations r (R, 2, 2), half sizes h (R, 2)) and how far apart the centres may be along
+    each: (R, t, 4, 2) and (R, t, 4), by numpy's products (the compiled loop's reference)."""
+    import numpy as np
+
+    axes = np.empty((len(r), len(rt), 4, 2))
+    axes[:, :, :2] = np.swapaxes(rt, -1, -2)
+    axes[:, :, 2:] = np.swapaxes(r, -1, -2)[:, None]
+    reach = (np.abs(axes @ rt[None]) @ (half + grow)
+             + (np.abs(axes @ r[:, None]) @ (h + grow)[:, None, :, None])[..., 0])
+    return axes, reach
+
+
 def test_compiled_runs_equal_the_array_computation_bit_for_bit() -> None:
     """The compiled runs of columns equal the whole-array computation exactly, on the spots of real
-    scenes (part grids and grids past a reference) against every object, rows outside those asked for
-    left without a run, and on random slabs including axes that ignore the columns."""
+    scenes (part grids and grids past a reference, along axes and not) against every object and against
+    the spots themselves, from the poses (numpy's matrix products, whose rounding the loop follows) as
+    from given projections; rows outside those asked for are left without a run; and on random slabs
+    including axes that ignore the columns."""
     import numpy as np
 
     from samplehd.bench.language import _scenes
-    from samplehd.world.spot_kernels import column_runs
+    from samplehd.world.spot_kernels import column_runs, rect_runs
 
     checked = 0
     for n in (5, 12):
         for scene in _scenes(n, 2, 4):
             fs = ConstraintContext(scene).free_spots()
+            grow = fs.search.spot_margin / 2
             for k in range(len(scene.objects)):
                 grids = [fs._part_spots(k, part) for part in ("left", "front")]
                 grids += [s for s in (fs._beside_spots(k, (k + 1) % n, d) for d in ((1.0, 0.0), (0.6, -0.8)))
                           if s is not None]
-                axes, reach = fs._scene_axes_reach(k)
                 for spots in grids:
                     g = spots.grid
-                    q0 = np.einsum("rtad,rtd->rta", axes, fs.centre[:, None, :] - g.base[None])
-                    along, across = axes @ g.axes[0], axes @ g.axes[1]
-                    args = (q0, along, across, reach, g.u)
-                    want = _runs_by_arrays(*args, g.lo, g.width, len(g.v))
-                    got = column_runs(*args, 0, len(g.u), float(g.lo), float(g.width), len(g.v))
-                    np.testing.assert_array_equal(got[0], want[0])
-                    np.testing.assert_array_equal(got[1], want[1])
-                    r0, r1 = len(g.u) // 3, len(g.u) // 2
-                    part = column_runs(*args, r0, r1, float(g.lo), float(g.width), len(g.v))
-                    np.testing.assert_array_equal(part[0][:, :, r0:r1], want[0][:, :, r0:r1])
-                    assert (part[0][:, :, :r0] == len(g.v)).all() and (part[1][:, :, r1:] == -1).all()
-                    checked += int(((want[0] <= want[1]) & (want[1] < len(g.v) - 1)).sum())
+                    poses = [(fs.rot, fs.half, fs.centre)]
+                    # the object's own spots as rectangles: the turns of another object put there
+                    at = np.arange(0, len(spots.turn), 97)
+                    poses.append((spots.rots[spots.turn[at]], np.broadcast_to(fs.half[(k + 1) % n], (len(at), 2)),
+                                  spots.centre[at]))
+                    for rots, halves, centres in poses:
+                        axes, reach = _axes_reach_by_arrays(spots.rots, fs.half[k], rots, halves, grow)
+                        q0 = np.einsum("rtad,rtd->rta", axes, centres[:, None, :] - g.base[None])
+                        along, across = axes @ g.axes[0], axes @ g.axes[1]
+                        args = (q0, along, across, reach, g.u)
+                        want = _runs_by_arrays(*args, g.lo, g.width, len(g.v))
+                        got = column_runs(*args, 0, len(g.u), float(g.lo), float(g.width), len(g.v))
+                        np.testing.assert_array_equal(got[0], want[0])
+                        np.testing.assert_array_equal(got[1], want[1])
+                        index = np.arange(len(rots))
+                        rh, ch = np.ascontiguousarray(rots), np.ascontiguousarray(halves)
+                        posed = rect_runs(spots.rots, fs.half[k], rh, ch, np.ascontiguousarray(centres), index, grow,
+                                          g.base, g.axes, g.u, 0, len(g.u), float(g.lo), float(g.width), len(g.v))
+                        np.testing.assert_array_equal(posed[0], want[0])
+                        np.testing.assert_array_equal(posed[1], want[1])
+                        r0, r1 = len(g.u) // 3, len(g.u) // 2
+                        part = column_runs(*args, r0, r1, float(g.lo), float(g.width), len(g.v))
+                        np.testing.assert_array_equal(part[0][:, :, r0:r1], want[0][:, :, r0:r1])
+                        assert (part[0][:, :, :r0] == len(g.v)).all() and (part[1][:, :, r1:] == -1).all()
+                        some = index[::2]
+                        part = rect_runs(spots.rots, fs.half[k], rh, ch, np.ascontiguousarray(centres), some, grow,
+                                         g.base, g.axes, g.u, r0, r1, float(g.lo), float(g.width), len(g.v))
+                        np.testing.assert_array_equal(part[1][:, :, r0:r1], want[1][some][:, :, r0:r1])
+                        assert (part[0][:, :, :r0] == len(g.v)).all() and (part[1][:, :, r1:] == -1).all()
+                        checked += int(((want[0] <= want[1]) & (want[1] < len(g.v) - 1)).sum())
     assert checked > 1000  # runs ending inside the rows, not only empty or whole rows
+    rng = np.random.default_rng(12)
+    for _ in range(20):  # random poses and grid directions: every rounding of the products exercised
+        turn = rng.uniform(-np.pi, np.pi, (5, 1, 1))
+        rt = np.concatenate([np.cos(turn), -np.sin(turn), np.sin(turn), np.cos(turn)], -1).reshape(5, 2, 2)
+        yaw = rng.uniform(-np.pi, np.pi, (30, 1, 1))
+        rots = np.concatenate([np.cos(yaw), -np.sin(yaw), np.sin(yaw), np.cos(yaw)], -1).reshape(30, 2, 2)
+        half, halves, centres = rng.uniform(0.01, 0.2, 2), rng.uniform(0.01, 0.2, (30, 2)), rng.normal(size=(30, 2))
+        ang = rng.uniform(-np.pi, np.pi)
+        grid_axes = np.array([[np.cos(ang), np.sin(ang)], [-np.sin(ang), np.cos(ang)]])
+        base, u = rng.normal(size=(5, 2)) * 0.2, np.linspace(-0.4, 0.4, 60)
+        axes, reach = _axes_reach_by_arrays(rt, half, rots, halves, 0.01)
+        q0 = np.einsum("rtad,rtd->rta", axes, centres[:, None, :] - base[None])
+        want = _runs_by_arrays(q0, axes @ grid_axes[0], axes @ grid_axes[1], reach, u, -0.3, 0.01, 60)
+        got = rect_runs(rt, half, rots, halves, centres, np.arange(30), 0.01, base, grid_axes, u, 0, len(u), -0.3,
+                        0.01, 60)
+        np.testing.assert_array_equal(got[0], want[0])
+        np.testing.assert_array_equal(got[1], want[1])
     rng = np.random.default_rng(8)
     q0, along, across = rng.normal(size=(3, 6, 5, 4)) * 0.3
     across[:, :, ::2] = 0.0  # axes that ignore the column
@@ -475,3 +531,134 @@ def test_compiled_part_tests_and_annulus_equal_the_array_computation() -> None:
         _in_annulus(got, rel_x, rel_y, layout)  # broadcast offsets
         reach = np.hypot(rel_x, rel_y)
         np.testing.assert_array_equal(got, want & (reach >= layout.reach_min) & (reach <= layout.reach_max))
+
+
+def _beside_tests_by_arrays(fs, x, ref, direction):  # type: ignore[no-untyped-def]
+    """The tests of object x's spots past object ref that involve no other object and no distance from the
+    base, on whole arrays (each coordinate on the axes it depends on): the compiled loop's reference.
+    Returns keep (t, r, c), the footprint centres (m, 2) and the origins less the base, x and y."""
+    import numpy as np
+
+    from samplehd.world import placement
+    from samplehd.world.free_spot import _flat_xy
+
+    d, lateral, _, dists, lats, *_ = fs._beside_grid(direction)
+    ext_ref, ext_x = fs._extent_along(ref, direction, False), fs._extent_along(x, direction, True)
+    _, offsets, half = fs._turned(x)
+    along = ((ext_ref + ext_x) + fs.search.spot_margin)[:, None, None] + dists[None, :, None]
+    across = lats[None, None, :]
+    lo, hi = fs._workspace
+    centre, origin, rel, tests = [], [], [], []
+    for a in range(2):
+        c = fs.centre[ref, a]
+        if d[a] != 0:
+            c = c + along * d[a]
+        if lateral[a] != 0:
+            c = c + across * lateral[a]
+        o = c - offsets[:, a, None, None]
+        h = half[:, a, None, None]
+        tests.append((o >= lo[a]) & (o <= hi[a]) & (c - h >= -fs._table[a]) & (c + h <= fs._table[a]))
+        centre.append(c)
+        origin.append(o)
+        rel.append(o - fs._base[a])
+    shape = (len(fs.turns), len(dists), len(lats))
+    keep = np.broadcast_to(tests[0] & tests[1], shape).copy()
+    need = fs.search.relation_gap + placement.BESIDE_NEED
+    if d[0] == 0 or d[1] == 0:
+        a = 0 if d[0] != 0 else 1
+        keep &= (origin[a] - fs.origin[ref, a]) * d[a] >= need
+    else:
+        keep &= ((_flat_xy(origin, shape) - fs.origin[ref]) @ d >= need).reshape(shape)
+    return keep, _flat_xy(centre, shape), [np.broadcast_to(r, shape) for r in rel]
+
+
+def test_compiled_beside_tests_equal_the_array_computation() -> None:
+    """The tests of the spots past a reference from the compiled loop equal the whole-array computation
+    exactly (spots kept, centres, origins), along the axes and slanted, on real scenes; and the spots past
+    a reference are those of that computation with the reach annulus."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world import placement
+    from samplehd.world.free_spot import _flat_xy, _in_annulus
+    from samplehd.world.spot_kernels import beside_keep
+
+    kept = 0
+    for n in (5, 12):
+        for scene in _scenes(n, 2, 6):
+            fs = ConstraintContext(scene).free_spots()
+            for x in range(n):
+                ref = (x + 1) % n
+                for direction in ((1.0, 0.0), (0.0, -1.0), (0.6, -0.8), (-0.28, 0.96)):
+                    want, centre, (rel_x, rel_y) = _beside_tests_by_arrays(fs, x, ref, direction)
+                    d, lateral, _, dists, lats, *_ = fs._beside_grid(direction)
+                    ext = fs._extent_along(ref, direction, False) + fs._extent_along(x, direction, True)
+                    _, offsets, half = fs._turned(x)
+                    lo, hi = fs._workspace
+                    weight = fs._beside_grid(direction)[8]
+                    got = beside_keep(d, lateral, dists, lats, ext + fs.search.spot_margin, fs.centre[ref],
+                                      fs.origin[ref], offsets, half, lo, hi, fs._table, fs._base,
+                                      fs.search.relation_gap + placement.BESIDE_NEED, weight)
+                    np.testing.assert_array_equal(got[0], want)
+                    np.testing.assert_array_equal(_flat_xy(got[1:3], want.shape), centre)
+                    np.testing.assert_array_equal(np.broadcast_to(got[3], want.shape), rel_x)
+                    np.testing.assert_array_equal(np.broadcast_to(got[4], want.shape), rel_y)
+                    assert abs(got[5] - float(weight @ want.ravel())) < 1e-13
+                    kept += int(want.sum())
+                    spots = fs._beside_spots(x, ref, direction)
+                    if spots is not None:
+                        _in_annulus(want, rel_x, rel_y, fs.layout)
+                        np.testing.assert_array_equal(spots.keep, want.ravel())
+                        np.testing.assert_array_equal(spots.centre, centre)
+    assert kept > 1000
+
+
+def test_sums_of_weights_decide_as_numpy_sums_them() -> None:
+    """Whether enough samples land on a set of spots, decided from a sum taken in another order where it is
+    far from the bound, equals the comparison of numpy's sum: on real spots, on random sets and on sets
+    whose sum lies on the bound or a rounding away from it."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+
+    rng = np.random.default_rng(13)
+    near = 0
+    for scene in _scenes(8, 2, 7):
+        fs = ConstraintContext(scene).free_spots()
+        for spots in [fs._part_spots(k, part) for k in range(3) for part in ("left", "back")]:
+            w = spots.weight
+            for _ in range(30):
+                mask = rng.random(len(w)) < rng.choice([0.001, 0.01, 0.1, 0.5])
+                exact = fs._hits(spots, mask)
+                for bound in (exact, np.nextafter(exact, 0), np.nextafter(exact, 1), fs.search.min_hits,
+                              exact * (1 + 1e-13), exact * (1 - 1e-13)):
+                    assert fs._hits_below(spots, mask, bound) == (exact < bound, bool(mask.any()))
+                    near += abs(exact - bound) < 1e-9
+    assert near > 100
+
+
+def test_compiled_scores_equal_the_array_computation() -> None:
+    """The planner's score terms that do not depend on the neighbours, computed per spot in the compiled
+    loop, equal the whole-array expression exactly, on parts' spots and on spots past a reference."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world import placement
+
+    checked = 0
+    for scene in _scenes(6, 2, 8):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(6):
+            grids = [fs._part_spots(k, part) for part in ("left", "right", "front", "back")]
+            grids += [s for s in (fs._beside_spots(k, (k + 1) % 6, d) for d in ((0.0, 1.0), (0.6, -0.8)))
+                      if s is not None]
+            for spots in grids:
+                score, rel_x, rel_y = spots.score_terms
+                reach = np.broadcast_to(np.hypot(rel_x, rel_y), (len(spots.turns), len(spots.grid.u),
+                                                                 len(spots.grid.v))).ravel()
+                want = ((score if len(score) > 1 else float(score[0]))
+                        + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
+                        + placement.SPOT_TURN_WEIGHT * np.abs(spots.turns[spots.turn]))
+                np.testing.assert_array_equal(spots.score(), want)
+                checked += len(want)
+    assert checked > 100000

@@ -157,6 +157,8 @@ class SceneDescriber:
         }
         self._attribute_cache: dict[int, tuple[Description, ...]] = {}
         self._unique_cache: dict[int, tuple[Description, ...]] = {}
+        self._modifier_cache: dict[int, list[list[tuple[tuple[str, str], ...]]]] = {}
+        self._allowed_cache: dict[tuple[tuple[str, str], ...], bool] = {}
         self._sets: tuple[Description, ...] | None = None
 
     # -- matching --------------------------------------------------------------------------------
@@ -204,21 +206,37 @@ class SceneDescriber:
             return ()
         if base == bit:
             return ((),)
-        options = self.modifier_options(index)
-        kinds = list(options)
-        for size in range(1, len(kinds) + 1):
+        for candidates in self._modifier_sets(index):
             found = []
-            for combo in combinations(kinds, size):
-                for values in product(*(options[k] for k in combo)):
-                    filters = tuple(zip(combo, values, strict=True))
-                    m = base
-                    for f in filters:
-                        m &= self.masks[f]
-                    if m == bit and self._allowed(filters):
-                        found.append(filters)
+            for filters in candidates:
+                m = base
+                for f in filters:
+                    m &= self.masks[f]
+                if m == bit and self._allowed_memo(filters):
+                    found.append(filters)
             if found:
                 return tuple(found)
         return ()
+
+    def _modifier_sets(self, index: int) -> list[list[tuple[tuple[str, str], ...]]]:
+        """The modifier sets that may describe an object, by size, each size in the order of the kinds'
+        combinations and their values (memoised: an object is singled out inside many sets of objects)."""
+        if index not in self._modifier_cache:
+            options = self.modifier_options(index)
+            kinds = list(options)
+            self._modifier_cache[index] = [
+                [tuple(zip(combo, values, strict=True)) for combo in combinations(kinds, size)
+                 for values in product(*(options[k] for k in combo))]
+                for size in range(1, len(kinds) + 1)
+            ]
+        return self._modifier_cache[index]
+
+    def _allowed_memo(self, filters: tuple[tuple[str, str], ...]) -> bool:
+        """:meth:`_allowed`, memoised."""
+        ok = self._allowed_cache.get(filters)
+        if ok is None:
+            ok = self._allowed_cache[filters] = self._allowed(filters)
+        return ok
 
     def attribute_descriptions(self, index: int) -> tuple[Description, ...]:
         """All shortest unique descriptions of an object from its attributes alone (maybe none).

@@ -209,14 +209,27 @@ def _compiled_schedule(template: Template) -> list[tuple[_Check, ...]]:
     for checks in _schedule(template):
         level = []
         for c in checks:
-            get = operator.itemgetter(*c.params)
-            level.append((c.type, get if len(c.params) > 1 else _single(get)))
+            level.append((c.type, operator.itemgetter(*c.params) if len(c.params) > 1 else _single(c.params[0])))
         out.append(tuple(level))
     return out
 
 
-def _single(get: Callable[[Mapping[str, Any]], Any]) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
-    return lambda values: (get(values),)
+def _single(name: str) -> Callable[[Mapping[str, Any]], tuple[Any, ...]]:
+    return lambda values: (values[name],)
+
+
+# compiled schedules of the templates seen, by identity (each entry holds its template, so the id stays its own)
+_SCHEDULES: dict[int, tuple[Template, list[tuple[_Check, ...]]]] = {}
+
+
+def _cached_schedule(template: Template) -> list[tuple[_Check, ...]]:
+    """:func:`_compiled_schedule`, made once per template object (the shipped templates are loaded once)."""
+    entry = _SCHEDULES.get(id(template))
+    if entry is None or entry[0] is not template:
+        if len(_SCHEDULES) > 4096:  # templates made afresh again and again: start over
+            _SCHEDULES.clear()
+        entry = _SCHEDULES[id(template)] = (template, _compiled_schedule(template))
+    return entry[1]
 
 
 class _SceneGenerator:
@@ -261,7 +274,7 @@ class _SceneGenerator:
         """
         self.attempts += 1
         if template.name not in self._schedules:
-            self._schedules[template.name] = _compiled_schedule(template)
+            self._schedules[template.name] = _cached_schedule(template)
         schedule = self._schedules[template.name]
         params = template.params
         values: dict[str, Any] = {}

@@ -2,11 +2,18 @@
 the next ``chunk`` steering vectors of the dataset (SAMPLE-HD's 7-D steering, action chunking).
 
 The network: one small CNN per camera whose last block is FiLM-modulated by the instruction (a GRU
-over the token ids of :mod:`samplehd.envs.tokens`), a state MLP, and an MLP head that writes
-``chunk`` × 7 values in [-1, 1]. Training samples frames of the dataset's training episodes (random
-shifts of the images, as in DrQ), minimises the L1 error to the recorded chunk, and reports the
-test episodes' error. In the environment, :class:`BCPolicy` predicts a chunk and executes its first
-``execute`` actions before looking again.
+over the token ids of :mod:`samplehd.envs.tokens`), a state MLP over the robot state normalised per
+dimension (joint positions, TCP position and orientation, finger opening), and an MLP head that
+writes ``chunk`` × 7 values in [-1, 1]. Training samples frames of the dataset's training episodes
+(random shifts of the images, as in DrQ), minimises the squared error to the recorded chunk, and
+reports the test episodes' error. The squared error, not the L1 error of the first version: more
+than half of the frames hold the TCP still along x and y, so the L1 error's optimum under
+uncertainty (the median) is a zero velocity, and an L1-trained policy barely moved.
+
+In the environment, :class:`BCPolicy` predicts a chunk and executes its first ``execute`` actions
+before looking again (or, with ``inference.ensemble``, averages every chunk's action for the step);
+with ``inference.z_floor`` it keeps its TCP target at or above the lowest TCP height of its
+demonstrations.
 """
 
 from __future__ import annotations
@@ -23,17 +30,40 @@ from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset
 from samplehd.learn.options import POLICY_CAMERAS, env_options, env_options_from_config
-from samplehd.learn.training import F, TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
+from samplehd.learn.training import TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
 
 __all__ = ["BCPolicy", "env_options", "policy_for_evaluation", "train_policy"]
 
-STATE_DIM = 10  # joint positions (6), TCP position (3), finger opening (1)
+FORMAT = 2
+STATE_DIM = 16  # joint positions (6), TCP position (3), TCP orientation (6: two rotation columns), opening (1)
+STATE_DIM_V1 = 10  # format 1: joint positions (6), TCP position (3), finger opening ×10 (1), not normalised
 CAMERAS = POLICY_CAMERAS
+NEAR_TABLE = 0.03  # frames whose TCP is within this of the demonstrations' lowest TCP height [m]
 
 
-def _state(joint_pos: np.ndarray, tcp_pos: np.ndarray, opening: np.ndarray) -> np.ndarray:
+def _state_v1(joint_pos: np.ndarray, tcp_pos: np.ndarray, opening: np.ndarray) -> np.ndarray:
     return np.concatenate([joint_pos, tcp_pos, np.atleast_1d(opening)[..., None] * 10.0
                            if np.ndim(opening) else [opening * 10.0]], axis=-1).astype(np.float32)
+
+
+def _rotation_columns(quat: np.ndarray) -> np.ndarray:
+    """The first two columns of the rotation matrix of quaternions (..., 4: w x y z), as (..., 6).
+
+    Unlike the quaternion, they do not change sign between q and -q, and are continuous in the pose.
+    """
+    q = np.asarray(quat, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y),
+                     2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=-1)
+
+
+def _state(joint_pos: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, opening: np.ndarray) -> np.ndarray:
+    """The policy's raw state vector(s) (format 2); the network normalises it per dimension."""
+    joint_pos = np.asarray(joint_pos, np.float64)
+    opening = np.asarray(opening, np.float64)[..., None]
+    return np.concatenate([joint_pos, np.asarray(tcp_pos, np.float64), _rotation_columns(tcp_quat), opening],
+                          axis=-1).astype(np.float32)
 
 
 class Encoder(nn.Module):
@@ -59,9 +89,14 @@ class Encoder(nn.Module):
 class BCNet(nn.Module):
     """Images + instruction tokens + robot state → ``chunk`` steering vectors in [-1, 1]."""
 
-    def __init__(self, vocab: int, image: int, chunk: int, width: int, hidden: int) -> None:
+    def __init__(self, vocab: int, image: int, chunk: int, width: int, hidden: int, state_dim: int = STATE_DIM,
+                 normalise: bool = True) -> None:
         super().__init__()
         self.chunk = chunk
+        self.normalise = normalise
+        if normalise:  # per-dimension mean and spread of the training frames' states (set before training)
+            self.register_buffer("state_mean", torch.zeros(state_dim))
+            self.register_buffer("state_std", torch.ones(state_dim))
         self.embed = nn.Embedding(vocab, 64, padding_idx=0)
         self.text = nn.GRU(64, 128, batch_first=True)
         self.encoders = nn.ModuleList([Encoder(width, 128) for _ in CAMERAS])
@@ -69,7 +104,7 @@ class BCNet(nn.Module):
         for _ in range(4):
             side = (side + 1) // 2
         feat = 2 * width * side * side
-        self.state = nn.Sequential(nn.Linear(STATE_DIM, 64), nn.ReLU(inplace=True))
+        self.state = nn.Sequential(nn.Linear(state_dim, 64), nn.ReLU(inplace=True))
         self.head = nn.Sequential(nn.Linear(len(CAMERAS) * feat + 64 + 128, hidden), nn.ReLU(inplace=True),
                                   nn.Linear(hidden, hidden), nn.ReLU(inplace=True), nn.Linear(hidden, chunk * 7))
 
@@ -80,12 +115,21 @@ class BCNet(nn.Module):
         _, h = self.text(packed)
         c = h[-1]
         feats = [enc(img, c) for enc, img in zip(self.encoders, images, strict=True)]
+        if self.normalise:
+            state = (state - self.state_mean) / self.state_std
         out = self.head(torch.cat([*feats, self.state(state), c], 1))
         return torch.tanh(out).view(-1, self.chunk, 7)
 
 
 class BCPolicy:
     """The trained policy acting in an environment with ``env_options(folder)``.
+
+    Without ``inference.ensemble`` in its config it predicts a chunk and executes the first
+    ``execute`` actions before looking again; with it (ACT's temporal ensembling) it predicts a chunk
+    every step and executes the weighted mean of every chunk's action for this step, weights
+    ``exp(-ensemble * i)`` from the oldest (i = 0). With ``inference.z_floor`` it never moves its TCP
+    target below that height (the lowest TCP height of its training demonstrations [m]): the z
+    velocity is raised where it would.
 
     Args:
         config, state: the trained model's config and state dict.
@@ -97,14 +141,22 @@ class BCPolicy:
         set_seed(int(config["train"]["seed"]))
         self.config = dict(config)
         self.device = device or torch.device("cpu")
+        self.v1 = int(config.get("format", 1)) < 2
         m = config["model"]
-        self.net = BCNet(len(instruction_vocabulary()), config["image"], config["chunk"], m["width"],
-                                  m["hidden"]).to(self.device)
+        self.net = BCNet(len(instruction_vocabulary()), config["image"], config["chunk"], m["width"], m["hidden"],
+                         state_dim=STATE_DIM_V1 if self.v1 else STATE_DIM, normalise=not self.v1).to(self.device)
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
+        self.chunk = int(config["chunk"])
         self.execute = int(config["execute"])
+        inference = config.get("inference") or {}
+        self.ensemble = _optional_number(inference, "ensemble", 0.0)
+        self.z_floor = _optional_number(inference, "z_floor", None)
+        self._lin_step = 0.25 / 20.0  # TCP travel of a steering value of 1 in one control step [m]
         self._queue: list[np.ndarray] = []
+        self._chunks: list[np.ndarray] = []
+        self._z: float | None = None
         if env is not None:
             c = env.unwrapped.config
             want = env_options_from_config(config)
@@ -114,6 +166,9 @@ class BCPolicy:
             if bad:
                 raise ConfigError(f"--policy bc: the environment's {bad[0]}={got[bad[0]]!r}, the policy needs "
                                   f"{want[bad[0]]!r} (options: {want})")
+            control = getattr(env.unwrapped, "control", None)
+            if control is not None:
+                self._lin_step = float(control.max_linear_speed) / float(control.control_hz)
 
     @classmethod
     def load(cls, folder: str | Path | None, env: Any = None) -> BCPolicy:
@@ -124,6 +179,15 @@ class BCPolicy:
 
     def reset(self, seed: int | None = None) -> None:
         self._queue = []
+        self._chunks = []
+        self._z = None
+
+    def _state(self, obs: Mapping[str, Any]) -> np.ndarray:
+        g = np.asarray(obs["gripper"], dtype=float)
+        joints, tcp = np.asarray(obs["joint_pos"], float), np.asarray(obs["tcp_pos"], float)
+        if self.v1:
+            return _state_v1(joints, tcp, g[0] + g[1])
+        return _state(joints, tcp, np.asarray(obs["tcp_quat"], float), g[0] + g[1])
 
     def predict(self, obs: Mapping[str, Any]) -> np.ndarray:
         """The chunk (chunk, 7) for one observation of the environment."""
@@ -132,16 +196,54 @@ class BCPolicy:
                                 / 255.0, device=self.device) for c in CAMERAS]
         tokens = torch.as_tensor(encode_instruction(str(obs["instruction"]), self.config["tokens"])[None],
                                  device=self.device)
-        g = np.asarray(obs["gripper"], dtype=float)
-        state = _state(np.asarray(obs["joint_pos"], float), np.asarray(obs["tcp_pos"], float), g[0] + g[1])
+        state = self._state(obs)
         with torch.no_grad():
             out = self.net(imgs, tokens, torch.as_tensor(state[None], device=self.device))
         return out[0].cpu().numpy()
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
-        if not self._queue:
-            self._queue = list(self.predict(obs)[: self.execute])
-        return np.clip(self._queue.pop(0), -1.0, 1.0).astype(np.float32)
+        if self.ensemble is not None:
+            self._chunks = [*self._chunks, self.predict(obs)][-self.chunk:]
+            n = len(self._chunks)  # chunk i (oldest first) was predicted n-1-i steps ago
+            acts = np.stack([c[n - 1 - i] for i, c in enumerate(self._chunks)])
+            w = np.exp(-self.ensemble * np.arange(n))
+            action = (w[:, None] * acts).sum(0) / w.sum()
+        else:
+            if not self._queue:
+                self._queue = list(self.predict(obs)[: self.execute])
+            action = self._queue.pop(0)
+        action = np.clip(action, -1.0, 1.0).astype(np.float64)
+        if self.z_floor is not None:
+            action = self._above_floor(action, float(np.asarray(obs["tcp_pos"])[2]))
+        return action.astype(np.float32)
+
+    def _above_floor(self, action: np.ndarray, tcp_z: float) -> np.ndarray:
+        """Raise the z velocity so that the TCP target stays at or above ``z_floor``.
+
+        The target is followed by integrating the z velocities sent (steering moves the target by
+        exactly that); it is taken from the observed TCP at the start and whenever the two part by
+        more than 3 cm (a held target, e.g. an unreachable pose).
+        """
+        if self._z is None or abs(self._z - tcp_z) > 0.03:
+            self._z = tcp_z
+        lowest = (float(self.z_floor) - self._z) / self._lin_step
+        if action[2] < lowest:
+            action = action.copy()
+            action[2] = min(lowest, 1.0)
+        self._z += float(action[2]) * self._lin_step
+        return action
+
+
+def _optional_number(options: Mapping[str, Any], key: str, low: float | None) -> float | None:
+    """``options[key]``: None or a finite number (≥ ``low`` when given); one-line error otherwise."""
+    value = options.get(key)
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value) or (
+            low is not None and value < low):
+        valid = "null or a number" + (f" ≥ {low}" if low is not None else "")
+        raise ConfigError(f"policy config.json: inference.{key}={value!r}; valid: {valid}")
+    return float(value)
 
 
 def policy_for_evaluation(env: Any, config: Any) -> BCPolicy:
@@ -154,9 +256,11 @@ def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int) -> dict[s
     f = ep.frames
     imgs = {c: np.asarray(ep.images[c]["rgb"][:]) for c in CAMERAS}
     t = np.arange(0, len(f["steering"]), stride)
+    tcp = np.asarray(f["tcp_pos"])
     return {
         "frames": t, "steering": np.asarray(f["steering"], np.float32),
-        "state": _state(np.asarray(f["joint_pos"]), np.asarray(f["tcp_pos"]), np.asarray(f["gripper_opening"])),
+        "state": _state(np.asarray(f["joint_pos"]), tcp, np.asarray(f["tcp_quat"]), np.asarray(f["gripper_opening"])),
+        "z": tcp[:, 2].astype(np.float64),
         **{c: imgs[c][t] for c in CAMERAS},
         "tokens": encode_instruction(reader.instruction(k)["instruction"], tokens_len),
     }
@@ -166,13 +270,25 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
                  quiet: bool = False, stop_after: int | None = None, batch: int = 64, chunk: int = 8,
                  execute: int = 4, stride: int = 2,
                  lr: float = 1e-3, width: int = 16, hidden: int = 256, tokens: int = 32,
-                 families: Sequence[str] | None = None) -> dict[str, Any]:
+                 families: Sequence[str] | None = None, loss: str = "mse", near_weight: float = 1.0,
+                 ensemble: float | None = None, floor: bool = True) -> dict[str, Any]:
     """Train the behaviour-cloning policy on a dataset's training episodes (images needed).
 
-    Metrics (``metrics.json``): ``train_loss`` (L1 over the chunk, last 50 steps), ``test_l1``
-    (the test episodes' frames), ``test_l1_first`` (first action only), episode and frame counts.
+    The state input (joint positions, TCP position and orientation, finger opening) is normalised
+    per dimension with the training frames' mean and standard deviation (kept in the model's
+    buffers). ``near_weight`` weights the loss of frames whose TCP is within 3 cm of the lowest TCP
+    height of the demonstrations (the grasps and releases near the table). ``ensemble`` and
+    ``floor`` go into the config's ``inference`` options (see :class:`BCPolicy`).
+
+    Metrics (``metrics.json``): ``train_loss`` (the loss over the chunk, last 50 steps), ``test_l1``
+    (the test episodes' frames), ``test_l1_first`` (first action only), ``test_l1_by_axis`` (first
+    action, per steering value), ``test_l1_near_table`` and ``test_z_near_table`` (the chunk's
+    error and the first action's z error on test frames within 3 cm of the lowest TCP height),
+    episode and frame counts.
     """
 
+    if loss not in ("mse", "l1"):
+        raise ConfigError(f"train_policy: loss={loss!r}; valid: mse, l1")
     reader = open_dataset(dataset)
     # A dataset still being written (or stopped early) has its render settings only in the config.
     render = reader.info.get("render") or reader.config.get("render") or {}
@@ -200,19 +316,30 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     set_seed(seed)
     data = [_episode_arrays(reader, k, stride, tokens) for k in train_k]
     test = [_episode_arrays(reader, k, stride * 4, tokens) for k in test_k]
+    states = np.concatenate([d["state"] for d in data]).astype(np.float64)
+    mean, std = states.mean(0), np.maximum(states.std(0), 1e-2)
+    z_floor = float(min(d["z"].min() for d in data))
     config = {
-        "kind": "policy", "format": 1, "dataset": str(dataset), "image": image, "chunk": chunk, "execute": execute,
-        "tokens": tokens, "model": {"width": width, "hidden": hidden},
+        "kind": "policy", "format": FORMAT, "dataset": str(dataset), "image": image, "chunk": chunk,
+        "execute": execute, "tokens": tokens, "model": {"width": width, "hidden": hidden, "state_dim": STATE_DIM},
+        "inference": {"ensemble": ensemble, "z_floor": round(z_floor, 6) if floor else None},
         "families": sorted({reader.instruction(k)["family"] for k in train_k}),
         "train": {"steps": steps, "seed": seed, "batch": batch, "stride": stride, "lr": lr,
-                  "episodes": len(train_k), "frames": int(sum(len(d["frames"]) for d in data))},
+                  "loss": loss, "near_weight": near_weight, "episodes": len(train_k),
+                  "frames": int(sum(len(d["frames"]) for d in data))},
     }
     net = BCNet(len(instruction_vocabulary()), image, chunk, width, hidden).to(dev)
+    with torch.no_grad():
+        net.state_mean.copy_(torch.as_tensor(mean, dtype=torch.float32))
+        net.state_std.copy_(torch.as_tensor(std, dtype=torch.float32))
     opt = torch.optim.Adam(net.parameters(), lr=lr)
     run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
                    stop_after=stop_after)
     run.prepare()
     index = [(i, j) for i, d in enumerate(data) for j in range(len(d["frames"]))]
+
+    def near(items: Sequence[Mapping[str, Any]], pairs: Sequence[tuple[int, int]]) -> np.ndarray:
+        return np.array([items[i]["z"][int(items[i]["frames"][j])] < z_floor + NEAR_TABLE for i, j in pairs])
 
     def batch_of(items: Sequence[Mapping[str, Any]], pairs: Sequence[tuple[int, int]],
                  rng: np.random.Generator | None) -> tuple[list[Any], Any, Any, Any]:
@@ -242,29 +369,46 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
             g["lr"] = lr * min(1.0, 1.5 * (1 - step / steps))
         pairs = [index[i] for i in rng.integers(len(index), size=batch)]
         ims, toks, st, tgt = batch_of(data, pairs, rng)
-        loss = F.l1_loss(net(ims, toks, st), tgt)
-        return descend(opt, loss)
+        diff = net(ims, toks, st) - tgt
+        err = (diff.square() if loss == "mse" else diff.abs()).mean(dim=(1, 2))
+        if near_weight != 1.0:
+            w = torch.as_tensor(np.where(near(data, pairs), near_weight, 1.0), dtype=err.dtype, device=dev)
+            total = (err * w).sum() / w.sum()
+        else:
+            total = err.mean()
+        return descend(opt, total)
 
     losses, t = run.train(net, opt, train_step, "policy")
     if run.stopped:
         return {"stopped_at": len(losses)}
     net.eval()
-    errs, firsts = [], []
+    chunk_err, first_err, zero_err, nears = [], [], [], []
     with torch.no_grad():
         tpairs = [(i, j) for i, d in enumerate(test) for j in range(len(d["frames"]))]
         for k in range(0, len(tpairs), 256):
-            ims, toks, st, tgt = batch_of(test, tpairs[k:k + 256], None)
-            pred = net(ims, toks, st)
-            errs.append(float(F.l1_loss(pred, tgt, reduction="sum")) / 7 / chunk)
-            firsts.append(float(F.l1_loss(pred[:, 0], tgt[:, 0], reduction="sum")) / 7)
-    n = max(len(tpairs), 1)
-    metrics = {
-        "train_loss": float(np.mean(losses[-50:])) if losses else None,
-        "test_l1": sum(errs) / n if tpairs else None,
-        "test_l1_first": sum(firsts) / n if tpairs else None,
+            part = tpairs[k:k + 256]
+            ims, toks, st, tgt = batch_of(test, part, None)
+            diff = (net(ims, toks, st) - tgt).abs().cpu().numpy().astype(np.float64)
+            chunk_err.append(diff.mean(axis=(1, 2)))
+            zero_err.append(tgt[:, 0].abs().cpu().numpy().astype(np.float64))
+            first_err.append(diff[:, 0])
+            nears.append(near(test, part))
+    metrics: dict[str, Any] = {"train_loss": float(np.mean(losses[-50:])) if losses else None}
+    if tpairs:
+        ce, fe, nr = np.concatenate(chunk_err), np.concatenate(first_err), np.concatenate(nears)
+        near_err, near_z = (float(ce[nr].mean()), float(fe[nr, 2].mean())) if nr.any() else (None, None)
+        metrics.update({
+            "test_l1": float(ce.mean()), "test_l1_first": float(fe.mean()),
+            "test_l1_by_axis": [round(float(v), 5) for v in fe.mean(0)],
+            "test_l1_by_axis_zero_action": [round(float(v), 5) for v in np.concatenate(zero_err).mean(0)],
+            "test_l1_near_table": near_err, "test_z_near_table": near_z, "test_frames_near_table": int(nr.sum()),
+        })
+    else:
+        metrics.update({"test_l1": None, "test_l1_first": None})
+    metrics.update({
         "train_episodes": len(train_k), "train_frames": config["train"]["frames"],
         "test_episodes": len(test_k), "test_frames": len(tpairs),
         "families": config["families"], "steps": steps, "seed": seed, "device": str(dev), **t,
-    }
+    })
     run.finish(net, metrics)
     return metrics

@@ -53,6 +53,11 @@ class Footprinted(Protocol):
 _TURN_SPREAD = 0.06  # weight of a turn against a distance when spreading the options [m/rad]
 
 _Rect = tuple[np.ndarray, np.ndarray, np.ndarray]  # footprint centre, 2x2 rotation, half sizes
+# the weights of the planner's score terms that do not depend on the neighbours (spot_kernels.spot_scores)
+_SCORE_WEIGHTS = np.array([placement.SPOT_REACH_WEIGHT, placement.SPOT_COMFORT_REACH, placement.SPOT_TURN_WEIGHT])
+_SCORE_WEIGHTS.setflags(write=False)
+_NO_SCORE = np.zeros(1)  # a part's spots have no score of their own
+_NO_SCORE.setflags(write=False)
 
 
 @dataclass(frozen=True)
@@ -117,7 +122,7 @@ def _yaw_weights() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return out
 
 
-@dataclass(frozen=True)
+@dataclass
 class _Grid:
     """A grid of spots for one object: footprint centre ``base[t] + u[i] e1 + v[j] e2`` for the turn
     ``t`` about the vertical, row ``i`` and column ``j``, flattened in the order (turn, row, column)."""
@@ -131,7 +136,7 @@ class _Grid:
     on_axes: bool  # e1, e2 are x, y and base is 0: centre (u[i], v[j]) exactly
 
 
-@dataclass(frozen=True)
+@dataclass(eq=False)
 class _Spots:
     """Candidate spots of one object: every spot of its grid, the ones that pass the tests not
     involving other objects marked in ``keep``, and which other objects (where the scene has them)
@@ -144,7 +149,7 @@ class _Spots:
     turns: np.ndarray  # (t,) turns about the vertical [rad]
     rots: np.ndarray  # (t, 2, 2) the object's rotation after each turn
     weight: np.ndarray  # (m,) share of the planner's first-try samples landing on the spot
-    score_of: Callable[[], np.ndarray]  # makes ``score`` when first asked for
+    score_terms: tuple[np.ndarray, np.ndarray, np.ndarray]  # score, rel_x, rel_y of spot_kernels.spot_scores
     keep: np.ndarray  # (m,) passes the tests not involving other objects
     blockers_of: Callable[[_Spots], tuple[np.ndarray, np.ndarray, np.ndarray]]  # makes near, first, last
 
@@ -180,9 +185,15 @@ class _Spots:
         return memo[samples]
 
     @functools.cached_property
+    def turn_weights(self) -> tuple[float, ...]:
+        """The weight of each turn's first spot (a part's spots of one turn weigh alike)."""
+        return tuple(self.weight[:: len(self.weight) // len(self.turns)].tolist())
+
     def score(self) -> np.ndarray:
-        """(m,) the planner's score terms that do not depend on the neighbours."""
-        return self.score_of()
+        """(m,) the planner's score terms that do not depend on the neighbours (the ranking computes them on the
+        free spots only)."""
+        return _kernels().spot_scores(*self.score_terms, self.turns, self.turn, _SCORE_WEIGHTS, len(self.grid.u),
+                                      len(self.grid.v))
 
 
 class FreeSpots:
@@ -256,6 +267,9 @@ class FreeSpots:
 
     def _room_in_part(self, arriving: Sequence[int], part: str) -> bool:
         """:meth:`room_in_part` for the objects arriving in the part, in index order."""
+        if len(arriving) > 1 or (arriving and not self.reach_is_annulus):
+            if not self._first_options(arriving[0], part):  # the first one's options, as the loop takes them
+                return False
         present = np.ones(len(self.objects), bool)  # objects still where the scene has them
         placed: list[_Rect] = []
         free: np.ndarray | None = None  # the next object's free spots, where already known
@@ -300,9 +314,15 @@ class FreeSpots:
         if spots is None or self._too_few(spots):
             return False
         present = np.ones(len(self.objects), bool)
+        if self.reach_is_annulus:  # :meth:`_enough` of the free spots, their weights summed as they are found
+            others = present.copy()
+            others[x] = False
+            total, found = _kernels().uncovered_weight(spots.keep, spots.first, spots.last, others[spots.near],
+                                                       len(spots.grid.v), spots.weight)
+            below = self._below(total, len(spots.weight), self.search.min_hits,
+                                lambda: float(spots.weight[self._free(x, spots, present, [])].sum()))
+            return not below and found
         free = self._free(x, spots, present, [])
-        if self.reach_is_annulus:
-            return self._enough(spots, free)
         return bool(self._options(x, spots, free, self._neighbours(x, present, [])))
 
     def _rect(self, k: int, spots: _Spots, j: int) -> _Rect:
@@ -316,18 +336,33 @@ class FreeSpots:
     def _hits_counted(self, spots: _Spots, counts: Sequence[int]) -> float:
         """:meth:`_hits` of a part's spots from how many are free per turn (the same sum: a part's spots of
         one turn weigh alike, so the free spots' weights are those counts of each turn's weight, in order)."""
-        nt = len(spots.turns)
-        return self.search.samples * _repeated_sum(tuple(spots.weight[:: len(spots.weight) // nt].tolist()),
-                                                   tuple(counts))
+        return self.search.samples * _repeated_sum(spots.turn_weights, tuple(counts))
+
+    def _below(self, approx: float, terms: int, bound: float, exact: Callable[[], float]) -> bool:
+        """Whether ``samples`` times a sum of weights is below a bound, from the sum ``approx`` taken in any
+        order (of ``terms`` non-negative weights summing to at most 1) where that is far enough from the
+        bound for the rounding of either sum not to matter, else from ``exact()``, the sum as numpy takes it."""
+        samples = self.search.samples
+        value = samples * approx
+        if abs(value - bound) > 1e-15 * samples * terms + 1e-12:
+            return value < bound
+        return samples * exact() < bound
+
+    def _hits_below(self, spots: _Spots, mask: np.ndarray, bound: float) -> tuple[bool, bool]:
+        """Whether :meth:`_hits` of the spots in ``mask`` is below a bound (decided as :meth:`_below` does),
+        and whether there is any such spot."""
+        total, found = _kernels().weight_sum(mask, spots.weight)
+        return self._below(total, len(mask), bound, lambda: float(spots.weight[mask].sum())), found
 
     def _too_few(self, spots: _Spots) -> bool:
         """Whether the tests not involving other objects already leave too few of the planner's samples
         (with room for rounding: the free spots' sum is then below ``min_hits`` whatever they are)."""
-        return self._hits(spots, spots.keep) < self.search.min_hits - 1e-9
+        return self._hits_below(spots, spots.keep, self.search.min_hits - 1e-9)[0]
 
     def _enough(self, spots: _Spots, free: np.ndarray) -> bool:
         """Whether enough of the planner's first-try samples land on free spots (and there is one)."""
-        return self._hits(spots, free) >= self.search.min_hits and bool(free.any())
+        below, found = self._hits_below(spots, free, self.search.min_hits)
+        return not below and found
 
     def _free(self, k: int, spots: _Spots, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
         """Object k's free spots, given which objects are still where the scene has them and the
@@ -355,10 +390,11 @@ class FreeSpots:
         The planner keeps its best-scored free samples and tries a few of them: here, the best free
         spots holding that many of its expected samples, of which a few far apart are returned.
         """
-        if self._hits(spots, free) < self.search.min_hits:
+        if self._hits_below(spots, free, self.search.min_hits)[0]:
             return []
         g, kernels = spots.grid, _kernels()
-        ranked, count = kernels.best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, spots.score,
+        ranked, count = kernels.best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, *spots.score_terms,
+                                           spots.turns, spots.turn, _SCORE_WEIGHTS,
                                            spots.shares(self.search.samples), placement.SPOT_ROOM_CAP,
                                            self._ranks_needed(spots), float(placement.SPOT_SHORTLIST))
         best = ranked[:count]
@@ -402,45 +438,19 @@ class FreeSpots:
 
         On a row of the grid, each of the test's four axes bounds the column coordinate from both
         sides, so the spots a rectangle blocks are one run of columns per turn and row."""
-        axes, reach = self._axes_reach(k, spots.rots, r, h)
-        return self._runs_on(spots, c, axes, reach)
+        return self._runs_of(k, spots, np.ascontiguousarray(r), np.ascontiguousarray(h), np.ascontiguousarray(c),
+                             np.arange(len(r)), slice(None))
 
-    def _axes_reach(self, k: int, rt: np.ndarray, r: np.ndarray, h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The separating-axis test's four axes for object k turned by each of ``rt`` (t, 2, 2) against
-        each rectangle (rotations (R, 2, 2), half sizes (R, 2)), and how far apart along each axis the
-        two centres may be for an overlap: (R, t, 4, 2) and (R, t, 4)."""
-        grow = self.search.spot_margin / 2
-        n_rect, n_turn = len(r), len(rt)
-        # the four axes of each pair (rect, turn), as rows: the turned object's, then the rectangle's
-        axes = np.empty((n_rect, n_turn, 4, 2))
-        axes[:, :, :2] = np.swapaxes(rt, -1, -2)
-        axes[:, :, 2:] = np.swapaxes(r, -1, -2)[:, None]
-        # reach along each axis: the projected half sizes of both, grown by half the margin each
-        reach = (np.abs(axes @ rt[None]) @ (self.half[k] + grow)
-                 + (np.abs(axes @ r[:, None]) @ (h + grow)[:, None, :, None])[..., 0])
-        return axes, reach
-
-    def _scene_axes_reach(self, k: int) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_axes_reach` of object k against every object where the scene has it (memoised)."""
-        key = ("axes reach", k)
-        if key not in self._memo:
-            self._memo[key] = self._axes_reach(k, self._turned_rots(k), self.rot, self.half)
-        return self._memo[key]
-
-    def _runs_on(self, spots: _Spots, c: np.ndarray, axes: np.ndarray, reach: np.ndarray,
-                 rows: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_runs` for rectangles with centres ``c`` (R, 2), given their test's axes and reach, on the
-        grid's rows ``rows`` (the same numbers on each row as for the whole grid; no run on the others).
-
-        The axes' projections (R, t, 4) are taken here; the four slabs per row, their intersection and its
-        columns are one compiled loop (:func:`samplehd.world.spot_kernels.column_runs`)."""
+    def _runs_of(self, k: int, spots: _Spots, rots: np.ndarray, halves: np.ndarray, centres: np.ndarray,
+                 index: np.ndarray, rows: slice) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`_runs` for the rectangles ``index`` of ``rots``, ``halves``, ``centres`` on the grid's rows
+        ``rows`` (the same numbers on each row as for the whole grid; no run on the others): one compiled
+        loop (:func:`samplehd.world.spot_kernels.rect_runs`) from the poses to the runs."""
         g = spots.grid
-        q0 = np.einsum("rtad,rtd->rta", axes, c[:, None, :] - g.base[None])  # (R, t, 4)
-        along = axes @ g.axes[0]  # (R, t, 4): how the projection moves per metre along a row
-        across = axes @ g.axes[1]  # ... and along a column
         r0, r1, _ = rows.indices(len(g.u))
-        return _kernels().column_runs(np.ascontiguousarray(q0), along, across, reach, g.u, r0, r1, float(g.lo),
-                                      float(g.width), len(g.v))
+        return _kernels().rect_runs(spots.rots, self.half[k], rots, halves, centres, index,
+                                    self.search.spot_margin / 2, g.base, g.axes, g.u, r0, r1, float(g.lo),
+                                    float(g.width), len(g.v))
 
     def _part_spots(self, k: int, part: str) -> _Spots:
         key = ("part", k, part)
@@ -453,8 +463,8 @@ class FreeSpots:
             # origin's distance from the base: computed per turn and row, per turn and column
             keep, rel_x, rel_y = _kernels().part_keep(grid.u, grid.v, offsets, half, lo, hi, table, base)
             _in_annulus(keep, rel_x, rel_y, self.layout)
-            self._memo[key] = self._spots(k, grid, lambda: centre, offsets, turn, weight, 0.0, keep.ravel(),
-                                          lambda: np.hypot(rel_x, rel_y).ravel())
+            self._memo[key] = self._spots(k, grid, lambda: centre, offsets, turn, weight, _NO_SCORE, keep.ravel(),
+                                          rel_x, rel_y)
         return self._memo[key]
 
     def _beside_grid(self, direction: tuple[float, float]) -> tuple[Any, ...]:
@@ -471,47 +481,24 @@ class FreeSpots:
             d, lateral, grid_axes, dists, lats, dist, lat, turn, weight, far, v_lo, v_width = self._beside_grid(
                 direction)
             ext_ref, ext_x = self._extent_along(ref, direction, False), self._extent_along(x, direction, True)
-            rots, offsets, half = self._turned(x)
-            # the distance past the reference per (turn, row) and the lateral offset per column: each
-            # coordinate below is computed on the axes it depends on, then broadcast over (t, r, c)
-            along = ((ext_ref + ext_x) + self.search.spot_margin)[:, None, None] + dists[None, :, None]
-            across = lats[None, None, :]
+            _, offsets, half = self._turned(x)
             lo, hi = self._workspace
-            table, base = self._table, self._base
-            # x and y apart: footprint centre, frame origin, and the tests on each (a zero component of
-            # the direction or its lateral adds nothing, so that term is left out: same numbers)
-            centre, origin, rel, tests = [], [], [], []
-            for a in range(2):
-                c: Any = self.centre[ref, a]
-                if d[a] != 0:
-                    c = c + along * d[a]
-                if lateral[a] != 0:
-                    c = c + across * lateral[a]
-                o = c - offsets[:, a, None, None]
-                h = half[:, a, None, None]
-                tests.append((o >= lo[a]) & (o <= hi[a]) & (c - h >= -table[a]) & (c + h <= table[a]))
-                centre.append(c)
-                origin.append(o)
-                rel.append(o - base[a])
-            keep = tests[0] & tests[1]
-            if keep.shape != (len(self.turns), len(dists), len(lats)):
-                keep = np.broadcast_to(keep, (len(self.turns), len(dists), len(lats))).copy()
-            need = self.search.relation_gap + placement.BESIDE_NEED
-            if d[0] == 0 or d[1] == 0:  # along an axis: the projection is the one coordinate's difference
-                a = 0 if d[0] != 0 else 1
-                keep &= (origin[a] - self.origin[ref, a]) * d[a] >= need
-            else:
-                keep &= ((_flat_xy(origin, keep.shape) - self.origin[ref]) @ d >= need).reshape(keep.shape)
-            if self.search.samples * float(weight @ keep.ravel()) < self.search.min_hits - 1e-6:
+            # the tests per spot, each coordinate on the axes it depends on as the array expressions were
+            # (:func:`samplehd.world.spot_kernels.beside_keep`); the sums of weights stay in numpy
+            start = (ext_ref + ext_x) + self.search.spot_margin
+            keep, cx, cy, rel_x, rel_y, kept = _kernels().beside_keep(
+                d, lateral, dists, lats, start, self.centre[ref], self.origin[ref], offsets, half, lo, hi,
+                self._table, self._base, self.search.relation_gap + placement.BESIDE_NEED, weight)
+            centre = (cx, cy)
+            if self._below(kept, len(weight), self.search.min_hits - 1e-6,
+                           lambda: float(weight @ keep.ravel())):
                 self._memo[key] = None
                 return None
-            rel_x, rel_y = rel
             _in_annulus(keep, rel_x, rel_y, self.layout)
-            grid = _Grid(self.centre[ref] + (ext_ref + ext_x + self.search.spot_margin)[:, None] * d,
+            grid = _Grid(self.centre[ref] + start[:, None] * d,
                          grid_axes, dists, lats, v_lo, v_width, False)
             self._memo[key] = self._spots(x, grid, functools.partial(_flat_xy, centre, keep.shape), offsets, turn,
-                                          weight, far, keep.ravel(),
-                                          lambda: np.broadcast_to(np.hypot(rel_x, rel_y), keep.shape).ravel())
+                                          weight, far, keep.ravel(), rel_x, rel_y)
         return self._memo[key]
 
     def _extent_along(self, k: int, direction: tuple[float, float], turned: bool) -> Any:
@@ -540,15 +527,10 @@ class FreeSpots:
         return self._memo[key]
 
     def _spots(self, k: int, grid: _Grid, centre: Callable[[], np.ndarray], offsets: np.ndarray, turn: np.ndarray,
-               weight: np.ndarray, score: Any, keep: np.ndarray, reach_of: Callable[[], np.ndarray]) -> _Spots:
-        """The spots with their score (from the frame origins' distances from the base that ``reach_of``
-        makes) and their overlaps with the other objects."""
-        turns = self.turns
-
-        def score_of() -> np.ndarray:
-            reach = reach_of()
-            return (score + placement.SPOT_REACH_WEIGHT * np.abs(reach - placement.SPOT_COMFORT_REACH)
-                    + placement.SPOT_TURN_WEIGHT * np.abs(turns[turn]))
+               weight: np.ndarray, score: np.ndarray, keep: np.ndarray, rel_x: np.ndarray,
+               rel_y: np.ndarray) -> _Spots:
+        """The spots with their score terms (``score``, (m,) or (1,), and the frame origins' offsets from the
+        base, (t, r or 1, c or 1)) and their overlaps with the other objects."""
 
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             # the objects whose rectangle, with both margins, comes within reach of the box around the
@@ -558,15 +540,14 @@ class FreeSpots:
             if not len(near):
                 none = np.zeros((0, len(self.turns), len(grid.u)))
                 return near, none, none
-            axes, reach = self._scene_axes_reach(k)
             # on the rows holding such spots only: elsewhere no run is marked (no spot there can be free)
-            first, last = self._runs_on(spots, self.centre[near], axes[near], reach[near], slice(r0, r1))
+            first, last = self._runs_of(k, spots, self.rot, self.half, self.centre, near, slice(r0, r1))
             return near, first, last
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
         # them already leave too few spots needs none
-        return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, score_of, keep,
-                      blockers_of)
+        return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, (score, rel_x, rel_y),
+                      keep, blockers_of)
 
 def _in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, layout: TableLayout) -> None:
     """Keep (in place, keep (t, r, c)) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``

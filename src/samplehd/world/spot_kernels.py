@@ -17,9 +17,29 @@ import math
 
 import numba
 import numpy as np
+from llvmlite import ir
+from numba.core import types
+from numba.extending import intrinsic
 
-__all__ = ["annulus_and", "best_spots", "column_runs", "counts_outside", "farthest_picks", "near_objects", "part_keep",
-           "uncovered"]
+__all__ = ["annulus_and", "beside_keep", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma",
+           "near_objects", "part_keep", "rect_runs", "spot_scores", "uncovered",
+           "uncovered_weight", "weight_sum"]
+
+
+@intrinsic
+def fma(typingctx: object, a: object, b: object, c: object) -> tuple[object, object]:
+    """``a * b + c`` rounded once (IEEE fused multiply-add, ``llvm.fma``), in compiled loops only.
+
+    numpy's products of small matrices go through BLAS, whose kernels fuse one product of each 2-term
+    sum into the other's rounding; the loops that stand for such a product say which one (see
+    :func:`rect_runs`), so that they give its bits."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context: object, builder: ir.IRBuilder, signature: object, args: tuple[object, ...]) -> object:
+        d = ir.DoubleType()
+        return builder.call(builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d])), args)
+
+    return sig, codegen
 
 
 @numba.njit(cache=True, nogil=True)
@@ -51,22 +71,81 @@ def column_runs(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.n
     last = np.full((n_rect, n_turn, n_row), -1.0)
     for k in range(n_rect):
         for t in range(n_turn):
-            for i in range(r0, r1):
-                low, high = -math.inf, math.inf
-                for a in range(4):
-                    q = q0[k, t, a] - along[k, t, a] * u[i]
-                    c, m = across[k, t, a], lim[k, t, a]
-                    if c == 0.0:  # an axis that ignores the column: all or none, by the row
-                        if not abs(q) <= m:
-                            low, high = math.inf, -math.inf
-                    else:
-                        x, y = (q - m) / c, (q + m) / c
-                        low = max(low, min(x, y))
-                        high = min(high, max(x, y))
-                f = np.ceil((low - lo) / width - 0.5)
-                g = np.floor((high - lo) / width - 0.5)
-                first[k, t, i] = min(max(f, 0.0), float(count))
-                last[k, t, i] = min(max(g, -1.0), float(count - 1))
+            _row_runs(q0[k, t], along[k, t], across[k, t], lim[k, t], u, r0, r1, lo, width, count, first[k, t],
+                      last[k, t])
+    return first, last
+
+
+@numba.njit(cache=True, nogil=True)
+def _row_runs(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.ndarray, u: np.ndarray, r0: int,
+              r1: int, lo: float, width: float, count: int, first: np.ndarray, last: np.ndarray) -> None:
+    """:func:`column_runs` of one rectangle and turn (its four axes (4,)), into ``first``, ``last`` (r,)."""
+    for i in range(r0, r1):
+        low, high = -math.inf, math.inf
+        for a in range(4):
+            q = q0[a] - along[a] * u[i]
+            c, m = across[a], lim[a]
+            if c == 0.0:  # an axis that ignores the column: all or none, by the row
+                if not abs(q) <= m:
+                    low, high = math.inf, -math.inf
+            else:
+                x, y = (q - m) / c, (q + m) / c
+                low = max(low, min(x, y))
+                high = min(high, max(x, y))
+        f = np.ceil((low - lo) / width - 0.5)
+        g = np.floor((high - lo) / width - 0.5)
+        first[i] = min(max(f, 0.0), float(count))
+        last[i] = min(max(g, -1.0), float(count - 1))
+
+
+@numba.njit(cache=True, nogil=True)
+def rect_runs(rt: np.ndarray, half: np.ndarray, rots: np.ndarray, halves: np.ndarray, centres: np.ndarray,
+              index: np.ndarray, grow: float, base: np.ndarray, grid_axes: np.ndarray, u: np.ndarray, r0: int,
+              r1: int, lo: float, width: float, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`column_runs` of an object turned by each of ``rt`` against rectangles, from their poses.
+
+    The test's axes, the reach along each and the projections are the products of 2-vectors that
+    :mod:`samplehd.world.free_spot` used to take with numpy, here with that product's own rounding: a
+    matrix product (``A @ B``) gives ``fma(a1, b1, a0 * b0)``, a matrix times a vector ``fma(a0, b0,
+    a1 * b1)`` (BLAS), the projection of the centres' offset ``a0 * b0 + a1 * b1`` (``einsum``); tests
+    check the bits against those array expressions.
+
+    Args:
+        rt: (t, 2, 2) the placed object's rotation after each turn; half: (2,) its half sizes [m].
+        rots, halves, centres: (N, 2, 2), (N, 2), (N, 2) the rectangles' rotations, half sizes and
+            footprint centres [m]; index: (R,) which of them to test.
+        grow: half the spot margin, added to every half size [m].
+        base: (t, 2) the grid's origin per turn; grid_axes: (2, 2) its rows' and columns' directions.
+        u, r0, r1, lo, width, count: as :func:`column_runs`.
+
+    Returns:
+        first, last: (R, t, r), as :func:`column_runs`.
+    """
+    n_rect, n_turn, n_row = index.shape[0], rt.shape[0], u.shape[0]
+    first = np.full((n_rect, n_turn, n_row), float(count))
+    last = np.full((n_rect, n_turn, n_row), -1.0)
+    axes = np.empty((4, 2))
+    q0, along, across, lim = np.empty(4), np.empty(4), np.empty(4), np.empty(4)
+    hk0, hk1 = half[0] + grow, half[1] + grow
+    for m in range(n_rect):
+        n = index[m]
+        h0, h1 = halves[n, 0] + grow, halves[n, 1] + grow
+        for t in range(n_turn):
+            for a in range(2):  # the rows: the turned object's axes, then the rectangle's
+                axes[a, 0], axes[a, 1] = rt[t, 0, a], rt[t, 1, a]
+                axes[2 + a, 0], axes[2 + a, 1] = rots[n, 0, a], rots[n, 1, a]
+            dx, dy = centres[n, 0] - base[t, 0], centres[n, 1] - base[t, 1]
+            for a in range(4):
+                x, y = axes[a, 0], axes[a, 1]
+                own = fma(abs(fma(y, rt[t, 1, 0], x * rt[t, 0, 0])), hk0,
+                          abs(fma(y, rt[t, 1, 1], x * rt[t, 0, 1])) * hk1)
+                other = fma(abs(fma(y, rots[n, 1, 0], x * rots[n, 0, 0])), h0,
+                            abs(fma(y, rots[n, 1, 1], x * rots[n, 0, 1])) * h1)
+                lim[a] = own + other
+                q0[a] = x * dx + y * dy
+                along[a] = fma(x, grid_axes[0, 0], y * grid_axes[0, 1])
+                across[a] = fma(x, grid_axes[1, 0], y * grid_axes[1, 1])
+            _row_runs(q0, along, across, lim, u, r0, r1, lo, width, count, first[m, t], last[m, t])
     return first, last
 
 
@@ -302,15 +381,16 @@ def part_keep(u: np.ndarray, v: np.ndarray, offsets: np.ndarray, half: np.ndarra
 
 @numba.njit(cache=True, nogil=True)
 def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, centre: np.ndarray,
-               neighbours: np.ndarray, score: np.ndarray, shares: np.ndarray, room_cap: float,
+               neighbours: np.ndarray, score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray,
+               turn: np.ndarray, weights: np.ndarray, shares: np.ndarray, room_cap: float,
                needed: int, shortlist: float) -> tuple[np.ndarray, np.ndarray]:
     """The free spots ranked best first by the planner's score, and how many of them hold the shortlist.
 
-    A spot's score is its ``score`` less its distance to the nearest neighbour centre capped at
-    ``room_cap``; the ranking is the start of the stable order of the scores, at least ``needed`` long
-    (every score up to the ``needed``-th smallest, ties included). The best are the first spots whose
-    running sum of ``shares`` (summed left to right, as numpy's cumulative sum) stays within
-    ``shortlist``, at least one.
+    A spot's score is its terms that do not depend on the neighbours (:func:`spot_scores`) less its
+    distance to the nearest neighbour centre capped at ``room_cap``; the ranking is the start of the stable
+    order of the scores, at least ``needed`` long (every score up to the ``needed``-th smallest, ties
+    included). The best are the first spots whose running sum of ``shares`` (summed left to right, as
+    numpy's cumulative sum) stays within ``shortlist``, at least one.
 
     Args:
         free: (m,) the free spots.
@@ -318,29 +398,46 @@ def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, ce
             ``i, j`` its row and column (``centre`` is then not read).
         u, v: the grid's row and column coordinates [m]; centre: (m, 2) the spots' centres [m].
         neighbours: (N, 2) the other objects' footprint centres [m].
-        score: (m,) the planner's score terms that do not depend on the neighbours.
+        score, rel_x, rel_y, turns, turn, weights: the score terms' arguments, as :func:`spot_scores`.
         shares: (m,) the planner's samples expected on each spot.
 
     Returns:
         ranked (the spots, best first) and how many of them are the best.
     """
     idx = np.flatnonzero(free)
-    n_row, n_col = u.shape[0], v.shape[0]
+    n_row, n_col, n_near = u.shape[0], v.shape[0], neighbours.shape[0]
     key = np.empty(idx.shape[0])
+    # on a part's grid every turn's spot in a cell has the cell's centre: its gap is found once (-1: not yet),
+    # from the squared offsets per row and per column
+    cells = n_row * n_col if on_axes else 0
+    gaps = np.full(cells, -1.0)
+    row_sq, col_sq = np.empty((n_row if on_axes else 0, n_near)), np.empty((n_col if on_axes else 0, n_near))
+    if on_axes:
+        for n in range(n_near):
+            for i in range(n_row):
+                dx = u[i] - neighbours[n, 0]
+                row_sq[i, n] = dx * dx
+            for j in range(n_col):
+                dy = v[j] - neighbours[n, 1]
+                col_sq[j, n] = dy * dy
     for m in range(idx.shape[0]):
         s = idx[m]
         gap = math.inf
         if on_axes:
-            i, j = divmod(s % (n_row * n_col), n_col)
-            for n in range(neighbours.shape[0]):
-                dx, dy = u[i] - neighbours[n, 0], v[j] - neighbours[n, 1]
-                gap = min(gap, dx * dx + dy * dy)
-            gap = math.sqrt(gap)  # the square root is monotone: the root of the least square is the least root
+            cell = s % cells
+            gap = gaps[cell]
+            if gap < 0:
+                i, j = divmod(cell, n_col)
+                gap = math.inf
+                for n in range(n_near):
+                    gap = min(gap, row_sq[i, n] + col_sq[j, n])
+                gap = math.sqrt(gap)  # the square root is monotone: the root of the least square is the least root
+                gaps[cell] = gap
         else:
             for n in range(neighbours.shape[0]):
                 dx, dy = centre[s, 0] - neighbours[n, 0], centre[s, 1] - neighbours[n, 1]
                 gap = min(gap, math.sqrt(dx * dx + dy * dy))
-        key[m] = -min(gap, room_cap) + score[s]
+        key[m] = -min(gap, room_cap) + _spot_score(s, score, rel_x, rel_y, turns, turn, weights, n_row, n_col)
     if needed >= key.shape[0]:
         order = np.argsort(key, kind="mergesort")
     else:
@@ -355,3 +452,143 @@ def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, ce
             break
         count += 1
     return ranked, max(1, count)
+
+
+@numba.njit(cache=True, nogil=True)
+def beside_keep(d: np.ndarray, lateral: np.ndarray, dists: np.ndarray, lats: np.ndarray, start: np.ndarray,
+                centre: np.ndarray, origin: np.ndarray, offsets: np.ndarray, half: np.ndarray, lo: np.ndarray,
+                hi: np.ndarray, table: np.ndarray, base: np.ndarray, need: float,
+                weight: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+    """The tests of an object's spots past a reference that need no other object and no distance from the
+    base: the frame origin inside the workspace bounds and past the reference's by ``need``, the footprint
+    inside the table's edges.
+
+    Spot (t, i, j) puts the footprint centre at ``centre + (start[t] + dists[i]) d + lats[j] lateral``,
+    each coordinate computed as the array expression of :mod:`samplehd.world.free_spot` did, on the axes it
+    depends on (a term whose direction component is 0 left out; the distance past the reference along a
+    slanted direction is the matrix-vector product ``fma(a0, b0, a1 * b1)``).
+
+    Args:
+        d, lateral: (2,) the direction and its lateral; dists, lats: the rows' distances and the columns'
+            lateral offsets [m]; start: (t,) the distance of the first row per turn (both extents and the
+            margin) [m].
+        centre, origin: (2,) the reference's footprint centre and frame origin [m].
+        offsets: (t, 2) footprint centre minus frame origin per turn; half: (t, 2) the turned footprint's
+            world-axis half sizes [m].
+        lo, hi: (2,) the workspace bounds for the origin; table: (2,) the table's half sizes less its edge;
+            base: (2,) the robot base [m]; need: how far past the reference's origin [m].
+        weight: (m,) the spots' weights, in the order (turn, row, column).
+
+    Returns:
+        keep (t, r, c); the footprint centres' x and y and the origins' offsets from the base, x and y,
+        each (t, r or 1, c or 1) as it depends on the row and column; and the kept spots' weights summed
+        left to right (not numpy's sum: for deciding far from a bound only).
+    """
+    n_turn, n_row, n_col = start.shape[0], dists.shape[0], lats.shape[0]
+    cx, ox, rx, okx = _beside_axis(0, d, lateral, dists, lats, start, centre, offsets, half, lo, hi, table, base)
+    cy, oy, ry, oky = _beside_axis(1, d, lateral, dists, lats, start, centre, offsets, half, lo, hi, table, base)
+    aligned = d[0] == 0 or d[1] == 0
+    axis = 0 if d[0] != 0 else 1
+    keep = np.empty((n_turn, n_row, n_col), np.bool_)
+    kept = 0.0
+    for t in range(n_turn):
+        for i in range(n_row):
+            for j in range(n_col):
+                i0, j0 = min(i, okx.shape[1] - 1), min(j, okx.shape[2] - 1)
+                i1, j1 = min(i, oky.shape[1] - 1), min(j, oky.shape[2] - 1)
+                ok = okx[t, i0, j0] and oky[t, i1, j1]
+                if ok:
+                    x, y = ox[t, i0, j0], oy[t, i1, j1]
+                    if aligned:
+                        ok = ((x if axis == 0 else y) - origin[axis]) * d[axis] >= need
+                    else:
+                        ok = fma(x - origin[0], d[0], (y - origin[1]) * d[1]) >= need
+                keep[t, i, j] = ok
+                if ok:
+                    kept += weight[(t * n_row + i) * n_col + j]
+    return keep, cx, cy, rx, ry, kept
+
+
+@numba.njit(cache=True, nogil=True)
+def _beside_axis(a: int, d: np.ndarray, lateral: np.ndarray, dists: np.ndarray, lats: np.ndarray,
+                 start: np.ndarray, centre: np.ndarray, offsets: np.ndarray, half: np.ndarray, lo: np.ndarray,
+                 hi: np.ndarray, table: np.ndarray,
+                 base: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`beside_keep` on coordinate ``a`` alone: the centres, origins, origins less the base and the
+    tests on them, (t, r or 1, c or 1) as the coordinate depends on the row and column."""
+    n_turn = start.shape[0]
+    nr = dists.shape[0] if d[a] != 0 else 1
+    nc = lats.shape[0] if lateral[a] != 0 else 1
+    v = np.empty((n_turn, nr, nc))
+    orig = np.empty((n_turn, nr, nc))
+    rel = np.empty((n_turn, nr, nc))
+    ok = np.empty((n_turn, nr, nc), np.bool_)
+    for t in range(n_turn):
+        for i in range(nr):
+            along = start[t] + dists[i]
+            for j in range(nc):
+                c = centre[a]
+                if d[a] != 0:
+                    c = c + along * d[a]
+                if lateral[a] != 0:
+                    c = c + lats[j] * lateral[a]
+                o = c - offsets[t, a]
+                h = half[t, a]
+                ok[t, i, j] = (o >= lo[a]) and (o <= hi[a]) and (c - h >= -table[a]) and (c + h <= table[a])
+                v[t, i, j] = c
+                orig[t, i, j] = o
+                rel[t, i, j] = o - base[a]
+    return v, orig, rel, ok
+
+
+@numba.njit(cache=True, nogil=True)
+def weight_sum(mask: np.ndarray, weight: np.ndarray) -> tuple[float, bool]:
+    """The weights of the spots in ``mask`` summed left to right (not numpy's sum: for deciding far from a
+    bound only), and whether there is any."""
+    total, found = 0.0, False
+    for j in range(mask.shape[0]):
+        if mask[j]:
+            total += weight[j]
+            found = True
+    return total, found
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _spot_score(s: int, score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray,
+                turn: np.ndarray, weights: np.ndarray, n_row: int, n_col: int) -> float:
+    """:func:`spot_scores` of spot ``s``."""
+    t, rest = divmod(s, n_row * n_col)
+    i, j = divmod(rest, n_col)
+    x = rel_x[min(t, rel_x.shape[0] - 1), min(i, rel_x.shape[1] - 1), min(j, rel_x.shape[2] - 1)]
+    y = rel_y[min(t, rel_y.shape[0] - 1), min(i, rel_y.shape[1] - 1), min(j, rel_y.shape[2] - 1)]
+    reach = math.hypot(x, y)
+    return (score[min(s, score.shape[0] - 1)] + weights[0] * abs(reach - weights[1])) + weights[2] * abs(turns[turn[s]])
+
+
+@numba.njit(cache=True, nogil=True)
+def spot_scores(score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray, turn: np.ndarray,
+                weights: np.ndarray, n_row: int, n_col: int) -> np.ndarray:
+    """The planner's score terms of a grid's spots that do not depend on the neighbours, as the array
+    expression ``score + w0 * |hypot(rel_x, rel_y) - w1| + w2 * |turns[turn]|`` gives them.
+
+    Args:
+        score: (m,) or (1,) a score of each spot (or of all) to add to [-].
+        rel_x, rel_y: the frame origins' offsets from the robot base, (t, r or 1, c or 1) [m].
+        turns: (t,) the turns [rad]; turn: (m,) each spot's.
+        weights: the reach weight, the comfortable reach [m] and the turn weight [1/rad].
+        n_row, n_col: the grid's rows and columns.
+
+    Returns:
+        (m,) the scores, spots in the order (turn, row, column).
+    """
+    out = np.empty(turn.shape[0])
+    for s in range(turn.shape[0]):
+        out[s] = _spot_score(s, score, rel_x, rel_y, turns, turn, weights, n_row, n_col)
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
+def uncovered_weight(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.ndarray, count: int,
+                     weight: np.ndarray) -> tuple[float, bool]:
+    """:func:`weight_sum` of :func:`uncovered`'s spots (its arguments but the weights), without keeping them."""
+    return weight_sum(uncovered(keep, first, last, use, count), weight)
