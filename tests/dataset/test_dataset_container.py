@@ -170,3 +170,29 @@ def test_frames_deflated_as_rendered_write_the_same_file(world, tmp_path: Path, 
     assert digests[0] == digests[1]
     back = read_episode(tmp_path / "packed.h5", images="lazy")
     assert back.images["operator"]["segmentation"].dtype == np.uint8
+
+
+def test_a_large_file_is_hashed_beside_its_writing_and_a_failed_write_leaves_no_thread(tmp_path: Path) -> None:
+    """Files of several MB are hashed on a helper thread while they are written: the digest is the file's,
+    and a write that fails raises the one-line error with no thread or temporary file left behind."""
+    import hashlib
+    import threading
+
+    from samplehd.dataset import container
+    from samplehd.record.episode import FRAME_FIELDS, Episode
+
+    t = 6
+    sizes = {"N": 0, "nq": 3, "nv": 3, "na": 0}
+    frames = {k: np.zeros((t, *(sizes.get(d, d) for d in shape)), dtype) for k, (shape, dtype) in FRAME_FIELDS.items()}
+    noise = np.random.default_rng(0).integers(0, 256, (t, 480, 640, 3), dtype=np.uint8)  # incompressible
+    ep = Episode(scene_index=0, instruction_index=0, family="pick", seed=0, subtasks=("Pick",), frames=frames,
+                 success=True, info={}, images={"scene": {"rgb": noise}})
+    out = tmp_path / "big.h5"
+    info = write_episode(out, ep, render={"mode": "fast"})
+    assert info.size == out.stat().st_size >= container._THREADED_DIGEST_BYTES
+    assert info.sha256 == hashlib.sha256(out.read_bytes()).hexdigest()
+    missing = tmp_path / "no-such-folder" / "big.h5"
+    with pytest.raises(DatasetError, match="no-such-folder"):
+        write_episode(missing, ep, render={"mode": "fast"})
+    assert not [th for th in threading.enumerate() if th.name == "samplehd-digest"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["big.h5"]

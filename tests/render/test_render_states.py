@@ -84,3 +84,62 @@ def test_a_renderer_whose_scene_is_full_makes_it_larger_and_draws_everything(wor
         assert r._scene.maxgeom > r._scene.ngeom > 4
     for m in MODALITIES:
         np.testing.assert_array_equal(got[m], want[m], err_msg=m)
+
+
+def _arm_states(model, data, n):
+    qpos = np.stack([data.qpos + 0.1 * d for d in range(n)])
+    qpos[:, 6:] = data.qpos[6:]  # move the arm only
+    return {"qpos": qpos, "qvel": np.zeros((n, model.nv))}
+
+
+def _frames_left():
+    import threading
+
+    return [t for t in threading.enumerate() if t.name.startswith("samplehd-frames")]
+
+
+def test_on_frame_beside_the_render_loop_sees_every_frame_in_order_on_another_thread(world):
+    import threading
+    import time
+
+    model, data = world
+    frames = _arm_states(model, data, 7)
+    want = render_states(model, frames, ("operator", "wrist"), MODALITIES, 64, 48, "fast")
+    got: dict[str, dict[str, list[np.ndarray]]] = {c: {m: [] for m in MODALITIES} for c in ("operator", "wrist")}
+    threads = set()
+
+    def keep(cam, images):
+        threads.add(threading.get_ident())
+        time.sleep(0.004)  # slower than a frame: the renderer must wait for the buffers, not overwrite them
+        for m, a in images.items():
+            got[cam][m].append(a.copy())
+
+    assert render_states(model, frames, ("operator", "wrist"), MODALITIES, 64, 48, "fast", on_frame=keep,
+                         overlap=True) == {}
+    assert threads and threading.get_ident() not in threads
+    for cam in got:
+        for m in MODALITIES:
+            np.testing.assert_array_equal(np.stack(got[cam][m]), want[cam][m], err_msg=f"{cam} {m}")
+    assert not _frames_left()
+
+
+def test_an_error_beside_the_render_loop_is_raised_and_leaves_no_thread(world):
+    model, data = world
+    frames = _arm_states(model, data, 9)
+    calls = []
+
+    def fail_at_third(cam, images):
+        calls.append(cam)
+        if len(calls) == 3:
+            raise OSError("disk full (test)")
+
+    with pytest.raises(OSError, match="disk full"):
+        render_states(model, frames, ("operator",), ("rgb",), 32, 24, "fast", on_frame=fail_at_third, overlap=True)
+    assert not _frames_left()
+    # An error of the render loop itself (a state of another model) while calls are pending: also no thread left.
+    from samplehd.errors import DatasetError
+
+    bad = {"qpos": list(frames["qpos"]) + [np.zeros(model.nq + 1)], "qvel": list(frames["qvel"]) * 2}
+    with pytest.raises(DatasetError, match="nq="):
+        render_states(model, bad, ("operator",), ("rgb",), 32, 24, "fast", on_frame=lambda c, i: None, overlap=True)
+    assert not _frames_left()

@@ -38,6 +38,7 @@ import io
 import json
 import os
 import shutil
+import threading
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -295,7 +296,9 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
             g.attrs["render"] = json.dumps(dict(render or {}), sort_keys=True)
             _write_images(g, episode.images)
     data = buffer.getbuffer()
-    digest = hashlib.sha256(data).hexdigest()
+    # A file with images is tens of MB: its digest is taken on a second thread while this one writes and
+    # syncs it (both let go of the GIL), instead of before.
+    digest = _Digest(data, threaded=len(data) >= _THREADED_DIGEST_BYTES)
     try:
         with open(tmp, "wb") as fh:
             fh.write(data)
@@ -304,13 +307,53 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
             _drop_cached(fh.fileno())
         os.replace(tmp, path)
     except OSError as exc:
+        digest.wait()
         try:
             tmp.unlink()
         except OSError:
             pass
         raise write_error(path, exc, retry) from None
     size = len(data)
-    return EpisodeFile(path.name, episode.num_frames, size, digest)
+    return EpisodeFile(path.name, episode.num_frames, size, digest.result())
+
+
+# Files from this size on are hashed beside their writing (a thread costs more than hashing a small file).
+_THREADED_DIGEST_BYTES = 4 << 20
+
+
+class _Digest:
+    """The SHA-256 of ``data``, computed now or (``threaded``) on a helper thread; :meth:`result` waits for it
+    and raises what hashing raised."""
+
+    def __init__(self, data: memoryview, threaded: bool) -> None:
+        self._hex: str | None = None
+        self._error: BaseException | None = None
+        self._thread: threading.Thread | None = None
+        if threaded:
+            self._thread = threading.Thread(target=self._run, args=(data,), name="samplehd-digest", daemon=True)
+            self._thread.start()
+        else:
+            self._run(data)
+
+    def _run(self, data: memoryview) -> None:
+        try:
+            self._hex = hashlib.sha256(data).hexdigest()
+        except BaseException as exc:  # handed to the caller by result()
+            self._error = exc
+
+    def wait(self) -> None:
+        """Wait until the digest is taken."""
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+
+    def result(self) -> str:
+        """The hex digest (after waiting for it)."""
+        self.wait()
+        if self._error is not None:
+            raise self._error
+        assert self._hex is not None
+        return self._hex
 
 
 def _drop_cached(fd: int) -> None:

@@ -77,7 +77,8 @@ class RenderConfig:
         T), or ``{}`` for mode ``none``. With keyframes (``every``, ``subtask_ends``) each stream is a
         :class:`~samplehd.render.keyframes.SparseFrames`. ``seed``: the scene's seed (the photo
         preset's randomised look is drawn from it). ``deflated``: each stream is a
-        :class:`~samplehd.render.deflated.DeflatedFrames`, every frame deflated as soon as it is rendered,
+        :class:`~samplehd.render.deflated.DeflatedFrames`, every frame deflated as soon as it is rendered (on a
+        helper thread, while the next frames render: ``render_states(overlap=True)``),
         in the dtype the episode file stores (segmentation uint8, or uint16 for a scene with ids past 255),
         for writing (about a tenth of the memory of the raw frames, and no fresh memory per frame).
 
@@ -102,7 +103,8 @@ class RenderConfig:
                 for m, a in frame.items():
                     images[camera][m].append(a)
 
-            render_states(*args, indices=picks.tolist(), photo=photo, on_frame=keep, segmentation_dtype=seg)
+            render_states(*args, indices=picks.tolist(), photo=photo, on_frame=keep, segmentation_dtype=seg,
+                          overlap=True)
         else:
             images = render_states(*args, indices=picks.tolist(), photo=photo)
         if len(picks) == t:

@@ -15,6 +15,7 @@ detection and dynamics (most of its cost, paid every frame of an episode).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 import mujoco
@@ -23,7 +24,11 @@ import numpy as np
 from samplehd.errors import DatasetError
 from samplehd.render.renderer import IMAGE_DTYPES, SceneRenderer, image_shape
 
-__all__ = ["pose_state", "render_states", "set_state"]
+__all__ = ["OVERLAP_BUFFERS", "pose_state", "render_states", "set_state"]
+
+# Frame buffers that take turns when on_frame runs beside the render loop: one being rendered, one being
+# handed over, one spare (so a slow call does not stall the renderer at once).
+OVERLAP_BUFFERS = 3
 
 
 def set_state(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray, qvel: np.ndarray,
@@ -89,6 +94,7 @@ def render_states(
     photo: Any = None,
     on_frame: Callable[[str, dict[str, np.ndarray]], None] | None = None,
     segmentation_dtype: Any = np.int32,
+    overlap: bool = False,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Render recorded frames: ``images[camera][modality]`` with the frame as first axis.
 
@@ -107,6 +113,10 @@ def render_states(
         on_frame: called with each camera and its images of each frame in turn, instead of keeping them; the
             arrays are reused for the next frame (copy what must outlive the call). ``{}`` is then returned.
         segmentation_dtype: int32, or uint8/uint16 where the model's ids fit (the dtype episode files store).
+        overlap: with ``on_frame``, call it on one helper thread while the next frames render (in the same
+            order, one call at a time; :data:`OVERLAP_BUFFERS` sets of arrays take turns), so that work that
+            releases the GIL (deflating, say) runs beside the rasteriser instead of after it. An exception
+            raised by ``on_frame`` is raised here, and no call is left running when this returns or raises.
 
     Raises:
         DatasetError: the states do not fit the model.
@@ -116,18 +126,63 @@ def render_states(
     picks = range(len(frames["qpos"])) if indices is None else indices
     act, time = frames.get("act"), frames.get("time")
     # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
-    # With on_frame, one frame's arrays serve every frame (no fresh memory per frame).
+    # With on_frame, one frame's arrays serve every frame (no fresh memory per frame); with overlap, a few.
     dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
-    n = 1 if on_frame is not None else len(picks)
+    overlap = overlap and on_frame is not None
+    n = (OVERLAP_BUFFERS if overlap else 1) if on_frame is not None else len(picks)
     out = {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
                if m in dtypes} for c in cameras}
-    with SceneRenderer(model, width, height, preset, photo=photo) as renderer:
+    with SceneRenderer(model, width, height, preset, photo=photo) as renderer, _Handoff(overlap) as handoff:
         for i, k in enumerate(picks):
             pose_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
                        None if time is None else time[k])
+            slot = i % n if on_frame is not None else i
+            handoff.wait(slot)  # the helper is done with this slot's arrays (or raises its error)
             for cam in cameras:
-                slot = 0 if on_frame is not None else i
                 images = renderer.render(data, cam, modalities, out={m: a[slot] for m, a in out[cam].items()})
-                if on_frame is not None:
+                if on_frame is not None and not overlap:
                     on_frame(cam, images)
+            if overlap:
+                assert on_frame is not None
+                handoff.submit(slot, on_frame, [(cam, {m: a[slot] for m, a in out[cam].items()})
+                                                for cam in cameras])
+        handoff.wait_all()
     return {} if on_frame is not None else out
+
+
+class _Handoff:
+    """Calls ``on_frame`` for whole frames on one helper thread, in order, and tracks which frame slot each
+    pending call still reads; does nothing when not ``enabled``. Leaving the ``with`` block (normally or by an
+    exception) cancels what has not started and waits for the running call, so no thread outlives it."""
+
+    def __init__(self, enabled: bool) -> None:
+        self._pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="samplehd-frames") if enabled else None
+        self._pending: dict[int, Future[None]] = {}
+
+    def __enter__(self) -> _Handoff:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def submit(self, slot: int, on_frame: Callable[[str, dict[str, np.ndarray]], None],
+               views: list[tuple[str, dict[str, np.ndarray]]]) -> None:
+        assert self._pool is not None
+
+        def call() -> None:
+            for cam, images in views:
+                on_frame(cam, images)
+
+        self._pending[slot] = self._pool.submit(call)
+
+    def wait(self, slot: int) -> None:
+        """Block until the call reading ``slot`` has finished; raise its exception if it failed."""
+        done = self._pending.pop(slot, None)
+        if done is not None:
+            done.result()
+
+    def wait_all(self) -> None:
+        """Block until every call has finished; raise the first exception among them."""
+        for slot in list(self._pending):
+            self.wait(slot)
