@@ -277,25 +277,37 @@ def test_kind_head_sharpens_class_and_size() -> None:
     assert np.isclose(size.sum(), 1.0) and np.isclose(out[0].sum(), 1.0)
 
 
-def test_depth_jumps_split_objects_that_touch_in_the_image(tmp_path: Path) -> None:
-    """On a real rendered scene whose ground-truth object pixels form fewer components than objects
-    (a glass in front of a chopping board, a bowl touching a can), splitting at depth jumps recovers every object
-    as its own instance, and the bowls (depth jumps at their rims) stay whole."""
+def _rendered_scene(folder: Path, index: int, n_objects: int, width: int, height: int) -> tuple:
+    """Scene ``index`` of seed 1 with ``n_objects`` objects, rendered (`fast`) into ``folder`` and read back:
+    its annotation, RGB, segmentation ids and depth."""
     import numpy as np
     from PIL import Image
 
-    from samplehd.learn.perception import _match, instance_masks
     from samplehd.scene.config import SceneConfig
     from samplehd.scene.generate import SceneJob, render_scene_files
     from samplehd.world.seeding import scene_seed
 
     for sub in ("scenes", "images", "depth", "segmentation"):
-        (tmp_path / sub).mkdir()
-    config = SceneConfig.from_dict({"min_objects": 6, "max_objects": 6}).to_dict()
-    ann, _ = render_scene_files(SceneJob(3, scene_seed(1, 3), str(tmp_path), config, 320, 180, "fast", 20))
+        (folder / sub).mkdir()
+    config = SceneConfig.from_dict({"min_objects": n_objects, "max_objects": n_objects}).to_dict()
+    job = SceneJob(index, scene_seed(1, index), str(folder), config, width, height, "fast", 20)
+    ann, _ = render_scene_files(job)
     stem = Path(ann["image_filename"]).stem
-    seg = np.asarray(Image.open(tmp_path / "segmentation" / f"{stem}.png")).astype(int)
-    depth = np.load(tmp_path / "depth" / f"{stem}.npy")
+    rgb = np.asarray(Image.open(folder / "images" / f"{stem}.png").convert("RGB"))
+    seg = np.asarray(Image.open(folder / "segmentation" / f"{stem}.png")).astype(int)
+    depth = np.load(folder / "depth" / f"{stem}.npy")
+    return ann, rgb, seg, depth
+
+
+def test_depth_jumps_split_objects_that_touch_in_the_image(tmp_path: Path) -> None:
+    """On a real rendered scene whose ground-truth object pixels form fewer components than objects
+    (a glass in front of a chopping board, a bowl touching a can), splitting at depth jumps recovers every object
+    as its own instance, and the bowls (depth jumps at their rims) stay whole."""
+    import numpy as np
+
+    from samplehd.learn.perception import _match, instance_masks
+
+    ann, _rgb, seg, depth = _rendered_scene(tmp_path, 3, 6, 320, 180)
     labels = np.where(seg >= 3, 2, 0)  # object pixels, no contact class: touching objects form one component
     gt = [seg == o["segmentation_id"] for o in ann["objects"]]
     assert sorted(o["name"] for o in ann["objects"]).count("bowl") == 2
@@ -353,23 +365,12 @@ def test_tall_objects_are_placed_by_their_own_points_and_floating_pieces_join(tm
     points is more than 10 cm off. A wine glass cut into its bowl and its foot (the segmenter's two
     pieces) is joined again, and no other object is joined with anything."""
     import numpy as np
-    from PIL import Image
     from scipy import ndimage
 
     from samplehd.learn.perception import _geometry, backproject, join_stacked
-    from samplehd.scene.config import SceneConfig
-    from samplehd.scene.generate import SceneJob, render_scene_files
     from samplehd.world.layout import LAYOUT
-    from samplehd.world.seeding import scene_seed
 
-    for sub in ("scenes", "images", "depth", "segmentation"):
-        (tmp_path / sub).mkdir()
-    config = SceneConfig.from_dict({"min_objects": 5, "max_objects": 5}).to_dict()
-    ann, _ = render_scene_files(SceneJob(10, scene_seed(1, 10), str(tmp_path), config, 640, 360, "fast", 20))
-    stem = Path(ann["image_filename"]).stem
-    seg = np.asarray(Image.open(tmp_path / "segmentation" / f"{stem}.png")).astype(int)
-    depth = np.load(tmp_path / "depth" / f"{stem}.npy")
-    rgb = np.asarray(Image.open(tmp_path / "images" / f"{stem}.png").convert("RGB"))
+    ann, rgb, seg, depth = _rendered_scene(tmp_path, 10, 5, 640, 360)
     camera, table = ann["camera"], LAYOUT.table_height
     tall = [o for o in ann["objects"] if o["bbox"]["extents"][2] > 0.1]
     assert {o["name"] for o in tall} >= {"thermos", "soda_can", "wine_glass"}
