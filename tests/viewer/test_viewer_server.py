@@ -302,14 +302,21 @@ def test_cli_view_rejects_missing_dataset(tmp_path: Path, capsys: pytest.Capture
     assert main(["view", str(tmp_path)]) == 2
 
 
-def test_cli_view_serves_until_interrupted(tiny_dataset: Path, dataset_files: DatasetFiles) -> None:
+@pytest.mark.parametrize("stop", ["SIGINT", "SIGTERM"])
+def test_cli_view_serves_until_interrupted(tiny_dataset: Path, dataset_files: DatasetFiles, stop: str) -> None:
+    """Ctrl-C (SIGINT, as a foreground process at a terminal gets it) and SIGTERM both stop the server
+    cleanly. The child starts with SIGINT's default action: a test run in the background of a script
+    inherits SIGINT ignored, which Python keeps."""
     import signal
     import subprocess
     import sys
     import time
 
+    def foreground() -> None:
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+
     proc = subprocess.Popen([sys.executable, "-m", "samplehd", "view", str(tiny_dataset), "--port", "0"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, preexec_fn=foreground)
     try:
         assert proc.stdout is not None
         lines = [proc.stdout.readline(), proc.stdout.readline()]
@@ -320,13 +327,15 @@ def test_cli_view_serves_until_interrupted(tiny_dataset: Path, dataset_files: Da
         status, _, body = _get(url, "/api/status")
         assert status == 200 and json.loads(body)["counts"]["scenes"] == len(dataset_files.scenes)
     finally:
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(getattr(signal, stop))
         deadline = time.monotonic() + 60  # a loaded machine may be slow to shut down
         while proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
         if proc.poll() is None:
             proc.kill()
+            proc.wait()
     assert proc.returncode == 0
+    assert proc.stdout.read().strip() == "stopped"
 
 
 def test_state_renderer_refuses_bad_requests_before_rendering() -> None:

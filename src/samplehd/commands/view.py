@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
+import threading
 from pathlib import Path
 
 from samplehd.dataset.layout import FORMAT_VERSION, INFO_FILE
@@ -44,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"samplehd view: {status['root']} — {counts['scenes']} scenes, {counts['instructions']} instructions, "
           f"{counts['episodes']} episodes")
     print(f"serving on {server.url} (Ctrl-C to stop)", flush=True)
+    _stop_on_sigterm()
     try:
         server.serve_forever()
     except KeyboardInterrupt:
@@ -51,6 +54,17 @@ def run(args: argparse.Namespace) -> int:
     finally:
         server.server_close()
     return 0
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def _stop_on_sigterm() -> None:
+    """SIGTERM stops the server as Ctrl-C does (a server started in the background of a script gets
+    SIGINT ignored by the shell, so ``kill`` is how it is stopped there)."""
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _interrupt)
 
 
 def _check_folder(root: Path) -> None:
