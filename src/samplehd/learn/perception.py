@@ -252,20 +252,20 @@ def _ground_groups(parts: np.ndarray, big: Sequence[int], depth: np.ndarray, cam
     for j in big:
         rows, cols = np.nonzero(parts == j)
         trees.append(cKDTree(backproject(depth, rows, cols, camera)[:, :2]))
-    root = list(range(len(big)))
+    near = [(a, b) for a in range(len(big)) for b in range(a + 1, len(big))
+            if trees[a].count_neighbors(trees[b], gap) > 0]
+    return [[big[a] for a in g] for g in _linked_groups(len(big), near)]
 
-    def find(a: int) -> int:
-        while root[a] != a:
-            a = root[a]
-        return a
 
-    for a in range(len(big)):
-        for b in range(a + 1, len(big)):
-            if find(a) != find(b) and trees[a].count_neighbors(trees[b], gap) > 0:
-                root[find(b)] = find(a)
+def _linked_groups(n: int, links: Sequence[tuple[int, int]]) -> list[list[int]]:
+    """Items 0..n-1 grouped by the ``links`` between them (transitively), each group in ascending order,
+    the groups in the order of their first item."""
+    pairs = np.asarray(links, dtype=int).reshape(-1, 2)
+    graph = csr_matrix((np.ones(len(pairs), bool), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
     groups: dict[int, list[int]] = {}
-    for a, j in enumerate(big):
-        groups.setdefault(find(a), []).append(j)
+    for k, g in enumerate(label):
+        groups.setdefault(int(g), []).append(k)
     return list(groups.values())
 
 
@@ -290,25 +290,15 @@ def join_stacked(masks: Sequence[np.ndarray], depth: np.ndarray, camera: Mapping
         lo, hi = np.percentile(pts[:, :2], 3, axis=0), np.percentile(pts[:, :2], 97, axis=0)
         centre.append((lo + hi) / 2)
         low.append(float(np.percentile(pts[:, 2], 5)) - table_height)
-    root = list(range(len(masks)))
-
-    def find(a: int) -> int:
-        while root[a] != a:
-            a = root[a]
-        return a
-
-    for a in sorted(range(len(masks)), key=lambda k: (-low[k], k)):  # highest piece first
+    links = []
+    for a in range(len(masks)):
         if low[a] < lift:
             continue
         below = [(float(np.linalg.norm(centre[a] - centre[b])), b) for b in range(len(masks)) if low[b] < low[a]]
         d, b = min(below, default=(np.inf, a))
-        if d <= near and find(a) != find(b):
-            root[find(a)] = find(b)
-    groups: dict[int, np.ndarray] = {}
-    for k, m in enumerate(masks):
-        r = find(k)
-        groups[r] = groups[r] | m if r in groups else m
-    return list(groups.values())
+        if d <= near:
+            links.append((a, b))
+    return [np.logical_or.reduce([masks[k] for k in g]) for g in _linked_groups(len(masks), links)]
 
 
 def _crop(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray, mask: np.ndarray, size: int,
