@@ -392,8 +392,13 @@ def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, ce
     included). The best are the first spots whose running sum of ``shares`` (summed left to right, as
     numpy's cumulative sum) stays within ``shortlist``, at least one.
 
+    The scores are first taken with the origin's distance from the base as ``sqrt(x * x + y * y)``, which
+    differs from ``hypot`` by a few units in the last place; the ranking is then found among the spots whose
+    score comes within twice a bound far above that difference of the ``needed``-th smallest, with their
+    scores taken exactly: every spot of the exact ranking is among them (see :func:`_rank_exactly`).
+
     Args:
-        free: (m,) the free spots.
+        free: (m,) the free spots, in the order (turn, row, column).
         on_axes: the grid's rows and columns are x and y: spot ``s`` is centred at ``(u[i], v[j])`` with
             ``i, j`` its row and column (``centre`` is then not read).
         u, v: the grid's row and column coordinates [m]; centre: (m, 2) the spots' centres [m].
@@ -404,13 +409,15 @@ def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, ce
     Returns:
         ranked (the spots, best first) and how many of them are the best.
     """
-    idx = np.flatnonzero(free)
     n_row, n_col, n_near = u.shape[0], v.shape[0], neighbours.shape[0]
-    key = np.empty(idx.shape[0])
+    cells = n_row * n_col
+    n_turn = free.shape[0] // cells
+    idx = np.empty(free.shape[0], np.int64)
+    room = np.empty(free.shape[0])  # minus the capped gap of each free spot
+    key = np.empty(free.shape[0])  # the scores with the distance from the base as a square root
     # on a part's grid every turn's spot in a cell has the cell's centre: its gap is found once (-1: not yet),
     # from the squared offsets per row and per column
-    cells = n_row * n_col if on_axes else 0
-    gaps = np.full(cells, -1.0)
+    gaps = np.full(cells if on_axes else 0, -1.0)
     row_sq, col_sq = np.empty((n_row if on_axes else 0, n_near)), np.empty((n_col if on_axes else 0, n_near))
     if on_axes:
         for n in range(n_near):
@@ -420,38 +427,84 @@ def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, ce
             for j in range(n_col):
                 dy = v[j] - neighbours[n, 1]
                 col_sq[j, n] = dy * dy
-    for m in range(idx.shape[0]):
-        s = idx[m]
-        gap = math.inf
-        if on_axes:
-            cell = s % cells
-            gap = gaps[cell]
-            if gap < 0:
-                i, j = divmod(cell, n_col)
-                gap = math.inf
-                for n in range(n_near):
-                    gap = min(gap, row_sq[i, n] + col_sq[j, n])
-                gap = math.sqrt(gap)  # the square root is monotone: the root of the least square is the least root
-                gaps[cell] = gap
-        else:
-            for n in range(neighbours.shape[0]):
-                dx, dy = centre[s, 0] - neighbours[n, 0], centre[s, 1] - neighbours[n, 1]
-                gap = min(gap, math.sqrt(dx * dx + dy * dy))
-        key[m] = -min(gap, room_cap) + _spot_score(s, score, rel_x, rel_y, turns, turn, weights, n_row, n_col)
-    if needed >= key.shape[0]:
-        order = np.argsort(key, kind="mergesort")
-    else:
-        bound = np.partition(key, needed - 1)[needed - 1]
-        sel = np.flatnonzero(key <= bound)
-        order = sel[np.argsort(key[sel], kind="mergesort")]
-    ranked = idx[order]
+    m, s = 0, 0
+    for t in range(n_turn):
+        for i in range(n_row):
+            for j in range(n_col):
+                if free[s]:
+                    gap = math.inf
+                    if on_axes:
+                        cell = i * n_col + j
+                        gap = gaps[cell]
+                        if gap < 0:
+                            gap = math.inf
+                            for n in range(n_near):
+                                gap = min(gap, row_sq[i, n] + col_sq[j, n])
+                            gap = math.sqrt(gap)  # the root is monotone: the root of the least square is the least root
+                            gaps[cell] = gap
+                    else:
+                        for n in range(n_near):
+                            dx, dy = centre[s, 0] - neighbours[n, 0], centre[s, 1] - neighbours[n, 1]
+                            gap = min(gap, math.sqrt(dx * dx + dy * dy))
+                    x, y = _score_offsets(t, i, j, rel_x, rel_y)
+                    room[m] = -min(gap, room_cap)
+                    key[m] = room[m] + _score_of(s, math.sqrt(x * x + y * y), score, turns, turn, weights)
+                    idx[m] = s
+                    m += 1
+                s += 1
+    order = _rank_exactly(idx[:m], room[:m], key[:m], needed, score, rel_x, rel_y, turns, turn, weights, n_row,
+                          n_col)
+    ranked = idx[:m][order]
     total, count = 0.0, 0
-    for m in range(ranked.shape[0]):
-        total += shares[ranked[m]]
+    for r in range(ranked.shape[0]):
+        total += shares[ranked[r]]
         if total > shortlist:
             break
         count += 1
     return ranked, max(1, count)
+
+
+@numba.njit(cache=True, nogil=True)
+def _rank_exactly(idx: np.ndarray, room: np.ndarray, key: np.ndarray, needed: int, score: np.ndarray,
+                  rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray, turn: np.ndarray, weights: np.ndarray,
+                  n_row: int, n_col: int) -> np.ndarray:
+    """:func:`best_spots`' ranking (positions in ``idx``) from the scores ``key`` taken with the distance
+    from the base as a square root, each within ``err`` of its exact score (``room`` plus :func:`spot_scores`).
+
+    With ``b`` the ``needed``-th smallest exact score and ``a`` that of ``key``, ``|a - b| <= err``, so every
+    spot scoring at most ``b`` has ``key <= a + 2 err``: the exact scores of those candidates, in index order,
+    give the same ``needed``-th smallest score, the same spots up to it and the same stable order."""
+    m = idx.shape[0]
+    if needed >= m:
+        cand = np.arange(m)
+    else:
+        a = np.partition(key, needed - 1)[needed - 1]
+        # the scores are metres and weights of about one: their rounding differs by ~1e-15
+        err = 1e-9 * (1.0 + abs(a))
+        cand = np.flatnonzero(key <= a + 2 * err)
+    exact = np.empty(cand.shape[0])
+    for c in range(cand.shape[0]):
+        exact[c] = room[cand[c]] + _spot_score(idx[cand[c]], score, rel_x, rel_y, turns, turn, weights, n_row, n_col)
+    if needed >= cand.shape[0]:
+        return cand[np.argsort(exact, kind="mergesort")]
+    bound = np.partition(exact, needed - 1)[needed - 1]
+    sel = np.flatnonzero(exact <= bound)
+    return cand[sel[np.argsort(exact[sel], kind="mergesort")]]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _score_offsets(t: int, i: int, j: int, rel_x: np.ndarray, rel_y: np.ndarray) -> tuple[float, float]:
+    """The frame origin's offset from the base of spot (t, i, j), from offsets that broadcast to the grid."""
+    x = rel_x[min(t, rel_x.shape[0] - 1), min(i, rel_x.shape[1] - 1), min(j, rel_x.shape[2] - 1)]
+    y = rel_y[min(t, rel_y.shape[0] - 1), min(i, rel_y.shape[1] - 1), min(j, rel_y.shape[2] - 1)]
+    return x, y
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _score_of(s: int, reach: float, score: np.ndarray, turns: np.ndarray, turn: np.ndarray,
+              weights: np.ndarray) -> float:
+    """:func:`spot_scores` of spot ``s`` with its frame origin ``reach`` from the base [m]."""
+    return (score[min(s, score.shape[0] - 1)] + weights[0] * abs(reach - weights[1])) + weights[2] * abs(turns[turn[s]])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -559,10 +612,8 @@ def _spot_score(s: int, score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray,
     """:func:`spot_scores` of spot ``s``."""
     t, rest = divmod(s, n_row * n_col)
     i, j = divmod(rest, n_col)
-    x = rel_x[min(t, rel_x.shape[0] - 1), min(i, rel_x.shape[1] - 1), min(j, rel_x.shape[2] - 1)]
-    y = rel_y[min(t, rel_y.shape[0] - 1), min(i, rel_y.shape[1] - 1), min(j, rel_y.shape[2] - 1)]
-    reach = math.hypot(x, y)
-    return (score[min(s, score.shape[0] - 1)] + weights[0] * abs(reach - weights[1])) + weights[2] * abs(turns[turn[s]])
+    x, y = _score_offsets(t, i, j, rel_x, rel_y)
+    return _score_of(s, math.hypot(x, y), score, turns, turn, weights)
 
 
 @numba.njit(cache=True, nogil=True)
