@@ -662,3 +662,111 @@ def test_compiled_scores_equal_the_array_computation() -> None:
                 np.testing.assert_array_equal(spots.score(), want)
                 checked += len(want)
     assert checked > 100000
+
+
+def test_compiled_spot_options_equal_the_steps_they_stand_for() -> None:
+    """One compiled call for the planner's options (enough samples on the free spots, the best ranked, the
+    picks spread over them, the reach annulus surely holding them) gives what the steps give one by one:
+    numpy's sum of weights, :func:`best_spots`, :func:`farthest_picks` on the centres and turns, and the
+    origins' distances from the base by ``np.hypot``; on real scenes' parts and spots past a reference,
+    with random free spots, among them sums near the bound."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world import placement
+    from samplehd.world.free_spot import _SCORE_WEIGHTS, _SURE_REACH, _TURN_SPREAD
+    from samplehd.world.spot_kernels import best_spots, farthest_picks, spot_options
+
+    rng = np.random.default_rng(11)
+    counted = {0: 0, 1: 0, 2: 0}
+    sure_seen = set()
+    for scene in _scenes(8, 2, 4):
+        fs = ConstraintContext(scene).free_spots()
+        samples, min_hits = float(fs.search.samples), fs.search.min_hits
+        lo, hi = fs.layout.reach_min + _SURE_REACH, fs.layout.reach_max - _SURE_REACH
+        for k in range(len(scene.objects)):
+            grids = [fs._part_spots(k, part) for part in ("left", "front")]
+            grids += [s for s in (fs._beside_spots(k, (k + 1) % 8, (0.6, 0.8)),) if s is not None]
+            for spots in grids:
+                g = spots.grid
+                for density, top in ((0.9, hi), (0.3, 0.55), (0.02, hi), (0.0005, 0.55)):  # (also bounds cut)
+                    free = spots.keep & (rng.random(len(spots.keep)) < density)
+                    neighbours = rng.uniform(-0.4, 0.4, (int(rng.integers(0, 5)), 2))
+                    args = (g.on_axes, g.u, g.v, spots.centre, neighbours, *spots.score_terms, spots.turns,
+                            spots.turn, _SCORE_WEIGHTS, spots.shares(int(samples)), placement.SPOT_ROOM_CAP,
+                            fs._ranks_needed(spots), float(placement.SPOT_SHORTLIST), _TURN_SPREAD,
+                            placement.SPOT_OPTIONS, spots.offsets, fs._base, lo, top)
+                    # the sum's test, by numpy's sum, and near the bound: the bound set to the sum itself
+                    exact = samples * float(spots.weight[free].sum())
+                    for bound in (min_hits, exact):
+                        status, ranked, count, picks, sure = spot_options(free, spots.weight, samples, bound, False,
+                                                                          *args)
+                        counted[status] += 1
+                        if status == 1:
+                            assert abs(exact - bound) < 1e-9
+                            status, ranked, count, picks, sure = spot_options(free, spots.weight, samples, bound,
+                                                                              True, *args)
+                        if status == 0:
+                            assert exact < bound or not free.any()
+                            continue
+                        assert status == 2 and not exact < bound
+                        want_ranked, want_count = best_spots(free, *args[:15])
+                        np.testing.assert_array_equal(ranked, want_ranked)
+                        assert count == want_count
+                        best = want_ranked[:want_count]
+                        where = np.empty((len(best), 3))
+                        where[:, :2] = spots.centre[best]
+                        where[:, 2] = _TURN_SPREAD * spots.turns[spots.turn[best]]
+                        want_picks = farthest_picks(where, placement.SPOT_OPTIONS)
+                        np.testing.assert_array_equal(picks, want_picks)
+                        origin = spots.centre[best[want_picks]] - spots.offsets[spots.turn[best[want_picks]]]
+                        reach = np.hypot(origin[:, 0] - fs._base[0], origin[:, 1] - fs._base[1])
+                        assert sure == bool(((reach >= lo) & (reach <= top)).all())
+                        sure_seen.add(sure)
+    assert min(counted.values()) > 10 and sure_seen == {True, False}
+
+
+def test_best_spots_with_the_reach_and_turn_terms_rank_as_the_whole_array_scores() -> None:
+    """With the score's reach and turn terms (first taken with a square root, then exactly where a spot may
+    rank), the ranking is the start of the stable order of the whole-array scores (:meth:`_Spots.score`
+    less the capped gap), every score up to the ``needed``-th smallest and no other; on real scenes' parts
+    and spots past a reference, with ties from twin neighbours and cells shared by the turns."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world import placement
+    from samplehd.world.free_spot import _SCORE_WEIGHTS
+    from samplehd.world.spot_kernels import best_spots
+
+    rng = np.random.default_rng(12)
+    checked = 0
+    for scene in _scenes(6, 2, 14):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(6):
+            grids = [fs._part_spots(k, part) for part in ("right", "back")]
+            grids += [s for s in (fs._beside_spots(k, (k + 2) % 6, (-1.0, 0.0)),) if s is not None]
+            for spots in grids:
+                g, m = spots.grid, len(spots.keep)
+                whole = spots.score()
+                for needed, n_near in ((221, 2), (12, 1), (3000, 4), (40, 0)):
+                    free = spots.keep & (rng.random(m) < 0.6)
+                    neighbours = rng.uniform(-0.4, 0.4, (n_near, 2))
+                    if n_near > 1:
+                        neighbours[1] = neighbours[0]
+                    shares = spots.shares(fs.search.samples)
+                    ranked, count = best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours,
+                                               *spots.score_terms, spots.turns, spots.turn, _SCORE_WEIGHTS, shares,
+                                               placement.SPOT_ROOM_CAP, needed, float(placement.SPOT_SHORTLIST))
+                    idx = np.flatnonzero(free)
+                    gap = np.full(len(idx), np.inf)
+                    if n_near:
+                        gap = np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
+                    key = -np.minimum(gap, placement.SPOT_ROOM_CAP) + whole[idx]
+                    order = idx[np.argsort(key, kind="stable")]
+                    size = len(idx) if needed >= len(idx) else int((key <= np.sort(key)[needed - 1]).sum())
+                    np.testing.assert_array_equal(ranked, order[:size])
+                    want = max(1, int(np.searchsorted(np.cumsum(shares[ranked]), placement.SPOT_SHORTLIST,
+                                                      side="right")))
+                    assert count == want
+                    checked += len(ranked)
+    assert checked > 5000

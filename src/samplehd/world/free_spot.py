@@ -58,6 +58,9 @@ _SCORE_WEIGHTS = np.array([placement.SPOT_REACH_WEIGHT, placement.SPOT_COMFORT_R
 _SCORE_WEIGHTS.setflags(write=False)
 _NO_SCORE = np.zeros(1)  # a part's spots have no score of their own
 _NO_SCORE.setflags(write=False)
+# picks whose frame origins lie this far inside the reach annulus are surely reached: ``reach`` (the annulus,
+# memoised on coordinates rounded to a micrometre) says yes on them and on any point rounding alike [m]
+_SURE_REACH = 1e-5
 
 
 @dataclass(frozen=True)
@@ -390,21 +393,25 @@ class FreeSpots:
         The planner keeps its best-scored free samples and tries a few of them: here, the best free
         spots holding that many of its expected samples, of which a few far apart are returned.
         """
-        if self._hits_below(spots, free, self.search.min_hits)[0]:
+        g, search = spots.grid, self.search
+        args = (g.on_axes, g.u, g.v, spots.centre, neighbours, *spots.score_terms, spots.turns, spots.turn,
+                _SCORE_WEIGHTS, spots.shares(search.samples), placement.SPOT_ROOM_CAP, self._ranks_needed(spots),
+                float(placement.SPOT_SHORTLIST), _TURN_SPREAD, placement.SPOT_OPTIONS, spots.offsets, self._base,
+                self.layout.reach_min + _SURE_REACH, self.layout.reach_max - _SURE_REACH)
+        # one compiled call: enough samples on free spots, the best ranked, the picks spread over them and
+        # whether the reach annulus surely holds them all (:func:`samplehd.world.spot_kernels.spot_options`)
+        status, ranked, count, picks, sure = _kernels().spot_options(free, spots.weight, float(search.samples),
+                                                                     search.min_hits, False, *args)
+        if status == 1:  # the sum of weights too near the bound to decide in any order: as numpy sums it
+            if search.samples * float(spots.weight[free].sum()) < search.min_hits:
+                return []
+            status, ranked, count, picks, sure = _kernels().spot_options(free, spots.weight, float(search.samples),
+                                                                         search.min_hits, True, *args)
+        if status == 0:
             return []
-        g, kernels = spots.grid, _kernels()
-        ranked, count = kernels.best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, *spots.score_terms,
-                                           spots.turns, spots.turn, _SCORE_WEIGHTS,
-                                           spots.shares(self.search.samples), placement.SPOT_ROOM_CAP,
-                                           self._ranks_needed(spots), float(placement.SPOT_SHORTLIST))
         best = ranked[:count]
-        # spread: farthest-point picks over position and turn (a long object's turn matters as much)
-        where = np.empty((len(best), 3))
-        where[:, :2] = spots.centre[best]
-        where[:, 2] = _TURN_SPREAD * spots.turns[spots.turn[best]]
-        picks = kernels.farthest_picks(where, placement.SPOT_OPTIONS)
-        if self.reach_is_annulus and self._surely_in_reach(spots, best[picks]):
-            return [int(j) for j in best[picks]]
+        if self.reach_is_annulus and sure:
+            return best[picks].tolist()
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
         reached = [int(best[i]) for i in picks if self.reach((*_origin(spots, best[i]), z))]
         if reached:
@@ -412,23 +419,16 @@ class FreeSpots:
         return next(([int(j)] for j in ranked[:placement.SPOT_SHORTLIST] if self.reach((*_origin(spots, j), z))),
                     [])
 
-    def _surely_in_reach(self, spots: _Spots, chosen: np.ndarray) -> bool:
-        """Whether ``reach`` (the annulus, memoised on coordinates rounded to a micrometre) surely says yes
-        on every chosen spot: they passed the annulus test, and none lies within 10 micrometres of its
-        bounds, so neither this answer nor a memoised one for a point rounding alike can be no."""
-        origin = spots.centre[chosen] - spots.offsets[spots.turn[chosen]]
-        base, layout = self._base, self.layout
-        reach = np.hypot(origin[:, 0] - base[0], origin[:, 1] - base[1])
-        margin = 1e-5
-        return bool(((reach >= layout.reach_min + margin) & (reach <= layout.reach_max - margin)).all())
-
     def _ranks_needed(self, spots: _Spots) -> int:
         """How many best-scored spots surely hold the shortlist's samples and the shortlist itself
-        (every spot holds at least the lightest spot's share of the samples)."""
-        least = self.search.samples * float(spots.weight.min()) if len(spots.weight) else 0.0
-        if least <= 0:
-            return len(spots.weight)
-        return max(placement.SPOT_SHORTLIST, int(1.01 * placement.SPOT_SHORTLIST / least) + 2)
+        (every spot holds at least the lightest spot's share of the samples; memoised on the spots)."""
+        needed = spots.__dict__.get("_ranks_needed")
+        if needed is None:
+            least = self.search.samples * float(spots.weight.min()) if len(spots.weight) else 0.0
+            needed = len(spots.weight) if least <= 0 else max(placement.SPOT_SHORTLIST,
+                                                              int(1.01 * placement.SPOT_SHORTLIST / least) + 2)
+            spots.__dict__["_ranks_needed"] = needed
+        return needed
 
     def _runs(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray,
               h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

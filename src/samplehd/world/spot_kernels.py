@@ -22,7 +22,7 @@ from numba.core import types
 from numba.extending import intrinsic
 
 __all__ = ["annulus_and", "beside_keep", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma",
-           "near_objects", "part_keep", "rect_runs", "spot_scores", "uncovered",
+           "near_objects", "part_keep", "rect_runs", "spot_options", "spot_scores", "uncovered",
            "uncovered_weight", "weight_sum"]
 
 
@@ -643,3 +643,57 @@ def uncovered_weight(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use:
                      weight: np.ndarray) -> tuple[float, bool]:
     """:func:`weight_sum` of :func:`uncovered`'s spots (its arguments but the weights), without keeping them."""
     return weight_sum(uncovered(keep, first, last, use, count), weight)
+
+
+@numba.njit(cache=True, nogil=True)
+def spot_options(free: np.ndarray, weight: np.ndarray, samples: float, min_hits: float, decided: bool,
+                 on_axes: bool, u: np.ndarray, v: np.ndarray, centre: np.ndarray, neighbours: np.ndarray,
+                 score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray, turn: np.ndarray,
+                 weights: np.ndarray, shares: np.ndarray, room_cap: float, needed: int, shortlist: float,
+                 spread: float, most: int, offsets: np.ndarray, base: np.ndarray, sure_lo: float,
+                 sure_hi: float) -> tuple[int, np.ndarray, int, np.ndarray, bool]:
+    """The spots the planner may pick among the free ones, in one call: whether enough of its samples land
+    on them, the best ranked (:func:`best_spots`), a few far apart (:func:`farthest_picks` over position and
+    ``spread`` times the turn) and whether their frame origins all lie from the base within
+    [``sure_lo``, ``sure_hi``].
+
+    Args:
+        free: (m,) the free spots; weight: (m,) their weights; samples, min_hits: the planner's first-try
+            samples and the fewest expected on free spots.
+        decided: the sum of weights is known not to fall short (skip that test).
+        on_axes ... shortlist: as :func:`best_spots`.
+        spread: weight of a turn against a distance [m/rad]; most: how many picks at most.
+        offsets: (t, 2) footprint centre minus frame origin per turn [m]; base: (2,) the robot base [m].
+        sure_lo, sure_hi: the distances from the base the picks' origins are tested against [m].
+
+    Returns:
+        status (0: too few samples land on free spots, no options; 1: the weights' sum is too near the bound
+        to decide in this order, the caller decides and calls again with ``decided``; 2: ranked), the ranked
+        spots, how many are the best, the picks (positions among the best) and whether every pick's origin
+        lies within the bounds (status 2 only).
+    """
+    none = np.zeros(0, np.int64)
+    if not decided:
+        total, _ = weight_sum(free, weight)  # as FreeSpots._below decides it
+        value = samples * total
+        if abs(value - min_hits) <= 1e-15 * samples * free.shape[0] + 1e-12:
+            return 1, none, 0, none, False
+        if value < min_hits:
+            return 0, none, 0, none, False
+    ranked, count = best_spots(free, on_axes, u, v, centre, neighbours, score, rel_x, rel_y, turns, turn, weights,
+                               shares, room_cap, needed, shortlist)
+    if ranked.shape[0] == 0:  # (only where no samples are asked for)
+        return 0, none, 0, none, False
+    where = np.empty((count, 3))
+    for r in range(count):
+        s = ranked[r]
+        where[r, 0], where[r, 1] = centre[s, 0], centre[s, 1]
+        where[r, 2] = spread * turns[turn[s]]
+    picks = farthest_picks(where, most)
+    sure = True
+    for p in range(picks.shape[0]):
+        s = ranked[picks[p]]
+        t = turn[s]
+        reach = math.hypot((centre[s, 0] - offsets[t, 0]) - base[0], (centre[s, 1] - offsets[t, 1]) - base[1])
+        sure = sure and reach >= sure_lo and reach <= sure_hi
+    return 2, ranked, count, picks, sure
