@@ -770,3 +770,40 @@ def test_best_spots_with_the_reach_and_turn_terms_rank_as_the_whole_array_scores
                     assert count == want
                     checked += len(ranked)
     assert checked > 5000
+
+
+def test_compiled_free_spots_equal_the_runs_marked_step_by_step() -> None:
+    """An object's free spots in one compiled call (outside the runs of the objects where they are and of the
+    rectangles already placed) equal the two steps they stand for: :func:`uncovered` of the scene's
+    objects, then :func:`uncovered` of :func:`rect_runs` of the placed rectangles on every row."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import free_spots, rect_runs, uncovered
+
+    rng = np.random.default_rng(13)
+    differ = 0
+    for scene in _scenes(7, 2, 21):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(7):
+            for spots in [fs._part_spots(k, part) for part in ("left", "back")] + [
+                    s for s in (fs._beside_spots(k, (k + 1) % 7, (0.0, 1.0)),) if s is not None]:
+                g, grow = spots.grid, fs.search.spot_margin / 2
+                for n_placed in (0, 1, 3):
+                    use = rng.random(len(spots.near)) < 0.7
+                    pick = rng.choice(len(spots.keep), n_placed)
+                    centres = np.ascontiguousarray(spots.centre[pick] + rng.normal(0, 0.02, (n_placed, 2)))
+                    rots = np.ascontiguousarray(spots.rots[spots.turn[pick]])
+                    halves = np.ascontiguousarray(rng.uniform(0.02, 0.1, (n_placed, 2)))
+                    want = uncovered(spots.keep, spots.first, spots.last, use, len(g.v))
+                    before = want
+                    if n_placed:
+                        first, last = rect_runs(spots.rots, fs.half[k], rots, halves, centres, np.arange(n_placed),
+                                                grow, g.base, g.axes, g.u, 0, len(g.u), float(g.lo), float(g.width),
+                                                len(g.v))
+                        want = uncovered(want, first, last, np.ones(n_placed, bool), len(g.v))
+                    got = free_spots(spots.keep, spots.first, spots.last, use, spots.rots, fs.half[k], rots, halves,
+                                     centres, grow, g.base, g.axes, g.u, float(g.lo), float(g.width), len(g.v))
+                    np.testing.assert_array_equal(got, want)
+                    differ += bool((want != before).any())
+    assert differ > 10  # the placed rectangles take spots

@@ -53,11 +53,16 @@ class Footprinted(Protocol):
 _TURN_SPREAD = 0.06  # weight of a turn against a distance when spreading the options [m/rad]
 
 _Rect = tuple[np.ndarray, np.ndarray, np.ndarray]  # footprint centre, 2x2 rotation, half sizes
+# rectangles of the objects already moved: footprint centres (n, 2), rotations (n, 2, 2), half sizes (n, 2)
+_Placed = tuple[np.ndarray, np.ndarray, np.ndarray]
 # the weights of the planner's score terms that do not depend on the neighbours (spot_kernels.spot_scores)
 _SCORE_WEIGHTS = np.array([placement.SPOT_REACH_WEIGHT, placement.SPOT_COMFORT_REACH, placement.SPOT_TURN_WEIGHT])
 _SCORE_WEIGHTS.setflags(write=False)
 _NO_SCORE = np.zeros(1)  # a part's spots have no score of their own
 _NO_SCORE.setflags(write=False)
+_NONE_PLACED: _Placed = (np.zeros((0, 2)), np.zeros((0, 2, 2)), np.zeros((0, 2)))
+for _a in _NONE_PLACED:
+    _a.setflags(write=False)
 # picks whose frame origins lie this far inside the reach annulus are surely reached: ``reach`` (the annulus,
 # memoised on coordinates rounded to a micrometre) says yes on them and on any point rounding alike [m]
 _SURE_REACH = 1e-5
@@ -264,8 +269,8 @@ class FreeSpots:
         if key not in self._memo:
             spots = self._part_spots(k, part)
             present = np.ones(len(self.objects), bool)
-            free = self._free(k, spots, present, [])
-            self._memo[key] = self._options(k, spots, free, self._neighbours(k, present, []))
+            free = self._free(k, spots, present, _NONE_PLACED)
+            self._memo[key] = self._options(k, spots, free, self._neighbours(k, present, _NONE_PLACED))
         return self._memo[key]
 
     def _room_in_part(self, arriving: Sequence[int], part: str) -> bool:
@@ -274,7 +279,11 @@ class FreeSpots:
             if not self._first_options(arriving[0], part):  # the first one's options, as the loop takes them
                 return False
         present = np.ones(len(self.objects), bool)  # objects still where the scene has them
-        placed: list[_Rect] = []
+        # the rectangles of the objects moved so far: the first ``moved`` rows
+        size = len(arriving)
+        centres, rots, halves = np.empty((size, 2)), np.empty((size, 2, 2)), np.empty((size, 2))
+        moved = 0
+        placed: _Placed = _NONE_PLACED
         free: np.ndarray | None = None  # the next object's free spots, where already known
         for n, k in enumerate(arriving):
             spots = self._part_spots(k, part)
@@ -308,7 +317,9 @@ class FreeSpots:
                     return room_left[best] >= self.search.min_hits and sum(counts[best]) > 0
                 free = _kernels().uncovered(nxt_free, first[best : best + 1], lst[best : best + 1], np.ones(1, bool),
                                             len(nxt_spots.grid.v))
-            placed.append(self._rect(k, spots, chosen))
+            centres[moved], rots[moved], halves[moved] = self._rect(k, spots, chosen)
+            moved += 1
+            placed = (centres[:moved], rots[:moved], halves[:moved])
         return True
 
     def room_beside(self, x: int, ref: int, direction: Sequence[float]) -> bool:
@@ -323,10 +334,10 @@ class FreeSpots:
             total, found = _kernels().uncovered_weight(spots.keep, spots.first, spots.last, others[spots.near],
                                                        len(spots.grid.v), spots.weight)
             below = self._below(total, len(spots.weight), self.search.min_hits,
-                                lambda: float(spots.weight[self._free(x, spots, present, [])].sum()))
+                                lambda: float(spots.weight[self._free(x, spots, present, _NONE_PLACED)].sum()))
             return not below and found
-        free = self._free(x, spots, present, [])
-        return bool(self._options(x, spots, free, self._neighbours(x, present, [])))
+        free = self._free(x, spots, present, _NONE_PLACED)
+        return bool(self._options(x, spots, free, self._neighbours(x, present, _NONE_PLACED)))
 
     def _rect(self, k: int, spots: _Spots, j: int) -> _Rect:
         """Object k's footprint rectangle on spot j: centre, rotation, half sizes."""
@@ -367,24 +378,23 @@ class FreeSpots:
         below, found = self._hits_below(spots, free, self.search.min_hits)
         return not below and found
 
-    def _free(self, k: int, spots: _Spots, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
+    def _free(self, k: int, spots: _Spots, present: np.ndarray, placed: _Placed) -> np.ndarray:
         """Object k's free spots, given which objects are still where the scene has them and the
         rectangles of those already moved."""
         others = present.copy()
         others[k] = False
-        kernels, count = _kernels(), len(spots.grid.v)
-        free = kernels.uncovered(spots.keep, spots.first, spots.last, others[spots.near], count)
-        if placed:
-            c, r, h = (np.stack(a) for a in zip(*placed, strict=True))
-            first, last = self._runs(k, spots, c, r, h)
-            free = kernels.uncovered(free, first, last, np.ones(len(first), bool), count)
-        return free
+        g, (centres, rots, halves) = spots.grid, placed
+        # one compiled call: outside the runs of the objects where they are, and of the placed rectangles
+        # (:func:`samplehd.world.spot_kernels.free_spots`)
+        return _kernels().free_spots(spots.keep, spots.first, spots.last, others[spots.near], spots.rots, self.half[k],
+                                     rots, halves, centres, self.search.spot_margin / 2, g.base, g.axes, g.u,
+                                     float(g.lo), float(g.width), len(g.v))
 
-    def _neighbours(self, k: int, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
+    def _neighbours(self, k: int, present: np.ndarray, placed: _Placed) -> np.ndarray:
         """Footprint centres of the objects other than k where they are: (N, 2)."""
         others = present.copy()
         others[k] = False
-        return np.concatenate([self.centre[others], *(rect[0][None] for rect in placed)])
+        return np.concatenate([self.centre[others], placed[0]])
 
     def _options(self, k: int, spots: _Spots, free: np.ndarray, neighbours: np.ndarray) -> list[int]:
         """Free spots the planner may put object k on, spread over the ones it may pick; none where

@@ -22,7 +22,7 @@ from numba.core import types
 from numba.extending import intrinsic
 
 __all__ = ["annulus_and", "beside_keep", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma",
-           "near_objects", "part_keep", "rect_runs", "spot_options", "spot_scores", "uncovered",
+           "free_spots", "near_objects", "part_keep", "rect_runs", "spot_options", "spot_scores", "uncovered",
            "uncovered_weight", "weight_sum"]
 
 
@@ -162,9 +162,15 @@ def uncovered(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.nda
     Returns:
         (m,) ``keep`` and outside every run.
     """
-    size = keep.shape[0]
+    diff = np.zeros(keep.shape[0] + 1, np.int64)
+    _mark_runs(diff, first, last, use, count)
+    return _outside_marks(keep, diff)
+
+
+@numba.njit(cache=True, nogil=True)
+def _mark_runs(diff: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.ndarray, count: int) -> None:
+    """Add each run of the rectangles in ``use`` to ``diff`` (m + 1,): +1 at its first spot, -1 past its last."""
     n_turn, n_row = first.shape[1], first.shape[2]
-    diff = np.zeros(size + 1, np.int64)
     for k in range(first.shape[0]):
         if not use[k]:
             continue
@@ -175,12 +181,39 @@ def uncovered(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.nda
                     row = (t * n_row + i) * count
                     diff[row + start] += 1
                     diff[row + stop] -= 1
-    free = np.empty(size, np.bool_)
+
+
+@numba.njit(cache=True, nogil=True)
+def _outside_marks(keep: np.ndarray, diff: np.ndarray) -> np.ndarray:
+    """The spots in ``keep`` that no marked run (:func:`_mark_runs`) covers."""
+    free = np.empty(keep.shape[0], np.bool_)
     running = 0
-    for j in range(size):
+    for j in range(keep.shape[0]):
         running += diff[j]
         free[j] = keep[j] and running <= 0
     return free
+
+
+@numba.njit(cache=True, nogil=True)
+def free_spots(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.ndarray, rt: np.ndarray,
+               half: np.ndarray, rots: np.ndarray, halves: np.ndarray, centres: np.ndarray, grow: float,
+               base: np.ndarray, grid_axes: np.ndarray, u: np.ndarray, lo: float, width: float,
+               count: int) -> np.ndarray:
+    """An object's free spots in one call: the spots in ``keep`` outside the runs of the scene's objects in
+    ``use`` (``first``, ``last``, as :func:`uncovered`) and outside every placed rectangle (``rots``,
+    ``halves``, ``centres``, their runs on every row by :func:`rect_runs` with the other arguments).
+
+    Returns:
+        (m,) ``uncovered(uncovered(keep, first, last, use), *rect_runs(...), all)``, in one pass.
+    """
+    diff = np.zeros(keep.shape[0] + 1, np.int64)
+    _mark_runs(diff, first, last, use, count)
+    n_placed = centres.shape[0]
+    if n_placed:
+        pf, pl = rect_runs(rt, half, rots, halves, centres, np.arange(n_placed), grow, base, grid_axes, u, 0,
+                           u.shape[0], lo, width, count)
+        _mark_runs(diff, pf, pl, np.ones(n_placed, np.bool_), count)
+    return _outside_marks(keep, diff)
 
 
 @numba.njit(cache=True, nogil=True)
