@@ -807,3 +807,38 @@ def test_compiled_free_spots_equal_the_runs_marked_step_by_step() -> None:
                     np.testing.assert_array_equal(got, want)
                     differ += bool((want != before).any())
     assert differ > 10  # the placed rectangles take spots
+
+
+def test_compiled_option_counts_equal_the_runs_of_the_options_counted() -> None:
+    """The runs an object on each of its options blocks on the next object's grid, and the free spots each
+    leaves per turn, in one compiled call, equal :func:`rect_runs` of the options' rectangles taken from the
+    arrays and :func:`counts_outside` of them, bit for bit."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import counts_outside, option_counts, rect_runs
+
+    rng = np.random.default_rng(14)
+    blocked = 0
+    for scene in _scenes(6, 2, 23):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(6):
+            nxt = (k + 1) % 6
+            for part in ("left", "front"):
+                spots, nxt_spots = fs._part_spots(k, part), fs._part_spots(nxt, part)
+                g, grow = nxt_spots.grid, fs.search.spot_margin / 2
+                nxt_free = nxt_spots.keep & (rng.random(len(nxt_spots.keep)) < 0.8)
+                at = rng.choice(np.flatnonzero(spots.keep), 6) if spots.keep.any() else np.zeros(0, np.int64)
+                first, last, counts = option_counts(nxt_free, nxt_spots.rots, fs.half[nxt], spots.centre, spots.rots,
+                                                    spots.turn, at, fs.half[k], grow, g.base, g.axes, g.u,
+                                                    float(g.lo), float(g.width), len(g.v))
+                c = np.ascontiguousarray(spots.centre[at])
+                r = np.ascontiguousarray(spots.rots[spots.turn[at]])
+                h = np.ascontiguousarray(np.broadcast_to(fs.half[k], (len(at), 2)))
+                want = rect_runs(nxt_spots.rots, fs.half[nxt], r, h, c, np.arange(len(at)), grow, g.base, g.axes,
+                                 g.u, 0, len(g.u), float(g.lo), float(g.width), len(g.v))
+                np.testing.assert_array_equal(first, want[0])
+                np.testing.assert_array_equal(last, want[1])
+                np.testing.assert_array_equal(counts, counts_outside(nxt_free, want[0], want[1], len(g.v)))
+                blocked += int((counts < nxt_free.reshape(len(nxt_spots.turns), -1).sum(axis=1)).sum())
+    assert blocked > 50

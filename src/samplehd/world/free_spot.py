@@ -304,12 +304,13 @@ class FreeSpots:
                 nxt = arriving[n + 1]
                 nxt_spots = self._part_spots(nxt, part)
                 nxt_free = self._free(nxt, nxt_spots, present, placed)
-                at = np.array(options)
-                first, lst = self._runs(nxt, nxt_spots, spots.centre[at], spots.rots[spots.turn[at]],
-                                        np.broadcast_to(self.half[k], (len(at), 2)))
                 # the next object's free spots each option leaves, counted per turn: the samples on them
                 # are summed exactly as over the spots themselves (a part's spots weigh alike per turn)
-                counts = _kernels().counts_outside(nxt_free, first, lst, len(nxt_spots.grid.v))
+                g = nxt_spots.grid
+                first, lst, counts = _kernels().option_counts(
+                    nxt_free, nxt_spots.rots, self.half[nxt], spots.centre, spots.rots, spots.turn, np.array(options),
+                    self.half[k], self.search.spot_margin / 2, g.base, g.axes, g.u, float(g.lo), float(g.width),
+                    len(g.v))
                 room_left = [self._hits_counted(nxt_spots, c) for c in counts.tolist()]
                 best = room_left.index(min(room_left))  # the first smallest, as np.argmin
                 chosen = options[best]
@@ -440,22 +441,15 @@ class FreeSpots:
             spots.__dict__["_ranks_needed"] = needed
         return needed
 
-    def _runs(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray,
-              h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The spots of object k each rectangle (centres (R, 2), rotations (R, 2, 2), half sizes (R, 2))
-        overlaps by the planner's separating-axis test with its margin, as the first and last column of a
-        run per turn and row: (R, t, r) each.
-
-        On a row of the grid, each of the test's four axes bounds the column coordinate from both
-        sides, so the spots a rectangle blocks are one run of columns per turn and row."""
-        return self._runs_of(k, spots, np.ascontiguousarray(r), np.ascontiguousarray(h), np.ascontiguousarray(c),
-                             np.arange(len(r)), slice(None))
-
     def _runs_of(self, k: int, spots: _Spots, rots: np.ndarray, halves: np.ndarray, centres: np.ndarray,
                  index: np.ndarray, rows: slice) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_runs` for the rectangles ``index`` of ``rots``, ``halves``, ``centres`` on the grid's rows
-        ``rows`` (the same numbers on each row as for the whole grid; no run on the others): one compiled
-        loop (:func:`samplehd.world.spot_kernels.rect_runs`) from the poses to the runs."""
+        """The spots of object k each rectangle ``index`` of ``rots``, ``halves``, ``centres`` overlaps by the
+        planner's separating-axis test with its margin, as the first and last column of a run per turn and row
+        ((R, t, r) each), on the grid's rows ``rows`` (the same numbers on each row as for the whole grid; no
+        run on the others): one compiled loop (:func:`samplehd.world.spot_kernels.rect_runs`) from the poses.
+
+        On a row of the grid, each of the test's four axes bounds the column coordinate from both sides, so
+        the spots a rectangle blocks are one run of columns per turn and row."""
         g = spots.grid
         r0, r1, _ = rows.indices(len(g.u))
         return _kernels().rect_runs(spots.rots, self.half[k], rots, halves, centres, index,

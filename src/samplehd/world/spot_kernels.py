@@ -22,8 +22,8 @@ from numba.core import types
 from numba.extending import intrinsic
 
 __all__ = ["annulus_and", "beside_keep", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma",
-           "free_spots", "near_objects", "part_keep", "rect_runs", "spot_options", "spot_scores", "uncovered",
-           "uncovered_weight", "weight_sum"]
+           "free_spots", "near_objects", "option_counts", "part_keep", "rect_runs", "spot_options", "spot_scores",
+           "uncovered", "uncovered_weight", "weight_sum"]
 
 
 @intrinsic
@@ -730,3 +730,35 @@ def spot_options(free: np.ndarray, weight: np.ndarray, samples: float, min_hits:
         reach = math.hypot((centre[s, 0] - offsets[t, 0]) - base[0], (centre[s, 1] - offsets[t, 1]) - base[1])
         sure = sure and reach >= sure_lo and reach <= sure_hi
     return 2, ranked, count, picks, sure
+
+
+@numba.njit(cache=True, nogil=True)
+def option_counts(free: np.ndarray, rt: np.ndarray, half: np.ndarray, centre: np.ndarray, rots: np.ndarray,
+                  turn: np.ndarray, at: np.ndarray, at_half: np.ndarray, grow: float, base: np.ndarray,
+                  grid_axes: np.ndarray, u: np.ndarray, lo: float, width: float,
+                  count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs an object put on each of its options ``at`` blocks on the next object's grid, and the next
+    object's free spots each leaves per turn, in one call: :func:`rect_runs` of the rectangles (centres
+    ``centre[at]``, rotations ``rots[turn[at]]``, half sizes ``at_half``) on every row, then
+    :func:`counts_outside` of ``free``.
+
+    Args:
+        free: (m,) the next object's free spots; rt: (t, 2, 2) its rotation after each turn; half: (2,) its
+            half sizes [m].
+        centre, rots, turn: the placed object's spots' centres (M, 2) [m], rotations per turn (T, 2, 2) and
+            turns (M,); at: (R,) the options; at_half: (2,) the placed object's half sizes [m].
+        grow, base, grid_axes, u, lo, width, count: as :func:`rect_runs` (the next object's grid).
+
+    Returns:
+        first, last: (R, t, r) the runs; counts: (R, t) the free spots outside each option's runs per turn.
+    """
+    n = at.shape[0]
+    centres, rects, halves = np.empty((n, 2)), np.empty((n, 2, 2)), np.empty((n, 2))
+    for a in range(n):
+        s = at[a]
+        centres[a, 0], centres[a, 1] = centre[s, 0], centre[s, 1]
+        rects[a] = rots[turn[s]]
+        halves[a, 0], halves[a, 1] = at_half[0], at_half[1]
+    first, last = rect_runs(rt, half, rects, halves, centres, np.arange(n), grow, base, grid_axes, u, 0, u.shape[0],
+                            lo, width, count)
+    return first, last, counts_outside(free, first, last, count)
