@@ -559,11 +559,8 @@ def _in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, layout: 
     is too near either bound to decide it: the same answers."""
     lo, hi = layout.reach_min ** 2, layout.reach_max ** 2
     tol = 1e-9  # far above the rounding of the squares, far below any real distance
-    unsure, xs, ys = _kernels().annulus_and(keep, rel_x, rel_y, lo, hi, lo * (1 + tol), hi * (1 - tol), lo * 2 * tol,
-                                            hi * 2 * tol)
-    if len(unsure):
-        reach = np.hypot(xs, ys)
-        keep.reshape(-1)[unsure] = (reach >= layout.reach_min) & (reach <= layout.reach_max)
+    _kernels().in_annulus(keep, rel_x, rel_y, layout.reach_min, layout.reach_max, lo, hi, lo * (1 + tol),
+                          hi * (1 - tol), lo * 2 * tol, hi * 2 * tol)
 
 
 def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:

@@ -22,8 +22,8 @@ from numba.core import types
 from numba.extending import intrinsic
 
 __all__ = ["annulus_and", "beside_keep", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma",
-           "free_spots", "near_objects", "option_counts", "part_keep", "rect_runs", "spot_options", "spot_scores",
-           "uncovered", "uncovered_weight", "weight_sum"]
+           "free_spots", "in_annulus", "near_objects", "option_counts", "part_keep", "rect_runs", "spot_options",
+           "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
 
 
 @intrinsic
@@ -762,3 +762,18 @@ def option_counts(free: np.ndarray, rt: np.ndarray, half: np.ndarray, centre: np
     first, last = rect_runs(rt, half, rects, halves, centres, np.arange(n), grow, base, grid_axes, u, 0, u.shape[0],
                             lo, width, count)
     return first, last, counts_outside(free, first, last, count)
+
+
+@numba.njit(cache=True, nogil=True)
+def in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, reach_min: float, reach_max: float,
+               sq_lo: float, sq_hi: float, sure_lo: float, sure_hi: float, gap_lo: float, gap_hi: float) -> None:
+    """Keep (in place, keep (t, r, c)) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``:
+    :func:`annulus_and` on the squared distances, and ``hypot`` (the C library's, as ``np.hypot``) on the
+    spots it leaves unsure."""
+    unsure, xs, ys = annulus_and(keep, rel_x, rel_y, sq_lo, sq_hi, sure_lo, sure_hi, gap_lo, gap_hi)
+    n_row, n_col = keep.shape[1], keep.shape[2]
+    for n in range(unsure.shape[0]):
+        t, rest = divmod(unsure[n], n_row * n_col)
+        i, j = divmod(rest, n_col)
+        reach = math.hypot(xs[n], ys[n])
+        keep[t, i, j] = reach >= reach_min and reach <= reach_max
