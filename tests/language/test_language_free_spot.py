@@ -842,3 +842,33 @@ def test_compiled_option_counts_equal_the_runs_of_the_options_counted() -> None:
                 np.testing.assert_array_equal(counts, counts_outside(nxt_free, want[0], want[1], len(g.v)))
                 blocked += int((counts < nxt_free.reshape(len(nxt_spots.turns), -1).sum(axis=1)).sum())
     assert blocked > 50
+
+
+def test_compiled_blockers_equal_the_near_objects_and_their_runs() -> None:
+    """The objects near an object's kept spots and the runs they block, in one compiled call, equal
+    :func:`near_objects` and then :func:`rect_runs` of those objects on the rows it names, bit for bit."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import blockers, near_objects, rect_runs
+
+    some = 0
+    for scene in _scenes(9, 2, 31):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(9):
+            for spots in [fs._part_spots(k, part) for part in ("right", "front")] + [
+                    s for s in (fs._beside_spots(k, (k + 4) % 9, (0.0, -1.0)),) if s is not None]:
+                g, grow = spots.grid, fs.search.spot_margin / 2
+                near, first, last = blockers(spots.keep, g.base, g.axes, g.u, g.v, fs.centre, fs._radius, k,
+                                             spots.rots, fs.half[k], fs.rot, fs.half, grow, float(g.lo),
+                                             float(g.width), len(g.v))
+                want_near, r0, r1 = near_objects(spots.keep, len(spots.turns), g.base, g.axes, g.u, g.v, fs.centre,
+                                                 fs._radius, k)
+                want = rect_runs(spots.rots, fs.half[k], fs.rot, fs.half, fs.centre, want_near, grow, g.base, g.axes,
+                                 g.u, r0, r1, float(g.lo), float(g.width), len(g.v))
+                np.testing.assert_array_equal(near, want_near)
+                np.testing.assert_array_equal(first, want[0])
+                np.testing.assert_array_equal(last, want[1])
+                assert first.shape == (len(want_near), len(spots.turns), len(g.u))
+                some += bool(len(near)) and bool((first <= last).any())
+    assert some > 10

@@ -441,21 +441,6 @@ class FreeSpots:
             spots.__dict__["_ranks_needed"] = needed
         return needed
 
-    def _runs_of(self, k: int, spots: _Spots, rots: np.ndarray, halves: np.ndarray, centres: np.ndarray,
-                 index: np.ndarray, rows: slice) -> tuple[np.ndarray, np.ndarray]:
-        """The spots of object k each rectangle ``index`` of ``rots``, ``halves``, ``centres`` overlaps by the
-        planner's separating-axis test with its margin, as the first and last column of a run per turn and row
-        ((R, t, r) each), on the grid's rows ``rows`` (the same numbers on each row as for the whole grid; no
-        run on the others): one compiled loop (:func:`samplehd.world.spot_kernels.rect_runs`) from the poses.
-
-        On a row of the grid, each of the test's four axes bounds the column coordinate from both sides, so
-        the spots a rectangle blocks are one run of columns per turn and row."""
-        g = spots.grid
-        r0, r1, _ = rows.indices(len(g.u))
-        return _kernels().rect_runs(spots.rots, self.half[k], rots, halves, centres, index,
-                                    self.search.spot_margin / 2, g.base, g.axes, g.u, r0, r1, float(g.lo),
-                                    float(g.width), len(g.v))
-
     def _part_spots(self, k: int, part: str) -> _Spots:
         key = ("part", k, part)
         if key not in self._memo:
@@ -538,15 +523,12 @@ class FreeSpots:
 
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             # the objects whose rectangle, with both margins, comes within reach of the box around the
-            # spots that pass the tests without other objects (the others' overlaps matter nowhere else)
-            near, r0, r1 = _kernels().near_objects(spots.keep, len(self.turns), grid.base, grid.axes, grid.u, grid.v,
-                                                   self.centre, self._radius, k)
-            if not len(near):
-                none = np.zeros((0, len(self.turns), len(grid.u)))
-                return near, none, none
-            # on the rows holding such spots only: elsewhere no run is marked (no spot there can be free)
-            first, last = self._runs_of(k, spots, self.rot, self.half, self.centre, near, slice(r0, r1))
-            return near, first, last
+            # spots that pass the tests without other objects (the others' overlaps matter nowhere else), and
+            # their runs on the rows holding such spots only: elsewhere no run is marked (no spot there can be
+            # free); one compiled call (:func:`samplehd.world.spot_kernels.blockers`)
+            return _kernels().blockers(spots.keep, grid.base, grid.axes, grid.u, grid.v, self.centre, self._radius, k,
+                                       spots.rots, self.half[k], self.rot, self.half, self.search.spot_margin / 2,
+                                       float(grid.lo), float(grid.width), len(grid.v))
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
         # them already leave too few spots needs none

@@ -21,9 +21,9 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["annulus_and", "beside_keep", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma",
-           "free_spots", "in_annulus", "near_objects", "option_counts", "part_keep", "rect_runs", "spot_options",
-           "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
+__all__ = ["annulus_and", "beside_keep", "best_spots", "blockers", "column_runs", "counts_outside", "farthest_picks",
+           "fma", "free_spots", "in_annulus", "near_objects", "option_counts", "part_keep", "rect_runs",
+           "spot_options", "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
 
 
 @intrinsic
@@ -777,3 +777,20 @@ def in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, reach_min
         i, j = divmod(rest, n_col)
         reach = math.hypot(xs[n], ys[n])
         keep[t, i, j] = reach >= reach_min and reach <= reach_max
+
+
+@numba.njit(cache=True, nogil=True)
+def blockers(keep: np.ndarray, base: np.ndarray, grid_axes: np.ndarray, u: np.ndarray, v: np.ndarray,
+             centre: np.ndarray, radius: np.ndarray, k: int, rt: np.ndarray, half: np.ndarray, rots: np.ndarray,
+             halves: np.ndarray, grow: float, lo: float, width: float,
+             count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The scene's objects that may block a spot of object k in ``keep`` and the runs they block, in one call:
+    :func:`near_objects`, then :func:`rect_runs` of those objects (rotations ``rots``, half sizes ``halves``,
+    footprint centres ``centre``) on the rows holding spots in ``keep`` only (no run on the others).
+
+    Returns:
+        near (b,), first and last (b, t, r).
+    """
+    near, r0, r1 = near_objects(keep, rt.shape[0], base, grid_axes, u, v, centre, radius, k)
+    first, last = rect_runs(rt, half, rots, halves, centre, near, grow, base, grid_axes, u, r0, r1, lo, width, count)
+    return near, first, last
