@@ -21,9 +21,9 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["annulus_and", "beside_keep", "best_spots", "blockers", "column_runs", "counts_outside", "farthest_picks",
-           "fma", "free_spots", "in_annulus", "near_objects", "option_counts", "part_keep", "rect_runs",
-           "spot_options", "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
+__all__ = ["beside_keep", "best_spots", "blockers", "column_runs", "counts_outside", "farthest_picks", "fma",
+           "free_spots", "in_annulus", "near_objects", "option_counts", "part_keep", "rect_runs", "spot_options",
+           "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
 
 
 @intrinsic
@@ -331,46 +331,6 @@ def farthest_picks(where: np.ndarray, most: int) -> np.ndarray:
                 total += d * d
             dist[i] = min(dist[i], math.sqrt(total))
     return picks[:count]
-
-
-@numba.njit(cache=True, nogil=True)
-def annulus_and(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, sq_lo: float, sq_hi: float, sure_lo: float,
-                sure_hi: float, gap_lo: float, gap_hi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Keep (in place) only the spots whose squared distance ``rel_x**2 + rel_y**2`` lies surely inside
-    [``sure_lo``, ``sure_hi``], and list the kept ones it leaves unsure (within ``gap_lo`` of ``sq_lo`` or
-    ``gap_hi`` of ``sq_hi``) for the caller to decide on the distance itself.
-
-    Args:
-        keep: (t, r, c) spots; rel_x, rel_y: offsets from the centre of the annulus, each of a shape that
-            broadcasts to keep's (its axes of length 1 repeat) [m].
-
-    Returns:
-        The flat indices of the unsure spots (left kept) and their ``rel_x``, ``rel_y``.
-    """
-    n_turn, n_row, n_col = keep.shape
-    unsure = np.empty(keep.size, np.int64)
-    found = 0
-    for t in range(n_turn):
-        tx, ty = min(t, rel_x.shape[0] - 1), min(t, rel_y.shape[0] - 1)
-        for i in range(n_row):
-            ix, iy = min(i, rel_x.shape[1] - 1), min(i, rel_y.shape[1] - 1)
-            for j in range(n_col):
-                if not keep[t, i, j]:
-                    continue
-                x, y = rel_x[tx, ix, min(j, rel_x.shape[2] - 1)], rel_y[ty, iy, min(j, rel_y.shape[2] - 1)]
-                sq = x * x + y * y
-                if abs(sq - sq_lo) < gap_lo or abs(sq - sq_hi) < gap_hi:
-                    unsure[found] = (t * n_row + i) * n_col + j
-                    found += 1
-                elif not (sq >= sure_lo and sq <= sure_hi):
-                    keep[t, i, j] = False
-    xs, ys = np.empty(found), np.empty(found)
-    for n in range(found):
-        t, rest = divmod(unsure[n], n_row * n_col)
-        i, j = divmod(rest, n_col)
-        xs[n] = rel_x[min(t, rel_x.shape[0] - 1), min(i, rel_x.shape[1] - 1), min(j, rel_x.shape[2] - 1)]
-        ys[n] = rel_y[min(t, rel_y.shape[0] - 1), min(i, rel_y.shape[1] - 1), min(j, rel_y.shape[2] - 1)]
-    return unsure[:found], xs, ys
 
 
 @numba.njit(cache=True, nogil=True)
@@ -767,16 +727,32 @@ def option_counts(free: np.ndarray, rt: np.ndarray, half: np.ndarray, centre: np
 @numba.njit(cache=True, nogil=True)
 def in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, reach_min: float, reach_max: float,
                sq_lo: float, sq_hi: float, sure_lo: float, sure_hi: float, gap_lo: float, gap_hi: float) -> None:
-    """Keep (in place, keep (t, r, c)) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``:
-    :func:`annulus_and` on the squared distances, and ``hypot`` (the C library's, as ``np.hypot``) on the
-    spots it leaves unsure."""
-    unsure, xs, ys = annulus_and(keep, rel_x, rel_y, sq_lo, sq_hi, sure_lo, sure_hi, gap_lo, gap_hi)
-    n_row, n_col = keep.shape[1], keep.shape[2]
-    for n in range(unsure.shape[0]):
-        t, rest = divmod(unsure[n], n_row * n_col)
-        i, j = divmod(rest, n_col)
-        reach = math.hypot(xs[n], ys[n])
-        keep[t, i, j] = reach >= reach_min and reach <= reach_max
+    """Keep (in place) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``, decided on the
+    squared distance ``rel_x**2 + rel_y**2`` where it lies surely inside [``sure_lo``, ``sure_hi``] or outside,
+    and by ``hypot`` (the C library's, as ``np.hypot``) where it lies within ``gap_lo`` of ``sq_lo`` or
+    ``gap_hi`` of ``sq_hi``: the same answers.
+
+    Args:
+        keep: (t, r, c) spots; rel_x, rel_y: offsets from the centre of the annulus, each of a shape that
+            broadcasts to keep's (its axes of length 1 repeat) [m].
+    """
+    n_turn, n_row, n_col = keep.shape
+    last_x, last_y = rel_x.shape[2] - 1, rel_y.shape[2] - 1
+    for t in range(n_turn):
+        tx, ty = min(t, rel_x.shape[0] - 1), min(t, rel_y.shape[0] - 1)
+        for i in range(n_row):
+            row = keep[t, i]
+            xs, ys = rel_x[tx, min(i, rel_x.shape[1] - 1)], rel_y[ty, min(i, rel_y.shape[1] - 1)]
+            for j in range(n_col):
+                if not row[j]:
+                    continue
+                x, y = xs[min(j, last_x)], ys[min(j, last_y)]
+                sq = x * x + y * y
+                if abs(sq - sq_lo) < gap_lo or abs(sq - sq_hi) < gap_hi:
+                    reach = math.hypot(x, y)
+                    row[j] = reach >= reach_min and reach <= reach_max
+                elif not (sq >= sure_lo and sq <= sure_hi):
+                    row[j] = False
 
 
 @numba.njit(cache=True, nogil=True)
