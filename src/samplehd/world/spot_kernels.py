@@ -121,6 +121,18 @@ def rect_runs(rt: np.ndarray, half: np.ndarray, rots: np.ndarray, halves: np.nda
     Returns:
         first, last: (R, t, r), as :func:`column_runs`.
     """
+    return _rect_runs(rt, half, rots, halves, centres, index, grow, base, grid_axes, u, r0, r1, lo, width, count,
+                      np.zeros(0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _rect_runs(rt: np.ndarray, half: np.ndarray, rots: np.ndarray, halves: np.ndarray, centres: np.ndarray,
+               index: np.ndarray, grow: float, base: np.ndarray, grid_axes: np.ndarray, u: np.ndarray, r0: int,
+               r1: int, lo: float, width: float, count: int, reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`rect_runs`; where ``reach`` (N,) is given, only on the rows whose coordinate ``u`` (ascending)
+    lies within ``reach[n]`` of rectangle n's centre along the rows (its offset from each turn's grid origin
+    along the rows' direction): a spot farther than the sum of both rectangles' half diagonals can overlap
+    neither, so the other rows' runs are empty and are left as none (first = count, last = -1)."""
     n_rect, n_turn, n_row = index.shape[0], rt.shape[0], u.shape[0]
     first = np.full((n_rect, n_turn, n_row), float(count))
     last = np.full((n_rect, n_turn, n_row), -1.0)
@@ -145,7 +157,12 @@ def rect_runs(rt: np.ndarray, half: np.ndarray, rots: np.ndarray, halves: np.nda
                 q0[a] = x * dx + y * dy
                 along[a] = fma(x, grid_axes[0, 0], y * grid_axes[0, 1])
                 across[a] = fma(x, grid_axes[1, 0], y * grid_axes[1, 1])
-            _row_runs(q0, along, across, lim, u, r0, r1, lo, width, count, first[m, t], last[m, t])
+            a0, a1 = r0, r1
+            if reach.shape[0]:
+                at = dx * grid_axes[0, 0] + dy * grid_axes[0, 1]
+                a0 = max(a0, np.searchsorted(u, at - reach[n]))
+                a1 = min(a1, np.searchsorted(u, at + reach[n], side="right"))
+            _row_runs(q0, along, across, lim, u, a0, a1, lo, width, count, first[m, t], last[m, t])
     return first, last
 
 
@@ -762,11 +779,14 @@ def blockers(keep: np.ndarray, base: np.ndarray, grid_axes: np.ndarray, u: np.nd
              count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The scene's objects that may block a spot of object k in ``keep`` and the runs they block, in one call:
     :func:`near_objects`, then :func:`rect_runs` of those objects (rotations ``rots``, half sizes ``halves``,
-    footprint centres ``centre``) on the rows holding spots in ``keep`` only (no run on the others).
+    footprint centres ``centre``) on the rows holding spots in ``keep`` only, and of those on the rows each
+    object can reach (``radius``: the half diagonals grown by the margin); no run on the others.
 
     Returns:
         near (b,), first and last (b, t, r).
     """
     near, r0, r1 = near_objects(keep, rt.shape[0], base, grid_axes, u, v, centre, radius, k)
-    first, last = rect_runs(rt, half, rots, halves, centre, near, grow, base, grid_axes, u, r0, r1, lo, width, count)
+    reach = radius[k] + radius + 1e-9  # (with room for the rounding of the projections, as near_objects)
+    first, last = _rect_runs(rt, half, rots, halves, centre, near, grow, base, grid_axes, u, r0, r1, lo, width, count,
+                             reach)
     return near, first, last
