@@ -876,3 +876,29 @@ def test_compiled_blockers_equal_the_near_objects_and_their_runs() -> None:
                 some += bool(runs.any())
                 skipped += int(((first == len(g.v)) & (last == -1) & (want[0] != len(g.v))).sum())
     assert some > 10 and skipped > 100  # rows left without computing them
+
+
+def test_compiled_runs_on_slab_bounds_at_whole_columns_equal_the_quotients() -> None:
+    """Rows whose slab bounds fall on a column's coordinate, or a few units in the last place beside it (where
+    the reciprocals the loop takes first could round the other way), give the quotients' own runs."""
+    import numpy as np
+
+    from samplehd.world.spot_kernels import column_runs
+
+    rng = np.random.default_rng(15)
+    lo, width, count = -0.25, 0.01, 50
+    u = np.linspace(-0.3, 0.3, 40)
+    n = 300
+    across = rng.choice([1.0, -1.0, 0.7, -0.3, 3.0, 1e-3], (n, 1, 4)) * rng.uniform(0.5, 1.5, (n, 1, 4))
+    along = rng.normal(size=(n, 1, 4)) * rng.choice([0.0, 1.0], (n, 1, 4))
+    lim = rng.uniform(0.0, 0.2, (n, 1, 4))
+    # q0 so that on row 7 the bound (q - lim) / across lands on column j's coordinate, nudged by a few ulps
+    j = rng.integers(0, count, (n, 1, 4))
+    coord = lo + (j + 0.5) * width
+    q0 = coord * across + lim + along * u[7]
+    q0 = q0 + rng.integers(-3, 4, q0.shape) * np.spacing(q0)
+    want = _runs_by_arrays(q0, along, across, lim, u, lo, width, count)
+    got = column_runs(q0, along, across, lim, u, 0, len(u), lo, width, count)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+    assert (want[0][:, :, 7] <= want[1][:, :, 7]).any()

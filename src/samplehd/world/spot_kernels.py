@@ -79,7 +79,20 @@ def column_runs(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.n
 @numba.njit(cache=True, nogil=True)
 def _row_runs(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.ndarray, u: np.ndarray, r0: int,
               r1: int, lo: float, width: float, count: int, first: np.ndarray, last: np.ndarray) -> None:
-    """:func:`column_runs` of one rectangle and turn (its four axes (4,)), into ``first``, ``last`` (r,)."""
+    """:func:`column_runs` of one rectangle and turn (its four axes (4,)), into ``first``, ``last`` (r,).
+
+    The slabs' bounds are first taken with the reciprocals of ``across`` and ``width`` (a few units in the
+    last place from the quotients); a row whose first or last column so found lies within 1e-9 of a whole
+    column, far above that difference, is taken again with the quotients themselves
+    (:func:`_row_run_exact`), so every run is the quotients' own."""
+    inv = np.empty(4)
+    for a in range(4):
+        inv[a] = 1.0 / across[a] if across[a] != 0.0 else 0.0
+        if not math.isfinite(inv[a]):  # (an axis all but along the rows: the quotients throughout)
+            for i in range(r0, r1):
+                first[i], last[i] = _row_run_exact(q0, along, across, lim, u[i], lo, width, count)
+            return
+    inv_width = 1.0 / width
     for i in range(r0, r1):
         low, high = -math.inf, math.inf
         for a in range(4):
@@ -89,13 +102,41 @@ def _row_runs(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.nda
                 if not abs(q) <= m:
                     low, high = math.inf, -math.inf
             else:
-                x, y = (q - m) / c, (q + m) / c
+                x, y = (q - m) * inv[a], (q + m) * inv[a]
                 low = max(low, min(x, y))
                 high = min(high, max(x, y))
-        f = np.ceil((low - lo) / width - 0.5)
-        g = np.floor((high - lo) / width - 0.5)
-        first[i] = min(max(f, 0.0), float(count))
-        last[i] = min(max(g, -1.0), float(count - 1))
+        s, e = (low - lo) * inv_width - 0.5, (high - lo) * inv_width - 0.5
+        if _near_whole(s) or _near_whole(e):
+            first[i], last[i] = _row_run_exact(q0, along, across, lim, u[i], lo, width, count)
+        else:
+            first[i] = min(max(np.ceil(s), 0.0), float(count))
+            last[i] = min(max(np.floor(e), -1.0), float(count - 1))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _near_whole(t: float) -> bool:
+    """Whether a finite column coordinate lies within 1e-9 (relative to its size) of a whole column."""
+    return math.isfinite(t) and not abs(t - np.rint(t)) > 1e-9 * (1.0 + abs(t))
+
+
+@numba.njit(cache=True, nogil=True)
+def _row_run_exact(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.ndarray, u: float, lo: float,
+                   width: float, count: int) -> tuple[float, float]:
+    """The first and last column of one row's run (:func:`column_runs`), with the quotients themselves."""
+    low, high = -math.inf, math.inf
+    for a in range(4):
+        q = q0[a] - along[a] * u
+        c, m = across[a], lim[a]
+        if c == 0.0:  # an axis that ignores the column: all or none, by the row
+            if not abs(q) <= m:
+                low, high = math.inf, -math.inf
+        else:
+            x, y = (q - m) / c, (q + m) / c
+            low = max(low, min(x, y))
+            high = min(high, max(x, y))
+    f = np.ceil((low - lo) / width - 0.5)
+    g = np.floor((high - lo) / width - 0.5)
+    return min(max(f, 0.0), float(count)), min(max(g, -1.0), float(count - 1))
 
 
 @numba.njit(cache=True, nogil=True)
