@@ -878,6 +878,40 @@ def test_compiled_blockers_equal_the_near_objects_and_their_runs() -> None:
     assert some > 10 and skipped > 100  # rows left without computing them
 
 
+def test_compiled_blocked_weight_equals_the_blockers_and_the_weights_outside_their_runs() -> None:
+    """The weights of the spots outside every near object's runs, in one compiled call, equal
+    :func:`blockers` then :func:`uncovered_weight` of its runs with every near object counting, bit for bit;
+    and ``_Spots.blocked_weight`` gives the same before and after the runs are kept."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import blocked_weight, blockers, uncovered_weight
+
+    some = partial = 0
+    for scene in _scenes(12, 3, 41):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(12):
+            for spots in [fs._part_spots(k, part) for part in ("right", "front", "back")] + [
+                    s for d in ((0.0, -1.0), (1.0, 0.0), (0.6, 0.8))
+                    for s in (fs._beside_spots(k, (k + 5) % 12, d),) if s is not None]:
+                g, grow = spots.grid, fs.search.spot_margin / 2
+                args = (spots.keep, g.base, g.axes, g.u, g.v, fs.centre, fs._radius, k, spots.rots, fs.half[k],
+                        fs.rot, fs.half, grow, float(g.lo), float(g.width), len(g.v))
+                near, first, last = blockers(*args)
+                want = uncovered_weight(spots.keep, first, last, np.ones(len(near), bool), len(g.v), spots.weight)
+                got = blocked_weight(*args, spots.weight)
+                assert type(got[0]) is float and got[0].hex() == want[0].hex() and got[1] == want[1]
+                before = spots.blocked_weight()  # the runs not yet kept: the fused call
+                assert "_blockers" not in spots.__dict__
+                spots.near  # noqa: B018 (keeps the runs)
+                assert before == spots.blocked_weight() == want
+                some += bool(len(near))
+                all_weight = uncovered_weight(spots.keep, first, last, np.zeros(len(near), bool), len(g.v),
+                                              spots.weight)[0]
+                partial += want[1] and want[0] < all_weight
+    assert some > 50 and partial > 20  # near objects that block some kept spots, and spots left free
+
+
 def test_compiled_runs_on_slab_bounds_at_whole_columns_equal_the_quotients() -> None:
     """Rows whose slab bounds fall on a column's coordinate, or a few units in the last place beside it (where
     the reciprocals the loop takes first could round the other way), give the quotients' own runs."""

@@ -160,10 +160,21 @@ class _Spots:
     score_terms: tuple[np.ndarray, np.ndarray, np.ndarray]  # score, rel_x, rel_y of spot_kernels.spot_scores
     keep: np.ndarray  # (m,) passes the tests not involving other objects
     blockers_of: Callable[[_Spots], tuple[np.ndarray, np.ndarray, np.ndarray]]  # makes near, first, last
+    blocked_weight_of: Callable[[_Spots], tuple[float, bool]]  # :meth:`blocked_weight` without the runs
 
     @functools.cached_property
     def _blockers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return self.blockers_of(self)
+
+    def blocked_weight(self) -> tuple[float, bool]:
+        """The weights of the spots in ``keep`` outside every near object's runs, summed left to right, and
+        whether there is any such spot (``uncovered_weight`` of :attr:`first`, :attr:`last` with every near
+        object counting); in one compiled call where the runs are not yet known, without keeping them."""
+        if "_blockers" in self.__dict__:
+            near = self.near
+            return _kernels().uncovered_weight(self.keep, self.first, self.last, np.ones(len(near), bool),
+                                               len(self.grid.v), self.weight)
+        return self.blocked_weight_of(self)
 
     @property
     def near(self) -> np.ndarray:
@@ -330,10 +341,9 @@ class FreeSpots:
             return False
         present = np.ones(len(self.objects), bool)
         if self.reach_is_annulus:  # :meth:`_enough` of the free spots, their weights summed as they are found
-            others = present.copy()
-            others[x] = False
-            total, found = _kernels().uncovered_weight(spots.keep, spots.first, spots.last, others[spots.near],
-                                                       len(spots.grid.v), spots.weight)
+            # the objects near and the runs they block, and the weights outside them, in one compiled call
+            # (:func:`samplehd.world.spot_kernels.blocked_weight`): every object but x is where it is
+            total, found = spots.blocked_weight()
             below = self._below(total, len(spots.weight), self.search.min_hits,
                                 lambda: float(spots.weight[self._free(x, spots, present, _NONE_PLACED)].sum()))
             return not below and found
@@ -530,10 +540,18 @@ class FreeSpots:
                                        spots.rots, self.half[k], self.rot, self.half, self.search.spot_margin / 2,
                                        float(grid.lo), float(grid.width), len(grid.v))
 
+        def blocked_weight_of(spots: _Spots) -> tuple[float, bool]:
+            # the same objects and runs, and the weights of the spots outside them, in one compiled call
+            # (:func:`samplehd.world.spot_kernels.blocked_weight`)
+            return _kernels().blocked_weight(spots.keep, grid.base, grid.axes, grid.u, grid.v, self.centre,
+                                             self._radius, k, spots.rots, self.half[k], self.rot, self.half,
+                                             self.search.spot_margin / 2, float(grid.lo), float(grid.width),
+                                             len(grid.v), spots.weight)
+
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
         # them already leave too few spots needs none
         return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, (score, rel_x, rel_y),
-                      keep, blockers_of)
+                      keep, blockers_of, blocked_weight_of)
 
 def _in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, layout: TableLayout) -> None:
     """Keep (in place, keep (t, r, c)) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``

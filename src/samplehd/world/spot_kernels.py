@@ -21,9 +21,9 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["beside_keep", "best_spots", "blockers", "column_runs", "counts_outside", "farthest_picks", "fma",
-           "free_spots", "in_annulus", "near_objects", "option_counts", "part_keep", "rect_runs", "spot_options",
-           "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
+__all__ = ["beside_keep", "best_spots", "blocked_weight", "blockers", "column_runs", "counts_outside",
+           "farthest_picks", "fma", "free_spots", "in_annulus", "near_objects", "option_counts", "part_keep",
+           "rect_runs", "spot_options", "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
 
 
 @intrinsic
@@ -831,3 +831,16 @@ def blockers(keep: np.ndarray, base: np.ndarray, grid_axes: np.ndarray, u: np.nd
     first, last = _rect_runs(rt, half, rots, halves, centre, near, grow, base, grid_axes, u, r0, r1, lo, width, count,
                              reach)
     return near, first, last
+
+
+@numba.njit(cache=True, nogil=True)
+def blocked_weight(keep: np.ndarray, base: np.ndarray, grid_axes: np.ndarray, u: np.ndarray, v: np.ndarray,
+                   centre: np.ndarray, radius: np.ndarray, k: int, rt: np.ndarray, half: np.ndarray,
+                   rots: np.ndarray, halves: np.ndarray, grow: float, lo: float, width: float, count: int,
+                   weight: np.ndarray) -> tuple[float, bool]:
+    """:func:`uncovered_weight` of the spots in ``keep`` outside the runs of every object :func:`blockers`
+    finds near (its arguments, then the spots' weights), in one call: where the scene's objects all stand
+    where they are, the weights of object k's free spots summed left to right, and whether there is any."""
+    near, first, last = blockers(keep, base, grid_axes, u, v, centre, radius, k, rt, half, rots, halves, grow, lo,
+                                 width, count)
+    return uncovered_weight(keep, first, last, np.ones(near.shape[0], np.bool_), count, weight)
