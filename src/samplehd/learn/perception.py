@@ -72,7 +72,7 @@ FLOAT_LIFT = 0.02  # [m] an instance whose lowest points are this far above the 
 STACK_NEAR = 0.03  # [m] ... joined with the instance whose ground-plane centre is this near its own
 GROUND_GAP = 0.01  # [m] parts this far apart on the ground plane are different objects
 RAISED = 0.0015  # [m] points this far above the table top are the object's when measuring its extents
-KIND_FIT = 4.0  # spreads (size_templates): 99 % of single test objects are within 3.1 of their class's nearest kind
+KIND_FIT = 4.0  # spreads (size_templates) above a kind: 99 % of single test objects are within 3.1 of it
 N_FEATURES = 21  # measured size and appearance features of an instance (see _geometry)
 PREPARED_FILE = "prepared.npz"
 DEPTH_CENTRE, DEPTH_SCALE = 1.5, 0.5
@@ -564,10 +564,12 @@ class Perception:
 
     def fits_kind(self, name: str, metric_size: np.ndarray, limit: float = KIND_FIT) -> bool:
         """Whether measured dimensions (long and short extent, top height [m]) fit some kind of class
-        ``name`` (:func:`size_templates`): each within ``limit`` of the kind's spreads of its training
-        median. A class without templates (held out of training, or a model without them) fits anything."""
+        ``name`` (:func:`size_templates`): none more than ``limit`` of the kind's spreads above its training
+        median. Only too large counts: an object partly hidden (behind another, at the image's edge)
+        measures smaller than its kind, while two objects taken for one measure larger than either. A
+        class without templates (held out of training, or a model without them) fits anything."""
         x = np.log(np.asarray(metric_size, float)[:3] + 0.005)
-        fits = [float(np.max(np.abs(x - mu) / sd)) <= limit for kind, (mu, sd) in self._templates.items()
+        fits = [float(np.max((x - mu) / sd)) <= limit for kind, (mu, sd) in self._templates.items()
                 if kind.split("/")[0] == name]
         return any(fits) or not fits
 
