@@ -9,7 +9,7 @@
 #        EPISODES (closed-loop episodes per evaluation, 48)
 #
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
-# Writes OUT/data/{small400,bc}, OUT/models/{parser,perception,policy}, OUT/reports/*.json.
+# Writes OUT/data/{small1200,bc}, OUT/models/{parser,perception,policy}, OUT/reports/*.json.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 out="${1:-outputs/baselines}"
@@ -30,14 +30,14 @@ gen() {  # gen NAME ARGS...: generate (or finish) a dataset
   "$bin" generate --preset small "$@" --workers "$workers" --out "$out/data/$name" "${resume[@]}"
 }
 
-# 400 scenes with 640x360 scene images (RGB, depth, segmentation); every 10th scene is a test scene.
-gen small400 --config "$here/small400.json" --scenes 400 --target 400 --render none --width 640 --height 360 --seed 0
+# 1200 scenes with 640x360 scene images (RGB, depth, segmentation); every 10th scene is a test scene.
+gen small1200 --config "$here/scenes.json" --scenes 1200 --target 1200 --render none --width 640 --height 360 --seed 0
 # pick_up and place demonstrations with 64x64 scene and wrist camera RGB.
 gen bc --config "$here/bc.json" --target "${BC_EPISODES:-300}"
 
-"$bin" train parser --dataset "$out/data/small400" --out "$out/models/parser" --steps "${PARSER_STEPS:-1000}" \
+"$bin" train parser --dataset "$out/data/small1200" --out "$out/models/parser" --steps "${PARSER_STEPS:-1000}" \
   "${device[@]}"
-"$bin" train perception --dataset "$out/data/small400" --out "$out/models/perception" \
+"$bin" train perception --dataset "$out/data/small1200" --out "$out/models/perception" \
   --steps "${PERCEPTION_STEPS:-4000}" "${device[@]}"
 "$bin" train policy --dataset "$out/data/bc" --out "$out/models/policy" --steps "${POLICY_STEPS:-4000}" \
   "${device[@]}"

@@ -401,3 +401,44 @@ def test_tall_objects_are_placed_by_their_own_points_and_floating_pieces_join(tm
     assert len(joined) == len(ann["objects"])
     assert any(np.array_equal(m, whole) for m in joined)
     assert all(any(np.array_equal(m, g) for m in joined) for g in others)
+
+
+def test_a_union_of_objects_does_not_fit_one_kind(tmp_path: Path) -> None:
+    """Parts split at a depth jump are joined only when the union's measured dimensions fit a kind of the
+    class it is named: on a real 640×360 scene every object fits its own class's templates (measured the
+    way training measures them), the union of two of them fits neither class, and a class without
+    templates (held out of training) fits anything."""
+    import numpy as np
+
+    from samplehd.learn.perception import (
+        FORMAT,
+        Perception,
+        _geometry,
+        attribute_vocab,
+        kind_vocab,
+        size_templates,
+    )
+    from samplehd.world.layout import LAYOUT
+
+    ann, rgb, seg, depth = _rendered_scene(tmp_path, 10, 5, 640, 360)
+    camera, table = ann["camera"], LAYOUT.table_height
+    objs = ann["objects"]
+    masks = [seg == o["segmentation_id"] for o in objs]
+    kinds = kind_vocab()
+    geo = np.stack([_geometry(rgb, depth, m, camera, table)[1] for m in masks])[:, None]
+    of = np.array([kinds.index(f"{o['name']}/{o['variant']}/{o['size']}") for o in objs])
+    model = Perception({"format": FORMAT, "attributes": attribute_vocab(), "kinds": kinds,
+                        "model": {"seg_width": 2, "attr_width": 2}, "seg_downsample": 1, "table_height": table,
+                        "size_templates": size_templates(geo, of, kinds)})
+
+    def measured(mask: np.ndarray, whole: bool = False) -> np.ndarray:
+        return _geometry(rgb, depth, mask, camera, table, whole)[1][:3] / 10
+
+    assert all(model.fits_kind(o["name"], measured(m)) for o, m in zip(objs, masks, strict=True))
+    for a in range(len(objs)):
+        for b in range(a + 1, len(objs)):
+            union = measured(masks[a] | masks[b], whole=True)
+            assert not model.fits_kind(objs[a]["name"], union), (objs[a]["name"], objs[b]["name"])
+            assert not model.fits_kind(objs[b]["name"], union), (objs[a]["name"], objs[b]["name"])
+    absent = next(n for n in attribute_vocab()["name"] if n not in {o["name"] for o in objs})
+    assert model.fits_kind(absent, measured(masks[0] | masks[1], whole=True))

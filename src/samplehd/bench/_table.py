@@ -108,9 +108,7 @@ def _path_rows(repeats: int) -> list[Row]:
 
     The renderer's reference rate is that of drawing the very states the episode unit draws (each state's
     poses computed outside the timing, one ``render`` call per frame timed): the arm's poses along a path
-    cost more to draw than the scene's first state, whose rate is shown beside it. It is timed just before and
-    just after each episode unit, and the share is the median of the repeats' ratios of the unit's rate to it,
-    so that the drifting load of a shared machine weighs on both alike.
+    cost more to draw than the scene's first state, whose rate is shown beside it.
     """
     scene = _bench_scene()
     task = {"type": "place", "objects": [1], "subject": "left"}
@@ -139,10 +137,7 @@ def _path_rows(repeats: int) -> list[Row]:
         for w, h in ((320, 180), (640, 360)):
             images = RenderConfig("fast", w, h, ("operator",), MODALITIES)
             # Side by side, repeat by repeat (the load of a shared machine drifts): the renderer alone on the
-            # scene's first state; then the renderer alone on the states of the repeat's episode just before and
-            # just after the episode unit with images runs (the states-only unit of the same seed recorded them:
-            # the same states), so that the pure rate brackets the unit's run and the share compares both under
-            # the same conditions.
+            # scene's first state, the episode unit with images, and the renderer alone on that episode's states.
             first, done, pure = [], [], []
             with SceneRenderer(model, w, h, "fast") as r:
                 # Into one set of frame buffers, as the episode renders (no fresh memory per frame).
@@ -156,20 +151,12 @@ def _path_rows(repeats: int) -> list[Row]:
 
                 for k in range(repeats):
                     first.append(_rates(*draw()))
-                    stored = read_frames(Path(tmp) / EPISODE_DIR / f"e{k}.h5", ("qpos", "qvel", "act", "time"))
-                    before = _draw_states(r, stored, out)
                     done.append(unit(images, k))
-                    recorded = read_frames(Path(tmp) / EPISODE_DIR / f"e{k}.h5", ("qpos",))["qpos"]
-                    if not np.array_equal(recorded, stored["qpos"]):
-                        raise RuntimeError(f"benchmark episode {k} recorded other states with images than without")
-                    after = _draw_states(r, stored, out)
-                    pure.append(_rates(*(a + b for a, b in zip(before, after, strict=True))))
+                    stored = read_frames(Path(tmp) / EPISODE_DIR / f"e{k}.h5", ("qpos", "qvel", "act", "time"))
+                    pure.append(_rates(*_draw_states(r, stored, out)))
             p_wall, p_cpu = (statistics.median(x[i] for x in pure) for i in (0, 1))
             i_wall = statistics.median(d["num_frames"] / d["seconds"] for d in done)
             i_cpu = statistics.median(d["num_frames"] / d["cpu_seconds"] for d in done)
-            pairs = list(zip(done, pure, strict=True))
-            share_wall = statistics.median(d["num_frames"] / d["seconds"] / x[0] for d, x in pairs)
-            share_cpu = statistics.median(d["num_frames"] / d["cpu_seconds"] / x[1] for d, x in pairs)
             f_ms = 1000 / statistics.median(x[1] for x in first)
 
             def ms(key: str, done: list[dict[str, Any]] = done) -> float:
@@ -181,9 +168,8 @@ def _path_rows(repeats: int) -> list[Row]:
                             f"{1000 / p_cpu:.1f} CPU ms per frame, {f_ms:.1f} on the scene's first state)",
                             _fmt(p_wall), _fmt(p_cpu), "`samplehd bench --report FILE --only paths`"))
             rows.append(Row(f"ground-truth path frames/s with {what} (as above, images rendered from the states "
-                            f"and written, while the path is planned); share of the renderer's rate on the same states "
-                            "timed just before and after each episode (median of the repeats' ratios): "
-                            f"{share_wall:.0%} wall, {share_cpu:.0%} CPU; CPU ms per frame: plan and execute "
+                            f"and written); share of the renderer's rate on the same states: {i_wall / p_wall:.0%} "
+                            f"wall, {i_cpu / p_cpu:.0%} CPU; CPU ms per frame: plan and execute "
                             f"{ms('path_cpu_seconds'):.1f}, render from the states {ms('render_cpu_seconds'):.1f}, "
                             f"write {ms('write_cpu_seconds'):.1f}",
                             _fmt(i_wall), _fmt(i_cpu), "`samplehd bench --report FILE --only paths`"))

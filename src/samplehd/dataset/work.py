@@ -29,10 +29,9 @@ from samplehd.dataset.container import (
     write_error,
 )
 from samplehd.dataset.layout import EPISODE_DIR, RESUME_HINT
-from samplehd.dataset.render import RenderConfig, StateCallback
+from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError, PlanningError, RenderError
 from samplehd.motion.assist import compile_scene_with_assist
-from samplehd.record.episode import Episode
 from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
 from samplehd.scene.generate import render_scene_files
 from samplehd.scene.spec import SceneSpec, compile_scene
@@ -96,9 +95,7 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
         ``{scene_index, slot, status: ok|rejected, reason, message, attempts, num_frames, size, sha256,
         seconds, cpu_seconds}``; an ok one also ``path_seconds``, ``render_seconds`` (wall) and
         ``path_cpu_seconds``, ``render_cpu_seconds``, ``write_cpu_seconds`` (CPU time of planning and
-        execution, of the images, of writing the file). Where the images are rendered while the path is
-        planned (:meth:`RenderConfig.images_while_planning`), ``path_seconds`` ends when the path was done,
-        ``render_seconds`` is the rendering left after it, and ``path_cpu_seconds`` is the planning thread's.
+        execution, of the images, of writing the file).
 
     Raises:
         DatasetError: the episode file cannot be written (disk full, permissions).
@@ -107,28 +104,14 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     t0, c0 = time.perf_counter(), time.process_time()
     base = {"scene_index": unit.scene_index, "slot": unit.slot}
     config = PathConfig.from_dict(unit.paths)
-    render = RenderConfig.from_dict(unit.render)
     scene = SceneSpec.from_dict(unit.scene)
     # The grasp welds add no degrees of freedom: the same model serves the path and the images.
     compile_fn = compile_scene_with_assist if config.grasp_assist else compile_scene
     model, data = compile_fn(scene, 1.0 / config.physics_hz)
-
-    def plan(on_state: StateCallback | None = None) -> Episode:
-        return plan_and_execute(scene, unit.task, np.random.default_rng(unit.seed), config, family=unit.family,
-                                scene_index=unit.scene_index, instruction_index=unit.slot, seed=unit.seed,
-                                directions=unit.directions, compiled=(model, data), on_state=on_state)
-
-    images: dict[str, dict[str, Any]] | None = None
     try:
-        if render.renders_while_planning:
-            c_compiled = time.process_time()
-            planned = render.images_while_planning(model, plan)
-            episode, images = planned.episode, planned.images
-            # Rendering ran beside the planning and went on after it: the path's CPU time is the planning
-            # thread's, its wall time ends when the path was done.
-            t1, c1 = planned.planned_at, c_compiled + planned.plan_cpu_seconds
-        else:
-            episode = plan()
+        episode = plan_and_execute(scene, unit.task, np.random.default_rng(unit.seed), config, family=unit.family,
+                                   scene_index=unit.scene_index, instruction_index=unit.slot, seed=unit.seed,
+                                   directions=unit.directions, compiled=(model, data))
     except PathRejected as exc:
         return {**base, "status": "rejected", "reason": exc.reason, "message": str(exc).splitlines()[0][:300],
                 "attempts": len(exc.attempts), "seconds": time.perf_counter() - t0,
@@ -139,12 +122,11 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
         return {**base, "status": "rejected", "reason": f"error_{type(exc).__name__}",
                 "message": f"{exc} ({Path(where.filename).name}:{where.lineno})"[:300],
                 "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
-    if images is None:
-        t1, c1 = time.perf_counter(), time.process_time()
-        if render.enabled:
-            images = render.images(model, episode.frames, seed=scene.seed, deflated=True)
-    if images is not None:
-        episode = dataclasses.replace(episode, images=images)
+    t1, c1 = time.perf_counter(), time.process_time()
+    render = RenderConfig.from_dict(unit.render)
+    if render.enabled:
+        episode = dataclasses.replace(episode, images=render.images(model, episode.frames, seed=scene.seed,
+                                                                        deflated=True))
     t2, c2 = time.perf_counter(), time.process_time()
     path = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}

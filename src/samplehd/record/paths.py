@@ -10,7 +10,6 @@ it raises :class:`PathRejected` with a short, countable reason. A failed path is
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Any
@@ -111,8 +110,7 @@ def _copy_state(src: mujoco.MjData, dst: mujoco.MjData) -> None:
 
 def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: SceneSpec, rng: np.random.Generator,
                  config: PathConfig, facts: list[ObjectFacts | None],
-                 directions: dict[str, Any] | None,
-                 on_state: Callable[..., None] | None = None) -> tuple[Rollout, RecordingStep]:
+                 directions: dict[str, Any] | None) -> tuple[Rollout, RecordingStep]:
     control = ControlConfig(physics_hz=config.physics_hz, control_hz=config.control_hz)
     ctrl = initial_state(model, data, control)
     robot = RobotInfo.from_model(model, data)
@@ -120,7 +118,7 @@ def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: SceneSpec, r
     ro = Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions,
                  use_assist=config.grasp_assist)
     recorder = FrameRecorder(model, data, robot.arm_qpos, robot.arm_dof, robot.finger_qpos, ro.finger_bodies,
-                             robot.tcp_site, bodies.object_body, on_state)
+                             robot.tcp_site, bodies.object_body)
     return ro, RecordingStep(recorder, partial(step_controller, ctrl))
 
 
@@ -175,7 +173,6 @@ def plan_and_execute(
     seed: int = 0,
     directions: dict[str, Any] | None = None,
     compiled: tuple[mujoco.MjModel, mujoco.MjData] | None = None,
-    on_state: Callable[[int, np.ndarray, np.ndarray, np.ndarray, np.float64], None] | None = None,
 ) -> Episode:
     """Generate the ground-truth path of one instruction.
 
@@ -193,9 +190,6 @@ def plan_and_execute(
             left in the episode's final state. A model without the grasp welds (plain
             ``compile_scene``) is replaced internally by an identical one with them
             (:func:`~samplehd.motion.assist.compile_scene_with_assist`) when the assist is on.
-        on_state: called with the attempt's number and each frame's ``qpos``, ``qvel``, ``act`` and ``time``
-            as it is recorded (a new number: the frames of the attempt before are void), so that images can
-            be rendered while the path is planned; an exception it raises ends the call.
 
     Returns:
         The successful episode (``success`` True, checker report in ``info["check"]``).
@@ -229,8 +223,7 @@ def plan_and_execute(
     for attempt in range(config.max_attempts):
         mujoco.mj_copyData(data, model, start)
         sub = np.random.default_rng(rng.integers(2**63))
-        watch = None if on_state is None else partial(on_state, attempt)
-        ro, step = _new_rollout(model, data, scene, sub, config, facts, directions, watch)
+        ro, step = _new_rollout(model, data, scene, sub, config, facts, directions)
         try:
             result = _run_attempt(ro, step, scene, t, config, exclude, directions)
         except AttemptFailed as exc:

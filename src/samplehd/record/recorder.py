@@ -38,14 +38,11 @@ class FrameRecorder:
         finger_bodies: body ids of the two fingers.
         tcp_site: id of the TCP site.
         object_bodies: body ids of the scene objects, in scene order.
-        on_state: called with each recorded frame's ``qpos``, ``qvel``, ``act`` and ``time`` (the arrays
-            :meth:`frames` stacks, never changed afterwards), e.g. to render the frames as they come.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, arm_qpos: np.ndarray, arm_dof: np.ndarray,
                  finger_qpos: np.ndarray, finger_bodies: tuple[int, int], tcp_site: int,
-                 object_bodies: np.ndarray,
-                 on_state: Callable[[np.ndarray, np.ndarray, np.ndarray, np.float64], None] | None = None) -> None:
+                 object_bodies: np.ndarray) -> None:
         self.model, self.data = model, data
         self.arm_qpos, self.arm_dof, self.finger_qpos = arm_qpos, arm_dof, finger_qpos
         self.finger_bodies = finger_bodies
@@ -53,7 +50,6 @@ class FrameRecorder:
         self.object_bodies = np.asarray(object_bodies)
         self.body_to_object = {int(b): i for i, b in enumerate(self.object_bodies)}
         self.rows: dict[str, list[np.ndarray]] = {k: [] for k in FRAME_FIELDS}
-        self.on_state = on_state
 
     def __len__(self) -> int:
         return len(self.rows["time"])
@@ -92,8 +88,6 @@ class FrameRecorder:
         r["qpos"].append(d.qpos.copy())
         r["qvel"].append(d.qvel.copy())
         r["act"].append(d.act.copy())
-        if self.on_state is not None:
-            self.on_state(r["qpos"][-1], r["qvel"][-1], r["act"][-1], r["time"][-1])
         return grasped
 
     def record_target(self, target: ControlTarget, safety_code: int = 0) -> int:

@@ -14,7 +14,7 @@ detection and dynamics (most of its cost, paid every frame of an episode).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
@@ -24,7 +24,7 @@ import numpy as np
 from samplehd.errors import DatasetError
 from samplehd.render.renderer import IMAGE_DTYPES, SceneRenderer, image_shape
 
-__all__ = ["OVERLAP_BUFFERS", "RESTART", "pose_state", "render_state_stream", "render_states", "set_state"]
+__all__ = ["OVERLAP_BUFFERS", "pose_state", "render_states", "set_state"]
 
 # Frame buffers that take turns when on_frame runs beside the render loop: one being rendered, one being
 # handed over, one spare (so a slow call does not stall the renderer at once).
@@ -122,96 +122,32 @@ def render_states(
         DatasetError: the states do not fit the model.
         RenderError: unknown camera or modality, or no GL context.
     """
+    data = data if data is not None else mujoco.MjData(model)
     picks = range(len(frames["qpos"])) if indices is None else indices
     act, time = frames.get("act"), frames.get("time")
-    states = ((frames["qpos"][k], frames["qvel"][k], None if act is None else act[k], None if time is None else time[k])
-              for k in picks)
-    if on_frame is not None:
-        render_state_stream(model, states, cameras, modalities, width, height, preset, data, photo, on_frame,
-                            segmentation_dtype=segmentation_dtype, overlap=overlap)
-        return {}
     # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
-    data = data if data is not None else mujoco.MjData(model)
-    out = _frame_buffers(len(picks), cameras, modalities, width, height, segmentation_dtype)
-    with SceneRenderer(model, width, height, preset, photo=photo) as renderer:
-        for i, state in enumerate(states):
-            _draw(renderer, data, state, cameras, modalities, out, i)
-    return out
-
-
-#: An item of :func:`render_state_stream` that voids the frames before it (the states of an attempt that failed).
-RESTART = "restart"
-
-State = tuple[np.ndarray, np.ndarray, "np.ndarray | None", "float | None"]
-
-
-def render_state_stream(
-    model: mujoco.MjModel,
-    states: Iterable[State | str],
-    cameras: Sequence[str],
-    modalities: Sequence[str],
-    width: int,
-    height: int,
-    preset: str = "fast",
-    data: mujoco.MjData | None = None,
-    photo: Any = None,
-    on_frame: Callable[[str, dict[str, np.ndarray]], None] | None = None,
-    on_restart: Callable[[], None] | None = None,
-    segmentation_dtype: Any = np.int32,
-    overlap: bool = False,
-) -> None:
-    """Render states as they come (``(qpos, qvel, act, time)``, ``act`` and ``time`` may be None): each frame's
-    images go to ``on_frame`` as in :func:`render_states`, whose arguments these are.
-
-    ``states`` may be fed while this runs (a planner recording them on another thread). :data:`RESTART` among
-    them voids the frames before it: every ``on_frame`` call of those has returned when ``on_restart`` is
-    called (to drop what they kept), and the next state is the first frame again.
-
-    Raises:
-        DatasetError: a state does not fit the model.
-        RenderError: unknown camera or modality, or no GL context.
-    """
-    data = data if data is not None else mujoco.MjData(model)
+    # With on_frame, one frame's arrays serve every frame (no fresh memory per frame); with overlap, a few.
+    dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
     overlap = overlap and on_frame is not None
-    n = OVERLAP_BUFFERS if overlap else 1
-    # One frame's arrays serve every frame (no fresh memory per frame); with overlap, a few take turns.
-    out = _frame_buffers(n, cameras, modalities, width, height, segmentation_dtype)
+    n = (OVERLAP_BUFFERS if overlap else 1) if on_frame is not None else len(picks)
+    out = {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
+               if m in dtypes} for c in cameras}
     with SceneRenderer(model, width, height, preset, photo=photo) as renderer, _Handoff(overlap) as handoff:
-        i = 0
-        for state in states:
-            if isinstance(state, str):
-                handoff.wait_all()
-                if on_restart is not None:
-                    on_restart()
-                continue
-            slot = i % n
-            i += 1
+        for i, k in enumerate(picks):
+            pose_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
+                       None if time is None else time[k])
+            slot = i % n if on_frame is not None else i
             handoff.wait(slot)  # the helper is done with this slot's arrays (or raises its error)
-            _draw(renderer, data, state, cameras, modalities, out, slot)
-            views = [(cam, {m: a[slot] for m, a in out[cam].items()}) for cam in cameras]
+            for cam in cameras:
+                images = renderer.render(data, cam, modalities, out={m: a[slot] for m, a in out[cam].items()})
+                if on_frame is not None and not overlap:
+                    on_frame(cam, images)
             if overlap:
                 assert on_frame is not None
-                handoff.submit(slot, on_frame, views)
-            elif on_frame is not None:
-                for cam, images in views:
-                    on_frame(cam, images)
+                handoff.submit(slot, on_frame, [(cam, {m: a[slot] for m, a in out[cam].items()})
+                                                for cam in cameras])
         handoff.wait_all()
-
-
-def _frame_buffers(n: int, cameras: Sequence[str], modalities: Sequence[str], width: int, height: int,
-                   segmentation_dtype: Any) -> dict[str, dict[str, np.ndarray]]:
-    """``n`` frames' arrays of every camera and modality."""
-    dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
-    return {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
-                if m in dtypes} for c in cameras}
-
-
-def _draw(renderer: SceneRenderer, data: mujoco.MjData, state: State, cameras: Sequence[str],
-          modalities: Sequence[str], out: dict[str, dict[str, np.ndarray]], slot: int) -> None:
-    """Pose one state and render every camera into slot ``slot`` of ``out``."""
-    pose_state(renderer.model, data, *state)
-    for cam in cameras:
-        renderer.render(data, cam, modalities, out={m: a[slot] for m, a in out[cam].items()})
+    return {} if on_frame is not None else out
 
 
 class _Handoff:
