@@ -662,3 +662,277 @@ def test_compiled_scores_equal_the_array_computation() -> None:
                 np.testing.assert_array_equal(spots.score(), want)
                 checked += len(want)
     assert checked > 100000
+
+
+def test_compiled_spot_options_equal_the_steps_they_stand_for() -> None:
+    """One compiled call for the planner's options (enough samples on the free spots, the best ranked, the
+    picks spread over them, the reach annulus surely holding them) gives what the steps give one by one:
+    numpy's sum of weights, :func:`best_spots`, :func:`farthest_picks` on the centres and turns, and the
+    origins' distances from the base by ``np.hypot``; on real scenes' parts and spots past a reference,
+    with random free spots, among them sums near the bound."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world import placement
+    from samplehd.world.free_spot import _SCORE_WEIGHTS, _SURE_REACH, _TURN_SPREAD
+    from samplehd.world.spot_kernels import best_spots, farthest_picks, spot_options
+
+    rng = np.random.default_rng(11)
+    counted = {0: 0, 1: 0, 2: 0}
+    sure_seen = set()
+    for scene in _scenes(8, 2, 4):
+        fs = ConstraintContext(scene).free_spots()
+        samples, min_hits = float(fs.search.samples), fs.search.min_hits
+        lo, hi = fs.layout.reach_min + _SURE_REACH, fs.layout.reach_max - _SURE_REACH
+        for k in range(len(scene.objects)):
+            grids = [fs._part_spots(k, part) for part in ("left", "front")]
+            grids += [s for s in (fs._beside_spots(k, (k + 1) % 8, (0.6, 0.8)),) if s is not None]
+            for spots in grids:
+                g = spots.grid
+                for density, top in ((0.9, hi), (0.3, 0.55), (0.02, hi), (0.0005, 0.55)):  # (also bounds cut)
+                    free = spots.keep & (rng.random(len(spots.keep)) < density)
+                    neighbours = rng.uniform(-0.4, 0.4, (int(rng.integers(0, 5)), 2))
+                    args = (g.on_axes, g.u, g.v, spots.centre, neighbours, *spots.score_terms, spots.turns,
+                            spots.turn, _SCORE_WEIGHTS, spots.shares(int(samples)), placement.SPOT_ROOM_CAP,
+                            fs._ranks_needed(spots), float(placement.SPOT_SHORTLIST), _TURN_SPREAD,
+                            placement.SPOT_OPTIONS, spots.offsets, fs._base, lo, top)
+                    # the sum's test, by numpy's sum, and near the bound: the bound set to the sum itself
+                    exact = samples * float(spots.weight[free].sum())
+                    for bound in (min_hits, exact):
+                        status, ranked, count, picks, sure = spot_options(free, spots.weight, samples, bound, False,
+                                                                          *args)
+                        counted[status] += 1
+                        if status == 1:
+                            assert abs(exact - bound) < 1e-9
+                            status, ranked, count, picks, sure = spot_options(free, spots.weight, samples, bound,
+                                                                              True, *args)
+                        if status == 0:
+                            assert exact < bound or not free.any()
+                            continue
+                        assert status == 2 and not exact < bound
+                        want_ranked, want_count = best_spots(free, *args[:15])
+                        np.testing.assert_array_equal(ranked, want_ranked)
+                        assert count == want_count
+                        best = want_ranked[:want_count]
+                        where = np.empty((len(best), 3))
+                        where[:, :2] = spots.centre[best]
+                        where[:, 2] = _TURN_SPREAD * spots.turns[spots.turn[best]]
+                        want_picks = farthest_picks(where, placement.SPOT_OPTIONS)
+                        np.testing.assert_array_equal(picks, want_picks)
+                        origin = spots.centre[best[want_picks]] - spots.offsets[spots.turn[best[want_picks]]]
+                        reach = np.hypot(origin[:, 0] - fs._base[0], origin[:, 1] - fs._base[1])
+                        assert sure == bool(((reach >= lo) & (reach <= top)).all())
+                        sure_seen.add(sure)
+    assert min(counted.values()) > 10 and sure_seen == {True, False}
+
+
+def test_best_spots_with_the_reach_and_turn_terms_rank_as_the_whole_array_scores() -> None:
+    """With the score's reach and turn terms (first taken with a square root, then exactly where a spot may
+    rank), the ranking is the start of the stable order of the whole-array scores (:meth:`_Spots.score`
+    less the capped gap), every score up to the ``needed``-th smallest and no other; on real scenes' parts
+    and spots past a reference, with ties from twin neighbours and cells shared by the turns."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world import placement
+    from samplehd.world.free_spot import _SCORE_WEIGHTS
+    from samplehd.world.spot_kernels import best_spots
+
+    rng = np.random.default_rng(12)
+    checked = 0
+    for scene in _scenes(6, 2, 14):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(6):
+            grids = [fs._part_spots(k, part) for part in ("right", "back")]
+            grids += [s for s in (fs._beside_spots(k, (k + 2) % 6, (-1.0, 0.0)),) if s is not None]
+            for spots in grids:
+                g, m = spots.grid, len(spots.keep)
+                whole = spots.score()
+                for needed, n_near in ((221, 2), (12, 1), (3000, 4), (40, 0)):
+                    free = spots.keep & (rng.random(m) < 0.6)
+                    neighbours = rng.uniform(-0.4, 0.4, (n_near, 2))
+                    if n_near > 1:
+                        neighbours[1] = neighbours[0]
+                    shares = spots.shares(fs.search.samples)
+                    ranked, count = best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours,
+                                               *spots.score_terms, spots.turns, spots.turn, _SCORE_WEIGHTS, shares,
+                                               placement.SPOT_ROOM_CAP, needed, float(placement.SPOT_SHORTLIST))
+                    idx = np.flatnonzero(free)
+                    gap = np.full(len(idx), np.inf)
+                    if n_near:
+                        gap = np.linalg.norm(spots.centre[idx, None, :] - neighbours[None], axis=-1).min(axis=1)
+                    key = -np.minimum(gap, placement.SPOT_ROOM_CAP) + whole[idx]
+                    order = idx[np.argsort(key, kind="stable")]
+                    size = len(idx) if needed >= len(idx) else int((key <= np.sort(key)[needed - 1]).sum())
+                    np.testing.assert_array_equal(ranked, order[:size])
+                    want = max(1, int(np.searchsorted(np.cumsum(shares[ranked]), placement.SPOT_SHORTLIST,
+                                                      side="right")))
+                    assert count == want
+                    checked += len(ranked)
+    assert checked > 5000
+
+
+def test_compiled_free_spots_equal_the_runs_marked_step_by_step() -> None:
+    """An object's free spots in one compiled call (outside the runs of the objects where they are and of the
+    rectangles already placed) equal the two steps they stand for: :func:`uncovered` of the scene's
+    objects, then :func:`uncovered` of :func:`rect_runs` of the placed rectangles on every row."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import free_spots, rect_runs, uncovered
+
+    rng = np.random.default_rng(13)
+    differ = 0
+    for scene in _scenes(7, 2, 21):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(7):
+            for spots in [fs._part_spots(k, part) for part in ("left", "back")] + [
+                    s for s in (fs._beside_spots(k, (k + 1) % 7, (0.0, 1.0)),) if s is not None]:
+                g, grow = spots.grid, fs.search.spot_margin / 2
+                for n_placed in (0, 1, 3):
+                    use = rng.random(len(spots.near)) < 0.7
+                    pick = rng.choice(len(spots.keep), n_placed)
+                    centres = np.ascontiguousarray(spots.centre[pick] + rng.normal(0, 0.02, (n_placed, 2)))
+                    rots = np.ascontiguousarray(spots.rots[spots.turn[pick]])
+                    halves = np.ascontiguousarray(rng.uniform(0.02, 0.1, (n_placed, 2)))
+                    want = uncovered(spots.keep, spots.first, spots.last, use, len(g.v))
+                    before = want
+                    if n_placed:
+                        first, last = rect_runs(spots.rots, fs.half[k], rots, halves, centres, np.arange(n_placed),
+                                                grow, g.base, g.axes, g.u, 0, len(g.u), float(g.lo), float(g.width),
+                                                len(g.v))
+                        want = uncovered(want, first, last, np.ones(n_placed, bool), len(g.v))
+                    got = free_spots(spots.keep, spots.first, spots.last, use, spots.rots, fs.half[k], rots, halves,
+                                     centres, grow, g.base, g.axes, g.u, float(g.lo), float(g.width), len(g.v))
+                    np.testing.assert_array_equal(got, want)
+                    differ += bool((want != before).any())
+    assert differ > 10  # the placed rectangles take spots
+
+
+def test_compiled_option_counts_equal_the_runs_of_the_options_counted() -> None:
+    """The runs an object on each of its options blocks on the next object's grid, and the free spots each
+    leaves per turn, in one compiled call, equal :func:`rect_runs` of the options' rectangles taken from the
+    arrays and :func:`counts_outside` of them, bit for bit."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import counts_outside, option_counts, rect_runs
+
+    rng = np.random.default_rng(14)
+    blocked = 0
+    for scene in _scenes(6, 2, 23):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(6):
+            nxt = (k + 1) % 6
+            for part in ("left", "front"):
+                spots, nxt_spots = fs._part_spots(k, part), fs._part_spots(nxt, part)
+                g, grow = nxt_spots.grid, fs.search.spot_margin / 2
+                nxt_free = nxt_spots.keep & (rng.random(len(nxt_spots.keep)) < 0.8)
+                at = rng.choice(np.flatnonzero(spots.keep), 6) if spots.keep.any() else np.zeros(0, np.int64)
+                first, last, counts = option_counts(nxt_free, nxt_spots.rots, fs.half[nxt], spots.centre, spots.rots,
+                                                    spots.turn, at, fs.half[k], grow, g.base, g.axes, g.u,
+                                                    float(g.lo), float(g.width), len(g.v))
+                c = np.ascontiguousarray(spots.centre[at])
+                r = np.ascontiguousarray(spots.rots[spots.turn[at]])
+                h = np.ascontiguousarray(np.broadcast_to(fs.half[k], (len(at), 2)))
+                want = rect_runs(nxt_spots.rots, fs.half[nxt], r, h, c, np.arange(len(at)), grow, g.base, g.axes,
+                                 g.u, 0, len(g.u), float(g.lo), float(g.width), len(g.v))
+                np.testing.assert_array_equal(first, want[0])
+                np.testing.assert_array_equal(last, want[1])
+                np.testing.assert_array_equal(counts, counts_outside(nxt_free, want[0], want[1], len(g.v)))
+                blocked += int((counts < nxt_free.reshape(len(nxt_spots.turns), -1).sum(axis=1)).sum())
+    assert blocked > 50
+
+
+def test_compiled_blockers_equal_the_near_objects_and_their_runs() -> None:
+    """The objects near an object's kept spots and the runs they block, in one compiled call, equal
+    :func:`near_objects` and then :func:`rect_runs` of those objects on the rows it names: the same runs,
+    column for column (rows too far from an object for any overlap are left without computing them)."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import blockers, near_objects, rect_runs
+
+    some = skipped = 0
+    for scene in _scenes(9, 2, 31):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(9):
+            for spots in [fs._part_spots(k, part) for part in ("right", "front")] + [
+                    s for s in (fs._beside_spots(k, (k + 4) % 9, (0.0, -1.0)),) if s is not None]:
+                g, grow = spots.grid, fs.search.spot_margin / 2
+                near, first, last = blockers(spots.keep, g.base, g.axes, g.u, g.v, fs.centre, fs._radius, k,
+                                             spots.rots, fs.half[k], fs.rot, fs.half, grow, float(g.lo),
+                                             float(g.width), len(g.v))
+                want_near, r0, r1 = near_objects(spots.keep, len(spots.turns), g.base, g.axes, g.u, g.v, fs.centre,
+                                                 fs._radius, k)
+                want = rect_runs(spots.rots, fs.half[k], fs.rot, fs.half, fs.centre, want_near, grow, g.base, g.axes,
+                                 g.u, r0, r1, float(g.lo), float(g.width), len(g.v))
+                np.testing.assert_array_equal(near, want_near)
+                assert first.shape == last.shape == (len(want_near), len(spots.turns), len(g.u))
+                runs = first <= last
+                np.testing.assert_array_equal(runs, want[0] <= want[1])
+                np.testing.assert_array_equal(first[runs], want[0][runs])
+                np.testing.assert_array_equal(last[runs], want[1][runs])
+                some += bool(runs.any())
+                skipped += int(((first == len(g.v)) & (last == -1) & (want[0] != len(g.v))).sum())
+    assert some > 10 and skipped > 100  # rows left without computing them
+
+
+def test_compiled_blocked_weight_equals_the_blockers_and_the_weights_outside_their_runs() -> None:
+    """The weights of the spots outside every near object's runs, in one compiled call, equal
+    :func:`blockers` then :func:`uncovered_weight` of its runs with every near object counting, bit for bit;
+    and ``_Spots.blocked_weight`` gives the same before and after the runs are kept."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.spot_kernels import blocked_weight, blockers, uncovered_weight
+
+    some = partial = 0
+    for scene in _scenes(12, 3, 41):
+        fs = ConstraintContext(scene).free_spots()
+        for k in range(12):
+            for spots in [fs._part_spots(k, part) for part in ("right", "front", "back")] + [
+                    s for d in ((0.0, -1.0), (1.0, 0.0), (0.6, 0.8))
+                    for s in (fs._beside_spots(k, (k + 5) % 12, d),) if s is not None]:
+                g, grow = spots.grid, fs.search.spot_margin / 2
+                args = (spots.keep, g.base, g.axes, g.u, g.v, fs.centre, fs._radius, k, spots.rots, fs.half[k],
+                        fs.rot, fs.half, grow, float(g.lo), float(g.width), len(g.v))
+                near, first, last = blockers(*args)
+                want = uncovered_weight(spots.keep, first, last, np.ones(len(near), bool), len(g.v), spots.weight)
+                got = blocked_weight(*args, spots.weight)
+                assert type(got[0]) is float and got[0].hex() == want[0].hex() and got[1] == want[1]
+                before = spots.blocked_weight()  # the runs not yet kept: the fused call
+                assert "_blockers" not in spots.__dict__
+                spots.near  # noqa: B018 (keeps the runs)
+                assert before == spots.blocked_weight() == want
+                some += bool(len(near))
+                all_weight = uncovered_weight(spots.keep, first, last, np.zeros(len(near), bool), len(g.v),
+                                              spots.weight)[0]
+                partial += want[1] and want[0] < all_weight
+    assert some > 50 and partial > 20  # near objects that block some kept spots, and spots left free
+
+
+def test_compiled_runs_on_slab_bounds_at_whole_columns_equal_the_quotients() -> None:
+    """Rows whose slab bounds fall on a column's coordinate, or a few units in the last place beside it (where
+    the reciprocals the loop takes first could round the other way), give the quotients' own runs."""
+    import numpy as np
+
+    from samplehd.world.spot_kernels import column_runs
+
+    rng = np.random.default_rng(15)
+    lo, width, count = -0.25, 0.01, 50
+    u = np.linspace(-0.3, 0.3, 40)
+    n = 300
+    across = rng.choice([1.0, -1.0, 0.7, -0.3, 3.0, 1e-3], (n, 1, 4)) * rng.uniform(0.5, 1.5, (n, 1, 4))
+    along = rng.normal(size=(n, 1, 4)) * rng.choice([0.0, 1.0], (n, 1, 4))
+    lim = rng.uniform(0.0, 0.2, (n, 1, 4))
+    # q0 so that on row 7 the bound (q - lim) / across lands on column j's coordinate, nudged by a few ulps
+    j = rng.integers(0, count, (n, 1, 4))
+    coord = lo + (j + 0.5) * width
+    q0 = coord * across + lim + along * u[7]
+    q0 = q0 + rng.integers(-3, 4, q0.shape) * np.spacing(q0)
+    want = _runs_by_arrays(q0, along, across, lim, u, lo, width, count)
+    got = column_runs(q0, along, across, lim, u, 0, len(u), lo, width, count)
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+    assert (want[0][:, :, 7] <= want[1][:, :, 7]).any()

@@ -87,10 +87,14 @@ class ConstraintContext:
         return self.cache[key]
 
     def part_centre(self, part: str) -> tuple[float, float, float]:
-        """Centre of a table part on the table top [m]."""
-        lo, hi = self.layout.part_bounds(part)
-        c = (lo + hi) / 2.0
-        return (float(c[0]), float(c[1]), self.layout.table_height)
+        """Centre of a table part on the table top [m] (memoised)."""
+        key = ("part centre", part)
+        centre = self.cache.get(key)
+        if centre is None:
+            lo, hi = self.layout.part_bounds(part)
+            c = (lo + hi) / 2.0
+            centre = self.cache[key] = (float(c[0]), float(c[1]), self.layout.table_height)
+        return centre
 
     def free_spots(self) -> FreeSpots:
         """The planner's free-spot test on this scene (memoised with its candidate spots)."""

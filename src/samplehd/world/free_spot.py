@@ -53,11 +53,19 @@ class Footprinted(Protocol):
 _TURN_SPREAD = 0.06  # weight of a turn against a distance when spreading the options [m/rad]
 
 _Rect = tuple[np.ndarray, np.ndarray, np.ndarray]  # footprint centre, 2x2 rotation, half sizes
+# rectangles of the objects already moved: footprint centres (n, 2), rotations (n, 2, 2), half sizes (n, 2)
+_Placed = tuple[np.ndarray, np.ndarray, np.ndarray]
 # the weights of the planner's score terms that do not depend on the neighbours (spot_kernels.spot_scores)
 _SCORE_WEIGHTS = np.array([placement.SPOT_REACH_WEIGHT, placement.SPOT_COMFORT_REACH, placement.SPOT_TURN_WEIGHT])
 _SCORE_WEIGHTS.setflags(write=False)
 _NO_SCORE = np.zeros(1)  # a part's spots have no score of their own
 _NO_SCORE.setflags(write=False)
+_NONE_PLACED: _Placed = (np.zeros((0, 2)), np.zeros((0, 2, 2)), np.zeros((0, 2)))
+for _a in _NONE_PLACED:
+    _a.setflags(write=False)
+# picks whose frame origins lie this far inside the reach annulus are surely reached: ``reach`` (the annulus,
+# memoised on coordinates rounded to a micrometre) says yes on them and on any point rounding alike [m]
+_SURE_REACH = 1e-5
 
 
 @dataclass(frozen=True)
@@ -152,10 +160,21 @@ class _Spots:
     score_terms: tuple[np.ndarray, np.ndarray, np.ndarray]  # score, rel_x, rel_y of spot_kernels.spot_scores
     keep: np.ndarray  # (m,) passes the tests not involving other objects
     blockers_of: Callable[[_Spots], tuple[np.ndarray, np.ndarray, np.ndarray]]  # makes near, first, last
+    blocked_weight_of: Callable[[_Spots], tuple[float, bool]]  # :meth:`blocked_weight` without the runs
 
     @functools.cached_property
     def _blockers(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return self.blockers_of(self)
+
+    def blocked_weight(self) -> tuple[float, bool]:
+        """The weights of the spots in ``keep`` outside every near object's runs, summed left to right, and
+        whether there is any such spot (``uncovered_weight`` of :attr:`first`, :attr:`last` with every near
+        object counting); in one compiled call where the runs are not yet known, without keeping them."""
+        if "_blockers" in self.__dict__:
+            near = self.near
+            return _kernels().uncovered_weight(self.keep, self.first, self.last, np.ones(len(near), bool),
+                                               len(self.grid.v), self.weight)
+        return self.blocked_weight_of(self)
 
     @property
     def near(self) -> np.ndarray:
@@ -261,8 +280,8 @@ class FreeSpots:
         if key not in self._memo:
             spots = self._part_spots(k, part)
             present = np.ones(len(self.objects), bool)
-            free = self._free(k, spots, present, [])
-            self._memo[key] = self._options(k, spots, free, self._neighbours(k, present, []))
+            free = self._free(k, spots, present, _NONE_PLACED)
+            self._memo[key] = self._options(k, spots, free, self._neighbours(k, present, _NONE_PLACED))
         return self._memo[key]
 
     def _room_in_part(self, arriving: Sequence[int], part: str) -> bool:
@@ -271,7 +290,11 @@ class FreeSpots:
             if not self._first_options(arriving[0], part):  # the first one's options, as the loop takes them
                 return False
         present = np.ones(len(self.objects), bool)  # objects still where the scene has them
-        placed: list[_Rect] = []
+        # the rectangles of the objects moved so far: the first ``moved`` rows
+        size = len(arriving)
+        centres, rots, halves = np.empty((size, 2)), np.empty((size, 2, 2)), np.empty((size, 2))
+        moved = 0
+        placed: _Placed = _NONE_PLACED
         free: np.ndarray | None = None  # the next object's free spots, where already known
         for n, k in enumerate(arriving):
             spots = self._part_spots(k, part)
@@ -292,12 +315,13 @@ class FreeSpots:
                 nxt = arriving[n + 1]
                 nxt_spots = self._part_spots(nxt, part)
                 nxt_free = self._free(nxt, nxt_spots, present, placed)
-                at = np.array(options)
-                first, lst = self._runs(nxt, nxt_spots, spots.centre[at], spots.rots[spots.turn[at]],
-                                        np.broadcast_to(self.half[k], (len(at), 2)))
                 # the next object's free spots each option leaves, counted per turn: the samples on them
                 # are summed exactly as over the spots themselves (a part's spots weigh alike per turn)
-                counts = _kernels().counts_outside(nxt_free, first, lst, len(nxt_spots.grid.v))
+                g = nxt_spots.grid
+                first, lst, counts = _kernels().option_counts(
+                    nxt_free, nxt_spots.rots, self.half[nxt], spots.centre, spots.rots, spots.turn, np.array(options),
+                    self.half[k], self.search.spot_margin / 2, g.base, g.axes, g.u, float(g.lo), float(g.width),
+                    len(g.v))
                 room_left = [self._hits_counted(nxt_spots, c) for c in counts.tolist()]
                 best = room_left.index(min(room_left))  # the first smallest, as np.argmin
                 chosen = options[best]
@@ -305,7 +329,9 @@ class FreeSpots:
                     return room_left[best] >= self.search.min_hits and sum(counts[best]) > 0
                 free = _kernels().uncovered(nxt_free, first[best : best + 1], lst[best : best + 1], np.ones(1, bool),
                                             len(nxt_spots.grid.v))
-            placed.append(self._rect(k, spots, chosen))
+            centres[moved], rots[moved], halves[moved] = self._rect(k, spots, chosen)
+            moved += 1
+            placed = (centres[:moved], rots[:moved], halves[:moved])
         return True
 
     def room_beside(self, x: int, ref: int, direction: Sequence[float]) -> bool:
@@ -315,15 +341,14 @@ class FreeSpots:
             return False
         present = np.ones(len(self.objects), bool)
         if self.reach_is_annulus:  # :meth:`_enough` of the free spots, their weights summed as they are found
-            others = present.copy()
-            others[x] = False
-            total, found = _kernels().uncovered_weight(spots.keep, spots.first, spots.last, others[spots.near],
-                                                       len(spots.grid.v), spots.weight)
+            # the objects near and the runs they block, and the weights outside them, in one compiled call
+            # (:func:`samplehd.world.spot_kernels.blocked_weight`): every object but x is where it is
+            total, found = spots.blocked_weight()
             below = self._below(total, len(spots.weight), self.search.min_hits,
-                                lambda: float(spots.weight[self._free(x, spots, present, [])].sum()))
+                                lambda: float(spots.weight[self._free(x, spots, present, _NONE_PLACED)].sum()))
             return not below and found
-        free = self._free(x, spots, present, [])
-        return bool(self._options(x, spots, free, self._neighbours(x, present, [])))
+        free = self._free(x, spots, present, _NONE_PLACED)
+        return bool(self._options(x, spots, free, self._neighbours(x, present, _NONE_PLACED)))
 
     def _rect(self, k: int, spots: _Spots, j: int) -> _Rect:
         """Object k's footprint rectangle on spot j: centre, rotation, half sizes."""
@@ -364,24 +389,23 @@ class FreeSpots:
         below, found = self._hits_below(spots, free, self.search.min_hits)
         return not below and found
 
-    def _free(self, k: int, spots: _Spots, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
+    def _free(self, k: int, spots: _Spots, present: np.ndarray, placed: _Placed) -> np.ndarray:
         """Object k's free spots, given which objects are still where the scene has them and the
         rectangles of those already moved."""
         others = present.copy()
         others[k] = False
-        kernels, count = _kernels(), len(spots.grid.v)
-        free = kernels.uncovered(spots.keep, spots.first, spots.last, others[spots.near], count)
-        if placed:
-            c, r, h = (np.stack(a) for a in zip(*placed, strict=True))
-            first, last = self._runs(k, spots, c, r, h)
-            free = kernels.uncovered(free, first, last, np.ones(len(first), bool), count)
-        return free
+        g, (centres, rots, halves) = spots.grid, placed
+        # one compiled call: outside the runs of the objects where they are, and of the placed rectangles
+        # (:func:`samplehd.world.spot_kernels.free_spots`)
+        return _kernels().free_spots(spots.keep, spots.first, spots.last, others[spots.near], spots.rots, self.half[k],
+                                     rots, halves, centres, self.search.spot_margin / 2, g.base, g.axes, g.u,
+                                     float(g.lo), float(g.width), len(g.v))
 
-    def _neighbours(self, k: int, present: np.ndarray, placed: Sequence[_Rect]) -> np.ndarray:
+    def _neighbours(self, k: int, present: np.ndarray, placed: _Placed) -> np.ndarray:
         """Footprint centres of the objects other than k where they are: (N, 2)."""
         others = present.copy()
         others[k] = False
-        return np.concatenate([self.centre[others], *(rect[0][None] for rect in placed)])
+        return np.concatenate([self.centre[others], placed[0]])
 
     def _options(self, k: int, spots: _Spots, free: np.ndarray, neighbours: np.ndarray) -> list[int]:
         """Free spots the planner may put object k on, spread over the ones it may pick; none where
@@ -390,21 +414,25 @@ class FreeSpots:
         The planner keeps its best-scored free samples and tries a few of them: here, the best free
         spots holding that many of its expected samples, of which a few far apart are returned.
         """
-        if self._hits_below(spots, free, self.search.min_hits)[0]:
+        g, search = spots.grid, self.search
+        args = (g.on_axes, g.u, g.v, spots.centre, neighbours, *spots.score_terms, spots.turns, spots.turn,
+                _SCORE_WEIGHTS, spots.shares(search.samples), placement.SPOT_ROOM_CAP, self._ranks_needed(spots),
+                float(placement.SPOT_SHORTLIST), _TURN_SPREAD, placement.SPOT_OPTIONS, spots.offsets, self._base,
+                self.layout.reach_min + _SURE_REACH, self.layout.reach_max - _SURE_REACH)
+        # one compiled call: enough samples on free spots, the best ranked, the picks spread over them and
+        # whether the reach annulus surely holds them all (:func:`samplehd.world.spot_kernels.spot_options`)
+        status, ranked, count, picks, sure = _kernels().spot_options(free, spots.weight, float(search.samples),
+                                                                     search.min_hits, False, *args)
+        if status == 1:  # the sum of weights too near the bound to decide in any order: as numpy sums it
+            if search.samples * float(spots.weight[free].sum()) < search.min_hits:
+                return []
+            status, ranked, count, picks, sure = _kernels().spot_options(free, spots.weight, float(search.samples),
+                                                                         search.min_hits, True, *args)
+        if status == 0:
             return []
-        g, kernels = spots.grid, _kernels()
-        ranked, count = kernels.best_spots(free, g.on_axes, g.u, g.v, spots.centre, neighbours, *spots.score_terms,
-                                           spots.turns, spots.turn, _SCORE_WEIGHTS,
-                                           spots.shares(self.search.samples), placement.SPOT_ROOM_CAP,
-                                           self._ranks_needed(spots), float(placement.SPOT_SHORTLIST))
         best = ranked[:count]
-        # spread: farthest-point picks over position and turn (a long object's turn matters as much)
-        where = np.empty((len(best), 3))
-        where[:, :2] = spots.centre[best]
-        where[:, 2] = _TURN_SPREAD * spots.turns[spots.turn[best]]
-        picks = kernels.farthest_picks(where, placement.SPOT_OPTIONS)
-        if self.reach_is_annulus and self._surely_in_reach(spots, best[picks]):
-            return [int(j) for j in best[picks]]
+        if self.reach_is_annulus and sure:
+            return best[picks].tolist()
         z = self.objects[k].coords[2]  # the origin's height does not change on the table
         reached = [int(best[i]) for i in picks if self.reach((*_origin(spots, best[i]), z))]
         if reached:
@@ -412,45 +440,16 @@ class FreeSpots:
         return next(([int(j)] for j in ranked[:placement.SPOT_SHORTLIST] if self.reach((*_origin(spots, j), z))),
                     [])
 
-    def _surely_in_reach(self, spots: _Spots, chosen: np.ndarray) -> bool:
-        """Whether ``reach`` (the annulus, memoised on coordinates rounded to a micrometre) surely says yes
-        on every chosen spot: they passed the annulus test, and none lies within 10 micrometres of its
-        bounds, so neither this answer nor a memoised one for a point rounding alike can be no."""
-        origin = spots.centre[chosen] - spots.offsets[spots.turn[chosen]]
-        base, layout = self._base, self.layout
-        reach = np.hypot(origin[:, 0] - base[0], origin[:, 1] - base[1])
-        margin = 1e-5
-        return bool(((reach >= layout.reach_min + margin) & (reach <= layout.reach_max - margin)).all())
-
     def _ranks_needed(self, spots: _Spots) -> int:
         """How many best-scored spots surely hold the shortlist's samples and the shortlist itself
-        (every spot holds at least the lightest spot's share of the samples)."""
-        least = self.search.samples * float(spots.weight.min()) if len(spots.weight) else 0.0
-        if least <= 0:
-            return len(spots.weight)
-        return max(placement.SPOT_SHORTLIST, int(1.01 * placement.SPOT_SHORTLIST / least) + 2)
-
-    def _runs(self, k: int, spots: _Spots, c: np.ndarray, r: np.ndarray,
-              h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The spots of object k each rectangle (centres (R, 2), rotations (R, 2, 2), half sizes (R, 2))
-        overlaps by the planner's separating-axis test with its margin, as the first and last column of a
-        run per turn and row: (R, t, r) each.
-
-        On a row of the grid, each of the test's four axes bounds the column coordinate from both
-        sides, so the spots a rectangle blocks are one run of columns per turn and row."""
-        return self._runs_of(k, spots, np.ascontiguousarray(r), np.ascontiguousarray(h), np.ascontiguousarray(c),
-                             np.arange(len(r)), slice(None))
-
-    def _runs_of(self, k: int, spots: _Spots, rots: np.ndarray, halves: np.ndarray, centres: np.ndarray,
-                 index: np.ndarray, rows: slice) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`_runs` for the rectangles ``index`` of ``rots``, ``halves``, ``centres`` on the grid's rows
-        ``rows`` (the same numbers on each row as for the whole grid; no run on the others): one compiled
-        loop (:func:`samplehd.world.spot_kernels.rect_runs`) from the poses to the runs."""
-        g = spots.grid
-        r0, r1, _ = rows.indices(len(g.u))
-        return _kernels().rect_runs(spots.rots, self.half[k], rots, halves, centres, index,
-                                    self.search.spot_margin / 2, g.base, g.axes, g.u, r0, r1, float(g.lo),
-                                    float(g.width), len(g.v))
+        (every spot holds at least the lightest spot's share of the samples; memoised on the spots)."""
+        needed = spots.__dict__.get("_ranks_needed")
+        if needed is None:
+            least = self.search.samples * float(spots.weight.min()) if len(spots.weight) else 0.0
+            needed = len(spots.weight) if least <= 0 else max(placement.SPOT_SHORTLIST,
+                                                              int(1.01 * placement.SPOT_SHORTLIST / least) + 2)
+            spots.__dict__["_ranks_needed"] = needed
+        return needed
 
     def _part_spots(self, k: int, part: str) -> _Spots:
         key = ("part", k, part)
@@ -534,20 +533,25 @@ class FreeSpots:
 
         def blockers_of(spots: _Spots) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             # the objects whose rectangle, with both margins, comes within reach of the box around the
-            # spots that pass the tests without other objects (the others' overlaps matter nowhere else)
-            near, r0, r1 = _kernels().near_objects(spots.keep, len(self.turns), grid.base, grid.axes, grid.u, grid.v,
-                                                   self.centre, self._radius, k)
-            if not len(near):
-                none = np.zeros((0, len(self.turns), len(grid.u)))
-                return near, none, none
-            # on the rows holding such spots only: elsewhere no run is marked (no spot there can be free)
-            first, last = self._runs_of(k, spots, self.rot, self.half, self.centre, near, slice(r0, r1))
-            return near, first, last
+            # spots that pass the tests without other objects (the others' overlaps matter nowhere else), and
+            # their runs on the rows holding such spots only: elsewhere no run is marked (no spot there can be
+            # free); one compiled call (:func:`samplehd.world.spot_kernels.blockers`)
+            return _kernels().blockers(spots.keep, grid.base, grid.axes, grid.u, grid.v, self.centre, self._radius, k,
+                                       spots.rots, self.half[k], self.rot, self.half, self.search.spot_margin / 2,
+                                       float(grid.lo), float(grid.width), len(grid.v))
+
+        def blocked_weight_of(spots: _Spots) -> tuple[float, bool]:
+            # the same objects and runs, and the weights of the spots outside them, in one compiled call
+            # (:func:`samplehd.world.spot_kernels.blocked_weight`)
+            return _kernels().blocked_weight(spots.keep, grid.base, grid.axes, grid.u, grid.v, self.centre,
+                                             self._radius, k, spots.rots, self.half[k], self.rot, self.half,
+                                             self.search.spot_margin / 2, float(grid.lo), float(grid.width),
+                                             len(grid.v), spots.weight)
 
         # the other objects' overlaps are found when first asked for: a spot search whose tests without
         # them already leave too few spots needs none
         return _Spots(grid, centre, offsets, turn, self.turns, self._turned_rots(k), weight, (score, rel_x, rel_y),
-                      keep, blockers_of)
+                      keep, blockers_of, blocked_weight_of)
 
 def _in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, layout: TableLayout) -> None:
     """Keep (in place, keep (t, r, c)) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``
@@ -555,11 +559,8 @@ def _in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, layout: 
     is too near either bound to decide it: the same answers."""
     lo, hi = layout.reach_min ** 2, layout.reach_max ** 2
     tol = 1e-9  # far above the rounding of the squares, far below any real distance
-    unsure, xs, ys = _kernels().annulus_and(keep, rel_x, rel_y, lo, hi, lo * (1 + tol), hi * (1 - tol), lo * 2 * tol,
-                                            hi * 2 * tol)
-    if len(unsure):
-        reach = np.hypot(xs, ys)
-        keep.reshape(-1)[unsure] = (reach >= layout.reach_min) & (reach <= layout.reach_max)
+    _kernels().in_annulus(keep, rel_x, rel_y, layout.reach_min, layout.reach_max, lo, hi, lo * (1 + tol),
+                          hi * (1 - tol), lo * 2 * tol, hi * 2 * tol)
 
 
 def _flat_xy(coords: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:

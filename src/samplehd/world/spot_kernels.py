@@ -21,9 +21,9 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["annulus_and", "beside_keep", "best_spots", "column_runs", "counts_outside", "farthest_picks", "fma",
-           "near_objects", "part_keep", "rect_runs", "spot_scores", "uncovered",
-           "uncovered_weight", "weight_sum"]
+__all__ = ["beside_keep", "best_spots", "blocked_weight", "blockers", "column_runs", "counts_outside",
+           "farthest_picks", "fma", "free_spots", "in_annulus", "near_objects", "option_counts", "part_keep",
+           "rect_runs", "spot_options", "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
 
 
 @intrinsic
@@ -79,7 +79,20 @@ def column_runs(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.n
 @numba.njit(cache=True, nogil=True)
 def _row_runs(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.ndarray, u: np.ndarray, r0: int,
               r1: int, lo: float, width: float, count: int, first: np.ndarray, last: np.ndarray) -> None:
-    """:func:`column_runs` of one rectangle and turn (its four axes (4,)), into ``first``, ``last`` (r,)."""
+    """:func:`column_runs` of one rectangle and turn (its four axes (4,)), into ``first``, ``last`` (r,).
+
+    The slabs' bounds are first taken with the reciprocals of ``across`` and ``width`` (a few units in the
+    last place from the quotients); a row whose first or last column so found lies within 1e-9 of a whole
+    column, far above that difference, is taken again with the quotients themselves
+    (:func:`_row_run_exact`), so every run is the quotients' own."""
+    inv = np.empty(4)
+    for a in range(4):
+        inv[a] = 1.0 / across[a] if across[a] != 0.0 else 0.0
+        if not math.isfinite(inv[a]):  # (an axis all but along the rows: the quotients throughout)
+            for i in range(r0, r1):
+                first[i], last[i] = _row_run_exact(q0, along, across, lim, u[i], lo, width, count)
+            return
+    inv_width = 1.0 / width
     for i in range(r0, r1):
         low, high = -math.inf, math.inf
         for a in range(4):
@@ -89,13 +102,41 @@ def _row_runs(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.nda
                 if not abs(q) <= m:
                     low, high = math.inf, -math.inf
             else:
-                x, y = (q - m) / c, (q + m) / c
+                x, y = (q - m) * inv[a], (q + m) * inv[a]
                 low = max(low, min(x, y))
                 high = min(high, max(x, y))
-        f = np.ceil((low - lo) / width - 0.5)
-        g = np.floor((high - lo) / width - 0.5)
-        first[i] = min(max(f, 0.0), float(count))
-        last[i] = min(max(g, -1.0), float(count - 1))
+        s, e = (low - lo) * inv_width - 0.5, (high - lo) * inv_width - 0.5
+        if _near_whole(s) or _near_whole(e):
+            first[i], last[i] = _row_run_exact(q0, along, across, lim, u[i], lo, width, count)
+        else:
+            first[i] = min(max(np.ceil(s), 0.0), float(count))
+            last[i] = min(max(np.floor(e), -1.0), float(count - 1))
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _near_whole(t: float) -> bool:
+    """Whether a finite column coordinate lies within 1e-9 (relative to its size) of a whole column."""
+    return math.isfinite(t) and not abs(t - np.rint(t)) > 1e-9 * (1.0 + abs(t))
+
+
+@numba.njit(cache=True, nogil=True)
+def _row_run_exact(q0: np.ndarray, along: np.ndarray, across: np.ndarray, lim: np.ndarray, u: float, lo: float,
+                   width: float, count: int) -> tuple[float, float]:
+    """The first and last column of one row's run (:func:`column_runs`), with the quotients themselves."""
+    low, high = -math.inf, math.inf
+    for a in range(4):
+        q = q0[a] - along[a] * u
+        c, m = across[a], lim[a]
+        if c == 0.0:  # an axis that ignores the column: all or none, by the row
+            if not abs(q) <= m:
+                low, high = math.inf, -math.inf
+        else:
+            x, y = (q - m) / c, (q + m) / c
+            low = max(low, min(x, y))
+            high = min(high, max(x, y))
+    f = np.ceil((low - lo) / width - 0.5)
+    g = np.floor((high - lo) / width - 0.5)
+    return min(max(f, 0.0), float(count)), min(max(g, -1.0), float(count - 1))
 
 
 @numba.njit(cache=True, nogil=True)
@@ -121,6 +162,18 @@ def rect_runs(rt: np.ndarray, half: np.ndarray, rots: np.ndarray, halves: np.nda
     Returns:
         first, last: (R, t, r), as :func:`column_runs`.
     """
+    return _rect_runs(rt, half, rots, halves, centres, index, grow, base, grid_axes, u, r0, r1, lo, width, count,
+                      np.zeros(0))
+
+
+@numba.njit(cache=True, nogil=True)
+def _rect_runs(rt: np.ndarray, half: np.ndarray, rots: np.ndarray, halves: np.ndarray, centres: np.ndarray,
+               index: np.ndarray, grow: float, base: np.ndarray, grid_axes: np.ndarray, u: np.ndarray, r0: int,
+               r1: int, lo: float, width: float, count: int, reach: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`rect_runs`; where ``reach`` (N,) is given, only on the rows whose coordinate ``u`` (ascending)
+    lies within ``reach[n]`` of rectangle n's centre along the rows (its offset from each turn's grid origin
+    along the rows' direction): a spot farther than the sum of both rectangles' half diagonals can overlap
+    neither, so the other rows' runs are empty and are left as none (first = count, last = -1)."""
     n_rect, n_turn, n_row = index.shape[0], rt.shape[0], u.shape[0]
     first = np.full((n_rect, n_turn, n_row), float(count))
     last = np.full((n_rect, n_turn, n_row), -1.0)
@@ -145,7 +198,12 @@ def rect_runs(rt: np.ndarray, half: np.ndarray, rots: np.ndarray, halves: np.nda
                 q0[a] = x * dx + y * dy
                 along[a] = fma(x, grid_axes[0, 0], y * grid_axes[0, 1])
                 across[a] = fma(x, grid_axes[1, 0], y * grid_axes[1, 1])
-            _row_runs(q0, along, across, lim, u, r0, r1, lo, width, count, first[m, t], last[m, t])
+            a0, a1 = r0, r1
+            if reach.shape[0]:
+                at = dx * grid_axes[0, 0] + dy * grid_axes[0, 1]
+                a0 = max(a0, np.searchsorted(u, at - reach[n]))
+                a1 = min(a1, np.searchsorted(u, at + reach[n], side="right"))
+            _row_runs(q0, along, across, lim, u, a0, a1, lo, width, count, first[m, t], last[m, t])
     return first, last
 
 
@@ -162,9 +220,15 @@ def uncovered(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.nda
     Returns:
         (m,) ``keep`` and outside every run.
     """
-    size = keep.shape[0]
+    diff = np.zeros(keep.shape[0] + 1, np.int64)
+    _mark_runs(diff, first, last, use, count)
+    return _outside_marks(keep, diff)
+
+
+@numba.njit(cache=True, nogil=True)
+def _mark_runs(diff: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.ndarray, count: int) -> None:
+    """Add each run of the rectangles in ``use`` to ``diff`` (m + 1,): +1 at its first spot, -1 past its last."""
     n_turn, n_row = first.shape[1], first.shape[2]
-    diff = np.zeros(size + 1, np.int64)
     for k in range(first.shape[0]):
         if not use[k]:
             continue
@@ -175,12 +239,39 @@ def uncovered(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.nda
                     row = (t * n_row + i) * count
                     diff[row + start] += 1
                     diff[row + stop] -= 1
-    free = np.empty(size, np.bool_)
+
+
+@numba.njit(cache=True, nogil=True)
+def _outside_marks(keep: np.ndarray, diff: np.ndarray) -> np.ndarray:
+    """The spots in ``keep`` that no marked run (:func:`_mark_runs`) covers."""
+    free = np.empty(keep.shape[0], np.bool_)
     running = 0
-    for j in range(size):
+    for j in range(keep.shape[0]):
         running += diff[j]
         free[j] = keep[j] and running <= 0
     return free
+
+
+@numba.njit(cache=True, nogil=True)
+def free_spots(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use: np.ndarray, rt: np.ndarray,
+               half: np.ndarray, rots: np.ndarray, halves: np.ndarray, centres: np.ndarray, grow: float,
+               base: np.ndarray, grid_axes: np.ndarray, u: np.ndarray, lo: float, width: float,
+               count: int) -> np.ndarray:
+    """An object's free spots in one call: the spots in ``keep`` outside the runs of the scene's objects in
+    ``use`` (``first``, ``last``, as :func:`uncovered`) and outside every placed rectangle (``rots``,
+    ``halves``, ``centres``, their runs on every row by :func:`rect_runs` with the other arguments).
+
+    Returns:
+        (m,) ``uncovered(uncovered(keep, first, last, use), *rect_runs(...), all)``, in one pass.
+    """
+    diff = np.zeros(keep.shape[0] + 1, np.int64)
+    _mark_runs(diff, first, last, use, count)
+    n_placed = centres.shape[0]
+    if n_placed:
+        pf, pl = rect_runs(rt, half, rots, halves, centres, np.arange(n_placed), grow, base, grid_axes, u, 0,
+                           u.shape[0], lo, width, count)
+        _mark_runs(diff, pf, pl, np.ones(n_placed, np.bool_), count)
+    return _outside_marks(keep, diff)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -301,46 +392,6 @@ def farthest_picks(where: np.ndarray, most: int) -> np.ndarray:
 
 
 @numba.njit(cache=True, nogil=True)
-def annulus_and(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, sq_lo: float, sq_hi: float, sure_lo: float,
-                sure_hi: float, gap_lo: float, gap_hi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Keep (in place) only the spots whose squared distance ``rel_x**2 + rel_y**2`` lies surely inside
-    [``sure_lo``, ``sure_hi``], and list the kept ones it leaves unsure (within ``gap_lo`` of ``sq_lo`` or
-    ``gap_hi`` of ``sq_hi``) for the caller to decide on the distance itself.
-
-    Args:
-        keep: (t, r, c) spots; rel_x, rel_y: offsets from the centre of the annulus, each of a shape that
-            broadcasts to keep's (its axes of length 1 repeat) [m].
-
-    Returns:
-        The flat indices of the unsure spots (left kept) and their ``rel_x``, ``rel_y``.
-    """
-    n_turn, n_row, n_col = keep.shape
-    unsure = np.empty(keep.size, np.int64)
-    found = 0
-    for t in range(n_turn):
-        tx, ty = min(t, rel_x.shape[0] - 1), min(t, rel_y.shape[0] - 1)
-        for i in range(n_row):
-            ix, iy = min(i, rel_x.shape[1] - 1), min(i, rel_y.shape[1] - 1)
-            for j in range(n_col):
-                if not keep[t, i, j]:
-                    continue
-                x, y = rel_x[tx, ix, min(j, rel_x.shape[2] - 1)], rel_y[ty, iy, min(j, rel_y.shape[2] - 1)]
-                sq = x * x + y * y
-                if abs(sq - sq_lo) < gap_lo or abs(sq - sq_hi) < gap_hi:
-                    unsure[found] = (t * n_row + i) * n_col + j
-                    found += 1
-                elif not (sq >= sure_lo and sq <= sure_hi):
-                    keep[t, i, j] = False
-    xs, ys = np.empty(found), np.empty(found)
-    for n in range(found):
-        t, rest = divmod(unsure[n], n_row * n_col)
-        i, j = divmod(rest, n_col)
-        xs[n] = rel_x[min(t, rel_x.shape[0] - 1), min(i, rel_x.shape[1] - 1), min(j, rel_x.shape[2] - 1)]
-        ys[n] = rel_y[min(t, rel_y.shape[0] - 1), min(i, rel_y.shape[1] - 1), min(j, rel_y.shape[2] - 1)]
-    return unsure[:found], xs, ys
-
-
-@numba.njit(cache=True, nogil=True)
 def part_keep(u: np.ndarray, v: np.ndarray, offsets: np.ndarray, half: np.ndarray, lo: np.ndarray, hi: np.ndarray,
               table: np.ndarray, base: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The tests of a table part's spots that need no other object and no distance: the frame origin
@@ -392,8 +443,13 @@ def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, ce
     included). The best are the first spots whose running sum of ``shares`` (summed left to right, as
     numpy's cumulative sum) stays within ``shortlist``, at least one.
 
+    The scores are first taken with the origin's distance from the base as ``sqrt(x * x + y * y)``, which
+    differs from ``hypot`` by a few units in the last place; the ranking is then found among the spots whose
+    score comes within twice a bound far above that difference of the ``needed``-th smallest, with their
+    scores taken exactly: every spot of the exact ranking is among them (see :func:`_rank_exactly`).
+
     Args:
-        free: (m,) the free spots.
+        free: (m,) the free spots, in the order (turn, row, column).
         on_axes: the grid's rows and columns are x and y: spot ``s`` is centred at ``(u[i], v[j])`` with
             ``i, j`` its row and column (``centre`` is then not read).
         u, v: the grid's row and column coordinates [m]; centre: (m, 2) the spots' centres [m].
@@ -404,13 +460,15 @@ def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, ce
     Returns:
         ranked (the spots, best first) and how many of them are the best.
     """
-    idx = np.flatnonzero(free)
     n_row, n_col, n_near = u.shape[0], v.shape[0], neighbours.shape[0]
-    key = np.empty(idx.shape[0])
+    cells = n_row * n_col
+    n_turn = free.shape[0] // cells
+    idx = np.empty(free.shape[0], np.int64)
+    room = np.empty(free.shape[0])  # minus the capped gap of each free spot
+    key = np.empty(free.shape[0])  # the scores with the distance from the base as a square root
     # on a part's grid every turn's spot in a cell has the cell's centre: its gap is found once (-1: not yet),
     # from the squared offsets per row and per column
-    cells = n_row * n_col if on_axes else 0
-    gaps = np.full(cells, -1.0)
+    gaps = np.full(cells if on_axes else 0, -1.0)
     row_sq, col_sq = np.empty((n_row if on_axes else 0, n_near)), np.empty((n_col if on_axes else 0, n_near))
     if on_axes:
         for n in range(n_near):
@@ -420,38 +478,84 @@ def best_spots(free: np.ndarray, on_axes: bool, u: np.ndarray, v: np.ndarray, ce
             for j in range(n_col):
                 dy = v[j] - neighbours[n, 1]
                 col_sq[j, n] = dy * dy
-    for m in range(idx.shape[0]):
-        s = idx[m]
-        gap = math.inf
-        if on_axes:
-            cell = s % cells
-            gap = gaps[cell]
-            if gap < 0:
-                i, j = divmod(cell, n_col)
-                gap = math.inf
-                for n in range(n_near):
-                    gap = min(gap, row_sq[i, n] + col_sq[j, n])
-                gap = math.sqrt(gap)  # the square root is monotone: the root of the least square is the least root
-                gaps[cell] = gap
-        else:
-            for n in range(neighbours.shape[0]):
-                dx, dy = centre[s, 0] - neighbours[n, 0], centre[s, 1] - neighbours[n, 1]
-                gap = min(gap, math.sqrt(dx * dx + dy * dy))
-        key[m] = -min(gap, room_cap) + _spot_score(s, score, rel_x, rel_y, turns, turn, weights, n_row, n_col)
-    if needed >= key.shape[0]:
-        order = np.argsort(key, kind="mergesort")
-    else:
-        bound = np.partition(key, needed - 1)[needed - 1]
-        sel = np.flatnonzero(key <= bound)
-        order = sel[np.argsort(key[sel], kind="mergesort")]
-    ranked = idx[order]
+    m, s = 0, 0
+    for t in range(n_turn):
+        for i in range(n_row):
+            for j in range(n_col):
+                if free[s]:
+                    gap = math.inf
+                    if on_axes:
+                        cell = i * n_col + j
+                        gap = gaps[cell]
+                        if gap < 0:
+                            gap = math.inf
+                            for n in range(n_near):
+                                gap = min(gap, row_sq[i, n] + col_sq[j, n])
+                            gap = math.sqrt(gap)  # the root is monotone: the root of the least square is the least root
+                            gaps[cell] = gap
+                    else:
+                        for n in range(n_near):
+                            dx, dy = centre[s, 0] - neighbours[n, 0], centre[s, 1] - neighbours[n, 1]
+                            gap = min(gap, math.sqrt(dx * dx + dy * dy))
+                    x, y = _score_offsets(t, i, j, rel_x, rel_y)
+                    room[m] = -min(gap, room_cap)
+                    key[m] = room[m] + _score_of(s, math.sqrt(x * x + y * y), score, turns, turn, weights)
+                    idx[m] = s
+                    m += 1
+                s += 1
+    order = _rank_exactly(idx[:m], room[:m], key[:m], needed, score, rel_x, rel_y, turns, turn, weights, n_row,
+                          n_col)
+    ranked = idx[:m][order]
     total, count = 0.0, 0
-    for m in range(ranked.shape[0]):
-        total += shares[ranked[m]]
+    for r in range(ranked.shape[0]):
+        total += shares[ranked[r]]
         if total > shortlist:
             break
         count += 1
     return ranked, max(1, count)
+
+
+@numba.njit(cache=True, nogil=True)
+def _rank_exactly(idx: np.ndarray, room: np.ndarray, key: np.ndarray, needed: int, score: np.ndarray,
+                  rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray, turn: np.ndarray, weights: np.ndarray,
+                  n_row: int, n_col: int) -> np.ndarray:
+    """:func:`best_spots`' ranking (positions in ``idx``) from the scores ``key`` taken with the distance
+    from the base as a square root, each within ``err`` of its exact score (``room`` plus :func:`spot_scores`).
+
+    With ``b`` the ``needed``-th smallest exact score and ``a`` that of ``key``, ``|a - b| <= err``, so every
+    spot scoring at most ``b`` has ``key <= a + 2 err``: the exact scores of those candidates, in index order,
+    give the same ``needed``-th smallest score, the same spots up to it and the same stable order."""
+    m = idx.shape[0]
+    if needed >= m:
+        cand = np.arange(m)
+    else:
+        a = np.partition(key, needed - 1)[needed - 1]
+        # the scores are metres and weights of about one: their rounding differs by ~1e-15
+        err = 1e-9 * (1.0 + abs(a))
+        cand = np.flatnonzero(key <= a + 2 * err)
+    exact = np.empty(cand.shape[0])
+    for c in range(cand.shape[0]):
+        exact[c] = room[cand[c]] + _spot_score(idx[cand[c]], score, rel_x, rel_y, turns, turn, weights, n_row, n_col)
+    if needed >= cand.shape[0]:
+        return cand[np.argsort(exact, kind="mergesort")]
+    bound = np.partition(exact, needed - 1)[needed - 1]
+    sel = np.flatnonzero(exact <= bound)
+    return cand[sel[np.argsort(exact[sel], kind="mergesort")]]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _score_offsets(t: int, i: int, j: int, rel_x: np.ndarray, rel_y: np.ndarray) -> tuple[float, float]:
+    """The frame origin's offset from the base of spot (t, i, j), from offsets that broadcast to the grid."""
+    x = rel_x[min(t, rel_x.shape[0] - 1), min(i, rel_x.shape[1] - 1), min(j, rel_x.shape[2] - 1)]
+    y = rel_y[min(t, rel_y.shape[0] - 1), min(i, rel_y.shape[1] - 1), min(j, rel_y.shape[2] - 1)]
+    return x, y
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _score_of(s: int, reach: float, score: np.ndarray, turns: np.ndarray, turn: np.ndarray,
+              weights: np.ndarray) -> float:
+    """:func:`spot_scores` of spot ``s`` with its frame origin ``reach`` from the base [m]."""
+    return (score[min(s, score.shape[0] - 1)] + weights[0] * abs(reach - weights[1])) + weights[2] * abs(turns[turn[s]])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -559,10 +663,8 @@ def _spot_score(s: int, score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray,
     """:func:`spot_scores` of spot ``s``."""
     t, rest = divmod(s, n_row * n_col)
     i, j = divmod(rest, n_col)
-    x = rel_x[min(t, rel_x.shape[0] - 1), min(i, rel_x.shape[1] - 1), min(j, rel_x.shape[2] - 1)]
-    y = rel_y[min(t, rel_y.shape[0] - 1), min(i, rel_y.shape[1] - 1), min(j, rel_y.shape[2] - 1)]
-    reach = math.hypot(x, y)
-    return (score[min(s, score.shape[0] - 1)] + weights[0] * abs(reach - weights[1])) + weights[2] * abs(turns[turn[s]])
+    x, y = _score_offsets(t, i, j, rel_x, rel_y)
+    return _score_of(s, math.hypot(x, y), score, turns, turn, weights)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -592,3 +694,153 @@ def uncovered_weight(keep: np.ndarray, first: np.ndarray, last: np.ndarray, use:
                      weight: np.ndarray) -> tuple[float, bool]:
     """:func:`weight_sum` of :func:`uncovered`'s spots (its arguments but the weights), without keeping them."""
     return weight_sum(uncovered(keep, first, last, use, count), weight)
+
+
+@numba.njit(cache=True, nogil=True)
+def spot_options(free: np.ndarray, weight: np.ndarray, samples: float, min_hits: float, decided: bool,
+                 on_axes: bool, u: np.ndarray, v: np.ndarray, centre: np.ndarray, neighbours: np.ndarray,
+                 score: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, turns: np.ndarray, turn: np.ndarray,
+                 weights: np.ndarray, shares: np.ndarray, room_cap: float, needed: int, shortlist: float,
+                 spread: float, most: int, offsets: np.ndarray, base: np.ndarray, sure_lo: float,
+                 sure_hi: float) -> tuple[int, np.ndarray, int, np.ndarray, bool]:
+    """The spots the planner may pick among the free ones, in one call: whether enough of its samples land
+    on them, the best ranked (:func:`best_spots`), a few far apart (:func:`farthest_picks` over position and
+    ``spread`` times the turn) and whether their frame origins all lie from the base within
+    [``sure_lo``, ``sure_hi``].
+
+    Args:
+        free: (m,) the free spots; weight: (m,) their weights; samples, min_hits: the planner's first-try
+            samples and the fewest expected on free spots.
+        decided: the sum of weights is known not to fall short (skip that test).
+        on_axes ... shortlist: as :func:`best_spots`.
+        spread: weight of a turn against a distance [m/rad]; most: how many picks at most.
+        offsets: (t, 2) footprint centre minus frame origin per turn [m]; base: (2,) the robot base [m].
+        sure_lo, sure_hi: the distances from the base the picks' origins are tested against [m].
+
+    Returns:
+        status (0: too few samples land on free spots, no options; 1: the weights' sum is too near the bound
+        to decide in this order, the caller decides and calls again with ``decided``; 2: ranked), the ranked
+        spots, how many are the best, the picks (positions among the best) and whether every pick's origin
+        lies within the bounds (status 2 only).
+    """
+    none = np.zeros(0, np.int64)
+    if not decided:
+        total, _ = weight_sum(free, weight)  # as FreeSpots._below decides it
+        value = samples * total
+        if abs(value - min_hits) <= 1e-15 * samples * free.shape[0] + 1e-12:
+            return 1, none, 0, none, False
+        if value < min_hits:
+            return 0, none, 0, none, False
+    ranked, count = best_spots(free, on_axes, u, v, centre, neighbours, score, rel_x, rel_y, turns, turn, weights,
+                               shares, room_cap, needed, shortlist)
+    if ranked.shape[0] == 0:  # (only where no samples are asked for)
+        return 0, none, 0, none, False
+    where = np.empty((count, 3))
+    for r in range(count):
+        s = ranked[r]
+        where[r, 0], where[r, 1] = centre[s, 0], centre[s, 1]
+        where[r, 2] = spread * turns[turn[s]]
+    picks = farthest_picks(where, most)
+    sure = True
+    for p in range(picks.shape[0]):
+        s = ranked[picks[p]]
+        t = turn[s]
+        reach = math.hypot((centre[s, 0] - offsets[t, 0]) - base[0], (centre[s, 1] - offsets[t, 1]) - base[1])
+        sure = sure and reach >= sure_lo and reach <= sure_hi
+    return 2, ranked, count, picks, sure
+
+
+@numba.njit(cache=True, nogil=True)
+def option_counts(free: np.ndarray, rt: np.ndarray, half: np.ndarray, centre: np.ndarray, rots: np.ndarray,
+                  turn: np.ndarray, at: np.ndarray, at_half: np.ndarray, grow: float, base: np.ndarray,
+                  grid_axes: np.ndarray, u: np.ndarray, lo: float, width: float,
+                  count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The runs an object put on each of its options ``at`` blocks on the next object's grid, and the next
+    object's free spots each leaves per turn, in one call: :func:`rect_runs` of the rectangles (centres
+    ``centre[at]``, rotations ``rots[turn[at]]``, half sizes ``at_half``) on every row, then
+    :func:`counts_outside` of ``free``.
+
+    Args:
+        free: (m,) the next object's free spots; rt: (t, 2, 2) its rotation after each turn; half: (2,) its
+            half sizes [m].
+        centre, rots, turn: the placed object's spots' centres (M, 2) [m], rotations per turn (T, 2, 2) and
+            turns (M,); at: (R,) the options; at_half: (2,) the placed object's half sizes [m].
+        grow, base, grid_axes, u, lo, width, count: as :func:`rect_runs` (the next object's grid).
+
+    Returns:
+        first, last: (R, t, r) the runs; counts: (R, t) the free spots outside each option's runs per turn.
+    """
+    n = at.shape[0]
+    centres, rects, halves = np.empty((n, 2)), np.empty((n, 2, 2)), np.empty((n, 2))
+    for a in range(n):
+        s = at[a]
+        centres[a, 0], centres[a, 1] = centre[s, 0], centre[s, 1]
+        rects[a] = rots[turn[s]]
+        halves[a, 0], halves[a, 1] = at_half[0], at_half[1]
+    first, last = rect_runs(rt, half, rects, halves, centres, np.arange(n), grow, base, grid_axes, u, 0, u.shape[0],
+                            lo, width, count)
+    return first, last, counts_outside(free, first, last, count)
+
+
+@numba.njit(cache=True, nogil=True)
+def in_annulus(keep: np.ndarray, rel_x: np.ndarray, rel_y: np.ndarray, reach_min: float, reach_max: float,
+               sq_lo: float, sq_hi: float, sure_lo: float, sure_hi: float, gap_lo: float, gap_hi: float) -> None:
+    """Keep (in place) only the spots with ``reach_min <= hypot(rel_x, rel_y) <= reach_max``, decided on the
+    squared distance ``rel_x**2 + rel_y**2`` where it lies surely inside [``sure_lo``, ``sure_hi``] or outside,
+    and by ``hypot`` (the C library's, as ``np.hypot``) where it lies within ``gap_lo`` of ``sq_lo`` or
+    ``gap_hi`` of ``sq_hi``: the same answers.
+
+    Args:
+        keep: (t, r, c) spots; rel_x, rel_y: offsets from the centre of the annulus, each of a shape that
+            broadcasts to keep's (its axes of length 1 repeat) [m].
+    """
+    n_turn, n_row, n_col = keep.shape
+    last_x, last_y = rel_x.shape[2] - 1, rel_y.shape[2] - 1
+    for t in range(n_turn):
+        tx, ty = min(t, rel_x.shape[0] - 1), min(t, rel_y.shape[0] - 1)
+        for i in range(n_row):
+            row = keep[t, i]
+            xs, ys = rel_x[tx, min(i, rel_x.shape[1] - 1)], rel_y[ty, min(i, rel_y.shape[1] - 1)]
+            for j in range(n_col):
+                if not row[j]:
+                    continue
+                x, y = xs[min(j, last_x)], ys[min(j, last_y)]
+                sq = x * x + y * y
+                if abs(sq - sq_lo) < gap_lo or abs(sq - sq_hi) < gap_hi:
+                    reach = math.hypot(x, y)
+                    row[j] = reach >= reach_min and reach <= reach_max
+                elif not (sq >= sure_lo and sq <= sure_hi):
+                    row[j] = False
+
+
+@numba.njit(cache=True, nogil=True)
+def blockers(keep: np.ndarray, base: np.ndarray, grid_axes: np.ndarray, u: np.ndarray, v: np.ndarray,
+             centre: np.ndarray, radius: np.ndarray, k: int, rt: np.ndarray, half: np.ndarray, rots: np.ndarray,
+             halves: np.ndarray, grow: float, lo: float, width: float,
+             count: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The scene's objects that may block a spot of object k in ``keep`` and the runs they block, in one call:
+    :func:`near_objects`, then :func:`rect_runs` of those objects (rotations ``rots``, half sizes ``halves``,
+    footprint centres ``centre``) on the rows holding spots in ``keep`` only, and of those on the rows each
+    object can reach (``radius``: the half diagonals grown by the margin); no run on the others.
+
+    Returns:
+        near (b,), first and last (b, t, r).
+    """
+    near, r0, r1 = near_objects(keep, rt.shape[0], base, grid_axes, u, v, centre, radius, k)
+    reach = radius[k] + radius + 1e-9  # (with room for the rounding of the projections, as near_objects)
+    first, last = _rect_runs(rt, half, rots, halves, centre, near, grow, base, grid_axes, u, r0, r1, lo, width, count,
+                             reach)
+    return near, first, last
+
+
+@numba.njit(cache=True, nogil=True)
+def blocked_weight(keep: np.ndarray, base: np.ndarray, grid_axes: np.ndarray, u: np.ndarray, v: np.ndarray,
+                   centre: np.ndarray, radius: np.ndarray, k: int, rt: np.ndarray, half: np.ndarray,
+                   rots: np.ndarray, halves: np.ndarray, grow: float, lo: float, width: float, count: int,
+                   weight: np.ndarray) -> tuple[float, bool]:
+    """:func:`uncovered_weight` of the spots in ``keep`` outside the runs of every object :func:`blockers`
+    finds near (its arguments, then the spots' weights), in one call: where the scene's objects all stand
+    where they are, the weights of object k's free spots summed left to right, and whether there is any."""
+    near, first, last = blockers(keep, base, grid_axes, u, v, centre, radius, k, rt, half, rots, halves, grow, lo,
+                                 width, count)
+    return uncovered_weight(keep, first, last, np.ones(near.shape[0], np.bool_), count, weight)
