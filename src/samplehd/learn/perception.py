@@ -555,7 +555,7 @@ class Perception:
             for (name, _), ks in alike.items():
                 if len(ks) > 1:
                     joined = np.logical_or.reduce([parts[k] for k in ks])
-                    size = self.classify(rgb, depth, [joined], camera, height, [True])[0]["metric_size"]
+                    size = _geometry(rgb, depth, joined, camera, self.table_height, whole=True)[1][:3] / 10.0
                     if self.fits_kind(name, size):
                         out.append(joined)
                         continue
