@@ -936,3 +936,31 @@ def test_compiled_runs_on_slab_bounds_at_whole_columns_equal_the_quotients() -> 
     np.testing.assert_array_equal(got[0], want[0])
     np.testing.assert_array_equal(got[1], want[1])
     assert (want[0][:, :, 7] <= want[1][:, :, 7]).any()
+
+
+def test_a_part_surely_crowded_by_the_clearance_bound_has_no_room() -> None:
+    """Where the bound from the clearance of the grid points says object k (moved first) finds too few free
+    spots in a part, the full test finds too few as well: no options, not enough samples on free spots, no
+    room for it alone; and the bound does decide on crowded scenes (the test would pass vacuously else)."""
+    import numpy as np
+
+    from samplehd.bench.language import _scenes
+    from samplehd.world.free_spot import _NONE_PLACED
+    from samplehd.world.layout import TABLE_PARTS
+
+    decided = checked = 0
+    for n in (5, 12, 20):
+        for scene in _scenes(n, 4, 8):
+            fs = ConstraintContext(scene).free_spots()
+            present = np.ones(n, bool)
+            for part in TABLE_PARTS:
+                for k in range(n):
+                    crowded = fs._surely_crowded(k, part)
+                    spots = fs._part_spots(k, part)
+                    free = fs._free(k, spots, present, _NONE_PLACED)
+                    options = fs._options(k, spots, free, fs._neighbours(k, present, _NONE_PLACED))
+                    checked += 1
+                    if crowded:
+                        decided += 1
+                        assert options == [] and not fs._enough(spots, free), (n, k, part)
+    assert decided > checked // 4

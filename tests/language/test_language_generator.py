@@ -166,3 +166,41 @@ def test_ik_reachability_is_no_looser_than_the_annulus(scenes: list[Scene]) -> N
         assert all(ik(scenes[3].objects[i].coords) for i in inst.task.objects)
     with pytest.raises(ConfigError, match="valid: annulus, ik"):
         make_reachable("arm")
+
+
+def test_shuffling_a_list_draws_the_order_permutation_draws() -> None:
+    """The search orders a parameter's candidates with ``shuffle`` on a list, which must give the order
+    ``permutation`` gives from the same state (and leave the same state), or seeded instructions change."""
+    a, b = np.random.default_rng(11), np.random.default_rng(11)
+    for n in [*range(0, 40), 97, 250]:
+        order = list(range(n))
+        b.shuffle(order)
+        assert order == a.permutation(n).tolist()
+        assert a.bit_generator.state == b.bit_generator.state
+
+
+def test_a_scene_leaves_no_memo_for_the_collector_and_its_state_as_it_was(scenes: list[Scene]) -> None:
+    """What a scene's search memoised is freed when its instructions are made (nothing left for the cyclic
+    collector to find), and the collector is on or off afterwards as it was before, errors included."""
+    import gc
+
+    from samplehd.world.free_spot import FreeSpots
+
+    def live_spot_tests() -> int:
+        return sum(isinstance(o, FreeSpots) for o in gc.get_objects())
+
+    busy = max(scenes, key=lambda s: len(s.objects))
+    gc.collect()
+    before = live_spot_tests()
+    for enabled in (True, False):
+        (gc.enable if enabled else gc.disable)()
+        try:
+            made = generate_instructions(busy, np.random.default_rng(3), per_scene=5)
+            assert made.instructions
+            assert gc.isenabled() is enabled
+            assert live_spot_tests() == before  # freed by reference counting, no collection needed
+            with pytest.raises(ConfigError):
+                generate_instructions(busy, np.random.default_rng(3), families=["no such family"])
+            assert gc.isenabled() is enabled
+        finally:
+            gc.enable()

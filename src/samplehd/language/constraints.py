@@ -106,6 +106,15 @@ class ConstraintContext:
             self.cache[key] = FreeSpots(self.scene.objects, search, self.layout, self.reach, annulus)
         return self.cache[key]
 
+    def release(self) -> None:
+        """Forget what was memoised. The free-spot test's memo refers back to it (its spots' lazy
+        computations hold the test, which holds :meth:`reach`), so without this a scene's memo lives on
+        until the garbage collector's next full pass."""
+        spots = self.cache.get(("free_spots",))
+        if spots is not None:
+            spots.release()
+        self.cache.clear()
+
     def objects_in(self, part: str) -> tuple[int, ...]:
         """Indices of the objects in a table part."""
         key = ("in", part)

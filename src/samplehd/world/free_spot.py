@@ -258,6 +258,11 @@ class FreeSpots:
         self._radius = np.hypot(*(self.half + search.spot_margin / 2).T)
         self._memo: dict[tuple[Any, ...], Any] = {}
 
+    def release(self) -> None:
+        """Forget the memoised spots (they refer back to this test: freed now, not at the collector's next
+        full pass)."""
+        self._memo.clear()
+
     def room_in_part(self, moved: Sequence[int], part: str) -> bool:
         """Whether the moved objects all find a free spot in a table part, one after another.
 
@@ -277,6 +282,8 @@ class FreeSpots:
         """The spots the planner may put object k on in a part when it is the first moved (memoised:
         they depend on nothing else)."""
         key = ("first options", k, part)
+        if key not in self._memo and self._surely_crowded(k, part):
+            self._memo[key] = []
         if key not in self._memo:
             spots = self._part_spots(k, part)
             present = np.ones(len(self.objects), bool)
@@ -284,8 +291,33 @@ class FreeSpots:
             self._memo[key] = self._options(k, spots, free, self._neighbours(k, present, _NONE_PLACED))
         return self._memo[key]
 
+    def _surely_crowded(self, k: int, part: str) -> bool:
+        """Whether object k, moved first, surely finds too few free spots in a part for the planner's samples
+        (and so no options), from a bound that needs no spot of its own.
+
+        Object k's footprint, grown by half the margin, holds the circle of its smaller half size plus that
+        half margin about its centre, whatever the turn; on a free spot that circle meets no other footprint
+        grown alike. So k's free spots, every turn together, lie on the grid points at least that radius (less
+        1e-7 m, far above rounding) from every other footprint, and their weights sum to at most the share
+        of those points (each point's turns weigh its share in all). Where even that, a bound far from
+        rounding, leaves fewer than ``min_hits`` samples, the full test finds too few as well.
+        """
+        answer = self._memo.get(("crowded", k, part))
+        if answer is None:
+            clear = self._memo.get(("clearance", part))
+            if clear is None:
+                grid = _part_grid(self.layout, self.search.part_margin, self.search.step, part)[0]
+                clear = self._memo["clearance", part] = _kernels().clearance(grid.u, grid.v, self.centre, self.rot,
+                                                                              self.half, self.search.spot_margin / 2)
+            radius = max(float(self.half[k].min()) + self.search.spot_margin / 2 - 1e-7, 0.0)
+            share = _kernels().clear_points(*clear, k, radius * radius) / clear[0].size
+            answer = self._memo["crowded", k, part] = self.search.samples * share < self.search.min_hits * (1 - 1e-9)
+        return answer
+
     def _room_in_part(self, arriving: Sequence[int], part: str) -> bool:
         """:meth:`room_in_part` for the objects arriving in the part, in index order."""
+        if arriving and self._surely_crowded(arriving[0], part):  # the first has too few free spots
+            return False
         if len(arriving) > 1 or (arriving and not self.reach_is_annulus):
             if not self._first_options(arriving[0], part):  # the first one's options, as the loop takes them
                 return False

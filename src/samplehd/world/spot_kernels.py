@@ -21,9 +21,9 @@ from llvmlite import ir
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["beside_keep", "best_spots", "blocked_weight", "blockers", "column_runs", "counts_outside",
-           "farthest_picks", "fma", "free_spots", "in_annulus", "near_objects", "option_counts", "part_keep",
-           "rect_runs", "spot_options", "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
+__all__ = ["beside_keep", "best_spots", "blocked_weight", "blockers", "clear_points", "clearance", "column_runs",
+           "counts_outside", "farthest_picks", "fma", "free_spots", "in_annulus", "near_objects", "option_counts",
+           "part_keep", "rect_runs", "spot_options", "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
 
 
 @intrinsic
@@ -643,6 +643,51 @@ def _beside_axis(a: int, d: np.ndarray, lateral: np.ndarray, dists: np.ndarray, 
                 orig[t, i, j] = o
                 rel[t, i, j] = o - base[a]
     return v, orig, rel, ok
+
+
+@numba.njit(cache=True, nogil=True)
+def clearance(u: np.ndarray, v: np.ndarray, centres: np.ndarray, rots: np.ndarray, halves: np.ndarray,
+              grow: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """How far each point of a grid on the axes lies from the scene's footprints: per point (``u[i]``,
+    ``v[j]``), the squared distance to the nearest rectangle (centres ``centres``, rotations ``rots``, half
+    sizes ``halves + grow``), which one that is, and the squared distance to the next nearest.
+
+    Returns:
+        nearest (r, c), which (r, c) (-1: no rectangle), next (r, c) (inf where there is none).
+    """
+    n_row, n_col = u.shape[0], v.shape[0]
+    nearest = np.full((n_row, n_col), math.inf)
+    which = np.full((n_row, n_col), -1, np.int64)
+    second = np.full((n_row, n_col), math.inf)
+    for m in range(centres.shape[0]):
+        hx, hy = halves[m, 0] + grow, halves[m, 1] + grow
+        r00, r01, r10, r11 = rots[m, 0, 0], rots[m, 0, 1], rots[m, 1, 0], rots[m, 1, 1]
+        for i in range(n_row):
+            dx = u[i] - centres[m, 0]
+            for j in range(n_col):
+                dy = v[j] - centres[m, 1]
+                ex = max(abs(dx * r00 + dy * r10) - hx, 0.0)
+                ey = max(abs(dx * r01 + dy * r11) - hy, 0.0)
+                d = ex * ex + ey * ey
+                if d < nearest[i, j]:
+                    second[i, j] = nearest[i, j]
+                    nearest[i, j], which[i, j] = d, m
+                elif d < second[i, j]:
+                    second[i, j] = d
+    return nearest, which, second
+
+
+@numba.njit(cache=True, nogil=True)
+def clear_points(nearest: np.ndarray, which: np.ndarray, second: np.ndarray, k: int, least: float) -> int:
+    """How many points of :func:`clearance`'s grid lie at a squared distance of at least ``least`` from every
+    rectangle but k."""
+    count = 0
+    for i in range(nearest.shape[0]):
+        for j in range(nearest.shape[1]):
+            d = second[i, j] if which[i, j] == k else nearest[i, j]
+            if d >= least:
+                count += 1
+    return count
 
 
 @numba.njit(cache=True, nogil=True)
