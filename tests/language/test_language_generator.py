@@ -179,9 +179,9 @@ def test_shuffling_a_list_draws_the_order_permutation_draws() -> None:
         assert a.bit_generator.state == b.bit_generator.state
 
 
-def test_a_scene_leaves_no_memo_for_the_collector_and_its_state_as_it_was(scenes: list[Scene]) -> None:
-    """What a scene's search memoised is freed when its instructions are made (nothing left for the cyclic
-    collector to find), and the collector is on or off afterwards as it was before, errors included."""
+def test_a_scene_leaves_no_memo_for_the_collector(scenes: list[Scene]) -> None:
+    """What a scene's search memoised is freed by reference counting when its instructions are made: nothing
+    is left for the cyclic collector to find (the memo's spots refer back to it)."""
     import gc
 
     from samplehd.world.free_spot import FreeSpots
@@ -192,15 +192,10 @@ def test_a_scene_leaves_no_memo_for_the_collector_and_its_state_as_it_was(scenes
     busy = max(scenes, key=lambda s: len(s.objects))
     gc.collect()
     before = live_spot_tests()
-    for enabled in (True, False):
-        (gc.enable if enabled else gc.disable)()
-        try:
-            made = generate_instructions(busy, np.random.default_rng(3), per_scene=5)
-            assert made.instructions
-            assert gc.isenabled() is enabled
-            assert live_spot_tests() == before  # freed by reference counting, no collection needed
-            with pytest.raises(ConfigError):
-                generate_instructions(busy, np.random.default_rng(3), families=["no such family"])
-            assert gc.isenabled() is enabled
-        finally:
-            gc.enable()
+    gc.disable()
+    try:
+        made = generate_instructions(busy, np.random.default_rng(3), per_scene=5)
+        assert made.instructions
+        assert live_spot_tests() == before
+    finally:
+        gc.enable()
