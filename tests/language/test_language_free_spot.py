@@ -950,7 +950,7 @@ def test_a_part_surely_crowded_by_the_clearance_bound_has_no_room() -> None:
 
     decided = checked = 0
     for n in (5, 12, 20):
-        for scene in _scenes(n, 4, 8):
+        for scene in _scenes(n, 2, 8):
             fs = ConstraintContext(scene).free_spots()
             present = np.ones(n, bool)
             for part in TABLE_PARTS:
