@@ -4,7 +4,8 @@ time to produce a SAMPLE-HD-sized set (≥8360 instructions for 2000 scenes of 3
 All figures run on one core in this process, on seeded synthetic scenes
 (:mod:`samplehd.language.synthetic`), and report medians over repeats of the process's CPU time
 (``time.process_time``: generation is single-threaded, and CPU time is robust to other load on a
-shared machine); wall-clock figures are reported next to them. Growth is summarised by the
+shared machine; the object-count figures keep the fastest of a few timings of each repeat, see
+:func:`bench_object_counts`); wall-clock figures are reported next to them. Growth is summarised by the
 log-log slope of time per scene against object count: a polynomial cost gives a bounded slope
 (exhaustive search over attribute combinations would grow exponentially).
 """
