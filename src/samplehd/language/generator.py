@@ -201,6 +201,8 @@ def _schedule(template: Template) -> list[list[TemplateConstraint]]:
 # A scheduled constraint as the search reads it: its name, and what reads its arguments (a tuple of the
 # bound values of its parameters) from the values bound so far.
 _Check = tuple[str, Callable[[Mapping[str, Any]], tuple[Any, ...]]]
+# ... and as one scene's search runs it: with that constraint's memo (results by arguments) and its test
+_SceneCheck = tuple[str, Callable[[Mapping[str, Any]], tuple[Any, ...]], dict[tuple[Any, ...], bool], Any]
 
 
 def _compiled_schedule(template: Template) -> list[tuple[_Check, ...]]:
@@ -253,8 +255,7 @@ class _SceneGenerator:
         self.set_members = [self.describer.matches(d) for d in self.sets]
         self.rejections: Counter[str] = Counter()
         self.attempts = 0
-        self._schedules: dict[str, list[tuple[tuple[str, Callable[[Mapping[str, Any]], tuple[Any, ...]],
-                                                dict[tuple[Any, ...], bool], Any], ...]]] = {}
+        self._schedules: dict[str, list[tuple[_SceneCheck, ...]]] = {}
         self._memo: dict[str, dict[tuple[Any, ...], bool]] = {}  # per constraint: its results by arguments
         # candidate checks one draw may make before giving up (bounds the search for any scene)
         self.search_budget = search_budget
