@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.errors import ConfigError
-from samplehd.language.constraints import CONSTRAINTS, ConstraintContext, Reachable, default_reachable
+from samplehd.language.constraints import CONSTRAINTS, Check, ConstraintContext, Reachable, default_reachable
 from samplehd.language.descriptions import Description, SceneDescriber, render_description
 from samplehd.language.executor import ProgramError, execute_nodes, execute_sequence
 from samplehd.language.lexicon import Lexicon, default_lexicon
@@ -202,7 +202,7 @@ def _schedule(template: Template) -> list[list[TemplateConstraint]]:
 # bound values of its parameters) from the values bound so far.
 _Check = tuple[str, Callable[[Mapping[str, Any]], tuple[Any, ...]]]
 # ... and as one scene's search runs it: with that constraint's memo (results by arguments) and its test
-_SceneCheck = tuple[str, Callable[[Mapping[str, Any]], tuple[Any, ...]], dict[tuple[Any, ...], bool], Any]
+_SceneCheck = tuple[str, Callable[[Mapping[str, Any]], tuple[Any, ...]], dict[tuple[Any, ...], bool], Check]
 
 
 def _compiled_schedule(template: Template) -> list[tuple[_Check, ...]]:
@@ -339,18 +339,14 @@ class _SceneGenerator:
                 if failed:
                     continue
                 any_valid = True
-                if k == last:  # a whole binding: new unless drawn before
-                    if exclude is not None and binding_key(template, values) in exclude:
-                        rejections["duplicate"] += 1
-                        continue
-                    if kind == "object_set":
-                        refs[name] = self.sets[candidate]
-                    used.update(members)
-                    return True
+                # a whole binding is new unless drawn before
+                if k == last and exclude is not None and binding_key(template, values) in exclude:
+                    rejections["duplicate"] += 1
+                    continue
                 if kind == "object_set":
                     refs[name] = self.sets[candidate]
                 used.update(members)
-                if assign(k + 1):
+                if k == last or assign(k + 1):
                     return True
                 used.difference_update(members)
             if not any_valid:

@@ -282,14 +282,17 @@ class FreeSpots:
         """The spots the planner may put object k on in a part when it is the first moved (memoised:
         they depend on nothing else)."""
         key = ("first options", k, part)
-        if key not in self._memo and self._surely_crowded(k, part):
-            self._memo[key] = []
-        if key not in self._memo:
-            spots = self._part_spots(k, part)
-            present = np.ones(len(self.objects), bool)
-            free = self._free(k, spots, present, _NONE_PLACED)
-            self._memo[key] = self._options(k, spots, free, self._neighbours(k, present, _NONE_PLACED))
-        return self._memo[key]
+        options = self._memo.get(key)
+        if options is None:
+            if self._surely_crowded(k, part):
+                options = []
+            else:
+                spots = self._part_spots(k, part)
+                present = np.ones(len(self.objects), bool)
+                free = self._free(k, spots, present, _NONE_PLACED)
+                options = self._options(k, spots, free, self._neighbours(k, present, _NONE_PLACED))
+            self._memo[key] = options
+        return options
 
     def _surely_crowded(self, k: int, part: str) -> bool:
         """Whether object k, moved first, surely finds too few free spots in a part for the planner's samples
