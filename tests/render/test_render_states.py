@@ -102,15 +102,22 @@ def test_on_frame_beside_the_render_loop_sees_every_frame_in_order_on_another_th
     import threading
     import time
 
+    from samplehd.render.renderer import IMAGE_DTYPES
+    from samplehd.render.states import OVERLAP_BUFFERS, _group_frames
+
     model, data = world
-    frames = _arm_states(model, data, 7)
+    frames = _arm_states(model, data, 30)
+    # Frames go to the helper in groups, and the groups' buffers take turns: 30 frames reuse the first group's.
+    group = _group_frames(("operator", "wrist"), MODALITIES, 64, 48, IMAGE_DTYPES)
+    assert 1 < group and OVERLAP_BUFFERS * group < 30 and 30 % group  # and the last group is a short one
     want = render_states(model, frames, ("operator", "wrist"), MODALITIES, 64, 48, "fast")
     got: dict[str, dict[str, list[np.ndarray]]] = {c: {m: [] for m in MODALITIES} for c in ("operator", "wrist")}
     threads = set()
 
     def keep(cam, images):
+        if not threads:  # a slow first call: the renderer, at the first group's buffers again, must wait
+            time.sleep(1.0)
         threads.add(threading.get_ident())
-        time.sleep(0.004)  # slower than a frame: the renderer must wait for the buffers, not overwrite them
         for m, a in images.items():
             got[cam][m].append(a.copy())
 
