@@ -108,7 +108,9 @@ def _path_rows(repeats: int) -> list[Row]:
 
     The renderer's reference rate is that of drawing the very states the episode unit draws (each state's
     poses computed outside the timing, one ``render`` call per frame timed): the arm's poses along a path
-    cost more to draw than the scene's first state, whose rate is shown beside it.
+    cost more to draw than the scene's first state, whose rate is shown beside it. The share of the
+    renderer's rate is the median over ``repeats + 2`` pairs of the unit and the renderer run one right after
+    the other (the machine's speed drifts between repeats more than within a pair), with their range.
     """
     scene = _bench_scene()
     task = {"type": "place", "objects": [1], "subject": "left"}
@@ -149,7 +151,7 @@ def _path_rows(repeats: int) -> list[Row]:
                         r.render(data, "operator", MODALITIES, out=out)
                     return frames, time.perf_counter() - t0, _cpu() - c0
 
-                for k in range(repeats):
+                for k in range(repeats + 2):
                     first.append(_rates(*draw()))
                     done.append(unit(images, k))
                     stored = read_frames(Path(tmp) / EPISODE_DIR / f"e{k}.h5", ("qpos", "qvel", "act", "time"))
@@ -157,6 +159,13 @@ def _path_rows(repeats: int) -> list[Row]:
             p_wall, p_cpu = (statistics.median(x[i] for x in pure) for i in (0, 1))
             i_wall = statistics.median(d["num_frames"] / d["seconds"] for d in done)
             i_cpu = statistics.median(d["num_frames"] / d["cpu_seconds"] for d in done)
+            shares = {key: sorted(d["num_frames"] / d[sec] / x[i] for d, x in zip(done, pure, strict=True))
+                      for key, sec, i in (("wall", "seconds", 0), ("CPU", "cpu_seconds", 1))}
+
+            def share(key: str, shares: dict[str, list[float]] = shares) -> str:
+                v = shares[key]
+                return f"{statistics.median(v):.0%} {key} ({v[0]:.0%}–{v[-1]:.0%})"
+
             f_ms = 1000 / statistics.median(x[1] for x in first)
 
             def ms(key: str, done: list[dict[str, Any]] = done) -> float:
@@ -168,8 +177,9 @@ def _path_rows(repeats: int) -> list[Row]:
                             f"{1000 / p_cpu:.1f} CPU ms per frame, {f_ms:.1f} on the scene's first state)",
                             _fmt(p_wall), _fmt(p_cpu), "`samplehd bench --report FILE --only paths`"))
             rows.append(Row(f"ground-truth path frames/s with {what} (as above, images rendered from the states "
-                            f"and written); share of the renderer's rate on the same states: {i_wall / p_wall:.0%} "
-                            f"wall, {i_cpu / p_cpu:.0%} CPU; CPU ms per frame: plan and execute "
+                            f"and written); share of the renderer's rate on the same states, median of {len(done)} "
+                            f"pairs run in turn (range): {share('wall')}, {share('CPU')}; "
+                            "CPU ms per frame: plan and execute "
                             f"{ms('path_cpu_seconds'):.1f}, render from the states {ms('render_cpu_seconds'):.1f}, "
                             f"write {ms('write_cpu_seconds'):.1f}",
                             _fmt(i_wall), _fmt(i_cpu), "`samplehd bench --report FILE --only paths`"))
