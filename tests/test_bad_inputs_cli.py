@@ -379,6 +379,8 @@ CLI_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("bench-only", ["bench", "--only", "bogus", "--out", "{new}"], ("bogus",)),
     ("bench-repeats", ["bench", "--repeats", "0", "--out", "{new}"], ("--repeats", "0")),
     ("bench-out-file", ["bench", "--out", "{file}"], ("--out", "{file}")),
+    ("bench-handoff-width", ["bench", "paths", "handoff", "--width", "4"], ("--width", "4")),
+    ("bench-handoff-rounds", ["bench", "paths", "handoff", "--repeats", "0"], ("--repeats", "0")),
     # demo
     ("demo-workers", ["demo", "--out", "{new}", "--workers", "0"], ("--workers", "0")),
     ("demo-seed", ["demo", "--out", "{new}", "--seed", "-1"], ("--seed", "-1")),

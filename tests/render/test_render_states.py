@@ -127,6 +127,14 @@ def test_on_frame_beside_the_render_loop_sees_every_frame_in_order_on_another_th
     for cam in got:
         for m in MODALITIES:
             np.testing.assert_array_equal(np.stack(got[cam][m]), want[cam][m], err_msg=f"{cam} {m}")
+    # One frame per hand-over, as a caller may ask: the same frames in the same order.
+    one: list[np.ndarray] = []
+    render_states(model, frames, ("operator", "wrist"), ("rgb",), 64, 48, "fast", overlap=True, overlap_group=1,
+                  on_frame=lambda cam, images: one.append(images["rgb"].copy()) if cam == "wrist" else None)
+    np.testing.assert_array_equal(np.stack(one), want["wrist"]["rgb"])
+    with pytest.raises(ValueError, match="overlap_group 0"):
+        render_states(model, frames, ("operator",), ("rgb",), 64, 48, "fast", on_frame=lambda c, i: None,
+                      overlap=True, overlap_group=0)
     assert not _frames_left()
 
 

@@ -18,10 +18,12 @@ import numpy as np
 
 from samplehd.bench import Figure
 from samplehd.catalogue import ObjectInstance
+from samplehd.errors import ConfigError
 from samplehd.language.generator import generate_instructions
 from samplehd.motion.assist import compile_scene_with_assist
 from samplehd.record.paths import PathRejected, plan_and_execute
-from samplehd.render.renderer import MODALITIES
+from samplehd.render.deflated import DeflatedFrames
+from samplehd.render.renderer import IMAGE_DTYPES, MODALITIES, image_shape, stored_segmentation_dtype
 from samplehd.render.states import render_states
 from samplehd.scene.annotate import annotate_scene
 from samplehd.scene.sampler import sample_scene
@@ -29,7 +31,7 @@ from samplehd.scene.spec import SceneObject, SceneSpec
 from samplehd.workers import Backend
 from samplehd.world.layout import LAYOUT
 
-__all__ = ["add_arguments", "oracle_success", "oracle_table", "report", "run"]
+__all__ = ["add_arguments", "handoff", "oracle_success", "oracle_table", "report", "run"]
 
 
 def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> list[dict[str, Any]]:
@@ -171,11 +173,72 @@ def run(repeats: int = 3) -> list[Figure]:
     ]
 
 
+def handoff(rounds: int = 24, width: int = 320, height: int = 180, span: int = 48) -> str:
+    """What deflating an episode's images costs the render loop, by how frames reach the deflater.
+
+    The benchmark episode's states are rendered (``fast``, RGB+depth+segmentation, operator camera) by
+    :func:`render_states` with nothing done per frame (the reference), with each frame deflated in the loop,
+    and deflated on the helper thread beside it (``overlap``) one frame per hand-over and in the default
+    groups, as an episode file stores them. Each round renders ``span`` consecutive states (a different
+    stretch each round) four times, one per way, in a rotating order; each way's wall and CPU time per frame
+    is compared with the reference of its own round (short rounds: the machine's speed drifts less within
+    one than between whole episodes).
+    """
+    scene = _bench_scene()
+    model, data = compile_scene_with_assist(scene)
+    frames = plan_and_execute(scene, {"type": "place", "objects": [1], "subject": "left"},
+                              np.random.default_rng(0), compiled=(model, data)).frames
+    seg = stored_segmentation_dtype(model)
+    dtypes = {**IMAGE_DTYPES, "segmentation": seg}
+
+    def deflating() -> Any:
+        streams = {m: DeflatedFrames(image_shape(m, width, height), dtypes[m]) for m in MODALITIES}
+
+        def keep(camera: str, images: dict[str, np.ndarray]) -> None:
+            for m, a in images.items():
+                streams[m].append(a)
+        return keep
+
+    n = len(frames["qpos"])
+    span = min(span, n)
+
+    def run_one(name: str, start: int = 0) -> tuple[float, float]:
+        kw: dict[str, Any] = {"on_frame": lambda c, i: None} if name == "renderer only" else {
+            "on_frame": deflating(), "overlap": name != "deflated in the loop",
+            "overlap_group": 1 if name == "beside, 1 frame per hand-over" else None}
+        t0, c0 = time.perf_counter(), time.process_time()
+        render_states(model, frames, ("operator",), MODALITIES, width, height, "fast", segmentation_dtype=seg,
+                      indices=range(start, start + span), **kw)
+        return 1000 * (time.perf_counter() - t0) / span, 1000 * (time.process_time() - c0) / span
+
+    names = ["renderer only", "deflated in the loop", "beside, 1 frame per hand-over", "beside, groups (default)"]
+    run_one(names[0])  # warm-up: the first renderer of a process makes the GL context
+    got: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
+    for k in range(rounds):
+        start = (k * span) % (n - span + 1)
+        for name in names[k % len(names):] + names[:k % len(names)]:
+            got[name].append(run_one(name, start))
+    lines = [f"{rounds} rounds of {span} of the episode's {n} states at {width}x{height}; ms per frame (median) "
+             "and the reference's rate as a share of each way's, median (range) of the rounds",
+             f"{'':32s} {'wall ms':>8s} {'CPU ms':>8s}   {'wall share':>18s}   {'CPU share':>18s}"]
+    for name in names:
+        cells = []
+        for i in (0, 1):
+            v = sorted(ref[i] / x[i] for ref, x in zip(got[names[0]], got[name], strict=True))
+            cells.append(f"{statistics.median(v):6.1%} ({v[0]:.0%}-{v[-1]:.0%})")
+        lines.append(f"{name:32s} {statistics.median(x[0] for x in got[name]):8.2f} "
+                     f"{statistics.median(x[1] for x in got[name]):8.2f}   {cells[0]:>18s}   {cells[1]:>18s}")
+    return "\n".join(lines)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """``samplehd bench paths speed|oracle|table``: episode frames/s, or the oracle success rate on real
-    sampled scenes and generated instructions (``table`` re-reads an oracle run's JSONL)."""
-    parser.add_argument("what", choices=["speed", "oracle", "table"])
-    parser.add_argument("--repeats", type=int, default=3)
+    """``samplehd bench paths speed|oracle|table|handoff``: episode frames/s, the oracle success rate on real
+    sampled scenes and generated instructions (``table`` re-reads an oracle run's JSONL), or what deflating
+    an episode's images costs the render loop (:func:`handoff`)."""
+    parser.add_argument("what", choices=["speed", "oracle", "table", "handoff"])
+    parser.add_argument("--repeats", type=int, default=3, help="speed: repeats; handoff: 8 x R rounds of 48 frames")
+    parser.add_argument("--width", type=int, default=320, help="handoff: image width [px]")
+    parser.add_argument("--height", type=int, default=180, help="handoff: image height [px]")
     parser.add_argument("--scenes", type=int, default=70)
     parser.add_argument("--seed", type=int, default=5000)
     parser.add_argument("--per-scene", type=int, default=5)
@@ -186,6 +249,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def report(args: argparse.Namespace) -> int:
     """Print the chosen figures."""
+    if args.what == "handoff":
+        for flag, v, lo, hi in (("--width", args.width, 8, 8192), ("--height", args.height, 8, 8192),
+                                ("--repeats", args.repeats, 1, 1000)):
+            if not lo <= v <= hi:
+                raise ConfigError(f"{flag} {v}: must be {lo}..{hi}")
+        print(handoff(8 * args.repeats, args.width, args.height))
+        return 0
     if args.what == "speed":
         for f in run(args.repeats):
             print(f"{f.name:48s} {f.value:10.1f} {f.unit}   ({f.note})")

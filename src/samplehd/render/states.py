@@ -102,6 +102,7 @@ def render_states(
     on_frame: Callable[[str, dict[str, np.ndarray]], None] | None = None,
     segmentation_dtype: Any = np.int32,
     overlap: bool = False,
+    overlap_group: int | None = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Render recorded frames: ``images[camera][modality]`` with the frame as first axis.
 
@@ -123,8 +124,10 @@ def render_states(
         overlap: with ``on_frame``, call it on one helper thread while the next frames render (in the same
             order, one call at a time; frames are handed over in groups of up to 8 within
             :data:`OVERLAP_GROUP_BYTES`, and :data:`OVERLAP_BUFFERS` groups of arrays take turns), so that
-            work that releases the GIL (deflating, say) runs beside the rasteriser instead of after it. An exception
-            raised by ``on_frame`` is raised here, and no call is left running when this returns or raises.
+            work that releases the GIL (deflating, say) runs beside the rasteriser instead of after it. An
+            exception raised by ``on_frame`` is raised here, and no call is left running when this returns
+            or raises.
+        overlap_group: frames per hand-over with ``overlap`` (default: up to 8, see above).
 
     Raises:
         DatasetError: the states do not fit the model.
@@ -136,8 +139,10 @@ def render_states(
     # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
     # With on_frame, one frame's arrays serve every frame (no fresh memory per frame); with overlap, a few.
     dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
+    if overlap_group is not None and overlap_group < 1:
+        raise ValueError(f"overlap_group {overlap_group}: must be at least 1")
     overlap = overlap and on_frame is not None
-    group = _group_frames(cameras, modalities, width, height, dtypes) if overlap else 1
+    group = (overlap_group or _group_frames(cameras, modalities, width, height, dtypes)) if overlap else 1
     n = (OVERLAP_BUFFERS * group if overlap else 1) if on_frame is not None else len(picks)
     out = {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
                if m in dtypes} for c in cameras}
