@@ -32,8 +32,7 @@ OVERLAP_BUFFERS = 3
 # Frames are handed to the helper thread in groups of up to 8 whose arrays take at most this many bytes.
 # Each hand-over wakes the helper, which then takes the GIL back after every deflate call: the render loop,
 # whose MuJoCo calls let go of the GIL, waited for it about 0.4 ms per frame when every frame was handed
-# over alone (measured at 320x180). Groups of 8 frames: the episode's images cost 1.00x the renderer's wall
-# time per frame instead of 0.97-0.98x at 320x180, 0.95x instead of 0.93x at 640x360.
+# over alone (320x180; `samplehd bench paths handoff` compares the ways, README "Performance").
 OVERLAP_GROUP_BYTES = 8 << 20
 _OVERLAP_GROUP_FRAMES = 8
 
@@ -137,7 +136,8 @@ def render_states(
     picks = range(len(frames["qpos"])) if indices is None else indices
     act, time = frames.get("act"), frames.get("time")
     # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
-    # With on_frame, one frame's arrays serve every frame (no fresh memory per frame); with overlap, a few.
+    # With on_frame, one frame's arrays serve every frame (no fresh memory per frame); with overlap, a few
+    # groups' arrays take turns.
     dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
     if overlap_group is not None and overlap_group < 1:
         raise ValueError(f"overlap_group {overlap_group}: must be at least 1")
