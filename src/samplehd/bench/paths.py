@@ -22,7 +22,7 @@ from samplehd.errors import ConfigError
 from samplehd.language.generator import generate_instructions
 from samplehd.motion.assist import compile_scene_with_assist
 from samplehd.record.paths import PathRejected, plan_and_execute
-from samplehd.render.deflated import DeflatedFrames
+from samplehd.render.deflated import deflating
 from samplehd.render.renderer import IMAGE_DTYPES, MODALITIES, image_shape, stored_segmentation_dtype
 from samplehd.render.states import render_states
 from samplehd.scene.annotate import annotate_scene
@@ -191,27 +191,27 @@ def handoff(rounds: int = 24, width: int = 320, height: int = 180, span: int = 4
     seg = stored_segmentation_dtype(model)
     dtypes = {**IMAGE_DTYPES, "segmentation": seg}
 
-    def deflating() -> Any:
-        streams = {m: DeflatedFrames(image_shape(m, width, height), dtypes[m]) for m in MODALITIES}
-
-        def keep(camera: str, images: dict[str, np.ndarray]) -> None:
-            for m, a in images.items():
-                streams[m].append(a)
-        return keep
-
+    shapes = {m: image_shape(m, width, height) for m in MODALITIES}
+    # Each way: whether frames are deflated, and render_states' overlap and overlap_group.
+    ways: dict[str, tuple[bool, bool, int | None]] = {
+        "renderer only": (False, False, None),
+        "deflated in the loop": (True, False, None),
+        "beside, 1 frame per hand-over": (True, True, 1),
+        "beside, groups (default)": (True, True, None),
+    }
     n = len(frames["qpos"])
     span = min(span, n)
 
     def run_one(name: str, start: int = 0) -> tuple[float, float]:
-        kw: dict[str, Any] = {"on_frame": lambda c, i: None} if name == "renderer only" else {
-            "on_frame": deflating(), "overlap": name != "deflated in the loop",
-            "overlap_group": 1 if name == "beside, 1 frame per hand-over" else None}
+        deflate, overlap, group = ways[name]
+        on_frame = deflating(("operator",), shapes, dtypes)[1] if deflate else (lambda c, i: None)
+        kw: dict[str, Any] = {"on_frame": on_frame, "overlap": overlap, "overlap_group": group}
         t0, c0 = time.perf_counter(), time.process_time()
         render_states(model, frames, ("operator",), MODALITIES, width, height, "fast", segmentation_dtype=seg,
                       indices=range(start, start + span), **kw)
         return 1000 * (time.perf_counter() - t0) / span, 1000 * (time.process_time() - c0) / span
 
-    names = ["renderer only", "deflated in the loop", "beside, 1 frame per hand-over", "beside, groups (default)"]
+    names = list(ways)
     run_one(names[0])  # warm-up: the first renderer of a process makes the GL context
     got: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
     for k in range(rounds):

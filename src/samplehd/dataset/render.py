@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import ConfigError
-from samplehd.render.deflated import DeflatedFrames
+from samplehd.render.deflated import deflating
 from samplehd.render.keyframes import SparseFrames, keyframe_indices
 from samplehd.render.photo import LOOKS, photo_options
 from samplehd.render.renderer import (
@@ -95,14 +95,9 @@ class RenderConfig:
         if deflated:
             seg = stored_segmentation_dtype(model)
             dtypes = {**IMAGE_DTYPES, "segmentation": seg}
-            images: dict[str, dict[str, Any]] = {
-                c: {m: DeflatedFrames(image_shape(m, self.width, self.height), dtypes[m]) for m in self.modalities}
-                for c in self.cameras}
-
-            def keep(camera: str, frame: dict[str, np.ndarray]) -> None:
-                for m, a in frame.items():
-                    images[camera][m].append(a)
-
+            streams, keep = deflating(self.cameras, {m: image_shape(m, self.width, self.height)
+                                                     for m in self.modalities}, dtypes)
+            images: dict[str, dict[str, Any]] = dict(streams)
             render_states(*args, indices=picks.tolist(), photo=photo, on_frame=keep, segmentation_dtype=seg,
                           overlap=True)
         else:
