@@ -66,6 +66,7 @@ MIN_PIXELS = 6
 MIN_RISE = 0.002  # [m] an instance lower than this above the table (95th percentile) is the table
 REACH_MARGIN = 0.10  # [m] an instance this far beyond the arm's reach is not a scene object
 DEPTH_JUMP = 0.03  # [m] a depth step this large between neighbouring pixels may part two objects
+_SIZE_SCALE = 10.0  # the geometry features hold lengths in decimetres (inputs near 1 for the networks)
 MIN_PART = 12  # pixels of the segmenter's grid: a part split off by a depth jump must be this large
 CLUSTER_LINK = 0.02  # [m] points of one object's surface lie this near one another (see object_points)
 FLOAT_LIFT = 0.02  # [m] an instance whose lowest points are this far above the table is an object's upper piece
@@ -344,6 +345,11 @@ def object_points(pts: np.ndarray, table_height: float, link: float = CLUSTER_LI
     return raised[label == np.bincount(label).argmax()]
 
 
+def _metric_size(features: np.ndarray) -> np.ndarray:
+    """Long and short extent and height [m] from :func:`_geometry`'s features."""
+    return features[:3] / _SIZE_SCALE
+
+
 def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any],
               table_height: float, whole: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(position [x, y, z] of the object's base, the :data:`N_FEATURES` measured features) of a mask.
@@ -381,8 +387,8 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
     v, lo_c = px.max(axis=1), px.min(axis=1)
     sat = (v - lo_c) / np.maximum(v, 1e-3)
     vp = np.percentile(v, (10, 50, 90, 98, 100))
-    size = [ext[0] * 10, ext[1] * 10, top * 10, np.log(ext[0] + 0.005), np.log(ext[1] + 0.005), np.log(top + 0.005),
-            side_m * 10]
+    size = [ext[0] * _SIZE_SCALE, ext[1] * _SIZE_SCALE, top * _SIZE_SCALE, np.log(ext[0] + 0.005),
+            np.log(ext[1] + 0.005), np.log(top + 0.005), side_m * _SIZE_SCALE]
     look = [*vp, vp[3] - vp[1], float(np.mean(v > vp[1] + 0.25)), float(np.std(v)), *np.percentile(sat, (10, 50, 90))]
     return pos, np.asarray(size + look + _texture_energy(rgb, mask), dtype=np.float32)
 
@@ -555,7 +561,7 @@ class Perception:
             for (name, _), ks in alike.items():
                 if len(ks) > 1:
                     joined = np.logical_or.reduce([parts[k] for k in ks])
-                    size = _geometry(rgb, depth, joined, camera, self.table_height, whole=True)[1][:3] / 10.0
+                    size = _metric_size(_geometry(rgb, depth, joined, camera, self.table_height, whole=True)[1])
                     if self.fits_kind(name, size):
                         out.append(joined)
                         continue
@@ -608,7 +614,7 @@ class Perception:
             attrs = {a: self.vocab[a][int(probs[j][k].argmax())] for j, a in enumerate(ATTRIBUTES)}
             scores = {a: {v: round(float(q), 4) for v, q in zip(self.vocab[a], probs[j][k], strict=True) if q >= 0.01}
                       for j, a in enumerate(ATTRIBUTES)}
-            result.append({**attrs, "position": pos, "metric_size": size[:3] / 10.0, "scores": scores})
+            result.append({**attrs, "position": pos, "metric_size": _metric_size(size), "scores": scores})
         return result
 
     def _with_kinds(self, probs: list[np.ndarray], features: Sequence[np.ndarray] | None = None) -> list[np.ndarray]:
