@@ -158,3 +158,50 @@ def test_an_error_beside_the_render_loop_is_raised_and_leaves_no_thread(world):
     with pytest.raises(DatasetError, match="nq="):
         render_states(model, bad, ("operator",), ("rgb",), 32, 24, "fast", on_frame=lambda c, i: None, overlap=True)
     assert not _frames_left()
+
+
+def test_live_states_render_the_attempt_that_became_the_episode_and_nothing_of_an_abandoned_one(world):
+    import threading
+    import time
+
+    from samplehd.render.states import LiveStates, Superseded, render_live
+
+    model, data = world
+    frames = _arm_states(model, data, 12)
+    wrong = _arm_states(model, data, 12)
+    wrong["qpos"] = wrong["qpos"][::-1].copy()  # another rollout: the arm swings the other way
+    want = render_states(model, frames, ("operator",), ("rgb", "segmentation"), 48, 32, "fast")
+    live = LiveStates()
+    drawn: list[dict[str, list[np.ndarray]]] = []
+
+    def on_attempt():
+        drawn.append({"rgb": [], "segmentation": []})
+        mine = drawn[-1]
+        return lambda cam, images: [mine[m].append(a.copy()) for m, a in images.items()]
+
+    def record():
+        for states, last in ((wrong, False), (frames, True)):
+            live.restart()
+            for k in range(len(states["qpos"])):
+                live.put(states["qpos"][k], states["qvel"][k], None, None)
+                time.sleep(0.02 if not last else 0.001)  # the renderer is well into the first attempt
+        live.finish(success=True)
+
+    recorder = threading.Thread(target=record)
+    recorder.start()
+    count = render_live(model, live, on_attempt, ("operator",), ("rgb", "segmentation"), 48, 32, "fast")
+    recorder.join()
+    assert count == 12 and len(drawn) == 2 and drawn[0]["rgb"]  # the first attempt was being drawn
+    for m in ("rgb", "segmentation"):
+        np.testing.assert_array_equal(np.stack(drawn[-1][m]), want["operator"][m], err_msg=m)
+    assert not _frames_left()
+    # A rollout that ends without an episode: nothing is returned, and a reader of its states learns so.
+    failed = LiveStates()
+    failed.restart()
+    failed.put(frames["qpos"][0], frames["qvel"][0], None, None)
+    failed.finish(success=False)
+    failed.finish(success=True)  # only the first finish counts
+    assert render_live(model, failed, on_attempt, ("operator",), ("rgb",), 48, 32, "fast") is None
+    with pytest.raises(Superseded):
+        list(failed.states(1))
+    assert not _frames_left()

@@ -25,7 +25,7 @@ from samplehd.render.renderer import (
     image_shape,
     stored_segmentation_dtype,
 )
-from samplehd.render.states import render_states
+from samplehd.render.states import LiveStates, render_live, render_states
 from samplehd.scene.world import compile_world
 from samplehd.schema import bounded, check_fields, from_mapping
 
@@ -94,9 +94,7 @@ class RenderConfig:
         args = (model, frames, self.cameras, self.modalities, self.width, self.height, self.mode)
         if deflated:
             seg = stored_segmentation_dtype(model)
-            dtypes = {**IMAGE_DTYPES, "segmentation": seg}
-            streams, keep = deflating(self.cameras, {m: image_shape(m, self.width, self.height)
-                                                     for m in self.modalities}, dtypes)
+            streams, keep = self._deflating(seg)
             images: dict[str, dict[str, Any]] = dict(streams)
             render_states(*args, indices=picks.tolist(), photo=photo, on_frame=keep, segmentation_dtype=seg,
                           overlap=True)
@@ -105,6 +103,44 @@ class RenderConfig:
         if len(picks) == t:
             return images
         return {c: {m: SparseFrames(picks, v, t) for m, v in mods.items()} for c, mods in images.items()}
+
+    def _deflating(self, segmentation_dtype: Any) -> tuple[dict[str, dict[str, Any]], Any]:
+        """Empty deflated streams of this config's images, and the ``on_frame`` that fills them."""
+        dtypes = {**IMAGE_DTYPES, "segmentation": segmentation_dtype}
+        return deflating(self.cameras, {m: image_shape(m, self.width, self.height) for m in self.modalities}, dtypes)
+
+    @property
+    def every_frame(self) -> bool:
+        """Whether every frame of an episode gets images (no keyframes)."""
+        return self.every == 1
+
+    def images_live(self, model: mujoco.MjModel, live: LiveStates, seed: int = 0) -> dict[str, dict[str, Any]] | None:
+        """:meth:`images` (``deflated``) of an episode while its rollout is recorded, drawn from its states as
+        they come (:func:`samplehd.render.states.render_live`): the same frames, rendered beside the physics
+        instead of after it. Only for configs that render :attr:`every_frame` (which frames the keyframes are
+        depends on the whole episode).
+
+        Returns:
+            The images of the attempt that became the episode, or None when the rollout ended without one.
+
+        Raises:
+            DatasetError: the states do not fit the model.
+            RenderError: unknown camera or no GL context.
+        """
+        if not (self.enabled and self.every_frame):
+            raise ValueError(f"images_live renders every frame; render.every={self.every}, mode {self.mode!r}")
+        photo = photo_options(self.look, seed, where="render.look") if get_preset(self.mode).path_traced else None
+        seg = stored_segmentation_dtype(model)
+        kept: list[dict[str, dict[str, Any]]] = []
+
+        def on_attempt() -> Any:
+            streams, keep = self._deflating(seg)
+            kept[:] = [dict(streams)]
+            return keep
+
+        done = render_live(model, live, on_attempt, self.cameras, self.modalities, self.width, self.height,
+                           self.mode, photo=photo, segmentation_dtype=seg)
+        return None if done is None else kept[0]
 
     def to_dict(self) -> dict[str, Any]:
         d = {"mode": self.mode, "width": self.width, "height": self.height, "cameras": list(self.cameras),

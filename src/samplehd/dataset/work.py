@@ -8,9 +8,12 @@ any unit in any order and the files come out the same.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import time
 import traceback
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -32,7 +35,9 @@ from samplehd.dataset.layout import EPISODE_DIR, RESUME_HINT
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError, PlanningError, RenderError
 from samplehd.motion.assist import compile_scene_with_assist
+from samplehd.record.episode import Episode
 from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
+from samplehd.render.states import LiveStates
 from samplehd.scene.generate import render_scene_files
 from samplehd.scene.spec import SceneSpec, compile_scene
 
@@ -91,11 +96,16 @@ class EpisodeUnit:
 def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     """Plan and execute one instruction, render its images from the stored states, write the file.
 
+    With images at every frame, the path runs on a helper thread and this one draws each state as soon as it
+    is recorded (:meth:`RenderConfig.images_live`: the same frames as drawing the finished episode), so the
+    physics runs beside the renderer instead of before it; an attempt the checker rejects costs the frames
+    drawn of it so far (the physics outruns the renderer about twentyfold, so few).
+
     Returns:
         ``{scene_index, slot, status: ok|rejected, reason, message, attempts, num_frames, size, sha256,
-        seconds, cpu_seconds}``; an ok one also ``path_seconds``, ``render_seconds`` (wall) and
-        ``path_cpu_seconds``, ``render_cpu_seconds``, ``write_cpu_seconds`` (CPU time of planning and
-        execution, of the images, of writing the file).
+        seconds, cpu_seconds}``; an ok one also ``path_seconds``, ``render_seconds`` (wall; they overlap when
+        the images are drawn beside the path) and ``path_cpu_seconds``, ``render_cpu_seconds``,
+        ``write_cpu_seconds`` (CPU time of planning and execution, of the images, of writing the file).
 
     Raises:
         DatasetError: the episode file cannot be written (disk full, permissions).
@@ -104,14 +114,22 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     t0, c0 = time.perf_counter(), time.process_time()
     base = {"scene_index": unit.scene_index, "slot": unit.slot}
     config = PathConfig.from_dict(unit.paths)
+    render = RenderConfig.from_dict(unit.render)
     scene = SceneSpec.from_dict(unit.scene)
     # The grasp welds add no degrees of freedom: the same model serves the path and the images.
     compile_fn = compile_scene_with_assist if config.grasp_assist else compile_scene
     model, data = compile_fn(scene, 1.0 / config.physics_hz)
+    run = functools.partial(plan_and_execute, scene, unit.task, np.random.default_rng(unit.seed), config,
+                            family=unit.family, scene_index=unit.scene_index, instruction_index=unit.slot,
+                            seed=unit.seed, directions=unit.directions, compiled=(model, data))
+    path = _PathTimes(t0, c0)
+    images: dict[str, dict[str, Any]] | None = None
+    beside = render.enabled and render.every_frame
     try:
-        episode = plan_and_execute(scene, unit.task, np.random.default_rng(unit.seed), config, family=unit.family,
-                                   scene_index=unit.scene_index, instruction_index=unit.slot, seed=unit.seed,
-                                   directions=unit.directions, compiled=(model, data))
+        if beside:
+            episode, images = _path_beside_images(run, path, render, model, scene.seed)
+        else:
+            episode = path.timed(run)
     except PathRejected as exc:
         return {**base, "status": "rejected", "reason": exc.reason, "message": str(exc).splitlines()[0][:300],
                 "attempts": len(exc.attempts), "seconds": time.perf_counter() - t0,
@@ -122,25 +140,54 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
         return {**base, "status": "rejected", "reason": f"error_{type(exc).__name__}",
                 "message": f"{exc} ({Path(where.filename).name}:{where.lineno})"[:300],
                 "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
-    t1, c1 = time.perf_counter(), time.process_time()
-    render = RenderConfig.from_dict(unit.render)
-    if render.enabled:
-        episode = dataclasses.replace(episode, images=render.images(model, episode.frames, seed=scene.seed,
-                                                                        deflated=True))
+    if images is None and render.enabled:
+        images = render.images(model, episode.frames, seed=scene.seed, deflated=True)
+    if images is not None:
+        episode = dataclasses.replace(episode, images=images)
     t2, c2 = time.perf_counter(), time.process_time()
-    path = Path(unit.out) / EPISODE_DIR / unit.file
+    file = Path(unit.out) / EPISODE_DIR / unit.file
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
-    try:
-        written = write_episode(path, episode, extra, render.to_dict() if render.enabled else None,
-                                retry=RESUME_HINT)
-    except DatasetError:
-        raise
+    written = write_episode(file, episode, extra, render.to_dict() if render.enabled else None, retry=RESUME_HINT)
     c3 = time.process_time()
     return {**base, "status": "ok", "attempts": int(episode.info.get("attempts", 1)),
             "num_frames": written.num_frames, "size": written.size,
             "sha256": written.sha256, "seconds": time.perf_counter() - t0, "cpu_seconds": c3 - c0,
-            "path_seconds": t1 - t0, "render_seconds": t2 - t1,
-            "path_cpu_seconds": c1 - c0, "render_cpu_seconds": c2 - c1, "write_cpu_seconds": c3 - c2}
+            "path_seconds": path.before + path.wall,
+            "render_seconds": t2 - t0 - path.before - (0 if beside else path.wall),
+            "path_cpu_seconds": path.cpu_before + path.cpu,
+            "render_cpu_seconds": c2 - c0 - path.cpu_before - path.cpu, "write_cpu_seconds": c3 - c2}
+
+
+class _PathTimes:
+    """Wall and CPU time of the path (on whichever thread runs it), and the time from ``t0``, ``c0`` to its
+    start (compiling the scene)."""
+
+    def __init__(self, t0: float, c0: float) -> None:
+        self.t0, self.c0 = t0, c0
+        self.wall = self.cpu = self.before = self.cpu_before = 0.0
+
+    def timed(self, run: Callable[..., Episode], **kwargs: Any) -> Episode:
+        t, c = time.perf_counter(), time.thread_time()
+        self.before, self.cpu_before = t - self.t0, time.process_time() - self.c0
+        try:
+            return run(**kwargs)
+        finally:
+            self.wall, self.cpu = time.perf_counter() - t, time.thread_time() - c
+
+
+def _path_beside_images(run: Callable[..., Episode], path: _PathTimes, render: RenderConfig, model: Any,
+                        seed: int) -> tuple[Episode, dict[str, dict[str, Any]] | None]:
+    """The path on a helper thread, its images drawn on this one as its states are recorded.
+
+    Raises:
+        whatever the path raises (once it and the drawing are over), or the drawing's error.
+    """
+    live = LiveStates()
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="samplehd-path") as pool:
+        future = pool.submit(path.timed, run, live=live)
+        images = render.images_live(model, live, seed)  # returns once the path has finished, either way
+        episode = future.result()
+    return episode, images
 
 
 @dataclass(frozen=True)

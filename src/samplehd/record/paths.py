@@ -23,6 +23,7 @@ from samplehd.motion.assist import GraspAssist, compile_scene_with_assist
 from samplehd.motion.execute import AttemptFailed, Plan, Rollout, drive, initial_state, scene_facts, step_controller
 from samplehd.record.episode import Episode
 from samplehd.record.recorder import FrameRecorder, RecordingStep
+from samplehd.render.states import LiveStates
 from samplehd.robot.controller import ControlConfig
 from samplehd.scene.spec import SceneSpec
 from samplehd.schema import bounded, check_fields, from_mapping
@@ -109,8 +110,8 @@ def _copy_state(src: mujoco.MjData, dst: mujoco.MjData) -> None:
 
 
 def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: SceneSpec, rng: np.random.Generator,
-                 config: PathConfig, facts: list[ObjectFacts | None],
-                 directions: dict[str, Any] | None) -> tuple[Rollout, RecordingStep]:
+                 config: PathConfig, facts: list[ObjectFacts | None], directions: dict[str, Any] | None,
+                 live: LiveStates | None = None) -> tuple[Rollout, RecordingStep]:
     control = ControlConfig(physics_hz=config.physics_hz, control_hz=config.control_hz)
     ctrl = initial_state(model, data, control)
     robot = RobotInfo.from_model(model, data)
@@ -118,7 +119,7 @@ def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: SceneSpec, r
     ro = Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions,
                  use_assist=config.grasp_assist)
     recorder = FrameRecorder(model, data, robot.arm_qpos, robot.arm_dof, robot.finger_qpos, ro.finger_bodies,
-                             robot.tcp_site, bodies.object_body)
+                             robot.tcp_site, bodies.object_body, live)
     return ro, RecordingStep(recorder, partial(step_controller, ctrl))
 
 
@@ -173,6 +174,7 @@ def plan_and_execute(
     seed: int = 0,
     directions: dict[str, Any] | None = None,
     compiled: tuple[mujoco.MjModel, mujoco.MjData] | None = None,
+    live: LiveStates | None = None,
 ) -> Episode:
     """Generate the ground-truth path of one instruction.
 
@@ -190,6 +192,9 @@ def plan_and_execute(
             left in the episode's final state. A model without the grasp welds (plain
             ``compile_scene``) is replaced internally by an identical one with them
             (:func:`~samplehd.motion.assist.compile_scene_with_assist`) when the assist is on.
+        live: every attempt's states also go there as they are recorded (each attempt restarts it), and it is
+            finished when this returns (success) or raises (no episode), for rendering beside the rollout
+            (:func:`samplehd.render.states.render_live`).
 
     Returns:
         The successful episode (``success`` True, checker report in ``info["check"]``).
@@ -198,6 +203,19 @@ def plan_and_execute(
         PathRejected: every attempt failed; ``reason`` says why.
         PlanningError: the task is malformed.
     """
+    try:
+        episode = _plan_and_execute(scene, task, rng, config, family, scene_index, instruction_index, seed,
+                                    directions, compiled, live)
+    finally:
+        if live is not None:
+            live.finish(success=False)  # no-op after a success (only the first finish counts)
+    return episode
+
+
+def _plan_and_execute(scene: SceneSpec, task: dict[str, Any] | Task, rng: np.random.Generator,
+                      config: PathConfig | None, family: str | None, scene_index: int | None,
+                      instruction_index: int, seed: int, directions: dict[str, Any] | None,
+                      compiled: tuple[mujoco.MjModel, mujoco.MjData] | None, live: LiveStates | None) -> Episode:
     config = config or PathConfig()
     t = parse_task(task, family)
     n = len(scene.objects)
@@ -223,7 +241,9 @@ def plan_and_execute(
     for attempt in range(config.max_attempts):
         mujoco.mj_copyData(data, model, start)
         sub = np.random.default_rng(rng.integers(2**63))
-        ro, step = _new_rollout(model, data, scene, sub, config, facts, directions)
+        if live is not None:
+            live.restart()
+        ro, step = _new_rollout(model, data, scene, sub, config, facts, directions, live)
         try:
             result = _run_attempt(ro, step, scene, t, config, exclude, directions)
         except AttemptFailed as exc:
@@ -256,6 +276,8 @@ def plan_and_execute(
         if caller is not None:
             _copy_state(data, caller[1])
             mujoco.mj_forward(*caller)
+        if live is not None:
+            live.finish(success=True)
         return _episode(ro, step, scene, scene_index, instruction_index, family or t.family, seed, True, info)
     if caller is not None:
         _copy_state(data, caller[1])

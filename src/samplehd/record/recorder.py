@@ -17,6 +17,7 @@ import numpy as np
 
 from samplehd.motion.execute import ControlTarget, SubtaskCut
 from samplehd.record.episode import FRAME_FIELDS
+from samplehd.render.states import LiveStates
 from samplehd.robot.controller import ControlReport
 from samplehd.world.bodies import grasped_object
 
@@ -38,11 +39,12 @@ class FrameRecorder:
         finger_bodies: body ids of the two fingers.
         tcp_site: id of the TCP site.
         object_bodies: body ids of the scene objects, in scene order.
+        live: where each recorded state also goes, for rendering beside the rollout.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, arm_qpos: np.ndarray, arm_dof: np.ndarray,
                  finger_qpos: np.ndarray, finger_bodies: tuple[int, int], tcp_site: int,
-                 object_bodies: np.ndarray) -> None:
+                 object_bodies: np.ndarray, live: LiveStates | None = None) -> None:
         self.model, self.data = model, data
         self.arm_qpos, self.arm_dof, self.finger_qpos = arm_qpos, arm_dof, finger_qpos
         self.finger_bodies = finger_bodies
@@ -50,6 +52,7 @@ class FrameRecorder:
         self.object_bodies = np.asarray(object_bodies)
         self.body_to_object = {int(b): i for i, b in enumerate(self.object_bodies)}
         self.rows: dict[str, list[np.ndarray]] = {k: [] for k in FRAME_FIELDS}
+        self.live = live
 
     def __len__(self) -> int:
         return len(self.rows["time"])
@@ -88,6 +91,8 @@ class FrameRecorder:
         r["qpos"].append(d.qpos.copy())
         r["qvel"].append(d.qvel.copy())
         r["act"].append(d.act.copy())
+        if self.live is not None:
+            self.live.put(r["qpos"][-1], r["qvel"][-1], r["act"][-1], r["time"][-1])
         return grasped
 
     def record_target(self, target: ControlTarget, safety_code: int = 0) -> int:

@@ -5,6 +5,8 @@ the compiled scene's ``MjData``, the poses are computed, and the renderer draws 
 ``samplehd generate`` and ``samplehd rerender`` (episode images), ``samplehd replay`` (videos and
 contact sheets), ``samplehd paths`` and the web viewer (frames of state-only episodes) all call
 :func:`set_state` / :func:`render_states`, so they give identical pixels for the same state.
+``samplehd generate`` draws an episode's states while its rollout is still recorded (:class:`LiveStates`,
+:func:`render_live`), by the same loop (:func:`render_stream`) and from the same values.
 
 :func:`set_state` runs all of ``mj_forward``; :func:`pose_state`, which :func:`render_states` uses, runs only
 the stages of it whose results a frame is drawn from (body, geom, site, camera and light poses, tendon
@@ -14,7 +16,8 @@ detection and dynamics (most of its cost, paid every frame of an episode).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+import threading
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
@@ -24,7 +27,11 @@ import numpy as np
 from samplehd.errors import DatasetError
 from samplehd.render.renderer import IMAGE_DTYPES, SceneRenderer, image_shape
 
-__all__ = ["OVERLAP_BUFFERS", "OVERLAP_GROUP_BYTES", "pose_state", "render_states", "set_state"]
+__all__ = ["OVERLAP_BUFFERS", "OVERLAP_GROUP_BYTES", "LiveStates", "Superseded", "State", "pose_state",
+           "render_live", "render_states", "render_stream", "set_state"]
+
+# One recorded state: qpos, qvel, act (or None), time (or None).
+State = tuple[np.ndarray, np.ndarray, "np.ndarray | None", "float | None"]
 
 # Groups of frame buffers that take turns when on_frame runs beside the render loop: one being rendered,
 # one being handed over, one spare (so a slow call does not stall the renderer at once).
@@ -132,26 +139,67 @@ def render_states(
         DatasetError: the states do not fit the model.
         RenderError: unknown camera or modality, or no GL context.
     """
-    data = data if data is not None else mujoco.MjData(model)
     picks = range(len(frames["qpos"])) if indices is None else indices
-    act, time = frames.get("act"), frames.get("time")
-    # Each frame is rendered straight into its slot of the episode's streams (no per-frame arrays to stack).
-    # With on_frame, one frame's arrays serve every frame (no fresh memory per frame); with overlap, a few
-    # groups' arrays take turns.
     dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
+    # Without on_frame, each frame is rendered straight into its slot of the episode's streams (no per-frame
+    # arrays to stack).
+    out = None if on_frame is not None else {
+        c: {m: np.empty((len(picks), *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
+            if m in dtypes} for c in cameras}
+    render_stream(model, _picked(frames, picks), cameras, modalities, width, height, preset, data, photo,
+                  on_frame, segmentation_dtype, overlap, overlap_group, out)
+    return out if out is not None else {}
+
+
+def _picked(frames: Mapping[str, np.ndarray], picks: Iterable[int]) -> Iterator[State]:
+    act, time = frames.get("act"), frames.get("time")
+    for k in picks:
+        yield (frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
+               None if time is None else time[k])
+
+
+def render_stream(
+    model: mujoco.MjModel,
+    states: Iterable[State],
+    cameras: Sequence[str],
+    modalities: Sequence[str],
+    width: int,
+    height: int,
+    preset: str = "fast",
+    data: mujoco.MjData | None = None,
+    photo: Any = None,
+    on_frame: Callable[[str, dict[str, np.ndarray]], None] | None = None,
+    segmentation_dtype: Any = np.int32,
+    overlap: bool = False,
+    overlap_group: int | None = None,
+    out: dict[str, dict[str, np.ndarray]] | None = None,
+) -> int:
+    """Render states as they come (:func:`render_states`, whose arguments these are, over any iterable of
+    ``(qpos, qvel, act, time)``): each frame goes to ``on_frame``, or into slot i of ``out``'s arrays.
+    Returns the number of frames rendered.
+    """
     if overlap_group is not None and overlap_group < 1:
         raise ValueError(f"overlap_group {overlap_group}: must be at least 1")
+    if (on_frame is None) == (out is None):
+        raise ValueError("render_stream needs either on_frame or out")
+    data = data if data is not None else mujoco.MjData(model)
+    dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
+    # With on_frame, one frame's arrays serve every frame (no fresh memory per frame); with overlap, a few
+    # groups' arrays take turns.
     overlap = overlap and on_frame is not None
     group = (overlap_group or _group_frames(cameras, modalities, width, height, dtypes)) if overlap else 1
-    n = (OVERLAP_BUFFERS * group if overlap else 1) if on_frame is not None else len(picks)
-    out = {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
-               if m in dtypes} for c in cameras}
+    if out is None:
+        n = OVERLAP_BUFFERS * group if overlap else 1
+        out = {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
+                   if m in dtypes} for c in cameras}
+    else:
+        n = 0
     views: list[tuple[str, dict[str, np.ndarray]]] = []  # the frames of the group being rendered
+    count = 0
     with SceneRenderer(model, width, height, preset, photo=photo) as renderer, _Handoff(overlap) as handoff:
-        for i, k in enumerate(picks):
-            pose_state(model, data, frames["qpos"][k], frames["qvel"][k], None if act is None else act[k],
-                       None if time is None else time[k])
-            slot = i % n if on_frame is not None else i
+        for i, (qpos, qvel, act, time) in enumerate(states):
+            pose_state(model, data, qpos, qvel, act, time)
+            slot = i % n if n else i
             if slot % group == 0:
                 handoff.wait(slot // group)  # the helper is done with this group's arrays (or raises its error)
             for cam in cameras:
@@ -161,11 +209,111 @@ def render_states(
             if overlap:
                 assert on_frame is not None
                 views += [(cam, {m: a[slot] for m, a in out[cam].items()}) for cam in cameras]
-                if slot % group == group - 1 or i == len(picks) - 1:
+                if slot % group == group - 1:
                     handoff.submit(slot // group, on_frame, views)
                     views = []
+            count = i + 1
+        if views:
+            assert on_frame is not None
+            handoff.submit((count - 1) % n // group, on_frame, views)
         handoff.wait_all()
-    return {} if on_frame is not None else out
+    return count
+
+
+class Superseded(Exception):
+    """The rollout whose states were being rendered was abandoned (:class:`LiveStates`)."""
+
+
+class LiveStates:
+    """The states of a rollout while it is recorded, so that they can be rendered beside it.
+
+    One thread records: :meth:`restart` at the start of every attempt (the states so far are dropped),
+    :meth:`put` for each state, and :meth:`finish` once, with whether the last attempt is the episode.
+    Another renders: :meth:`next_attempt`, then :meth:`states` of that attempt, which waits for each
+    next state and raises :class:`Superseded` when a new attempt begins or the rollout fails. The recording
+    thread never waits for the rendering one.
+    """
+
+    def __init__(self) -> None:
+        self._cond = threading.Condition()
+        self._attempt = 0
+        self._states: list[State] = []
+        self._done: bool | None = None  # None while recording; then whether the last attempt succeeded
+
+    @property
+    def attempts(self) -> int:
+        """How many attempts have begun."""
+        return self._attempt
+
+    def restart(self) -> None:
+        """A new attempt begins: the states recorded so far are void."""
+        with self._cond:
+            self._attempt += 1
+            self._states = []
+            self._cond.notify_all()
+
+    def put(self, qpos: np.ndarray, qvel: np.ndarray, act: np.ndarray | None, time: float | None) -> None:
+        """The next state of the current attempt (arrays the recorder does not write again)."""
+        with self._cond:
+            self._states.append((qpos, qvel, act, time))
+            self._cond.notify_all()
+
+    def finish(self, success: bool) -> None:
+        """Recording is over: the current attempt's states are the episode's (``success``), or there is none.
+        Only the first call counts."""
+        with self._cond:
+            if self._done is None:
+                self._done = bool(success)
+            self._cond.notify_all()
+
+    def next_attempt(self) -> int | None:
+        """Wait for an attempt to render: the newest one, or None once recording ended without an episode."""
+        with self._cond:
+            self._cond.wait_for(lambda: self._attempt > 0 or self._done is not None)
+            return None if self._done is False or self._attempt == 0 else self._attempt
+
+    def states(self, attempt: int) -> Iterator[State]:
+        """The states of ``attempt`` in order, each as soon as it is recorded, until the attempt is the episode.
+
+        Raises:
+            Superseded: a newer attempt began, or recording ended without an episode.
+        """
+        k = 0
+        while True:
+            with self._cond:
+                self._cond.wait_for(lambda k=k: self._attempt != attempt or k < len(self._states)
+                                    or self._done is not None)
+                if self._attempt != attempt or self._done is False:
+                    raise Superseded(f"attempt {attempt} was abandoned")
+                if k == len(self._states):
+                    return
+                state = self._states[k]
+            yield state
+            k += 1
+
+
+def render_live(model: mujoco.MjModel, live: LiveStates,
+                on_attempt: Callable[[], Callable[[str, dict[str, np.ndarray]], None]],
+                cameras: Sequence[str], modalities: Sequence[str], width: int, height: int, preset: str = "fast",
+                photo: Any = None, segmentation_dtype: Any = np.int32, overlap: bool = True) -> int | None:
+    """Render a rollout's states while it is recorded (:class:`LiveStates`), attempt after attempt.
+
+    Every attempt is drawn by a new renderer from its first state, as :func:`render_states` draws a
+    finished episode, so the frames are the same. ``on_attempt`` is called when an attempt's rendering
+    begins and returns that attempt's ``on_frame`` (see :func:`render_states`); the frames of an abandoned
+    attempt went to an ``on_frame`` that is then dropped.
+
+    Returns:
+        The episode's number of frames, or None when recording ended without an episode.
+    """
+    while (attempt := live.next_attempt()) is not None:
+        try:
+            return render_stream(model, live.states(attempt), cameras, modalities, width, height, preset,
+                                 photo=photo, on_frame=on_attempt(), segmentation_dtype=segmentation_dtype,
+                                 overlap=overlap)
+        except Superseded:
+            continue
+    return None
 
 
 def _group_frames(cameras: Sequence[str], modalities: Sequence[str], width: int, height: int,
