@@ -1,6 +1,7 @@
 """Which images a dataset's episodes get (:class:`RenderConfig`), rendered from the episodes' stored
 physics states with :func:`samplehd.render.states.render_states` during ``samplehd generate``,
-``samplehd rerender`` and ``samplehd paths``, so all give identical pixels.
+``samplehd rerender`` and ``samplehd paths``, so all give identical pixels (``samplehd generate`` draws
+them from the same states while the path is recorded: :meth:`RenderConfig.images_live`).
 """
 
 from __future__ import annotations
