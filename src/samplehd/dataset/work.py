@@ -122,7 +122,8 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     run = functools.partial(plan_and_execute, scene, unit.task, np.random.default_rng(unit.seed), config,
                             family=unit.family, scene_index=unit.scene_index, instruction_index=unit.slot,
                             seed=unit.seed, directions=unit.directions, compiled=(model, data))
-    path = _PathTimes(t0, c0)
+    t1, c1 = time.perf_counter(), time.process_time()
+    path = _PathTimes()
     images: dict[str, dict[str, Any]] | None = None
     beside = render.enabled and render.every_frame
     try:
@@ -152,23 +153,18 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     return {**base, "status": "ok", "attempts": int(episode.info.get("attempts", 1)),
             "num_frames": written.num_frames, "size": written.size,
             "sha256": written.sha256, "seconds": time.perf_counter() - t0, "cpu_seconds": c3 - c0,
-            "path_seconds": path.before + path.wall,
-            "render_seconds": t2 - t0 - path.before - (0 if beside else path.wall),
-            "path_cpu_seconds": path.cpu_before + path.cpu,
-            "render_cpu_seconds": c2 - c0 - path.cpu_before - path.cpu, "write_cpu_seconds": c3 - c2}
+            "path_seconds": t1 - t0 + path.wall, "render_seconds": t2 - t1 - (0 if beside else path.wall),
+            "path_cpu_seconds": c1 - c0 + path.cpu, "render_cpu_seconds": c2 - c1 - path.cpu,
+            "write_cpu_seconds": c3 - c2}
 
 
 class _PathTimes:
-    """Wall and CPU time of the path (on whichever thread runs it), and the time from ``t0``, ``c0`` to its
-    start (compiling the scene)."""
+    """Wall and CPU time of the path, on whichever thread runs it."""
 
-    def __init__(self, t0: float, c0: float) -> None:
-        self.t0, self.c0 = t0, c0
-        self.wall = self.cpu = self.before = self.cpu_before = 0.0
+    wall = cpu = 0.0
 
     def timed(self, run: Callable[..., Episode], **kwargs: Any) -> Episode:
         t, c = time.perf_counter(), time.thread_time()
-        self.before, self.cpu_before = t - self.t0, time.process_time() - self.c0
         try:
             return run(**kwargs)
         finally:

@@ -140,12 +140,10 @@ def render_states(
         RenderError: unknown camera or modality, or no GL context.
     """
     picks = range(len(frames["qpos"])) if indices is None else indices
-    dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
     # Without on_frame, each frame is rendered straight into its slot of the episode's streams (no per-frame
     # arrays to stack).
-    out = None if on_frame is not None else {
-        c: {m: np.empty((len(picks), *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
-            if m in dtypes} for c in cameras}
+    out = None if on_frame is not None else _frame_arrays(len(picks), cameras, modalities, width, height,
+                                                          segmentation_dtype)
     render_stream(model, _picked(frames, picks), cameras, modalities, width, height, preset, data, photo,
                   on_frame, segmentation_dtype, overlap, overlap_group, out)
     return out if out is not None else {}
@@ -183,17 +181,15 @@ def render_stream(
     if (on_frame is None) == (out is None):
         raise ValueError("render_stream needs either on_frame or out")
     data = data if data is not None else mujoco.MjData(model)
-    dtypes = {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
     # With on_frame, one frame's arrays serve every frame (no fresh memory per frame); with overlap, a few
     # groups' arrays take turns.
     overlap = overlap and on_frame is not None
-    group = (overlap_group or _group_frames(cameras, modalities, width, height, dtypes)) if overlap else 1
+    group = (overlap_group or _group_frames(cameras, modalities, width, height, _dtypes(segmentation_dtype))
+             if overlap else 1)
+    n = 0  # slots that take turns (0: frame i goes to slot i of the caller's out)
     if out is None:
         n = OVERLAP_BUFFERS * group if overlap else 1
-        out = {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
-                   if m in dtypes} for c in cameras}
-    else:
-        n = 0
+        out = _frame_arrays(n, cameras, modalities, width, height, segmentation_dtype)
     views: list[tuple[str, dict[str, np.ndarray]]] = []  # the frames of the group being rendered
     count = 0
     with SceneRenderer(model, width, height, preset, photo=photo) as renderer, _Handoff(overlap) as handoff:
@@ -314,6 +310,18 @@ def render_live(model: mujoco.MjModel, live: LiveStates,
         except Superseded:
             continue
     return None
+
+
+def _dtypes(segmentation_dtype: Any) -> dict[str, np.dtype]:
+    return {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
+
+
+def _frame_arrays(n: int, cameras: Sequence[str], modalities: Sequence[str], width: int, height: int,
+                  segmentation_dtype: Any) -> dict[str, dict[str, np.ndarray]]:
+    """``[camera][modality]`` arrays of ``n`` frames each."""
+    dtypes = _dtypes(segmentation_dtype)
+    return {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
+                if m in dtypes} for c in cameras}
 
 
 def _group_frames(cameras: Sequence[str], modalities: Sequence[str], width: int, height: int,
