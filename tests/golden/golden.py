@@ -6,11 +6,12 @@ rejections and seeds of ``info.json``, and per episode its attributes and, per p
 (qpos, joints, steering, object poses, subtasks, ...), its dtype, shape and SHA-256 of the bytes
 (bitwise). Versions, timings and file checksums (which depend on the HDF5 library) are left out.
 
-Regenerate the fixture (only when a change of the data is intended)::
+Two goldens: ``tiny_seed3`` (the tiny preset) and ``crowded_seed6`` (three scenes of six objects,
+families balanced: longer paths, more contact). Regenerate a fixture (only when a change of the data
+is intended, saying why in the commit)::
 
-    python tests/golden/golden.py OUT_DIR > tests/golden/tiny_seed3.json
-
-where OUT_DIR holds ``samplehd generate --preset tiny --render none --seed 3 --out OUT_DIR``.
+    python -m samplehd generate <GOLDENS[name] args> --out OUT_DIR --quiet
+    python tests/golden/golden.py OUT_DIR > tests/golden/<name>.json
 """
 
 from __future__ import annotations
@@ -24,8 +25,20 @@ from typing import Any
 import h5py
 import numpy as np
 
-GOLDEN_ARGS = ["generate", "--preset", "tiny", "--render", "none", "--seed", "3"]
-FIXTURE = Path(__file__).with_name("tiny_seed3.json")
+HERE = Path(__file__).parent
+# name -> the ``samplehd`` arguments that make it; its fixture is ``<name>.json`` beside this file
+GOLDENS: dict[str, list[str]] = {
+    "tiny_seed3": ["generate", "--preset", "tiny", "--render", "none", "--seed", "3"],
+    "crowded_seed6": ["generate", "--preset", "tiny", "--config", str(HERE / "crowded.json"), "--render", "none",
+                      "--seed", "6"],
+}
+GOLDEN_ARGS = GOLDENS["tiny_seed3"]
+FIXTURE = HERE / "tiny_seed3.json"
+
+
+def fixture(name: str) -> Path:
+    """The fixture file of the golden ``name``."""
+    return HERE / f"{name}.json"
 _INFO_KEYS = ("counts", "target_reached", "rejections", "seeds", "render")
 _EPISODE_SKIP = ("sha256", "size")
 

@@ -8,6 +8,7 @@ from typing import Any
 import pytest
 
 from samplehd.errors import ConfigError
+from samplehd.fixedmath import matmul
 from samplehd.language.constraints import CONSTRAINTS, ConstraintContext
 from samplehd.language.scene import parse_scene
 from samplehd.world.free_spot import SpotSearch
@@ -353,21 +354,21 @@ def _runs_by_arrays(q0, along, across, lim, u, lo, width, count):  # type: ignor
 def _axes_reach_by_arrays(rt, half, r, h, grow):  # type: ignore[no-untyped-def]
     """The separating-axis test's four axes of an object turned by each of ``rt`` (t, 2, 2) against each
     rectangle (rotations r (R, 2, 2), half sizes h (R, 2)) and how far apart the centres may be along
-    each: (R, t, 4, 2) and (R, t, 4), by numpy's products (the compiled loop's reference)."""
+    each: (R, t, 4, 2) and (R, t, 4), by samplehd.fixedmath's products (the compiled loop's reference)."""
     import numpy as np
 
     axes = np.empty((len(r), len(rt), 4, 2))
     axes[:, :, :2] = np.swapaxes(rt, -1, -2)
     axes[:, :, 2:] = np.swapaxes(r, -1, -2)[:, None]
-    reach = (np.abs(axes @ rt[None]) @ (half + grow)
-             + (np.abs(axes @ r[:, None]) @ (h + grow)[:, None, :, None])[..., 0])
+    reach = (matmul(np.abs(matmul(axes, rt[None])), half + grow)
+             + matmul(np.abs(matmul(axes, r[:, None])), (h + grow)[:, None, :, None])[..., 0])
     return axes, reach
 
 
 def test_compiled_runs_equal_the_array_computation_bit_for_bit() -> None:
     """The compiled runs of columns equal the whole-array computation exactly, on the spots of real
     scenes (part grids and grids past a reference, along axes and not) against every object and against
-    the spots themselves, from the poses (numpy's matrix products, whose rounding the loop follows) as
+    the spots themselves, from the poses (samplehd.fixedmath's matrix products, whose rounding the loop follows) as
     from given projections; rows outside those asked for are left without a run; and on random slabs
     including axes that ignore the columns."""
     import numpy as np
@@ -394,7 +395,7 @@ def test_compiled_runs_equal_the_array_computation_bit_for_bit() -> None:
                     for rots, halves, centres in poses:
                         axes, reach = _axes_reach_by_arrays(spots.rots, fs.half[k], rots, halves, grow)
                         q0 = np.einsum("rtad,rtd->rta", axes, centres[:, None, :] - g.base[None])
-                        along, across = axes @ g.axes[0], axes @ g.axes[1]
+                        along, across = matmul(axes, g.axes[0]), matmul(axes, g.axes[1])
                         args = (q0, along, across, reach, g.u)
                         want = _runs_by_arrays(*args, g.lo, g.width, len(g.v))
                         got = column_runs(*args, 0, len(g.u), float(g.lo), float(g.width), len(g.v))
@@ -429,7 +430,8 @@ def test_compiled_runs_equal_the_array_computation_bit_for_bit() -> None:
         base, u = rng.normal(size=(5, 2)) * 0.2, np.linspace(-0.4, 0.4, 60)
         axes, reach = _axes_reach_by_arrays(rt, half, rots, halves, 0.01)
         q0 = np.einsum("rtad,rtd->rta", axes, centres[:, None, :] - base[None])
-        want = _runs_by_arrays(q0, axes @ grid_axes[0], axes @ grid_axes[1], reach, u, -0.3, 0.01, 60)
+        want = _runs_by_arrays(q0, matmul(axes, grid_axes[0]), matmul(axes, grid_axes[1]), reach, u, -0.3, 0.01,
+                               60)
         got = rect_runs(rt, half, rots, halves, centres, np.arange(30), 0.01, base, grid_axes, u, 0, len(u), -0.3,
                         0.01, 60)
         np.testing.assert_array_equal(got[0], want[0])
@@ -568,7 +570,7 @@ def _beside_tests_by_arrays(fs, x, ref, direction):  # type: ignore[no-untyped-d
         a = 0 if d[0] != 0 else 1
         keep &= (origin[a] - fs.origin[ref, a]) * d[a] >= need
     else:
-        keep &= ((_flat_xy(origin, shape) - fs.origin[ref]) @ d >= need).reshape(shape)
+        keep &= (matmul(_flat_xy(origin, shape) - fs.origin[ref], d) >= need).reshape(shape)
     return keep, _flat_xy(centre, shape), [np.broadcast_to(r, shape) for r in rel]
 
 

@@ -6,6 +6,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from samplehd.fixedmath import dot
 from samplehd.world.layout import DIRECTIONS
 from samplehd.world.relations import RELATIONS, compute_relationships
 
@@ -35,5 +36,5 @@ def test_matches_pairwise_definition(points: list[tuple[float, float]], margin: 
     for name in RELATIONS:
         d = np.array(DIRECTIONS[name])
         for i in range(len(coords)):
-            expected = [j for j in range(len(coords)) if j != i and float((coords[j] - coords[i]) @ d) > margin]
+            expected = [j for j in range(len(coords)) if j != i and dot(coords[j] - coords[i], d) > margin]
             assert rel[name][i] == expected

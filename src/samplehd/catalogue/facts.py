@@ -23,6 +23,7 @@ from samplehd.catalogue.geometry import (
 from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.loader import resolve_catalogue
 from samplehd.catalogue.model import Affordances, Catalogue, MassModel, Material
+from samplehd.fixedmath import matmul
 
 __all__ = ["ObjectFacts", "instance_geometry", "mass_of", "object_facts"]
 
@@ -87,7 +88,7 @@ class ObjectFacts:
         """
         c, s = np.cos(yaw), np.sin(yaw)
         poly = np.asarray(self.footprint_polygon, dtype=np.float64)
-        return poly @ np.array([[c, s], [-s, c]]) + np.array([x, y])
+        return matmul(poly, np.array([[c, s], [-s, c]])) + np.array([x, y])
 
     def to_dict(self) -> dict:
         """Return the facts as a JSON-ready dict (tuples become lists)."""

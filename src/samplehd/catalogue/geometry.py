@@ -45,6 +45,7 @@ from samplehd.catalogue.shape import (
     planar_texcoords,
     scale_tuple,
 )
+from samplehd.fixedmath import dot, norm
 from samplehd.robot.constants import GRIPPER_STROKE
 
 __all__ = [
@@ -480,7 +481,7 @@ def _densify(points: list[tuple[float, float]], max_len: float) -> list[tuple[fl
     n = len(points)
     for i in range(n):
         a, b = np.asarray(points[i]), np.asarray(points[(i + 1) % n])
-        k = max(1, math.ceil(float(np.linalg.norm(b - a)) / max_len))
+        k = max(1, math.ceil(float(norm(b - a)) / max_len))
         out += [tuple(a + (b - a) * (j / k)) for j in range(k)]
     return out
 
@@ -488,7 +489,7 @@ def _densify(points: list[tuple[float, float]], max_len: float) -> list[tuple[fl
 def _polygon(points: list[tuple[float, float]]) -> mf.CrossSection:
     pts = np.asarray(points, dtype=np.float64)
     x, y = pts[:, 0], pts[:, 1]
-    if 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))) < 0:
+    if 0.5 * float(dot(x, np.roll(y, -1)) - dot(y, np.roll(x, -1))) < 0:
         pts = pts[::-1]
     return mf.CrossSection([pts.tolist()])
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import shutil
 import subprocess
 import sys
@@ -36,6 +37,7 @@ from samplehd.catalogue.schema import Field, is_identifier, read_json
 from samplehd.catalogue.shape import GraspSite, TopSurface
 from samplehd.errors import AssetError, require_extra
 from samplehd.fileio import file_sha256
+from samplehd.fixedmath import dot, matmul
 
 # The mesh extra: importing meshes is the only thing that needs trimesh's readers.
 trimesh = require_extra("trimesh", "mesh", "samplehd assets import")
@@ -208,8 +210,12 @@ def _cached_decomposition(
 def _principal_axes(vertices: np.ndarray) -> np.ndarray:
     """Horizontal principal axes (2 x 2, major first) of the footprint points."""
     xy = vertices[:, :2] - vertices[:, :2].mean(axis=0)
-    _, vecs = np.linalg.eigh(np.cov(xy.T))
-    return vecs[:, ::-1].T
+    x, y = xy[:, 0], xy[:, 1]
+    sxx, syy, sxy = (float(np.add.reduce(a * b)) for a, b in ((x, x), (y, y), (x, y)))
+    # the symmetric 2 x 2 second moment's eigenvectors in closed form (no LAPACK: same bits on every machine)
+    theta = 0.5 * math.atan2(2.0 * sxy, sxx - syy)
+    major = np.array([math.cos(theta), math.sin(theta)])
+    return np.array([major, [-major[1], major[0]]])
 
 
 def _grasp_metadata(mesh: trimesh.Trimesh) -> tuple[list[GraspSite], TopSurface, np.ndarray]:
@@ -221,10 +227,10 @@ def _grasp_metadata(mesh: trimesh.Trimesh) -> tuple[list[GraspSite], TopSurface,
     band = v[np.abs(v[:, 2] - z_grip) < max(0.1 * height, 0.005)]
     band = band if len(band) >= 3 else v
     for axis in axes[::-1]:  # minor axis first: the narrow way across fits the gripper best
-        proj = band[:, :2] @ axis
+        proj = matmul(band[:, :2], axis)
         width = float(proj.max() - proj.min())
         centre_xy = axis * (proj.max() + proj.min()) / 2 + (
-            band[:, :2].mean(axis=0) - axis * (band[:, :2].mean(axis=0) @ axis)
+            band[:, :2].mean(axis=0) - axis * dot(band[:, :2].mean(axis=0), axis)
         )
         sites.append(
             GraspSite(

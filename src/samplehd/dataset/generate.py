@@ -63,6 +63,7 @@ from samplehd.dataset.render import check_cameras
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit, run_scene_unit
 from samplehd.errors import ConfigError, DatasetError
 from samplehd.fileio import file_sha256, write_json_atomic
+from samplehd.fixedmath import machine
 from samplehd.language.instruction_file import generate_instruction_file
 from samplehd.scene.annotate import image_stem
 from samplehd.scene.generate import SceneJob, scene_split
@@ -117,6 +118,12 @@ def versions() -> dict[str, str]:
     """Versions of what decides the content: samplehd, MuJoCo, numpy, h5py, Python."""
     return {"samplehd": __version__, "mujoco": mujoco.__version__, "numpy": numpy.__version__,
             "h5py": h5py.__version__, "python": platform.python_version()}
+
+
+def machine_info() -> dict[str, Any]:
+    """The machine that wrote a dataset (CPU, BLAS and its kernel, numpy's SIMD targets, C library): none
+    of it changes the data (samplehd.fixedmath), it is kept to trace a difference between two machines."""
+    return machine()
 
 
 def _write_json(path: Path, obj: Any, indent: int | None = None) -> None:
@@ -229,6 +236,7 @@ def _catalogue_difference(stored: dict[str, Any], now: dict[str, Any]) -> str | 
 
 def _base_info(config: GenerateConfig) -> dict[str, Any]:
     return {"format_version": FORMAT_VERSION, "status": "in_progress", "versions": versions(),
+            "machine": machine_info(),
             "config": config.to_dict(), "catalogue": catalogue_in_use(config)}
 
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from samplehd.fixedmath import matmul
 from samplehd.motion.order import EFFECTOR_POINT_OFFSET
 from samplehd.robot.constants import TCP_OFFSET
 
@@ -55,7 +56,7 @@ def joints_to_unity(q: np.ndarray) -> np.ndarray:
 
 def point_to_unity(points: np.ndarray, base: np.ndarray) -> np.ndarray:
     """Unity coordinates [m] of world points (…, 3) [m]; ``base`` is the robot base in the world."""
-    return UNITY_ROBOT_BASE + (np.asarray(points, dtype=float) - base) @ WORLD_TO_UNITY.T
+    return UNITY_ROBOT_BASE + matmul(np.asarray(points, dtype=float) - base, WORLD_TO_UNITY.T)
 
 
 def _mat_from_quat(q: np.ndarray) -> np.ndarray:
@@ -78,7 +79,7 @@ def _quat_from_mat(m: np.ndarray) -> np.ndarray:
 def quat_to_unity(quat: np.ndarray) -> np.ndarray:
     """Unity rotation (x, y, z, w) of world orientations given as quaternions (…, 4) (w, x, y, z)."""
     q = np.asarray(quat, dtype=float)
-    m = WORLD_TO_UNITY @ _mat_from_quat(q.reshape(-1, 4)) @ WORLD_TO_UNITY.T
+    m = matmul(matmul(WORLD_TO_UNITY, _mat_from_quat(q.reshape(-1, 4))), WORLD_TO_UNITY.T)
     wxyz = _quat_from_mat(m).reshape(q.shape)
     return np.concatenate([wxyz[..., 1:], wxyz[..., :1]], axis=-1)
 

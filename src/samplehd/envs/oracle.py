@@ -33,6 +33,7 @@ import numpy as np
 from samplehd.envs.episodes import EpisodeSpec
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import PlanningError
+from samplehd.fixedmath import matmul
 from samplehd.motion.execute import AttemptFailed, ControlTarget, Plan, Rollout, SubtaskCut, scene_facts
 from samplehd.motion.steering import steering_from_targets
 from samplehd.robot.constants import GRIPPER_STROKE
@@ -60,7 +61,7 @@ def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: flo
     else:
         t0, t1 = fk_tcp(q_now), fk_tcp(q_next)
         lin = t1[:3, 3] - t0[:3, 3]
-        rot = rotvec(t1[:3, :3] @ t0[:3, :3].T)
+        rot = rotvec(matmul(t1[:3, :3], t0[:3, :3].T))
         if mode == "ee_delta":
             a = np.concatenate([lin, rot, [gripper]])
         else:

@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 
+from samplehd.fixedmath import norm
+
 __all__ = ["DENSE_SCALE", "dense_term"]
 
 DENSE_SCALE = 0.1
@@ -22,5 +24,5 @@ DENSE_SCALE = 0.1
 
 def dense_term(tcp_pos: np.ndarray, object_pos: np.ndarray) -> float:
     """Shaping term for a TCP position and the moved object's position (world) [m]."""
-    d = float(np.linalg.norm(np.asarray(tcp_pos) - np.asarray(object_pos)))
+    d = float(norm(np.asarray(tcp_pos) - np.asarray(object_pos)))
     return DENSE_SCALE * (1.0 - math.tanh(5.0 * d))

@@ -17,6 +17,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
+from samplehd.fixedmath import matmul
 from samplehd.physics import wake_all
 from samplehd.scene.spec import SceneSpec
 from samplehd.scene.world import PlacedObject, build_world, reset_robot_home
@@ -81,7 +82,7 @@ class GraspAssist:
         m = self.model
         b = m.body(object_body_name(i)).id
         rg = data.xmat[self.gripper].reshape(3, 3)
-        rel_pos = rg.T @ (data.xpos[b] - data.xpos[self.gripper])
+        rel_pos = matmul(rg.T, data.xpos[b] - data.xpos[self.gripper])
         qg_inv = np.empty(4)
         mujoco.mju_negQuat(qg_inv, data.xquat[self.gripper])
         rel_quat = np.empty(4)

@@ -17,6 +17,7 @@ target into an action of the environment's control mode. No thread, no recorder 
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -26,6 +27,7 @@ import numpy as np
 
 from samplehd.catalogue import ObjectFacts, object_facts
 from samplehd.errors import PlanningError
+from samplehd.fixedmath import inv_rigid, matmul, norm
 from samplehd.motion.assist import GraspAssist
 from samplehd.motion.order import effector_point
 from samplehd.motion.order import next_object as order_next_object
@@ -149,14 +151,14 @@ def _upright(rot: np.ndarray, max_tilt: float = 0.35) -> np.ndarray:
     """
     z = rot[:, 2]
     axis = np.cross(z, [0.0, 0.0, 1.0])
-    s, c = float(np.linalg.norm(axis)), float(z[2])
-    ang = float(np.arctan2(s, c))
+    s, c = norm(axis), float(z[2])
+    ang = math.atan2(s, c)
     if s < 1e-9 or ang > max_tilt:
         return rot
     k = axis / s
     kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
-    fix = np.eye(3) + np.sin(ang) * kx + (1.0 - np.cos(ang)) * kx @ kx
-    return fix @ rot
+    fix = np.eye(3) + np.sin(ang) * kx + matmul((1.0 - np.cos(ang)) * kx, kx)
+    return matmul(fix, rot)
 
 
 def _gripper_command(opening: float) -> float:
@@ -355,7 +357,7 @@ class Rollout:
         # Release with the fingers opened a little beyond the measured grip, not the full approach opening.
         held_width = float(self.data.qpos[self.robot.finger_qpos].sum())
         release_opening = min(gp.grasp.opening, held_width + 0.012)
-        self.hand = _Hand(i, np.linalg.inv(tcp) @ object_pose(self.data, self.bodies, i), release_opening,
+        self.hand = _Hand(i, matmul(inv_rigid(tcp), object_pose(self.data, self.bodies, i)), release_opening,
                           gp.grasp.opening)
         if lift:
             yield from self.move_up(i, k)
@@ -456,7 +458,7 @@ class Rollout:
         if not self._holding(i):
             raise AttemptFailed("grasp_slipped", f"object {i} slipped out of the gripper while lifting", grasp_index)
         # Re-measure the grasp after lifting: the object may have settled in the fingers.
-        self.hand = _Hand(i, np.linalg.inv(self._tcp_world()) @ object_pose(self.data, self.bodies, i),
+        self.hand = _Hand(i, matmul(inv_rigid(self._tcp_world()), object_pose(self.data, self.bodies, i)),
                           self.hand.opening, self.hand.approach_opening)
 
     def place(self, i: int, task: Task, grasp_index: int = -1) -> Plan[None]:
@@ -478,7 +480,7 @@ class Rollout:
         for xy, yaw in spots:
             # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
             cz, sz = np.cos(yaw), np.sin(yaw)
-            rot = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]) @ _upright(t_obj[:3, :3])
+            rot = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
             obj_bottom_below = t_obj[2, 3] - object_world_box(self.model, self.data, self.bodies, i).lo[2]
             start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
             try:
@@ -490,7 +492,7 @@ class Rollout:
             t_obj_rel = np.eye(4)
             t_obj_rel[:3, :3] = rot
             t_obj_rel[:3, 3] = (xy[0], xy[1], z_rel + self.cfg.release_gap)
-            tcp_rel_w = t_obj_rel @ np.linalg.inv(hand.tcp_to_object)
+            tcp_rel_w = matmul(t_obj_rel, inv_rigid(hand.tcp_to_object))
             rel_b = self.robot.world_to_base(tcp_rel_w)
             q_above = None
             # Above the release pose at the transport height, or as high as the arm reaches there.

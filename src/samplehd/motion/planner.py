@@ -31,6 +31,7 @@ import numpy as np
 
 from samplehd.catalogue import ObjectFacts
 from samplehd.errors import PlanningError
+from samplehd.fixedmath import arccos, dot, matmul, norm
 from samplehd.motion.rrt import rrt_connect
 from samplehd.motion.trajectory import cartesian_path, joint_path
 from samplehd.robot.constants import JOINT_LIMITS
@@ -103,11 +104,11 @@ def destination_candidates(
             c_local = np.array([*f.top.center, 0.0])
         else:
             c_local = np.array([*bodies.local_box(base).center[:2], 0.0])
-        target = (t_base[:3, :3] @ c_local + t_base[:3, 3])[:2]
+        target = (matmul(t_base[:3, :3], c_local) + t_base[:3, 3])[:2]
         # Place the object's footprint centre (not its frame origin) on the target.
         _, rot_i, _ = object_footprint(data, bodies, i, facts[i])
         fc = np.asarray(facts[i].footprint_center) if facts[i] is not None else bodies.local_box(i).center[:2]
-        return [(target - rot_i @ fc, 0.0)]
+        return [(target - matmul(rot_i, fc), 0.0)]
     c_i, rot_i0, half_i = object_footprint(data, bodies, i, facts[i])
     offset0 = c_i - t_obj[:2, 3]  # footprint centre relative to the frame origin (kept on transport)
     others = [k for k in range(bodies.num_objects) if k != i and k not in ignore]
@@ -119,10 +120,10 @@ def destination_candidates(
     if recipe == "beside":
         ref = task.reference
         d = np.asarray((directions or DIRECTIONS)[task.direction], float)[:2]
-        d /= np.linalg.norm(d)
+        d /= norm(d)
         lateral = np.array([-d[1], d[0]])
         c_ref, rot_ref, half_ref = foot[ref]
-        ext_ref = abs(d @ rot_ref[:, 0]) * half_ref[0] + abs(d @ rot_ref[:, 1]) * half_ref[1]
+        ext_ref = abs(dot(d, rot_ref[:, 0])) * half_ref[0] + abs(dot(d, rot_ref[:, 1])) * half_ref[1]
         ref_origin = object_pose(data, bodies, ref)[:2, 3]
         # Near the reference first; the second half of the samples reaches further and wider, for a
         # reference with neighbours on that side.
@@ -140,18 +141,18 @@ def destination_candidates(
         d = None
     # Every sample at once: turned footprint, centre, frame origin, then the filters in turn.
     rz = yaw_rotation_2d(yaws)  # (n, 2, 2)
-    rots = rz @ rot_i0
-    offsets = rz @ offset0
+    rots = matmul(rz, rot_i0)
+    offsets = matmul(rz, offset0)
     if d is not None:
-        ext_i = np.abs(rots[:, :, 0] @ d) * half_i[0] + np.abs(rots[:, :, 1] @ d) * half_i[1]
+        ext_i = np.abs(matmul(rots[:, :, 0], d)) * half_i[0] + np.abs(matmul(rots[:, :, 1], d)) * half_i[1]
         c = c_ref + (ext_ref + ext_i + config.spot_margin + dist)[:, None] * d + lat[:, None] * lateral
     else:
         c = centres
     origins = c - offsets
     keep = np.all((origins >= lo) & (origins <= hi), axis=1)
     if d is not None:
-        keep &= (origins - ref_origin) @ d >= need
-    on_table, reach = table_and_reach(c, np.abs(rots) @ half_i, origins, layout)
+        keep &= matmul(origins - ref_origin, d) >= need
+    on_table, reach = table_and_reach(c, matmul(np.abs(rots), half_i), origins, layout)
     keep &= on_table
     gap = np.full(n, np.inf)
     for k in others:
@@ -231,8 +232,8 @@ def _limit_tcp_speed(path: np.ndarray, start: np.ndarray, dt: float, config: Pla
     qs = np.vstack([start[None], path])
     tcp = fk_tcp(qs)
     v = np.abs(np.diff(tcp[:, :3, 3], axis=0)) / dt
-    rel = np.einsum("nji,njk->nik", tcp[:-1, :3, :3], tcp[1:, :3, :3])
-    ang = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1)) / dt
+    rel = matmul(np.swapaxes(tcp[:-1, :3, :3], 1, 2), tcp[1:, :3, :3])
+    ang = arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1)) / dt
     return max(1.0, float(v.max(initial=0) / config.max_tcp_speed),
                float(ang.max(initial=0) / config.max_tcp_angular_speed))
 

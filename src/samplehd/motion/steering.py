@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from samplehd.fixedmath import matmul
 from samplehd.world.transforms import rotvec, rotvecs
 
 __all__ = ["steering_from_targets", "steering_motion"]
@@ -20,7 +21,7 @@ def steering_motion(poses_now: np.ndarray, poses_next: np.ndarray, dt: float, ma
     """The first six steering values (unclipped) of N steps between TCP target poses (N, 4, 4); see
     :func:`steering_from_targets`."""
     lin = (poses_next[:, :3, 3] - poses_now[:, :3, 3]) / (max_linear * dt)
-    rot = rotvecs(poses_next[:, :3, :3] @ np.swapaxes(poses_now[:, :3, :3], 1, 2)) / (max_angular * dt)
+    rot = rotvecs(matmul(poses_next[:, :3, :3], np.swapaxes(poses_now[:, :3, :3], 1, 2))) / (max_angular * dt)
     return np.concatenate([lin, rot], axis=1)
 
 
@@ -41,6 +42,6 @@ def steering_from_targets(
         (7,) float32 in [-1, 1]: linear x, y, z, angular x, y, z (base frame), gripper.
     """
     lin = (pose_next[:3, 3] - pose_now[:3, 3]) / (max_linear * dt)
-    rot = rotvec(pose_next[:3, :3] @ pose_now[:3, :3].T) / (max_angular * dt)
+    rot = rotvec(matmul(pose_next[:3, :3], pose_now[:3, :3].T)) / (max_angular * dt)
     out = np.concatenate([lin, rot, [gripper]])
     return np.clip(out, -1.0, 1.0).astype(np.float32)

@@ -6,9 +6,12 @@ it spends most of its time well below the limit)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from samplehd.errors import PlanningError
+from samplehd.fixedmath import half_turn_axis, matmul, norm
 from samplehd.robot.constants import TCP_OFFSET
 from samplehd.robot.kinematics import ik_path
 
@@ -18,7 +21,8 @@ __all__ = ["cartesian_path", "cruise_profile", "interpolate_pose", "joint_path",
 def min_jerk(n: int) -> np.ndarray:
     """Progress s(t) in [0, 1] at n samples t = 1/n … 1 of a minimum-jerk profile."""
     t = np.arange(1, n + 1) / n
-    return 10 * t**3 - 15 * t**4 + 6 * t**5
+    t3 = t * t * t  # products, not ``**``: numpy's power is CPU-dispatched (see samplehd.fixedmath)
+    return 10 * t3 - 15 * (t3 * t) + 6 * (t3 * t * t)
 
 
 def cruise_profile(
@@ -41,7 +45,8 @@ def cruise_profile(
 
     def ramp_distance(tau: np.ndarray) -> np.ndarray:  # distance covered tau into a speed ramp
         u = np.clip(tau / ramp_time, 0.0, 1.0)
-        return v * ramp_time * (u**3 - u**4 / 2) + v * np.maximum(tau - ramp_time, 0.0)
+        u3 = u * u * u
+        return v * ramp_time * (u3 - u3 * u / 2) + v * np.maximum(tau - ramp_time, 0.0)
 
     t = np.arange(1, n + 1) * dt
     s = np.where(t < total / 2, ramp_distance(t), dist - ramp_distance(total - t))
@@ -50,7 +55,7 @@ def cruise_profile(
 
 def rotation_angle(r: np.ndarray) -> float:
     """Angle of a rotation matrix [rad]."""
-    return float(np.arccos(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0)))
+    return math.acos(max(-1.0, min(1.0, (float(np.trace(r)) - 1.0) / 2.0)))
 
 
 def _axis_angle(r: np.ndarray) -> np.ndarray:
@@ -58,28 +63,26 @@ def _axis_angle(r: np.ndarray) -> np.ndarray:
     if ang < 1e-9:
         return np.zeros(3)
     v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    s = np.linalg.norm(v)
+    s = norm(v)
     if s < 1e-9:  # angle near pi
-        w, vec = np.linalg.eigh((r + r.T) / 2)
-        axis = vec[:, np.argmax(w)]
-        return axis * ang
+        return half_turn_axis(r) * ang
     return v / s * ang
 
 
 def _rodrigues(w: np.ndarray) -> np.ndarray:
-    ang = np.linalg.norm(w)
+    ang = norm(w)
     if ang < 1e-12:
         return np.eye(3)
     k = w / ang
     kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(ang) * kx + (1 - np.cos(ang)) * kx @ kx
+    return np.eye(3) + np.sin(ang) * kx + matmul((1 - np.cos(ang)) * kx, kx)
 
 
 def interpolate_pose(a: np.ndarray, b: np.ndarray, s: float) -> np.ndarray:
     """Pose at progress s between 4×4 poses a and b (linear position, geodesic rotation)."""
     t = np.eye(4)
     t[:3, 3] = a[:3, 3] + s * (b[:3, 3] - a[:3, 3])
-    t[:3, :3] = a[:3, :3] @ _rodrigues(s * _axis_angle(a[:3, :3].T @ b[:3, :3]))
+    t[:3, :3] = matmul(a[:3, :3], _rodrigues(s * _axis_angle(matmul(a[:3, :3].T, b[:3, :3]))))
     return t
 
 
@@ -141,8 +144,8 @@ def cartesian_path(
     Raises:
         PlanningError: a pose on the line is out of reach or the joint path jumps.
     """
-    dist = float(np.linalg.norm(end_pose[:3, 3] - start_pose[:3, 3]))
-    ang = rotation_angle(start_pose[:3, :3].T @ end_pose[:3, :3])
+    dist = float(norm(end_pose[:3, 3] - start_pose[:3, 3]))
+    ang = rotation_angle(matmul(start_pose[:3, :3].T, end_pose[:3, :3]))
     # The profile runs over the longer of the two motions, measured in seconds at their own speeds.
     length = max(dist / speed, ang / angular_speed)
     profile = cruise_profile(length, 1.875, dt, min_time, ramp_time) if length > 0 else min_jerk(

@@ -19,6 +19,7 @@ segmentation pass (flat id colours, no lighting) is cheap and also yields depth 
 
 from __future__ import annotations
 
+import math
 import os
 import threading
 from collections.abc import Iterable, Mapping, Sequence
@@ -30,6 +31,7 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import RenderError
+from samplehd.fixedmath import matmul
 from samplehd.render.photo.renderer import PhotoOptions, PhotoTracer
 from samplehd.render.photo.runtime import load_mitsuba
 
@@ -154,7 +156,7 @@ def camera_intrinsics(model: mujoco.MjModel, camera: str | int, width: int, heig
     """3×3 pinhole intrinsics K [px] of a camera rendered at width × height (square pixels)."""
     cid = _camera_id(model, camera)
     fovy = np.deg2rad(model.cam_fovy[cid])
-    f = 0.5 * height / np.tan(fovy / 2.0)
+    f = 0.5 * height / math.tan(float(fovy) / 2.0)
     return np.array([[f, 0.0, width / 2.0], [0.0, f, height / 2.0], [0.0, 0.0, 1.0]])
 
 
@@ -179,7 +181,7 @@ def project_points(
     pose = camera_pose(model, data, camera)
     k = camera_intrinsics(model, camera, width, height)
     pts = np.atleast_2d(np.asarray(points, dtype=float))
-    cam = (pts - pose[:3, 3]) @ pose[:3, :3]  # world → camera frame
+    cam = matmul(pts - pose[:3, 3], pose[:3, :3])  # world → camera frame
     depth = -cam[:, 2]
     u = k[0, 2] + k[0, 0] * cam[:, 0] / depth
     v = k[1, 2] - k[1, 1] * cam[:, 1] / depth

@@ -25,6 +25,7 @@ import math
 import numpy as np
 
 from samplehd.errors import KinematicsError, UnreachableError
+from samplehd.fixedmath import arccos, arcsin, arctan2, inv_rigid, matmul, norm
 from samplehd.robot.constants import DH_A, DH_ALPHA, DH_D, JOINT_LIMITS, NUM_JOINTS, TCP_OFFSET
 
 __all__ = [
@@ -69,7 +70,7 @@ def _check_pose(pose: np.ndarray) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise KinematicsError("pose contains NaN or infinite values")
     rot = arr[..., :3, :3]
-    err = np.abs(rot @ np.swapaxes(rot, -1, -2) - np.eye(3)).max() if arr.size else 0.0
+    err = np.abs(matmul(rot, np.swapaxes(rot, -1, -2)) - np.eye(3)).max() if arr.size else 0.0
     if err > 1e-6:
         raise KinematicsError(f"pose rotation is not orthonormal (max error {err:.2e})")
     return arr
@@ -126,7 +127,7 @@ def forward_kinematics(q: np.ndarray, tool_offset: float = 0.0) -> np.ndarray:
     t[..., 3, 3] = 1.0
     out = t[..., 0, :, :]
     for i in range(1, NUM_JOINTS):
-        out = out @ t[..., i, :, :]
+        out = matmul(out, t[..., i, :, :])
     if tool_offset:
         out = out.copy()
         out[..., :3, 3] += tool_offset * out[..., :3, 2]
@@ -160,14 +161,14 @@ def _ik_core(pose: np.ndarray, seed234: np.ndarray) -> tuple[np.ndarray, np.ndar
     p5 = p - _D6 * r[:, :, 2]
     rxy = np.hypot(p5[:, 0], p5[:, 1])
     ok1 = rxy >= _D4 * (1.0 - 1e-12)
-    phi = np.arccos(np.clip(_D4 / np.maximum(rxy, 1e-300), -1.0, 1.0))
-    psi = np.arctan2(p5[:, 1], p5[:, 0])
+    phi = arccos(np.clip(_D4 / np.maximum(rxy, 1e-300), -1.0, 1.0))
+    psi = arctan2(p5[:, 1], p5[:, 0])
     # Branch index layout: [shoulder (2), wrist (2), elbow (2)] -> 8.
     q1 = np.stack([psi + phi, psi - phi], axis=1) + np.pi / 2  # (N, 2)
     s1, c1 = np.sin(q1), np.cos(q1)
     c5 = (p[:, None, 0] * s1 - p[:, None, 1] * c1 - _D4) / _D6
     ok5 = np.abs(c5) <= 1.0 + _COS_TOL
-    a5 = np.arccos(np.clip(c5, -1.0, 1.0))
+    a5 = arccos(np.clip(c5, -1.0, 1.0))
     q5 = np.stack([a5, -a5], axis=2)  # (N, 2, 2)
     s5 = np.sin(q5)
     nx, ny = r[:, None, None, 0, 0], r[:, None, None, 1, 0]
@@ -175,33 +176,33 @@ def _ik_core(pose: np.ndarray, seed234: np.ndarray) -> tuple[np.ndarray, np.ndar
     s1e, c1e = s1[:, :, None], c1[:, :, None]
     singular = np.abs(s5) < _WRIST_SINGULAR
     s5safe = np.where(singular, 1.0, s5)
-    q6 = np.arctan2((-ox * s1e + oy * c1e) / s5safe, (nx * s1e - ny * c1e) / s5safe)
+    q6 = arctan2((-ox * s1e + oy * c1e) / s5safe, (nx * s1e - ny * c1e) / s5safe)
     # Singular wrist: keep the seed's q234 and solve q6 from Rz(-q234) R16 = Ry(-q5) Rz(q6).
     s234, c234 = np.sin(seed234)[:, None, None], np.cos(seed234)[:, None, None]
     r00, r01 = c1e * nx + s1e * ny, c1e * ox + s1e * oy
     r10, r11 = r[:, None, None, 2, 0], r[:, None, None, 2, 1]
-    q6_singular = np.arctan2(-s234 * r00 + c234 * r10, -s234 * r01 + c234 * r11)
+    q6_singular = arctan2(-s234 * r00 + c234 * r10, -s234 * r01 + c234 * r11)
     q6 = np.where(singular, q6_singular, q6)
     # Frame 1 -> frame 4 transform: T14 = inv(T01) T06 inv(T45 T56).
     q1b = np.broadcast_to(q1[:, :, None], (n, 2, 2))
     t01 = _dh_single(q1b, 0)
     t45 = _dh_single(q5, 4)
     t56 = _dh_single(q6, 5)
-    t14 = _inv_h(t01) @ pose[:, None, None] @ _inv_h(t45 @ t56)
+    t14 = matmul(matmul(inv_rigid(t01), pose[:, None, None]), inv_rigid(matmul(t45, t56)))
     p13 = t14[..., :3, 3] - _D4 * t14[..., :3, 1]
     len2 = p13[..., 0] ** 2 + p13[..., 1] ** 2
     c3 = (len2 - _A2 * _A2 - _A3 * _A3) / (2.0 * _A2 * _A3)
     ok3 = np.abs(c3) <= 1.0 + _COS_TOL
-    a3 = np.arccos(np.clip(c3, -1.0, 1.0))
+    a3 = arccos(np.clip(c3, -1.0, 1.0))
     q3 = np.stack([a3, -a3], axis=3)  # (N, 2, 2, 2)
     length = np.sqrt(len2)[..., None]
-    q2 = -np.arctan2(p13[..., 1], -p13[..., 0])[..., None] + np.arcsin(
+    q2 = -arctan2(p13[..., 1], -p13[..., 0])[..., None] + arcsin(
         np.clip(_A3 * np.sin(q3) / np.maximum(length, 1e-300), -1.0, 1.0)
     )
     t12 = _dh_single(q2, 1)
     t23 = _dh_single(q3, 2)
-    t34 = _inv_h(t12 @ t23) @ t14[..., None, :, :]
-    q4 = np.arctan2(t34[..., 1, 0], t34[..., 0, 0])
+    t34 = matmul(inv_rigid(matmul(t12, t23)), t14[..., None, :, :])
+    q4 = arctan2(t34[..., 1, 0], t34[..., 0, 0])
     shape = (n, 2, 2, 2)
     q = np.stack(
         [
@@ -347,15 +348,6 @@ def _dh_single(theta: np.ndarray, i: int) -> np.ndarray:
     return t
 
 
-def _inv_h(t: np.ndarray) -> np.ndarray:
-    rt = np.swapaxes(t[..., :3, :3], -1, -2)
-    out = np.zeros_like(t)
-    out[..., :3, :3] = rt
-    out[..., :3, 3] = -(rt @ t[..., :3, 3:4])[..., 0]
-    out[..., 3, 3] = 1.0
-    return out
-
-
 def wrap_to_limits(q: np.ndarray, seed: np.ndarray, limits: np.ndarray = JOINT_LIMITS) -> tuple[np.ndarray, np.ndarray]:
     """Shift each angle by multiples of 2π to the value nearest ``seed`` inside ``limits``.
 
@@ -392,7 +384,7 @@ def ik_all(pose: np.ndarray, tool_offset: float = 0.0) -> np.ndarray:
     pose = _check_pose(pose)
     if pose.shape != (4, 4):
         raise KinematicsError(f"pose must have shape (4, 4), got {pose.shape}")
-    flange = pose @ _tool(-tool_offset) if tool_offset else pose
+    flange = matmul(pose, _tool(-tool_offset)) if tool_offset else pose
     q, valid = _ik_core(flange[None], np.zeros(1))
     return q[0][valid[0]]
 
@@ -422,7 +414,7 @@ def ik_batch(
         raise KinematicsError(f"poses must have shape (N, 4, 4), got {poses.shape}")
     n = poses.shape[0]
     seeds = np.broadcast_to(_check_q(seeds), (n, NUM_JOINTS))
-    flange = poses @ _tool(-tool_offset) if tool_offset else poses
+    flange = matmul(poses, _tool(-tool_offset)) if tool_offset else poses
     q, valid = _ik_core(flange, seeds[:, 1] + seeds[:, 2] + seeds[:, 3])
     q, in_limits = wrap_to_limits(q, seeds[:, None, :], limits)
     valid &= in_limits
@@ -462,7 +454,7 @@ def ik_path(
         raise KinematicsError(f"poses must have shape (N, 4, 4), got {poses.shape}")
     q = _check_q(q_start).astype(float)
     n = poses.shape[0]
-    flange = poses @ _tool(-tool_offset) if tool_offset else poses
+    flange = matmul(poses, _tool(-tool_offset)) if tool_offset else poses
     branches, valid = _ik_core(flange, np.full(n, q[1] + q[2] + q[3]))
     out = np.empty((n, NUM_JOINTS))
     lo, hi = limits[:, 0], limits[:, 1]
@@ -557,7 +549,7 @@ def ik_tcp(pose: np.ndarray, seed: np.ndarray) -> np.ndarray:
 
 def pose_from_pos_quat(pos: np.ndarray, quat: np.ndarray) -> np.ndarray:
     """4×4 transform from a position [m] and a unit quaternion (w, x, y, z)."""
-    w, x, y, z = (float(v) for v in np.asarray(quat, dtype=float) / np.linalg.norm(quat))
+    w, x, y, z = (float(v) for v in np.asarray(quat, dtype=float) / norm(quat))
     t = np.eye(4)
     t[:3, :3] = [
         [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],

@@ -36,6 +36,7 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
+from samplehd.fixedmath import norm
 from samplehd.robot.constants import (
     ARM_KP,
     ARM_KV,
@@ -164,7 +165,7 @@ def _volume(gtype: int, size: Sequence[float], fromto: Sequence[float] | None) -
     if gtype == _GEOM.mjGEOM_BOX:
         return 8.0 * size[0] * size[1] * size[2]
     assert fromto is not None  # cylinders are always given by fromto here
-    length = float(np.linalg.norm(np.subtract(fromto[3:], fromto[:3])))
+    length = float(norm(np.subtract(fromto[3:], fromto[:3])))
     return math.pi * size[0] ** 2 * length
 
 

@@ -24,6 +24,7 @@ import mujoco
 import numpy as np
 
 from samplehd.catalogue import object_facts
+from samplehd.fixedmath import matmul
 from samplehd.render.renderer import (
     SEG_BACKGROUND,
     SEG_OBJECT_OFFSET,
@@ -91,8 +92,8 @@ def annotate_scene(
         rot = quat_to_mat(quat)
         lo, hi = np.asarray(facts.bbox_min), np.asarray(facts.bbox_max)
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-        world_corners = corners @ rot.T + pos
-        center = pos + rot @ ((lo + hi) / 2)
+        world_corners = matmul(corners, rot.T) + pos
+        center = pos + matmul(rot, (lo + hi) / 2)
         centers.append(center)
         inst = obj.instance
         aff = facts.affordances.to_dict()

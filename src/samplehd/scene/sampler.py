@@ -6,6 +6,7 @@ Every rejection is counted by reason. The same seed gives the same scene (bit fo
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 
@@ -14,6 +15,7 @@ import numpy as np
 
 from samplehd.catalogue import Catalogue, ObjectFacts, ObjectInstance, catalogue_for, object_facts
 from samplehd.errors import ConfigError, SceneError
+from samplehd.fixedmath import matmul, norm
 from samplehd.render.renderer import SEG_OBJECT_OFFSET, RendererCache
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
 from samplehd.scene.config import SceneConfig
@@ -124,7 +126,7 @@ def _footprint_corners(facts: ObjectFacts, xy: np.ndarray, yaw: float, margin: f
     local = np.array([[cx - hx, cy - hy], [cx + hx, cy - hy], [cx + hx, cy + hy], [cx - hx, cy + hy]])
     c, s = np.cos(yaw), np.sin(yaw)
     rot = np.array([[c, -s], [s, c]])
-    return local @ rot.T + xy
+    return matmul(local, rot.T) + xy
 
 
 def _rects_overlap(a: np.ndarray, b: np.ndarray) -> bool:
@@ -133,7 +135,7 @@ def _rects_overlap(a: np.ndarray, b: np.ndarray) -> bool:
         for i in range(4):
             edge = poly[(i + 1) % 4] - poly[i]
             axis = np.array([-edge[1], edge[0]])
-            pa, pb = a @ axis, b @ axis
+            pa, pb = matmul(a, axis), matmul(b, axis)
             if pa.max() < pb.min() or pb.max() < pa.min():
                 return False
     return True
@@ -167,15 +169,16 @@ def sample_camera(rng: np.random.Generator, config: SceneConfig, base: CameraSpe
     """A camera drawn in a cone around `base`: yaw about the target, elevation, distance, target jitter."""
     target = np.asarray(base.target, float) + np.append(rng.uniform(-1, 1, 2) * config.camera_target_jitter, 0.0)
     offset = np.asarray(base.pos, float) - np.asarray(base.target, float)
-    dist = np.linalg.norm(offset) * (1.0 + rng.uniform(-1, 1) * config.camera_distance_jitter)
-    yaw = np.arctan2(offset[1], offset[0]) + np.deg2rad(rng.uniform(-1, 1) * config.camera_yaw_deg)
-    pitch = np.arcsin(offset[2] / np.linalg.norm(offset)) + np.deg2rad(rng.uniform(-1, 1) * config.camera_pitch_deg)
+    dist = norm(offset) * (1.0 + rng.uniform(-1, 1) * config.camera_distance_jitter)
+    yaw = math.atan2(float(offset[1]), float(offset[0])) + np.deg2rad(rng.uniform(-1, 1) * config.camera_yaw_deg)
+    pitch = (math.asin(max(-1.0, min(1.0, float(offset[2]) / norm(offset))))
+             + np.deg2rad(rng.uniform(-1, 1) * config.camera_pitch_deg))
     pos = target + dist * np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)])
     return CameraSpec(SCENE_CAMERA, tuple(float(v) for v in pos), tuple(float(v) for v in target), base.fovy)
 
 
 def _tilt_deg(quat: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(np.clip(quat_to_mat(quat)[2, 2], -1.0, 1.0))))
+    return math.degrees(math.acos(max(-1.0, min(1.0, float(quat_to_mat(quat)[2, 2])))))
 
 
 def _settle(
@@ -199,12 +202,12 @@ def _settle(
         rejections["settle_drifted"] += 1
         return None
     dof = [int(model.jnt_dofadr[model.body_jntadr[model.body(object_body_name(i)).id]]) for i in range(len(adr))]
-    speeds = [np.linalg.norm(data.qvel[d : d + 3]) for d in dof]
+    speeds = [norm(data.qvel[d : d + 3]) for d in dof]
     if max(speeds) > config.max_rest_speed:
         rejections["settle_still_moving"] += 1
         return None
     objects = tuple(
-        SceneObject(o.instance, tuple(float(v) for v in e[:3]), tuple(float(v) for v in e[3:] / np.linalg.norm(e[3:])))
+        SceneObject(o.instance, tuple(float(v) for v in e[:3]), tuple(float(v) for v in e[3:] / norm(e[3:])))
         for o, e in zip(scene.objects, end, strict=True)
     )
     settled = SceneSpec(scene.index, scene.seed, objects, scene.camera)

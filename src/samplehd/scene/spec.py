@@ -14,6 +14,7 @@ import numpy as np
 
 from samplehd.catalogue import ObjectInstance
 from samplehd.errors import SceneError
+from samplehd.fixedmath import norm
 from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec, PlacedObject, WorldConfig, compile_world
 from samplehd.world.bodies import object_body_name
 
@@ -56,7 +57,7 @@ class SceneObject:
         if pos.shape != (3,) or not np.all(np.isfinite(pos)) or np.any(np.abs(pos) > _MAX_COORD):
             raise SceneError(f"scene object pos={list(obj.pos)!r}: must be 3 finite coordinates within "
                              f"±{_MAX_COORD} m of the table centre")
-        if quat.shape != (4,) or not np.all(np.isfinite(quat)) or not 0.5 < np.linalg.norm(quat) < 1.5:
+        if quat.shape != (4,) or not np.all(np.isfinite(quat)) or not 0.5 < norm(quat) < 1.5:
             raise SceneError(f"scene object quat={list(obj.quat)!r}: must be a unit quaternion (w, x, y, z)")
         return obj
 

@@ -33,12 +33,14 @@ and objects that **fell** (tipped more than ``fall_angle`` or left the table top
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import mujoco
 import numpy as np
 
+from samplehd.fixedmath import dot, norm
 from samplehd.physics import wake_all
 from samplehd.scene.spec import SceneSpec
 from samplehd.schema import bounded, check_fields, from_mapping
@@ -149,10 +151,10 @@ class Judge:
         """Empty string if object i rests, else why not."""
         if self.touching(i, self.b.gripper_bodies):
             return f"object {i} still touches the gripper"
-        drift = float(np.linalg.norm(self.pos(i) - self.pos(i, self.start)))
+        drift = float(norm(self.pos(i) - self.pos(i, self.start)))
         if drift > self.cfg.stable_drift:
             return f"object {i} moved {drift * 1000:.0f} mm during the {self.cfg.window:.1f} s window"
-        speed = float(np.linalg.norm(self.end.cvel[self.b.object_body[i], 3:]))
+        speed = float(norm(self.end.cvel[self.b.object_body[i], 3:]))
         if speed > self.cfg.rest_speed:
             return f"object {i} still moves at {speed:.3f} m/s"
         return ""
@@ -240,9 +242,9 @@ def check_success(
             fallen.append(k)
         if k in moved_ok:
             continue
-        qd = abs(float(np.dot(q0, q1)))
-        ang = 2.0 * float(np.arccos(min(1.0, qd)))
-        if np.linalg.norm(p1 - p0) > config.disturb_distance or ang > config.disturb_angle:
+        qd = abs(float(dot(q0, q1)))
+        ang = 2.0 * math.acos(min(1.0, qd))
+        if norm(p1 - p0) > config.disturb_distance or ang > config.disturb_angle:
             disturbed.append(k)
     return CheckResult(not reason, t.family, reason, tuple(disturbed), tuple(fallen), details)
 

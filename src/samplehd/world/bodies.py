@@ -17,6 +17,7 @@ import mujoco
 import numpy as np
 
 from samplehd.catalogue import ObjectFacts
+from samplehd.fixedmath import dot, matmul
 from samplehd.physics import awake_contacts
 
 __all__ = [
@@ -129,7 +130,7 @@ def object_local_box(model: mujoco.MjModel, bodies: SceneBodies, i: int) -> Obje
     for g in coll or geoms:
         mat = np.empty(9)
         mujoco.mju_quat2Mat(mat, model.geom_quat[g])
-        pts.append(_geom_corners(model, g) @ mat.reshape(3, 3).T + model.geom_pos[g])
+        pts.append(matmul(_geom_corners(model, g), mat.reshape(3, 3).T) + model.geom_pos[g])
     p = np.concatenate(pts)
     return ObjectBox(p.min(axis=0), p.max(axis=0))
 
@@ -140,7 +141,7 @@ def object_world_box(model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBo
     geoms = bodies.object_geoms(i)
     coll = [g for g in geoms if model.geom_contype[g] or model.geom_conaffinity[g]]
     for g in coll or geoms:
-        pts.append(_geom_corners(model, g) @ data.geom_xmat[g].reshape(3, 3).T + data.geom_xpos[g])
+        pts.append(matmul(_geom_corners(model, g), data.geom_xmat[g].reshape(3, 3).T) + data.geom_xpos[g])
     p = np.concatenate(pts)
     return ObjectBox(p.min(axis=0), p.max(axis=0))
 
@@ -169,7 +170,7 @@ def quat_tilt(q0: np.ndarray, q1: np.ndarray) -> float:
         m = np.empty(9)
         mujoco.mju_quat2Mat(m, np.asarray(q, dtype=float))
         z.append(m.reshape(3, 3)[:, 2])
-    return float(np.arccos(np.clip(np.dot(z[0], z[1]), -1.0, 1.0)))
+    return math.acos(max(-1.0, min(1.0, dot(z[0], z[1]))))
 
 
 def object_pose(data: mujoco.MjData, bodies: SceneBodies, i: int) -> np.ndarray:
@@ -196,7 +197,7 @@ def object_footprint(
     if abs(t[2, 2]) < 0.9:  # tipped over: fall back to the world box
         wb = object_world_box(bodies.model, data, bodies, k)
         return wb.center[:2], np.eye(2), wb.half[:2]
-    return t[:2, 3] + rot @ c_local, rot, half
+    return t[:2, 3] + matmul(rot, c_local), rot, half
 
 
 def grasped_object(model: mujoco.MjModel, data: mujoco.MjData, finger_bodies: tuple[int, int],

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from samplehd.fixedmath import matmul
 from samplehd.world.bodies import SceneBodies
 from samplehd.world.robot_info import RobotInfo
 
@@ -77,7 +78,7 @@ class CollisionChecker:
             tcp = np.eye(4)
             tcp[:3, :3] = d.site_xmat[self.robot.tcp_site].reshape(3, 3)
             tcp[:3, 3] = d.site_xpos[self.robot.tcp_site]
-            obj = tcp @ held.tcp_to_object
+            obj = matmul(tcp, held.tcp_to_object)
             quat = np.empty(4)
             mujoco.mju_mat2Quat(quat, obj[:3, :3].reshape(9))
             d.qpos[adr:adr + 3] = obj[:3, 3]

@@ -27,6 +27,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from samplehd.errors import ConfigError
+from samplehd.fixedmath import matmul, norm
 from samplehd.world import placement
 from samplehd.world.layout import TableLayout
 from samplehd.world.planner_config import PlannerConfig
@@ -525,7 +526,7 @@ class FreeSpots:
                 self._table, self._base, self.search.relation_gap + placement.BESIDE_NEED, weight)
             centre = (cx, cy)
             if self._below(kept, len(weight), self.search.min_hits - 1e-6,
-                           lambda: float(weight @ keep.ravel())):
+                           lambda: float(np.add.reduce(weight * keep.ravel()))):
                 self._memo[key] = None
                 return None
             _in_annulus(keep, rel_x, rel_y, self.layout)
@@ -541,7 +542,7 @@ class FreeSpots:
         key = ("extent", k, direction, turned)
         if key not in self._memo:
             d = _beside_cells(direction, self.search.step)[0]
-            self._memo[key] = np.abs(d @ (self._turned(k)[0] if turned else self.rot[k])) @ self.half[k]
+            self._memo[key] = matmul(np.abs(matmul(d, self._turned(k)[0] if turned else self.rot[k])), self.half[k])
         return self._memo[key]
 
     def _turned(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -550,14 +551,15 @@ class FreeSpots:
         key = ("turned footprint", k)
         if key not in self._memo:
             rots = self._turned_rots(k)
-            self._memo[key] = (rots, self._turn_rots @ (self.centre[k] - self.origin[k]), np.abs(rots) @ self.half[k])
+            self._memo[key] = (rots, matmul(self._turn_rots, self.centre[k] - self.origin[k]),
+                               matmul(np.abs(rots), self.half[k]))
         return self._memo[key]
 
     def _turned_rots(self, k: int) -> np.ndarray:
         """Object k's rotation after each turn (t, 2, 2) (memoised)."""
         key = ("turned", k)
         if key not in self._memo:
-            self._memo[key] = self._turn_rots @ self.rot[k]
+            self._memo[key] = matmul(self._turn_rots, self.rot[k])
         return self._memo[key]
 
     def _spots(self, k: int, grid: _Grid, centre: Callable[[], np.ndarray], offsets: np.ndarray, turn: np.ndarray,
@@ -642,7 +644,7 @@ def _beside_cells(direction: tuple[float, float], step: float) -> tuple[Any, ...
     only): the direction and its lateral (and both as rows), the (distance, lateral offset) cells of every
     turn, flattened, their turns, weights and far penalty, and the columns' start and width."""
     d = np.asarray(direction, float)
-    d /= np.linalg.norm(d)
+    d /= norm(d)
     lateral = np.array([-d[1], d[0]])
     (near_dist, near_lat), (far_dist, far_lat) = placement.BESIDE_NEAR, placement.BESIDE_FAR
     dists, lats = _cells(0.0, far_dist, step), _cells(-far_lat, far_lat, step)
@@ -695,7 +697,7 @@ def rect_overlap(c1: np.ndarray, r1: np.ndarray, h1: np.ndarray, c2: np.ndarray,
     """
     r1, r2 = np.broadcast_arrays(np.asarray(r1, float), np.asarray(r2, float))
     axes = np.swapaxes(np.concatenate((r1, r2), axis=-1), -1, -2)  # the four candidate axes, as rows
-    reach = (np.abs(axes @ r1) @ (np.asarray(h1) + margin / 2)[..., None]
-             + np.abs(axes @ r2) @ (np.asarray(h2) + margin / 2)[..., None])
-    apart = np.abs(axes @ (np.asarray(c2) - np.asarray(c1))[..., None])
+    reach = (matmul(np.abs(matmul(axes, r1)), (np.asarray(h1) + margin / 2)[..., None])
+             + matmul(np.abs(matmul(axes, r2)), (np.asarray(h2) + margin / 2)[..., None]))
+    apart = np.abs(matmul(axes, (np.asarray(c2) - np.asarray(c1))[..., None]))
     return np.all(apart <= reach, axis=(-2, -1))

@@ -28,6 +28,7 @@ import mujoco
 import numpy as np
 
 from samplehd.catalogue import ObjectFacts
+from samplehd.fixedmath import dot, matmul, norm
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
 from samplehd.robot.kinematics import ik_all, ik_batch, wrap_to_limits
 from samplehd.world.bodies import SceneBodies, object_pose, object_world_box
@@ -82,13 +83,13 @@ class Grasp:
         """
         z = np.asarray(self.approach, dtype=float)
         c = np.asarray(self.closing, dtype=float)
-        c = c - np.dot(c, z) * z
-        c /= np.linalg.norm(c)
+        c = c - dot(c, z) * z
+        c /= norm(c)
         fa = np.asarray(finger_axis, dtype=float)
         # Map TCP frame (fa, z × fa, z) onto the object frame (c, z × c, z).
         tcp_basis = np.column_stack([fa, np.cross([0.0, 0.0, 1.0], fa), [0.0, 0.0, 1.0]])
         obj_basis = np.column_stack([c, np.cross(z, c), z])
-        return obj_basis @ tcp_basis.T
+        return matmul(obj_basis, tcp_basis.T)
 
     def pose(self, finger_axis: np.ndarray) -> np.ndarray:
         """4×4 TCP pose in the object frame."""
@@ -336,7 +337,7 @@ def choose_grasps(
             break  # every later candidate costs at least this much: none can beat the best
         if k in exclude:
             continue
-        tcp_w = t_obj @ g.pose(robot.finger_axis)
+        tcp_w = matmul(t_obj, g.pose(robot.finger_axis))
         app = tcp_w[:3, 2]
         if app[2] > -0.5:
             continue  # only top-down grasps: side approaches run the fingers into the table

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from samplehd.errors import ConfigError
+from samplehd.fixedmath import matmul
 from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, TCP_OFFSET
 from samplehd.robot.kinematics import ik_batch
 from samplehd.world.layout import LAYOUT, TableLayout
@@ -61,8 +62,8 @@ class IKReachable:
             for dz in (0.0, self.pregrasp_height):
                 world = np.array([float(xyz[0]), float(xyz[1]), z + dz])
                 pose = np.eye(4)
-                pose[:3, :3] = base_rot.T @ rot
-                pose[:3, 3] = base_rot.T @ (world - base_pos)
+                pose[:3, :3] = matmul(base_rot.T, rot)
+                pose[:3, 3] = matmul(base_rot.T, world - base_pos)
                 poses.append(pose)
         _, ok = ik_batch(np.array(poses), HOME_QPOS, tool_offset=TCP_OFFSET)
         pairs = ok.reshape(len(self.yaws), 2)

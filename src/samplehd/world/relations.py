@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.fixedmath import matmul
 from samplehd.world.layout import DIRECTIONS
 
 __all__ = ["DEFAULT_RELATION_MARGIN", "RELATIONS", "compute_relationships"]
@@ -53,7 +54,7 @@ def compute_relationships(
     for name in RELATIONS:
         d = np.asarray(directions[name], dtype=float)[: coords.shape[1]]
         # offset[i, j] = (coords[j] - coords[i]) . d, exactly as CLEVR computes it
-        offset = (coords[None, :, :] - coords[:, None, :]) @ d
+        offset = matmul(coords[None, :, :] - coords[:, None, :], d)
         np.fill_diagonal(offset, -np.inf)
         out[name] = [np.flatnonzero(row > margin).tolist() for row in offset]
     return out

@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import PlanningError
+from samplehd.fixedmath import dot, matmul, norm
 from samplehd.robot.constants import GRIPPER_FINGER_JOINTS, GRIPPER_STROKE, JOINT_NAMES, ROBOT_BODY
 
 __all__ = ["RobotInfo"]
@@ -59,13 +60,13 @@ class RobotInfo:
         tcp_rot = d.site_xmat[tcp].reshape(3, 3)
         # Direction of finger 0's travel, in the TCP frame, at a slightly opened state.
         j0 = fids[0]
-        axis_world = d.xmat[model.jnt_bodyid[j0]].reshape(3, 3) @ model.jnt_axis[j0]
-        axis_tcp = tcp_rot.T @ axis_world
+        axis_world = matmul(d.xmat[model.jnt_bodyid[j0]].reshape(3, 3), model.jnt_axis[j0])
+        axis_tcp = matmul(tcp_rot.T, axis_world)
         axis_tcp[2] = 0.0
-        axis_tcp /= max(np.linalg.norm(axis_tcp), 1e-9)
+        axis_tcp /= max(norm(axis_tcp), 1e-9)
         # Does finger 0 move away from the TCP (opening) as its joint increases?
         rel = d.xpos[model.jnt_bodyid[j0]] - d.site_xpos[tcp]
-        open_sign = 1.0 if np.dot(axis_world, rel) >= 0 else -1.0
+        open_sign = 1.0 if dot(axis_world, rel) >= 0 else -1.0
         depth = 0.0
         tcp_pos = d.site_xpos[tcp]
         for fj in fids:
@@ -75,8 +76,8 @@ class RobotInfo:
                     continue
                 c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
                 signs = np.array([[a, b, e] for a in (-1, 1) for b in (-1, 1) for e in (-1, 1)], float)
-                pts = (c + signs * h) @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g]
-                depth = max(depth, float(np.max((pts - tcp_pos) @ tcp_rot[:, 2])))
+                pts = matmul(c + signs * h, d.geom_xmat[g].reshape(3, 3).T) + d.geom_xpos[g]
+                depth = max(depth, float(np.max(matmul(pts - tcp_pos, tcp_rot[:, 2]))))
         return cls(
             arm_qpos=np.array([model.jnt_qposadr[j] for j in ids]),
             arm_dof=np.array([model.jnt_dofadr[j] for j in ids]),
@@ -99,13 +100,13 @@ class RobotInfo:
     def world_to_base(self, pose: np.ndarray) -> np.ndarray:
         """A world 4×4 pose in the robot base frame."""
         t = np.eye(4)
-        t[:3, :3] = self.base_rot.T @ pose[:3, :3]
-        t[:3, 3] = self.base_rot.T @ (pose[:3, 3] - self.base_pos)
+        t[:3, :3] = matmul(self.base_rot.T, pose[:3, :3])
+        t[:3, 3] = matmul(self.base_rot.T, pose[:3, 3] - self.base_pos)
         return t
 
     def base_to_world(self, pose: np.ndarray) -> np.ndarray:
         """A base-frame 4×4 pose in the world."""
         t = np.eye(4)
-        t[:3, :3] = self.base_rot @ pose[:3, :3]
-        t[:3, 3] = self.base_rot @ pose[:3, 3] + self.base_pos
+        t[:3, :3] = matmul(self.base_rot, pose[:3, :3])
+        t[:3, 3] = matmul(self.base_rot, pose[:3, 3]) + self.base_pos
         return t

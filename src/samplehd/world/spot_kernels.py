@@ -17,29 +17,10 @@ import math
 
 import numba
 import numpy as np
-from llvmlite import ir
-from numba.core import types
-from numba.extending import intrinsic
 
 __all__ = ["beside_keep", "best_spots", "blocked_weight", "blockers", "clear_points", "clearance", "column_runs",
-           "counts_outside", "farthest_picks", "fma", "free_spots", "in_annulus", "near_objects", "option_counts",
+           "counts_outside", "farthest_picks", "free_spots", "in_annulus", "near_objects", "option_counts",
            "part_keep", "rect_runs", "spot_options", "spot_scores", "uncovered", "uncovered_weight", "weight_sum"]
-
-
-@intrinsic
-def fma(typingctx: object, a: object, b: object, c: object) -> tuple[object, object]:
-    """``a * b + c`` rounded once (IEEE fused multiply-add, ``llvm.fma``), in compiled loops only.
-
-    numpy's products of small matrices go through BLAS, whose kernels fuse one product of each 2-term
-    sum into the other's rounding; the loops that stand for such a product say which one (see
-    :func:`rect_runs`), so that they give its bits."""
-    sig = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context: object, builder: ir.IRBuilder, signature: object, args: tuple[object, ...]) -> object:
-        d = ir.DoubleType()
-        return builder.call(builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d])), args)
-
-    return sig, codegen
 
 
 @numba.njit(cache=True, nogil=True)
@@ -146,10 +127,9 @@ def rect_runs(rt: np.ndarray, half: np.ndarray, rots: np.ndarray, halves: np.nda
     """:func:`column_runs` of an object turned by each of ``rt`` against rectangles, from their poses.
 
     The test's axes, the reach along each and the projections are the products of 2-vectors that
-    :mod:`samplehd.world.free_spot` used to take with numpy, here with that product's own rounding: a
-    matrix product (``A @ B``) gives ``fma(a1, b1, a0 * b0)``, a matrix times a vector ``fma(a0, b0,
-    a1 * b1)`` (BLAS), the projection of the centres' offset ``a0 * b0 + a1 * b1`` (``einsum``); tests
-    check the bits against those array expressions.
+    :mod:`samplehd.world.free_spot` takes with :func:`samplehd.fixedmath.matmul`, here with the same
+    rounding: every product of 2-vectors is ``a0 * b0 + a1 * b1``, each product and the sum rounded on
+    their own (no fused multiply-add); tests check the bits against those array expressions.
 
     Args:
         rt: (t, 2, 2) the placed object's rotation after each turn; half: (2,) its half sizes [m].
@@ -190,14 +170,13 @@ def _rect_runs(rt: np.ndarray, half: np.ndarray, rots: np.ndarray, halves: np.nd
             dx, dy = centres[n, 0] - base[t, 0], centres[n, 1] - base[t, 1]
             for a in range(4):
                 x, y = axes[a, 0], axes[a, 1]
-                own = fma(abs(fma(y, rt[t, 1, 0], x * rt[t, 0, 0])), hk0,
-                          abs(fma(y, rt[t, 1, 1], x * rt[t, 0, 1])) * hk1)
-                other = fma(abs(fma(y, rots[n, 1, 0], x * rots[n, 0, 0])), h0,
-                            abs(fma(y, rots[n, 1, 1], x * rots[n, 0, 1])) * h1)
+                own = abs(x * rt[t, 0, 0] + y * rt[t, 1, 0]) * hk0 + abs(x * rt[t, 0, 1] + y * rt[t, 1, 1]) * hk1
+                other = (abs(x * rots[n, 0, 0] + y * rots[n, 1, 0]) * h0
+                         + abs(x * rots[n, 0, 1] + y * rots[n, 1, 1]) * h1)
                 lim[a] = own + other
                 q0[a] = x * dx + y * dy
-                along[a] = fma(x, grid_axes[0, 0], y * grid_axes[0, 1])
-                across[a] = fma(x, grid_axes[1, 0], y * grid_axes[1, 1])
+                along[a] = x * grid_axes[0, 0] + y * grid_axes[0, 1]
+                across[a] = x * grid_axes[1, 0] + y * grid_axes[1, 1]
             a0, a1 = r0, r1
             if reach.shape[0]:
                 at = dx * grid_axes[0, 0] + dy * grid_axes[0, 1]
@@ -570,7 +549,7 @@ def beside_keep(d: np.ndarray, lateral: np.ndarray, dists: np.ndarray, lats: np.
     Spot (t, i, j) puts the footprint centre at ``centre + (start[t] + dists[i]) d + lats[j] lateral``,
     each coordinate computed as the array expression of :mod:`samplehd.world.free_spot` did, on the axes it
     depends on (a term whose direction component is 0 left out; the distance past the reference along a
-    slanted direction is the matrix-vector product ``fma(a0, b0, a1 * b1)``).
+    slanted direction is the product ``a0 * b0 + a1 * b1``, as :func:`samplehd.fixedmath.matmul`).
 
     Args:
         d, lateral: (2,) the direction and its lateral; dists, lats: the rows' distances and the columns'
@@ -606,7 +585,7 @@ def beside_keep(d: np.ndarray, lateral: np.ndarray, dists: np.ndarray, lats: np.
                     if aligned:
                         ok = ((x if axis == 0 else y) - origin[axis]) * d[axis] >= need
                     else:
-                        ok = fma(x - origin[0], d[0], (y - origin[1]) * d[1]) >= need
+                        ok = (x - origin[0]) * d[0] + (y - origin[1]) * d[1] >= need
                 keep[t, i, j] = ok
                 if ok:
                     kept += weight[(t * n_row + i) * n_col + j]

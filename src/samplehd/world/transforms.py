@@ -6,7 +6,11 @@ its hot loops; everything above it uses these."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from samplehd.fixedmath import arccos, half_turn_axis, norm
 
 __all__ = [
     "look_at_quat",
@@ -31,11 +35,11 @@ def look_at_quat(
     """
     eye_a, target_a, up_a = (np.asarray(v, dtype=float) for v in (eye, target, up))
     z = eye_a - target_a
-    z /= np.linalg.norm(z)
+    z /= norm(z)
     x = np.cross(up_a, z)
-    if np.linalg.norm(x) < 1e-9:
+    if norm(x) < 1e-9:
         x = np.cross((0.0, 1.0, 0.0), z)
-    x /= np.linalg.norm(x)
+    x /= norm(x)
     y = np.cross(z, x)
     rot = np.stack([x, y, z], axis=1)
     return mat_to_quat(rot)
@@ -57,13 +61,13 @@ def mat_to_quat(rot: np.ndarray) -> np.ndarray:
         q[1 + i] = 0.25 * s
         q[1 + j] = (m[j, i] + m[i, j]) / s
         q[1 + k] = (m[k, i] + m[i, k]) / s
-    q /= np.linalg.norm(q)
+    q /= norm(q)
     return q if q[0] >= 0 else -q
 
 
 def quat_to_mat(quat: np.ndarray) -> np.ndarray:
     """3×3 rotation matrix of a quaternion (w, x, y, z)."""
-    w, x, y, z = np.asarray(quat, dtype=float) / np.linalg.norm(quat)
+    w, x, y, z = np.asarray(quat, dtype=float) / norm(quat)
     return np.array(
         [
             [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
@@ -81,7 +85,7 @@ def quat_from_yaw(yaw: float) -> np.ndarray:
 def yaw_from_quat(quat: np.ndarray) -> float:
     """Yaw [rad] of a quaternion (w, x, y, z): the heading of its rotated x axis in the x-y plane."""
     r = quat_to_mat(quat)
-    return float(np.arctan2(r[1, 0], r[0, 0]))
+    return math.atan2(float(r[1, 0]), float(r[0, 0]))
 
 
 def yaw_rotation_2d(yaw: np.ndarray) -> np.ndarray:
@@ -93,20 +97,19 @@ def yaw_rotation_2d(yaw: np.ndarray) -> np.ndarray:
 def rotvec(r: np.ndarray) -> np.ndarray:
     """Rotation vector of a rotation matrix [rad]."""
     cos = float(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))
-    ang = float(np.arccos(cos))
+    ang = math.acos(cos)
     if ang < 1e-9:
         return np.zeros(3)
     v = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    s = float(np.linalg.norm(v))
+    s = float(norm(v))
     if s < 1e-9:
-        w, vec = np.linalg.eigh((r + r.T) / 2)
-        return vec[:, int(np.argmax(w))] * ang
+        return half_turn_axis(r) * ang
     return v / s * ang
 
 
 def rotvecs(r: np.ndarray) -> np.ndarray:
     """Rotation vectors of (N, 3, 3) rotation matrices [rad], as :func:`rotvec` row by row."""
-    ang = np.arccos(np.clip((np.trace(r, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
+    ang = arccos(np.clip((np.trace(r, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0))
     v = np.stack([r[:, 2, 1] - r[:, 1, 2], r[:, 0, 2] - r[:, 2, 0], r[:, 1, 0] - r[:, 0, 1]], axis=1)
     s = np.linalg.norm(v, axis=1)
     out = np.zeros_like(v)

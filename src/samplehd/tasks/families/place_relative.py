@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.errors import PlanningError
+from samplehd.fixedmath import dot
 from samplehd.tasks.checker import Judge
 from samplehd.tasks.task import Task, TaskFamily, parse_relation, register_family
 
@@ -18,7 +19,7 @@ def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
     reason = ""
     i, ref = t.objects[0], t.reference
     d = np.asarray(j.directions[t.direction], dtype=float)[:3]
-    offset = float(np.dot(j.pos(i) - j.pos(ref), d))
+    offset = float(dot(j.pos(i) - j.pos(ref), d))
     details = {"offset": offset}
     if r := j.resting(i):
         reason = r
