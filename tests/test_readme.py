@@ -1,5 +1,6 @@
 """The front door works as written: README.md stays short, its links and those of docs/*.md resolve, the
-`samplehd` commands of README.md and docs/CLI.md parse, and the README's short commands run.
+`samplehd` commands of README.md and docs/CLI.md parse and their flags are in docs/CLI.md's command table,
+and the README's short commands run.
 
 Which commands run: in a fenced ```bash block, every line that starts with ``samplehd`` is a command
 (``a && b`` are two); a line whose comment starts with ``long:`` (``samplehd view DIR  # long: ...``) is
@@ -91,6 +92,22 @@ def test_documented_commands_parse(path):
             parser.parse_args(argv[1:])
         except SystemExit as exc:
             pytest.fail(f"{path.name}: `{shlex.join(argv)}` does not parse (exit {exc.code})")
+
+
+def _table_cells(text: str) -> list[str]:
+    """The first cell of every row of the command tables (``| `generate ... [--resume]` | ... |``)."""
+    return [line.split(" | ", 1)[0] for line in text.splitlines() if line.startswith("| `")]
+
+
+def test_the_command_table_lists_every_flag_the_docs_use():
+    cells = _table_cells((ROOT / "docs" / "CLI.md").read_text(encoding="utf-8"))
+    for path in (README, ROOT / "docs" / "CLI.md"):
+        for argv, _ in shell_commands(path.read_text(encoding="utf-8")):
+            name = " ".join(argv[1:3]) if argv[1] in ("export", "assets") else argv[1]
+            rows = [c for c in cells if f"`{name} " in c or f"`{name}`" in c]
+            assert rows, f"docs/CLI.md has no table row for `samplehd {name}` ({path.name} uses it)"
+            for flag in (a.split("=", 1)[0] for a in argv if a.startswith("--")):
+                assert any(flag in row for row in rows), f"docs/CLI.md's row of `{name}` lacks {flag} ({path.name})"
 
 
 def _env() -> dict[str, str]:
