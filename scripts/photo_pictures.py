@@ -1,4 +1,4 @@
-"""Make the README's photo-preset pictures: one scene in the fast, hd and photo presets side by side, and a
+"""Make the photo-preset pictures of docs/RENDERING.md: one scene in the fast, hd and photo presets side by side, and a
 contact sheet of photo frames of one recorded episode.
 
 Usage: python scripts/photo_pictures.py DATASET OUT_DIR [--scene-seed 25] [--episode 0]

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The README's Baselines table end to end: generate the two datasets, train the parser, perception and
+# The Baselines table of docs/BASELINES.md end to end: generate the two datasets, train the parser, perception and
 # behaviour-cloning models, and evaluate the neuro-symbolic and BC policies on the seeded benchmark
 # split. Training uses CUDA when torch sees a GPU, else the CPU (pass DEVICE=cpu|cuda to choose).
 #

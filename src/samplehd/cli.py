@@ -21,6 +21,7 @@ from types import ModuleType
 from typing import NoReturn
 
 from samplehd import commands
+from samplehd.commands._options import DefaultsHelpFormatter
 from samplehd.errors import MissingExtraError, SamplehdError
 from samplehd.version import __version__
 
@@ -82,7 +83,7 @@ def build_parser(command: str | None = None, *, full: bool = False) -> argparse.
             name,
             help=module.HELP,
             description=module.__doc__ or module.HELP,
-            formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+            formatter_class=DefaultsHelpFormatter,
         )
         module.add_arguments(p)
         p.set_defaults(_run=module.run)

@@ -1,4 +1,4 @@
-"""The README's performance table, measured in one run: ``samplehd bench --report [FILE]``.
+"""The performance table of docs/PERFORMANCE.md, measured in one run: ``samplehd bench --report [FILE]``.
 
 Every row is measured in the same process, one after another, and carries the command that gives
 its figures on its own. The machine is often shared, so rates are given per wall second and per
@@ -44,7 +44,7 @@ from samplehd.world.layout import DIRECTIONS
 
 __all__ = ["BEGIN", "END", "Row", "measure", "table_markdown", "write_report"]
 
-BEGIN = "<!-- performance table: made by `samplehd bench --report README.md`; edits here are overwritten -->"
+BEGIN = "<!-- performance table: made by `samplehd bench --report docs/PERFORMANCE.md`; edits here are overwritten -->"
 END = "<!-- end of performance table -->"
 
 

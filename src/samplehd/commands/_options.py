@@ -4,13 +4,36 @@ value and what is valid, before the command writes anything."""
 
 from __future__ import annotations
 
+import argparse
 import math
+import re
 from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 from samplehd.errors import ConfigError
 
-__all__ = ["check_int", "check_names", "check_number", "check_out_dir", "check_out_file", "split_names"]
+__all__ = ["DefaultsHelpFormatter", "check_int", "check_names", "check_number", "check_out_dir", "check_out_file",
+           "split_names"]
+
+
+_STATES_DEFAULT = re.compile(r"\bdefault[: ]", re.IGNORECASE)  # "(default 10)", "default: all", not "by default)"
+
+
+class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Help that appends an option's default once: not where the help text already speaks of its default,
+    not for an unset (None) or off (False) default, and a list default as its words ("rgb depth")."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if _STATES_DEFAULT.search(text) or default is None or default is False or default == argparse.SUPPRESS:
+            return action.help
+        if not (action.option_strings or action.nargs in (argparse.OPTIONAL, argparse.ZERO_OR_MORE)):
+            return action.help
+        if isinstance(default, (list, tuple)):
+            words = " ".join(str(v) for v in default) or "none"
+            return f"{text} (default: {words.replace('%', '%%')})"
+        return f"{text} (default: %(default)s)"
 
 
 def check_int(flag: str, value: int | None, lo: int | None = None, hi: int | None = None) -> None:

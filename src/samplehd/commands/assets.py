@@ -24,7 +24,7 @@ from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.loader import catalogue_for, load_catalogue
 from samplehd.catalogue.preview import render_instances, write_catalogue_table
 from samplehd.catalogue.registry import registered_classes, remove_imported
-from samplehd.commands._options import check_int, check_out_file, split_names
+from samplehd.commands._options import DefaultsHelpFormatter, check_int, check_out_file, split_names
 from samplehd.errors import AssetError
 
 HELP = "import meshes as object classes, list the catalogue, render previews"
@@ -34,7 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the ``import``, ``list``, ``preview``, ``sheet`` and ``remove`` sub-commands."""
     parser.formatter_class = argparse.RawDescriptionHelpFormatter  # keep the examples' line breaks
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
-    fmt = argparse.ArgumentDefaultsHelpFormatter
+    fmt = DefaultsHelpFormatter
 
     p = sub.add_parser("import", help="import an OBJ/STL/PLY/GLB mesh as a new object class", formatter_class=fmt)
     p.add_argument("mesh", type=Path, metavar="MESH", help="mesh file (.obj, .stl, .ply, .glb)")

@@ -4,7 +4,7 @@
 --out (``--only`` picks areas). ``samplehd bench AREA ...`` prints that area's detailed report, e.g.
 ``samplehd bench paths oracle --scenes 70 --seed 130000``, ``samplehd bench dataset --project DIR``,
 ``samplehd bench env --robosuite-python PY`` or ``samplehd bench world-options nosleep``.
-``samplehd bench --report README.md`` measures the README's performance table in one run and writes
+``samplehd bench --report`` measures the performance table of docs/PERFORMANCE.md in one run and writes
 it between its markers (see :mod:`samplehd.bench._table`).
 Figures are for reports, never tests. The code of every area lives in :mod:`samplehd.bench`.
 """
@@ -42,10 +42,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--only", nargs="+", metavar="AREA", help=f"areas to run (default: all of {_figure_areas()})")
     parser.add_argument("--repeats", type=int, default=3, help="repeats per figure (the median is reported)")
     parser.add_argument("--out", type=Path, default=Path("outputs/bench"), help="directory for bench.json")
-    parser.add_argument("--report", nargs="?", type=Path, const=Path("README.md"), metavar="FILE",
+    parser.add_argument("--report", nargs="?", type=Path, const=Path("docs/PERFORMANCE.md"), metavar="FILE",
                         help="measure the performance table in one run (date, machine, load average, commit; "
                              "wall and per-CPU-second rates; each row's command) and write it between the "
-                             "table's markers in FILE (default README.md), or into a new FILE")
+                             "table's markers in FILE (default docs/PERFORMANCE.md), or into a new FILE")
     reports = parser.add_subparsers(dest="area", metavar="AREA", required=False,
                                     help="an area's detailed report (default: the figures table)")
     for name, module in _modules().items():

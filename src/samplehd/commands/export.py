@@ -8,10 +8,11 @@ from __future__ import annotations
 import argparse
 import re
 from pathlib import Path
+from typing import Any
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from samplehd.commands._options import check_int, split_names
+from samplehd.commands._options import DefaultsHelpFormatter, check_int, split_names
 from samplehd.dataset.export_lerobot import export_lerobot
 from samplehd.dataset.export_rerun import episode_location, export_rerun
 from samplehd.dataset.export_samplehd import export_samplehd
@@ -24,7 +25,7 @@ HELP = "export a dataset to LeRobot v3.0 or SAMPLE-HD's layout, or an episode to
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="format", metavar="FORMAT", required=True)
     lr = sub.add_parser("lerobot", help="LeRobot v3.0 (meta/, data/, videos/)",
-                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                        formatter_class=DefaultsHelpFormatter)
     lr.add_argument("dir", type=Path, help="samplehd dataset")
     lr.add_argument("--out", type=Path, required=True, help="new LeRobot dataset folder")
     lr.add_argument("--repo-id", default="samplehd/dataset", help="repo id recorded for LeRobotDataset(repo_id, root=)")
@@ -34,18 +35,31 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                     help="rgb (video), depth (uint16 mm array), segmentation (uint16 id array); default: rgb")
     lr.add_argument("--frames-per-file", type=int, default=200_000, help="frames per data/video file")
     rr = sub.add_parser("rerun", help="one episode as a Rerun recording (.rrd): 3-D scene, cameras, series, subtasks",
-                        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                        formatter_class=DefaultsHelpFormatter)
     rr.add_argument("episode", type=Path, help="episode file (DIR/episodes/<stem>.h5) or dataset folder with --episode")
     rr.add_argument("--episode", dest="index", type=int, help="episode index when EPISODE is a dataset folder (0)")
     rr.add_argument("--out", type=Path, required=True, help="the .rrd file (open it with: rerun FILE.rrd)")
     sh = sub.add_parser("sample-hd", help="the files SAMPLE-HD's own code reads (images/, scenes/, instructions/, "
-                        "sequences/); its four families only", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                        "sequences/); its four families only", formatter_class=DefaultsHelpFormatter)
     sh.add_argument("dir", type=Path, help="samplehd dataset")
     sh.add_argument("--out", type=Path, required=True, help="new folder")
     sh.add_argument("--previews", action="store_true", help="write preview.mp4 per sequence")
     sh.add_argument("--no-images", action="store_true", help="write data.json/effector.json only, no per-frame images")
     sh.add_argument("--camera", help="stored camera whose images become the sequence images (default: scene)")
     sh.add_argument("--workers", type=int, default=default_workers(), help="worker processes")
+
+
+def summary_line(summary: dict[str, Any]) -> str:
+    """An exporter's summary as words for the terminal ("episodes 8; frames 2124; videos observation.images.scene"):
+    counts and names, not Python reprs; nested tables (the left-out reasons) are printed on their own lines."""
+    parts = []
+    for key, value in summary.items():
+        if isinstance(value, dict):
+            continue
+        if isinstance(value, (list, tuple)):
+            value = ", ".join(str(v) for v in value) if value else "none"
+        parts.append(f"{key.replace('_', ' ')} {value}")
+    return "; ".join(parts)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
         require_extra("trimesh", "rerun", "samplehd export rerun")
         root, index = episode_location(args.episode, args.index)
         res = export_rerun(root, index, args.out)
-        print(f"exported episode {index} of {root} ({res}) to {args.out}; open it with: rerun {args.out}")
+        print(f"exported episode {index} of {root} to {args.out}: {summary_line(res)}; open it with: rerun {args.out}")
         return 0
     if args.format == "lerobot":
         require_extra("pyarrow", "lerobot", "samplehd export lerobot")
@@ -82,5 +96,5 @@ def run(args: argparse.Namespace) -> int:
                 print(f"{res['pick_order_differs']} sequence(s) pick their objects in another order than SAMPLE-HD's "
                       f"preprocessing assumes (nearest the effector first; this dataset: paths.planner.order "
                       f"{res['pick_order']}); generate with paths.planner.order nearest, as the sample-hd preset does")
-    print(f"exported {res} to {args.out}")
+    print(f"exported to {args.out}: {summary_line(res)}")
     return 0

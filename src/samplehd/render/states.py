@@ -39,7 +39,7 @@ OVERLAP_BUFFERS = 3
 # Frames are handed to the helper thread in groups of up to 8 whose arrays take at most this many bytes.
 # Each hand-over wakes the helper, which then takes the GIL back after every deflate call: the render loop,
 # whose MuJoCo calls let go of the GIL, waited for it about 0.4 ms per frame when every frame was handed
-# over alone (320x180; `samplehd bench paths handoff` compares the ways, README "Performance").
+# over alone (320x180; `samplehd bench paths handoff` compares the ways, docs/PERFORMANCE.md).
 OVERLAP_GROUP_BYTES = 8 << 20
 _OVERLAP_GROUP_FRAMES = 8
 
