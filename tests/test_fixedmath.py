@@ -12,11 +12,23 @@ import sys
 import numpy as np
 import pytest
 
-from samplehd.fixedmath import arccos, arcsin, arctan2, dot, half_turn_axis, inv_rigid, machine, matmul, norm
+from samplehd.fixedmath import (
+    arccos,
+    arcsin,
+    arctan2,
+    dot,
+    half_turn_axis,
+    inv_rigid,
+    machine,
+    matmul,
+    matmul_reference,
+    norm,
+)
 from samplehd.world.transforms import quat_to_mat, rotvec
 
 SHAPES = [((3, 3), (3, 3)), ((4, 4), (4, 4)), ((3, 3), (3,)), ((3,), (3, 3)), ((3,), (3,)), ((7, 3, 3), (3, 3)),
-          ((5, 1, 4, 4), (2, 4, 4)), ((2, 3), (3, 5)), ((6, 2), (2,)), ((8, 2, 2, 2), (8, 2, 2, 2))]
+          ((5, 1, 4, 4), (2, 4, 4)), ((2, 3), (3, 5)), ((6, 2), (2,)), ((8, 2, 2, 2), (8, 2, 2, 2)),
+          ((300, 2, 2, 4, 4), (300, 1, 1, 4, 4)), ((40, 3, 3), (3,)), ((50, 2), (2, 2)), ((3, 0), (0, 2))]
 
 
 @pytest.mark.parametrize(("sa", "sb"), SHAPES)
@@ -27,15 +39,18 @@ def test_matmul_is_numpy_matmul_to_rounding(sa, sb) -> None:
     got = matmul(a, b)
     assert np.shape(got) == np.shape(want)
     np.testing.assert_allclose(got, want, rtol=1e-13, atol=1e-14)
+    # the compiled loop (large batches) and numpy's elementwise operations (small ones): the same bits
+    np.testing.assert_array_equal(got, matmul_reference(a, b) if a.size and b.size else want)
 
 
 def test_matmul_sums_in_index_order_without_fused_multiply_add() -> None:
     """Each entry is ((a0 b0 + a1 b1) + a2 b2) + ..., every product and sum rounded on its own: what
     Python's float arithmetic gives term by term."""
     rng = np.random.default_rng(1)
-    a, b = rng.normal(size=(5, 4, 6)), rng.normal(size=(5, 6, 3))
+    a, b = rng.normal(size=(50, 4, 6)), rng.normal(size=(50, 6, 3))
     got = matmul(a, b)
-    for n in range(5):
+    np.testing.assert_array_equal(matmul(a[:5], b[:5]), got[:5])  # numpy's path equals the compiled one
+    for n in range(50):
         for i in range(4):
             for j in range(3):
                 s = a[n, i, 0].item() * b[n, 0, j].item()
@@ -80,17 +95,36 @@ def test_rigid_inverse_and_half_turns() -> None:
         assert abs(np.linalg.norm(rv) - math.pi) < 1e-7  # acos near -1 keeps about half the digits
 
 
-def test_elementary_functions_are_the_c_librarys() -> None:
+def _ulps(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.abs(np.asarray(a, dtype=float).view(np.int64) - np.asarray(b, dtype=float).view(np.int64))
+
+
+def test_elementary_functions_are_within_ulps_of_the_c_librarys() -> None:
     rng = np.random.default_rng(3)
-    y, x, u = rng.normal(size=(3, 200))
-    u = np.clip(u, -1.2, 1.2)
-    np.testing.assert_array_equal(arctan2(y, x), [math.atan2(a, b) for a, b in zip(y, x, strict=True)])
-    inside = np.abs(u) <= 1.0
-    np.testing.assert_array_equal(arccos(u)[inside], [math.acos(v) for v in u[inside]])
-    np.testing.assert_array_equal(arcsin(u)[inside], [math.asin(v) for v in u[inside]])
-    assert np.isnan(arccos(u)[~inside]).all() and np.isnan(arcsin(u)[~inside]).all()
-    assert arctan2(np.ones((2, 1)), np.ones(3)).shape == (2, 3)
-    np.testing.assert_allclose(arctan2(y, x), np.arctan2(y, x), rtol=1e-15, atol=0)
+    for scale in (1e-12, 1e-3, 1.0, 1e3, 1e20):
+        y, x = rng.normal(size=(2, 5000))
+        y *= scale
+        assert _ulps(arctan2(y, x), [math.atan2(a, b) for a, b in zip(y, x, strict=True)]).max() <= 1
+    u = np.concatenate([rng.uniform(-1, 1, 5000), 1 - rng.uniform(0, 1e-6, 200), -1 + rng.uniform(0, 1e-6, 200),
+                        [1.0, -1.0, 0.0, -0.0]])
+    assert _ulps(arccos(u), [math.acos(v) for v in u]).max() <= 2
+    assert _ulps(arcsin(u), [math.asin(v) for v in u]).max() <= 2
+    assert np.isnan(arccos([1.5, -2.0, np.nan])).all() and np.isnan(arcsin(np.array([-1.0000001, 3.0]))).all()
+    assert arctan2(np.ones((2, 1)), np.ones(3)).shape == (2, 3) and np.shape(arccos(0.5)) == ()
+
+
+def test_atan2_special_values_are_c99s() -> None:
+    """Signed zeros, infinities, NaN, subnormals and huge ratios, every pair: C's atan2 (1 ulp where a
+    ratio over 2**60 meets a negative x)."""
+    special = [0.0, -0.0, 1.0, -1.0, np.inf, -np.inf, np.nan, 1e-310, -1e-310, 1e300, -1e300]
+    ys, xs = (a.ravel() for a in np.meshgrid(special, special))
+    got = arctan2(ys, xs)
+    for y, x, g in zip(ys, xs, got, strict=True):
+        w = math.atan2(y, x)
+        if math.isnan(w):
+            assert math.isnan(g), (y, x)
+        else:
+            assert math.copysign(1.0, g) == math.copysign(1.0, w) and _ulps(g, w) <= 1, (y, x, g, w)
 
 
 _PROBE = """

@@ -11,8 +11,9 @@ Two parts of numpy give different bits on different machines:
   (numpy's elementwise multiply and add, never a fused multiply-add).
 - **CPU-dispatched elementary functions.** numpy's float64 ``arctan2``, ``arccos``, ``arcsin``,
   ``tan``, ``exp``, ``log``, ``power`` ... run SIMD code chosen by the CPU (AVX-512 or not) whose last
-  bit differs from the C library's. :func:`arctan2`, :func:`arccos` and :func:`arcsin` call the C
-  library's functions (Python's :mod:`math`) element by element; for a scalar, call :mod:`math`.
+  bit differs from the C library's. :func:`arctan2`, :func:`arccos` and :func:`arcsin` of arrays are
+  fdlibm's algorithm written in elementwise IEEE operations; for a scalar, call :mod:`math` (the C
+  library, the same on every CPU with FMA).
 
 The differences start in the 16th digit and grow through contact until episodes end differently. With
 these, a dataset's bits depend on the versions of samplehd, MuJoCo, numpy and the C library only.
@@ -26,21 +27,23 @@ import ctypes
 import math
 import platform
 import re
-from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
-__all__ = ["arccos", "arcsin", "arctan2", "dot", "half_turn_axis", "inv_rigid", "machine", "matmul", "norm"]
+__all__ = ["arccos", "arcsin", "arctan2", "dot", "half_turn_axis", "inv_rigid", "machine", "matmul", "matmul_reference",
+           "norm"]
 
 
 def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``a @ b`` (numpy's matmul semantics: batch dimensions broadcast, 1-D operands are vectors).
 
-    Each entry is ``((a0 b0 + a1 b1) + a2 b2) + ...`` over the shared index, in order.
+    Each entry is ``((a0 b0 + a1 b1) + a2 b2) + ...`` over the shared index, in order, every product and
+    sum rounded on its own (a compiled loop, :func:`samplehd.fixedkernels.matmul_batch`).
     """
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
     if a.ndim == 0 or b.ndim == 0:
         raise ValueError("matmul: scalar operands are not matrices")
     vec_a, vec_b = a.ndim == 1, b.ndim == 1
@@ -48,17 +51,42 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         a = a[None, :]
     if vec_b:
         b = b[:, None]
-    n = a.shape[-1]
-    if b.shape[-2] != n:
+    n, k, m = a.shape[-2], a.shape[-1], b.shape[-1]
+    if b.shape[-2] != k:
         raise ValueError(f"matmul: shapes {a.shape} and {b.shape} do not align")
-    out = a[..., :, 0, None] * b[..., None, 0, :]
-    for k in range(1, n):
-        out += a[..., :, k, None] * b[..., None, k, :]
+    batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2])
+    if math.prod(batch) <= _SMALL_BATCH or not k:
+        out = a[..., :, 0, None] * b[..., None, 0, :] if k else np.zeros(batch + (n, m))
+        for q in range(1, k):
+            out += a[..., :, q, None] * b[..., None, q, :]
+        return _unvector(out, vec_a, vec_b)
+    a3 = np.ascontiguousarray(np.broadcast_to(a, batch + (n, k))).reshape(-1, n, k)
+    b3 = np.ascontiguousarray(np.broadcast_to(b, batch + (k, m))).reshape(-1, k, m)
+    out = np.empty((a3.shape[0], n, m))
+    _kernels().matmul_batch(a3, b3, out)
+    return _unvector(out.reshape(batch + (n, m)), vec_a, vec_b)
+
+
+def _unvector(out: np.ndarray, vec_a: bool, vec_b: bool) -> np.ndarray:
     if vec_b:
         out = out[..., 0]
     if vec_a:
         out = out[..., 0, :] if not vec_b else out[..., 0]
     return out
+
+
+def matmul_reference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`matmul` in numpy's elementwise multiply and add, whatever the batch (the same bits; tests)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    vec_a, vec_b = a.ndim == 1, b.ndim == 1
+    a = a[None, :] if vec_a else a
+    b = b[:, None] if vec_b else b
+    out = a[..., :, 0, None] * b[..., None, 0, :]
+    for k in range(1, a.shape[-1]):
+        out += a[..., :, k, None] * b[..., None, k, :]
+    out = out[..., 0] if vec_b else out
+    return (out[..., 0, :] if not vec_b else out[..., 0]) if vec_a else out
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> float:
@@ -112,33 +140,43 @@ def half_turn_axis(r: np.ndarray) -> np.ndarray:
     return col / norm(col)
 
 
-def _elementwise(f: Callable[..., float], *args: np.ndarray | float) -> np.ndarray:
-    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in args))
-    out = np.fromiter(map(f, *(a.ravel().tolist() for a in arrays)), dtype=float, count=arrays[0].size)
+_KERNELS: list[ModuleType] = []
+# at most this many products in a batch are taken by numpy's elementwise operations (the same bits as
+# the compiled loop, cheaper to start for one or a few small matrices)
+_SMALL_BATCH = 8
+
+
+def _kernels() -> ModuleType:
+    """The compiled loops, loaded on first use (importing numba takes a moment)."""
+    if not _KERNELS:
+        from samplehd import fixedkernels
+
+        _KERNELS.append(fixedkernels)
+    return _KERNELS[0]
+
+
+def _flat(f: str, *args: np.ndarray | float) -> np.ndarray:
+    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in args))
+    flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]
+    out = np.empty(flat[0].shape[0])
+    getattr(_kernels(), f)(*flat, out)
     return out.reshape(arrays[0].shape)
 
 
-def _acos(x: float) -> float:
-    return math.acos(x) if -1.0 <= x <= 1.0 else math.nan
-
-
-def _asin(x: float) -> float:
-    return math.asin(x) if -1.0 <= x <= 1.0 else math.nan
-
-
 def arctan2(y: np.ndarray | float, x: np.ndarray | float) -> np.ndarray:
-    """``np.arctan2`` by the C library's ``atan2``, element by element [rad]."""
-    return _elementwise(math.atan2, y, x)
+    """``np.arctan2`` [rad] by fdlibm's algorithm in plain IEEE operations (within 1 ulp of the C
+    library's ``atan2``; signed zeros, infinities and NaN as C's ``atan2``)."""
+    return _flat("atan2_flat", y, x)
 
 
 def arccos(x: np.ndarray | float) -> np.ndarray:
-    """``np.arccos`` by the C library's ``acos`` (NaN outside [-1, 1], as numpy) [rad]."""
-    return _elementwise(_acos, x)
+    """``np.arccos`` [rad] as ``arctan2(sqrt((1 - x)(1 + x)), x)`` (within 2 ulp; NaN outside [-1, 1])."""
+    return _flat("acos_flat", x)
 
 
 def arcsin(x: np.ndarray | float) -> np.ndarray:
-    """``np.arcsin`` by the C library's ``asin`` (NaN outside [-1, 1], as numpy) [rad]."""
-    return _elementwise(_asin, x)
+    """``np.arcsin`` [rad] as ``arctan2(x, sqrt((1 - x)(1 + x)))`` (within 2 ulp; NaN outside [-1, 1])."""
+    return _flat("asin_flat", x)
 
 
 def _cpu_model() -> str:
