@@ -30,12 +30,11 @@ the scene's objects, the instruction as ``instruction`` (``Text``) and ``instruc
 (H×W int32 ids: 0 background, 1 table, 2 robot, 3+i object i).
 
 Grasp assist (option ``grasp_assist``, on by default): at the start of each step, when the gripper
-command squeezes (asks for a narrower opening than the fingers have) and both fingers are within
-0.5 mm of an object's collision geoms, the object is welded to the gripper where it is; the weld is
-released when the command opens again. It is the rule of the dataset's paths, one implementation
-(:class:`samplehd.motion.assist.GraspAssist`), the same for every policy, so recorded actions replay
-to the recorded outcome; the fingers still close physically and the safety monitor watches every
-contact.
+command does not open the fingers and both fingers are within 0.5 mm of an object's collision geoms,
+the object is welded to the gripper where it is; the weld is released when the command opens again.
+It is the rule of the dataset's paths, one implementation (:class:`samplehd.motion.assist.GraspAssist`),
+the same for every policy, so recorded actions replay to the recorded outcome; the fingers still
+close physically and the safety monitor watches every contact.
 
 Reward (:mod:`samplehd.envs.reward`): 1 when the shared success checker accepts the state, plus an
 optional dense term. ``terminated`` on success or a safety stop; ``truncated`` after

@@ -9,12 +9,16 @@ still close on it physically and the safety monitor still watches every contact.
 The rule (:meth:`GraspAssist.update`), applied at the start of every control step, before its
 physics, with that step's gripper command:
 
-- weld object ``i`` when nothing is welded, the arm is not stopped, the command squeezes (its
-  opening is more than :data:`SQUEEZE_MARGIN` below the fingers' measured opening) and both
-  fingers' collision geoms lie within :data:`TOUCH_TOLERANCE` of object ``i``'s collision geoms
-  (never its visual mesh);
+- weld object ``i`` when nothing is welded, the arm is not stopped, the command does not open the
+  fingers (its opening is at most :data:`OPEN_MARGIN` above the measured one) and both fingers'
+  collision geoms lie within :data:`TOUCH_TOLERANCE` of object ``i``'s collision geoms (never its
+  visual mesh);
 - release the weld when the command opens more than :data:`RELEASE_MARGIN` beyond the command it
   was made with.
+
+The touch decides, not the command's history: a replayed state a fraction of a millimetre off the
+recorded one (float32 steering vectors, contacts that amplify it) makes the same verdict at the
+same step or the next, where a test of "still closing" or "squeezing" could miss it for good.
 
 It reads only the physics state (through ``qpos``) and the command, so the dataset's rollout
 (:class:`samplehd.motion.execute.Rollout`) and the environment (:class:`samplehd.envs.tabletop.TabletopEnv`),
@@ -40,7 +44,7 @@ from samplehd.world.bodies import object_body_name
 __all__ = [
     "GRASP_WELD_PREFIX",
     "RELEASE_MARGIN",
-    "SQUEEZE_MARGIN",
+    "OPEN_MARGIN",
     "TOUCH_TOLERANCE",
     "GraspAssist",
     "add_grasp_welds",
@@ -52,8 +56,8 @@ _GRIPPER_BODY = "robot_gripper"
 # Both fingers this close to an object's collision geoms touch it [m]: contacts on thin convex
 # pieces flicker from step to step, distances do not.
 TOUCH_TOLERANCE = 0.0005
-# A command squeezes when its opening is this much below the measured finger opening [m].
-SQUEEZE_MARGIN = 0.00025
+# A command opens the fingers when its opening is this much above the measured one [m].
+OPEN_MARGIN = 0.00025
 # A weld is released when the command opens this much beyond the command it was made with
 # (gripper command units, 2 / stroke per metre: about 2 mm).
 RELEASE_MARGIN = 0.05
@@ -118,10 +122,10 @@ class GraspAssist:
         """Whether the model has the welds."""
         return self.gripper >= 0 and all(e >= 0 for e in self.eq)
 
-    def squeezes(self, data: mujoco.MjData, command: float) -> bool:
-        """Whether a gripper command in [-1, 1] asks for a narrower opening than the fingers have."""
+    def opens(self, data: mujoco.MjData, command: float) -> bool:
+        """Whether a gripper command in [-1, 1] asks for a wider opening than the fingers have."""
         opening = (command + 1.0) * 0.5 * GRIPPER_STROKE
-        return opening < float(data.qpos[self.finger_qpos].sum()) - SQUEEZE_MARGIN
+        return opening > float(data.qpos[self.finger_qpos].sum()) + OPEN_MARGIN
 
     def touched(self, data: mujoco.MjData, objects: tuple[int, ...] | None = None,
                 tolerance: float = TOUCH_TOLERANCE) -> int:
@@ -155,7 +159,7 @@ class GraspAssist:
             if command > self.attach_command + RELEASE_MARGIN:
                 self.release(data)
             return self.active
-        if stopped or not self.squeezes(data, command):
+        if stopped or self.opens(data, command):
             return -1
         held = self.touched(data)
         if held >= 0:
@@ -164,9 +168,10 @@ class GraspAssist:
         return self.active
 
     def release_command(self) -> float:
-        """A gripper command that releases the current weld: just beyond the margin (float32 rounding
-        of a recorded command included)."""
-        return min(1.0, self.attach_command + RELEASE_MARGIN + 1e-3)
+        """A gripper command that surely releases the current weld: beyond the margin by one more
+        margin, so that a replay whose weld came a step earlier, at a closing ramp's previous (up to
+        a margin wider) command, releases at the same step."""
+        return min(1.0, self.attach_command + 3.0 * RELEASE_MARGIN)
     def attach(self, data: mujoco.MjData, i: int) -> bool:
         """Weld object ``i`` to the gripper at their current relative pose; False if unavailable."""
         if not self.available:

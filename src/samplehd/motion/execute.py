@@ -26,7 +26,7 @@ import numpy as np
 
 from samplehd.catalogue import ObjectFacts, object_facts
 from samplehd.errors import PlanningError
-from samplehd.motion.assist import SQUEEZE_MARGIN, GraspAssist
+from samplehd.motion.assist import GraspAssist
 from samplehd.motion.order import effector_point
 from samplehd.motion.order import next_object as order_next_object
 from samplehd.motion.planner import destination_candidates, plan_joint_move, release_height, straight_move
@@ -373,9 +373,9 @@ class Rollout:
     def close_gripper(self, i: int, opening: float, width: float) -> Plan[None]:
         """CloseGripper: ramp the finger command down until both pads touch the object, arm still.
 
-        With the grasp assist, once both fingers touch the object (the rule's test) the command
-        holds half a millimetre inside the measured opening: it squeezes, so the rule welds the
-        object in that step, and no harder (pads rattling against light convex objects under a
+        With the grasp assist, once both fingers touch the object (the rule's test, so the rule
+        welds it in that step) the command holds half a millimetre inside the measured opening:
+        the pads press on it, no harder (pads rattling against light convex objects under a
         stiff squeeze spike contact forces past the safety limit). Without it the fingers squeeze
         with ``squeeze_force`` (command = measured opening minus force / servo gain).
         """
@@ -391,8 +391,9 @@ class Rollout:
             if frozen:
                 return frozen[0]
             measured = float(self.data.qpos[self.robot.finger_qpos].sum())
-            if self.use_assist and self.assist.available and self.assist.touched(self.data, (i,)) == i:
-                frozen.append(_gripper_command(max(0.0, measured - 2 * SQUEEZE_MARGIN)))
+            if self.use_assist and self.assist.available and (
+                    self.assist.active == i or self.assist.touched(self.data, (i,)) == i):
+                frozen.append(_gripper_command(max(0.0, measured - 0.0005)))
                 return frozen[0]
             if k < ramp:
                 return float(cmds[k])
