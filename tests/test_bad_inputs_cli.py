@@ -229,6 +229,11 @@ CLI_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("validate-not-dataset", ["validate", "{dir}"], ("{dir}",)),
     ("validate-version", ["validate", "{ds_version}"], ("format_version", "9.9")),
     ("validate-max-problems-neg", ["validate", "{ds}", "--max-problems", "-1"], ("--max-problems", "-1")),
+    ("validate-replay-missing", ["validate", "{new}", "--replay"], ("{new}",)),
+    ("validate-replay-version", ["validate", "{ds_version}", "--replay"], ("format_version", "9.9")),
+    ("validate-replay-episodes-zero", ["validate", "{ds}", "--replay", "--episodes", "0"], ("--episodes", "0")),
+    ("validate-replay-episodes-str", ["validate", "{ds}", "--replay", "--episodes", "x"], ("--episodes", "'x'")),
+    ("validate-episodes-alone", ["validate", "{ds}", "--episodes", "2"], ("--episodes", "--replay")),
     # view
     ("view-missing", ["view", "{new}"], ("{new}",)),
     ("view-file", ["view", "{file}"], ("{file}",)),

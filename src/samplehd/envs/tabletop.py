@@ -29,10 +29,12 @@ the scene's objects, the instruction as ``instruction`` (``Text``) and ``instruc
 ``{camera}_rgb`` (H×W×3 uint8), ``{camera}_depth`` (H×W float32 [m]) and ``{camera}_segmentation``
 (H×W int32 ids: 0 background, 1 table, 2 robot, 3+i object i).
 
-Grasp assist (option ``grasp_assist``, on by default, as in the dataset's paths): while the gripper
-command closes or stays closed and both finger pads touch an object, the object is welded to the
-gripper where it is; the weld is released as soon as the command opens. The rule is the same for
-every policy; the fingers still close physically and the safety monitor watches every contact.
+Grasp assist (option ``grasp_assist``, on by default): at the start of each step, when the gripper
+command does not open the fingers and both fingers are within 0.5 mm of an object's collision geoms,
+the object is welded to the gripper where it is; the weld is released when the command opens again.
+It is the rule of the dataset's paths, one implementation (:class:`samplehd.motion.assist.GraspAssist`),
+the same for every policy, so recorded actions replay to the recorded outcome; the fingers still
+close physically and the safety monitor watches every contact.
 
 Reward (:mod:`samplehd.envs.reward`): 1 when the shared success checker accepts the state, plus an
 optional dense term. ``terminated`` on success or a safety stop; ``truncated`` after
@@ -82,7 +84,7 @@ from samplehd.robot.constants import GRIPPER_STROKE, JOINT_LIMITS
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.tasks.checker import check_success
 from samplehd.tasks.task import Task, get_family, parse_task
-from samplehd.world.bodies import SceneBodies, grasped_object
+from samplehd.world.bodies import SceneBodies
 
 __all__ = ["INSTRUCTION_CHARSET", "TabletopEnv"]
 
@@ -225,13 +227,6 @@ class TabletopEnv(gym.Env):
         if self.config.grasp_assist:
             self.assist = GraspAssist(model, len(episode.scene.objects))
             self.assist.release(data)
-            fingers = [model.jnt_bodyid[model.joint(j).id] for j in ("robot_left_finger_joint",
-                                                                     "robot_right_finger_joint")]
-            self._fingers = (int(fingers[0]), int(fingers[1]))
-            self._body_to_object = {int(model.body(f"object_{i}").id): i for i in range(len(episode.scene.objects))}
-            self._grasped_object = grasped_object
-        self._last_gripper = 1.0
-        self._attach_gripper = 1.0
         self.episode = episode
         self.task = parse_task(episode.instruction["task"], episode.family)
         self._object_body = np.array(
@@ -280,10 +275,10 @@ class TabletopEnv(gym.Env):
         clipped_box = bool(np.any(a < self._low) or np.any(a > self._high))
         if clipped_box:
             a = np.clip(a, self._low, self._high)
+        if self.assist is not None:
+            self.assist.update(self.data, float(a[-1]), stopped=self.controller.stopped is not None)
         report = self.controller.step(a, self._mode)
         self.last_safety_event = report.safety_event
-        if self.assist is not None:
-            self._update_assist(float(a[-1]))
         self._steps += 1
         event = report.safety_event.to_dict() if report.safety_event is not None else None
         if event is not None:
@@ -309,21 +304,6 @@ class TabletopEnv(gym.Env):
         if self._plan is not None:
             d = self.data
             self.plan_subtask = self._plan.update(d.site_xpos[self._tcp_site], float(d.qpos[self._finger_qpos].sum()))
-
-    def _update_assist(self, gripper: float) -> None:
-        """Grasp assist, the same rule for every policy: weld the object both pads touch while the
-        gripper command closes (or stays closed); unweld as soon as the command opens again."""
-        assist = self.assist
-        if assist.active < 0:
-            closing = gripper < self._last_gripper - 1e-9 or gripper <= -1.0 + 1e-9
-            if closing and self.controller.stopped is None:
-                held = self._grasped_object(self.model, self.data, self._fingers, self._body_to_object)
-                if held >= 0:
-                    assist.attach(self.data, held)
-                    self._attach_gripper = gripper
-        elif gripper > self._attach_gripper + 0.05:
-            assist.release(self.data)
-        self._last_gripper = gripper
 
     def _may_succeed(self) -> bool:
         """A necessary condition of success that costs microseconds, so the checker runs only when needed.

@@ -1,11 +1,29 @@
-"""Grasp assist: a weld between the gripper and the object it holds, switched on once both finger
-pads touch the object after CloseGripper and off when OpenGripper starts.
+"""Grasp assist: one rule that decides when an object is held, and the weld that holds it.
 
 Pads pinching a thin rim or a handle far from the object's centre of mass (bowls, trays, pans) make
 line or point contacts in MuJoCo that cannot carry the object's torque, so the object pivots out of
 the fingers although a real rubber pad would hold it. SAMPLE-HD's Unity paths attach the object in
 the same situation. The weld keeps the object exactly where the fingers closed on it; the fingers
 still close on it physically and the safety monitor still watches every contact.
+
+The rule (:meth:`GraspAssist.update`), applied at the start of every control step, before its
+physics, with that step's gripper command:
+
+- weld object ``i`` when nothing is welded, the arm is not stopped, the command does not open the
+  fingers (its opening is at most :data:`OPEN_MARGIN` above the measured one) and both fingers'
+  collision geoms lie within :data:`TOUCH_TOLERANCE` of object ``i``'s collision geoms (never its
+  visual mesh);
+- release the weld when the command opens more than :data:`RELEASE_MARGIN` beyond the command it
+  was made with.
+
+The touch decides, not the command's history: a replayed state a fraction of a millimetre off the
+recorded one (float32 steering vectors, contacts that amplify it) makes the same verdict at the
+same step or the next, where a test of "still closing" or "squeezing" could miss it for good.
+
+It reads only the physics state (through ``qpos``) and the command, so the dataset's rollout
+(:class:`samplehd.motion.execute.Rollout`) and the environment (:class:`samplehd.envs.tabletop.TabletopEnv`),
+which both call it, weld at the same control step from the same state: recorded actions replay to
+the recorded outcome (``samplehd validate --replay``).
 
 The welds are added at model-building time (inactive, one per scene object) by
 :func:`add_grasp_welds`; :func:`compile_scene_with_assist` compiles a scene with them. They change no
@@ -17,16 +35,33 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from samplehd.fixedmath import matmul
+from samplehd.fixedmath import matmul, norm
 from samplehd.physics import wake_all
+from samplehd.robot.constants import GRIPPER_FINGER_JOINTS, GRIPPER_STROKE
 from samplehd.scene.spec import SceneSpec
 from samplehd.scene.world import PlacedObject, build_world, reset_robot_home
 from samplehd.world.bodies import object_body_name
 
-__all__ = ["GRASP_WELD_PREFIX", "GraspAssist", "add_grasp_welds", "compile_scene_with_assist"]
+__all__ = [
+    "GRASP_WELD_PREFIX",
+    "RELEASE_MARGIN",
+    "OPEN_MARGIN",
+    "TOUCH_TOLERANCE",
+    "GraspAssist",
+    "add_grasp_welds",
+    "compile_scene_with_assist",
+]
 
 GRASP_WELD_PREFIX = "grasp_weld_"
 _GRIPPER_BODY = "robot_gripper"
+# Both fingers this close to an object's collision geoms touch it [m]: contacts on thin convex
+# pieces flicker from step to step, distances do not.
+TOUCH_TOLERANCE = 0.0005
+# A command opens the fingers when its opening is this much above the measured one [m].
+OPEN_MARGIN = 0.00025
+# A weld is released when the command opens this much beyond the command it was made with
+# (gripper command units, 2 / stroke per metre: about 2 mm).
+RELEASE_MARGIN = 0.05
 
 
 def add_grasp_welds(spec: mujoco.MjSpec, num_objects: int) -> None:
@@ -55,11 +90,17 @@ def compile_scene_with_assist(scene: SceneSpec, timestep: float = 0.002) -> tupl
     return model, data
 
 
+def _collision_geoms(model: mujoco.MjModel, body: int) -> np.ndarray:
+    geoms = np.flatnonzero(model.geom_bodyid == body)
+    return geoms[(model.geom_contype[geoms] != 0) | (model.geom_conaffinity[geoms] != 0)]
+
+
 class GraspAssist:
-    """Switches the grasp welds of a compiled model.
+    """The grasp rule (see the module docstring) and the grasp welds of a compiled model.
 
     Args:
-        model: compiled scene (welds missing: the assist does nothing).
+        model: compiled scene (welds missing: the rule still tells what the fingers touch, but
+            nothing is welded).
         num_objects: number of scene objects.
     """
 
@@ -68,13 +109,70 @@ class GraspAssist:
         self.gripper = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, _GRIPPER_BODY)
         self.eq = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_EQUALITY, f"{GRASP_WELD_PREFIX}{i}")
                    for i in range(num_objects)]
+        joints = [model.joint(name).id for name in GRIPPER_FINGER_JOINTS]
+        self.finger_qpos = np.array([model.jnt_qposadr[j] for j in joints])
+        self.finger_geoms = tuple(_collision_geoms(model, int(model.jnt_bodyid[j])) for j in joints)
+        self.object_geoms = tuple(_collision_geoms(model, model.body(object_body_name(i)).id)
+                                  for i in range(num_objects))
         self.active = -1
+        self.attach_command = 1.0
+        self._fromto = np.zeros(6)
 
     @property
     def available(self) -> bool:
         """Whether the model has the welds."""
         return self.gripper >= 0 and all(e >= 0 for e in self.eq)
 
+    def opens(self, data: mujoco.MjData, command: float) -> bool:
+        """Whether a gripper command in [-1, 1] asks for a wider opening than the fingers have."""
+        opening = (command + 1.0) * 0.5 * GRIPPER_STROKE
+        return opening > float(data.qpos[self.finger_qpos].sum()) + OPEN_MARGIN
+
+    def touched(self, data: mujoco.MjData, objects: tuple[int, ...] | None = None,
+                tolerance: float = TOUCH_TOLERANCE) -> int:
+        """The first of ``objects`` (default: all) whose collision geoms lie within ``tolerance`` [m]
+        of both fingers' collision geoms in the state ``data.qpos``, or -1."""
+        m = self.model
+        mujoco.mj_kinematics(m, data)
+        for i in range(len(self.object_geoms)) if objects is None else objects:
+            if all(self._near(data, fingers, self.object_geoms[i], tolerance) for fingers in self.finger_geoms):
+                return i
+        return -1
+
+    def _near(self, data: mujoco.MjData, geoms1: np.ndarray, geoms2: np.ndarray, tolerance: float) -> bool:
+        m = self.model
+        for g1 in geoms1:
+            for g2 in geoms2:
+                gap = norm(data.geom_xpos[g1] - data.geom_xpos[g2]) - m.geom_rbound[g1] - m.geom_rbound[g2]
+                if gap >= tolerance:  # bounding spheres apart: the geoms are too
+                    continue
+                if mujoco.mj_geomDistance(m, data, int(g1), int(g2), tolerance, self._fromto) < tolerance:
+                    return True
+        return False
+
+    def update(self, data: mujoco.MjData, command: float, stopped: bool = False) -> int:
+        """Apply the rule at the start of a control step with gripper command ``command`` (before
+        its physics); ``stopped``: the safety monitor has stopped the arm. Returns the welded
+        object (-1: none)."""
+        if not self.available:
+            return -1
+        if self.active >= 0:
+            if command > self.attach_command + RELEASE_MARGIN:
+                self.release(data)
+            return self.active
+        if stopped or self.opens(data, command):
+            return -1
+        held = self.touched(data)
+        if held >= 0:
+            self.attach(data, held)
+            self.attach_command = command
+        return self.active
+
+    def release_command(self) -> float:
+        """A gripper command that surely releases the current weld: beyond the margin by one more
+        margin, so that a replay whose weld came a step earlier, at a closing ramp's previous (up to
+        a margin wider) command, releases at the same step."""
+        return min(1.0, self.attach_command + 3.0 * RELEASE_MARGIN)
     def attach(self, data: mujoco.MjData, i: int) -> bool:
         """Weld object ``i`` to the gripper at their current relative pose; False if unavailable."""
         if not self.available:

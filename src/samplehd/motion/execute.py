@@ -189,7 +189,9 @@ class Rollout:
         rng: random generator (destinations, RRT).
         layout: table layout.
         directions: scene direction vectors.
-        use_assist: weld the grasped object to the gripper while held (see :mod:`.assist`).
+        use_assist: apply the grasp rule at every control step, welding the grasped object to the
+            gripper while held (see :mod:`.assist`); off where the step function applies it (the
+            environment's ``step`` for the closed-loop oracle).
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
@@ -257,6 +259,8 @@ class Rollout:
                 steer = steering_from_targets(fk_tcp(now), poses[k + 1], self.gripper, self.dt,
                                               cc.max_linear_speed, cc.max_angular_speed)
             previous = q
+            if self.use_assist:
+                self._apply_grasp_rule()
             held = self.assist.active if self.assist.active >= 0 else None
             self.steps += 1
             report = yield ControlTarget(idx, k / max(1, n - 1), target, q, self.gripper, steer, held)
@@ -265,6 +269,14 @@ class Rollout:
             if until is not None and k + 1 < n and until(k):
                 yield SubtaskCut(k + 1)
                 break
+
+    def _apply_grasp_rule(self) -> None:
+        """The grasp assist's rule at the start of this control step, as the environment applies it."""
+        before = self.assist.active
+        after = self.assist.update(self.data, self.gripper, self.ctrl.stopped is not None)
+        if after != before:
+            self.info["assist"].append({"object": max(before, after), "frame": self.steps,
+                                        "on": after >= 0})
 
     def hold(self, name: str, target: int, duration: float, gripper: float) -> Plan[None]:
         """Keep the arm still for ``duration`` seconds with a gripper command."""
@@ -350,9 +362,6 @@ class Rollout:
         self._sync()
         if not self._holding(i):
             raise AttemptFailed("grasp_missed", f"object {i}: the fingers closed without holding it", k)
-        if self.use_assist and self.assist.active != i and self.assist.attach(self.data, i):
-            self.info["assist"].append({"object": i, "frame": self.steps, "on": True})
-            self.gripper = _gripper_command(float(self.data.qpos[self.robot.finger_qpos].sum()) - 0.0005)
         tcp = self._tcp_world()
         # Release with the fingers opened a little beyond the measured grip, not the full approach opening.
         held_width = float(self.data.qpos[self.robot.finger_qpos].sum())
@@ -366,10 +375,11 @@ class Rollout:
     def close_gripper(self, i: int, opening: float, width: float) -> Plan[None]:
         """CloseGripper: ramp the finger command down until both pads touch the object, arm still.
 
-        With the grasp assist the object is welded to the gripper the moment both pads touch it and
-        the fingers then hold that opening (no squeeze: pads rattling against light convex objects
-        under a stiff squeeze spike contact forces past the safety limit). Without it the fingers
-        squeeze with ``squeeze_force`` (command = measured opening minus force / servo gain).
+        With the grasp assist, once both fingers touch the object (the rule's test, so the rule
+        welds it in that step) the command holds half a millimetre inside the measured opening:
+        the pads press on it, no harder (pads rattling against light convex objects under a
+        stiff squeeze spike contact forces past the safety limit). Without it the fingers squeeze
+        with ``squeeze_force`` (command = measured opening minus force / servo gain).
         """
         n = max(2, int(round(self.cfg.close_time / self.dt)))
         ramp = max(1, int(n * 0.7))
@@ -383,9 +393,8 @@ class Rollout:
             if frozen:
                 return frozen[0]
             measured = float(self.data.qpos[self.robot.finger_qpos].sum())
-            if self.use_assist and self.assist.available and self._holding(i, 0.0005):
-                self.assist.attach(self.data, i)
-                self.info["assist"].append({"object": i, "frame": self.steps, "on": True})
+            if self.use_assist and self.assist.available and (
+                    self.assist.active == i or self.assist.touched(self.data, (i,)) == i):
                 frozen.append(_gripper_command(max(0.0, measured - 0.0005)))
                 return frozen[0]
             if k < ramp:
@@ -413,27 +422,12 @@ class Rollout:
         return grasped_object(self.model, self.data, self.finger_bodies, self.bodies.body_to_object)
 
     def _holding(self, i: int, tolerance: float = 0.002) -> bool:
-        """Whether object ``i`` is held: in the grasp weld, or within ``tolerance`` [m] of both fingers
-        (contacts on thin convex pieces flicker from step to step, distances do not)."""
-        if self.assist.active == i:
-            return True
-        m, d = self.model, self.data
-        obj = self.bodies.object_geoms(i)
-        fromto = np.zeros(6)
-        for fb in self.finger_bodies:
-            near = False
-            for g1 in np.flatnonzero(m.geom_bodyid == fb):
-                if not (m.geom_contype[g1] or m.geom_conaffinity[g1]):
-                    continue
-                for g2 in obj:
-                    if mujoco.mj_geomDistance(m, d, int(g1), int(g2), tolerance, fromto) < tolerance:
-                        near = True
-                        break
-                if near:
-                    break
-            if not near:
-                return False
-        return True
+        """Whether object ``i`` is held: with the grasp assist, in its weld (the rule decides what is
+        held); without it, its collision geoms within ``tolerance`` [m] of both fingers' (contacts
+        on thin convex pieces flicker from step to step, distances do not)."""
+        if self.use_assist and self.assist.available:
+            return self.assist.active == i
+        return self.assist.touched(self.data, (i,), tolerance) == i
 
     def move_up(self, i: int, grasp_index: int = -1) -> Plan[None]:
         """MoveUP: straight lift of the held object to the transport height."""
@@ -545,12 +539,13 @@ class Rollout:
             self.info["methods"].append(method)
             yield from self.run("ObjectMove", i, move)
             yield from self.run("MoveDOWN", i, down)
-            if self.assist.active >= 0:
-                self.assist.release(self.data)
-                self.info["assist"].append({"object": i, "frame": self.steps, "on": False})
-            yield from self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(hand.opening))
+            # The opening command releases the weld (the rule, in OpenGripper's first step).
+            opening = hand.opening
+            if self.use_assist and self.assist.active >= 0:
+                opening = max(opening, (self.assist.release_command() + 1.0) * 0.5 * GRIPPER_STROKE)
+            yield from self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(opening))
             self.hand = None
-            yield from self.go_home(i, hand.opening)
+            yield from self.go_home(i, opening)
             return
         raise AttemptFailed("no_release_path", f"object {i}: {last_error}", grasp_index)
 

@@ -1,0 +1,144 @@
+"""Replay a dataset's recorded actions in the environment and compare the outcome with the recording.
+
+Each episode starts the environment from its stored first state (``reset(options={"dataset": ...,
+"episode_index": i})``) and sends the recorded SAMPLE-HD steering vectors open loop, one per control
+step, in the dataset's control and physics rates, success checker and grasp assist. The last frame
+holds the final state with a hold command that was never executed, so an episode of ``T`` frames
+sends ``T - 1`` actions; after action ``t`` the state is compared with frame ``t + 1``.
+
+A replayed episode succeeds when the environment reports success at any step (``info["success"]``,
+as ``samplehd evaluate`` counts it). It agrees when that equals the recorded outcome. Because the
+dataset's rollout and the environment weld a grasped object by one rule
+(:class:`samplehd.motion.assist.GraspAssist`), every successful recording must replay to success;
+a disagreement is a bug, or drift after a changed MuJoCo or samplehd version.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from samplehd.dataset.reader import DatasetReader
+from samplehd.envs.tabletop import TabletopEnv
+from samplehd.errors import ConfigError
+
+__all__ = ["EpisodeReplay", "FamilyReplay", "ReplayReport", "replay_dataset", "replay_env", "replay_episode"]
+
+
+@dataclass(frozen=True)
+class EpisodeReplay:
+    """One episode's recorded actions replayed in the environment.
+
+    Attributes:
+        index: episode index in the dataset.
+        family: task family.
+        recorded_success: the outcome the dataset recorded.
+        replayed_success: whether the environment reported success during the replay.
+        tcp_deviation: largest distance between the replayed and the recorded TCP position [m].
+        object_deviation: largest distance between a replayed and the recorded object position [m].
+        steps: actions sent.
+    """
+
+    index: int
+    family: str
+    recorded_success: bool
+    replayed_success: bool
+    tcp_deviation: float
+    object_deviation: float
+    steps: int
+
+    @property
+    def agrees(self) -> bool:
+        return self.recorded_success == self.replayed_success
+
+
+@dataclass(frozen=True)
+class FamilyReplay:
+    """The episodes of one family: counts and the largest deviations [m]."""
+
+    family: str
+    episodes: int
+    recorded_successes: int
+    replayed_successes: int
+    agreeing: int
+    tcp_deviation: float
+    object_deviation: float
+
+
+@dataclass(frozen=True)
+class ReplayReport:
+    """Every replayed episode of a dataset."""
+
+    episodes: tuple[EpisodeReplay, ...]
+
+    @property
+    def agrees(self) -> bool:
+        """Whether every replayed outcome equals the recorded one."""
+        return all(e.agrees for e in self.episodes)
+
+    def families(self) -> list[FamilyReplay]:
+        """Per family, in name order."""
+        out = []
+        for family in sorted({e.family for e in self.episodes}):
+            eps = [e for e in self.episodes if e.family == family]
+            out.append(FamilyReplay(
+                family=family,
+                episodes=len(eps),
+                recorded_successes=sum(e.recorded_success for e in eps),
+                replayed_successes=sum(e.replayed_success for e in eps),
+                agreeing=sum(e.agrees for e in eps),
+                tcp_deviation=max(e.tcp_deviation for e in eps),
+                object_deviation=max(e.object_deviation for e in eps),
+            ))
+        return out
+
+
+def replay_env(reader: DatasetReader) -> TabletopEnv:
+    """A state-only, steering-mode environment with the dataset's rates, checker and grasp assist."""
+    paths = reader.config.get("paths", {})
+    options = {key: paths[key] for key in ("control_hz", "physics_hz", "checker", "grasp_assist") if key in paths}
+    return TabletopEnv(obs_mode="state", control_mode="steering", max_episode_steps=None, **options)
+
+
+def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> EpisodeReplay:
+    """Reset ``env`` from episode ``index`` of ``reader``'s dataset and send its recorded actions."""
+    env.reset(options={"dataset": str(reader.root), "episode_index": index})
+    frames = reader.frames(index, ["steering", "tcp_pos", "object_pos"])
+    steering = np.asarray(frames["steering"])
+    tcp_rec, obj_rec = np.asarray(frames["tcp_pos"]), np.asarray(frames["object_pos"])
+    tcp_dev = obj_dev = 0.0
+    success = False
+    for t in range(len(steering) - 1):
+        obs, _, _, _, info = env.step(steering[t])
+        success = success or bool(info["success"])
+        tcp_dev = max(tcp_dev, float(np.linalg.norm(obs["tcp_pos"].astype(float) - tcp_rec[t + 1])))
+        k = len(obj_rec[t + 1])
+        if k:
+            diff = obs["object_pos"][:k].astype(float) - obj_rec[t + 1]
+            obj_dev = max(obj_dev, float(np.max(np.linalg.norm(diff, axis=1))))
+    entry = reader.episodes[index]
+    recorded = bool(reader.episode_meta(index).get("success", True))
+    return EpisodeReplay(index, entry.family, recorded, success, tcp_dev, obj_dev, max(0, len(steering) - 1))
+
+
+def replay_dataset(root: str | Path, episodes: int | None = None) -> ReplayReport:
+    """Replay the first ``episodes`` episodes of a dataset (all when None).
+
+    Raises:
+        DatasetError: ``root`` is not a dataset directory.
+        ConfigError: ``episodes`` is not a positive integer, or the dataset has no episodes.
+    """
+    if episodes is not None and (isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1):
+        raise ConfigError(f"replay: episodes must be a positive integer, got {episodes!r}")
+    reader = DatasetReader(root)
+    count = len(reader.episodes)
+    if count == 0:
+        raise ConfigError(f"{reader.root}: the dataset has no episodes to replay")
+    env = replay_env(reader)
+    try:
+        done = [replay_episode(env, reader, i) for i in range(min(count, episodes or count))]
+    finally:
+        env.close()
+    return ReplayReport(tuple(done))
