@@ -112,3 +112,15 @@ def test_variants_ran_what_they_say(generated) -> None:
     kernels = {m["blas"].get("kernel") for m in machines.values()}
     if None not in kernels:  # OpenBLAS (numpy's wheels): at least two kernels took part
         assert len(kernels) >= 2, kernels
+
+
+@pytest.mark.parametrize("golden", list(GOLDENS))
+def test_golden_replays_in_the_env(generated, golden: str) -> None:
+    """The recorded actions of every golden episode, sent to the env from its start, reach the recorded
+    outcome (six-object scenes included: the env's observation is sized by the dataset's scene options)."""
+    out, error = generated[golden, "native"]
+    assert not error, error
+    proc = subprocess.run([sys.executable, "-m", "samplehd", "validate", str(out), "--replay"], capture_output=True,
+                          text=True, timeout=900)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    assert "replay to the recorded outcome" in proc.stdout

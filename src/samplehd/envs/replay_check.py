@@ -23,6 +23,7 @@ import numpy as np
 from samplehd.dataset.reader import DatasetReader
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError
+from samplehd.fixedmath import norm
 
 __all__ = ["EpisodeReplay", "FamilyReplay", "ReplayReport", "replay_dataset", "replay_env", "replay_episode"]
 
@@ -96,9 +97,12 @@ class ReplayReport:
 
 
 def replay_env(reader: DatasetReader) -> TabletopEnv:
-    """A state-only, steering-mode environment with the dataset's rates, checker and grasp assist."""
+    """A state-only, steering-mode environment with the dataset's rates, checker, grasp assist and scene
+    options."""
     paths = reader.config.get("paths", {})
     options = {key: paths[key] for key in ("control_hz", "physics_hz", "checker", "grasp_assist") if key in paths}
+    if isinstance(reader.config.get("scene"), dict):  # its object count sizes the observation
+        options["scene"] = reader.config["scene"]
     return TabletopEnv(obs_mode="state", control_mode="steering", max_episode_steps=None, **options)
 
 
@@ -113,11 +117,11 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
     for t in range(len(steering) - 1):
         obs, _, _, _, info = env.step(steering[t])
         success = success or bool(info["success"])
-        tcp_dev = max(tcp_dev, float(np.linalg.norm(obs["tcp_pos"].astype(float) - tcp_rec[t + 1])))
+        tcp_dev = max(tcp_dev, norm(obs["tcp_pos"].astype(float) - tcp_rec[t + 1]))
         k = len(obj_rec[t + 1])
         if k:
             diff = obs["object_pos"][:k].astype(float) - obj_rec[t + 1]
-            obj_dev = max(obj_dev, float(np.max(np.linalg.norm(diff, axis=1))))
+            obj_dev = max(obj_dev, float(np.max(norm(diff, axis=1))))
     entry = reader.episodes[index]
     recorded = bool(reader.episode_meta(index).get("success", True))
     return EpisodeReplay(index, entry.family, recorded, success, tcp_dev, obj_dev, max(0, len(steering) - 1))
