@@ -54,6 +54,18 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     n, k, m = a.shape[-2], a.shape[-1], b.shape[-1]
     if b.shape[-2] != k:
         raise ValueError(f"matmul: shapes {a.shape} and {b.shape} do not align")
+    if a.ndim == 2 and b.ndim == 2 and 0 < k and n * m <= 16:  # one small product: Python's float arithmetic
+        columns = list(zip(*b.tolist(), strict=True))
+        rows = []
+        for row in a.tolist():
+            out_row = []
+            for col in columns:
+                acc = row[0] * col[0]
+                for q in range(1, k):
+                    acc += row[q] * col[q]
+                out_row.append(acc)
+            rows.append(out_row)
+        return _unvector(np.array(rows), vec_a, vec_b)
     batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2])
     if math.prod(batch) <= _SMALL_BATCH or not k:
         out = a[..., :, 0, None] * b[..., None, 0, :] if k else np.zeros(batch + (n, m))

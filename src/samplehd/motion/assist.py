@@ -141,13 +141,12 @@ class GraspAssist:
 
     def _near(self, data: mujoco.MjData, geoms1: np.ndarray, geoms2: np.ndarray, tolerance: float) -> bool:
         m = self.model
-        for g1 in geoms1:
-            for g2 in geoms2:
-                gap = norm(data.geom_xpos[g1] - data.geom_xpos[g2]) - m.geom_rbound[g1] - m.geom_rbound[g2]
-                if gap >= tolerance:  # bounding spheres apart: the geoms are too
-                    continue
-                if mujoco.mj_geomDistance(m, data, int(g1), int(g2), tolerance, self._fromto) < tolerance:
-                    return True
+        # bounding spheres apart: the geoms are too; the others in turn (row by row) by their distance
+        offsets = data.geom_xpos[geoms1][:, None, :] - data.geom_xpos[geoms2][None, :, :]
+        gap = norm(offsets, axis=2) - m.geom_rbound[geoms1][:, None] - m.geom_rbound[geoms2][None, :]
+        for i, j in zip(*np.nonzero(gap < tolerance), strict=True):
+            if mujoco.mj_geomDistance(m, data, int(geoms1[i]), int(geoms2[j]), tolerance, self._fromto) < tolerance:
+                return True
         return False
 
     def update(self, data: mujoco.MjData, command: float, stopped: bool = False) -> int:
