@@ -35,7 +35,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from samplehd.fixedmath import matmul, norm
+from samplehd.fixedmath import matmul
 from samplehd.physics import wake_all
 from samplehd.robot.constants import GRIPPER_FINGER_JOINTS, GRIPPER_STROKE
 from samplehd.scene.spec import SceneSpec
@@ -114,6 +114,14 @@ class GraspAssist:
         self.finger_geoms = tuple(_collision_geoms(model, int(model.jnt_bodyid[j])) for j in joints)
         self.object_geoms = tuple(_collision_geoms(model, model.body(object_body_name(i)).id)
                                   for i in range(num_objects))
+        # every finger geom against every object geom at once (the bounding-sphere test), and where each
+        # finger's and each object's geoms start in those rows and columns
+        self._all_fingers = np.concatenate(self.finger_geoms).astype(int)
+        self._finger_starts = np.cumsum([0] + [len(g) for g in self.finger_geoms[:-1]])
+        with_geoms = [i for i, g in enumerate(self.object_geoms) if len(g)]
+        self._objects_with_geoms = np.array(with_geoms, dtype=int)
+        self._all_objects = np.concatenate([self.object_geoms[i] for i in with_geoms] + [np.zeros(0)]).astype(int)
+        self._object_starts = np.cumsum([0] + [len(self.object_geoms[i]) for i in with_geoms[:-1]]).astype(int)
         self.active = -1
         self.attach_command = 1.0
         self._fromto = np.zeros(6)
@@ -134,16 +142,37 @@ class GraspAssist:
         of both fingers' collision geoms in the state ``data.qpos``, or -1."""
         m = self.model
         mujoco.mj_kinematics(m, data)
+        # objects with a geom whose bounding sphere comes within ``tolerance`` of each finger's: only
+        # those can pass the exact test below (the same gaps, computed for all pairs at once)
+        if not len(self._all_objects) or not len(self._all_fingers):
+            return -1
+        close = self._gaps(data, self._all_fingers, self._all_objects) < tolerance
+        per_finger = np.logical_or.reduceat(close, self._finger_starts, axis=0)  # (fingers, object geoms)
+        both = np.logical_or.reduceat(per_finger, self._object_starts, axis=1).all(axis=0)
+        candidates = set(self._objects_with_geoms[both].tolist())
         for i in range(len(self.object_geoms)) if objects is None else objects:
-            if all(self._near(data, fingers, self.object_geoms[i], tolerance) for fingers in self.finger_geoms):
+            if i in candidates and all(self._near(data, fingers, self.object_geoms[i], tolerance)
+                                       for fingers in self.finger_geoms):
                 return i
         return -1
+
+    def _gaps(self, data: mujoco.MjData, geoms1: np.ndarray, geoms2: np.ndarray) -> np.ndarray:
+        """(len(geoms1), len(geoms2)) gaps between the geoms' bounding spheres [m]."""
+        m = self.model
+        p1, p2 = data.geom_xpos[geoms1].T, data.geom_xpos[geoms2].T
+        # the offsets' lengths as samplehd.fixedmath.norm takes them: squares summed x, y, z
+        d = p1[0][:, None] - p2[0][None, :]
+        sq = d * d
+        d = p1[1][:, None] - p2[1][None, :]
+        sq += d * d
+        d = p1[2][:, None] - p2[2][None, :]
+        sq += d * d
+        return np.sqrt(sq) - m.geom_rbound[geoms1][:, None] - m.geom_rbound[geoms2][None, :]
 
     def _near(self, data: mujoco.MjData, geoms1: np.ndarray, geoms2: np.ndarray, tolerance: float) -> bool:
         m = self.model
         # bounding spheres apart: the geoms are too; the others in turn (row by row) by their distance
-        offsets = data.geom_xpos[geoms1][:, None, :] - data.geom_xpos[geoms2][None, :, :]
-        gap = norm(offsets, axis=2) - m.geom_rbound[geoms1][:, None] - m.geom_rbound[geoms2][None, :]
+        gap = self._gaps(data, geoms1, geoms2)
         for i, j in zip(*np.nonzero(gap < tolerance), strict=True):
             if mujoco.mj_geomDistance(m, data, int(geoms1[i]), int(geoms2[j]), tolerance, self._fromto) < tolerance:
                 return True

@@ -64,10 +64,15 @@ class ObjectBox:
         return bool(np.all(xy[:2] >= self.lo[:2] + margin) and np.all(xy[:2] <= self.hi[:2] - margin))
 
 
-def _geom_corners(model: mujoco.MjModel, g: int) -> np.ndarray:
+_CORNER_SIGNS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+
+
+def _geom_corners(model: mujoco.MjModel, g: int | np.ndarray) -> np.ndarray:
+    """The 8 corners of geom ``g``'s bounding box in its frame, (8, 3); of geoms ``g``, (G, 8, 3) [m]."""
     c, h = model.geom_aabb[g, :3], model.geom_aabb[g, 3:]
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
-    return c + signs * h
+    if np.ndim(g):
+        return c[:, None, :] + _CORNER_SIGNS[None] * h[:, None, :]
+    return c + _CORNER_SIGNS * h
 
 
 class SceneBodies:
@@ -137,12 +142,11 @@ def object_local_box(model: mujoco.MjModel, bodies: SceneBodies, i: int) -> Obje
 
 def object_world_box(model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodies, i: int) -> ObjectBox:
     """World axis-aligned bounding box of object ``i``'s collision geoms in the current state [m]."""
-    pts = []
     geoms = bodies.object_geoms(i)
     coll = [g for g in geoms if model.geom_contype[g] or model.geom_conaffinity[g]]
-    for g in coll or geoms:
-        pts.append(matmul(_geom_corners(model, g), data.geom_xmat[g].reshape(3, 3).T) + data.geom_xpos[g])
-    p = np.concatenate(pts)
+    g = np.asarray(coll or geoms, dtype=int)
+    rots = np.swapaxes(data.geom_xmat[g].reshape(-1, 3, 3), 1, 2)
+    p = (matmul(_geom_corners(model, g), rots) + data.geom_xpos[g][:, None, :]).reshape(-1, 3)
     return ObjectBox(p.min(axis=0), p.max(axis=0))
 
 
