@@ -72,8 +72,8 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         for q in range(1, k):
             out += a[..., :, q, None] * b[..., None, q, :]
         return _unvector(out, vec_a, vec_b)
-    a3 = np.ascontiguousarray(np.broadcast_to(a, batch + (n, k))).reshape(-1, n, k)
-    b3 = np.ascontiguousarray(np.broadcast_to(b, batch + (k, m))).reshape(-1, k, m)
+    a3 = np.ascontiguousarray(a if a.shape[:-2] == batch else np.broadcast_to(a, batch + (n, k))).reshape(-1, n, k)
+    b3 = np.ascontiguousarray(b if b.shape[:-2] == batch else np.broadcast_to(b, batch + (k, m))).reshape(-1, k, m)
     out = np.empty((a3.shape[0], n, m))
     _kernels().matmul_batch(a3, b3, out)
     return _unvector(out.reshape(batch + (n, m)), vec_a, vec_b)
