@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from samplehd.commands._options import check_int, check_out_dir, check_out_file
+from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
 from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate, load_policy_module
 from samplehd.errors import ConfigError
@@ -71,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
     check_int("--seed", args.seed, 0)
     check_out_file("--out", args.out, (".json",))
     check_out_dir("--video", args.video)
+    check_outputs({"--out": args.out, "--video": args.video},
+                  {"--env-options": args.env_options, "--models": args.models})
     load_policy_module(args.policy)
     config = EvalConfig(policy=args.policy, episodes=args.episodes, families=tuple(args.families), seed=args.seed,
                         env=env, video_dir=str(args.video) if args.video else None, workers=args.workers,

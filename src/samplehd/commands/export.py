@@ -15,6 +15,7 @@ from samplehd.commands._options import check_int, split_names
 from samplehd.dataset.export_lerobot import export_lerobot
 from samplehd.dataset.export_rerun import episode_location, export_rerun
 from samplehd.dataset.export_samplehd import export_samplehd
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
 from samplehd.workers import Backend, default_workers
 
@@ -51,6 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     check_int("--frames-per-file", getattr(args, "frames_per_file", None), 1)
     check_int("--workers", getattr(args, "workers", None), 1)
+    source = args.episode if args.format == "rerun" else args.dir
+    check_outputs({"--out": args.out}, {"EPISODE" if args.format == "rerun" else "DIR": source})
     if args.format == "rerun":
         require_extra("rerun", "rerun", "samplehd export rerun")
         require_extra("trimesh", "rerun", "samplehd export rerun")

@@ -19,6 +19,7 @@ from rich.table import Table
 from samplehd.commands._options import split_names
 from samplehd.dataset.config import PRESETS, GenerateConfig, load_config, preset_config
 from samplehd.dataset.generate import GenerateSummary, generate_dataset
+from samplehd.dataset.outputs import check_outputs
 from samplehd.dataset.progress import RichProgress
 from samplehd.dataset.render import RENDER_MODES
 from samplehd.workers import BACKENDS, Backend, default_workers
@@ -66,6 +67,7 @@ def resolve_config(args: argparse.Namespace):  # noqa: ANN201 - GenerateConfig
 
 
 def run(args: argparse.Namespace) -> int:
+    check_outputs({"--out": args.out}, {"--config": args.config}, in_place=args.out)
     config = resolve_config(args)
     backend = Backend(args.backend, args.workers, args.ray_address)
     with RichProgress(disable=args.quiet) as progress:

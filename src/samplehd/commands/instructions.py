@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from samplehd.commands._options import check_int, check_names, check_out_file, split_names
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 from samplehd.language.instruction_file import generate_instruction_file, parse_split_ratio, write_instructions
 from samplehd.language.scene import load_scenes
@@ -64,6 +65,9 @@ def run(args: argparse.Namespace) -> int:
     args.families = split_names(args.families) or None
     check_names("--families", args.families, family_names())
     check_out_file("--out", args.out, (".json",))
+    scenes_file = args.scenes / "scenes.json" if args.scenes.is_dir() else args.scenes
+    check_outputs({"--out": args.out},
+                  {"--scenes": scenes_file, **{f"--templates {t}": t for t in args.templates or []}})
     if args.no_default_templates and not args.templates:
         raise ConfigError("--no-default-templates needs at least one --templates FILE_OR_DIR")
     templates = load_templates(args.templates or [], include_default=not args.no_default_templates)

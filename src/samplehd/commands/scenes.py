@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from samplehd.commands._options import check_int, check_out_dir, check_out_file
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.render.contact_sheet import contact_sheet
@@ -84,6 +85,7 @@ def run(args: argparse.Namespace) -> int:
                                               and not (args.out / "config.json").is_file()):
         raise ConfigError(f"--out {args.out}: holds other files (a dataset?); choose a new or empty folder")
     check_out_file("--sheet", args.sheet, (".png", ".jpg"))
+    check_outputs({"--out": args.out, "--sheet": args.sheet}, {"--config": args.config})
     get_preset(args.preset)
     config = load_scene_config(args.config)
     check_scene_config(config)

@@ -25,6 +25,7 @@ from samplehd.dataset.container import (
     render_record,
 )
 from samplehd.dataset.layout import INFO_FILE, RUNS_FILE
+from samplehd.dataset.lock import dataset_lock
 from samplehd.dataset.progress import Progress
 from samplehd.dataset.reader import DatasetReader
 from samplehd.dataset.render import RenderConfig, check_cameras
@@ -61,10 +62,17 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
         raise DatasetError("rerender needs a render preset (fast, hd or photo), not 'none'")
     check_cameras(render)
     root = Path(root)
-    reader = DatasetReader(root)
+    DatasetReader(root)  # a dataset folder (a clear refusal before the lock is tried)
+    with dataset_lock(root):  # for the whole run: no other command changes or exports it meanwhile
+        return _rerender(root, render, backend, progress, add)
+
+
+def _rerender(root: Path, render: RenderConfig, backend: Backend | None, progress: Progress | None,
+              add: bool) -> dict[str, Any]:
+    reader = DatasetReader(root)  # read again under the lock
     if not reader.complete:
         raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
-    reader.check_intact()
+    reader.check_intact(verify=True)  # every episode read and checked before any is rewritten
     backend = backend or Backend()
     progress = progress or Progress()
     t0 = time.perf_counter()
@@ -74,8 +82,8 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
     skipped = 0
     result: dict[str, dict[str, Any]] | None = None
     first = ""
-    for e in reader.episodes:
-        path = root / e.file
+    for i, e in enumerate(reader.episodes):
+        path = reader.episode_path(i)
         # An unreadable episode stops the command before any episode is re-rendered.
         old = camera_settings(read_meta(path)["render"])
         try:
