@@ -430,7 +430,7 @@ EXTRA_FILES: dict[str, Any] = {
 
 # Every command that changes, resumes or exports a dataset, on every kind of damage: each must refuse
 # (one line, exit 2) and leave the damaged dataset byte for byte as it was.
-DAMAGES = ("version", "truncated", "missing", "badinfo", "noinfo")
+DAMAGES = ("version", "truncated", "missing", "badinfo", "noinfo", "escape", "absolute", "null")
 DATASET_COMMANDS: dict[str, list[str]] = {
     "rerender": ["rerender", "--quiet", "{DS}", "--width", "64", "--height", "36"],
     "rerender-add": ["rerender", "--quiet", "{DS}", "--add", "--cameras", "wrist", "--width", "48", "--height", "48"],
@@ -440,7 +440,12 @@ DATASET_COMMANDS: dict[str, list[str]] = {
     "stats": ["stats", "{DS}"],
 }
 DAMAGE_FRAGMENT = {"version": "format_version", "truncated": "bytes", "missing": "missing", "badinfo": "info.json",
-                   "noinfo": "info.json"}
+                   "noinfo": "info.json", "escape": "outside the dataset", "absolute": "outside the dataset",
+                   "null": "episodes[0]"}
+# Damage only a whole read of every episode finds (same sizes): the commands that rewrite episodes
+# (rerender, and generate --resume, which builds on them) must find it before they write.
+VERIFY_DAMAGES = {"modified": "SHA-256", "frames": "frames", "version_attr": "format_version"}
+VERIFY_COMMANDS = ("rerender", "rerender-add", "generate-resume")
 
 
 def _snapshot(root: Path, digest: bool = False) -> dict[str, str]:
@@ -477,6 +482,31 @@ def _damage(src: Path, dst: Path, how: str) -> None:
         (dst / "info.json").write_text((dst / "info.json").read_text()[:200])
     elif how == "noinfo":
         (dst / "info.json").unlink()
+    elif how in ("escape", "absolute"):  # a file beside the dataset, the same size as the episode it replaces
+        beside = dst.parent / f"outside_{how}.h5"
+        shutil.copyfile(first, beside)
+        info["episodes"][0]["file"] = f"../{beside.name}" if how == "escape" else str(beside)
+        (dst / "info.json").write_text(json.dumps(info, indent=1))
+    elif how == "null":
+        info["episodes"][0] = None
+        (dst / "info.json").write_text(json.dumps(info, indent=1))
+    elif how == "modified":  # same size, a few bytes changed in the middle
+        data = bytearray(first.read_bytes())
+        middle = len(data) // 2
+        data[middle:middle + 8] = bytes(b ^ 0x5A for b in data[middle:middle + 8])
+        first.write_bytes(bytes(data))
+    elif how == "frames":  # info.json's frame count no longer that of the file
+        info["episodes"][0]["num_frames"] += 1
+        (dst / "info.json").write_text(json.dumps(info, indent=1))
+    elif how == "version_attr":  # the episode's own format version, changed in place
+        import h5py
+
+        with h5py.File(first, "r+") as f:
+            f.attrs["format_version"] = "9.9"
+        from samplehd.fileio import file_sha256
+
+        info["episodes"][0].update(size=first.stat().st_size, sha256=file_sha256(first))  # info.json agrees
+        (dst / "info.json").write_text(json.dumps(info, indent=1))
 
 
 @pytest.fixture(scope="module")
@@ -491,7 +521,7 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     ds = pristine / "ds"
     summary = generate_dataset(ds, GenerateConfig.from_dict(MICRO, base=preset_config("tiny")))
     assert summary.episodes >= 1
-    for how in ("version", "truncated", "missing", "badinfo", "noinfo"):
+    for how in (*DAMAGES, *VERIFY_DAMAGES):
         _damage(ds, pristine / f"ds_{how}", how)
     (pristine / "notes.txt").write_text("a plain file\n")
     (pristine / "folder").mkdir()
@@ -506,12 +536,13 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     for cid, doc, _ in CONFIG_CASES:
         (cfg / f"gen_{cid}.json").write_text(json.dumps(doc))
     (cfg / "micro.json").write_text(json.dumps(MICRO))
+    shutil.copyfile(ds / "instructions.json", cfg / "instructions_copy.json")
     (root / "registry").mkdir()
     info = json.loads((ds / "info.json").read_text())
     keep = root / "pristine"
     shutil.copytree(pristine, keep)
     return {"root": root, "ws": pristine, "pristine": keep, "snapshot": _snapshot(pristine),
-            "digests": {how: _snapshot(pristine / f"ds_{how}", digest=True) for how in DAMAGES},
+            "digests": {how: _snapshot(pristine / f"ds_{how}", digest=True) for how in (*DAMAGES, *VERIFY_DAMAGES)},
             "episode_file": info["episodes"][0]["file"]}
 
 
@@ -521,7 +552,8 @@ def _placeholders(ws: Path, episode_file: str) -> dict[str, str]:
         "dir": str(ws / "folder"), "mesh": str(ws / "cube.obj"), "scenes": str(ws / "ds" / "scenes.json"),
         "instructions": str(ws / "ds" / "instructions.json"), "episode": str(ws / "ds" / episode_file),
         "truncated_episode": str(ws / "ds_truncated" / episode_file),
-        **{f"ds_{how}": str(ws / f"ds_{how}") for how in ("version", "truncated", "missing", "badinfo", "noinfo")},
+        **{f"ds_{how}": str(ws / f"ds_{how}") for how in (*DAMAGES, *VERIFY_DAMAGES)},
+        "instructions_copy": str(ws / "cfg" / "instructions_copy.json"), "long": "n" * 300,
     }
 
 
@@ -604,6 +636,97 @@ def test_rerender_of_a_spoilt_episode_changes_nothing(tmp_path: Path, workspace,
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and str(bad) in err, err
     assert _snapshot(ds, digest=True) == before
+
+
+@pytest.mark.parametrize("damage", list(VERIFY_DAMAGES))
+@pytest.mark.parametrize("command", VERIFY_COMMANDS)
+def test_damage_found_only_by_reading_is_refused_before_writing(workspace, command, damage, capsys,
+                                                                 monkeypatch) -> None:
+    argv = [a.replace("{DS}", "{ds_" + damage + "}") for a in DATASET_COMMANDS[command]]
+    run_refusal(workspace, argv, ("{ds_" + damage + "}", VERIFY_DAMAGES[damage]), capsys, monkeypatch)
+    assert _snapshot(workspace["ws"] / f"ds_{damage}", digest=True) == workspace["digests"][damage]
+
+
+# Outputs that would overwrite an input, another output or a dataset's own files (one rule for all).
+OUTPUT_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
+    ("instructions-into-dataset", ["instructions", "--scenes", "{scenes}", "--out", "{instructions}"],
+     ("--out", "inside the dataset")),
+    ("instructions-over-input", ["instructions", "--scenes", "{cfg:instructions_copy.json}", "--out",
+                                 "{cfg:instructions_copy.json}"], ("--out", "input")),
+    ("instructions-other-dataset", ["instructions", "--scenes", "{scenes}", "--out", "{ds_version}/i.json"],
+     ("--out", "ds_version")),
+    ("vocab-over-input", ["vocab", "--instructions", "{instructions_copy}", "--out", "{instructions_copy}"],
+     ("--out", "input")),
+    ("vocab-into-dataset", ["vocab", "--instructions", "{instructions}", "--out", "{ds}/vocab.json"],
+     ("--out", "inside the dataset")),
+    ("train-into-dataset", ["train", "parser", "--dataset", "{ds}", "--out", "{ds}", "--steps", "1"],
+     ("--out", "dataset")),
+    ("train-into-episodes", ["train", "parser", "--dataset", "{ds}", "--out", "{ds}/episodes/m", "--steps", "1"],
+     ("--out", "inside the dataset")),
+    ("train-out-file", ["train", "parser", "--dataset", "{ds}", "--out", "{file}", "--steps", "1"],
+     ("--out", "{file}")),
+    ("generate-inside-dataset", G + ["{ds}/episodes/inner"], ("--out", "inside the dataset")),
+    ("generate-inside-other", G + ["{ds_version}/inner"], ("--out", "inside the dataset")),
+    ("generate-long-name", G + ["{new}/{long}"], ("--out", "bytes")),
+    ("render-depth-same", ["render", "--out", "{new}.png", "--depth", "{new}.png"], ("--depth", "--out")),
+    ("render-seg-same", ["render", "--out", "{new}.png", "--segmentation", "{new}.png"],
+     ("--segmentation", "--out")),
+    ("render-preview-same", ["render", "--out", "{new}_preview.png", "--depth", "{new}.png", "--preview"],
+     ("--preview",)),
+    ("render-into-dataset", ["render", "--out", "{ds}/x.png"], ("--out", "inside the dataset")),
+    ("render-long-name", ["render", "--out", "{new}/{long}.png"], ("--out", "bytes")),
+    ("paths-into-dataset", ["paths", "--scenes", "{ds}", "--instructions", "{instructions}", "--out",
+                            "{ds}/more"], ("--out", "inside the dataset")),
+    ("scenes-into-dataset", ["scenes", "--num", "1", "--out", "{ds}/scenes_more"], ("--out", "inside the dataset")),
+    ("export-into-other", ["export", "lerobot", "{ds}", "--out", "{ds_version}/lr"], ("--out", "ds_version")),
+    ("export-sample-hd-into-other", ["export", "sample-hd", "{ds}", "--out", "{ds_missing}/sh"],
+     ("--out", "ds_missing")),
+    ("replay-into-dataset", ["replay", "{episode}", "--out", "{ds}/ep.mp4"], ("--out", "inside the dataset")),
+    ("evaluate-into-dataset", ["evaluate", "--policy", "random", "--out", "{ds}/eval.json"],
+     ("--out", "inside the dataset")),
+    ("export-mjcf-into-dataset", ["export-mjcf", "--out", "{ds}/world.xml"], ("--out", "inside the dataset")),
+    ("stats-into-other", ["stats", "{ds}", "--out", "{ds_version}/stats"], ("--out", "ds_version")),
+    ("bench-into-dataset", ["bench", "--out", "{ds}/bench"], ("--out", "inside the dataset")),
+    ("assets-preview-into-dataset", ["assets", "preview", "mug", "--out", "{ds}/mug.png"],
+     ("--out", "inside the dataset")),
+    ("demo-over-dataset", ["demo", "--out", "{ds}"], ("--out", "dataset")),
+]
+
+
+@pytest.mark.parametrize(("argv", "fragments"), [pytest.param(a, f, id=i) for i, a, f in OUTPUT_CASES])
+def test_output_that_would_overwrite_inputs_or_datasets_is_refused(workspace, argv, fragments, capsys,
+                                                                   monkeypatch) -> None:
+    run_refusal(workspace, argv, fragments, capsys, monkeypatch)
+
+
+# The commands that write to or read a dataset for their whole run, while another process holds it.
+LOCKED_COMMANDS = ("rerender", "rerender-add", "generate-resume", "export-lerobot", "export-sample-hd")
+_HOLDER = ("import sys\nfrom samplehd.dataset.lock import dataset_lock\n"
+           "with dataset_lock(sys.argv[1], shared=sys.argv[2] == 'shared'):\n"
+           "    print('held', flush=True)\n    sys.stdin.read()\n")
+
+
+@pytest.mark.parametrize("holder", ["exclusive", "shared"])
+@pytest.mark.parametrize("command", LOCKED_COMMANDS)
+def test_dataset_in_use_by_another_process_is_refused(workspace, command, holder, capsys, monkeypatch) -> None:
+    """A second command on a dataset another samplehd process is using: one line naming that
+    process, nothing changed; a reader (export) may share the dataset with another reader."""
+    import os
+    import subprocess
+    import sys
+
+    if holder == "shared" and command.startswith("export"):
+        pytest.skip("two exports of one dataset may run together")
+    ws = workspace["ws"]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen([sys.executable, "-c", _HOLDER, str(ws / "ds"), holder], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        assert proc.stdout is not None and proc.stdout.readline().strip() == "held"
+        argv = [a.replace("{DS}", "{ds}") for a in DATASET_COMMANDS[command]]
+        run_refusal(workspace, argv, ("{ds}", f"process {proc.pid}"), capsys, monkeypatch)
+    finally:
+        proc.communicate("", timeout=30)
 
 
 @pytest.mark.slow

@@ -201,7 +201,7 @@ def _check_resumable(out: Path, info: dict[str, Any]) -> None:
     """Refuse to resume a dataset of another format, or one whose finished episodes are missing or
     damaged (resuming would build on them); nothing is changed."""
     reader = DatasetReader(out)  # checks format_version
-    reader.check_intact()
+    reader.check_intact(verify=True)
     for record in read_journal(out):
         if record.get("status") != "ok":
             continue
