@@ -537,6 +537,12 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
         (cfg / f"gen_{cid}.json").write_text(json.dumps(doc))
     (cfg / "micro.json").write_text(json.dumps(MICRO))
     shutil.copyfile(ds / "instructions.json", cfg / "instructions_copy.json")
+    for name, spoil in CONTRADICTIONS.items():
+        doc = json.loads((ds / "instructions.json").read_text())
+        spoil(doc["instructions"])
+        (cfg / f"contra_{name}.json").write_text(json.dumps(doc))
+    for name, text in RAW_CONFIGS.items():
+        (cfg / name).write_text(text)
     (root / "registry").mkdir()
     info = json.loads((ds / "info.json").read_text())
     keep = root / "pristine"
@@ -696,6 +702,114 @@ OUTPUT_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
 @pytest.mark.parametrize(("argv", "fragments"), [pytest.param(a, f, id=i) for i, a, f in OUTPUT_CASES])
 def test_output_that_would_overwrite_inputs_or_datasets_is_refused(workspace, argv, fragments, capsys,
                                                                    monkeypatch) -> None:
+    run_refusal(workspace, argv, fragments, capsys, monkeypatch)
+
+
+def _swap_scenes(entries: list[dict[str, Any]]) -> None:
+    """The instructions of scene 1 given for scene 0 and back: instructions made for other scenes."""
+    for e in entries:
+        e["image_index"] = 1 - e["image_index"]
+
+
+def _set(key: str, value: Any, index: int = 0) -> Any:
+    def spoil(entries: list[dict[str, Any]]) -> None:
+        entries[index][key] = value
+    return spoil
+
+
+def _task(**changes: Any) -> Any:
+    def spoil(entries: list[dict[str, Any]]) -> None:
+        entries[-1]["task"] = {**entries[-1]["task"], **changes}
+    return spoil
+
+
+def _all_missing(entries: list[dict[str, Any]]) -> None:
+    for e in entries:
+        e["task"] = {**e["task"], "objects": [40]}
+
+
+# Instruction files that contradict the dataset's scenes: `paths` must refuse them before planning.
+CONTRADICTIONS: dict[str, Any] = {
+    "other-scenes": _swap_scenes,
+    "missing-object": _task(objects=[7]),
+    "negative-object": _task(objects=[-1]),
+    "every-object-missing": _all_missing,
+    "family-juggle": _set("family", "juggle"),
+    "family-null": _set("family", None),
+    "scene-absent": _set("image_index", 99),
+    "scene-index-str": _set("image_index", "0"),
+    "task-other-part": _task(subject="behind"),
+    "program-garbage": _set("program", [{"type": "juggle"}]),
+    "entry-null": lambda entries: entries.__setitem__(1, None),
+}
+
+
+@pytest.mark.parametrize("case", list(CONTRADICTIONS))
+def test_instructions_that_contradict_the_scenes_are_refused_before_planning(workspace, case, capsys,
+                                                                             monkeypatch) -> None:
+    argv = ["paths", "--scenes", "{ds}", "--instructions", "{cfg:contra_" + case + ".json}", "--out", "{new}"]
+    run_refusal(workspace, argv, ("contra_" + case + ".json", "instructions["), capsys, monkeypatch)
+
+
+# Config files and command lines with options that do nothing, or a key or item given twice.
+RAW_CONFIGS: dict[str, str] = {
+    "dup_top.json": '{"num_scenes": 2, "num_scenes": 3}',
+    "dup_section.json": '{"render": {"mode": "none"}, "render": {"mode": "fast"}}',
+    "dup_nested.json": '{"paths": {"planner": {"order": "nearest", "order": "instruction"}}}',
+    "none_cameras.json": '{"render": {"mode": "none", "cameras": ["wrist"]}}',
+    "none_width.json": '{"render": {"mode": "none", "width": 64}}',
+    "fast_look.json": '{"render": {"mode": "fast", "look": "random"}}',
+    "deep.json": "[" * 100_000 + "]" * 100_000,
+    "deep_object.json": '{"a":' * 50_000 + "1" + "}" * 50_000,
+    "families_dup.json": '{"instructions": {"families": ["place", "place"]}}',
+    "env_dup.json": '{"obs_mode": "state", "obs_mode": "rgb"}',
+}
+GN = G + ["{new}"]
+OPTION_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
+    ("config-dup-top", GN + ["--config", "{cfg:dup_top.json}"], ("dup_top.json", "num_scenes", "twice")),
+    ("config-dup-section", GN + ["--config", "{cfg:dup_section.json}"], ("dup_section.json", "render", "twice")),
+    ("config-dup-nested", GN + ["--config", "{cfg:dup_nested.json}"], ("dup_nested.json", "order", "twice")),
+    ("config-none-cameras", GN + ["--config", "{cfg:none_cameras.json}"], ("none_cameras.json", "cameras")),
+    ("config-none-width", GN + ["--config", "{cfg:none_width.json}"], ("none_width.json", "width")),
+    ("config-fast-look", GN + ["--config", "{cfg:fast_look.json}"], ("fast_look.json", "look")),
+    ("config-deep-array", GN + ["--config", "{cfg:deep.json}"], ("deep.json", "nested")),
+    ("config-deep-object", GN + ["--config", "{cfg:deep_object.json}"], ("deep_object.json", "nested")),
+    ("config-families-dup", GN + ["--config", "{cfg:families_dup.json}"], ("families_dup.json", "families")),
+    ("env-options-dup", ["evaluate", "--policy", "random", "--env-options", "{cfg:env_dup.json}"],
+     ("env_dup.json", "obs_mode", "twice")),
+    ("scenes-config-deep", ["scenes", "--num", "1", "--out", "{new}", "--config", "{cfg:deep.json}"],
+     ("deep.json",)),
+    ("generate-cameras-twice", GN + ["--cameras", "scene", "wrist", "scene"], ("--cameras", "twice")),
+    ("generate-modalities-twice", GN + ["--modalities", "depth", "depth"], ("--modalities", "twice")),
+    ("generate-modalities-comma-twice", GN + ["--modalities", "rgb,depth,rgb"], ("--modalities", "twice")),
+    ("rerender-cameras-twice", ["rerender", "--quiet", "{ds}", "--cameras", "scene", "scene"], ("--cameras", "twice")),
+    ("paths-modalities-twice", ["paths", "--scenes", "{ds}", "--instructions", "{instructions}", "--out", "{new}",
+                                "--cameras", "scene", "--modalities", "rgb", "rgb"], ("--modalities", "twice")),
+    ("instructions-families-twice", ["instructions", "--scenes", "{scenes}", "--out", "{new}.json", "--families",
+                                     "place", "place"], ("--families", "twice")),
+    ("export-cameras-twice", ["export", "lerobot", "{ds}", "--out", "{new}", "--cameras", "scene,scene"],
+     ("--cameras", "twice")),
+    ("generate-ray-address-local", GN + ["--ray-address", "auto"], ("--ray-address", "--backend ray")),
+    ("rerender-ray-address-local", ["rerender", "--quiet", "{ds}", "--ray-address", "auto"], ("--ray-address",)),
+    ("generate-none-cameras", GN + ["--render", "none", "--cameras", "wrist"], ("--cameras", "none")),
+    ("generate-none-width", GN + ["--render", "none", "--width", "64"], ("--width", "none")),
+    ("generate-none-modalities", GN + ["--render", "none", "--modalities", "depth"], ("--modalities", "none")),
+    ("rerender-look-fast", ["rerender", "--quiet", "{ds}", "--photo-look", "random"], ("--photo-look", "photo")),
+    ("scenes-look-banana", ["scenes", "--num", "1", "--out", "{new}", "--photo-look", "banana"],
+     ("--photo-look", "banana")),
+    ("scenes-look-fast", ["scenes", "--num", "1", "--out", "{new}", "--photo-look", "random"],
+     ("--photo-look", "photo")),
+    ("evaluate-programs-oracle", ["evaluate", "--policy", "oracle", "--programs", "gt"], ("--programs", "oracle")),
+    ("evaluate-perception-random", ["evaluate", "--policy", "random", "--perception", "gt"], ("--perception",)),
+    ("evaluate-models-random", ["evaluate", "--policy", "random", "--models", "{dir}"], ("--models", "random")),
+    ("evaluate-models-oracle", ["evaluate", "--policy", "oracle", "--models", "{dir}"], ("--models", "oracle")),
+    ("export-previews-no-images", ["export", "sample-hd", "{ds}", "--out", "{new}", "--previews", "--no-images"],
+     ("--previews", "--no-images")),
+]
+
+
+@pytest.mark.parametrize(("argv", "fragments"), [pytest.param(a, f, id=i) for i, a, f in OPTION_CASES])
+def test_options_that_do_not_apply_or_repeat_are_refused(workspace, argv, fragments, capsys, monkeypatch) -> None:
     run_refusal(workspace, argv, fragments, capsys, monkeypatch)
 
 

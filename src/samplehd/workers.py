@@ -57,6 +57,9 @@ class Backend:
             raise ConfigError(f"--backend {self.kind!r}: valid: {', '.join(BACKENDS)}")
         if not isinstance(self.workers, int) or self.workers < 1:
             raise ConfigError(f"--workers {self.workers!r}: must be an integer ≥ 1")
+        if self.ray_address is not None and self.kind != "ray":
+            raise ConfigError(f"--ray-address {self.ray_address!r}: only used with --backend ray (the {self.kind} "
+                              f"backend ignores it); add --backend ray or leave it out")
 
     def describe(self) -> str:
         if self.kind == "ray":

@@ -84,9 +84,9 @@ def _import(args: argparse.Namespace) -> int:
         args.mesh,
         args.name,
         options=options,
-        materials=split_names(args.material) or ("plastic",),
-        colours=split_names(args.colour),
-        sizes=split_names(args.sizes),
+        materials=split_names(args.material, "--material") or ("plastic",),
+        colours=split_names(args.colour, "--colour"),
+        sizes=split_names(args.sizes, "--sizes"),
         description=args.description,
         overwrite=args.overwrite,
     )

@@ -52,6 +52,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     check_int("--frames-per-file", getattr(args, "frames_per_file", None), 1)
     check_int("--workers", getattr(args, "workers", None), 1)
+    if getattr(args, "previews", False) and args.no_images:
+        raise ConfigError("--previews with --no-images: the previews are made from the sequence images; "
+                          "leave out one of them")
     source = args.episode if args.format == "rerun" else args.dir
     check_outputs({"--out": args.out}, {"EPISODE" if args.format == "rerun" else "DIR": source})
     if args.format == "rerun":
@@ -74,8 +77,8 @@ def run(args: argparse.Namespace) -> int:
 
         if args.format == "lerobot":
             res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file,
-                                 list(split_names(args.cameras)) or None, progress=tick,
-                                 modalities=list(split_names(args.modalities)) or None)
+                                 list(split_names(args.cameras, "--cameras")) or None, progress=tick,
+                                 modalities=list(split_names(args.modalities, "--modalities")) or None)
         else:
             res = export_samplehd(args.dir, args.out, images=not args.no_images, previews=args.previews,
                                   camera=args.camera, backend=Backend("local", args.workers), progress=tick)

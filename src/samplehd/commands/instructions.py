@@ -62,7 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     check_int("--per-scene", args.per_scene, 1, 99)
     check_int("--seed", args.seed, 0)
-    args.families = split_names(args.families) or None
+    args.families = split_names(args.families, "--families") or None
     check_names("--families", args.families, family_names())
     check_out_file("--out", args.out, (".json",))
     scenes_file = args.scenes / "scenes.json" if args.scenes.is_dir() else args.scenes

@@ -42,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    cameras, modalities = split_names(args.cameras), split_names(args.modalities)
+    cameras, modalities = split_names(args.cameras, "--cameras"), split_names(args.modalities, "--modalities")
     check_names("--cameras", cameras, CAMERAS, allow_empty=True)
     check_names("--modalities", modalities, MODALITIES)
     for flag, value, lo, hi in (("--workers", args.workers, 1, None), ("--max-attempts", args.max_attempts, 1, 100),
