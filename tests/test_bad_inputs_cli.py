@@ -805,6 +805,10 @@ OPTION_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("evaluate-models-oracle", ["evaluate", "--policy", "oracle", "--models", "{dir}"], ("--models", "oracle")),
     ("export-previews-no-images", ["export", "sample-hd", "{ds}", "--out", "{new}", "--previews", "--no-images"],
      ("--previews", "--no-images")),
+    ("view-host-empty", ["view", "{ds}", "--host", "", "--port", "0"], ("--host", "--allow-remote")),
+    ("view-host-any", ["view", "{ds}", "--host", "0.0.0.0", "--port", "0"], ("--host", "--allow-remote")),
+    ("view-host-any6", ["view", "{ds}", "--host", "::", "--port", "0"], ("--host", "--allow-remote")),
+    ("view-host-name", ["view", "{ds}", "--host", "example.org", "--port", "0"], ("--host", "--allow-remote")),
 ]
 
 
