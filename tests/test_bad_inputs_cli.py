@@ -537,12 +537,14 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
         (cfg / f"gen_{cid}.json").write_text(json.dumps(doc))
     (cfg / "micro.json").write_text(json.dumps(MICRO))
     shutil.copyfile(ds / "instructions.json", cfg / "instructions_copy.json")
+    shutil.copyfile(ds / "scenes.json", cfg / "scenes_copy.json")
     for name, spoil in CONTRADICTIONS.items():
         doc = json.loads((ds / "instructions.json").read_text())
         spoil(doc["instructions"])
         (cfg / f"contra_{name}.json").write_text(json.dumps(doc))
     for name, text in RAW_CONFIGS.items():
         (cfg / name).write_text(text)
+    _model_folders(pristine)
     (root / "registry").mkdir()
     info = json.loads((ds / "info.json").read_text())
     keep = root / "pristine"
@@ -657,8 +659,8 @@ def test_damage_found_only_by_reading_is_refused_before_writing(workspace, comma
 OUTPUT_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("instructions-into-dataset", ["instructions", "--scenes", "{scenes}", "--out", "{instructions}"],
      ("--out", "inside the dataset")),
-    ("instructions-over-input", ["instructions", "--scenes", "{cfg:instructions_copy.json}", "--out",
-                                 "{cfg:instructions_copy.json}"], ("--out", "input")),
+    ("instructions-over-input", ["instructions", "--scenes", "{cfg:scenes_copy.json}", "--out",
+                                 "{cfg:scenes_copy.json}"], ("--out", "input")),
     ("instructions-other-dataset", ["instructions", "--scenes", "{scenes}", "--out", "{ds_version}/i.json"],
      ("--out", "ds_version")),
     ("vocab-over-input", ["vocab", "--instructions", "{instructions_copy}", "--out", "{instructions_copy}"],
@@ -809,6 +811,47 @@ OPTION_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("view-host-any", ["view", "{ds}", "--host", "0.0.0.0", "--port", "0"], ("--host", "--allow-remote")),
     ("view-host-any6", ["view", "{ds}", "--host", "::", "--port", "0"], ("--host", "--allow-remote")),
     ("view-host-name", ["view", "{ds}", "--host", "example.org", "--port", "0"], ("--host", "--allow-remote")),
+]
+
+
+def _model_folders(ws: Path) -> None:
+    """Training folders with a checkpoint or model that must be refused before anything is written:
+    garbage bytes, a pickled object (torch refuses it with weights_only, in many lines), a future format."""
+    import torch
+
+    pickled = {"model": Path("not-a-tensor"), "optimizer": {}, "step": 1}
+    for name, files in {
+        "train_garbage": {"checkpoint.pt": b"garbage, not a checkpoint", "config.json": b'{"kind": "parser"}'},
+        "train_pickled": {"checkpoint.pt": pickled},
+        "train_truncated": {"checkpoint.pt": "truncated"},
+        "train_not_checkpoint": {"checkpoint.pt": {"weights": torch.zeros(2)}},
+        "model_pickled": {"model.pt": pickled, "config.json": b'{"kind": "parser", "format": 1}'},
+        "model_future": {"model.pt": {}, "config.json": b'{"kind": "parser", "format": 99}'},
+    }.items():
+        folder = ws / name
+        folder.mkdir()
+        for file, content in files.items():
+            if isinstance(content, bytes):
+                (folder / file).write_bytes(content)
+            elif content == "truncated":
+                torch.save({"model": {"w": torch.zeros(64)}, "optimizer": {}, "step": 1}, folder / file)
+                (folder / file).write_bytes((folder / file).read_bytes()[:100])
+            else:
+                torch.save(content, folder / file)
+
+
+TRAIN = ["train", "parser", "--dataset", "{ds}", "--steps", "1", "--quiet", "--out"]
+OPTION_CASES += [
+    ("train-device-quantum", TRAIN + ["{new}", "--device", "quantum"], ("--device", "quantum")),
+    ("train-device-empty-index", TRAIN + ["{new}", "--device", "cpu:x"], ("--device",)),
+    ("train-garbage-checkpoint", TRAIN + ["{ws}/train_garbage"], ("checkpoint.pt",)),
+    ("train-pickled-checkpoint", TRAIN + ["{ws}/train_pickled"], ("checkpoint.pt", "weights_only")),
+    ("train-truncated-checkpoint", TRAIN + ["{ws}/train_truncated"], ("checkpoint.pt",)),
+    ("train-foreign-checkpoint", TRAIN + ["{ws}/train_not_checkpoint"], ("checkpoint.pt", "not a samplehd")),
+    ("train-pickled-model", ["train", "parser", "--dataset", "{ds}", "--evaluate-only", "--out", "{ws}/model_pickled"],
+     ("model.pt", "weights_only")),
+    ("train-future-model", ["train", "parser", "--dataset", "{ds}", "--evaluate-only", "--out", "{ws}/model_future"],
+     ("config.json", "format 99")),
 ]
 
 
