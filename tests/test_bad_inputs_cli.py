@@ -789,9 +789,16 @@ OPTION_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
                                 "--cameras", "scene", "--modalities", "rgb", "rgb"], ("--modalities", "twice")),
     ("instructions-families-twice", ["instructions", "--scenes", "{scenes}", "--out", "{new}.json", "--families",
                                      "place", "place"], ("--families", "twice")),
-    ("export-cameras-twice", ["export", "lerobot", "{ds}", "--out", "{new}", "--cameras", "scene,scene"],
-     ("--cameras", "twice")),
+    ("rerender-modalities-twice", ["rerender", "--quiet", "{ds}", "--modalities", "depth", "rgb", "depth"],
+     ("--modalities", "twice")),
     ("generate-ray-address-local", GN + ["--ray-address", "auto"], ("--ray-address", "--backend ray")),
+    ("generate-ray-closed-port", GN + ["--backend", "ray", "--ray-address", "127.0.0.1:1"],
+     ("--ray-address", "127.0.0.1:1")),
+    ("rerender-ray-closed-port", ["rerender", "--quiet", "{ds}", "--backend", "ray", "--ray-address", "127.0.0.1:1"],
+     ("--ray-address", "127.0.0.1:1")),
+    ("generate-ray-malformed", GN + ["--backend", "ray", "--ray-address", "nonsense"], ("--ray-address", "HOST:PORT")),
+    ("generate-ray-bad-port", GN + ["--backend", "ray", "--ray-address", "ray://localhost:99999"],
+     ("--ray-address", "HOST:PORT")),
     ("rerender-ray-address-local", ["rerender", "--quiet", "{ds}", "--ray-address", "auto"], ("--ray-address",)),
     ("generate-none-cameras", GN + ["--render", "none", "--cameras", "wrist"], ("--cameras", "none")),
     ("generate-none-width", GN + ["--render", "none", "--width", "64"], ("--width", "none")),
@@ -888,6 +895,59 @@ def test_dataset_in_use_by_another_process_is_refused(workspace, command, holder
         run_refusal(workspace, argv, ("{ds}", f"process {proc.pid}"), capsys, monkeypatch)
     finally:
         proc.communicate("", timeout=30)
+
+
+def _dead_pid() -> int:
+
+    pid = 4_000_000
+    while Path(f"/proc/{pid}").exists():
+        pid += 1
+    return pid
+
+
+@pytest.mark.parametrize("export", [["lerobot"], ["sample-hd", "--no-images", "--workers", "1"]])
+def test_staging_folders_of_killed_exports_are_removed_by_the_next(tmp_path: Path, workspace, export) -> None:
+    """A killed export leaves its hidden staging folder; the next export to the same place removes
+    it (its process is gone), and leaves the staging folder of an export still running alone."""
+    import os
+
+    out = tmp_path / "exported"
+    dead = tmp_path / f".exported.tmp-{_dead_pid()}"
+    running = tmp_path / f".exported.tmp-{os.getppid()}"
+    for folder in (dead, running):
+        (folder / "data").mkdir(parents=True)
+        (folder / "data" / "part.bin").write_bytes(b"half written")
+    ds = tmp_path / "ds"
+    shutil.copytree(workspace["pristine"] / "ds", ds)
+    assert main(["export", export[0], str(ds), "--out", str(out), *export[1:]]) == 0
+    assert out.is_dir() and not dead.exists() and running.is_dir()
+
+
+@pytest.mark.slow
+def test_rerender_on_a_ray_address_that_is_no_ray_cluster(workspace, capsys, monkeypatch) -> None:
+    """Something answers at the address but it is not Ray: after Ray's own retries (about 20 s, not
+    minutes), one line, and info.json not marked as being rerendered."""
+    import socket
+    import threading
+
+    listener = socket.create_server(("127.0.0.1", 0))
+    port = listener.getsockname()[1]
+
+    def answer() -> None:
+        while True:
+            try:
+                conn, _ = listener.accept()
+            except OSError:
+                return
+            conn.sendall(b"HTTP/1.1 404 Not Found\r\n\r\n")
+            conn.close()
+
+    threading.Thread(target=answer, daemon=True).start()
+    try:
+        argv = ["rerender", "--quiet", "{ds}", "--backend", "ray", "--ray-address", f"127.0.0.1:{port}"]
+        run_refusal(workspace, argv, ("--ray-address", str(port)), capsys, monkeypatch)
+    finally:
+        listener.close()
 
 
 @pytest.mark.slow

@@ -71,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
     check_outputs({"--out": args.out}, {"--config": args.config}, in_place=args.out)
     config = resolve_config(args)
     backend = Backend(args.backend, args.workers, args.ray_address)
+    backend.connect()  # before anything is written
     with RichProgress(disable=args.quiet) as progress:
         progress.note(f"generating into {args.out} ({backend.describe()}, render {config.render.mode}"
                       f"{'' if not config.render.enabled else f' {config.render.width}x{config.render.height}'})")

@@ -50,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
                                     where="command line")
     check_render_applies(render, {"look": "--photo-look"} if args.photo_look != "fixed" else {})
     backend = Backend(args.backend, args.workers, args.ray_address)
+    backend.connect()  # before anything is written
     with RichProgress(disable=args.quiet) as progress:
         res = rerender_dataset(args.dir, render, backend, progress, add=args.add)
     verb = "added images to" if args.add else "rerendered"
