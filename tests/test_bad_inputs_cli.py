@@ -430,7 +430,8 @@ EXTRA_FILES: dict[str, Any] = {
 
 # Every command that changes, resumes or exports a dataset, on every kind of damage: each must refuse
 # (one line, exit 2) and leave the damaged dataset byte for byte as it was.
-DAMAGES = ("version", "truncated", "missing", "badinfo", "noinfo", "escape", "absolute", "null")
+DAMAGES = ("version", "truncated", "missing", "badinfo", "noinfo", "escape", "absolute", "null", "one_scene",
+           "instructions_dict")
 DATASET_COMMANDS: dict[str, list[str]] = {
     "rerender": ["rerender", "--quiet", "{DS}", "--width", "64", "--height", "36"],
     "rerender-add": ["rerender", "--quiet", "{DS}", "--add", "--cameras", "wrist", "--width", "48", "--height", "48"],
@@ -441,7 +442,7 @@ DATASET_COMMANDS: dict[str, list[str]] = {
 }
 DAMAGE_FRAGMENT = {"version": "format_version", "truncated": "bytes", "missing": "missing", "badinfo": "info.json",
                    "noinfo": "info.json", "escape": "outside the dataset", "absolute": "outside the dataset",
-                   "null": "episodes[0]"}
+                   "null": "episodes[0]", "one_scene": "scenes.json", "instructions_dict": "instructions.json"}
 # Damage only a whole read of every episode finds (same sizes): the commands that rewrite episodes
 # (rerender, and generate --resume, which builds on them) must find it before they write.
 VERIFY_DAMAGES = {"modified": "SHA-256", "frames": "frames", "version_attr": "format_version"}
@@ -487,6 +488,13 @@ def _damage(src: Path, dst: Path, how: str) -> None:
         shutil.copyfile(first, beside)
         info["episodes"][0]["file"] = f"../{beside.name}" if how == "escape" else str(beside)
         (dst / "info.json").write_text(json.dumps(info, indent=1))
+    elif how == "one_scene":  # scenes.json holding one scene (the layout `samplehd instructions` also reads)
+        scenes = json.loads((dst / "scenes.json").read_text())["scenes"]
+        (dst / "scenes.json").write_text(json.dumps(scenes[0]))
+    elif how == "instructions_dict":
+        doc = json.loads((dst / "instructions.json").read_text())
+        doc["instructions"] = {"0": doc["instructions"][0]}
+        (dst / "instructions.json").write_text(json.dumps(doc))
     elif how == "null":
         info["episodes"][0] = None
         (dst / "info.json").write_text(json.dumps(info, indent=1))
@@ -895,6 +903,29 @@ def test_dataset_in_use_by_another_process_is_refused(workspace, command, holder
         run_refusal(workspace, argv, ("{ds}", f"process {proc.pid}"), capsys, monkeypatch)
     finally:
         proc.communicate("", timeout=30)
+
+
+@pytest.mark.parametrize("frozen", ["root", "episodes"])
+@pytest.mark.parametrize("command", ["rerender", "rerender-add"])
+def test_rerender_of_an_immutable_dataset_is_refused(tmp_path: Path, workspace, command, frozen, capsys) -> None:
+    """A dataset folder the command cannot write (chattr +i: refused even to root): one line, nothing
+    changed, instead of a traceback half-way."""
+    import subprocess
+
+    ds = tmp_path / "ds"
+    shutil.copytree(workspace["pristine"] / "ds", ds)
+    folder = ds if frozen == "root" else ds / "episodes"
+    if subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode != 0:
+        pytest.skip("chattr +i is not available here")
+    try:
+        before = _snapshot(ds, digest=True)
+        argv = [a.replace("{DS}", str(ds)) for a in DATASET_COMMANDS[command]]
+        code = main(argv)
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and len(err.splitlines()) == 1 and "not writable" in err, err
+        assert _snapshot(ds, digest=True) == before
+    finally:
+        subprocess.run(["chattr", "-i", str(folder)], check=True)
 
 
 def _dead_pid() -> int:

@@ -121,7 +121,7 @@ class DatasetReader:
         if self._scenes is None:
             path = self.root / SCENES_FILE
             if path.exists():
-                self._scenes = list(read_json(path)["scenes"])
+                self._scenes = _entries(path, "scenes", "image_index")
             else:
                 found = []
                 for p in sorted((self.root / SCENE_DIR).glob("*.json")):
@@ -145,7 +145,7 @@ class DatasetReader:
         """Instructions with episodes, in ``instruction_index`` order (CLEVR question-file entries)."""
         if self._instructions is None:
             if self.complete:
-                self._instructions = list(read_json(self.root / INSTRUCTIONS_FILE)["instructions"])
+                self._instructions = _entries(self.root / INSTRUCTIONS_FILE, "instructions", "image_index")
             else:
                 by_key = {(c["image_index"], c["slot"]): c for c in self._candidates()}
                 self._instructions = []
@@ -216,6 +216,8 @@ class DatasetReader:
         if self.complete and not isinstance(self.info.get("episodes"), list):
             raise DatasetError(f"{self.root / INFO_FILE}: episodes: missing or not a list")
         hint = f"nothing was changed; `samplehd validate {self.root}` lists every problem"
+        if self.complete:
+            self.scenes, self.instructions  # noqa: B018 - both files readable and of the right shape
         for i, e in enumerate(self.episodes):
             path = self.episode_path(i)
             if not path.is_file():
@@ -300,3 +302,16 @@ class DatasetReader:
     def instruction(self, index: int) -> dict[str, Any]:
         """The instruction entry of episode ``index``."""
         return self.instructions[index]
+
+
+def _entries(path: Path, key: str, index: str) -> list[dict[str, Any]]:
+    """The ``key`` list of a CLEVR-layout file, each entry an object with an integer ``index``."""
+    doc = read_json(path)
+    items = doc.get(key) if isinstance(doc, dict) else None
+    if not isinstance(items, list):
+        raise DatasetError(f"{path}: expected {{info, {key}: [...]}}; the file is damaged: regenerate or restore it")
+    for k, item in enumerate(items):
+        if not isinstance(item, dict) or not isinstance(item.get(index), int):
+            raise DatasetError(f"{path}: {key}[{k}] is not an entry with an integer {index}; the file is damaged: "
+                               f"regenerate or restore it")
+    return items

@@ -12,6 +12,7 @@ resumes where it stopped. ``info.json`` gets the new ``render`` settings and the
 from __future__ import annotations
 
 import json
+import os
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -24,7 +25,7 @@ from samplehd.dataset.container import (
     read_meta,
     render_record,
 )
-from samplehd.dataset.layout import INFO_FILE, RUNS_FILE
+from samplehd.dataset.layout import EPISODE_DIR, INFO_FILE, RUNS_FILE
 from samplehd.dataset.lock import dataset_lock
 from samplehd.dataset.progress import Progress
 from samplehd.dataset.reader import DatasetReader
@@ -73,6 +74,10 @@ def _rerender(root: Path, render: RenderConfig, backend: Backend | None, progres
     if not reader.complete:
         raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
     reader.check_intact(verify=True)  # every episode read and checked before any is rewritten
+    for folder in (root, root / EPISODE_DIR):  # episodes and info.json are replaced by renames in these
+        if not os.access(folder, os.W_OK):
+            raise DatasetError(f"{folder}: not writable (read-only or immutable); nothing was changed; make it "
+                               f"writable or rerender a copy")
     backend = backend or Backend()
     progress = progress or Progress()
     t0 = time.perf_counter()
