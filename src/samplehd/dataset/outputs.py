@@ -17,20 +17,21 @@ import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from samplehd.dataset.layout import INFO_FILE
+from samplehd.dataset.layout import EPISODE_DIR, INFO_FILE
 from samplehd.errors import ConfigError, DatasetError
 
 __all__ = ["check_outputs", "dataset_root_of", "inside_dataset"]
 
-# A dataset folder holds one of these (samplehd and SAMPLE-HD layouts: info.json; LeRobot: meta/info.json).
-_DATASET_MARKERS = (INFO_FILE, f"meta/{INFO_FILE}")
+# A dataset folder holds one of these (file, folder) pairs: a samplehd dataset, a SAMPLE-HD export, a
+# LeRobot export. Both are asked for: an info.json alone is too common a name to mark a dataset.
+_DATASET_MARKERS = ((INFO_FILE, EPISODE_DIR), (INFO_FILE, "sequences"), (f"meta/{INFO_FILE}", "data"))
 
 
 def dataset_root_of(path: Path) -> Path | None:
     """The nearest folder that is ``path`` or holds it and is a dataset folder, or None (``path`` resolved)."""
     path = path.resolve()
     for folder in (path, *path.parents):
-        if any((folder / marker).is_file() for marker in _DATASET_MARKERS):
+        if any((folder / file).is_file() and (folder / sub).is_dir() for file, sub in _DATASET_MARKERS):
             return folder
     return None
 
@@ -94,9 +95,8 @@ def inside_dataset(root: Path, relative: object, where: str) -> Path:
 
 def _check_length(flag: str, path: Path) -> None:
     """Each name within the file system's NAME_MAX, the whole path within PATH_MAX."""
-    existing = next((p for p in (path.absolute(), *path.absolute().parents) if p.exists()), Path("/"))
-    if not existing.is_dir():
-        existing = existing.parent
+    # Only the parents are asked about: a name over the limit makes the file system refuse the question.
+    existing = next((p for p in path.absolute().parents if _is_dir(p)), Path("/"))
     name_max, path_max = _limit(existing, "PC_NAME_MAX", 255), _limit(existing, "PC_PATH_MAX", 4096)
     for name in _names(path):
         size = len(os.fsencode(name))
@@ -107,6 +107,13 @@ def _check_length(flag: str, path: Path) -> None:
     if size >= path_max:
         raise ConfigError(f"{flag} {str(path)[:80]}…: the path is {size} bytes; the file system allows fewer than "
                           f"{path_max}; choose a shorter path")
+
+
+def _is_dir(path: Path) -> bool:
+    try:
+        return path.is_dir()
+    except OSError:  # a name too long for the file system
+        return False
 
 
 def _names(path: Path) -> Iterable[str]:
