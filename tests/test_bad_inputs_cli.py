@@ -836,7 +836,7 @@ def _model_folders(ws: Path) -> None:
 
     pickled = {"model": Path("not-a-tensor"), "optimizer": {}, "step": 1}
     for name, files in {
-        "train_garbage": {"checkpoint.pt": b"garbage, not a checkpoint", "config.json": b'{"kind": "parser"}'},
+        "train_garbage": {"checkpoint.pt": b"garbage, not a checkpoint"},
         "train_pickled": {"checkpoint.pt": pickled},
         "train_truncated": {"checkpoint.pt": "truncated"},
         "train_not_checkpoint": {"checkpoint.pt": {"weights": torch.zeros(2)}},
