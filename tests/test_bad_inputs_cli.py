@@ -814,6 +814,8 @@ OPTION_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("rerender-look-fast", ["rerender", "--quiet", "{ds}", "--photo-look", "random"], ("--photo-look", "photo")),
     ("scenes-look-banana", ["scenes", "--num", "1", "--out", "{new}", "--photo-look", "banana"],
      ("--photo-look", "banana")),
+    ("scenes-look-banana-photo", ["scenes", "--num", "1", "--out", "{new}", "--preset", "photo", "--photo-look",
+                                  "banana"], ("--photo-look", "banana")),
     ("scenes-look-fast", ["scenes", "--num", "1", "--out", "{new}", "--photo-look", "random"],
      ("--photo-look", "photo")),
     ("evaluate-programs-oracle", ["evaluate", "--policy", "oracle", "--programs", "gt"], ("--programs", "oracle")),
