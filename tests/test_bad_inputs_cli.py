@@ -957,33 +957,6 @@ def test_staging_folders_of_killed_exports_are_removed_by_the_next(tmp_path: Pat
 
 
 @pytest.mark.slow
-def test_rerender_on_a_ray_address_that_is_no_ray_cluster(workspace, capsys, monkeypatch) -> None:
-    """Something answers at the address but it is not Ray: after Ray's own retries (about 20 s, not
-    minutes), one line, and info.json not marked as being rerendered."""
-    import socket
-    import threading
-
-    listener = socket.create_server(("127.0.0.1", 0))
-    port = listener.getsockname()[1]
-
-    def answer() -> None:
-        while True:
-            try:
-                conn, _ = listener.accept()
-            except OSError:
-                return
-            conn.sendall(b"HTTP/1.1 404 Not Found\r\n\r\n")
-            conn.close()
-
-    threading.Thread(target=answer, daemon=True).start()
-    try:
-        argv = ["rerender", "--quiet", "{ds}", "--backend", "ray", "--ray-address", f"127.0.0.1:{port}"]
-        run_refusal(workspace, argv, ("--ray-address", str(port)), capsys, monkeypatch)
-    finally:
-        listener.close()
-
-
-@pytest.mark.slow
 def test_a_start_that_failed_before_info_json_does_not_block_the_next(tmp_path: Path, workspace) -> None:
     """The empty layout folders of a start that failed before info.json (disk full) are no dataset
     and no user files: the same command runs there afterwards."""
