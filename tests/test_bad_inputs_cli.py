@@ -435,7 +435,8 @@ EXTRA_FILES: dict[str, Any] = {
 
 # Every command that changes, resumes or exports a dataset, on every kind of damage: each must refuse
 # (one line, exit 2) and leave the damaged dataset byte for byte as it was.
-DAMAGES = ("version", "truncated", "missing", "badinfo", "noinfo")
+DAMAGES = ("version", "truncated", "missing", "badinfo", "noinfo", "escape", "absolute", "null", "one_scene",
+           "instructions_dict")
 DATASET_COMMANDS: dict[str, list[str]] = {
     "rerender": ["rerender", "--quiet", "{DS}", "--width", "64", "--height", "36"],
     "rerender-add": ["rerender", "--quiet", "{DS}", "--add", "--cameras", "wrist", "--width", "48", "--height", "48"],
@@ -445,7 +446,12 @@ DATASET_COMMANDS: dict[str, list[str]] = {
     "stats": ["stats", "{DS}"],
 }
 DAMAGE_FRAGMENT = {"version": "format_version", "truncated": "bytes", "missing": "missing", "badinfo": "info.json",
-                   "noinfo": "info.json"}
+                   "noinfo": "info.json", "escape": "outside the dataset", "absolute": "outside the dataset",
+                   "null": "episodes[0]", "one_scene": "scenes.json", "instructions_dict": "instructions.json"}
+# Damage only a whole read of every episode finds (same sizes): the commands that rewrite episodes
+# (rerender, and generate --resume, which builds on them) must find it before they write.
+VERIFY_DAMAGES = {"modified": "SHA-256", "frames": "frames", "version_attr": "format_version"}
+VERIFY_COMMANDS = ("rerender", "rerender-add", "generate-resume")
 
 
 def _snapshot(root: Path, digest: bool = False) -> dict[str, str]:
@@ -482,6 +488,38 @@ def _damage(src: Path, dst: Path, how: str) -> None:
         (dst / "info.json").write_text((dst / "info.json").read_text()[:200])
     elif how == "noinfo":
         (dst / "info.json").unlink()
+    elif how in ("escape", "absolute"):  # a file beside the dataset, the same size as the episode it replaces
+        beside = dst.parent / f"outside_{how}.h5"
+        shutil.copyfile(first, beside)
+        info["episodes"][0]["file"] = f"../{beside.name}" if how == "escape" else str(beside)
+        (dst / "info.json").write_text(json.dumps(info, indent=1))
+    elif how == "one_scene":  # scenes.json holding one scene (the layout `samplehd instructions` also reads)
+        scenes = json.loads((dst / "scenes.json").read_text())["scenes"]
+        (dst / "scenes.json").write_text(json.dumps(scenes[0]))
+    elif how == "instructions_dict":
+        doc = json.loads((dst / "instructions.json").read_text())
+        doc["instructions"] = {"0": doc["instructions"][0]}
+        (dst / "instructions.json").write_text(json.dumps(doc))
+    elif how == "null":
+        info["episodes"][0] = None
+        (dst / "info.json").write_text(json.dumps(info, indent=1))
+    elif how == "modified":  # same size, a few bytes changed in the middle
+        data = bytearray(first.read_bytes())
+        middle = len(data) // 2
+        data[middle:middle + 8] = bytes(b ^ 0x5A for b in data[middle:middle + 8])
+        first.write_bytes(bytes(data))
+    elif how == "frames":  # info.json's frame count no longer that of the file
+        info["episodes"][0]["num_frames"] += 1
+        (dst / "info.json").write_text(json.dumps(info, indent=1))
+    elif how == "version_attr":  # the episode's own format version, changed in place
+        import h5py
+
+        with h5py.File(first, "r+") as f:
+            f.attrs["format_version"] = "9.9"
+        from samplehd.fileio import file_sha256
+
+        info["episodes"][0].update(size=first.stat().st_size, sha256=file_sha256(first))  # info.json agrees
+        (dst / "info.json").write_text(json.dumps(info, indent=1))
 
 
 @pytest.fixture(scope="module")
@@ -496,7 +534,7 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     ds = pristine / "ds"
     summary = generate_dataset(ds, GenerateConfig.from_dict(MICRO, base=preset_config("tiny")))
     assert summary.episodes >= 1
-    for how in ("version", "truncated", "missing", "badinfo", "noinfo"):
+    for how in (*DAMAGES, *VERIFY_DAMAGES):
         _damage(ds, pristine / f"ds_{how}", how)
     (pristine / "notes.txt").write_text("a plain file\n")
     (pristine / "folder").mkdir()
@@ -511,12 +549,21 @@ def workspace(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     for cid, doc, _ in CONFIG_CASES:
         (cfg / f"gen_{cid}.json").write_text(json.dumps(doc))
     (cfg / "micro.json").write_text(json.dumps(MICRO))
+    shutil.copyfile(ds / "instructions.json", cfg / "instructions_copy.json")
+    shutil.copyfile(ds / "scenes.json", cfg / "scenes_copy.json")
+    for name, spoil in CONTRADICTIONS.items():
+        doc = json.loads((ds / "instructions.json").read_text())
+        spoil(doc["instructions"])
+        (cfg / f"contra_{name}.json").write_text(json.dumps(doc))
+    for name, text in RAW_CONFIGS.items():
+        (cfg / name).write_text(text)
+    _model_folders(pristine)
     (root / "registry").mkdir()
     info = json.loads((ds / "info.json").read_text())
     keep = root / "pristine"
     shutil.copytree(pristine, keep)
     return {"root": root, "ws": pristine, "pristine": keep, "snapshot": _snapshot(pristine),
-            "digests": {how: _snapshot(pristine / f"ds_{how}", digest=True) for how in DAMAGES},
+            "digests": {how: _snapshot(pristine / f"ds_{how}", digest=True) for how in (*DAMAGES, *VERIFY_DAMAGES)},
             "episode_file": info["episodes"][0]["file"]}
 
 
@@ -526,7 +573,8 @@ def _placeholders(ws: Path, episode_file: str) -> dict[str, str]:
         "dir": str(ws / "folder"), "mesh": str(ws / "cube.obj"), "scenes": str(ws / "ds" / "scenes.json"),
         "instructions": str(ws / "ds" / "instructions.json"), "episode": str(ws / "ds" / episode_file),
         "truncated_episode": str(ws / "ds_truncated" / episode_file),
-        **{f"ds_{how}": str(ws / f"ds_{how}") for how in ("version", "truncated", "missing", "badinfo", "noinfo")},
+        **{f"ds_{how}": str(ws / f"ds_{how}") for how in (*DAMAGES, *VERIFY_DAMAGES)},
+        "instructions_copy": str(ws / "cfg" / "instructions_copy.json"), "long": "n" * 300,
     }
 
 
@@ -587,14 +635,11 @@ def test_damaged_dataset_is_refused_and_left_as_it_was(workspace, command, damag
     assert _snapshot(workspace["ws"] / f"ds_{damage}", digest=True) == workspace["digests"][damage]
 
 
-@pytest.mark.slow
-def test_rerender_failing_in_one_episode_changes_no_other(tmp_path: Path, workspace, capsys) -> None:
-    """An episode that turns out unreadable half-way (same size, corrupted frames) stops rerender with
-    one line naming it; the episodes before it are re-rendered whole, the others untouched, and
-    info.json matches every file on disk."""
+def test_rerender_of_a_spoilt_episode_changes_nothing(tmp_path: Path, workspace, capsys) -> None:
+    """An episode spoilt behind info.json's back (same size, corrupted frames) is found before any
+    episode is re-rendered: rerender stops with one line naming it and the dataset keeps every byte
+    (an earlier rerender rewrote the episodes before it and re-hashed nothing it could check)."""
     import h5py
-
-    from samplehd.fileio import file_sha256
 
     ds = tmp_path / "ds"
     shutil.copytree(workspace["pristine"] / "ds", ds)
@@ -607,19 +652,313 @@ def test_rerender_failing_in_one_episode_changes_no_other(tmp_path: Path, worksp
     data = bytearray(bad.read_bytes())
     data[chunk.byte_offset:chunk.byte_offset + min(chunk.size, 64)] = b"\xff" * min(chunk.size, 64)
     bad.write_bytes(bytes(data))
-    before = {e["file"]: (ds / e["file"]).read_bytes() for e in episodes}
+    before = _snapshot(ds, digest=True)
     code = main(["rerender", "--quiet", str(ds), "--width", "64", "--height", "36", "--workers", "1"])
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and str(bad) in err, err
-    assert bad.read_bytes() == before[episodes[-1]["file"]]
-    after = json.loads((ds / "info.json").read_text())
-    assert after["episodes"][-1] == episodes[-1]  # the spoilt one (spoilt behind info.json's back) as it was
-    for e in after["episodes"][:-1]:
-        path = ds / e["file"]
-        assert (e["size"], e["sha256"]) == (path.stat().st_size, file_sha256(path)), e["file"]
-        with h5py.File(path, "r") as f:  # each episode holds its old states or its new images, whole
-            assert ("images" in f) == (path.read_bytes() != before[e["file"]])
-    assert after["rerender"]["done"] == len(episodes) - 1
+    assert _snapshot(ds, digest=True) == before
+
+
+@pytest.mark.parametrize("damage", list(VERIFY_DAMAGES))
+@pytest.mark.parametrize("command", VERIFY_COMMANDS)
+def test_damage_found_only_by_reading_is_refused_before_writing(workspace, command, damage, capsys,
+                                                                 monkeypatch) -> None:
+    argv = [a.replace("{DS}", "{ds_" + damage + "}") for a in DATASET_COMMANDS[command]]
+    run_refusal(workspace, argv, ("{ds_" + damage + "}", VERIFY_DAMAGES[damage]), capsys, monkeypatch)
+    assert _snapshot(workspace["ws"] / f"ds_{damage}", digest=True) == workspace["digests"][damage]
+
+
+# Outputs that would overwrite an input, another output or a dataset's own files (one rule for all).
+OUTPUT_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
+    ("instructions-into-dataset", ["instructions", "--scenes", "{scenes}", "--out", "{instructions}"],
+     ("--out", "inside the dataset")),
+    ("instructions-over-input", ["instructions", "--scenes", "{cfg:scenes_copy.json}", "--out",
+                                 "{cfg:scenes_copy.json}"], ("--out", "input")),
+    ("instructions-other-dataset", ["instructions", "--scenes", "{scenes}", "--out", "{ds_version}/i.json"],
+     ("--out", "ds_version")),
+    ("vocab-over-input", ["vocab", "--instructions", "{instructions_copy}", "--out", "{instructions_copy}"],
+     ("--out", "input")),
+    ("vocab-into-dataset", ["vocab", "--instructions", "{instructions}", "--out", "{ds}/vocab.json"],
+     ("--out", "inside the dataset")),
+    ("train-into-dataset", ["train", "parser", "--dataset", "{ds}", "--out", "{ds}", "--steps", "1"],
+     ("--out", "dataset")),
+    ("train-into-episodes", ["train", "parser", "--dataset", "{ds}", "--out", "{ds}/episodes/m", "--steps", "1"],
+     ("--out", "inside the dataset")),
+    ("train-out-file", ["train", "parser", "--dataset", "{ds}", "--out", "{file}", "--steps", "1"],
+     ("--out", "{file}")),
+    ("generate-inside-dataset", G + ["{ds}/episodes/inner"], ("--out", "inside the dataset")),
+    ("generate-inside-other", G + ["{ds_version}/inner"], ("--out", "inside the dataset")),
+    ("generate-long-name", G + ["{new}/{long}"], ("--out", "bytes")),
+    ("render-depth-same", ["render", "--out", "{new}.png", "--depth", "{new}.png"], ("--depth", "--out")),
+    ("render-seg-same", ["render", "--out", "{new}.png", "--segmentation", "{new}.png"],
+     ("--segmentation", "--out")),
+    ("render-preview-same", ["render", "--out", "{new}_preview.png", "--depth", "{new}.png", "--preview"],
+     ("--preview",)),
+    ("render-into-dataset", ["render", "--out", "{ds}/x.png"], ("--out", "inside the dataset")),
+    ("render-long-name", ["render", "--out", "{new}/{long}.png"], ("--out", "bytes")),
+    ("paths-into-dataset", ["paths", "--scenes", "{ds}", "--instructions", "{instructions}", "--out",
+                            "{ds}/more"], ("--out", "inside the dataset")),
+    ("scenes-into-dataset", ["scenes", "--num", "1", "--out", "{ds}/scenes_more"], ("--out", "inside the dataset")),
+    ("export-into-other", ["export", "lerobot", "{ds}", "--out", "{ds_version}/lr"], ("--out", "ds_version")),
+    ("export-sample-hd-into-other", ["export", "sample-hd", "{ds}", "--out", "{ds_missing}/sh"],
+     ("--out", "ds_missing")),
+    ("replay-into-dataset", ["replay", "{episode}", "--out", "{ds}/ep.mp4"], ("--out", "inside the dataset")),
+    ("evaluate-into-dataset", ["evaluate", "--policy", "random", "--out", "{ds}/eval.json"],
+     ("--out", "inside the dataset")),
+    ("export-mjcf-into-dataset", ["export-mjcf", "--out", "{ds}/world.xml"], ("--out", "inside the dataset")),
+    ("stats-into-other", ["stats", "{ds}", "--out", "{ds_version}/stats"], ("--out", "ds_version")),
+    ("bench-into-dataset", ["bench", "--out", "{ds}/bench"], ("--out", "inside the dataset")),
+    ("assets-preview-into-dataset", ["assets", "preview", "mug", "--out", "{ds}/mug.png"],
+     ("--out", "inside the dataset")),
+    ("demo-over-dataset", ["demo", "--out", "{ds}"], ("--out", "dataset")),
+]
+
+
+@pytest.mark.parametrize(("argv", "fragments"), [pytest.param(a, f, id=i) for i, a, f in OUTPUT_CASES])
+def test_output_that_would_overwrite_inputs_or_datasets_is_refused(workspace, argv, fragments, capsys,
+                                                                   monkeypatch) -> None:
+    run_refusal(workspace, argv, fragments, capsys, monkeypatch)
+
+
+def _swap_scenes(entries: list[dict[str, Any]]) -> None:
+    """The instructions of scene 1 given for scene 0 and back: instructions made for other scenes."""
+    for e in entries:
+        e["image_index"] = 1 - e["image_index"]
+
+
+def _set(key: str, value: Any, index: int = 0) -> Any:
+    def spoil(entries: list[dict[str, Any]]) -> None:
+        entries[index][key] = value
+    return spoil
+
+
+def _task(**changes: Any) -> Any:
+    def spoil(entries: list[dict[str, Any]]) -> None:
+        entries[-1]["task"] = {**entries[-1]["task"], **changes}
+    return spoil
+
+
+def _all_missing(entries: list[dict[str, Any]]) -> None:
+    for e in entries:
+        e["task"] = {**e["task"], "objects": [40]}
+
+
+# Instruction files that contradict the dataset's scenes: `paths` must refuse them before planning.
+CONTRADICTIONS: dict[str, Any] = {
+    "other-scenes": _swap_scenes,
+    "missing-object": _task(objects=[7]),
+    "negative-object": _task(objects=[-1]),
+    "every-object-missing": _all_missing,
+    "family-juggle": _set("family", "juggle"),
+    "family-null": _set("family", None),
+    "scene-absent": _set("image_index", 99),
+    "scene-index-str": _set("image_index", "0"),
+    "task-other-part": _task(subject="behind"),
+    "program-garbage": _set("program", [{"type": "juggle"}]),
+    "entry-null": lambda entries: entries.__setitem__(1, None),
+}
+
+
+@pytest.mark.parametrize("case", list(CONTRADICTIONS))
+def test_instructions_that_contradict_the_scenes_are_refused_before_planning(workspace, case, capsys,
+                                                                             monkeypatch) -> None:
+    argv = ["paths", "--scenes", "{ds}", "--instructions", "{cfg:contra_" + case + ".json}", "--out", "{new}"]
+    run_refusal(workspace, argv, ("contra_" + case + ".json", "instructions["), capsys, monkeypatch)
+
+
+# Config files and command lines with options that do nothing, or a key or item given twice.
+RAW_CONFIGS: dict[str, str] = {
+    "dup_top.json": '{"num_scenes": 2, "num_scenes": 3}',
+    "dup_section.json": '{"render": {"mode": "none"}, "render": {"mode": "fast"}}',
+    "dup_nested.json": '{"paths": {"planner": {"order": "nearest", "order": "instruction"}}}',
+    "none_cameras.json": '{"render": {"mode": "none", "cameras": ["wrist"]}}',
+    "none_width.json": '{"render": {"mode": "none", "width": 64}}',
+    "fast_look.json": '{"render": {"mode": "fast", "look": "random"}}',
+    "deep.json": "[" * 100_000 + "]" * 100_000,
+    "deep_object.json": '{"a":' * 50_000 + "1" + "}" * 50_000,
+    "families_dup.json": '{"instructions": {"families": ["place", "place"]}}',
+    "env_dup.json": '{"obs_mode": "state", "obs_mode": "rgb"}',
+}
+GN = G + ["{new}"]
+OPTION_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
+    ("config-dup-top", GN + ["--config", "{cfg:dup_top.json}"], ("dup_top.json", "num_scenes", "twice")),
+    ("config-dup-section", GN + ["--config", "{cfg:dup_section.json}"], ("dup_section.json", "render", "twice")),
+    ("config-dup-nested", GN + ["--config", "{cfg:dup_nested.json}"], ("dup_nested.json", "order", "twice")),
+    ("config-none-cameras", GN + ["--config", "{cfg:none_cameras.json}"], ("none_cameras.json", "cameras")),
+    ("config-none-width", GN + ["--config", "{cfg:none_width.json}"], ("none_width.json", "width")),
+    ("config-fast-look", GN + ["--config", "{cfg:fast_look.json}"], ("fast_look.json", "look")),
+    ("config-deep-array", GN + ["--config", "{cfg:deep.json}"], ("deep.json", "nested")),
+    ("config-deep-object", GN + ["--config", "{cfg:deep_object.json}"], ("deep_object.json", "nested")),
+    ("config-families-dup", GN + ["--config", "{cfg:families_dup.json}"], ("families_dup.json", "families")),
+    ("env-options-dup", ["evaluate", "--policy", "random", "--env-options", "{cfg:env_dup.json}"],
+     ("env_dup.json", "obs_mode", "twice")),
+    ("scenes-config-deep", ["scenes", "--num", "1", "--out", "{new}", "--config", "{cfg:deep.json}"],
+     ("deep.json",)),
+    ("generate-cameras-twice", GN + ["--cameras", "scene", "wrist", "scene"], ("--cameras", "twice")),
+    ("generate-modalities-twice", GN + ["--modalities", "depth", "depth"], ("--modalities", "twice")),
+    ("generate-modalities-comma-twice", GN + ["--modalities", "rgb,depth,rgb"], ("--modalities", "twice")),
+    ("rerender-cameras-twice", ["rerender", "--quiet", "{ds}", "--cameras", "scene", "scene"], ("--cameras", "twice")),
+    ("paths-modalities-twice", ["paths", "--scenes", "{ds}", "--instructions", "{instructions}", "--out", "{new}",
+                                "--cameras", "scene", "--modalities", "rgb", "rgb"], ("--modalities", "twice")),
+    ("instructions-families-twice", ["instructions", "--scenes", "{scenes}", "--out", "{new}.json", "--families",
+                                     "place", "place"], ("--families", "twice")),
+    ("rerender-modalities-twice", ["rerender", "--quiet", "{ds}", "--modalities", "depth", "rgb", "depth"],
+     ("--modalities", "twice")),
+    ("generate-ray-address-local", GN + ["--ray-address", "auto"], ("--ray-address", "--backend ray")),
+    ("generate-ray-closed-port", GN + ["--backend", "ray", "--ray-address", "127.0.0.1:1"],
+     ("--ray-address", "127.0.0.1:1")),
+    ("rerender-ray-closed-port", ["rerender", "--quiet", "{ds}", "--backend", "ray", "--ray-address", "127.0.0.1:1"],
+     ("--ray-address", "127.0.0.1:1")),
+    ("generate-ray-malformed", GN + ["--backend", "ray", "--ray-address", "nonsense"], ("--ray-address", "HOST:PORT")),
+    ("generate-ray-bad-port", GN + ["--backend", "ray", "--ray-address", "ray://localhost:99999"],
+     ("--ray-address", "HOST:PORT")),
+    ("rerender-ray-address-local", ["rerender", "--quiet", "{ds}", "--ray-address", "auto"], ("--ray-address",)),
+    ("generate-none-cameras", GN + ["--render", "none", "--cameras", "wrist"], ("--cameras", "none")),
+    ("generate-none-width", GN + ["--render", "none", "--width", "64"], ("--width", "none")),
+    ("generate-none-modalities", GN + ["--render", "none", "--modalities", "depth"], ("--modalities", "none")),
+    ("rerender-look-fast", ["rerender", "--quiet", "{ds}", "--photo-look", "random"], ("--photo-look", "photo")),
+    ("scenes-look-banana", ["scenes", "--num", "1", "--out", "{new}", "--photo-look", "banana"],
+     ("--photo-look", "banana")),
+    ("scenes-look-banana-photo", ["scenes", "--num", "1", "--out", "{new}", "--preset", "photo", "--photo-look",
+                                  "banana"], ("--photo-look", "banana")),
+    ("scenes-look-fast", ["scenes", "--num", "1", "--out", "{new}", "--photo-look", "random"],
+     ("--photo-look", "photo")),
+    ("evaluate-programs-oracle", ["evaluate", "--policy", "oracle", "--programs", "gt"], ("--programs", "oracle")),
+    ("evaluate-perception-random", ["evaluate", "--policy", "random", "--perception", "gt"], ("--perception",)),
+    ("evaluate-models-random", ["evaluate", "--policy", "random", "--models", "{dir}"], ("--models", "random")),
+    ("evaluate-models-oracle", ["evaluate", "--policy", "oracle", "--models", "{dir}"], ("--models", "oracle")),
+    ("export-previews-no-images", ["export", "sample-hd", "{ds}", "--out", "{new}", "--previews", "--no-images"],
+     ("--previews", "--no-images")),
+    ("view-host-empty", ["view", "{ds}", "--host", "", "--port", "0"], ("--host", "--allow-remote")),
+    ("view-host-any", ["view", "{ds}", "--host", "0.0.0.0", "--port", "0"], ("--host", "--allow-remote")),
+    ("view-host-any6", ["view", "{ds}", "--host", "::", "--port", "0"], ("--host", "--allow-remote")),
+    ("view-host-name", ["view", "{ds}", "--host", "example.org", "--port", "0"], ("--host", "--allow-remote")),
+]
+
+
+def _model_folders(ws: Path) -> None:
+    """Training folders with a checkpoint or model that must be refused before anything is written:
+    garbage bytes, a pickled object (torch refuses it with weights_only, in many lines), a future format."""
+    import torch
+
+    pickled = {"model": Path("not-a-tensor"), "optimizer": {}, "step": 1}
+    for name, files in {
+        "train_garbage": {"checkpoint.pt": b"garbage, not a checkpoint"},
+        "train_pickled": {"checkpoint.pt": pickled},
+        "train_truncated": {"checkpoint.pt": "truncated"},
+        "train_not_checkpoint": {"checkpoint.pt": {"weights": torch.zeros(2)}},
+        "model_pickled": {"model.pt": pickled, "config.json": b'{"kind": "parser", "format": 1}'},
+        "model_future": {"model.pt": {}, "config.json": b'{"kind": "parser", "format": 99}'},
+    }.items():
+        folder = ws / name
+        folder.mkdir()
+        for file, content in files.items():
+            if isinstance(content, bytes):
+                (folder / file).write_bytes(content)
+            elif content == "truncated":
+                torch.save({"model": {"w": torch.zeros(64)}, "optimizer": {}, "step": 1}, folder / file)
+                (folder / file).write_bytes((folder / file).read_bytes()[:100])
+            else:
+                torch.save(content, folder / file)
+
+
+TRAIN = ["train", "parser", "--dataset", "{ds}", "--steps", "1", "--quiet", "--out"]
+OPTION_CASES += [
+    ("train-device-quantum", TRAIN + ["{new}", "--device", "quantum"], ("--device", "quantum")),
+    ("train-device-empty-index", TRAIN + ["{new}", "--device", "cpu:x"], ("--device",)),
+    ("train-garbage-checkpoint", TRAIN + ["{ws}/train_garbage"], ("checkpoint.pt",)),
+    ("train-pickled-checkpoint", TRAIN + ["{ws}/train_pickled"], ("checkpoint.pt", "weights_only")),
+    ("train-truncated-checkpoint", TRAIN + ["{ws}/train_truncated"], ("checkpoint.pt",)),
+    ("train-foreign-checkpoint", TRAIN + ["{ws}/train_not_checkpoint"], ("checkpoint.pt", "not a samplehd")),
+    ("train-pickled-model", ["train", "parser", "--dataset", "{ds}", "--evaluate-only", "--out", "{ws}/model_pickled"],
+     ("model.pt", "weights_only")),
+    ("train-future-model", ["train", "parser", "--dataset", "{ds}", "--evaluate-only", "--out", "{ws}/model_future"],
+     ("config.json", "format 99")),
+]
+
+
+@pytest.mark.parametrize(("argv", "fragments"), [pytest.param(a, f, id=i) for i, a, f in OPTION_CASES])
+def test_options_that_do_not_apply_or_repeat_are_refused(workspace, argv, fragments, capsys, monkeypatch) -> None:
+    run_refusal(workspace, argv, fragments, capsys, monkeypatch)
+
+
+# The commands that write to or read a dataset for their whole run, while another process holds it.
+LOCKED_COMMANDS = ("rerender", "rerender-add", "generate-resume", "export-lerobot", "export-sample-hd")
+_HOLDER = ("import sys\nfrom samplehd.dataset.lock import dataset_lock\n"
+           "with dataset_lock(sys.argv[1], shared=sys.argv[2] == 'shared'):\n"
+           "    print('held', flush=True)\n    sys.stdin.read()\n")
+
+
+@pytest.mark.parametrize("holder", ["exclusive", "shared"])
+@pytest.mark.parametrize("command", LOCKED_COMMANDS)
+def test_dataset_in_use_by_another_process_is_refused(workspace, command, holder, capsys, monkeypatch) -> None:
+    """A second command on a dataset another samplehd process is using: one line naming that
+    process, nothing changed; a reader (export) may share the dataset with another reader."""
+    import os
+    import subprocess
+    import sys
+
+    if holder == "shared" and command.startswith("export"):
+        pytest.skip("two exports of one dataset may run together")
+    ws = workspace["ws"]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen([sys.executable, "-c", _HOLDER, str(ws / "ds"), holder], stdin=subprocess.PIPE,
+                            stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        assert proc.stdout is not None and proc.stdout.readline().strip() == "held"
+        argv = [a.replace("{DS}", "{ds}") for a in DATASET_COMMANDS[command]]
+        run_refusal(workspace, argv, ("{ds}", f"process {proc.pid}"), capsys, monkeypatch)
+    finally:
+        proc.communicate("", timeout=30)
+
+
+@pytest.mark.parametrize("frozen", ["root", "episodes"])
+@pytest.mark.parametrize("command", ["rerender", "rerender-add"])
+def test_rerender_of_an_immutable_dataset_is_refused(tmp_path: Path, workspace, command, frozen, capsys) -> None:
+    """A dataset folder the command cannot write (chattr +i: refused even to root): one line, nothing
+    changed, instead of a traceback half-way."""
+    import subprocess
+
+    ds = tmp_path / "ds"
+    shutil.copytree(workspace["pristine"] / "ds", ds)
+    folder = ds if frozen == "root" else ds / "episodes"
+    if subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode != 0:
+        pytest.skip("chattr +i is not available here")
+    try:
+        before = _snapshot(ds, digest=True)
+        argv = [a.replace("{DS}", str(ds)) for a in DATASET_COMMANDS[command]]
+        code = main(argv)
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and len(err.splitlines()) == 1 and "not writable" in err, err
+        assert _snapshot(ds, digest=True) == before
+    finally:
+        subprocess.run(["chattr", "-i", str(folder)], check=True)
+
+
+def _dead_pid() -> int:
+
+    pid = 4_000_000
+    while Path(f"/proc/{pid}").exists():
+        pid += 1
+    return pid
+
+
+@pytest.mark.parametrize("export", [["lerobot"], ["sample-hd", "--no-images", "--workers", "1"]])
+def test_staging_folders_of_killed_exports_are_removed_by_the_next(tmp_path: Path, workspace, export) -> None:
+    """A killed export leaves its hidden staging folder; the next export to the same place removes
+    it (its process is gone), and leaves the staging folder of an export still running alone."""
+    import os
+
+    out = tmp_path / "exported"
+    dead = tmp_path / f".exported.tmp-{_dead_pid()}"
+    running = tmp_path / f".exported.tmp-{os.getppid()}"
+    for folder in (dead, running):
+        (folder / "data").mkdir(parents=True)
+        (folder / "data" / "part.bin").write_bytes(b"half written")
+    ds = tmp_path / "ds"
+    shutil.copytree(workspace["pristine"] / "ds", ds)
+    assert main(["export", export[0], str(ds), "--out", str(out), *export[1:]]) == 0
+    assert out.is_dir() and not dead.exists() and running.is_dir()
 
 
 @pytest.mark.slow

@@ -172,7 +172,59 @@ def _reset_cases(ep: dict[str, Any]) -> list[tuple[str, Any, str]]:
         ("dataset-missing", {"dataset": "/nonexistent/ds", "episode_index": 0}, "/nonexistent/ds"),
         ("episode-index-str", {"dataset": "/nonexistent/ds", "episode_index": "0"}, "episode_index"),
         ("episode-bad-state", {"scene": scene, "instruction": instruction, "episode": {"qpos": [0.0]}}, "episode"),
+        *_start_state_cases(ep),
     ]
+
+
+def _start_state_cases(ep: dict[str, Any]) -> list[tuple[str, Any, str]]:
+    """Start states and object lists that are finite, in range, unique and apart only in name."""
+    env, scene, instruction = ep["env"], ep["scene"], ep["instruction"]
+    model = env.model
+    good = {"qpos": env.data.qpos.copy(), "qvel": np.zeros(model.nv), "act": np.zeros(model.na)}
+    limited = next(j for j in range(model.njnt) if model.jnt_limited[j] and model.jnt_type[j] in (2, 3))
+
+    def state(key: str, index: int, value: float) -> dict[str, Any]:
+        s = {k: v.copy() for k, v in good.items()}
+        s[key][index] = value
+        return {"scene": scene, "instruction": instruction, "episode": s}
+
+    def objects(value: list[Any]) -> dict[str, Any]:
+        q = copy.deepcopy(instruction)
+        q.pop("program", None)
+        q.pop("program_sequence", None)
+        q["task"] = {"type": "pick_up", "objects": value, "subject": None, "relation": None}
+        q["family"] = "pick_up"
+        return {"scene": scene, "instruction": q}
+
+    def overlapping(shift: float) -> dict[str, Any]:
+        s = copy.deepcopy(scene)
+        s["objects"][1]["pos"] = [s["objects"][0]["pos"][0] + shift, *s["objects"][0]["pos"][1:]]
+        return {"scene": s, "instruction": instruction}
+
+    return [
+        ("state-qpos-nan", state("qpos", 0, math.nan), "qpos[0]"),
+        ("state-qpos-inf", state("qpos", 2, math.inf), "qpos[2]"),
+        ("state-qvel-nan", state("qvel", 1, math.nan), "qvel[1]"),
+        ("state-joint-range", state("qpos", int(model.jnt_qposadr[limited]), float(model.jnt_range[limited][1]) + 1.0),
+         "range"),
+        ("objects-duplicate", objects([0, 0]), "twice"),
+        ("objects-float", objects([0.5]), "integers"),
+        ("objects-bool", objects([True]), "integers"),
+        ("objects-str", objects(["0"]), "integers"),
+        ("scene-interpenetrating", overlapping(0.0), "inside each other"),
+        ("scene-interpenetrating-near", overlapping(0.01), "inside each other"),
+    ]
+
+
+SEED_CASES: list[tuple[str, Any]] = [("float", 1.5), ("str", "1"), ("negative", -1), ("bool", True),
+                                     ("list", [1]), ("nan", math.nan)]
+
+
+@pytest.mark.parametrize("seed", [pytest.param(s, id=i) for i, s in SEED_CASES])
+def test_bad_seed_is_our_refusal(episode: dict[str, Any], seed: Any) -> None:
+    with pytest.raises(SamplehdError) as info:
+        episode["env"].reset(seed=seed)
+    _one_line_error(info.value, "seed")
 
 
 def test_bad_reset_options_are_refused(episode: dict[str, Any]) -> None:

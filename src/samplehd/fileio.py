@@ -23,7 +23,8 @@ def read_json(path: str | Path, error: type[SamplehdError] = DatasetError, label
         label: how to name the file in messages (default: its path), e.g. ``--config run.json``.
 
     Raises:
-        error: ``<label>: cannot read (<reason>)`` or ``<label>: invalid JSON at line L column C: <what>``.
+        error: ``<label>: cannot read (<reason>)``, ``<label>: invalid JSON at line L column C: <what>``,
+            a key given twice in one object, or nesting too deep to parse.
     """
     label = label or str(path)
     try:
@@ -32,9 +33,28 @@ def read_json(path: str | Path, error: type[SamplehdError] = DatasetError, label
         reason = getattr(exc, "strerror", None) or str(exc).splitlines()[0]
         raise error(f"{label}: cannot read ({reason})") from None
     try:
-        return json.loads(text)
+        return json.loads(text, object_pairs_hook=_unique_keys)
     except json.JSONDecodeError as exc:
         raise error(f"{label}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+    except _DuplicateKey as exc:
+        raise error(f"{label}: key {exc.args[0]!r} appears twice in one object (which one counts is not "
+                    f"clear); keep one") from None
+    except RecursionError:
+        raise error(f"{label}: JSON nested too deeply to read (arrays or objects inside each other "
+                    f"thousands of times); not a samplehd file") from None
+
+
+class _DuplicateKey(ValueError):
+    """A JSON object holds one key twice (raised inside the parser, turned into the caller's error)."""
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise _DuplicateKey(key)
+        out[key] = value
+    return out
 
 
 def write_json_atomic(path: Path, obj: Any, indent: int | None = None) -> None:

@@ -15,7 +15,9 @@ from __future__ import annotations
 import ctypes
 import os
 import signal
+import socket
 import sys
+import tempfile
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
@@ -57,6 +59,21 @@ class Backend:
             raise ConfigError(f"--backend {self.kind!r}: valid: {', '.join(BACKENDS)}")
         if not isinstance(self.workers, int) or self.workers < 1:
             raise ConfigError(f"--workers {self.workers!r}: must be an integer ≥ 1")
+        if self.ray_address is not None and self.kind != "ray":
+            raise ConfigError(f"--ray-address {self.ray_address!r}: only used with --backend ray (the {self.kind} "
+                              f"backend ignores it); add --backend ray or leave it out")
+        if self.kind == "ray" and self.ray_address is not None:
+            check_ray_address(self.ray_address)
+
+    def connect(self) -> None:
+        """Join the Ray cluster now (a no-op for the local backend), so that an address nothing serves
+        is refused before a command writes anything, not after it has started.
+
+        Raises:
+            ConfigError: one line naming the address (Ray's own traceback dropped).
+        """
+        if self.kind == "ray":
+            _ray_init(self.workers, self.ray_address)
 
     def describe(self) -> str:
         if self.kind == "ray":
@@ -165,14 +182,64 @@ def _windowed(
             yield unit, result_of(handle)
 
 
-def _ray_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int,
-             address: str | None) -> Iterator[tuple[Any, Any]]:
+# How long to wait for a Ray cluster's address to answer before refusing it [s].
+RAY_CONNECT_TIMEOUT = 5.0
+
+
+def check_ray_address(address: str, timeout: float = RAY_CONNECT_TIMEOUT) -> None:
+    """Refuse a Ray address nothing answers at, within ``timeout`` seconds, before any work starts
+    (``ray.init`` would otherwise wait for minutes). ``auto`` (a cluster started on this machine) is
+    left to Ray.
+
+    Raises:
+        ConfigError: a malformed address, or no answer (one line naming the address).
+    """
+    if address in ("auto", "local"):
+        return
+    host, _, port = address.split("://", 1)[-1].rpartition(":")
+    host = host.strip("[]")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ConfigError(f"--ray-address {address!r}: expected HOST:PORT, ray://HOST:PORT or auto")
+    try:
+        with socket.create_connection((host, int(port)), timeout=timeout):
+            pass
+    except OSError as exc:
+        reason = "no answer" if isinstance(exc, TimeoutError) else (exc.strerror or str(exc) or type(exc).__name__)
+        raise ConfigError(f"--ray-address {address!r}: nothing answers there within {timeout:g} s ({reason}); "
+                          f"start the cluster (ray start --head) or fix the address") from None
+
+
+def _ray_init(workers: int, address: str | None) -> Any:
+    """The ray module, initialised once per process (a cluster at ``address``, or a local one)."""
     ray = require_extra("ray", "ray", "--backend ray")
     if not ray.is_initialized():
-        if address:
-            ray.init(address=address, include_dashboard=False, log_to_driver=False)
-        else:
-            ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+        # Ray's core logs each failed connection attempt to file descriptor 2 itself: hold those lines
+        # back, show them if it joins, and let a failure be our one line.
+        with tempfile.TemporaryFile() as held:
+            sys.stderr.flush()
+            saved = os.dup(2)
+            os.dup2(held.fileno(), 2)
+            try:
+                if address:
+                    ray.init(address=address, include_dashboard=False, log_to_driver=False)
+                else:
+                    ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
+            except (ConnectionError, RuntimeError, ValueError) as exc:
+                reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+                raise ConfigError(f"--ray-address {address or '(local)'}: Ray could not start or join the cluster "
+                                  f"({reason[:160]}); start it (ray start --head) or fix the address") from None
+            finally:
+                sys.stderr.flush()
+                os.dup2(saved, 2)
+                os.close(saved)
+            held.seek(0)
+            sys.stderr.write(held.read().decode(errors="replace"))
+    return ray
+
+
+def _ray_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int,
+             address: str | None) -> Iterator[tuple[Any, Any]]:
+    ray = _ray_init(workers, address)
     remote = ray.remote(num_cpus=1, max_retries=0)(fn)
     window = max(2, 2 * int(ray.cluster_resources().get("CPU", workers)))
     def result_of(ref: Any) -> Any:

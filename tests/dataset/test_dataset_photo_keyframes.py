@@ -81,10 +81,14 @@ def test_rerender_resumes_where_it_stopped(keyframed: tuple[Path, dict], micro_d
     # An episode the run did not reach (still states only, as in the source) is the only one rendered.
     first = DatasetReader(root).episodes[0].file
     shutil.copy(micro_dataset / first, root / first)
-    # rerender records each episode in info.json as it replaces it: the one not reached keeps its old record
+    # rerender records each episode in info.json as it replaces it: the one not reached keeps its old
+    # record, and info.json says a rerender is under way (its render still the old one)
     info = json.loads((root / "info.json").read_text())
-    source = json.loads((micro_dataset / "info.json").read_text())["episodes"][0]
+    source_info = json.loads((micro_dataset / "info.json").read_text())
+    source = source_info["episodes"][0]
     info["episodes"][0].update(size=source["size"], sha256=source["sha256"])
+    info["rerender"] = {"render": info["render"], "episodes": len(info["episodes"]), "done": len(info["episodes"]) - 1}
+    info["render"] = source_info.get("render")
     (root / "info.json").write_text(json.dumps(info, indent=1))
     resumed = rerender_dataset(root, render, Backend("local", 1))
     assert resumed["rendered"] == 1 and resumed["skipped"] == resumed["episodes"] - 1

@@ -36,9 +36,10 @@ def added_dataset(rendered_dataset: Path, tmp_path_factory: pytest.TempPathFacto
     wrist = RenderConfig("fast", 48, 48, ("wrist",), ("rgb", "depth"))
     done = run_render_unit(RenderUnit(str(out / e.file), reader.scene(e.scene_index)["spec"], physics_hz,
                                       wrist.to_dict(), replace=False))
-    # an interrupted rerender has recorded each finished episode in info.json
+    # an interrupted rerender has recorded each finished episode in info.json, and that it is under way
     info = json.loads((out / "info.json").read_text())
     info["episodes"][0].update(size=done["size"], sha256=done["sha256"])
+    info["rerender"] = {"render": info.get("render"), "episodes": len(info["episodes"]), "done": 1}
     (out / "info.json").write_text(json.dumps(info, indent=1))
     res = rerender_dataset(out, wrist, add=True)
     assert res["skipped"] == 1 and res["rendered"] == res["episodes"] - 1  # resumed: episode 0 was done

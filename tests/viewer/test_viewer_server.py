@@ -347,3 +347,24 @@ def test_state_renderer_refuses_bad_requests_before_rendering() -> None:
     with pytest.raises(DatasetError, match="valid cameras"):
         renderer.render({"spec": {}}, {}, "ceiling", "rgb")
     renderer.close()
+
+
+@pytest.mark.parametrize("damage", ["truncated", "missing", "grown"])
+def test_damaged_episode_is_shown_as_damage(dataset_copy: Path, dataset_files: DatasetFiles, damage: str) -> None:
+    """A finished dataset with a damaged episode file: the Dataset page's episodes row says
+    ``damaged`` (not ``ok``, not "still being written") and the episode is listed as a failure."""
+    info = json.loads((dataset_copy / "info.json").read_text())
+    entry = info["episodes"][-1]
+    path, stem = dataset_copy / entry["file"], Path(entry["file"]).stem
+    if damage == "truncated":
+        path.write_bytes(path.read_bytes()[: entry["size"] // 2])
+    elif damage == "missing":
+        path.unlink()
+    else:
+        path.write_bytes(path.read_bytes() + b"\0" * 16)
+    app = ViewerApp(open_dataset(dataset_copy, render=False))
+    states = {f["name"]: f for f in _json(app, "/api/status")["files"]}
+    assert states["episodes"]["state"] == "damaged", states["episodes"]
+    assert entry["file"] in states["episodes"]["detail"] and "validate" in states["episodes"]["detail"]
+    row = next(e for e in _json(app, "/api/episodes")["episodes"] if e["episode"] == stem)
+    assert row["success"] is False and row["failure_reason"].startswith("damaged"), row

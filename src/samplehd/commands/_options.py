@@ -56,12 +56,17 @@ def check_number(flag: str, value: float | None, lo: float = 0.0, lo_open: bool 
         raise ConfigError(f"{flag} {value}: must be a finite number {'>' if lo_open else '≥'} {lo:g}")
 
 
-def split_names(values: str | Sequence[str] | None) -> tuple[str, ...]:
-    """Names from repeated and/or comma-separated option values, in order, without repeats."""
+def split_names(values: str | Sequence[str] | None, flag: str) -> tuple[str, ...]:
+    """Names from repeated and/or comma-separated option values, in order; a name given twice is an
+    error (as it is in config files), never silently dropped."""
     if not values:
         return ()
     items = [values] if isinstance(values, str) else list(values)
-    return tuple(dict.fromkeys(n.strip() for item in items for n in item.split(",") if n.strip()))
+    names = tuple(n.strip() for item in items for n in item.split(",") if n.strip())
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ConfigError(f"{flag} {' '.join(names)}: names {', '.join(twice)} twice; give each once")
+    return names
 
 
 def check_names(flag: str, names: Iterable[str] | None, valid: Sequence[str], allow_empty: bool = False) -> None:

@@ -25,6 +25,7 @@ from samplehd.catalogue.loader import catalogue_for, load_catalogue
 from samplehd.catalogue.preview import render_instances, write_catalogue_table
 from samplehd.catalogue.registry import registered_classes, remove_imported
 from samplehd.commands._options import DefaultsHelpFormatter, check_int, check_out_file, split_names
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import AssetError
 
 HELP = "import meshes as object classes, list the catalogue, render previews"
@@ -83,9 +84,9 @@ def _import(args: argparse.Namespace) -> int:
         args.mesh,
         args.name,
         options=options,
-        materials=split_names(args.material) or ("plastic",),
-        colours=split_names(args.colour),
-        sizes=split_names(args.sizes),
+        materials=split_names(args.material, "--material") or ("plastic",),
+        colours=split_names(args.colour, "--colour"),
+        sizes=split_names(args.sizes, "--sizes"),
         description=args.description,
         overwrite=args.overwrite,
     )
@@ -129,6 +130,7 @@ def _preview(args: argparse.Namespace) -> int:
     check_int("--width", args.width, 16, 4096)
     check_int("--height", args.height, 16, 4096)
     check_out_file("--out", args.out, (".png", ".jpg"))
+    check_outputs({"--out": args.out})
     cat = catalogue_for((args.name,))
     cls = cat.object_class(args.name)
     cat.size(args.size)
@@ -160,6 +162,7 @@ def _preview(args: argparse.Namespace) -> int:
 
 def _sheet(args: argparse.Namespace) -> int:
     check_out_file("--out", args.out, (".png", ".jpg"))
+    check_outputs({"--out": args.out})
     path = write_catalogue_table(args.out)
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
     return 0

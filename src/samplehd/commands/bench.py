@@ -24,6 +24,7 @@ from rich.table import Table
 from samplehd import bench
 from samplehd.bench import _table
 from samplehd.commands._options import check_out_dir
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 
 HELP = "run the performance benchmarks and print/write the figures"
@@ -70,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--only: unknown areas {unknown}; valid: {', '.join(areas)}")
 
     check_out_dir("--out", args.out)
+    check_outputs({"--out": args.out})
     console = Console()
     figures = []
     modules = _modules()

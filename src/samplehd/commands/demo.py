@@ -9,6 +9,7 @@ from pathlib import Path
 
 from samplehd.commands import generate
 from samplehd.commands._options import check_int, check_out_dir
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import RenderError
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
 from samplehd.render.renderer import MODALITIES, SceneRenderer
@@ -56,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
     check_int("--workers", args.workers, 1)
     check_int("--seed", args.seed, 0)
     check_out_dir("--out", args.out)
+    check_outputs({"--out": args.out}, in_place=args.out / "dataset")
     out: Path = args.out
     dataset = out / "dataset"
     argv = ["--preset", "tiny", "--out", str(dataset), "--seed", str(args.seed)]

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from samplehd.commands._options import check_int, check_out_dir, check_out_file
+from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
 from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate, load_policy_module
 from samplehd.errors import ConfigError
@@ -23,10 +24,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "MODULE:CALLABLE (obs -> action)")
     parser.add_argument("--models", type=Path, help="trained models: neurosymbolic: a folder with parser/ and "
                                                     "perception/; bc: the folder of `samplehd train policy`")
-    parser.add_argument("--programs", choices=("gt", "predicted"), default="predicted",
-                        help="neurosymbolic: the instruction's program (gt) or the parser's")
-    parser.add_argument("--perception", choices=("gt", "predicted"), default="predicted",
-                        help="neurosymbolic: the scene's annotation (gt) or the perception model's")
+    parser.add_argument("--programs", choices=("gt", "predicted"),
+                        help="neurosymbolic: the instruction's program (gt) or the parser's (default predicted)")
+    parser.add_argument("--perception", choices=("gt", "predicted"),
+                        help="neurosymbolic: the scene's annotation (gt) or the perception model's (default "
+                             "predicted)")
     parser.add_argument("--level", choices=("L1", "L2", "L3", "L4"),
                         help="generalisation level: L1 seen, L2 new colour-class combinations, L3 held-out "
                              "paraphrases, L4 held-out classes (default: the plain split)")
@@ -51,6 +53,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
 
+    for flag, value, policies in (("--programs", args.programs, ("neurosymbolic",)),
+                                  ("--perception", args.perception, ("neurosymbolic",)),
+                                  ("--models", args.models, ("neurosymbolic", "bc"))):
+        if value is not None and args.policy not in policies:
+            raise ConfigError(f"{flag} {value}: only used with --policy {' or '.join(policies)}, not "
+                              f"{args.policy!r}; leave it out")
+    args.programs, args.perception = args.programs or "predicted", args.perception or "predicted"
     env: dict = {}
     if args.env_options is not None:
         env = read_json(args.env_options, ConfigError, f"--env-options {args.env_options}")
@@ -71,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
     check_int("--seed", args.seed, 0)
     check_out_file("--out", args.out, (".json",))
     check_out_dir("--video", args.video)
+    check_outputs({"--out": args.out, "--video": args.video},
+                  {"--env-options": args.env_options, "--models": args.models})
     load_policy_module(args.policy)
     config = EvalConfig(policy=args.policy, episodes=args.episodes, families=tuple(args.families), seed=args.seed,
                         env=env, video_dir=str(args.video) if args.video else None, workers=args.workers,

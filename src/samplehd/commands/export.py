@@ -16,6 +16,7 @@ from samplehd.commands._options import DefaultsHelpFormatter, check_int, split_n
 from samplehd.dataset.export_lerobot import export_lerobot
 from samplehd.dataset.export_rerun import episode_location, export_rerun
 from samplehd.dataset.export_samplehd import export_samplehd
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
 from samplehd.workers import Backend, default_workers
 
@@ -65,6 +66,11 @@ def summary_line(summary: dict[str, Any]) -> str:
 def run(args: argparse.Namespace) -> int:
     check_int("--frames-per-file", getattr(args, "frames_per_file", None), 1)
     check_int("--workers", getattr(args, "workers", None), 1)
+    if getattr(args, "previews", False) and args.no_images:
+        raise ConfigError("--previews with --no-images: the previews are made from the sequence images; "
+                          "leave out one of them")
+    source = args.episode if args.format == "rerun" else args.dir
+    check_outputs({"--out": args.out}, {"EPISODE" if args.format == "rerun" else "DIR": source})
     if args.format == "rerun":
         require_extra("rerun", "rerun", "samplehd export rerun")
         require_extra("trimesh", "rerun", "samplehd export rerun")
@@ -85,8 +91,8 @@ def run(args: argparse.Namespace) -> int:
 
         if args.format == "lerobot":
             res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file,
-                                 list(split_names(args.cameras)) or None, progress=tick,
-                                 modalities=list(split_names(args.modalities)) or None)
+                                 list(split_names(args.cameras, "--cameras")) or None, progress=tick,
+                                 modalities=list(split_names(args.modalities, "--modalities")) or None)
         else:
             res = export_samplehd(args.dir, args.out, images=not args.no_images, previews=args.previews,
                                   camera=args.camera, backend=Backend("local", args.workers), progress=tick)

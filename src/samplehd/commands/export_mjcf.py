@@ -8,6 +8,7 @@ from pathlib import Path
 
 from samplehd.commands._options import check_out_file
 from samplehd.dataset.export_mjcf import scene_mjcf_from_dataset, scene_mjcf_from_file
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 from samplehd.scene.mjcf import export_mjcf
 from samplehd.scene.world import build_world
@@ -24,6 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     check_out_file("--out", args.out, (".xml",))
+    check_outputs({"--out": args.out}, {"--scene": args.scene, "--dataset": args.dataset})
     if (args.dataset is None) != (args.episode is None):
         raise ConfigError("--dataset and --episode go together: --dataset DIR --episode I")
     if args.scene is not None and args.dataset is not None:

@@ -19,8 +19,9 @@ from rich.table import Table
 from samplehd.commands._options import split_names
 from samplehd.dataset.config import PRESETS, GenerateConfig, load_config, preset_config
 from samplehd.dataset.generate import GenerateSummary, generate_dataset
+from samplehd.dataset.outputs import check_outputs
 from samplehd.dataset.progress import RichProgress
-from samplehd.dataset.render import RENDER_MODES
+from samplehd.dataset.render import RENDER_MODES, check_render_applies
 from samplehd.workers import BACKENDS, Backend, default_workers
 
 HELP = "generate a dataset (scenes, instructions, paths, images) with resume, local workers or Ray"
@@ -59,15 +60,18 @@ def resolve_config(args: argparse.Namespace):  # noqa: ANN201 - GenerateConfig
     for flag in ("cameras", "modalities"):
         names = getattr(args, flag)
         if names is not None:
-            flags.append((f"--{flag}", {"render": {flag: list(split_names(names))}}))
+            flags.append((f"--{flag}", {"render": {flag: list(split_names(names, f"--{flag}"))}}))
     for flag, top in flags:
         config = GenerateConfig.from_dict(top, where=flag, base=config)
+    check_render_applies(config.render, {next(iter(top["render"])): flag for flag, top in flags if "render" in top})
     return config
 
 
 def run(args: argparse.Namespace) -> int:
+    check_outputs({"--out": args.out}, {"--config": args.config}, in_place=args.out)
     config = resolve_config(args)
     backend = Backend(args.backend, args.workers, args.ray_address)
+    backend.connect()  # before anything is written
     with RichProgress(disable=args.quiet) as progress:
         progress.note(f"generating into {args.out} ({backend.describe()}, render {config.render.mode}"
                       f"{'' if not config.render.enabled else f' {config.render.width}x{config.render.height}'})")

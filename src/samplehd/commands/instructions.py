@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from samplehd.commands._options import check_int, check_names, check_out_file, split_names
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 from samplehd.language.instruction_file import generate_instruction_file, parse_split_ratio, write_instructions
 from samplehd.language.scene import load_scenes
@@ -61,9 +62,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     check_int("--per-scene", args.per_scene, 1, 99)
     check_int("--seed", args.seed, 0)
-    args.families = split_names(args.families) or None
+    args.families = split_names(args.families, "--families") or None
     check_names("--families", args.families, family_names())
     check_out_file("--out", args.out, (".json",))
+    scenes_file = args.scenes / "scenes.json" if args.scenes.is_dir() else args.scenes
+    check_outputs({"--out": args.out},
+                  {"--scenes": scenes_file, **{f"--templates {t}": t for t in args.templates or []}})
     if args.no_default_templates and not args.templates:
         raise ConfigError("--no-default-templates needs at least one --templates FILE_OR_DIR")
     templates = load_templates(args.templates or [], include_default=not args.no_default_templates)

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.commands._options import check_int, check_names, check_out_dir, split_names
+from samplehd.dataset.outputs import check_outputs
 from samplehd.dataset.paths import format_summary, generate_paths
 from samplehd.dataset.render import RenderConfig
 from samplehd.envs.config import CAMERAS
@@ -41,7 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    cameras, modalities = split_names(args.cameras), split_names(args.modalities)
+    cameras, modalities = split_names(args.cameras, "--cameras"), split_names(args.modalities, "--modalities")
     check_names("--cameras", cameras, CAMERAS, allow_empty=True)
     check_names("--modalities", modalities, MODALITIES)
     for flag, value, lo, hi in (("--workers", args.workers, 1, None), ("--max-attempts", args.max_attempts, 1, 100),
@@ -49,6 +50,7 @@ def run(args: argparse.Namespace) -> int:
                                 ("--seed", args.seed, 0, None), ("--limit", args.limit, 0, None)):
         check_int(flag, value, lo, hi)
     check_out_dir("--out", args.out, empty=True)
+    check_outputs({"--out": args.out}, {"--scenes": args.scenes, "--instructions": args.instructions})
     get_preset(args.preset)  # also when no camera is rendered: a bad --preset is never ignored
     render = (RenderConfig(args.preset, args.width, args.height, cameras, modalities) if cameras
               else RenderConfig("none", args.width, args.height))

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from samplehd.commands._options import check_int, check_out_file
+from samplehd.dataset.outputs import check_outputs
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_depth, save_rgb, save_segmentation
 from samplehd.render.renderer import SceneRenderer
 from samplehd.scene.world import compile_world
@@ -31,6 +32,10 @@ def run(args: argparse.Namespace) -> int:
     check_out_file("--out", args.out, (".png", ".jpg", ".jpeg"))
     check_out_file("--depth", args.depth, (".png", ".npy"))
     check_out_file("--segmentation", args.segmentation, (".png",))
+    previews = ({"--preview (depth)": args.depth.with_name(args.depth.stem + "_preview.png") if args.depth else None,
+                 "--preview (segmentation)": args.segmentation.with_name(args.segmentation.stem + "_preview.png")
+                 if args.segmentation else None} if args.preview else {})
+    check_outputs({"--out": args.out, "--depth": args.depth, "--segmentation": args.segmentation, **previews})
     model, data = compile_world()
     modalities = ["rgb"]
     if args.depth:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from samplehd.commands._options import check_int, check_out_file
 from samplehd.dataset.container import read_episode
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 from samplehd.record.replay import subtask_contact_sheet
 from samplehd.render.image_io import save_rgb
@@ -35,6 +36,7 @@ def run(args: argparse.Namespace) -> int:
     check_int("--height", args.height, 8, 8192)
     check_out_file("--out", args.out, (".mp4",))
     check_out_file("--sheet", args.sheet, (".png", ".jpg"))
+    check_outputs({"--out": args.out, "--sheet": args.sheet}, {"EPISODE": args.episode})
     if not args.episode.is_file():
         raise ConfigError(f"{args.episode}: {'is a folder' if args.episode.is_dir() else 'does not exist'}; "
                           "give an episode file (.h5)")

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from samplehd.commands._options import split_names
 from samplehd.dataset.progress import RichProgress
-from samplehd.dataset.render import RenderConfig
+from samplehd.dataset.render import RenderConfig, check_render_applies
 from samplehd.dataset.rerender import rerender_dataset
 from samplehd.render.renderer import MODALITIES
 from samplehd.workers import BACKENDS, Backend, default_workers
@@ -44,10 +44,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     render = RenderConfig.from_dict({"mode": args.preset, "width": args.width, "height": args.height,
-                                     "cameras": split_names(args.cameras), "modalities": split_names(args.modalities),
+                                     "cameras": split_names(args.cameras, "--cameras"),
+                                     "modalities": split_names(args.modalities, "--modalities"),
                                      "every": args.every, "subtask_ends": args.subtask_ends, "look": args.photo_look},
                                     where="command line")
+    check_render_applies(render, {"look": "--photo-look"} if args.photo_look != "fixed" else {})
     backend = Backend(args.backend, args.workers, args.ray_address)
+    backend.connect()  # before anything is written
     with RichProgress(disable=args.quiet) as progress:
         res = rerender_dataset(args.dir, render, backend, progress, add=args.add)
     verb = "added images to" if args.add else "rerendered"

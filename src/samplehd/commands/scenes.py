@@ -14,6 +14,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from samplehd.commands._options import check_int, check_out_dir, check_out_file
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.render.contact_sheet import contact_sheet
@@ -84,7 +85,9 @@ def run(args: argparse.Namespace) -> int:
                                               and not (args.out / "config.json").is_file()):
         raise ConfigError(f"--out {args.out}: holds other files (a dataset?); choose a new or empty folder")
     check_out_file("--sheet", args.sheet, (".png", ".jpg"))
-    get_preset(args.preset)
+    check_outputs({"--out": args.out, "--sheet": args.sheet}, {"--config": args.config})
+    if args.photo_look != "fixed" and not get_preset(args.preset).path_traced:
+        raise ConfigError(f"--photo-look {args.photo_look}: only used with --preset photo, not {args.preset!r}")
     config = load_scene_config(args.config)
     check_scene_config(config)
     console = Console(stderr=True)

@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from samplehd.commands._options import check_out_dir
+from samplehd.dataset.outputs import check_outputs
 from samplehd.dataset.reader import DatasetReader
 from samplehd.dataset.stats import dataset_stats, write_plots
 from samplehd.errors import DatasetError
@@ -26,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     check_out_dir("--out", args.out)
+    check_outputs({"--out": args.out}, {"DIR": args.dir}, in_place=args.dir)  # default: DIR/stats
     DatasetReader(args.dir).check_intact()  # no plots written into a damaged dataset
     stats = dataset_stats(args.dir)
     console = Console()

@@ -12,6 +12,8 @@ import argparse
 import json
 from pathlib import Path
 
+from samplehd.commands._options import check_out_dir
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
 from samplehd.learn.bc import train_policy
 from samplehd.learn.parser import score_parser, train_parser
@@ -43,6 +45,8 @@ def _torch_or_error() -> None:
 def run(args: argparse.Namespace) -> int:
 
     _torch_or_error()
+    check_out_dir("--out", args.out)
+    check_outputs({"--out": args.out}, {"--dataset": args.dataset})
     if args.evaluate_only:
         return _evaluate_only(args)
     steps = _DEFAULT_STEPS[args.model] if args.steps is None else args.steps

@@ -10,6 +10,7 @@ being written can be browsed: missing files are shown as such and appear when wr
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import json
 import signal
 import threading
@@ -24,7 +25,11 @@ HELP = "browse a dataset in a web page (scenes, instructions, programs, episodes
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("dataset", type=Path, metavar="DIR", help="dataset folder (or a `samplehd scenes` folder)")
-    parser.add_argument("--host", default="127.0.0.1", help="address to bind; 0.0.0.0 exposes it to the network")
+    parser.add_argument("--host", default="127.0.0.1",
+                        help="address to bind: a loopback address, or (with --allow-remote) one the network reaches")
+    parser.add_argument("--allow-remote", action="store_true",
+                        help="allow a --host that is not a loopback address (0.0.0.0 serves the dataset to the "
+                             "network, with no authentication)")
     parser.add_argument("--port", type=int, default=8000, help="port (0 picks a free one)")
     parser.add_argument("--no-render", action="store_true",
                         help="do not render frames of episodes stored without images (--render none datasets) "
@@ -35,6 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise ConfigError(f"--port {args.port}: must be in 0..65535")
+    _check_host(args.host, args.allow_remote)
     _check_folder(args.dataset)
     try:
         server = make_server(args.dataset, args.host, args.port, verbose=args.verbose, render=not args.no_render)
@@ -65,6 +71,20 @@ def _stop_on_sigterm() -> None:
     SIGINT ignored by the shell, so ``kill`` is how it is stopped there)."""
     if threading.current_thread() is threading.main_thread():
         signal.signal(signal.SIGTERM, _interrupt)
+
+
+def _check_host(host: str, allow_remote: bool) -> None:
+    """A loopback address unless the user asked to serve to the network (an empty host binds every
+    interface)."""
+    if allow_remote or host == "localhost":
+        return
+    try:
+        loopback = ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        loopback = False
+    if not loopback:
+        raise ConfigError(f"--host {host!r}: not a loopback address (127.0.0.1, ::1, localhost); serving the "
+                          f"dataset to other machines needs --allow-remote")
 
 
 def _check_folder(root: Path) -> None:

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from samplehd.commands._options import check_out_file
+from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, DatasetError
 from samplehd.language.instruction_file import read_instructions
 from samplehd.language.vocab import build_vocab
@@ -24,6 +25,7 @@ def run(args: argparse.Namespace) -> int:
     if args.min_count < 1:
         raise ConfigError(f"--min-count {args.min_count}: must be at least 1")
     check_out_file("--out", args.out, (".json",))
+    check_outputs({"--out": args.out}, {"--instructions": args.instructions})
     entries = read_instructions(args.instructions)["instructions"]
     vocab = build_vocab(entries, min_count=args.min_count)
     try:

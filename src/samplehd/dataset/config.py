@@ -18,7 +18,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from samplehd.dataset.render import RenderConfig, check_cameras
+from samplehd.dataset.render import RenderConfig, check_cameras, check_render_applies
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.record.paths import PathConfig
@@ -200,6 +200,8 @@ def load_config(path: Path | None, base: GenerateConfig) -> GenerateConfig:
     doc = read_json(path, ConfigError, f"--config {path}")
     config = GenerateConfig.from_dict(doc, where=str(path), base=base)
     check_names(config, where=str(path))
+    render = doc.get("render")
+    check_render_applies(config.render, {k: f"{path}: render.{k}" for k in render} if isinstance(render, dict) else {})
     return config
 
 

@@ -451,11 +451,18 @@ class FrameImages:
 
 def _open(path: Path) -> h5py.File:
     try:
-        return h5py.File(path, "r")
+        f = h5py.File(path, "r")
     except FileNotFoundError:
         raise DatasetError(f"{path}: episode file is missing") from None
     except OSError as exc:
         raise DatasetError(f"{path}: not a readable HDF5 episode file (truncated or corrupted): {exc}") from None
+    version = f.attrs.get("format_version")
+    version = version.decode() if isinstance(version, bytes) else version
+    if version != FORMAT_VERSION:
+        f.close()
+        raise DatasetError(f"{path}: episode format_version {version!r} is not one this samplehd reads "
+                           f"(valid: {FORMAT_VERSION!r}); use the samplehd version that wrote it")
+    return f
 
 
 def read_frames(path: Path, fields: Iterable[str] | None = None) -> dict[str, np.ndarray]:

@@ -277,7 +277,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             w.close()
         writers.clear()
 
-    with staged_directory(out) as tmp:
+    with staged_directory(out, source=reader.root) as tmp:
         for n, i in enumerate(order):
             entry = reader.episodes[i]
             ep = reader.episode(i)

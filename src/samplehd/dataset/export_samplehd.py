@@ -356,7 +356,7 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
         chosen.append(k)
     info = {"source": "samplehd", "version": reader.info.get("package_version"),
             "families": list(SAMPLE_HD_FAMILIES)}
-    with staged_directory(out) as tmp:
+    with staged_directory(out, source=reader.root) as tmp:
         for sub in ("images", "scenes", "instructions", "sequences"):
             (tmp / sub).mkdir(parents=True, exist_ok=True)
         for s in reader.scenes:

@@ -31,6 +31,7 @@ import sys
 import time
 from collections import Counter
 from collections.abc import Iterator
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,7 @@ from samplehd.dataset.layout import (
     is_temporary,
     parse_episode_name,
 )
+from samplehd.dataset.lock import dataset_lock
 from samplehd.dataset.progress import Progress
 from samplehd.dataset.reader import DatasetReader
 from samplehd.dataset.render import check_cameras
@@ -206,7 +208,7 @@ def _check_resumable(out: Path, info: dict[str, Any]) -> None:
     """Refuse to resume a dataset of another format, or one whose finished episodes are missing or
     damaged (resuming would build on them); nothing is changed."""
     reader = DatasetReader(out)  # checks format_version
-    reader.check_intact()
+    reader.check_intact(verify=True)
     for record in read_journal(out):
         if record.get("status") != "ok":
             continue
@@ -500,15 +502,23 @@ def generate_dataset(out: str | Path, config: GenerateConfig, backend: Backend |
         ConfigError: resuming with a different config.
     """
     out = Path(out)
-    backend = backend or Backend()
-    progress = progress or Progress()
-    summary = GenerateSummary()
-    t0 = time.perf_counter()
-
     # Everything is checked before the first file is written.
     check_cameras(config.render)
     check_scene_config(config.scene)
-    _prepare(out, config, resume)
+    with ExitStack() as held:
+        existed = out.is_dir()
+        if existed:  # an existing folder (a dataset to resume) is locked before it is looked at
+            held.enter_context(dataset_lock(out))
+        _prepare(out, config, resume)
+        if not existed:  # made by _prepare just now
+            held.enter_context(dataset_lock(out))
+        return _generate(out, config, backend or Backend(), resume, progress or Progress())
+
+
+def _generate(out: Path, config: GenerateConfig, backend: Backend, resume: bool,
+              progress: Progress) -> GenerateSummary:
+    summary = GenerateSummary()
+    t0 = time.perf_counter()
     if not (out / INFO_FILE).exists():
         _write_json(out / INFO_FILE, _base_info(config), indent=1)
     marks = [time.perf_counter()]

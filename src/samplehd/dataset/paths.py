@@ -26,14 +26,17 @@ from typing import Any
 from samplehd.dataset.layout import EPISODE_DIR, episode_name
 from samplehd.dataset.render import RenderConfig, check_cameras
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit
-from samplehd.errors import ConfigError, DatasetError
+from samplehd.errors import ConfigError, DatasetError, SamplehdError
 from samplehd.fileio import read_json, write_json_atomic
+from samplehd.language.executor import execute
 from samplehd.language.instruction_file import read_instructions
+from samplehd.language.scene import parse_scene
 from samplehd.record.paths import PathConfig
+from samplehd.tasks.task import family_names, parse_task
 from samplehd.workers import Backend
 from samplehd.world.seeding import episode_seed
 
-__all__ = ["format_summary", "generate_paths", "load_scenes", "summarise"]
+__all__ = ["check_instructions_fit", "format_summary", "generate_paths", "load_scenes", "summarise"]
 
 
 def load_scenes(path: Path) -> dict[int, dict[str, Any]]:
@@ -53,6 +56,51 @@ def load_scenes(path: Path) -> dict[int, dict[str, Any]]:
             raise DatasetError(f"{file}: scenes[{k}]: spec: missing (write scenes with `samplehd scenes`)")
         out[int(s.get("image_index", k))] = s
     return out
+
+
+def check_instructions_fit(entries: list[Any], scenes: dict[int, dict[str, Any]], instructions_path: Path,
+                           scenes_path: Path) -> None:
+    """Refuse instructions that were not made for these scenes, before any path is planned: each
+    names a known family and a scene of the scenes file, and its program, run again on that scene,
+    gives the task it records (instructions for other scenes name other or missing objects).
+
+    Raises:
+        ConfigError: one line naming the instruction, what contradicts and how to get matching files.
+    """
+    families = family_names()
+    remake = f"make instructions for these scenes: samplehd instructions --scenes {scenes_path}"
+    for k, e in enumerate(entries):
+        where = f"{instructions_path} instructions[{k}]"
+        if not isinstance(e, dict):
+            raise ConfigError(f"{where}: expected an instruction object, got {type(e).__name__}")
+        family = e.get("family")
+        if family not in families:
+            raise ConfigError(f"{where}: family {family!r} is unknown; valid: {', '.join(families)}")
+        scene = scenes.get(e.get("image_index")) if isinstance(e.get("image_index"), int) else None
+        if scene is None:
+            raise ConfigError(f"{where}: image_index {e.get('image_index')!r} is not a scene of {scenes_path}; "
+                              f"{remake}")
+        try:
+            # A scene given by its spec alone (no CLEVR annotation) is checked by its object count.
+            parsed = (parse_scene(scene, where=f"{scenes_path} scene {e['image_index']}")
+                      if "objects" in scene else None)
+            count = len(parsed) if parsed is not None else len(scene["spec"]["objects"])
+            task = parse_task(dict(e["task"]), family)
+            named = [*task.objects] + ([task.reference] if task.reference != -1 else [])
+            if any(not 0 <= i < count for i in named):
+                raise ConfigError(f"{where}: names object(s) {named}, but scene {e['image_index']} of "
+                                  f"{scenes_path} has objects 0..{count - 1}; {remake}")
+            if parsed is not None and e.get("program") is not None:
+                again = json.loads(json.dumps(execute(e["program"], parsed).to_program_dict()))
+                if again != json.loads(json.dumps(e["task"])):
+                    raise ConfigError(f"{where}: {str(e.get('instruction', ''))[:60]!r} means {again} on scene "
+                                      f"{e['image_index']} of {scenes_path}, not the recorded {e['task']} "
+                                      f"(made for other scenes?); {remake}")
+        except ConfigError:
+            raise
+        except (SamplehdError, KeyError, TypeError, ValueError) as exc:
+            raise ConfigError(f"{where}: does not fit scene {e['image_index']} of {scenes_path} "
+                              f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__}); {remake}") from None
 
 
 def generate_paths(
@@ -93,9 +141,7 @@ def generate_paths(
     entries = read_instructions(instructions_path)["instructions"]
     if limit:
         entries = entries[:limit]
-    missing = sorted({int(e["image_index"]) for e in entries} - set(scenes))
-    if missing:
-        raise ConfigError(f"{instructions_path}: instructions refer to scenes {missing[:5]} not in {scenes_path}")
+    check_instructions_fit(entries, scenes, instructions_path, scenes_path)
     units, meta = [], {}
     slots: Counter[int] = Counter()
     for k, e in enumerate(entries):

@@ -30,6 +30,8 @@ from samplehd.dataset.layout import (
     is_temporary,
     parse_episode_name,
 )
+from samplehd.dataset.outputs import inside_dataset
+from samplehd.dataset.validate import validate_episode_file
 from samplehd.errors import DatasetError
 from samplehd.fileio import read_json
 from samplehd.record.episode import Episode
@@ -119,7 +121,7 @@ class DatasetReader:
         if self._scenes is None:
             path = self.root / SCENES_FILE
             if path.exists():
-                self._scenes = list(read_json(path)["scenes"])
+                self._scenes = _entries(path, "scenes", "image_index")
             else:
                 found = []
                 for p in sorted((self.root / SCENE_DIR).glob("*.json")):
@@ -143,7 +145,7 @@ class DatasetReader:
         """Instructions with episodes, in ``instruction_index`` order (CLEVR question-file entries)."""
         if self._instructions is None:
             if self.complete:
-                self._instructions = list(read_json(self.root / INSTRUCTIONS_FILE)["instructions"])
+                self._instructions = _entries(self.root / INSTRUCTIONS_FILE, "instructions", "image_index")
             else:
                 by_key = {(c["image_index"], c["slot"]): c for c in self._candidates()}
                 self._instructions = []
@@ -162,10 +164,26 @@ class DatasetReader:
         """Every episode, in ``instruction_index`` order."""
         if self._episodes is None:
             if self.complete:
-                self._episodes = [EpisodeEntry.from_dict(e) for e in self.info.get("episodes", [])]
+                self._episodes = [self._entry(i, e) for i, e in enumerate(self.info.get("episodes") or [])]
             else:
                 self._episodes = self._scan_episodes()
         return self._episodes
+
+    def _entry(self, index: int, entry: Any) -> EpisodeEntry:
+        """Episode ``index`` of ``info.json``, its file checked to lie inside the dataset folder."""
+        where = f"{self.root / INFO_FILE} episodes[{index}]"
+        if not isinstance(entry, dict):
+            raise DatasetError(f"{where}: {entry!r} is not an episode entry (a JSON object with file, seed, "
+                               f"...); the file is damaged: regenerate or restore it")
+        missing = [k for k in ("instruction_index", "scene_index", "slot", "file", "seed", "family", "split")
+                   if k not in entry]
+        if missing:
+            raise DatasetError(f"{where}: lacks {', '.join(missing)}; the file is damaged: regenerate or restore it")
+        inside_dataset(self.root, entry["file"], f"{where}.file")
+        try:
+            return EpisodeEntry.from_dict(entry)
+        except TypeError as exc:
+            raise DatasetError(f"{where}: {exc}") from None
 
     def _scan_episodes(self) -> list[EpisodeEntry]:
         cands = {(c["image_index"], c["slot"]): c for c in self._candidates()}
@@ -182,9 +200,14 @@ class DatasetReader:
                                     str(c.get("family", "")), str(c.get("split", ""))))
         return out
 
-    def check_intact(self) -> None:
+    def check_intact(self, verify: bool = False) -> None:
         """Check that every listed episode file is there with its recorded size, before a command
         changes or exports the dataset (so a damaged dataset is refused, never made worse).
+
+        Args:
+            verify: also read every episode file whole and compare it with ``info.json`` (SHA-256,
+                frames, shapes, stored images), as ``samplehd validate`` does: what a command that
+                rewrites the episodes runs first, so it never re-hashes (launders) a damaged file.
 
         Raises:
             DatasetError: one line naming the first missing or damaged file (``samplehd validate``
@@ -192,15 +215,25 @@ class DatasetReader:
         """
         if self.complete and not isinstance(self.info.get("episodes"), list):
             raise DatasetError(f"{self.root / INFO_FILE}: episodes: missing or not a list")
-        for e in self.episodes:
-            path = self.root / e.file
-            hint = f"nothing was changed; `samplehd validate {self.root}` lists every problem"
+        hint = f"nothing was changed; `samplehd validate {self.root}` lists every problem"
+        if self.complete:
+            self.scenes, self.instructions  # noqa: B018 - both files readable and of the right shape
+        for i, e in enumerate(self.episodes):
+            path = self.episode_path(i)
             if not path.is_file():
                 raise DatasetError(f"{path}: missing, but {INFO_FILE} lists it; {hint}")
             size = path.stat().st_size
             if e.size >= 0 and size != e.size:
                 raise DatasetError(f"{path}: {size} bytes, but {INFO_FILE} records {e.size} (damaged or "
                                    f"truncated); {hint}")
+        if verify and self.complete:
+            # While a rerender is unfinished its episodes hold either the old or the new images: check
+            # the files against their recorded digests and frames, not against one render setting.
+            render = None if "rerender" in self.info else self.info.get("render")
+            for i, entry in enumerate(self.info["episodes"]):
+                problems = validate_episode_file(self.episode_path(i), entry, render)
+                if problems:
+                    raise DatasetError(f"{problems[0]}; {hint}")
 
     def __len__(self) -> int:
         return len(self.episodes)
@@ -215,7 +248,7 @@ class DatasetReader:
         eps = self.episodes
         if not 0 <= index < len(eps):
             raise DatasetError(f"{self.root}: no episode {index}; valid: 0..{len(eps) - 1}")
-        return self.root / eps[index].file
+        return inside_dataset(self.root, eps[index].file, f"{self.root / INFO_FILE} episodes[{index}].file")
 
     def episode(self, index: int, images: str = "lazy") -> Episode:
         """Episode ``index`` (its ``instruction_index``).
@@ -269,3 +302,16 @@ class DatasetReader:
     def instruction(self, index: int) -> dict[str, Any]:
         """The instruction entry of episode ``index``."""
         return self.instructions[index]
+
+
+def _entries(path: Path, key: str, index: str) -> list[dict[str, Any]]:
+    """The ``key`` list of a CLEVR-layout file, each entry an object with an integer ``index``."""
+    doc = read_json(path)
+    items = doc.get(key) if isinstance(doc, dict) else None
+    if not isinstance(items, list):
+        raise DatasetError(f"{path}: expected {{info, {key}: [...]}}; the file is damaged: regenerate or restore it")
+    for k, item in enumerate(items):
+        if not isinstance(item, dict) or not isinstance(item.get(index), int):
+            raise DatasetError(f"{path}: {key}[{k}] is not an entry with an integer {index}; the file is damaged: "
+                               f"regenerate or restore it")
+    return items

@@ -30,7 +30,7 @@ from samplehd.render.states import LiveStates, render_live, render_states
 from samplehd.scene.world import compile_world
 from samplehd.schema import bounded, check_fields, from_mapping
 
-__all__ = ["RENDER_MODES", "RenderConfig", "check_cameras"]
+__all__ = ["RENDER_MODES", "RenderConfig", "check_render_applies", "check_cameras"]
 
 RENDER_MODES = ("none", "fast", "hd", "photo")
 
@@ -178,3 +178,27 @@ def check_cameras(config: RenderConfig) -> None:
 def _world_cameras() -> tuple[str, ...]:
     """Cameras of every scene world (compiled once per process) plus the scene's own ``scene``."""
     return tuple(sorted({*camera_names(compile_world()[0]), "scene"}))
+
+
+# The render fields that only matter when images are drawn.
+_IMAGE_FIELDS = ("cameras", "modalities", "width", "height", "every", "subtask_ends", "look")
+
+
+def check_render_applies(render: RenderConfig, given: Mapping[str, str]) -> None:
+    """Refuse render fields a user set that do nothing with the render mode chosen.
+
+    Args:
+        render: the resolved settings.
+        given: field name -> where the user set it (``--cameras``, ``run.json render.cameras``).
+
+    Raises:
+        ConfigError: an image field with mode ``none``, or ``look`` with a preset that is not path traced.
+    """
+    if not render.enabled:
+        for name in _IMAGE_FIELDS:
+            if name in given:
+                raise ConfigError(f"{given[name]}: render.{name} does nothing with render mode 'none' (states "
+                                  f"only); remove it or choose a render mode (fast, hd, photo)")
+    elif "look" in given and not get_preset(render.mode).path_traced:
+        raise ConfigError(f"{given['look']}: render.look is for the photo preset only, not {render.mode!r}; remove "
+                          f"it or render with photo")

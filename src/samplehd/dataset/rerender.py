@@ -12,6 +12,7 @@ resumes where it stopped. ``info.json`` gets the new ``render`` settings and the
 from __future__ import annotations
 
 import json
+import os
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -24,7 +25,8 @@ from samplehd.dataset.container import (
     read_meta,
     render_record,
 )
-from samplehd.dataset.layout import INFO_FILE, RUNS_FILE
+from samplehd.dataset.layout import EPISODE_DIR, INFO_FILE, RUNS_FILE
+from samplehd.dataset.lock import dataset_lock
 from samplehd.dataset.progress import Progress
 from samplehd.dataset.reader import DatasetReader
 from samplehd.dataset.render import RenderConfig, check_cameras
@@ -61,10 +63,21 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
         raise DatasetError("rerender needs a render preset (fast, hd or photo), not 'none'")
     check_cameras(render)
     root = Path(root)
-    reader = DatasetReader(root)
+    DatasetReader(root)  # a dataset folder (a clear refusal before the lock is tried)
+    with dataset_lock(root):  # for the whole run: no other command changes or exports it meanwhile
+        return _rerender(root, render, backend, progress, add)
+
+
+def _rerender(root: Path, render: RenderConfig, backend: Backend | None, progress: Progress | None,
+              add: bool) -> dict[str, Any]:
+    reader = DatasetReader(root)  # read again under the lock
     if not reader.complete:
         raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
-    reader.check_intact()
+    reader.check_intact(verify=True)  # every episode read and checked before any is rewritten
+    for folder in (root, root / EPISODE_DIR):  # episodes and info.json are replaced by renames in these
+        if not os.access(folder, os.W_OK):
+            raise DatasetError(f"{folder}: not writable (read-only or immutable); nothing was changed; make it "
+                               f"writable or rerender a copy")
     backend = backend or Backend()
     progress = progress or Progress()
     t0 = time.perf_counter()
@@ -74,8 +87,8 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
     skipped = 0
     result: dict[str, dict[str, Any]] | None = None
     first = ""
-    for e in reader.episodes:
-        path = root / e.file
+    for i, e in enumerate(reader.episodes):
+        path = reader.episode_path(i)
         # An unreadable episode stops the command before any episode is re-rendered.
         old = camera_settings(read_meta(path)["render"])
         try:

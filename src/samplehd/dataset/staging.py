@@ -2,28 +2,65 @@
 
 from __future__ import annotations
 
+import glob
 import os
 import shutil
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
 
 from samplehd.dataset.container import write_error
+from samplehd.dataset.lock import dataset_lock
 from samplehd.dataset.reader import DatasetReader
 from samplehd.errors import DatasetError
 
-__all__ = ["export_source", "staged_directory"]
+__all__ = ["export_source", "remove_stale_staging", "staged_directory"]
 
 
 @contextmanager
-def staged_directory(out: Path) -> Iterator[Path]:
+def staged_directory(out: Path, source: Path | None = None) -> Iterator[Path]:
     """Yield a fresh temporary directory beside `out`; on success it replaces `out` (which must be absent
-    or empty), on any error it is removed and `out` is left untouched.
+    or empty), on any error it is removed and `out` is left untouched. The staging folders of earlier
+    runs that were killed (their process is gone) are removed first.
+
+    Args:
+        out: the folder to publish.
+        source: the dataset being exported, held with a shared lock (see
+            :func:`~samplehd.dataset.lock.dataset_lock`) until `out` is published.
 
     Raises:
-        DatasetError: writing failed (disk full, permissions), with one line naming `out`.
+        DatasetError: writing failed (disk full, permissions), with one line naming `out`; or
+            `source` is being changed by another process.
     """
 
+    with ExitStack() as held:
+        if source is not None:
+            held.enter_context(dataset_lock(source, shared=True))
+        yield held.enter_context(_staged(out))
+
+
+def remove_stale_staging(out: Path) -> None:
+    """Remove ``.OUT.tmp-PID`` folders beside `out` whose process no longer runs (a killed export)."""
+    prefix = f".{out.name}.tmp-"
+    for p in out.parent.glob(f"{glob.escape(prefix)}*") if out.parent.is_dir() else ():
+        pid = p.name[len(prefix):]
+        if p.is_dir() and pid.isdigit() and not _running(int(pid)):
+            shutil.rmtree(p, ignore_errors=True)
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+@contextmanager
+def _staged(out: Path) -> Iterator[Path]:
+    remove_stale_staging(out)
     tmp = out.with_name(f".{out.name}.tmp-{os.getpid()}")
     shutil.rmtree(tmp, ignore_errors=True)
     try:

@@ -234,7 +234,14 @@ def _dataset_options(options: Mapping[str, Any]) -> dict[str, Any]:
 
 def _task_objects(task: Mapping[str, Any], family: Any, count: int) -> list[int]:
     """The objects a task names (moved ones and its reference), each checked to be one of the
-    scene's ``count`` objects."""
+    scene's ``count`` objects, given as distinct integers."""
+    raw = task.get("objects")
+    if isinstance(raw, (list, tuple)):
+        if any(not isinstance(i, (int, np.integer)) or isinstance(i, bool) for i in raw):
+            raise ConfigError(f"reset: instruction task objects {list(raw)!r}: must be object indices (integers "
+                              f"0..{count - 1})")
+        if len(set(raw)) != len(raw):
+            raise ConfigError(f"reset: instruction task objects {list(raw)!r}: names an object twice; give each once")
     try:
         parsed = parse_task(dict(task), family if isinstance(family, str) else None)
     except (SamplehdError, KeyError, TypeError, ValueError) as exc:
@@ -271,7 +278,7 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
     if "scene" not in options or "instruction" not in options:
         raise ConfigError("reset: options need both 'scene' and 'instruction' to reproduce an episode")
     scene = _as_scene(options["scene"])
-    model, _, _ = cache.compiled(scene)
+    model, pristine, _ = cache.compiled(scene)
     ann = cache.annotation(scene)
     raw = options["instruction"]
     if not hasattr(raw, "to_dict") and not isinstance(raw, Mapping):
@@ -319,4 +326,43 @@ def episode_from_options(options: Mapping[str, Any], cache: SceneCache) -> Episo
         sizes = {"qpos": model.nq, "qvel": model.nv, "act": model.na}
         if any(state[k].shape != (n,) for k, n in sizes.items()):
             raise ConfigError("reset: option 'episode' does not match the scene (qpos/qvel/act sizes differ)")
+    check_start_state(model, pristine, state, len(scene.objects))
     return EpisodeSpec(scene, entry, ann, state)
+
+
+# How deep two objects may interpenetrate at the start [m]: resting contacts of a sampled scene are
+# a fraction of a millimetre deep.
+_MAX_PENETRATION = 0.003
+
+
+def check_start_state(model: mujoco.MjModel, pristine: mujoco.MjData, state: Mapping[str, np.ndarray] | None,
+                      num_objects: int) -> None:
+    """Refuse a start state (given, or the scene's own) that physics cannot start from: non-finite
+    values, robot joints outside their limits, or two objects inside each other.
+
+    Raises:
+        ConfigError: one line naming the field (qpos, qvel, act) or the objects.
+    """
+    data = mujoco.MjData(model)
+    mujoco.mj_copyData(data, model, pristine)
+    if state is not None:
+        for key, values in state.items():
+            bad = np.flatnonzero(~np.isfinite(values))
+            if bad.size:
+                raise ConfigError(f"reset: option 'episode' {key}[{int(bad[0])}] is {values[bad[0]]}: the start "
+                                  f"state must be finite")
+        for j in np.flatnonzero(model.jnt_limited):
+            if int(model.jnt_type[j]) in (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE)):
+                value, (lo, hi) = state["qpos"][model.jnt_qposadr[j]], model.jnt_range[j]
+                if not lo - 1e-3 <= value <= hi + 1e-3:
+                    name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j)
+                    raise ConfigError(f"reset: option 'episode' qpos of joint {name} is {value:.4g}, outside its "
+                                      f"range {lo:.4g}..{hi:.4g}")
+        data.qpos[:], data.qvel[:], data.act[:] = state["qpos"], state["qvel"], state["act"]
+    mujoco.mj_forward(model, data)
+    owner = {int(model.body(f"object_{i}").id): i for i in range(num_objects)}
+    for c in data.contact[:data.ncon]:
+        a, b = (owner.get(int(model.body_rootid[model.geom_bodyid[g]])) for g in (c.geom1, c.geom2))
+        if a is not None and b is not None and a != b and c.dist < -_MAX_PENETRATION:
+            raise ConfigError(f"reset: objects {min(a, b)} and {max(a, b)} of the scene are {-c.dist * 1000:.0f} mm "
+                              f"inside each other; give them poses apart (sample_scene finds free spots)")

@@ -192,7 +192,9 @@ class TabletopEnv(gym.Env):
             raise ActionError("reset() after close(): the environment is closed; make a new one")
         if options is not None and not isinstance(options, dict):
             raise ConfigError(f"reset: options must be a dict, got {type(options).__name__}")
-        super().reset(seed=seed)
+        if seed is not None and (not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0):
+            raise ConfigError(f"reset: seed {seed!r}: must be an integer ≥ 0, or None")
+        super().reset(seed=None if seed is None else int(seed))
         options = dict(options or {})
         if {"scene", "instruction", "episode", "dataset", "episode_index"} & set(options):
             episode = episode_from_options(options, self.cache)

@@ -174,7 +174,7 @@ class BCPolicy:
     def load(cls, folder: str | Path | None, env: Any = None) -> BCPolicy:
         if folder is None:
             raise ConfigError("--policy bc: needs --models (the folder of `samplehd train policy`)")
-        config, state = load_model_files(folder, "policy")
+        config, state = load_model_files(folder, "policy", FORMAT)
         return cls(config, state, env)
 
     def reset(self, seed: int | None = None) -> None:

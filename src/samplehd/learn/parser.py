@@ -35,6 +35,8 @@ from samplehd.learn.training import (
 
 __all__ = ["InstructionParser", "ParsedProgram", "decode_target", "encode_target", "score_parser", "train_parser"]
 
+FORMAT = 1  # the config format of a parser model (bump when the network or its inputs change)
+
 SEP = "<SEP>"
 MAX_SOURCE = 48
 MAX_TARGET = 96
@@ -160,7 +162,7 @@ class InstructionParser:
     @classmethod
     def load(cls, folder: str | Path, device: Any = None) -> InstructionParser:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train parser``."""
-        config, state = load_model_files(folder, "parser")
+        config, state = load_model_files(folder, "parser", FORMAT)
         return cls(config, state, device)
 
     def parse(self, texts: Sequence[str], batch: int = 256) -> list[ParsedProgram]:
@@ -230,7 +232,7 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     vocab = ["<NULL>", "<START>", "<END>", "<UNK>", *sorted({t for ts in targets for t in ts})]
     config = {
         "kind": "parser",
-        "format": 1,
+        "format": FORMAT,
         "dataset": str(dataset),
         "model": {"embed": embed, "hidden": hidden},
         "target_vocab": vocab,

@@ -507,7 +507,7 @@ class Perception:
     @classmethod
     def load(cls, folder: str | Path, device: Any = None) -> Perception:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train perception``."""
-        config, state = load_model_files(folder, "perception")
+        config, state = load_model_files(folder, "perception", FORMAT)
         try:
             return cls(config, state, device)
         except ConfigError as exc:

@@ -19,9 +19,10 @@ from __future__ import annotations
 import json
 import os
 import time
+import warnings
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +43,7 @@ __all__ = [
     "TrainRun",
     "load_model_files",
     "nn",
+    "load_weights",
     "pick_device",
     "step_rng",
     "torch",
@@ -59,8 +61,28 @@ def pick_device(requested: str | None = None) -> Any:
     if requested:
         if requested.startswith("cuda") and not torch.cuda.is_available():
             raise ConfigError(f"--device {requested!r}: no CUDA device here; valid: cpu" )
-        return torch.device(requested)
+        try:
+            return torch.device(requested)
+        except RuntimeError:
+            raise ConfigError(f"--device {requested!r}: not a torch device; valid: cpu, cuda, cuda:N") from None
     return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+
+
+def load_weights(path: Path) -> Any:
+    """``torch.load(path, weights_only=True)`` onto the CPU, any failure (a pickled object, a garbage
+    or truncated file) one line naming the file; torch's own warnings are folded into that line.
+
+    Raises:
+        ConfigError: the file cannot be read as plain tensors and containers.
+    """
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:  # noqa: BLE001 - any unreadable file is one user-facing error
+        reason = next((line.strip() for line in str(exc).splitlines() if line.strip()), type(exc).__name__)
+        raise ConfigError(f"{path}: not a state dict readable with weights_only=True ({reason[:200]}); delete "
+                          f"it or give another folder") from None
 
 
 def step_rng(seed: int, step: int, stream: int = 0) -> np.random.Generator:
@@ -81,12 +103,13 @@ def _save_torch(path: Path, obj: Any) -> None:
     tmp.replace(path)
 
 
-def load_model_files(folder: str | Path, kind: str) -> tuple[dict[str, Any], dict[str, Any]]:
+def load_model_files(folder: str | Path, kind: str, fmt: int) -> tuple[dict[str, Any], dict[str, Any]]:
     """Read ``config.json`` and ``model.pt`` of a trained model; one-line errors.
 
     Args:
         folder: the ``--out`` folder of ``samplehd train KIND``.
         kind: parser, perception or policy (checked against the config's ``kind``).
+        fmt: the config ``format`` this samplehd writes and reads for ``kind``.
 
     Returns:
         (config, state dict) — the state dict loaded with ``weights_only=True`` onto the CPU.
@@ -102,14 +125,13 @@ def load_model_files(folder: str | Path, kind: str) -> tuple[dict[str, Any], dic
     if not isinstance(config, dict) or config.get("kind") != kind:
         got = config.get("kind") if isinstance(config, dict) else None
         raise ConfigError(f"{cfg_path}: kind={got!r}, expected {kind!r}")
+    if config.get("format") != fmt:
+        raise ConfigError(f"{cfg_path}: format {config.get('format')!r}; this samplehd reads {kind} models of format "
+                          f"{fmt}: train it again with this version (samplehd train {kind})")
     weights = folder / MODEL_FILE
     if not weights.exists():
         raise ConfigError(f"{weights}: missing (the {kind} training did not finish; run it again to resume)")
-    try:
-        state = torch.load(weights, map_location="cpu", weights_only=True)
-    except Exception as exc:  # noqa: BLE001 - any unreadable file is one user-facing error
-        raise ConfigError(f"{weights}: not a state dict readable with weights_only=True ({exc})") from None
-    return config, state
+    return config, load_weights(weights)
 
 
 @dataclass
@@ -133,6 +155,7 @@ class TrainRun:
     quiet: bool = False
     stop_after: int | None = None
     stopped: bool = False
+    _resume_state: dict[str, Any] | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.steps, int) or self.steps < 1:
@@ -140,7 +163,16 @@ class TrainRun:
         self.out = Path(self.out)
 
     def prepare(self) -> None:
-        """Create the folder; refuse to resume a run whose config differs (names the field)."""
+        """Create the folder; refuse to resume a run whose config differs (names the field) or whose
+        checkpoint cannot be read, before anything is written."""
+        ckpt = self.out / CHECKPOINT_FILE
+        self._resume_state = None
+        if ckpt.exists():
+            state = load_weights(ckpt)
+            if not isinstance(state, dict) or not {"model", "optimizer", "step"} <= set(state):
+                raise ConfigError(f"{ckpt}: not a samplehd checkpoint (needs model, optimizer and step); delete it "
+                                  f"to start over")
+            self._resume_state = state
         self.out.mkdir(parents=True, exist_ok=True)
         path = self.out / CONFIG_FILE
         if path.exists() and (self.out / CHECKPOINT_FILE).exists():
@@ -160,12 +192,16 @@ class TrainRun:
     def resume(self, model: Any, optimizer: Any) -> int:
         """Load the checkpoint if there is one; return the step to continue from."""
 
-        ckpt = self.out / CHECKPOINT_FILE
-        if not ckpt.exists():
+        state = self._resume_state
+        if state is None:
             return 0
-        state = torch.load(ckpt, map_location="cpu", weights_only=True)
-        model.load_state_dict(state["model"])
-        optimizer.load_state_dict(state["optimizer"])
+        try:
+            model.load_state_dict(state["model"])
+            optimizer.load_state_dict(state["optimizer"])
+        except (RuntimeError, KeyError, ValueError, TypeError) as exc:
+            reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise ConfigError(f"{self.out / CHECKPOINT_FILE}: does not fit this model ({reason[:200]}); delete it "
+                              f"to start over") from None
         return int(state["step"])
 
     def checkpoint(self, model: Any, optimizer: Any, step: int) -> None:

@@ -189,8 +189,9 @@ class ViewerApp:
             response = Response.error(404, str(exc))
         except (OSError, ValueError, KeyError, IndexError, TypeError) as exc:
             # Half-written or malformed dataset content: say so instead of failing the request.
-            response = Response.error(503, f"dataset content unreadable (still being written?): "
-                                           f"{type(exc).__name__}: {exc}")
+            complete = self.index.info()[0].get("status") == "complete"
+            what = "damaged (`samplehd validate` lists every problem)" if complete else "still being written?"
+            response = Response.error(503, f"dataset content unreadable ({what}): {type(exc).__name__}: {exc}")
         response.headers = {**SECURITY_HEADERS, **response.headers}
         return response
 

@@ -172,7 +172,9 @@ class EpisodeStore:
         raise DatasetError(f"episode {name}: not in the dataset (yet)")
 
     def state(self) -> FileState:
-        """``ok`` for a complete dataset, ``partial`` while generating, ``missing`` without episodes."""
+        """``ok`` for a complete dataset whose episode files are all there with their recorded sizes,
+        ``damaged`` for a complete one where they are not (what ``samplehd validate`` would report,
+        never shown as progress), ``partial`` while generating, ``missing`` without episodes."""
         reader = self.reader()
         if reader is None:
             return FileState("episodes", "missing", f"no episodes: {self._reader_error}")
@@ -180,7 +182,20 @@ class EpisodeStore:
         if not reader.complete:
             status = reader.info.get("status", "in_progress")
             return FileState("episodes", "partial", f"generation {status}: {count} episodes written so far")
+        damaged = [e for e in reader.episodes if self._damage(e)]
+        if damaged:
+            return FileState("episodes", "damaged", f"{len(damaged)} of {count} episode files damaged, e.g. "
+                             f"{damaged[0].file}: {self._damage(damaged[0])}; `samplehd validate {self.root}` lists "
+                             f"every problem")
         return FileState("episodes", "ok")
+
+    def _damage(self, entry: Any) -> str:
+        """What is wrong with a finished episode's file on sight (no hashing): missing or another size."""
+        try:
+            size = (self.root / entry.file).stat().st_size
+        except OSError:
+            return "missing"
+        return f"{size} bytes, info.json records {entry.size}" if 0 <= entry.size != size else ""
 
     # -- listing -------------------------------------------------------------------------------
     def _episode_meta(self, reader: Any, index: int, entry: Any) -> dict[str, Any]:
@@ -234,6 +249,9 @@ class EpisodeStore:
             if hit is not None:
                 summary.update({k: v for k, v in hit[1].items() if k != "cameras" and v not in ("", None)})
                 summary["success"] = hit[1]["success"]
+            damage = self._damage(entry) if self.reader() is not None and self.reader().complete else ""
+            if damage:
+                summary.update(success=False, failure_reason=f"damaged: {damage}", readable=False)
             out.append(summary)
         return out
 

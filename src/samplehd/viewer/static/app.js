@@ -35,10 +35,12 @@ async function refreshStatus() {
   showNewItems();
   document.getElementById("counts").textContent =
     `${c.scenes} scenes · ${c.instructions} instructions · ${c.episodes} episodes`;
+  const damaged = status.files.filter((f) => f.state === "damaged").map((f) => `${f.name}: ${f.detail}`);
   const notes = status.files
     .filter((f) => f.state === "partial" || (f.state === "missing" && f.name !== "info.json" && f.name !== "episodes"))
     .map((f) => `${f.name}: ${f.state} — ${f.detail}`);
-  showBanner(notes.length ? ["This dataset is incomplete or still being written:", ...notes] : []);
+  showBanner(damaged.length ? ["This dataset is damaged:", ...damaged, ...notes]
+    : notes.length ? ["This dataset is incomplete or still being written:", ...notes] : []);
 }
 
 /** On a list page, "N new scenes — refresh" once the dataset has grown since the page was drawn. */
