@@ -161,9 +161,9 @@ _SMALL_BATCH = 8
 def _kernels() -> ModuleType:
     """The compiled loops, loaded on first use (importing numba takes a moment)."""
     if not _KERNELS:
-        from samplehd import fixedkernels
+        import samplehd.fixedkernels
 
-        _KERNELS.append(fixedkernels)
+        _KERNELS.append(samplehd.fixedkernels)
     return _KERNELS[0]
 
 
