@@ -8,12 +8,13 @@ Two parts of numpy give different bits on different machines:
   in another order. :func:`matmul`, :func:`dot`, :func:`norm`, :func:`inv_rigid` and
   :func:`half_turn_axis` spell the arithmetic out instead: a product of matrices sums the terms
   ``a[i, k] * b[k, j]`` in index order k = 0, 1, ..., each product and each sum rounded on its own
-  (numpy's elementwise multiply and add, never a fused multiply-add).
+  (never a fused multiply-add): Python's floats for one small product, numpy's elementwise multiply
+  and add for a few, a compiled loop (:mod:`samplehd.fixedkernels`) for more, all with the same bits.
 - **CPU-dispatched elementary functions.** numpy's float64 ``arctan2``, ``arccos``, ``arcsin``,
   ``tan``, ``exp``, ``log``, ``power`` ... run SIMD code chosen by the CPU (AVX-512 or not) whose last
   bit differs from the C library's. :func:`arctan2`, :func:`arccos` and :func:`arcsin` of arrays are
-  fdlibm's algorithm written in elementwise IEEE operations; for a scalar, call :mod:`math` (the C
-  library, the same on every CPU with FMA).
+  fdlibm's algorithm in plain IEEE arithmetic (compiled, no math library called); for a scalar, call
+  :mod:`math` (the C library, the same on every CPU with FMA).
 
 The differences start in the 16th digit and grow through contact until episodes end differently. With
 these, a dataset's bits depend on the versions of samplehd, MuJoCo, numpy and the C library only.
