@@ -68,16 +68,23 @@ def matmul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
             rows.append(out_row)
         return _unvector(np.array(rows), vec_a, vec_b)
     batch = np.broadcast_shapes(a.shape[:-2], b.shape[:-2])
-    if math.prod(batch) <= _SMALL_BATCH or not k:
-        out = a[..., :, 0, None] * b[..., None, 0, :] if k else np.zeros(batch + (n, m))
-        for q in range(1, k):
-            out += a[..., :, q, None] * b[..., None, q, :]
-        return _unvector(out, vec_a, vec_b)
+    if not k:
+        return _unvector(np.zeros(batch + (n, m)), vec_a, vec_b)
+    if math.prod(batch) <= _SMALL_BATCH:
+        return _unvector(_products(a, b), vec_a, vec_b)
     a3 = np.ascontiguousarray(a if a.shape[:-2] == batch else np.broadcast_to(a, batch + (n, k))).reshape(-1, n, k)
     b3 = np.ascontiguousarray(b if b.shape[:-2] == batch else np.broadcast_to(b, batch + (k, m))).reshape(-1, k, m)
     out = np.empty((a3.shape[0], n, m))
     _kernels().matmul_batch(a3, b3, out)
     return _unvector(out.reshape(batch + (n, m)), vec_a, vec_b)
+
+
+def _products(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a @ b`` of (..., n, k) and (..., k, m), k >= 1, in numpy's elementwise multiply and add."""
+    out = a[..., :, 0, None] * b[..., None, 0, :]
+    for q in range(1, a.shape[-1]):
+        out += a[..., :, q, None] * b[..., None, q, :]
+    return out
 
 
 def _unvector(out: np.ndarray, vec_a: bool, vec_b: bool) -> np.ndarray:
@@ -93,13 +100,7 @@ def matmul_reference(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     vec_a, vec_b = a.ndim == 1, b.ndim == 1
-    a = a[None, :] if vec_a else a
-    b = b[:, None] if vec_b else b
-    out = a[..., :, 0, None] * b[..., None, 0, :]
-    for k in range(1, a.shape[-1]):
-        out += a[..., :, k, None] * b[..., None, k, :]
-    out = out[..., 0] if vec_b else out
-    return (out[..., 0, :] if not vec_b else out[..., 0]) if vec_a else out
+    return _unvector(_products(a[None, :] if vec_a else a, b[:, None] if vec_b else b), vec_a, vec_b)
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> float:

@@ -122,11 +122,6 @@ def versions() -> dict[str, str]:
             "h5py": h5py.__version__, "python": platform.python_version()}
 
 
-def machine_info() -> dict[str, Any]:
-    """The machine that wrote a dataset (CPU, BLAS and its kernel, numpy's SIMD targets, C library): none
-    of it changes the data (samplehd.fixedmath), it is kept to trace a difference between two machines."""
-    return machine()
-
 
 def _write_json(path: Path, obj: Any, indent: int | None = None) -> None:
     try:
@@ -238,7 +233,7 @@ def _catalogue_difference(stored: dict[str, Any], now: dict[str, Any]) -> str | 
 
 def _base_info(config: GenerateConfig) -> dict[str, Any]:
     return {"format_version": FORMAT_VERSION, "status": "in_progress", "versions": versions(),
-            "machine": machine_info(),
+            "machine": machine(),  # to trace a difference between machines
             "config": config.to_dict(), "catalogue": catalogue_in_use(config)}
 
 
