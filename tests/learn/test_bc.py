@@ -12,7 +12,7 @@ import pytest
 torch = pytest.importorskip("torch")
 
 from samplehd.errors import ConfigError  # noqa: E402
-from samplehd.learn.bc import STATE_DIM, STATE_DIM_V1, BCPolicy, _rotation_columns, train_policy  # noqa: E402
+from samplehd.learn.bc import STATE_DIM, BCPolicy, _rotation_columns, moving_frames, train_policy  # noqa: E402
 
 
 def _weights(folder: Path) -> dict:
@@ -37,7 +37,7 @@ def test_policy_training_is_deterministic_resumes_and_normalises_its_state(nano_
     assert w["state_mean"].shape == (STATE_DIM,) and bool((w["state_std"] >= 1e-2).all())
     assert float(w["state_mean"][8]) > 0.5  # the TCP height [m] above the floor, as recorded
     config = json.loads((a / "config.json").read_text())
-    assert config["format"] == 2 and 0.7 < config["inference"]["z_floor"] < 1.2
+    assert config["format"] == 3 and 0.7 < config["inference"]["z_floor"] < 1.2
     assert len(ma["test_l1_by_axis"]) == 7 and ma["test_l1"] is not None
     # Weighting the frames near the table changes the model (and is recorded).
     d = tmp_path / "d"
@@ -66,7 +66,7 @@ def test_rotation_columns_are_those_of_the_matrix_and_ignore_the_quaternion_sign
 
 
 def _config(**inference: object) -> dict:
-    return {"kind": "policy", "format": 2, "image": 16, "chunk": 4, "execute": 2, "tokens": 8,
+    return {"kind": "policy", "format": 3, "image": 16, "chunk": 4, "execute": 2, "tokens": 8,
             "model": {"width": 8, "hidden": 16, "state_dim": STATE_DIM}, "inference": inference,
             "train": {"seed": 0}}
 
@@ -76,21 +76,29 @@ def _obs(z: float = 1.0) -> dict:
     return {"scene_rgb": rng.integers(0, 255, (16, 16, 3), dtype=np.uint8),
             "wrist_rgb": rng.integers(0, 255, (16, 16, 3), dtype=np.uint8),
             "instruction": "Pick up the mug.", "gripper": np.array([0.02, 0.02, 0.0]),
-            "joint_pos": np.zeros(6), "tcp_pos": np.array([0.3, 0.0, z]), "tcp_quat": np.array([0.0, 1.0, 0.0, 0.0])}
+            "joint_pos": np.zeros(6), "joint_vel": np.zeros(6), "tcp_pos": np.array([0.3, 0.0, z]), "tcp_quat": np.array([0.0, 1.0, 0.0, 0.0])}
 
 
 def test_temporal_ensembling_averages_the_chunks_that_cover_a_step() -> None:
-    plain = BCPolicy(_config(), None)
-    chunk = plain.predict(_obs())  # an untrained network: some chunk; the same for the same observation
     policy = BCPolicy(_config(ensemble=0.0), None)  # equal weights
+    chunks: list[np.ndarray] = []
+    predict = policy.predict
+    policy.predict = lambda obs: chunks.append(predict(obs)) or chunks[-1]  # type: ignore[method-assign]
     policy.reset()
     for t in range(6):
-        # the chunk predicted k steps ago holds this step's action at index k: all are `chunk`
-        want = np.clip(chunk[: min(t + 1, 4)].mean(0), -1, 1)
-        assert np.allclose(policy(_obs()), want, atol=1e-6)
+        action = policy(_obs())
+        # the chunk predicted k steps ago holds this step's action at index k
+        want = np.clip(np.mean([c[t - n] for n, c in enumerate(chunks) if t - n < 4], axis=0), -1, 1)
+        assert len(chunks) == t + 1 and np.allclose(action, want, atol=1e-6)
     # Without it: `execute` actions of one chunk, then a new one.
+    plain = BCPolicy(_config(), None)
+    chunks.clear()
+    predict = plain.predict
+    plain.predict = lambda obs: chunks.append(predict(obs)) or chunks[-1]  # type: ignore[method-assign]
     plain.reset()
-    assert np.allclose(np.stack([plain(_obs()) for _ in range(4)]), np.clip(chunk[[0, 1, 0, 1]], -1, 1), atol=1e-6)
+    actions = np.stack([plain(_obs()) for _ in range(4)])
+    assert len(chunks) == 2
+    assert np.allclose(actions, np.clip([chunks[0][0], chunks[0][1], chunks[1][0], chunks[1][1]], -1, 1), atol=1e-6)
 
 
 def test_the_tcp_target_never_goes_below_the_floor() -> None:
@@ -114,9 +122,55 @@ def test_the_tcp_target_never_goes_below_the_floor() -> None:
         BCPolicy(_config(ensemble=-1), None)
 
 
-def test_a_format_1_model_still_loads_and_acts() -> None:
-    config = {"kind": "policy", "format": 1, "image": 16, "chunk": 4, "execute": 2, "tokens": 8,
-              "model": {"width": 8, "hidden": 16}, "train": {"seed": 0}}
-    policy = BCPolicy(config, None)
-    assert policy.v1 and policy.net.state[0].in_features == STATE_DIM_V1 and policy.ensemble is None
-    assert policy(_obs()).shape == (7,)
+def test_the_waits_are_left_out_of_the_frames_a_policy_learns_from() -> None:
+    moving = [0.2, 0, 0, 0, 0, 0]
+    still = [0.0] * 6
+    steering = np.array([[*still, -0.6],   # the first frame is always kept
+                         [*moving, -0.6],
+                         [*still, -0.6],   # a wait: no motion, the gripper command unchanged
+                         [*still, -0.6],
+                         [*still, -0.8],   # closing: kept
+                         [*still, -0.8],   # a wait after the close
+                         [*moving, -0.8]])
+    assert moving_frames(steering).tolist() == [0, 1, 4, 6]
+
+
+def test_the_policy_state_holds_joint_velocities_and_its_last_gripper_command() -> None:
+    policy = BCPolicy(_config(), None)
+    policy.reset()
+    obs = dict(_obs(), joint_vel=np.arange(6.0))
+    state = policy._state(obs)  # noqa: SLF001 - the state the network sees
+    assert state.shape == (STATE_DIM,) and state[16:22].tolist() == list(range(6)) and state[22] == 1.0
+    action = policy(obs)
+    assert policy._state(obs)[22] == pytest.approx(float(action[6]))  # noqa: SLF001
+    policy.reset()
+    assert policy._state(obs)[22] == 1.0  # noqa: SLF001 - the gripper starts open
+
+
+def test_oracle_demos_are_noisy_where_executed_clean_where_labelled_and_reproducible() -> None:
+    from samplehd.learn.demos import CollectSpec, collect
+
+    spec = CollectSpec(episodes=3, seed=0, families=("pick_up",), image=16, cameras=("scene", "wrist"), noise=0.2)
+    a, b = collect(spec), collect(spec)
+    assert a, "some of three L1 pick_up episodes must succeed"
+    for x, y in zip(a, b, strict=True):
+        assert all(np.array_equal(x[k], y[k]) for k in ("label", "executed", "scene", "tcp_pos"))
+        assert x["success"] and x["scene"].shape[1:] == (16, 16, 3)
+        noise = x["executed"][:, :6] - x["label"][:, :6]
+        assert 0.1 < float(np.abs(noise).mean()) < 0.25  # |N(0, 0.2)| has mean 0.16 (less where clipped)
+        assert np.array_equal(x["executed"][:, 6], x["label"][:, 6])  # the gripper is not perturbed
+
+
+def test_dart_demos_and_a_dagger_round_join_training_and_a_resumed_run_reuses_them(nano_dataset: Path,
+                                                                                tmp_path: Path) -> None:
+    opts = dict(steps=2, quiet=True, demos=4, noise=0.1, dagger_rounds=1, dagger_episodes=2, dagger_steps=2)
+    a, c = tmp_path / "a", tmp_path / "c"
+    ma = train_policy(nano_dataset, a, **opts)
+    assert (a / "demos.npz").exists() and (a / "dagger_0.npz").exists()
+    assert ma["collected_episodes"] >= 2 and ma["steps"] == 4
+    config = json.loads((a / "config.json").read_text())
+    assert config["collect"] == {"demos": 4, "noise": 0.1, "dagger_rounds": 1, "dagger_episodes": 2,
+                                 "dagger_steps": 2}
+    assert train_policy(nano_dataset, c, stop_after=3, **opts) == {"stopped_at": 3}  # after the DAgger round
+    train_policy(nano_dataset, c, **opts)
+    assert _same(_weights(a), _weights(c)), "a resumed run must collect and train exactly as an uninterrupted one"

@@ -32,6 +32,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of initialisation, batches and augmentation")
     parser.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    policy = parser.add_argument_group("policy only: demonstrations collected in the environment by the oracle")
+    policy.add_argument("--demos", type=int, help="oracle episodes to collect in the environment besides the "
+                                                  "dataset's (default 0)")
+    policy.add_argument("--noise", type=float, help="DART: std of the noise added to the executed velocities of "
+                                                    "--demos episodes, the labels staying the oracle's (default 0)")
+    policy.add_argument("--dagger-rounds", type=int, help="DAgger: after --steps, rounds of running the policy "
+                                                          "and adding the states it visits, labelled by the oracle "
+                                                          "(default 0)")
+    policy.add_argument("--dagger-episodes", type=int, help="episodes per DAgger round (default 50)")
+    policy.add_argument("--dagger-steps", type=int, help="optimiser steps after each DAgger round (default 1000)")
+    policy.add_argument("--workers", type=int, help="processes collecting episodes (default 1)")
     parser.add_argument("--evaluate-only", action="store_true",
                         help="parser, perception: test the model already trained in --out on the dataset's test "
                              "split, without training; print its test metrics (JSON), write nothing")
@@ -47,6 +58,26 @@ def run(args: argparse.Namespace) -> int:
     _torch_or_error()
     check_out_dir("--out", args.out)
     check_outputs({"--out": args.out}, {"--dataset": args.dataset})
+    collect = {"demos": args.demos, "noise": args.noise, "dagger_rounds": args.dagger_rounds,
+               "dagger_episodes": args.dagger_episodes, "dagger_steps": args.dagger_steps, "workers": args.workers}
+    given = {k: v for k, v in collect.items() if v is not None}
+    if given and args.model != "policy":
+        flag = "--" + next(iter(given)).replace("_", "-")
+        raise ConfigError(f"{flag} {next(iter(given.values()))}: only used with `train policy`; leave it out")
+    for key, value in given.items():
+        low = 1 if key in ("dagger_episodes", "dagger_steps", "workers") else 0
+        if key == "noise":
+            if not 0.0 <= value <= 1.0:
+                raise ConfigError(f"--noise {value}: valid: a number in [0, 1] (a fraction of the full steering "
+                                  f"speed)")
+        elif value < low:
+            raise ConfigError(f"--{key.replace('_', '-')} {value}: valid: an integer ≥ {low}")
+    if given.get("noise") and not given.get("demos"):
+        raise ConfigError(f"--noise {args.noise}: adds noise to --demos episodes; give --demos N or leave it out")
+    for key in ("dagger_episodes", "dagger_steps"):
+        if key in given and not given.get("dagger_rounds"):
+            raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: only used with --dagger-rounds N ≥ 1; "
+                              f"leave it out")
     if args.evaluate_only:
         return _evaluate_only(args)
     steps = _DEFAULT_STEPS[args.model] if args.steps is None else args.steps
@@ -63,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         metrics = train_perception(args.dataset, args.out, **kw)
     else:
 
-        metrics = train_policy(args.dataset, args.out, **kw)
+        metrics = train_policy(args.dataset, args.out, **kw, **given)
     shown = {k: v for k, v in metrics.items() if not isinstance(v, (dict, list))}
     print(json.dumps(shown, indent=1))
     print(f"wrote {args.out / 'metrics.json'}")

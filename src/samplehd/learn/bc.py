@@ -19,31 +19,32 @@ demonstrations.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from rich.console import Console
 
 from samplehd.dataset.container import camera_settings
 from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset
+from samplehd.learn.demos import CollectSpec, collect
 from samplehd.learn.options import POLICY_CAMERAS, env_options, env_options_from_config
 from samplehd.learn.training import TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
 
 __all__ = ["BCPolicy", "env_options", "policy_for_evaluation", "train_policy"]
 
-FORMAT = 2
-STATE_DIM = 16  # joint positions (6), TCP position (3), TCP orientation (6: two rotation columns), opening (1)
-STATE_DIM_V1 = 10  # format 1: joint positions (6), TCP position (3), finger opening ×10 (1), not normalised
+FORMAT = 3
+# joint positions (6), TCP position (3), TCP orientation (6: two rotation columns), finger opening (1),
+# joint velocities (6), the gripper command of the previous action (1)
+STATE_DIM = 23
 CAMERAS = POLICY_CAMERAS
+DEMOS_FILE = "demos.npz"  # the oracle episodes collected in the environment (kept for a resumed run)
+DAGGER_FILE = "dagger_{}.npz"  # the episodes of DAgger round N
 NEAR_TABLE = 0.03  # frames whose TCP is within this of the demonstrations' lowest TCP height [m]
-
-
-def _state_v1(joint_pos: np.ndarray, tcp_pos: np.ndarray, opening: np.ndarray) -> np.ndarray:
-    return np.concatenate([joint_pos, tcp_pos, np.atleast_1d(opening)[..., None] * 10.0
-                           if np.ndim(opening) else [opening * 10.0]], axis=-1).astype(np.float32)
 
 
 def _rotation_columns(quat: np.ndarray) -> np.ndarray:
@@ -58,12 +59,30 @@ def _rotation_columns(quat: np.ndarray) -> np.ndarray:
                      2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=-1)
 
 
-def _state(joint_pos: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, opening: np.ndarray) -> np.ndarray:
-    """The policy's raw state vector(s) (format 2); the network normalises it per dimension."""
-    joint_pos = np.asarray(joint_pos, np.float64)
+def _state(joint_pos: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, opening: np.ndarray,
+           joint_vel: np.ndarray, last_gripper: np.ndarray) -> np.ndarray:
+    """The policy's raw state vector(s); the network normalises it per dimension."""
     opening = np.asarray(opening, np.float64)[..., None]
-    return np.concatenate([joint_pos, np.asarray(tcp_pos, np.float64), _rotation_columns(tcp_quat), opening],
+    last_gripper = np.asarray(last_gripper, np.float64)[..., None]
+    return np.concatenate([np.asarray(joint_pos, np.float64), np.asarray(tcp_pos, np.float64),
+                           _rotation_columns(tcp_quat), opening, np.asarray(joint_vel, np.float64), last_gripper],
                           axis=-1).astype(np.float32)
+
+
+def moving_frames(steering: np.ndarray, tolerance: float = 1e-3) -> np.ndarray:
+    """Indices of the frames a policy learns from: every frame but the waits.
+
+    A wait is a frame whose TCP velocity is zero and whose gripper command equals the previous
+    frame's (the demonstrations hold still between subtasks). Its observation looks like its
+    neighbours', so a policy cannot tell how long to wait and imitating it stalls; leaving the
+    waits out makes the next motion the label of the frame before it.
+    """
+    steering = np.asarray(steering, np.float64)
+    still = np.abs(steering[:, :6]).max(axis=1) < tolerance
+    same_grip = np.r_[False, np.abs(np.diff(steering[:, 6])) < tolerance]
+    keep = ~(still & same_grip)
+    keep[0] = True
+    return np.flatnonzero(keep)
 
 
 class Encoder(nn.Module):
@@ -141,10 +160,9 @@ class BCPolicy:
         set_seed(int(config["train"]["seed"]))
         self.config = dict(config)
         self.device = device or torch.device("cpu")
-        self.v1 = int(config.get("format", 1)) < 2
         m = config["model"]
-        self.net = BCNet(len(instruction_vocabulary()), config["image"], config["chunk"], m["width"], m["hidden"],
-                         state_dim=STATE_DIM_V1 if self.v1 else STATE_DIM, normalise=not self.v1).to(self.device)
+        self.net = BCNet(len(instruction_vocabulary()), config["image"], config["chunk"], m["width"], m["hidden"]
+                         ).to(self.device)
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
@@ -157,6 +175,7 @@ class BCPolicy:
         self._queue: list[np.ndarray] = []
         self._chunks: list[np.ndarray] = []
         self._z: float | None = None
+        self._last_gripper = 1.0
         if env is not None:
             c = env.unwrapped.config
             want = env_options_from_config(config)
@@ -181,13 +200,13 @@ class BCPolicy:
         self._queue = []
         self._chunks = []
         self._z = None
+        self._last_gripper = 1.0
 
     def _state(self, obs: Mapping[str, Any]) -> np.ndarray:
         g = np.asarray(obs["gripper"], dtype=float)
-        joints, tcp = np.asarray(obs["joint_pos"], float), np.asarray(obs["tcp_pos"], float)
-        if self.v1:
-            return _state_v1(joints, tcp, g[0] + g[1])
-        return _state(joints, tcp, np.asarray(obs["tcp_quat"], float), g[0] + g[1])
+        return _state(np.asarray(obs["joint_pos"], float), np.asarray(obs["tcp_pos"], float),
+                      np.asarray(obs["tcp_quat"], float), g[0] + g[1], np.asarray(obs["joint_vel"], float),
+                      self._last_gripper)
 
     def predict(self, obs: Mapping[str, Any]) -> np.ndarray:
         """The chunk (chunk, 7) for one observation of the environment."""
@@ -215,6 +234,7 @@ class BCPolicy:
         action = np.clip(action, -1.0, 1.0).astype(np.float64)
         if self.z_floor is not None:
             action = self._above_floor(action, float(np.asarray(obs["tcp_pos"])[2]))
+        self._last_gripper = float(action[6])
         return action.astype(np.float32)
 
     def _above_floor(self, action: np.ndarray, tcp_z: float) -> np.ndarray:
@@ -252,18 +272,66 @@ def policy_for_evaluation(env: Any, config: Any) -> BCPolicy:
 
 
 def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int) -> dict[str, np.ndarray]:
+    """One episode's training arrays, its waits left out (:func:`moving_frames`).
+
+    ``steering`` and ``state`` are the kept frames in order (a chunk's targets are the next kept
+    frames' actions); ``frames`` are the positions in them that serve as samples (every
+    ``stride``-th), and the images are those samples' frames.
+    """
     ep = reader.episode(k)
     f = ep.frames
-    imgs = {c: np.asarray(ep.images[c]["rgb"][:]) for c in CAMERAS}
-    t = np.arange(0, len(f["steering"]), stride)
+    steering = np.asarray(f["steering"], np.float32)
+    keep = moving_frames(steering)
+    last_gripper = np.r_[1.0, steering[:-1, 6]]
+    state = _state(np.asarray(f["joint_pos"]), np.asarray(f["tcp_pos"]), np.asarray(f["tcp_quat"]),
+                   np.asarray(f["gripper_opening"]), np.asarray(f["joint_vel"]), last_gripper)
+    t = np.arange(0, len(keep), stride)
     tcp = np.asarray(f["tcp_pos"])
     return {
-        "frames": t, "steering": np.asarray(f["steering"], np.float32),
-        "state": _state(np.asarray(f["joint_pos"]), tcp, np.asarray(f["tcp_quat"]), np.asarray(f["gripper_opening"])),
-        "z": tcp[:, 2].astype(np.float64),
-        **{c: imgs[c][t] for c in CAMERAS},
+        "frames": t, "steering": steering[keep], "state": state[keep],
+        "z": tcp[keep, 2].astype(np.float64),
+        **{c: np.asarray(ep.images[c]["rgb"][:])[keep[t]] for c in CAMERAS},
         "tokens": encode_instruction(reader.instruction(k)["instruction"], tokens_len),
     }
+
+
+def _collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int) -> dict[str, np.ndarray]:
+    """A collected episode (:func:`samplehd.learn.demos.collect`) as :func:`_episode_arrays` gives one."""
+    label = np.asarray(raw["label"], np.float32)
+    keep = moving_frames(label)
+    grip = np.asarray(raw["gripper"], np.float64)
+    last_gripper = np.r_[1.0, np.asarray(raw["executed"], np.float64)[:-1, 6]]
+    state = _state(raw["joint_pos"], raw["tcp_pos"], raw["tcp_quat"], grip[:, 0] + grip[:, 1], raw["joint_vel"],
+                   last_gripper)
+    t = np.arange(0, len(keep), stride)
+    return {"frames": t, "steering": label[keep], "state": state[keep],
+            "z": np.asarray(raw["tcp_pos"], np.float64)[keep, 2],
+            **{c: np.asarray(raw[c])[keep[t]] for c in CAMERAS},
+            "tokens": encode_instruction(str(raw["instruction"]), tokens_len)}
+
+
+_ARRAY_KEYS = ("frames", "steering", "state", "z", *CAMERAS, "tokens")
+
+
+def _save_arrays(path: Path, episodes: Sequence[Mapping[str, np.ndarray]]) -> None:
+    """Collected episodes' arrays in one ``.npz`` (plain arrays, read with ``allow_pickle=False``)."""
+    tmp = path.with_name(f".{path.name}.tmp.npz")
+    np.savez(tmp, count=np.array(len(episodes)),
+             **{f"{n}/{k}": e[k] for n, e in enumerate(episodes) for k in _ARRAY_KEYS})
+    tmp.replace(path)
+
+
+def _load_arrays(path: Path) -> list[dict[str, np.ndarray]]:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return [{k: z[f"{n}/{k}"] for k in _ARRAY_KEYS} for n in range(int(z["count"]))]
+    except (OSError, KeyError, ValueError) as exc:
+        raise ConfigError(f"{path}: not readable collected episodes ({exc}); delete it to collect them again") from None
+
+
+def _dagger_policy(args: tuple[Mapping[str, Any], Mapping[str, Any]], env: Any) -> BCPolicy:
+    """The policy a DAgger round runs in a collecting process (``args``: its config and weights)."""
+    return BCPolicy(args[0], args[1], env)
 
 
 def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: int = 0, device: str | None = None,
@@ -271,7 +339,9 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
                  execute: int = 4, stride: int = 2,
                  lr: float = 1e-3, width: int = 16, hidden: int = 256, tokens: int = 32,
                  families: Sequence[str] | None = None, loss: str = "mse", near_weight: float = 1.0,
-                 ensemble: float | None = None, floor: bool = True) -> dict[str, Any]:
+                 ensemble: float | None = None, floor: bool = True, gripper_weight: float = 1.0,
+                 demos: int = 0, noise: float = 0.0, dagger_rounds: int = 0, dagger_episodes: int = 50,
+                 dagger_steps: int = 1000, workers: int = 1) -> dict[str, Any]:
     """Train the behaviour-cloning policy on a dataset's training episodes (images needed).
 
     The state input (joint positions, TCP position and orientation, finger opening) is normalised
@@ -316,34 +386,68 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     set_seed(seed)
     data = [_episode_arrays(reader, k, stride, tokens) for k in train_k]
     test = [_episode_arrays(reader, k, stride * 4, tokens) for k in test_k]
-    states = np.concatenate([d["state"] for d in data]).astype(np.float64)
-    mean, std = states.mean(0), np.maximum(states.std(0), 1e-2)
+    families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
     z_floor = float(min(d["z"].min() for d in data))
+    total_steps = steps + dagger_rounds * dagger_steps
     config = {
         "kind": "policy", "format": FORMAT, "dataset": str(dataset), "image": image, "chunk": chunk,
         "execute": execute, "tokens": tokens, "model": {"width": width, "hidden": hidden, "state_dim": STATE_DIM},
         "inference": {"ensemble": ensemble, "z_floor": round(z_floor, 6) if floor else None},
-        "families": sorted({reader.instruction(k)["family"] for k in train_k}),
-        "train": {"steps": steps, "seed": seed, "batch": batch, "stride": stride, "lr": lr,
-                  "loss": loss, "near_weight": near_weight, "episodes": len(train_k),
-                  "frames": int(sum(len(d["frames"]) for d in data))},
+        "families": list(families_used),
+        "collect": {"demos": demos, "noise": noise, "dagger_rounds": dagger_rounds,
+                    "dagger_episodes": dagger_episodes, "dagger_steps": dagger_steps},
+        "train": {"steps": total_steps, "seed": seed, "batch": batch, "stride": stride, "lr": lr,
+                  "loss": loss, "near_weight": near_weight, "gripper_weight": gripper_weight,
+                  "episodes": len(train_k), "frames": int(sum(len(d["frames"]) for d in data))},
     }
+    run = TrainRun(Path(out), config, total_steps, checkpoint_every=max(50, total_steps // 20), quiet=quiet,
+                   stop_after=stop_after)
+    run.prepare()
+    say = Console(stderr=True, quiet=quiet).print
+
+    def collected(name: str, spec: CollectSpec, policy_args: Any = None) -> list[dict[str, np.ndarray]]:
+        path = Path(out) / name
+        if path.exists():
+            return _load_arrays(path)
+        say(f"collecting {spec.episodes} {'DAgger' if policy_args else 'oracle'} episodes in the environment "
+            f"({name})")
+        raw = collect(spec, workers=workers, policy_factory=_dagger_policy if policy_args else None,
+                      policy_args=policy_args)
+        arrays = [_collected_arrays(e, stride, tokens) for e in raw]
+        _save_arrays(path, arrays)
+        return arrays
+
+    base = CollectSpec(episodes=demos, seed=seed, families=families_used, image=image, cameras=CAMERAS,
+                       noise=noise)
+    if demos:
+        data += collected(DEMOS_FILE, base)
+    states = np.concatenate([d["state"] for d in data]).astype(np.float64)
+    mean, std = states.mean(0), np.maximum(states.std(0), 1e-2)
     net = BCNet(len(instruction_vocabulary()), image, chunk, width, hidden).to(dev)
     with torch.no_grad():
         net.state_mean.copy_(torch.as_tensor(mean, dtype=torch.float32))
         net.state_std.copy_(torch.as_tensor(std, dtype=torch.float32))
     opt = torch.optim.Adam(net.parameters(), lr=lr)
-    run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
-                   stop_after=stop_after)
-    run.prepare()
     index = [(i, j) for i, d in enumerate(data) for j in range(len(d["frames"]))]
+    rounds_done: set[int] = set()
+    channel_weight = torch.as_tensor([1.0] * 6 + [gripper_weight], dtype=torch.float32, device=dev)
+
+    def dagger_round(r: int) -> None:
+        """Round ``r``: run the current policy (the oracle's action with probability 0.5 ** (r + 1))
+        and add the states it visits, labelled by the oracle."""
+        state = {k: v.detach().cpu().clone() for k, v in net.state_dict().items()}
+        spec = replace(base, episodes=dagger_episodes, noise=0.0, beta=0.5 ** (r + 1),
+                       first=demos + r * dagger_episodes)
+        data.extend(collected(DAGGER_FILE.format(r), spec, (config, state)))
+        index[:] = [(i, j) for i, d in enumerate(data) for j in range(len(d["frames"]))]
+        rounds_done.add(r)
 
     def near(items: Sequence[Mapping[str, Any]], pairs: Sequence[tuple[int, int]]) -> np.ndarray:
         return np.array([items[i]["z"][int(items[i]["frames"][j])] < z_floor + NEAR_TABLE for i, j in pairs])
 
     def batch_of(items: Sequence[Mapping[str, Any]], pairs: Sequence[tuple[int, int]],
                  rng: np.random.Generator | None) -> tuple[list[Any], Any, Any, Any]:
-        imgs = {c: np.stack([items[i][c][j] for i, j in pairs]) for c in CAMERAS}
+        imgs = {c: np.stack([items[i][c][j] for i, j in pairs]) for c in CAMERAS}  # j: the sample's image
         if rng is not None:  # random shifts of up to 4 px
             for c in CAMERAS:
                 pad = np.pad(imgs[c], ((0, 0), (4, 4), (4, 4), (0, 0)), mode="edge")
@@ -363,13 +467,16 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
                 torch.as_tensor(np.stack(targets), device=dev))
 
     def train_step(step: int) -> float:
+        for r in range(dagger_rounds):  # a resumed run loads the rounds its checkpoint has seen
+            if r not in rounds_done and step >= steps + r * dagger_steps:
+                dagger_round(r)
         net.train()
         rng = step_rng(seed, step)
         for g in opt.param_groups:
-            g["lr"] = lr * min(1.0, 1.5 * (1 - step / steps))
+            g["lr"] = lr * min(1.0, 1.5 * (1 - step / total_steps))
         pairs = [index[i] for i in rng.integers(len(index), size=batch)]
         ims, toks, st, tgt = batch_of(data, pairs, rng)
-        diff = net(ims, toks, st) - tgt
+        diff = (net(ims, toks, st) - tgt) * channel_weight
         err = (diff.square() if loss == "mse" else diff.abs()).mean(dim=(1, 2))
         if near_weight != 1.0:
             w = torch.as_tensor(np.where(near(data, pairs), near_weight, 1.0), dtype=err.dtype, device=dev)
@@ -408,7 +515,9 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     metrics.update({
         "train_episodes": len(train_k), "train_frames": config["train"]["frames"],
         "test_episodes": len(test_k), "test_frames": len(tpairs),
-        "families": config["families"], "steps": steps, "seed": seed, "device": str(dev), **t,
+        "collected_episodes": len(data) - len(train_k),
+        "collected_frames": int(sum(len(d["frames"]) for d in data[len(train_k):])),
+        "families": config["families"], "steps": total_steps, "seed": seed, "device": str(dev), **t,
     })
     run.finish(net, metrics)
     return metrics

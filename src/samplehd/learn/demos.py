@@ -1,0 +1,198 @@
+"""Demonstrations collected in the environment by the closed-loop oracle: noise-injected (DART) and
+on-policy corrective (DAgger) episodes for the behaviour-cloning policy.
+
+The oracle (:class:`samplehd.envs.oracle.OraclePolicy`) plans from the live state and labels every
+step with the action that moves the controller's current target to its plan's next one. So when the
+executed action is not the label, the next label corrects for it:
+
+- **DART** (Laskey et al., 2017): the executed action is the oracle's with Gaussian noise of
+  standard deviation ``noise`` added to its six velocity values (the gripper value is kept); the
+  labels stay the oracle's own. The policy learns from states a little off the demonstration and
+  the way back to it.
+- **DAgger** (Ross et al., 2011): with probability ``beta`` a step executes the oracle's action,
+  otherwise the policy's; every step is labelled with the oracle's action. The policy learns from
+  the states it visits itself.
+
+Each collected episode has the same arrays as a dataset episode read for training
+(:func:`samplehd.learn.bc.episode_arrays`): the images the environment rendered, the robot state, the
+labels, the instruction tokens. Only episodes the oracle finished with success are kept, and only
+L1 ones (the levels' held-out items stay out of training). Episode ``k`` resets the environment with
+the seed ``SeedSequence([seed, 0xDA, k])``: a function of its arguments only, and not among the seeds
+``samplehd evaluate`` draws its split from.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from multiprocessing import get_context
+from typing import Any
+
+import numpy as np
+
+from samplehd.envs.levels import episode_level, held_out_instruction
+from samplehd.envs.oracle import OraclePolicy
+from samplehd.envs.tabletop import TabletopEnv
+from samplehd.errors import ConfigError, PlanningError
+
+__all__ = ["CollectSpec", "collect", "episode_seed"]
+
+_STREAM = 0xDA  # the seed stream of collected episodes
+
+
+@dataclass(frozen=True)
+class CollectSpec:
+    """What to collect.
+
+    Attributes:
+        episodes: episodes to attempt (failed and non-L1 ones are dropped).
+        seed: base seed of the episodes' reset seeds and of the noise.
+        families: task families, taken in turn.
+        image: camera image side [px].
+        cameras: cameras rendered (RGB).
+        noise: DART: standard deviation of the noise added to the executed velocity values.
+        beta: DAgger: probability that a step executes the oracle's action (1: the oracle's only).
+        max_steps: steps after which an episode is given up.
+        first: index of the first episode (the seeds of a later round follow an earlier one's).
+    """
+
+    episodes: int
+    seed: int
+    families: tuple[str, ...]
+    image: int
+    cameras: tuple[str, ...]
+    noise: float = 0.0
+    beta: float = 1.0
+    max_steps: int = 800
+    first: int = 0
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.episodes, int) or self.episodes < 0:
+            raise ConfigError(f"collect: episodes={self.episodes!r}; valid: an integer ≥ 0")
+        if not 0.0 <= self.noise <= 1.0:
+            raise ConfigError(f"collect: noise={self.noise!r}; valid: a number in [0, 1]")
+        if not 0.0 <= self.beta <= 1.0:
+            raise ConfigError(f"collect: beta={self.beta!r}; valid: a number in [0, 1]")
+
+
+def episode_seed(seed: int, k: int) -> int:
+    """The reset seed of collected episode ``k``."""
+    return int(np.random.SeedSequence([int(seed), _STREAM, int(k)]).generate_state(1, np.uint32)[0])
+
+
+# The policy a DAgger round runs, made once per worker process from (config, state dict).
+PolicyFactory = Callable[[Any], Any]
+
+
+def _run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: int,
+                 policy: Any) -> dict[str, Any] | None:
+    """One collected episode's raw frames, or None when it failed or is not an L1 episode."""
+    s = episode_seed(spec.seed, k)
+    family = spec.families[k % len(spec.families)]
+    obs, _ = env.reset(seed=s, options={"family": family})
+    ep = env.episode
+    if held_out_instruction(ep.instruction) or episode_level(ep.instruction, ep.annotation) != "L1":
+        return None
+    oracle.reset(seed=s)
+    if policy is not None:
+        policy.reset(seed=s)
+    rng = np.random.default_rng(np.random.SeedSequence([int(spec.seed), _STREAM, int(k), 1]))
+    keys = ("joint_pos", "joint_vel", "gripper", "tcp_pos", "tcp_quat")
+    frames: dict[str, list[Any]] = {key: [] for key in (*keys, "label", "executed", *spec.cameras)}
+    success = False
+    for _ in range(spec.max_steps):
+        try:
+            label = oracle(obs)
+        except PlanningError:
+            break
+        if oracle.gave_up:
+            break
+        executed = label.copy()
+        if policy is not None:
+            mine = np.asarray(policy(obs), dtype=float)  # the policy keeps its own memory of what it sent
+            if rng.random() >= spec.beta:
+                executed = mine
+        if spec.noise > 0:
+            executed[:6] = np.clip(executed[:6] + rng.normal(0.0, spec.noise, 6), -1.0, 1.0)
+        for key in keys:
+            frames[key].append(np.asarray(obs[key]))
+        for cam in spec.cameras:
+            frames[cam].append(obs[f"{cam}_rgb"])
+        frames["label"].append(label.astype(np.float32))
+        frames["executed"].append(executed.astype(np.float32))
+        obs, _, terminated, truncated, info = env.step(executed)
+        success = bool(info["success"])
+        if terminated or truncated:
+            break
+    # A DART episode is kept when it succeeded; a DAgger episode's labelled states are kept in any case
+    # (the states where the policy went wrong are the ones it must learn from).
+    if not frames["label"] or (policy is None and not success):
+        return None
+    out = {key: np.stack(v) for key, v in frames.items()}
+    out["instruction"] = str(obs["instruction"])
+    out["family"] = family
+    out["seed"] = s
+    out["success"] = success
+    return out
+
+
+_WORKER: dict[str, Any] = {}
+
+
+def _collect_range(spec: CollectSpec, ks: Sequence[int], policy_factory: PolicyFactory | None,
+                   policy_args: Any) -> list[dict[str, Any]]:
+    held = _WORKER.get("env")
+    if held is None or held[0] != spec:
+        if held is not None:
+            held[1].close()
+        env = TabletopEnv(obs_mode="rgb", cameras=spec.cameras, width=spec.image, height=spec.image,
+                          control_mode="steering", families=spec.families, max_episode_steps=spec.max_steps)
+        _WORKER["env"] = held = (spec, env, OraclePolicy(env))
+    _, env, oracle = held
+    policy = policy_factory(policy_args, env) if policy_factory is not None else None
+    out = []
+    for k in ks:
+        got = _run_episode(env, oracle, spec, k, policy)
+        if got is not None:
+            out.append(got)
+    return out
+
+
+def collect(spec: CollectSpec, workers: int = 1, policy_factory: PolicyFactory | None = None,
+            policy_args: Any = None, progress: Callable[[int], None] | None = None) -> list[dict[str, Any]]:
+    """Collect ``spec.episodes`` episodes (the kept ones, in episode order).
+
+    Args:
+        spec: what to collect.
+        workers: processes (1: this one).
+        policy_factory: DAgger: ``policy_factory(policy_args, env)`` makes the policy a worker runs
+            (a module-level function, so that it can be sent to a worker process).
+        progress: called with the number of episodes attempted so far.
+
+    Returns:
+        Per kept episode: ``joint_pos``, ``joint_vel``, ``gripper``, ``tcp_pos``, ``tcp_quat``,
+        ``label`` (the oracle's actions), ``executed`` (the actions sent), one RGB array per camera,
+        ``instruction``, ``family``, ``seed``, ``success``.
+    """
+    ks = list(range(spec.first, spec.first + spec.episodes))
+    parts = [ks[i:i + 8] for i in range(0, len(ks), 8)]
+    results: dict[int, list[dict[str, Any]]] = {}
+    done = 0
+    if workers <= 1:
+        for n, part in enumerate(parts):
+            results[n] = _collect_range(spec, part, policy_factory, policy_args)
+            done += len(part)
+            if progress:
+                progress(done)
+    else:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
+            futures = {pool.submit(_collect_range, spec, part, policy_factory, policy_args): n
+                       for n, part in enumerate(parts)}
+            for fut in futures:
+                results[futures[fut]] = fut.result()
+                done += len(parts[futures[fut]])
+                if progress:
+                    progress(done)
+    return [e for n in sorted(results) for e in results[n]]
+
