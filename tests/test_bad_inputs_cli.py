@@ -874,6 +874,17 @@ OPTION_CASES += [
      ("model.pt", "weights_only")),
     ("train-future-model", ["train", "parser", "--dataset", "{ds}", "--evaluate-only", "--out", "{ws}/model_future"],
      ("config.json", "format 99")),
+    ("train-parser-demos", TRAIN + ["{new}", "--demos", "5"], ("--demos", "train policy")),
+    ("train-noise-without-demos", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--noise", "0.1"],
+     ("--noise", "--demos")),
+    ("train-noise-too-big", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--demos", "2", "--noise",
+                             "3"], ("--noise", "[0, 1]")),
+    ("train-negative-demos", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--demos", "-1"],
+     ("--demos", "-1")),
+    ("train-dagger-episodes-alone", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--dagger-episodes",
+                                     "3"], ("--dagger-episodes", "--dagger-rounds")),
+    ("train-inputs-unknown", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--inputs", "depth"],
+     ("--inputs", "depth")),
 ]
 
 

@@ -174,3 +174,30 @@ def test_dart_demos_and_a_dagger_round_join_training_and_a_resumed_run_reuses_th
     assert train_policy(nano_dataset, c, stop_after=3, **opts) == {"stopped_at": 3}  # after the DAgger round
     train_policy(nano_dataset, c, **opts)
     assert _same(_weights(a), _weights(c)), "a resumed run must collect and train exactly as an uninterrupted one"
+
+
+def test_the_privileged_state_reference_sees_the_target_and_no_image(nano_dataset: Path, tmp_path: Path) -> None:
+    from samplehd.envs.tabletop import TabletopEnv
+    from samplehd.learn.bc import TARGET_DIM
+    from samplehd.learn.options import env_options
+
+    out = tmp_path / "state"
+    metrics = train_policy(nano_dataset, out, steps=3, quiet=True, inputs="state")
+    config = json.loads((out / "config.json").read_text())
+    assert config["inputs"] == "state" and config["model"]["state_dim"] == STATE_DIM + TARGET_DIM
+    assert metrics["test_l1"] is not None
+    assert not any(k.startswith("encoders.") for k in _weights(out)), "no camera network"
+    options = env_options(out)
+    assert options["obs_mode"] == "state"
+    env = TabletopEnv(**options, families=("pick_up",))
+    try:
+        policy = BCPolicy.load(out, env)
+        obs, _ = env.reset(seed=0)
+        policy.reset()
+        state = policy._state(obs)  # noqa: SLF001 - the state the network sees
+        target = int(env.task.objects[0])
+        rel = np.asarray(obs["object_pos"][target], float) - np.asarray(obs["tcp_pos"], float)
+        assert np.allclose(state[STATE_DIM:STATE_DIM + 3], rel, atol=1e-5)
+        assert policy(obs).shape == (7,)
+    finally:
+        env.close()

@@ -32,7 +32,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of initialisation, batches and augmentation")
     parser.add_argument("--device", help="torch device (default: cuda when present, else cpu)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    policy = parser.add_argument_group("policy only: demonstrations collected in the environment by the oracle")
+    policy = parser.add_argument_group("policy only: its inputs, and demonstrations collected in the environment "
+                                       "by the oracle")
+    policy.add_argument("--inputs", choices=["rgb", "state"], help="rgb: the visuomotor policy (default); state: "
+                                                                   "the privileged-state reference (no image; the "
+                                                                   "target object's pose relative to the TCP)")
     policy.add_argument("--demos", type=int, help="oracle episodes to collect in the environment besides the "
                                                   "dataset's (default 0)")
     policy.add_argument("--noise", type=float, help="DART: std of the noise added to the executed velocities of "
@@ -59,12 +63,15 @@ def run(args: argparse.Namespace) -> int:
     check_out_dir("--out", args.out)
     check_outputs({"--out": args.out}, {"--dataset": args.dataset})
     collect = {"demos": args.demos, "noise": args.noise, "dagger_rounds": args.dagger_rounds,
-               "dagger_episodes": args.dagger_episodes, "dagger_steps": args.dagger_steps, "workers": args.workers}
+               "dagger_episodes": args.dagger_episodes, "dagger_steps": args.dagger_steps, "workers": args.workers,
+               "inputs": args.inputs}
     given = {k: v for k, v in collect.items() if v is not None}
     if given and args.model != "policy":
         flag = "--" + next(iter(given)).replace("_", "-")
         raise ConfigError(f"{flag} {next(iter(given.values()))}: only used with `train policy`; leave it out")
     for key, value in given.items():
+        if key == "inputs":
+            continue
         low = 1 if key in ("dagger_episodes", "dagger_steps", "workers") else 0
         if key == "noise":
             if not 0.0 <= value <= 1.0:

@@ -96,6 +96,7 @@ class OraclePolicy:
         self.max_replans = max_replans
         self.seed = seed
         self.subtask = ""
+        self.target_object = -1  # the scene object the current subtask acts on (-1: none)
         self.failure = ""
         self.replans = 0
         self._plan: Generator[ControlTarget | SubtaskCut, ControlReport | None, None] | None = None
@@ -110,6 +111,7 @@ class OraclePolicy:
         if seed is not None:
             self.seed = seed
         self.subtask = ""
+        self.target_object = -1
         self.failure = ""
         self.replans = 0
         self._episode = None
@@ -134,6 +136,7 @@ class OraclePolicy:
         target = self._advance(report, first)
         if target is None:
             return self._finish()
+        self.target_object = int(target.target_object)
         env.subtask = self.subtask
         return oracle_action(env.config.control_mode, env.controller.target, target.joints, target.gripper, env)
 

@@ -41,6 +41,10 @@ FORMAT = 3
 # joint positions (6), TCP position (3), TCP orientation (6: two rotation columns), finger opening (1),
 # joint velocities (6), the gripper command of the previous action (1)
 STATE_DIM = 23
+# The privileged-state reference adds the target object's position relative to the TCP (3) and its
+# orientation (6: two rotation columns) and sees no image.
+TARGET_DIM = 9
+INPUTS = ("rgb", "state")
 CAMERAS = POLICY_CAMERAS
 DEMOS_FILE = "demos.npz"  # the oracle episodes collected in the environment (kept for a resumed run)
 DAGGER_FILE = "dagger_{}.npz"  # the episodes of DAgger round N
@@ -67,6 +71,19 @@ def _state(joint_pos: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, ope
     return np.concatenate([np.asarray(joint_pos, np.float64), np.asarray(tcp_pos, np.float64),
                            _rotation_columns(tcp_quat), opening, np.asarray(joint_vel, np.float64), last_gripper],
                           axis=-1).astype(np.float32)
+
+
+def _target_features(tcp_pos: np.ndarray, object_pos: np.ndarray, object_quat: np.ndarray,
+                     target: np.ndarray) -> np.ndarray:
+    """Per frame: the target object's position relative to the TCP and its rotation columns (zeros
+    when a frame has no target)."""
+    target = np.asarray(target, int)
+    rows = np.arange(len(target))
+    idx = np.maximum(target, 0)
+    rel = np.asarray(object_pos, np.float64)[rows, idx] - np.asarray(tcp_pos, np.float64)
+    out = np.concatenate([rel, _rotation_columns(np.asarray(object_quat, np.float64)[rows, idx])], axis=1)
+    out[target < 0] = 0.0
+    return out.astype(np.float32)
 
 
 def moving_frames(steering: np.ndarray, tolerance: float = 1e-3) -> np.ndarray:
@@ -109,7 +126,7 @@ class BCNet(nn.Module):
     """Images + instruction tokens + robot state → ``chunk`` steering vectors in [-1, 1]."""
 
     def __init__(self, vocab: int, image: int, chunk: int, width: int, hidden: int, state_dim: int = STATE_DIM,
-                 normalise: bool = True) -> None:
+                 normalise: bool = True, cameras: int = len(CAMERAS)) -> None:
         super().__init__()
         self.chunk = chunk
         self.normalise = normalise
@@ -118,13 +135,13 @@ class BCNet(nn.Module):
             self.register_buffer("state_std", torch.ones(state_dim))
         self.embed = nn.Embedding(vocab, 64, padding_idx=0)
         self.text = nn.GRU(64, 128, batch_first=True)
-        self.encoders = nn.ModuleList([Encoder(width, 128) for _ in CAMERAS])
+        self.encoders = nn.ModuleList([Encoder(width, 128) for _ in range(cameras)])
         side = image
         for _ in range(4):
             side = (side + 1) // 2
         feat = 2 * width * side * side
         self.state = nn.Sequential(nn.Linear(state_dim, 64), nn.ReLU(inplace=True))
-        self.head = nn.Sequential(nn.Linear(len(CAMERAS) * feat + 64 + 128, hidden), nn.ReLU(inplace=True),
+        self.head = nn.Sequential(nn.Linear(cameras * feat + 64 + 128, hidden), nn.ReLU(inplace=True),
                                   nn.Linear(hidden, hidden), nn.ReLU(inplace=True), nn.Linear(hidden, chunk * 7))
 
     def forward(self, images: Sequence[torch.Tensor], tokens: torch.Tensor, state: torch.Tensor) -> torch.Tensor:
@@ -161,8 +178,14 @@ class BCPolicy:
         self.config = dict(config)
         self.device = device or torch.device("cpu")
         m = config["model"]
-        self.net = BCNet(len(instruction_vocabulary()), config["image"], config["chunk"], m["width"], m["hidden"]
+        self.inputs = str(config.get("inputs", "rgb"))
+        if self.inputs not in INPUTS:
+            raise ConfigError(f"policy config.json: inputs={self.inputs!r}; valid: {', '.join(INPUTS)}")
+        self.cameras = CAMERAS if self.inputs == "rgb" else ()
+        self.net = BCNet(len(instruction_vocabulary()), max(int(config["image"]), 1), config["chunk"], m["width"],
+                         m["hidden"], state_dim=int(m.get("state_dim", STATE_DIM)), cameras=len(self.cameras)
                          ).to(self.device)
+        self.env = env.unwrapped if env is not None else None
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
@@ -176,6 +199,7 @@ class BCPolicy:
         self._chunks: list[np.ndarray] = []
         self._z: float | None = None
         self._last_gripper = 1.0
+        self._start: np.ndarray | None = None
         if env is not None:
             c = env.unwrapped.config
             want = env_options_from_config(config)
@@ -201,18 +225,43 @@ class BCPolicy:
         self._chunks = []
         self._z = None
         self._last_gripper = 1.0
+        self._start = None
 
     def _state(self, obs: Mapping[str, Any]) -> np.ndarray:
         g = np.asarray(obs["gripper"], dtype=float)
-        return _state(np.asarray(obs["joint_pos"], float), np.asarray(obs["tcp_pos"], float),
-                      np.asarray(obs["tcp_quat"], float), g[0] + g[1], np.asarray(obs["joint_vel"], float),
-                      self._last_gripper)
+        robot = _state(np.asarray(obs["joint_pos"], float), np.asarray(obs["tcp_pos"], float),
+                       np.asarray(obs["tcp_quat"], float), g[0] + g[1], np.asarray(obs["joint_vel"], float),
+                       self._last_gripper)
+        if self.inputs != "state":
+            return robot
+        target = np.array([self._target(obs)])
+        feats = _target_features(np.asarray(obs["tcp_pos"], float)[None], np.asarray(obs["object_pos"])[None],
+                                 np.asarray(obs["object_quat"])[None], target)[0]
+        return np.concatenate([robot, feats]).astype(np.float32)
+
+    def _target(self, obs: Mapping[str, Any]) -> int:
+        """The privileged reference's target: the task object the gripper holds, else the first task
+        object still within 3 cm of where it started (-1: none, or no environment)."""
+        env = self.env
+        if env is None or getattr(env, "task", None) is None:
+            return -1
+        objects = [int(i) for i in env.task.objects]
+        held = env.assist.active if env.assist is not None else -1
+        if held in objects:
+            return held
+        pos = np.asarray(obs["object_pos"], float)
+        if self._start is None:
+            self._start = pos.copy()
+        for i in objects:
+            if float(np.sqrt(((pos[i] - self._start[i]) ** 2).sum())) < 0.03:
+                return i
+        return objects[-1] if objects else -1
 
     def predict(self, obs: Mapping[str, Any]) -> np.ndarray:
         """The chunk (chunk, 7) for one observation of the environment."""
 
         imgs = [torch.as_tensor(np.ascontiguousarray(obs[f"{c}_rgb"]).transpose(2, 0, 1)[None].astype(np.float32)
-                                / 255.0, device=self.device) for c in CAMERAS]
+                                / 255.0, device=self.device) for c in self.cameras]
         tokens = torch.as_tensor(encode_instruction(str(obs["instruction"]), self.config["tokens"])[None],
                                  device=self.device)
         state = self._state(obs)
@@ -271,7 +320,8 @@ def policy_for_evaluation(env: Any, config: Any) -> BCPolicy:
     return BCPolicy.load(config.models, env)
 
 
-def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int) -> dict[str, np.ndarray]:
+def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS
+                    ) -> dict[str, np.ndarray]:
     """One episode's training arrays, its waits left out (:func:`moving_frames`).
 
     ``steering`` and ``state`` are the kept frames in order (a chunk's targets are the next kept
@@ -287,15 +337,31 @@ def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int) -> dict[s
                    np.asarray(f["gripper_opening"]), np.asarray(f["joint_vel"]), last_gripper)
     t = np.arange(0, len(keep), stride)
     tcp = np.asarray(f["tcp_pos"])
+    target = _target_features(tcp, f["object_pos"], f["object_quat"], f["target_object"])
     return {
-        "frames": t, "steering": steering[keep], "state": state[keep],
+        "frames": t, "steering": steering[keep], "state": state[keep], "target": target[keep],
         "z": tcp[keep, 2].astype(np.float64),
-        **{c: np.asarray(ep.images[c]["rgb"][:])[keep[t]] for c in CAMERAS},
+        **{c: np.asarray(ep.images[c]["rgb"][:])[keep[t]] for c in cameras},
         "tokens": encode_instruction(reader.instruction(k)["instruction"], tokens_len),
     }
 
 
-def _collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int) -> dict[str, np.ndarray]:
+def _image_size(reader: Any, dataset: str | Path) -> int:
+    """The side of the dataset's square scene and wrist camera RGB images; one-line errors."""
+    # A dataset still being written (or stopped early) has its render settings only in the config.
+    render = reader.info.get("render") or reader.config.get("render") or {}
+    cams = camera_settings(render) if render else {}
+    if not all(c in cams and "rgb" in cams[c]["modalities"] for c in CAMERAS):
+        raise ConfigError(f"--dataset {dataset}: episodes need RGB of cameras {', '.join(CAMERAS)} (generate with "
+                          "--render fast --cameras scene wrist --modalities rgb)")
+    sizes = {(cams[c]["width"], cams[c]["height"]) for c in CAMERAS}
+    if len(sizes) != 1 or next(iter(sizes))[0] != next(iter(sizes))[1]:
+        raise ConfigError(f"--dataset {dataset}: the cameras need one square image size; found {sorted(sizes)}")
+    return int(next(iter(sizes))[0])
+
+
+def _collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS
+                      ) -> dict[str, np.ndarray]:
     """A collected episode (:func:`samplehd.learn.demos.collect`) as :func:`_episode_arrays` gives one."""
     label = np.asarray(raw["label"], np.float32)
     keep = moving_frames(label)
@@ -304,29 +370,39 @@ def _collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int) -> d
     state = _state(raw["joint_pos"], raw["tcp_pos"], raw["tcp_quat"], grip[:, 0] + grip[:, 1], raw["joint_vel"],
                    last_gripper)
     t = np.arange(0, len(keep), stride)
-    return {"frames": t, "steering": label[keep], "state": state[keep],
+    target = _target_features(raw["tcp_pos"], raw["object_pos"], raw["object_quat"], raw["target_object"])
+    return {"frames": t, "steering": label[keep], "state": state[keep], "target": target[keep],
             "z": np.asarray(raw["tcp_pos"], np.float64)[keep, 2],
-            **{c: np.asarray(raw[c])[keep[t]] for c in CAMERAS},
+            **{c: np.asarray(raw[c])[keep[t]] for c in cameras},
             "tokens": encode_instruction(str(raw["instruction"]), tokens_len)}
-
-
-_ARRAY_KEYS = ("frames", "steering", "state", "z", *CAMERAS, "tokens")
 
 
 def _save_arrays(path: Path, episodes: Sequence[Mapping[str, np.ndarray]]) -> None:
     """Collected episodes' arrays in one ``.npz`` (plain arrays, read with ``allow_pickle=False``)."""
     tmp = path.with_name(f".{path.name}.tmp.npz")
     np.savez(tmp, count=np.array(len(episodes)),
-             **{f"{n}/{k}": e[k] for n, e in enumerate(episodes) for k in _ARRAY_KEYS})
+             **{f"{n}/{k}": v for n, e in enumerate(episodes) for k, v in e.items()})
     tmp.replace(path)
 
 
 def _load_arrays(path: Path) -> list[dict[str, np.ndarray]]:
     try:
         with np.load(path, allow_pickle=False) as z:
-            return [{k: z[f"{n}/{k}"] for k in _ARRAY_KEYS} for n in range(int(z["count"]))]
-    except (OSError, KeyError, ValueError) as exc:
+            out: list[dict[str, np.ndarray]] = [{} for _ in range(int(z["count"]))]
+            for name in z.files:
+                if name != "count":
+                    n, key = name.split("/", 1)
+                    out[int(n)][key] = z[name]
+            return out
+    except (OSError, KeyError, ValueError, IndexError) as exc:
         raise ConfigError(f"{path}: not readable collected episodes ({exc}); delete it to collect them again") from None
+
+
+def _inputs_state(arrays: Mapping[str, np.ndarray], inputs: str, t: Any = slice(None)) -> np.ndarray:
+    """The state the network sees at frame(s) ``t``: the robot's, and the target's for ``inputs="state"``."""
+    if inputs == "state":
+        return np.concatenate([arrays["state"][t], arrays["target"][t]], axis=-1)
+    return arrays["state"][t]
 
 
 def _dagger_policy(args: tuple[Mapping[str, Any], Mapping[str, Any]], env: Any) -> BCPolicy:
@@ -341,8 +417,13 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
                  families: Sequence[str] | None = None, loss: str = "mse", near_weight: float = 1.0,
                  ensemble: float | None = None, floor: bool = True, gripper_weight: float = 1.0,
                  demos: int = 0, noise: float = 0.0, dagger_rounds: int = 0, dagger_episodes: int = 50,
-                 dagger_steps: int = 1000, workers: int = 1) -> dict[str, Any]:
-    """Train the behaviour-cloning policy on a dataset's training episodes (images needed).
+                 dagger_steps: int = 1000, workers: int = 1, inputs: str = "rgb") -> dict[str, Any]:
+    """Train the behaviour-cloning policy on a dataset's training episodes.
+
+    With ``inputs="rgb"`` (the visuomotor policy) it sees both cameras' RGB, the instruction and the
+    robot state; the dataset needs the cameras' RGB. With ``inputs="state"`` (the privileged-state
+    reference) it sees no image but the target object's pose relative to the TCP besides the
+    instruction and the robot state.
 
     The state input (joint positions, TCP position and orientation, finger opening) is normalised
     per dimension with the training frames' mean and standard deviation (kept in the model's
@@ -359,17 +440,11 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
 
     if loss not in ("mse", "l1"):
         raise ConfigError(f"train_policy: loss={loss!r}; valid: mse, l1")
+    if inputs not in INPUTS:
+        raise ConfigError(f"train_policy: inputs={inputs!r}; valid: {', '.join(INPUTS)}")
     reader = open_dataset(dataset)
-    # A dataset still being written (or stopped early) has its render settings only in the config.
-    render = reader.info.get("render") or reader.config.get("render") or {}
-    cams = camera_settings(render) if render else {}
-    if not all(c in cams and "rgb" in cams[c]["modalities"] for c in CAMERAS):
-        raise ConfigError(f"--dataset {dataset}: episodes need RGB of cameras {', '.join(CAMERAS)} (generate with "
-                          "--render fast --cameras scene wrist --modalities rgb)")
-    sizes = {(cams[c]["width"], cams[c]["height"]) for c in CAMERAS}
-    if len(sizes) != 1 or next(iter(sizes))[0] != next(iter(sizes))[1]:
-        raise ConfigError(f"--dataset {dataset}: the cameras need one square image size; found {sorted(sizes)}")
-    image = next(iter(sizes))[0]
+    cameras = CAMERAS if inputs == "rgb" else ()
+    image = _image_size(reader, dataset) if cameras else 0
     scenes = {s["image_index"]: s for s in reader.scenes}
     train_k, test_k = [], []
     for e in reader.episodes:
@@ -384,14 +459,17 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         raise ConfigError(f"--dataset {dataset}: no training episodes")
     dev = pick_device(device)
     set_seed(seed)
-    data = [_episode_arrays(reader, k, stride, tokens) for k in train_k]
-    test = [_episode_arrays(reader, k, stride * 4, tokens) for k in test_k]
+    data = [_episode_arrays(reader, k, stride, tokens, cameras) for k in train_k]
+    test = [_episode_arrays(reader, k, stride * 4, tokens, cameras) for k in test_k]
     families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
+    longest = max(e.num_frames for e in reader.episodes if e.instruction_index in set(train_k))
     z_floor = float(min(d["z"].min() for d in data))
     total_steps = steps + dagger_rounds * dagger_steps
+    state_dim = STATE_DIM + (TARGET_DIM if inputs == "state" else 0)
     config = {
-        "kind": "policy", "format": FORMAT, "dataset": str(dataset), "image": image, "chunk": chunk,
-        "execute": execute, "tokens": tokens, "model": {"width": width, "hidden": hidden, "state_dim": STATE_DIM},
+        "kind": "policy", "format": FORMAT, "dataset": str(dataset), "inputs": inputs, "image": image,
+        "chunk": chunk, "execute": execute, "tokens": tokens,
+        "model": {"width": width, "hidden": hidden, "state_dim": state_dim},
         "inference": {"ensemble": ensemble, "z_floor": round(z_floor, 6) if floor else None},
         "families": list(families_used),
         "collect": {"demos": demos, "noise": noise, "dagger_rounds": dagger_rounds,
@@ -413,17 +491,18 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
             f"({name})")
         raw = collect(spec, workers=workers, policy_factory=_dagger_policy if policy_args else None,
                       policy_args=policy_args)
-        arrays = [_collected_arrays(e, stride, tokens) for e in raw]
+        arrays = [_collected_arrays(e, stride, tokens, cameras) for e in raw]
         _save_arrays(path, arrays)
         return arrays
 
-    base = CollectSpec(episodes=demos, seed=seed, families=families_used, image=image, cameras=CAMERAS,
+    base = CollectSpec(episodes=demos, seed=seed, families=families_used, image=max(image, 16), cameras=cameras,
                        noise=noise)
     if demos:
         data += collected(DEMOS_FILE, base)
-    states = np.concatenate([d["state"] for d in data]).astype(np.float64)
+    states = np.concatenate([_inputs_state(d, inputs) for d in data]).astype(np.float64)
     mean, std = states.mean(0), np.maximum(states.std(0), 1e-2)
-    net = BCNet(len(instruction_vocabulary()), image, chunk, width, hidden).to(dev)
+    net = BCNet(len(instruction_vocabulary()), max(image, 1), chunk, width, hidden, state_dim=state_dim,
+                cameras=len(cameras)).to(dev)
     with torch.no_grad():
         net.state_mean.copy_(torch.as_tensor(mean, dtype=torch.float32))
         net.state_std.copy_(torch.as_tensor(std, dtype=torch.float32))
@@ -434,10 +513,12 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
 
     def dagger_round(r: int) -> None:
         """Round ``r``: run the current policy (the oracle's action with probability 0.5 ** (r + 1))
-        and add the states it visits, labelled by the oracle."""
+        and add the states it visits, labelled by the oracle. An episode ends after twice the
+        longest dataset episode's steps: the states of a policy that has lost its way are not
+        worth the time."""
         state = {k: v.detach().cpu().clone() for k, v in net.state_dict().items()}
         spec = replace(base, episodes=dagger_episodes, noise=0.0, beta=0.5 ** (r + 1),
-                       first=demos + r * dagger_episodes)
+                       first=demos + r * dagger_episodes, max_steps=min(base.max_steps, 2 * longest))
         data.extend(collected(DAGGER_FILE.format(r), spec, (config, state)))
         index[:] = [(i, j) for i, d in enumerate(data) for j in range(len(d["frames"]))]
         rounds_done.add(r)
@@ -447,20 +528,20 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
 
     def batch_of(items: Sequence[Mapping[str, Any]], pairs: Sequence[tuple[int, int]],
                  rng: np.random.Generator | None) -> tuple[list[Any], Any, Any, Any]:
-        imgs = {c: np.stack([items[i][c][j] for i, j in pairs]) for c in CAMERAS}  # j: the sample's image
+        imgs = {c: np.stack([items[i][c][j] for i, j in pairs]) for c in cameras}  # j: the sample's image
         if rng is not None:  # random shifts of up to 4 px
-            for c in CAMERAS:
+            for c in cameras:
                 pad = np.pad(imgs[c], ((0, 0), (4, 4), (4, 4), (0, 0)), mode="edge")
                 sh = rng.integers(0, 9, size=(len(pairs), 2))
                 imgs[c] = np.stack([pad[n, a:a + image, b:b + image] for n, (a, b) in enumerate(sh)])
         ims = [torch.as_tensor(imgs[c].transpose(0, 3, 1, 2).astype(np.float32) / 255.0, device=dev)
-               for c in CAMERAS]
+               for c in cameras]
         toks = torch.as_tensor(np.stack([items[i]["tokens"] for i, _ in pairs]), device=dev)
         states, targets = [], []
         for i, j in pairs:
             d = items[i]
             t = int(d["frames"][j])
-            states.append(d["state"][t])
+            states.append(_inputs_state(d, inputs, t))
             idx = np.minimum(np.arange(t, t + chunk), len(d["steering"]) - 1)
             targets.append(d["steering"][idx])
         return (ims, toks, torch.as_tensor(np.stack(states), device=dev),

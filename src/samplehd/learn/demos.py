@@ -98,8 +98,9 @@ def _run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: i
     if policy is not None:
         policy.reset(seed=s)
     rng = np.random.default_rng(np.random.SeedSequence([int(spec.seed), _STREAM, int(k), 1]))
-    keys = ("joint_pos", "joint_vel", "gripper", "tcp_pos", "tcp_quat")
-    frames: dict[str, list[Any]] = {key: [] for key in (*keys, "label", "executed", *spec.cameras)}
+    keys = ("joint_pos", "joint_vel", "gripper", "tcp_pos", "tcp_quat", "object_pos", "object_quat")
+    frames: dict[str, list[Any]] = {key: [] for key in (*keys, "label", "executed", "target_object",
+                                                         *spec.cameras)}
     success = False
     for _ in range(spec.max_steps):
         try:
@@ -120,6 +121,7 @@ def _run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: i
         for cam in spec.cameras:
             frames[cam].append(obs[f"{cam}_rgb"])
         frames["label"].append(label.astype(np.float32))
+        frames["target_object"].append(oracle.target_object)
         frames["executed"].append(executed.astype(np.float32))
         obs, _, terminated, truncated, info = env.step(executed)
         success = bool(info["success"])
@@ -146,7 +148,8 @@ def _collect_range(spec: CollectSpec, ks: Sequence[int], policy_factory: PolicyF
     if held is None or held[0] != spec:
         if held is not None:
             held[1].close()
-        env = TabletopEnv(obs_mode="rgb", cameras=spec.cameras, width=spec.image, height=spec.image,
+        env = TabletopEnv(obs_mode="rgb" if spec.cameras else "state", cameras=spec.cameras or ("scene",),
+                          width=spec.image, height=spec.image,
                           control_mode="steering", families=spec.families, max_episode_steps=spec.max_steps)
         _WORKER["env"] = held = (spec, env, OraclePolicy(env))
     _, env, oracle = held
@@ -172,7 +175,8 @@ def collect(spec: CollectSpec, workers: int = 1, policy_factory: PolicyFactory |
 
     Returns:
         Per kept episode: ``joint_pos``, ``joint_vel``, ``gripper``, ``tcp_pos``, ``tcp_quat``,
-        ``label`` (the oracle's actions), ``executed`` (the actions sent), one RGB array per camera,
+        ``object_pos``, ``object_quat``, ``label`` (the oracle's actions), ``executed`` (the actions
+        sent), ``target_object`` (the object the oracle's subtask acts on), one RGB array per camera,
         ``instruction``, ``family``, ``seed``, ``success``.
     """
     ks = list(range(spec.first, spec.first + spec.episodes))

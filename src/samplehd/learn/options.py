@@ -19,7 +19,10 @@ POLICY_CAMERAS = ("scene", "wrist")  # the cameras the policy looks through, in 
 
 
 def env_options_from_config(config: Mapping[str, Any]) -> dict[str, Any]:
-    """The environment options of a policy config: RGB of both cameras at its image size, steering control."""
+    """The environment options of a policy config: RGB of both cameras at its image size and steering
+    control; the privileged-state reference (``inputs: state``) needs no image."""
+    if config.get("inputs", "rgb") == "state":
+        return {"obs_mode": "state", "control_mode": "steering"}
     return {"obs_mode": "rgb", "cameras": list(POLICY_CAMERAS), "width": config["image"], "height": config["image"],
             "control_mode": "steering"}
 
@@ -33,6 +36,8 @@ def env_options(folder: str | Path) -> dict[str, Any]:
     if not isinstance(cfg, dict) or cfg.get("kind") != "policy":
         kind = cfg.get("kind") if isinstance(cfg, dict) else None
         raise ConfigError(f"--models {folder}: config.json is a {kind!r} model, expected a policy")
-    if not isinstance(cfg.get("image"), int) or cfg["image"] < 1:
+    if cfg.get("inputs", "rgb") not in ("rgb", "state"):
+        raise ConfigError(f"--models {folder}: config.json inputs={cfg.get('inputs')!r}, expected rgb or state")
+    if cfg.get("inputs", "rgb") == "rgb" and (not isinstance(cfg.get("image"), int) or cfg["image"] < 1):
         raise ConfigError(f"--models {folder}: config.json image={cfg.get('image')!r}, expected a positive integer")
     return env_options_from_config(cfg)
