@@ -76,7 +76,8 @@ def _obs(z: float = 1.0) -> dict:
     return {"scene_rgb": rng.integers(0, 255, (16, 16, 3), dtype=np.uint8),
             "wrist_rgb": rng.integers(0, 255, (16, 16, 3), dtype=np.uint8),
             "instruction": "Pick up the mug.", "gripper": np.array([0.02, 0.02, 0.0]),
-            "joint_pos": np.zeros(6), "joint_vel": np.zeros(6), "tcp_pos": np.array([0.3, 0.0, z]), "tcp_quat": np.array([0.0, 1.0, 0.0, 0.0])}
+            "joint_pos": np.zeros(6), "joint_vel": np.zeros(6),
+            "tcp_pos": np.array([0.3, 0.0, z]), "tcp_quat": np.array([0.0, 1.0, 0.0, 0.0])}
 
 
 def test_temporal_ensembling_averages_the_chunks_that_cover_a_step() -> None:
