@@ -38,6 +38,7 @@ def test_policy_training_is_deterministic_resumes_and_normalises_its_state(nano_
     assert float(w["state_mean"][8]) > 0.5  # the TCP height [m] above the floor, as recorded
     config = json.loads((a / "config.json").read_text())
     assert config["format"] == 3 and 0.7 < config["inference"]["z_floor"] < 1.2
+    assert config["inference"]["zero_channels"] == [3, 4]  # top-down grasps never tilt the gripper
     assert len(ma["test_l1_by_axis"]) == 7 and ma["test_l1"] is not None
     # Weighting the frames near the table changes the model (and is recorded).
     d = tmp_path / "d"
@@ -151,14 +152,16 @@ def test_the_policy_state_holds_joint_velocities_and_its_last_gripper_command() 
 def test_oracle_demos_are_noisy_where_executed_clean_where_labelled_and_reproducible() -> None:
     from samplehd.learn.demos import CollectSpec, collect
 
-    spec = CollectSpec(episodes=3, seed=0, families=("pick_up",), image=16, cameras=("scene", "wrist"), noise=0.2)
+    spec = CollectSpec(episodes=3, seed=0, families=("pick_up",), image=16, cameras=("scene", "wrist"), noise=0.2,
+                       still=(3, 4))
     a, b = collect(spec), collect(spec)
     assert a, "some of three L1 pick_up episodes must succeed"
     for x, y in zip(a, b, strict=True):
         assert all(np.array_equal(x[k], y[k]) for k in ("label", "executed", "scene", "tcp_pos"))
         assert x["success"] and x["scene"].shape[1:] == (16, 16, 3)
         noise = x["executed"][:, :6] - x["label"][:, :6]
-        assert 0.1 < float(np.abs(noise).mean()) < 0.25  # |N(0, 0.2)| has mean 0.16 (less where clipped)
+        assert 0.1 < float(np.abs(noise[:, [0, 1, 2, 5]]).mean()) < 0.25  # |N(0, 0.2)| has mean 0.16
+        assert not noise[:, [3, 4]].any()  # the values the demonstrations never use stay clean
         assert np.array_equal(x["executed"][:, 6], x["label"][:, 6])  # the gripper is not perturbed
 
 
@@ -202,3 +205,14 @@ def test_the_privileged_state_reference_sees_the_target_and_no_image(nano_datase
         assert policy(obs).shape == (7,)
     finally:
         env.close()
+
+
+def test_the_steering_values_the_demonstrations_never_use_stay_zero() -> None:
+    free, fixed = BCPolicy(_config(), None), BCPolicy(_config(zero_channels=[3, 4]), None)
+    for policy in (free, fixed):
+        policy.reset()
+    a, b = free(_obs()), fixed(_obs())
+    assert a[3] != 0 and a[4] != 0  # an untrained network's values
+    assert b[3] == 0 and b[4] == 0 and np.array_equal(np.delete(a, [3, 4]), np.delete(b, [3, 4]))
+    with pytest.raises(ConfigError, match="zero_channels"):
+        BCPolicy(_config(zero_channels=[6]), None)

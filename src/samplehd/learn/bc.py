@@ -194,6 +194,11 @@ class BCPolicy:
         inference = config.get("inference") or {}
         self.ensemble = _optional_number(inference, "ensemble", 0.0)
         self.z_floor = _optional_number(inference, "z_floor", None)
+        fixed = inference.get("zero_channels") or []
+        if not isinstance(fixed, list) or not all(isinstance(c, int) and 0 <= c < 6 for c in fixed):
+            raise ConfigError(f"policy config.json: inference.zero_channels={fixed!r}; valid: a list of steering "
+                              f"indices 0-5")
+        self.zero_channels = [int(c) for c in fixed]
         self._lin_step = 0.25 / 20.0  # TCP travel of a steering value of 1 in one control step [m]
         self._queue: list[np.ndarray] = []
         self._chunks: list[np.ndarray] = []
@@ -281,6 +286,7 @@ class BCPolicy:
                 self._queue = list(self.predict(obs)[: self.execute])
             action = self._queue.pop(0)
         action = np.clip(action, -1.0, 1.0).astype(np.float64)
+        action[self.zero_channels] = 0.0
         if self.z_floor is not None:
             action = self._above_floor(action, float(np.asarray(obs["tcp_pos"])[2]))
         self._last_gripper = float(action[6])
@@ -464,13 +470,18 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
     longest = max(e.num_frames for e in reader.episodes if e.instruction_index in set(train_k))
     z_floor = float(min(d["z"].min() for d in data))
+    # Steering values the demonstrations never use (the top-down grasps never tilt the gripper): the
+    # policy sends zero there, as tiny predicted values would add up to a tilt over an episode.
+    used = np.abs(np.concatenate([d["steering"][:, :6] for d in data])).max(axis=0)
+    zero_channels = [int(c) for c in np.flatnonzero(used < 1e-3)]
     total_steps = steps + dagger_rounds * dagger_steps
     state_dim = STATE_DIM + (TARGET_DIM if inputs == "state" else 0)
     config = {
         "kind": "policy", "format": FORMAT, "dataset": str(dataset), "inputs": inputs, "image": image,
         "chunk": chunk, "execute": execute, "tokens": tokens,
         "model": {"width": width, "hidden": hidden, "state_dim": state_dim},
-        "inference": {"ensemble": ensemble, "z_floor": round(z_floor, 6) if floor else None},
+        "inference": {"ensemble": ensemble, "z_floor": round(z_floor, 6) if floor else None,
+                      "zero_channels": zero_channels},
         "families": list(families_used),
         "collect": {"demos": demos, "noise": noise, "dagger_rounds": dagger_rounds,
                     "dagger_episodes": dagger_episodes, "dagger_steps": dagger_steps},
@@ -496,7 +507,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         return arrays
 
     base = CollectSpec(episodes=demos, seed=seed, families=families_used, image=max(image, 16), cameras=cameras,
-                       noise=noise)
+                       noise=noise, still=tuple(zero_channels))
     if demos:
         data += collected(DEMOS_FILE, base)
     states = np.concatenate([_inputs_state(d, inputs) for d in data]).astype(np.float64)

@@ -6,9 +6,9 @@ step with the action that moves the controller's current target to its plan's ne
 executed action is not the label, the next label corrects for it:
 
 - **DART** (Laskey et al., 2017): the executed action is the oracle's with Gaussian noise of
-  standard deviation ``noise`` added to its six velocity values (the gripper value is kept); the
-  labels stay the oracle's own. The policy learns from states a little off the demonstration and
-  the way back to it.
+  standard deviation ``noise`` added to its velocity values (not the gripper value, nor the values
+  the demonstrations never use: ``still``); the labels stay the oracle's own. The policy learns
+  from states a little off the demonstration and the way back to it.
 - **DAgger** (Ross et al., 2011): with probability ``beta`` a step executes the oracle's action,
   otherwise the policy's; every step is labelled with the oracle's action. The policy learns from
   the states it visits itself.
@@ -53,6 +53,7 @@ class CollectSpec:
         cameras: cameras rendered (RGB).
         noise: DART: standard deviation of the noise added to the executed velocity values.
         beta: DAgger: probability that a step executes the oracle's action (1: the oracle's only).
+        still: steering values (0-5) left without noise: those the demonstrations never use.
         max_steps: steps after which an episode is given up.
         first: index of the first episode (the seeds of a later round follow an earlier one's).
     """
@@ -64,6 +65,7 @@ class CollectSpec:
     cameras: tuple[str, ...]
     noise: float = 0.0
     beta: float = 1.0
+    still: tuple[int, ...] = ()
     max_steps: int = 800
     first: int = 0
 
@@ -115,7 +117,9 @@ def _run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: i
             if rng.random() >= spec.beta:
                 executed = mine
         if spec.noise > 0:
-            executed[:6] = np.clip(executed[:6] + rng.normal(0.0, spec.noise, 6), -1.0, 1.0)
+            noise = rng.normal(0.0, spec.noise, 6)
+            noise[list(spec.still)] = 0.0
+            executed[:6] = np.clip(executed[:6] + noise, -1.0, 1.0)
         for key in keys:
             frames[key].append(np.asarray(obs[key]))
         for cam in spec.cameras:
