@@ -191,6 +191,38 @@ def body_axis(v: np.ndarray) -> np.ndarray:
     return (band[:, :2].max(0) + band[:, :2].min(0)) / 2
 
 
+def settle(hulls: list[np.ndarray]) -> np.ndarray:
+    """3x3 tilt the object takes when dropped on a table (yaw removed): its natural rest pose."""
+    import mujoco
+
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.6, 0.6, 0.02], pos=[0, 0, -0.02])
+    body = spec.worldbody.add_body(name="o", pos=[0, 0, 0.002])
+    body.add_freejoint()
+    for k, h in enumerate(hulls):
+        spec.add_mesh(name=f"h{k}", uservert=h.ravel().tolist())
+        body.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"h{k}", density=1000.0, condim=4)
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    mujoco.mj_step(model, data, 1500)
+    rot = data.xmat[1].reshape(3, 3)
+    yaw = math.atan2(rot[1, 0], rot[0, 0])
+    return rot_z(-yaw) @ rot
+
+
+def rim_wall(mesh: trimesh.Trimesh, axis: int, z: float) -> float:
+    """Horizontal thickness of the outermost wall along ``axis`` (0: x, 1: y) at height ``z`` [m]."""
+    normal = [0.0, 1.0, 0.0] if axis == 0 else [1.0, 0.0, 0.0]
+    seg = np.asarray(trimesh.intersections.mesh_plane(mesh, normal, [0.0, 0.0, 0.0]))
+    a, b = seg[:, 0], seg[:, 1]
+    cross = (a[:, 2] - z) * (b[:, 2] - z) <= 0
+    a, b = a[cross], b[cross]
+    t = (z - a[:, 2]) / np.where(np.abs(b[:, 2] - a[:, 2]) > 1e-12, b[:, 2] - a[:, 2], 1.0)
+    pos = np.sort((a + (b - a) * t[:, None])[:, axis])
+    pos = pos[pos > 0]
+    return float(pos[-1] - pos[-2]) if len(pos) >= 2 else 0.004
+
+
 def ray_down(mesh: trimesh.Trimesh, xy: np.ndarray) -> np.ndarray:
     """Height of the highest surface above each (x, y) (a vertical ray from above); -1 for a miss."""
     tri = mesh.triangles  # (m, 3, 3)
@@ -303,24 +335,29 @@ def flat_facts(kind: str, mesh: trimesh.Trimesh) -> dict:
               "width": float(sx), "axisymmetric": False}
         out["grasps"] = [ay, ax] if sy <= sx else [ax, ay]
     elif kind == "tray":
-        xs = np.linspace(0, hi[0] - 0.0005, 200)
-        hx = ray_down(mesh, np.column_stack([xs, np.zeros_like(xs)]))
-        ys = np.linspace(0, hi[1] - 0.0005, 200)
-        hy = ray_down(mesh, np.column_stack([np.zeros_like(ys), ys]))
-        floor = float(hx[0])
-        wall_x = float(hi[0] - xs[hx > floor + 0.5 * (sz - floor)].min())
-        wall_y = float(hi[1] - ys[hy > floor + 0.5 * (sz - floor)].min())
-        inner = (float(hi[0] - wall_x), float(hi[1] - wall_y))
-        out["top"] = {"height": floor, "center": [0.0, 0.0], "half_extents": list(inner), "round": False,
+        rim_z = float(sz - min(0.004, sz / 3))
+        rx, ry = rim_wall(mesh, 0, rim_z), rim_wall(mesh, 1, rim_z)
+        gx, gy = np.meshgrid(np.linspace(-0.8, 0.8, 17) * hi[0], np.linspace(-0.8, 0.8, 17) * hi[1])
+        grid = np.column_stack([gx.ravel(), gy.ravel()])
+        h = ray_down(mesh, grid)
+        floor = float(h[h >= 0].min())
+        low = grid[(h >= 0) & (h < floor + 0.002)]
+        if len(low) > 0.8 * len(grid):  # one flat floor
+            centre = np.zeros(2)
+            mid = 0.5 * (floor + float(sz))
+            half = (0.85 * float(hi[0] - rim_wall(mesh, 0, mid)), 0.85 * float(hi[1] - rim_wall(mesh, 1, mid)))
+        else:  # compartments: the one nearest the middle
+            centre = low[int(np.argmin(np.hypot(low[:, 0], low[:, 1])))]
+            half = (0.02, 0.02)
+        out["top"] = {"height": floor, "center": centre.tolist(), "half_extents": list(half), "round": False,
                       "flat": True}
-        out["opening"] = {"radius": min(inner), "floor_height": floor, "depth": float(sz - floor),
-                          "center": [0.0, 0.0]}
-        rim_z = float(sz - min(0.006, sz / 3))
+        out["opening"] = {"radius": min(half), "floor_height": floor, "depth": float(sz - floor),
+                          "center": centre.tolist()}
         out["grasps"] = [
-            {"name": "rim", "position": [float(hi[0] - wall_x / 2), 0.0, rim_z], "approach": [0, 0, -1],
-             "closing": [1, 0, 0], "width": max(wall_x, 0.003), "axisymmetric": False},
-            {"name": "rim", "position": [0.0, float(hi[1] - wall_y / 2), rim_z], "approach": [0, 0, -1],
-             "closing": [0, 1, 0], "width": max(wall_y, 0.003), "axisymmetric": False},
+            {"name": "rim", "position": [float(hi[0] - rx / 2), 0.0, rim_z], "approach": [0, 0, -1],
+             "closing": [1, 0, 0], "width": max(rx, 0.003), "axisymmetric": False},
+            {"name": "rim", "position": [0.0, float(hi[1] - ry / 2), rim_z], "approach": [0, 0, -1],
+             "closing": [0, 1, 0], "width": max(ry, 0.003), "axisymmetric": False},
         ]
     elif kind == "board":
         out["top"] = {"height": float(sz), "center": [0.0, 0.0],
@@ -415,14 +452,29 @@ def main() -> None:
                 mesh = hull_union(hulls)
                 note = "replaced by the union of its hulls (could not be closed)"
             r = frame(kind, cls, np.asarray(mesh.vertices))
+            if cls in STAND_UP:  # of the two ends it can stand on, the one it stays standing on
+                def lean(rot: np.ndarray) -> float:
+                    hs = [h @ rot.T for h in hulls]
+                    low = min(float(h[:, 2].min()) for h in hs)
+                    return float(settle([h - [0.0, 0.0, low] for h in hs])[2, 2])
+                on_side = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]) @ r
+                candidates = [r, np.diag([1.0, -1.0, -1.0]) @ r, on_side, np.diag([-1.0, 1.0, -1.0]) @ on_side]
+                r = max(candidates, key=lean)
             s = SCALE.get(name, 1.0)
             v = np.asarray(mesh.vertices) @ r.T * s
             hulls = [h @ r.T * s for h in hulls]
-            if kind == "revolved":
-                c = body_axis(v)
-            else:
-                c = (v[:, :2].max(0) + v[:, :2].min(0)) / 2
-            shift = np.array([-c[0], -c[1], -v[:, 2].min()])
+            for _ in range(2):  # centre, put the pieces' lowest point on z = 0, let it settle, again
+                c = body_axis(v) if kind == "revolved" else (v[:, :2].max(0) + v[:, :2].min(0)) / 2
+                shift = np.array([-c[0], -c[1], -min(float(h[:, 2].min()) for h in hulls)])
+                v = v + shift
+                hulls = [h + shift for h in hulls]
+                tilt = settle(hulls)
+                if tilt[2, 2] < math.cos(math.radians(20)):  # fell over: MuBlE's pose is the right one
+                    print(f"{name}: tips over when dropped ({math.degrees(math.acos(tilt[2, 2])):.0f} deg)")
+                    break
+                v, hulls = v @ tilt.T, [h @ tilt.T for h in hulls]
+            c = body_axis(v) if kind == "revolved" else (v[:, :2].max(0) + v[:, :2].min(0)) / 2
+            shift = np.array([-c[0], -c[1], -min(float(h[:, 2].min()) for h in hulls)])
             v = v + shift
             hulls = [h + shift for h in hulls]
             mesh = trimesh.Trimesh(v, mesh.faces, process=False)
@@ -458,7 +510,7 @@ def main() -> None:
         "documented, so only their geometry and V-HACD hulls are used, with samplehd's own materials and textures.\n\n"
         "Written by `scripts/vendor_shop_vrb.py`. Changes to every file: the visual mesh (`simple_mesh.stl`) and the\n"
         "hulls (`<name>_hull_*.stl`) of one object are stored together as plain arrays in one `.npz`, turned into\n"
-        "samplehd's object frame (z up, resting on z = 0, body axis or footprint centre at the origin, handles\n"
+        "samplehd's object frame (z up, collision pieces resting on z = 0 in the tilt it settles in, body axis or footprint centre at the origin, handles\n"
         "towards +x, cutlery handles and scissor rings towards -x) and scaled as listed; the visual mesh has its\n"
         "vertices merged and degenerate/duplicate faces dropped, and is closed where it was open.\n\n"
         "| file | from | what changed |\n|---|---|---|\n" + "\n".join(provenance) + "\n"
