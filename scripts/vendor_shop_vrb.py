@@ -57,10 +57,12 @@ CLASSES: dict[str, tuple[str, list[str]]] = {
     "thermos": ("revolved", ["thermos1", "thermos2"]),
     "wine_glass": ("revolved", ["wine_glass1", "wine_glass2", "wine_glass3"]),
 }
-# Real-world size factors where MuBlE's model is not at a size the UR5e's 85 mm gripper meets in a
-# kitchen: its food boxes lie flat at 20 x 21 x 10.5 cm; a cereal box stands, 7 cm deep.
-STAND_UP = {"food_box"}
-SCALE = {"food_box1": 0.65, "food_box2": 0.6, "pan1": 0.8, "soda_can": 0.84, "thermos2": 0.85}
+# Size factors. MuBlE's food boxes are a 20 cm take-away clamshell and a 17 cm tub, wider than the
+# UR5e's 85 mm gripper opens: at 0.38 and 0.45 they are a dip box and a yoghurt tub it can hold.
+# MuBlE's can is 79 mm across (a real one 66 mm), its second thermos 86 mm, its first pan 51 cm long.
+SCALE = {"food_box1": 0.38, "food_box2": 0.45, "pan1": 0.8, "soda_can": 0.84, "thermos2": 0.85}
+KIND = {"food_box2": "revolved"}  # a round tub: measured like a closed round body
+HULL_LOOK = {"plate1"}  # its mesh has 256 non-manifold edges; closing it leaves holes, its hulls look right
 # MuBlE's mugs have walls up to a centimetre thick (one is nearly solid): their mass counts a wall of
 # ``shell`` metres over the surface instead of the mesh volume (a real mug is 0.3-0.4 kg).
 SHELL = {"mug": 0.002}
@@ -135,7 +137,7 @@ def hull_union(hulls: list[np.ndarray]) -> trimesh.Trimesh:
     for pts in hulls:
         solid = solid + mf.Manifold.hull_points(pts.tolist())
     mesh = solid.to_mesh()
-    return trimesh.Trimesh(np.asarray(mesh.vert_properties[:, :3]), np.asarray(mesh.tri_verts), process=True)
+    return trimesh.Trimesh(np.asarray(mesh.vert_properties[:, :3]), np.asarray(mesh.tri_verts), process=False)
 
 
 def rot_z(a: float) -> np.ndarray:
@@ -146,12 +148,6 @@ def rot_z(a: float) -> np.ndarray:
 def frame(kind: str, cls: str, v: np.ndarray) -> np.ndarray:
     """3x3 rotation putting the object into samplehd's frame conventions."""
     r = np.eye(3)
-    if cls in STAND_UP:
-        ext = v.max(0) - v.min(0)
-        # turn the longer horizontal side up, so that the flat side (MuBlE's z) becomes the depth
-        r = np.array([[1, 0, 0], [0, 0, -1], [0, 1, 0]], float) if ext[1] >= ext[0] else np.array(
-            [[0, 0, 1], [0, 1, 0], [-1, 0, 0]], float)
-        v = v @ r.T
     if kind in ("cutlery", "scissors", "board", "tray", "box"):
         xy = v[:, :2] - v[:, :2].mean(0)
         ext = xy.max(0) - xy.min(0)
@@ -257,7 +253,7 @@ def revolved_facts(cls: str, mesh: trimesh.Trimesh) -> dict:
     rs = np.linspace(0.0, r_out(H, 0.006), 40)
     prof = ray_down(mesh, np.column_stack([-rs, np.zeros_like(rs)]))
     centre_z = float(prof[0])
-    hollow = centre_z < H - max(0.006, 0.15 * H) and cls not in ("soda_can", "thermos")
+    hollow = centre_z < H - max(0.006, 0.15 * H) and cls not in ("soda_can", "thermos", "food_box")
     grasps = []
     out: dict = {}
     if hollow:
@@ -433,7 +429,7 @@ def main() -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     classes: dict = {}
     provenance: list[str] = []
-    for cls, (kind, names) in CLASSES.items():
+    for cls, (cls_kind, names) in CLASSES.items():
         src = procedural[cls]
         mass = dict(src["mass"])
         if cls in SHELL:
@@ -446,20 +442,13 @@ def main() -> None:
             hull_paths = sorted((f for f in files if "_hull_" in f), key=lambda p: int(p.rsplit("_", 1)[1][:-4]))
             raw = _load(_git_show(args.mubl, visual_path))
             hulls = [np.asarray(_load(_git_show(args.mubl, p)).vertices, float) for p in hull_paths]
-            mesh = repair(raw.copy())
+            kind = KIND.get(name, cls_kind)
+            mesh = None if name in HULL_LOOK else repair(raw.copy())
             note = "repaired (closed)" if not raw.is_watertight else "closed as published"
             if mesh is None:
                 mesh = hull_union(hulls)
-                note = "replaced by the union of its hulls (could not be closed)"
+                note = "replaced by the union of its hulls (could not be closed cleanly)"
             r = frame(kind, cls, np.asarray(mesh.vertices))
-            if cls in STAND_UP:  # of the two ends it can stand on, the one it stays standing on
-                def lean(rot: np.ndarray) -> float:
-                    hs = [h @ rot.T for h in hulls]
-                    low = min(float(h[:, 2].min()) for h in hs)
-                    return float(settle([h - [0.0, 0.0, low] for h in hs])[2, 2])
-                on_side = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]) @ r
-                candidates = [r, np.diag([1.0, -1.0, -1.0]) @ r, on_side, np.diag([-1.0, 1.0, -1.0]) @ on_side]
-                r = max(candidates, key=lean)
             s = SCALE.get(name, 1.0)
             v = np.asarray(mesh.vertices) @ r.T * s
             hulls = [h @ r.T * s for h in hulls]
@@ -510,7 +499,8 @@ def main() -> None:
         "documented, so only their geometry and V-HACD hulls are used, with samplehd's own materials and textures.\n\n"
         "Written by `scripts/vendor_shop_vrb.py`. Changes to every file: the visual mesh (`simple_mesh.stl`) and the\n"
         "hulls (`<name>_hull_*.stl`) of one object are stored together as plain arrays in one `.npz`, turned into\n"
-        "samplehd's object frame (z up, collision pieces resting on z = 0 in the tilt it settles in, body axis or footprint centre at the origin, handles\n"
+        "samplehd's object frame (z up, collision pieces resting on z = 0 in the tilt it settles in, body axis\n"
+        "or footprint centre at the origin, handles "
         "towards +x, cutlery handles and scissor rings towards -x) and scaled as listed; the visual mesh has its\n"
         "vertices merged and degenerate/duplicate faces dropped, and is closed where it was open.\n\n"
         "| file | from | what changed |\n|---|---|---|\n" + "\n".join(provenance) + "\n"
