@@ -480,6 +480,8 @@ def main() -> None:
                 piece_points=np.vstack(hulls),
             )
             digest = hashlib.sha256((OUT / fname).read_bytes()).hexdigest()
+            if mass.get("contents_density"):  # cans and boxes are hollow shells: their contents fill the hulls
+                facts["volume"] = float(hull_union(hulls).volume)
             entry["variants"][variant] = {"geometry": {"kind": "mesh", "file": fname, "sha256": digest, **facts}}
             narrowest = min(g["width"] for g in facts["grasps"])
             sizes = [z for z in src["menu"]["size"] if narrowest * SIZES[z] <= GRIP_LIMIT]

@@ -7,7 +7,8 @@ mesh was vendored (``scripts/vendor_shop_vrb.py``)::
     {"kind": "mesh", "file": "mug_shopvrb1.npz", "sha256": "...",
      "top": {"height", "center", "half_extents", "round", "flat"},
      "opening": {"radius", "floor_height", "depth", "center"} | null,
-     "grasps": [{"name", "position", "approach", "closing", "width", "axisymmetric"}, ...]}
+     "grasps": [{"name", "position", "approach", "closing", "width", "axisymmetric"}, ...],
+     "volume"?: enclosed volume [m^3] (closed things with contents: the mesh is a thin shell)}
 
 The file holds ``vertices`` (n, 3) [m] and ``faces`` (m, 3) of the closed visual mesh in the object
 frame (z up, resting on z = 0, handles towards +x), and the convex collision pieces as
@@ -43,6 +44,7 @@ class MeshSpec:
         top: surface another object rests on.
         opening: inside of the container, or None.
         grasps: grasp sites, best first.
+        volume: volume the object encloses, where its mesh is a hollow shell [m^3]; None: the mesh's.
     """
 
     path: str
@@ -50,6 +52,7 @@ class MeshSpec:
     top: TopSurface
     opening: Opening | None
     grasps: tuple[GraspSite, ...]
+    volume: float | None = None
 
 
 def parse_mesh(f: Field, base_dir: Path | None = None) -> MeshSpec:
@@ -58,7 +61,7 @@ def parse_mesh(f: Field, base_dir: Path | None = None) -> MeshSpec:
     Raises:
         AssetError: a missing or unknown key, a bad value, or a missing file (one line naming both).
     """
-    m = f.mapping(["kind", "file", "sha256", "top", "opening", "grasps"])
+    m = f.mapping(["kind", "file", "sha256", "top", "opening", "grasps"], ["volume"])
     path = Path(m["file"].string())
     if not path.is_absolute() and base_dir is not None:
         path = base_dir / path
@@ -81,7 +84,8 @@ def parse_mesh(f: Field, base_dir: Path | None = None) -> MeshSpec:
         grasps.append(GraspSite(gm["name"].choice(["body", "rim", "handle", "edge"]), (p[0], p[1], p[2]),
                                 (a[0], a[1], a[2]), (cl[0], cl[1], cl[2]), gm["width"].positive(),
                                 gm["axisymmetric"].boolean()))
-    return MeshSpec(str(path), m["sha256"].string(), top, opening, tuple(grasps))
+    volume = m["volume"].number(1e-7, 0.1) if "volume" in m else None
+    return MeshSpec(str(path), m["sha256"].string(), top, opening, tuple(grasps), volume)
 
 
 def mesh_texcoords(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -144,7 +148,7 @@ def load_vendored_geometry(spec: MeshSpec) -> ObjectGeometry:
         faces=faces,
         texcoords=mesh_texcoords(vertices, faces),
         pieces=tuple(pieces),
-        volume=abs(volume),
+        volume=spec.volume if spec.volume is not None else abs(volume),
         area=area,
         top=spec.top,
         opening=spec.opening,
