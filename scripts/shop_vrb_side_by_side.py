@@ -9,12 +9,11 @@ from __future__ import annotations
 import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
 # isort: split
+import dataclasses
 import sys
 
 import numpy as np
 from PIL import Image
-
-import dataclasses
 
 from samplehd.catalogue import ObjectInstance, load_catalogue
 from samplehd.render.renderer import SceneRenderer
