@@ -158,3 +158,19 @@ def test_vendored_files_carry_licence_and_provenance() -> None:
     ur5e = DATA_DIR.parents[1] / "robot" / "assets" / "ur5e"
     if ur5e.is_dir():  # the arm's look, from MuJoCo Menagerie (BSD-3-Clause)
         assert (ur5e / "LICENSE").is_file() and (ur5e / "files.md").is_file()
+
+
+def test_the_sample_hd_preset_uses_shop_vrb_and_a_config_without_the_field_is_procedural() -> None:
+    from samplehd.dataset.config import GenerateConfig, preset_config
+    from samplehd.errors import ConfigError
+    from samplehd.scene.config import SceneConfig
+
+    assert preset_config("sample-hd").scene.catalogue == SHOP
+    assert preset_config("tiny").scene.catalogue == "procedural" == preset_config("small").scene.catalogue
+    assert SceneConfig.from_dict({}).catalogue == "procedural"
+    assert GenerateConfig.from_dict({"scene": {"min_objects": 2}}, base=preset_config("sample-hd")).scene.catalogue \
+        == SHOP
+    with pytest.raises(ConfigError) as exc:
+        SceneConfig.from_dict({"catalogue": "shapenet"}, "cfg.json: scene")
+    msg = str(exc.value)
+    assert "\n" not in msg and "catalogue" in msg and "shapenet" in msg and "shop-vrb" in msg
