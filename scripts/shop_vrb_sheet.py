@@ -1,9 +1,9 @@
 """Contact sheet of the ``shop-vrb`` catalogue: every class x variant at 320 x 180, one per cell.
 
-    python scripts/shop_vrb_sheet.py docs/images/shop_vrb_sheet.png
+    python scripts/shop_vrb_sheet.py docs/images/shop_vrb_sheet.png [hd|photo|fast]
 
 Each cell shows one variant at medium size (or its largest allowed) in a colour and material of its
-menu, rendered with the ``hd`` preset of the dataset (``samplehd.catalogue.preview``).
+menu, rendered with a preset of the dataset (``samplehd.catalogue.preview``; default ``hd``).
 """
 
 from __future__ import annotations
@@ -28,14 +28,15 @@ LOOK = {"baking_tray": ("metallic", "metal"), "bowl": ("white", "ceramic"), "cho
 W, H, COLS = 320, 180, 6
 
 
-def main(out: str) -> None:
+def main(out: str, preset: str = "hd") -> None:
     cat = load_catalogue(name="shop-vrb")
     cells = []
     for cls in cat.classes.values():
         for v in cls.variants.values():
             colour, material = LOOK[cls.name] if LOOK[cls.name] in v.menu.pairs else v.menu.pairs[0]
             size = "medium" if "medium" in v.menu.size else v.menu.size[-1]
-            img = render_instances([ObjectInstance(cls.name, v.name, colour, material, size)], W, H, catalogue=cat)
+            img = render_instances([ObjectInstance(cls.name, v.name, colour, material, size)], W, H, catalogue=cat,
+                                   preset=preset)
             cells.append((f"{cls.name} {v.name}", Image.fromarray(img)))
     rows = -(-len(cells) // COLS)
     sheet = Image.new("RGB", (COLS * W, rows * H), (250, 250, 250))
@@ -50,4 +51,5 @@ def main(out: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "docs/images/shop_vrb_sheet.png")
+    main(sys.argv[1] if len(sys.argv) > 1 else "docs/images/shop_vrb_sheet.png",
+         sys.argv[2] if len(sys.argv) > 2 else "hd")
