@@ -140,6 +140,12 @@ def hull_union(hulls: list[np.ndarray]) -> trimesh.Trimesh:
     return trimesh.Trimesh(np.asarray(mesh.vert_properties[:, :3]), np.asarray(mesh.tri_verts), process=False)
 
 
+def enclosed(q: trimesh.Trimesh, outer: list[trimesh.Trimesh]) -> bool:
+    """Whether an outward shell of ``outer`` holds ``q`` (bounding boxes, 0.1 mm slack) and is larger."""
+    return any(bool(np.all(o.bounds[0] <= q.bounds[0] + 1e-4) and np.all(o.bounds[1] >= q.bounds[1] - 1e-4))
+               and o.volume > -q.volume for o in outer)
+
+
 def rot_z(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -469,6 +475,22 @@ def main() -> None:
             mesh = trimesh.Trimesh(v, mesh.faces, process=False)
             if not mesh.is_winding_consistent or mesh.volume < 0:
                 trimesh.repair.fix_normals(mesh)
+            # Many MuBlE meshes carry an inward-facing copy of themselves 1 mm inside (a hollow skin, as
+            # left by a solidify step): drawn, a glass then has eight surfaces per wall and a path tracer
+            # sees black. The look keeps the outer shells; the mass keeps the skin's volume.
+            # An inward-facing shell that no outer one encloses is a body wound the wrong way: turned.
+            parts = mesh.split(only_watertight=False)
+            outer = [p for p in parts if p.volume >= 0]
+
+            inner = [p for p in parts if p.volume < 0 and enclosed(p, outer)]
+            turned = [trimesh.Trimesh(p.vertices, p.faces[:, ::-1], process=False)
+                      for p in parts if p.volume < 0 and not enclosed(p, outer)]
+            net_volume = float(sum(p.volume for p in outer) + sum(p.volume for p in turned)
+                               + sum(p.volume for p in inner))
+            if inner or turned:
+                mesh = trimesh.util.concatenate(outer + turned)
+                note += "".join([f"; {len(inner)} inward-facing inner shell(s) removed" if inner else "",
+                                 f"; {len(turned)} inside-out part(s) turned" if turned else ""])
             facts = revolved_facts(cls, mesh) if kind == "revolved" else flat_facts(kind, mesh)
             variant = f"shopvrb{k}"
             fname = f"{cls}_{variant}.npz"
@@ -482,6 +504,8 @@ def main() -> None:
             digest = hashlib.sha256((OUT / fname).read_bytes()).hexdigest()
             if mass.get("contents_density"):  # cans and boxes are hollow shells: their contents fill the hulls
                 facts["volume"] = float(hull_union(hulls).volume)
+            elif inner:  # the material is the skin between the shells
+                facts["volume"] = net_volume
             entry["variants"][variant] = {"geometry": {"kind": "mesh", "file": fname, "sha256": digest, **facts}}
             narrowest = min(g["width"] for g in facts["grasps"])
             sizes = [z for z in src["menu"]["size"] if narrowest * SIZES[z] <= GRIP_LIMIT]
