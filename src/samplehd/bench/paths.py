@@ -26,6 +26,7 @@ from samplehd.render.deflated import deflating
 from samplehd.render.renderer import IMAGE_DTYPES, MODALITIES, image_shape, stored_segmentation_dtype
 from samplehd.render.states import render_states
 from samplehd.scene.annotate import annotate_scene
+from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneObject, SceneSpec
 from samplehd.workers import Backend
@@ -34,13 +35,13 @@ from samplehd.world.layout import LAYOUT
 __all__ = ["add_arguments", "handoff", "oracle_success", "oracle_table", "report", "run"]
 
 
-def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> list[dict[str, Any]]:
+def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None, str]) -> list[dict[str, Any]]:
     """Sample one scene with the real sampler, generate instructions with the real generator
     (families balanced), and run the oracle on each; returns one result dict per instruction."""
-    index, seed, per_scene, out, families = args
+    index, seed, per_scene, out, families, catalogue = args
     results = []
     try:
-        sampled = sample_scene(index, seed)
+        sampled = sample_scene(index, seed, SceneConfig(catalogue=catalogue))
     except Exception as exc:  # noqa: BLE001 - a scene the sampler cannot make is skipped, counted
         return [{"scene": index, "family": "-", "success": False, "reason": f"scene: {exc}", "skipped": True}]
     scene = sampled.scene
@@ -75,7 +76,8 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None]) -> li
 
 
 def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers: int = 2,
-                   out: str = "", families: tuple[str, ...] | None = None) -> list[dict[str, Any]]:
+                   out: str = "", families: tuple[str, ...] | None = None,
+                   catalogue: str = "procedural") -> list[dict[str, Any]]:
     """Oracle success over real sampled scenes and generated instructions.
 
     Args:
@@ -85,11 +87,12 @@ def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers:
         workers: worker processes.
         out: JSONL file to append per-instruction results to as they finish ("" for none).
         families: only instructions of these families (None: all, balanced).
+        catalogue: built-in catalogue the scenes draw from (``procedural`` or ``shop-vrb``).
 
     Returns:
         One dict per instruction: family, success, attempts, frames, reason, seconds.
     """
-    jobs = [(i, base_seed + i, per_scene, out, families) for i in range(num_scenes)]
+    jobs = [(i, base_seed + i, per_scene, out, families, catalogue) for i in range(num_scenes)]
     results: list[dict[str, Any]] = []
     for _, rs in Backend(workers=workers).map(_oracle_scene, jobs):
         results += rs
@@ -245,6 +248,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--families", nargs="+", default=None, help="oracle: only these families")
     parser.add_argument("--out", default="", help="JSONL of per-instruction results (oracle: written, table: read)")
+    parser.add_argument("--catalogue", choices=["procedural", "shop-vrb"], default="procedural",
+                        help="oracle: the built-in catalogue the scenes draw from")
 
 
 def report(args: argparse.Namespace) -> int:
@@ -262,7 +267,8 @@ def report(args: argparse.Namespace) -> int:
         return 0
     if args.what == "oracle":
         families = tuple(args.families) if args.families else None
-        results = oracle_success(args.scenes, args.seed, args.per_scene, args.workers, args.out, families)
+        results = oracle_success(args.scenes, args.seed, args.per_scene, args.workers, args.out, families,
+                                 args.catalogue)
     else:
         with open(args.out, encoding="utf-8") as f:
             results = [json.loads(line) for line in f]

@@ -74,7 +74,7 @@ def add_object(
     Raises:
         AssetError: the instance is invalid or a body called ``name`` already exists.
     """
-    cat = resolve_catalogue(catalogue, (instance.class_name,))
+    cat = resolve_catalogue(catalogue, (instance.class_name,), instance.variant)
     instance.validate(cat)
     if spec.body(name) is not None:
         raise AssetError(f"add_object: a body named {name!r} already exists in the spec")

@@ -112,7 +112,7 @@ def instance_geometry(instance: ObjectInstance, catalogue: Catalogue | None = No
         instance: the object.
         catalogue: catalogue to look it up in (default: built-in plus the instance's class if imported).
     """
-    cat = resolve_catalogue(catalogue, (instance.class_name,))
+    cat = resolve_catalogue(catalogue, (instance.class_name,), instance.variant)
     variant = cat.object_class(instance.class_name).variant(instance.variant)
     return build_geometry(variant.geometry, cat.size(instance.size).scale)
 
@@ -143,7 +143,7 @@ def object_facts(instance: ObjectInstance, catalogue: Catalogue | None = None) -
     Raises:
         AssetError: the instance names something the catalogue does not know.
     """
-    cat = resolve_catalogue(catalogue, (instance.class_name,))
+    cat = resolve_catalogue(catalogue, (instance.class_name,), instance.variant)
     return _facts(instance, cat)
 
 

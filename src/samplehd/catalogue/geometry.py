@@ -18,6 +18,8 @@ Kinds:
     cutlery: fork, spoon or knife lying flat along x.
     scissors: closed scissors lying flat along x.
     imported: a mesh registered with ``samplehd assets import`` (see :mod:`.importer`).
+    mesh: a vendored mesh of the ``shop-vrb`` catalogue (see :mod:`.vendored`): the shape, its
+        convex pieces and its facts (top surface, opening, grasp sites) come from the data files.
 
 Object frame: z up, the object rests on z = 0, the revolution axis (or the bounding-box centre for
 flat objects) is at x = y = 0. Handles point to +x.
@@ -45,6 +47,7 @@ from samplehd.catalogue.shape import (
     planar_texcoords,
     scale_tuple,
 )
+from samplehd.catalogue.vendored import MeshSpec, load_vendored_geometry, parse_mesh
 from samplehd.fixedmath import dot, norm
 from samplehd.robot.constants import GRIPPER_STROKE
 
@@ -59,6 +62,7 @@ __all__ = [
     "GraspSite",
     "ImportedSpec",
     "LoopHandle",
+    "MeshSpec",
     "ObjectGeometry",
     "Opening",
     "RevolvedSpec",
@@ -219,7 +223,7 @@ class ImportedSpec:
     digest: str
 
 
-GeometrySpec = RevolvedSpec | BoxSpec | TraySpec | BoardSpec | CutlerySpec | ScissorsSpec | ImportedSpec
+GeometrySpec = RevolvedSpec | BoxSpec | TraySpec | BoardSpec | CutlerySpec | ScissorsSpec | ImportedSpec | MeshSpec
 
 
 def parse_geometry(f: Field, registry_dir: Path | None = None) -> GeometrySpec:
@@ -227,7 +231,7 @@ def parse_geometry(f: Field, registry_dir: Path | None = None) -> GeometrySpec:
 
     Args:
         f: the field holding the geometry object.
-        registry_dir: directory that relative ``imported`` paths are resolved against.
+        registry_dir: directory that relative ``imported`` paths and ``mesh`` files are resolved against.
 
     Raises:
         AssetError: unknown kind, unknown or missing parameter, or an inconsistent value.
@@ -238,6 +242,8 @@ def parse_geometry(f: Field, registry_dir: Path | None = None) -> GeometrySpec:
     name = kind.choice(_PARSERS)
     if name == "imported":
         return _parse_imported(f, registry_dir)
+    if name == "mesh":
+        return parse_mesh(f, registry_dir)
     return _PARSERS[name](f)
 
 
@@ -368,6 +374,7 @@ _PARSERS = {
     "cutlery": _parse_cutlery,
     "scissors": _parse_scissors,
     "imported": _parse_imported,
+    "mesh": parse_mesh,
 }
 
 
@@ -416,6 +423,8 @@ def _build_scaled(spec: GeometrySpec, scale: float) -> ObjectGeometry:
 def _build_base(spec: GeometrySpec) -> ObjectGeometry:
     if isinstance(spec, ImportedSpec):
         g = load_imported_geometry(spec.path)
+    elif isinstance(spec, MeshSpec):
+        g = load_vendored_geometry(spec)
     else:
         g = _BUILDERS[type(spec)](spec)
     _freeze(g)

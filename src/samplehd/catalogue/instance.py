@@ -48,7 +48,7 @@ class ObjectInstance:
         Raises:
             AssetError: an unknown name or a colour that does not go with the material.
         """
-        catalogue = resolve_catalogue(catalogue, (self.class_name,))
+        catalogue = resolve_catalogue(catalogue, (self.class_name,), self.variant)
         catalogue.object_class(self.class_name).variant(self.variant)
         catalogue.colour(self.colour)
         catalogue.material(self.material)

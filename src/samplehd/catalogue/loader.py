@@ -6,6 +6,12 @@ Files (in ``samplehd/catalogue/data`` unless another directory is given):
     sizes.json      ``{"format": 1, "sizes": {name: {"scale": s}}, "weights": {name: {"max_mass": kg|null}}}``
     classes.json    ``{"format": 1, "classes": {name: {description, affordances, mass, variants, menu}}}``
 
+Two built-in catalogues share the colours, materials and sizes: ``procedural`` (``classes.json``,
+shapes made from a few numbers) and ``shop-vrb`` (``shop_vrb/classes.json``, SAMPLE-HD's SHOP-VRB
+shapes vendored from MuBlE, see ``shop_vrb/files.md``). Their variant names differ (``shopvrb1``,
+... in ``shop-vrb``), so an :class:`~samplehd.catalogue.instance.ObjectInstance` says by its variant
+which catalogue it comes from (:func:`resolve_catalogue`).
+
 Imported classes live in the user registry (see :mod:`samplehd.catalogue.registry`), one
 ``<name>/class.json`` each with the same layout as one entry of ``classes.json``. A catalogue holds
 the built-in classes and only those imported classes that are asked for by name, and records a
@@ -42,6 +48,7 @@ from samplehd.errors import AssetError
 from samplehd.fileio import file_sha256
 
 __all__ = [
+    "CATALOGUES",
     "DATA_DIR",
     "TEXTURES",
     "catalogue_for",
@@ -57,10 +64,14 @@ _AFFORDANCES = ("graspable", "handle_pickable", "container", "stackable_on", "st
 
 
 _DATA_FILES = ("colours.json", "materials.json", "sizes.json", "classes.json")
+_SHARED_FILES = ("colours.json", "materials.json", "sizes.json")
+# Built-in catalogue name -> its classes file, relative to the data directory.
+CATALOGUES: dict[str, str] = {"procedural": "classes.json", "shop-vrb": "shop_vrb/classes.json"}
+DEFAULT_CATALOGUE = "procedural"
 
 
-def load_catalogue(imported: Iterable[str] = ()) -> Catalogue:
-    """Return the built-in catalogue plus the imported classes named in ``imported`` (cached).
+def load_catalogue(imported: Iterable[str] = (), name: str = DEFAULT_CATALOGUE) -> Catalogue:
+    """Return the built-in catalogue ``name`` plus the imported classes named in ``imported`` (cached).
 
     Nothing in the user registry takes part unless named here, so a seeded run gives the same
     scenes on every machine whatever its user imported. Call
@@ -69,43 +80,72 @@ def load_catalogue(imported: Iterable[str] = ()) -> Catalogue:
 
     Args:
         imported: names of classes in the user registry to add.
+        name: built-in catalogue, one of :data:`CATALOGUES` (``procedural`` or ``shop-vrb``).
 
     Raises:
-        AssetError: a data file or a named class is malformed, or a name is not in the registry.
+        AssetError: a data file or a named class is malformed, a name is not in the registry, or
+            ``name`` is not a built-in catalogue.
     """
-    return _load_cached(str(DATA_DIR), str(registry_dir()), tuple(sorted(set(imported))), generation())
+    _check_name(name)
+    return _load_cached(str(DATA_DIR), str(registry_dir()), tuple(sorted(set(imported))), generation(), name)
 
 
-def catalogue_for(class_names: Iterable[str]) -> Catalogue:
-    """The catalogue a config naming ``class_names`` needs: the built-in classes plus every named
-    class found in the user registry. Names found in neither are left to the caller's validation,
-    which knows the file and field to name.
+def catalogue_for(class_names: Iterable[str], name: str = DEFAULT_CATALOGUE) -> Catalogue:
+    """The catalogue a config naming ``class_names`` needs: the built-in catalogue ``name`` plus
+    every named class found in the user registry. Names found in neither are left to the caller's
+    validation, which knows the file and field to name.
     """
-    builtin = load_catalogue()
+    builtin = load_catalogue(name=name)
     wanted = [n for n in class_names if n not in builtin.classes]
     if not wanted:
         return builtin
     registered = set(registered_classes())
-    return load_catalogue(n for n in wanted if n in registered)
+    return load_catalogue((n for n in wanted if n in registered), name)
 
 
-def resolve_catalogue(catalogue: Catalogue | None, class_names: Iterable[str] = ()) -> Catalogue:
-    """``catalogue`` if given, else :func:`catalogue_for` the classes a caller is about to use."""
-    return catalogue if catalogue is not None else catalogue_for(class_names)
+def resolve_catalogue(
+    catalogue: Catalogue | None, class_names: Iterable[str] = (), variant: str | None = None
+) -> Catalogue:
+    """``catalogue`` if given, else :func:`catalogue_for` the classes a caller is about to use, from
+    the built-in catalogue that holds ``variant`` of the (first) class: variant names are unique
+    across the built-in catalogues, so an instance knows where its shape comes from."""
+    if catalogue is not None:
+        return catalogue
+    names = tuple(class_names)
+    cat = catalogue_for(names)
+    if variant is None or not names or names[0] not in cat.classes or variant in cat.classes[names[0]].variants:
+        return cat
+    for other in CATALOGUES:
+        if other != DEFAULT_CATALOGUE:
+            alt = catalogue_for(names, other)
+            if names[0] in alt.classes and variant in alt.classes[names[0]].variants:
+                return alt
+    return cat
+
+
+def _check_name(name: str) -> None:
+    if name not in CATALOGUES:
+        raise AssetError(f"unknown catalogue {name!r}; valid catalogues are {', '.join(CATALOGUES)}")
 
 
 @lru_cache(maxsize=8)
-def _load_cached(data_dir: str, registry: str, imported: tuple[str, ...], _generation: int) -> Catalogue:
-    return read_catalogue(Path(data_dir), Path(registry), imported)
+def _load_cached(data_dir: str, registry: str, imported: tuple[str, ...], _generation: int, name: str) -> Catalogue:
+    return read_catalogue(Path(data_dir), Path(registry), imported, name)
 
 
-def read_catalogue(data_dir: Path = DATA_DIR, registry: Path | None = None, imported: Iterable[str] = ()) -> Catalogue:
+def read_catalogue(
+    data_dir: Path = DATA_DIR,
+    registry: Path | None = None,
+    imported: Iterable[str] = (),
+    name: str = DEFAULT_CATALOGUE,
+) -> Catalogue:
     """Read and validate the catalogue files in ``data_dir`` and the named classes of ``registry``.
 
     Args:
-        data_dir: directory holding colours.json, materials.json, sizes.json and classes.json.
+        data_dir: directory holding colours.json, materials.json, sizes.json and the classes files.
         registry: user registry directory with imported classes (default :func:`registry_dir`).
         imported: names of the registry's classes to add (default: none).
+        name: which built-in catalogue's classes to read (:data:`CATALOGUES`).
 
     Returns:
         The validated catalogue, with the content hashes of what it was read from.
@@ -119,14 +159,21 @@ def read_catalogue(data_dir: Path = DATA_DIR, registry: Path | None = None, impo
     materials = _read_materials(read_json(data_dir / "materials.json"), colours)
     sizes, weights = _read_sizes(read_json(data_dir / "sizes.json"))
     base = Catalogue(colours, materials, sizes, weights, {})
-    doc = read_json(data_dir / "classes.json").mapping(["format", "classes"])
+    _check_name(name)
+    classes_file = data_dir / CATALOGUES[name]
+    doc = read_json(classes_file).mapping(["format", "classes"])
     _check_format(doc["format"])
     classes: dict[str, ObjectClass] = {}
-    for name, entry in doc["classes"].items():
-        classes[name] = parse_class(base, entry, name=name)
+    for cname, entry in doc["classes"].items():
+        classes[cname] = parse_class(base, entry, name=cname, registry_dir=classes_file.parent)
     if not classes:
         raise doc["classes"].fail("expected at least one class")
-    digests = {"built-in": _digest(data_dir / f for f in _DATA_FILES)}
+    if name == DEFAULT_CATALOGUE:
+        built_in = _digest(data_dir / f for f in _DATA_FILES)
+    else:  # the shared vocabulary, the classes file and every mesh file it names
+        meshes = sorted(p for p in classes_file.parent.iterdir() if p.suffix == ".npz")
+        built_in = _digest([*(data_dir / f for f in _SHARED_FILES), classes_file, *meshes])
+    digests = {"built-in": built_in}
     names = tuple(dict.fromkeys(imported))
     if names:
         registry = registry_dir() if registry is None else Path(registry)
@@ -145,7 +192,7 @@ def read_catalogue(data_dir: Path = DATA_DIR, registry: Path | None = None, impo
                 raise f.fail(f"imported class {name!r} clashes with a built-in class; re-import under another name")
             classes[name] = parse_class(base, f, name=name, imported=True, registry_dir=path.parent)
             digests[name] = _digest(sorted(p for p in path.parent.iterdir() if p.is_file()))
-    return Catalogue(colours, materials, sizes, weights, classes, digests)
+    return Catalogue(colours, materials, sizes, weights, classes, digests, name)
 
 
 def _digest(paths: Iterable[Path]) -> str:

@@ -245,6 +245,7 @@ class Catalogue:
         classes: object classes by name (built-in first, then imported).
         digests: content hashes of what it was read from: ``built-in`` (the data files) and one per
             imported class (its registry files).
+        name: which built-in catalogue the classes come from (``procedural`` or ``shop-vrb``).
     """
 
     colours: dict[str, Colour] = field(hash=False)
@@ -253,18 +254,20 @@ class Catalogue:
     weights: tuple[WeightClass, ...]
     classes: dict[str, ObjectClass] = field(hash=False)
     digests: dict[str, str] = field(default_factory=dict, hash=False, compare=False)
+    name: str = "procedural"
 
     def record(self) -> dict[str, Any]:
         """What this catalogue was read from, for a dataset's or report's metadata.
 
         Returns:
-            ``{"sha256": <hash of all below>, "built_in": <hash of the data files>,
-            "imported": {class: <hash of its registry files>}}`` (imported: only the classes held).
+            ``{"name": <built-in catalogue>, "sha256": <hash of all below>, "built_in": <hash of the
+            data files>, "imported": {class: <hash of its registry files>}}`` (imported: only the
+            classes held). The procedural catalogue's sha256 is the same as before catalogues had names.
         """
         imported = {k: v for k, v in sorted(self.digests.items()) if k != "built-in"}
         built_in = self.digests.get("built-in", "")
         whole = hashlib.sha256(json.dumps([built_in, imported], sort_keys=True).encode()).hexdigest()
-        return {"sha256": whole, "built_in": built_in, "imported": imported}
+        return {"name": self.name, "sha256": whole, "built_in": built_in, "imported": imported}
 
     def object_class(self, name: str) -> ObjectClass:
         """Return the class ``name``; AssetError naming the valid classes if unknown."""

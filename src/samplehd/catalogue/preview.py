@@ -61,7 +61,7 @@ def preview_spec(
     Returns:
         The spec, and the lower and upper corners of the objects' joint bounding box [m].
     """
-    cat = resolve_catalogue(catalogue, (i.class_name for i in instances))
+    cat = resolve_catalogue(catalogue, [i.class_name for i in instances], instances[0].variant if instances else None)
     spec = mujoco.MjSpec()
     spec.visual.headlight.ambient = [0.3, 0.3, 0.3]
     spec.visual.headlight.diffuse = [0.25, 0.25, 0.25]
@@ -116,6 +116,7 @@ def render_instances(
     azimuth: float = 180.0,
     elevation: float | None = None,
     catalogue: Catalogue | None = None,
+    preset: str = "hd",
 ) -> np.ndarray:
     """Render objects standing in a row on a neutral floor.
 
@@ -126,6 +127,8 @@ def render_instances(
         azimuth: camera azimuth [deg] (MuJoCo convention; 180 looks along +x).
         elevation: camera elevation [deg] (negative looks down); default -30, or -55 for flat rows.
         catalogue: catalogue (default: :func:`load_catalogue`).
+        preset: render preset of :class:`samplehd.render.renderer.SceneRenderer` (``fast``, ``hd``
+            or ``photo``).
 
     Returns:
         (height, width, 3) uint8 RGB image.
@@ -133,7 +136,7 @@ def render_instances(
     Raises:
         RenderError: the offscreen GL context cannot be created or the size is invalid.
 
-    Rendering uses :class:`samplehd.render.renderer.SceneRenderer` with its ``hd`` preset
+    Rendering uses :class:`samplehd.render.renderer.SceneRenderer`, by default with its ``hd`` preset
     (shadows, 4x MSAA), so previews look like the dataset's images.
     """
     if not (16 <= width <= 1024 and 16 <= height <= 1024):
@@ -165,7 +168,7 @@ def render_instances(
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
 
-    with SceneRenderer(model, width, height, "hd") as renderer:
+    with SceneRenderer(model, width, height, preset) as renderer:
         return renderer.render(data, "preview", ("rgb",))["rgb"]
 
 

@@ -6,6 +6,7 @@ Examples::
     samplehd assets list
     samplehd assets preview mug --out mug.png --colour red --material ceramic --size large
     samplehd assets sheet --out docs/images/catalogue.png
+    samplehd assets preview mug --catalogue shop-vrb --out mug.png
     samplehd assets remove teapot
 
 Imported classes are stored in $SAMPLEHD_REGISTRY_DIR (default ~/.local/share/samplehd/assets),
@@ -21,7 +22,7 @@ from pathlib import Path
 from PIL import Image
 
 from samplehd.catalogue.instance import ObjectInstance
-from samplehd.catalogue.loader import catalogue_for, load_catalogue
+from samplehd.catalogue.loader import CATALOGUES, catalogue_for, load_catalogue
 from samplehd.catalogue.preview import render_instances, write_catalogue_table
 from samplehd.catalogue.registry import registered_classes, remove_imported
 from samplehd.commands._options import DefaultsHelpFormatter, check_int, check_out_file, split_names
@@ -52,6 +53,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
     p = sub.add_parser("list", help="list object classes, variants and menus", formatter_class=fmt)
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    _catalogue_flag(p)
 
     p = sub.add_parser("preview", help="render all variants of a class to a PNG", formatter_class=fmt)
     p.add_argument("name", metavar="NAME", help="class name")
@@ -61,9 +63,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--size", default="medium", help="size class")
     p.add_argument("--width", type=int, default=640, help="image width [px]")
     p.add_argument("--height", type=int, default=480, help="image height [px]")
+    _catalogue_flag(p)
 
     p = sub.add_parser("sheet", help="render the contact sheet of all classes x materials", formatter_class=fmt)
     p.add_argument("--out", type=Path, required=True, help="output PNG file")
+    _catalogue_flag(p)
 
     p = sub.add_parser("remove", help="remove an imported class from the registry", formatter_class=fmt)
     p.add_argument("name", metavar="NAME", help="imported class name")
@@ -99,8 +103,13 @@ def _import(args: argparse.Namespace) -> int:
     return 0
 
 
+def _catalogue_flag(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--catalogue", choices=list(CATALOGUES), default="procedural",
+                   help="built-in catalogue: procedural shapes or SAMPLE-HD's SHOP-VRB models")
+
+
 def _list(args: argparse.Namespace) -> int:
-    cat = load_catalogue(registered_classes())
+    cat = load_catalogue(registered_classes(), args.catalogue)
     rows = []
     for cls in cat.classes.values():
         for v in cls.variants.values():
@@ -131,7 +140,7 @@ def _preview(args: argparse.Namespace) -> int:
     check_int("--height", args.height, 16, 4096)
     check_out_file("--out", args.out, (".png", ".jpg"))
     check_outputs({"--out": args.out})
-    cat = catalogue_for((args.name,))
+    cat = catalogue_for((args.name,), args.catalogue)
     cls = cat.object_class(args.name)
     cat.size(args.size)
     if args.colour is not None:
@@ -163,7 +172,7 @@ def _preview(args: argparse.Namespace) -> int:
 def _sheet(args: argparse.Namespace) -> int:
     check_out_file("--out", args.out, (".png", ".jpg"))
     check_outputs({"--out": args.out})
-    path = write_catalogue_table(args.out)
+    path = write_catalogue_table(args.out, load_catalogue(name=args.catalogue))
     print(f"wrote {path} ({path.stat().st_size / 1024:.0f} KiB)")
     return 0
 

@@ -172,13 +172,13 @@ PRESETS: dict[str, dict[str, Any]] = {
         "instructions": {"per_scene": 4},
         "render": {"mode": "fast", "width": 320, "height": 180},
     },
-    # SAMPLE-HD's shape: 2000 scenes of 3-5 objects, >= 8360 successful instructions, 16:9 images;
-    # several moved objects are picked in SAMPLE-HD's order (nearest the effector first), the order
-    # its preprocessing assumes.
+    # SAMPLE-HD's shape: 2000 scenes of 3-5 objects of its own SHOP-VRB shapes, >= 8360 successful
+    # instructions, 16:9 images; several moved objects are picked in SAMPLE-HD's order (nearest the
+    # effector first), the order its preprocessing assumes.
     "sample-hd": {
         "num_scenes": 2000,
         "target_episodes": 8360,
-        "scene": {"min_objects": 3, "max_objects": 5},
+        "scene": {"min_objects": 3, "max_objects": 5, "catalogue": "shop-vrb"},
         "instructions": {"per_scene": 10},
         "paths": {"planner": {"order": "nearest"}},
         "render": {"mode": "fast", "width": 640, "height": 360},

@@ -218,12 +218,14 @@ def _check_resumable(out: Path, info: dict[str, Any]) -> None:
 def catalogue_in_use(config: GenerateConfig) -> dict[str, Any]:
     """The content hashes of the catalogue a dataset's scenes draw from (built-in data files plus
     every imported class the config names); recorded in info.json and checked on ``--resume``."""
-    return catalogue_for(config.scene.named_classes).record()
+    return catalogue_for(config.scene.named_classes, config.scene.catalogue).record()
 
 
 def _catalogue_difference(stored: dict[str, Any], now: dict[str, Any]) -> str | None:
     if stored.get("sha256") == now["sha256"]:
         return None
+    if stored.get("name", "procedural") != now["name"]:
+        return f"the catalogue ({stored.get('name', 'procedural')} then, {now['name']} now)"
     if stored.get("built_in") != now["built_in"]:
         return "the built-in catalogue data files"
     old, new = stored.get("imported", {}), now["imported"]

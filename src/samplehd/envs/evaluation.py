@@ -393,7 +393,7 @@ def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partia
         "perception": config.perception if config.policy == "neurosymbolic" else None,
         "env": env.to_dict(),
         # The split's scenes draw from the built-in catalogue plus imported classes the env options name.
-        "catalogue": catalogue_for(env.scene.named_classes).record(),
+        "catalogue": catalogue_for(env.scene.named_classes, env.scene.catalogue).record(),
         **_summary(records),
         "by_family": by_family,
         "wall_s": round(time.perf_counter() - t0, 2),

@@ -97,11 +97,11 @@ def attribute_vocab() -> dict[str, list[str]]:
             "size": sorted(sizes)}
 
 
-def kind_vocab() -> list[str]:
-    """Every ``class/variant/size`` of the catalogue (sorted): each has one set of metric dimensions, so
-    that the network can learn size as the dimensions of a recognised shape, not as a class-wide
-    threshold (a large dessert fork and a medium dinner fork differ by 4 %)."""
-    cat = load_catalogue()
+def kind_vocab(catalogue: str = "procedural") -> list[str]:
+    """Every ``class/variant/size`` of the built-in ``catalogue`` (sorted): each has one set of metric
+    dimensions, so that the network can learn size as the dimensions of a recognised shape, not as a
+    class-wide threshold (a large dessert fork and a medium dinner fork differ by 4 %)."""
+    cat = load_catalogue(name=catalogue)
     out = set()
     for name in cat.classes:
         cls = cat.object_class(name)
@@ -898,7 +898,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     reader = open_dataset(dataset)
     data = scene_examples(reader)
     vocab = attribute_vocab()
-    kinds = kind_vocab()
+    kinds = kind_vocab(reader.info.get("catalogue", {}).get("name", "procedural"))  # shop-vrb: its variants
     width = int(data["train"][0]["annotation"]["camera"]["width"])
     height = int(data["train"][0]["annotation"]["camera"]["height"])
     factor = 2 if width >= 400 else 1

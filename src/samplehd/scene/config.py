@@ -22,6 +22,9 @@ class SceneConfig:
     Attributes:
         min_objects: fewest objects per scene.
         max_objects: most objects per scene.
+        catalogue: built-in catalogue the shapes come from: ``procedural`` (shapes made from a few
+            numbers) or ``shop-vrb`` (SAMPLE-HD's SHOP-VRB shapes); a config without the field is
+            procedural.
         classes: classes to draw from (empty: every catalogue class).
         menu_overrides: per class, allowed values replacing the catalogue menu, e.g.
             ``{"mug": {"colour": ["red", "blue"]}}``.
@@ -45,6 +48,7 @@ class SceneConfig:
 
     min_objects: int = bounded(3, lo=1, hi=30)
     max_objects: int = bounded(5, lo=1, hi=30)
+    catalogue: str = bounded("procedural", choices=("procedural", "shop-vrb"))
     classes: tuple[str, ...] = bounded((), unique=True)
     menu_overrides: dict[str, dict[str, list[str]]] | None = None
     placement_margin: float = bounded(0.025, lo=0.0, hi=0.2, unit="m")

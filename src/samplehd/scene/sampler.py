@@ -103,7 +103,7 @@ def check_scene_config(config: SceneConfig, catalogue: Catalogue | None = None) 
     Raises:
         ConfigError: one line naming the field, the unknown name and the valid ones.
     """
-    _validate_classes(catalogue or catalogue_for(config.named_classes), config)
+    _validate_classes(catalogue or catalogue_for(config.named_classes, config.catalogue), config)
 
 
 def draw_instance(rng: np.random.Generator, cat: Catalogue, config: SceneConfig, classes: list[str]) -> ObjectInstance:
@@ -278,7 +278,7 @@ def sample_scene(
     """
     config = config or SceneConfig()
     # Built-in classes, plus imported ones only where the config names them.
-    cat = catalogue or catalogue_for(config.named_classes)
+    cat = catalogue or catalogue_for(config.named_classes, config.catalogue)
     classes = _validate_classes(cat, config)
     rng = np.random.default_rng(seed)
     rejections: Counter[str] = Counter()

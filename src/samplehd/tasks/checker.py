@@ -45,7 +45,7 @@ from samplehd.physics import wake_all
 from samplehd.scene.spec import SceneSpec
 from samplehd.schema import bounded, check_fields, from_mapping
 from samplehd.tasks.task import Task, get_family, parse_task
-from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, quat_tilt
+from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, object_world_hull_box, quat_tilt
 from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
 
 __all__ = ["CheckResult", "CheckerConfig", "Judge", "check_success", "welded"]
@@ -168,10 +168,10 @@ class Judge:
             return r
         if not self.touching(top, int(self.b.object_body[base])):
             return f"object {top} does not touch object {base}"
-        tb = object_world_box(self.model, self.end, self.b, top)
-        bb = object_world_box(self.model, self.end, self.b, base)
-        if tb.lo[2] < bb.lo[2] + self.cfg.stack_min_rise:
+        if (object_world_hull_box(self.model, self.end, self.b, top).lo[2]
+                < object_world_hull_box(self.model, self.end, self.b, base).lo[2] + self.cfg.stack_min_rise):
             return f"object {top} is not above object {base}"
+        bb = object_world_box(self.model, self.end, self.b, base)
         if not bb.contains_xy(self.pos(top), -self.cfg.footprint_margin):
             return f"object {top} is not over the footprint of object {base}"
         return ""
