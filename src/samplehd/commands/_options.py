@@ -12,8 +12,8 @@ from pathlib import Path
 
 from samplehd.errors import ConfigError
 
-__all__ = ["DefaultsHelpFormatter", "check_int", "check_names", "check_number", "check_out_dir", "check_out_file",
-           "split_names"]
+__all__ = ["DefaultsHelpFormatter", "add_render_preset", "check_int", "check_names", "check_number", "check_out_dir",
+           "check_out_file", "split_names"]
 
 
 _STATES_DEFAULT = re.compile(r"\bdefault[: ]", re.IGNORECASE)  # "(default 10)", "default: all", not "by default)"
@@ -34,6 +34,16 @@ class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
             words = " ".join(str(v) for v in default) or "none"
             return f"{text} (default: {words.replace('%', '%%')})"
         return f"{text} (default: %(default)s)"
+
+
+def add_render_preset(parser: argparse.ArgumentParser, presets: Sequence[str], default: str,
+                      help: str = "render quality preset") -> None:
+    """``--render-preset NAME`` (dest ``render_preset``), one of ``presets`` (the render floor's list,
+    ``samplehd.render.image_spec.PRESET_NAMES``, passed in so that this module loads no renderer).
+    ``--preset`` stays an alias: it was the flag's name before ``generate --preset`` (a dataset preset) made
+    the word ambiguous, and scripts may use it."""
+    parser.add_argument("--render-preset", "--preset", dest="render_preset", choices=list(presets), default=default,
+                        help=f"{help} (--preset: the same, its former name)")
 
 
 def check_int(flag: str, value: int | None, lo: int | None = None, hi: int | None = None) -> None:

@@ -33,6 +33,7 @@ from samplehd.dataset.render import RenderConfig, check_cameras
 from samplehd.dataset.work import RenderUnit, run_render_unit
 from samplehd.errors import DatasetError
 from samplehd.fileio import file_sha256, write_json_atomic
+from samplehd.render.image_spec import PRESET_NAMES
 from samplehd.workers import Backend
 
 __all__ = ["rerender_dataset"]
@@ -60,7 +61,8 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
         ConfigError: unknown camera.
     """
     if not render.enabled:
-        raise DatasetError("rerender needs a render preset (fast, hd or photo), not 'none'")
+        raise DatasetError(f"rerender needs a render preset ({', '.join(PRESET_NAMES[:-1])} or {PRESET_NAMES[-1]}), "
+                           "not 'none'")
     check_cameras(render)
     root = Path(root)
     DatasetReader(root)  # a dataset folder (a clear refusal before the lock is tried)
