@@ -22,7 +22,7 @@ from samplehd.render.photo import LOOKS, photo_options
 from samplehd.render.renderer import IMAGE_DTYPES, MODALITIES, camera_names, get_preset, stored_segmentation_dtype
 from samplehd.render.states import LiveStates, render_live, render_states
 from samplehd.scene.world import compile_world
-from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.schema import Config, bounded
 
 __all__ = ["RENDER_MODES", "RenderConfig", "check_render_applies", "check_cameras"]
 
@@ -31,7 +31,7 @@ RENDER_MODES = ("none", *PRESET_NAMES)
 
 
 @dataclass(frozen=True)
-class RenderConfig:
+class RenderConfig(Config, section="render"):
     """Which images an episode gets.
 
     Attributes:
@@ -56,7 +56,7 @@ class RenderConfig:
     look: str = bounded("fixed", choices=LOOKS)
 
     def __post_init__(self) -> None:
-        check_fields(self, "render")
+        super().__post_init__()
         keyframe_indices(0, self.every, None, self.subtask_ends)  # validates every
 
     def keyframes(self, num_frames: int, subtask_index: np.ndarray | None) -> np.ndarray:
@@ -160,10 +160,6 @@ class RenderConfig:
         if self.look != "fixed":
             d["look"] = self.look
         return d
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any], where: str = "render") -> RenderConfig:
-        return from_mapping(cls, d, where)
 
 
 def check_cameras(config: RenderConfig) -> None:
