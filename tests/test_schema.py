@@ -47,3 +47,19 @@ def test_a_nested_config_comes_from_its_json_object() -> None:
     cfg = ControlConfig.from_dict({"safety": {"max_contact_force": 90}})
     assert cfg.safety == SafetyConfig(max_contact_force=90.0)
     assert ControlConfig.from_dict({"safety": None}).safety is None
+
+
+def test_the_command_line_says_a_library_field_as_its_flag() -> None:
+    from samplehd.cli import build_parser
+    from samplehd.commands._options import in_flags, option_flags
+    from samplehd.errors import DatasetError
+
+    flags = option_flags(build_parser("generate").parse_args(["generate", "--out", "x"])._parser)
+    err = DatasetError("out=/d: already holds a dataset; pass `resume` to continue it or choose another `out`",
+                       field="out")
+    assert in_flags(err, flags) == ("--out /d: already holds a dataset; pass --resume to continue it or choose "
+                                    "another --out")
+    assert in_flags(ConfigError("resume: the config differs", field="resume"), flags) == "--resume: the config differs"
+    # A backticked name that is no option of the command stays as the library wrote it.
+    assert in_flags(ConfigError("run `samplehd rerender` or set `nothing`"), flags) == (
+        "run `samplehd rerender` or set `nothing`")

@@ -311,13 +311,13 @@ def check_target(path: Path) -> str | None:
         ConfigError: the folder is missing, or an existing file lacks the two markers.
     """
     if not path.parent.is_dir():
-        raise ConfigError(f"--report {path}: folder {path.parent} does not exist")
+        raise ConfigError(f"report={path}: folder {path.parent} does not exist", field="report")
     if not path.exists():
         return None
     text = path.read_text(encoding="utf-8")
     if text.count(BEGIN) != 1 or text.count(END) != 1 or text.index(BEGIN) > text.index(END):
-        raise ConfigError(f"--report {path}: the file must hold the line {BEGIN!r} once, later the line {END!r} "
-                          "once; the table goes between them")
+        raise ConfigError(f"report={path}: the file must hold the line {BEGIN!r} once, later the line {END!r} "
+                          "once; the table goes between them", field="report")
     return text
 
 

@@ -172,7 +172,7 @@ def load_config(path: Path | None, base: GenerateConfig) -> GenerateConfig:
     """Apply a JSON config file to ``base``; errors name the file and field."""
     if path is None:
         return base
-    doc = read_json(path, ConfigError, f"--config {path}")
+    doc = read_json(path, ConfigError, f"config={path}", field="config")
     config = GenerateConfig.from_dict(doc, where=str(path), base=base)
     check_names(config, where=str(path))
     render = doc.get("render")

@@ -326,7 +326,8 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
     base = LAYOUT.robot_base_position
     stored = sorted({c for e in range(len(reader)) for c in (reader.episode_meta(e).get("images") or {})})
     if camera is not None and camera not in stored:
-        raise DatasetError(f"--camera {camera}: not stored in {root}; stored cameras: {', '.join(stored) or 'none'}")
+        raise DatasetError(f"camera={camera}: not stored in {root}; stored cameras: {', '.join(stored) or 'none'}",
+                           field="camera")
     cam = camera or ("scene" if "scene" in stored else (stored[0] if stored else None))
     scenes = {int(s["image_index"]): _scene_doc(s, base) for s in reader.scenes}
     programs, unity, chosen = [], [], []

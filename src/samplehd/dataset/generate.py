@@ -143,14 +143,14 @@ def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
 def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
     info_path = out / INFO_FILE
     if out.exists() and not out.is_dir():
-        raise DatasetError(f"--out {out}: exists and is not a directory")
+        raise DatasetError(f"out={out}: exists and is not a directory", field="out")
     if resume and not info_path.exists():
         what = "does not exist" if not out.exists() else "holds no dataset (no info.json)"
-        raise DatasetError(f"--resume: {out} {what}; leave out --resume to start a new dataset there")
+        raise DatasetError(f"resume: {out} {what}; leave out `resume` to start a new dataset there", field="resume")
     if info_path.exists():
         if not resume:
-            raise DatasetError(f"--out {out}: already holds a dataset; pass --resume to continue it or choose "
-                               f"another --out")
+            raise DatasetError(f"out={out}: already holds a dataset; pass `resume` to continue it or choose "
+                               f"another `out`", field="out")
         try:
             stored_info = json.loads(info_path.read_text())
             stored = stored_info["config"]
@@ -159,16 +159,17 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
         _check_resumable(out, stored_info)
         diff = _first_difference(stored, json.loads(json.dumps(config.to_dict())))
         if diff:
-            raise ConfigError(f"--resume: the config differs from {info_path} at {diff}; resume with the same "
-                              f"preset/config/flags")
+            raise ConfigError(f"resume: the config differs from {info_path} at {diff}; resume with the same "
+                              f"preset/config/flags", field="resume")
         if isinstance(stored_info.get("catalogue"), dict):
             changed = _catalogue_difference(stored_info["catalogue"], catalogue_in_use(config))
             if changed:
-                raise ConfigError(f"--resume: {info_path} catalogue.sha256 does not match the catalogue now "
+                raise ConfigError(f"resume: {info_path} catalogue.sha256 does not match the catalogue now "
                                   f"({changed} changed since the dataset was started); resume with the "
-                                  "catalogue it was made with, or start a new --out")
+                                  "catalogue it was made with, or start a new `out`", field="resume")
     elif out.is_dir() and _holds_files(out):
-        raise DatasetError(f"--out {out}: is not empty and holds no dataset; choose an empty or new directory")
+        raise DatasetError(f"out={out}: is not empty and holds no dataset; choose an empty or new directory",
+                           field="out")
     try:
         for sub in _LAYOUT_DIRS:
             (out / sub).mkdir(parents=True, exist_ok=True)
@@ -176,7 +177,8 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
         probe.write_text("")
         probe.unlink()
     except OSError as exc:
-        raise DatasetError(f"--out {out}: not writable ({exc.strerror}); choose a writable directory") from None
+        raise DatasetError(f"out={out}: not writable ({exc.strerror}); choose a writable directory",
+                           field="out") from None
     for folder in (out, out / SCENE_DIR, out / EPISODE_DIR):
         for p in folder.iterdir():
             if is_temporary(p.name) and p.is_file():
@@ -262,7 +264,7 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
                 scene = json.loads(path(following).read_text())
             except (OSError, ValueError) as exc:
                 raise DatasetError(f"{path(following)}: unreadable scene file ({exc}); delete it and run with "
-                                   "--resume") from None
+                                   "`resume`") from None
             following += 1
             yield scene
 
@@ -285,7 +287,7 @@ def _instruction_stage(out: Path, config: GenerateConfig, scenes: Iterator[dict[
         try:
             doc = json.loads(path.read_text())
         except (OSError, ValueError) as exc:
-            raise DatasetError(f"{path}: unreadable ({exc}); delete it and run with --resume") from None
+            raise DatasetError(f"{path}: unreadable ({exc}); delete it and run with `resume`") from None
         progress.advance("instructions", len(seen))
         return seen, list(doc["instructions"])
     seen = []

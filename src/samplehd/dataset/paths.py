@@ -135,7 +135,7 @@ def generate_paths(
     render = render or RenderConfig(mode="none")
     backend = backend or Backend()
     if limit < 0:
-        raise ConfigError(f"--limit {limit}: must be ≥ 0 (0: all)")
+        raise ConfigError(f"limit={limit}: must be ≥ 0 (0: all)", field="limit")
     check_cameras(render)
     scenes = load_scenes(scenes_path)
     entries = read_instructions(instructions_path)["instructions"]
@@ -159,7 +159,8 @@ def generate_paths(
     try:
         (out / EPISODE_DIR).mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise DatasetError(f"--out {out}: not writable ({exc.strerror}); choose a writable directory") from None
+        raise DatasetError(f"out={out}: not writable ({exc.strerror}); choose a writable directory",
+                           field="out") from None
     write_json_atomic(out / "config.json", {"scenes": str(scenes_path), "instructions": str(instructions_path),
                                             "seed": seed, "limit": limit, "paths": paths.to_dict(),
                                             "render": render.to_dict(), "backend": backend.describe()}, indent=2)

@@ -103,7 +103,7 @@ def _rerender(root: Path, render: RenderConfig, backend: Backend | None, progres
             raise DatasetError(
                 f"{path}: would hold cameras {_cameras(want)} but {first} {_cameras(result)}: the episodes "
                 f"differ (an interrupted rerender with other settings?); finish that rerender first (run it "
-                f"again) or re-render without --add")
+                f"again) or re-render without `add`")
         if old == want:
             skipped += 1
         else:
