@@ -121,12 +121,11 @@ def _path_rows(repeats: int) -> list[Row]:
 
         def unit(render: RenderConfig, seed: int) -> dict[str, Any]:
             u = EpisodeUnit(tmp, f"e{seed}.h5", 0, seed, seed, "place", task, "put the soda can on the left",
-                            "train", scene.to_dict(), {k: list(v) for k, v in DIRECTIONS.items()},
-                            PathConfig().to_dict(), render.to_dict())
+                            "train", scene, {k: list(v) for k, v in DIRECTIONS.items()}, PathConfig(), render)
             out = run_episode_unit(u)
-            if out["status"] != "ok":
+            if not out.ok:
                 raise RuntimeError(f"benchmark episode failed: {out}")
-            return out
+            return out.to_dict()
 
         states = RenderConfig(mode="none")
         frames = int(unit(states, 0)["num_frames"])

@@ -70,6 +70,7 @@ from samplehd.language.instruction_file import generate_instruction_file
 from samplehd.scene.annotate import image_stem
 from samplehd.scene.generate import SceneJob, scene_split
 from samplehd.scene.sampler import check_scene_config
+from samplehd.scene.spec import SceneSpec
 from samplehd.version import __version__
 from samplehd.workers import Backend
 from samplehd.world.seeding import episode_seed, scene_seed
@@ -270,7 +271,7 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
 
     yield from ready()
     for job, res in backend.map(run_scene_unit, iter(jobs)):
-        summary.scene_cpu_seconds += float(res.get("cpu_seconds", 0.0))
+        summary.scene_cpu_seconds += res.cpu_seconds
         progress.advance("scenes")
         done[job.index] = True
         yield from ready()
@@ -386,24 +387,25 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
             s = scene_by_index[key[0]]
             yield EpisodeUnit(out=str(out), file=Path(c["file"]).name, scene_index=key[0], slot=key[1],
                               seed=int(c["seed"]), family=str(c["family"]), task=dict(c["task"]),
-                              instruction=str(c["instruction"]), split=str(c["split"]), scene=s["spec"],
-                              directions=s["directions"], paths=config.paths.to_dict(),
-                              render=config.render.to_dict())
+                              instruction=str(c["instruction"]), split=str(c["split"]),
+                              scene=SceneSpec.from_dict(s["spec"]), directions=s["directions"], paths=config.paths,
+                              render=config.render)
 
     position = {k: i for i, k in enumerate(order)}
     for unit, res in backend.map(run_episode_unit, units()):
         key = (unit.scene_index, unit.slot)
-        append_journal(out, [res])
-        known[key] = res
-        cutoff.record(key, res["status"] == "ok")
+        record = res.to_dict()
+        append_journal(out, [record])
+        known[key] = record
+        cutoff.record(key, res.ok)
         summary.units_run += 1
-        summary.work_seconds += float(res.get("seconds", 0.0))
-        summary.cpu_seconds += float(res.get("cpu_seconds", 0.0))
+        summary.work_seconds += res.seconds
+        summary.cpu_seconds += res.cpu_seconds
         if cutoff.end is not None and position[key] >= cutoff.end:
             continue
-        progress.advance("paths", 1, int(res.get("num_frames", 0)))
-        if res["status"] != "ok":
-            progress.note(f"scene {key[0]} slot {key[1]}: rejected ({res['reason']})")
+        progress.advance("paths", 1, res.num_frames or 0)
+        if not res.ok:
+            progress.note(f"scene {key[0]} slot {key[1]}: rejected ({res.reason})")
     if cutoff.end is not None:
         progress.stage("paths", cutoff.end, cutoff.end)
     cutoff.known = known  # type: ignore[attr-defined]
