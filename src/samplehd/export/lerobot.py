@@ -44,8 +44,8 @@ from typing import Any
 import numpy as np
 
 from samplehd.dataset.container import camera_settings
-from samplehd.dataset.staging import export_source, staged_directory
 from samplehd.errors import DatasetError
+from samplehd.export.staging import export_source, staged_directory
 from samplehd.render.renderer import MODALITIES
 from samplehd.render.video import VideoWriter, pick_codec
 

@@ -24,7 +24,7 @@ pick_up, place_relative or stack_three (``Executor.parse_unity`` reads ``'place'
 neutral band between halves (every exported object's ``table_part`` names one of left/right and
 one of front/back, the nearer half where samplehd's object lies in the band). ``info.json`` counts
 both. Positions, rotations, joint angles and effector points follow SAMPLE-HD's Unity conventions
-(:mod:`samplehd.dataset.unity_frame`); docs/FORMAT.md documents every field.
+(:mod:`samplehd.export.unity_frame`); docs/FORMAT.md documents every field.
 """
 
 from __future__ import annotations
@@ -41,8 +41,9 @@ import numpy as np
 from PIL import Image
 
 from samplehd.dataset.container import read_episode
-from samplehd.dataset.staging import export_source, staged_directory
-from samplehd.dataset.unity_frame import (
+from samplehd.errors import DatasetError
+from samplehd.export.staging import export_source, staged_directory
+from samplehd.export.unity_frame import (
     joints_to_unity,
     point_to_unity,
     quat_to_unity,
@@ -50,7 +51,6 @@ from samplehd.dataset.unity_frame import (
     xyz,
     xyzw,
 )
-from samplehd.errors import DatasetError
 from samplehd.motion.order import pick_order
 from samplehd.render.image_io import read_segmentation, save_depth
 from samplehd.render.video import VideoWriter
