@@ -21,7 +21,7 @@ from types import ModuleType
 from typing import NoReturn
 
 from samplehd import commands
-from samplehd.commands._options import DefaultsHelpFormatter
+from samplehd.commands._options import DefaultsHelpFormatter, in_flags, option_flags
 from samplehd.errors import MissingExtraError, SamplehdError
 from samplehd.version import __version__
 
@@ -86,7 +86,7 @@ def build_parser(command: str | None = None, *, full: bool = False) -> argparse.
             formatter_class=DefaultsHelpFormatter,
         )
         module.add_arguments(p)
-        p.set_defaults(_run=module.run)
+        p.set_defaults(_run=module.run, _parser=p)
     return parser
 
 
@@ -108,7 +108,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SamplehdError as exc:
         if args.debug:
             traceback.print_exc()
-        print(f"samplehd {args.command}: error: {exc}", file=sys.stderr)
+        # The library names its fields; the command line says them as its flags.
+        print(f"samplehd {args.command}: error: {in_flags(exc, option_flags(args._parser))}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"samplehd {args.command}: interrupted", file=sys.stderr)

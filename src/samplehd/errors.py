@@ -2,6 +2,9 @@
 
 Every error a user can cause derives from :class:`SamplehdError`; the CLI prints its message on one
 line and exits with status 2. Messages name the file, field or value at fault and say what is valid.
+The library names its own parameters and config fields (``workers=0: must be an integer ≥ 1``), never a
+command-line flag; an error whose subject is one carries its name (``field``), and the CLI says it as
+its flag (``--workers 0: ...``).
 """
 
 from __future__ import annotations
@@ -28,7 +31,17 @@ __all__ = [
 
 
 class SamplehdError(Exception):
-    """Base class of every error samplehd raises on bad input or an impossible request."""
+    """Base class of every error samplehd raises on bad input or an impossible request.
+
+    Attributes:
+        field: the parameter or config field the message is about, when the message begins with it
+            (``out=/tmp/x: is a file``, ``resume: the config differs ...``), so that a front end can name
+            it in its own words; None otherwise.
+    """
+
+    def __init__(self, *args: object, field: str | None = None) -> None:
+        super().__init__(*args)
+        self.field = field
 
 
 class ConfigError(SamplehdError, ValueError):

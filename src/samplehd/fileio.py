@@ -14,13 +14,15 @@ from samplehd.errors import DatasetError, SamplehdError
 __all__ = ["file_sha256", "read_json", "write_json_atomic"]
 
 
-def read_json(path: str | Path, error: type[SamplehdError] = DatasetError, label: str | None = None) -> Any:
+def read_json(path: str | Path, error: type[SamplehdError] = DatasetError, label: str | None = None,
+              field: str | None = None) -> Any:
     """Parse a JSON file (never evaluated: plain data).
 
     Args:
         path: the file.
         error: the exception class to raise (the caller's area: ConfigError, AssetError, ...).
-        label: how to name the file in messages (default: its path), e.g. ``--config run.json``.
+        label: how to name the file in messages (default: its path), e.g. ``config=run.json``.
+        field: the parameter or config field ``label`` names, when it does (``config``), for the error's ``field``.
 
     Raises:
         error: ``<label>: cannot read (<reason>)``, ``<label>: invalid JSON at line L column C: <what>``,
@@ -31,17 +33,17 @@ def read_json(path: str | Path, error: type[SamplehdError] = DatasetError, label
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc).splitlines()[0]
-        raise error(f"{label}: cannot read ({reason})") from None
+        raise error(f"{label}: cannot read ({reason})", field=field) from None
     try:
         return json.loads(text, object_pairs_hook=_unique_keys)
     except json.JSONDecodeError as exc:
-        raise error(f"{label}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
+        raise error(f"{label}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}", field=field) from None
     except _DuplicateKey as exc:
         raise error(f"{label}: key {exc.args[0]!r} appears twice in one object (which one counts is not "
-                    f"clear); keep one") from None
+                    f"clear); keep one", field=field) from None
     except RecursionError:
         raise error(f"{label}: JSON nested too deeply to read (arrays or objects inside each other "
-                    f"thousands of times); not a samplehd file") from None
+                    f"thousands of times); not a samplehd file", field=field) from None
 
 
 class _DuplicateKey(ValueError):

@@ -1,7 +1,10 @@
 """Config schemas declared once: dataclass fields carry their type hint and bounds; one checker validates.
 
-A config dataclass declares each field with its type and, where a range or a set of names applies,
-:func:`bounded` metadata; its ``__post_init__`` calls :func:`check_fields`, which
+A config is a frozen dataclass that derives from :class:`Config` (``class PathConfig(Config, section="paths")``)
+and declares each field with its type and, where a range or a set of names applies, :func:`bounded` metadata.
+:class:`Config` gives it, once for all configs, a ``__post_init__`` that calls :func:`check_fields` (a config
+with a rule across fields extends it and calls ``super().__post_init__()`` first), ``to_dict``
+(:func:`to_mapping`) and ``from_dict`` (:func:`from_mapping`). :func:`check_fields`
 
 - checks every field against its type hint: ``int`` (not bool), ``float`` (finite; ints become floats),
   ``bool``, ``str``, ``X | None``, ``tuple[str, ...]`` (a list or tuple, never a string),
@@ -23,11 +26,11 @@ import types
 import typing
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any, ClassVar, Self, TypeVar
 
 from samplehd.errors import ConfigError
 
-__all__ = ["Bounds", "bounded", "check_fields", "from_mapping", "json_type_name"]
+__all__ = ["Bounds", "Config", "bounded", "check_fields", "from_mapping", "json_type_name", "to_mapping"]
 
 T = TypeVar("T")
 
@@ -269,3 +272,46 @@ def from_mapping(cls: type[T], d: Any, where: str) -> T:
     if unknown:
         raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(valid)}")
     return cls(**d)
+
+
+def to_mapping(obj: Any) -> dict[str, Any]:
+    """The JSON object of a config dataclass: every field in declaration order, lists and tuples as lists,
+    nested configs by their own ``to_dict``."""
+    return {f.name: _json_value(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+
+
+def _json_value(value: Any) -> Any:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type) and hasattr(value, "to_dict"):
+        return value.to_dict()
+    if isinstance(value, list | tuple):
+        return [_json_value(v) for v in value]
+    if isinstance(value, Mapping):
+        return {k: _json_value(v) for k, v in value.items()}
+    return value
+
+
+class Config:
+    """Base of every config dataclass: validation from the declaration, ``to_dict`` and ``from_dict``.
+
+    A subclass names the section its messages start with: ``class SafetyConfig(Config, section="SafetyConfig")``.
+    """
+
+    _section: ClassVar[str] = "config"
+
+    def __init_subclass__(cls, section: str | None = None, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if section is not None:
+            cls._section = section
+
+    def __post_init__(self) -> None:
+        check_fields(self, self._section)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready options (:func:`to_mapping`)."""
+        return to_mapping(self)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], where: str | None = None) -> Self:
+        """Build from a JSON object; unknown keys are errors (:func:`from_mapping`). ``where``: the section
+        messages start with (default: the class's own)."""
+        return from_mapping(cls, d, cls._section if where is None else where)

@@ -56,12 +56,13 @@ class Backend:
 
     def __post_init__(self) -> None:
         if self.kind not in BACKENDS:
-            raise ConfigError(f"--backend {self.kind!r}: valid: {', '.join(BACKENDS)}")
+            raise ConfigError(f"backend={self.kind!r}: valid: {', '.join(BACKENDS)}", field="backend")
         if not isinstance(self.workers, int) or self.workers < 1:
-            raise ConfigError(f"--workers {self.workers!r}: must be an integer ≥ 1")
+            raise ConfigError(f"workers={self.workers!r}: must be an integer ≥ 1", field="workers")
         if self.ray_address is not None and self.kind != "ray":
-            raise ConfigError(f"--ray-address {self.ray_address!r}: only used with --backend ray (the {self.kind} "
-                              f"backend ignores it); add --backend ray or leave it out")
+            raise ConfigError(f"ray_address={self.ray_address!r}: only used with `backend` ray (the {self.kind} "
+                              f"backend ignores it); add `backend` ray or leave it out",
+                              field="ray_address")
         if self.kind == "ray" and self.ray_address is not None:
             check_ray_address(self.ray_address)
 
@@ -199,19 +200,19 @@ def check_ray_address(address: str, timeout: float = RAY_CONNECT_TIMEOUT) -> Non
     host, _, port = address.split("://", 1)[-1].rpartition(":")
     host = host.strip("[]")
     if not host or not port.isdigit() or not 0 < int(port) < 65536:
-        raise ConfigError(f"--ray-address {address!r}: expected HOST:PORT, ray://HOST:PORT or auto")
+        raise ConfigError(f"ray_address={address!r}: expected HOST:PORT, ray://HOST:PORT or auto", field="ray_address")
     try:
         with socket.create_connection((host, int(port)), timeout=timeout):
             pass
     except OSError as exc:
         reason = "no answer" if isinstance(exc, TimeoutError) else (exc.strerror or str(exc) or type(exc).__name__)
-        raise ConfigError(f"--ray-address {address!r}: nothing answers there within {timeout:g} s ({reason}); "
-                          f"start the cluster (ray start --head) or fix the address") from None
+        raise ConfigError(f"ray_address={address!r}: nothing answers there within {timeout:g} s ({reason}); "
+                          f"start the cluster (ray start --head) or fix the address", field="ray_address") from None
 
 
 def _ray_init(workers: int, address: str | None) -> Any:
     """The ray module, initialised once per process (a cluster at ``address``, or a local one)."""
-    ray = require_extra("ray", "ray", "--backend ray")
+    ray = require_extra("ray", "ray", "`backend` ray")
     if not ray.is_initialized():
         # Ray's core logs each failed connection attempt to file descriptor 2 itself: hold those lines
         # back, show them if it joins, and let a failure be our one line.
@@ -226,8 +227,9 @@ def _ray_init(workers: int, address: str | None) -> Any:
                     ray.init(num_cpus=workers, include_dashboard=False, log_to_driver=False)
             except (ConnectionError, RuntimeError, ValueError) as exc:
                 reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-                raise ConfigError(f"--ray-address {address or '(local)'}: Ray could not start or join the cluster "
-                                  f"({reason[:160]}); start it (ray start --head) or fix the address") from None
+                raise ConfigError(f"ray_address={address or '(local)'}: Ray could not start or join the cluster "
+                                  f"({reason[:160]}); start it (ray start --head) or fix the address",
+                                  field="ray_address") from None
             finally:
                 sys.stderr.flush()
                 os.dup2(saved, 2)

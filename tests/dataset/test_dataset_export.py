@@ -14,7 +14,7 @@ from samplehd.dataset.reader import DatasetReader
 
 @pytest.fixture(scope="module")
 def lerobot_export(rendered_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from samplehd.dataset.export_lerobot import export_lerobot
+    from samplehd.export.lerobot import export_lerobot
 
     out = tmp_path_factory.mktemp("lerobot") / "lr"
     export_lerobot(rendered_dataset, out, "samplehd/test", modalities=["rgb", "depth", "segmentation"])

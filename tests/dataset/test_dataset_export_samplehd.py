@@ -15,11 +15,11 @@ import pytest
 from PIL import Image
 
 from samplehd.cli import main
-from samplehd.dataset.export_samplehd import SAMPLE_HD_FAMILIES
 from samplehd.dataset.reader import DatasetReader
+from samplehd.export.sample_hd import SAMPLE_HD_FAMILIES
 from samplehd.robot.kinematics import fk_flange
 
-# SAMPLE-HD's conventions, as docs/FORMAT.md states them (independent of samplehd.dataset.unity_frame).
+# SAMPLE-HD's conventions, as docs/FORMAT.md states them (independent of samplehd.export.unity_frame).
 UNITY_BASE = np.array([-0.422, 0.7728171, 0.2028])
 WORLD_BASE = np.array([-0.40, 0.0, 0.75])
 

@@ -63,8 +63,10 @@ def test_two_workers_give_the_same_dataset(micro_dataset: Path, tmp_path: Path) 
 def test_existing_dataset_needs_resume_and_same_config(micro_dataset: Path) -> None:
     from samplehd.dataset.generate import generate_dataset
 
-    with pytest.raises(DatasetError, match="--resume"):
+    # The library names its own parameters (the command line says them as --out, --resume).
+    with pytest.raises(DatasetError, match="^out=.*pass `resume` to continue it") as exc:
         generate_dataset(micro_dataset, micro_config())
+    assert exc.value.field == "out"
     with pytest.raises(ConfigError, match="num_scenes"):
         generate_dataset(micro_dataset, micro_config().__class__.from_dict({"num_scenes": 3}, base=micro_config()),
                          resume=True)

@@ -29,8 +29,7 @@ TASK = {"type": "place", "objects": [1], "subject": "left"}
 def _unit(out: Path, render: RenderConfig, task: dict = TASK, name: str = "e.h5") -> EpisodeUnit:
     (out / EPISODE_DIR).mkdir(exist_ok=True)
     return EpisodeUnit(str(out), name, 0, 3, 3, "place", task, "put the soda can on the left", "train",
-                       _bench_scene().to_dict(), {k: list(v) for k, v in DIRECTIONS.items()},
-                       PathConfig().to_dict(), render.to_dict())
+                       _bench_scene(), {k: list(v) for k, v in DIRECTIONS.items()}, PathConfig(), render)
 
 
 def _helpers_left() -> list[threading.Thread]:
@@ -50,14 +49,14 @@ def _chunks(path: Path) -> dict[str, list[bytes]]:
 def test_images_drawn_beside_the_path_are_those_of_the_finished_episode(tmp_path: Path) -> None:
     render = RenderConfig("fast", 48, 32, ("operator", "wrist"), MODALITIES)
     done = run_episode_unit(_unit(tmp_path, render))
-    assert done["status"] == "ok" and not _helpers_left()
-    assert done["path_seconds"] > 0 and done["render_seconds"] > 0 and done["path_cpu_seconds"] > 0
+    assert done.ok and not _helpers_left()
+    assert done.path_seconds > 0 and done.render_seconds > 0 and done.path_cpu_seconds > 0
     path = tmp_path / EPISODE_DIR / "e.h5"
     frames = read_frames(path, ("qpos", "qvel", "act", "time"))
     model, _ = compile_scene_with_assist(_bench_scene())
     after = render.images(model, frames, deflated=True)  # the finished episode's states, drawn afterwards
     beside = _chunks(path)
-    assert len(beside["operator/rgb"]) == done["num_frames"] == len(frames["qpos"]) > 100
+    assert len(beside["operator/rgb"]) == done.num_frames == len(frames["qpos"]) > 100
     for key, chunks in beside.items():
         cam, mod = key.split("/")
         assert chunks == after[cam][mod].chunks, key
@@ -65,7 +64,7 @@ def test_images_drawn_beside_the_path_are_those_of_the_finished_episode(tmp_path
     # same frames again.
     sparse = run_episode_unit(_unit(tmp_path, RenderConfig("fast", 48, 32, ("operator", "wrist"), MODALITIES,
                                                            every=2), name="k.h5"))
-    assert sparse["status"] == "ok"
+    assert sparse.ok
     kept = _chunks(tmp_path / EPISODE_DIR / "k.h5")
     assert kept["wrist/depth"] == beside["wrist/depth"][::2]
 
@@ -73,7 +72,9 @@ def test_images_drawn_beside_the_path_are_those_of_the_finished_episode(tmp_path
 def test_a_rejected_path_leaves_no_images_no_file_and_no_thread(tmp_path: Path) -> None:
     render = RenderConfig("fast", 32, 24, ("operator",), ("rgb",))
     done = run_episode_unit(_unit(tmp_path, render, task={"type": "place", "objects": [9], "subject": "left"}))
-    assert done["status"] == "rejected" and "objects 0..3" in done["message"]
+    assert done.status == "rejected" and "objects 0..3" in done.message
+    # Its journal record: what a rejection by an error has (no attempts counted), nothing of an ok episode.
+    assert set(done.to_dict()) == {"scene_index", "slot", "status", "reason", "message", "seconds", "cpu_seconds"}
     assert not list((tmp_path / EPISODE_DIR).iterdir()) and not _helpers_left()
 
 

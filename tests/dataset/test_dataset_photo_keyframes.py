@@ -156,8 +156,8 @@ def test_viewer_knows_which_frames_have_images(keyframed: tuple[Path, dict]) -> 
 def test_sample_hd_export_writes_the_keyframes_and_lerobot_says_it_needs_every_frame(
         keyframed: tuple[Path, dict], tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
     from samplehd.cli import main
-    from samplehd.dataset.export_samplehd import export_samplehd
     from samplehd.dataset.reader import DatasetReader
+    from samplehd.export.sample_hd import export_samplehd
 
     root, _ = keyframed
     export_samplehd(root, tmp_path / "shd")

@@ -17,6 +17,7 @@ from samplehd.dataset.render import RenderConfig
 from samplehd.dataset.rerender import rerender_dataset
 from samplehd.dataset.validate import validate_dataset
 from samplehd.errors import DatasetError
+from samplehd.scene.spec import SceneSpec
 
 ADD_WRIST = ["--add", "--cameras", "wrist", "--width", "48", "--height", "48", "--modalities", "rgb", "depth",
              "--workers", "1", "--quiet"]
@@ -34,11 +35,11 @@ def added_dataset(rendered_dataset: Path, tmp_path_factory: pytest.TempPathFacto
     e = reader.episodes[0]
     physics_hz = float(reader.config.get("paths", {}).get("physics_hz", 500.0))
     wrist = RenderConfig("fast", 48, 48, ("wrist",), ("rgb", "depth"))
-    done = run_render_unit(RenderUnit(str(out / e.file), reader.scene(e.scene_index)["spec"], physics_hz,
-                                      wrist.to_dict(), replace=False))
+    done = run_render_unit(RenderUnit(str(out / e.file), SceneSpec.from_dict(reader.scene(e.scene_index)["spec"]),
+                                      physics_hz, wrist, replace=False))
     # an interrupted rerender has recorded each finished episode in info.json, and that it is under way
     info = json.loads((out / "info.json").read_text())
-    info["episodes"][0].update(size=done["size"], sha256=done["sha256"])
+    info["episodes"][0].update(size=done.size, sha256=done.sha256)
     info["rerender"] = {"render": info.get("render"), "episodes": len(info["episodes"]), "done": 1}
     (out / "info.json").write_text(json.dumps(info, indent=1))
     res = rerender_dataset(out, wrist, add=True)

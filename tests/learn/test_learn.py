@@ -69,7 +69,7 @@ def test_perception_trains_and_perceives_a_scene(nano_dataset: Path, tmp_path: P
 
     model = Perception.load(out)
     item = scene_examples(open_dataset(nano_dataset))["test"][0]
-    from samplehd.learn.perception import _load_scene_images
+    from samplehd.learn.perception.preparation import _load_scene_images
 
     rgb, depth, seg = _load_scene_images(item)
     ann = model.perceive(rgb, depth, item["annotation"]["camera"])
@@ -305,7 +305,8 @@ def test_depth_jumps_split_objects_that_touch_in_the_image(tmp_path: Path) -> No
     as its own instance, and the bowls (depth jumps at their rims) stay whole."""
     import numpy as np
 
-    from samplehd.learn.perception import _match, instance_masks
+    from samplehd.learn.perception import instance_masks
+    from samplehd.learn.perception.evaluation import _match
 
     ann, _rgb, seg, depth = _rendered_scene(tmp_path, 3, 6, 320, 180)
     labels = np.where(seg >= 3, 2, 0)  # object pixels, no contact class: touching objects form one component
@@ -367,7 +368,8 @@ def test_tall_objects_are_placed_by_their_own_points_and_floating_pieces_join(tm
     import numpy as np
     from scipy import ndimage
 
-    from samplehd.learn.perception import _geometry, backproject, join_stacked
+    from samplehd.learn.perception import backproject, join_stacked
+    from samplehd.learn.perception.geometry import _geometry
     from samplehd.world.layout import LAYOUT
 
     ann, rgb, seg, depth = _rendered_scene(tmp_path, 10, 5, 640, 360)
@@ -410,14 +412,8 @@ def test_a_union_of_objects_does_not_fit_one_kind(tmp_path: Path) -> None:
     templates (held out of training) fits anything."""
     import numpy as np
 
-    from samplehd.learn.perception import (
-        FORMAT,
-        Perception,
-        _geometry,
-        attribute_vocab,
-        kind_vocab,
-        size_templates,
-    )
+    from samplehd.learn.perception import FORMAT, Perception, attribute_vocab, kind_vocab, size_templates
+    from samplehd.learn.perception.geometry import _geometry
     from samplehd.world.layout import LAYOUT
 
     ann, rgb, seg, depth = _rendered_scene(tmp_path, 10, 5, 640, 360)

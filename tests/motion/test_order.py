@@ -32,7 +32,7 @@ def test_next_object_and_whole_order() -> None:
 
 def test_effector_point_is_sample_hd_effector_end() -> None:
     """0.09 m beyond the flange on the tool axis (SAMPLE-HD's utils/robot.py effector_transform)."""
-    from samplehd.dataset.unity_frame import UNITY_EFFECTOR_OFFSET
+    from samplehd.export.unity_frame import UNITY_EFFECTOR_OFFSET
 
     for q in (HOME_QPOS, HOME_QPOS + np.array([0.3, -0.2, 0.4, 0.1, 0.5, -0.7])):
         flange, tcp = fk_flange(q), fk_tcp(q)

@@ -4,6 +4,7 @@ import mujoco
 import numpy as np
 import pytest
 
+from samplehd.render.image_spec import ImageSpec
 from samplehd.render.renderer import MODALITIES, SceneRenderer
 from samplehd.render.states import pose_state, render_states, set_state
 
@@ -15,7 +16,7 @@ def test_render_states_equals_one_render_per_state(world):
     qpos = np.stack([data.qpos + d for d in (0.0, 0.3, -0.4)])
     qpos[:, 6:] = data.qpos[6:]  # move the arm only
     frames = {"qpos": qpos, "qvel": np.zeros((3, model.nv))}
-    got = render_states(model, frames, ("operator", "wrist"), MODALITIES, 64, 48, "fast", indices=[2, 0])
+    got = render_states(model, frames, ImageSpec(64, 48, "fast", ("operator", "wrist"), MODALITIES), indices=[2, 0])
     d = mujoco.MjData(model)
     with SceneRenderer(model, 64, 48, "fast") as r:
         for i, k in enumerate((2, 0)):
@@ -25,7 +26,7 @@ def test_render_states_equals_one_render_per_state(world):
                     assert got[cam][m].shape == (2, *want.shape) and got[cam][m].dtype == want.dtype
                     np.testing.assert_array_equal(got[cam][m][i], want, err_msg=f"{cam} {m} frame {k}")
     assert not np.array_equal(got["operator"]["rgb"][0], got["operator"]["rgb"][1])
-    empty = render_states(model, frames, ("operator",), ("depth",), 64, 48, "fast", indices=[])
+    empty = render_states(model, frames, ImageSpec(64, 48, "fast", ("operator",), ("depth",)), indices=[])
     assert empty["operator"]["depth"].shape == (0, 48, 64) and empty["operator"]["depth"].dtype == np.float32
 
 
@@ -108,9 +109,9 @@ def test_on_frame_beside_the_render_loop_sees_every_frame_in_order_on_another_th
     model, data = world
     frames = _arm_states(model, data, 30)
     # Frames go to the helper in groups, and the groups' buffers take turns: 30 frames reuse the first group's.
-    group = _group_frames(("operator", "wrist"), MODALITIES, 64, 48, IMAGE_DTYPES)
+    group = _group_frames(ImageSpec(64, 48, "fast", ("operator", "wrist"), MODALITIES), IMAGE_DTYPES)
     assert 1 < group and OVERLAP_BUFFERS * group < 30 and 30 % group  # and the last group is a short one
-    want = render_states(model, frames, ("operator", "wrist"), MODALITIES, 64, 48, "fast")
+    want = render_states(model, frames, ImageSpec(64, 48, "fast", ("operator", "wrist"), MODALITIES))
     got: dict[str, dict[str, list[np.ndarray]]] = {c: {m: [] for m in MODALITIES} for c in ("operator", "wrist")}
     threads = set()
 
@@ -121,7 +122,7 @@ def test_on_frame_beside_the_render_loop_sees_every_frame_in_order_on_another_th
         for m, a in images.items():
             got[cam][m].append(a.copy())
 
-    assert render_states(model, frames, ("operator", "wrist"), MODALITIES, 64, 48, "fast", on_frame=keep,
+    assert render_states(model, frames, ImageSpec(64, 48, "fast", ("operator", "wrist"), MODALITIES), on_frame=keep,
                          overlap=True) == {}
     assert threads and threading.get_ident() not in threads
     for cam in got:
@@ -129,11 +130,12 @@ def test_on_frame_beside_the_render_loop_sees_every_frame_in_order_on_another_th
             np.testing.assert_array_equal(np.stack(got[cam][m]), want[cam][m], err_msg=f"{cam} {m}")
     # One frame per hand-over, as a caller may ask: the same frames in the same order.
     one: list[np.ndarray] = []
-    render_states(model, frames, ("operator", "wrist"), ("rgb",), 64, 48, "fast", overlap=True, overlap_group=1,
+    render_states(model, frames, ImageSpec(64, 48, "fast", ("operator", "wrist"), ("rgb",)), overlap=True,
+                  overlap_group=1,
                   on_frame=lambda cam, images: one.append(images["rgb"].copy()) if cam == "wrist" else None)
     np.testing.assert_array_equal(np.stack(one), want["wrist"]["rgb"])
     with pytest.raises(ValueError, match="overlap_group 0"):
-        render_states(model, frames, ("operator",), ("rgb",), 64, 48, "fast", on_frame=lambda c, i: None,
+        render_states(model, frames, ImageSpec(64, 48, "fast", ("operator",), ("rgb",)), on_frame=lambda c, i: None,
                       overlap=True, overlap_group=0)
     assert not _frames_left()
 
@@ -149,14 +151,16 @@ def test_an_error_beside_the_render_loop_is_raised_and_leaves_no_thread(world):
             raise OSError("disk full (test)")
 
     with pytest.raises(OSError, match="disk full"):
-        render_states(model, frames, ("operator",), ("rgb",), 32, 24, "fast", on_frame=fail_at_third, overlap=True)
+        render_states(model, frames, ImageSpec(32, 24, "fast", ("operator",), ("rgb",)), on_frame=fail_at_third,
+                      overlap=True)
     assert not _frames_left()
     # An error of the render loop itself (a state of another model) while calls are pending: also no thread left.
     from samplehd.errors import DatasetError
 
     bad = {"qpos": list(frames["qpos"]) + [np.zeros(model.nq + 1)], "qvel": list(frames["qvel"]) * 2}
     with pytest.raises(DatasetError, match="nq="):
-        render_states(model, bad, ("operator",), ("rgb",), 32, 24, "fast", on_frame=lambda c, i: None, overlap=True)
+        render_states(model, bad, ImageSpec(32, 24, "fast", ("operator",), ("rgb",)), on_frame=lambda c, i: None,
+                      overlap=True)
     assert not _frames_left()
 
 
@@ -170,7 +174,7 @@ def test_live_states_render_the_attempt_that_became_the_episode_and_nothing_of_a
     frames = _arm_states(model, data, 12)
     wrong = _arm_states(model, data, 12)
     wrong["qpos"] = wrong["qpos"][::-1].copy()  # another rollout: the arm swings the other way
-    want = render_states(model, frames, ("operator",), ("rgb", "segmentation"), 48, 32, "fast")
+    want = render_states(model, frames, ImageSpec(48, 32, "fast", ("operator",), ("rgb", "segmentation")))
     live = LiveStates()
     drawn: list[dict[str, list[np.ndarray]]] = []
 
@@ -189,7 +193,7 @@ def test_live_states_render_the_attempt_that_became_the_episode_and_nothing_of_a
 
     recorder = threading.Thread(target=record)
     recorder.start()
-    count = render_live(model, live, on_attempt, ("operator",), ("rgb", "segmentation"), 48, 32, "fast")
+    count = render_live(model, live, on_attempt, ImageSpec(48, 32, "fast", ("operator",), ("rgb", "segmentation")))
     recorder.join()
     assert count == 12 and len(drawn) == 2 and drawn[0]["rgb"]  # the first attempt was being drawn
     for m in ("rgb", "segmentation"):
@@ -201,7 +205,7 @@ def test_live_states_render_the_attempt_that_became_the_episode_and_nothing_of_a
     failed.put(frames["qpos"][0], frames["qvel"][0], None, None)
     failed.finish(success=False)
     failed.finish(success=True)  # only the first finish counts
-    assert render_live(model, failed, on_attempt, ("operator",), ("rgb",), 48, 32, "fast") is None
+    assert render_live(model, failed, on_attempt, ImageSpec(48, 32, "fast", ("operator",), ("rgb",))) is None
     with pytest.raises(Superseded):
         list(failed.states(1))
     assert not _frames_left()

@@ -121,12 +121,11 @@ def _path_rows(repeats: int) -> list[Row]:
 
         def unit(render: RenderConfig, seed: int) -> dict[str, Any]:
             u = EpisodeUnit(tmp, f"e{seed}.h5", 0, seed, seed, "place", task, "put the soda can on the left",
-                            "train", scene.to_dict(), {k: list(v) for k, v in DIRECTIONS.items()},
-                            PathConfig().to_dict(), render.to_dict())
+                            "train", scene, {k: list(v) for k, v in DIRECTIONS.items()}, PathConfig(), render)
             out = run_episode_unit(u)
-            if out["status"] != "ok":
+            if not out.ok:
                 raise RuntimeError(f"benchmark episode failed: {out}")
-            return out
+            return out.to_dict()
 
         states = RenderConfig(mode="none")
         frames = int(unit(states, 0)["num_frames"])
@@ -311,13 +310,13 @@ def check_target(path: Path) -> str | None:
         ConfigError: the folder is missing, or an existing file lacks the two markers.
     """
     if not path.parent.is_dir():
-        raise ConfigError(f"--report {path}: folder {path.parent} does not exist")
+        raise ConfigError(f"report={path}: folder {path.parent} does not exist", field="report")
     if not path.exists():
         return None
     text = path.read_text(encoding="utf-8")
     if text.count(BEGIN) != 1 or text.count(END) != 1 or text.index(BEGIN) > text.index(END):
-        raise ConfigError(f"--report {path}: the file must hold the line {BEGIN!r} once, later the line {END!r} "
-                          "once; the table goes between them")
+        raise ConfigError(f"report={path}: the file must hold the line {BEGIN!r} once, later the line {END!r} "
+                          "once; the table goes between them", field="report")
     return text
 
 

@@ -23,7 +23,8 @@ from samplehd.language.generator import generate_instructions
 from samplehd.motion.assist import compile_scene_with_assist
 from samplehd.record.paths import PathRejected, plan_and_execute
 from samplehd.render.deflated import deflating
-from samplehd.render.renderer import IMAGE_DTYPES, MODALITIES, image_shape, stored_segmentation_dtype
+from samplehd.render.image_spec import ImageSpec
+from samplehd.render.renderer import IMAGE_DTYPES, MODALITIES, stored_segmentation_dtype
 from samplehd.render.states import render_states
 from samplehd.scene.annotate import annotate_scene
 from samplehd.scene.config import SceneConfig
@@ -160,7 +161,7 @@ def run(repeats: int = 3) -> list[Figure]:
         rates["cpu state"].append(frames / sim_cpu)
         for w, h in ((320, 180), (640, 360)):
             t1, c1 = time.perf_counter(), time.process_time()
-            render_states(model, ep.frames, ("operator",), MODALITIES, w, h, "fast")
+            render_states(model, ep.frames, ImageSpec(w, h, "fast", ("operator",), MODALITIES))
             rates[f"{w}x{h}"].append(frames / (sim + time.perf_counter() - t1))
             rates[f"cpu {w}x{h}"].append(frames / (sim_cpu + time.process_time() - c1))
     note = f"place episode, {frames} frames, 20 Hz control / 500 Hz physics, operator camera"
@@ -194,7 +195,8 @@ def handoff(rounds: int = 24, width: int = 320, height: int = 180, span: int = 4
     seg = stored_segmentation_dtype(model)
     dtypes = {**IMAGE_DTYPES, "segmentation": seg}
 
-    shapes = {m: image_shape(m, width, height) for m in MODALITIES}
+    image = ImageSpec(width, height, "fast", ("operator",), MODALITIES)
+    shapes = {m: image.shape(m) for m in MODALITIES}
     # Each way: whether frames are deflated, and render_states' overlap and overlap_group.
     ways: dict[str, tuple[bool, bool, int | None]] = {
         "renderer only": (False, False, None),
@@ -210,8 +212,7 @@ def handoff(rounds: int = 24, width: int = 320, height: int = 180, span: int = 4
         on_frame = deflating(("operator",), shapes, dtypes)[1] if deflate else (lambda c, i: None)
         kw: dict[str, Any] = {"on_frame": on_frame, "overlap": overlap, "overlap_group": group}
         t0, c0 = time.perf_counter(), time.process_time()
-        render_states(model, frames, ("operator",), MODALITIES, width, height, "fast", segmentation_dtype=seg,
-                      indices=range(start, start + span), **kw)
+        render_states(model, frames, image, segmentation_dtype=seg, indices=range(start, start + span), **kw)
         return 1000 * (time.perf_counter() - t0) / span, 1000 * (time.process_time() - c0) / span
 
     names = list(ways)

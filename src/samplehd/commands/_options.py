@@ -7,13 +7,13 @@ from __future__ import annotations
 import argparse
 import math
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, SamplehdError
 
-__all__ = ["DefaultsHelpFormatter", "check_int", "check_names", "check_number", "check_out_dir", "check_out_file",
-           "split_names"]
+__all__ = ["DefaultsHelpFormatter", "add_render_preset", "check_int", "check_names", "check_number", "check_out_dir",
+           "check_out_file", "in_flags", "option_flags", "split_names"]
 
 
 _STATES_DEFAULT = re.compile(r"\bdefault[: ]", re.IGNORECASE)  # "(default 10)", "default: all", not "by default)"
@@ -34,6 +34,51 @@ class DefaultsHelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
             words = " ".join(str(v) for v in default) or "none"
             return f"{text} (default: {words.replace('%', '%%')})"
         return f"{text} (default: %(default)s)"
+
+
+_FIELD_REFERENCE = re.compile(r"`([a-z][a-z0-9_]*)`")
+
+
+def option_flags(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """Each option's destination -> its first flag (``render_preset`` -> ``--render-preset``), sub-commands'
+    options included."""
+    flags: dict[str, str] = {}
+    for action in parser._actions:
+        if action.option_strings:
+            flags.setdefault(action.dest, action.option_strings[0])
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                for dest, flag in option_flags(sub).items():
+                    flags.setdefault(dest, flag)
+    return flags
+
+
+def in_flags(exc: SamplehdError, flags: Mapping[str, str]) -> str:
+    """The message of a library error in the command line's words. The library names its parameters and
+    config fields: the subject of a message about one (``ray_address='x': ...``, ``resume: ...``, with
+    ``exc.field`` set) and, in backticks, the ones its advice mentions (``pass `resume` to continue it``).
+    Here each becomes its flag from ``flags`` (:func:`option_flags`): ``--ray-address 'x': ...``,
+    ``--resume: ...``, ``pass --resume to continue it``. A subject with no flag of its own is said as
+    ``--`` and the field with ``-`` for ``_``; a backticked name that is no option stays as it is.
+    """
+    text, field = str(exc), exc.field
+    if field:
+        flag = flags.get(field) or "--" + field.replace("_", "-")
+        if text.startswith(f"{field}="):
+            text = f"{flag} {text[len(field) + 1:]}"
+        elif text.startswith(f"{field}:"):
+            text = flag + text[len(field):]
+    return _FIELD_REFERENCE.sub(lambda m: flags.get(m.group(1), m.group(0)), text)
+
+
+def add_render_preset(parser: argparse.ArgumentParser, presets: Sequence[str], default: str,
+                      help: str = "render quality preset") -> None:
+    """``--render-preset NAME`` (dest ``render_preset``), one of ``presets`` (the render floor's list,
+    ``samplehd.render.image_spec.PRESET_NAMES``, passed in so that this module loads no renderer).
+    ``--preset`` stays an alias: it was the flag's name before ``generate --preset`` (a dataset preset) made
+    the word ambiguous, and scripts may use it."""
+    parser.add_argument("--render-preset", "--preset", dest="render_preset", choices=list(presets), default=default,
+                        help=f"{help} (--preset: the same, its former name)")
 
 
 def check_int(flag: str, value: int | None, lo: int | None = None, hi: int | None = None) -> None:

@@ -13,11 +13,11 @@ from typing import Any
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from samplehd.commands._options import DefaultsHelpFormatter, check_int, split_names
-from samplehd.dataset.export_lerobot import export_lerobot
-from samplehd.dataset.export_rerun import episode_location, export_rerun
-from samplehd.dataset.export_samplehd import export_samplehd
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
+from samplehd.export.lerobot import export_lerobot
+from samplehd.export.rerun_recording import episode_location, export_rerun
+from samplehd.export.sample_hd import export_samplehd
 from samplehd.workers import Backend, default_workers
 
 HELP = "export a dataset to LeRobot v3.0 or SAMPLE-HD's layout, or an episode to a Rerun recording"

@@ -7,9 +7,9 @@ import argparse
 from pathlib import Path
 
 from samplehd.commands._options import check_out_file
-from samplehd.dataset.export_mjcf import scene_mjcf_from_dataset, scene_mjcf_from_file
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
+from samplehd.export.mjcf import scene_mjcf_from_dataset, scene_mjcf_from_file
 from samplehd.scene.mjcf import export_mjcf
 from samplehd.scene.world import build_world
 

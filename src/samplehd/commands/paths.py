@@ -10,13 +10,14 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from samplehd.commands._options import check_int, check_names, check_out_dir, split_names
+from samplehd.commands._options import add_render_preset, check_int, check_names, check_out_dir, split_names
 from samplehd.dataset.outputs import check_outputs
 from samplehd.dataset.paths import format_summary, generate_paths
 from samplehd.dataset.render import RenderConfig
 from samplehd.envs.config import CAMERAS
 from samplehd.record.paths import PathConfig
-from samplehd.render.renderer import MODALITIES, get_preset
+from samplehd.render.image_spec import PRESET_NAMES
+from samplehd.render.renderer import MODALITIES
 from samplehd.workers import BACKENDS, Backend
 
 HELP = "generate ground-truth motion paths (HDF5 episodes) for instructions"
@@ -32,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help=f"space- or comma-separated: {', '.join(MODALITIES)}")
     parser.add_argument("--width", type=int, default=320, help="image width [px]")
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
-    parser.add_argument("--preset", default="fast", metavar="{fast,hd,photo}", help="render quality preset")
+    add_render_preset(parser, PRESET_NAMES, "fast")
     parser.add_argument("--workers", type=int, default=1, help="parallel worker processes")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="where work units run")
     parser.add_argument("--seed", type=int, default=0,
@@ -51,8 +52,7 @@ def run(args: argparse.Namespace) -> int:
         check_int(flag, value, lo, hi)
     check_out_dir("--out", args.out, empty=True)
     check_outputs({"--out": args.out}, {"--scenes": args.scenes, "--instructions": args.instructions})
-    get_preset(args.preset)  # also when no camera is rendered: a bad --preset is never ignored
-    render = (RenderConfig(args.preset, args.width, args.height, cameras, modalities) if cameras
+    render = (RenderConfig(args.render_preset, args.width, args.height, cameras, modalities) if cameras
               else RenderConfig("none", args.width, args.height))
     paths = PathConfig(max_attempts=args.max_attempts)
     backend = Backend(args.backend, args.workers)

@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from samplehd.commands._options import check_int, check_out_file
+from samplehd.commands._options import add_render_preset, check_int, check_out_file
 from samplehd.dataset.outputs import check_outputs
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_depth, save_rgb, save_segmentation
-from samplehd.render.renderer import SceneRenderer
+from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
 from samplehd.scene.world import compile_world
 
 HELP = "render RGB (and optionally depth / segmentation) from a named camera"
@@ -18,7 +18,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--camera", default="operator", help="camera name (operator, wrist, ...)")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px]")
-    parser.add_argument("--preset", default="hd", metavar="{fast,hd,photo}", help="render quality preset")
+    add_render_preset(parser, PRESET_NAMES, "hd")
     parser.add_argument("--out", required=True, type=Path, help="RGB output file (.png)")
     parser.add_argument("--depth", type=Path, help="depth output: .png (uint16 mm) or .npy (float32 m)")
     parser.add_argument("--segmentation", type=Path, help="instance-id PNG output")
@@ -42,8 +42,9 @@ def run(args: argparse.Namespace) -> int:
         modalities.append("depth")
     if args.segmentation:
         modalities.append("segmentation")
-    with SceneRenderer(model, args.width, args.height, args.preset) as renderer:
-        images = renderer.render(data, args.camera, modalities)
+    image = ImageSpec(args.width, args.height, args.render_preset, (args.camera,), modalities)
+    with image.renderer(model) as renderer:
+        images = renderer.render(data, args.camera, image.modalities)
     save_rgb(args.out, images["rgb"])
     print(f"wrote {args.out}")
     if args.depth:

@@ -6,12 +6,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from samplehd.commands._options import check_int, check_out_file
+from samplehd.commands._options import add_render_preset, check_int, check_out_file
 from samplehd.dataset.container import read_episode
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 from samplehd.record.replay import subtask_contact_sheet
 from samplehd.render.image_io import save_rgb
+from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
 from samplehd.render.renderer import camera_names
 from samplehd.render.states import render_states
 from samplehd.render.video import write_mp4
@@ -27,7 +28,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--camera", default="operator", help="camera name (operator, scene, wrist)")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px]")
-    parser.add_argument("--preset", default="fast", metavar="{fast,hd,photo}", help="render quality preset")
+    add_render_preset(parser, PRESET_NAMES, "fast")
     parser.add_argument("--sheet", type=Path, help="also write a per-subtask contact sheet (.png)")
 
 
@@ -47,11 +48,11 @@ def run(args: argparse.Namespace) -> int:
     model, _ = compile_scene(scene, 1.0 / float(ep.info.get("physics_hz", 500.0)))
     if args.camera not in camera_names(model):
         raise ConfigError(f"--camera {args.camera!r}: unknown; valid: {', '.join(camera_names(model))}")
-    images = render_states(model, ep.frames, (args.camera,), ("rgb",), args.width, args.height, args.preset)
+    images = render_states(model, ep.frames, ImageSpec(args.width, args.height, args.render_preset, (args.camera,)))
     rgb = images[args.camera]["rgb"]
     write_mp4(args.out, rgb, float(ep.info.get("control_hz", 20.0)))
     print(f"wrote {args.out} ({len(rgb)} frames)")
     if args.sheet:
-        save_rgb(args.sheet, subtask_contact_sheet(model, ep, args.camera, 320, 180, args.preset))
+        save_rgb(args.sheet, subtask_contact_sheet(model, ep, ImageSpec(320, 180, args.render_preset, (args.camera,))))
         print(f"wrote {args.sheet}")
     return 0

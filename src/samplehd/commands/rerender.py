@@ -7,10 +7,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from samplehd.commands._options import split_names
+from samplehd.commands._options import add_render_preset, split_names
 from samplehd.dataset.progress import RichProgress
 from samplehd.dataset.render import RenderConfig, check_render_applies
 from samplehd.dataset.rerender import rerender_dataset
+from samplehd.render.image_spec import PRESET_NAMES
 from samplehd.render.renderer import MODALITIES
 from samplehd.workers import BACKENDS, Backend, default_workers
 
@@ -24,7 +25,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--height", type=int, default=180, help="image height [px]")
     parser.add_argument("--modalities", nargs="+", default=list(MODALITIES),
                         help="rgb depth segmentation")
-    parser.add_argument("--preset", metavar="{fast,hd,photo}", default="fast", help="render quality")
+    add_render_preset(parser, PRESET_NAMES, "fast", "render quality")
     parser.add_argument("--every", type=int, default=1,
                         help="images at every N-th frame only (keyframes; 0: only --subtask-ends); the dataset "
                              "records which frames of each camera have images")
@@ -43,7 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    render = RenderConfig.from_dict({"mode": args.preset, "width": args.width, "height": args.height,
+    render = RenderConfig.from_dict({"mode": args.render_preset, "width": args.width, "height": args.height,
                                      "cameras": split_names(args.cameras, "--cameras"),
                                      "modalities": split_names(args.modalities, "--modalities"),
                                      "every": args.every, "subtask_ends": args.subtask_ends, "look": args.photo_look},

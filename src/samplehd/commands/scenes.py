@@ -13,12 +13,13 @@ from PIL import Image
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-from samplehd.commands._options import check_int, check_out_dir, check_out_file
+from samplehd.commands._options import add_render_preset, check_int, check_out_dir, check_out_file
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.render.contact_sheet import contact_sheet
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
+from samplehd.render.image_spec import PRESET_NAMES
 from samplehd.render.renderer import get_preset
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.generate import generate_scenes
@@ -35,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, help="JSON file with a 'scene' section of sampler options")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px] (16:9 by default)")
-    parser.add_argument("--preset", metavar="{fast,hd,photo}", default="fast", help="render quality")
+    add_render_preset(parser, PRESET_NAMES, "fast", "render quality")
     parser.add_argument("--photo-look", default="fixed",
                         help="photo preset: 'fixed' look, or 'random' lights, colour temperature, textures and "
                              "exposure drawn from each scene's seed (recorded in its annotation)")
@@ -86,8 +87,9 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--out {args.out}: holds other files (a dataset?); choose a new or empty folder")
     check_out_file("--sheet", args.sheet, (".png", ".jpg"))
     check_outputs({"--out": args.out, "--sheet": args.sheet}, {"--config": args.config})
-    if args.photo_look != "fixed" and not get_preset(args.preset).path_traced:
-        raise ConfigError(f"--photo-look {args.photo_look}: only used with --preset photo, not {args.preset!r}")
+    if args.photo_look != "fixed" and not get_preset(args.render_preset).path_traced:
+        raise ConfigError(f"--photo-look {args.photo_look}: only used with --render-preset photo, "
+                          f"not {args.render_preset!r}")
     config = load_scene_config(args.config)
     check_scene_config(config)
     console = Console(stderr=True)
@@ -100,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         def tick(done: int) -> None:
             progress.update(task, completed=done, rate=done / (time.perf_counter() - t0))
 
-        summary = generate_scenes(args.out, args.num, args.seed, config, args.width, args.height, args.preset,
+        summary = generate_scenes(args.out, args.num, args.seed, config, args.width, args.height, args.render_preset,
                                   args.workers, on_scene=tick, photo_look=args.photo_look)
     dt = time.perf_counter() - t0
     if args.sheet:

@@ -1,4 +1,5 @@
-"""samplehd.dataset: the on-disk dataset format, generation, re-rendering, export, validation, stats.
+"""samplehd.dataset: the on-disk dataset format, generation, re-rendering, validation, stats (the exports
+to other formats are :mod:`samplehd.export`).
 
 The stable entry points are :class:`samplehd.dataset.reader.DatasetReader` (read a dataset) and
 :func:`samplehd.dataset.container.read_episode` / :func:`~samplehd.dataset.container.write_episode`

@@ -24,7 +24,7 @@ from samplehd.fileio import read_json
 from samplehd.record.paths import PathConfig
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import check_scene_config
-from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.schema import Config, bounded
 from samplehd.tasks.task import family_names
 
 __all__ = [
@@ -40,7 +40,7 @@ _BALANCE = ("templates", "families")
 
 
 @dataclass(frozen=True)
-class InstructionConfig:
+class InstructionConfig(Config, section="instructions"):
     """How instruction candidates are generated.
 
     Attributes:
@@ -54,20 +54,9 @@ class InstructionConfig:
     balance: str = bounded("templates", choices=_BALANCE)
     families: tuple[str, ...] | None = bounded(None, choices=family_names, nonempty=True, unique=True)
 
-    def __post_init__(self) -> None:
-        check_fields(self, "instructions")
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"per_scene": self.per_scene, "balance": self.balance,
-                "families": list(self.families) if self.families is not None else None}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any], where: str = "instructions") -> InstructionConfig:
-        return from_mapping(cls, d, where)
-
 
 @dataclass(frozen=True)
-class GenerateConfig:
+class GenerateConfig(Config, section="config"):
     """Everything that decides a dataset's content (not how fast it is made).
 
     Attributes:
@@ -92,29 +81,15 @@ class GenerateConfig:
     paths: PathConfig = field(default_factory=PathConfig)
     render: RenderConfig = field(default_factory=RenderConfig)
 
-    def __post_init__(self) -> None:
-        check_fields(self, "config")
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "num_scenes": self.num_scenes,
-            "seed": self.seed,
-            "target_episodes": self.target_episodes,
-            "test_every": self.test_every,
-            "scene": self.scene.to_dict(),
-            "instructions": self.instructions.to_dict(),
-            "paths": self.paths.to_dict(),
-            "render": self.render.to_dict(),
-        }
-
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any], where: str = "config", base: GenerateConfig | None = None
+    def from_dict(cls, d: Mapping[str, Any], where: str | None = None, base: GenerateConfig | None = None
                   ) -> GenerateConfig:
         """Build from a mapping; missing keys come from ``base`` (default: the defaults).
 
         Raises:
-            ConfigError: an unknown key or a bad value, naming ``where`` and the field.
+            ConfigError: an unknown key or a bad value, naming ``where`` (default ``config``) and the field.
         """
+        where = cls._section if where is None else where
         if not isinstance(d, Mapping):
             raise ConfigError(f"{where}: expected a JSON object")
         base = base or cls()
@@ -197,7 +172,7 @@ def load_config(path: Path | None, base: GenerateConfig) -> GenerateConfig:
     """Apply a JSON config file to ``base``; errors name the file and field."""
     if path is None:
         return base
-    doc = read_json(path, ConfigError, f"--config {path}")
+    doc = read_json(path, ConfigError, f"config={path}", field="config")
     config = GenerateConfig.from_dict(doc, where=str(path), base=base)
     check_names(config, where=str(path))
     render = doc.get("render")

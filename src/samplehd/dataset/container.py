@@ -112,7 +112,7 @@ def write_error(path: Path, exc: BaseException, retry: str = "run the same comma
     Args:
         path: the file that could not be written.
         exc: the error.
-        retry: how to continue once space is freed (``generate`` says ``run again with --resume``).
+        retry: how to continue once space is freed (``generate`` says ``run again with `resume```).
     """
     err = getattr(exc, "errno", None)
     text = str(exc)
@@ -120,7 +120,7 @@ def write_error(path: Path, exc: BaseException, retry: str = "run the same comma
         return DatasetError(f"{path}: cannot write: the disk is full (no space left on device); free space "
                             f"and {retry}")
     if err in (errno.EACCES, errno.EPERM, errno.EROFS) or "Permission denied" in text:
-        return DatasetError(f"{path}: cannot write: permission denied; choose a writable --out")
+        return DatasetError(f"{path}: cannot write: permission denied; choose a writable `out`")
     return DatasetError(f"{path}: cannot write: {getattr(exc, 'strerror', None) or text}")
 
 
@@ -187,7 +187,7 @@ def render_record(per_camera: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]
 def _missing_frame(where: str, t: int, frames: np.ndarray) -> DatasetError:
     shown = ", ".join(str(int(f)) for f in frames[:8]) + (", ..." if len(frames) > 8 else "")
     return DatasetError(f"{where}: frame {t} has no image; this camera has images at {len(frames)} keyframes "
-                        f"({shown}); re-render without --every/--subtask-ends for every frame")
+                        f"({shown}); re-render without `every`/`subtask_ends` for every frame")
 
 
 def _write_images(group: h5py.Group, images: Mapping[str, Mapping[str, np.ndarray]]) -> None:
@@ -593,8 +593,8 @@ def merge_camera_settings(old: Mapping[str, Mapping[str, Any]], render: RenderCo
         left = [m for m in prev["modalities"] if m not in s["modalities"]]
         if left:
             raise DatasetError(
-                f"camera {cam!r} is stored at {describe_settings(prev)} with {', '.join(left)}, which --add would "
-                f"keep beside new {describe_settings(s)} images; add --modalities {' '.join(prev['modalities'])} "
-                f"to re-render all of them, or re-render without --add")
+                f"camera {cam!r} is stored at {describe_settings(prev)} with {', '.join(left)}, which `add` would "
+                f"keep beside new {describe_settings(s)} images; add `modalities` {' '.join(prev['modalities'])} "
+                f"to re-render all of them, or re-render without `add`")
         out[cam] = s
     return out

@@ -70,6 +70,7 @@ from samplehd.language.instruction_file import generate_instruction_file
 from samplehd.scene.annotate import image_stem
 from samplehd.scene.generate import SceneJob, scene_split
 from samplehd.scene.sampler import check_scene_config
+from samplehd.scene.spec import SceneSpec
 from samplehd.version import __version__
 from samplehd.workers import Backend
 from samplehd.world.seeding import episode_seed, scene_seed
@@ -143,14 +144,14 @@ def _first_difference(a: Any, b: Any, where: str = "") -> str | None:
 def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
     info_path = out / INFO_FILE
     if out.exists() and not out.is_dir():
-        raise DatasetError(f"--out {out}: exists and is not a directory")
+        raise DatasetError(f"out={out}: exists and is not a directory", field="out")
     if resume and not info_path.exists():
         what = "does not exist" if not out.exists() else "holds no dataset (no info.json)"
-        raise DatasetError(f"--resume: {out} {what}; leave out --resume to start a new dataset there")
+        raise DatasetError(f"resume: {out} {what}; leave out `resume` to start a new dataset there", field="resume")
     if info_path.exists():
         if not resume:
-            raise DatasetError(f"--out {out}: already holds a dataset; pass --resume to continue it or choose "
-                               f"another --out")
+            raise DatasetError(f"out={out}: already holds a dataset; pass `resume` to continue it or choose "
+                               f"another `out`", field="out")
         try:
             stored_info = json.loads(info_path.read_text())
             stored = stored_info["config"]
@@ -159,16 +160,17 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
         _check_resumable(out, stored_info)
         diff = _first_difference(stored, json.loads(json.dumps(config.to_dict())))
         if diff:
-            raise ConfigError(f"--resume: the config differs from {info_path} at {diff}; resume with the same "
-                              f"preset/config/flags")
+            raise ConfigError(f"resume: the config differs from {info_path} at {diff}; resume with the same "
+                              f"preset/config/flags", field="resume")
         if isinstance(stored_info.get("catalogue"), dict):
             changed = _catalogue_difference(stored_info["catalogue"], catalogue_in_use(config))
             if changed:
-                raise ConfigError(f"--resume: {info_path} catalogue.sha256 does not match the catalogue now "
+                raise ConfigError(f"resume: {info_path} catalogue.sha256 does not match the catalogue now "
                                   f"({changed} changed since the dataset was started); resume with the "
-                                  "catalogue it was made with, or start a new --out")
+                                  "catalogue it was made with, or start a new `out`", field="resume")
     elif out.is_dir() and _holds_files(out):
-        raise DatasetError(f"--out {out}: is not empty and holds no dataset; choose an empty or new directory")
+        raise DatasetError(f"out={out}: is not empty and holds no dataset; choose an empty or new directory",
+                           field="out")
     try:
         for sub in _LAYOUT_DIRS:
             (out / sub).mkdir(parents=True, exist_ok=True)
@@ -176,7 +178,8 @@ def _prepare(out: Path, config: GenerateConfig, resume: bool) -> None:
         probe.write_text("")
         probe.unlink()
     except OSError as exc:
-        raise DatasetError(f"--out {out}: not writable ({exc.strerror}); choose a writable directory") from None
+        raise DatasetError(f"out={out}: not writable ({exc.strerror}); choose a writable directory",
+                           field="out") from None
     for folder in (out, out / SCENE_DIR, out / EPISODE_DIR):
         for p in folder.iterdir():
             if is_temporary(p.name) and p.is_file():
@@ -264,13 +267,13 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
                 scene = json.loads(path(following).read_text())
             except (OSError, ValueError) as exc:
                 raise DatasetError(f"{path(following)}: unreadable scene file ({exc}); delete it and run with "
-                                   "--resume") from None
+                                   "`resume`") from None
             following += 1
             yield scene
 
     yield from ready()
     for job, res in backend.map(run_scene_unit, iter(jobs)):
-        summary.scene_cpu_seconds += float(res.get("cpu_seconds", 0.0))
+        summary.scene_cpu_seconds += res.cpu_seconds
         progress.advance("scenes")
         done[job.index] = True
         yield from ready()
@@ -287,7 +290,7 @@ def _instruction_stage(out: Path, config: GenerateConfig, scenes: Iterator[dict[
         try:
             doc = json.loads(path.read_text())
         except (OSError, ValueError) as exc:
-            raise DatasetError(f"{path}: unreadable ({exc}); delete it and run with --resume") from None
+            raise DatasetError(f"{path}: unreadable ({exc}); delete it and run with `resume`") from None
         progress.advance("instructions", len(seen))
         return seen, list(doc["instructions"])
     seen = []
@@ -386,24 +389,25 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
             s = scene_by_index[key[0]]
             yield EpisodeUnit(out=str(out), file=Path(c["file"]).name, scene_index=key[0], slot=key[1],
                               seed=int(c["seed"]), family=str(c["family"]), task=dict(c["task"]),
-                              instruction=str(c["instruction"]), split=str(c["split"]), scene=s["spec"],
-                              directions=s["directions"], paths=config.paths.to_dict(),
-                              render=config.render.to_dict())
+                              instruction=str(c["instruction"]), split=str(c["split"]),
+                              scene=SceneSpec.from_dict(s["spec"]), directions=s["directions"], paths=config.paths,
+                              render=config.render)
 
     position = {k: i for i, k in enumerate(order)}
     for unit, res in backend.map(run_episode_unit, units()):
         key = (unit.scene_index, unit.slot)
-        append_journal(out, [res])
-        known[key] = res
-        cutoff.record(key, res["status"] == "ok")
+        record = res.to_dict()
+        append_journal(out, [record])
+        known[key] = record
+        cutoff.record(key, res.ok)
         summary.units_run += 1
-        summary.work_seconds += float(res.get("seconds", 0.0))
-        summary.cpu_seconds += float(res.get("cpu_seconds", 0.0))
+        summary.work_seconds += res.seconds
+        summary.cpu_seconds += res.cpu_seconds
         if cutoff.end is not None and position[key] >= cutoff.end:
             continue
-        progress.advance("paths", 1, int(res.get("num_frames", 0)))
-        if res["status"] != "ok":
-            progress.note(f"scene {key[0]} slot {key[1]}: rejected ({res['reason']})")
+        progress.advance("paths", 1, res.num_frames or 0)
+        if not res.ok:
+            progress.note(f"scene {key[0]} slot {key[1]}: rejected ({res.reason})")
     if cutoff.end is not None:
         progress.stage("paths", cutoff.end, cutoff.end)
     cutoff.known = known  # type: ignore[attr-defined]

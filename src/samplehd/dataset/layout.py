@@ -39,7 +39,7 @@ SCENE_DIR = "scenes"
 EPISODE_DIR = "episodes"
 EPISODE_SUFFIX = ".h5"
 # What a failed write during generation tells the user to do once the cause is fixed.
-RESUME_HINT = "run the same generate command again with --resume"
+RESUME_HINT = "run the same generate command again with `resume`"
 # Temporary files start with a dot and contain this mark; readers skip them.
 TMP_MARK = ".tmp-"
 

@@ -32,6 +32,7 @@ from samplehd.language.executor import execute
 from samplehd.language.instruction_file import read_instructions
 from samplehd.language.scene import parse_scene
 from samplehd.record.paths import PathConfig
+from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.task import family_names, parse_task
 from samplehd.workers import Backend
 from samplehd.world.seeding import episode_seed
@@ -135,7 +136,7 @@ def generate_paths(
     render = render or RenderConfig(mode="none")
     backend = backend or Backend()
     if limit < 0:
-        raise ConfigError(f"--limit {limit}: must be ≥ 0 (0: all)")
+        raise ConfigError(f"limit={limit}: must be ≥ 0 (0: all)", field="limit")
     check_cameras(render)
     scenes = load_scenes(scenes_path)
     entries = read_instructions(instructions_path)["instructions"]
@@ -152,29 +153,29 @@ def generate_paths(
         unit = EpisodeUnit(out=str(out), file=episode_name(scene_index, slot), scene_index=scene_index, slot=slot,
                            seed=episode_seed(seed, scene_index, slot), family=str(e["family"]), task=dict(e["task"]),
                            instruction=str(e["instruction"]), split=str(e.get("split", s.get("split", "train"))),
-                           scene=s["spec"], directions=s.get("directions"), paths=paths.to_dict(),
-                           render=render.to_dict())
+                           scene=SceneSpec.from_dict(s["spec"]), directions=s.get("directions"), paths=paths,
+                           render=render)
         units.append(unit)
         meta[(scene_index, slot)] = int(e.get("instruction_index", k))
     try:
         (out / EPISODE_DIR).mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        raise DatasetError(f"--out {out}: not writable ({exc.strerror}); choose a writable directory") from None
+        raise DatasetError(f"out={out}: not writable ({exc.strerror}); choose a writable directory",
+                           field="out") from None
     write_json_atomic(out / "config.json", {"scenes": str(scenes_path), "instructions": str(instructions_path),
                                             "seed": seed, "limit": limit, "paths": paths.to_dict(),
                                             "render": render.to_dict(), "backend": backend.describe()}, indent=2)
     results: list[dict[str, Any]] = []
     with (out / "results.jsonl").open("w", encoding="utf-8") as log:
         for unit, res in backend.map(run_episode_unit, units):
-            ok = res["status"] == "ok"
             r = {"instruction_index": meta[(unit.scene_index, unit.slot)], "scene_index": unit.scene_index,
-                 "slot": unit.slot, "family": unit.family, "seed": unit.seed, "success": ok,
-                 "attempts": int(res.get("attempts", 1)), "frames": int(res.get("num_frames", 0)),
-                 "seconds": float(res["seconds"])}
-            if ok:
+                 "slot": unit.slot, "family": unit.family, "seed": unit.seed, "success": res.ok,
+                 "attempts": 1 if res.attempts is None else res.attempts, "frames": res.num_frames or 0,
+                 "seconds": res.seconds}
+            if res.ok:
                 r["file"] = f"{EPISODE_DIR}/{unit.file}"
             else:
-                r.update(reason=res["reason"], message=res.get("message", ""))
+                r.update(reason=res.reason, message=res.message or "")
             results.append(r)
             log.write(json.dumps(r) + "\n")
             log.flush()

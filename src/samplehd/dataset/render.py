@@ -16,27 +16,22 @@ import numpy as np
 
 from samplehd.errors import ConfigError
 from samplehd.render.deflated import deflating
+from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
 from samplehd.render.keyframes import SparseFrames, keyframe_indices
 from samplehd.render.photo import LOOKS, photo_options
-from samplehd.render.renderer import (
-    IMAGE_DTYPES,
-    MODALITIES,
-    camera_names,
-    get_preset,
-    image_shape,
-    stored_segmentation_dtype,
-)
+from samplehd.render.renderer import IMAGE_DTYPES, MODALITIES, camera_names, get_preset, stored_segmentation_dtype
 from samplehd.render.states import LiveStates, render_live, render_states
 from samplehd.scene.world import compile_world
-from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.schema import Config, bounded
 
 __all__ = ["RENDER_MODES", "RenderConfig", "check_render_applies", "check_cameras"]
 
-RENDER_MODES = ("none", "fast", "hd", "photo")
+# ``none`` (states only) or a render preset.
+RENDER_MODES = ("none", *PRESET_NAMES)
 
 
 @dataclass(frozen=True)
-class RenderConfig:
+class RenderConfig(Config, section="render"):
     """Which images an episode gets.
 
     Attributes:
@@ -61,7 +56,7 @@ class RenderConfig:
     look: str = bounded("fixed", choices=LOOKS)
 
     def __post_init__(self) -> None:
-        check_fields(self, "render")
+        super().__post_init__()
         keyframe_indices(0, self.every, None, self.subtask_ends)  # validates every
 
     def keyframes(self, num_frames: int, subtask_index: np.ndarray | None) -> np.ndarray:
@@ -71,6 +66,17 @@ class RenderConfig:
     @property
     def enabled(self) -> bool:
         return self.mode != "none"
+
+    @property
+    def image(self) -> ImageSpec:
+        """The image request of this config (mode ``none`` has none).
+
+        Raises:
+            ValueError: mode ``none``.
+        """
+        if not self.enabled:
+            raise ValueError("render mode 'none' requests no images")
+        return ImageSpec(self.width, self.height, self.mode, self.cameras, self.modalities)
 
     def images(self, model: mujoco.MjModel, frames: Mapping[str, np.ndarray],
                seed: int = 0, deflated: bool = False) -> dict[str, dict[str, Any]]:
@@ -92,7 +98,7 @@ class RenderConfig:
         t = len(frames["qpos"])
         picks = self.keyframes(t, frames.get("subtask_index"))
         photo = photo_options(self.look, seed, where="render.look") if get_preset(self.mode).path_traced else None
-        args = (model, frames, self.cameras, self.modalities, self.width, self.height, self.mode)
+        args = (model, frames, self.image)
         if deflated:
             seg = stored_segmentation_dtype(model)
             streams, keep = self._deflating(seg)
@@ -108,7 +114,8 @@ class RenderConfig:
     def _deflating(self, segmentation_dtype: Any) -> tuple[dict[str, dict[str, Any]], Any]:
         """Empty deflated streams of this config's images, and the ``on_frame`` that fills them."""
         dtypes = {**IMAGE_DTYPES, "segmentation": segmentation_dtype}
-        return deflating(self.cameras, {m: image_shape(m, self.width, self.height) for m in self.modalities}, dtypes)
+        image = self.image
+        return deflating(image.cameras, {m: image.shape(m) for m in image.modalities}, dtypes)
 
     @property
     def every_frame(self) -> bool:
@@ -139,8 +146,7 @@ class RenderConfig:
             kept[:] = [dict(streams)]
             return keep
 
-        done = render_live(model, live, on_attempt, self.cameras, self.modalities, self.width, self.height,
-                           self.mode, photo=photo, segmentation_dtype=seg)
+        done = render_live(model, live, on_attempt, self.image, photo=photo, segmentation_dtype=seg)
         return None if done is None else kept[0]
 
     def to_dict(self) -> dict[str, Any]:
@@ -154,10 +160,6 @@ class RenderConfig:
         if self.look != "fixed":
             d["look"] = self.look
         return d
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any], where: str = "render") -> RenderConfig:
-        return from_mapping(cls, d, where)
 
 
 def check_cameras(config: RenderConfig) -> None:
@@ -198,7 +200,7 @@ def check_render_applies(render: RenderConfig, given: Mapping[str, str]) -> None
         for name in _IMAGE_FIELDS:
             if name in given:
                 raise ConfigError(f"{given[name]}: render.{name} does nothing with render mode 'none' (states "
-                                  f"only); remove it or choose a render mode (fast, hd, photo)")
+                                  f"only); remove it or choose a render mode ({', '.join(PRESET_NAMES)})")
     elif "look" in given and not get_preset(render.mode).path_traced:
         raise ConfigError(f"{given['look']}: render.look is for the photo preset only, not {render.mode!r}; remove "
                           f"it or render with photo")

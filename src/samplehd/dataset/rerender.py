@@ -33,6 +33,8 @@ from samplehd.dataset.render import RenderConfig, check_cameras
 from samplehd.dataset.work import RenderUnit, run_render_unit
 from samplehd.errors import DatasetError
 from samplehd.fileio import file_sha256, write_json_atomic
+from samplehd.render.image_spec import PRESET_NAMES
+from samplehd.scene.spec import SceneSpec
 from samplehd.workers import Backend
 
 __all__ = ["rerender_dataset"]
@@ -60,7 +62,8 @@ def rerender_dataset(root: str | Path, render: RenderConfig, backend: Backend | 
         ConfigError: unknown camera.
     """
     if not render.enabled:
-        raise DatasetError("rerender needs a render preset (fast, hd or photo), not 'none'")
+        raise DatasetError(f"rerender needs a render preset ({', '.join(PRESET_NAMES[:-1])} or {PRESET_NAMES[-1]}), "
+                           "not 'none'")
     check_cameras(render)
     root = Path(root)
     DatasetReader(root)  # a dataset folder (a clear refusal before the lock is tried)
@@ -101,11 +104,12 @@ def _rerender(root: Path, render: RenderConfig, backend: Backend | None, progres
             raise DatasetError(
                 f"{path}: would hold cameras {_cameras(want)} but {first} {_cameras(result)}: the episodes "
                 f"differ (an interrupted rerender with other settings?); finish that rerender first (run it "
-                f"again) or re-render without --add")
+                f"again) or re-render without `add`")
         if old == want:
             skipped += 1
         else:
-            units.append(RenderUnit(str(path), scenes[e.scene_index], physics_hz, render.to_dict(), replace=not add))
+            scene = SceneSpec.from_dict(scenes[e.scene_index])
+            units.append(RenderUnit(str(path), scene, physics_hz, render, replace=not add))
     progress.stage("rerender", len(reader.episodes), skipped)
     # info.json follows the disk at every moment: each episode is replaced atomically by its unit, and
     # its size and digest are written to info.json (atomically) as soon as it is done; while the
@@ -121,12 +125,12 @@ def _rerender(root: Path, render: RenderConfig, backend: Backend | None, progres
         write_json_atomic(root / INFO_FILE, info, indent=1)
     frames = 0
     for _, res in backend.map(run_render_unit, iter(units)):
-        frames += int(res["num_frames"])
-        entry = by_file[str(Path(res["path"]).resolve())]
-        entry["size"], entry["sha256"] = int(res["size"]), str(res["sha256"])
+        frames += res.num_frames
+        entry = by_file[str(Path(res.path).resolve())]
+        entry["size"], entry["sha256"] = res.size, res.sha256
         info["rerender"]["done"] += 1
         write_json_atomic(root / INFO_FILE, info, indent=1)
-        progress.advance("rerender", 1, int(res["num_frames"]))
+        progress.advance("rerender", 1, res.num_frames)
     # Refresh sizes and digests of every file (also those finished by an interrupted earlier run).
     for entry in info["episodes"]:
         p = root / entry["file"]

@@ -1,6 +1,7 @@
 """Work units of dataset generation: pure functions of their (picklable) inputs.
 
-A unit writes its own output file atomically and returns a small JSON-able result to the
+A unit carries its typed configs, writes its own output file atomically and returns a small result
+(a frozen dataclass; an episode's is its journal record, :meth:`EpisodeResult.to_dict`) to the
 coordinating process. Units never share state, so any worker (a local process, a Ray task) can run
 any unit in any order and the files come out the same.
 """
@@ -14,7 +15,7 @@ import time
 import traceback
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -41,10 +42,28 @@ from samplehd.render.states import LiveStates
 from samplehd.scene.generate import render_scene_files
 from samplehd.scene.spec import SceneSpec, compile_scene
 
-__all__ = ["EpisodeUnit", "RenderUnit", "run_episode_unit", "run_render_unit", "run_scene_unit"]
+__all__ = ["EpisodeResult", "EpisodeUnit", "RenderResult", "RenderUnit", "SceneResult", "run_episode_unit",
+           "run_render_unit", "run_scene_unit"]
 
 
-def run_scene_unit(job: Any) -> dict[str, Any]:
+@dataclass(frozen=True)
+class SceneResult:
+    """What one scene unit did.
+
+    Attributes:
+        index: the scene.
+        rejections: rejected placements by reason.
+        seconds: wall time [s].
+        cpu_seconds: CPU time of the unit's process [s].
+    """
+
+    index: int
+    rejections: dict[str, int] = field(default_factory=dict)
+    seconds: float = 0.0
+    cpu_seconds: float = 0.0
+
+
+def run_scene_unit(job: Any) -> SceneResult:
     """Sample, render and annotate one scene (``samplehd.scene.generate.SceneJob``)."""
     t0, c0 = time.perf_counter(), time.process_time()
     try:
@@ -54,8 +73,7 @@ def run_scene_unit(job: Any) -> dict[str, Any]:
         if isinstance(cause, OSError):
             raise write_error(Path(job.out) / "scenes", cause, RESUME_HINT) from None
         raise
-    return {"index": job.index, "rejections": rejections, "seconds": time.perf_counter() - t0,
-            "cpu_seconds": time.process_time() - c0}
+    return SceneResult(job.index, rejections, time.perf_counter() - t0, time.process_time() - c0)
 
 
 @dataclass(frozen=True)
@@ -72,10 +90,10 @@ class EpisodeUnit:
         task: the executor's task dict.
         instruction: instruction text (stored in the file).
         split: train or test.
-        scene: ``SceneSpec.to_dict()``.
-        directions: the scene's direction vectors.
-        paths: ``PathConfig.to_dict()``.
-        render: ``RenderConfig.to_dict()``.
+        scene: the scene.
+        directions: the scene's direction vectors (``scenes.json``'s ``directions``).
+        paths: ground-truth path settings.
+        render: which images the episode gets.
     """
 
     out: str
@@ -87,13 +105,63 @@ class EpisodeUnit:
     task: dict[str, Any]
     instruction: str
     split: str
-    scene: dict[str, Any]
-    directions: dict[str, Any]
-    paths: dict[str, Any]
-    render: dict[str, Any]
+    scene: SceneSpec
+    directions: dict[str, Any] | None
+    paths: PathConfig
+    render: RenderConfig
 
 
-def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
+@dataclass(frozen=True)
+class EpisodeResult:
+    """What one episode unit did; :meth:`to_dict` is its record in ``journal.jsonl``.
+
+    Attributes:
+        scene_index: the scene.
+        slot: the instruction's position among the scene's candidates.
+        status: ``ok`` (the episode file is written) or ``rejected``.
+        seconds: wall time of the unit [s].
+        cpu_seconds: CPU time of the unit's process [s].
+        reason: why it was rejected (a countable key, e.g. ``checker_failed``, ``error_ValueError``).
+        message: the rejection's first line.
+        attempts: attempts made (a rejection by an error in the planner does not count them).
+        num_frames: frames of the written episode.
+        size: bytes of the written file.
+        sha256: digest of the written file.
+        path_seconds: wall time of planning and execution [s] (they overlap the images when those are
+            drawn beside the path).
+        render_seconds: wall time of the images [s].
+        path_cpu_seconds: CPU time of planning and execution [s].
+        render_cpu_seconds: CPU time of the images [s].
+        write_cpu_seconds: CPU time of writing the file [s].
+    """
+
+    scene_index: int
+    slot: int
+    status: str
+    seconds: float
+    cpu_seconds: float
+    reason: str | None = None
+    message: str | None = None
+    attempts: int | None = None
+    num_frames: int | None = None
+    size: int | None = None
+    sha256: str | None = None
+    path_seconds: float | None = None
+    render_seconds: float | None = None
+    path_cpu_seconds: float | None = None
+    render_cpu_seconds: float | None = None
+    write_cpu_seconds: float | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    def to_dict(self) -> dict[str, Any]:
+        """The journal record: the fields that apply to this outcome (the others are left out)."""
+        return {f.name: v for f in dataclasses.fields(self) if (v := getattr(self, f.name)) is not None}
+
+
+def run_episode_unit(unit: EpisodeUnit) -> EpisodeResult:
     """Plan and execute one instruction, render its images from the stored states, write the file.
 
     With images at every frame, the path runs on a helper thread and this one draws each state as soon as it
@@ -102,20 +170,15 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     drawn of it so far (the physics outruns the renderer about twentyfold, so few).
 
     Returns:
-        ``{scene_index, slot, status: ok|rejected, reason, message, attempts, num_frames, size, sha256,
-        seconds, cpu_seconds}``; an ok one also ``path_seconds``, ``render_seconds`` (wall; they overlap when
-        the images are drawn beside the path) and ``path_cpu_seconds``, ``render_cpu_seconds``,
-        ``write_cpu_seconds`` (CPU time of planning and execution, of the images, of writing the file).
+        Its outcome: rejected (``reason``, ``message``, ``attempts``) or ok (the file's ``num_frames``,
+        ``size``, ``sha256``, and the times of its parts).
 
     Raises:
         DatasetError: the episode file cannot be written (disk full, permissions).
     """
 
     t0, c0 = time.perf_counter(), time.process_time()
-    base = {"scene_index": unit.scene_index, "slot": unit.slot}
-    config = PathConfig.from_dict(unit.paths)
-    render = RenderConfig.from_dict(unit.render)
-    scene = SceneSpec.from_dict(unit.scene)
+    config, render, scene = unit.paths, unit.render, unit.scene
     # The grasp welds add no degrees of freedom: the same model serves the path and the images.
     compile_fn = compile_scene_with_assist if config.grasp_assist else compile_scene
     model, data = compile_fn(scene, 1.0 / config.physics_hz)
@@ -132,15 +195,15 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
         else:
             episode = path.timed(run)
     except PathRejected as exc:
-        return {**base, "status": "rejected", "reason": exc.reason, "message": str(exc).splitlines()[0][:300],
-                "attempts": len(exc.attempts), "seconds": time.perf_counter() - t0,
-                "cpu_seconds": time.process_time() - c0}
+        return EpisodeResult(unit.scene_index, unit.slot, "rejected", time.perf_counter() - t0,
+                             time.process_time() - c0, reason=exc.reason, message=str(exc).splitlines()[0][:300],
+                             attempts=len(exc.attempts))
     except (PlanningError, ValueError, IndexError, KeyError, ArithmeticError) as exc:
         # A planner bug on one instance must not stop a 10-hour run; it is counted and reported.
         where = traceback.extract_tb(exc.__traceback__)[-1]
-        return {**base, "status": "rejected", "reason": f"error_{type(exc).__name__}",
-                "message": f"{exc} ({Path(where.filename).name}:{where.lineno})"[:300],
-                "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
+        return EpisodeResult(unit.scene_index, unit.slot, "rejected", time.perf_counter() - t0,
+                             time.process_time() - c0, reason=f"error_{type(exc).__name__}",
+                             message=f"{exc} ({Path(where.filename).name}:{where.lineno})"[:300])
     if images is None and render.enabled:
         images = render.images(model, episode.frames, seed=scene.seed, deflated=True)
     if images is not None:
@@ -150,12 +213,11 @@ def run_episode_unit(unit: EpisodeUnit) -> dict[str, Any]:
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
     written = write_episode(file, episode, extra, render.to_dict() if render.enabled else None, retry=RESUME_HINT)
     c3 = time.process_time()
-    return {**base, "status": "ok", "attempts": int(episode.info.get("attempts", 1)),
-            "num_frames": written.num_frames, "size": written.size,
-            "sha256": written.sha256, "seconds": time.perf_counter() - t0, "cpu_seconds": c3 - c0,
-            "path_seconds": t1 - t0 + path.wall, "render_seconds": t2 - t1 - (0 if beside else path.wall),
-            "path_cpu_seconds": c1 - c0 + path.cpu, "render_cpu_seconds": c2 - c1 - path.cpu,
-            "write_cpu_seconds": c3 - c2}
+    return EpisodeResult(unit.scene_index, unit.slot, "ok", time.perf_counter() - t0, c3 - c0,
+                         attempts=int(episode.info.get("attempts", 1)), num_frames=written.num_frames,
+                         size=written.size, sha256=written.sha256, path_seconds=t1 - t0 + path.wall,
+                         render_seconds=t2 - t1 - (0 if beside else path.wall), path_cpu_seconds=c1 - c0 + path.cpu,
+                         render_cpu_seconds=c2 - c1 - path.cpu, write_cpu_seconds=c3 - c2)
 
 
 class _PathTimes:
@@ -192,28 +254,47 @@ class RenderUnit:
 
     Attributes:
         path: the episode file.
-        scene: ``SceneSpec.to_dict()`` of its scene.
+        scene: its scene.
         physics_hz: physics rate the scene was compiled at [Hz].
-        render: ``RenderConfig.to_dict()``.
+        render: the images to render.
         replace: drop the file's existing images first; else keep the cameras and modalities not
             re-rendered (copied unchanged; a camera rendered at other settings is replaced whole, see
             :func:`samplehd.dataset.rerender.merge_camera_settings`).
     """
 
     path: str
-    scene: dict[str, Any]
+    scene: SceneSpec
     physics_hz: float
-    render: dict[str, Any]
+    render: RenderConfig
     replace: bool = True
 
 
-def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
+@dataclass(frozen=True)
+class RenderResult:
+    """The episode file a render unit rewrote.
+
+    Attributes:
+        path: the file.
+        num_frames: its frames.
+        size: its bytes.
+        sha256: its digest.
+        seconds: wall time of the unit [s].
+    """
+
+    path: str
+    num_frames: int
+    size: int
+    sha256: str
+    seconds: float
+
+
+def run_render_unit(unit: RenderUnit) -> RenderResult:
     """Render an episode's images from its states and rewrite its file atomically.
 
     The file's ``/images`` ``render`` attribute gets the resulting per-camera settings.
 
     Returns:
-        ``{path, num_frames, size, sha256, seconds}``.
+        The rewritten file's size and digest.
 
     Raises:
         DatasetError: the file is unreadable or cannot be written, or (adding) a camera would mix settings.
@@ -223,7 +304,7 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
 
 
     path = Path(unit.path)
-    render = RenderConfig.from_dict(unit.render)
+    render = unit.render
     episode = read_episode(path, images="none" if unit.replace else "lazy")
     old = {} if unit.replace else camera_settings(read_meta(path)["render"])
     try:
@@ -237,7 +318,7 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
     extra = {k: (v.item() if hasattr(v, "item") else v) for k, v in extra.items()}
     if "task" in extra and isinstance(extra["task"], str):
         extra["task"] = json.loads(extra["task"])
-    scene = SceneSpec.from_dict(unit.scene)
+    scene = unit.scene
     model, _ = compile_scene(scene, 1.0 / unit.physics_hz)
     images: dict[str, dict[str, Any]] = {}
     for cam, mods in episode.images.items():
@@ -249,5 +330,4 @@ def run_render_unit(unit: RenderUnit) -> dict[str, Any]:
     for cam, mods in render.images(model, episode.frames, seed=scene.seed, deflated=True).items():
         images.setdefault(cam, {}).update(mods)
     written = write_episode(path, dataclasses.replace(episode, images=images), extra, render_record(settings))
-    return {"path": str(path), "num_frames": written.num_frames, "size": written.size, "sha256": written.sha256,
-            "seconds": time.perf_counter() - t0}
+    return RenderResult(str(path), written.num_frames, written.size, written.sha256, time.perf_counter() - t0)

@@ -74,12 +74,13 @@ def parse_split_ratio(text: str) -> dict[str, float]:
             fraction = -1.0
         if not sep or not name.strip() or not math.isfinite(fraction) or fraction < 0:
             raise ConfigError(
-                f"--split-ratio {text!r}: expected NAME=FRACTION[,NAME=FRACTION...], e.g. train=0.9,test=0.1"
+                f"split_ratio={text!r}: expected NAME=FRACTION[,NAME=FRACTION...], e.g. train=0.9,test=0.1",
+                field="split_ratio",
             )
         out[name.strip()] = fraction
     total = sum(out.values())
     if total <= 0:
-        raise ConfigError(f"--split-ratio {text!r}: fractions sum to 0")
+        raise ConfigError(f"split_ratio={text!r}: fractions sum to 0", field="split_ratio")
     return {k: v / total for k, v in out.items()}
 
 

@@ -5,7 +5,8 @@ and a visuomotor behaviour-cloning policy, trained on samplehd datasets with PyT
 and :mod:`samplehd.learn.options` need no torch.
 
 - :mod:`samplehd.learn.parser`: instruction → flat program and CLEVR node list (``samplehd train parser``)
-- :mod:`samplehd.learn.perception`: RGB-D → scene annotation (``samplehd train perception``)
+- :mod:`samplehd.learn.perception`: RGB-D → scene annotation (``samplehd train perception``), a package of one
+  module per job: configuration, geometry, modeling, inference, preparation, evaluation, training
 - :mod:`samplehd.learn.neurosymbolic`: parse, perceive, execute, plan, act (``evaluate --policy neurosymbolic``)
 - :mod:`samplehd.learn.bc`: images + tokens + state → steering chunks (``samplehd train policy``,
   ``evaluate --policy bc``)

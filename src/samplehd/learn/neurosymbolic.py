@@ -123,14 +123,14 @@ class NeuroSymbolicPolicy(OraclePolicy):
     def __init__(self, env: Any, models: str | Path | None = None, programs: str = "predicted",
                  perception: str = "predicted", match_radius: float = 0.08, seed: int = 0) -> None:
         super().__init__(env, seed=seed)
-        for name, value in (("--programs", programs), ("--perception", perception)):
+        for name, value in (("programs", programs), ("perception", perception)):
             if value not in _CHOICES:
-                raise ConfigError(f"{name} {value!r}: valid: {', '.join(_CHOICES)}")
+                raise ConfigError(f"{name}={value!r}: valid: {', '.join(_CHOICES)}", field=name)
         self.programs, self.perception_mode, self.match_radius = programs, perception, match_radius
         self.parser = self.perception = None
         if "predicted" in (programs, perception) and models is None:
-            raise ConfigError("--models: needed for predicted programs or perception (a folder with parser/ and "
-                              "perception/ from `samplehd train`)")
+            raise ConfigError("models: needed for predicted programs or perception (a folder with parser/ and "
+                              "perception/ from `samplehd train`)", field="models")
 
         set_seed(seed)
         if programs == "predicted":

@@ -311,7 +311,7 @@ def score_parser(dataset: str | Path, models: str | Path, device: str | None = N
     parser = InstructionParser.load(models, pick_device(device))
     data = instruction_examples(open_dataset(dataset))
     if not data["test"]:
-        raise ConfigError(f"--dataset {dataset}: no test instructions (generate with a test split)")
+        raise ConfigError(f"dataset={dataset}: no test instructions (generate with a test split)", field="dataset")
     with timed() as t:
         metrics = parser_test_metrics(parser, data["test"])
     return {**metrics, **{f"test_{k}": v for k, v in t.items()}}

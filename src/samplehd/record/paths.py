@@ -26,7 +26,7 @@ from samplehd.record.recorder import FrameRecorder, RecordingStep
 from samplehd.render.states import LiveStates
 from samplehd.robot.controller import ControlConfig
 from samplehd.scene.spec import SceneSpec
-from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.schema import Config, bounded
 from samplehd.tasks.checker import CheckerConfig, CheckResult, check_success
 from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies
@@ -38,7 +38,7 @@ __all__ = ["PathConfig", "PathRejected", "plan_and_execute"]
 
 
 @dataclass(frozen=True)
-class PathConfig:
+class PathConfig(Config, section="paths"):
     """Settings of ground-truth path generation.
 
     Attributes:
@@ -61,26 +61,12 @@ class PathConfig:
     reject_fallen: bool = True
 
     def __post_init__(self) -> None:
-        check_fields(self, "paths")
+        super().__post_init__()
         ratio = self.physics_hz / self.control_hz
         if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
             raise ConfigError(f"paths.physics_hz={self.physics_hz!r}: must be an integer multiple of control_hz "
                               f"({self.control_hz})")
 
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "planner": self.planner.to_dict(),
-            "checker": self.checker.to_dict(),
-            "control_hz": self.control_hz,
-            "physics_hz": self.physics_hz,
-            "max_attempts": self.max_attempts,
-            "grasp_assist": self.grasp_assist,
-            "reject_fallen": self.reject_fallen,
-        }
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any], where: str = "paths") -> PathConfig:
-        return from_mapping(cls, d, where)
 
 
 class PathRejected(PlanningError):

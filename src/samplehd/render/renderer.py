@@ -48,6 +48,7 @@ __all__ = [
     "camera_intrinsics",
     "camera_names",
     "camera_pose",
+    "check_size",
     "get_preset",
     "gl_device",
     "image_shape",
@@ -97,6 +98,7 @@ class RenderPreset:
     path_traced: bool = False
 
 
+# The render presets: the one list of their names (``choices`` of every command that takes one).
 PRESETS: dict[str, RenderPreset] = {
     "fast": RenderPreset("fast", shadows=False, msaa_samples=0, reflections=False, shadow_size=64),
     "hd": RenderPreset("hd", shadows=True, msaa_samples=4, reflections=True, shadow_size=2048),
@@ -260,7 +262,7 @@ class SceneRenderer:
         """Make the GL resources of ``model`` for renders of ``width``×``height`` px; ``buffer_size``
         allocates a larger offscreen buffer, so that :meth:`resize` can render larger images later.
         ``photo`` (a ``samplehd.render.photo.PhotoOptions``) sets the path tracer of the ``photo`` preset."""
-        _check_size(width, height)
+        check_size(width, height)
         self.model = model
         self.preset = get_preset(preset)
         self._lut = segmentation_lut(model)
@@ -277,7 +279,7 @@ class SceneRenderer:
         self._ctx = None
         bw, bh = buffer_size or (width, height)
         self.buffer_size = (max(width, int(bw)), max(height, int(bh)))
-        _check_size(*self.buffer_size)
+        check_size(*self.buffer_size)
         # The offscreen buffer, MSAA and shadow map are allocated when the context is made: size them
         # for this renderer (a 1080p buffer or a 4k shadow map costs seconds to allocate on llvmpipe).
         model.vis.global_.offwidth, model.vis.global_.offheight = self.buffer_size
@@ -318,7 +320,7 @@ class SceneRenderer:
 
     def resize(self, width: int, height: int) -> None:
         """Render ``width``×``height`` px images from now on, within the offscreen buffer."""
-        _check_size(width, height)
+        check_size(width, height)
         if width > self.buffer_size[0] or height > self.buffer_size[1]:
             raise RenderError(f"resolution {width}x{height} exceeds this renderer's buffer "
                               f"{self.buffer_size[0]}x{self.buffer_size[1]}; make a renderer with a larger buffer_size")
@@ -486,7 +488,8 @@ def _scene_capacity(model: mujoco.MjModel) -> int:
     return 2 * int(model.ngeom + model.nsite + model.nwrap + model.ntendon + model.nsensor + model.nbody) + 64
 
 
-def _check_size(width: int, height: int) -> None:
+def check_size(width: int, height: int) -> None:
+    """Raise RenderError unless ``width`` and ``height`` are integers in 8..8192 px."""
     if not (isinstance(width, int) and isinstance(height, int)) or not (8 <= width <= 8192 and 8 <= height <= 8192):
         raise RenderError(f"resolution {width}x{height} is invalid; width and height must be 8..8192 px")
 

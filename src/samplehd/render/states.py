@@ -25,7 +25,8 @@ import mujoco
 import numpy as np
 
 from samplehd.errors import DatasetError
-from samplehd.render.renderer import IMAGE_DTYPES, SceneRenderer, image_shape
+from samplehd.render.image_spec import ImageSpec
+from samplehd.render.renderer import IMAGE_DTYPES
 
 __all__ = ["OVERLAP_BUFFERS", "OVERLAP_GROUP_BYTES", "LiveStates", "Superseded", "State", "pose_state",
            "render_live", "render_states", "render_stream", "set_state"]
@@ -97,11 +98,7 @@ def _write_state(model: mujoco.MjModel, data: mujoco.MjData, qpos: np.ndarray, q
 def render_states(
     model: mujoco.MjModel,
     frames: Mapping[str, np.ndarray],
-    cameras: Sequence[str],
-    modalities: Sequence[str],
-    width: int,
-    height: int,
-    preset: str = "fast",
+    image: ImageSpec,
     indices: Sequence[int] | None = None,
     data: mujoco.MjData | None = None,
     photo: Any = None,
@@ -115,11 +112,8 @@ def render_states(
     Args:
         model: the episode's compiled scene (``compile_scene(spec)``).
         frames: per-frame arrays; ``qpos`` and ``qvel`` are used, ``act`` and ``time`` when present.
-        cameras: camera names.
-        modalities: any of rgb (T,H,W,3 uint8), depth (T,H,W float32 [m]), segmentation (T,H,W int32).
-        width: image width [px].
-        height: image height [px].
-        preset: render preset (``fast``, ``hd``, ``photo``).
+        image: cameras, modalities (rgb T,H,W,3 uint8; depth T,H,W float32 [m]; segmentation T,H,W int32),
+            size and render preset.
         indices: frames to render (default: all).
         data: an ``MjData`` to reuse (default: a new one); it is left holding the last frame's poses
             (:func:`pose_state`: no contacts or forces).
@@ -142,10 +136,9 @@ def render_states(
     picks = range(len(frames["qpos"])) if indices is None else indices
     # Without on_frame, each frame is rendered straight into its slot of the episode's streams (no per-frame
     # arrays to stack).
-    out = None if on_frame is not None else _frame_arrays(len(picks), cameras, modalities, width, height,
-                                                          segmentation_dtype)
-    render_stream(model, _picked(frames, picks), cameras, modalities, width, height, preset, data, photo,
-                  on_frame, segmentation_dtype, overlap, overlap_group, out)
+    out = None if on_frame is not None else _frame_arrays(len(picks), image, segmentation_dtype)
+    render_stream(model, _picked(frames, picks), image, data, photo, on_frame, segmentation_dtype, overlap,
+                  overlap_group, out)
     return out if out is not None else {}
 
 
@@ -159,11 +152,7 @@ def _picked(frames: Mapping[str, np.ndarray], picks: Iterable[int]) -> Iterator[
 def render_stream(
     model: mujoco.MjModel,
     states: Iterable[State],
-    cameras: Sequence[str],
-    modalities: Sequence[str],
-    width: int,
-    height: int,
-    preset: str = "fast",
+    image: ImageSpec,
     data: mujoco.MjData | None = None,
     photo: Any = None,
     on_frame: Callable[[str, dict[str, np.ndarray]], None] | None = None,
@@ -184,15 +173,15 @@ def render_stream(
     # With on_frame, one frame's arrays serve every frame (no fresh memory per frame); with overlap, a few
     # groups' arrays take turns.
     overlap = overlap and on_frame is not None
-    group = (overlap_group or _group_frames(cameras, modalities, width, height, _dtypes(segmentation_dtype))
-             if overlap else 1)
+    group = overlap_group or _group_frames(image, _dtypes(segmentation_dtype)) if overlap else 1
     n = 0  # slots that take turns (0: frame i goes to slot i of the caller's out)
     if out is None:
         n = OVERLAP_BUFFERS * group if overlap else 1
-        out = _frame_arrays(n, cameras, modalities, width, height, segmentation_dtype)
+        out = _frame_arrays(n, image, segmentation_dtype)
     views: list[tuple[str, dict[str, np.ndarray]]] = []  # the frames of the group being rendered
     count = 0
-    with SceneRenderer(model, width, height, preset, photo=photo) as renderer, _Handoff(overlap) as handoff:
+    cameras, modalities = image.cameras, image.modalities
+    with image.renderer(model, photo=photo) as renderer, _Handoff(overlap) as handoff:
         for i, (qpos, qvel, act, time) in enumerate(states):
             pose_state(model, data, qpos, qvel, act, time)
             slot = i % n if n else i
@@ -290,8 +279,8 @@ class LiveStates:
 
 def render_live(model: mujoco.MjModel, live: LiveStates,
                 on_attempt: Callable[[], Callable[[str, dict[str, np.ndarray]], None]],
-                cameras: Sequence[str], modalities: Sequence[str], width: int, height: int, preset: str = "fast",
-                photo: Any = None, segmentation_dtype: Any = np.int32, overlap: bool = True) -> int | None:
+                image: ImageSpec, photo: Any = None, segmentation_dtype: Any = np.int32,
+                overlap: bool = True) -> int | None:
     """Render a rollout's states while it is recorded (:class:`LiveStates`), attempt after attempt.
 
     Every attempt is drawn by a new renderer from its first state, as :func:`render_states` draws a
@@ -304,9 +293,8 @@ def render_live(model: mujoco.MjModel, live: LiveStates,
     """
     while (attempt := live.next_attempt()) is not None:
         try:
-            return render_stream(model, live.states(attempt), cameras, modalities, width, height, preset,
-                                 photo=photo, on_frame=on_attempt(), segmentation_dtype=segmentation_dtype,
-                                 overlap=overlap)
+            return render_stream(model, live.states(attempt), image, photo=photo, on_frame=on_attempt(),
+                                 segmentation_dtype=segmentation_dtype, overlap=overlap)
         except Superseded:
             continue
     return None
@@ -316,19 +304,17 @@ def _dtypes(segmentation_dtype: Any) -> dict[str, np.dtype]:
     return {**IMAGE_DTYPES, "segmentation": np.dtype(segmentation_dtype)}
 
 
-def _frame_arrays(n: int, cameras: Sequence[str], modalities: Sequence[str], width: int, height: int,
-                  segmentation_dtype: Any) -> dict[str, dict[str, np.ndarray]]:
+def _frame_arrays(n: int, image: ImageSpec, segmentation_dtype: Any) -> dict[str, dict[str, np.ndarray]]:
     """``[camera][modality]`` arrays of ``n`` frames each."""
     dtypes = _dtypes(segmentation_dtype)
-    return {c: {m: np.empty((n, *image_shape(m, width, height)), dtype=dtypes[m]) for m in modalities
-                if m in dtypes} for c in cameras}
+    return {c: {m: np.empty((n, *image.shape(m)), dtype=dtypes[m]) for m in image.modalities if m in dtypes}
+            for c in image.cameras}
 
 
-def _group_frames(cameras: Sequence[str], modalities: Sequence[str], width: int, height: int,
-                  dtypes: Mapping[str, np.dtype]) -> int:
+def _group_frames(image: ImageSpec, dtypes: Mapping[str, np.dtype]) -> int:
     """How many frames to hand to the helper thread at a time (see :data:`OVERLAP_GROUP_BYTES`)."""
-    frame = sum(int(np.prod(image_shape(m, width, height))) * dtypes[m].itemsize for m in modalities if m in dtypes)
-    return max(1, min(_OVERLAP_GROUP_FRAMES, OVERLAP_GROUP_BYTES // max(1, frame * len(cameras))))
+    frame = sum(int(np.prod(image.shape(m))) * dtypes[m].itemsize for m in image.modalities if m in dtypes)
+    return max(1, min(_OVERLAP_GROUP_FRAMES, OVERLAP_GROUP_BYTES // max(1, frame * len(image.cameras))))
 
 
 class _Handoff:

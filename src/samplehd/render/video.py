@@ -27,8 +27,8 @@ def pick_codec(preferred: str | None = None) -> str:
             av.codec.Codec(preferred, "w")
         except Exception:  # noqa: BLE001 - PyAV raises several types for an unknown or decode-only codec
             usable = [c for c in _CODECS if c in av.codecs_available]
-            raise ConfigError(f"--codec {preferred!r}: not a video encoder of this PyAV build; try one of "
-                              f"{', '.join(usable)}") from None
+            raise ConfigError(f"codec={preferred!r}: not a video encoder of this PyAV build; try one of "
+                              f"{', '.join(usable)}", field="codec") from None
     for name in ((preferred,) if preferred else ()) + _CODECS:
         if name in av.codecs_available:
             return name

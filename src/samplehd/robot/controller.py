@@ -49,6 +49,7 @@ from samplehd.robot.constants import (
 )
 from samplehd.robot.kinematics import fk_tcp, ik_nearest_rows
 from samplehd.robot.safety import SafetyConfig, SafetyEvent, SafetyMonitor
+from samplehd.schema import Config, bounded
 
 __all__ = ["ACTION_MODES", "ControlConfig", "ControlReport", "RobotController"]
 
@@ -62,7 +63,7 @@ ACTION_MODES: dict[str, int] = {
 
 
 @dataclass(frozen=True)
-class ControlConfig:
+class ControlConfig(Config, section="ControlConfig"):
     """Rates and limits of the controller.
 
     Attributes:
@@ -82,41 +83,27 @@ class ControlConfig:
         safety: safety monitor thresholds; None disables the monitor.
     """
 
-    physics_hz: float = 500.0
-    control_hz: float = 20.0
-    max_linear_speed: float = 0.25
-    max_angular_speed: float = 1.0
-    max_joint_delta: float = 0.15
-    max_cartesian_delta: tuple[float, float] = (0.05, 0.25)
-    speed_scale: float = 1.0
-    safety_checks_per_step: int = 5
+    physics_hz: float = bounded(500.0, lo=0.0, lo_open=True, unit="Hz")
+    control_hz: float = bounded(20.0, lo=0.0, lo_open=True, unit="Hz")
+    max_linear_speed: float = bounded(0.25, lo=0.0, lo_open=True, unit="m/s")
+    max_angular_speed: float = bounded(1.0, lo=0.0, lo_open=True, unit="rad/s")
+    max_joint_delta: float = bounded(0.15, lo=0.0, lo_open=True, unit="rad")
+    # [m, rad]
+    max_cartesian_delta: tuple[float, float] = bounded((0.05, 0.25), lo=0.0, lo_open=True)
+    speed_scale: float = bounded(1.0, lo=0.0, lo_open=True, hi=1.0)
+    safety_checks_per_step: int = bounded(5, lo=1)
     raise_unreachable: bool = False
     safety: SafetyConfig | None = field(default_factory=SafetyConfig)
 
     def __post_init__(self) -> None:
-        for name in ("physics_hz", "control_hz", "max_linear_speed", "max_angular_speed", "max_joint_delta"):
-            value = getattr(self, name)
-            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-                raise ConfigError(f"ControlConfig.{name} must be a positive number, got {value!r}")
+        super().__post_init__()
         ratio = self.physics_hz / self.control_hz
         if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
-            raise ConfigError(
-                f"ControlConfig: physics_hz ({self.physics_hz}) must be an integer multiple of control_hz "
-                f"({self.control_hz}), e.g. 500 and 20"
-            )
-        if not (0.0 < self.speed_scale <= 1.0):
-            raise ConfigError(f"ControlConfig.speed_scale must be in (0, 1], got {self.speed_scale}")
-        if len(self.max_cartesian_delta) != 2 or min(self.max_cartesian_delta) <= 0:
-            raise ConfigError(
-                "ControlConfig.max_cartesian_delta must be two positive numbers [m, rad], "
-                f"got {self.max_cartesian_delta}"
-            )
-        checks = self.safety_checks_per_step
-        if not (isinstance(checks, int) and checks >= 1 and self.substeps % checks == 0):
-            raise ConfigError(
-                f"ControlConfig.safety_checks_per_step must be a positive divisor of the {self.substeps} physics "
-                f"steps per control step, got {checks!r}"
-            )
+            raise ConfigError(f"ControlConfig.physics_hz={self.physics_hz!r}: must be an integer multiple of "
+                              f"control_hz ({self.control_hz}), e.g. 500 and 20")
+        if self.substeps % self.safety_checks_per_step:
+            raise ConfigError(f"ControlConfig.safety_checks_per_step={self.safety_checks_per_step!r}: must divide "
+                              f"the {self.substeps} physics steps per control step")
 
     @property
     def substeps(self) -> int:

@@ -19,7 +19,6 @@ The monitor only detects; :class:`samplehd.robot.controller.RobotController` hol
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import mujoco
@@ -27,6 +26,7 @@ import numpy as np
 
 from samplehd.errors import ConfigError
 from samplehd.robot.constants import JOINT_NAMES, ROBOT_BODY, TORQUE_LIMITS
+from samplehd.schema import Config, bounded
 
 __all__ = ["SAFETY_EVENT_CODES", "SAFETY_EVENT_KINDS", "SafetyConfig", "SafetyEvent", "SafetyMonitor"]
 
@@ -39,7 +39,7 @@ _OTHER, _ROBOT, _OBJECT = 0, 1, 2
 
 
 @dataclass(frozen=True)
-class SafetyConfig:
+class SafetyConfig(Config, section="SafetyConfig"):
     """Thresholds of the safety monitor.
 
     Attributes:
@@ -54,25 +54,13 @@ class SafetyConfig:
         check_environment: whether robot–table/floor/wall contacts stop the arm.
     """
 
-    max_contact_force: float = 150.0
-    force_hold_time: float = 0.008
-    torque_ratio: float = 0.98
-    torque_hold_time: float = 0.1
-    min_penetration: float = 0.0
+    max_contact_force: float = bounded(150.0, lo=0.0, lo_open=True, unit="N")
+    force_hold_time: float = bounded(0.008, lo=0.0, unit="s")
+    torque_ratio: float = bounded(0.98, lo=0.0, lo_open=True, hi=1.0)
+    torque_hold_time: float = bounded(0.1, lo=0.0, unit="s")
+    min_penetration: float = bounded(0.0, lo=0.0, unit="m")
     check_self_collision: bool = True
     check_environment: bool = True
-
-    def __post_init__(self) -> None:
-        if not (math.isfinite(self.max_contact_force) and self.max_contact_force > 0):
-            raise ConfigError(f"max_contact_force must be a positive number of newtons, got {self.max_contact_force}")
-        if not (math.isfinite(self.force_hold_time) and self.force_hold_time >= 0):
-            raise ConfigError(f"force_hold_time must be >= 0 seconds, got {self.force_hold_time}")
-        if not (0.0 < self.torque_ratio <= 1.0):
-            raise ConfigError(f"torque_ratio must be in (0, 1], got {self.torque_ratio}")
-        if not (math.isfinite(self.torque_hold_time) and self.torque_hold_time >= 0):
-            raise ConfigError(f"torque_hold_time must be >= 0 seconds, got {self.torque_hold_time}")
-        if not (math.isfinite(self.min_penetration) and self.min_penetration >= 0):
-            raise ConfigError(f"min_penetration must be >= 0 metres, got {self.min_penetration}")
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,7 @@ and objects that **fell** (tipped more than ``fall_angle`` or left the table top
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 import mujoco
@@ -43,7 +43,7 @@ import numpy as np
 from samplehd.fixedmath import dot, norm
 from samplehd.physics import wake_all
 from samplehd.scene.spec import SceneSpec
-from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.schema import Config, bounded
 from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, object_world_hull_box, quat_tilt
 from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
@@ -52,7 +52,7 @@ __all__ = ["CheckResult", "CheckerConfig", "Judge", "check_success", "welded"]
 
 
 @dataclass(frozen=True)
-class CheckerConfig:
+class CheckerConfig(Config, section="checker"):
     """Tolerances of the success checker.
 
     Attributes:
@@ -82,16 +82,6 @@ class CheckerConfig:
     disturb_distance: float = bounded(0.02, lo=0.0, unit="m")
     disturb_angle: float = bounded(0.26, lo=0.0, unit="rad")
     fall_angle: float = bounded(0.79, lo=0.0, unit="rad")
-
-    def __post_init__(self) -> None:
-        check_fields(self, "checker")
-
-    def to_dict(self) -> dict[str, float]:
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any], where: str = "checker") -> CheckerConfig:
-        return from_mapping(cls, d, where)
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qsl, urlsplit
 
+from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
 from samplehd.viewer.app import SECURITY_HEADERS, Response, ViewerApp
 from samplehd.viewer.episodes import open_episode_store
 from samplehd.viewer.index import DatasetIndex
@@ -149,7 +150,7 @@ def open_dataset(root: Path, render: bool = True) -> DatasetIndex:
         size = config.get("render") if isinstance(config.get("render"), dict) else {}
         width, height = int(size.get("width") or 320), int(size.get("height") or 180)
         mode = size.get("mode")
-        renderer = StateRenderer(width, height, mode if mode in ("fast", "hd", "photo") else "fast")
+        renderer = StateRenderer(ImageSpec(width, height, mode if mode in PRESET_NAMES else "fast"))
     index.episodes = open_episode_store(index.root, index.instructions, index.scene, renderer)
     return index
 

@@ -21,7 +21,8 @@ import numpy as np
 
 from samplehd.envs.config import CAMERAS
 from samplehd.errors import DatasetError, RenderError
-from samplehd.render.renderer import MODALITIES, SceneRenderer
+from samplehd.render.image_spec import ImageSpec
+from samplehd.render.renderer import MODALITIES
 from samplehd.render.states import set_state
 from samplehd.scene.spec import SceneSpec, compile_scene
 
@@ -32,16 +33,13 @@ class StateRenderer:
     """Renders single frames from physics states on one worker thread.
 
     Args:
-        width: image width [px].
-        height: image height [px].
-        preset: render preset (``fast`` or ``hd``).
+        image: size and render preset of every frame (its cameras and modalities are each request's own).
         scenes_kept: how many compiled scenes (with their renderers) stay cached.
         timeout: longest wait for one frame [s].
     """
 
-    def __init__(self, width: int = 320, height: int = 180, preset: str = "fast", scenes_kept: int = 3,
-                 timeout: float = 120.0) -> None:
-        self.width, self.height, self.preset = width, height, preset
+    def __init__(self, image: ImageSpec | None = None, scenes_kept: int = 3, timeout: float = 120.0) -> None:
+        self.image = image or ImageSpec()
         self.scenes_kept = scenes_kept
         self.timeout = timeout
         self._jobs: queue.Queue[tuple[Any, Future[np.ndarray]] | None] = queue.Queue()
@@ -107,7 +105,7 @@ class StateRenderer:
             self._worlds.move_to_end(key)
             return self._worlds[key]
         model, data = compile_scene(SceneSpec.from_dict(dict(scene["spec"])))
-        world = (model, data, SceneRenderer(model, self.width, self.height, self.preset))
+        world = (model, data, self.image.renderer(model))
         self._worlds[key] = world
         while len(self._worlds) > self.scenes_kept:
             self._worlds.popitem(last=False)[1][2].close()

@@ -3,10 +3,9 @@ spots) that scenes and instructions ask and by the subtask planner itself."""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
 
-from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.schema import Config, bounded
 
 __all__ = ["PICK_ORDERS", "PlannerConfig"]
 
@@ -18,7 +17,7 @@ PICK_ORDERS = ("instruction", "nearest")
 
 
 @dataclass(frozen=True)
-class PlannerConfig:
+class PlannerConfig(Config, section="paths.planner"):
     """Distances, speeds and search budgets of the planner.
 
     Attributes:
@@ -82,13 +81,3 @@ class PlannerConfig:
     relation_gap: float = bounded(0.03, lo=0.0, unit="m")
     rrt_iterations: int = bounded(1500, lo=1)
     order: str = bounded("instruction", choices=PICK_ORDERS)
-
-    def __post_init__(self) -> None:
-        check_fields(self, "paths.planner")
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any], where: str = "paths.planner") -> PlannerConfig:
-        return from_mapping(cls, d, where)

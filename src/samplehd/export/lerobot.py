@@ -44,8 +44,8 @@ from typing import Any
 import numpy as np
 
 from samplehd.dataset.container import camera_settings
-from samplehd.dataset.staging import export_source, staged_directory
 from samplehd.errors import DatasetError
+from samplehd.export.staging import export_source, staged_directory
 from samplehd.render.renderer import MODALITIES
 from samplehd.render.video import VideoWriter, pick_codec
 
@@ -195,23 +195,24 @@ def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str]
     cams = list(dict.fromkeys(cameras)) if cameras is not None else list(settings)
     missing = [c for c in cams if c not in settings]
     if missing:
-        raise DatasetError(f"--cameras {missing}: not stored in {root}; stored cameras: "
-                           f"{', '.join(settings) or 'none (rerender adds images)'}")
+        raise DatasetError(f"cameras={missing}: not stored in {root}; stored cameras: "
+                           f"{', '.join(settings) or 'none (rerender adds images)'}", field="cameras")
     mods = list(dict.fromkeys(modalities)) if modalities is not None else ["rgb"]
     bad = [m for m in mods if m not in MODALITIES]
     if bad:
-        raise DatasetError(f"--modalities {bad}: valid: {', '.join(MODALITIES)}")
+        raise DatasetError(f"modalities={bad}: valid: {', '.join(MODALITIES)}", field="modalities")
     streams = [(c, m) for c in cams for m in settings[c]["modalities"] if m in mods]
     if modalities is not None:
         absent = [m for m in mods if all(mod != m for _, mod in streams)]
         if absent:
             stored = {c: settings[c]["modalities"] for c in cams}
-            raise DatasetError(f"--modalities {absent}: not stored for cameras {cams} in {root}; stored: {stored}")
+            raise DatasetError(f"modalities={absent}: not stored for cameras {cams} in {root}; stored: {stored}",
+                               field="modalities")
     for cam, mod in streams:
         w, h = settings[cam]["width"], settings[cam]["height"]
         if mod == "rgb" and (w % 2 or h % 2):
             raise DatasetError(f"{root}: camera {cam!r} images are {w}x{h}; videos need even sides (rerender it "
-                               f"at an even size, or leave it out with --cameras / --modalities)")
+                               f"at an even size, or leave it out with `cameras` / `modalities`)")
     return settings, streams
 
 

@@ -63,7 +63,7 @@ def write_scene_mjcf(scene: Any, out: str | Path, keyframes: dict[str, dict[str,
     """
     out = Path(out)
     if out.suffix.lower() != ".xml":
-        raise ConfigError(f"--out {out}: the MJCF file must end in .xml")
+        raise ConfigError(f"out={out}: the MJCF file must end in .xml", field="out")
     spec = _spec_with_objects(scene)
     model = spec.copy().compile()
     keyframes = keyframes or {"home": _home_state(scene)}
@@ -85,20 +85,20 @@ def scene_mjcf_from_file(path: str | Path, out: str | Path) -> Path:
     try:
         doc = json.loads(path.read_text())
     except OSError as exc:
-        raise ConfigError(f"--scene {path}: cannot read ({exc.strerror})") from None
+        raise ConfigError(f"scene={path}: cannot read ({exc.strerror})", field="scene") from None
     except json.JSONDecodeError as exc:
-        raise ConfigError(f"--scene {path}: invalid JSON at line {exc.lineno}: {exc.msg}") from None
+        raise ConfigError(f"scene={path}: invalid JSON at line {exc.lineno}: {exc.msg}", field="scene") from None
     if isinstance(doc, dict) and "scenes" in doc and isinstance(doc["scenes"], list):
-        raise ConfigError(f"--scene {path}: holds {len(doc['scenes'])} scenes; give one scene file "
-                          "(scenes/SHD_<split>_<index>.json) or --dataset DIR --episode I")
+        raise ConfigError(f"scene={path}: holds {len(doc['scenes'])} scenes; give one scene file "
+                          "(scenes/SHD_<split>_<index>.json) or `dataset` DIR `episode` I", field="scene")
     spec_dict = doc.get("spec", doc) if isinstance(doc, dict) else None
     if not isinstance(spec_dict, dict) or "objects" not in spec_dict or "camera" not in spec_dict:
-        raise ConfigError(f"--scene {path}: field 'spec' (or a SceneSpec with 'objects' and 'camera') missing; "
-                          "valid: a scene file of a samplehd dataset")
+        raise ConfigError(f"scene={path}: field 'spec' (or a SceneSpec with 'objects' and 'camera') missing; "
+                          "valid: a scene file of a samplehd dataset", field="scene")
     try:
         scene = SceneSpec.from_dict(spec_dict)
     except Exception as exc:  # the spec parser reports many kinds of malformed values
-        raise ConfigError(f"--scene {path}: {exc}") from None
+        raise ConfigError(f"scene={path}: {exc}", field="scene") from None
     return write_scene_mjcf(scene, out)
 
 
@@ -107,7 +107,7 @@ def scene_mjcf_from_dataset(root: str | Path, episode: int, out: str | Path) -> 
     state) and ``final`` (its last)."""
     reader = DatasetReader(root)
     if not 0 <= episode < len(reader):
-        raise DatasetError(f"--episode {episode}: {root} has episodes 0..{len(reader) - 1}")
+        raise DatasetError(f"episode={episode}: {root} has episodes 0..{len(reader) - 1}", field="episode")
     scene_index = reader.episodes[episode].scene_index
     scene = SceneSpec.from_dict(reader.scene(scene_index)["spec"])
     f = reader.frames(episode, ["qpos", "act", "gripper_opening", "gripper_command", "grasped_object"])

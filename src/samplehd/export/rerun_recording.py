@@ -90,7 +90,8 @@ def episode_location(path: str | Path, episode: int | None) -> tuple[Path, int]:
     if not path.is_file():
         raise DatasetError(f"{path}: no such episode file or dataset folder")
     if episode is not None:
-        raise ConfigError(f"--episode {episode}: give it with a dataset folder, not with the episode file {path}")
+        raise ConfigError(f"episode={episode}: give it with a dataset folder, not with the episode file {path}",
+                          field="episode")
     root = path.resolve().parent.parent
     try:
         reader = DatasetReader(root)
@@ -115,7 +116,7 @@ def export_rerun(root: str | Path, episode: int, out: str | Path) -> dict[str, A
 
     out = Path(out)
     if out.suffix.lower() != ".rrd":
-        raise ConfigError(f"--out {out}: a Rerun recording must end in .rrd")
+        raise ConfigError(f"out={out}: a Rerun recording must end in .rrd", field="out")
     reader = DatasetReader(root)
     if not 0 <= episode < len(reader):
         raise DatasetError(f"episode {episode}: {root} has episodes 0..{len(reader) - 1}")

@@ -24,7 +24,7 @@ pick_up, place_relative or stack_three (``Executor.parse_unity`` reads ``'place'
 neutral band between halves (every exported object's ``table_part`` names one of left/right and
 one of front/back, the nearer half where samplehd's object lies in the band). ``info.json`` counts
 both. Positions, rotations, joint angles and effector points follow SAMPLE-HD's Unity conventions
-(:mod:`samplehd.dataset.unity_frame`); docs/FORMAT.md documents every field.
+(:mod:`samplehd.export.unity_frame`); docs/FORMAT.md documents every field.
 """
 
 from __future__ import annotations
@@ -41,8 +41,9 @@ import numpy as np
 from PIL import Image
 
 from samplehd.dataset.container import read_episode
-from samplehd.dataset.staging import export_source, staged_directory
-from samplehd.dataset.unity_frame import (
+from samplehd.errors import DatasetError
+from samplehd.export.staging import export_source, staged_directory
+from samplehd.export.unity_frame import (
     joints_to_unity,
     point_to_unity,
     quat_to_unity,
@@ -50,7 +51,6 @@ from samplehd.dataset.unity_frame import (
     xyz,
     xyzw,
 )
-from samplehd.errors import DatasetError
 from samplehd.motion.order import pick_order
 from samplehd.render.image_io import read_segmentation, save_depth
 from samplehd.render.video import VideoWriter
@@ -326,7 +326,8 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
     base = LAYOUT.robot_base_position
     stored = sorted({c for e in range(len(reader)) for c in (reader.episode_meta(e).get("images") or {})})
     if camera is not None and camera not in stored:
-        raise DatasetError(f"--camera {camera}: not stored in {root}; stored cameras: {', '.join(stored) or 'none'}")
+        raise DatasetError(f"camera={camera}: not stored in {root}; stored cameras: {', '.join(stored) or 'none'}",
+                           field="camera")
     cam = camera or ("scene" if "scene" in stored else (stored[0] if stored else None))
     scenes = {int(s["image_index"]): _scene_doc(s, base) for s in reader.scenes}
     programs, unity, chosen = [], [], []

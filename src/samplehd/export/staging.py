@@ -91,10 +91,10 @@ def export_source(root: str | Path, out: str | Path) -> tuple[DatasetReader, Pat
         raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
     out = Path(out)
     if out.exists() and not out.is_dir():
-        raise DatasetError(f"--out {out}: is a file; choose a new folder")
+        raise DatasetError(f"out={out}: is a file; choose a new folder", field="out")
     if out.resolve() == reader.root.resolve() or reader.root.resolve() in out.resolve().parents:
-        raise DatasetError(f"--out {out}: lies inside the dataset {root}; choose a folder outside it")
+        raise DatasetError(f"out={out}: lies inside the dataset {root}; choose a folder outside it", field="out")
     if out.exists() and any(out.iterdir()):
-        raise DatasetError(f"--out {out}: exists and is not empty; choose a new folder")
+        raise DatasetError(f"out={out}: exists and is not empty; choose a new folder", field="out")
     reader.check_intact()
     return reader, out

@@ -1,0 +1,83 @@
+"""Count what issue 32 measures in a source tree (read as text and syntax trees, nothing is imported).
+
+Usage::
+
+    python scripts/structure_counts.py [SRC_PACKAGE_DIR]     # default: src/samplehd
+
+Prints:
+
+- ``dict[str, Any]``: occurrences of the annotation;
+- ``to_dict/from_dict defs``: methods of those names written out (a base class's count once);
+- ``signatures with Any``: functions whose parameter or return annotations mention ``Any``, of all functions;
+- ``config __post_init__ lines``: lines of ``__post_init__`` of every ``*Config`` class (hand-written validation);
+- ``image clump functions``: functions taking ``width`` and ``height`` with ``preset``, ``cameras``,
+  ``modalities`` or ``camera`` (the image request spelled out);
+- ``flag-naming library messages``: calls of ``*Error(...)`` (and ``require_extra``, ``read_json``) whose
+  strings hold a ``--flag``, outside ``commands/`` and ``cli.py``, per file.
+
+To compare with an earlier commit: ``git archive REV src | tar -x -C /tmp/base`` and run this on
+``/tmp/base/src/samplehd``.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+import sys
+from pathlib import Path
+
+FLAG = re.compile(r"(?<![\w-])--[a-z][a-z-]*")
+
+
+def _annotations(node: ast.FunctionDef | ast.AsyncFunctionDef) -> list[ast.expr]:
+    a = node.args
+    args = [*a.posonlyargs, *a.args, *a.kwonlyargs, a.vararg, a.kwarg]
+    out = [x.annotation for x in args if x is not None and x.annotation is not None]
+    return out + ([node.returns] if node.returns is not None else [])
+
+
+def _call_name(node: ast.Call) -> str:
+    f = node.func
+    return f.id if isinstance(f, ast.Name) else getattr(f, "attr", "")
+
+
+def counts(root: Path) -> dict[str, object]:
+    files = sorted(root.rglob("*.py"))
+    dict_any = to_dict = sigs = with_any = post_init = 0
+    clump: list[str] = []
+    flags: dict[str, int] = {}
+    for p in files:
+        text = p.read_text(encoding="utf-8")
+        rel = p.relative_to(root).as_posix()
+        dict_any += len(re.findall(r"dict\[str, Any\]", text))
+        to_dict += len(re.findall(r"^\s*def (to_dict|from_dict)\(", text, re.M))
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                sigs += 1
+                with_any += any(re.search(r"\bAny\b", ast.unparse(t)) for t in _annotations(node))
+                names = {x.arg for x in [*node.args.args, *node.args.kwonlyargs]}
+                if {"width", "height"} <= names and names & {"preset", "cameras", "modalities", "camera"}:
+                    clump.append(f"{rel}:{node.name}")
+            elif isinstance(node, ast.ClassDef) and node.name.endswith("Config"):
+                post_init += sum(f.end_lineno - f.lineno for f in node.body
+                                 if isinstance(f, ast.FunctionDef) and f.name == "__post_init__")
+            elif isinstance(node, ast.Call) and not (rel.startswith("commands/") or rel == "cli.py"):
+                if _call_name(node).endswith("Error") or _call_name(node) in ("require_extra", "read_json"):
+                    strings = " ".join(c.value for a in [*node.args, *(k.value for k in node.keywords)]
+                                       for c in ast.walk(a) if isinstance(c, ast.Constant) and isinstance(c.value, str))
+                    if FLAG.search(strings):
+                        flags[rel] = flags.get(rel, 0) + 1
+    return {"dict[str, Any]": dict_any, "to_dict/from_dict defs": to_dict,
+            "signatures with Any": f"{with_any}/{sigs} = {100 * with_any / sigs:.1f} %",
+            "config __post_init__ lines": post_init, "image clump functions": len(clump),
+            "flag-naming library messages": sum(flags.values()), "  per file": dict(sorted(flags.items()))}
+
+
+def main() -> None:
+    root = Path(sys.argv[1] if len(sys.argv) > 1 else "src/samplehd")
+    for name, value in counts(root).items():
+        print(f"{name}: {value}")
+
+
+if __name__ == "__main__":
+    main()
