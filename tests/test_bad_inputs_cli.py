@@ -395,6 +395,7 @@ CLI_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("assets-import-suffix", ["assets", "import", "{file}", "--name", "thing"], ("{file}",)),
     ("assets-import-name", ["assets", "import", "{mesh}", "--name", "Bad Name"], ("Bad Name",)),
     ("assets-import-builtin", ["assets", "import", "{mesh}", "--name", "mug"], ("mug",)),
+    ("assets-import-name-too-long", ["assets", "import", "{mesh}", "--name", "a" * 300], ("--name", "300 characters")),
     ("assets-import-scale-zero", ["assets", "import", "{mesh}", "--name", "thing", "--scale", "0"], ("scale",)),
     ("assets-import-scale-neg", ["assets", "import", "{mesh}", "--name", "thing", "--scale", "-1"], ("scale",)),
     ("assets-import-scale-nan", ["assets", "import", "{mesh}", "--name", "thing", "--scale", "nan"], ("scale",)),

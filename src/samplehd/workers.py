@@ -202,12 +202,38 @@ def check_ray_address(address: str, timeout: float = RAY_CONNECT_TIMEOUT) -> Non
     if not host or not port.isdigit() or not 0 < int(port) < 65536:
         raise ConfigError(f"ray_address={address!r}: expected HOST:PORT, ray://HOST:PORT or auto", field="ray_address")
     try:
-        with socket.create_connection((host, int(port)), timeout=timeout):
-            pass
+        with socket.create_connection((host, int(port)), timeout=timeout) as conn:
+            conn.settimeout(timeout)
+            grpc = _speaks_grpc(conn)
     except OSError as exc:
         reason = "no answer" if isinstance(exc, TimeoutError) else (exc.strerror or str(exc) or type(exc).__name__)
         raise ConfigError(f"ray_address={address!r}: nothing answers there within {timeout:g} s ({reason}); "
                           f"start the cluster (ray start --head) or fix the address", field="ray_address") from None
+    if not grpc:
+        raise ConfigError(f"ray_address={address!r}: something listens there but it is not a Ray cluster (no gRPC "
+                          f"answer within {timeout:g} s); give the address `ray start --head` printed",
+                          field="ray_address")
+
+
+# The HTTP/2 client preface and an empty SETTINGS frame: every gRPC server (Ray's GCS and Ray Client
+# both are) answers with a SETTINGS frame of its own.
+_HTTP2_PREFACE = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes([0, 0, 0, 4, 0, 0, 0, 0, 0])
+
+
+def _speaks_grpc(conn: socket.socket) -> bool:
+    """Whether the peer answers the HTTP/2 preface with a SETTINGS frame (a gRPC server does);
+    a listener that says something else, closes, or stays silent until the timeout does not."""
+    try:
+        conn.sendall(_HTTP2_PREFACE)
+        head = b""
+        while len(head) < 9:
+            chunk = conn.recv(9 - len(head))
+            if not chunk:
+                return False
+            head += chunk
+    except OSError:
+        return False
+    return head[3] == 0x04  # frame type SETTINGS
 
 
 def _ray_init(workers: int, address: str | None) -> Any:

@@ -52,6 +52,8 @@ __all__ = [
     "read_mesh",
 ]
 
+MAX_NAME = 64  # characters of an imported class name
+
 MESH_SUFFIXES = (".obj", ".stl", ".ply", ".glb")
 _MIN_EXTENT, _MAX_EXTENT = 0.01, 1.0  # plausible tabletop object size [m]
 _DECOMPOSITION_VERSION = 1
@@ -297,6 +299,8 @@ def import_mesh(
     cat = catalogue or load_catalogue()
     if not is_identifier(name):
         raise AssetError(f"--name {name!r}: use lower-case letters, digits and '_', starting with a letter")
+    if len(name) > MAX_NAME:  # the registry's folder and file names carry it (255 bytes on most file systems)
+        raise AssetError(f"--name {name[:20]}... ({len(name)} characters): at most {MAX_NAME} characters")
     existing = cat.classes.get(name)
     if existing is not None and not existing.imported:
         raise AssetError(f"--name {name!r} is a built-in class; choose another name")
