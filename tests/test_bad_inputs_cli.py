@@ -924,16 +924,17 @@ def test_dataset_in_use_by_another_process_is_refused(workspace, command, holder
         proc.communicate("", timeout=30)
 
 
-@pytest.mark.parametrize("frozen", ["root", "episodes"])
+@pytest.mark.parametrize("frozen", ["root", "episodes", "info", "one-episode"])
 @pytest.mark.parametrize("command", ["rerender", "rerender-add"])
 def test_rerender_of_an_immutable_dataset_is_refused(tmp_path: Path, workspace, command, frozen, capsys) -> None:
-    """A dataset folder the command cannot write (chattr +i: refused even to root): one line, nothing
-    changed, instead of a traceback half-way."""
+    """A dataset folder or file the command cannot replace (chattr +i: refused even to root): one line,
+    nothing changed (no temporary file either), instead of a traceback half-way."""
     import subprocess
 
     ds = tmp_path / "ds"
     shutil.copytree(workspace["pristine"] / "ds", ds)
-    folder = ds if frozen == "root" else ds / "episodes"
+    folder = {"root": ds, "episodes": ds / "episodes", "info": ds / "info.json",
+              "one-episode": sorted((ds / "episodes").iterdir())[-1]}[frozen]
     if subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode != 0:
         pytest.skip("chattr +i is not available here")
     try:

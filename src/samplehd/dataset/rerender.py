@@ -77,9 +77,13 @@ def _rerender(root: Path, render: RenderConfig, backend: Backend | None, progres
     if not reader.complete:
         raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
     reader.check_intact(verify=True)  # every episode read and checked before any is rewritten
-    for folder in (root, root / EPISODE_DIR):  # episodes and info.json are replaced by renames in these
-        if not os.access(folder, os.W_OK):
-            raise DatasetError(f"{folder}: not writable (read-only or immutable); nothing was changed; make it "
+    # Episodes and info.json are replaced by renames: their folders must be writable, and the files
+    # themselves not immutable (a rename onto an immutable file fails, even for root).
+    episodes = [reader.episode_path(i) for i in range(len(reader.episodes))]
+    targets = [root, root / EPISODE_DIR, root / INFO_FILE, *episodes]
+    for path in targets:
+        if not os.access(path, os.W_OK):
+            raise DatasetError(f"{path}: not writable (read-only or immutable); nothing was changed; make it "
                                f"writable or rerender a copy")
     backend = backend or Backend()
     progress = progress or Progress()
