@@ -11,7 +11,14 @@ from pathlib import Path
 
 import numpy as np
 
-from samplehd.catalogue.shape import CollisionPiece, GraspSite, ObjectGeometry, TopSurface, planar_texcoords
+from samplehd.catalogue.shape import (
+    CollisionPiece,
+    GraspSite,
+    ObjectGeometry,
+    TopSurface,
+    planar_texcoords,
+    read_mesh_arrays,
+)
 from samplehd.errors import AssetError, require_extra
 
 __all__ = ["load_imported_geometry"]
@@ -27,11 +34,7 @@ def load_imported_geometry(path: str | Path) -> ObjectGeometry:
     trimesh = require_extra("trimesh", "mesh", "imported object classes")
     path = Path(path)
     try:
-        with np.load(path, allow_pickle=False) as z:
-            vertices = np.asarray(z["vertices"], np.float64)
-            faces = np.asarray(z["faces"], np.int32)
-            counts = np.asarray(z["piece_counts"], np.int64)
-            points = np.asarray(z["piece_points"], np.float64)
+        vertices, faces, counts, points = read_mesh_arrays(str(path))
         meta = json.loads(path.with_suffix(".json").read_text())
         pieces = []
         for pts in np.split(points, np.cumsum(counts)[:-1]):

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "read_mesh_arrays",
     "CollisionPiece",
     "GraspSite",
     "ObjectGeometry",
@@ -160,3 +161,15 @@ def planar_texcoords(vertices: np.ndarray, repeat: float = 0.3) -> np.ndarray:
     """
     v = np.asarray(vertices, dtype=np.float64)
     return np.stack([v[:, 0] / repeat, (v[:, 1] + 0.6 * v[:, 2]) / repeat], axis=1)
+
+
+def read_mesh_arrays(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A mesh file of plain arrays (read with ``allow_pickle=False``): vertices (V, 3), faces (F, 3),
+    and the convex pieces as point counts (P,) and their points stacked (sum of counts, 3).
+
+    Raises:
+        OSError, ValueError, KeyError: unreadable, not plain arrays, or an array missing.
+    """
+    with np.load(path, allow_pickle=False) as z:
+        return (np.asarray(z["vertices"], np.float64), np.asarray(z["faces"], np.int32),
+                np.asarray(z["piece_counts"], np.int64), np.asarray(z["piece_points"], np.float64))

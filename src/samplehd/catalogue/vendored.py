@@ -26,7 +26,7 @@ import numpy as np
 from scipy.spatial import ConvexHull
 
 from samplehd.catalogue.schema import Field
-from samplehd.catalogue.shape import CollisionPiece, GraspSite, ObjectGeometry, Opening, TopSurface
+from samplehd.catalogue.shape import CollisionPiece, GraspSite, ObjectGeometry, Opening, TopSurface, read_mesh_arrays
 from samplehd.errors import AssetError
 
 __all__ = ["MeshSpec", "load_vendored_geometry", "mesh_texcoords", "parse_mesh"]
@@ -127,11 +127,7 @@ def load_vendored_geometry(spec: MeshSpec) -> ObjectGeometry:
     if hashlib.sha256(data).hexdigest() != spec.sha256:
         raise AssetError(f"{path}: content does not match its sha256 in classes.json; restore the file")
     try:
-        with np.load(path, allow_pickle=False) as z:
-            vertices = np.asarray(z["vertices"], np.float64)
-            faces = np.asarray(z["faces"], np.int32)
-            counts = np.asarray(z["piece_counts"], np.int64)
-            points = np.asarray(z["piece_points"], np.float64)
+        vertices, faces, counts, points = read_mesh_arrays(str(path))
     except (OSError, ValueError, KeyError) as exc:
         raise AssetError(f"{path}: damaged vendored mesh ({exc})") from None
     pieces = []
