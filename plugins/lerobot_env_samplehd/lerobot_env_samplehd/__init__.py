@@ -24,6 +24,7 @@ from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 
 import samplehd  # noqa: F401  (picks the GL backend before mujoco is imported)
+from samplehd.envs.config import EnvConfig as TabletopConfig
 from samplehd.envs.lerobot_tabletop import DEFAULT_MAX_STEPS, env_options_from_export, make_lerobot_envs
 
 __all__ = ["SamplehdEnv"]
@@ -49,16 +50,16 @@ class SamplehdEnv(EnvConfig):
     features_map: dict[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        options = self.env_options
-        self.fps = int(round(float(options["control_hz"])))
-        h, w = int(options["height"]), int(options["width"])
+        options = TabletopConfig.from_kwargs(**self.env_options)  # defaults filled in, one-line errors
+        self.fps = int(round(options.control_hz))
+        h, w = options.height, options.width
         self.features = {
             ACTION: PolicyFeature(type=FeatureType.ACTION, shape=(7,)),
             "agent_pos": PolicyFeature(type=FeatureType.STATE, shape=(7,)),
             "tcp_pose": PolicyFeature(type=FeatureType.STATE, shape=(7,)),
         }
         self.features_map = {ACTION: ACTION, "agent_pos": "observation.state", "tcp_pose": "observation.tcp_pose"}
-        for cam in options["cameras"]:
+        for cam in options.cameras:
             self.features[f"pixels/{cam}"] = PolicyFeature(type=FeatureType.VISUAL, shape=(h, w, 3))
             self.features_map[f"pixels/{cam}"] = f"observation.images.{cam}"
 
