@@ -54,7 +54,8 @@ def test_observations_are_named_and_shaped_as_the_export(options: dict) -> None:
         raw["gripper"][:2].sum())  # gripper opening [m], as the recorder's
     assert np.allclose(obs["tcp_pose"], np.concatenate([raw["tcp_pos"], raw["tcp_quat"]]))
     assert info["is_success"] is False and env.task == "pick_up" and env.task_description == info["instruction"]
-    assert env._max_episode_steps == 1500 and env.action_space.shape == (7,)
+    assert env._max_episode_steps == 1500 and env.action_space.shape == (7,) and env.metadata["render_fps"] == 20
+    assert isinstance(env.metadata["render_fps"], int)  # lerobot-eval writes its videos with PyAV
     obs, reward, _, _, info = env.step(np.zeros(7, np.float32))
     assert info["is_success"] == info["success"] == env.inner.check_success()["success"]
     assert env.render() is obs["pixels"]["scene"]
@@ -140,7 +141,8 @@ def test_lerobot_factory_and_one_rollout_step(options: dict, tmp_path: Path) -> 
     batch = preprocess_observation(obs)
     inputs = {k: tuple(f.shape) for k, f in features.items() if k != "action"}
     assert {k: tuple(v.shape[1:]) for k, v in batch.items()} == inputs
-    assert batch["observation.images.scene"].dtype == torch.float32 and float(batch["observation.images.scene"].max()) <= 1
+    image = batch["observation.images.scene"]
+    assert image.dtype == torch.float32 and float(image.max()) <= 1
     action = torch.zeros((1, *features["action"].shape))  # a dummy policy's select_action
     _, _, _, _, info = vec.step(action.numpy())
     assert "is_success" in info

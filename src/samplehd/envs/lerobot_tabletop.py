@@ -120,7 +120,7 @@ class LeRobotTabletop(gym.Env):
         self.task = family
         self.task_description = ""
         self._max_episode_steps = max_episode_steps
-        self.metadata = {**self.metadata, "render_fps": config.control_hz}
+        self.metadata = {**self.metadata, "render_fps": int(round(config.control_hz))}  # PyAV needs an int
         h, w = config.height, config.width
         self.observation_space = spaces.Dict({
             "pixels": spaces.Dict({cam: spaces.Box(0, 255, (h, w, 3), np.uint8) for cam in self.cameras}),
