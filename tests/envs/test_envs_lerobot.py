@@ -132,8 +132,8 @@ def test_lerobot_factory_and_one_rollout_step(options: dict, tmp_path: Path) -> 
     from lerobot.envs.utils import env_to_policy_features, preprocess_observation
 
     (tmp_path / "meta").mkdir()
-    (tmp_path / EXPORT_RECORD).write_text(json.dumps({"env": options}))
-    cfg = plugin.SamplehdEnv(task="pick_up", dataset=str(tmp_path), episode_length=5)
+    (tmp_path / EXPORT_RECORD).write_text(json.dumps({"env": {**options, "families": ["pick_up"]}}))
+    cfg = plugin.SamplehdEnv(dataset=str(tmp_path), episode_length=5)  # task: the export's families
     features = env_to_policy_features(cfg)
     envs = make_env(cfg, n_envs=1)
     vec = envs["pick_up"][0]

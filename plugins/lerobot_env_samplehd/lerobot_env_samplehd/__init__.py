@@ -6,7 +6,8 @@ environment itself, its observation names and its seeding live in samplehd
 (:mod:`samplehd.envs.lerobot_tabletop`), where samplehd's tests check them without lerobot.
 
 Options (``--env.<name>``):
-    task: the task family, or several separated by commas (one LeRobot suite each; e.g. ``pick_up``).
+    task: the task family, or several separated by commas (one LeRobot suite each; e.g. ``pick_up``);
+        default: the families of ``dataset``, else ``pick_up``.
     dataset: a ``samplehd export lerobot`` folder; the environment is built from the settings it
         recorded (cameras, image size, render preset, control mode and rates, scene, checker).
     level: generalisation level L1–L4 (``samplehd evaluate --level``), or none.
@@ -37,7 +38,7 @@ ACTION = "action"
 class SamplehdEnv(EnvConfig):
     """samplehd's tabletop, one LeRobot suite per task family (see the module docstring)."""
 
-    task: str | None = "pick_up"
+    task: str | None = None
     fps: int = 20
     dataset: str | None = None
     level: str | None = None
@@ -65,7 +66,8 @@ class SamplehdEnv(EnvConfig):
 
     @property
     def families(self) -> list[str]:
-        return [f.strip() for f in (self.task or "").split(",") if f.strip()]
+        named = [f.strip() for f in (self.task or "").split(",") if f.strip()]
+        return named or list(self.env_options.get("families") or ["pick_up"])
 
     @property
     def env_options(self) -> dict[str, Any]:
