@@ -1,24 +1,32 @@
 #!/usr/bin/env bash
-# Prove that LeRobot itself uses a samplehd LeRobot export, unchanged: make a Python 3.12 venv
-# (lerobot >= 0.5 needs 3.12) with lerobot 0.6.1, open the export with LeRobotDataset(repo_id,
-# root=...), then train LeRobot's own ACT and Diffusion policies on it for a few steps with its own
-# `lerobot-train` (on the CPU, no checkpoints, nothing pushed). Not part of `make test`.
+# Prove that LeRobot itself uses samplehd, unchanged, end to end: make a Python 3.12 venv (lerobot
+# >= 0.5 needs 3.12) with lerobot 0.6.1, samplehd and the env plugin lerobot_env_samplehd; make a
+# small pick_up export when none is given; open it with LeRobotDataset(repo_id, root=...); train
+# LeRobot's own policies on its train split with `lerobot-train`; then run the ACT checkpoint in
+# samplehd's environment with `lerobot-eval --env.type=samplehd`. Not part of `make test`.
 #
-# usage: scripts/check_lerobot.sh EXPORT_DIR [REPO_ID] [STEPS]
-#   env: LEROBOT_VENV (default .venv-lerobot; reused when it exists), PYTHON312 (default: pyenv's
-#        3.12.1, else python3.12), POLICIES (default "act diffusion").
+# usage: scripts/check_lerobot.sh [EXPORT_DIR] [REPO_ID] [STEPS]
+#   EXPORT_DIR: a `samplehd export lerobot` folder (default: make one in WORK from DEMOS pick_up scenes)
+#   env: LEROBOT_VENV (default ~/.cache/samplehd/lerobot-venv; reused when it exists), PYTHON312
+#        (default: pyenv's 3.12.1, else python3.12), POLICIES (default "act diffusion"), WORK (default:
+#        a temporary folder, removed at the end), DEMOS (scenes of the made export, default 8), SIZE
+#        (its square image side, default 96), EVAL_EPISODES (default 3; 0 skips lerobot-eval),
+#        EVAL_STEPS (steps per evaluated episode, default 150), TASK (default pick_up).
 #
-# Download: lerobot 0.6.1 needs torch < 2.12 and this machine holds a CPU torch wheel only for
-# Python 3.11, so the first run downloads PyPI's torch for 3.12 (a CUDA build, with its nvidia-*
-# libraries: about 5 GB in the venv). Build the venv once and point LEROBOT_VENV at it afterwards.
-# Backbones start from random weights (--policy.pretrained_backbone_weights=null): the default
-# ImageNet weights are a download from the hub at run time.
+# Download: lerobot 0.6.1 needs torch < 2.12; where no CPU wheel for 3.12 is at hand the first run
+# downloads PyPI's torch (a CUDA build with its nvidia-* libraries: about 5 GB in the venv). Build the
+# venv once and point LEROBOT_VENV at it afterwards. Backbones start from random weights
+# (--policy.pretrained_backbone_weights=null): the default ImageNet weights are a hub download.
 set -euo pipefail
-export_dir="${1:?usage: scripts/check_lerobot.sh EXPORT_DIR [REPO_ID] [STEPS]}"
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+export_dir="${1:-}"
 repo_id="${2:-samplehd/dataset}"
 steps="${3:-5}"
 policies="${POLICIES:-act diffusion}"
-venv="${LEROBOT_VENV:-.venv-lerobot}"
+venv="${LEROBOT_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/samplehd/lerobot-venv}"
+eval_episodes="${EVAL_EPISODES:-3}"
+eval_steps="${EVAL_STEPS:-150}"
+task="${TASK:-pick_up}"
 py="${PYTHON312:-}"
 if [[ -z "$py" ]]; then
   for cand in /root/.pyenv/versions/3.12.1/bin/python3 "$(command -v python3.12 || true)"; do
@@ -27,13 +35,37 @@ if [[ -z "$py" ]]; then
 fi
 [[ -n "$py" ]] || { echo "check_lerobot: no Python 3.12 found (set PYTHON312)" >&2; exit 2; }
 if [[ ! -x "$venv/bin/python" ]]; then
+  mkdir -p "$(dirname "$venv")"
   "$py" -m venv "$venv"
   "$venv/bin/python" -m pip install --quiet --upgrade pip
 fi
 if ! "$venv/bin/python" -c "import lerobot, datasets, accelerate, diffusers" 2>/dev/null; then
   "$venv/bin/python" -m pip install --quiet "lerobot[dataset,training,diffusers-dep]==0.6.1"
 fi
+if ! "$venv/bin/python" -c "import samplehd, pyarrow, lerobot_env_samplehd" 2>/dev/null; then
+  "$venv/bin/python" -m pip install --quiet -e "$repo[lerobot]" -e "$repo/plugins/lerobot_env_samplehd"
+fi
 export HF_HUB_OFFLINE=1 HF_DATASETS_OFFLINE=1 WANDB_MODE=disabled
+
+work="${WORK:-}"
+if [[ -z "$work" ]]; then
+  work="$(mktemp -d)"
+  trap 'rm -rf "$work"' EXIT
+fi
+mkdir -p "$work"
+if [[ -z "$export_dir" ]]; then
+  export_dir="$work/export"
+  if [[ ! -d "$export_dir" ]]; then
+    printf '{"instructions": {"per_scene": 1, "families": ["%s"]}, "test_every": 4}\n' "$task" > "$work/demos.json"
+    t0=$SECONDS
+    "$venv/bin/samplehd" generate --preset tiny --config "$work/demos.json" --out "$work/dataset" \
+      --scenes "${DEMOS:-8}" --render fast --width "${SIZE:-96}" --height "${SIZE:-96}" --cameras scene \
+      --modalities rgb --quiet > "$work/generate.log"
+    "$venv/bin/samplehd" export lerobot "$work/dataset" --out "$export_dir" --repo-id "$repo_id" \
+      > "$work/export.log" 2>&1 || { cat "$work/export.log" >&2; exit 1; }
+    echo "check_lerobot: OK: made $export_dir from ${DEMOS:-8} $task scenes in $((SECONDS - t0)) s"
+  fi
+fi
 
 "$venv/bin/python" - "$export_dir" "$repo_id" <<'PY'
 import json, sys
@@ -65,18 +97,44 @@ print(f"check_lerobot: OK: lerobot loaded {root} ({ds.num_episodes} episodes, {d
       f"{ds.fps} fps, videos {ds.meta.video_keys}); policy features {kinds}")
 PY
 
-work="$(mktemp -d)"
-trap 'rm -rf "$work"' EXIT
+# The train split only (samplehd's test episodes stay out), where the export lists it.
+episodes=()
+if [[ -f "$export_dir/meta/splits/train.json" ]]; then
+  episodes=(--dataset.episodes="$(cat "$export_dir/meta/splits/train.json")")
+fi
 for policy in $policies; do
+  save=(--save_checkpoint=false)
+  if [[ "$policy" == act && "$eval_episodes" -gt 0 ]]; then save=(--save_checkpoint=true --save_freq="$steps"); fi
+  t0=$SECONDS
   "$venv/bin/lerobot-train" \
-    --dataset.repo_id="$repo_id" --dataset.root="$export_dir" --dataset.video_backend=pyav \
+    --dataset.repo_id="$repo_id" --dataset.root="$export_dir" --dataset.video_backend=pyav "${episodes[@]}" \
     --policy.type="$policy" --policy.device=cpu --policy.push_to_hub=false \
     --policy.pretrained_backbone_weights=null \
-    --steps="$steps" --batch_size=4 --num_workers=0 --log_freq=1 --save_checkpoint=false \
+    --steps="$steps" --batch_size=4 --num_workers=0 --log_freq=1 "${save[@]}" \
     --wandb.enable=false --output_dir="$work/$policy" > "$work/$policy.log" 2>&1 \
     || { tail -n 40 "$work/$policy.log" >&2; echo "check_lerobot: $policy training FAILED" >&2; exit 1; }
   done_steps=$(grep -c "step:" "$work/$policy.log" || true)
   first=$(grep "step:" "$work/$policy.log" | head -n 1 | grep -o ' loss:[0-9.e+-]*' | head -n 1)
   last=$(grep "step:" "$work/$policy.log" | tail -n 1 | grep -o ' loss:[0-9.e+-]*' | head -n 1)
-  echo "check_lerobot: OK: lerobot-train --policy.type=$policy ran $steps steps on $export_dir ($done_steps logged; first step$first, last step$last)"
+  echo "check_lerobot: OK: lerobot-train --policy.type=$policy ran $steps steps on $export_dir" \
+       "($done_steps logged; first step$first, last step$last; $((SECONDS - t0)) s)"
 done
+
+if [[ "$eval_episodes" -gt 0 && " $policies " == *" act "* ]]; then
+  t0=$SECONDS
+  "$venv/bin/lerobot-eval" --policy.path="$work/act/checkpoints/last/pretrained_model" --policy.device=cpu \
+    --env.type=samplehd --env.task="$task" --env.dataset="$export_dir" --env.episode_length="$eval_steps" \
+    --eval.n_episodes="$eval_episodes" --eval.batch_size=1 --seed=0 --output_dir="$work/eval" \
+    > "$work/eval.log" 2>&1 \
+    || { tail -n 40 "$work/eval.log" >&2; echo "check_lerobot: lerobot-eval FAILED" >&2; exit 1; }
+  "$venv/bin/python" - "$work/eval/eval_info.json" "$task" "$eval_episodes" "$eval_steps" "$((SECONDS - t0))" <<'PY'
+import json, sys
+
+info, task, n, steps, wall = json.load(open(sys.argv[1])), *sys.argv[2:]
+overall = info["overall"]
+assert overall["n_episodes"] == int(n), overall
+print(f"check_lerobot: OK: lerobot-eval --env.type=samplehd --env.task={task} ran ACT on {n} episodes of "
+      f"samplehd evaluate's split (seed 0, ≤ {steps} steps each): pc_success {overall['pc_success']:.1f} %, "
+      f"avg_sum_reward {overall['avg_sum_reward']:.2f}, {wall} s")
+PY
+fi

@@ -140,3 +140,22 @@ def test_validate_cli_exit_codes(micro_dataset: Path, tmp_path: Path, capsys: py
     assert main(["validate", str(copy)]) == 1
     assert path.name in capsys.readouterr().out
     assert main(["generate", "--preset", "tiny", "--out", str(micro_dataset)]) == 2  # exists: needs --resume
+
+
+def test_lerobot_export_records_its_env_and_splits(lerobot_export: Path, rendered_dataset: Path) -> None:
+    from samplehd.envs.lerobot_tabletop import LeRobotTabletop, env_options_from_export
+
+    info = json.loads((lerobot_export / "meta" / "info.json").read_text())
+    record = json.loads((lerobot_export / "meta" / "samplehd.json").read_text())
+    train = json.loads((lerobot_export / "meta" / "splits" / "train.json").read_text())
+    test = json.loads((lerobot_export / "meta" / "splits" / "test.json").read_text())
+    assert train + test == list(range(info["total_episodes"])) and record["episodes"] == {"train": train, "test": test}
+    assert f"0:{len(train)}" == info["splits"]["train"]
+    assert record["state_layout"]["observation.state"] == info["features"]["observation.state"]["names"]
+    options = env_options_from_export(lerobot_export)
+    assert options["families"] == sorted({e.family for e in DatasetReader(rendered_dataset).episodes})
+    env = LeRobotTabletop(options["families"][0], options)
+    for cam in options["cameras"]:
+        shape = info["features"][f"observation.images.{cam}"]["shape"]
+        assert list(env.observation_space["pixels"][cam].shape) == shape
+    assert env.metadata["render_fps"] == info["fps"]

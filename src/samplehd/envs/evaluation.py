@@ -42,7 +42,7 @@ from samplehd.tasks.task import family_names
 from samplehd.workers import Backend
 
 __all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action", "evaluate", "load_policy",
-           "load_policy_module"]
+           "load_policy_module", "split_episode"]
 
 # SAMPLE-HD's families plus the two simple new ones: the default benchmark. stack_three needs scenes
 # with three stackable objects (see the env's ``scene`` option) and is opt-in.
@@ -117,13 +117,14 @@ def check_policy_spec(spec: str) -> None:
                           "(e.g. mypkg.agents:act)")
 
 
+def split_episode(k: int, families: Sequence[str], seed: int) -> tuple[int, str]:
+    """(reset seed, family) of episode ``k`` of the split made from ``seed``."""
+    return int(np.random.SeedSequence([int(seed), int(k)]).generate_state(1, np.uint32)[0]), families[k % len(families)]
+
+
 def benchmark_split(episodes: int, families: Sequence[str], seed: int) -> list[tuple[int, str]]:
     """(reset seed, family) of each episode of the split."""
-    out = []
-    for k in range(episodes):
-        s = int(np.random.SeedSequence([int(seed), k]).generate_state(1, np.uint32)[0])
-        out.append((s, families[k % len(families)]))
-    return out
+    return [split_episode(k, families, seed) for k in range(episodes)]
 
 
 class RandomPolicy:

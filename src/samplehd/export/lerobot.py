@@ -11,6 +11,14 @@ loads them. Layout (paths and keys as lerobot's ``datasets/utils.py``)::
                                                      file indices and ranges, samplehd ids
     data/chunk-XXX/file-YYY.parquet                  one row per frame
     videos/observation.images.<camera>/chunk-XXX/file-YYY.mp4   the episodes' RGB, concatenated
+    meta/splits/train.json, test.json                episode indices of each split (JSON list), for
+                                                     ``lerobot-train --dataset.episodes``
+    meta/samplehd.json                               source, versions, ``episodes`` per split, ``state_layout``,
+                                                     ``families``, ``episode_lengths`` and ``env``: the
+                                                     ``samplehd/Tabletop-v0`` options (cameras, size, render
+                                                     preset, control mode and rates, families, scene, checker)
+                                                     whose observations match the export; the LeRobot env
+                                                     plugin builds its environment from it
 
 Frame features: ``observation.state`` (6 joint positions [rad] + gripper opening [m]),
 ``observation.tcp_pose`` (TCP position [m] + quaternion w,x,y,z), ``action`` (SAMPLE-HD's 7-D steering
@@ -49,13 +57,15 @@ from samplehd.export.staging import export_source, staged_directory
 from samplehd.render.renderer import MODALITIES
 from samplehd.render.video import VideoWriter, pick_codec
 
-__all__ = ["CODEBASE_VERSION", "export_lerobot"]
+__all__ = ["CODEBASE_VERSION", "SAMPLEHD_RECORD", "SPLIT_PATH", "export_lerobot"]
 
 CODEBASE_VERSION = "v3.0"
+SAMPLEHD_RECORD = "meta/samplehd.json"  # what the environment needs to match the export (see module docstring)
 CHUNKS_SIZE = 1000
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
 EPISODES_PATH = "meta/episodes/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
+SPLIT_PATH = "meta/splits/{split}.json"  # episode indices of a split, for lerobot-train --dataset.episodes
 DATA_FILE_MB = 100  # a data file with image columns is closed once it holds this much image data
 _QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
 
@@ -214,6 +224,28 @@ def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str]
             raise DatasetError(f"{root}: camera {cam!r} images are {w}x{h}; videos need even sides (rerender it "
                                f"at an even size, or leave it out with `cameras` / `modalities`)")
     return settings, streams
+
+
+def _env_record(config: dict[str, Any], settings: dict[str, dict[str, Any]], cameras: list[str],
+                families: list[str]) -> dict[str, Any]:
+    """``{"env": options}``: the ``samplehd/Tabletop-v0`` options (EnvConfig field names) that give
+    observations like the exported ones, or ``{"env_note": why}`` when no single env can."""
+    if not cameras:
+        return {"env_note": "no RGB camera was exported: a LeRobot policy of this export has no image input"}
+    sizes = {(settings[c]["width"], settings[c]["height"]) for c in cameras}
+    presets = {settings[c]["mode"] for c in cameras}
+    if len(sizes) > 1 or len(presets) > 1:
+        return {"env_note": f"cameras {cameras} differ in size {sorted(sizes)} or preset {sorted(presets)}; "
+                            "the environment renders every camera alike (export them at one size)"}
+    (width, height), = sizes
+    paths = config.get("paths", {})
+    env = {"obs_mode": "rgb", "cameras": cameras, "width": width, "height": height, "render_preset": presets.pop(),
+           "control_mode": "steering", "control_hz": float(paths.get("control_hz", 20.0)),
+           "physics_hz": float(paths.get("physics_hz", 500.0)), "families": families,
+           "scene": config.get("scene", {}), "grasp_assist": bool(paths.get("grasp_assist", True))}
+    if "checker" in paths:
+        env["checker"] = paths["checker"]
+    return {"env": env}
 
 
 def _feature_key(cam: str, mod: str) -> str:
@@ -380,8 +412,17 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                 "data_path": DATA_PATH, "video_path": VIDEO_PATH if videos else None, "robot_type": "ur5e",
                 "splits": splits}
         (tmp / "meta" / "info.json").write_text(json.dumps(info, indent=4))
-        (tmp / "meta" / "samplehd.json").write_text(json.dumps(
-            {"repo_id": repo_id, "source": str(Path(root).resolve()), "source_format": reader.info.get(
-                "format_version"), "versions": reader.info.get("versions")}, indent=1))
+        episodes = {"train": list(range(n_train)), "test": list(range(n_train, len(order)))}
+        for split, ids in episodes.items():
+            (tmp / SPLIT_PATH.format(split=split)).parent.mkdir(parents=True, exist_ok=True)
+            (tmp / SPLIT_PATH.format(split=split)).write_text(json.dumps(ids) + "\n")
+        record = {"repo_id": repo_id, "source": str(Path(root).resolve()),
+                  "source_format": reader.info.get("format_version"), "versions": reader.info.get("versions"),
+                  "episodes": episodes, "state_layout": {k: names for k, (_, names) in _VECTOR_FEATURES.items()},
+                  "families": sorted({reader.episodes[i].family for i in order}),
+                  "episode_lengths": {"max": max((r["length"] for r in ep_rows), default=0),
+                                      "mean": float(np.mean([r["length"] for r in ep_rows])) if ep_rows else 0.0}}
+        record.update(_env_record(reader.config, settings, [c for c, _ in videos], record["families"]))
+        (tmp / SAMPLEHD_RECORD).write_text(json.dumps(record, indent=1))
     return {"episodes": len(order), "frames": index, "tasks": len(tasks),
             "videos": [_feature_key(c, "rgb") for c, _ in videos], "arrays": image_keys, "codec": codec}
