@@ -387,7 +387,7 @@ def _collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int, came
 def _save_arrays(path: Path, episodes: Sequence[Mapping[str, np.ndarray]]) -> None:
     """Collected episodes' arrays in one ``.npz`` (plain arrays, read with ``allow_pickle=False``)."""
     tmp = path.with_name(f".{path.name}.tmp.npz")
-    np.savez(tmp, count=np.array(len(episodes)),
+    np.savez_compressed(tmp, count=np.array(len(episodes)),
              **{f"{n}/{k}": v for n, e in enumerate(episodes) for k, v in e.items()})
     tmp.replace(path)
 
