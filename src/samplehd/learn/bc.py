@@ -469,7 +469,8 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     data = [_episode_arrays(reader, k, stride, tokens, cameras) for k in train_k]
     test = [_episode_arrays(reader, k, stride * 4, tokens, cameras) for k in test_k]
     families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
-    longest = max(e.num_frames for e in reader.episodes if e.instruction_index in set(train_k))
+    train_set = set(train_k)
+    longest = max(e.num_frames for e in reader.episodes if e.instruction_index in train_set)
     z_floor = float(min(d["z"].min() for d in data))
     # Steering values the demonstrations hardly use (top-down grasps tilt the gripper in about 1 % of
     # the frames): the policy sends zero there, as small predicted values added up to a tilt of
