@@ -216,3 +216,82 @@ def test_the_steering_values_the_demonstrations_never_use_stay_zero() -> None:
     assert b[3] == 0 and b[4] == 0 and np.array_equal(np.delete(a, [3, 4]), np.delete(b, [3, 4]))
     with pytest.raises(ConfigError, match="zero_channels"):
         BCPolicy(_config(zero_channels=[6]), None)
+
+
+def _demo_episode() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A pick-up as the oracle records it: move to a pre-grasp pose and down (one joint move, one line,
+    the TCP all but stopping between them), wait, close the gripper, wait, lift."""
+    lin = 0.25 / 20.0
+    steer: list[list[float]] = []
+    for v in [0.2, 0.6, 0.6, 0.2, 0.01, 0.3, 0.3, 0.1]:  # +x, then (after the near-stop) -z
+        steer.append([v, 0, 0, 0, 0, 0, -0.5] if len(steer) < 4 else [0, 0, -v, 0, 0, 0, -0.5])
+    steer += [[0, 0, 0, 0, 0, 0, -0.5]] * 2  # wait
+    steer += [[0, 0, 0, 0, 0, 0, g] for g in (-0.6, -0.7, -0.8, -0.8)]  # close (the last one holds: a wait)
+    steer += [[0, 0, 0.5, 0, 0, 0, -0.8]] * 3 + [[0, 0, 0, 0, 0, 0, -0.8]] * 2  # lift, hold
+    steering = np.array(steer)
+    tcp = np.zeros((len(steer), 3))
+    tcp[0] = (0.1, 0.0, 1.0)
+    for t in range(1, len(steer)):
+        tcp[t] = tcp[t - 1] + steering[t - 1, :3] * lin
+    quat = np.tile([0.0, 1.0, 0.0, 0.0], (len(steer), 1))  # pointing down
+    opening = (np.r_[-0.5, steering[:-1, 6]] + 1.0) / 2.0 * 0.085
+    return steering, tcp, quat, opening
+
+
+def test_waypoints_are_where_each_segment_ends_and_the_gripper_closes_after_a_closing_segment() -> None:
+    from samplehd.learn.bc import waypoint_targets, waypoints
+
+    steering, tcp, quat, opening = _demo_episode()
+    goal = waypoints(steering, tcp, quat, opening)
+    # Segments: the move in x (cut at the near-stop), the descent, the closing, the lift; each one's
+    # waypoint is read where the next starts.
+    pre, grasp, lift = tcp[5], tcp[8], tcp[len(tcp) - 1]
+    assert np.allclose(goal[0, :3], pre) and goal[0, 4] == -0.5
+    assert np.allclose(goal[5, :3], grasp) and goal[5, 4] == -0.5  # on the way down
+    assert np.allclose(goal[9, :3], grasp) and goal[9, 4] == -1.0  # the wait before closing: close there
+    assert np.allclose(goal[14, :3], lift) and goal[14, 4] == -1.0  # lifting, closed
+    assert np.allclose(goal[-1, :3], lift)  # after the last segment: hold its end
+    # A frame within reach of its waypoint is labelled with the next one.
+    tcp_near = tcp.copy()
+    tcp_near[6] = grasp + [0.002, 0.0, 0.0]
+    assert goal[6, 4] == -0.5 and waypoints(steering, tcp_near, quat, opening)[6, 4] == -1.0
+    target = waypoint_targets(goal, tcp, quat)
+    assert target.shape == (len(tcp), 7) and np.abs(target).max() <= 1.0
+    assert np.allclose(target[0, :3] * 0.3, pre - tcp[0], atol=1e-6) and not target[:, 3:5].any()
+
+
+def test_squeezing_closes_narrower_than_the_fingers_are_and_stays_in_range() -> None:
+    from samplehd.learn.demos import SQUEEZE_STEP, squeeze_command
+    from samplehd.robot.constants import GRIPPER_STROKE
+
+    for width in (0.085, 0.03, 0.001):
+        g = squeeze_command([width / 2, width / 2])
+        assert -1.0 <= g <= 1.0
+        assert np.isclose((g + 1.0) / 2.0 * GRIPPER_STROKE, max(0.0, width - SQUEEZE_STEP))
+
+
+def test_a_waypoint_policy_trains_and_acts_with_keypoints(nano_dataset: Path, tmp_path: Path) -> None:
+    from samplehd.envs.tabletop import TabletopEnv
+    from samplehd.learn.bc import WAYPOINT_SPEED
+    from samplehd.learn.options import env_options
+
+    out = tmp_path / "wp"
+    metrics = train_policy(nano_dataset, out, steps=3, quiet=True, action="waypoint")
+    config = json.loads((out / "config.json").read_text())
+    assert config["action"] == "waypoint" and config["chunk"] == 1 and config["model"]["encoder"] == "keypoints"
+    assert metrics["test_l1"] is not None
+    with pytest.raises(ConfigError, match="action='joints'"):
+        train_policy(nano_dataset, tmp_path / "bad", steps=2, quiet=True, action="joints")
+    assert not (tmp_path / "bad").exists()
+    env = TabletopEnv(**env_options(out), families=("pick_up",))
+    try:
+        policy = BCPolicy.load(out, env)
+        obs, _ = env.reset(seed=0)
+        policy.reset()
+        for _ in range(3):
+            a = policy(obs)
+            assert a.shape == (7,) and np.abs(a).max() <= 1.0 and a[3] == 0 and a[4] == 0
+            assert np.linalg.norm(a[:3]) * 0.25 <= WAYPOINT_SPEED + 1e-6
+            obs, *_ = env.step(a)
+    finally:
+        env.close()

@@ -37,6 +37,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     policy.add_argument("--inputs", choices=["rgb", "state"], help="rgb: the visuomotor policy (default); state: "
                                                                    "the privileged-state reference (no image; the "
                                                                    "target object's pose relative to the TCP)")
+    policy.add_argument("--action", choices=["steering", "waypoint"],
+                        help="steering: chunks of the demonstrations' steering vectors (default); waypoint: the "
+                             "TCP pose and gripper command where the current segment of the demonstration ends, "
+                             "followed by a proportional controller")
     policy.add_argument("--demos", type=int, help="oracle episodes to collect in the environment besides the "
                                                   "dataset's (default 0)")
     policy.add_argument("--noise", type=float, help="DART: std of the noise added to the executed velocities of "
@@ -64,13 +68,13 @@ def run(args: argparse.Namespace) -> int:
     check_outputs({"--out": args.out}, {"--dataset": args.dataset})
     collect = {"demos": args.demos, "noise": args.noise, "dagger_rounds": args.dagger_rounds,
                "dagger_episodes": args.dagger_episodes, "dagger_steps": args.dagger_steps, "workers": args.workers,
-               "inputs": args.inputs}
+               "inputs": args.inputs, "action": args.action}
     given = {k: v for k, v in collect.items() if v is not None}
     if given and args.model != "policy":
         flag = "--" + next(iter(given)).replace("_", "-")
         raise ConfigError(f"{flag} {next(iter(given.values()))}: only used with `train policy`; leave it out")
     for key, value in given.items():
-        if key == "inputs":
+        if key in ("inputs", "action"):
             continue
         low = 1 if key in ("dagger_episodes", "dagger_steps", "workers") else 0
         if key == "noise":

@@ -31,7 +31,7 @@ from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset
-from samplehd.learn.demos import CollectSpec, collect
+from samplehd.learn.demos import CollectSpec, collect, squeeze_command
 from samplehd.learn.options import POLICY_CAMERAS, env_options, env_options_from_config
 from samplehd.learn.training import TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
 
@@ -50,6 +50,16 @@ DEMOS_FILE = "demos.npz"  # the oracle episodes collected in the environment (ke
 DAGGER_FILE = "dagger_{}.npz"  # the episodes of DAgger round N
 NEAR_TABLE = 0.03  # frames whose TCP is within this of the demonstrations' lowest TCP height [m]
 RARE_CHANNEL = 0.05  # a steering value that moves in fewer of the training frames is sent as zero
+ACTIONS = ("steering", "waypoint")
+# Waypoint actions: the network writes the displacement to the waypoint divided by this [m] ...
+WAYPOINT_SCALE = 0.3
+# ... and a frame this close to its segment's end (position [m], yaw [rad], finger opening [m]) is
+# labelled with the next segment's waypoint: the switch a waypoint follower makes.
+WAYPOINT_REACHED = (0.004, 0.05, 0.002)
+WAYPOINT_GAIN = 3.0  # TCP velocity per metre of the remaining displacement [1/s]
+WAYPOINT_SPEED = 0.16  # largest TCP speed of the waypoint follower [m/s]
+YAW_GAIN = 3.0  # yaw rate per radian of the remaining yaw [1/s]
+CLOSE_BELOW = -0.9  # a predicted gripper command below this closes the gripper (the label is -1)
 
 
 def _rotation_columns(quat: np.ndarray) -> np.ndarray:
@@ -103,6 +113,99 @@ def moving_frames(steering: np.ndarray, tolerance: float = 1e-3) -> np.ndarray:
     return np.flatnonzero(keep)
 
 
+def _yaw(quat: np.ndarray) -> np.ndarray:
+    """The heading of the TCP's x axis about the world z axis [rad]."""
+    cols = _rotation_columns(quat)
+    return np.arctan2(cols[..., 1], cols[..., 0])
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
+
+
+def waypoints(steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, opening: np.ndarray,
+              tolerance: float = 1e-3) -> np.ndarray:
+    """Per frame of an episode, its waypoint (T, 5): TCP position (3, world) [m], yaw [rad] and the
+    gripper there (+1 open, -1 closed).
+
+    The demonstration is cut into segments: runs of frames that move the TCP (cut where it all but
+    stops and sets off again), and runs that hold it and change the gripper command (the waits
+    between them belong to no segment). A segment's waypoint is the state it ends in, read where the
+    next one starts (the TCP has settled in the wait), with the gripper -1 (closing) after a segment
+    that closes it, else the oracle's command at its end (the width it opened to). A frame's label
+    is the waypoint of its segment, of the next segment once it is within :data:`WAYPOINT_REACHED`
+    of its own (a wait's: the next segment's); after the last segment, the last waypoint. So a
+    follower that goes to the predicted waypoint and switches where the demonstrations switch meets
+    a label at every state on the way, and no label depends on time.
+    """
+    steering = np.asarray(steering, np.float64)
+    tcp = np.asarray(tcp_pos, np.float64)
+    yaw = _yaw(tcp_quat)
+    opening = np.asarray(opening, np.float64)
+    n = len(steering)
+    moving = np.abs(steering[:, :6]).max(axis=1) >= tolerance
+    gripping = np.r_[False, np.abs(np.diff(steering[:, 6])) >= tolerance] & ~moving
+    kind = np.where(moving, 1, np.where(gripping, 2, 0))
+    # A motion also ends where the TCP all but stops and sets off again (a joint-space move to the
+    # pre-grasp pose, then the straight descent).
+    speed = np.sqrt((steering[:, :3] ** 2).sum(axis=1))
+    cut = np.zeros(n, bool)
+    cut[2:] = (speed[1:-1] < 0.05) & (speed[1:-1] <= speed[:-2]) & (speed[1:-1] < speed[2:])
+    segments: list[tuple[int, int, int]] = []  # (first frame, last frame, kind)
+    t = 0
+    while t < n:
+        if kind[t] == 0:
+            t += 1
+            continue
+        e = t
+        while e + 1 < n and kind[e + 1] == kind[t] and not cut[e + 1]:
+            e += 1
+        segments.append((t, e, int(kind[t])))
+        t = e + 1
+    out = np.empty((n, 5))
+    if not segments:
+        out[:, :3], out[:, 3], out[:, 4] = tcp, yaw, 1.0
+        return out
+    settled = [segments[j + 1][0] if j + 1 < len(segments) else n - 1 for j in range(len(segments))]
+    # The gripper: -1 (close: squeeze_command) after a segment that closes it, else the oracle's
+    # command (the width it opened to).
+    closed, grippers = False, []
+    for a, e, k in segments:
+        change = steering[e, 6] - steering[max(a - 1, 0), 6]
+        if k == 2 and abs(change) >= tolerance:
+            closed = bool(change < 0)
+        grippers.append(-1.0 if closed else float(steering[e, 6]))
+    goal = np.array([[*tcp[f], yaw[f], g] for f, g in zip(settled, grippers, strict=True)])
+    pos_tol, yaw_tol, open_tol = WAYPOINT_REACHED
+
+    def reached(t: int, j: int) -> bool:
+        if segments[j][2] == 1:
+            return bool(np.linalg.norm(goal[j, :3] - tcp[t]) < pos_tol and abs(_wrap(goal[j, 3] - yaw[t])) < yaw_tol)
+        return bool(abs(opening[settled[j]] - opening[t]) < open_tol)
+
+    j = 0
+    for t in range(n):
+        while j < len(segments) and t > segments[j][1]:
+            j += 1
+        k = j
+        while k < len(segments) and t >= segments[k][0] and reached(t, k):
+            k += 1
+        out[t] = goal[min(k, len(segments) - 1)]
+    return out
+
+
+def waypoint_targets(goal: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray) -> np.ndarray:
+    """The network's targets (T, 7) of frames with waypoints ``goal`` (:func:`waypoints`): the
+    displacement to the waypoint over :data:`WAYPOINT_SCALE` (clipped to [-1, 1]), no roll or pitch,
+    the remaining yaw over pi, the gripper command."""
+    goal = np.asarray(goal, np.float64)
+    out = np.zeros((len(goal), 7))
+    out[:, :3] = np.clip((goal[:, :3] - np.asarray(tcp_pos, np.float64)) / WAYPOINT_SCALE, -1.0, 1.0)
+    out[:, 5] = _wrap(goal[:, 3] - _yaw(tcp_quat)) / np.pi
+    out[:, 6] = goal[:, 4]
+    return out.astype(np.float32)
+
+
 class Encoder(nn.Module):
     """A camera's CNN; its last block is FiLM-modulated by the instruction code ``c``."""
 
@@ -123,11 +226,41 @@ class Encoder(nn.Module):
         return self.out(h)
 
 
+class KeypointEncoder(nn.Module):
+    """A camera's CNN that ends in a spatial softmax (Levine et al., 2016): each of ``keypoints``
+    feature maps becomes the image position of its mass (x, y in [-1, 1]), read after the features
+    are FiLM-modulated by the instruction code ``c``, so that the positions can follow the object
+    the instruction names. Writes the positions and the average of the modulated features."""
+
+    def __init__(self, w: int, cond: int, keypoints: int = 32) -> None:
+        super().__init__()
+        self.convs = nn.Sequential(
+            nn.Conv2d(3, w, 3, stride=2, padding=1), nn.GroupNorm(8, w), nn.ReLU(inplace=True),
+            nn.Conv2d(w, 2 * w, 3, stride=2, padding=1), nn.GroupNorm(8, 2 * w), nn.ReLU(inplace=True),
+            nn.Conv2d(2 * w, 2 * w, 3, padding=1), nn.GroupNorm(8, 2 * w))
+        self.film = nn.Linear(cond, 4 * w)
+        self.points = nn.Conv2d(2 * w, keypoints, 1)
+        self.features = 2 * keypoints + 2 * w
+
+    def forward(self, x: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+        h = self.convs(x)
+        gamma, beta = self.film(c).chunk(2, dim=1)
+        h = torch.relu(h * (1 + gamma[:, :, None, None]) + beta[:, :, None, None])
+        maps = self.points(h)
+        n, k, rows, cols = maps.shape
+        weights = torch.softmax(maps.view(n, k, rows * cols), dim=2).view(n, k, rows, cols)
+        ys = torch.linspace(-1.0, 1.0, rows, device=x.device, dtype=x.dtype)
+        xs = torch.linspace(-1.0, 1.0, cols, device=x.device, dtype=x.dtype)
+        px = (weights.sum(dim=2) * xs).sum(dim=2)
+        py = (weights.sum(dim=3) * ys).sum(dim=2)
+        return torch.cat([px, py, h.mean(dim=(2, 3))], dim=1)
+
+
 class BCNet(nn.Module):
     """Images + instruction tokens + robot state → ``chunk`` steering vectors in [-1, 1]."""
 
     def __init__(self, vocab: int, image: int, chunk: int, width: int, hidden: int, state_dim: int = STATE_DIM,
-                 normalise: bool = True, cameras: int = len(CAMERAS)) -> None:
+                 normalise: bool = True, cameras: int = len(CAMERAS), encoder: str = "flatten") -> None:
         super().__init__()
         self.chunk = chunk
         self.normalise = normalise
@@ -136,11 +269,15 @@ class BCNet(nn.Module):
             self.register_buffer("state_std", torch.ones(state_dim))
         self.embed = nn.Embedding(vocab, 64, padding_idx=0)
         self.text = nn.GRU(64, 128, batch_first=True)
-        self.encoders = nn.ModuleList([Encoder(width, 128) for _ in range(cameras)])
-        side = image
-        for _ in range(4):
-            side = (side + 1) // 2
-        feat = 2 * width * side * side
+        if encoder == "keypoints":
+            self.encoders = nn.ModuleList([KeypointEncoder(width, 128) for _ in range(cameras)])
+            feat = KeypointEncoder(width, 128).features
+        else:
+            self.encoders = nn.ModuleList([Encoder(width, 128) for _ in range(cameras)])
+            side = image
+            for _ in range(4):
+                side = (side + 1) // 2
+            feat = 2 * width * side * side
         self.state = nn.Sequential(nn.Linear(state_dim, 64), nn.ReLU(inplace=True))
         self.head = nn.Sequential(nn.Linear(cameras * feat + 64 + 128, hidden), nn.ReLU(inplace=True),
                                   nn.Linear(hidden, hidden), nn.ReLU(inplace=True), nn.Linear(hidden, chunk * 7))
@@ -183,9 +320,12 @@ class BCPolicy:
         if self.inputs not in INPUTS:
             raise ConfigError(f"policy config.json: inputs={self.inputs!r}; valid: {', '.join(INPUTS)}")
         self.cameras = CAMERAS if self.inputs == "rgb" else ()
+        self.action = str(config.get("action", "steering"))
+        if self.action not in ACTIONS:
+            raise ConfigError(f"policy config.json: action={self.action!r}; valid: {', '.join(ACTIONS)}")
         self.net = BCNet(len(instruction_vocabulary()), max(int(config["image"]), 1), config["chunk"], m["width"],
-                         m["hidden"], state_dim=int(m.get("state_dim", STATE_DIM)), cameras=len(self.cameras)
-                         ).to(self.device)
+                         m["hidden"], state_dim=int(m.get("state_dim", STATE_DIM)), cameras=len(self.cameras),
+                         encoder=str(m.get("encoder", "flatten"))).to(self.device)
         self.env = env.unwrapped if env is not None else None
         if state is not None:
             self.net.load_state_dict(state)
@@ -201,6 +341,7 @@ class BCPolicy:
                               f"indices 0-5")
         self.zero_channels = [int(c) for c in fixed]
         self._lin_step = 0.25 / 20.0  # TCP travel of a steering value of 1 in one control step [m]
+        self._speeds = (0.25, 1.0)  # TCP speed and angular speed of a steering value of 1 [m/s, rad/s]
         self._queue: list[np.ndarray] = []
         self._chunks: list[np.ndarray] = []
         self._z: float | None = None
@@ -218,6 +359,7 @@ class BCPolicy:
             control = getattr(env.unwrapped, "control", None)
             if control is not None:
                 self._lin_step = float(control.max_linear_speed) / float(control.control_hz)
+                self._speeds = (float(control.max_linear_speed), float(control.max_angular_speed))
 
     @classmethod
     def load(cls, folder: str | Path | None, env: Any = None) -> BCPolicy:
@@ -236,7 +378,7 @@ class BCPolicy:
     def _state(self, obs: Mapping[str, Any]) -> np.ndarray:
         g = np.asarray(obs["gripper"], dtype=float)
         robot = _state(np.asarray(obs["joint_pos"], float), np.asarray(obs["tcp_pos"], float),
-                       np.asarray(obs["tcp_quat"], float), g[0] + g[1], np.asarray(obs["joint_vel"], float),
+                       np.asarray(obs["tcp_quat"], float), g[0] + g[1], _joint_vel(self.action, obs["joint_vel"]),
                        self._last_gripper)
         if self.inputs != "state":
             return robot
@@ -276,7 +418,9 @@ class BCPolicy:
         return out[0].cpu().numpy()
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
-        if self.ensemble is not None:
+        if self.action == "waypoint":
+            action = self._follow(self.predict(obs)[0], obs["gripper"])
+        elif self.ensemble is not None:
             self._chunks = [*self._chunks, self.predict(obs)][-self.chunk:]
             n = len(self._chunks)  # chunk i (oldest first) was predicted n-1-i steps ago
             acts = np.stack([c[n - 1 - i] for i, c in enumerate(self._chunks)])
@@ -292,6 +436,22 @@ class BCPolicy:
             action = self._above_floor(action, float(np.asarray(obs["tcp_pos"])[2]))
         self._last_gripper = float(action[6])
         return action.astype(np.float32)
+
+    def _follow(self, out: np.ndarray, gripper: Any) -> np.ndarray:
+        """The steering vector that moves toward the predicted waypoint ``out`` (:func:`waypoint_targets`):
+        a TCP velocity of :data:`WAYPOINT_GAIN` times the displacement, at most :data:`WAYPOINT_SPEED`,
+        a yaw rate of :data:`YAW_GAIN` times the remaining yaw; the gripper closing (:func:`squeeze_command`)
+        where the predicted command is below :data:`CLOSE_BELOW`, else the predicted command."""
+        lin_speed, ang_speed = self._speeds
+        v = WAYPOINT_GAIN * WAYPOINT_SCALE * np.asarray(out[:3], np.float64)
+        speed = float(np.sqrt((v * v).sum()))
+        if speed > WAYPOINT_SPEED:
+            v *= WAYPOINT_SPEED / speed
+        action = np.zeros(7)
+        action[:3] = v / lin_speed
+        action[5] = YAW_GAIN * np.pi * float(out[5]) / ang_speed
+        action[6] = squeeze_command(gripper) if out[6] < CLOSE_BELOW else float(out[6])
+        return action
 
     def _above_floor(self, action: np.ndarray, tcp_z: float) -> np.ndarray:
         """Raise the z velocity so that the TCP target stays at or above ``z_floor``.
@@ -327,8 +487,8 @@ def policy_for_evaluation(env: Any, config: Any) -> BCPolicy:
     return BCPolicy.load(config.models, env)
 
 
-def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS
-                    ) -> dict[str, np.ndarray]:
+def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS,
+                    action: str = "steering") -> dict[str, np.ndarray]:
     """One episode's training arrays, its waits left out (:func:`moving_frames`).
 
     ``steering`` and ``state`` are the kept frames in order (a chunk's targets are the next kept
@@ -338,19 +498,38 @@ def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int, cameras: 
     ep = reader.episode(k)
     f = ep.frames
     steering = np.asarray(f["steering"], np.float32)
-    keep = moving_frames(steering)
+    labels, keep = _labels(action, steering, np.asarray(f["tcp_pos"]), np.asarray(f["tcp_quat"]),
+                           np.asarray(f["gripper_opening"]))
     last_gripper = np.r_[1.0, steering[:-1, 6]]
     state = _state(np.asarray(f["joint_pos"]), np.asarray(f["tcp_pos"]), np.asarray(f["tcp_quat"]),
-                   np.asarray(f["gripper_opening"]), np.asarray(f["joint_vel"]), last_gripper)
+                   np.asarray(f["gripper_opening"]), _joint_vel(action, f["joint_vel"]), last_gripper)
     t = np.arange(0, len(keep), stride)
     tcp = np.asarray(f["tcp_pos"])
     target = _target_features(tcp, f["object_pos"], f["object_quat"], f["target_object"])
     return {
-        "frames": t, "steering": steering[keep], "state": state[keep], "target": target[keep],
+        "frames": t, "steering": labels, "state": state[keep], "target": target[keep],
         "z": tcp[keep, 2].astype(np.float64),
         **{c: np.asarray(ep.images[c]["rgb"][:])[keep[t]] for c in cameras},
         "tokens": encode_instruction(reader.instruction(k)["instruction"], tokens_len),
     }
+
+
+def _labels(action: str, steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, opening: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """An episode's training labels and the frames they belong to: the steering vectors of every frame
+    but the waits (:func:`moving_frames`), or every frame's waypoint target (:func:`waypoints`)."""
+    if action == "waypoint":
+        goal = waypoints(steering, tcp_pos, tcp_quat, opening)
+        return waypoint_targets(goal, tcp_pos, tcp_quat), np.arange(len(steering))
+    keep = moving_frames(steering)
+    return np.asarray(steering, np.float32)[keep], keep
+
+
+def _joint_vel(action: str, joint_vel: Any) -> np.ndarray:
+    """The joint velocities the network sees: none for waypoints (the follower moves unlike the
+    demonstrations' timed paths, and the labels do not depend on the speed)."""
+    v = np.asarray(joint_vel, np.float64)
+    return np.zeros_like(v) if action == "waypoint" else v
 
 
 def _image_size(reader: Any, dataset: str | Path) -> int:
@@ -367,18 +546,18 @@ def _image_size(reader: Any, dataset: str | Path) -> int:
     return int(next(iter(sizes))[0])
 
 
-def _collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS
-                      ) -> dict[str, np.ndarray]:
+def _collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS,
+                      action: str = "steering") -> dict[str, np.ndarray]:
     """A collected episode (:func:`samplehd.learn.demos.collect`) as :func:`_episode_arrays` gives one."""
-    label = np.asarray(raw["label"], np.float32)
-    keep = moving_frames(label)
     grip = np.asarray(raw["gripper"], np.float64)
+    labels, keep = _labels(action, np.asarray(raw["label"], np.float32), np.asarray(raw["tcp_pos"]),
+                           np.asarray(raw["tcp_quat"]), grip[:, 0] + grip[:, 1])
     last_gripper = np.r_[1.0, np.asarray(raw["executed"], np.float64)[:-1, 6]]
-    state = _state(raw["joint_pos"], raw["tcp_pos"], raw["tcp_quat"], grip[:, 0] + grip[:, 1], raw["joint_vel"],
-                   last_gripper)
+    state = _state(raw["joint_pos"], raw["tcp_pos"], raw["tcp_quat"], grip[:, 0] + grip[:, 1],
+                   _joint_vel(action, raw["joint_vel"]), last_gripper)
     t = np.arange(0, len(keep), stride)
     target = _target_features(raw["tcp_pos"], raw["object_pos"], raw["object_quat"], raw["target_object"])
-    return {"frames": t, "steering": label[keep], "state": state[keep], "target": target[keep],
+    return {"frames": t, "steering": labels, "state": state[keep], "target": target[keep],
             "z": np.asarray(raw["tcp_pos"], np.float64)[keep, 2],
             **{c: np.asarray(raw[c])[keep[t]] for c in cameras},
             "tokens": encode_instruction(str(raw["instruction"]), tokens_len)}
@@ -424,7 +603,8 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
                  families: Sequence[str] | None = None, loss: str = "mse", near_weight: float = 1.0,
                  ensemble: float | None = None, floor: bool = True, gripper_weight: float = 1.0,
                  demos: int = 0, noise: float = 0.0, dagger_rounds: int = 0, dagger_episodes: int = 50,
-                 dagger_steps: int = 1000, workers: int = 1, inputs: str = "rgb") -> dict[str, Any]:
+                 dagger_steps: int = 1000, workers: int = 1, inputs: str = "rgb", action: str = "steering"
+                 ) -> dict[str, Any]:
     """Train the behaviour-cloning policy on a dataset's training episodes.
 
     With ``inputs="rgb"`` (the visuomotor policy) it sees both cameras' RGB, the instruction and the
@@ -449,6 +629,12 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         raise ConfigError(f"train_policy: loss={loss!r}; valid: mse, l1")
     if inputs not in INPUTS:
         raise ConfigError(f"train_policy: inputs={inputs!r}; valid: {', '.join(INPUTS)}")
+    if action not in ACTIONS:
+        raise ConfigError(f"train_policy: action={action!r}; valid: {', '.join(ACTIONS)}")
+    if action == "waypoint":  # one waypoint per frame, predicted every step
+        chunk, execute, ensemble = 1, 1, None
+    # Waypoints are image positions: the waypoint policy's cameras end in keypoints.
+    encoder = "keypoints" if action == "waypoint" else "flatten"
     reader = open_dataset(dataset)
     cameras = CAMERAS if inputs == "rgb" else ()
     image = _image_size(reader, dataset) if cameras else 0
@@ -466,8 +652,8 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         raise ConfigError(f"--dataset {dataset}: no training episodes")
     dev = pick_device(device)
     set_seed(seed)
-    data = [_episode_arrays(reader, k, stride, tokens, cameras) for k in train_k]
-    test = [_episode_arrays(reader, k, stride * 4, tokens, cameras) for k in test_k]
+    data = [_episode_arrays(reader, k, stride, tokens, cameras, action) for k in train_k]
+    test = [_episode_arrays(reader, k, stride * 4, tokens, cameras, action) for k in test_k]
     families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
     train_set = set(train_k)
     longest = max(e.num_frames for e in reader.episodes if e.instruction_index in train_set)
@@ -480,9 +666,10 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     total_steps = steps + dagger_rounds * dagger_steps
     state_dim = STATE_DIM + (TARGET_DIM if inputs == "state" else 0)
     config = {
-        "kind": "policy", "format": FORMAT, "dataset": str(dataset), "inputs": inputs, "image": image,
+        "kind": "policy", "format": FORMAT, "dataset": str(dataset), "inputs": inputs, "action": action,
+        "image": image,
         "chunk": chunk, "execute": execute, "tokens": tokens,
-        "model": {"width": width, "hidden": hidden, "state_dim": state_dim},
+        "model": {"width": width, "hidden": hidden, "state_dim": state_dim, "encoder": encoder},
         "inference": {"ensemble": ensemble, "z_floor": round(z_floor, 6) if floor else None,
                       "zero_channels": zero_channels},
         "families": list(families_used),
@@ -498,32 +685,36 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     say = Console(stderr=True, quiet=quiet).print
 
     def collected(name: str, spec: CollectSpec, policy_args: Any = None) -> list[dict[str, np.ndarray]]:
+        """The episodes of ``spec`` as training arrays; the raw episodes are kept in ``out/name`` (a
+        resumed run reads them instead of collecting again)."""
         path = Path(out) / name
         if path.exists():
-            return _load_arrays(path)
-        say(f"collecting {spec.episodes} {'DAgger' if policy_args else 'oracle'} episodes in the environment "
-            f"({name})")
-        raw = collect(spec, workers=workers, policy_factory=_dagger_policy if policy_args else None,
-                      policy_args=policy_args)
-        arrays = [_collected_arrays(e, stride, tokens, cameras) for e in raw]
-        _save_arrays(path, arrays)
-        return arrays
+            raw = _load_arrays(path)
+        else:
+            say(f"collecting {spec.episodes} {'DAgger' if policy_args else 'oracle'} episodes in the environment "
+                f"({name})")
+            raw = collect(spec, workers=workers, policy_factory=_dagger_policy if policy_args else None,
+                          policy_args=policy_args)
+            _save_arrays(path, [{k: np.asarray(v) for k, v in e.items()} for e in raw])
+        return [_collected_arrays(e, stride, tokens, cameras, action) for e in raw]
 
     base = CollectSpec(episodes=demos, seed=seed, families=families_used, image=max(image, 16), cameras=cameras,
-                       noise=noise, still=tuple(zero_channels))
+                       noise=noise, still=tuple(zero_channels), squeeze=action == "waypoint")
     if demos:
         data += collected(DEMOS_FILE, base)
     states = np.concatenate([_inputs_state(d, inputs) for d in data]).astype(np.float64)
     mean, std = states.mean(0), np.maximum(states.std(0), 1e-2)
     net = BCNet(len(instruction_vocabulary()), max(image, 1), chunk, width, hidden, state_dim=state_dim,
-                cameras=len(cameras)).to(dev)
+                cameras=len(cameras), encoder=encoder).to(dev)
     with torch.no_grad():
         net.state_mean.copy_(torch.as_tensor(mean, dtype=torch.float32))
         net.state_std.copy_(torch.as_tensor(std, dtype=torch.float32))
     opt = torch.optim.Adam(net.parameters(), lr=lr)
     index = [(i, j) for i, d in enumerate(data) for j in range(len(d["frames"]))]
     rounds_done: set[int] = set()
-    channel_weight = torch.as_tensor([1.0] * 6 + [gripper_weight], dtype=torch.float32, device=dev)
+    # A waypoint's position is wanted to millimetres in a displacement of up to WAYPOINT_SCALE; roll and pitch are none.
+    weights = [10.0] * 3 + [0.0, 0.0, 3.0] if action == "waypoint" else [1.0] * 6
+    channel_weight = torch.as_tensor([*weights, gripper_weight], dtype=torch.float32, device=dev)
 
     def dagger_round(r: int) -> None:
         """Round ``r``: run the current policy (the oracle's action with probability 0.5 ** (r + 1))

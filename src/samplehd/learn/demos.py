@@ -35,10 +35,12 @@ from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.oracle import OraclePolicy
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, PlanningError
+from samplehd.robot.constants import GRIPPER_STROKE
 
-__all__ = ["CollectSpec", "collect", "episode_seed"]
+__all__ = ["CollectSpec", "collect", "episode_seed", "squeeze_command"]
 
 _STREAM = 0xDA  # the seed stream of collected episodes
+SQUEEZE_STEP = 0.002  # a closing command asks for this much less than the fingers' opening [m]
 
 
 @dataclass(frozen=True)
@@ -56,6 +58,9 @@ class CollectSpec:
         still: steering values (0-5) left without noise: those the demonstrations never use.
         max_steps: steps after which an episode is given up.
         first: index of the first episode (the seeds of a later round follow an earlier one's).
+        squeeze: close the gripper as the waypoint policy does (:func:`squeeze_command`) from where
+            a held-still step lowers the oracle's command until one raises it, instead of the
+            oracle's own closing widths.
     """
 
     episodes: int
@@ -68,6 +73,7 @@ class CollectSpec:
     still: tuple[int, ...] = ()
     max_steps: int = 800
     first: int = 0
+    squeeze: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.episodes, int) or self.episodes < 0:
@@ -76,6 +82,14 @@ class CollectSpec:
             raise ConfigError(f"collect: noise={self.noise!r}; valid: a number in [0, 1]")
         if not 0.0 <= self.beta <= 1.0:
             raise ConfigError(f"collect: beta={self.beta!r}; valid: a number in [0, 1]")
+
+
+def squeeze_command(gripper: Any) -> float:
+    """The gripper command that closes the fingers :data:`SQUEEZE_STEP` narrower than they are
+    (``gripper``: the observation's finger positions): repeated every step, it closes them until
+    they touch, then squeezes what they hold, whatever its width."""
+    width = float(gripper[0]) + float(gripper[1])
+    return max(-1.0, 2.0 * (width - SQUEEZE_STEP) / GRIPPER_STROKE - 1.0)
 
 
 def episode_seed(seed: int, k: int) -> int:
@@ -104,6 +118,7 @@ def _run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: i
     frames: dict[str, list[Any]] = {key: [] for key in (*keys, "label", "executed", "target_object",
                                                          *spec.cameras)}
     success = False
+    closing, previous = False, None  # whether the oracle is closing or holding; its previous command
     for _ in range(spec.max_steps):
         try:
             label = oracle(obs)
@@ -112,6 +127,12 @@ def _run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: i
         if oracle.gave_up:
             break
         executed = label.copy()
+        if spec.squeeze:
+            if previous is not None and np.abs(label[:6]).max() < 1e-3 and abs(label[6] - previous) >= 1e-3:
+                closing = bool(label[6] < previous)
+            previous = float(label[6])
+            if closing:
+                executed[6] = squeeze_command(obs["gripper"])
         if policy is not None:
             mine = np.asarray(policy(obs), dtype=float)  # the policy keeps its own memory of what it sent
             if rng.random() >= spec.beta:
