@@ -265,3 +265,44 @@ def test_evaluate_lerobot_env_from_the_training_export(tiny_lerobot_checkpoint: 
     rc, _, err = _evaluate(["--policy", f"lerobot:{ckpt}", "--episodes", "1"], capsys)
     assert rc == 2 and err.count("\n") == 1
     assert "unknown LeRobot policy type 'no_such_policy'; this lerobot knows act, " in err
+
+
+def test_lerobot_policy_acts_as_under_lerobot_eval(tiny_lerobot_checkpoint: Path, options: dict,
+                                                   tmp_path: Path) -> None:
+    """The same checkpoint on the same split episode: LeRobot's own rollout (lerobot-eval's, in the plugin's
+    env) and `samplehd evaluate`'s policy in Tabletop-v0 send the same actions, step by step."""
+    plugin = pytest.importorskip("lerobot_env_samplehd")
+    from lerobot.configs.policies import PreTrainedConfig
+    from lerobot.envs.factory import make_env, make_env_pre_post_processors
+    from lerobot.policies.factory import make_policy, make_pre_post_processors
+    from lerobot.scripts.lerobot_eval import rollout
+
+    from samplehd.envs.evaluation import split_episode
+    from samplehd.envs.lerobot_policy import LeRobotPolicy
+
+    steps, path = 6, str(tiny_lerobot_checkpoint)
+    (tmp_path / "meta").mkdir()
+    (tmp_path / EXPORT_RECORD).write_text(json.dumps({"env": {**options, "families": ["pick_up"]}}))
+    env_cfg = plugin.SamplehdEnv(dataset=str(tmp_path), episode_length=steps)
+    vec = make_env(env_cfg, n_envs=1)["pick_up"][0]
+    policy_cfg = PreTrainedConfig.from_pretrained(path)
+    policy_cfg.pretrained_path = tiny_lerobot_checkpoint
+    policy = make_policy(policy_cfg, env_cfg=env_cfg)
+    policy.eval()
+    pre, post = make_pre_post_processors(policy_cfg, pretrained_path=path, preprocessor_overrides={
+        "device_processor": {"device": "cpu"}, "rename_observations_processor": {"rename_map": {}}})
+    env_pre, env_post = make_env_pre_post_processors(env_cfg, policy_cfg)
+    theirs = rollout(vec, policy, env_pre, env_post, pre, post, seeds=[0])["action"][0].numpy()
+    vec.close()
+
+    env = TabletopEnv(**{**options, "families": ["pick_up"]})
+    ours = LeRobotPolicy.load(f"lerobot:{path}", env)
+    obs, _, used = reset_at_level(env, *split_episode(0, ["pick_up"], 0), None)
+    ours.reset(seed=used)
+    actions = []
+    for _ in range(steps):
+        actions.append(ours(obs))
+        obs, *_ = env.step(actions[-1])
+    env.close()
+    assert theirs.shape == (steps, 7) and len(np.unique(theirs.round(6), axis=0)) > 1
+    np.testing.assert_allclose(np.stack(actions), theirs, rtol=1e-5, atol=1e-6)
