@@ -3,7 +3,8 @@
 # >= 0.5 needs 3.12) with lerobot 0.6.1, samplehd and the env plugin lerobot_env_samplehd; make a
 # small pick_up export when none is given; open it with LeRobotDataset(repo_id, root=...); train
 # LeRobot's own policies on its train split with `lerobot-train`; then run the ACT checkpoint in
-# samplehd's environment with `lerobot-eval --env.type=samplehd`. Not part of `make test`.
+# samplehd's environment with `lerobot-eval --env.type=samplehd` and with `samplehd evaluate --policy
+# lerobot:CKPT`, and check that both report the same success on every episode. Not part of `make test`.
 #
 # usage: scripts/check_lerobot.sh [EXPORT_DIR] [REPO_ID] [STEPS]
 #   EXPORT_DIR: a `samplehd export lerobot` folder (default: make one in WORK from DEMOS pick_up scenes)
@@ -11,7 +12,9 @@
 #        (default: pyenv's 3.12.1, else python3.12), POLICIES (default "act diffusion"), WORK (default:
 #        a temporary folder, removed at the end), DEMOS (scenes of the made export, default 8), SIZE
 #        (its square image side, default 96), EVAL_EPISODES (default 3; 0 skips lerobot-eval),
-#        EVAL_STEPS (steps per evaluated episode, default 150), TASK (default pick_up).
+#        EVAL_STEPS (steps per evaluated episode, default 150), TASK (default pick_up), LEVEL (train on
+#        meta/splits/train_LEVEL.json and evaluate at that level; default L1, empty: train.json and the
+#        plain split).
 #
 # Download: lerobot 0.6.1 needs torch < 2.12; where no CPU wheel for 3.12 is at hand the first run
 # downloads PyPI's torch (a CUDA build with its nvidia-* libraries: about 5 GB in the venv). Build the
@@ -27,6 +30,7 @@ venv="${LEROBOT_VENV:-${XDG_CACHE_HOME:-$HOME/.cache}/samplehd/lerobot-venv}"
 eval_episodes="${EVAL_EPISODES:-3}"
 eval_steps="${EVAL_STEPS:-150}"
 task="${TASK:-pick_up}"
+level="${LEVEL-L1}"
 py="${PYTHON312:-}"
 if [[ -z "$py" ]]; then
   for cand in /root/.pyenv/versions/3.12.1/bin/python3 "$(command -v python3.12 || true)"; do
@@ -97,11 +101,16 @@ print(f"check_lerobot: OK: lerobot loaded {root} ({ds.num_episodes} episodes, {d
       f"{ds.fps} fps, videos {ds.meta.video_keys}); policy features {kinds}")
 PY
 
-# The train split only (samplehd's test episodes stay out), where the export lists it.
+# The train split only (samplehd's test episodes stay out; with LEVEL, what that level holds out too),
+# where the export lists it.
 episodes=()
-if [[ -f "$export_dir/meta/splits/train.json" ]]; then
-  episodes=(--dataset.episodes="$(cat "$export_dir/meta/splits/train.json")")
+split_file="$export_dir/meta/splits/train${level:+_$level}.json"
+[[ -f "$split_file" ]] || split_file="$export_dir/meta/splits/train.json"
+if [[ -f "$split_file" ]]; then
+  episodes=(--dataset.episodes="$(cat "$split_file")")
 fi
+level_flag=()
+[[ -n "$level" ]] && level_flag=(--env.level="$level")
 for policy in $policies; do
   save=(--save_checkpoint=false)
   if [[ "$policy" == act && "$eval_episodes" -gt 0 ]]; then save=(--save_checkpoint=true --save_freq="$steps"); fi
@@ -124,6 +133,7 @@ if [[ "$eval_episodes" -gt 0 && " $policies " == *" act "* ]]; then
   t0=$SECONDS
   "$venv/bin/lerobot-eval" --policy.path="$work/act/checkpoints/last/pretrained_model" --policy.device=cpu \
     --env.type=samplehd --env.task="$task" --env.dataset="$export_dir" --env.episode_length="$eval_steps" \
+    "${level_flag[@]}" \
     --eval.n_episodes="$eval_episodes" --eval.batch_size=1 --seed=0 --output_dir="$work/eval" \
     > "$work/eval.log" 2>&1 \
     || { tail -n 40 "$work/eval.log" >&2; echo "check_lerobot: lerobot-eval FAILED" >&2; exit 1; }
@@ -136,5 +146,21 @@ assert overall["n_episodes"] == int(n), overall
 print(f"check_lerobot: OK: lerobot-eval --env.type=samplehd --env.task={task} ran ACT on {n} episodes of "
       f"samplehd evaluate's split (seed 0, ≤ {steps} steps each): pc_success {overall['pc_success']:.1f} %, "
       f"avg_sum_reward {overall['avg_sum_reward']:.2f}, {wall} s")
+PY
+  # The same checkpoint on the same episodes through samplehd's CLI: same success, episode by episode.
+  t0=$SECONDS
+  "$venv/bin/samplehd" evaluate --policy "lerobot:$work/act/checkpoints/last/pretrained_model" \
+    --families "$task" --episodes "$eval_episodes" --max-episode-steps "$eval_steps" --seed 0 \
+    ${level:+--level "$level"} --out "$work/samplehd_eval.json" > "$work/samplehd_eval.log" 2>&1 \
+    || { tail -n 20 "$work/samplehd_eval.log" >&2; echo "check_lerobot: samplehd evaluate FAILED" >&2; exit 1; }
+  "$venv/bin/python" - "$work/eval/eval_info.json" "$work/samplehd_eval.json" "$((SECONDS - t0))" <<'PY'
+import json, sys
+
+theirs = [bool(s) for t in json.load(open(sys.argv[1]))["per_task"] for s in t["metrics"]["successes"]]
+report = json.load(open(sys.argv[2]))
+ours = [r["success"] for r in report["records"]]
+assert ours == theirs, f"lerobot-eval successes {theirs} != samplehd evaluate successes {ours}"
+print(f"check_lerobot: OK: samplehd evaluate --policy lerobot:CKPT agrees with lerobot-eval on all {len(ours)} "
+      f"episodes: {sum(ours)}/{len(ours)} succeed (mean steps {report['mean_steps']:.0f}, {sys.argv[3]} s)")
 PY
 fi

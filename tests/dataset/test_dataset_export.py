@@ -143,13 +143,23 @@ def test_validate_cli_exit_codes(micro_dataset: Path, tmp_path: Path, capsys: py
 
 
 def test_lerobot_export_records_its_env_and_splits(lerobot_export: Path, rendered_dataset: Path) -> None:
-    from samplehd.envs.lerobot_tabletop import LeRobotTabletop, env_options_from_export
+    from samplehd.envs.lerobot_contract import env_options_from_export
+    from samplehd.envs.lerobot_tabletop import LeRobotTabletop
+    from samplehd.language.levels import LEVELS, held_out_for
 
     info = json.loads((lerobot_export / "meta" / "info.json").read_text())
     record = json.loads((lerobot_export / "meta" / "samplehd.json").read_text())
-    train = json.loads((lerobot_export / "meta" / "splits" / "train.json").read_text())
-    test = json.loads((lerobot_export / "meta" / "splits" / "test.json").read_text())
-    assert train + test == list(range(info["total_episodes"])) and record["episodes"] == {"train": train, "test": test}
+    splits = {p.stem: json.loads(p.read_text()) for p in (lerobot_export / "meta" / "splits").glob("*.json")}
+    train, test = splits["train"], splits["test"]
+    assert train + test == list(range(info["total_episodes"])) and record["episodes"] == splits
+    # Per level: the train episodes that do not move or say what the level holds out (export order: train first).
+    reader = DatasetReader(rendered_dataset)
+    order = [i for i, e in enumerate(reader.episodes) if e.split == "train"]
+    for level in LEVELS:
+        keep = [n for n, i in enumerate(order)
+                if not held_out_for(level, reader.instruction(i), reader.scene(reader.episodes[i].scene_index))]
+        assert splits[f"train_{level}"] == keep and set(keep) <= set(train)
+    assert set(splits["train_L1"]) <= set.intersection(*(set(splits[f"train_{lv}"]) for lv in LEVELS[1:]))
     assert f"0:{len(train)}" == info["splits"]["train"]
     assert record["state_layout"]["observation.state"] == info["features"]["observation.state"]["names"]
     options = env_options_from_export(lerobot_export)

@@ -26,11 +26,10 @@ from lerobot.envs.configs import EnvConfig
 
 import samplehd  # noqa: F401  (picks the GL backend before mujoco is imported)
 from samplehd.envs.config import EnvConfig as TabletopConfig
-from samplehd.envs.lerobot_tabletop import DEFAULT_MAX_STEPS, env_options_from_export, make_lerobot_envs
+from samplehd.envs.lerobot_contract import env_options_from_export, lerobot_features
+from samplehd.envs.lerobot_tabletop import DEFAULT_MAX_STEPS, make_lerobot_envs
 
 __all__ = ["SamplehdEnv"]
-
-ACTION = "action"
 
 
 @EnvConfig.register_subclass("samplehd")
@@ -53,16 +52,9 @@ class SamplehdEnv(EnvConfig):
     def __post_init__(self) -> None:
         options = TabletopConfig.from_kwargs(**self.env_options)  # defaults filled in, one-line errors
         self.fps = int(round(options.control_hz))
-        h, w = options.height, options.width
-        self.features = {
-            ACTION: PolicyFeature(type=FeatureType.ACTION, shape=(7,)),
-            "agent_pos": PolicyFeature(type=FeatureType.STATE, shape=(7,)),
-            "tcp_pose": PolicyFeature(type=FeatureType.STATE, shape=(7,)),
-        }
-        self.features_map = {ACTION: ACTION, "agent_pos": "observation.state", "tcp_pose": "observation.tcp_pose"}
-        for cam in options.cameras:
-            self.features[f"pixels/{cam}"] = PolicyFeature(type=FeatureType.VISUAL, shape=(h, w, 3))
-            self.features_map[f"pixels/{cam}"] = f"observation.images.{cam}"
+        feats = lerobot_features(options.cameras, options.height, options.width)
+        self.features = {k: PolicyFeature(type=FeatureType[f.kind], shape=f.shape) for k, f in feats.items()}
+        self.features_map = {k: f.name for k, f in feats.items()}
 
     @property
     def families(self) -> list[str]:

@@ -9,19 +9,21 @@ from samplehd.commands._options import check_int, check_out_dir, check_out_file
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
 from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate, load_policy_module
+from samplehd.envs.lerobot_policy import is_lerobot_policy, read_lerobot_checkpoint
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.learn.options import env_options
 from samplehd.tasks.task import family_names
 
-HELP = ("run a policy (oracle, random, neurosymbolic, bc or MODULE:CALLABLE) on the seeded benchmark split; "
-        "JSON report")
+HELP = ("run a policy (oracle, random, neurosymbolic, bc, lerobot:CKPT or MODULE:CALLABLE) on the seeded "
+        "benchmark split; JSON report")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--policy", required=True,
-                        help="oracle, random, neurosymbolic, bc (learned baselines: need --models), or "
-                             "MODULE:CALLABLE (obs -> action)")
+                        help="oracle, random, neurosymbolic, bc (learned baselines: need --models), "
+                             "lerobot:CKPT (a lerobot-train checkpoint folder; needs lerobot, Python >= 3.12), "
+                             "or MODULE:CALLABLE (obs -> action)")
     parser.add_argument("--models", type=Path, help="trained models: neurosymbolic: a folder with parser/ and "
                                                     "perception/; bc: the folder of `samplehd train policy`")
     parser.add_argument("--programs", choices=("gt", "predicted"),
@@ -33,8 +35,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="generalisation level: L1 seen, L2 new colour-class combinations, L3 held-out "
                              "paraphrases, L4 held-out classes (default: the plain split)")
     parser.add_argument("--episodes", type=int, default=10, help="episodes of the split (default 10)")
-    parser.add_argument("--families", nargs="+", default=list(DEFAULT_FAMILIES), choices=family_names(),
-                        metavar="FAMILY", help=f"families, in rotation (default: {' '.join(DEFAULT_FAMILIES)})")
+    parser.add_argument("--families", nargs="+", choices=family_names(), metavar="FAMILY",
+                        help=f"families, in rotation (default: {' '.join(DEFAULT_FAMILIES)}; lerobot:CKPT: the "
+                             "families of its training data)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the split (default 0)")
     # These default to the --env-options file's values, then to Tabletop-v0's defaults.
     parser.add_argument("--control-mode", choices=list(CONTROL_MODES), help="action interface (default steering)")
@@ -72,18 +75,30 @@ def run(args: argparse.Namespace) -> int:
     if args.policy == "bc" and args.models is not None:
 
         env.update(env_options(args.models))  # the cameras, image size and control the policy was trained on
+    families = args.families or list(DEFAULT_FAMILIES)
+    checkpoint = read_lerobot_checkpoint(args.policy) if is_lerobot_policy(args.policy) else None
+    if checkpoint is not None:
+        # The environment the policy was trained for; --env-options and flags refine it, and must still
+        # give the images and state the policy reads.
+        families = args.families or list(checkpoint.families) or families
+        env = {**checkpoint.env, **env, "families": families}
     where = f"--env-options {args.env_options}" if args.env_options else "command line"
     try:
         EnvConfig.from_kwargs(**env)
     except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
+    if checkpoint is not None:
+        checkpoint.check_env(env)
     check_int("--seed", args.seed, 0)
     check_out_file("--out", args.out, (".json",))
     check_out_dir("--video", args.video)
     check_outputs({"--out": args.out, "--video": args.video},
                   {"--env-options": args.env_options, "--models": args.models})
     load_policy_module(args.policy)
-    config = EvalConfig(policy=args.policy, episodes=args.episodes, families=tuple(args.families), seed=args.seed,
+    if checkpoint is not None:
+        print(f"lerobot: {checkpoint.policy_type} policy {checkpoint.path}; environment from "
+              f"{checkpoint.env_source}", flush=True)
+    config = EvalConfig(policy=args.policy, episodes=args.episodes, families=tuple(families), seed=args.seed,
                         env=env, video_dir=str(args.video) if args.video else None, workers=args.workers,
                         compare_offline=args.compare_offline,
                         models=str(args.models) if args.models else None, programs=args.programs,

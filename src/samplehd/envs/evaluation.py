@@ -7,7 +7,8 @@ The split is a pure function of (number of episodes, families, seed): episode ``
 A policy is any callable ``obs -> action``; if it has a ``reset(seed=...)`` method it is called at
 the start of every episode. Built in: ``oracle`` (:class:`samplehd.envs.oracle.OraclePolicy`) and
 ``random`` (uniform samples of the action space), and the learned baselines of :mod:`samplehd.learn`
-(``neurosymbolic``, ``bc``; they read trained models from ``models``). ``MODULE:CALLABLE`` imports
+(``neurosymbolic``, ``bc``; they read trained models from ``models``). ``lerobot:CKPT`` runs a
+LeRobot checkpoint as ``lerobot-eval`` would (:mod:`samplehd.envs.lerobot_policy`). ``MODULE:CALLABLE`` imports
 user code (that is the point of the API); the callable may also be a factory taking the environment
 and returning the policy (it is called with the environment when it accepts a keyword ``env``).
 
@@ -31,6 +32,7 @@ import numpy as np
 
 from samplehd.catalogue.loader import catalogue_for
 from samplehd.envs.config import EnvConfig
+from samplehd.envs.lerobot_policy import LeRobotPolicy, is_lerobot_policy
 from samplehd.envs.levels import LEVELS, reset_at_level
 from samplehd.envs.oracle import OraclePolicy
 from samplehd.envs.tabletop import TabletopEnv
@@ -59,7 +61,7 @@ class EvalConfig:
     """What an evaluation run does.
 
     Attributes:
-        policy: ``oracle``, ``random`` or ``MODULE:CALLABLE``.
+        policy: ``oracle``, ``random``, ``neurosymbolic``, ``bc``, ``lerobot:CKPT`` or ``MODULE:CALLABLE``.
         episodes: number of episodes of the split.
         families: families of the split, in rotation.
         seed: seed of the split.
@@ -109,11 +111,11 @@ class EvalConfig:
 
 
 def check_policy_spec(spec: str) -> None:
-    """Raise ConfigError unless ``spec`` is a built-in policy or ``MODULE:CALLABLE``."""
-    if spec in BUILT_IN:
+    """Raise ConfigError unless ``spec`` is a built-in policy, ``lerobot:CKPT`` or ``MODULE:CALLABLE``."""
+    if spec in BUILT_IN or is_lerobot_policy(spec):
         return
     if not _POLICY_SPEC.match(spec):
-        raise ConfigError(f"--policy {spec!r}: expected {', '.join(BUILT_IN)} or MODULE:CALLABLE "
+        raise ConfigError(f"--policy {spec!r}: expected {', '.join(BUILT_IN)}, lerobot:CKPT or MODULE:CALLABLE "
                           "(e.g. mypkg.agents:act)")
 
 
@@ -149,7 +151,7 @@ def load_policy_module(spec: str) -> Any:
         ConfigError: the spec is malformed, the module cannot be imported or has no such callable.
     """
     check_policy_spec(spec)
-    if spec in BUILT_IN:
+    if spec in BUILT_IN or is_lerobot_policy(spec):
         return None
     module_name, attr = spec.split(":")
     try:
@@ -177,6 +179,8 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
         return OraclePolicy(env)
     if spec == "random":
         return RandomPolicy(env.action_space)
+    if is_lerobot_policy(spec):
+        return LeRobotPolicy.load(spec, env)
     obj = load_policy_module(spec)
     try:
         params = inspect.signature(obj).parameters

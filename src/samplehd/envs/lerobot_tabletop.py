@@ -5,15 +5,8 @@ config ``samplehd`` with LeRobot and calls :func:`make_lerobot_envs`; everything
 the contract is tested in samplehd's own suite (Python 3.11, no lerobot).
 
 Observations are named so that LeRobot's ``preprocess_observation`` turns them into the features of
-``samplehd export lerobot``, with the same shapes and units:
-
-==================  ==========================  ===============================================
-env key             LeRobot feature             value
-==================  ==========================  ===============================================
-``pixels/<cam>``    ``observation.images.<cam>``  RGB (H, W, 3) uint8 (LeRobot makes it CHW float)
-``agent_pos``       ``observation.state``         6 joint angles [rad] + gripper opening [m]
-``tcp_pose``        ``observation.tcp_pose``      TCP position [m] + quaternion (w, x, y, z)
-==================  ==========================  ===============================================
+``samplehd export lerobot``, with the same shapes and units (the table and the conversion live in
+:mod:`samplehd.envs.lerobot_contract`, shared with ``samplehd evaluate --policy lerobot:CKPT``).
 
 The action is the export's ``action``: SAMPLE-HD's 7-D steering vector. ``info["is_success"]`` is the
 shared success checker's verdict. ``task_description`` is the instruction text, ``task`` its family.
@@ -28,9 +21,7 @@ number of families) meets. A reset without a seed (Gymnasium's autoreset) starts
 from __future__ import annotations
 
 import functools
-import json
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -39,46 +30,15 @@ from gymnasium import spaces
 
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.evaluation import split_episode
+from samplehd.envs.lerobot_contract import lerobot_features, lerobot_observation
 from samplehd.envs.levels import LEVELS, reset_at_level
 from samplehd.envs.tabletop import TabletopEnv, action_bounds
 from samplehd.errors import ConfigError
 from samplehd.robot.controller import ControlConfig
 
-__all__ = ["EXPORT_RECORD", "LeRobotTabletop", "env_options_from_export", "lerobot_observation",
-           "make_lerobot_envs"]
+__all__ = ["DEFAULT_MAX_STEPS", "LeRobotTabletop", "make_lerobot_envs"]
 
-EXPORT_RECORD = "meta/samplehd.json"  # written by samplehd.export.lerobot (its SAMPLEHD_RECORD)
 DEFAULT_MAX_STEPS = 1500  # Tabletop-v0's own limit, as `samplehd evaluate` runs it
-
-
-def env_options_from_export(root: str | Path) -> dict[str, Any]:
-    """The ``samplehd/Tabletop-v0`` options recorded by ``samplehd export lerobot`` in ``root``.
-
-    Raises:
-        ConfigError: no record (not a samplehd export, or one made before the record existed), or the
-            export has no environment that matches it (the record's note says why).
-    """
-    path = Path(root) / EXPORT_RECORD
-    try:
-        record = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
-        raise ConfigError(f"dataset={str(root)!r}: cannot read {EXPORT_RECORD} ({type(exc).__name__}); expected "
-                          "a folder written by `samplehd export lerobot`") from None
-    if "env" not in record:
-        why = record.get("env_note", "it was exported before samplehd recorded environment settings; export again")
-        raise ConfigError(f"dataset={str(root)!r}: {EXPORT_RECORD} has no environment settings: {why}")
-    EnvConfig.from_kwargs(**record["env"])  # one-line errors now, not in a worker process
-    return dict(record["env"])
-
-
-def lerobot_observation(obs: dict[str, Any], cameras: Sequence[str]) -> dict[str, Any]:
-    """A Tabletop-v0 observation as LeRobot's names and layouts (see the module docstring)."""
-    g = np.asarray(obs["gripper"], np.float32)
-    return {
-        "pixels": {cam: obs[f"{cam}_rgb"] for cam in cameras},
-        "agent_pos": np.concatenate([obs["joint_pos"], g[:2].sum(keepdims=True)]).astype(np.float32),
-        "tcp_pose": np.concatenate([obs["tcp_pos"], obs["tcp_quat"]]).astype(np.float32),
-    }
 
 
 class LeRobotTabletop(gym.Env):
@@ -121,11 +81,12 @@ class LeRobotTabletop(gym.Env):
         self.task_description = ""
         self._max_episode_steps = max_episode_steps
         self.metadata = {**self.metadata, "render_fps": int(round(config.control_hz))}  # PyAV needs an int
-        h, w = config.height, config.width
+        feats = lerobot_features(self.cameras, config.height, config.width)
         self.observation_space = spaces.Dict({
-            "pixels": spaces.Dict({cam: spaces.Box(0, 255, (h, w, 3), np.uint8) for cam in self.cameras}),
-            "agent_pos": spaces.Box(-np.inf, np.inf, (7,), np.float32),
-            "tcp_pose": spaces.Box(-np.inf, np.inf, (7,), np.float32),
+            "pixels": spaces.Dict({cam: spaces.Box(0, 255, feats[f"pixels/{cam}"].shape, np.uint8)
+                                   for cam in self.cameras}),
+            "agent_pos": spaces.Box(-np.inf, np.inf, feats["agent_pos"].shape, np.float32),
+            "tcp_pose": spaces.Box(-np.inf, np.inf, feats["tcp_pose"].shape, np.float32),
         })
         low, high = action_bounds(config.control_mode, ControlConfig(physics_hz=config.physics_hz,
                                                                     control_hz=config.control_hz))

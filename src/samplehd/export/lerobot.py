@@ -13,6 +13,10 @@ loads them. Layout (paths and keys as lerobot's ``datasets/utils.py``)::
     videos/observation.images.<camera>/chunk-XXX/file-YYY.mp4   the episodes' RGB, concatenated
     meta/splits/train.json, test.json                episode indices of each split (JSON list), for
                                                      ``lerobot-train --dataset.episodes``
+    meta/splits/train_L1.json … train_L4.json        the train episodes that training for a generalisation
+                                                     level may use (L1: none of the held-out classes,
+                                                     colour–class combinations and paraphrases; L2–L4:
+                                                     none of that level's; ``samplehd.language.levels``)
     meta/samplehd.json                               source, versions, ``episodes`` per split, ``state_layout``,
                                                      ``families``, ``episode_lengths`` and ``env``: the
                                                      ``samplehd/Tabletop-v0`` options (cameras, size, render
@@ -54,6 +58,7 @@ import numpy as np
 from samplehd.dataset.container import camera_settings
 from samplehd.errors import DatasetError
 from samplehd.export.staging import export_source, staged_directory
+from samplehd.language.levels import LEVELS, held_out_for
 from samplehd.render.renderer import MODALITIES
 from samplehd.render.video import VideoWriter, pick_codec
 
@@ -248,6 +253,19 @@ def _env_record(config: dict[str, Any], settings: dict[str, dict[str, Any]], cam
     return {"env": env}
 
 
+def _level_train_lists(reader: Any, train: list[int]) -> dict[str, list[int]]:
+    """``{"train_L1": [...], ...}``: the export's train episodes that training for each level may use
+    (:func:`samplehd.language.levels.held_out_for`); ``train`` holds the dataset's indices in export order."""
+    scenes = {s["image_index"]: s for s in reader.scenes}
+    out: dict[str, list[int]] = {f"train_{level}": [] for level in LEVELS}
+    for n, i in enumerate(train):
+        instruction, scene = reader.instruction(i), scenes.get(reader.episodes[i].scene_index, {})
+        for level in LEVELS:
+            if not held_out_for(level, instruction, scene):
+                out[f"train_{level}"].append(n)
+    return out
+
+
 def _feature_key(cam: str, mod: str) -> str:
     return f"observation.images.{cam}" if mod == "rgb" else f"{mod}.{cam}"
 
@@ -413,6 +431,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                 "splits": splits}
         (tmp / "meta" / "info.json").write_text(json.dumps(info, indent=4))
         episodes = {"train": list(range(n_train)), "test": list(range(n_train, len(order)))}
+        episodes.update(_level_train_lists(reader, order[:n_train]))
         for split, ids in episodes.items():
             (tmp / SPLIT_PATH.format(split=split)).parent.mkdir(parents=True, exist_ok=True)
             (tmp / SPLIT_PATH.format(split=split)).write_text(json.dumps(ids) + "\n")
