@@ -1,7 +1,8 @@
 """UR5e arm with a parallel-jaw gripper: model, analytic kinematics, control and safety.
 
 Submodules: :mod:`~samplehd.robot.constants` (DH parameters, limits, names),
-:mod:`~samplehd.robot.ur5e` (``add_robot``), :mod:`~samplehd.robot.kinematics` (FK/IK),
+:mod:`~samplehd.robot.ur5e` (``add_robot``), :mod:`~samplehd.robot.meshes` (the UR5e's visual meshes),
+:mod:`~samplehd.robot.kinematics` (FK/IK),
 :mod:`~samplehd.robot.controller` (``RobotController``), :mod:`~samplehd.robot.safety`
 (``SafetyMonitor``). This package re-exports the most used names.
 """

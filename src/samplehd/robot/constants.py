@@ -34,6 +34,7 @@ __all__ = [
     "POSITION_ACTUATORS",
     "ROBOT_BASE_QUAT",
     "ROBOT_BODY",
+    "ROBOT_LOOKS",
     "SPEED_LIMITS",
     "TCP_OFFSET",
     "TORQUE_LIMITS",
@@ -60,6 +61,8 @@ JOINT_NAMES: tuple[str, ...] = (
     "wrist_3_joint",
 )
 ROBOT_BODY = "robot_base"
+# How the arm is drawn: the UR5e's real visual meshes, or the primitive shapes its physics uses.
+ROBOT_LOOKS: tuple[str, ...] = ("mesh", "primitive")
 LINK_NAMES: tuple[str, ...] = (
     "robot_shoulder_link",
     "robot_upper_arm_link",

@@ -13,6 +13,12 @@ Names (relied upon by other packages, see docs/ARCHITECTURE.md):
 - sites ``flange`` (DH frame 6) and ``tcp`` (between the finger pads, z = approach direction);
 - camera ``wrist`` on the gripper, looking along the approach direction.
 
+Looks (:data:`~samplehd.robot.constants.ROBOT_LOOKS`): ``mesh`` (default) draws the arm with the UR5e's
+real visual meshes (:mod:`samplehd.robot.meshes`) and hides its primitive geoms in group 3, as the
+catalogue hides its collision geoms; ``primitive`` draws the primitives. The meshes are massless and never
+collide, and the primitives stay in the model unchanged (they collide, and their densities give the link
+masses), so both looks have the same physics bit for bit; only what is drawn differs.
+
 Actuators (``data.ctrl`` layout, in this order):
 
 - ``robot_<joint>_position`` (6): integrated-velocity position servos. ``ctrl`` is the velocity of
@@ -36,6 +42,7 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
+from samplehd.errors import ConfigError
 from samplehd.fixedmath import norm
 from samplehd.robot.constants import (
     ARM_KP,
@@ -56,6 +63,7 @@ from samplehd.robot.constants import (
     POSITION_ACTUATORS,
     ROBOT_BASE_QUAT,
     ROBOT_BODY,
+    ROBOT_LOOKS,
     SPEED_LIMITS,
     TCP_OFFSET,
     TORQUE_LIMITS,
@@ -65,6 +73,7 @@ from samplehd.robot.constants import (
     UR_RING_RGBA,
     VELOCITY_ACTUATORS,
 )
+from samplehd.robot.meshes import arm_meshes
 
 __all__ = ["add_robot", "robot_spec"]
 
@@ -80,6 +89,9 @@ _GEOM = mujoco.mjtGeom
 # (caps, rings, the camera housing) are in group 1.
 _COLLISION_GROUP = 0
 _VISUAL_GROUP = 1
+# The mesh look draws the arm's meshes in the decorative group and moves the arm's primitives to group 3,
+# which MuJoCo (and samplehd's renderers) do not draw by default.
+_HIDDEN_GROUP = 3
 
 # Finger geometry [m]: finger bodies hang below the gripper housing; pads face each other.
 _HOUSING_BOTTOM = 0.087  # housing spans flange z 0.012 … 0.087
@@ -268,8 +280,40 @@ def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal:
         width.wrap_joint(jn, 1.0)
 
 
-def robot_spec() -> mujoco.MjSpec:
-    """The UR5e with its gripper as a standalone spec: body ``robot_base`` at the world origin."""
+def _add_arm_meshes(spec: mujoco.MjSpec, links: list[_LinkBuilder]) -> None:
+    """The mesh look: the UR5e's visual meshes on the arm bodies; the arm's primitives hidden."""
+    meshes = arm_meshes()
+    for name, m in meshes.materials.items():
+        _material(spec, f"robot_ur_{name}", np.array(m.rgba), m.specular, m.shininess)
+    for link in links:
+        for geom, _ in link.geoms:
+            geom.group = _HIDDEN_GROUP
+        for k, part in enumerate(meshes.parts[link.name]):
+            mesh = spec.add_mesh(name=f"{link.name}_mesh_{k}")
+            mesh.uservert = part.vertices.astype(np.float64).ravel()
+            mesh.userface = part.faces.ravel()
+            # Shell inertia needs no closed surface; the geom's zero mass makes it weightless anyway.
+            mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+            geom = link.body.add_geom(name=f"{link.name}_mesh_{k}", type=_GEOM.mjGEOM_MESH, meshname=mesh.name,
+                                      material=f"robot_ur_{part.material}")
+            geom.contype = 0
+            geom.conaffinity = 0
+            geom.group = _VISUAL_GROUP
+            geom.mass = 0.0
+
+
+def robot_spec(look: str = "mesh") -> mujoco.MjSpec:
+    """The UR5e with its gripper as a standalone spec: body ``robot_base`` at the world origin.
+
+    Args:
+        look: how the arm is drawn, one of :data:`~samplehd.robot.constants.ROBOT_LOOKS` (the physics is
+            the same for all).
+
+    Raises:
+        ConfigError: unknown look.
+    """
+    if look not in ROBOT_LOOKS:
+        raise ConfigError(f"robot look {look!r} is unknown; valid: {', '.join(ROBOT_LOOKS)}")
     spec = mujoco.MjSpec()
     spec.compiler.degree = False
     spec.copy_during_attach = True
@@ -310,6 +354,8 @@ def robot_spec() -> mujoco.MjSpec:
     _add_arm_geometry(links, grey, cap, ring, dark)
     for link, mass in zip(links, LINK_MASSES, strict=True):
         link.set_mass(float(mass))
+    if look == "mesh":
+        _add_arm_meshes(spec, links)
     _add_gripper(spec, wrist_3, dark, metal, rubber)
 
     for name, joint_name, kp, vmax in zip(POSITION_ACTUATORS, JOINT_NAMES, ARM_KP, SPEED_LIMITS, strict=True):
@@ -339,6 +385,7 @@ def add_robot(
     parent: mujoco.MjsBody,
     pos: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
     quat: Sequence[float] | np.ndarray = ROBOT_BASE_QUAT,
+    look: str = "mesh",
 ) -> mujoco.MjsBody:
     """Attach the UR5e with its gripper to ``parent``.
 
@@ -346,13 +393,14 @@ def add_robot(
         parent: body of the world spec that carries the robot (e.g. the worldbody).
         pos: position of the robot base frame (DH frame 0) in ``parent``'s frame [m].
         quat: orientation (w, x, y, z) of the base frame in ``parent``'s frame.
+        look: how the arm is drawn (:func:`robot_spec`).
 
     Returns:
         The attached root body ``robot_base``.
     """
     warnings.filterwarnings("ignore", message=_EMPTY_PREFIX_WARNING)
     frame = parent.add_frame(pos=list(map(float, pos)), quat=list(map(float, quat)))
-    robot = robot_spec()
+    robot = robot_spec(look)
     # MuJoCo also reports the prefix-less attachment through its C warning handler (stdout and
     # MUJOCO_LOG.TXT); silence it for this call only.
     previous = mujoco.get_mju_user_warning()

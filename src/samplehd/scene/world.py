@@ -16,7 +16,7 @@ import numpy as np
 
 from samplehd.catalogue import add_object
 from samplehd.errors import ConfigError
-from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, ROBOT_BODY
+from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, ROBOT_BODY, ROBOT_LOOKS
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.robot.ur5e import add_robot
 from samplehd.scene.textures import plaster_texture, tile_texture, wood_texture
@@ -101,6 +101,8 @@ class WorldConfig:
         timestep: physics step [s] (500 Hz by default).
         cameras: fixed cameras besides the robot's wrist camera.
         with_robot: include the UR5e and gripper.
+        robot_look: how the arm is drawn: ``mesh`` (the UR5e's real meshes) or ``primitive``
+            (the shapes its physics uses); the physics is the same for both.
         offscreen_size: largest offscreen render (width, height) [px].
         shadow_size: shadow map resolution [px].
         sleep: let resting objects sleep (MuJoCo's sleeping islands): a sleeping object costs no
@@ -113,6 +115,7 @@ class WorldConfig:
     timestep: float = 0.002
     cameras: tuple[CameraSpec, ...] = (OPERATOR_CAMERA,)
     with_robot: bool = True
+    robot_look: str = "mesh"
     offscreen_size: tuple[int, int] = (1920, 1080)
     shadow_size: int = 4096
     sleep: bool = True
@@ -120,6 +123,8 @@ class WorldConfig:
     def __post_init__(self) -> None:
         if not 1e-4 <= self.timestep <= 0.02:
             raise ConfigError(f"world.timestep={self.timestep} must be in [0.0001, 0.02] s (500 Hz = 0.002)")
+        if self.robot_look not in ROBOT_LOOKS:
+            raise ConfigError(f"world.robot_look={self.robot_look!r} is unknown; valid: {', '.join(ROBOT_LOOKS)}")
         if not isinstance(self.sleep, bool):
             raise ConfigError(f"world.sleep={self.sleep!r} must be true or false")
         names = [c.name for c in self.cameras]
@@ -329,7 +334,7 @@ def build_world(
             name=cam.name, pos=list(cam.pos), quat=list(look_at_quat(cam.pos, cam.target)), fovy=cam.fovy
         )
     if config.with_robot:
-        add_robot(spec.worldbody, layout.robot_base_position, ROBOT_BASE_QUAT)
+        add_robot(spec.worldbody, layout.robot_base_position, ROBOT_BASE_QUAT, config.robot_look)
     if objects:
         for i, placed in enumerate(objects):
             add_object(spec, placed.instance, object_body_name(i), placed.pos, placed.quat)
