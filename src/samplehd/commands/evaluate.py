@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from samplehd.commands._options import check_int, check_out_dir, check_out_file
+from samplehd.commands._options import check_int, check_out_dir, check_out_file, config_from_options
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
 from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate, load_policy_module
@@ -83,11 +83,12 @@ def run(args: argparse.Namespace) -> int:
     check_outputs({"--out": args.out, "--video": args.video},
                   {"--env-options": args.env_options, "--models": args.models})
     load_policy_module(args.policy)
-    config = EvalConfig(policy=args.policy, episodes=args.episodes, families=tuple(args.families), seed=args.seed,
-                        env=env, video_dir=str(args.video) if args.video else None, workers=args.workers,
-                        compare_offline=args.compare_offline,
-                        models=str(args.models) if args.models else None, programs=args.programs,
-                        perception=args.perception, level=args.level)
+    config = config_from_options(EvalConfig, policy=args.policy, episodes=args.episodes,
+                                 families=tuple(args.families), seed=args.seed, env=env,
+                                 video_dir=str(args.video) if args.video else None, workers=args.workers,
+                                 compare_offline=args.compare_offline,
+                                 models=str(args.models) if args.models else None, programs=args.programs,
+                                 perception=args.perception, level=args.level)
 
     def show(r: dict) -> None:
         mark = "ok  " if r["success"] else "fail"

@@ -38,6 +38,7 @@ from samplehd.errors import ConfigError, PlanningError, require_extra
 from samplehd.record.paths import PathConfig, plan_and_execute
 from samplehd.render.video import write_mp4
 from samplehd.scene.spec import compile_scene
+from samplehd.schema import Config, bounded
 from samplehd.tasks.task import family_names
 from samplehd.workers import Backend
 
@@ -55,7 +56,7 @@ _POLICY_SPEC = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:[
 
 
 @dataclass(frozen=True)
-class EvalConfig:
+class EvalConfig(Config, section="EvalConfig"):
     """What an evaluation run does.
 
     Attributes:
@@ -76,45 +77,32 @@ class EvalConfig:
     """
 
     policy: str = "oracle"
-    episodes: int = 10
-    families: tuple[str, ...] = DEFAULT_FAMILIES
-    seed: int = 0
+    episodes: int = bounded(10, lo=1)
+    families: tuple[str, ...] = bounded(DEFAULT_FAMILIES, choices=family_names, nonempty=True)
+    seed: int = bounded(0, lo=0)
     env: dict[str, Any] = field(default_factory=dict)
     video_dir: str | None = None
-    workers: int = 1
+    workers: int = bounded(1, lo=1)
     compare_offline: bool = False
     models: str | None = None
-    programs: str = "predicted"
-    perception: str = "predicted"
-    level: str | None = None
+    programs: str = bounded("predicted", choices=("gt", "predicted"))
+    perception: str = bounded("predicted", choices=("gt", "predicted"))
+    level: str | None = bounded(None, choices=LEVELS)
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.episodes, int) and self.episodes >= 1):
-            raise ConfigError(f"--episodes {self.episodes!r}: must be a positive integer")
-        bad = [f for f in self.families if f not in family_names()]
-        if bad or not self.families:
-            raise ConfigError(f"--families: unknown {bad or '(none)'}; valid: {', '.join(family_names())}")
-        if not (isinstance(self.workers, int) and self.workers >= 1):
-            raise ConfigError(f"--workers {self.workers!r}: must be a positive integer")
-        check_policy_spec(self.policy)
-        if self.level is not None:
-
-            if self.level not in LEVELS:
-                raise ConfigError(f"--level {self.level!r}: valid: {', '.join(LEVELS)}")
-        for name, value in (("--programs", self.programs), ("--perception", self.perception)):
-            if value not in ("gt", "predicted"):
-                raise ConfigError(f"{name} {value!r}: valid: gt, predicted")
+        super().__post_init__()
+        check_policy_spec(self.policy, where="EvalConfig.")
         if self.policy == "bc" and not self.models:
-            raise ConfigError("--policy bc: needs --models (the folder of `samplehd train policy`)")
+            raise ConfigError("EvalConfig.policy='bc': needs `models` (the folder of `samplehd train policy`)")
 
 
-def check_policy_spec(spec: str) -> None:
-    """Raise ConfigError unless ``spec`` is a built-in policy or ``MODULE:CALLABLE``."""
-    if spec in BUILT_IN:
+def check_policy_spec(spec: str, where: str = "") -> None:
+    """Raise ConfigError unless ``spec`` is a built-in policy or ``MODULE:CALLABLE``. ``where``: what the
+    message's subject ``policy`` is prefixed with (``EvalConfig.``; nothing: a ``policy`` parameter)."""
+    if isinstance(spec, str) and (spec in BUILT_IN or _POLICY_SPEC.match(spec)):
         return
-    if not _POLICY_SPEC.match(spec):
-        raise ConfigError(f"--policy {spec!r}: expected {', '.join(BUILT_IN)} or MODULE:CALLABLE "
-                          "(e.g. mypkg.agents:act)")
+    raise ConfigError(f"{where}policy={spec!r}: expected {', '.join(BUILT_IN)} or MODULE:CALLABLE "
+                      "(e.g. mypkg.agents:act)", field=None if where else "policy")
 
 
 def split_episode(k: int, families: Sequence[str], seed: int) -> tuple[int, str]:
@@ -142,7 +130,7 @@ class RandomPolicy:
 
 
 def load_policy_module(spec: str) -> Any:
-    """Import a ``MODULE:CALLABLE`` policy's callable (None for built-in policies), so a bad --policy is
+    """Import a ``MODULE:CALLABLE`` policy's callable (None for built-in policies), so a bad policy is
     refused before anything runs.
 
     Raises:
@@ -155,10 +143,10 @@ def load_policy_module(spec: str) -> Any:
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
-        raise ConfigError(f"--policy {spec!r}: cannot import module {module_name!r} ({exc})") from None
+        raise ConfigError(f"policy={spec!r}: cannot import module {module_name!r} ({exc})", field="policy") from None
     obj = getattr(module, attr, None)
     if obj is None or not callable(obj):
-        raise ConfigError(f"--policy {spec!r}: module {module_name!r} has no callable {attr!r}")
+        raise ConfigError(f"policy={spec!r}: module {module_name!r} has no callable {attr!r}", field="policy")
     return obj
 
 
@@ -167,7 +155,7 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
     check_policy_spec(spec)
     if spec in LEARNED:
 
-        require_extra("torch", "learn", f"--policy {spec}")
+        require_extra("torch", "learn", f"the {spec} policy")
         # The learned baselines live on a floor above the environments: named by module path, as
         # user policies are, and imported only when asked for.
         module_name, attr = LEARNED[spec].split(":")
@@ -185,7 +173,7 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
     if "env" in params:
         obj = obj(env=env)
         if not callable(obj):
-            raise ConfigError(f"--policy {spec!r}: the factory did not return a callable policy")
+            raise ConfigError(f"policy={spec!r}: the factory did not return a callable policy", field="policy")
     return obj
 
 
@@ -203,7 +191,8 @@ def check_policy_action(spec: str, action: Any, space: Any) -> np.ndarray:
     text = repr(action)
     text = text if len(text) <= 60 else text[:57] + "..."
     if a.dtype.kind not in "biuf" or a.shape != space.shape or not np.all(np.isfinite(a)):
-        raise ConfigError(f"--policy {spec}: policy returned {text} ({type(action).__name__}); {expected}")
+        raise ConfigError(f"policy={spec!r}: policy returned {text} ({type(action).__name__}); {expected}",
+                          field="policy")
     return a.astype(float)
 
 

@@ -20,6 +20,7 @@ from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, ROBOT_BODY
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.robot.ur5e import add_robot
 from samplehd.scene.textures import plaster_texture, tile_texture, wood_texture
+from samplehd.schema import Config, bounded
 from samplehd.world.bodies import object_body_name
 from samplehd.world.layout import LAYOUT, TableLayout
 from samplehd.world.transforms import look_at_quat
@@ -94,7 +95,7 @@ class PlacedObject:
 
 
 @dataclass(frozen=True)
-class WorldConfig:
+class WorldConfig(Config, section="world"):
     """Options of the world model.
 
     Attributes:
@@ -110,21 +111,18 @@ class WorldConfig:
             gripper does).
     """
 
-    timestep: float = 0.002
+    timestep: float = bounded(0.002, lo=1e-4, hi=0.02, unit="s")
     cameras: tuple[CameraSpec, ...] = (OPERATOR_CAMERA,)
     with_robot: bool = True
-    offscreen_size: tuple[int, int] = (1920, 1080)
-    shadow_size: int = 4096
+    offscreen_size: tuple[int, int] = bounded((1920, 1080), lo=1, unit="px")
+    shadow_size: int = bounded(4096, lo=1, unit="px")
     sleep: bool = True
 
     def __post_init__(self) -> None:
-        if not 1e-4 <= self.timestep <= 0.02:
-            raise ConfigError(f"world.timestep={self.timestep} must be in [0.0001, 0.02] s (500 Hz = 0.002)")
-        if not isinstance(self.sleep, bool):
-            raise ConfigError(f"world.sleep={self.sleep!r} must be true or false")
+        super().__post_init__()
         names = [c.name for c in self.cameras]
         if len(set(names)) != len(names) or "wrist" in names:
-            raise ConfigError(f"world.cameras: names must be unique and not 'wrist', got {names}")
+            raise ConfigError(f"world.cameras={names!r}: names must be unique and not 'wrist'")
 
 
 def _add_texture(spec: mujoco.MjSpec, name: str, rgb: np.ndarray, cube: bool = False) -> None:
