@@ -83,13 +83,13 @@ class ImportOptions:
 
     def __post_init__(self) -> None:
         if self.scale is not None and not (self.scale > 0 and np.isfinite(self.scale)):
-            raise AssetError(f"--scale must be a positive number, got {self.scale}")
+            raise AssetError(f"scale={self.scale!r}: must be a positive number", field="scale")
         if self.size is not None and not (_MIN_EXTENT <= self.size <= _MAX_EXTENT):
-            raise AssetError(f"--size must be in [{_MIN_EXTENT}, {_MAX_EXTENT}] m, got {self.size}")
+            raise AssetError(f"size={self.size!r}: must be in [{_MIN_EXTENT}, {_MAX_EXTENT}] m", field="size")
         if not (0.01 <= self.threshold <= 1.0):
-            raise AssetError(f"threshold must be in [0.01, 1], got {self.threshold}")
+            raise AssetError(f"threshold={self.threshold!r}: must be in [0.01, 1]", field="threshold")
         if not (1 <= self.max_pieces <= 64):
-            raise AssetError(f"max_pieces must be in [1, 64], got {self.max_pieces}")
+            raise AssetError(f"max_pieces={self.max_pieces!r}: must be in [1, 64]", field="max_pieces")
 
 
 def read_mesh(path: str | Path) -> trimesh.Trimesh:
@@ -138,7 +138,7 @@ def normalise_mesh(mesh: trimesh.Trimesh, options: ImportOptions, source: str = 
     """Scale to metres, centre the footprint on the origin and put the bottom on z = 0.
 
     Raises:
-        AssetError: the resulting size is outside [1 cm, 1 m] (suggests --scale or --size).
+        AssetError: the resulting size is outside [1 cm, 1 m] (suggests ``scale`` or ``size``).
     """
     m = mesh.copy()
     if options.scale is not None:
@@ -151,7 +151,7 @@ def normalise_mesh(mesh: trimesh.Trimesh, options: ImportOptions, source: str = 
     if not (_MIN_EXTENT <= ext <= _MAX_EXTENT):
         raise AssetError(
             f"{source}: largest extent is {ext:.4g} m after scaling, outside [{_MIN_EXTENT}, {_MAX_EXTENT}] m; "
-            "pass --scale (e.g. 0.001 for millimetres) or --size METRES"
+            "pass `scale` (e.g. 0.001 for millimetres) or `size` METRES"
         )
     return m
 
@@ -179,7 +179,7 @@ def decompose(mesh: trimesh.Trimesh, options: ImportOptions, source: str = "mesh
             last = (proc.stderr.strip().splitlines() or [f"exit status {proc.returncode}"])[-1][:160]
             raise AssetError(
                 f"{source}: convex decomposition (CoACD) failed: {last}; "
-                "repair the mesh (make it closed and manifold) or try another --threshold"
+                "repair the mesh (make it closed and manifold) or try another `threshold`"
             )
         with np.load(dst, allow_pickle=False) as z:
             counts, points = z["counts"], z["points"]
@@ -298,15 +298,16 @@ def import_mesh(
     options = options or ImportOptions()
     cat = catalogue or load_catalogue()
     if not is_identifier(name):
-        raise AssetError(f"--name {name!r}: use lower-case letters, digits and '_', starting with a letter")
+        raise AssetError(f"name={name!r}: use lower-case letters, digits and '_', starting with a letter", field="name")
     if len(name) > MAX_NAME:  # the registry's folder and file names carry it (255 bytes on most file systems)
-        raise AssetError(f"--name {name[:20]}... ({len(name)} characters): at most {MAX_NAME} characters")
+        raise AssetError(f"name={name[:20]}... ({len(name)} characters): at most {MAX_NAME} characters", field="name")
     existing = cat.classes.get(name)
     if existing is not None and not existing.imported:
-        raise AssetError(f"--name {name!r} is a built-in class; choose another name")
+        raise AssetError(f"name={name!r} is a built-in class; choose another name", field="name")
     target = registry_dir() / name
     if target.exists() and not overwrite:
-        raise AssetError(f"--name {name!r} is already registered ({target}); pass --overwrite to replace it")
+        raise AssetError(f"name={name!r} is already registered ({target}); pass `overwrite` to replace it",
+                         field="name")
     for m in materials:
         cat.material(m)
     for s in sizes or ():

@@ -60,11 +60,12 @@ def pick_device(requested: str | None = None) -> Any:
     """The torch device: ``requested`` if given, else CUDA when present, else the CPU."""
     if requested:
         if requested.startswith("cuda") and not torch.cuda.is_available():
-            raise ConfigError(f"--device {requested!r}: no CUDA device here; valid: cpu" )
+            raise ConfigError(f"device={requested!r}: no CUDA device here; valid: cpu", field="device")
         try:
             return torch.device(requested)
         except RuntimeError:
-            raise ConfigError(f"--device {requested!r}: not a torch device; valid: cpu, cuda, cuda:N") from None
+            raise ConfigError(f"device={requested!r}: not a torch device; valid: cpu, cuda, cuda:N",
+                              field="device") from None
     return torch.device("cuda" if torch.cuda.is_available() else "cpu")
 
 
@@ -159,7 +160,7 @@ class TrainRun:
 
     def __post_init__(self) -> None:
         if not isinstance(self.steps, int) or self.steps < 1:
-            raise ConfigError(f"--steps {self.steps!r}: must be a positive integer")
+            raise ConfigError(f"steps={self.steps!r}: must be a positive integer", field="steps")
         self.out = Path(self.out)
 
     def prepare(self) -> None:
@@ -185,7 +186,7 @@ class TrainRun:
                     if key == "train":  # step count may grow on resume
                         continue
                     if old.get(key) != self.config.get(key):
-                        raise ConfigError(f"{path}: {key} differs from this run's; use another --out or delete "
+                        raise ConfigError(f"{path}: {key} differs from this run's; use another `out` or delete "
                                           f"{self.out / CHECKPOINT_FILE} to start over")
         write_json(path, self.config)
 

@@ -92,7 +92,7 @@ def _photo(job: SceneJob) -> PhotoOptions | None:
     """The photo options of a scene (its look drawn from its seed when randomised), or None for GL presets."""
     if not get_preset(job.preset).path_traced:
         return None
-    return photo_options(job.photo_look, job.seed, where="--photo-look")
+    return photo_options(job.photo_look, job.seed, where="photo_look")
 
 
 def generate_scenes(
@@ -112,10 +112,10 @@ def generate_scenes(
     ``photo_look`` (preset photo): ``fixed``, or ``random`` to draw each scene's look from its seed."""
 
     if num < 1:
-        raise ConfigError(f"--num {num}: must be ≥ 1")
+        raise ConfigError(f"num={num}: must be ≥ 1", field="num")
     backend = Backend(workers=workers)
     if get_preset(preset).path_traced:
-        photo_options(photo_look, 0, where="--photo-look")  # validate before writing anything
+        photo_options(photo_look, 0, where="photo_look")  # validate before writing anything
     config = config or SceneConfig()
     try:
         for sub in ("scenes", "images", "depth", "segmentation"):
