@@ -283,14 +283,17 @@ def _rendered_scene(folder: Path, index: int, n_objects: int, width: int, height
     import numpy as np
     from PIL import Image
 
+    from samplehd.render.image_spec import ImageSpec
+    from samplehd.render.renderer import MODALITIES
     from samplehd.scene.config import SceneConfig
     from samplehd.scene.generate import SceneJob, render_scene_files
     from samplehd.world.seeding import scene_seed
 
     for sub in ("scenes", "images", "depth", "segmentation"):
         (folder / sub).mkdir()
-    config = SceneConfig.from_dict({"min_objects": n_objects, "max_objects": n_objects}).to_dict()
-    job = SceneJob(index, scene_seed(1, index), str(folder), config, width, height, "fast", 20)
+    config = SceneConfig.from_dict({"min_objects": n_objects, "max_objects": n_objects})
+    image = ImageSpec(width, height, "fast", modalities=MODALITIES)
+    job = SceneJob(index, scene_seed(1, index), str(folder), config, image, 20)
     ann, _ = render_scene_files(job)
     stem = Path(ann["image_filename"]).stem
     rgb = np.asarray(Image.open(folder / "images" / f"{stem}.png").convert("RGB"))
