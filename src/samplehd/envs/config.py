@@ -7,7 +7,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from samplehd.errors import ConfigError
-from samplehd.render.renderer import MODALITIES, PRESETS
+from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
+from samplehd.render.renderer import MODALITIES
 from samplehd.scene.config import SceneConfig
 from samplehd.schema import Config, bounded
 from samplehd.tasks.checker import CheckerConfig
@@ -75,7 +76,7 @@ class EnvConfig(Config, section="Tabletop-v0"):
     cameras: tuple[str, ...] = bounded(("scene",), choices=CAMERAS, unique=True)
     width: int = bounded(128, lo=8, hi=4096, unit="px")
     height: int = bounded(128, lo=8, hi=4096, unit="px")
-    render_preset: str = bounded("fast", choices=tuple(PRESETS))
+    render_preset: str = bounded("fast", choices=PRESET_NAMES)
     render_mode: str | None = bounded(None, choices=RENDER_MODES)
     render_camera: str = bounded("scene", choices=CAMERAS)
     control_mode: str = bounded("steering", choices=tuple(CONTROL_MODES))
@@ -110,6 +111,13 @@ class EnvConfig(Config, section="Tabletop-v0"):
     def modalities(self) -> tuple[str, ...]:
         """Image modalities rendered per camera."""
         return OBS_MODES[self.obs_mode]
+
+    @property
+    def image(self) -> ImageSpec:
+        """The image request of the observations: ``cameras`` in the modalities of ``obs_mode``, at
+        ``width`` × ``height`` in ``render_preset`` (:meth:`TabletopEnv.render` shows ``render_camera``'s
+        rgb at the same size and preset)."""
+        return ImageSpec(self.width, self.height, self.render_preset, self.cameras, self.modalities)
 
     @property
     def task_families(self) -> tuple[str, ...]:
