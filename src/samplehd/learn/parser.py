@@ -21,12 +21,14 @@ from samplehd.language.executor import ProgramError, execute
 from samplehd.language.scene import parse_scene
 from samplehd.language.vocab import program_node_tokens
 from samplehd.learn.data import instruction_examples, open_dataset
+from samplehd.learn.parser_configuration import FORMAT, ParserArchitecture, ParserConfig, ParserTraining
 from samplehd.learn.training import (
     TrainRun,
     descend,
     load_model_files,
     nn,
     pick_device,
+    read_model_config,
     set_seed,
     step_rng,
     timed,
@@ -34,8 +36,6 @@ from samplehd.learn.training import (
 )
 
 __all__ = ["InstructionParser", "ParsedProgram", "decode_target", "encode_target", "score_parser", "train_parser"]
-
-FORMAT = 1  # the config format of a parser model (bump when the network or its inputs change)
 
 SEP = "<SEP>"
 MAX_SOURCE = 48
@@ -147,14 +147,13 @@ class InstructionParser:
         device: torch device (default: CPU).
     """
 
-    def __init__(self, config: Mapping[str, Any], state: Mapping[str, Any] | None = None, device: Any = None) -> None:
-        self.config = dict(config)
-        self.target_vocab: list[str] = list(config["target_vocab"])
+    def __init__(self, config: ParserConfig, state: Mapping[str, Any] | None = None, device: Any = None) -> None:
+        self.config = config
+        self.target_vocab: list[str] = list(config.target_vocab)
         self.target_index = {t: i for i, t in enumerate(self.target_vocab)}
         self.device = device or torch.device("cpu")
-        arch = config["model"]
-        self.model = Seq2Seq(len(instruction_vocabulary()), len(self.target_vocab), arch["embed"],
-                                    arch["hidden"]).to(self.device)
+        self.model = Seq2Seq(len(instruction_vocabulary()), len(self.target_vocab), config.model.embed,
+                             config.model.hidden).to(self.device)
         if state is not None:
             self.model.load_state_dict(state)
         self.model.eval()
@@ -163,7 +162,7 @@ class InstructionParser:
     def load(cls, folder: str | Path, device: Any = None) -> InstructionParser:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train parser``."""
         config, state = load_model_files(folder, "parser", FORMAT)
-        return cls(config, state, device)
+        return cls(read_model_config(ParserConfig, config, folder), state, device)
 
     def parse(self, texts: Sequence[str], batch: int = 256) -> list[ParsedProgram]:
         out: list[ParsedProgram] = []
@@ -230,15 +229,9 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     train = data["train"]
     targets = [encode_target(e["program_sequence"], e["program"]) for e in train]
     vocab = ["<NULL>", "<START>", "<END>", "<UNK>", *sorted({t for ts in targets for t in ts})]
-    config = {
-        "kind": "parser",
-        "format": FORMAT,
-        "dataset": str(dataset),
-        "model": {"embed": embed, "hidden": hidden},
-        "target_vocab": vocab,
-        "source_vocab_size": len(instruction_vocabulary()),
-        "train": {"steps": steps, "seed": seed, "batch": batch, "lr": lr, "examples": len(train)},
-    }
+    config = ParserConfig(dataset=str(dataset), model=ParserArchitecture(embed=embed, hidden=hidden),
+                          target_vocab=tuple(vocab), source_vocab_size=len(instruction_vocabulary()),
+                          train=ParserTraining(steps=steps, seed=seed, batch=batch, lr=lr, examples=len(train)))
     dev = pick_device(device)
     set_seed(seed)
     parser = InstructionParser(config, device=dev)
@@ -247,7 +240,7 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     src_all = [encode_source(e["instruction"]) for e in train]
     tgt_all = [[index["<START>"], *(index[t] for t in ts), index["<END>"]][:MAX_TARGET + 1] for ts in targets]
     opt = torch.optim.Adam(model.parameters(), lr=lr)
-    run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 10), quiet=quiet,
+    run = TrainRun(Path(out), config.to_dict(), steps, checkpoint_every=max(50, steps // 10), quiet=quiet,
                    stop_after=stop_after)
     run.prepare()
     loss_fn = torch.nn.CrossEntropyLoss(ignore_index=0)

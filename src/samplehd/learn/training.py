@@ -20,17 +20,18 @@ import json
 import os
 import time
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from samplehd.errors import ConfigError, require_extra
+from samplehd.schema import Config
 
 # The `learn` extra: without PyTorch, importing any model module is one line naming the extra.
 FEATURE = "samplehd.learn (samplehd train, evaluate --policy neurosymbolic|bc)"
@@ -43,6 +44,7 @@ __all__ = [
     "TrainRun",
     "load_model_files",
     "nn",
+    "read_model_config",
     "load_weights",
     "pick_device",
     "step_rng",
@@ -133,6 +135,22 @@ def load_model_files(folder: str | Path, kind: str, fmt: int) -> tuple[dict[str,
     if not weights.exists():
         raise ConfigError(f"{weights}: missing (the {kind} training did not finish; run it again to resume)")
     return config, load_weights(weights)
+
+
+C = TypeVar("C", bound=Config)
+
+
+def read_model_config(cls: type[C], config: Mapping[str, Any], folder: str | Path) -> C:
+    """The typed config (a :class:`samplehd.schema.Config`) of a trained model from the object
+    :func:`load_model_files` read from ``folder``'s ``config.json``.
+
+    Raises:
+        ConfigError: ``FOLDER/config.json: section.field=value: what is valid``, or an unknown key.
+    """
+    try:
+        return cls.from_dict(config)
+    except ConfigError as exc:
+        raise ConfigError(f"{Path(folder) / CONFIG_FILE}: {exc}") from None
 
 
 @dataclass
