@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
         env.update(env_options(args.models))  # the cameras, image size and control the policy was trained on
     where = f"--env-options {args.env_options}" if args.env_options else "command line"
     try:
-        EnvConfig.from_kwargs(**env)
+        env_config = EnvConfig.from_kwargs(**env)
     except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
     check_int("--seed", args.seed, 0)
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
                   {"--env-options": args.env_options, "--models": args.models})
     load_policy_module(args.policy)
     config = config_from_options(EvalConfig, policy=args.policy, episodes=args.episodes,
-                                 families=tuple(args.families), seed=args.seed, env=env,
+                                 families=tuple(args.families), seed=args.seed, env=env_config,
                                  video_dir=str(args.video) if args.video else None, workers=args.workers,
                                  compare_offline=args.compare_offline,
                                  models=str(args.models) if args.models else None, programs=args.programs,

@@ -64,7 +64,7 @@ class EvalConfig(Config, section="EvalConfig"):
         episodes: number of episodes of the split.
         families: families of the split, in rotation.
         seed: seed of the split.
-        env: environment options (``samplehd.envs.config.EnvConfig`` fields).
+        env: the environment's options (an EnvConfig, or a dict of its fields).
         video_dir: write one MP4 per episode here (None: no videos).
         workers: processes running episodes in parallel.
         compare_offline: also run the offline ground-truth path generator (one attempt) on every
@@ -80,7 +80,7 @@ class EvalConfig(Config, section="EvalConfig"):
     episodes: int = bounded(10, lo=1)
     families: tuple[str, ...] = bounded(DEFAULT_FAMILIES, choices=family_names, nonempty=True)
     seed: int = bounded(0, lo=0)
-    env: dict[str, Any] = field(default_factory=dict)
+    env: EnvConfig = field(default_factory=EnvConfig)
     video_dir: str | None = None
     workers: int = bounded(1, lo=1)
     compare_offline: bool = False
@@ -213,10 +213,8 @@ class _Runner:
         # A worker imports this module through the samplehd package, which sets the GL backend first.
 
         self.config = config
-        env_options = dict(config.env)
-        if config.video_dir:
-            env_options["render_mode"] = "rgb_array"
-        self.env = TabletopEnv(**env_options)
+        env = replace(config.env, render_mode="rgb_array") if config.video_dir else config.env
+        self.env = TabletopEnv(**env.to_dict())
         self.policy = load_policy(config.policy, self.env, config)
 
     def close(self) -> None:
@@ -329,7 +327,6 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
     check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
     """
-    EnvConfig.from_kwargs(**config.env)  # one-line errors before any work
     split = benchmark_split(config.episodes, config.families, config.seed)
     items = [(k, s, f) for k, (s, f) in enumerate(split)]
     t0 = time.perf_counter()
@@ -372,7 +369,7 @@ def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partia
     by_family = {}
     for fam in dict.fromkeys(r["family"] for r in records):
         by_family[fam] = _summary([r for r in records if r["family"] == fam])
-    env = EnvConfig.from_kwargs(**config.env)
+    env = config.env
     return {
         "policy": config.policy,
         "partial": partial,
