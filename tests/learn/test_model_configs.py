@@ -25,7 +25,7 @@ def trained(nano_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Pat
 
 
 def _config(kind: str) -> Any:
-    from samplehd.learn.parser_configuration import ParserConfig
+    from samplehd.learn.parser import ParserConfig
     from samplehd.learn.perception import PerceptionConfig
 
     return {"parser": ParserConfig, "perception": PerceptionConfig}[kind]

@@ -1,6 +1,6 @@
 """What defines a trained instruction parser: the ``config.json`` of ``samplehd train parser``, declared
-with :mod:`samplehd.schema` (read without torch; a bad file is one line naming the file, the field, the
-value and what is valid)."""
+with :mod:`samplehd.schema` (a bad file is one line naming the file, the field, the value and what is
+valid)."""
 
 from __future__ import annotations
 
