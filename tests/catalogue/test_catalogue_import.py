@@ -13,7 +13,7 @@ import trimesh
 from samplehd.catalogue import ObjectInstance, add_object, load_catalogue, object_facts
 from samplehd.catalogue.importer import ImportOptions, import_mesh, read_mesh
 from samplehd.catalogue.registry import cache_dir, registry_dir, remove_imported
-from samplehd.errors import AssetError
+from samplehd.errors import AssetError, ConfigError
 
 
 def _ell_mesh(path: Path) -> Path:
@@ -130,5 +130,5 @@ def test_import_argument_errors(tmp_path: Path) -> None:
         import_mesh(src, "Big Box", options=ImportOptions(scale=0.001))
     with pytest.raises(AssetError, match="unknown material 'stone'"):
         import_mesh(src, "box2", options=ImportOptions(scale=0.001), materials=("stone",))
-    with pytest.raises(AssetError, match="scale=-1.0: must be a positive number"):
+    with pytest.raises(ConfigError, match=r"ImportOptions.scale=-1.0: must be a finite number > 0"):
         ImportOptions(scale=-1.0)

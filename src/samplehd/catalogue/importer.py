@@ -38,6 +38,7 @@ from samplehd.catalogue.shape import GraspSite, TopSurface
 from samplehd.errors import AssetError, require_extra
 from samplehd.fileio import file_sha256
 from samplehd.fixedmath import dot, matmul
+from samplehd.schema import Config, bounded
 
 # The mesh extra: importing meshes is the only thing that needs trimesh's readers.
 trimesh = require_extra("trimesh", "mesh", "samplehd assets import")
@@ -64,7 +65,7 @@ _WORKER = Path(__file__).with_name(
 
 
 @dataclass(frozen=True)
-class ImportOptions:
+class ImportOptions(Config, section="ImportOptions"):
     """Parameters of an import (all part of the decomposition cache key).
 
     Attributes:
@@ -75,21 +76,11 @@ class ImportOptions:
         seed: CoACD's random seed (same seed, same pieces).
     """
 
-    scale: float | None = None
-    size: float | None = None
-    threshold: float = 0.05
-    max_pieces: int = 16
+    scale: float | None = bounded(None, lo=0.0, lo_open=True)
+    size: float | None = bounded(None, lo=_MIN_EXTENT, hi=_MAX_EXTENT, unit="m")
+    threshold: float = bounded(0.05, lo=0.01, hi=1.0)
+    max_pieces: int = bounded(16, lo=1, hi=64)
     seed: int = 0
-
-    def __post_init__(self) -> None:
-        if self.scale is not None and not (self.scale > 0 and np.isfinite(self.scale)):
-            raise AssetError(f"scale={self.scale!r}: must be a positive number", field="scale")
-        if self.size is not None and not (_MIN_EXTENT <= self.size <= _MAX_EXTENT):
-            raise AssetError(f"size={self.size!r}: must be in [{_MIN_EXTENT}, {_MAX_EXTENT}] m", field="size")
-        if not (0.01 <= self.threshold <= 1.0):
-            raise AssetError(f"threshold={self.threshold!r}: must be in [0.01, 1]", field="threshold")
-        if not (1 <= self.max_pieces <= 64):
-            raise AssetError(f"max_pieces={self.max_pieces!r}: must be in [1, 64]", field="max_pieces")
 
 
 def read_mesh(path: str | Path) -> trimesh.Trimesh:
