@@ -57,6 +57,8 @@ class CameraSpec:
     fovy: float = 45.0
 
     def __post_init__(self) -> None:
+        for name in ("pos", "target"):  # a JSON list becomes the hashable, comparable tuple
+            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
         if not 1.0 <= self.fovy <= 170.0:
             raise ConfigError(f"camera {self.name!r}: fovy={self.fovy} must be in [1, 170] degrees")
         if np.allclose(self.pos, self.target):
