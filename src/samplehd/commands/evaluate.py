@@ -8,7 +8,7 @@ from pathlib import Path
 from samplehd.commands._options import check_int, check_out_dir, check_out_file, config_from_options
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
-from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate, load_policy_module
+from samplehd.envs.evaluation import DEFAULT_FAMILIES, EpisodeRecord, EvalConfig, evaluate, load_policy_module
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.learn.options import env_options
@@ -90,11 +90,11 @@ def run(args: argparse.Namespace) -> int:
                                  models=str(args.models) if args.models else None, programs=args.programs,
                                  perception=args.perception, level=args.level)
 
-    def show(r: dict) -> None:
-        mark = "ok  " if r["success"] else "fail"
-        extra = f" safety={','.join(r['safety_events'])}" if r["safety_events"] else ""
-        print(f"[{r['index'] + 1}/{args.episodes}] {mark} {r['family']:<15} steps={r['steps']:<5}"
-              f"{extra} {r['instruction']}", flush=True)
+    def show(r: EpisodeRecord) -> None:
+        mark = "ok  " if r.success else "fail"
+        extra = f" safety={','.join(r.safety_events)}" if r.safety_events else ""
+        print(f"[{r.index + 1}/{args.episodes}] {mark} {r.family:<15} steps={r.steps:<5}"
+              f"{extra} {r.instruction}", flush=True)
 
     report = evaluate(config, args.out, progress=show)
     print(f"success_rate {report['success_rate']:.3f} over {report['episodes']} episodes "
