@@ -9,16 +9,20 @@ import pytest
 
 from samplehd.dataset.config import GenerateConfig, InstructionConfig
 from samplehd.dataset.render import RenderConfig
+from samplehd.envs.config import EnvConfig
+from samplehd.envs.evaluation import EvalConfig
 from samplehd.errors import ConfigError
 from samplehd.record.paths import PathConfig
 from samplehd.robot.controller import ControlConfig
 from samplehd.robot.safety import SafetyConfig
+from samplehd.scene.config import SceneConfig
+from samplehd.scene.world import WorldConfig
 from samplehd.schema import Config
 from samplehd.tasks.checker import CheckerConfig
 from samplehd.world.planner_config import PlannerConfig
 
-CONFIGS = [CheckerConfig, ControlConfig, GenerateConfig, InstructionConfig, PathConfig, PlannerConfig, RenderConfig,
-           SafetyConfig]
+CONFIGS = [CheckerConfig, ControlConfig, EnvConfig, EvalConfig, GenerateConfig, InstructionConfig, PathConfig,
+           PlannerConfig, RenderConfig, SafetyConfig, SceneConfig, WorldConfig]
 
 
 @pytest.mark.parametrize("cls", CONFIGS, ids=lambda c: c.__name__)
@@ -36,6 +40,14 @@ def test_a_config_is_declared_once_and_round_trips_through_json(cls: type[Config
     (ControlConfig, {"max_cartesian_delta": [0.05, -1.0]}, "ControlConfig.max_cartesian_delta[1]=-1.0"),
     (SafetyConfig, {"torque_ratio": 0.0}, "SafetyConfig.torque_ratio=0.0"),
     (SafetyConfig, {"nope": 1}, "SafetyConfig: unknown option(s) ['nope']"),
+    (EnvConfig, {"width": 0}, "Tabletop-v0.width=0"),
+    (EnvConfig, {"physics_hz": 510.0}, "Tabletop-v0.physics_hz=510.0"),
+    (EnvConfig, {"obs_mode": "rgb", "cameras": []}, "Tabletop-v0.cameras=[]"),
+    (EvalConfig, {"episodes": 0}, "EvalConfig.episodes=0"),
+    (EvalConfig, {"policy": "bc"}, "EvalConfig.policy='bc'"),
+    (EvalConfig, {"env": {"nope": 1}}, "EvalConfig.env: unknown option(s) ['nope']"),
+    (WorldConfig, {"timestep": 0.5}, "world.timestep=0.5"),
+    (WorldConfig, {"cameras": [{"name": "a", "pos": [1, 0, 1]}]}, "world.cameras[0]: missing option(s) ['target']"),
 ])
 def test_errors_are_one_line_and_name_the_field(cls: type[Config], bad: dict, where: str) -> None:
     with pytest.raises(ConfigError) as err:

@@ -8,8 +8,8 @@ with a rule across fields extends it and calls ``super().__post_init__()`` first
 
 - checks every field against its type hint: ``int`` (not bool), ``float`` (finite; ints become floats),
   ``bool``, ``str``, ``X | None``, ``tuple[str, ...]`` (a list or tuple, never a string),
-  ``tuple[int, int]``, a mapping, or a nested config dataclass (a mapping is built with
-  :func:`from_mapping`);
+  ``tuple[int, int]``, a mapping, or a nested config dataclass, alone or as the items of a
+  ``tuple[X, ...]`` (a mapping is built with :func:`from_mapping`);
 - checks the declared bounds (``lo``/``hi``, open or closed), names (``choices``), non-empty and
   distinct lists, and a list's length;
 - normalises lists to tuples so frozen configs stay hashable and compare equal to their JSON round trip.
@@ -186,6 +186,8 @@ def _check(where: str, name: str, value: Any, hint: Any, b: Bounds) -> Any:
         items = tuple(value)
         if len(args) == 2 and args[1] is Ellipsis:
             item_hint = args[0]
+            if isinstance(item_hint, type) and dataclasses.is_dataclass(item_hint):
+                items = tuple(_check(where, f"{name}[{i}]", item, item_hint, Bounds()) for i, item in enumerate(items))
             for i, item in enumerate(items):
                 if item_hint is str and not isinstance(item, str):
                     _fail(where, name, value, f"item {i} is {json_type_name(item)}; {_want(hint, b)}")
@@ -263,7 +265,8 @@ def from_mapping(cls: type[T], d: Any, where: str) -> T:
     """Build the config dataclass ``cls`` from a JSON object; unknown keys are errors.
 
     Raises:
-        ConfigError: ``d`` is not an object, has a key ``cls`` does not know, or a bad value.
+        ConfigError: ``d`` is not an object, has a key ``cls`` does not know, lacks one without a default,
+            or has a bad value.
     """
     if not isinstance(d, Mapping):
         raise ConfigError(f"{where}: must be a JSON object of options, got {json_type_name(d)}")
@@ -271,6 +274,10 @@ def from_mapping(cls: type[T], d: Any, where: str) -> T:
     unknown = sorted(str(k) for k in d if k not in valid)
     if unknown:
         raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(valid)}")
+    missing = [f.name for f in dataclasses.fields(cls) if f.init and f.name not in d
+               and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+    if missing:
+        raise ConfigError(f"{where}: missing option(s) {missing}")
     return cls(**d)
 
 

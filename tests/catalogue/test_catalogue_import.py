@@ -13,7 +13,7 @@ import trimesh
 from samplehd.catalogue import ObjectInstance, add_object, load_catalogue, object_facts
 from samplehd.catalogue.importer import ImportOptions, import_mesh, read_mesh
 from samplehd.catalogue.registry import cache_dir, registry_dir, remove_imported
-from samplehd.errors import AssetError
+from samplehd.errors import AssetError, ConfigError
 
 
 def _ell_mesh(path: Path) -> Path:
@@ -120,15 +120,15 @@ def test_point_cloud_is_not_a_mesh(tmp_path: Path) -> None:
 def test_import_argument_errors(tmp_path: Path) -> None:
     src = tmp_path / "big.stl"
     trimesh.creation.box((50.0, 30.0, 100.0)).export(src)  # millimetres
-    with pytest.raises(AssetError, match=r"pass --scale \(e.g. 0.001 for millimetres\)"):
+    with pytest.raises(AssetError, match=r"pass `scale` \(e.g. 0.001 for millimetres\)"):
         import_mesh(src, "box_mm")
     cls, report = import_mesh(src, "box_mm", options=ImportOptions(scale=0.001))
     assert max(report["extents"]) == pytest.approx(0.1)
     with pytest.raises(AssetError, match="built-in class"):
         import_mesh(src, "mug", options=ImportOptions(scale=0.001))
-    with pytest.raises(AssetError, match="--name 'Big Box'"):
+    with pytest.raises(AssetError, match="name='Big Box'"):
         import_mesh(src, "Big Box", options=ImportOptions(scale=0.001))
     with pytest.raises(AssetError, match="unknown material 'stone'"):
         import_mesh(src, "box2", options=ImportOptions(scale=0.001), materials=("stone",))
-    with pytest.raises(AssetError, match="--scale must be a positive number"):
+    with pytest.raises(ConfigError, match=r"ImportOptions.scale=-1.0: must be a finite number > 0"):
         ImportOptions(scale=-1.0)

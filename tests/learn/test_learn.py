@@ -259,12 +259,12 @@ def test_kind_head_sharpens_class_and_size() -> None:
     within the class found (a kind of another class does not vote for a size)."""
     import numpy as np
 
-    from samplehd.learn.perception import FORMAT, Perception, attribute_vocab
+    from samplehd.learn.perception import Perception, PerceptionArchitecture, PerceptionConfig, attribute_vocab
 
     vocab = attribute_vocab()
-    kinds = ["fork/dessert/large", "fork/dinner/medium", "spoon/tea/small"]
-    model = Perception({"format": FORMAT, "attributes": vocab, "kinds": kinds,
-                        "model": {"seg_width": 2, "attr_width": 2}, "seg_downsample": 1, "table_height": 0.75})
+    kinds = ("fork/dessert/large", "fork/dinner/medium", "spoon/tea/small")
+    model = Perception(PerceptionConfig(attributes=vocab, kinds=kinds, model=PerceptionArchitecture(2, 2),
+                                        seg_downsample=1, table_height=0.75))
     one = {a: np.full((1, len(vocab[a])), 1.0 / len(vocab[a])) for a in vocab}
     name = np.zeros((1, len(vocab["name"])))
     name[0, vocab["name"].index("fork")] = 0.6
@@ -283,14 +283,17 @@ def _rendered_scene(folder: Path, index: int, n_objects: int, width: int, height
     import numpy as np
     from PIL import Image
 
+    from samplehd.render.image_spec import ImageSpec
+    from samplehd.render.renderer import MODALITIES
     from samplehd.scene.config import SceneConfig
     from samplehd.scene.generate import SceneJob, render_scene_files
     from samplehd.world.seeding import scene_seed
 
     for sub in ("scenes", "images", "depth", "segmentation"):
         (folder / sub).mkdir()
-    config = SceneConfig.from_dict({"min_objects": n_objects, "max_objects": n_objects}).to_dict()
-    job = SceneJob(index, scene_seed(1, index), str(folder), config, width, height, "fast", 20)
+    config = SceneConfig.from_dict({"min_objects": n_objects, "max_objects": n_objects})
+    image = ImageSpec(width, height, "fast", modalities=MODALITIES)
+    job = SceneJob(index, scene_seed(1, index), str(folder), config, image, 20)
     ann, _ = render_scene_files(job)
     stem = Path(ann["image_filename"]).stem
     rgb = np.asarray(Image.open(folder / "images" / f"{stem}.png").convert("RGB"))
@@ -412,7 +415,14 @@ def test_a_union_of_objects_does_not_fit_one_kind(tmp_path: Path) -> None:
     templates (held out of training) fits anything."""
     import numpy as np
 
-    from samplehd.learn.perception import FORMAT, Perception, attribute_vocab, kind_vocab, size_templates
+    from samplehd.learn.perception import (
+        Perception,
+        PerceptionArchitecture,
+        PerceptionConfig,
+        attribute_vocab,
+        kind_vocab,
+        size_templates,
+    )
     from samplehd.learn.perception.geometry import _geometry
     from samplehd.world.layout import LAYOUT
 
@@ -423,9 +433,9 @@ def test_a_union_of_objects_does_not_fit_one_kind(tmp_path: Path) -> None:
     kinds = kind_vocab()
     geo = np.stack([_geometry(rgb, depth, m, camera, table)[1] for m in masks])[:, None]
     of = np.array([kinds.index(f"{o['name']}/{o['variant']}/{o['size']}") for o in objs])
-    model = Perception({"format": FORMAT, "attributes": attribute_vocab(), "kinds": kinds,
-                        "model": {"seg_width": 2, "attr_width": 2}, "seg_downsample": 1, "table_height": table,
-                        "size_templates": size_templates(geo, of, kinds)})
+    model = Perception(PerceptionConfig(attributes=attribute_vocab(), kinds=tuple(kinds),
+                                        model=PerceptionArchitecture(2, 2), seg_downsample=1, table_height=table,
+                                        size_templates=size_templates(geo, of, kinds)))
 
     def measured(mask: np.ndarray, whole: bool = False) -> np.ndarray:
         return _geometry(rgb, depth, mask, camera, table, whole)[1][:3] / 10

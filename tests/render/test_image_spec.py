@@ -39,3 +39,16 @@ def test_a_render_config_makes_its_request() -> None:
     assert cfg.image == ImageSpec(128, 72, "fast", ("scene",), ("rgb", "segmentation"))
     with pytest.raises(ValueError, match="requests no images"):
         RenderConfig("none").image  # noqa: B018 - the property raises
+
+
+@pytest.mark.render
+def test_a_request_renders_every_camera_in_every_modality(world) -> None:
+    model, data = world
+    spec = ImageSpec(48, 32, "fast", ("operator", "wrist"), ("rgb", "depth"))
+    images = spec.render(model, data)
+    assert list(images) == ["operator", "wrist"]
+    for camera in spec.cameras:
+        assert list(images[camera]) == ["rgb", "depth"]
+        for modality in spec.modalities:
+            assert images[camera][modality].shape == spec.shape(modality)
+    assert images["operator"]["rgb"].std() > 0  # a picture, not a blank buffer

@@ -175,7 +175,7 @@ _NOT_A_PRESET = "invalid choice: 'ultra' (choose from 'fast', 'hd', 'photo')"
     (["render", "--preset", "ultra"], _NOT_A_PRESET),
     (["scenes", "--num", "1", "--render-preset", "ultra"], _NOT_A_PRESET),
     (["scenes", "--num", "1", "--preset", "photo", "--photo-look", "sunny"],
-     "--photo-look='sunny' is invalid; valid: fixed, random"),
+     "--photo-look 'sunny' is invalid; valid: fixed, random"),
 ])
 def test_bad_preset_and_photo_options_on_the_command_line(tmp_path, capsys, argv, msg):
     from samplehd.cli import main

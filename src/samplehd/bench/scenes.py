@@ -9,6 +9,8 @@ from collections import Counter
 from pathlib import Path
 
 from samplehd.bench import Figure
+from samplehd.render.image_spec import ImageSpec
+from samplehd.render.renderer import MODALITIES
 from samplehd.scene.generate import generate_scenes
 from samplehd.scene.sampler import sample_scene
 from samplehd.world.seeding import scene_seed
@@ -23,8 +25,8 @@ def run(repeats: int = 3, num: int = 8, stats_scenes: int = 100) -> list[Figure]
             for rep in range(repeats):
                 with tempfile.TemporaryDirectory() as tmp:
                     t0 = time.perf_counter()
-                    generate_scenes(Path(tmp), num, seed=100 + rep, width=640, height=360, preset=preset,
-                                    workers=workers)
+                    generate_scenes(Path(tmp), num, seed=100 + rep,
+                                    image=ImageSpec(640, 360, preset, modalities=MODALITIES), workers=workers)
                     rates.append(num / (time.perf_counter() - t0))
             figures.append(Figure("scenes", f"scenes/s 640x360 {preset} workers={workers}", statistics.median(rates),
                                   "1/s", f"{num} scenes per run, incl. process start-up"))

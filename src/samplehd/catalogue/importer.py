@@ -38,6 +38,7 @@ from samplehd.catalogue.shape import GraspSite, TopSurface
 from samplehd.errors import AssetError, require_extra
 from samplehd.fileio import file_sha256
 from samplehd.fixedmath import dot, matmul
+from samplehd.schema import Config, bounded
 
 # The mesh extra: importing meshes is the only thing that needs trimesh's readers.
 trimesh = require_extra("trimesh", "mesh", "samplehd assets import")
@@ -64,7 +65,7 @@ _WORKER = Path(__file__).with_name(
 
 
 @dataclass(frozen=True)
-class ImportOptions:
+class ImportOptions(Config, section="ImportOptions"):
     """Parameters of an import (all part of the decomposition cache key).
 
     Attributes:
@@ -75,21 +76,11 @@ class ImportOptions:
         seed: CoACD's random seed (same seed, same pieces).
     """
 
-    scale: float | None = None
-    size: float | None = None
-    threshold: float = 0.05
-    max_pieces: int = 16
+    scale: float | None = bounded(None, lo=0.0, lo_open=True)
+    size: float | None = bounded(None, lo=_MIN_EXTENT, hi=_MAX_EXTENT, unit="m")
+    threshold: float = bounded(0.05, lo=0.01, hi=1.0)
+    max_pieces: int = bounded(16, lo=1, hi=64)
     seed: int = 0
-
-    def __post_init__(self) -> None:
-        if self.scale is not None and not (self.scale > 0 and np.isfinite(self.scale)):
-            raise AssetError(f"--scale must be a positive number, got {self.scale}")
-        if self.size is not None and not (_MIN_EXTENT <= self.size <= _MAX_EXTENT):
-            raise AssetError(f"--size must be in [{_MIN_EXTENT}, {_MAX_EXTENT}] m, got {self.size}")
-        if not (0.01 <= self.threshold <= 1.0):
-            raise AssetError(f"threshold must be in [0.01, 1], got {self.threshold}")
-        if not (1 <= self.max_pieces <= 64):
-            raise AssetError(f"max_pieces must be in [1, 64], got {self.max_pieces}")
 
 
 def read_mesh(path: str | Path) -> trimesh.Trimesh:
@@ -138,7 +129,7 @@ def normalise_mesh(mesh: trimesh.Trimesh, options: ImportOptions, source: str = 
     """Scale to metres, centre the footprint on the origin and put the bottom on z = 0.
 
     Raises:
-        AssetError: the resulting size is outside [1 cm, 1 m] (suggests --scale or --size).
+        AssetError: the resulting size is outside [1 cm, 1 m] (suggests ``scale`` or ``size``).
     """
     m = mesh.copy()
     if options.scale is not None:
@@ -151,7 +142,7 @@ def normalise_mesh(mesh: trimesh.Trimesh, options: ImportOptions, source: str = 
     if not (_MIN_EXTENT <= ext <= _MAX_EXTENT):
         raise AssetError(
             f"{source}: largest extent is {ext:.4g} m after scaling, outside [{_MIN_EXTENT}, {_MAX_EXTENT}] m; "
-            "pass --scale (e.g. 0.001 for millimetres) or --size METRES"
+            "pass `scale` (e.g. 0.001 for millimetres) or `size` METRES"
         )
     return m
 
@@ -179,7 +170,7 @@ def decompose(mesh: trimesh.Trimesh, options: ImportOptions, source: str = "mesh
             last = (proc.stderr.strip().splitlines() or [f"exit status {proc.returncode}"])[-1][:160]
             raise AssetError(
                 f"{source}: convex decomposition (CoACD) failed: {last}; "
-                "repair the mesh (make it closed and manifold) or try another --threshold"
+                "repair the mesh (make it closed and manifold) or try another `threshold`"
             )
         with np.load(dst, allow_pickle=False) as z:
             counts, points = z["counts"], z["points"]
@@ -298,15 +289,16 @@ def import_mesh(
     options = options or ImportOptions()
     cat = catalogue or load_catalogue()
     if not is_identifier(name):
-        raise AssetError(f"--name {name!r}: use lower-case letters, digits and '_', starting with a letter")
+        raise AssetError(f"name={name!r}: use lower-case letters, digits and '_', starting with a letter", field="name")
     if len(name) > MAX_NAME:  # the registry's folder and file names carry it (255 bytes on most file systems)
-        raise AssetError(f"--name {name[:20]}... ({len(name)} characters): at most {MAX_NAME} characters")
+        raise AssetError(f"name={name[:20]}... ({len(name)} characters): at most {MAX_NAME} characters", field="name")
     existing = cat.classes.get(name)
     if existing is not None and not existing.imported:
-        raise AssetError(f"--name {name!r} is a built-in class; choose another name")
+        raise AssetError(f"name={name!r} is a built-in class; choose another name", field="name")
     target = registry_dir() / name
     if target.exists() and not overwrite:
-        raise AssetError(f"--name {name!r} is already registered ({target}); pass --overwrite to replace it")
+        raise AssetError(f"name={name!r} is already registered ({target}); pass `overwrite` to replace it",
+                         field="name")
     for m in materials:
         cat.material(m)
     for s in sizes or ():

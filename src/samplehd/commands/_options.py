@@ -9,11 +9,14 @@ import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any, TypeVar
 
 from samplehd.errors import ConfigError, SamplehdError
 
+C = TypeVar("C")
+
 __all__ = ["DefaultsHelpFormatter", "add_render_preset", "check_int", "check_names", "check_number", "check_out_dir",
-           "check_out_file", "in_flags", "option_flags", "split_names"]
+           "check_out_file", "config_from_options", "in_flags", "option_flags", "split_names"]
 
 
 _STATES_DEFAULT = re.compile(r"\bdefault[: ]", re.IGNORECASE)  # "(default 10)", "default: all", not "by default)"
@@ -69,6 +72,21 @@ def in_flags(exc: SamplehdError, flags: Mapping[str, str]) -> str:
         elif text.startswith(f"{field}:"):
             text = flag + text[len(field):]
     return _FIELD_REFERENCE.sub(lambda m: flags.get(m.group(1), m.group(0)), text)
+
+
+def config_from_options(cls: type[C], **values: Any) -> C:
+    """``cls(**values)``, a :class:`samplehd.schema.Config` whose fields the command's options fill one by
+    one (each field named as its option's destination). A refused value's message loses the config's
+    section and carries the field (``EvalConfig.episodes=0: ...`` -> ``episodes=0: ...``), which
+    :func:`in_flags` says as the flag: ``--episodes 0: ...``."""
+    try:
+        return cls(**values)
+    except ConfigError as exc:
+        text, prefix = str(exc), f"{cls._section}."  # type: ignore[attr-defined]
+        name = text[len(prefix):].split("=", 1)[0].split(":", 1)[0] if text.startswith(prefix) else ""
+        if name in values:
+            raise ConfigError(text[len(prefix):], field=name) from None
+        raise
 
 
 def add_render_preset(parser: argparse.ArgumentParser, presets: Sequence[str], default: str,

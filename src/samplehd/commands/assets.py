@@ -25,7 +25,13 @@ from samplehd.catalogue.instance import ObjectInstance
 from samplehd.catalogue.loader import CATALOGUES, catalogue_for, load_catalogue
 from samplehd.catalogue.preview import render_instances, write_catalogue_table
 from samplehd.catalogue.registry import registered_classes, remove_imported
-from samplehd.commands._options import DefaultsHelpFormatter, check_int, check_out_file, split_names
+from samplehd.commands._options import (
+    DefaultsHelpFormatter,
+    check_int,
+    check_out_file,
+    config_from_options,
+    split_names,
+)
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import AssetError
 
@@ -83,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
 def _import(args: argparse.Namespace) -> int:
     from samplehd.catalogue.importer import ImportOptions, import_mesh  # the mesh extra (trimesh, coacd)
 
-    options = ImportOptions(scale=args.scale, size=args.size, threshold=args.threshold, max_pieces=args.max_pieces)
+    options = config_from_options(ImportOptions, scale=args.scale, size=args.size, threshold=args.threshold,
+                                  max_pieces=args.max_pieces)
     cls, report = import_mesh(
         args.mesh,
         args.name,

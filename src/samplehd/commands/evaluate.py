@@ -5,10 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from samplehd.commands._options import check_int, check_out_dir, check_out_file
+from samplehd.commands._options import check_int, check_out_dir, check_out_file, config_from_options
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
-from samplehd.envs.evaluation import DEFAULT_FAMILIES, EvalConfig, evaluate, load_policy_module
+from samplehd.envs.evaluation import DEFAULT_FAMILIES, EpisodeRecord, EvalConfig, evaluate, load_policy_module
 from samplehd.envs.lerobot_policy import is_lerobot_policy, read_lerobot_checkpoint
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
         env = {**checkpoint.env, **env, "families": families}
     where = f"--env-options {args.env_options}" if args.env_options else "command line"
     try:
-        EnvConfig.from_kwargs(**env)
+        env_config = EnvConfig.from_kwargs(**env)
     except ConfigError as exc:
         raise ConfigError(f"{where}: {exc}") from None
     if checkpoint is not None:
@@ -98,17 +98,18 @@ def run(args: argparse.Namespace) -> int:
     if checkpoint is not None:
         print(f"lerobot: {checkpoint.policy_type} policy {checkpoint.path}; environment from "
               f"{checkpoint.env_source}", flush=True)
-    config = EvalConfig(policy=args.policy, episodes=args.episodes, families=tuple(families), seed=args.seed,
-                        env=env, video_dir=str(args.video) if args.video else None, workers=args.workers,
-                        compare_offline=args.compare_offline,
-                        models=str(args.models) if args.models else None, programs=args.programs,
-                        perception=args.perception, level=args.level)
+    config = config_from_options(EvalConfig, policy=args.policy, episodes=args.episodes,
+                                 families=tuple(families), seed=args.seed, env=env_config,
+                                 video_dir=str(args.video) if args.video else None, workers=args.workers,
+                                 compare_offline=args.compare_offline,
+                                 models=str(args.models) if args.models else None, programs=args.programs,
+                                 perception=args.perception, level=args.level)
 
-    def show(r: dict) -> None:
-        mark = "ok  " if r["success"] else "fail"
-        extra = f" safety={','.join(r['safety_events'])}" if r["safety_events"] else ""
-        print(f"[{r['index'] + 1}/{args.episodes}] {mark} {r['family']:<15} steps={r['steps']:<5}"
-              f"{extra} {r['instruction']}", flush=True)
+    def show(r: EpisodeRecord) -> None:
+        mark = "ok  " if r.success else "fail"
+        extra = f" safety={','.join(r.safety_events)}" if r.safety_events else ""
+        print(f"[{r.index + 1}/{args.episodes}] {mark} {r.family:<15} steps={r.steps:<5}"
+              f"{extra} {r.instruction}", flush=True)
 
     report = evaluate(config, args.out, progress=show)
     print(f"success_rate {report['success_rate']:.3f} over {report['episodes']} episodes "

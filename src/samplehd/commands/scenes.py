@@ -19,8 +19,8 @@ from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.render.contact_sheet import contact_sheet
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, read_depth, read_segmentation, save_rgb
-from samplehd.render.image_spec import PRESET_NAMES
-from samplehd.render.renderer import get_preset
+from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
+from samplehd.render.renderer import MODALITIES, get_preset
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.generate import generate_scenes
 from samplehd.scene.sampler import check_scene_config
@@ -102,8 +102,9 @@ def run(args: argparse.Namespace) -> int:
         def tick(done: int) -> None:
             progress.update(task, completed=done, rate=done / (time.perf_counter() - t0))
 
-        summary = generate_scenes(args.out, args.num, args.seed, config, args.width, args.height, args.render_preset,
-                                  args.workers, on_scene=tick, photo_look=args.photo_look)
+        image = ImageSpec(args.width, args.height, args.render_preset, modalities=MODALITIES)
+        summary = generate_scenes(args.out, args.num, args.seed, config, image, args.workers, on_scene=tick,
+                                  photo_look=args.photo_look)
     dt = time.perf_counter() - t0
     if args.sheet:
         write_scene_sheet(args.out, args.sheet)

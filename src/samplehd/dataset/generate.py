@@ -67,6 +67,8 @@ from samplehd.errors import ConfigError, DatasetError
 from samplehd.fileio import file_sha256, write_json_atomic
 from samplehd.fixedmath import machine
 from samplehd.language.instruction_file import generate_instruction_file
+from samplehd.render.image_spec import ImageSpec
+from samplehd.render.renderer import MODALITIES
 from samplehd.scene.annotate import image_stem
 from samplehd.scene.generate import SceneJob, scene_split
 from samplehd.scene.sampler import check_scene_config
@@ -252,8 +254,9 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
     def path(i: int) -> Path:
         return out / SCENE_DIR / f"{image_stem(scene_split(i, config.test_every), i)}.json"
 
-    jobs = [SceneJob(i, scene_seed(config.seed, i), str(out), config.scene.to_dict(), r.width, r.height, preset,
-                     config.test_every) for i in range(config.num_scenes) if not path(i).exists()]
+    image = ImageSpec(r.width, r.height, preset, modalities=MODALITIES)
+    jobs = [SceneJob(i, scene_seed(config.seed, i), str(out), config.scene, image, config.test_every)
+            for i in range(config.num_scenes) if not path(i).exists()]
     progress.stage("scenes", config.num_scenes, config.num_scenes - len(jobs))
     done = [True] * config.num_scenes
     for job in jobs:

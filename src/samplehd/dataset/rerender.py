@@ -75,7 +75,8 @@ def _rerender(root: Path, render: RenderConfig, backend: Backend | None, progres
               add: bool) -> dict[str, Any]:
     reader = DatasetReader(root)  # read again under the lock
     if not reader.complete:
-        raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
+        raise DatasetError(f"{root}: generation has not finished; finish it first "
+                           "(generate into it again with `resume`)")
     reader.check_intact(verify=True)  # every episode read and checked before any is rewritten
     # Episodes and info.json are replaced by renames: their folders must be writable, and the files
     # themselves not immutable (a rename onto an immutable file fails, even for root).

@@ -1,14 +1,16 @@
-"""Options of the tabletop environment, validated on construction; unknown keys are errors."""
+"""Options of the tabletop environment, declared with :mod:`samplehd.schema`: validated on construction,
+unknown keys are errors, ``to_dict``/``from_dict`` from the declaration."""
 
 from __future__ import annotations
 
-import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Any
 
 from samplehd.errors import ConfigError
-from samplehd.render.renderer import MODALITIES, PRESETS
+from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
+from samplehd.render.renderer import MODALITIES
 from samplehd.scene.config import SceneConfig
+from samplehd.schema import Config, bounded
 from samplehd.tasks.checker import CheckerConfig
 from samplehd.tasks.task import family_names
 
@@ -33,7 +35,7 @@ RENDER_MODES = ("rgb_array",)
 
 
 @dataclass(frozen=True)
-class EnvConfig:
+class EnvConfig(Config, section="Tabletop-v0"):
     """Everything that defines a ``samplehd/Tabletop-v0`` environment.
 
     Attributes:
@@ -70,97 +72,52 @@ class EnvConfig:
         checker: success checker tolerances (a CheckerConfig or its dict).
     """
 
-    obs_mode: str = "state"
-    cameras: tuple[str, ...] = ("scene",)
-    width: int = 128
-    height: int = 128
-    render_preset: str = "fast"
-    render_mode: str | None = None
-    render_camera: str = "scene"
-    control_mode: str = "steering"
-    control_hz: float = 20.0
-    physics_hz: float = 500.0
-    families: tuple[str, ...] = ()
+    obs_mode: str = bounded("state", choices=tuple(OBS_MODES))
+    cameras: tuple[str, ...] = bounded(("scene",), choices=CAMERAS, unique=True)
+    width: int = bounded(128, lo=8, hi=4096, unit="px")
+    height: int = bounded(128, lo=8, hi=4096, unit="px")
+    render_preset: str = bounded("fast", choices=PRESET_NAMES)
+    render_mode: str | None = bounded(None, choices=RENDER_MODES)
+    render_camera: str = bounded("scene", choices=CAMERAS)
+    control_mode: str = bounded("steering", choices=tuple(CONTROL_MODES))
+    control_hz: float = bounded(20.0, lo=0.0, lo_open=True, unit="Hz")
+    physics_hz: float = bounded(500.0, lo=0.0, lo_open=True, unit="Hz")
+    families: tuple[str, ...] = bounded((), choices=family_names)
     scene: SceneConfig = field(default_factory=SceneConfig)
-    num_scenes: int = 0
-    scene_seed: int = 0
-    max_episode_steps: int | None = 1500
-    max_instruction_tokens: int = 48
-    max_instruction_chars: int = 256
+    num_scenes: int = bounded(0, lo=0)
+    scene_seed: int = bounded(0, lo=0)
+    max_episode_steps: int | None = bounded(1500, lo=1)
+    max_instruction_tokens: int = bounded(48, lo=4)
+    max_instruction_chars: int = bounded(256, lo=16)
     dense_reward: bool = False
-    success_check_every: int = 1
+    success_check_every: int = bounded(1, lo=1)
     terminate_on_safety: bool = True
     grasp_assist: bool = True
     oracle_subtask: bool = False
-    scene_cache_size: int = 8
+    scene_cache_size: int = bounded(8, lo=1)
     checker: CheckerConfig = field(default_factory=CheckerConfig)
 
     def __post_init__(self) -> None:
-        def fail(name: str, what: str) -> None:
-            raise ConfigError(f"Tabletop-v0 option {name}={getattr(self, name)!r}: {what}")
-
-        def named(value: object, valid: Any) -> bool:  # a list or dict is no name (and is unhashable)
-            return isinstance(value, str) and value in valid
-
-        if not named(self.obs_mode, OBS_MODES):
-            fail("obs_mode", f"valid: {', '.join(OBS_MODES)}")
-        if not named(self.control_mode, CONTROL_MODES):
-            fail("control_mode", f"valid: {', '.join(CONTROL_MODES)}")
-        if isinstance(self.cameras, str) or not isinstance(self.cameras, tuple | list):
-            fail("cameras", f"must be a list of camera names from {', '.join(CAMERAS)}")
-        object.__setattr__(self, "cameras", tuple(self.cameras))
-        bad = [c for c in self.cameras if not named(c, CAMERAS)]
-        if bad or len(set(self.cameras)) != len(self.cameras):
-            fail("cameras", f"must be distinct names from {', '.join(CAMERAS)}")
+        super().__post_init__()
         if self.obs_mode != "state" and not self.cameras:
-            fail("cameras", f"obs_mode {self.obs_mode!r} needs at least one camera")
-        if not named(self.render_camera, CAMERAS):
-            fail("render_camera", f"valid: {', '.join(CAMERAS)}")
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if not (isinstance(v, int) and not isinstance(v, bool) and 8 <= v <= 4096):
-                fail(name, "must be an integer in 8..4096 px")
-        if not named(self.render_preset, PRESETS):
-            fail("render_preset", f"valid: {', '.join(PRESETS)}")
-        if self.render_mode is not None and not named(self.render_mode, RENDER_MODES):
-            fail("render_mode", f"valid: {', '.join(RENDER_MODES)} or None")
-        for name in ("control_hz", "physics_hz"):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
-                fail(name, "must be a positive number of Hz")
+            raise ConfigError(f"Tabletop-v0.cameras=[]: obs_mode {self.obs_mode!r} needs at least one camera "
+                              f"from {', '.join(CAMERAS)}")
         ratio = self.physics_hz / self.control_hz
         if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
-            fail("physics_hz", f"must be an integer multiple of control_hz ({self.control_hz})")
-        if isinstance(self.families, str) or not isinstance(self.families, tuple | list):
-            fail("families", f"must be a list from {', '.join(family_names())}")
-        object.__setattr__(self, "families", tuple(self.families))
-        bad = [f for f in self.families if not named(f, family_names())]
-        if bad:
-            fail("families", f"unknown {bad}; valid: {', '.join(family_names())}")
-        if isinstance(self.scene, dict):
-            object.__setattr__(self, "scene", SceneConfig.from_dict(self.scene, where="Tabletop-v0 option scene"))
-        if not isinstance(self.scene, SceneConfig):
-            fail("scene", "must be a SceneConfig or a dict of its options")
-        if isinstance(self.checker, dict):
-            object.__setattr__(self, "checker", CheckerConfig.from_dict(self.checker))
-        if not isinstance(self.checker, CheckerConfig):
-            fail("checker", "must be a CheckerConfig or a dict of its options")
-        steps = self.max_episode_steps
-        if steps is not None and not (isinstance(steps, int) and not isinstance(steps, bool) and steps >= 1):
-            fail("max_episode_steps", "must be an integer >= 1 (or None: no limit)")
-        for name, lo in (("num_scenes", 0), ("scene_seed", 0), ("max_instruction_tokens", 4),
-                         ("max_instruction_chars", 16), ("success_check_every", 1), ("scene_cache_size", 1)):
-            v = getattr(self, name)
-            if not (isinstance(v, int) and not isinstance(v, bool) and v >= lo):
-                fail(name, f"must be an integer >= {lo}")
-        for name in ("dense_reward", "terminate_on_safety", "grasp_assist", "oracle_subtask"):
-            if not isinstance(getattr(self, name), bool):
-                fail(name, "must be true or false")
+            raise ConfigError(f"Tabletop-v0.physics_hz={self.physics_hz!r}: must be an integer multiple of "
+                              f"control_hz ({self.control_hz}), e.g. 500 and 20")
 
     @property
     def modalities(self) -> tuple[str, ...]:
         """Image modalities rendered per camera."""
         return OBS_MODES[self.obs_mode]
+
+    @property
+    def image(self) -> ImageSpec:
+        """The image request of the observations: ``cameras`` in the modalities of ``obs_mode``, at
+        ``width`` × ``height`` in ``render_preset`` (:meth:`TabletopEnv.render` shows ``render_camera``'s
+        rgb at the same size and preset)."""
+        return ImageSpec(self.width, self.height, self.render_preset, self.cameras, self.modalities)
 
     @property
     def task_families(self) -> tuple[str, ...]:
@@ -170,17 +127,4 @@ class EnvConfig:
     @classmethod
     def from_kwargs(cls, **kwargs: Any) -> EnvConfig:
         """Build from keyword options; an unknown key is an error naming the valid ones."""
-        valid = [f.name for f in fields(cls)]
-        unknown = sorted(set(kwargs) - set(valid))
-        if unknown:
-            raise ConfigError(f"Tabletop-v0: unknown option(s) {unknown}; valid: {', '.join(valid)}")
-        return cls(**kwargs)
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready options (nested configs as dicts)."""
-        d = asdict(self)
-        d["scene"] = self.scene.to_dict()
-        d["checker"] = self.checker.to_dict()
-        d["cameras"] = list(self.cameras)
-        d["families"] = list(self.families)
-        return d
+        return cls.from_dict(kwargs)

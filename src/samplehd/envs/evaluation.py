@@ -40,11 +40,12 @@ from samplehd.errors import ConfigError, PlanningError, require_extra
 from samplehd.record.paths import PathConfig, plan_and_execute
 from samplehd.render.video import write_mp4
 from samplehd.scene.spec import compile_scene
+from samplehd.schema import Config, bounded
 from samplehd.tasks.task import family_names
 from samplehd.workers import Backend
 
-__all__ = ["EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action", "evaluate", "load_policy",
-           "load_policy_module", "split_episode"]
+__all__ = ["EpisodeRecord", "EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action", "evaluate",
+           "load_policy", "load_policy_module", "split_episode"]
 
 # SAMPLE-HD's families plus the two simple new ones: the default benchmark. stack_three needs scenes
 # with three stackable objects (see the env's ``scene`` option) and is opt-in.
@@ -57,7 +58,7 @@ _POLICY_SPEC = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:[
 
 
 @dataclass(frozen=True)
-class EvalConfig:
+class EvalConfig(Config, section="EvalConfig"):
     """What an evaluation run does.
 
     Attributes:
@@ -65,7 +66,7 @@ class EvalConfig:
         episodes: number of episodes of the split.
         families: families of the split, in rotation.
         seed: seed of the split.
-        env: environment options (``samplehd.envs.config.EnvConfig`` fields).
+        env: the environment's options (an EnvConfig, or a dict of its fields).
         video_dir: write one MP4 per episode here (None: no videos).
         workers: processes running episodes in parallel.
         compare_offline: also run the offline ground-truth path generator (one attempt) on every
@@ -78,45 +79,98 @@ class EvalConfig:
     """
 
     policy: str = "oracle"
-    episodes: int = 10
-    families: tuple[str, ...] = DEFAULT_FAMILIES
-    seed: int = 0
-    env: dict[str, Any] = field(default_factory=dict)
+    episodes: int = bounded(10, lo=1)
+    families: tuple[str, ...] = bounded(DEFAULT_FAMILIES, choices=family_names, nonempty=True)
+    seed: int = bounded(0, lo=0)
+    env: EnvConfig = field(default_factory=EnvConfig)
     video_dir: str | None = None
-    workers: int = 1
+    workers: int = bounded(1, lo=1)
     compare_offline: bool = False
     models: str | None = None
-    programs: str = "predicted"
-    perception: str = "predicted"
-    level: str | None = None
+    programs: str = bounded("predicted", choices=("gt", "predicted"))
+    perception: str = bounded("predicted", choices=("gt", "predicted"))
+    level: str | None = bounded(None, choices=LEVELS)
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.episodes, int) and self.episodes >= 1):
-            raise ConfigError(f"--episodes {self.episodes!r}: must be a positive integer")
-        bad = [f for f in self.families if f not in family_names()]
-        if bad or not self.families:
-            raise ConfigError(f"--families: unknown {bad or '(none)'}; valid: {', '.join(family_names())}")
-        if not (isinstance(self.workers, int) and self.workers >= 1):
-            raise ConfigError(f"--workers {self.workers!r}: must be a positive integer")
-        check_policy_spec(self.policy)
-        if self.level is not None:
-
-            if self.level not in LEVELS:
-                raise ConfigError(f"--level {self.level!r}: valid: {', '.join(LEVELS)}")
-        for name, value in (("--programs", self.programs), ("--perception", self.perception)):
-            if value not in ("gt", "predicted"):
-                raise ConfigError(f"{name} {value!r}: valid: gt, predicted")
+        super().__post_init__()
+        check_policy_spec(self.policy, where="EvalConfig.")
         if self.policy == "bc" and not self.models:
-            raise ConfigError("--policy bc: needs --models (the folder of `samplehd train policy`)")
+            raise ConfigError("EvalConfig.policy='bc': needs `models` (the folder of `samplehd train policy`)")
 
 
-def check_policy_spec(spec: str) -> None:
-    """Raise ConfigError unless ``spec`` is a built-in policy, ``lerobot:CKPT`` or ``MODULE:CALLABLE``."""
-    if spec in BUILT_IN or is_lerobot_policy(spec):
+@dataclass(frozen=True)
+class EpisodeRecord:
+    """What one benchmark episode did: the result of its work unit, an item of the report's ``records``
+    (:meth:`to_dict`; the optional entries only where they apply).
+
+    Attributes:
+        index: the episode's index in the split.
+        seed: the reset seed used (with a level: the first seed of that level).
+        family: the family of the instruction the episode got.
+        requested_family: the family the split asked for.
+        instruction: the instruction's text.
+        task: the task the instruction asks for (``info["task"]``).
+        success: the shared checker's verdict at the end.
+        steps: control steps taken.
+        episode_return: sum of the rewards (``return`` in the report).
+        terminated: the episode ended (success, failure or a safety stop).
+        truncated: the step limit ended it.
+        safety_events: kinds of the safety events of the last step's info.
+        check_reason: the checker's reason.
+        wall_s: wall time of the episode [s].
+        gave_up: why the policy gave up (oracle: a planning error), or None.
+        level: the generalisation level of the split, or None.
+        diagnosis: a learned policy's diagnosis of its stages, or None.
+        failure_stage: the stage a failed episode is charged to (with a diagnosis), or None.
+        replans: the oracle's replans, or None.
+        offline_success: whether the offline path generator solved the episode (``compare_offline``).
+        video: the episode's MP4, or None.
+    """
+
+    index: int
+    seed: int
+    family: str
+    requested_family: str
+    instruction: str
+    task: dict[str, Any]
+    success: bool
+    steps: int
+    episode_return: float
+    terminated: bool
+    truncated: bool
+    safety_events: tuple[str, ...]
+    check_reason: Any
+    wall_s: float
+    gave_up: str | None = None
+    level: str | None = None
+    diagnosis: dict[str, Any] | None = None
+    failure_stage: str | None = None
+    replans: int | None = None
+    offline_success: bool | None = None
+    video: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report's record: keys in this order, ``return`` for :attr:`episode_return`, optional
+        entries only where set."""
+        d: dict[str, Any] = {
+            "index": self.index, "seed": self.seed, "family": self.family, "requested_family": self.requested_family,
+            "instruction": self.instruction, "task": self.task, "success": self.success, "steps": self.steps,
+            "return": self.episode_return, "terminated": self.terminated, "truncated": self.truncated,
+            "safety_events": list(self.safety_events), "check_reason": self.check_reason, "wall_s": self.wall_s}
+        for name in ("gave_up", "level", "diagnosis", "failure_stage", "replans", "offline_success", "video"):
+            if getattr(self, name) is not None:
+                d[name] = getattr(self, name)
+        return d
+
+
+def check_policy_spec(spec: str, where: str = "") -> None:
+    """Raise ConfigError unless ``spec`` is a built-in policy, ``lerobot:CKPT`` or ``MODULE:CALLABLE``.
+    ``where``: what the message's subject ``policy`` is prefixed with (``EvalConfig.``; nothing: a
+    ``policy`` parameter)."""
+    if isinstance(spec, str) and (spec in BUILT_IN or is_lerobot_policy(spec) or _POLICY_SPEC.match(spec)):
         return
-    if not _POLICY_SPEC.match(spec):
-        raise ConfigError(f"--policy {spec!r}: expected {', '.join(BUILT_IN)}, lerobot:CKPT or MODULE:CALLABLE "
-                          "(e.g. mypkg.agents:act)")
+    raise ConfigError(f"{where}policy={spec!r}: expected {', '.join(BUILT_IN)}, lerobot:CKPT or MODULE:CALLABLE "
+                      "(e.g. mypkg.agents:act)", field=None if where else "policy")
 
 
 def split_episode(k: int, families: Sequence[str], seed: int) -> tuple[int, str]:
@@ -144,7 +198,7 @@ class RandomPolicy:
 
 
 def load_policy_module(spec: str) -> Any:
-    """Import a ``MODULE:CALLABLE`` policy's callable (None for built-in policies), so a bad --policy is
+    """Import a ``MODULE:CALLABLE`` policy's callable (None for built-in policies), so a bad policy is
     refused before anything runs.
 
     Raises:
@@ -157,10 +211,10 @@ def load_policy_module(spec: str) -> Any:
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
-        raise ConfigError(f"--policy {spec!r}: cannot import module {module_name!r} ({exc})") from None
+        raise ConfigError(f"policy={spec!r}: cannot import module {module_name!r} ({exc})", field="policy") from None
     obj = getattr(module, attr, None)
     if obj is None or not callable(obj):
-        raise ConfigError(f"--policy {spec!r}: module {module_name!r} has no callable {attr!r}")
+        raise ConfigError(f"policy={spec!r}: module {module_name!r} has no callable {attr!r}", field="policy")
     return obj
 
 
@@ -169,7 +223,7 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
     check_policy_spec(spec)
     if spec in LEARNED:
 
-        require_extra("torch", "learn", f"--policy {spec}")
+        require_extra("torch", "learn", f"the {spec} policy")
         # The learned baselines live on a floor above the environments: named by module path, as
         # user policies are, and imported only when asked for.
         module_name, attr = LEARNED[spec].split(":")
@@ -189,7 +243,7 @@ def load_policy(spec: str, env: Any, config: EvalConfig | None = None) -> Callab
     if "env" in params:
         obj = obj(env=env)
         if not callable(obj):
-            raise ConfigError(f"--policy {spec!r}: the factory did not return a callable policy")
+            raise ConfigError(f"policy={spec!r}: the factory did not return a callable policy", field="policy")
     return obj
 
 
@@ -207,7 +261,8 @@ def check_policy_action(spec: str, action: Any, space: Any) -> np.ndarray:
     text = repr(action)
     text = text if len(text) <= 60 else text[:57] + "..."
     if a.dtype.kind not in "biuf" or a.shape != space.shape or not np.all(np.isfinite(a)):
-        raise ConfigError(f"--policy {spec}: policy returned {text} ({type(action).__name__}); {expected}")
+        raise ConfigError(f"policy={spec!r}: policy returned {text} ({type(action).__name__}); {expected}",
+                          field="policy")
     return a.astype(float)
 
 
@@ -228,10 +283,8 @@ class _Runner:
         # A worker imports this module through the samplehd package, which sets the GL backend first.
 
         self.config = config
-        env_options = dict(config.env)
-        if config.video_dir:
-            env_options["render_mode"] = "rgb_array"
-        self.env = TabletopEnv(**env_options)
+        env = replace(config.env, render_mode="rgb_array") if config.video_dir else config.env
+        self.env = TabletopEnv(**env.to_dict())
         self.policy = load_policy(config.policy, self.env, config)
 
     def close(self) -> None:
@@ -239,7 +292,7 @@ class _Runner:
             self.policy.close()
         self.env.close()
 
-    def run(self, item: tuple[int, int, str]) -> dict[str, Any]:
+    def run(self, item: tuple[int, int, str]) -> EpisodeRecord:
         """Run episode ``(index, seed, family)`` and return its record."""
         index, seed, family = item
         config, env, policy = self.config, self.env, self.policy
@@ -265,47 +318,30 @@ class _Runner:
             if getattr(policy, "gave_up", False):
                 gave_up = str(getattr(policy, "failure", "gave up"))
                 break
-        record: dict[str, Any] = {
-            "index": index,
-            "seed": seed,
-            "family": info["family"],
-            "requested_family": family,
-            "instruction": info["instruction"],
-            "task": info["task"],
-            "success": bool(info["success"]),
-            "steps": steps,
-            "return": ret,
-            "terminated": term,
-            "truncated": trunc,
-            "safety_events": [e["kind"] for e in info["safety_events"]],
-            "check_reason": info["check_reason"],
-            "wall_s": round(time.perf_counter() - t0, 3),
-        }
-        if gave_up:
-            record["gave_up"] = gave_up
-        if config.level is not None:
-            record["level"] = config.level
-        if getattr(policy, "diagnosis", None):
-            record["diagnosis"] = dict(policy.diagnosis)
-            if not record["success"]:
-                record["failure_stage"] = policy.diagnosis.get("stage", "motion")
-        if hasattr(policy, "replans"):
-            record["replans"] = int(policy.replans)
-        if config.compare_offline:
-            record["offline_success"] = _offline_success(env, seed)
+        success = bool(info["success"])
+        diagnosis = dict(policy.diagnosis) if getattr(policy, "diagnosis", None) else None
+        record = EpisodeRecord(
+            index=index, seed=seed, family=info["family"], requested_family=family,
+            instruction=info["instruction"], task=info["task"], success=success, steps=steps, episode_return=ret,
+            terminated=term, truncated=trunc, safety_events=tuple(e["kind"] for e in info["safety_events"]),
+            check_reason=info["check_reason"], wall_s=round(time.perf_counter() - t0, 3),
+            gave_up=gave_up or None, level=config.level, diagnosis=diagnosis,
+            failure_stage=diagnosis.get("stage", "motion") if diagnosis is not None and not success else None,
+            replans=int(policy.replans) if hasattr(policy, "replans") else None,
+            offline_success=_offline_success(env, seed) if config.compare_offline else None)
         if config.video_dir and frames and frames[0] is not None:
             out = Path(config.video_dir)
             out.mkdir(parents=True, exist_ok=True)
-            name = f"episode_{index:04d}_{record['family']}_{'ok' if record['success'] else 'fail'}.mp4"
+            name = f"episode_{index:04d}_{record.family}_{'ok' if success else 'fail'}.mp4"
             write_mp4(out / name, np.stack(frames), env.metadata["render_fps"])
-            record["video"] = str(out / name)
+            record = replace(record, video=str(out / name))
         return record
 
 
 _WORKER: dict[str, tuple[EvalConfig, _Runner]] = {}
 
 
-def _run_in_worker(item: tuple[EvalConfig, int, int, str]) -> dict[str, Any]:
+def _run_in_worker(item: tuple[EvalConfig, int, int, str]) -> EpisodeRecord:
     """One episode in a worker process; the worker keeps its runner (and environment) between units."""
     config, *episode = item
     held = _WORKER.get("runner")
@@ -316,25 +352,25 @@ def _run_in_worker(item: tuple[EvalConfig, int, int, str]) -> dict[str, Any]:
     return held[1].run(tuple(episode))  # type: ignore[arg-type]
 
 
-def _summary(records: list[dict[str, Any]]) -> dict[str, Any]:
+def _summary(records: list[EpisodeRecord]) -> dict[str, Any]:
     n = len(records)
-    ok = sum(r["success"] for r in records)
+    ok = sum(r.success for r in records)
     out: dict[str, Any] = {"episodes": n, "successes": ok, "success_rate": ok / n if n else 0.0}
-    if records and "offline_success" in records[0]:
-        feasible = [r for r in records if r["offline_success"]]
+    if records and records[0].offline_success is not None:
+        feasible = [r for r in records if r.offline_success]
         out["offline_success_rate"] = len(feasible) / n
         out["success_rate_where_offline_succeeds"] = (
-            sum(r["success"] for r in feasible) / len(feasible) if feasible else None)
-    out["safety_stops"] = sum(bool(r["safety_events"]) for r in records)
-    stages = [r["failure_stage"] for r in records if "failure_stage" in r]
+            sum(r.success for r in feasible) / len(feasible) if feasible else None)
+    out["safety_stops"] = sum(bool(r.safety_events) for r in records)
+    stages = [r.failure_stage for r in records if r.failure_stage is not None]
     if stages:
         out["failures_by_stage"] = {s: stages.count(s) for s in sorted(set(stages))}
-    out["mean_steps"] = float(np.mean([r["steps"] for r in records])) if records else 0.0
+    out["mean_steps"] = float(np.mean([r.steps for r in records])) if records else 0.0
     return out
 
 
 def evaluate(config: EvalConfig, out: str | Path | None = None,
-             progress: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+             progress: Callable[[EpisodeRecord], None] | None = None) -> dict[str, Any]:
     """Run a policy on the benchmark split and return (and optionally write) the JSON report.
 
     Report keys: ``policy``, ``split`` (episodes, families, seed), ``env`` (options),
@@ -344,13 +380,12 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
     check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
     """
-    EnvConfig.from_kwargs(**config.env)  # one-line errors before any work
     split = benchmark_split(config.episodes, config.families, config.seed)
     items = [(k, s, f) for k, (s, f) in enumerate(split)]
     t0 = time.perf_counter()
-    records: list[dict[str, Any]] = []
+    records: list[EpisodeRecord] = []
 
-    def done(record: dict[str, Any]) -> None:
+    def done(record: EpisodeRecord) -> None:
         records.append(record)
         if progress is not None:
             progress(record)
@@ -382,12 +417,12 @@ def _write_report(out: str | Path, report: dict[str, Any]) -> None:
     tmp.replace(path)
 
 
-def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partial: bool = False) -> dict[str, Any]:
-    records = sorted(records, key=lambda r: r["index"])
+def _report(config: EvalConfig, records: list[EpisodeRecord], t0: float, partial: bool = False) -> dict[str, Any]:
+    records = sorted(records, key=lambda r: r.index)
     by_family = {}
-    for fam in dict.fromkeys(r["family"] for r in records):
-        by_family[fam] = _summary([r for r in records if r["family"] == fam])
-    env = EnvConfig.from_kwargs(**config.env)
+    for fam in dict.fromkeys(r.family for r in records):
+        by_family[fam] = _summary([r for r in records if r.family == fam])
+    env = config.env
     return {
         "policy": config.policy,
         "partial": partial,
@@ -402,5 +437,5 @@ def _report(config: EvalConfig, records: list[dict[str, Any]], t0: float, partia
         **_summary(records),
         "by_family": by_family,
         "wall_s": round(time.perf_counter() - t0, 2),
-        "records": records,
+        "records": [r.to_dict() for r in records],
     }

@@ -58,7 +58,7 @@ __all__ = [
 def in_level(instruction: Mapping[str, Any], annotation: Mapping[str, Any], level: str) -> bool:
     """Whether an episode is one of ``level``'s."""
     if level not in LEVELS:
-        raise ConfigError(f"--level {level!r}: valid: {', '.join(LEVELS)}")
+        raise ConfigError(f"level={level!r}: valid: {', '.join(LEVELS)}", field="level")
     return episode_level(instruction, annotation) == level
 
 
@@ -77,11 +77,11 @@ def reset_at_level(env: Any, seed: int, family: str, level: str | None, max_atte
         obs, info = env.reset(seed=seed, options={"family": family})
         return obs, info, seed
     if level not in LEVELS:
-        raise ConfigError(f"--level {level!r}: valid: {', '.join(LEVELS)}")
+        raise ConfigError(f"level={level!r}: valid: {', '.join(LEVELS)}", field="level")
     for attempt in range(max_attempts):
         s = int(np.random.SeedSequence([int(seed), 7, attempt]).generate_state(1, np.uint32)[0])
         obs, info = env.reset(seed=s, options={"family": family})
         ep = env.unwrapped.episode
         if in_level(ep.instruction, ep.annotation, level):
             return obs, info, s
-    raise ConfigError(f"--level {level}: no {family} episode of this level in {max_attempts} seeds")
+    raise ConfigError(f"level={level!r}: no {family} episode of this level in {max_attempts} seeds", field="level")

@@ -355,7 +355,7 @@ class TabletopEnv(gym.Env):
     def _renderer_for(self) -> SceneRenderer:
         if self._renderer is None:
             cfg = self.config
-            self._renderer = SceneRenderer(self.model, cfg.width, cfg.height, cfg.render_preset)
+            self._renderer = cfg.image.renderer(self.model)
             # The first frame of a new GL context differs from later ones in a few pixels (texture
             # upload); render it once and throw it away so equal states give equal images.
             for cam in cfg.cameras:
@@ -435,7 +435,7 @@ class TabletopEnv(gym.Env):
 
         cfg = self.config
         if self._render_viewer is None:
-            self._render_viewer = SceneRenderer(self.model, cfg.width, cfg.height, cfg.render_preset)
+            self._render_viewer = cfg.image.renderer(self.model)
             self._render_viewer.render(self.data, self._cam_names[cfg.render_camera], ("rgb",))  # warm-up
         return self._render_viewer.render(self.data, self._cam_names[cfg.render_camera], ("rgb",))["rgb"]
 

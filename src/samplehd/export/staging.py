@@ -88,7 +88,8 @@ def export_source(root: str | Path, out: str | Path) -> tuple[DatasetReader, Pat
 
     reader = DatasetReader(root)
     if not reader.complete:
-        raise DatasetError(f"{root}: generation has not finished; run samplehd generate --resume first")
+        raise DatasetError(f"{root}: generation has not finished; finish it first "
+                           "(generate into it again with `resume`)")
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise DatasetError(f"out={out}: is a file; choose a new folder", field="out")

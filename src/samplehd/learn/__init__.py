@@ -4,7 +4,8 @@ and a visuomotor behaviour-cloning policy, trained on samplehd datasets with PyT
 :mod:`samplehd.learn.training` (without it: one line naming the extra); :mod:`samplehd.learn.data`
 and :mod:`samplehd.learn.options` need no torch.
 
-- :mod:`samplehd.learn.parser`: instruction → flat program and CLEVR node list (``samplehd train parser``)
+- :mod:`samplehd.learn.parser`: instruction → flat program and CLEVR node list (``samplehd train parser``), a
+  package of one module per job: configuration, processing, modeling, inference, evaluation, training
 - :mod:`samplehd.learn.perception`: RGB-D → scene annotation (``samplehd train perception``), a package of one
   module per job: configuration, geometry, modeling, inference, preparation, evaluation, training
 - :mod:`samplehd.learn.neurosymbolic`: parse, perceive, execute, plan, act (``evaluate --policy neurosymbolic``)

@@ -18,13 +18,13 @@ __all__ = ["instruction_examples", "open_dataset", "scene_examples"]
 
 
 def open_dataset(path: str | Path) -> DatasetReader:
-    """A reader for ``--dataset``; one-line errors when it is not a dataset."""
+    """A reader for the ``dataset`` folder; one-line errors when it is not a dataset."""
     try:
         reader = DatasetReader(path)
     except DatasetError as exc:
-        raise ConfigError(f"--dataset {path}: {exc}") from None
+        raise ConfigError(f"dataset={path}: {exc}", field="dataset") from None
     if not reader.scenes:
-        raise ConfigError(f"--dataset {path}: holds no scenes")
+        raise ConfigError(f"dataset={path}: holds no scenes", field="dataset")
     return reader
 
 
@@ -48,7 +48,8 @@ def instruction_examples(reader: DatasetReader) -> dict[str, list[dict[str, Any]
         elif not held_out_instruction(e):
             out["train"].append(item)
     if not out["train"]:
-        raise ConfigError(f"--dataset {reader.root}: no training instructions (candidates.json is empty)")
+        raise ConfigError(f"dataset={reader.root}: no training instructions (candidates.json is empty)",
+                          field="dataset")
     return out
 
 
@@ -64,10 +65,11 @@ def scene_examples(reader: DatasetReader) -> dict[str, list[dict[str, Any]]]:
                  "segmentation": root / "segmentation" / f"{stem}.png"}
         missing = [str(p) for p in paths.values() if not p.exists()]
         if missing:
-            raise ConfigError(f"--dataset {root}: scene image missing: {missing[0]} (generate with scene images)")
+            raise ConfigError(f"dataset={root}: scene image missing: {missing[0]} (generate with scene images)",
+                              field="dataset")
         keep = [i for i, o in enumerate(s["objects"]) if not held_out_object(o)]
         out["test" if s.get("split") == "test" else "train"].append(
             {"annotation": s, **paths, "train_objects": keep})
     if not out["train"]:
-        raise ConfigError(f"--dataset {root}: no training scenes")
+        raise ConfigError(f"dataset={root}: no training scenes", field="dataset")
     return out

@@ -147,8 +147,8 @@ class NeuroSymbolicPolicy(OraclePolicy):
     # ------------------------------------------------------------------ stages
     def _scene_image(self) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
         env = self.env
-        cfg = self.perception.config["image"]
-        w, h, cam = int(cfg["width"]), int(cfg["height"]), str(cfg["camera"])
+        image = self.perception.config.image
+        w, h, cam = image.width, image.height, image.camera
         if self._renderer_model is not env.model:
             if self._renderer is not None:
                 self._renderer.close()

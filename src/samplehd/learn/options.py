@@ -32,12 +32,15 @@ def env_options(folder: str | Path) -> dict[str, Any]:
     try:
         cfg = json.loads((Path(folder) / "config.json").read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
-        raise ConfigError(f"--models {folder}: no readable config.json of a trained policy ({exc})") from None
+        raise ConfigError(f"models={folder}: no readable config.json of a trained policy ({exc})",
+                          field="models") from None
     if not isinstance(cfg, dict) or cfg.get("kind") != "policy":
         kind = cfg.get("kind") if isinstance(cfg, dict) else None
-        raise ConfigError(f"--models {folder}: config.json is a {kind!r} model, expected a policy")
+        raise ConfigError(f"models={folder}: config.json is a {kind!r} model, expected a policy", field="models")
     if cfg.get("inputs", "rgb") not in ("rgb", "state"):
-        raise ConfigError(f"--models {folder}: config.json inputs={cfg.get('inputs')!r}, expected rgb or state")
+        raise ConfigError(f"models={folder}: config.json inputs={cfg.get('inputs')!r}, expected rgb or state",
+                          field="models")
     if cfg.get("inputs", "rgb") == "rgb" and (not isinstance(cfg.get("image"), int) or cfg["image"] < 1):
-        raise ConfigError(f"--models {folder}: config.json image={cfg.get('image')!r}, expected a positive integer")
+        raise ConfigError(f"models={folder}: config.json image={cfg.get('image')!r}, expected a positive integer",
+                          field="models")
     return env_options_from_config(cfg)

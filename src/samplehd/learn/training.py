@@ -20,17 +20,18 @@ import json
 import os
 import time
 import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from samplehd.errors import ConfigError, require_extra
+from samplehd.schema import Config
 
 # The `learn` extra: without PyTorch, importing any model module is one line naming the extra.
 FEATURE = "samplehd.learn (samplehd train, evaluate --policy neurosymbolic|bc)"
@@ -43,6 +44,7 @@ __all__ = [
     "TrainRun",
     "load_model_files",
     "nn",
+    "read_model_config",
     "load_weights",
     "pick_device",
     "step_rng",
@@ -60,11 +62,12 @@ def pick_device(requested: str | None = None) -> Any:
     """The torch device: ``requested`` if given, else CUDA when present, else the CPU."""
     if requested:
         if requested.startswith("cuda") and not torch.cuda.is_available():
-            raise ConfigError(f"--device {requested!r}: no CUDA device here; valid: cpu" )
+            raise ConfigError(f"device={requested!r}: no CUDA device here; valid: cpu", field="device")
         try:
             return torch.device(requested)
         except RuntimeError:
-            raise ConfigError(f"--device {requested!r}: not a torch device; valid: cpu, cuda, cuda:N") from None
+            raise ConfigError(f"device={requested!r}: not a torch device; valid: cpu, cuda, cuda:N",
+                              field="device") from None
     return torch.device("cuda" if torch.cuda.is_available() else "cpu")
 
 
@@ -134,6 +137,22 @@ def load_model_files(folder: str | Path, kind: str, fmt: int) -> tuple[dict[str,
     return config, load_weights(weights)
 
 
+C = TypeVar("C", bound=Config)
+
+
+def read_model_config(cls: type[C], config: Mapping[str, Any], folder: str | Path) -> C:
+    """The typed config (a :class:`samplehd.schema.Config`) of a trained model from the object
+    :func:`load_model_files` read from ``folder``'s ``config.json``.
+
+    Raises:
+        ConfigError: ``FOLDER/config.json: section.field=value: what is valid``, or an unknown key.
+    """
+    try:
+        return cls.from_dict(config)
+    except ConfigError as exc:
+        raise ConfigError(f"{Path(folder) / CONFIG_FILE}: {exc}") from None
+
+
 @dataclass
 class TrainRun:
     """One training run in an output folder: resume, checkpoints, progress bar, final files.
@@ -159,7 +178,7 @@ class TrainRun:
 
     def __post_init__(self) -> None:
         if not isinstance(self.steps, int) or self.steps < 1:
-            raise ConfigError(f"--steps {self.steps!r}: must be a positive integer")
+            raise ConfigError(f"steps={self.steps!r}: must be a positive integer", field="steps")
         self.out = Path(self.out)
 
     def prepare(self) -> None:
@@ -185,7 +204,7 @@ class TrainRun:
                     if key == "train":  # step count may grow on resume
                         continue
                     if old.get(key) != self.config.get(key):
-                        raise ConfigError(f"{path}: {key} differs from this run's; use another --out or delete "
+                        raise ConfigError(f"{path}: {key} differs from this run's; use another `out` or delete "
                                           f"{self.out / CHECKPOINT_FILE} to start over")
         write_json(path, self.config)
 

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
+import numpy as np
 
 from samplehd.errors import RenderError
 from samplehd.render.photo.renderer import PhotoOptions
@@ -62,3 +63,8 @@ class ImageSpec:
                  buffer_size: tuple[int, int] | None = None) -> SceneRenderer:
         """A :class:`~samplehd.render.renderer.SceneRenderer` of ``model`` at this size and preset."""
         return SceneRenderer(model, self.width, self.height, self.preset, buffer_size=buffer_size, photo=photo)
+
+    def render(self, model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, dict[str, np.ndarray]]:
+        """One-shot: make a renderer, render ``images[camera][modality]`` of the state ``data``, free it."""
+        with self.renderer(model) as r:
+            return {camera: r.render(data, camera, self.modalities) for camera in self.cameras}

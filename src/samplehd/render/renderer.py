@@ -22,7 +22,7 @@ from __future__ import annotations
 import math
 import os
 import threading
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from types import TracebackType
 from typing import Any
@@ -53,7 +53,6 @@ __all__ = [
     "gl_device",
     "image_shape",
     "project_points",
-    "render_images",
     "segmentation_lut",
     "stored_segmentation_dtype",
 ]
@@ -539,16 +538,3 @@ class RendererCache:
 def _gl_backend() -> str:
     return os.environ.get("MUJOCO_GL", "")
 
-
-def render_images(
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    camera: str,
-    width: int,
-    height: int,
-    preset: str = "fast",
-    modalities: Sequence[str] = ("rgb",),
-) -> dict[str, np.ndarray]:
-    """One-shot convenience: make a renderer, render, free it."""
-    with SceneRenderer(model, width, height, preset) as r:
-        return r.render(data, camera, modalities)

@@ -1,13 +1,14 @@
-"""Configuration of the scene sampler, validated on construction; unknown keys are errors."""
+"""Configuration of the scene sampler, declared with :mod:`samplehd.schema`: validated on construction,
+unknown keys are errors, ``to_dict``/``from_dict`` from the declaration."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any
 
 from samplehd.errors import ConfigError
-from samplehd.schema import bounded, check_fields, from_mapping
+from samplehd.schema import Config, bounded
 
 __all__ = ["SceneConfig"]
 
@@ -16,7 +17,7 @@ _OVERRIDE_PROPERTIES = ("colour", "material", "size")
 
 
 @dataclass(frozen=True)
-class SceneConfig:
+class SceneConfig(Config, section="scene"):
     """How scenes are sampled.
 
     Attributes:
@@ -68,28 +69,17 @@ class SceneConfig:
     max_rest_speed: float = bounded(0.02, lo=0.0, lo_open=True, unit="m/s")
 
     def __post_init__(self) -> None:
-        check_fields(self, "scene")
+        super().__post_init__()
         if self.max_objects < self.min_objects:
             raise ConfigError(f"scene.max_objects={self.max_objects!r}: must be ≥ min_objects ({self.min_objects})")
         if self.menu_overrides is not None:
             object.__setattr__(self, "menu_overrides", _check_overrides(self.menu_overrides))
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any], where: str = "scene") -> SceneConfig:
-        """Build from a config-file section; unknown keys are errors naming the valid ones."""
-        return from_mapping(cls, d, where)
 
     @property
     def named_classes(self) -> tuple[str, ...]:
         """Every class this config names (``classes`` and the ``menu_overrides`` keys): the imported
         classes among them are the only ones that join the built-in catalogue."""
         return (*self.classes, *(self.menu_overrides or {}))
-
-    def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["classes"] = list(self.classes)
-        d["occlusion_resolution"] = list(self.occlusion_resolution)
-        return d
 
 
 def _check_overrides(overrides: Any) -> dict[str, dict[str, list[str]]]:

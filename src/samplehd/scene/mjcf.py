@@ -21,7 +21,7 @@ def export_mjcf(spec: mujoco.MjSpec, path: str | Path) -> Path:
     """
     out = Path(path)
     if out.suffix.lower() != ".xml":
-        raise ConfigError(f"--out {out}: the MJCF file must end in .xml")
+        raise ConfigError(f"out={out}: the MJCF file must end in .xml", field="out")
     spec = spec.copy()
     asset_dir = out.parent / f"{out.stem}_assets"
     try:

@@ -20,6 +20,7 @@ from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, ROBOT_BODY, ROB
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.robot.ur5e import add_robot
 from samplehd.scene.textures import plaster_texture, tile_texture, wood_texture
+from samplehd.schema import Config, bounded
 from samplehd.world.bodies import object_body_name
 from samplehd.world.layout import LAYOUT, TableLayout
 from samplehd.world.transforms import look_at_quat
@@ -56,6 +57,8 @@ class CameraSpec:
     fovy: float = 45.0
 
     def __post_init__(self) -> None:
+        for name in ("pos", "target"):  # a JSON list becomes the hashable, comparable tuple
+            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
         if not 1.0 <= self.fovy <= 170.0:
             raise ConfigError(f"camera {self.name!r}: fovy={self.fovy} must be in [1, 170] degrees")
         if np.allclose(self.pos, self.target):
@@ -94,7 +97,7 @@ class PlacedObject:
 
 
 @dataclass(frozen=True)
-class WorldConfig:
+class WorldConfig(Config, section="world"):
     """Options of the world model.
 
     Attributes:
@@ -112,24 +115,19 @@ class WorldConfig:
             gripper does).
     """
 
-    timestep: float = 0.002
+    timestep: float = bounded(0.002, lo=1e-4, hi=0.02, unit="s")
     cameras: tuple[CameraSpec, ...] = (OPERATOR_CAMERA,)
     with_robot: bool = True
-    robot_look: str = "mesh"
-    offscreen_size: tuple[int, int] = (1920, 1080)
-    shadow_size: int = 4096
+    robot_look: str = bounded("mesh", choices=ROBOT_LOOKS)
+    offscreen_size: tuple[int, int] = bounded((1920, 1080), lo=1, unit="px")
+    shadow_size: int = bounded(4096, lo=1, unit="px")
     sleep: bool = True
 
     def __post_init__(self) -> None:
-        if not 1e-4 <= self.timestep <= 0.02:
-            raise ConfigError(f"world.timestep={self.timestep} must be in [0.0001, 0.02] s (500 Hz = 0.002)")
-        if self.robot_look not in ROBOT_LOOKS:
-            raise ConfigError(f"world.robot_look={self.robot_look!r} is unknown; valid: {', '.join(ROBOT_LOOKS)}")
-        if not isinstance(self.sleep, bool):
-            raise ConfigError(f"world.sleep={self.sleep!r} must be true or false")
+        super().__post_init__()
         names = [c.name for c in self.cameras]
         if len(set(names)) != len(names) or "wrist" in names:
-            raise ConfigError(f"world.cameras: names must be unique and not 'wrist', got {names}")
+            raise ConfigError(f"world.cameras={names!r}: names must be unique and not 'wrist'")
 
 
 def _add_texture(spec: mujoco.MjSpec, name: str, rgb: np.ndarray, cube: bool = False) -> None:

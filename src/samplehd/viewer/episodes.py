@@ -370,8 +370,8 @@ class EpisodeStore:
                 modality: str) -> np.ndarray:
         """Render frame ``t`` of an episode stored without images from its recorded state."""
         if self.renderer is None or self._scene is None:
-            raise DatasetError(f"episode {name}: stores no images (generated with --render none); "
-                               f"`samplehd rerender` adds them, or run `samplehd view` without --no-render")
+            raise DatasetError(f"episode {name}: stores no images (generated with render mode none) and this viewer "
+                               f"renders none (render=False); `samplehd rerender` adds them, or view with rendering")
         if not self._renderable(entry.scene_index):
             raise DatasetError(f"episode {name}: stores no images, and scene {entry.scene_index} has no 'spec' "
                                f"to render them from")

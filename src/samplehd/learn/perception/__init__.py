@@ -19,7 +19,7 @@ object's ``3d_coords``. Table parts and relationships follow from positions as i
 Modules, one job each (LeRobot's split of a model):
 
 - :mod:`~samplehd.learn.perception.configuration`: format version, labels, input sizes, thresholds,
-  the vocabularies of the heads;
+  the vocabularies of the heads, and :class:`PerceptionConfig` (a model's ``config.json``);
 - :mod:`~samplehd.learn.perception.geometry`: depth lifted to 3-D, instances, crops and measured features;
 - :mod:`~samplehd.learn.perception.modeling`: the two networks;
 - :mod:`~samplehd.learn.perception.inference`: :class:`Perception`, a trained model that perceives;
@@ -30,13 +30,21 @@ Modules, one job each (LeRobot's split of a model):
 
 from __future__ import annotations
 
-from samplehd.learn.perception.configuration import FORMAT, PREPARED_FILE, attribute_vocab, kind_vocab
+from samplehd.learn.perception.configuration import (
+    FORMAT,
+    PREPARED_FILE,
+    PerceptionArchitecture,
+    PerceptionConfig,
+    attribute_vocab,
+    kind_vocab,
+)
 from samplehd.learn.perception.evaluation import evaluate_perception, perception_test_metrics, score_perception
 from samplehd.learn.perception.geometry import backproject, height_map, instance_masks, join_stacked
 from samplehd.learn.perception.inference import Perception, annotation_from_instances
 from samplehd.learn.perception.preparation import size_templates
 from samplehd.learn.perception.training import train_perception
 
-__all__ = ["FORMAT", "PREPARED_FILE", "Perception", "annotation_from_instances", "attribute_vocab", "backproject",
+__all__ = ["FORMAT", "PREPARED_FILE", "Perception", "PerceptionArchitecture", "PerceptionConfig",
+           "annotation_from_instances", "attribute_vocab", "backproject",
            "evaluate_perception", "height_map", "instance_masks", "join_stacked", "kind_vocab",
            "perception_test_metrics", "score_perception", "size_templates", "train_perception"]

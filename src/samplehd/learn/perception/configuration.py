@@ -1,15 +1,21 @@
 """What defines a perception model: its format version, the labels and attribute heads, the
-sizes and thresholds of its inputs, and the vocabularies its heads name.
+sizes and thresholds of its inputs, the vocabularies its heads name, and its ``config.json``
+(:class:`PerceptionConfig`, declared with :mod:`samplehd.schema`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from samplehd.catalogue import load_catalogue
+from samplehd.errors import ConfigError
+from samplehd.schema import Config, bounded
+from samplehd.world.layout import LAYOUT
 
-__all__ = ["FORMAT", "SEG_CLASSES", "SEG_CHANNELS", "CROP", "CROP_CHANNELS", "CROP_VIEWS", "MIN_PIXELS", "MIN_RISE",
+__all__ = ["PerceptionArchitecture", "PerceptionConfig", "PerceptionImage", "PerceptionTraining",
+           "FORMAT", "SEG_CLASSES", "SEG_CHANNELS", "CROP", "CROP_CHANNELS", "CROP_VIEWS", "MIN_PIXELS", "MIN_RISE",
            "REACH_MARGIN", "DEPTH_JUMP", "MIN_PART", "CLUSTER_LINK", "FLOAT_LIFT", "STACK_NEAR", "GROUND_GAP",
            "RAISED", "KIND_FIT", "N_FEATURES", "PREPARED_FILE", "DEPTH_CENTRE", "DEPTH_SCALE", "ATTRIBUTES", "HEADS",
            "attribute_vocab", "kind_vocab"]
@@ -38,6 +44,113 @@ PREPARED_FILE = "prepared.npz"
 DEPTH_CENTRE, DEPTH_SCALE = 1.5, 0.5
 ATTRIBUTES = ("name", "colour", "material", "size")
 HEADS = (*ATTRIBUTES, "kind")  # kind: class/variant/size together, whose metric dimensions are fixed
+
+
+@dataclass(frozen=True)
+class PerceptionArchitecture(Config, section="model"):
+    """Widths of the two networks.
+
+    Attributes:
+        seg_width: channels of the segmenter's first layer.
+        attr_width: channels of the attribute network's first layer.
+    """
+
+    seg_width: int = bounded(8, lo=1)
+    attr_width: int = bounded(24, lo=1)
+
+
+@dataclass(frozen=True)
+class PerceptionImage(Config, section="image"):
+    """The scene images a perception model was trained on (it perceives images of this size).
+
+    Attributes:
+        camera: the camera.
+        width: image width [px].
+        height: image height [px].
+    """
+
+    camera: str = "scene"
+    width: int = bounded(640, lo=8, hi=8192, unit="px")
+    height: int = bounded(360, lo=8, hi=8192, unit="px")
+
+
+@dataclass(frozen=True)
+class PerceptionTraining(Config, section="train"):
+    """How a perception model was trained (recorded; a resumed run must match all but ``steps``).
+
+    Attributes:
+        steps: optimiser steps.
+        seed: seed of the weights, the batches and the crops.
+        seg_batch: scenes per segmenter batch.
+        attr_batch: object crops per attribute batch.
+        patch: side of the square patches the segmenter trains on [px].
+        seg_every: a segmenter step every this many steps.
+        lr: learning rate before the decay.
+        scenes: training scenes of the dataset.
+        objects: training objects of the dataset.
+    """
+
+    steps: int = bounded(3000, lo=1)
+    seed: int = bounded(0, lo=0)
+    seg_batch: int = bounded(4, lo=1)
+    attr_batch: int = bounded(64, lo=1)
+    patch: int = bounded(128, lo=1, unit="px")
+    seg_every: int = bounded(2, lo=1)
+    lr: float = bounded(2e-3, lo=0.0, lo_open=True)
+    scenes: int = bounded(0, lo=0)
+    objects: int = bounded(0, lo=0)
+
+
+@dataclass(frozen=True)
+class PerceptionConfig(Config, section="perception"):
+    """A perception model's config.
+
+    Attributes:
+        kind: ``perception``.
+        format: :data:`FORMAT` of the samplehd that wrote it.
+        dataset: the dataset it was trained on.
+        model: network widths.
+        attributes: the values of each head of :data:`ATTRIBUTES` (:func:`attribute_vocab`).
+        kinds: the ``class/variant/size`` names of the kind head (:func:`kind_vocab`); each class and
+            size is one of ``attributes``'.
+        image: the scene images it was trained on.
+        seg_downsample: the segmenter sees images shrunk by this factor.
+        table_height: height of the table top [m].
+        extents: ``class/size`` → box extents [m] of the training objects.
+        size_templates: ``class/colour/size`` → (mean, spread) of the geometry features
+            (:func:`samplehd.learn.perception.preparation.size_templates`).
+        train: training options.
+    """
+
+    kind: str = bounded("perception", choices=("perception",))
+    format: int = bounded(FORMAT, lo=1)
+    dataset: str = ""
+    model: PerceptionArchitecture = field(default_factory=PerceptionArchitecture)
+    attributes: dict[str, list[str]] = field(default_factory=dict)
+    kinds: tuple[str, ...] = bounded((), unique=True)
+    image: PerceptionImage = field(default_factory=PerceptionImage)
+    seg_downsample: int = bounded(1, lo=1)
+    table_height: float = bounded(LAYOUT.table_height, lo=0.0, lo_open=True, unit="m")
+    extents: dict[str, list[float]] = field(default_factory=dict)
+    size_templates: dict[str, Any] = field(default_factory=dict)
+    train: PerceptionTraining = field(default_factory=PerceptionTraining)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        missing = [a for a in ATTRIBUTES if not _names(self.attributes.get(a))]
+        if missing:
+            raise ConfigError(f"perception.attributes: needs a list of names for each of {', '.join(ATTRIBUTES)}; "
+                              f"missing or not a list of names: {', '.join(missing)}")
+        for kind in self.kinds:
+            parts = kind.split("/")
+            if (len(parts) != 3 or parts[0] not in self.attributes["name"]
+                    or parts[2] not in self.attributes["size"]):
+                raise ConfigError(f"perception.kinds: {kind!r} is no class/variant/size of the attributes' names "
+                                  f"and sizes")
+
+
+def _names(value: Any) -> bool:
+    return isinstance(value, list | tuple) and all(isinstance(v, str) for v in value)
 
 
 def attribute_vocab() -> dict[str, list[str]]:

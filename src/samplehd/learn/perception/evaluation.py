@@ -136,11 +136,11 @@ def score_perception(dataset: str | Path, models: str | Path, device: str | None
     data = scene_examples(open_dataset(dataset))
     if not data["test"]:
         raise ConfigError(f"dataset={dataset}: no test scenes (generate with a test split)", field="dataset")
-    want = model.config["image"]
+    want = model.config.image
     cam = data["test"][0]["annotation"]["camera"]
-    if (int(cam["width"]), int(cam["height"])) != (int(want["width"]), int(want["height"])):
+    if (int(cam["width"]), int(cam["height"])) != (want.width, want.height):
         raise ConfigError(f"dataset={dataset}: scene images are {cam['width']}x{cam['height']}; the model in "
-                          f"{models} was trained on {want['width']}x{want['height']}", field="dataset")
+                          f"{models} was trained on {want.width}x{want.height}", field="dataset")
     with timed() as t:
         metrics = perception_test_metrics(model, data["test"])
     return {**metrics, **{f"test_{k}": v for k, v in t.items()}}

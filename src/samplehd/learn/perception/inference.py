@@ -12,7 +12,15 @@ from typing import Any
 import numpy as np
 
 from samplehd.errors import ConfigError
-from samplehd.learn.perception.configuration import ATTRIBUTES, CROP, FORMAT, KIND_FIT, MIN_RISE, REACH_MARGIN
+from samplehd.learn.perception.configuration import (
+    ATTRIBUTES,
+    CROP,
+    FORMAT,
+    KIND_FIT,
+    MIN_RISE,
+    REACH_MARGIN,
+    PerceptionConfig,
+)
 from samplehd.learn.perception.geometry import (
     _crop,
     _downsample,
@@ -25,7 +33,7 @@ from samplehd.learn.perception.geometry import (
     join_stacked,
 )
 from samplehd.learn.perception.modeling import PerceptionNet
-from samplehd.learn.training import load_model_files, torch
+from samplehd.learn.training import load_model_files, read_model_config, torch
 from samplehd.world.layout import DIRECTIONS, LAYOUT, table_parts_of
 from samplehd.world.relations import compute_relationships
 
@@ -41,37 +49,33 @@ class Perception:
         device: torch device (default: CPU).
     """
 
-    def __init__(self, config: Mapping[str, Any], state: Mapping[str, Any] | None = None, device: Any = None) -> None:
-        if config.get("format") != FORMAT:
-            raise ConfigError(f"perception model format {config.get('format')!r}: this samplehd reads format "
+    def __init__(self, config: PerceptionConfig, state: Mapping[str, Any] | None = None, device: Any = None) -> None:
+        if config.format != FORMAT:
+            raise ConfigError(f"perception model format {config.format!r}: this samplehd reads format "
                               f"{FORMAT} (train it again with `samplehd train perception`)")
-        self.config = dict(config)
-        self.vocab: dict[str, list[str]] = {k: list(v) for k, v in config["attributes"].items()}
-        self.kinds: list[str] = list(config["kinds"])
+        self.config = config
+        self.vocab: dict[str, list[str]] = {k: list(v) for k, v in config.attributes.items()}
+        self.kinds: list[str] = list(config.kinds)
         self.device = device or torch.device("cpu")
-        arch = config["model"]
-        self.net = PerceptionNet(arch["seg_width"], arch["attr_width"],
+        self.net = PerceptionNet(config.model.seg_width, config.model.attr_width,
                                  [*(len(self.vocab[a]) for a in ATTRIBUTES), len(self.kinds)]).to(self.device)
         # kind -> class and size index, to turn the kind head's probabilities into class and size ones
         parts = [k.split("/") for k in self.kinds]
         self._kind_class = np.array([self.vocab["name"].index(p[0]) for p in parts])
         self._kind_size = np.array([self.vocab["size"].index(p[2]) for p in parts])
-        templates = config.get("size_templates") or {}
+        templates = config.size_templates
         self._templates = {k: (np.asarray(v[0], float), np.asarray(v[1], float)) for k, v in templates.items()}
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
-        self.factor = int(config["seg_downsample"])
-        self.table_height = float(config["table_height"])
+        self.factor = config.seg_downsample
+        self.table_height = config.table_height
 
     @classmethod
     def load(cls, folder: str | Path, device: Any = None) -> Perception:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train perception``."""
         config, state = load_model_files(folder, "perception", FORMAT)
-        try:
-            return cls(config, state, device)
-        except ConfigError as exc:
-            raise ConfigError(f"{Path(folder) / 'config.json'}: {exc}") from None
+        return cls(read_model_config(PerceptionConfig, config, folder), state, device)
 
     def segment(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
                 height: np.ndarray | None = None) -> list[np.ndarray]:
@@ -227,7 +231,7 @@ class Perception:
         height = height_map(depth, camera, self.table_height)
         masks = self.segment(rgb, depth, camera, height)
         found = self.classify(rgb, depth, masks, camera, height)
-        ann = annotation_from_instances(found, masks, self.config.get("extents", {}), directions)
+        ann = annotation_from_instances(found, masks, self.config.extents, directions)
         ann["attribute_scores"] = [f["scores"] for f in found]
         return ann
 

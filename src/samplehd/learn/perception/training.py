@@ -16,6 +16,10 @@ from samplehd.learn.perception.configuration import (
     FORMAT,
     N_FEATURES,
     PREPARED_FILE,
+    PerceptionArchitecture,
+    PerceptionConfig,
+    PerceptionImage,
+    PerceptionTraining,
     attribute_vocab,
     kind_vocab,
 )
@@ -54,25 +58,24 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     with timed() as prep_time:
         arrays = prepared_arrays(Path(out), key, lambda: _prepare(data["train"], vocab, kinds, factor,
                                                                   LAYOUT.table_height, seed, quiet))
-    config = {
-        "kind": "perception",
-        "format": FORMAT,
-        "dataset": str(dataset),
-        "model": {"seg_width": seg_width, "attr_width": attr_width},
-        "attributes": vocab,
-        "kinds": kinds,
-        "image": {"camera": "scene", "width": width, "height": height},
-        "seg_downsample": factor,
-        "table_height": LAYOUT.table_height,
-        "extents": arrays["extents"],
-        "size_templates": size_templates(arrays["geo"], arrays["labels"][:, len(ATTRIBUTES)], kinds),
-        "train": {"steps": steps, "seed": seed, "seg_batch": seg_batch, "attr_batch": attr_batch, "patch": patch,
-                  "seg_every": seg_every, "lr": lr, "scenes": len(data["train"]), "objects": len(arrays["labels"])},
-    }
+    config = PerceptionConfig(
+        dataset=str(dataset),
+        model=PerceptionArchitecture(seg_width=seg_width, attr_width=attr_width),
+        attributes=vocab,
+        kinds=tuple(kinds),
+        image=PerceptionImage(camera="scene", width=width, height=height),
+        seg_downsample=factor,
+        table_height=LAYOUT.table_height,
+        extents=arrays["extents"],
+        size_templates=size_templates(arrays["geo"], arrays["labels"][:, len(ATTRIBUTES)], kinds),
+        train=PerceptionTraining(steps=steps, seed=seed, seg_batch=seg_batch, attr_batch=attr_batch, patch=patch,
+                                 seg_every=seg_every, lr=lr, scenes=len(data["train"]),
+                                 objects=len(arrays["labels"])),
+    )
     model = Perception(config, device=dev)
     net = model.net
     opt = torch.optim.Adam(net.parameters(), lr=lr)
-    run = TrainRun(Path(out), config, steps, checkpoint_every=max(50, steps // 10), quiet=quiet,
+    run = TrainRun(Path(out), config.to_dict(), steps, checkpoint_every=max(50, steps // 10), quiet=quiet,
                    stop_after=stop_after)
     run.prepare()
     seg_weight = torch.tensor([1.0, 1.0, 3.0, 6.0], device=dev)

@@ -161,10 +161,12 @@ def photo_options(look: str = "fixed", seed: int = 0, spp: int = DEFAULT_SPP,
     the scene's seed: lights, colour temperature, textures and exposure).
 
     Raises:
-        RenderError: an unknown look or a bad spp (one line, naming ``where``).
+        RenderError: an unknown look or a bad spp (one line, naming ``where``; a ``where`` that is a
+            parameter's name, ``photo_look``, is the error's ``field``).
     """
     if look not in LOOKS:
-        raise RenderError(f"{where}={look!r} is invalid; valid: {', '.join(LOOKS)}")
+        raise RenderError(f"{where}={look!r} is invalid; valid: {', '.join(LOOKS)}",
+                          field=where if where.isidentifier() else None)
     return PhotoOptions(look=random_look(seed) if look == "random" else default_look(), spp=spp, seed=0)
 
 

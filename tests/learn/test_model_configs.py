@@ -1,0 +1,74 @@
+"""Trained models' ``config.json`` is a typed config: it round-trips, and a damaged file is refused in
+one line naming the file, the field, the value and what is valid."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from samplehd.errors import ConfigError
+
+
+@pytest.fixture(scope="module")
+def trained(nano_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from samplehd.learn.parser import train_parser
+    from samplehd.learn.perception import train_perception
+
+    out = tmp_path_factory.mktemp("models")
+    train_parser(nano_dataset, out / "parser", steps=2, quiet=True, device="cpu")
+    train_perception(nano_dataset, out / "perception", steps=2, quiet=True, device="cpu")
+    return out
+
+
+def _config(kind: str) -> Any:
+    from samplehd.learn.parser import ParserConfig
+    from samplehd.learn.perception import PerceptionConfig
+
+    return {"parser": ParserConfig, "perception": PerceptionConfig}[kind]
+
+
+def _load(kind: str, folder: Path) -> Any:
+    from samplehd.learn.parser import InstructionParser
+    from samplehd.learn.perception import Perception
+
+    return {"parser": InstructionParser, "perception": Perception}[kind].load(folder)
+
+
+@pytest.mark.parametrize("kind", ["parser", "perception"])
+def test_config_json_is_the_typed_config_written_out(trained: Path, kind: str) -> None:
+    written = json.loads((trained / kind / "config.json").read_text())
+    config = _config(kind).from_dict(written)
+    assert config.to_dict() == written
+    assert _load(kind, trained / kind).config == config
+
+
+DAMAGES: list[tuple[str, Callable[[dict], None], str]] = [
+    ("parser", lambda d: d["model"].update(embed=0), "model.embed=0: must be an integer ≥ 1"),
+    ("parser", lambda d: d.update(bogus=1), "unknown option(s) ['bogus']"),
+    ("parser", lambda d: d.update(target_vocab="x"), "parser.target_vocab='x'"),
+    ("perception", lambda d: d["image"].update(width="wide"), "image.width='wide': must be an integer"),
+    ("perception", lambda d: d["train"].update(lr=-1), "train.lr=-1: must be a finite number > 0"),
+    ("perception", lambda d: d["attributes"].pop("size"), "perception.attributes"),
+    ("perception", lambda d: d.update(kinds=["nope/a/b"]), "'nope/a/b'"),
+]
+
+
+@pytest.mark.parametrize(("kind", "damage", "fragment"), [pytest.param(k, d, f, id=f"{k}-{i}")
+                                                          for i, (k, d, f) in enumerate(DAMAGES)])
+def test_a_damaged_config_json_is_one_line_naming_file_and_field(trained: Path, tmp_path: Path, kind: str,
+                                                                 damage: Callable[[dict], None],
+                                                                 fragment: str) -> None:
+    folder = tmp_path / kind
+    folder.mkdir()
+    (folder / "model.pt").write_bytes((trained / kind / "model.pt").read_bytes())
+    doc = json.loads((trained / kind / "config.json").read_text())
+    damage(doc)
+    (folder / "config.json").write_text(json.dumps(doc))
+    with pytest.raises(ConfigError) as info:
+        _load(kind, folder)
+    text = str(info.value)
+    assert "\n" not in text and text.startswith(f"{folder / 'config.json'}: ") and fragment in text, text
