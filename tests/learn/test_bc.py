@@ -295,3 +295,43 @@ def test_a_waypoint_policy_trains_and_acts_with_keypoints(nano_dataset: Path, tm
             obs, *_ = env.step(a)
     finally:
         env.close()
+
+
+def test_a_motion_the_episode_cut_short_has_its_waypoint_ahead() -> None:
+    from samplehd.learn.bc import WAYPOINT_AHEAD, waypoints
+
+    steering, tcp, quat, opening = _demo_episode()
+    cut = 16  # the environment ended the episode (success) in the middle of the lift
+    goal = waypoints(steering[:cut], tcp[:cut], quat[:cut], opening[:cut])
+    assert np.allclose(goal[-1, :3], tcp[cut - 1] + [0.0, 0.0, WAYPOINT_AHEAD])
+
+
+def test_following_the_oracles_waypoints_succeeds() -> None:
+    """The waypoint labels can be acted on: the follower, given the waypoints of the oracle's episode,
+    succeeds in the same episode (what a perfect waypoint policy does)."""
+    from samplehd.envs.oracle import OraclePolicy
+    from samplehd.envs.tabletop import TabletopEnv
+    from samplehd.learn.bc import follow_waypoints, waypoints
+
+    env = TabletopEnv(obs_mode="state", control_mode="steering", families=("pick_up",), max_episode_steps=300)
+    try:
+        oracle = OraclePolicy(env)
+        for seed in (0, 1):
+            obs, _ = env.reset(seed=seed)
+            oracle.reset(seed=seed)
+            frames: dict[str, list] = {"label": [], "tcp_pos": [], "tcp_quat": [], "opening": []}
+            for _ in range(300):
+                a = oracle(obs)
+                for k, v in (("label", a), ("tcp_pos", obs["tcp_pos"]), ("tcp_quat", obs["tcp_quat"]),
+                             ("opening", obs["gripper"][0] + obs["gripper"][1])):
+                    frames[k].append(np.asarray(v))
+                obs, _, terminated, truncated, info = env.step(a)
+                if terminated or truncated:
+                    break
+            assert info["success"]
+            goal = waypoints(*(np.asarray(frames[k]) for k in ("label", "tcp_pos", "tcp_quat", "opening")))
+            distinct = [goal[0]] + [g for a, g in zip(goal[:-1], goal[1:], strict=True) if np.abs(g - a).max() > 1e-9]
+            obs, _ = env.reset(seed=seed)
+            assert follow_waypoints(env, obs, np.array(distinct), 300)["success"]
+    finally:
+        env.close()

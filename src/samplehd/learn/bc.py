@@ -56,6 +56,7 @@ WAYPOINT_SCALE = 0.3
 # ... and a frame this close to its segment's end (position [m], yaw [rad], finger opening [m]) is
 # labelled with the next segment's waypoint: the switch a waypoint follower makes.
 WAYPOINT_REACHED = (0.004, 0.05, 0.002)
+WAYPOINT_AHEAD = 0.05  # the waypoint of a motion the episode's end cut short lies this far ahead [m]
 WAYPOINT_GAIN = 3.0  # TCP velocity per metre of the remaining displacement [1/s]
 WAYPOINT_SPEED = 0.16  # largest TCP speed of the waypoint follower [m/s]
 YAW_GAIN = 3.0  # yaw rate per radian of the remaining yaw [1/s]
@@ -134,7 +135,8 @@ def waypoints(steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, o
     next one starts (the TCP has settled in the wait), with the gripper -1 (closing) after a segment
     that closes it, else the oracle's command at its end (the width it opened to). A frame's label
     is the waypoint of its segment, of the next segment once it is within :data:`WAYPOINT_REACHED`
-    of its own (a wait's: the next segment's); after the last segment, the last waypoint. So a
+    of its own (a wait's: the next segment's); after the last segment, the last waypoint
+    (:data:`WAYPOINT_AHEAD` beyond the end of a motion the episode's end cut short). So a
     follower that goes to the predicted waypoint and switches where the demonstrations switch meets
     a label at every state on the way, and no label depends on time.
     """
@@ -176,6 +178,12 @@ def waypoints(steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, o
             closed = bool(change < 0)
         grippers.append(-1.0 if closed else float(steering[e, 6]))
     goal = np.array([[*tcp[f], yaw[f], g] for f, g in zip(settled, grippers, strict=True)])
+    last = segments[-1]
+    if last[2] == 1 and last[1] == n - 1:
+        # The episode ended while this segment moved (the environment ends a successful episode at once,
+        # in the middle of the lift): its waypoint lies ahead, where the motion was heading.
+        heading = steering[n - 1, :3] / max(float(np.sqrt((steering[n - 1, :3] ** 2).sum())), 1e-9)
+        goal[-1, :3] = tcp[n - 1] + WAYPOINT_AHEAD * heading
     pos_tol, yaw_tol, open_tol = WAYPOINT_REACHED
 
     def reached(t: int, j: int) -> bool:
@@ -192,6 +200,39 @@ def waypoints(steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, o
             k += 1
         out[t] = goal[min(k, len(segments) - 1)]
     return out
+
+
+def follow_waypoints(env: Any, obs: Mapping[str, Any], goals: np.ndarray, max_steps: int) -> dict[str, Any]:
+    """Drive the environment (reset by the caller, ``obs`` its observation) through ``goals``, the
+    distinct waypoints of a demonstration of its episode (rows of :func:`waypoints`, in order), with
+    the waypoint policy's follower, switching to the next where the labels do (within
+    :data:`WAYPOINT_REACHED`; a closing waypoint once the fingers stop). What a perfect waypoint
+    policy does: the check that the labels can be acted on. Returns the last step's info.
+    """
+    policy = BCPolicy.__new__(BCPolicy)
+    control = getattr(env.unwrapped, "control", None)
+    policy._speeds = ((float(control.max_linear_speed), float(control.max_angular_speed)) if control is not None
+                      else (0.25, 1.0))
+    pos_tol, yaw_tol, _ = WAYPOINT_REACHED
+    j, info, last_open = 0, {}, None
+    for _ in range(max_steps):
+        goal = goals[j]
+        target = waypoint_targets(goal[None], np.asarray(obs["tcp_pos"])[None], np.asarray(obs["tcp_quat"])[None])[0]
+        action = np.clip(policy._follow(target, obs["gripper"]), -1.0, 1.0)
+        action[3:5] = 0.0
+        obs, _, terminated, truncated, info = env.step(action.astype(np.float32))
+        if terminated or truncated:
+            break
+        opening = float(obs["gripper"][0]) + float(obs["gripper"][1])
+        if goal[4] < CLOSE_BELOW and (j == 0 or goals[j - 1][4] >= CLOSE_BELOW):
+            reached = last_open is not None and abs(opening - last_open) < 1e-4
+        else:
+            reached = bool(np.linalg.norm(goal[:3] - np.asarray(obs["tcp_pos"], float)) < pos_tol
+                           and abs(_wrap(goal[3] - _yaw(np.asarray(obs["tcp_quat"], float)))) < yaw_tol)
+        last_open = opening
+        if reached and j < len(goals) - 1:
+            j += 1
+    return info
 
 
 def waypoint_targets(goal: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray) -> np.ndarray:
