@@ -886,6 +886,11 @@ OPTION_CASES += [
                                      "3"], ("--dagger-episodes", "--dagger-rounds")),
     ("train-inputs-unknown", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--inputs", "depth"],
      ("--inputs", "depth")),
+    ("train-action-unknown", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--action", "joints"],
+     ("--action", "joints")),
+    ("train-parser-action", TRAIN + ["{new}", "--action", "waypoint"], ("--action", "train policy")),
+    ("train-zero-batch", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--batch", "0"],
+     ("--batch", "0")),
 ]
 
 

@@ -41,6 +41,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="steering: chunks of the demonstrations' steering vectors (default); waypoint: the "
                              "TCP pose and gripper command where the current segment of the demonstration ends, "
                              "followed by a proportional controller")
+    policy.add_argument("--batch", type=int, help="frames per optimiser step (default 64)")
+    policy.add_argument("--hidden", type=int, help="width of the network's hidden layers (default 256)")
     policy.add_argument("--demos", type=int, help="oracle episodes to collect in the environment besides the "
                                                   "dataset's (default 0)")
     policy.add_argument("--noise", type=float, help="DART: std of the noise added to the executed velocities of "
@@ -68,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     check_outputs({"--out": args.out}, {"--dataset": args.dataset})
     collect = {"demos": args.demos, "noise": args.noise, "dagger_rounds": args.dagger_rounds,
                "dagger_episodes": args.dagger_episodes, "dagger_steps": args.dagger_steps, "workers": args.workers,
-               "inputs": args.inputs, "action": args.action}
+               "inputs": args.inputs, "action": args.action, "batch": args.batch, "hidden": args.hidden}
     given = {k: v for k, v in collect.items() if v is not None}
     if given and args.model != "policy":
         flag = "--" + next(iter(given)).replace("_", "-")
@@ -76,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
     for key, value in given.items():
         if key in ("inputs", "action"):
             continue
-        low = 1 if key in ("dagger_episodes", "dagger_steps", "workers") else 0
+        low = 1 if key in ("dagger_episodes", "dagger_steps", "workers", "batch", "hidden") else 0
         if key == "noise":
             if not 0.0 <= value <= 1.0:
                 raise ConfigError(f"--noise {value}: valid: a number in [0, 1] (a fraction of the full steering "
