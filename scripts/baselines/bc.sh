@@ -8,7 +8,8 @@
 #   env: WORKERS (generate/evaluate processes, default: all cores), DEVICE (default: automatic),
 #        STEPS (visuomotor optimiser steps, 4000), STATE_STEPS (privileged reference, 4000),
 #        EPISODES (closed-loop episodes per family, 50), DEMOS / NOISE (DART episodes collected in the
-#        environment and their noise, default 0 / 0.05), FAMILIES (default "pick_up place")
+#        environment and their noise, default 0 / 0.05), FAMILIES (default "pick_up place"),
+#        ACTION (steering or waypoint, default steering)
 #
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
 # Writes OUT/data/FAMILY, OUT/models/{rgb,state}_FAMILY, OUT/reports/*.json and OUT/summary.txt.
@@ -22,6 +23,7 @@ episodes="${EPISODES:-50}"
 bin="${SAMPLEHD:-samplehd}"
 demos=()
 [[ "${DEMOS:-0}" != 0 ]] && demos=(--demos "$DEMOS" --noise "${NOISE:-0.05}" --workers "$workers")
+demos+=(--action "${ACTION:-steering}")
 mkdir -p "$out/data" "$out/models" "$out/reports"
 declare -A limit=([pick_up]=300 [place]=600)
 start=$(date +%s)
