@@ -335,3 +335,20 @@ def test_following_the_oracles_waypoints_succeeds() -> None:
             assert follow_waypoints(env, obs, np.array(distinct), 300)["success"]
     finally:
         env.close()
+
+
+def test_a_waypoint_dagger_round_labels_the_policys_states_with_the_experts_waypoints(nano_dataset: Path,
+                                                                                      tmp_path: Path) -> None:
+    from samplehd.learn.bc import _load_arrays
+
+    out = tmp_path / "wpd"
+    metrics = train_policy(nano_dataset, out, steps=2, quiet=True, action="waypoint", inputs="state",
+                           dagger_rounds=1, dagger_episodes=3, dagger_steps=2)
+    raw = _load_arrays(out / "dagger_0.npz")
+    assert raw and metrics["collected_episodes"] == len(raw)
+    for episode in raw:
+        goal = episode["goal"]
+        assert goal.shape == (len(episode["tcp_pos"]), 5)
+        # The labels are the expert's waypoints, in order: each phase's waypoint held until the next.
+        changes = np.flatnonzero(np.abs(np.diff(goal, axis=0)).max(axis=1) > 1e-9)
+        assert len(changes) <= 12 and np.isin(goal[:, 4][goal[:, 4] < -0.9], [-1.0]).all()

@@ -31,7 +31,7 @@ from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset
-from samplehd.learn.demos import CollectSpec, collect, squeeze_command
+from samplehd.learn.demos import CollectSpec, collect, run_episode, squeeze_command
 from samplehd.learn.options import POLICY_CAMERAS, env_options, env_options_from_config
 from samplehd.learn.training import TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
 
@@ -202,37 +202,88 @@ def waypoints(steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, o
     return out
 
 
+class WaypointExpert:
+    """The waypoints of one demonstration (rows of :func:`waypoints`, distinct, in order) as an expert
+    for any state of its episode: :meth:`label` is the waypoint of the phase the arm is in, and the
+    phase advances where the labels switch (within :data:`WAYPOINT_REACHED`; a closing waypoint once
+    the fingers stop). A waypoint (the grasp pose the oracle chose, where it lifts to) does not depend
+    on where the arm is, so the label of a state off the demonstration's path is still right: the
+    DAgger labeller of the waypoint policy."""
+
+    def __init__(self, goals: np.ndarray) -> None:
+        self.goals = np.asarray(goals, np.float64)
+        self.phase = 0
+        self._opening: float | None = None
+
+    @classmethod
+    def of_episode(cls, steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray,
+                   opening: np.ndarray) -> WaypointExpert:
+        goal = waypoints(steering, tcp_pos, tcp_quat, opening)
+        distinct = [goal[0]] + [g for a, g in zip(goal[:-1], goal[1:], strict=True) if np.abs(g - a).max() > 1e-9]
+        return cls(np.array(distinct))
+
+    def label(self, obs: Mapping[str, Any]) -> np.ndarray:
+        """The waypoint for ``obs``, after advancing the phase on it."""
+        goal = self.goals[self.phase]
+        opening = float(obs["gripper"][0]) + float(obs["gripper"][1])
+        closing = goal[4] < CLOSE_BELOW and (self.phase == 0 or self.goals[self.phase - 1][4] >= CLOSE_BELOW)
+        if closing:
+            reached = self._opening is not None and abs(opening - self._opening) < 1e-4
+        else:
+            pos_tol, yaw_tol, _ = WAYPOINT_REACHED
+            reached = bool(np.linalg.norm(goal[:3] - np.asarray(obs["tcp_pos"], float)) < pos_tol
+                           and abs(_wrap(goal[3] - _yaw(np.asarray(obs["tcp_quat"], float)))) < yaw_tol)
+        self._opening = opening
+        if reached and self.phase < len(self.goals) - 1:
+            self.phase += 1
+        return self.goals[self.phase]
+
+    def action(self, obs: Mapping[str, Any], goal: np.ndarray, speeds: tuple[float, float]) -> np.ndarray:
+        """The follower's steering vector toward ``goal``."""
+        target = waypoint_targets(goal[None], np.asarray(obs["tcp_pos"])[None], np.asarray(obs["tcp_quat"])[None])[0]
+        return np.clip(_follow(target, obs["gripper"], speeds), -1.0, 1.0)
+
+
 def follow_waypoints(env: Any, obs: Mapping[str, Any], goals: np.ndarray, max_steps: int) -> dict[str, Any]:
     """Drive the environment (reset by the caller, ``obs`` its observation) through ``goals``, the
-    distinct waypoints of a demonstration of its episode (rows of :func:`waypoints`, in order), with
-    the waypoint policy's follower, switching to the next where the labels do (within
-    :data:`WAYPOINT_REACHED`; a closing waypoint once the fingers stop). What a perfect waypoint
-    policy does: the check that the labels can be acted on. Returns the last step's info.
+    distinct waypoints of a demonstration of its episode, with the waypoint policy's follower and the
+    switches of :class:`WaypointExpert`. What a perfect waypoint policy does: the check that the labels
+    can be acted on. Returns the last step's info.
     """
-    policy = BCPolicy.__new__(BCPolicy)
-    control = getattr(env.unwrapped, "control", None)
-    policy._speeds = ((float(control.max_linear_speed), float(control.max_angular_speed)) if control is not None
-                      else (0.25, 1.0))
-    pos_tol, yaw_tol, _ = WAYPOINT_REACHED
-    j, info, last_open = 0, {}, None
+    expert = WaypointExpert(goals)
+    speeds = _speeds(env)
+    info: dict[str, Any] = {}
     for _ in range(max_steps):
-        goal = goals[j]
-        target = waypoint_targets(goal[None], np.asarray(obs["tcp_pos"])[None], np.asarray(obs["tcp_quat"])[None])[0]
-        action = np.clip(policy._follow(target, obs["gripper"]), -1.0, 1.0)
-        action[3:5] = 0.0
+        action = expert.action(obs, expert.label(obs), speeds)
         obs, _, terminated, truncated, info = env.step(action.astype(np.float32))
         if terminated or truncated:
             break
-        opening = float(obs["gripper"][0]) + float(obs["gripper"][1])
-        if goal[4] < CLOSE_BELOW and (j == 0 or goals[j - 1][4] >= CLOSE_BELOW):
-            reached = last_open is not None and abs(opening - last_open) < 1e-4
-        else:
-            reached = bool(np.linalg.norm(goal[:3] - np.asarray(obs["tcp_pos"], float)) < pos_tol
-                           and abs(_wrap(goal[3] - _yaw(np.asarray(obs["tcp_quat"], float)))) < yaw_tol)
-        last_open = opening
-        if reached and j < len(goals) - 1:
-            j += 1
     return info
+
+
+def _speeds(env: Any) -> tuple[float, float]:
+    """TCP speed and angular speed of a steering value of 1 in ``env`` [m/s, rad/s]."""
+    control = getattr(getattr(env, "unwrapped", None), "control", None)
+    if control is None:
+        return (0.25, 1.0)
+    return (float(control.max_linear_speed), float(control.max_angular_speed))
+
+
+def _follow(out: np.ndarray, gripper: Any, speeds: tuple[float, float]) -> np.ndarray:
+    """The steering vector that moves toward the waypoint ``out`` (:func:`waypoint_targets`): a TCP
+    velocity of :data:`WAYPOINT_GAIN` times the displacement, at most :data:`WAYPOINT_SPEED`, a yaw rate
+    of :data:`YAW_GAIN` times the remaining yaw; the gripper closing (:func:`squeeze_command`) where
+    the predicted command is below :data:`CLOSE_BELOW`, else the predicted command."""
+    lin_speed, ang_speed = speeds
+    v = WAYPOINT_GAIN * WAYPOINT_SCALE * np.asarray(out[:3], np.float64)
+    speed = float(np.sqrt((v * v).sum()))
+    if speed > WAYPOINT_SPEED:
+        v *= WAYPOINT_SPEED / speed
+    action = np.zeros(7)
+    action[:3] = v / lin_speed
+    action[5] = YAW_GAIN * np.pi * float(out[5]) / ang_speed
+    action[6] = squeeze_command(gripper) if out[6] < CLOSE_BELOW else float(out[6])
+    return action
 
 
 def waypoint_targets(goal: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray) -> np.ndarray:
@@ -460,7 +511,7 @@ class BCPolicy:
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
         if self.action == "waypoint":
-            action = self._follow(self.predict(obs)[0], obs["gripper"])
+            action = _follow(self.predict(obs)[0], obs["gripper"], self._speeds)
         elif self.ensemble is not None:
             self._chunks = [*self._chunks, self.predict(obs)][-self.chunk:]
             n = len(self._chunks)  # chunk i (oldest first) was predicted n-1-i steps ago
@@ -477,22 +528,6 @@ class BCPolicy:
             action = self._above_floor(action, float(np.asarray(obs["tcp_pos"])[2]))
         self._last_gripper = float(action[6])
         return action.astype(np.float32)
-
-    def _follow(self, out: np.ndarray, gripper: Any) -> np.ndarray:
-        """The steering vector that moves toward the predicted waypoint ``out`` (:func:`waypoint_targets`):
-        a TCP velocity of :data:`WAYPOINT_GAIN` times the displacement, at most :data:`WAYPOINT_SPEED`,
-        a yaw rate of :data:`YAW_GAIN` times the remaining yaw; the gripper closing (:func:`squeeze_command`)
-        where the predicted command is below :data:`CLOSE_BELOW`, else the predicted command."""
-        lin_speed, ang_speed = self._speeds
-        v = WAYPOINT_GAIN * WAYPOINT_SCALE * np.asarray(out[:3], np.float64)
-        speed = float(np.sqrt((v * v).sum()))
-        if speed > WAYPOINT_SPEED:
-            v *= WAYPOINT_SPEED / speed
-        action = np.zeros(7)
-        action[:3] = v / lin_speed
-        action[5] = YAW_GAIN * np.pi * float(out[5]) / ang_speed
-        action[6] = squeeze_command(gripper) if out[6] < CLOSE_BELOW else float(out[6])
-        return action
 
     def _above_floor(self, action: np.ndarray, tcp_z: float) -> np.ndarray:
         """Raise the z velocity so that the TCP target stays at or above ``z_floor``.
@@ -591,8 +626,12 @@ def _collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int, came
                       action: str = "steering") -> dict[str, np.ndarray]:
     """A collected episode (:func:`samplehd.learn.demos.collect`) as :func:`_episode_arrays` gives one."""
     grip = np.asarray(raw["gripper"], np.float64)
-    labels, keep = _labels(action, np.asarray(raw["label"], np.float32), np.asarray(raw["tcp_pos"]),
-                           np.asarray(raw["tcp_quat"]), grip[:, 0] + grip[:, 1])
+    if "goal" in raw:  # a waypoint DAgger episode: labelled with the expert's waypoints
+        labels = waypoint_targets(raw["goal"], raw["tcp_pos"], raw["tcp_quat"])
+        keep = np.arange(len(labels))
+    else:
+        labels, keep = _labels(action, np.asarray(raw["label"], np.float32), np.asarray(raw["tcp_pos"]),
+                               np.asarray(raw["tcp_quat"]), grip[:, 0] + grip[:, 1])
     last_gripper = np.r_[1.0, np.asarray(raw["executed"], np.float64)[:-1, 6]]
     state = _state(raw["joint_pos"], raw["tcp_pos"], raw["tcp_quat"], grip[:, 0] + grip[:, 1],
                    _joint_vel(action, raw["joint_vel"]), last_gripper)
@@ -630,6 +669,44 @@ def _inputs_state(arrays: Mapping[str, np.ndarray], inputs: str, t: Any = slice(
     if inputs == "state":
         return np.concatenate([arrays["state"][t], arrays["target"][t]], axis=-1)
     return arrays["state"][t]
+
+
+def _waypoint_dagger_episode(env: Any, oracle: Any, spec: CollectSpec, k: int, policy: Any) -> dict[str, Any] | None:
+    """A DAgger episode of the waypoint policy: the oracle's episode first (its waypoints make the
+    :class:`WaypointExpert`), then the same episode again, each step executing the policy's action (the
+    expert follower's with probability ``spec.beta``), every state labelled with the expert's waypoint
+    (``goal``)."""
+    demo = run_episode(env, oracle, replace(spec, noise=0.0, beta=1.0, squeeze=True), k, None)
+    if demo is None:
+        return None
+    grip = np.asarray(demo["gripper"], np.float64)
+    expert = WaypointExpert.of_episode(demo["label"], demo["tcp_pos"], demo["tcp_quat"], grip[:, 0] + grip[:, 1])
+    obs, _ = env.reset(seed=int(demo["seed"]), options={"family": demo["family"]})
+    policy.reset(seed=int(demo["seed"]))
+    rng = np.random.default_rng(np.random.SeedSequence([int(spec.seed), 0xDA, int(k), 2]))
+    speeds = _speeds(env)
+    keys = ("joint_pos", "joint_vel", "gripper", "tcp_pos", "tcp_quat", "object_pos", "object_quat")
+    frames: dict[str, list[Any]] = {key: [] for key in (*keys, "goal", "executed", "target_object", *spec.cameras)}
+    target = int(np.asarray(demo["target_object"])[0]) if len(demo["target_object"]) else -1
+    info: dict[str, Any] = {}
+    for _ in range(spec.max_steps):
+        goal = expert.label(obs)
+        mine = np.asarray(policy(obs), dtype=np.float64)
+        executed = expert.action(obs, goal, speeds) if rng.random() < spec.beta else mine
+        for key in keys:
+            frames[key].append(np.asarray(obs[key]))
+        for cam in spec.cameras:
+            frames[cam].append(obs[f"{cam}_rgb"])
+        frames["goal"].append(goal)
+        frames["executed"].append(executed.astype(np.float32))
+        frames["target_object"].append(target)
+        obs, _, terminated, truncated, info = env.step(executed.astype(np.float32))
+        if terminated or truncated:
+            break
+    out = {key: np.stack(v) for key, v in frames.items()}
+    out.update(instruction=str(obs["instruction"]), family=demo["family"], seed=demo["seed"],
+               success=bool(info.get("success", False)))
+    return out
 
 
 def _dagger_policy(args: tuple[Mapping[str, Any], Mapping[str, Any]], env: Any) -> BCPolicy:
@@ -734,8 +811,9 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         else:
             say(f"collecting {spec.episodes} {'DAgger' if policy_args else 'oracle'} episodes in the environment "
                 f"({name})")
+            runner = _waypoint_dagger_episode if policy_args and action == "waypoint" else None
             raw = collect(spec, workers=workers, policy_factory=_dagger_policy if policy_args else None,
-                          policy_args=policy_args)
+                          policy_args=policy_args, runner=runner)
             _save_arrays(path, [{k: np.asarray(v) for k, v in e.items()} for e in raw])
         return [_collected_arrays(e, stride, tokens, cameras, action) for e in raw]
 

@@ -37,7 +37,7 @@ from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, PlanningError
 from samplehd.robot.constants import GRIPPER_STROKE
 
-__all__ = ["CollectSpec", "collect", "episode_seed", "squeeze_command"]
+__all__ = ["CollectSpec", "collect", "episode_seed", "run_episode", "squeeze_command"]
 
 _STREAM = 0xDA  # the seed stream of collected episodes
 SQUEEZE_STEP = 0.002  # a closing command asks for this much less than the fingers' opening [m]
@@ -101,7 +101,7 @@ def episode_seed(seed: int, k: int) -> int:
 PolicyFactory = Callable[[Any], Any]
 
 
-def _run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: int,
+def run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: int,
                  policy: Any) -> dict[str, Any] | None:
     """One collected episode's raw frames, or None when it failed or is not an L1 episode."""
     s = episode_seed(spec.seed, k)
@@ -167,8 +167,12 @@ def _run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: i
 _WORKER: dict[str, Any] = {}
 
 
+# An episode's collector: (env, oracle, spec, k, policy) → its raw frames, or None to drop it.
+EpisodeRunner = Callable[[TabletopEnv, OraclePolicy, CollectSpec, int, Any], "dict[str, Any] | None"]
+
+
 def _collect_range(spec: CollectSpec, ks: Sequence[int], policy_factory: PolicyFactory | None,
-                   policy_args: Any) -> list[dict[str, Any]]:
+                   policy_args: Any, runner: EpisodeRunner | None = None) -> list[dict[str, Any]]:
     held = _WORKER.get("env")
     if held is None or held[0] != spec:
         if held is not None:
@@ -181,14 +185,15 @@ def _collect_range(spec: CollectSpec, ks: Sequence[int], policy_factory: PolicyF
     policy = policy_factory(policy_args, env) if policy_factory is not None else None
     out = []
     for k in ks:
-        got = _run_episode(env, oracle, spec, k, policy)
+        got = (runner or run_episode)(env, oracle, spec, k, policy)
         if got is not None:
             out.append(got)
     return out
 
 
 def collect(spec: CollectSpec, workers: int = 1, policy_factory: PolicyFactory | None = None,
-            policy_args: Any = None, progress: Callable[[int], None] | None = None) -> list[dict[str, Any]]:
+            policy_args: Any = None, progress: Callable[[int], None] | None = None,
+            runner: EpisodeRunner | None = None) -> list[dict[str, Any]]:
     """Collect ``spec.episodes`` episodes (the kept ones, in episode order).
 
     Args:
@@ -197,6 +202,7 @@ def collect(spec: CollectSpec, workers: int = 1, policy_factory: PolicyFactory |
         policy_factory: DAgger: ``policy_factory(policy_args, env)`` makes the policy a worker runs
             (a module-level function, so that it can be sent to a worker process).
         progress: called with the number of episodes attempted so far.
+        runner: what collects one episode (a module-level function; default :func:`run_episode`).
 
     Returns:
         Per kept episode: ``joint_pos``, ``joint_vel``, ``gripper``, ``tcp_pos``, ``tcp_quat``,
@@ -210,13 +216,13 @@ def collect(spec: CollectSpec, workers: int = 1, policy_factory: PolicyFactory |
     done = 0
     if workers <= 1:
         for n, part in enumerate(parts):
-            results[n] = _collect_range(spec, part, policy_factory, policy_args)
+            results[n] = _collect_range(spec, part, policy_factory, policy_args, runner)
             done += len(part)
             if progress:
                 progress(done)
     else:
         with ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn")) as pool:
-            futures = {pool.submit(_collect_range, spec, part, policy_factory, policy_args): n
+            futures = {pool.submit(_collect_range, spec, part, policy_factory, policy_args, runner): n
                        for n, part in enumerate(parts)}
             for fut in futures:
                 results[futures[fut]] = fut.result()
