@@ -311,7 +311,7 @@ def test_following_the_oracles_waypoints_succeeds() -> None:
     succeeds in the same episode (what a perfect waypoint policy does)."""
     from samplehd.envs.oracle import OraclePolicy
     from samplehd.envs.tabletop import TabletopEnv
-    from samplehd.learn.bc import follow_waypoints, waypoints
+    from samplehd.learn.bc import WaypointExpert, follow_waypoints
 
     env = TabletopEnv(obs_mode="state", control_mode="steering", families=("pick_up",), max_episode_steps=300)
     try:
@@ -329,10 +329,10 @@ def test_following_the_oracles_waypoints_succeeds() -> None:
                 if terminated or truncated:
                     break
             assert info["success"]
-            goal = waypoints(*(np.asarray(frames[k]) for k in ("label", "tcp_pos", "tcp_quat", "opening")))
-            distinct = [goal[0]] + [g for a, g in zip(goal[:-1], goal[1:], strict=True) if np.abs(g - a).max() > 1e-9]
+            expert = WaypointExpert.of_episode(*(np.asarray(frames[k]) for k in ("label", "tcp_pos", "tcp_quat",
+                                                                                  "opening")))
             obs, _ = env.reset(seed=seed)
-            assert follow_waypoints(env, obs, np.array(distinct), 300)["success"]
+            assert follow_waypoints(env, obs, expert.goals, 300)["success"]
     finally:
         env.close()
 

@@ -31,7 +31,15 @@ from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset
-from samplehd.learn.demos import CollectSpec, collect, run_episode, squeeze_command
+from samplehd.learn.demos import (
+    OBS_KEYS,
+    CollectSpec,
+    collect,
+    episode_rng,
+    record_observation,
+    run_episode,
+    squeeze_command,
+)
 from samplehd.learn.options import POLICY_CAMERAS, env_options, env_options_from_config
 from samplehd.learn.training import TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
 
@@ -433,7 +441,7 @@ class BCPolicy:
                               f"indices 0-5")
         self.zero_channels = [int(c) for c in fixed]
         self._lin_step = 0.25 / 20.0  # TCP travel of a steering value of 1 in one control step [m]
-        self._speeds = (0.25, 1.0)  # TCP speed and angular speed of a steering value of 1 [m/s, rad/s]
+        self._speeds = _speeds(env)  # TCP speed and angular speed of a steering value of 1 [m/s, rad/s]
         self._queue: list[np.ndarray] = []
         self._chunks: list[np.ndarray] = []
         self._z: float | None = None
@@ -451,7 +459,6 @@ class BCPolicy:
             control = getattr(env.unwrapped, "control", None)
             if control is not None:
                 self._lin_step = float(control.max_linear_speed) / float(control.control_hz)
-                self._speeds = (float(control.max_linear_speed), float(control.max_angular_speed))
 
     @classmethod
     def load(cls, folder: str | Path | None, env: Any = None) -> BCPolicy:
@@ -683,20 +690,16 @@ def _waypoint_dagger_episode(env: Any, oracle: Any, spec: CollectSpec, k: int, p
     expert = WaypointExpert.of_episode(demo["label"], demo["tcp_pos"], demo["tcp_quat"], grip[:, 0] + grip[:, 1])
     obs, _ = env.reset(seed=int(demo["seed"]), options={"family": demo["family"]})
     policy.reset(seed=int(demo["seed"]))
-    rng = np.random.default_rng(np.random.SeedSequence([int(spec.seed), 0xDA, int(k), 2]))
+    rng = episode_rng(spec.seed, k, 2)
     speeds = _speeds(env)
-    keys = ("joint_pos", "joint_vel", "gripper", "tcp_pos", "tcp_quat", "object_pos", "object_quat")
-    frames: dict[str, list[Any]] = {key: [] for key in (*keys, "goal", "executed", "target_object", *spec.cameras)}
+    frames: dict[str, list[Any]] = {key: [] for key in (*OBS_KEYS, "goal", "executed", "target_object", *spec.cameras)}
     target = int(np.asarray(demo["target_object"])[0]) if len(demo["target_object"]) else -1
     info: dict[str, Any] = {}
     for _ in range(spec.max_steps):
         goal = expert.label(obs)
         mine = np.asarray(policy(obs), dtype=np.float64)
         executed = expert.action(obs, goal, speeds) if rng.random() < spec.beta else mine
-        for key in keys:
-            frames[key].append(np.asarray(obs[key]))
-        for cam in spec.cameras:
-            frames[cam].append(obs[f"{cam}_rgb"])
+        record_observation(frames, obs, spec.cameras)
         frames["goal"].append(goal)
         frames["executed"].append(executed.astype(np.float32))
         frames["target_object"].append(target)

@@ -37,7 +37,8 @@ from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, PlanningError
 from samplehd.robot.constants import GRIPPER_STROKE
 
-__all__ = ["CollectSpec", "collect", "episode_seed", "run_episode", "squeeze_command"]
+__all__ = ["OBS_KEYS", "CollectSpec", "collect", "episode_rng", "episode_seed", "record_observation", "run_episode",
+           "squeeze_command"]
 
 _STREAM = 0xDA  # the seed stream of collected episodes
 SQUEEZE_STEP = 0.002  # a closing command asks for this much less than the fingers' opening [m]
@@ -92,6 +93,23 @@ def squeeze_command(gripper: Any) -> float:
     return max(-1.0, 2.0 * (width - SQUEEZE_STEP) / GRIPPER_STROKE - 1.0)
 
 
+OBS_KEYS = ("joint_pos", "joint_vel", "gripper", "tcp_pos", "tcp_quat", "object_pos", "object_quat")
+
+
+def record_observation(frames: dict[str, list[Any]], obs: Any, cameras: Sequence[str]) -> None:
+    """Append an observation's robot and object state (:data:`OBS_KEYS`) and camera RGB to ``frames``."""
+    for key in OBS_KEYS:
+        frames[key].append(np.asarray(obs[key]))
+    for cam in cameras:
+        frames[cam].append(obs[f"{cam}_rgb"])
+
+
+def episode_rng(seed: int, k: int, part: int) -> np.random.Generator:
+    """The random generator of part ``part`` of collected episode ``k`` (1: the oracle's noise and
+    DAgger draws; 2: a waypoint DAgger episode's)."""
+    return np.random.default_rng(np.random.SeedSequence([int(seed), _STREAM, int(k), int(part)]))
+
+
 def episode_seed(seed: int, k: int) -> int:
     """The reset seed of collected episode ``k``."""
     return int(np.random.SeedSequence([int(seed), _STREAM, int(k)]).generate_state(1, np.uint32)[0])
@@ -113,9 +131,8 @@ def run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: in
     oracle.reset(seed=s)
     if policy is not None:
         policy.reset(seed=s)
-    rng = np.random.default_rng(np.random.SeedSequence([int(spec.seed), _STREAM, int(k), 1]))
-    keys = ("joint_pos", "joint_vel", "gripper", "tcp_pos", "tcp_quat", "object_pos", "object_quat")
-    frames: dict[str, list[Any]] = {key: [] for key in (*keys, "label", "executed", "target_object",
+    rng = episode_rng(spec.seed, k, 1)
+    frames: dict[str, list[Any]] = {key: [] for key in (*OBS_KEYS, "label", "executed", "target_object",
                                                          *spec.cameras)}
     success = False
     closing, previous = False, None  # whether the oracle is closing or holding; its previous command
@@ -141,10 +158,7 @@ def run_episode(env: TabletopEnv, oracle: OraclePolicy, spec: CollectSpec, k: in
             noise = rng.normal(0.0, spec.noise, 6)
             noise[list(spec.still)] = 0.0
             executed[:6] = np.clip(executed[:6] + noise, -1.0, 1.0)
-        for key in keys:
-            frames[key].append(np.asarray(obs[key]))
-        for cam in spec.cameras:
-            frames[cam].append(obs[f"{cam}_rgb"])
+        record_observation(frames, obs, spec.cameras)
         frames["label"].append(label.astype(np.float32))
         frames["target_object"].append(oracle.target_object)
         frames["executed"].append(executed.astype(np.float32))
