@@ -65,3 +65,13 @@ def test_commands_load_lazily_and_their_help_is_read_from_source():
              "if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+def test_width_and_height_size_scene_images_without_episode_frames(tmp_path):
+    # --render none draws no episode frames, but each scene's own images still take --width/--height.
+    out = tmp_path / "d"
+    rc = main(["generate", "--preset", "tiny", "--scenes", "1", "--target", "1", "--render", "none", "--width", "64",
+               "--height", "36", "--seed", "3", "--workers", "1", "--out", str(out), "--quiet"])
+    assert rc == 0
+    rgb = sorted((out / "images").glob("*.png"))
+    assert rgb and all(Image.open(p).size == (64, 36) for p in rgb)

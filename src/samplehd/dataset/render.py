@@ -182,8 +182,9 @@ def _world_cameras() -> tuple[str, ...]:
     return tuple(sorted({*camera_names(compile_world()[0]), "scene"}))
 
 
-# The render fields that only matter when images are drawn.
-_IMAGE_FIELDS = ("cameras", "modalities", "width", "height", "every", "subtask_ends", "look")
+# The render fields that only matter when episode frames are drawn. width and height are not among them:
+# they also size each scene's own images (RGB, depth, segmentation), drawn whatever the mode.
+_IMAGE_FIELDS = ("cameras", "modalities", "every", "subtask_ends", "look")
 
 
 def check_render_applies(render: RenderConfig, given: Mapping[str, str]) -> None:
