@@ -15,30 +15,34 @@ from samplehd.errors import ConfigError
 
 @pytest.fixture(scope="module")
 def trained(nano_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from samplehd.learn.bc import train_policy
     from samplehd.learn.parser import train_parser
     from samplehd.learn.perception import train_perception
 
     out = tmp_path_factory.mktemp("models")
     train_parser(nano_dataset, out / "parser", steps=2, quiet=True, device="cpu")
     train_perception(nano_dataset, out / "perception", steps=2, quiet=True, device="cpu")
+    train_policy(nano_dataset, out / "policy", steps=2, quiet=True, device="cpu")
     return out
 
 
 def _config(kind: str) -> Any:
     from samplehd.learn.parser import ParserConfig
     from samplehd.learn.perception import PerceptionConfig
+    from samplehd.learn.policy_configuration import PolicyConfig
 
-    return {"parser": ParserConfig, "perception": PerceptionConfig}[kind]
+    return {"parser": ParserConfig, "perception": PerceptionConfig, "policy": PolicyConfig}[kind]
 
 
 def _load(kind: str, folder: Path) -> Any:
+    from samplehd.learn.bc import BCPolicy
     from samplehd.learn.parser import InstructionParser
     from samplehd.learn.perception import Perception
 
-    return {"parser": InstructionParser, "perception": Perception}[kind].load(folder)
+    return {"parser": InstructionParser, "perception": Perception, "policy": BCPolicy}[kind].load(folder)
 
 
-@pytest.mark.parametrize("kind", ["parser", "perception"])
+@pytest.mark.parametrize("kind", ["parser", "perception", "policy"])
 def test_config_json_is_the_typed_config_written_out(trained: Path, kind: str) -> None:
     written = json.loads((trained / kind / "config.json").read_text())
     config = _config(kind).from_dict(written)
@@ -54,6 +58,12 @@ DAMAGES: list[tuple[str, Callable[[dict], None], str]] = [
     ("perception", lambda d: d["train"].update(lr=-1), "train.lr=-1: must be a finite number > 0"),
     ("perception", lambda d: d["attributes"].pop("size"), "perception.attributes"),
     ("perception", lambda d: d.update(kinds=["nope/a/b"]), "'nope/a/b'"),
+    ("policy", lambda d: d["inference"].update(ensemble=-1), "inference.ensemble=-1: must be a finite number ≥ 0"),
+    ("policy", lambda d: d["inference"].update(zero_channels=[6]), "zero_channels[0]=6: must be an integer in [0, 5]"),
+    ("policy", lambda d: d.update(inputs="depth"), "policy.inputs='depth': valid: rgb, state"),
+    ("policy", lambda d: d["model"].update(encoder="vit"), "model.encoder='vit': valid: flatten, keypoints"),
+    ("policy", lambda d: d["train"].update(bogus=1), "unknown option(s) ['bogus']"),
+    ("policy", lambda d: d.update(image=0), "policy.image=0"),
 ]
 
 
@@ -72,3 +82,22 @@ def test_a_damaged_config_json_is_one_line_naming_file_and_field(trained: Path, 
         _load(kind, folder)
     text = str(info.value)
     assert "\n" not in text and text.startswith(f"{folder / 'config.json'}: ") and fragment in text, text
+
+
+def test_a_policy_config_json_of_an_earlier_version_still_loads(trained: Path, tmp_path: Path) -> None:
+    """Format-3 files written before ``inputs``, ``action``, ``model.encoder`` and
+    ``inference.zero_channels`` existed load as the policy those versions trained."""
+    from samplehd.learn.bc import BCPolicy
+
+    doc = json.loads((trained / "policy" / "config.json").read_text())
+    for key in ("inputs", "action"):
+        doc.pop(key)
+    doc["model"].pop("encoder")
+    doc["inference"].pop("zero_channels")
+    folder = tmp_path / "old"
+    folder.mkdir()
+    (folder / "model.pt").write_bytes((trained / "policy" / "model.pt").read_bytes())
+    (folder / "config.json").write_text(json.dumps(doc))
+    config = BCPolicy.load(folder).config
+    assert (config.inputs, config.action, config.model.encoder, config.inference.zero_channels) == (
+        "rgb", "steering", "flatten", ())

@@ -3,15 +3,16 @@ import numpy as np
 import pytest
 
 from samplehd.errors import RenderError
+from samplehd.render.image_spec import ImageSpec
 from samplehd.render.renderer import (
     SEG_BACKGROUND,
     SEG_ROBOT,
     SEG_TABLE,
-    RendererCache,
     SceneRenderer,
     camera_intrinsics,
     project_points,
 )
+from samplehd.render.renderer_cache import RendererCache
 from samplehd.world.layout import LAYOUT
 
 pytestmark = pytest.mark.render
@@ -118,11 +119,11 @@ def test_a_larger_buffer_renders_the_same_images_at_each_size(world, fast_images
 def test_renderer_cache_reuses_a_renderer_only_for_the_same_model_and_preset(world):
     model, data = world
     with RendererCache(buffer_size=(320, 180)) as cache:
-        a = cache.get(model, 160, 90, "fast")
-        assert cache.get(model, 320, 180, "fast") is a and (a.width, a.height) == (320, 180)
-        b = cache.get(model, 320, 180, "hd")  # another preset: a new renderer, the old one freed
+        a = cache.get(model, ImageSpec(160, 90, "fast"))
+        assert cache.get(model, ImageSpec(320, 180, "fast")) is a and (a.width, a.height) == (320, 180)
+        b = cache.get(model, ImageSpec(320, 180, "hd"))  # another preset: a new renderer, the old one freed
         assert b is not a and a._ctx is None
-        c = cache.get(model, 400, 200, "hd")  # larger than the buffer
+        c = cache.get(model, ImageSpec(400, 200, "hd"))  # larger than the buffer
         assert c is not b and c.buffer_size == (400, 200)
         assert c.render(data, "operator", ("rgb",))["rgb"].shape == (200, 400, 3)
     assert c._ctx is None

@@ -52,7 +52,7 @@ class SamplehdEnv(EnvConfig):
     def __post_init__(self) -> None:
         options = TabletopConfig.from_kwargs(**self.env_options)  # defaults filled in, one-line errors
         self.fps = int(round(options.control_hz))
-        feats = lerobot_features(options.cameras, options.height, options.width)
+        feats = lerobot_features(options.image)
         self.features = {k: PolicyFeature(type=FeatureType[f.kind], shape=f.shape) for k, f in feats.items()}
         self.features_map = {k: f.name for k, f in feats.items()}
 

@@ -30,6 +30,7 @@ import numpy as np
 
 from samplehd.envs.config import EnvConfig
 from samplehd.errors import ConfigError
+from samplehd.render.image_spec import ImageSpec
 
 __all__ = ["EXPORT_RECORD", "LeRobotFeature", "env_options_from_export", "lerobot_features", "lerobot_observation"]
 
@@ -57,10 +58,11 @@ class LeRobotFeature:
         return (self.shape[2], *self.shape[:2]) if self.kind == "VISUAL" else self.shape
 
 
-def lerobot_features(cameras: Sequence[str], height: int, width: int) -> dict[str, LeRobotFeature]:
-    """The env keys (``pixels/<cam>``, ``agent_pos``, ``tcp_pose``, ``action``) and their LeRobot features."""
-    out = {f"pixels/{cam}": LeRobotFeature(f"observation.images.{cam}", "VISUAL", (height, width, 3))
-           for cam in cameras}
+def lerobot_features(image: ImageSpec) -> dict[str, LeRobotFeature]:
+    """The env keys (``pixels/<cam>`` of ``image``'s cameras, ``agent_pos``, ``tcp_pose``, ``action``) and
+    their LeRobot features (images: RGB at ``image``'s size)."""
+    out = {f"pixels/{cam}": LeRobotFeature(f"observation.images.{cam}", "VISUAL", image.shape("rgb"))
+           for cam in image.cameras}
     out["agent_pos"] = LeRobotFeature("observation.state", "STATE", (VECTOR_SIZE,))
     out["tcp_pose"] = LeRobotFeature("observation.tcp_pose", "STATE", (VECTOR_SIZE,))
     out["action"] = LeRobotFeature("action", "ACTION", (VECTOR_SIZE,))

@@ -35,6 +35,7 @@ from samplehd.envs.lerobot_contract import (
     read_export_record,
 )
 from samplehd.errors import ConfigError
+from samplehd.render.image_spec import ImageSpec
 
 __all__ = ["LEROBOT_PREFIX", "LeRobotCheckpoint", "LeRobotPolicy", "is_lerobot_policy", "read_lerobot_checkpoint"]
 
@@ -85,8 +86,7 @@ class LeRobotCheckpoint:
             raise ConfigError(f"policy={self.spec!r}: LeRobot policies of a samplehd export need RGB images and "
                               f"steering control; the environment has obs_mode={config.obs_mode!r}, "
                               f"control_mode={config.control_mode!r}", field="policy")
-        given = {f.name: f.policy_shape for f in lerobot_features(config.cameras, config.height,
-                                                                   config.width).values()}
+        given = {f.name: f.policy_shape for f in lerobot_features(config.image).values()}
         for name, shape in self.features.items():
             if given.get(name) != shape:
                 offer = ", ".join(f"{k} {v}" for k, v in given.items())
@@ -148,7 +148,7 @@ def _features(spec: str, config: dict[str, Any]) -> dict[str, tuple[int, ...]]:
             if not (isinstance(shape, list) and all(isinstance(n, int) and n > 0 for n in shape)):
                 raise _fail(spec, f"{CONFIG_FILE}: feature {name!r} has no shape")
             out[name] = tuple(shape)
-    known = {f.name for f in lerobot_features((), 1, 1).values()}
+    known = {f.name for f in lerobot_features(ImageSpec(cameras=())).values()}
     for name, shape in out.items():
         if name.startswith(IMAGE_PREFIX) and len(shape) == 3 and shape[0] == 3:
             continue

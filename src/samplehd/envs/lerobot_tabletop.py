@@ -81,7 +81,7 @@ class LeRobotTabletop(gym.Env):
         self.task_description = ""
         self._max_episode_steps = max_episode_steps
         self.metadata = {**self.metadata, "render_fps": int(round(config.control_hz))}  # PyAV needs an int
-        feats = lerobot_features(self.cameras, config.height, config.width)
+        feats = lerobot_features(config.image)
         self.observation_space = spaces.Dict({
             "pixels": spaces.Dict({cam: spaces.Box(0, 255, feats[f"pixels/{cam}"].shape, np.uint8)
                                    for cam in self.cameras}),

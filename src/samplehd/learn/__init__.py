@@ -12,7 +12,8 @@ and :mod:`samplehd.learn.options` need no torch.
 - :mod:`samplehd.learn.bc`: images + tokens + state → steering chunks (``samplehd train policy``,
   ``evaluate --policy bc``)
 - :mod:`samplehd.learn.training`: torch, checkpoints, resume, progress, determinism
+- :mod:`samplehd.learn.policy_configuration`: :class:`PolicyConfig`, the BC policy's ``config.json`` (no torch)
 - :mod:`samplehd.learn.options`: the environment a trained policy needs (no torch)
 """
 
-__all__ = ["bc", "data", "neurosymbolic", "options", "parser", "perception", "training"]
+__all__ = ["bc", "data", "neurosymbolic", "options", "parser", "perception", "policy_configuration", "training"]

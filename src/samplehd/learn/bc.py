@@ -41,24 +41,38 @@ from samplehd.learn.demos import (
     squeeze_command,
 )
 from samplehd.learn.options import POLICY_CAMERAS, env_options, env_options_from_config
-from samplehd.learn.training import TrainRun, descend, load_model_files, nn, pick_device, set_seed, step_rng, torch
+from samplehd.learn.policy_configuration import (
+    ACTIONS,
+    FORMAT,
+    INPUTS,
+    LOSSES,
+    STATE_DIM,
+    TARGET_DIM,
+    PolicyArchitecture,
+    PolicyCollection,
+    PolicyConfig,
+    PolicyInference,
+    PolicyTraining,
+)
+from samplehd.learn.training import (
+    TrainRun,
+    descend,
+    load_model_files,
+    nn,
+    pick_device,
+    read_model_config,
+    set_seed,
+    step_rng,
+    torch,
+)
 
-__all__ = ["BCPolicy", "env_options", "policy_for_evaluation", "train_policy"]
+__all__ = ["BCPolicy", "PolicyConfig", "env_options", "policy_for_evaluation", "train_policy"]
 
-FORMAT = 3
-# joint positions (6), TCP position (3), TCP orientation (6: two rotation columns), finger opening (1),
-# joint velocities (6), the gripper command of the previous action (1)
-STATE_DIM = 23
-# The privileged-state reference adds the target object's position relative to the TCP (3) and its
-# orientation (6: two rotation columns) and sees no image.
-TARGET_DIM = 9
-INPUTS = ("rgb", "state")
 CAMERAS = POLICY_CAMERAS
 DEMOS_FILE = "demos.npz"  # the oracle episodes collected in the environment (kept for a resumed run)
 DAGGER_FILE = "dagger_{}.npz"  # the episodes of DAgger round N
 NEAR_TABLE = 0.03  # frames whose TCP is within this of the demonstrations' lowest TCP height [m]
 RARE_CHANNEL = 0.05  # a steering value that moves in fewer of the training frames is sent as zero
-ACTIONS = ("steering", "waypoint")
 # Waypoint actions: the network writes the displacement to the waypoint divided by this [m] ...
 WAYPOINT_SCALE = 0.3
 # ... and a frame this close to its segment's end (position [m], yaw [rad], finger opening [m]) is
@@ -406,40 +420,32 @@ class BCPolicy:
     velocity is raised where it would.
 
     Args:
-        config, state: the trained model's config and state dict.
+        config: the trained model's config (a JSON object is read with :meth:`PolicyConfig.from_dict`).
+        state: its state dict (None: an untrained network).
         env: the environment (checked: steering control, both cameras at the trained size).
     """
 
-    def __init__(self, config: Mapping[str, Any], state: Mapping[str, Any] | None, env: Any = None,
+    def __init__(self, config: PolicyConfig | Mapping[str, Any], state: Mapping[str, Any] | None, env: Any = None,
                  device: Any = None) -> None:
-        set_seed(int(config["train"]["seed"]))
-        self.config = dict(config)
+        config = config if isinstance(config, PolicyConfig) else PolicyConfig.from_dict(config)
+        set_seed(config.train.seed)
+        self.config = config
         self.device = device or torch.device("cpu")
-        m = config["model"]
-        self.inputs = str(config.get("inputs", "rgb"))
-        if self.inputs not in INPUTS:
-            raise ConfigError(f"policy config.json: inputs={self.inputs!r}; valid: {', '.join(INPUTS)}")
+        m = config.model
+        self.inputs = config.inputs
         self.cameras = CAMERAS if self.inputs == "rgb" else ()
-        self.action = str(config.get("action", "steering"))
-        if self.action not in ACTIONS:
-            raise ConfigError(f"policy config.json: action={self.action!r}; valid: {', '.join(ACTIONS)}")
-        self.net = BCNet(len(instruction_vocabulary()), max(int(config["image"]), 1), config["chunk"], m["width"],
-                         m["hidden"], state_dim=int(m.get("state_dim", STATE_DIM)), cameras=len(self.cameras),
-                         encoder=str(m.get("encoder", "flatten"))).to(self.device)
+        self.action = config.action
+        self.net = BCNet(len(instruction_vocabulary()), max(config.image, 1), config.chunk, m.width, m.hidden,
+                         state_dim=m.state_dim, cameras=len(self.cameras), encoder=m.encoder).to(self.device)
         self.env = env.unwrapped if env is not None else None
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
-        self.chunk = int(config["chunk"])
-        self.execute = int(config["execute"])
-        inference = config.get("inference") or {}
-        self.ensemble = _optional_number(inference, "ensemble", 0.0)
-        self.z_floor = _optional_number(inference, "z_floor", None)
-        fixed = inference.get("zero_channels") or []
-        if not isinstance(fixed, list) or not all(isinstance(c, int) and 0 <= c < 6 for c in fixed):
-            raise ConfigError(f"policy config.json: inference.zero_channels={fixed!r}; valid: a list of steering "
-                              f"indices 0-5")
-        self.zero_channels = [int(c) for c in fixed]
+        self.chunk = config.chunk
+        self.execute = config.execute
+        self.ensemble = config.inference.ensemble
+        self.z_floor = config.inference.z_floor
+        self.zero_channels = list(config.inference.zero_channels)
         self._lin_step = 0.25 / 20.0  # TCP travel of a steering value of 1 in one control step [m]
         self._speeds = _speeds(env)  # TCP speed and angular speed of a steering value of 1 [m/s, rad/s]
         self._queue: list[np.ndarray] = []
@@ -454,8 +460,8 @@ class BCPolicy:
                    "control_mode": c.control_mode}
             bad = [k for k in want if want[k] != got[k]]
             if bad:
-                raise ConfigError(f"--policy bc: the environment's {bad[0]}={got[bad[0]]!r}, the policy needs "
-                                  f"{want[bad[0]]!r} (options: {want})")
+                raise ConfigError(f"policy=bc: the environment's {bad[0]}={got[bad[0]]!r}, the policy needs "
+                                  f"{want[bad[0]]!r} (options: {want})", field="policy")
             control = getattr(env.unwrapped, "control", None)
             if control is not None:
                 self._lin_step = float(control.max_linear_speed) / float(control.control_hz)
@@ -463,9 +469,9 @@ class BCPolicy:
     @classmethod
     def load(cls, folder: str | Path | None, env: Any = None) -> BCPolicy:
         if folder is None:
-            raise ConfigError("--policy bc: needs --models (the folder of `samplehd train policy`)")
+            raise ConfigError("policy=bc: needs `models` (the folder of `samplehd train policy`)", field="policy")
         config, state = load_model_files(folder, "policy", FORMAT)
-        return cls(config, state, env)
+        return cls(read_model_config(PolicyConfig, config, folder), state, env)
 
     def reset(self, seed: int | None = None) -> None:
         self._queue = []
@@ -509,7 +515,7 @@ class BCPolicy:
 
         imgs = [torch.as_tensor(np.ascontiguousarray(obs[f"{c}_rgb"]).transpose(2, 0, 1)[None].astype(np.float32)
                                 / 255.0, device=self.device) for c in self.cameras]
-        tokens = torch.as_tensor(encode_instruction(str(obs["instruction"]), self.config["tokens"])[None],
+        tokens = torch.as_tensor(encode_instruction(str(obs["instruction"]), self.config.tokens)[None],
                                  device=self.device)
         state = self._state(obs)
         with torch.no_grad():
@@ -551,18 +557,6 @@ class BCPolicy:
             action[2] = min(lowest, 1.0)
         self._z += float(action[2]) * self._lin_step
         return action
-
-
-def _optional_number(options: Mapping[str, Any], key: str, low: float | None) -> float | None:
-    """``options[key]``: None or a finite number (≥ ``low`` when given); one-line error otherwise."""
-    value = options.get(key)
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value) or (
-            low is not None and value < low):
-        valid = "null or a number" + (f" ≥ {low}" if low is not None else "")
-        raise ConfigError(f"policy config.json: inference.{key}={value!r}; valid: {valid}")
-    return float(value)
 
 
 def policy_for_evaluation(env: Any, config: Any) -> BCPolicy:
@@ -621,11 +615,13 @@ def _image_size(reader: Any, dataset: str | Path) -> int:
     render = reader.info.get("render") or reader.config.get("render") or {}
     cams = camera_settings(render) if render else {}
     if not all(c in cams and "rgb" in cams[c]["modalities"] for c in CAMERAS):
-        raise ConfigError(f"--dataset {dataset}: episodes need RGB of cameras {', '.join(CAMERAS)} (generate with "
-                          "--render fast --cameras scene wrist --modalities rgb)")
+        raise ConfigError(f"dataset={dataset}: episodes need RGB of cameras {', '.join(CAMERAS)} (generate it with "
+                          "render.mode fast, render.cameras [scene, wrist], render.modalities [rgb])",
+                          field="dataset")
     sizes = {(cams[c]["width"], cams[c]["height"]) for c in CAMERAS}
     if len(sizes) != 1 or next(iter(sizes))[0] != next(iter(sizes))[1]:
-        raise ConfigError(f"--dataset {dataset}: the cameras need one square image size; found {sorted(sizes)}")
+        raise ConfigError(f"dataset={dataset}: the cameras need one square image size; found {sorted(sizes)}",
+                          field="dataset")
     return int(next(iter(sizes))[0])
 
 
@@ -712,7 +708,7 @@ def _waypoint_dagger_episode(env: Any, oracle: Any, spec: CollectSpec, k: int, p
     return out
 
 
-def _dagger_policy(args: tuple[Mapping[str, Any], Mapping[str, Any]], env: Any) -> BCPolicy:
+def _dagger_policy(args: tuple[PolicyConfig, Mapping[str, Any]], env: Any) -> BCPolicy:
     """The policy a DAgger round runs in a collecting process (``args``: its config and weights)."""
     return BCPolicy(args[0], args[1], env)
 
@@ -746,8 +742,8 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     episode and frame counts.
     """
 
-    if loss not in ("mse", "l1"):
-        raise ConfigError(f"train_policy: loss={loss!r}; valid: mse, l1")
+    if loss not in LOSSES:
+        raise ConfigError(f"train_policy: loss={loss!r}; valid: {', '.join(LOSSES)}")
     if inputs not in INPUTS:
         raise ConfigError(f"train_policy: inputs={inputs!r}; valid: {', '.join(INPUTS)}")
     if action not in ACTIONS:
@@ -770,7 +766,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         elif not held_out_instruction(ins) and episode_level(ins, scenes[e.scene_index]) == "L1":
             train_k.append(e.instruction_index)
     if not train_k:
-        raise ConfigError(f"--dataset {dataset}: no training episodes")
+        raise ConfigError(f"dataset={dataset}: no training episodes", field="dataset")
     dev = pick_device(device)
     set_seed(seed)
     data = [_episode_arrays(reader, k, stride, tokens, cameras, action) for k in train_k]
@@ -786,21 +782,19 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     zero_channels = [int(c) for c in np.flatnonzero(moving.mean(axis=0) < RARE_CHANNEL)]
     total_steps = steps + dagger_rounds * dagger_steps
     state_dim = STATE_DIM + (TARGET_DIM if inputs == "state" else 0)
-    config = {
-        "kind": "policy", "format": FORMAT, "dataset": str(dataset), "inputs": inputs, "action": action,
-        "image": image,
-        "chunk": chunk, "execute": execute, "tokens": tokens,
-        "model": {"width": width, "hidden": hidden, "state_dim": state_dim, "encoder": encoder},
-        "inference": {"ensemble": ensemble, "z_floor": round(z_floor, 6) if floor else None,
-                      "zero_channels": zero_channels},
-        "families": list(families_used),
-        "collect": {"demos": demos, "noise": noise, "dagger_rounds": dagger_rounds,
-                    "dagger_episodes": dagger_episodes, "dagger_steps": dagger_steps},
-        "train": {"steps": total_steps, "seed": seed, "batch": batch, "stride": stride, "lr": lr,
-                  "loss": loss, "near_weight": near_weight, "gripper_weight": gripper_weight,
-                  "episodes": len(train_k), "frames": int(sum(len(d["frames"]) for d in data))},
-    }
-    run = TrainRun(Path(out), config, total_steps, checkpoint_every=max(50, total_steps // 20), quiet=quiet,
+    config = PolicyConfig(
+        format=FORMAT, dataset=str(dataset), inputs=inputs, action=action, image=image, chunk=chunk,
+        execute=execute, tokens=tokens,
+        model=PolicyArchitecture(width=width, hidden=hidden, state_dim=state_dim, encoder=encoder),
+        inference=PolicyInference(ensemble=ensemble, z_floor=round(z_floor, 6) if floor else None,
+                                  zero_channels=tuple(zero_channels)),
+        families=families_used,
+        collect=PolicyCollection(demos=demos, noise=noise, dagger_rounds=dagger_rounds,
+                                 dagger_episodes=dagger_episodes, dagger_steps=dagger_steps),
+        train=PolicyTraining(steps=total_steps, seed=seed, batch=batch, stride=stride, lr=lr, loss=loss,
+                             near_weight=near_weight, gripper_weight=gripper_weight, episodes=len(train_k),
+                             frames=int(sum(len(d["frames"]) for d in data))))
+    run = TrainRun(Path(out), config.to_dict(), total_steps, checkpoint_every=max(50, total_steps // 20), quiet=quiet,
                    stop_after=stop_after)
     run.prepare()
     say = Console(stderr=True, quiet=quiet).print
@@ -921,11 +915,11 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     else:
         metrics.update({"test_l1": None, "test_l1_first": None})
     metrics.update({
-        "train_episodes": len(train_k), "train_frames": config["train"]["frames"],
+        "train_episodes": len(train_k), "train_frames": config.train.frames,
         "test_episodes": len(test_k), "test_frames": len(tpairs),
         "collected_episodes": len(data) - len(train_k),
         "collected_frames": int(sum(len(d["frames"]) for d in data[len(train_k):])),
-        "families": config["families"], "steps": total_steps, "seed": seed, "device": str(dev), **t,
+        "families": list(config.families), "steps": total_steps, "seed": seed, "device": str(dev), **t,
     })
     run.finish(net, metrics)
     return metrics

@@ -1,4 +1,5 @@
-"""What a trained behaviour-cloning policy asks of the environment, read from its ``config.json``.
+"""What a trained behaviour-cloning policy asks of the environment, read from its ``config.json``
+(:class:`~samplehd.learn.policy_configuration.PolicyConfig`).
 
 Needs no PyTorch: ``samplehd evaluate`` sets the environment up from it before any model is loaded,
 and works for the other policies where the ``learn`` extra is not installed.
@@ -7,28 +8,28 @@ and works for the other policies where the ``learn`` extra is not installed.
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from samplehd.errors import ConfigError
+from samplehd.learn.policy_configuration import PolicyConfig
 
 __all__ = ["POLICY_CAMERAS", "env_options", "env_options_from_config"]
 
 POLICY_CAMERAS = ("scene", "wrist")  # the cameras the policy looks through, in the network's order
 
 
-def env_options_from_config(config: Mapping[str, Any]) -> dict[str, Any]:
+def env_options_from_config(config: PolicyConfig) -> dict[str, Any]:
     """The environment options of a policy config: RGB of both cameras at its image size and steering
     control; the privileged-state reference (``inputs: state``) needs no image."""
-    if config.get("inputs", "rgb") == "state":
+    if config.inputs == "state":
         return {"obs_mode": "state", "control_mode": "steering"}
-    return {"obs_mode": "rgb", "cameras": list(POLICY_CAMERAS), "width": config["image"], "height": config["image"],
+    return {"obs_mode": "rgb", "cameras": list(POLICY_CAMERAS), "width": config.image, "height": config.image,
             "control_mode": "steering"}
 
 
 def env_options(folder: str | Path) -> dict[str, Any]:
-    """The environment options the trained policy in ``folder`` needs; one-line errors."""
+    """The environment options the trained policy in ``folder`` needs; one-line errors naming ``models``."""
     try:
         cfg = json.loads((Path(folder) / "config.json").read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
@@ -37,10 +38,8 @@ def env_options(folder: str | Path) -> dict[str, Any]:
     if not isinstance(cfg, dict) or cfg.get("kind") != "policy":
         kind = cfg.get("kind") if isinstance(cfg, dict) else None
         raise ConfigError(f"models={folder}: config.json is a {kind!r} model, expected a policy", field="models")
-    if cfg.get("inputs", "rgb") not in ("rgb", "state"):
-        raise ConfigError(f"models={folder}: config.json inputs={cfg.get('inputs')!r}, expected rgb or state",
-                          field="models")
-    if cfg.get("inputs", "rgb") == "rgb" and (not isinstance(cfg.get("image"), int) or cfg["image"] < 1):
-        raise ConfigError(f"models={folder}: config.json image={cfg.get('image')!r}, expected a positive integer",
-                          field="models")
-    return env_options_from_config(cfg)
+    try:
+        config = PolicyConfig.from_dict(cfg)
+    except ConfigError as exc:
+        raise ConfigError(f"models={folder}: config.json: {exc}", field="models") from None
+    return env_options_from_config(config)

@@ -43,7 +43,6 @@ __all__ = [
     "SEG_ROBOT",
     "SEG_TABLE",
     "RenderPreset",
-    "RendererCache",
     "SceneRenderer",
     "camera_intrinsics",
     "camera_names",
@@ -491,48 +490,6 @@ def check_size(width: int, height: int) -> None:
     """Raise RenderError unless ``width`` and ``height`` are integers in 8..8192 px."""
     if not (isinstance(width, int) and isinstance(height, int)) or not (8 <= width <= 8192 and 8 <= height <= 8192):
         raise RenderError(f"resolution {width}x{height} is invalid; width and height must be 8..8192 px")
-
-
-class RendererCache:
-    """Keeps the last renderer made, so that several renders of one model at different sizes share its GL
-    resources (making them costs about 65 ms per model on llvmpipe).
-
-    Example:
-        >>> with RendererCache(buffer_size=(640, 360)) as cache:  # doctest: +SKIP
-        ...     seg = cache.get(model, 320, 180).render(data, "scene", ("segmentation",))
-        ...     rgb = cache.get(model, 640, 360).render(data, "scene", ("rgb",))  # same renderer
-    """
-
-    def __init__(self, buffer_size: tuple[int, int] | None = None) -> None:
-        self.buffer_size = buffer_size
-        self._renderer: SceneRenderer | None = None
-
-    def get(self, model: mujoco.MjModel, width: int, height: int, preset: str | RenderPreset = "fast",
-            photo: PhotoOptions | None = None) -> SceneRenderer:
-        """A renderer of ``model`` at this size and preset: the kept one where it fits, else a new one."""
-        r = self._renderer
-        want = get_preset(preset)
-        if (r is not None and r.model is model and r.preset == want and r._photo_arg == photo
-                and width <= r.buffer_size[0] and height <= r.buffer_size[1]):
-            r.resize(width, height)
-            return r
-        self.close()
-        self._renderer = SceneRenderer(model, width, height, want, self.buffer_size, photo)
-        return self._renderer
-
-    def close(self) -> None:
-        """Free the kept renderer."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-
-    def __enter__(self) -> RendererCache:
-        return self
-
-    def __exit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()
 
 
 def _gl_backend() -> str:

@@ -26,7 +26,8 @@ from samplehd.fileio import write_json_atomic
 from samplehd.render.image_io import save_depth, save_rgb, save_segmentation
 from samplehd.render.image_spec import ImageSpec
 from samplehd.render.photo import PhotoOptions, photo_info, photo_options
-from samplehd.render.renderer import MODALITIES, RendererCache, get_preset
+from samplehd.render.renderer import MODALITIES, get_preset
+from samplehd.render.renderer_cache import RendererCache
 from samplehd.scene.annotate import annotate_scene, image_stem
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import sample_scene
@@ -85,8 +86,7 @@ def render_scene_files(job: SceneJob) -> tuple[dict[str, Any], dict[str, int]]:
         else:
             model, data = compile_scene(result.scene)
         photo = _photo(job)
-        img = renderers.get(model, image.width, image.height, image.preset, photo=photo).render(
-            data, "scene", image.modalities)
+        img = renderers.get(model, image, photo=photo).render(data, "scene", image.modalities)
     split = scene_split(job.index, job.test_every)
     stem = image_stem(split, job.index)
     out = Path(job.out)

@@ -16,7 +16,9 @@ import numpy as np
 from samplehd.catalogue import Catalogue, ObjectFacts, ObjectInstance, catalogue_for, object_facts
 from samplehd.errors import ConfigError, SceneError
 from samplehd.fixedmath import matmul, norm
-from samplehd.render.renderer import SEG_OBJECT_OFFSET, RendererCache
+from samplehd.render.image_spec import ImageSpec
+from samplehd.render.renderer import SEG_OBJECT_OFFSET
+from samplehd.render.renderer_cache import RendererCache
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene, object_qpos_addresses
@@ -231,7 +233,7 @@ def _visible_pixels(
     """Pixels of each object in the scene camera's segmentation, with all objects and alone."""
     w, h = config.occlusion_resolution
     adr = object_qpos_addresses(model, count)
-    r = renderers.get(model, w, h, "fast")
+    r = renderers.get(model, ImageSpec(w, h, "fast", (SCENE_CAMERA,), ("segmentation",)))
     seg = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
     visible = [int(np.count_nonzero(seg == SEG_OBJECT_OFFSET + i)) for i in range(count)]
     alone = []

@@ -41,7 +41,7 @@ _ROLE_RGB = mujoco.mjtTextureRole.mjTEXROLE_RGB
 
 
 @dataclass(frozen=True)
-class CameraSpec:
+class CameraSpec(Config, section="camera"):
     """A fixed camera looking at a target point.
 
     Attributes:
@@ -54,27 +54,12 @@ class CameraSpec:
     name: str
     pos: tuple[float, float, float]
     target: tuple[float, float, float]
-    fovy: float = 45.0
+    fovy: float = bounded(45.0, lo=1.0, hi=170.0, unit="deg")
 
     def __post_init__(self) -> None:
-        for name in ("pos", "target"):  # a JSON list becomes the hashable, comparable tuple
-            object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
-        if not 1.0 <= self.fovy <= 170.0:
-            raise ConfigError(f"camera {self.name!r}: fovy={self.fovy} must be in [1, 170] degrees")
+        super().__post_init__()
         if np.allclose(self.pos, self.target):
             raise ConfigError(f"camera {self.name!r}: pos and target must differ")
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "pos": list(self.pos), "target": list(self.target), "fovy": self.fovy}
-
-    @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> CameraSpec:
-        return cls(
-            name=str(d["name"]),
-            pos=tuple(float(v) for v in d["pos"]),  # type: ignore[arg-type]
-            target=tuple(float(v) for v in d["target"]),  # type: ignore[arg-type]
-            fovy=float(d.get("fovy", 45.0)),
-        )
 
 
 # The operator's viewpoint: in front of the table (+x), at standing eye height, looking at the workspace.
