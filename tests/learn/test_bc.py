@@ -12,7 +12,8 @@ import pytest
 torch = pytest.importorskip("torch")
 
 from samplehd.errors import ConfigError  # noqa: E402
-from samplehd.learn.bc import STATE_DIM, BCPolicy, _rotation_columns, moving_frames, train_policy  # noqa: E402
+from samplehd.learn.policy import STATE_DIM, BCPolicy, moving_frames, train_policy  # noqa: E402
+from samplehd.learn.policy.processing import _rotation_columns  # noqa: E402
 
 
 def _weights(folder: Path) -> dict:
@@ -52,6 +53,28 @@ def test_policy_training_is_deterministic_resumes_and_normalises_its_state(nano_
     with pytest.raises(ConfigError, match="loss='huber'"):
         train_policy(nano_dataset, tmp_path / "f", steps=2, quiet=True, loss="huber")
     assert not (tmp_path / "f").exists()
+
+
+def test_the_former_modules_import_the_packages_objects() -> None:
+    """``samplehd.learn.bc`` and ``samplehd.learn.policy_configuration``, the policy's modules before it
+    became a package, still import its names (the same objects), and ``evaluate --policy bc`` names the
+    module that defines its factory."""
+    import importlib
+
+    import samplehd.learn.bc as bc
+    import samplehd.learn.policy as policy
+    import samplehd.learn.policy_configuration as policy_configuration
+    from samplehd.envs.evaluation import LEARNED
+
+    shared = [name for name in policy.__all__ if hasattr(bc, name)]
+    assert set(policy.__all__) - set(shared) == {"ENCODERS"}  # bc never imported it
+    assert all(getattr(bc, name) is getattr(policy, name) for name in shared)
+    assert all(getattr(policy_configuration, name) is getattr(policy, name) for name in policy_configuration.__all__)
+    assert bc._load_arrays is importlib.import_module("samplehd.learn.policy.preparation")._load_arrays
+    module, factory = LEARNED["bc"].split(":")
+    assert getattr(importlib.import_module(module), factory) is policy.policy_for_evaluation
+    with pytest.raises(AttributeError, match="no attribute 'nope'"):
+        policy.nope  # noqa: B018
 
 
 def test_rotation_columns_are_those_of_the_matrix_and_ignore_the_quaternion_sign() -> None:
@@ -182,8 +205,8 @@ def test_dart_demos_and_a_dagger_round_join_training_and_a_resumed_run_reuses_th
 
 def test_the_privileged_state_reference_sees_the_target_and_no_image(nano_dataset: Path, tmp_path: Path) -> None:
     from samplehd.envs.tabletop import TabletopEnv
-    from samplehd.learn.bc import TARGET_DIM
     from samplehd.learn.options import env_options
+    from samplehd.learn.policy import TARGET_DIM
 
     out = tmp_path / "state"
     metrics = train_policy(nano_dataset, out, steps=3, quiet=True, inputs="state")
@@ -239,7 +262,7 @@ def _demo_episode() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 
 
 def test_waypoints_are_where_each_segment_ends_and_the_gripper_closes_after_a_closing_segment() -> None:
-    from samplehd.learn.bc import waypoint_targets, waypoints
+    from samplehd.learn.policy import waypoint_targets, waypoints
 
     steering, tcp, quat, opening = _demo_episode()
     goal = waypoints(steering, tcp, quat, opening)
@@ -272,8 +295,8 @@ def test_squeezing_closes_narrower_than_the_fingers_are_and_stays_in_range() -> 
 
 def test_a_waypoint_policy_trains_and_acts_with_keypoints(nano_dataset: Path, tmp_path: Path) -> None:
     from samplehd.envs.tabletop import TabletopEnv
-    from samplehd.learn.bc import WAYPOINT_SPEED
     from samplehd.learn.options import env_options
+    from samplehd.learn.policy.actions import WAYPOINT_SPEED
 
     out = tmp_path / "wp"
     metrics = train_policy(nano_dataset, out, steps=3, quiet=True, action="waypoint")
@@ -298,7 +321,7 @@ def test_a_waypoint_policy_trains_and_acts_with_keypoints(nano_dataset: Path, tm
 
 
 def test_a_motion_the_episode_cut_short_has_its_waypoint_ahead() -> None:
-    from samplehd.learn.bc import WAYPOINT_AHEAD, waypoints
+    from samplehd.learn.policy.actions import WAYPOINT_AHEAD, waypoints
 
     steering, tcp, quat, opening = _demo_episode()
     cut = 16  # the environment ended the episode (success) in the middle of the lift
@@ -311,7 +334,7 @@ def test_following_the_oracles_waypoints_succeeds() -> None:
     succeeds in the same episode (what a perfect waypoint policy does)."""
     from samplehd.envs.oracle import OraclePolicy
     from samplehd.envs.tabletop import TabletopEnv
-    from samplehd.learn.bc import WaypointExpert, follow_waypoints
+    from samplehd.learn.policy import WaypointExpert, follow_waypoints
 
     env = TabletopEnv(obs_mode="state", control_mode="steering", families=("pick_up",), max_episode_steps=300)
     try:
@@ -339,7 +362,7 @@ def test_following_the_oracles_waypoints_succeeds() -> None:
 
 def test_a_waypoint_dagger_round_labels_the_policys_states_with_the_experts_waypoints(nano_dataset: Path,
                                                                                       tmp_path: Path) -> None:
-    from samplehd.learn.bc import _load_arrays
+    from samplehd.learn.policy.preparation import _load_arrays
 
     out = tmp_path / "wpd"
     metrics = train_policy(nano_dataset, out, steps=2, quiet=True, action="waypoint", inputs="state",

@@ -15,9 +15,9 @@ from samplehd.errors import ConfigError
 
 @pytest.fixture(scope="module")
 def trained(nano_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from samplehd.learn.bc import train_policy
     from samplehd.learn.parser import train_parser
     from samplehd.learn.perception import train_perception
+    from samplehd.learn.policy import train_policy
 
     out = tmp_path_factory.mktemp("models")
     train_parser(nano_dataset, out / "parser", steps=2, quiet=True, device="cpu")
@@ -29,15 +29,15 @@ def trained(nano_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Pat
 def _config(kind: str) -> Any:
     from samplehd.learn.parser import ParserConfig
     from samplehd.learn.perception import PerceptionConfig
-    from samplehd.learn.policy_configuration import PolicyConfig
+    from samplehd.learn.policy import PolicyConfig
 
     return {"parser": ParserConfig, "perception": PerceptionConfig, "policy": PolicyConfig}[kind]
 
 
 def _load(kind: str, folder: Path) -> Any:
-    from samplehd.learn.bc import BCPolicy
     from samplehd.learn.parser import InstructionParser
     from samplehd.learn.perception import Perception
+    from samplehd.learn.policy import BCPolicy
 
     return {"parser": InstructionParser, "perception": Perception, "policy": BCPolicy}[kind].load(folder)
 
@@ -87,7 +87,7 @@ def test_a_damaged_config_json_is_one_line_naming_file_and_field(trained: Path, 
 def test_a_policy_config_json_of_an_earlier_version_still_loads(trained: Path, tmp_path: Path) -> None:
     """Format-3 files written before ``inputs``, ``action``, ``model.encoder`` and
     ``inference.zero_channels`` existed load as the policy those versions trained."""
-    from samplehd.learn.bc import BCPolicy
+    from samplehd.learn.policy import BCPolicy
 
     doc = json.loads((trained / "policy" / "config.json").read_text())
     for key in ("inputs", "action"):

@@ -15,9 +15,9 @@ from pathlib import Path
 from samplehd.commands._options import check_out_dir
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
-from samplehd.learn.bc import train_policy
 from samplehd.learn.parser import score_parser, train_parser
 from samplehd.learn.perception import score_perception, train_perception
+from samplehd.learn.policy.training import train_policy
 
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
 _DEFAULT_STEPS = {"parser": 1000, "perception": 3000, "policy": 4000}

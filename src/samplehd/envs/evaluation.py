@@ -52,7 +52,7 @@ __all__ = ["EpisodeRecord", "EvalConfig", "RandomPolicy", "benchmark_split", "ch
 DEFAULT_FAMILIES = ("place", "remove", "stack", "put", "pick_up", "place_relative")
 # Learned baselines: name -> "module:factory(env, EvalConfig)".
 LEARNED = {"neurosymbolic": "samplehd.learn.neurosymbolic:policy_for_evaluation",
-           "bc": "samplehd.learn.bc:policy_for_evaluation"}
+           "bc": "samplehd.learn.policy.inference:policy_for_evaluation"}
 BUILT_IN = ("oracle", "random", *LEARNED)
 _POLICY_SPEC = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*:[A-Za-z_][A-Za-z0-9_]*$")
 

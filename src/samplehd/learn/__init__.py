@@ -9,11 +9,13 @@ and :mod:`samplehd.learn.options` need no torch.
 - :mod:`samplehd.learn.perception`: RGB-D → scene annotation (``samplehd train perception``), a package of one
   module per job: configuration, geometry, modeling, inference, preparation, evaluation, training
 - :mod:`samplehd.learn.neurosymbolic`: parse, perceive, execute, plan, act (``evaluate --policy neurosymbolic``)
-- :mod:`samplehd.learn.bc`: images + tokens + state → steering chunks (``samplehd train policy``,
-  ``evaluate --policy bc``)
+- :mod:`samplehd.learn.policy`: images + tokens + state → steering chunks or waypoints (``samplehd train
+  policy``, ``evaluate --policy bc``), a package of one module per job: configuration (no torch), processing,
+  actions, modeling, inference, preparation, training; :mod:`samplehd.learn.bc` and
+  :mod:`samplehd.learn.policy_configuration` re-export its names for existing imports
 - :mod:`samplehd.learn.training`: torch, checkpoints, resume, progress, determinism
-- :mod:`samplehd.learn.policy_configuration`: :class:`PolicyConfig`, the BC policy's ``config.json`` (no torch)
 - :mod:`samplehd.learn.options`: the environment a trained policy needs (no torch)
 """
 
-__all__ = ["bc", "data", "neurosymbolic", "options", "parser", "perception", "policy_configuration", "training"]
+__all__ = ["bc", "data", "neurosymbolic", "options", "parser", "perception", "policy", "policy_configuration",
+           "training"]

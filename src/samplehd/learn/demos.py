@@ -14,7 +14,7 @@ executed action is not the label, the next label corrects for it:
   the states it visits itself.
 
 Each collected episode has the same arrays as a dataset episode read for training
-(:func:`samplehd.learn.bc.episode_arrays`): the images the environment rendered, the robot state, the
+(:func:`samplehd.learn.policy.preparation._episode_arrays`): the images the environment rendered, the robot state, the
 labels, the instruction tokens. Only episodes the oracle finished with success are kept, and only
 L1 ones (the levels' held-out items stay out of training). Episode ``k`` resets the environment with
 the seed ``SeedSequence([seed, 0xDA, k])``: a function of its arguments only, and not among the seeds

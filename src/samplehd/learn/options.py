@@ -1,5 +1,5 @@
 """What a trained behaviour-cloning policy asks of the environment, read from its ``config.json``
-(:class:`~samplehd.learn.policy_configuration.PolicyConfig`).
+(:class:`~samplehd.learn.policy.configuration.PolicyConfig`).
 
 Needs no PyTorch: ``samplehd evaluate`` sets the environment up from it before any model is loaded,
 and works for the other policies where the ``learn`` extra is not installed.
@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.errors import ConfigError
-from samplehd.learn.policy_configuration import PolicyConfig
+from samplehd.learn.policy.configuration import PolicyConfig
 
 __all__ = ["POLICY_CAMERAS", "env_options", "env_options_from_config"]
 
