@@ -74,7 +74,13 @@ def run(args: argparse.Namespace) -> int:
     env.update({k: v for k, v in flags.items() if v is not None})
     if args.policy == "bc" and args.models is not None:
 
-        env.update(env_options(args.models))  # the cameras, image size and control the policy was trained on
+        # The cameras, image size and control the policy was trained on; its catalogue unless the
+        # --env-options file names one (to try the policy on the other catalogue's shapes).
+        policy_env = env_options(args.models)
+        trained_scene = policy_env.pop("scene", None)
+        env.update(policy_env)
+        if trained_scene and isinstance(env.get("scene", {}), dict):
+            env["scene"] = {**trained_scene, **env.get("scene", {})}
     families = args.families or list(DEFAULT_FAMILIES)
     checkpoint = read_lerobot_checkpoint(args.policy) if is_lerobot_policy(args.policy) else None
     if checkpoint is not None:

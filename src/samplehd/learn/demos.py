@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.oracle import OraclePolicy
 from samplehd.envs.tabletop import TabletopEnv
@@ -62,6 +63,7 @@ class CollectSpec:
         squeeze: close the gripper as the waypoint policy does (:func:`squeeze_command`) from where
             a held-still step lowers the oracle's command until one raises it, instead of the
             oracle's own closing widths.
+        catalogue: the built-in object catalogue the scenes draw from.
     """
 
     episodes: int
@@ -75,6 +77,7 @@ class CollectSpec:
     max_steps: int = 800
     first: int = 0
     squeeze: bool = False
+    catalogue: str = DEFAULT_CATALOGUE
 
     def __post_init__(self) -> None:
         if not isinstance(self.episodes, int) or self.episodes < 0:
@@ -193,7 +196,8 @@ def _collect_range(spec: CollectSpec, ks: Sequence[int], policy_factory: PolicyF
             held[1].close()
         env = TabletopEnv(obs_mode="rgb" if spec.cameras else "state", cameras=spec.cameras or ("scene",),
                           width=spec.image, height=spec.image,
-                          control_mode="steering", families=spec.families, max_episode_steps=spec.max_steps)
+                          control_mode="steering", families=spec.families, max_episode_steps=spec.max_steps,
+                          scene={"catalogue": spec.catalogue})
         _WORKER["env"] = held = (spec, env, OraclePolicy(env))
     _, env, oracle = held
     policy = policy_factory(policy_args, env) if policy_factory is not None else None

@@ -11,6 +11,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.learn.policy.configuration import PolicyConfig
 
@@ -21,11 +22,16 @@ POLICY_CAMERAS = ("scene", "wrist")  # the cameras the policy looks through, in 
 
 def env_options_from_config(config: PolicyConfig) -> dict[str, Any]:
     """The environment options of a policy config: RGB of both cameras at its image size and steering
-    control; the privileged-state reference (``inputs: state``) needs no image."""
+    control; the privileged-state reference (``inputs: state``) needs no image. A policy trained on
+    another catalogue than the default one gets its scenes from that catalogue (``scene.catalogue``)."""
     if config.inputs == "state":
-        return {"obs_mode": "state", "control_mode": "steering"}
-    return {"obs_mode": "rgb", "cameras": list(POLICY_CAMERAS), "width": config.image, "height": config.image,
-            "control_mode": "steering"}
+        options: dict[str, Any] = {"obs_mode": "state", "control_mode": "steering"}
+    else:
+        options = {"obs_mode": "rgb", "cameras": list(POLICY_CAMERAS), "width": config.image, "height": config.image,
+                   "control_mode": "steering"}
+    if config.catalogue != DEFAULT_CATALOGUE:
+        options["scene"] = {"catalogue": config.catalogue}
+    return options
 
 
 def env_options(folder: str | Path) -> dict[str, Any]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.schema import Config, bounded
 
@@ -120,6 +121,8 @@ class PolicyConfig(Config, section="policy"):
         kind: ``policy``.
         format: :data:`FORMAT` of the samplehd that wrote it.
         dataset: the dataset it was trained on.
+        catalogue: the built-in object catalogue of that dataset's scenes (``procedural`` or
+            ``shop-vrb``): the one its evaluation and its collected episodes draw from.
         inputs: ``rgb`` (both cameras' RGB, instruction, robot state) or ``state`` (no image; the
             target object's pose instead).
         action: ``steering`` (chunks of steering vectors) or ``waypoint`` (one waypoint per step).
@@ -137,6 +140,7 @@ class PolicyConfig(Config, section="policy"):
     kind: str = bounded("policy", choices=("policy",))
     format: int = bounded(FORMAT, lo=1)
     dataset: str = ""
+    catalogue: str = bounded(DEFAULT_CATALOGUE, choices=tuple(CATALOGUES))
     inputs: str = bounded("rgb", choices=INPUTS)
     action: str = bounded("steering", choices=ACTIONS)
     image: int = bounded(0, lo=0, unit="px")

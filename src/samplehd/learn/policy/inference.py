@@ -68,7 +68,8 @@ class BCPolicy:
         self._start: np.ndarray | None = None
         if env is not None:
             c = env.unwrapped.config
-            want = env_options_from_config(config)
+            # What the network needs of the images and the control; its scenes may come from another catalogue.
+            want = {k: v for k, v in env_options_from_config(config).items() if k != "scene"}
             got = {"obs_mode": c.obs_mode, "cameras": list(c.cameras), "width": c.width, "height": c.height,
                    "control_mode": c.control_mode}
             bad = [k for k in want if want[k] != got[k]]

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from rich.console import Console
 
+from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.errors import ConfigError
@@ -160,9 +161,12 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     zero_channels = [int(c) for c in np.flatnonzero(moving.mean(axis=0) < RARE_CHANNEL)]
     total_steps = steps + dagger_rounds * dagger_steps
     state_dim = STATE_DIM + (TARGET_DIM if inputs == "state" else 0)
+    # The scenes of collected episodes and of the evaluation come from the dataset's catalogue.
+    catalogue = (reader.info.get("catalogue") or {}).get("name") or (reader.config.get("scene") or {}).get(
+        "catalogue") or DEFAULT_CATALOGUE
     config = PolicyConfig(
-        format=FORMAT, dataset=str(dataset), inputs=inputs, action=action, image=image, chunk=chunk,
-        execute=execute, tokens=tokens,
+        format=FORMAT, dataset=str(dataset), catalogue=catalogue, inputs=inputs, action=action, image=image,
+        chunk=chunk, execute=execute, tokens=tokens,
         model=PolicyArchitecture(width=width, hidden=hidden, state_dim=state_dim, encoder=encoder),
         inference=PolicyInference(ensemble=ensemble, z_floor=round(z_floor, 6) if floor else None,
                                   zero_channels=tuple(zero_channels)),
@@ -193,7 +197,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         return [_collected_arrays(e, stride, tokens, cameras, action) for e in raw]
 
     base = CollectSpec(episodes=demos, seed=seed, families=families_used, image=max(image, 16), cameras=cameras,
-                       noise=noise, still=tuple(zero_channels), squeeze=action == "waypoint")
+                       noise=noise, still=tuple(zero_channels), squeeze=action == "waypoint", catalogue=catalogue)
     if demos:
         data += collected(DEMOS_FILE, base)
     states = np.concatenate([_inputs_state(d, inputs) for d in data]).astype(np.float64)
