@@ -6,7 +6,8 @@ Scene sampling: seeds 1000..1007 with each catalogue, interleaved. Rendering: th
 (seeds 7, 11, 19) and the same scenes with each object swapped for its procedural counterpart at the
 same pose, 320 x 180 RGB + depth + segmentation, ``--frames`` frames per scene and preset (``photo``:
 ``--photo-frames``, after one warm-up frame). ``--paths``: the oracle picks up each object of those
-scenes (state only, no images), episode frames per second of wall and of CPU time. Prints medians and the
+scenes (state only, no images), episode frames per second of wall and of CPU time. Prints medians (render:
+per wall and per CPU second, llvmpipe's threads included, steadier on a loaded machine) and the
 load average (figures taken under load are noisy; compare ratios from one run).
 """
 
@@ -78,6 +79,7 @@ def main() -> None:
         for c, v in times.items():
             print(f"sample_scene {c:10s} median {np.median(v):.3f} s")
     fps: dict[tuple[str, str], list[float]] = {}
+    cpu: dict[tuple[str, str], list[float]] = {}  # frames per CPU second (llvmpipe's threads included)
     paths: dict[str, list[tuple[int, float, float]]] = {c: [] for c in CATALOGUES}
     for seed in SEEDS:
         twins = _twins(seed)
@@ -87,15 +89,17 @@ def main() -> None:
                 model, data = compile_scene(scene)
                 with SceneRenderer(model, 320, 180, preset) as r:
                     r.render(data, "scene", ("rgb", "depth", "segmentation"))
-                    t0 = time.perf_counter()
+                    t0, c0 = time.perf_counter(), time.process_time()
                     for _ in range(n):
                         r.render(data, "scene", ("rgb", "depth", "segmentation"))
                     fps.setdefault((preset, name), []).append(n / (time.perf_counter() - t0))
+                    cpu.setdefault((preset, name), []).append(n / (time.process_time() - c0))
         if a.paths:
             for name, scene in twins.items():
                 paths[name].append(_path_rates(scene))
     for (preset, name), v in sorted(fps.items()):
-        print(f"render {preset:5s} {name:10s} median {np.median(v):6.2f} fps  {[round(x, 2) for x in v]}")
+        print(f"render {preset:5s} {name:10s} median {np.median(v):6.2f} fps  {[round(x, 2) for x in v]}  "
+              f"{np.median(cpu[preset, name]):6.2f} frames/CPU-s  {[round(x, 2) for x in cpu[preset, name]]}")
     for name, runs in paths.items():
         if runs:
             f, w, c = (sum(r[k] for r in runs) for k in range(3))
