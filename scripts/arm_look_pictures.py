@@ -3,7 +3,7 @@
     python scripts/arm_look_pictures.py docs/images/arm_looks.png [--width 320 --height 240]
 
 Rows: primitive look (hd), mesh look (hd), mesh look (photo); columns: home, a reach to the side, a folded
-configuration; each from a camera beside the arm.
+configuration, each from a camera beside the arm, and a close-up of the gripper at home, half open.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 from PIL import Image, ImageDraw
 
 from samplehd.render.renderer import SceneRenderer
-from samplehd.robot.constants import HOME_QPOS, JOINT_NAMES
+from samplehd.robot.constants import GRIPPER_FINGER_JOINTS, GRIPPER_STROKE, HOME_QPOS, JOINT_NAMES
 from samplehd.scene.world import LAYOUT, CameraSpec, WorldConfig, compile_world
 
 CONFIGURATIONS = (HOME_QPOS, np.array([0.5, -1.0, 1.2, -0.6, 1.2, 0.4]), np.array([2.0, -2.2, -1.4, 0.9, -0.7, 2.5]))
@@ -43,9 +43,11 @@ def main() -> None:
     base = LAYOUT.robot_base_position
     camera = CameraSpec("beside", pos=tuple(base + [0.85, -1.45, 0.8]), target=tuple(base + [0.05, 0.0, 0.38]),
                         fovy=45.0)
+    # the TCP at home is at world (0.05, 0, 1.10), the gripper pointing down
+    close = CameraSpec("gripper", pos=(0.45, 0.22, 1.20), target=(0.05, 0.0, 1.17), fovy=30.0)
     rows = []
     for look, preset in ROWS:
-        model, data = compile_world(config=WorldConfig(cameras=(camera,), robot_look=look))
+        model, data = compile_world(config=WorldConfig(cameras=(camera, close), robot_look=look))
         qadr = [model.joint(j).qposadr[0] for j in JOINT_NAMES]
         tiles = []
         with SceneRenderer(model, args.width, args.height, preset) as r:
@@ -53,6 +55,10 @@ def main() -> None:
                 data.qpos[qadr] = q
                 mujoco.mj_forward(model, data)
                 tiles.append(r.render(data, "beside")["rgb"])
+            data.qpos[qadr] = HOME_QPOS
+            data.qpos[[model.joint(j).qposadr[0] for j in GRIPPER_FINGER_JOINTS]] = GRIPPER_STROKE / 4
+            mujoco.mj_forward(model, data)
+            tiles.append(r.render(data, "gripper")["rgb"])
         tiles[0] = _label(tiles[0], f"{look}, {preset}")
         rows.append(np.concatenate(tiles, axis=1))
     Image.fromarray(np.concatenate(rows, axis=0)).save(args.out, optimize=True)

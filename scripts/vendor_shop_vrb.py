@@ -28,11 +28,13 @@ import json
 import math
 import subprocess
 from collections import defaultdict
+from collections.abc import Sequence
 from pathlib import Path
 
 import manifold3d as mf
 import numpy as np
 import trimesh
+from scipy.spatial import ConvexHull
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "src" / "samplehd" / "catalogue" / "data" / "shop_vrb"
@@ -246,7 +248,39 @@ def ray_down(mesh: trimesh.Trimesh, xy: np.ndarray) -> np.ndarray:
     return out
 
 
-def revolved_facts(cls: str, mesh: trimesh.Trimesh) -> dict:
+def interior_radius(mesh: trimesh.Trimesh, floor_z: float, depth: float, r_max: float) -> float:
+    """Radius of the hollow around the axis that reaches below half the depth [m].
+
+    Measured outwards from the axis (on the back half, away from a handle) and stopped at the first
+    radius whose surface is higher: a foot or ledge outside the wall is not part of the opening.
+    """
+    rs = np.linspace(0.0, r_max, 400)
+    prof = ray_down(mesh, np.column_stack([-rs, np.zeros_like(rs)]))
+    deep = (prof >= 0) & (prof < floor_z + 0.5 * depth)
+    k = len(rs) if deep.all() else int(np.argmin(deep))
+    return float(rs[k - 1]) if k else 0.0
+
+
+def hull_free_radius(hulls: list[np.ndarray], centre: Sequence[float], z_lo: float, z_hi: float,
+                     r_max: float) -> float:
+    """Radius of the widest upright cylinder about ``centre`` from ``z_lo`` to ``z_hi`` that no hull
+    reaches into, grown outwards from the axis in 0.25 mm steps [m] (V-HACD's pieces are not
+    round: every direction counts)."""
+    a = np.linspace(0.0, 2.0 * math.pi, 72, endpoint=False)
+    ring = np.column_stack([np.cos(a), np.sin(a)])
+    zs = np.linspace(z_lo, z_hi, 8)
+    planes = [ConvexHull(h).equations for h in hulls]
+    free = 0.0
+    for r in np.arange(0.00025, r_max, 0.00025):
+        xy = np.asarray(centre) + r * ring
+        pts = np.column_stack([np.tile(xy, (len(zs), 1)), np.repeat(zs, len(a))])
+        if any(np.all(pts @ eq[:, :3].T + eq[:, 3] < -1e-4, axis=1).any() for eq in planes):
+            break
+        free = float(r)
+    return free
+
+
+def revolved_facts(cls: str, mesh: trimesh.Trimesh, hulls: list[np.ndarray]) -> dict:
     v = mesh.vertices
     back = v[v[:, 0] <= 0.002]  # the back half: no handle
     H = float(back[:, 2].max())  # the body's height (a pan's handle may rise above it)
@@ -267,8 +301,11 @@ def revolved_facts(cls: str, mesh: trimesh.Trimesh) -> dict:
         floor = rs[(prof < floor_z + 0.003) & (prof >= 0)]
         r_floor = float(floor.max()) if len(floor) else 0.0
         depth = H - floor_z
-        inside = rs[(prof < floor_z + 0.5 * depth) & (prof >= 0)]
-        r_open = float(inside.max()) if len(inside) else r_floor
+        # The narrower of the visual wall and the collision hulls (V-HACD pieces bulge a few mm inwards):
+        # what passes the opening must pass both.
+        r_max = float(np.hypot(v[:, 0], v[:, 1]).max())
+        r_open = min(interior_radius(mesh, floor_z, depth, r_max),
+                     hull_free_radius(hulls, (0.0, 0.0), floor_z + 0.5 * depth, H, r_max)) or r_floor
         rim_band = back[back[:, 2] > H - 0.003]
         rr = np.hypot(rim_band[:, 0], rim_band[:, 1])
         rim_out = float(rr.max())
@@ -491,7 +528,7 @@ def main() -> None:
                 mesh = trimesh.util.concatenate(outer + turned)
                 note += "".join([f"; {len(inner)} inward-facing inner shell(s) removed" if inner else "",
                                  f"; {len(turned)} inside-out part(s) turned" if turned else ""])
-            facts = revolved_facts(cls, mesh) if kind == "revolved" else flat_facts(kind, mesh)
+            facts = revolved_facts(cls, mesh, hulls) if kind == "revolved" else flat_facts(kind, mesh)
             variant = f"shopvrb{k}"
             fname = f"{cls}_{variant}.npz"
             np.savez_compressed(

@@ -137,6 +137,28 @@ def test_the_planner_finds_a_grasp(cls: str, variant: str) -> None:
     pytest.fail(f"no grasp of {inst} at any of four yaws")
 
 
+# Round containers (the trays' openings are rectangles, measured otherwise).
+ROUND_CONTAINERS = [(c, v) for c, v in _variants() if c != "baking_tray" and object_facts(_instance(c, v)).opening]
+
+
+@pytest.mark.parametrize(("cls", "variant"), ROUND_CONTAINERS)
+def test_the_opening_is_free_of_collision_pieces(cls: str, variant: str) -> None:
+    """An upright cylinder of the opening's radius, from half the depth up to the rim, lies outside every
+    collision piece, so what the ``fits_in`` constraint lets into a container passes its walls (a foot
+    outside a mug's wall once counted as inside its opening)."""
+    inst = _instance(cls, variant, "large")
+    g, op = instance_geometry(inst), object_facts(inst).opening
+    a = np.linspace(0.0, 2.0 * math.pi, 72, endpoint=False)
+    r = 0.99 * op.radius
+    ring = np.column_stack([op.center[0] + r * np.cos(a), op.center[1] + r * np.sin(a)])
+    zs = np.linspace(op.floor_height + 0.5 * op.depth, op.floor_height + op.depth, 6)
+    cylinder = np.column_stack([np.tile(ring, (len(zs), 1)), np.repeat(zs, len(a))])
+    for p in g.pieces:
+        eq = ConvexHull(p.vertices).equations
+        inside = np.all(cylinder @ eq[:, :3].T + eq[:, 3] < -1e-4, axis=1)
+        assert not inside.any(), f"{inst}: a collision piece reaches into the opening of radius {op.radius:.4f} m"
+
+
 def test_variant_names_tell_the_catalogue_and_bad_names_are_refused() -> None:
     proc, shop = load_catalogue(), load_catalogue(name=SHOP)
     for cls in CLASSES:

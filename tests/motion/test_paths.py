@@ -148,3 +148,25 @@ def test_same_seed_same_states(scene):
     assert a.num_frames == b.num_frames
     for k in ("qpos", "qvel", "act", "steering", "command_joint_pos"):
         assert np.array_equal(a.frames[k], b.frames[k]), k
+
+
+def test_put_releases_above_a_narrow_container():
+    """A short box goes into a deep mug whose opening is narrower than the open fingers: the fingers
+    open above the rim (``PlannerConfig.max_drop_into``) and the box drops in."""
+    import math
+
+    from samplehd.catalogue import ObjectInstance
+    from samplehd.scene.spec import SceneObject, SceneSpec
+
+    def yaw(a: float) -> tuple[float, float, float, float]:
+        return (math.cos(a / 2), 0.0, 0.0, math.sin(a / 2))
+
+    scene = SceneSpec(index=0, seed=0, objects=(
+        SceneObject(ObjectInstance("food_box", "shopvrb1", "black", "plastic", "small"), (0.238, -0.103, 0.75),
+                    yaw(0.47)),
+        SceneObject(ObjectInstance("mug", "shopvrb3", "brown", "plastic", "large"), (0.030, -0.138, 0.75), yaw(-0.6)),
+    ))
+    _, ep = _run(scene, {"type": "put", "objects": [0], "subject": 1}, "put")
+    assert ep.success and ep.info["check"]["success"]
+    (dest,) = ep.info["destinations"]
+    assert dest["drop"] > 0.08  # higher than anywhere else may release

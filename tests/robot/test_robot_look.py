@@ -1,4 +1,5 @@
-"""The arm's looks: the UR5e's real meshes (``mesh``) or primitives (``primitive``), with one physics."""
+"""The robot's looks: the UR5e's real meshes and a Robotiq-like hand (``mesh``) or primitives (``primitive``),
+with one physics."""
 
 from __future__ import annotations
 
@@ -11,13 +12,23 @@ from scipy.spatial import cKDTree
 
 from samplehd.errors import ConfigError
 from samplehd.render.renderer import SEG_ROBOT, SceneRenderer
-from samplehd.robot.constants import DH_D, HOME_QPOS, JOINT_NAMES, LINK_NAMES, ROBOT_BODY, ROBOT_LOOKS
+from samplehd.robot.constants import (
+    DH_D,
+    GRIPPER_FINGER_JOINTS,
+    GRIPPER_STROKE,
+    HOME_QPOS,
+    JOINT_NAMES,
+    LINK_NAMES,
+    ROBOT_BODY,
+    ROBOT_LOOKS,
+)
 from samplehd.robot.controller import RobotController
 from samplehd.robot.meshes import DATA_DIR, arm_meshes
 from samplehd.robot.ur5e import robot_spec
 from samplehd.scene.world import WorldConfig, compile_world
 
 ARM_BODIES = (ROBOT_BODY, *LINK_NAMES)
+HAND_BODIES = ("robot_gripper", "robot_left_finger", "robot_right_finger")
 _MESH = mujoco.mjtGeom.mjGEOM_MESH
 
 
@@ -26,8 +37,14 @@ def looks() -> dict[str, mujoco.MjModel]:
     return {look: robot_spec(look).compile() for look in ROBOT_LOOKS}
 
 
+def _look_geoms(model: mujoco.MjModel) -> list[int]:
+    """The geoms the mesh look adds: the arm's meshes and the hand's shapes."""
+    return [g for g in range(model.ngeom) if model.geom_type[g] == _MESH or "_look_" in model.geom(g).name]
+
+
 def _primitive_geoms(model: mujoco.MjModel) -> list[int]:
-    return [g for g in range(model.ngeom) if model.geom_type[g] != _MESH]
+    look = set(_look_geoms(model))
+    return [g for g in range(model.ngeom) if g not in look]
 
 
 def test_looks_have_the_same_bodies_and_collision_geoms(looks: dict[str, mujoco.MjModel]) -> None:
@@ -46,15 +63,40 @@ def test_meshes_are_drawn_only_and_primitives_hidden(looks: dict[str, mujoco.MjM
     m = looks["mesh"]
     meshes = [g for g in range(m.ngeom) if m.geom_type[g] == _MESH]
     assert {m.body(int(m.geom_bodyid[g])).name for g in meshes} == set(ARM_BODIES)
-    for g in meshes:
+    hand = [g for g in _look_geoms(m) if m.geom_type[g] != _MESH]
+    assert {m.body(int(m.geom_bodyid[g])).name for g in hand} == set(HAND_BODIES)
+    for g in meshes + hand:
         assert m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0
         assert m.geom_group[g] == 1  # drawn by default, as the decorative geoms
         assert m.geom(g).name.startswith("robot_")
-    arm = {m.body(b).id for b in ARM_BODIES}
+    robot = {m.body(b).id for b in ARM_BODIES + HAND_BODIES}
     for g, drawn in zip(_primitive_geoms(m), looks["primitive"].geom_group, strict=True):
-        # the arm's primitives are hidden (group 3 is not drawn by default); the gripper keeps its look
-        assert m.geom_group[g] == (3 if m.geom_bodyid[g] in arm else drawn), m.geom(g).name
+        # the robot's primitives are hidden (group 3 is not drawn by default); the wrist camera's housing stays
+        name = m.geom(g).name
+        assert m.geom_group[g] == (3 if m.geom_bodyid[g] in robot and "camera" not in name else drawn), name
     assert m.nmeshface == sum(len(p.faces) for ps in arm_meshes().parts.values() for p in ps)
+
+
+def test_the_fingers_look_moves_with_the_finger_joints(looks: dict[str, mujoco.MjModel]) -> None:
+    """Opening the gripper moves each finger's shapes by half the opening, outwards, and nothing else."""
+    m = looks["mesh"]
+    d = mujoco.MjData(m)
+    fingers = {side: [g for g in _look_geoms(m) if m.geom(g).name.startswith(f"robot_{side}_finger_look")]
+               for side in ("left", "right")}
+    assert all(len(gs) >= 3 for gs in fingers.values())
+    tips = []
+    for opening in (0.0, GRIPPER_STROKE):
+        for j in GRIPPER_FINGER_JOINTS:
+            d.qpos[m.joint(j).qposadr[0]] = opening / 2
+        mujoco.mj_kinematics(m, d)
+        tips.append(d.geom_xpos.copy())
+    gripper = m.body("robot_gripper").id
+    out = d.xmat[gripper].reshape(3, 3)[:, 1]  # the right finger opens along the gripper's +y
+    for side, sign in (("left", -1.0), ("right", 1.0)):
+        for g in fingers[side]:
+            np.testing.assert_allclose(tips[1][g] - tips[0][g], sign * GRIPPER_STROKE / 2 * out, atol=1e-9)
+    still = [g for g in _look_geoms(m) if m.geom_bodyid[g] == gripper]
+    np.testing.assert_array_equal(tips[1][still], tips[0][still])
 
 
 def test_same_motion_bit_for_bit() -> None:

@@ -1,7 +1,7 @@
 """Export a whole scene (table, robot, objects) as MJCF with keyframes, for MuJoCo's own tools.
 
 The file loads with ``mujoco.MjModel.from_xml_path`` and opens in ``python -m mujoco.viewer
---mjcf FILE`` (textures go to PNGs in ``<stem>_assets/``). Keyframes:
+--mjcf FILE`` (textures go to PNGs and meshes to ``.msh`` files in ``<stem>_assets/``). Keyframes:
 
 - ``home``: the arm at home holding still, gripper open, objects where the scene puts them (for a
   dataset episode: its first recorded state);

@@ -470,6 +470,8 @@ class Rollout:
             raise AttemptFailed("no_free_spot", f"object {i}: no free spot at the destination", grasp_index)
         transport_z = self._transport_z(i)
         q_now = self.ctrl.target
+        into = get_family(task.family).destination == "opening"
+        max_drop = self.cfg.max_drop_into if into else self.cfg.max_drop
         last_error = "no reachable release pose"
         for xy, yaw in spots:
             # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
@@ -503,11 +505,12 @@ class Rollout:
                 last_error = "release pose out of reach"
                 continue
             # Where the fingers cannot open beside the object (a can in a mug), release it higher and
-            # let it drop the last centimetres.
+            # let it drop the last centimetres; over a container, from above the rim if need be (a
+            # short box deep in a mug: the open fingers are wider than the mug).
             # Open as wide as the approach did where there is room (a pad must not stay on the object),
             # else a little beyond the grip.
             drop = None
-            for dz in np.arange(0.0, min(self.cfg.max_drop, tcp_above_w[2, 3] - tcp_rel_w[2, 3]) + 1e-9, 0.01):
+            for dz in np.arange(0.0, min(max_drop, tcp_above_w[2, 3] - tcp_rel_w[2, 3]) + 1e-9, 0.01):
                 t = rel_b.copy()
                 t[2, 3] += dz
                 qr, ok = ik_batch(t[None], q_above[None], TCP_OFFSET)

@@ -34,6 +34,10 @@ __all__ = [
     "POSITION_ACTUATORS",
     "ROBOT_BASE_QUAT",
     "ROBOT_BODY",
+    "ROBOTIQ_BLACK_RGBA",
+    "ROBOTIQ_GREY_RGBA",
+    "ROBOTIQ_PAD_RGBA",
+    "ROBOTIQ_SILVER_RGBA",
     "ROBOT_LOOKS",
     "SPEED_LIMITS",
     "TCP_OFFSET",
@@ -123,3 +127,9 @@ UR_GREY_RGBA = np.array([0.78, 0.80, 0.82, 1.0])
 UR_CAP_RGBA = np.array([0.20, 0.29, 0.42, 1.0])
 UR_RING_RGBA = np.array([0.30, 0.32, 0.35, 1.0])
 UR_DARK_RGBA = np.array([0.12, 0.12, 0.13, 1.0])
+# Robotiq 2F-85-like hand of the mesh look: black housing and fingers, dark-grey knuckle block,
+# aluminium coupling plate and pins, dark rubber pads.
+ROBOTIQ_BLACK_RGBA = np.array([0.05, 0.05, 0.055, 1.0])
+ROBOTIQ_GREY_RGBA = np.array([0.22, 0.23, 0.25, 1.0])
+ROBOTIQ_SILVER_RGBA = np.array([0.68, 0.69, 0.71, 1.0])
+ROBOTIQ_PAD_RGBA = np.array([0.13, 0.13, 0.14, 1.0])

@@ -14,10 +14,11 @@ Names (relied upon by other packages, see docs/ARCHITECTURE.md):
 - camera ``wrist`` on the gripper, looking along the approach direction.
 
 Looks (:data:`~samplehd.robot.constants.ROBOT_LOOKS`): ``mesh`` (default) draws the arm with the UR5e's
-real visual meshes (:mod:`samplehd.robot.meshes`) and hides its primitive geoms in group 3, as the
-catalogue hides its collision geoms; ``primitive`` draws the primitives. The meshes are massless and never
-collide, and the primitives stay in the model unchanged (they collide, and their densities give the link
-masses), so both looks have the same physics bit for bit; only what is drawn differs.
+real visual meshes (:mod:`samplehd.robot.meshes`) and the gripper as a Robotiq 2F-85-like hand made of
+primitives, and hides the primitive geoms they replace in group 3, as the catalogue hides its collision
+geoms; ``primitive`` draws the primitives. The look's geoms are massless and never collide, and the
+primitives stay in the model unchanged (they collide, and their densities give the link masses), so both
+looks have the same physics bit for bit; only what is drawn differs.
 
 Actuators (``data.ctrl`` layout, in this order):
 
@@ -64,6 +65,10 @@ from samplehd.robot.constants import (
     ROBOT_BASE_QUAT,
     ROBOT_BODY,
     ROBOT_LOOKS,
+    ROBOTIQ_BLACK_RGBA,
+    ROBOTIQ_GREY_RGBA,
+    ROBOTIQ_PAD_RGBA,
+    ROBOTIQ_SILVER_RGBA,
     SPEED_LIMITS,
     TCP_OFFSET,
     TORQUE_LIMITS,
@@ -185,6 +190,10 @@ def _quat_rx(angle: float) -> list[float]:
     return [math.cos(angle / 2), math.sin(angle / 2), 0.0, 0.0]
 
 
+def _quat_ry(angle: float) -> list[float]:
+    return [math.cos(angle / 2), 0.0, math.sin(angle / 2), 0.0]
+
+
 def _add_arm_geometry(links: list[_LinkBuilder], grey: str, cap: str, ring: str, dark: str) -> None:
     """UR-like shapes: cylindrical joint housings with blue-grey caps and light-grey tubes.
 
@@ -220,7 +229,8 @@ def _add_arm_geometry(links: list[_LinkBuilder], grey: str, cap: str, ring: str,
     w3.cylinder("flange", 0.0315, 0.085, DH_D[5], ring)
 
 
-def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal: str, rubber: str) -> None:
+def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal: str, rubber: str,
+                 look: str) -> None:
     gripper = wrist_3.add_body(name="robot_gripper", pos=[0.0, 0.0, DH_D[5]])
     gripper.gravcomp = 1.0
     g = _LinkBuilder(gripper, "robot_gripper")
@@ -241,6 +251,7 @@ def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal:
     mujoco.mju_mat2Quat(quat, np.column_stack([x_cam, y_cam, z_cam]).reshape(9))
     gripper.add_camera(name="wrist", pos=[0.06, 0.0, 0.08], quat=quat, fovy=75.0)
 
+    builders, fingers = [g], []
     for side, sign, joint_name in (("left", -1.0, GRIPPER_FINGER_JOINTS[0]), ("right", 1.0, GRIPPER_FINGER_JOINTS[1])):
         finger = gripper.add_body(name=f"robot_{side}_finger", pos=[0.0, 0.0, _HOUSING_BOTTOM])
         finger.gravcomp = 1.0
@@ -265,6 +276,10 @@ def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal:
         bar_y = sign * (2 * _PAD_HALF[1] + _BAR_HALF[1])
         f.box("bar", _BAR_HALF, (0.0, bar_y, _BAR_HALF[2]), metal)
         f.set_mass(_FINGER_MASS)
+        builders.append(f)
+        fingers.append((finger, sign))
+    if look == "mesh":
+        _add_hand_look(spec, gripper, fingers, builders)
 
     # The fingers touch each other when closed on nothing; that is not a collision.
     spec.add_exclude(bodyname1="robot_left_finger", bodyname2="robot_right_finger")
@@ -278,6 +293,56 @@ def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal:
     width = spec.add_tendon(name="robot_gripper_width")
     for jn in GRIPPER_FINGER_JOINTS:
         width.wrap_joint(jn, 1.0)
+
+
+def _add_hand_look(spec: mujoco.MjSpec, gripper: mujoco.MjsBody, fingers: list[tuple[mujoco.MjsBody, float]],
+                   primitives: list[_LinkBuilder]) -> None:
+    """The mesh look's gripper: a Robotiq 2F-85-like hand drawn over the gripper's primitives.
+
+    A black coupling on an aluminium plate, a black body rounded at its sides and a dark knuckle block
+    across the finger travel; per finger a black knuckle link pinned at both ends, a black fingertip and
+    its rubber pad. The shapes ride on the gripper and finger bodies, so the fingers' look moves with
+    the finger joints. They are massless and never collide; the primitives they replace are hidden
+    (the wrist camera's housing stays drawn).
+    """
+    black = _material(spec, "robot_hand_black", ROBOTIQ_BLACK_RGBA, 0.35, 0.45)
+    grey = _material(spec, "robot_hand_grey", ROBOTIQ_GREY_RGBA, 0.45, 0.55)
+    silver = _material(spec, "robot_hand_silver", ROBOTIQ_SILVER_RGBA, 0.8, 0.8)
+    pad = _material(spec, "robot_hand_pad", ROBOTIQ_PAD_RGBA, 0.05, 0.1)
+    for builder in primitives:
+        for geom, _ in builder.geoms:
+            if not geom.name.endswith("camera_housing"):
+                geom.group = _HIDDEN_GROUP
+
+    def add(body: mujoco.MjsBody, part: str, gtype: int, size: Sequence[float], material: str, **kw) -> None:
+        geom = body.add_geom(name=f"{body.name}_look_{part}", type=gtype, size=[*size, 0.0][:3],
+                             material=material, **kw)
+        geom.contype = 0
+        geom.conaffinity = 0
+        geom.group = _VISUAL_GROUP
+        geom.mass = 0.0
+
+    along_x = _quat_ry(math.pi / 2)  # a cylinder's axis along x (across the fingers' travel)
+    cyl, box = _GEOM.mjGEOM_CYLINDER, _GEOM.mjGEOM_BOX
+    add(gripper, "coupling", cyl, (0.0375, 0.005), black, pos=[0.0, 0.0, 0.005])
+    add(gripper, "plate", cyl, (0.039, 0.002), silver, pos=[0.0, 0.0, 0.012])
+    # The body: a stadium seen from the front (a box between two cylinders along x).
+    add(gripper, "body", box, (0.031, 0.030, 0.026), black, pos=[0.0, 0.0, 0.040])
+    add(gripper, "knuckles", box, (0.024, 0.060, 0.011), grey, pos=[0.0, 0.0, 0.076])
+    for side, y in (("left", -1.0), ("right", 1.0)):
+        add(gripper, f"body_{side}", cyl, (0.026, 0.031), black, pos=[0.0, 0.030 * y, 0.040], quat=along_x)
+        add(gripper, f"knuckles_{side}", cyl, (0.011, 0.024), grey, pos=[0.0, 0.060 * y, 0.076], quat=along_x)
+        add(gripper, f"pivot_{side}", cyl, (0.005, 0.026), silver, pos=[0.0, 0.036 * y, 0.080], quat=along_x)
+    for finger, sign in fingers:
+        # u: outwards from the pad's face; z: down from the housing's bottom
+        top, low = (sign * 0.036, -0.004), (sign * 0.021, 0.027)
+        dy, dz = low[0] - top[0], low[1] - top[1]
+        add(finger, "link", box, (0.012, 0.0045, 0.5 * math.hypot(dy, dz)), black,
+            pos=[0.0, 0.5 * (top[0] + low[0]), 0.5 * (top[1] + low[1])], quat=_quat_rx(math.atan2(-dy, dz)))
+        for k, (y, z) in enumerate((top, low)):
+            add(finger, f"pin_{k}", cyl, (0.0045, 0.0135), silver, pos=[0.0, y, z], quat=along_x)
+        add(finger, "tip", box, (0.011, 0.006, 0.021), black, pos=[0.0, sign * 0.014, 0.0395])
+        add(finger, "pad", box, _PAD_HALF, pad, pos=[0.0, sign * _PAD_HALF[1], _PAD_CENTRE])
 
 
 def _add_arm_meshes(spec: mujoco.MjSpec, links: list[_LinkBuilder]) -> None:
@@ -356,7 +421,7 @@ def robot_spec(look: str = "mesh") -> mujoco.MjSpec:
         link.set_mass(float(mass))
     if look == "mesh":
         _add_arm_meshes(spec, links)
-    _add_gripper(spec, wrist_3, dark, metal, rubber)
+    _add_gripper(spec, wrist_3, dark, metal, rubber, look)
 
     for name, joint_name, kp, vmax in zip(POSITION_ACTUATORS, JOINT_NAMES, ARM_KP, SPEED_LIMITS, strict=True):
         act = spec.add_actuator(name=name, target=joint_name, trntype=mujoco.mjtTrn.mjTRN_JOINT)

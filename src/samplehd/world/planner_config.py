@@ -39,6 +39,8 @@ class PlannerConfig(Config, section="paths.planner"):
         release_gap: object's bottom above its support at release [m].
         max_drop: how much higher the object may be released where the fingers cannot open at the
             support (it drops the rest) [m].
+        max_drop_into: the same over a container's opening (put), where the fingers may have to open
+            above the rim: the container's walls guide the object in [m].
         close_time: longest duration of CloseGripper [s].
         grip_settle_time: with the grasp assist, CloseGripper ends this long after the object
             attaches (the fingers hold still from then on) [s].
@@ -70,6 +72,7 @@ class PlannerConfig(Config, section="paths.planner"):
     finger_clearance: float = bounded(0.0015, lo=0.0, unit="m")
     release_gap: float = bounded(0.006, lo=0.0, unit="m")
     max_drop: float = bounded(0.08, lo=0.0, unit="m")
+    max_drop_into: float = bounded(0.15, lo=0.0, unit="m")
     close_time: float = bounded(1.0, lo=0.0, lo_open=True, unit="s")
     grip_settle_time: float = bounded(0.2, lo=0.0, unit="s")
     squeeze_force: float = bounded(20.0, lo=0.0, lo_open=True, unit="N")
