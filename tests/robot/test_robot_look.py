@@ -61,10 +61,12 @@ def test_looks_have_the_same_bodies_and_collision_geoms(looks: dict[str, mujoco.
 
 def test_meshes_are_drawn_only_and_primitives_hidden(looks: dict[str, mujoco.MjModel]) -> None:
     m = looks["mesh"]
-    meshes = [g for g in range(m.ngeom) if m.geom_type[g] == _MESH]
+    hand = [g for g in _look_geoms(m) if "_look_" in m.geom(g).name]
+    meshes = [g for g in _look_geoms(m) if g not in hand]
     assert {m.body(int(m.geom_bodyid[g])).name for g in meshes} == set(ARM_BODIES)
-    hand = [g for g in _look_geoms(m) if m.geom_type[g] != _MESH]
     assert {m.body(int(m.geom_bodyid[g])).name for g in hand} == set(HAND_BODIES)
+    # the hand is one mesh per body and material: a few draw calls, not a geom per shape
+    assert all(m.geom_type[g] == _MESH for g in hand) and len(hand) <= 9
     for g in meshes + hand:
         assert m.geom_contype[g] == 0 and m.geom_conaffinity[g] == 0
         assert m.geom_group[g] == 1  # drawn by default, as the decorative geoms
@@ -74,7 +76,8 @@ def test_meshes_are_drawn_only_and_primitives_hidden(looks: dict[str, mujoco.MjM
         # the robot's primitives are hidden (group 3 is not drawn by default); the wrist camera's housing stays
         name = m.geom(g).name
         assert m.geom_group[g] == (3 if m.geom_bodyid[g] in robot and "camera" not in name else drawn), name
-    assert m.nmeshface == sum(len(p.faces) for ps in arm_meshes().parts.values() for p in ps)
+    arm_faces = sum(int(m.mesh_facenum[m.geom_dataid[g]]) for g in meshes)
+    assert arm_faces == sum(len(p.faces) for ps in arm_meshes().parts.values() for p in ps)
 
 
 def test_the_fingers_look_moves_with_the_finger_joints(looks: dict[str, mujoco.MjModel]) -> None:

@@ -2,6 +2,7 @@
 
 Submodules: :mod:`~samplehd.robot.constants` (DH parameters, limits, names),
 :mod:`~samplehd.robot.ur5e` (``add_robot``), :mod:`~samplehd.robot.meshes` (the UR5e's visual meshes),
+:mod:`~samplehd.robot.solids` (meshes of boxes and cylinders, for the hand's look),
 :mod:`~samplehd.robot.kinematics` (FK/IK),
 :mod:`~samplehd.robot.controller` (``RobotController``), :mod:`~samplehd.robot.safety`
 (``SafetyMonitor``). This package re-exports the most used names.

@@ -15,8 +15,9 @@ Names (relied upon by other packages, see docs/ARCHITECTURE.md):
 
 Looks (:data:`~samplehd.robot.constants.ROBOT_LOOKS`): ``mesh`` (default) draws the arm with the UR5e's
 real visual meshes (:mod:`samplehd.robot.meshes`) and the gripper as a Robotiq 2F-85-like hand made of
-primitives, and hides the primitive geoms they replace in group 3, as the catalogue hides its collision
-geoms; ``primitive`` draws the primitives. The look's geoms are massless and never collide, and the
+boxes and cylinders (:mod:`samplehd.robot.solids`, one mesh per body and material), and hides the
+primitive geoms they replace in group 3, as the catalogue hides its collision geoms; ``primitive`` draws
+the primitives. The look's geoms are massless and never collide, and the
 primitives stay in the model unchanged (they collide, and their densities give the link masses), so both
 looks have the same physics bit for bit; only what is drawn differs.
 
@@ -79,6 +80,7 @@ from samplehd.robot.constants import (
     VELOCITY_ACTUATORS,
 )
 from samplehd.robot.meshes import arm_meshes
+from samplehd.robot.solids import SolidMesh
 
 __all__ = ["add_robot", "robot_spec"]
 
@@ -301,9 +303,9 @@ def _add_hand_look(spec: mujoco.MjSpec, gripper: mujoco.MjsBody, fingers: list[t
 
     A black coupling on an aluminium plate, a black body rounded at its sides and a dark knuckle block
     across the finger travel; per finger a black knuckle link pinned at both ends, a black fingertip and
-    its rubber pad. The shapes ride on the gripper and finger bodies, so the fingers' look moves with
-    the finger joints. They are massless and never collide; the primitives they replace are hidden
-    (the wrist camera's housing stays drawn).
+    its rubber pad. The shapes ride on the gripper and finger bodies, merged into one mesh per body and
+    material, so the fingers' look moves with the finger joints. They are massless and never collide;
+    the primitives they replace are hidden (the wrist camera's housing stays drawn).
     """
     black = _material(spec, "robot_hand_black", ROBOTIQ_BLACK_RGBA, 0.35, 0.45)
     grey = _material(spec, "robot_hand_grey", ROBOTIQ_GREY_RGBA, 0.45, 0.55)
@@ -314,35 +316,47 @@ def _add_hand_look(spec: mujoco.MjSpec, gripper: mujoco.MjsBody, fingers: list[t
             if not geom.name.endswith("camera_housing"):
                 geom.group = _HIDDEN_GROUP
 
-    def add(body: mujoco.MjsBody, part: str, gtype: int, size: Sequence[float], material: str, **kw) -> None:
-        geom = body.add_geom(name=f"{body.name}_look_{part}", type=gtype, size=[*size, 0.0][:3],
-                             material=material, **kw)
-        geom.contype = 0
-        geom.conaffinity = 0
-        geom.group = _VISUAL_GROUP
-        geom.mass = 0.0
+    shapes: dict[tuple[str, str], tuple[mujoco.MjsBody, SolidMesh]] = {}
+
+    def look(body: mujoco.MjsBody, material: str) -> SolidMesh:
+        return shapes.setdefault((body.name, material), (body, SolidMesh()))[1]
 
     along_x = _quat_ry(math.pi / 2)  # a cylinder's axis along x (across the fingers' travel)
-    cyl, box = _GEOM.mjGEOM_CYLINDER, _GEOM.mjGEOM_BOX
-    add(gripper, "coupling", cyl, (0.0375, 0.005), black, pos=[0.0, 0.0, 0.005])
-    add(gripper, "plate", cyl, (0.039, 0.002), silver, pos=[0.0, 0.0, 0.012])
+    look(gripper, black).cylinder(0.0375, 0.005, pos=[0.0, 0.0, 0.005])
+    look(gripper, silver).cylinder(0.039, 0.002, pos=[0.0, 0.0, 0.012])
     # The body: a stadium seen from the front (a box between two cylinders along x).
-    add(gripper, "body", box, (0.031, 0.030, 0.026), black, pos=[0.0, 0.0, 0.040])
-    add(gripper, "knuckles", box, (0.024, 0.060, 0.011), grey, pos=[0.0, 0.0, 0.076])
-    for side, y in (("left", -1.0), ("right", 1.0)):
-        add(gripper, f"body_{side}", cyl, (0.026, 0.031), black, pos=[0.0, 0.030 * y, 0.040], quat=along_x)
-        add(gripper, f"knuckles_{side}", cyl, (0.011, 0.024), grey, pos=[0.0, 0.060 * y, 0.076], quat=along_x)
-        add(gripper, f"pivot_{side}", cyl, (0.005, 0.026), silver, pos=[0.0, 0.036 * y, 0.080], quat=along_x)
+    look(gripper, black).box((0.031, 0.030, 0.026), pos=[0.0, 0.0, 0.040])
+    look(gripper, grey).box((0.024, 0.060, 0.011), pos=[0.0, 0.0, 0.076])
+    for y in (-1.0, 1.0):
+        look(gripper, black).cylinder(0.026, 0.031, pos=[0.0, 0.030 * y, 0.040], quat=along_x)
+        look(gripper, grey).cylinder(0.011, 0.024, pos=[0.0, 0.060 * y, 0.076], quat=along_x)
+        look(gripper, silver).cylinder(0.005, 0.026, pos=[0.0, 0.036 * y, 0.080], quat=along_x, segments=16)
     for finger, sign in fingers:
         # u: outwards from the pad's face; z: down from the housing's bottom
         top, low = (sign * 0.036, -0.004), (sign * 0.021, 0.027)
         dy, dz = low[0] - top[0], low[1] - top[1]
-        add(finger, "link", box, (0.012, 0.0045, 0.5 * math.hypot(dy, dz)), black,
-            pos=[0.0, 0.5 * (top[0] + low[0]), 0.5 * (top[1] + low[1])], quat=_quat_rx(math.atan2(-dy, dz)))
-        for k, (y, z) in enumerate((top, low)):
-            add(finger, f"pin_{k}", cyl, (0.0045, 0.0135), silver, pos=[0.0, y, z], quat=along_x)
-        add(finger, "tip", box, (0.011, 0.006, 0.021), black, pos=[0.0, sign * 0.014, 0.0395])
-        add(finger, "pad", box, _PAD_HALF, pad, pos=[0.0, sign * _PAD_HALF[1], _PAD_CENTRE])
+        look(finger, black).box((0.012, 0.0045, 0.5 * math.hypot(dy, dz)),
+                                pos=[0.0, 0.5 * (top[0] + low[0]), 0.5 * (top[1] + low[1])],
+                                quat=_quat_rx(math.atan2(-dy, dz)))
+        for y, z in (top, low):
+            look(finger, silver).cylinder(0.0045, 0.0135, pos=[0.0, y, z], quat=along_x, segments=16)
+        look(finger, black).box((0.011, 0.006, 0.021), pos=[0.0, sign * 0.014, 0.0395])
+        look(finger, pad).box(_PAD_HALF, pos=[0.0, sign * _PAD_HALF[1], _PAD_CENTRE])
+
+    # One mesh per body and material: a handful of draw calls instead of twenty finely tessellated shapes.
+    for (body_name, material), (body, solid) in shapes.items():
+        name = f"{body_name}_look_{material.removeprefix('robot_hand_')}"
+        mesh = spec.add_mesh(name=name)
+        mesh.uservert = solid.vertices.ravel()
+        mesh.userface = solid.faces.ravel()
+        mesh.usernormal = solid.normals.ravel()
+        mesh.userfacenormal = solid.faces.ravel()
+        mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
+        geom = body.add_geom(name=name, type=_GEOM.mjGEOM_MESH, meshname=name, material=material)
+        geom.contype = 0
+        geom.conaffinity = 0
+        geom.group = _VISUAL_GROUP
+        geom.mass = 0.0
 
 
 def _add_arm_meshes(spec: mujoco.MjSpec, links: list[_LinkBuilder]) -> None:
