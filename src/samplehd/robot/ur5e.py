@@ -350,7 +350,6 @@ def _add_hand_look(spec: mujoco.MjSpec, gripper: mujoco.MjsBody, fingers: list[t
         mesh.uservert = solid.vertices.ravel()
         mesh.userface = solid.faces.ravel()
         mesh.usernormal = solid.normals.ravel()
-        mesh.userfacenormal = solid.faces.ravel()
         mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
         geom = body.add_geom(name=name, type=_GEOM.mjGEOM_MESH, meshname=name, material=material)
         geom.contype = 0
