@@ -64,6 +64,7 @@ DAMAGES: list[tuple[str, Callable[[dict], None], str]] = [
     ("policy", lambda d: d["model"].update(encoder="vit"), "model.encoder='vit': valid: flatten, keypoints"),
     ("policy", lambda d: d["train"].update(bogus=1), "unknown option(s) ['bogus']"),
     ("policy", lambda d: d.update(image=0), "policy.image=0"),
+    ("policy", lambda d: d.update(catalogue="ikea"), "policy.catalogue='ikea': valid: procedural, shop-vrb"),
 ]
 
 

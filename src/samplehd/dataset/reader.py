@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.dataset.container import read_episode, read_frames, read_image, read_meta
 from samplehd.dataset.journal import read_journal
 from samplehd.dataset.layout import (
@@ -114,6 +115,16 @@ class DatasetReader:
     def config(self) -> dict[str, Any]:
         """The resolved generation config."""
         return dict(self.info.get("config", {}))
+
+    @property
+    def catalogue(self) -> str:
+        """The built-in object catalogue the scenes were drawn from (``info.json``'s record, else the
+        config's of a dataset still being written; ``procedural`` for datasets older than the choice)."""
+        recorded = self.info.get("catalogue")
+        if isinstance(recorded, dict) and isinstance(recorded.get("name"), str):
+            return recorded["name"]
+        scene = self.config.get("scene")
+        return str(scene.get("catalogue", DEFAULT_CATALOGUE)) if isinstance(scene, dict) else DEFAULT_CATALOGUE
 
     @property
     def scenes(self) -> list[dict[str, Any]]:

@@ -4,20 +4,5 @@
 
 from __future__ import annotations
 
-from samplehd.learn.policy.configuration import (
-    ACTIONS,
-    ENCODERS,
-    FORMAT,
-    INPUTS,
-    LOSSES,
-    STATE_DIM,
-    TARGET_DIM,
-    PolicyArchitecture,
-    PolicyCollection,
-    PolicyConfig,
-    PolicyInference,
-    PolicyTraining,
-)
-
-__all__ = ["ACTIONS", "ENCODERS", "FORMAT", "INPUTS", "LOSSES", "STATE_DIM", "TARGET_DIM", "PolicyArchitecture",
-           "PolicyCollection", "PolicyConfig", "PolicyInference", "PolicyTraining"]
+from samplehd.learn.policy.configuration import *  # noqa: F403
+from samplehd.learn.policy.configuration import __all__  # noqa: F401

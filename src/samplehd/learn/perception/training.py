@@ -46,7 +46,7 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     reader = open_dataset(dataset)
     data = scene_examples(reader)
     vocab = attribute_vocab()
-    kinds = kind_vocab(reader.info.get("catalogue", {}).get("name", "procedural"))  # shop-vrb: its variants
+    kinds = kind_vocab(reader.catalogue)  # shop-vrb: its variants
     width = int(data["train"][0]["annotation"]["camera"]["width"])
     height = int(data["train"][0]["annotation"]["camera"]["height"])
     factor = 2 if width >= 400 else 1

@@ -12,7 +12,6 @@ from typing import Any
 import numpy as np
 from rich.console import Console
 
-from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.errors import ConfigError
@@ -162,8 +161,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     total_steps = steps + dagger_rounds * dagger_steps
     state_dim = STATE_DIM + (TARGET_DIM if inputs == "state" else 0)
     # The scenes of collected episodes and of the evaluation come from the dataset's catalogue.
-    catalogue = (reader.info.get("catalogue") or {}).get("name") or (reader.config.get("scene") or {}).get(
-        "catalogue") or DEFAULT_CATALOGUE
+    catalogue = reader.catalogue
     config = PolicyConfig(
         format=FORMAT, dataset=str(dataset), catalogue=catalogue, inputs=inputs, action=action, image=image,
         chunk=chunk, execute=execute, tokens=tokens,
