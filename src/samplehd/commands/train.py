@@ -37,10 +37,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     policy.add_argument("--inputs", choices=["rgb", "state"], help="rgb: the visuomotor policy (default); state: "
                                                                    "the privileged-state reference (no image; the "
                                                                    "target object's pose relative to the TCP)")
-    policy.add_argument("--action", choices=["steering", "waypoint"],
+    policy.add_argument("--action", choices=["steering", "waypoint", "keypose"],
                         help="steering: chunks of the demonstrations' steering vectors (default); waypoint: the "
                              "TCP pose and gripper command where the current segment of the demonstration ends, "
-                             "followed by a proportional controller")
+                             "followed by a proportional controller; keypose: per object moved, where to grasp "
+                             "and where it goes, from a top-down view of the scene camera's RGB-D (the dataset's "
+                             "scene images; default 16 decisions per step)")
     policy.add_argument("--batch", type=int, help="frames per optimiser step (default 64)")
     policy.add_argument("--hidden", type=int, help="width of the network's hidden layers (default 256)")
     policy.add_argument("--demos", type=int, help="oracle episodes to collect in the environment besides the "
@@ -85,6 +87,12 @@ def run(args: argparse.Namespace) -> int:
                                   f"speed)")
         elif value < low:
             raise ConfigError(f"--{key.replace('_', '-')} {value}: valid: an integer ≥ {low}")
+    if given.get("action") == "keypose":
+        unused = [k for k in ("inputs", "hidden", "demos", "noise", "dagger_rounds", "workers") if k in given]
+        if given.get("inputs", "rgb") != "rgb" or unused and unused != ["inputs"]:
+            key = next(k for k in unused if k != "inputs" or given["inputs"] != "rgb")
+            raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: not used with --action keypose (it learns "
+                              f"from the dataset's scene images and decisions); leave it out")
     if given.get("noise") and not given.get("demos"):
         raise ConfigError(f"--noise {args.noise}: adds noise to --demos episodes; give --demos N or leave it out")
     for key in ("dagger_episodes", "dagger_steps"):

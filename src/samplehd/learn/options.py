@@ -22,9 +22,10 @@ POLICY_CAMERAS = ("scene", "wrist")  # the cameras the policy looks through, in 
 
 def env_options_from_config(config: PolicyConfig) -> dict[str, Any]:
     """The environment options of a policy config: RGB of both cameras at its image size and steering
-    control; the privileged-state reference (``inputs: state``) needs no image. A policy trained on
+    control; the privileged-state reference (``inputs: state``) needs no image, nor does the keypose
+    policy (it renders the scene camera's RGB-D itself when it decides). A policy trained on
     another catalogue than the default one gets its scenes from that catalogue (``scene.catalogue``)."""
-    if config.inputs == "state":
+    if config.inputs == "state" or config.action == "keypose":  # the keypose policy draws its own scene view
         options: dict[str, Any] = {"obs_mode": "state", "control_mode": "steering"}
     else:
         options = {"obs_mode": "rgb", "cameras": list(POLICY_CAMERAS), "width": config.image, "height": config.image,

@@ -26,6 +26,15 @@ Modules, one job each (LeRobot's split of a model):
 - :mod:`~samplehd.learn.policy.preparation`: training arrays from dataset and collected episodes;
 - :mod:`~samplehd.learn.policy.training`: :func:`train_policy`, with DART demonstrations and DAgger rounds.
 
+The keypose policy (``--action keypose``), one decision per object moved (where to grasp, where it
+goes) from a top-down view of the scene camera's RGB-D, as in Transporter networks, CLIPort and PerAct:
+
+- :mod:`~samplehd.learn.policy.topdown`: :class:`TopDownGrid`, the view;
+- :mod:`~samplehd.learn.policy.keyposes`: :func:`decisions` read from recorded episodes, and
+  :class:`KeyposeFollower`, which carries a decision out as steering vectors;
+- :mod:`~samplehd.learn.policy.keypose_training`: :func:`train_keypose_policy`;
+- :mod:`~samplehd.learn.policy.keypose_inference`: :class:`KeyposePolicy`, a trained one that acts.
+
 Importing this package loads only the configuration: ``samplehd evaluate`` reads a policy's
 ``config.json`` through :mod:`samplehd.learn.options` where PyTorch is not installed. The other names
 load their module (and PyTorch, for the network) on first use.
@@ -47,6 +56,7 @@ from samplehd.learn.policy.configuration import (
     PolicyArchitecture,
     PolicyCollection,
     PolicyConfig,
+    PolicyGrid,
     PolicyInference,
     PolicyTraining,
 )
@@ -56,6 +66,13 @@ _DEFERRED = {
     "BCNet": "modeling",
     "BCPolicy": "inference",
     "CAMERAS": "processing",
+    "Decision": "keyposes",
+    "KeyposeFollower": "keyposes",
+    "KeyposeNet": "modeling",
+    "KeyposePolicy": "keypose_inference",
+    "TopDownGrid": "topdown",
+    "decisions": "keyposes",
+    "train_keypose_policy": "keypose_training",
     "WaypointExpert": "actions",
     "follow_waypoints": "actions",
     "moving_frames": "actions",
@@ -66,9 +83,10 @@ _DEFERRED = {
 }
 
 __all__ = ["ACTIONS", "CAMERAS", "ENCODERS", "FORMAT", "INPUTS", "LOSSES", "STATE_DIM", "TARGET_DIM", "BCNet",
-           "BCPolicy", "PolicyArchitecture", "PolicyCollection", "PolicyConfig", "PolicyInference", "PolicyTraining",
-           "WaypointExpert", "follow_waypoints", "moving_frames", "policy_for_evaluation", "train_policy",
-           "waypoint_targets", "waypoints"]
+           "BCPolicy", "Decision", "KeyposeFollower", "KeyposeNet", "KeyposePolicy", "PolicyArchitecture",
+           "PolicyCollection", "PolicyConfig", "PolicyGrid", "PolicyInference", "PolicyTraining", "TopDownGrid",
+           "WaypointExpert", "decisions", "follow_waypoints", "moving_frames", "policy_for_evaluation",
+           "train_keypose_policy", "train_policy", "waypoint_targets", "waypoints"]
 
 
 def __getattr__(name: str) -> Any:

@@ -16,7 +16,7 @@ from samplehd.errors import ConfigError
 from samplehd.schema import Config, bounded
 
 __all__ = ["ACTIONS", "ENCODERS", "FORMAT", "INPUTS", "LOSSES", "STATE_DIM", "TARGET_DIM", "PolicyArchitecture",
-           "PolicyCollection", "PolicyConfig", "PolicyInference", "PolicyTraining"]
+           "PolicyCollection", "PolicyConfig", "PolicyGrid", "PolicyInference", "PolicyTraining"]
 
 FORMAT = 3  # the config format of a policy model (bump when the network or its inputs change)
 # joint positions (6), TCP position (3), TCP orientation (6: two rotation columns), finger opening (1),
@@ -26,7 +26,7 @@ STATE_DIM = 23
 # orientation (6: two rotation columns) and sees no image.
 TARGET_DIM = 9
 INPUTS = ("rgb", "state")  # rgb: the visuomotor policy; state: the privileged-state reference
-ACTIONS = ("steering", "waypoint")
+ACTIONS = ("steering", "waypoint", "keypose")
 ENCODERS = ("flatten", "keypoints")
 LOSSES = ("mse", "l1")
 
@@ -47,6 +47,30 @@ class PolicyArchitecture(Config, section="model"):
     hidden: int = bounded(256, lo=1)
     state_dim: int = bounded(STATE_DIM, lo=1)
     encoder: str = bounded("flatten", choices=ENCODERS)
+
+
+@dataclass(frozen=True)
+class PolicyGrid(Config, section="grid"):
+    """What the keypose policy looks at (:mod:`samplehd.learn.policy.topdown`): the scene camera's RGB-D
+    image at ``width`` × ``height`` px, re-projected onto ``rows`` × ``cols`` cells of side ``cell`` from
+    the corner ``origin`` (world x, y)."""
+
+    camera: str = "scene"
+    width: int = bounded(640, lo=1, unit="px")
+    height: int = bounded(360, lo=1, unit="px")
+    origin: tuple[float, ...] = (-0.512, -0.64)
+    cell: float = bounded(0.008, lo=0.0, lo_open=True, unit="m")
+    rows: int = bounded(128, lo=16)
+    cols: int = bounded(160, lo=16)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if len(self.origin) != 2:
+            raise ConfigError(f"grid.origin={list(self.origin)}: the grid's corner, two numbers (world x, y) [m]",
+                              field="grid.origin")
+        if self.rows % 16 or self.cols % 16:
+            raise ConfigError(f"grid.rows={self.rows}, grid.cols={self.cols}: each a multiple of 16 (the network "
+                              f"halves the grid four times)", field="grid.rows")
 
 
 @dataclass(frozen=True)
@@ -125,13 +149,15 @@ class PolicyConfig(Config, section="policy"):
             ``shop-vrb``): the one its evaluation and its collected episodes draw from.
         inputs: ``rgb`` (both cameras' RGB, instruction, robot state) or ``state`` (no image; the
             target object's pose instead).
-        action: ``steering`` (chunks of steering vectors) or ``waypoint`` (one waypoint per step).
+        action: ``steering`` (chunks of steering vectors), ``waypoint`` (one waypoint per step) or
+            ``keypose`` (one decision per object moved, from a top-down view of the scene camera's RGB-D).
         image: side of the square camera images [px] (0: no image).
         chunk: actions per prediction.
         execute: actions of a chunk executed before predicting again.
         tokens: instruction length in tokens.
         model: network sizes.
         inference: how it acts.
+        grid: the keypose policy's view of the table.
         families: the task families of its training episodes.
         collect: episodes collected in the environment.
         train: training options.
@@ -149,12 +175,13 @@ class PolicyConfig(Config, section="policy"):
     tokens: int = bounded(32, lo=1)
     model: PolicyArchitecture = field(default_factory=PolicyArchitecture)
     inference: PolicyInference = field(default_factory=PolicyInference)
+    grid: PolicyGrid = field(default_factory=PolicyGrid)
     families: tuple[str, ...] = ()
     collect: PolicyCollection = field(default_factory=PolicyCollection)
     train: PolicyTraining = field(default_factory=PolicyTraining)
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if self.inputs == "rgb" and self.image < 1:
+        if self.inputs == "rgb" and self.action != "keypose" and self.image < 1:
             raise ConfigError(f"policy.image={self.image}: the rgb policy needs the side of its camera images, "
                               f"an integer ≥ 1 px")

@@ -15,6 +15,7 @@ from samplehd.errors import ConfigError
 from samplehd.learn.options import env_options_from_config
 from samplehd.learn.policy.actions import _follow, _speeds
 from samplehd.learn.policy.configuration import FORMAT, PolicyConfig
+from samplehd.learn.policy.keypose_inference import KeyposePolicy
 from samplehd.learn.policy.modeling import BCNet
 from samplehd.learn.policy.processing import CAMERAS, _joint_vel, _state, _target_features
 from samplehd.learn.training import load_model_files, read_model_config, set_seed, torch
@@ -173,6 +174,14 @@ class BCPolicy:
         return action
 
 
-def policy_for_evaluation(env: Any, config: Any) -> BCPolicy:
-    """The policy ``samplehd evaluate --policy bc`` runs (``config``: its EvalConfig)."""
-    return BCPolicy.load(config.models, env)
+def policy_for_evaluation(env: Any, config: Any) -> Any:
+    """The policy ``samplehd evaluate --policy bc`` runs (``config``: its EvalConfig): a
+    :class:`BCPolicy`, or a :class:`~samplehd.learn.policy.keypose_inference.KeyposePolicy` for a model
+    trained with ``--action keypose``."""
+    if config.models is None:
+        raise ConfigError("policy=bc: needs `models` (the folder of `samplehd train policy`)", field="policy")
+    raw, state = load_model_files(config.models, "policy", FORMAT)
+    policy_config = read_model_config(PolicyConfig, raw, config.models)
+    if policy_config.action == "keypose":
+        return KeyposePolicy(policy_config, state, env)
+    return BCPolicy(policy_config, state, env)

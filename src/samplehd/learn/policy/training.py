@@ -32,6 +32,7 @@ from samplehd.learn.policy.configuration import (
     PolicyTraining,
 )
 from samplehd.learn.policy.inference import BCPolicy
+from samplehd.learn.policy.keypose_training import train_keypose_policy
 from samplehd.learn.policy.modeling import BCNet
 from samplehd.learn.policy.preparation import (
     _collected_arrays,
@@ -92,7 +93,7 @@ def _dagger_policy(args: tuple[PolicyConfig, Mapping[str, Any]], env: Any) -> BC
 
 
 def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: int = 0, device: str | None = None,
-                 quiet: bool = False, stop_after: int | None = None, batch: int = 64, chunk: int = 8,
+                 quiet: bool = False, stop_after: int | None = None, batch: int | None = None, chunk: int = 8,
                  execute: int = 4, stride: int = 2,
                  lr: float = 1e-3, width: int = 16, hidden: int = 256, tokens: int = 32,
                  families: Sequence[str] | None = None, loss: str = "mse", near_weight: float = 1.0,
@@ -126,6 +127,14 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
         raise ConfigError(f"train_policy: inputs={inputs!r}; valid: {', '.join(INPUTS)}")
     if action not in ACTIONS:
         raise ConfigError(f"train_policy: action={action!r}; valid: {', '.join(ACTIONS)}")
+    if action == "keypose":
+        if inputs != "rgb" or demos or dagger_rounds:
+            raise ConfigError("train_policy: action='keypose' learns from the dataset's scene images and decisions: "
+                              "inputs='rgb', no demos or DAgger rounds")
+        return train_keypose_policy(dataset, out, steps=steps, seed=seed, device=device, quiet=quiet,
+                                    stop_after=stop_after, batch=batch or 16, lr=lr, width=width,
+                                    tokens=tokens, families=families)
+    batch = batch or 64
     if action == "waypoint":  # one waypoint per frame, predicted every step
         chunk, execute, ensemble = 1, 1, None
     # Waypoints are image positions: the waypoint policy's cameras end in keypoints.

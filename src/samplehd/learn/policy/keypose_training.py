@@ -1,0 +1,347 @@
+"""Training the keypose policy (``samplehd train policy --action keypose``): every decision of the
+dataset's training episodes (:func:`samplehd.learn.policy.keyposes.decisions`) is one sample, the
+top-down grid of the scene camera's RGB-D image it was made on (:mod:`samplehd.learn.policy.topdown`)
+with the instruction; the labels are where to grasp and where the object goes.
+
+The first decision of an episode is made on the dataset's scene image; a later one (after an object
+was moved) on the scene camera's image of the recorded state at that frame, drawn with the renderer
+the policy runs with. The prepared samples are kept in ``--out/prepared.npz`` until the run ends, so a
+resumed run does not draw them again.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from PIL import Image
+
+from samplehd.envs.levels import episode_level, held_out_instruction
+from samplehd.envs.replay_check import replay_env
+from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
+from samplehd.errors import ConfigError
+from samplehd.learn.data import open_dataset
+from samplehd.learn.policy.configuration import (
+    FORMAT,
+    PolicyArchitecture,
+    PolicyConfig,
+    PolicyGrid,
+    PolicyInference,
+    PolicyTraining,
+)
+from samplehd.learn.policy.keyposes import Decision, decisions
+from samplehd.learn.policy.modeling import KeyposeNet
+from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
+from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng, torch
+from samplehd.render.renderer import SEG_ROBOT, SceneRenderer, camera_intrinsics, camera_pose
+from samplehd.world.layout import LAYOUT
+
+__all__ = ["PREPARED_FILE", "keypose_targets", "scene_grid", "train_keypose_policy"]
+
+PREPARED_FILE = "prepared.npz"
+SCENE_MODALITIES = ("rgb", "depth", "segmentation")  # depth of the segmentation pass: glass is opaque there
+HEIGHT_UNIT = 0.1  # heights (grasp, lift, goal) are learnt in this unit above the table [m]
+OPENING_UNIT = 0.085  # the opening is learnt in this unit [m]
+SHIFT = 4  # training views move by up to this many grid cells along each axis
+HEAT_SIGMA = 0.75  # the spread of the heat maps' targets [cells of the network's maps]
+FACTOR = 2  # the network's maps have cells this many times larger than the grid's
+LABELS = 13  # grasp row, col, z, yaw, opening, lift; goal row, col, z, yaw; release, last; cell-free flag
+
+
+def grid_of(config: PolicyGrid) -> TopDownGrid:
+    return TopDownGrid((float(config.origin[0]), float(config.origin[1])), config.cell, config.rows, config.cols)
+
+
+def scene_grid(renderer: Any, model: Any, data: Any, config: PolicyGrid) -> np.ndarray:
+    """The grid image of the scene camera's view of ``data`` (``renderer`` made for ``model`` at the
+    config's size)."""
+    images = renderer.render(data, config.camera, SCENE_MODALITIES)
+    camera = {"width": config.width, "height": config.height,
+              "intrinsics": camera_intrinsics(model, config.camera, config.width, config.height).tolist(),
+              "extrinsics": camera_pose(model, data, config.camera).tolist()}
+    return grid_of(config).project(images["rgb"], images["depth"], camera, LAYOUT.table_height,
+                                   robot=images["segmentation"] == SEG_ROBOT)
+
+
+def keypose_targets(d: Decision, grid: TopDownGrid) -> np.ndarray:
+    """The labels (:data:`LABELS`,) of a decision on the network's maps: grasp row and column
+    (fractional cells of the coarse map), z and lift over the table [:data:`HEIGHT_UNIT`], yaw [rad],
+    opening [:data:`OPENING_UNIT`]; the goal's row, column, z and yaw; release and last (0/1); 1 when
+    both cells lie on the map."""
+    coarse = grid.coarse(FACTOR)
+    g = coarse.cell_of(np.array(d.grasp[:2]))
+    p = coarse.cell_of(np.array(d.goal[:2]))
+    inside = all(0 <= v[0] <= coarse.rows - 1 and 0 <= v[1] <= coarse.cols - 1 for v in (g, p))
+    table = LAYOUT.table_height
+    return np.array([g[0], g[1], (d.grasp[2] - table) / HEIGHT_UNIT, d.grasp[3], d.opening / OPENING_UNIT,
+                     (d.lift - table) / HEIGHT_UNIT, p[0], p[1], (d.goal[2] - table) / HEIGHT_UNIT, d.goal[3],
+                     float(d.release), float(d.last), float(inside)], np.float32)
+
+
+def _episode_samples(reader: Any, k: int, env: Any, config: PolicyGrid, tokens_len: int,
+                     renderers: dict[str, Any]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(grid, tokens, labels) of each decision of episode ``k``."""
+    meta = reader.episode_meta(k)
+    if not meta.get("success", False):
+        return []
+    fr = reader.frames(k, ["subtask_index", "tcp_pos", "tcp_quat", "gripper_opening", "qpos", "qvel"])
+    ds = decisions(meta["subtasks"], fr["subtask_index"], fr["tcp_pos"], fr["tcp_quat"], fr["gripper_opening"])
+    if not ds:
+        return []
+    grid = grid_of(config)
+    tokens = encode_instruction(str(meta["instruction"]), tokens_len)
+    entry = reader.episodes[k]
+    scene = reader.scene(entry.scene_index)
+    out = []
+    for d in ds:
+        if d.frame == 0 and scene["camera"]["width"] == config.width and scene["camera"]["height"] == config.height:
+            stem = Path(scene["image_filename"]).stem
+            rgb = np.asarray(Image.open(reader.root / "images" / f"{stem}.png").convert("RGB"))
+            depth = np.load(reader.root / "depth" / f"{stem}.npy", allow_pickle=False).astype(np.float32)
+            seg = np.asarray(Image.open(reader.root / "segmentation" / f"{stem}.png"))
+            image = grid.project(rgb, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
+        else:
+            env.reset(options={"dataset": str(reader.root), "episode_index": k})
+            u = env.unwrapped
+            u.data.qpos[:] = fr["qpos"][d.frame]
+            u.data.qvel[:] = fr["qvel"][d.frame]
+            mujoco.mj_forward(u.model, u.data)
+            key = str(id(u.model))
+            if key not in renderers:
+                for r in renderers.values():
+                    r.close()
+                renderers.clear()
+                renderers[key] = SceneRenderer(u.model, config.width, config.height, "fast")
+                renderers[key].render(u.data, config.camera, SCENE_MODALITIES)  # a context's first frame differs
+            image = scene_grid(renderers[key], u.model, u.data, config)
+        out.append((image.astype(np.float16), tokens, keypose_targets(d, grid)))
+    return out
+
+
+def _prepare(reader: Any, ks: Sequence[int], config: PolicyGrid, tokens_len: int) -> dict[str, np.ndarray]:
+    env = replay_env(reader)
+    renderers: dict[str, Any] = {}
+    grids, toks, labels, episodes = [], [], [], []
+    try:
+        for k in ks:
+            for g, t, y in _episode_samples(reader, k, env, config, tokens_len, renderers):
+                if y[12] > 0:
+                    grids.append(g)
+                    toks.append(t)
+                    labels.append(y)
+                    episodes.append(k)
+    finally:
+        for r in renderers.values():
+            r.close()
+        env.close()
+    if not grids:
+        return {"grid": np.zeros((0, GRID_CHANNELS, config.rows, config.cols), np.float16),
+                "tokens": np.zeros((0, tokens_len), np.int64), "labels": np.zeros((0, LABELS), np.float32),
+                "episode": np.zeros(0, np.int64)}
+    return {"grid": np.stack(grids), "tokens": np.stack(toks), "labels": np.stack(labels),
+            "episode": np.array(episodes, np.int64)}
+
+
+def _shifted(grid: Any, labels: Any, rng: np.random.Generator) -> tuple[Any, Any]:
+    """The batch's views moved on the table by up to :data:`SHIFT` cells each way (the coordinate
+    channels stay), their labels with them: the same scene a little elsewhere."""
+    grid, labels = grid.clone(), labels.clone()
+    for i, (dr, dc) in enumerate(rng.integers(-SHIFT, SHIFT + 1, size=(len(grid), 2))):
+        grid[i, :5] = torch.roll(grid[i, :5], shifts=(int(dr), int(dc)), dims=(1, 2))
+        labels[i, [0, 6]] += float(dr) / FACTOR
+        labels[i, [1, 7]] += float(dc) / FACTOR
+    return grid, labels
+
+
+def _heat_loss(logits: Any, rc: Any) -> Any:
+    """Cross-entropy of the map's softmax against a Gaussian of :data:`HEAT_SIGMA` cells around the
+    labelled position (a cell beside it is nearly as right as the cell itself)."""
+    n, rows, cols = logits.shape
+    r = torch.arange(rows, device=logits.device, dtype=logits.dtype)
+    c = torch.arange(cols, device=logits.device, dtype=logits.dtype)
+    d2 = (r[None, :, None] - rc[:, 0, None, None]) ** 2 + (c[None, None, :] - rc[:, 1, None, None]) ** 2
+    target = torch.softmax((-d2 / (2 * HEAT_SIGMA ** 2)).reshape(n, -1), 1)
+    return -(target * torch.log_softmax(logits.reshape(n, -1), 1)).sum(1).mean()
+
+
+def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any) -> tuple[Any, dict[str, Any]]:
+    """The training loss of a batch and its parts: cross-entropy of the grasp's and the goal's cell
+    over the map, smooth L1 of the values at the labelled cells (the goal's read with the labelled
+    grasp's cell), binary cross-entropy of release and last."""
+    F = torch.nn.functional
+    n = grid.shape[0]
+    c, feats, flags = net.features(grid, tokens)
+    rows, cols = feats.shape[2], feats.shape[3]
+    g_rc, p_rc = labels[:, 0:2], labels[:, 6:8]
+    g_cell = torch.stack([g_rc[:, 0].round().clamp(0, rows - 1), g_rc[:, 1].round().clamp(0, cols - 1)], 1).long()
+    p_cell = torch.stack([p_rc[:, 0].round().clamp(0, rows - 1), p_rc[:, 1].round().clamp(0, cols - 1)], 1).long()
+    gm = net.grasp(feats)
+    pm = net.goal_maps(c, feats, g_cell)
+    ar = torch.arange(n, device=grid.device)
+    g_at = gm[ar, :, g_cell[:, 0], g_cell[:, 1]]
+    p_at = pm[ar, :, p_cell[:, 0], p_cell[:, 1]]
+    heat = _heat_loss(gm[:, 0], g_rc) + _heat_loss(pm[:, 0], p_rc)
+    g_yaw, p_yaw = labels[:, 3], labels[:, 9]
+    g_want = torch.stack([g_rc[:, 0] - g_cell[:, 0], g_rc[:, 1] - g_cell[:, 1], labels[:, 2], torch.cos(2 * g_yaw),
+                          torch.sin(2 * g_yaw), labels[:, 4], labels[:, 5]], 1)
+    p_want = torch.stack([p_rc[:, 0] - p_cell[:, 0], p_rc[:, 1] - p_cell[:, 1], labels[:, 8], torch.cos(2 * p_yaw),
+                          torch.sin(2 * p_yaw)], 1)
+    values = F.smooth_l1_loss(g_at[:, 1:], g_want, beta=0.05) + F.smooth_l1_loss(p_at[:, 1:], p_want, beta=0.05)
+    flag = F.binary_cross_entropy_with_logits(flags, labels[:, 10:12])
+    return heat + 5.0 * values + flag, {"heat": heat, "values": values, "flags": flag, "grasp": gm, "goal": pm,
+                                        "flag_logits": flags}
+
+
+def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000, seed: int = 0,
+                         device: str | None = None, quiet: bool = False, stop_after: int | None = None,
+                         batch: int = 16, lr: float = 1e-3, width: int = 16, tokens: int = 32,
+                         families: Sequence[str] | None = None, grid: PolicyGrid | None = None) -> dict[str, Any]:
+    """Train the keypose policy on a dataset's L1 training episodes; metrics on its test episodes: the
+    grasp's and the goal's position error [m] (median, mean, share within 1 and 2 cm), the grasp's
+    height and yaw error, the flags' accuracy.
+
+    ``grid`` (default: the dataset's scene images' size, so that first decisions read them) says what
+    the policy looks at; an image of another size is drawn anew from the episode's state.
+    """
+    reader = open_dataset(dataset)
+    scenes = {s["image_index"]: s for s in reader.scenes}
+    if grid is None:
+        camera = next(iter(scenes.values()))["camera"] if scenes else {}
+        grid = PolicyGrid(width=int(camera.get("width", 640)), height=int(camera.get("height", 360)))
+    grid_cfg = grid
+    train_k, test_k = [], []
+    for e in reader.episodes:
+        if families and e.family not in families:
+            continue
+        ins = reader.instruction(e.instruction_index)
+        if e.split == "test":
+            test_k.append(e.instruction_index)
+        elif not held_out_instruction(ins) and episode_level(ins, scenes[e.scene_index]) == "L1":
+            train_k.append(e.instruction_index)
+    if not train_k:
+        raise ConfigError(f"dataset={dataset}: no training episodes", field="dataset")
+    families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
+    out = Path(out)
+    dev = pick_device(device)
+    set_seed(seed)
+    config = PolicyConfig(
+        format=FORMAT, dataset=str(dataset), catalogue=reader.catalogue, inputs="rgb", action="keypose", image=0,
+        chunk=1, execute=1, tokens=tokens, model=PolicyArchitecture(width=width, hidden=128),
+        inference=PolicyInference(), grid=grid_cfg, families=families_used,
+        train=PolicyTraining(steps=steps, seed=seed, batch=batch, stride=1, lr=lr, episodes=len(train_k)))
+    run = TrainRun(out, config.to_dict(), steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
+                   stop_after=stop_after)
+    run.prepare()
+    prepared = out / PREPARED_FILE
+    if prepared.exists():
+        with np.load(prepared, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    else:
+        train = _prepare(reader, train_k, grid_cfg, tokens)
+        test = _prepare(reader, test_k, grid_cfg, tokens)
+        arrays = {**{f"train_{k}": v for k, v in train.items()}, **{f"test_{k}": v for k, v in test.items()}}
+        tmp = out / (PREPARED_FILE + ".tmp.npz")
+        np.savez(tmp, **arrays)
+        tmp.replace(prepared)
+    n = len(arrays["train_grid"])
+    if n == 0:
+        raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry", field="dataset")
+    net = KeyposeNet(len(instruction_vocabulary()), GRID_CHANNELS, width).to(dev)
+    # The lowest grasp of the training decisions: the policy never grasps lower (a finger on the table
+    # is a safety stop, a grasp a little high still closes on the object).
+    net.z_floor.fill_(float(arrays["train_labels"][:, 2].min()) * HEIGHT_UNIT + LAYOUT.table_height)
+    opt = torch.optim.Adam(net.parameters(), lr=lr)
+
+    def tensors(prefix: str, idx: np.ndarray) -> tuple[Any, Any, Any]:
+        return (torch.as_tensor(arrays[f"{prefix}_grid"][idx].astype(np.float32), device=dev),
+                torch.as_tensor(arrays[f"{prefix}_tokens"][idx], device=dev),
+                torch.as_tensor(arrays[f"{prefix}_labels"][idx], device=dev))
+
+    def train_step(step: int) -> float:
+        net.train()
+        rng = step_rng(seed, step)
+        for g in opt.param_groups:
+            g["lr"] = lr * min(1.0, 1.5 * (1 - step / steps))
+        grid_t, tok_t, lab_t = tensors("train", rng.integers(n, size=batch))
+        grid_t, lab_t = _shifted(grid_t, lab_t, rng)
+        loss, _ = keypose_loss(net, grid_t, tok_t, lab_t)
+        return descend(opt, loss)
+
+    losses, t = run.train(net, opt, train_step, "policy")
+    if run.stopped:
+        return {"stopped_at": len(losses)}
+    metrics: dict[str, Any] = {"train_loss": float(np.mean(losses[-50:])) if losses else None,
+                               **_test_metrics(net, arrays, grid_of(grid_cfg), dev),
+                               "train_episodes": len(train_k), "train_decisions": n, "test_episodes": len(test_k),
+                               "families": list(families_used), "steps": steps, "seed": seed, "device": str(dev), **t}
+    run.finish(net, metrics)
+    prepared.unlink(missing_ok=True)
+    return metrics
+
+
+def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, dev: Any) -> dict[str, Any]:
+    m = len(arrays["test_grid"])
+    if m == 0:
+        return {"test_decisions": 0}
+    net.eval()
+    preds = []
+    with torch.no_grad():
+        for s in range(0, m, 32):
+            idx = np.arange(s, min(s + 32, m))
+            g = torch.as_tensor(arrays["test_grid"][idx].astype(np.float32), device=dev)
+            tok = torch.as_tensor(arrays["test_tokens"][idx], device=dev)
+            preds += [p.as_array() for p in predict_decisions(net, g, tok, grid)]
+    pred = np.stack(preds)
+    labels = arrays["test_labels"]
+    coarse = grid.coarse(FACTOR)
+    g_true = coarse.world(labels[:, 0], labels[:, 1])
+    p_true = coarse.world(labels[:, 6], labels[:, 7])
+    g_err = np.linalg.norm(pred[:, 0:2] - g_true, axis=1)
+    p_err = np.linalg.norm(pred[:, 6:8] - p_true, axis=1)
+    z_err = np.abs(pred[:, 2] - (labels[:, 2] * HEIGHT_UNIT + LAYOUT.table_height))
+    yaw = np.abs(((pred[:, 3] - labels[:, 3]) + np.pi / 2) % np.pi - np.pi / 2)
+    flags = (pred[:, 10:12] > 0.5) == (labels[:, 10:12] > 0.5)
+
+    def summary(err: np.ndarray) -> dict[str, float]:
+        return {"median": round(float(np.median(err)), 4), "mean": round(float(err.mean()), 4),
+                "within_1cm": round(float((err < 0.01).mean()), 4), "within_2cm": round(float((err < 0.02).mean()), 4)}
+
+    return {"test_decisions": m, "test_grasp_error_m": summary(g_err), "test_goal_error_m": summary(p_err),
+            "test_grasp_z_error_m": round(float(np.median(z_err)), 4),
+            "test_grasp_yaw_error_rad": round(float(np.median(yaw)), 4),
+            "test_release_accuracy": round(float(flags[:, 0].mean()), 4),
+            "test_last_accuracy": round(float(flags[:, 1].mean()), 4)}
+
+
+def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid) -> list[Decision]:
+    """The decisions the network makes on a batch of grid images: the most likely cell of the grasp,
+    the values there, then the goal's maps given that cell and their most likely cell."""
+    c, feats, flags = net.features(grid_batch, tokens)
+    gm = net.grasp(feats)
+    n, _, rows, cols = gm.shape
+    g_idx = gm[:, 0].reshape(n, -1).argmax(1)
+    g_cell = torch.stack([g_idx // cols, g_idx % cols], 1)
+    pm = net.goal_maps(c, feats, g_cell)
+    p_idx = pm[:, 0].reshape(n, -1).argmax(1)
+    p_cell = torch.stack([p_idx // cols, p_idx % cols], 1)
+    ar = torch.arange(n, device=gm.device)
+    g_at = gm[ar, :, g_cell[:, 0], g_cell[:, 1]].cpu().numpy().astype(np.float64)
+    p_at = pm[ar, :, p_cell[:, 0], p_cell[:, 1]].cpu().numpy().astype(np.float64)
+    fl = torch.sigmoid(flags).cpu().numpy()
+    g_cell, p_cell = g_cell.cpu().numpy(), p_cell.cpu().numpy()
+    coarse = grid.coarse(FACTOR)
+    table = LAYOUT.table_height
+    out = []
+    for i in range(n):
+        gxy = coarse.world(g_cell[i, 0] + np.clip(g_at[i, 1], -0.5, 0.5), g_cell[i, 1] + np.clip(g_at[i, 2], -0.5, 0.5))
+        pxy = coarse.world(p_cell[i, 0] + np.clip(p_at[i, 1], -0.5, 0.5), p_cell[i, 1] + np.clip(p_at[i, 2], -0.5, 0.5))
+        g_yaw = 0.5 * float(np.arctan2(g_at[i, 5], g_at[i, 4]))
+        p_yaw = 0.5 * float(np.arctan2(p_at[i, 5], p_at[i, 4]))
+        out.append(Decision((float(gxy[0]), float(gxy[1]), table + HEIGHT_UNIT * float(g_at[i, 3]), g_yaw),
+                            max(0.0, OPENING_UNIT * float(g_at[i, 6])), table + HEIGHT_UNIT * float(g_at[i, 7]),
+                            (float(pxy[0]), float(pxy[1]), table + HEIGHT_UNIT * float(p_at[i, 3]), p_yaw),
+                            bool(fl[i, 0] > 0.5), bool(fl[i, 1] > 0.5)))
+    return out

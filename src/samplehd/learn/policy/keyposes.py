@@ -1,0 +1,232 @@
+"""Keyposes: what the keypose policy learns from a demonstration and how it acts on them.
+
+A demonstration is a series of *decisions*, one per object it moves: where to grasp (TCP position, yaw
+and the opening before closing), how high to lift, and where the carried object goes (the TCP where
+the gripper opens; for ``pick_up``, the lifted pose it holds). :func:`decisions` reads them from a
+recorded episode's subtasks (``CloseGripper`` starts at the grasp, ``OpenGripper`` at the release,
+``MoveUP`` ends at the lift), each with the frame it is decided on: the episode's first, or the first
+after the arm went back to its start (``MoveToDefaultPos``), where the camera sees the table again.
+As in PerAct and CLIPort, a policy predicts a decision from one look at the table and
+:class:`KeyposeFollower` executes it as steering vectors, step by step through the environment: over
+the grasp at the height it is at, down, close until the fingers stop, up, over the goal, down, open,
+up and back to the start pose.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from samplehd.learn.demos import squeeze_command
+from samplehd.learn.policy.actions import _speeds, _wrap, _yaw
+from samplehd.robot.constants import GRIPPER_STROKE
+
+__all__ = ["APPROACH", "Decision", "KeyposeFollower", "decisions"]
+
+APPROACH = 0.08  # the grasp and the release are approached straight down from this high above them [m]
+REACHED = 0.004  # a position this close to its goal is reached [m] ...
+YAW_REACHED = 0.05  # ... with the yaw this close [rad]
+SETTLE_STEPS = 30  # a closing or opening gripper that has not settled after this many steps moves on
+GAIN = 4.0  # TCP speed per metre, yaw rate per radian still to go [1/s]
+MIN_SPEED = 0.03  # the TCP moves at least this fast until it is at its goal [m/s] ...
+MAX_SPEED = 0.24  # ... and at most this fast (half of it near the table) [m/s]
+OPEN_MARGIN = 0.01  # the gripper opens this much wider than the predicted opening before a grasp [m]
+
+
+@dataclass(frozen=True)
+class Decision:
+    """One object moved: grasp (x, y, z [m], yaw [rad]), the finger opening before closing [m], the
+    lift height (z [m]), the goal (x, y, z, yaw of the TCP where it lets go, or holds for ``pick_up``),
+    whether it lets go there, and whether it is the episode's last."""
+
+    grasp: tuple[float, float, float, float]
+    opening: float
+    lift: float
+    goal: tuple[float, float, float, float]
+    release: bool
+    last: bool
+    frame: int = 0
+
+    def as_array(self) -> np.ndarray:
+        """(13,): grasp (4), opening, lift, goal (4), release, last, frame."""
+        return np.array([*self.grasp, self.opening, self.lift, *self.goal, float(self.release), float(self.last),
+                         float(self.frame)])
+
+
+def decisions(subtasks: Sequence[str] | str, subtask_index: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray,
+              opening: np.ndarray) -> list[Decision]:
+    """The decisions of a recorded episode (its ``subtasks`` attribute, per-frame ``subtask_index``,
+    TCP and finger opening), in order; [] for an episode whose subtasks do not read as grasp, lift and
+    carry (a re-grasp after a slip, an episode cut short)."""
+    names = json.loads(subtasks) if isinstance(subtasks, str) else list(subtasks)
+    idx = np.asarray(subtask_index)
+    tcp = np.asarray(tcp_pos, np.float64)
+    yaw = _yaw(np.asarray(tcp_quat, np.float64))
+    opening = np.asarray(opening, np.float64)
+    starts = {}
+    for k in range(len(names)):
+        hits = np.flatnonzero(idx == k)
+        if len(hits):
+            starts[k] = (int(hits[0]), int(hits[-1]))
+    out: list[Decision] = []
+    frame = 0
+    k = 0
+    while k < len(names):
+        if names[k] != "CloseGripper":
+            k += 1
+            continue
+        if k not in starts or k + 1 >= len(names) or names[k + 1] != "MoveUP" or k + 1 not in starts:
+            return []
+        tc = starts[k][0]
+        lift_end = starts[k + 1][1]
+        grasp = (*tcp[tc], float(yaw[tc]))
+        lift = float(tcp[lift_end, 2])
+        release = next((j for j in range(k + 2, len(names)) if names[j] in ("OpenGripper", "CloseGripper")), None)
+        if release is not None and names[release] == "OpenGripper":
+            if release not in starts:
+                return []
+            to = starts[release][0]
+            goal = (*tcp[to], float(yaw[to]))
+            out.append(Decision(grasp, float(opening[tc]), lift, goal, True, False, frame))
+            home = next((j for j in range(release, len(names)) if names[j] == "MoveToDefaultPos"), None)
+            if home is not None and home in starts:
+                frame = starts[home][1] + 1
+            k = release + 1
+        else:
+            goal = (*tcp[lift_end], float(yaw[lift_end]))
+            out.append(Decision(grasp, float(opening[tc]), lift, goal, False, False, frame))
+            k += 2
+    if out:
+        out[-1] = Decision(*(getattr(out[-1], f) for f in ("grasp", "opening", "lift", "goal", "release")), True,
+                           out[-1].frame)
+    if len(set(d.frame for d in out)) != len(out):
+        return []
+    return out
+
+
+def _command(opening: float) -> float:
+    """The gripper command of a finger opening [m] (+1: the whole stroke, -1: closed)."""
+    return float(np.clip(2.0 * opening / GRIPPER_STROKE - 1.0, -1.0, 1.0))
+
+
+class KeyposeFollower:
+    """Steering vectors that carry out one :class:`Decision` from the observation it was made on.
+
+    The moves are straight lines of the TCP at the follower speed of the waypoint policy, each one
+    over when the TCP is within :data:`REACHED` and :data:`YAW_REACHED` of its end; the grasp closes
+    the fingers until they stop narrowing (they squeeze what they hold from then on), the release opens
+    them until they stop widening. ``home``: the TCP position and yaw the arm goes back to after a
+    release, where the next decision is made.
+    """
+
+    def __init__(self, decision: Decision, obs: Mapping[str, Any], home: np.ndarray, env: Any = None,
+                 z_floor: float | None = None) -> None:
+        d = decision
+        gx, gy, gz, gyaw = d.grasp
+        if z_floor is not None:
+            gz = max(gz, z_floor)
+        tcp = np.asarray(obs["tcp_pos"], np.float64)
+        gyaw = _near_yaw(gyaw, float(_yaw(np.asarray(obs["tcp_quat"], np.float64))))
+        open_cmd = _command(d.opening + OPEN_MARGIN)
+        over = max(float(tcp[2]), gz + APPROACH)
+        steps: list[tuple[str, np.ndarray]] = [
+            ("move", np.array([gx, gy, over, gyaw, open_cmd])),
+            ("move", np.array([gx, gy, gz + APPROACH, gyaw, open_cmd])),
+            ("move", np.array([gx, gy, gz, gyaw, open_cmd])),
+            ("close", np.array([gx, gy, gz, gyaw, -1.0])),
+            ("move", np.array([gx, gy, max(d.lift, gz), gyaw, -1.0])),
+        ]
+        px, py, pz, pyaw = d.goal
+        pyaw = _near_yaw(pyaw, gyaw)
+        if d.release:
+            carry = max(d.lift, pz + APPROACH)
+            steps += [("move", np.array([px, py, carry, pyaw, -1.0])),
+                      ("move", np.array([px, py, pz + APPROACH, pyaw, -1.0])),
+                      ("move", np.array([px, py, pz, pyaw, -1.0])),
+                      ("open", np.array([px, py, pz, pyaw, open_cmd])),
+                      ("move", np.array([px, py, pz + APPROACH, pyaw, open_cmd]))]
+            if not d.last:  # back to where the camera sees the table as in the demonstrations
+                steps += [("move", np.array([home[0], home[1], max(carry, home[2]), _near_yaw(home[3], pyaw),
+                                             open_cmd])),
+                          ("move", np.array([home[0], home[1], home[2], _near_yaw(home[3], pyaw), open_cmd]))]
+        else:
+            steps += [("move", np.array([px, py, max(pz, d.lift), pyaw, -1.0]))]
+        self.steps = steps
+        self.phase = 0
+        self._speeds = _speeds(env)
+        control = getattr(getattr(env, "unwrapped", None), "control", None)
+        self._hz = float(control.control_hz) if control is not None else 20.0
+        self._low = min(gz, d.goal[2]) + APPROACH / 2
+        self._width: float | None = None
+        self._settle = 0
+        self._held: float | None = None
+
+    @property
+    def done(self) -> bool:
+        return self.phase >= len(self.steps)
+
+    def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
+        """The next steering vector (7,); once :attr:`done`, one that holds the arm still."""
+        while not self.done and self._reached(obs):
+            self.phase += 1
+            self._width = None
+            self._settle = 0
+        kind, goal = self.steps[min(self.phase, len(self.steps) - 1)]
+        if self.done:
+            goal = goal.copy()
+            goal[:3] = np.asarray(obs["tcp_pos"], np.float64)
+        return self._steer(obs, goal)
+
+    def _steer(self, obs: Mapping[str, Any], goal: np.ndarray) -> np.ndarray:
+        """Toward ``goal``: a TCP velocity of :data:`GAIN` times the displacement, between
+        :data:`MIN_SPEED` and :data:`MAX_SPEED` (slower within :data:`APPROACH` of the table) and never
+        past the goal in one control step; a yaw rate of :data:`GAIN` times the remaining yaw; the
+        gripper squeezing for a closed goal, else at the goal's opening."""
+        lin_speed, ang_speed = self._speeds
+        tcp = np.asarray(obs["tcp_pos"], np.float64)
+        delta = goal[:3] - tcp
+        dist = float(np.linalg.norm(delta))
+        action = np.zeros(7)
+        if dist > 1e-9:
+            top = MAX_SPEED if min(tcp[2], goal[2]) > self._low else MAX_SPEED / 2
+            speed = min(max(GAIN * dist, MIN_SPEED), top, dist * self._hz)
+            action[:3] = delta / dist * speed / lin_speed
+        yaw = float(_wrap(goal[3] - _yaw(np.asarray(obs["tcp_quat"], np.float64))))
+        action[5] = np.clip(GAIN * yaw, -ang_speed, ang_speed) / ang_speed
+        if goal[4] >= -0.99:
+            action[6] = goal[4]
+        elif self.steps[min(self.phase, len(self.steps) - 1)][0] == "close":
+            action[6] = squeeze_command(obs["gripper"])
+        else:  # holding at the width the fingers stopped at, as the demonstrations do (squeezing on through
+            # the lift pushes the pads past the contact-force limit on heavy objects)
+            if self._held is None:
+                self._held = _command(float(obs["gripper"][0]) + float(obs["gripper"][1]))
+            action[6] = self._held
+        return np.clip(action, -1.0, 1.0).astype(np.float32)
+
+    def _reached(self, obs: Mapping[str, Any]) -> bool:
+        kind, goal = self.steps[self.phase]
+        if kind in ("close", "open"):
+            width = float(obs["gripper"][0]) + float(obs["gripper"][1])
+            settled = self._width is not None and abs(width - self._width) < 1e-4
+            self._width = width
+            self._settle += 1
+            return (settled and self._settle > 2) or self._settle > SETTLE_STEPS
+        tcp = np.asarray(obs["tcp_pos"], np.float64)
+        yaw = float(_yaw(np.asarray(obs["tcp_quat"], np.float64)))
+        return bool(np.linalg.norm(goal[:3] - tcp) < REACHED and abs(_wrap(goal[3] - yaw)) < YAW_REACHED)
+
+
+def _near_yaw(yaw: float, ref: float) -> float:
+    """``yaw`` or ``yaw + pi``, whichever is nearer ``ref`` (the fingers are symmetric)."""
+    a = float(_wrap(yaw - ref))
+    if a > np.pi / 2:
+        a -= np.pi
+    elif a < -np.pi / 2:
+        a += np.pi
+    return ref + a
+

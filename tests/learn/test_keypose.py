@@ -1,0 +1,152 @@
+"""The keypose policy: decisions read from recorded episodes, the top-down view, the follower that acts
+on them (proven on the recorded decisions), and a trained model acting through ``samplehd evaluate``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+
+from samplehd.dataset.reader import DatasetReader  # noqa: E402
+from samplehd.envs.replay_check import replay_env  # noqa: E402
+from samplehd.learn.policy.actions import _yaw  # noqa: E402
+from samplehd.learn.policy.keyposes import KeyposeFollower, decisions  # noqa: E402
+from samplehd.world.layout import LAYOUT  # noqa: E402
+
+KEYPOSE_DATA = {
+    "num_scenes": 4,
+    "seed": 3,
+    "test_every": 4,
+    "scene": {"min_objects": 3, "max_objects": 4},
+    "instructions": {"per_scene": 2, "families": ["pick_up", "place"]},
+    "render": {"mode": "none", "width": 320, "height": 180},
+}
+
+
+@pytest.fixture(scope="module")
+def keypose_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """States-only episodes of pick_up and place with 320×180 scene images."""
+    from samplehd.dataset.config import GenerateConfig, preset_config
+    from samplehd.dataset.generate import generate_dataset
+
+    out = tmp_path_factory.mktemp("keypose") / "ds"
+    summary = generate_dataset(out, GenerateConfig.from_dict(KEYPOSE_DATA, base=preset_config("small")))
+    assert summary.episodes >= 4
+    return out
+
+
+def _decisions(reader: DatasetReader, k: int) -> list:
+    meta = reader.episode_meta(k)
+    fr = reader.frames(k, ["subtask_index", "tcp_pos", "tcp_quat", "gripper_opening"])
+    return decisions(meta["subtasks"], fr["subtask_index"], fr["tcp_pos"], fr["tcp_quat"], fr["gripper_opening"])
+
+
+def test_decisions_are_read_from_the_recorded_subtasks(keypose_dataset: Path) -> None:
+    reader = DatasetReader(keypose_dataset)
+    families = set()
+    for k, entry in enumerate(reader.episodes):
+        ds = _decisions(reader, k)
+        assert ds, f"episode {k} ({entry.family}) has no decisions"
+        families.add(entry.family)
+        assert ds[0].frame == 0 and ds[-1].last and not any(d.last for d in ds[:-1])
+        assert [d.frame for d in ds] == sorted({d.frame for d in ds})
+        for d in ds:
+            assert LAYOUT.table_height < d.grasp[2] < LAYOUT.table_height + 0.35
+            assert d.lift > d.grasp[2] + 0.05
+            assert 0.0 < d.opening <= 0.086
+            assert d.release == (entry.family == "place")
+        if entry.family == "pick_up":
+            assert len(ds) == 1 and np.allclose(ds[0].goal[:2], ds[0].grasp[:2], atol=0.005)
+    assert families == {"pick_up", "place"}
+
+
+def test_following_the_recorded_decisions_succeeds(keypose_dataset: Path) -> None:
+    """The labels can be acted on: the follower, given each episode's own decisions, succeeds in the
+    episode (what a perfect keypose policy does)."""
+    reader = DatasetReader(keypose_dataset)
+    env = replay_env(reader)
+    try:
+        for k, entry in enumerate(reader.episodes):
+            obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": k})
+            home = np.r_[obs["tcp_pos"], _yaw(obs["tcp_quat"])]
+            success, steps = False, 0
+            for d in _decisions(reader, k):
+                follower = KeyposeFollower(d, obs, home, env)
+                while not follower.done and steps < 600:
+                    action = follower(obs)
+                    assert action.shape == (7,) and np.abs(action).max() <= 1.0
+                    obs, _, terminated, truncated, info = env.step(action)
+                    steps += 1
+                    success = success or bool(info["success"])
+                    assert not info["safety_stop"], (k, info["safety_events"])
+            assert success, f"episode {k} ({entry.family}): {info['check_reason']}"
+    finally:
+        env.close()
+
+
+def test_the_top_down_view_puts_each_object_where_it_stands(keypose_dataset: Path) -> None:
+    from PIL import Image
+
+    from samplehd.learn.policy.topdown import HEIGHT_SCALE, TopDownGrid
+    from samplehd.render.renderer import SEG_ROBOT
+
+    grid = TopDownGrid()
+    xy = np.array([[0.1, -0.2], [-0.3, 0.45]])
+    assert np.allclose(grid.world(*grid.cell_of(xy).T), xy)
+    assert np.allclose(grid.coarse(2).world(*grid.coarse(2).cell_of(xy).T), xy)
+    reader = DatasetReader(keypose_dataset)
+    scene = reader.scenes[0]
+    stem = Path(scene["image_filename"]).stem
+    rgb = np.asarray(Image.open(keypose_dataset / "images" / f"{stem}.png").convert("RGB"))
+    depth = np.load(keypose_dataset / "depth" / f"{stem}.npy")
+    seg = np.asarray(Image.open(keypose_dataset / "segmentation" / f"{stem}.png"))
+    view = grid.project(rgb, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
+    assert view.shape == (7, grid.rows, grid.cols) and view.dtype == np.float32
+    assert 0.3 < view[4].mean() < 1.0  # most of the table is seen
+    for obj in scene["objects"]:  # its highest point seen lies within its box, as high as its top
+        lo = np.floor(grid.cell_of(np.array(obj["bbox"]["min"][:2]))).astype(int)
+        hi = np.ceil(grid.cell_of(np.array(obj["bbox"]["max"][:2]))).astype(int) + 1
+        patch = view[3, max(lo[0], 0):hi[0], max(lo[1], 0):hi[1]] * HEIGHT_SCALE
+        top = obj["bbox"]["max"][2] - LAYOUT.table_height
+        assert top - 0.015 < patch.max() <= top + 0.01, obj["name"]
+
+
+def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_dataset: Path, tmp_path: Path) -> None:
+    from samplehd.cli import main
+    from samplehd.learn.policy.keypose_training import train_keypose_policy
+    from samplehd.learn.training import load_weights
+
+    whole, cut = tmp_path / "whole", tmp_path / "cut"
+    metrics = train_keypose_policy(keypose_dataset, whole, steps=4, batch=2, quiet=True)
+    assert train_keypose_policy(keypose_dataset, cut, steps=4, batch=2, quiet=True, stop_after=2) == {"stopped_at": 2}
+    assert (cut / "prepared.npz").exists()
+    train_keypose_policy(keypose_dataset, cut, steps=4, batch=2, quiet=True)
+    assert not (cut / "prepared.npz").exists()
+    a, b = load_weights(whole / "model.pt"), load_weights(cut / "model.pt")
+    assert a.keys() == b.keys() and all(np.array_equal(a[k].numpy(), b[k].numpy()) for k in a)
+    config = json.loads((whole / "config.json").read_text())
+    assert config["action"] == "keypose" and config["grid"]["width"] == 320 and config["grid"]["height"] == 180
+    assert metrics["train_decisions"] >= 3 and metrics["test_decisions"] >= 1
+    assert set(metrics["test_grasp_error_m"]) == {"median", "mean", "within_1cm", "within_2cm"}
+    assert float(a["z_floor"]) > LAYOUT.table_height
+
+    report = tmp_path / "report.json"
+    code = main(["evaluate", "--policy", "bc", "--models", str(whole), "--families", "pick_up", "--episodes", "1",
+                 "--max-episode-steps", "60", "--out", str(report)])
+    assert code == 0
+    result = json.loads(report.read_text())
+    assert result["episodes"] == 1 and result["records"][0]["steps"] >= 1
+
+
+def test_keypose_training_refuses_what_it_does_not_use(keypose_dataset: Path, tmp_path: Path) -> None:
+    from samplehd.cli import main
+
+    out = tmp_path / "m"
+    for extra in (["--inputs", "state"], ["--demos", "5"], ["--hidden", "64"]):
+        assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out", str(out),
+                     "--steps", "1", *extra]) == 2
+        assert not out.exists()
