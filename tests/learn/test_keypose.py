@@ -107,12 +107,17 @@ def test_the_top_down_view_puts_each_object_where_it_stands(keypose_dataset: Pat
     view = grid.project(rgb, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
     assert view.shape == (7, grid.rows, grid.cols) and view.dtype == np.float32
     assert 0.3 < view[4].mean() < 1.0  # most of the table is seen
+    ids = grid.project_labels(seg, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
+    assert ids.shape == (grid.rows, grid.cols) and not (ids == SEG_ROBOT).any()
     for obj in scene["objects"]:  # its highest point seen lies within its box, as high as its top
         lo = np.floor(grid.cell_of(np.array(obj["bbox"]["min"][:2]))).astype(int)
         hi = np.ceil(grid.cell_of(np.array(obj["bbox"]["max"][:2]))).astype(int) + 1
-        patch = view[3, max(lo[0], 0):hi[0], max(lo[1], 0):hi[1]] * HEIGHT_SCALE
+        box = (slice(max(lo[0], 0), hi[0]), slice(max(lo[1], 0), hi[1]))
+        patch = view[3][box] * HEIGHT_SCALE
         top = obj["bbox"]["max"][2] - LAYOUT.table_height
         assert top - 0.015 < patch.max() <= top + 0.01, obj["name"]
+        mine = ids == obj["segmentation_id"]  # the cells that show it lie in its box
+        assert mine[box].sum() == mine.sum() > 0, obj["name"]
 
 
 def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_dataset: Path, tmp_path: Path) -> None:
@@ -123,7 +128,8 @@ def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_datas
     whole, cut = tmp_path / "whole", tmp_path / "cut"
     metrics = train_keypose_policy(keypose_dataset, whole, steps=4, batch=2, quiet=True)
     assert train_keypose_policy(keypose_dataset, cut, steps=4, batch=2, quiet=True, stop_after=2) == {"stopped_at": 2}
-    assert (cut / "prepared.npz").exists()
+    with np.load(cut / "prepared.npz") as z:  # every decision with the attribute maps of what it sees
+        assert len(z["train_attributes"]) == len(z["train_grid"]) and (z["train_attributes"] >= 0).any()
     train_keypose_policy(keypose_dataset, cut, steps=4, batch=2, quiet=True)
     assert not (cut / "prepared.npz").exists()
     a, b = load_weights(whole / "model.pt"), load_weights(cut / "model.pt")

@@ -11,7 +11,7 @@ resumed run does not draw them again.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +33,7 @@ from samplehd.learn.policy.configuration import (
     PolicyTraining,
 )
 from samplehd.learn.policy.keyposes import Decision, decisions
-from samplehd.learn.policy.modeling import KeyposeNet
+from samplehd.learn.policy.modeling import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeNet
 from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
 from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng, torch
 from samplehd.render.renderer import SEG_ROBOT, SceneRenderer, camera_intrinsics, camera_pose
@@ -45,6 +45,7 @@ PREPARED_FILE = "prepared.npz"
 SCENE_MODALITIES = ("rgb", "depth", "segmentation")  # depth of the segmentation pass: glass is opaque there
 HEIGHT_UNIT = 0.1  # heights (grasp, lift, goal) are learnt in this unit above the table [m]
 OPENING_UNIT = 0.085  # the opening is learnt in this unit [m]
+ATTRIBUTE_WEIGHT = 0.5  # weight of the auxiliary attribute maps' loss
 SHIFT = 4  # training views move by up to this many grid cells along each axis
 HEAT_SIGMA = 0.75  # the spread of the heat maps' targets [cells of the network's maps]
 FACTOR = 2  # the network's maps have cells this many times larger than the grid's
@@ -55,15 +56,18 @@ def grid_of(config: PolicyGrid) -> TopDownGrid:
     return TopDownGrid((float(config.origin[0]), float(config.origin[1])), config.cell, config.rows, config.cols)
 
 
-def scene_grid(renderer: Any, model: Any, data: Any, config: PolicyGrid) -> np.ndarray:
+def scene_grid(renderer: Any, model: Any, data: Any, config: PolicyGrid, with_ids: bool = False) -> Any:
     """The grid image of the scene camera's view of ``data`` (``renderer`` made for ``model`` at the
-    config's size)."""
+    config's size); with ``with_ids``, (it, the segmentation id seen in each cell)."""
     images = renderer.render(data, config.camera, SCENE_MODALITIES)
     camera = {"width": config.width, "height": config.height,
               "intrinsics": camera_intrinsics(model, config.camera, config.width, config.height).tolist(),
               "extrinsics": camera_pose(model, data, config.camera).tolist()}
-    return grid_of(config).project(images["rgb"], images["depth"], camera, LAYOUT.table_height,
-                                   robot=images["segmentation"] == SEG_ROBOT)
+    grid, robot = grid_of(config), images["segmentation"] == SEG_ROBOT
+    image = grid.project(images["rgb"], images["depth"], camera, LAYOUT.table_height, robot=robot)
+    if not with_ids:
+        return image
+    return image, grid.project_labels(images["segmentation"], images["depth"], camera, LAYOUT.table_height, robot=robot)
 
 
 def keypose_targets(d: Decision, grid: TopDownGrid) -> np.ndarray:
@@ -81,9 +85,32 @@ def keypose_targets(d: Decision, grid: TopDownGrid) -> np.ndarray:
                      float(d.release), float(d.last), float(inside)], np.float32)
 
 
+def attribute_values(scenes: Sequence[Mapping[str, Any]]) -> dict[str, list[str]]:
+    """Per attribute of :data:`KEYPOSE_ATTRIBUTES`, the values the scenes' objects have, sorted."""
+    values = {a: sorted({str(o.get(a)) for s in scenes for o in s["objects"]}) for a in KEYPOSE_ATTRIBUTES}
+    for a, v in values.items():
+        if len(v) > ATTRIBUTE_VALUES:
+            raise ConfigError(f"dataset: {len(v)} values of {a!r} ({', '.join(v[:5])}, ...); the keypose policy's "
+                              f"attribute maps hold {ATTRIBUTE_VALUES}")
+    return values
+
+
+def _attribute_maps(ids: np.ndarray, scene: Mapping[str, Any], values: Mapping[str, list[str]]) -> np.ndarray:
+    """(attributes, rows/FACTOR, cols/FACTOR) int8: per coarse cell the index of each attribute of the
+    object seen there (``ids``: segmentation ids per grid cell), -1 where no object is."""
+    coarse = ids[FACTOR // 2::FACTOR, FACTOR // 2::FACTOR]
+    out = np.full((len(KEYPOSE_ATTRIBUTES), *coarse.shape), -1, np.int8)
+    for obj in scene["objects"]:
+        where = coarse == int(obj["segmentation_id"])
+        for a, name in enumerate(KEYPOSE_ATTRIBUTES):
+            out[a][where] = values[name].index(str(obj.get(name)))
+    return out
+
+
 def _episode_samples(reader: Any, k: int, env: Any, config: PolicyGrid, tokens_len: int,
-                     renderers: dict[str, Any]) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """(grid, tokens, labels) of each decision of episode ``k``."""
+                     renderers: dict[str, Any], values: Mapping[str, list[str]]
+                     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
+    """(grid, tokens, labels, attribute maps) of each decision of episode ``k``."""
     meta = reader.episode_meta(k)
     if not meta.get("success", False):
         return []
@@ -103,6 +130,7 @@ def _episode_samples(reader: Any, k: int, env: Any, config: PolicyGrid, tokens_l
             depth = np.load(reader.root / "depth" / f"{stem}.npy", allow_pickle=False).astype(np.float32)
             seg = np.asarray(Image.open(reader.root / "segmentation" / f"{stem}.png"))
             image = grid.project(rgb, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
+            ids = grid.project_labels(seg, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
         else:
             env.reset(options={"dataset": str(reader.root), "episode_index": k})
             u = env.unwrapped
@@ -116,22 +144,24 @@ def _episode_samples(reader: Any, k: int, env: Any, config: PolicyGrid, tokens_l
                 renderers.clear()
                 renderers[key] = SceneRenderer(u.model, config.width, config.height, "fast")
                 renderers[key].render(u.data, config.camera, SCENE_MODALITIES)  # a context's first frame differs
-            image = scene_grid(renderers[key], u.model, u.data, config)
-        out.append((image.astype(np.float16), tokens, keypose_targets(d, grid)))
+            image, ids = scene_grid(renderers[key], u.model, u.data, config, with_ids=True)
+        out.append((image.astype(np.float16), tokens, keypose_targets(d, grid), _attribute_maps(ids, scene, values)))
     return out
 
 
 def _prepare(reader: Any, ks: Sequence[int], config: PolicyGrid, tokens_len: int) -> dict[str, np.ndarray]:
     env = replay_env(reader)
     renderers: dict[str, Any] = {}
-    grids, toks, labels, episodes = [], [], [], []
+    values = attribute_values(reader.scenes)
+    grids, toks, labels, attrs, episodes = [], [], [], [], []
     try:
         for k in ks:
-            for g, t, y in _episode_samples(reader, k, env, config, tokens_len, renderers):
+            for g, t, y, a in _episode_samples(reader, k, env, config, tokens_len, renderers, values):
                 if y[12] > 0:
                     grids.append(g)
                     toks.append(t)
                     labels.append(y)
+                    attrs.append(a)
                     episodes.append(k)
     finally:
         for r in renderers.values():
@@ -140,20 +170,25 @@ def _prepare(reader: Any, ks: Sequence[int], config: PolicyGrid, tokens_len: int
     if not grids:
         return {"grid": np.zeros((0, GRID_CHANNELS, config.rows, config.cols), np.float16),
                 "tokens": np.zeros((0, tokens_len), np.int64), "labels": np.zeros((0, LABELS), np.float32),
+                "attributes": np.zeros((0, len(KEYPOSE_ATTRIBUTES), config.rows // FACTOR, config.cols // FACTOR),
+                                       np.int8),
                 "episode": np.zeros(0, np.int64)}
     return {"grid": np.stack(grids), "tokens": np.stack(toks), "labels": np.stack(labels),
-            "episode": np.array(episodes, np.int64)}
+            "attributes": np.stack(attrs), "episode": np.array(episodes, np.int64)}
 
 
-def _shifted(grid: Any, labels: Any, rng: np.random.Generator) -> tuple[Any, Any]:
-    """The batch's views moved on the table by up to :data:`SHIFT` cells each way (the coordinate
-    channels stay), their labels with them: the same scene a little elsewhere."""
-    grid, labels = grid.clone(), labels.clone()
-    for i, (dr, dc) in enumerate(rng.integers(-SHIFT, SHIFT + 1, size=(len(grid), 2))):
-        grid[i, :5] = torch.roll(grid[i, :5], shifts=(int(dr), int(dc)), dims=(1, 2))
-        labels[i, [0, 6]] += float(dr) / FACTOR
-        labels[i, [1, 7]] += float(dc) / FACTOR
-    return grid, labels
+def _shifted(grid: Any, labels: Any, attributes: Any, rng: np.random.Generator) -> tuple[Any, Any, Any]:
+    """The batch's views moved on the table by up to :data:`SHIFT` cells each way, whole cells of the
+    network's maps (the coordinate channels stay), their labels with them: the same scene a little
+    elsewhere."""
+    grid, labels, attributes = grid.clone(), labels.clone(), attributes.clone()
+    steps = rng.integers(-SHIFT // FACTOR, SHIFT // FACTOR + 1, size=(len(grid), 2))
+    for i, (dr, dc) in enumerate(steps):
+        grid[i, :5] = torch.roll(grid[i, :5], shifts=(int(dr) * FACTOR, int(dc) * FACTOR), dims=(1, 2))
+        attributes[i] = torch.roll(attributes[i], shifts=(int(dr), int(dc)), dims=(1, 2))
+        labels[i, [0, 6]] += float(dr)
+        labels[i, [1, 7]] += float(dc)
+    return grid, labels, attributes
 
 
 def _heat_loss(logits: Any, rc: Any) -> Any:
@@ -167,10 +202,11 @@ def _heat_loss(logits: Any, rc: Any) -> Any:
     return -(target * torch.log_softmax(logits.reshape(n, -1), 1)).sum(1).mean()
 
 
-def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any) -> tuple[Any, dict[str, Any]]:
+def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any) -> tuple[Any, dict[str, Any]]:
     """The training loss of a batch and its parts: cross-entropy of the grasp's and the goal's cell
     over the map, smooth L1 of the values at the labelled cells (the goal's read with the labelled
-    grasp's cell), binary cross-entropy of release and last."""
+    grasp's cell), binary cross-entropy of release and last, and :data:`ATTRIBUTE_WEIGHT` times the
+    cross-entropy of the attribute maps over the cells that show an object."""
     F = torch.nn.functional
     n = grid.shape[0]
     c, feats, flags = net.features(grid, tokens)
@@ -191,8 +227,12 @@ def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any) -> tuple[Any, di
                           torch.sin(2 * p_yaw)], 1)
     values = F.smooth_l1_loss(g_at[:, 1:], g_want, beta=0.05) + F.smooth_l1_loss(p_at[:, 1:], p_want, beta=0.05)
     flag = F.binary_cross_entropy_with_logits(flags, labels[:, 10:12])
-    return heat + 5.0 * values + flag, {"heat": heat, "values": values, "flags": flag, "grasp": gm, "goal": pm,
-                                        "flag_logits": flags}
+    att_logits = net.attributes(feats).view(n, len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, rows, cols)
+    named = F.cross_entropy(att_logits.transpose(1, 2), attributes, ignore_index=-1) if (attributes >= 0).any() \
+        else att_logits.sum() * 0.0
+    return heat + 5.0 * values + flag + ATTRIBUTE_WEIGHT * named, {
+        "heat": heat, "values": values, "flags": flag, "attributes": named, "grasp": gm, "goal": pm,
+        "flag_logits": flags}
 
 
 def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000, seed: int = 0,
@@ -255,19 +295,17 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     net.z_floor.fill_(float(arrays["train_labels"][:, 2].min()) * HEIGHT_UNIT + LAYOUT.table_height)
     opt = torch.optim.Adam(net.parameters(), lr=lr)
 
-    def tensors(prefix: str, idx: np.ndarray) -> tuple[Any, Any, Any]:
-        return (torch.as_tensor(arrays[f"{prefix}_grid"][idx].astype(np.float32), device=dev),
-                torch.as_tensor(arrays[f"{prefix}_tokens"][idx], device=dev),
-                torch.as_tensor(arrays[f"{prefix}_labels"][idx], device=dev))
-
     def train_step(step: int) -> float:
         net.train()
         rng = step_rng(seed, step)
         for g in opt.param_groups:
             g["lr"] = lr * min(1.0, 1.5 * (1 - step / steps))
-        grid_t, tok_t, lab_t = tensors("train", rng.integers(n, size=batch))
-        grid_t, lab_t = _shifted(grid_t, lab_t, rng)
-        loss, _ = keypose_loss(net, grid_t, tok_t, lab_t)
+        idx = rng.integers(n, size=batch)
+        grid_t = torch.as_tensor(arrays["train_grid"][idx].astype(np.float32), device=dev)
+        grid_t, lab_t, att_t = _shifted(grid_t, torch.as_tensor(arrays["train_labels"][idx], device=dev),
+                                        torch.as_tensor(arrays["train_attributes"][idx].astype(np.int64), device=dev),
+                                        rng)
+        loss, _ = keypose_loss(net, grid_t, torch.as_tensor(arrays["train_tokens"][idx], device=dev), lab_t, att_t)
         return descend(opt, loss)
 
     losses, t = run.train(net, opt, train_step, "policy")

@@ -120,6 +120,8 @@ class _Block(nn.Module):
         return torch.relu(h * (1 + gamma[:, :, None, None]) + beta[:, :, None, None])
 
 
+KEYPOSE_ATTRIBUTES = ("name", "color", "material", "size")  # the scene annotation's keys the auxiliary maps name
+ATTRIBUTE_VALUES = 32  # logits per attribute (the catalogues have at most 16 values of any)
 GRASP_OUT = 8  # heat, row and column offset, z, cos 2yaw, sin 2yaw, opening, lift
 GOAL_OUT = 6  # heat, row and column offset, z, cos 2yaw, sin 2yaw
 
@@ -155,6 +157,8 @@ class KeyposeNet(nn.Module):
         self.goal = _Block(w, w, 128)
         self.goal_out = nn.Conv2d(w, GOAL_OUT, 1)
         self.flags = nn.Sequential(nn.Linear(4 * w + 128, 128), nn.ReLU(inplace=True), nn.Linear(128, 2))
+        # training only: per cell, the class, colour, material and size of the object seen there
+        self.attributes = nn.Conv2d(w, len(KEYPOSE_ATTRIBUTES) * ATTRIBUTE_VALUES, 1)
 
     def code(self, tokens: torch.Tensor) -> torch.Tensor:
         """The instruction's code: the GRU's last state beside the mean of its words' embeddings (the

@@ -58,24 +58,10 @@ class TopDownGrid:
         colour and height of the highest point seen in it; cells no pixel falls in are zero, seen 0.
         ``robot``: the pixels that show the robot, left out (a robot's self-filter, which knows where
         its links are; above the table, the arm would hide what lies under it)."""
-        h, w = depth.shape
-        rows, cols = np.indices((h, w))
-        points = backproject(depth, rows.ravel(), cols.ravel(), camera)
-        height = points[:, 2] - table_height
-        rc = np.floor((points[:, :2] - np.asarray(self.origin)) / self.cell).astype(np.int64)
-        keep = ((rc[:, 0] >= 0) & (rc[:, 0] < self.rows) & (rc[:, 1] >= 0) & (rc[:, 1] < self.cols)
-                & (height > -0.02) & (height < MAX_HEIGHT) & np.isfinite(height))
-        if robot is not None:
-            keep &= ~np.asarray(robot, bool).ravel()
-        flat = rc[keep, 0] * self.cols + rc[keep, 1]
-        height, colour = height[keep], rgb.reshape(-1, 3)[keep]
-        order = np.lexsort((height, flat))  # by cell, then height: each cell's highest point last
-        flat, height, colour = flat[order], height[order], colour[order]
-        last = np.r_[flat[1:] != flat[:-1], True]
+        cells, pixels, height = self._tops(depth, camera, table_height, robot)
         out = np.zeros((GRID_CHANNELS, self.rows * self.cols), np.float32)
-        cells = flat[last]
-        out[0:3, cells] = colour[last].T / 255.0
-        out[3, cells] = np.maximum(height[last], 0.0) / HEIGHT_SCALE
+        out[0:3, cells] = rgb.reshape(-1, 3)[pixels].T / 255.0
+        out[3, cells] = np.maximum(height, 0.0) / HEIGHT_SCALE
         out[4, cells] = 1.0
         out = out.reshape(GRID_CHANNELS, self.rows, self.cols)
         for step in (1, -1):  # a cell between two rows of pixels (far from the camera) takes a neighbour's
@@ -87,3 +73,32 @@ class TopDownGrid:
         out[5] = np.linspace(-1.0, 1.0, self.rows, dtype=np.float32)[:, None]
         out[6] = np.linspace(-1.0, 1.0, self.cols, dtype=np.float32)[None, :]
         return out
+
+    def project_labels(self, labels: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any], table_height: float,
+                       robot: np.ndarray | None = None) -> np.ndarray:
+        """Per cell (rows, cols) the label (an integer image beside the depth, e.g. segmentation ids) of
+        the highest point seen in it, as :meth:`project` chooses it; 0 where no point falls."""
+        cells, pixels, _ = self._tops(depth, camera, table_height, robot)
+        out = np.zeros(self.rows * self.cols, np.int64)
+        out[cells] = np.asarray(labels).reshape(-1)[pixels]
+        return out.reshape(self.rows, self.cols)
+
+    def _tops(self, depth: np.ndarray, camera: Mapping[str, Any], table_height: float,
+              robot: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(cells, pixels, heights): each cell some pixel falls in (flat index), the pixel of its highest
+        point (flat index) and that point's height above the table [m]."""
+        h, w = depth.shape
+        rows, cols = np.indices((h, w))
+        points = backproject(depth, rows.ravel(), cols.ravel(), camera)
+        height = points[:, 2] - table_height
+        rc = np.floor((points[:, :2] - np.asarray(self.origin)) / self.cell).astype(np.int64)
+        keep = ((rc[:, 0] >= 0) & (rc[:, 0] < self.rows) & (rc[:, 1] >= 0) & (rc[:, 1] < self.cols)
+                & (height > -0.02) & (height < MAX_HEIGHT) & np.isfinite(height))
+        if robot is not None:
+            keep &= ~np.asarray(robot, bool).ravel()
+        pixels = np.flatnonzero(keep)
+        flat = rc[pixels, 0] * self.cols + rc[pixels, 1]
+        order = np.lexsort((height[pixels], flat))  # by cell, then height: each cell's highest point last
+        flat, pixels = flat[order], pixels[order]
+        last = np.r_[flat[1:] != flat[:-1], True]
+        return flat[last], pixels[last], height[pixels[last]]
