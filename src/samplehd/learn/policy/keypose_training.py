@@ -19,7 +19,6 @@ import mujoco
 import numpy as np
 from PIL import Image
 
-from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.replay_check import replay_env
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
@@ -34,6 +33,7 @@ from samplehd.learn.policy.configuration import (
 )
 from samplehd.learn.policy.keyposes import Decision, decisions
 from samplehd.learn.policy.modeling import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeNet
+from samplehd.learn.policy.preparation import training_split
 from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
 from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng, torch
 from samplehd.render.renderer import SEG_ROBOT, SceneRenderer, camera_intrinsics, camera_pose
@@ -252,17 +252,7 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
         camera = next(iter(scenes.values()))["camera"] if scenes else {}
         grid = PolicyGrid(width=int(camera.get("width", 640)), height=int(camera.get("height", 360)))
     grid_cfg = grid
-    train_k, test_k = [], []
-    for e in reader.episodes:
-        if families and e.family not in families:
-            continue
-        ins = reader.instruction(e.instruction_index)
-        if e.split == "test":
-            test_k.append(e.instruction_index)
-        elif not held_out_instruction(ins) and episode_level(ins, scenes[e.scene_index]) == "L1":
-            train_k.append(e.instruction_index)
-    if not train_k:
-        raise ConfigError(f"dataset={dataset}: no training episodes", field="dataset")
+    train_k, test_k = training_split(reader, dataset, families)
     families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
     out = Path(out)
     dev = pick_device(device)

@@ -12,12 +12,33 @@ from typing import Any
 import numpy as np
 
 from samplehd.dataset.container import camera_settings
+from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import encode_instruction
 from samplehd.errors import ConfigError
 from samplehd.learn.policy.actions import moving_frames, waypoint_targets, waypoints
 from samplehd.learn.policy.processing import CAMERAS, _joint_vel, _state, _target_features
 
-__all__: list[str] = []
+__all__ = ["training_split"]
+
+
+def training_split(reader: Any, dataset: str | Path, families: Sequence[str] | None = None
+                   ) -> tuple[list[int], list[int]]:
+    """(training, test) episode indices of a dataset (of ``families``, if given): every test-split
+    episode; the training split's episodes of level L1 (seen templates and objects: the other levels
+    are held out for evaluation). One line naming ``dataset`` when no training episode is left."""
+    scenes = {s["image_index"]: s for s in reader.scenes}
+    train_k, test_k = [], []
+    for e in reader.episodes:
+        if families and e.family not in families:
+            continue
+        ins = reader.instruction(e.instruction_index)
+        if e.split == "test":
+            test_k.append(e.instruction_index)
+        elif not held_out_instruction(ins) and episode_level(ins, scenes[e.scene_index]) == "L1":
+            train_k.append(e.instruction_index)
+    if not train_k:
+        raise ConfigError(f"dataset={dataset}: no training episodes", field="dataset")
+    return train_k, test_k
 
 
 def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS,

@@ -12,7 +12,6 @@ from typing import Any
 import numpy as np
 from rich.console import Console
 
-from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset
@@ -41,6 +40,7 @@ from samplehd.learn.policy.preparation import (
     _inputs_state,
     _load_arrays,
     _save_arrays,
+    training_split,
 )
 from samplehd.learn.policy.processing import CAMERAS
 from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng, torch
@@ -142,18 +142,7 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     reader = open_dataset(dataset)
     cameras = CAMERAS if inputs == "rgb" else ()
     image = _image_size(reader, dataset) if cameras else 0
-    scenes = {s["image_index"]: s for s in reader.scenes}
-    train_k, test_k = [], []
-    for e in reader.episodes:
-        if families and e.family not in families:
-            continue
-        ins = reader.instruction(e.instruction_index)
-        if e.split == "test":
-            test_k.append(e.instruction_index)
-        elif not held_out_instruction(ins) and episode_level(ins, scenes[e.scene_index]) == "L1":
-            train_k.append(e.instruction_index)
-    if not train_k:
-        raise ConfigError(f"dataset={dataset}: no training episodes", field="dataset")
+    train_k, test_k = training_split(reader, dataset, families)
     dev = pick_device(device)
     set_seed(seed)
     data = [_episode_arrays(reader, k, stride, tokens, cameras, action) for k in train_k]
