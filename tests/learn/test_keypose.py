@@ -140,6 +140,16 @@ def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_datas
     assert set(metrics["test_grasp_error_m"]) == {"median", "mean", "within_1cm", "within_2cm"}
     assert float(a["z_floor"]) > LAYOUT.table_height
 
+    # a run may start from another keypose policy's weights (one line naming --init when it is not one)
+    started = tmp_path / "started"
+    assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out", str(started),
+                 "--steps", "1", "--batch", "2", "--quiet", "--init", str(whole)]) == 0
+    assert json.loads((started / "config.json").read_text())["train"]["init"] == str(whole)
+    for bad in (keypose_dataset, started / "model.pt"):
+        assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out",
+                     str(tmp_path / "refused"), "--steps", "1", "--init", str(bad)]) == 2
+    assert not (tmp_path / "refused").exists()
+
     report = tmp_path / "report.json"
     code = main(["evaluate", "--policy", "bc", "--models", str(whole), "--families", "pick_up", "--episodes", "1",
                  "--max-episode-steps", "60", "--out", str(report)])
@@ -152,7 +162,7 @@ def test_keypose_training_refuses_what_it_does_not_use(keypose_dataset: Path, tm
     from samplehd.cli import main
 
     out = tmp_path / "m"
-    for extra in (["--inputs", "state"], ["--demos", "5"], ["--hidden", "64"]):
+    for extra in (["--inputs", "state"], ["--demos", "5"], ["--hidden", "64"], ["--action", "steering", "--init", "x"]):
         assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out", str(out),
                      "--steps", "1", *extra]) == 2
         assert not out.exists()

@@ -43,6 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "followed by a proportional controller; keypose: per object moved, where to grasp "
                              "and where it goes, from a top-down view of the scene camera's RGB-D (the dataset's "
                              "scene images; default 16 decisions per step)")
+    policy.add_argument("--init", type=Path, help="--action keypose: start from the weights of the keypose policy "
+                                                  "in this folder (e.g. a pick_up model for place)")
     policy.add_argument("--batch", type=int, help="frames per optimiser step (default 64)")
     policy.add_argument("--hidden", type=int, help="width of the network's hidden layers (default 256)")
     policy.add_argument("--demos", type=int, help="oracle episodes to collect in the environment besides the "
@@ -69,16 +71,17 @@ def run(args: argparse.Namespace) -> int:
 
     _torch_or_error()
     check_out_dir("--out", args.out)
-    check_outputs({"--out": args.out}, {"--dataset": args.dataset})
+    check_outputs({"--out": args.out}, {"--dataset": args.dataset, "--init": getattr(args, "init", None)})
     collect = {"demos": args.demos, "noise": args.noise, "dagger_rounds": args.dagger_rounds,
                "dagger_episodes": args.dagger_episodes, "dagger_steps": args.dagger_steps, "workers": args.workers,
-               "inputs": args.inputs, "action": args.action, "batch": args.batch, "hidden": args.hidden}
+               "inputs": args.inputs, "action": args.action, "batch": args.batch, "hidden": args.hidden,
+               "init": args.init}
     given = {k: v for k, v in collect.items() if v is not None}
     if given and args.model != "policy":
         flag = "--" + next(iter(given)).replace("_", "-")
         raise ConfigError(f"{flag} {next(iter(given.values()))}: only used with `train policy`; leave it out")
     for key, value in given.items():
-        if key in ("inputs", "action"):
+        if key in ("inputs", "action", "init"):
             continue
         low = 1 if key in ("dagger_episodes", "dagger_steps", "workers", "batch", "hidden") else 0
         if key == "noise":
@@ -93,6 +96,9 @@ def run(args: argparse.Namespace) -> int:
             key = next(k for k in unused if k != "inputs" or given["inputs"] != "rgb")
             raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: not used with --action keypose (it learns "
                               f"from the dataset's scene images and decisions); leave it out")
+    if "init" in given and given.get("action") != "keypose":
+        raise ConfigError(f"--init {args.init}: starts a keypose policy from another's weights; only used with "
+                          f"--action keypose")
     if given.get("noise") and not given.get("demos"):
         raise ConfigError(f"--noise {args.noise}: adds noise to --demos episodes; give --demos N or leave it out")
     for key in ("dagger_episodes", "dagger_steps"):

@@ -123,6 +123,7 @@ class PolicyTraining(Config, section="train"):
         gripper_weight: loss weight of the gripper command.
         episodes: training episodes of the dataset.
         frames: training samples of the dataset.
+        init: the folder of the policy whose weights the training started from ("": none).
     """
 
     steps: int = bounded(4000, lo=1)
@@ -135,6 +136,7 @@ class PolicyTraining(Config, section="train"):
     gripper_weight: float = bounded(1.0, lo=0.0)
     episodes: int = bounded(0, lo=0)
     frames: int = bounded(0, lo=0)
+    init: str = ""
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,16 @@ from samplehd.learn.policy.keyposes import Decision, decisions
 from samplehd.learn.policy.modeling import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeNet
 from samplehd.learn.policy.preparation import training_split
 from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
-from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng, torch
+from samplehd.learn.training import (
+    TrainRun,
+    descend,
+    load_model_files,
+    pick_device,
+    read_model_config,
+    set_seed,
+    step_rng,
+    torch,
+)
 from samplehd.render.renderer import SEG_ROBOT, SceneRenderer, camera_intrinsics, camera_pose
 from samplehd.world.layout import LAYOUT
 
@@ -238,13 +247,16 @@ def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any)
 def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000, seed: int = 0,
                          device: str | None = None, quiet: bool = False, stop_after: int | None = None,
                          batch: int = 16, lr: float = 1e-3, width: int = 16, tokens: int = 32,
-                         families: Sequence[str] | None = None, grid: PolicyGrid | None = None) -> dict[str, Any]:
+                         families: Sequence[str] | None = None, grid: PolicyGrid | None = None,
+                         init: str | Path | None = None) -> dict[str, Any]:
     """Train the keypose policy on a dataset's L1 training episodes; metrics on its test episodes: the
     grasp's and the goal's position error [m] (median, mean, share within 1 and 2 cm), the grasp's
     height and yaw error, the flags' accuracy.
 
     ``grid`` (default: the dataset's scene images' size, so that first decisions read them) says what
-    the policy looks at; an image of another size is drawn anew from the episode's state.
+    the policy looks at; an image of another size is drawn anew from the episode's state. ``init``: the
+    folder of another keypose policy whose weights the training starts from (a ``pick_up`` model's
+    grounding serves ``place``); its grid and width must be this run's.
     """
     reader = open_dataset(dataset)
     scenes = {s["image_index"]: s for s in reader.scenes}
@@ -254,6 +266,7 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     grid_cfg = grid
     train_k, test_k = training_split(reader, dataset, families)
     families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
+    start = _initial_weights(init, grid, width) if init is not None else None
     out = Path(out)
     dev = pick_device(device)
     set_seed(seed)
@@ -261,7 +274,8 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
         format=FORMAT, dataset=str(dataset), catalogue=reader.catalogue, inputs="rgb", action="keypose", image=0,
         chunk=1, execute=1, tokens=tokens, model=PolicyArchitecture(width=width, hidden=128),
         inference=PolicyInference(), grid=grid_cfg, families=families_used,
-        train=PolicyTraining(steps=steps, seed=seed, batch=batch, stride=1, lr=lr, episodes=len(train_k)))
+        train=PolicyTraining(steps=steps, seed=seed, batch=batch, stride=1, lr=lr, episodes=len(train_k),
+                             init=str(init) if init is not None else ""))
     run = TrainRun(out, config.to_dict(), steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
                    stop_after=stop_after)
     run.prepare()
@@ -280,6 +294,8 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     if n == 0:
         raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry", field="dataset")
     net = KeyposeNet(len(instruction_vocabulary()), GRID_CHANNELS, width).to(dev)
+    if start is not None:
+        net.load_state_dict(start)
     # The lowest grasp of the training decisions: the policy never grasps lower (a finger on the table
     # is a safety stop, a grasp a little high still closes on the object).
     net.z_floor.fill_(float(arrays["train_labels"][:, 2].min()) * HEIGHT_UNIT + LAYOUT.table_height)
@@ -308,6 +324,19 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     run.finish(net, metrics)
     prepared.unlink(missing_ok=True)
     return metrics
+
+
+def _initial_weights(init: str | Path, grid: PolicyGrid, width: int) -> dict[str, Any]:
+    """The weights of the keypose policy in ``init``; one line naming ``init`` when it is none or
+    looks at another grid."""
+    raw, state = load_model_files(init, "policy", FORMAT)
+    config = read_model_config(PolicyConfig, raw, init)
+    if config.action != "keypose":
+        raise ConfigError(f"init={init}: a policy of action {config.action!r}, not a keypose policy", field="init")
+    if config.grid != grid or config.model.width != width:
+        raise ConfigError(f"init={init}: its grid or width (grid {config.grid.to_dict()}, width {config.model.width}) "
+                          f"differs from this run's (grid {grid.to_dict()}, width {width})", field="init")
+    return state
 
 
 def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, dev: Any) -> dict[str, Any]:

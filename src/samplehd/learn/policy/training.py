@@ -99,8 +99,8 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
                  families: Sequence[str] | None = None, loss: str = "mse", near_weight: float = 1.0,
                  ensemble: float | None = None, floor: bool = True, gripper_weight: float = 1.0,
                  demos: int = 0, noise: float = 0.0, dagger_rounds: int = 0, dagger_episodes: int = 50,
-                 dagger_steps: int = 1000, workers: int = 1, inputs: str = "rgb", action: str = "steering"
-                 ) -> dict[str, Any]:
+                 dagger_steps: int = 1000, workers: int = 1, inputs: str = "rgb", action: str = "steering",
+                 init: str | Path | None = None) -> dict[str, Any]:
     """Train the behaviour-cloning policy on a dataset's training episodes.
 
     With ``inputs="rgb"`` (the visuomotor policy) it sees both cameras' RGB, the instruction and the
@@ -133,7 +133,9 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
                               "inputs='rgb', no demos or DAgger rounds")
         return train_keypose_policy(dataset, out, steps=steps, seed=seed, device=device, quiet=quiet,
                                     stop_after=stop_after, batch=batch or 16, lr=lr, width=width,
-                                    tokens=tokens, families=families)
+                                    tokens=tokens, families=families, init=init)
+    if init is not None:
+        raise ConfigError(f"train_policy: init={init}: only a keypose policy starts from another's weights")
     batch = batch or 64
     if action == "waypoint":  # one waypoint per frame, predicted every step
         chunk, execute, ensemble = 1, 1, None
