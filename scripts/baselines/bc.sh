@@ -15,6 +15,8 @@
 # Writes OUT/data/FAMILY, OUT/models/{rgb,state}_FAMILY, OUT/reports/*.json and OUT/summary.txt.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+# shellcheck source=scripts/baselines/demonstrations.sh
+source "$here/demonstrations.sh"
 out="${1:-outputs/bc}"
 workers="${WORKERS:-$(nproc)}"
 device=()
@@ -30,14 +32,7 @@ start=$(date +%s)
 
 for family in ${FAMILIES:-pick_up place}; do
   data="$out/data/$family"
-  if ! { [[ -f "$data/info.json" ]] && grep -q '"status": "complete"' "$data/info.json"; }; then
-    resume=()
-    [[ -d "$data" ]] && resume=(--resume)
-    "$bin" generate --preset small --config "$here/bc_$family.json" --workers "$workers" --out "$data" --quiet \
-      "${resume[@]}"
-  fi
-  # Data for learning is proven first: every recorded episode must replay to its recorded outcome.
-  "$bin" validate "$data" --replay --episodes 50 | tee "$out/reports/replay_$family.txt"
+  demonstrations "$here/bc_$family.json" "$data" "$out/reports/replay_$family.txt"
   "$bin" train policy --dataset "$data" --out "$out/models/rgb_$family" --steps "${STEPS:-4000}" --quiet \
     "${device[@]}" "${demos[@]}"
   "$bin" train policy --inputs state --dataset "$data" --out "$out/models/state_$family" \

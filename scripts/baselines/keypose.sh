@@ -7,13 +7,15 @@
 #
 # usage: scripts/baselines/keypose.sh [OUT]          (default OUT: outputs/keypose)
 #   env: WORKERS (generate/evaluate processes, default: all cores), DEVICE (default: automatic),
-#        STEPS (optimiser steps, 3000), EPISODES (closed-loop episodes per family, 50),
+#        STEPS (optimiser steps; pick_up 4000, place 3000), EPISODES (closed-loop episodes per family, 50),
 #        FAMILIES (default "pick_up place")
 #
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
 # Writes OUT/data/FAMILY, OUT/models/keypose_FAMILY, OUT/reports/*.json and OUT/summary.txt.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+# shellcheck source=scripts/baselines/demonstrations.sh
+source "$here/demonstrations.sh"
 out="${1:-outputs/keypose}"
 workers="${WORKERS:-$(nproc)}"
 device=()
@@ -21,22 +23,15 @@ device=()
 episodes="${EPISODES:-50}"
 bin="${SAMPLEHD:-samplehd}"
 mkdir -p "$out/data" "$out/models" "$out/reports"
-declare -A limit=([pick_up]=300 [place]=600)
+declare -A limit=([pick_up]=300 [place]=600) steps=([pick_up]=4000 [place]=3000)
 start=$(date +%s)
 
 for family in ${FAMILIES:-pick_up place}; do
   data="$out/data/$family"
-  if ! { [[ -f "$data/info.json" ]] && grep -q '"status": "complete"' "$data/info.json"; }; then
-    resume=()
-    [[ -d "$data" ]] && resume=(--resume)
-    "$bin" generate --preset small --config "$here/keypose_$family.json" --workers "$workers" --out "$data" --quiet \
-      "${resume[@]}"
-  fi
-  # Data for learning is proven first: every recorded episode must replay to its recorded outcome.
-  "$bin" validate "$data" --replay --episodes 50 | tee "$out/reports/replay_$family.txt"
+  demonstrations "$here/keypose_$family.json" "$data" "$out/reports/replay_$family.txt"
   model="$out/models/keypose_$family"
   [[ -f "$model/model.pt" ]] || "$bin" train policy --action keypose --dataset "$data" --out "$model" \
-    --steps "${STEPS:-3000}" --quiet "${device[@]}"
+    --steps "${STEPS:-${steps[$family]}}" --quiet "${device[@]}"
   "$bin" evaluate --policy bc --models "$model" --families "$family" --level L1 --episodes "$episodes" \
     --max-episode-steps "${limit[$family]}" --workers "$workers" --out "$out/reports/keypose_$family.json"
 done
