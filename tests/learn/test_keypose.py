@@ -166,3 +166,16 @@ def test_keypose_training_refuses_what_it_does_not_use(keypose_dataset: Path, tm
         assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out", str(out),
                      "--steps", "1", *extra]) == 2
         assert not out.exists()
+
+
+def test_a_damaged_grid_in_a_policy_config_is_one_line_naming_the_field() -> None:
+    from samplehd.errors import ConfigError
+    from samplehd.learn.policy.configuration import PolicyConfig
+
+    base = {"kind": "policy", "action": "keypose"}
+    for grid, field in (({"rows": 100}, "grid.rows=100"), ({"origin": [0.1]}, "grid.origin=[0.1]"),
+                        ({"cell": -0.01}, "grid.cell=-0.01"), ({"width": "wide"}, "grid.width='wide'")):
+        with pytest.raises(ConfigError) as info:
+            PolicyConfig.from_dict({**base, "grid": grid})
+        message = str(info.value)
+        assert field in message and "\n" not in message, message

@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
 
     _torch_or_error()
     check_out_dir("--out", args.out)
-    check_outputs({"--out": args.out}, {"--dataset": args.dataset, "--init": getattr(args, "init", None)})
+    check_outputs({"--out": args.out}, {"--dataset": args.dataset, "--init": args.init})
     collect = {"demos": args.demos, "noise": args.noise, "dagger_rounds": args.dagger_rounds,
                "dagger_episodes": args.dagger_episodes, "dagger_steps": args.dagger_steps, "workers": args.workers,
                "inputs": args.inputs, "action": args.action, "batch": args.batch, "hidden": args.hidden,
@@ -91,9 +91,10 @@ def run(args: argparse.Namespace) -> int:
         elif value < low:
             raise ConfigError(f"--{key.replace('_', '-')} {value}: valid: an integer ≥ {low}")
     if given.get("action") == "keypose":
-        unused = [k for k in ("inputs", "hidden", "demos", "noise", "dagger_rounds", "workers") if k in given]
-        if given.get("inputs", "rgb") != "rgb" or unused and unused != ["inputs"]:
-            key = next(k for k in unused if k != "inputs" or given["inputs"] != "rgb")
+        unused = [k for k in ("inputs", "hidden", "demos", "noise", "dagger_rounds", "workers")
+                  if k in given and not (k == "inputs" and given[k] == "rgb")]
+        if unused:
+            key = unused[0]
             raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: not used with --action keypose (it learns "
                               f"from the dataset's scene images and decisions); leave it out")
     if "init" in given and given.get("action") != "keypose":

@@ -33,7 +33,8 @@ goes) from a top-down view of the scene camera's RGB-D, as in Transporter networ
 - :mod:`~samplehd.learn.policy.keyposes`: :func:`decisions` read from recorded episodes, and
   :class:`KeyposeFollower`, which carries a decision out as steering vectors;
 - :mod:`~samplehd.learn.policy.keypose_training`: :func:`train_keypose_policy`;
-- :mod:`~samplehd.learn.policy.keypose_inference`: :class:`KeyposePolicy`, a trained one that acts.
+- :mod:`~samplehd.learn.policy.keypose_inference`: :class:`KeyposePolicy`, a trained one that acts, and
+  the view and the decoding of the network's maps that training shares.
 
 Importing this package loads only the configuration: ``samplehd evaluate`` reads a policy's
 ``config.json`` through :mod:`samplehd.learn.options` where PyTorch is not installed. The other names

@@ -15,17 +15,40 @@ import numpy as np
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.policy.actions import _yaw
-from samplehd.learn.policy.configuration import PolicyConfig
-from samplehd.learn.policy.keypose_training import SCENE_MODALITIES, grid_of, predict_decisions, scene_grid
+from samplehd.learn.policy.configuration import PolicyConfig, PolicyGrid
 from samplehd.learn.policy.keyposes import Decision, KeyposeFollower
 from samplehd.learn.policy.modeling import KeyposeNet
-from samplehd.learn.policy.topdown import GRID_CHANNELS
+from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
 from samplehd.learn.training import set_seed, torch
-from samplehd.render.renderer import SceneRenderer
+from samplehd.render.renderer import SEG_ROBOT, SceneRenderer, camera_intrinsics, camera_pose
+from samplehd.world.layout import LAYOUT
 
-__all__ = ["KeyposePolicy"]
+__all__ = ["KeyposePolicy", "grid_of", "predict_decisions", "scene_grid"]
+
+SCENE_MODALITIES = ("rgb", "depth", "segmentation")  # depth of the segmentation pass: glass is opaque there
+HEIGHT_UNIT = 0.1  # heights (grasp, lift, goal) are learnt in this unit above the table [m]
+OPENING_UNIT = 0.085  # the opening is learnt in this unit [m]
+FACTOR = 2  # the network's maps have cells this many times larger than the grid's
 
 MAX_DECISIONS = 4  # an episode's decisions at most (the families move up to three objects)
+
+
+def grid_of(config: PolicyGrid) -> TopDownGrid:
+    return TopDownGrid((float(config.origin[0]), float(config.origin[1])), config.cell, config.rows, config.cols)
+
+
+def scene_grid(renderer: Any, model: Any, data: Any, config: PolicyGrid, with_ids: bool = False) -> Any:
+    """The grid image of the scene camera's view of ``data`` (``renderer`` made for ``model`` at the
+    config's size); with ``with_ids``, (it, the segmentation id seen in each cell)."""
+    images = renderer.render(data, config.camera, SCENE_MODALITIES)
+    camera = {"width": config.width, "height": config.height,
+              "intrinsics": camera_intrinsics(model, config.camera, config.width, config.height).tolist(),
+              "extrinsics": camera_pose(model, data, config.camera).tolist()}
+    grid, robot = grid_of(config), images["segmentation"] == SEG_ROBOT
+    image = grid.project(images["rgb"], images["depth"], camera, LAYOUT.table_height, robot=robot)
+    if not with_ids:
+        return image
+    return image, grid.project_labels(images["segmentation"], images["depth"], camera, LAYOUT.table_height, robot=robot)
 
 
 class KeyposePolicy:
@@ -98,3 +121,34 @@ class KeyposePolicy:
             self._renderer.close()
             self._renderer = None
             self._renderer_model = None
+
+
+def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid) -> list[Decision]:
+    """The decisions the network makes on a batch of grid images: the most likely cell of the grasp,
+    the values there, then the goal's maps given that cell and their most likely cell."""
+    c, feats, flags = net.features(grid_batch, tokens)
+    gm = net.grasp(feats)
+    n, _, rows, cols = gm.shape
+    g_idx = gm[:, 0].reshape(n, -1).argmax(1)
+    g_cell = torch.stack([g_idx // cols, g_idx % cols], 1)
+    pm = net.goal_maps(c, feats, g_cell)
+    p_idx = pm[:, 0].reshape(n, -1).argmax(1)
+    p_cell = torch.stack([p_idx // cols, p_idx % cols], 1)
+    ar = torch.arange(n, device=gm.device)
+    g_at = gm[ar, :, g_cell[:, 0], g_cell[:, 1]].cpu().numpy().astype(np.float64)
+    p_at = pm[ar, :, p_cell[:, 0], p_cell[:, 1]].cpu().numpy().astype(np.float64)
+    fl = torch.sigmoid(flags).cpu().numpy()
+    g_cell, p_cell = g_cell.cpu().numpy(), p_cell.cpu().numpy()
+    coarse = grid.coarse(FACTOR)
+    table = LAYOUT.table_height
+    out = []
+    for i in range(n):
+        gxy = coarse.world(g_cell[i, 0] + np.clip(g_at[i, 1], -0.5, 0.5), g_cell[i, 1] + np.clip(g_at[i, 2], -0.5, 0.5))
+        pxy = coarse.world(p_cell[i, 0] + np.clip(p_at[i, 1], -0.5, 0.5), p_cell[i, 1] + np.clip(p_at[i, 2], -0.5, 0.5))
+        g_yaw = 0.5 * float(np.arctan2(g_at[i, 5], g_at[i, 4]))
+        p_yaw = 0.5 * float(np.arctan2(p_at[i, 5], p_at[i, 4]))
+        out.append(Decision((float(gxy[0]), float(gxy[1]), table + HEIGHT_UNIT * float(g_at[i, 3]), g_yaw),
+                            max(0.0, OPENING_UNIT * float(g_at[i, 6])), table + HEIGHT_UNIT * float(g_at[i, 7]),
+                            (float(pxy[0]), float(pxy[1]), table + HEIGHT_UNIT * float(p_at[i, 3]), p_yaw),
+                            bool(fl[i, 0] > 0.5), bool(fl[i, 1] > 0.5)))
+    return out

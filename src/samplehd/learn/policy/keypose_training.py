@@ -31,6 +31,15 @@ from samplehd.learn.policy.configuration import (
     PolicyInference,
     PolicyTraining,
 )
+from samplehd.learn.policy.keypose_inference import (
+    FACTOR,
+    HEIGHT_UNIT,
+    OPENING_UNIT,
+    SCENE_MODALITIES,
+    grid_of,
+    predict_decisions,
+    scene_grid,
+)
 from samplehd.learn.policy.keyposes import Decision, decisions
 from samplehd.learn.policy.modeling import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeNet
 from samplehd.learn.policy.preparation import training_split
@@ -45,38 +54,16 @@ from samplehd.learn.training import (
     step_rng,
     torch,
 )
-from samplehd.render.renderer import SEG_ROBOT, SceneRenderer, camera_intrinsics, camera_pose
+from samplehd.render.renderer import SEG_ROBOT, SceneRenderer
 from samplehd.world.layout import LAYOUT
 
 __all__ = ["PREPARED_FILE", "keypose_targets", "scene_grid", "train_keypose_policy"]
 
 PREPARED_FILE = "prepared.npz"
-SCENE_MODALITIES = ("rgb", "depth", "segmentation")  # depth of the segmentation pass: glass is opaque there
-HEIGHT_UNIT = 0.1  # heights (grasp, lift, goal) are learnt in this unit above the table [m]
-OPENING_UNIT = 0.085  # the opening is learnt in this unit [m]
 ATTRIBUTE_WEIGHT = 0.5  # weight of the auxiliary attribute maps' loss
 SHIFT = 4  # training views move by up to this many grid cells along each axis
 HEAT_SIGMA = 0.75  # the spread of the heat maps' targets [cells of the network's maps]
-FACTOR = 2  # the network's maps have cells this many times larger than the grid's
 LABELS = 13  # grasp row, col, z, yaw, opening, lift; goal row, col, z, yaw; release, last; cell-free flag
-
-
-def grid_of(config: PolicyGrid) -> TopDownGrid:
-    return TopDownGrid((float(config.origin[0]), float(config.origin[1])), config.cell, config.rows, config.cols)
-
-
-def scene_grid(renderer: Any, model: Any, data: Any, config: PolicyGrid, with_ids: bool = False) -> Any:
-    """The grid image of the scene camera's view of ``data`` (``renderer`` made for ``model`` at the
-    config's size); with ``with_ids``, (it, the segmentation id seen in each cell)."""
-    images = renderer.render(data, config.camera, SCENE_MODALITIES)
-    camera = {"width": config.width, "height": config.height,
-              "intrinsics": camera_intrinsics(model, config.camera, config.width, config.height).tolist(),
-              "extrinsics": camera_pose(model, data, config.camera).tolist()}
-    grid, robot = grid_of(config), images["segmentation"] == SEG_ROBOT
-    image = grid.project(images["rgb"], images["depth"], camera, LAYOUT.table_height, robot=robot)
-    if not with_ids:
-        return image
-    return image, grid.project_labels(images["segmentation"], images["depth"], camera, LAYOUT.table_height, robot=robot)
 
 
 def keypose_targets(d: Decision, grid: TopDownGrid) -> np.ndarray:
@@ -371,34 +358,3 @@ def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, de
             "test_grasp_yaw_error_rad": round(float(np.median(yaw)), 4),
             "test_release_accuracy": round(float(flags[:, 0].mean()), 4),
             "test_last_accuracy": round(float(flags[:, 1].mean()), 4)}
-
-
-def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid) -> list[Decision]:
-    """The decisions the network makes on a batch of grid images: the most likely cell of the grasp,
-    the values there, then the goal's maps given that cell and their most likely cell."""
-    c, feats, flags = net.features(grid_batch, tokens)
-    gm = net.grasp(feats)
-    n, _, rows, cols = gm.shape
-    g_idx = gm[:, 0].reshape(n, -1).argmax(1)
-    g_cell = torch.stack([g_idx // cols, g_idx % cols], 1)
-    pm = net.goal_maps(c, feats, g_cell)
-    p_idx = pm[:, 0].reshape(n, -1).argmax(1)
-    p_cell = torch.stack([p_idx // cols, p_idx % cols], 1)
-    ar = torch.arange(n, device=gm.device)
-    g_at = gm[ar, :, g_cell[:, 0], g_cell[:, 1]].cpu().numpy().astype(np.float64)
-    p_at = pm[ar, :, p_cell[:, 0], p_cell[:, 1]].cpu().numpy().astype(np.float64)
-    fl = torch.sigmoid(flags).cpu().numpy()
-    g_cell, p_cell = g_cell.cpu().numpy(), p_cell.cpu().numpy()
-    coarse = grid.coarse(FACTOR)
-    table = LAYOUT.table_height
-    out = []
-    for i in range(n):
-        gxy = coarse.world(g_cell[i, 0] + np.clip(g_at[i, 1], -0.5, 0.5), g_cell[i, 1] + np.clip(g_at[i, 2], -0.5, 0.5))
-        pxy = coarse.world(p_cell[i, 0] + np.clip(p_at[i, 1], -0.5, 0.5), p_cell[i, 1] + np.clip(p_at[i, 2], -0.5, 0.5))
-        g_yaw = 0.5 * float(np.arctan2(g_at[i, 5], g_at[i, 4]))
-        p_yaw = 0.5 * float(np.arctan2(p_at[i, 5], p_at[i, 4]))
-        out.append(Decision((float(gxy[0]), float(gxy[1]), table + HEIGHT_UNIT * float(g_at[i, 3]), g_yaw),
-                            max(0.0, OPENING_UNIT * float(g_at[i, 6])), table + HEIGHT_UNIT * float(g_at[i, 7]),
-                            (float(pxy[0]), float(pxy[1]), table + HEIGHT_UNIT * float(p_at[i, 3]), p_yaw),
-                            bool(fl[i, 0] > 0.5), bool(fl[i, 1] > 0.5)))
-    return out

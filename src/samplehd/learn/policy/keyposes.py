@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -101,8 +101,7 @@ def decisions(subtasks: Sequence[str] | str, subtask_index: np.ndarray, tcp_pos:
             out.append(Decision(grasp, float(opening[tc]), lift, goal, False, False, frame))
             k += 2
     if out:
-        out[-1] = Decision(*(getattr(out[-1], f) for f in ("grasp", "opening", "lift", "goal", "release")), True,
-                           out[-1].frame)
+        out[-1] = replace(out[-1], last=True)
     if len(set(d.frame for d in out)) != len(out):
         return []
     return out
