@@ -23,7 +23,7 @@ device=()
 episodes="${EPISODES:-50}"
 bin="${SAMPLEHD:-samplehd}"
 mkdir -p "$out/data" "$out/models" "$out/reports"
-declare -A limit=([pick_up]=300 [place]=600) steps=([pick_up]=4000 [place]=3000)
+declare -A limit=([pick_up]=300 [place]=1500) steps=([pick_up]=4000 [place]=3000)
 start=$(date +%s)
 
 for family in ${FAMILIES:-pick_up place}; do
@@ -37,7 +37,9 @@ for family in ${FAMILIES:-pick_up place}; do
 done
 
 {
-  echo "samplehd keypose recipe: $(date -u +%FT%TZ), $(($(date +%s) - start)) s, $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg)"
+  commit=$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)
+  echo "samplehd keypose recipe: $(date -u +%FT%TZ), commit $commit, $(($(date +%s) - start)) s," \
+    "$(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)), load $(cut -d' ' -f1-3 /proc/loadavg)"
   for report in "$out"/reports/keypose_*.json; do
     python3 -c 'import json, sys; r = json.load(open(sys.argv[1])); print(sys.argv[1], r["successes"], "/", r["episodes"])' "$report"
   done

@@ -1,8 +1,10 @@
 """The trained keypose policy acting in the environment (:class:`KeyposePolicy`): it looks at the table
 through the scene camera (RGB-D, re-projected from above), decides where to grasp and where the object
 goes, and carries the decision out with :class:`~samplehd.learn.policy.keyposes.KeyposeFollower`, one
-steering vector per ``env.step``; after each release it looks again, until it decides that the
-decision was the last.
+steering vector per ``env.step``; after each release it goes back to its start pose and looks again,
+until the episode ends (as a closed-loop behaviour-cloning policy acts until the environment says
+success or time is up) or :data:`MAX_DECISIONS` are made. The network's "last decision" flag is kept
+in the diagnosis only: it is right on about as many held-out decisions as always saying yes.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ HEIGHT_UNIT = 0.1  # heights (grasp, lift, goal) are learnt in this unit above t
 OPENING_UNIT = 0.085  # the opening is learnt in this unit [m]
 FACTOR = 2  # the network's maps have cells this many times larger than the grid's
 
-MAX_DECISIONS = 4  # an episode's decisions at most (the families move up to three objects)
+MAX_DECISIONS = 6  # an episode's decisions at most (the families move up to three objects; the rest retry)
 
 
 def grid_of(config: PolicyGrid) -> TopDownGrid:
@@ -108,13 +110,23 @@ class KeyposePolicy:
             self._episode = episode
             self._home = np.r_[np.asarray(obs["tcp_pos"], np.float64), _yaw(np.asarray(obs["tcp_quat"], np.float64))]
         follower = self._follower
-        again = follower is None or (follower.done and not self.decisions[-1].last)
+        again = follower is None or (follower.done and self.decisions[-1].release)
         if again and len(self.decisions) < MAX_DECISIONS:
             decision = self.decide(str(obs["instruction"]))
             self.decisions.append(decision)
             follower = self._follower = KeyposeFollower(decision, obs, self._home, self.env,
                                                         z_floor=float(self.net.z_floor))
         return follower(obs)
+
+    @property
+    def diagnosis(self) -> dict[str, Any]:
+        """The episode so far, copied into evaluation records: the stage the follower is at (where a failed
+        episode is charged) and the decisions made, rounded to the millimetre."""
+        if self._follower is None:
+            return {}
+        return {"stage": self._follower.stage,
+                "decisions": [{"grasp": [round(v, 3) for v in d.grasp], "goal": [round(v, 3) for v in d.goal],
+                               "release": d.release, "last": d.last} for d in self.decisions]}
 
     def close(self) -> None:
         if self._renderer is not None:

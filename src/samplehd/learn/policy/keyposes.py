@@ -35,6 +35,9 @@ GAIN = 4.0  # TCP speed per metre, yaw rate per radian still to go [1/s]
 MIN_SPEED = 0.03  # the TCP moves at least this fast until it is at its goal [m/s] ...
 MAX_SPEED = 0.24  # ... and at most this fast (half of it near the table) [m/s]
 OPEN_MARGIN = 0.01  # the gripper opens this much wider than the predicted opening before a grasp [m]
+DESCENT_SPEED = 0.06  # the last approach to a grasp or release goes down at most this fast [m/s]
+BLOCKED = 0.3  # a descent that moved less than this share of its commanded step has met something ...
+BLOCKED_MIN_STEP = 0.001  # ... when the commanded step was at least this long [m]
 
 
 @dataclass(frozen=True)
@@ -132,28 +135,28 @@ class KeyposeFollower:
         gyaw = _near_yaw(gyaw, float(_yaw(np.asarray(obs["tcp_quat"], np.float64))))
         open_cmd = _command(d.opening + OPEN_MARGIN)
         over = max(float(tcp[2]), gz + APPROACH)
-        steps: list[tuple[str, np.ndarray]] = [
-            ("move", np.array([gx, gy, over, gyaw, open_cmd])),
-            ("move", np.array([gx, gy, gz + APPROACH, gyaw, open_cmd])),
-            ("move", np.array([gx, gy, gz, gyaw, open_cmd])),
-            ("close", np.array([gx, gy, gz, gyaw, -1.0])),
-            ("move", np.array([gx, gy, max(d.lift, gz), gyaw, -1.0])),
+        steps: list[tuple[str, str, np.ndarray]] = [
+            ("move", "over grasp", np.array([gx, gy, over, gyaw, open_cmd])),
+            ("move", "over grasp", np.array([gx, gy, gz + APPROACH, gyaw, open_cmd])),
+            ("move", "down to grasp", np.array([gx, gy, gz, gyaw, open_cmd])),
+            ("close", "close", np.array([gx, gy, gz, gyaw, -1.0])),
+            ("move", "lift", np.array([gx, gy, max(d.lift, gz), gyaw, -1.0])),
         ]
         px, py, pz, pyaw = d.goal
         pyaw = _near_yaw(pyaw, gyaw)
         if d.release:
             carry = max(d.lift, pz + APPROACH)
-            steps += [("move", np.array([px, py, carry, pyaw, -1.0])),
-                      ("move", np.array([px, py, pz + APPROACH, pyaw, -1.0])),
-                      ("move", np.array([px, py, pz, pyaw, -1.0])),
-                      ("open", np.array([px, py, pz, pyaw, open_cmd])),
-                      ("move", np.array([px, py, pz + APPROACH, pyaw, open_cmd]))]
-            if not d.last:  # back to where the camera sees the table as in the demonstrations
-                steps += [("move", np.array([home[0], home[1], max(carry, home[2]), _near_yaw(home[3], pyaw),
-                                             open_cmd])),
-                          ("move", np.array([home[0], home[1], home[2], _near_yaw(home[3], pyaw), open_cmd]))]
+            steps += [("move", "carry", np.array([px, py, carry, pyaw, -1.0])),
+                      ("move", "carry", np.array([px, py, pz + APPROACH, pyaw, -1.0])),
+                      ("move", "down to release", np.array([px, py, pz, pyaw, -1.0])),
+                      ("open", "open", np.array([px, py, pz, pyaw, open_cmd])),
+                      ("move", "up", np.array([px, py, pz + APPROACH, pyaw, open_cmd]))]
+            # back to where the camera sees the table, as the demonstrations do
+            steps += [("move", "home", np.array([home[0], home[1], max(carry, home[2]), _near_yaw(home[3], pyaw),
+                                                 open_cmd])),
+                      ("move", "home", np.array([home[0], home[1], home[2], _near_yaw(home[3], pyaw), open_cmd]))]
         else:
-            steps += [("move", np.array([px, py, max(pz, d.lift), pyaw, -1.0]))]
+            steps += [("move", "carry", np.array([px, py, max(pz, d.lift), pyaw, -1.0]))]
         self.steps = steps
         self.phase = 0
         self._speeds = _speeds(env)
@@ -163,18 +166,30 @@ class KeyposeFollower:
         self._width: float | None = None
         self._settle = 0
         self._held: float | None = None
+        self._last_z: float | None = None
+        self._drop = 0.0  # the TCP's descent commanded by the last steering vector [m]
 
     @property
     def done(self) -> bool:
         return self.phase >= len(self.steps)
 
+    @property
+    def stage(self) -> str:
+        """What the follower is doing: "over grasp", "down to grasp", "close", "lift", "carry", "down to
+        release", "open", "up", "home", or "done"."""
+        return "done" if self.done else self.steps[self.phase][1]
+
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
         """The next steering vector (7,); once :attr:`done`, one that holds the arm still."""
+        if self._blocked(obs):  # a guarded move: close (or open) where the descent met the object or table
+            z = float(np.asarray(obs["tcp_pos"], np.float64)[2])
+            self.steps[self.phase][2][2] = self.steps[self.phase + 1][2][2] = z
+        self._last_z = float(np.asarray(obs["tcp_pos"], np.float64)[2])
         while not self.done and self._reached(obs):
             self.phase += 1
             self._width = None
             self._settle = 0
-        kind, goal = self.steps[min(self.phase, len(self.steps) - 1)]
+        kind, _, goal = self.steps[min(self.phase, len(self.steps) - 1)]
         if self.done:
             goal = goal.copy()
             goal[:3] = np.asarray(obs["tcp_pos"], np.float64)
@@ -182,7 +197,8 @@ class KeyposeFollower:
 
     def _steer(self, obs: Mapping[str, Any], goal: np.ndarray) -> np.ndarray:
         """Toward ``goal``: a TCP velocity of :data:`GAIN` times the displacement, between
-        :data:`MIN_SPEED` and :data:`MAX_SPEED` (slower within :data:`APPROACH` of the table) and never
+        :data:`MIN_SPEED` and :data:`MAX_SPEED` (slower within :data:`APPROACH` of the table, at most
+        :data:`DESCENT_SPEED` on the way down to a grasp or release) and never
         past the goal in one control step; a yaw rate of :data:`GAIN` times the remaining yaw; the
         gripper squeezing for a closed goal, else at the goal's opening."""
         lin_speed, ang_speed = self._speeds
@@ -192,8 +208,13 @@ class KeyposeFollower:
         action = np.zeros(7)
         if dist > 1e-9:
             top = MAX_SPEED if min(tcp[2], goal[2]) > self._low else MAX_SPEED / 2
+            if self.stage.startswith("down to"):
+                top = min(top, DESCENT_SPEED)
             speed = min(max(GAIN * dist, MIN_SPEED), top, dist * self._hz)
             action[:3] = delta / dist * speed / lin_speed
+            self._drop = max(0.0, -float(delta[2]) / dist * speed / self._hz)
+        else:
+            self._drop = 0.0
         yaw = float(_wrap(goal[3] - _yaw(np.asarray(obs["tcp_quat"], np.float64))))
         action[5] = np.clip(GAIN * yaw, -ang_speed, ang_speed) / ang_speed
         if goal[4] >= -0.99:
@@ -207,8 +228,16 @@ class KeyposeFollower:
             action[6] = self._held
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
+    def _blocked(self, obs: Mapping[str, Any]) -> bool:
+        """Whether a descent to the grasp or the release has stopped short: the TCP went down less than
+        :data:`BLOCKED` of what the last steering vector commanded."""
+        if self.done or self.steps[self.phase][1] not in ("down to grasp", "down to release") or self._last_z is None:
+            return False
+        fell = self._last_z - float(np.asarray(obs["tcp_pos"], np.float64)[2])
+        return self._drop >= BLOCKED_MIN_STEP and fell < BLOCKED * self._drop
+
     def _reached(self, obs: Mapping[str, Any]) -> bool:
-        kind, goal = self.steps[self.phase]
+        kind, _, goal = self.steps[self.phase]
         if kind in ("close", "open"):
             width = float(obs["gripper"][0]) + float(obs["gripper"][1])
             settled = self._width is not None and abs(width - self._width) < 1e-4
