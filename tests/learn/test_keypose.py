@@ -88,6 +88,37 @@ def test_following_the_recorded_decisions_succeeds(keypose_dataset: Path) -> Non
         env.close()
 
 
+def test_a_descent_that_meets_an_object_stops_and_closes_there(keypose_dataset: Path) -> None:
+    """A grasp predicted too low, on top of the widest object, closed fingers: the follower feels the
+    descent stop on the object and closes there, instead of pushing on until the contact-force stop."""
+    from samplehd.learn.policy.keyposes import Decision
+
+    reader = DatasetReader(keypose_dataset)
+    scene = reader.scenes[reader.episodes[0].scene_index]
+    widest = max(scene["objects"], key=lambda o: min(np.subtract(o["bbox"]["max"][:2], o["bbox"]["min"][:2])))
+    top = widest["bbox"]["max"][2]
+    x, y = np.add(widest["bbox"]["min"][:2], widest["bbox"]["max"][:2]) / 2
+    env = replay_env(reader)
+    try:
+        obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": 0})
+        home = np.r_[obs["tcp_pos"], _yaw(obs["tcp_quat"])]
+        low = LAYOUT.table_height + 0.01
+        follower = KeyposeFollower(Decision((x, y, low, 0.0), 0.0, low + 0.15, (x, y, low + 0.15, 0.0), False, True),
+                                   obs, home, env)
+        stages = []
+        for _ in range(300):
+            obs, _, _, _, info = env.step(follower(obs))
+            stages.append(follower.stage)
+            assert not info["safety_stop"], (widest["name"], follower.stage, info["safety_events"])
+            if follower.stage == "lift":
+                break
+        assert "close" in stages and follower.stage == "lift", stages[-5:]
+        stopped = follower.steps[3][2][2]  # the height the fingers closed at
+        assert stopped > low + 0.01 and stopped > top - 0.05, (widest["name"], stopped, top)
+    finally:
+        env.close()
+
+
 def test_the_top_down_view_puts_each_object_where_it_stands(keypose_dataset: Path) -> None:
     from PIL import Image
 

@@ -183,7 +183,9 @@ class KeyposeFollower:
         """The next steering vector (7,); once :attr:`done`, one that holds the arm still."""
         if self._blocked(obs):  # a guarded move: close (or open) where the descent met the object or table
             z = float(np.asarray(obs["tcp_pos"], np.float64)[2])
-            self.steps[self.phase][2][2] = self.steps[self.phase + 1][2][2] = z
+            end = next(k for k in range(self.phase, len(self.steps)) if self.steps[k][0] != "move")
+            for k in range(self.phase, end + 1):
+                self.steps[k][2][2] = z
         self._last_z = float(np.asarray(obs["tcp_pos"], np.float64)[2])
         while not self.done and self._reached(obs):
             self.phase += 1
@@ -229,9 +231,10 @@ class KeyposeFollower:
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
     def _blocked(self, obs: Mapping[str, Any]) -> bool:
-        """Whether a descent to the grasp or the release has stopped short: the TCP went down less than
-        :data:`BLOCKED` of what the last steering vector commanded."""
-        if self.done or self.steps[self.phase][1] not in ("down to grasp", "down to release") or self._last_z is None:
+        """Whether a descent toward the grasp or the release has stopped short: the TCP went down less
+        than :data:`BLOCKED` of what the last steering vector commanded."""
+        if self.done or self.stage not in ("over grasp", "down to grasp", "carry", "down to release") \
+                or self._last_z is None:
             return False
         fell = self._last_z - float(np.asarray(obs["tcp_pos"], np.float64)[2])
         return self._drop >= BLOCKED_MIN_STEP and fell < BLOCKED * self._drop
