@@ -77,6 +77,34 @@ def test_evaluate_random_policy_writes_a_report_and_videos(tmp_path: Path, fast_
     assert len(videos) == 2 and videos[0].stat().st_size > 0
 
 
+def test_evaluate_records_the_objects_an_episode_disturbed(tmp_path: Path, fast_options: dict,
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    """A record lists the objects the task does not name that the episode moved; a policy that shoves one
+    aside has it listed, and a success beside it would not count as undisturbed."""
+    (tmp_path / "shoving_agents.py").write_text(
+        "import mujoco\n"
+        "import numpy as np\n"
+        "def make(env):\n"
+        "    def act(obs):\n"
+        "        u = env.unwrapped\n"
+        "        if getattr(u, 'shoved', None) is not u.episode:\n"
+        "            u.shoved = u.episode\n"
+        "            other = next(i for i in range(len(u.episode.scene.objects)) if i not in u.task.objects)\n"
+        "            body = u.physics.object_body[other]\n"
+        "            adr = u.model.jnt_qposadr[u.model.body_jntadr[body]]\n"
+        "            u.data.qpos[adr:adr + 2] += 0.05\n"
+        "            mujoco.mj_forward(u.model, u.data)\n"
+        "        return np.zeros(7, dtype=np.float32)\n"
+        "    return act\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    for spec, moved in (("random", False), ("shoving_agents:make", True)):
+        cfg = EvalConfig(policy=spec, episodes=1, families=("place",), env={**fast_options, "max_episode_steps": 3})
+        report = evaluate(cfg)
+        assert bool(report["records"][0]["disturbed"]) == moved, report["records"][0]
+        assert report["successes_undisturbed"] == 0
+
+
 def test_evaluate_cli_rejects_a_bad_policy_in_one_line() -> None:
     for spec in ("not a policy", "no_such_module_xyz:act", "json:no_such_callable"):
         proc = subprocess.run([sys.executable, "-m", "samplehd", "evaluate", "--policy", spec, "--episodes", "1"],

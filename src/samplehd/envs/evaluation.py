@@ -125,6 +125,8 @@ class EpisodeRecord:
         replans: the oracle's replans, or None.
         offline_success: whether the offline path generator solved the episode (``compare_offline``).
         video: the episode's MP4, or None.
+        disturbed: the scene objects the task does not name that the episode moved or turned beyond the
+            checker's tolerances (``disturb_distance``, ``disturb_angle``), at its end.
     """
 
     index: int
@@ -148,6 +150,7 @@ class EpisodeRecord:
     replans: int | None = None
     offline_success: bool | None = None
     video: str | None = None
+    disturbed: tuple[int, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The report's record: keys in this order, ``return`` for :attr:`episode_return`, optional
@@ -156,7 +159,8 @@ class EpisodeRecord:
             "index": self.index, "seed": self.seed, "family": self.family, "requested_family": self.requested_family,
             "instruction": self.instruction, "task": self.task, "success": self.success, "steps": self.steps,
             "return": self.episode_return, "terminated": self.terminated, "truncated": self.truncated,
-            "safety_events": list(self.safety_events), "check_reason": self.check_reason, "wall_s": self.wall_s}
+            "safety_events": list(self.safety_events), "check_reason": self.check_reason, "wall_s": self.wall_s,
+            "disturbed": list(self.disturbed)}
         for name in ("gave_up", "level", "diagnosis", "failure_stage", "replans", "offline_success", "video"):
             if getattr(self, name) is not None:
                 d[name] = getattr(self, name)
@@ -319,6 +323,7 @@ class _Runner:
                 gave_up = str(getattr(policy, "failure", "gave up"))
                 break
         success = bool(info["success"])
+        disturbed = tuple(int(i) for i in env.unwrapped.check_success()["disturbed"])
         diagnosis = dict(policy.diagnosis) if getattr(policy, "diagnosis", None) else None
         record = EpisodeRecord(
             index=index, seed=seed, family=info["family"], requested_family=family,
@@ -328,7 +333,7 @@ class _Runner:
             gave_up=gave_up or None, level=config.level, diagnosis=diagnosis,
             failure_stage=diagnosis.get("stage", "motion") if diagnosis is not None and not success else None,
             replans=int(policy.replans) if hasattr(policy, "replans") else None,
-            offline_success=_offline_success(env, seed) if config.compare_offline else None)
+            offline_success=_offline_success(env, seed) if config.compare_offline else None, disturbed=disturbed)
         if config.video_dir and frames and frames[0] is not None:
             out = Path(config.video_dir)
             out.mkdir(parents=True, exist_ok=True)
@@ -361,6 +366,7 @@ def _summary(records: list[EpisodeRecord]) -> dict[str, Any]:
         out["offline_success_rate"] = len(feasible) / n
         out["success_rate_where_offline_succeeds"] = (
             sum(r.success for r in feasible) / len(feasible) if feasible else None)
+    out["successes_undisturbed"] = sum(r.success and not r.disturbed for r in records)
     out["safety_stops"] = sum(bool(r.safety_events) for r in records)
     stages = [r.failure_stage for r in records if r.failure_stage is not None]
     if stages:
