@@ -9,7 +9,7 @@ in the diagnosis only: it is right on about as many held-out decisions as always
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -32,6 +32,7 @@ HEIGHT_UNIT = 0.1  # heights (grasp, lift, goal) are learnt in this unit above t
 OPENING_UNIT = 0.085  # the opening is learnt in this unit [m]
 FACTOR = 2  # the network's maps have cells this many times larger than the grid's
 
+AVOID_RADIUS = 0.03  # a later grasp is not sought this close to an earlier grasp or release [m]
 MAX_DECISIONS = 6  # an episode's decisions at most (the families move up to three objects; the rest retry)
 
 
@@ -89,7 +90,9 @@ class KeyposePolicy:
         self.decisions = []
 
     def decide(self, instruction: str) -> Decision:
-        """The decision on the scene camera's current view."""
+        """The decision on the scene camera's current view. The grasp is not sought within
+        :data:`AVOID_RADIUS` of this episode's earlier grasps and releases: what was put down stays there,
+        and a grasp that did not take is not tried the same way again."""
         u = self.env.unwrapped
         cfg = self.config.grid
         if self._renderer_model is not u.model:
@@ -100,8 +103,9 @@ class KeyposePolicy:
         grid = scene_grid(self._renderer, u.model, u.data, cfg)
         tokens = encode_instruction(instruction, self.config.tokens)
         with torch.no_grad():
+            avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
             return predict_decisions(self.net, torch.as_tensor(grid[None], device=self.device),
-                                     torch.as_tensor(tokens[None], device=self.device), self.grid)[0]
+                                     torch.as_tensor(tokens[None], device=self.device), self.grid, [avoid])[0]
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
         episode = getattr(self.env.unwrapped, "episode", None)
@@ -135,13 +139,25 @@ class KeyposePolicy:
             self._renderer_model = None
 
 
-def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid) -> list[Decision]:
+def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid,
+                      avoid: Sequence[Sequence[np.ndarray]] | None = None) -> list[Decision]:
     """The decisions the network makes on a batch of grid images: the most likely cell of the grasp,
-    the values there, then the goal's maps given that cell and their most likely cell."""
+    the values there, then the goal's maps given that cell and their most likely cell. ``avoid``: per
+    image, table points (x, y) whose cells within :data:`AVOID_RADIUS` the grasp is not sought in."""
     c, feats, flags = net.features(grid_batch, tokens)
     gm = net.grasp(feats)
     n, _, rows, cols = gm.shape
-    g_idx = gm[:, 0].reshape(n, -1).argmax(1)
+    heat = gm[:, 0].clone()
+    coarse = grid.coarse(FACTOR)
+    if avoid:
+        centres = coarse.world(*np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"))
+        for i, points in enumerate(avoid):
+            for xy in points:
+                near = np.linalg.norm(centres - np.asarray(xy)[None, None], axis=-1) < AVOID_RADIUS
+                if near.all():
+                    continue
+                heat[i][torch.as_tensor(near, device=heat.device)] = -torch.inf
+    g_idx = heat.reshape(n, -1).argmax(1)
     g_cell = torch.stack([g_idx // cols, g_idx % cols], 1)
     pm = net.goal_maps(c, feats, g_cell)
     p_idx = pm[:, 0].reshape(n, -1).argmax(1)
@@ -151,7 +167,6 @@ def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid)
     p_at = pm[ar, :, p_cell[:, 0], p_cell[:, 1]].cpu().numpy().astype(np.float64)
     fl = torch.sigmoid(flags).cpu().numpy()
     g_cell, p_cell = g_cell.cpu().numpy(), p_cell.cpu().numpy()
-    coarse = grid.coarse(FACTOR)
     table = LAYOUT.table_height
     out = []
     for i in range(n):
