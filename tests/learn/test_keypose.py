@@ -189,6 +189,27 @@ def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_datas
     assert result["episodes"] == 1 and result["records"][0]["steps"] >= 1
 
 
+def test_a_later_grasp_is_not_sought_where_an_earlier_one_was() -> None:
+    import torch
+
+    from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
+    from samplehd.learn.policy.keypose_inference import AVOID_RADIUS, predict_decisions
+    from samplehd.learn.policy.modeling import KeyposeNet
+    from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
+
+    torch.manual_seed(0)
+    net = KeyposeNet(len(instruction_vocabulary()), GRID_CHANNELS, 8).eval()
+    grid = TopDownGrid()
+    view = torch.rand(1, GRID_CHANNELS, grid.rows, grid.cols)
+    tokens = torch.as_tensor(encode_instruction("Put the red mug on the left side of the table.", 32)[None])
+    with torch.no_grad():
+        first = predict_decisions(net, view, tokens, grid)[0]
+        avoid = [np.array(first.grasp[:2]), np.array(first.goal[:2])]
+        second = predict_decisions(net, view, tokens, grid, [avoid])[0]
+    for xy in avoid:  # the grasp's cell centre lies outside the radius; its offset moves it by under a cell
+        assert np.linalg.norm(np.subtract(second.grasp[:2], xy)) > AVOID_RADIUS - grid.cell * 2
+
+
 def test_keypose_training_refuses_what_it_does_not_use(keypose_dataset: Path, tmp_path: Path) -> None:
     from samplehd.cli import main
 
