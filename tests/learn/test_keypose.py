@@ -210,11 +210,40 @@ def test_a_later_grasp_is_not_sought_where_an_earlier_one_was() -> None:
         assert np.linalg.norm(np.subtract(second.grasp[:2], xy)) > AVOID_RADIUS - grid.cell * 2
 
 
+def test_the_privileged_reference_is_shown_the_objects_the_task_moves(keypose_dataset: Path, tmp_path: Path) -> None:
+    """``--inputs state``: the view gains a channel marking the cells of the task's objects, in training
+    and when acting; a run of other inputs is not started from its weights."""
+    from samplehd.cli import main
+    from samplehd.learn.policy.keypose_training import train_keypose_policy
+    from samplehd.learn.policy.topdown import GRID_CHANNELS, HEIGHT_SCALE
+
+    out = tmp_path / "state"
+    assert train_keypose_policy(keypose_dataset, out, steps=2, batch=2, quiet=True, inputs="state",
+                                stop_after=1) == {"stopped_at": 1}
+    with np.load(out / "prepared.npz") as z:
+        views = z["train_grid"].astype(np.float32)
+    assert views.shape[1] == GRID_CHANNELS + 1
+    marked = views[:, GRID_CHANNELS].reshape(len(views), -1)
+    assert ((marked == 0) | (marked == 1)).all() and (marked.sum(1) > 0).all()
+    # the marked cells stand above the table (objects), and are not all the cells that do
+    raised = views[:, 3].reshape(len(views), -1) * HEIGHT_SCALE > 0.002
+    assert raised[marked > 0].mean() > 0.95 and marked.sum() < raised.sum()
+    assert main(["train", "policy", "--action", "keypose", "--inputs", "state", "--dataset", str(keypose_dataset),
+                 "--out", str(out), "--steps", "2", "--batch", "2", "--quiet"]) == 0
+    assert json.loads((out / "config.json").read_text())["inputs"] == "state"
+    assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out",
+                 str(tmp_path / "refused"), "--steps", "1", "--init", str(out)]) == 2
+    report = tmp_path / "report.json"
+    assert main(["evaluate", "--policy", "bc", "--models", str(out), "--families", "place", "--episodes", "1",
+                 "--max-episode-steps", "40", "--out", str(report)]) == 0
+    assert json.loads(report.read_text())["records"][0]["steps"] >= 1
+
+
 def test_keypose_training_refuses_what_it_does_not_use(keypose_dataset: Path, tmp_path: Path) -> None:
     from samplehd.cli import main
 
     out = tmp_path / "m"
-    for extra in (["--inputs", "state"], ["--demos", "5"], ["--hidden", "64"], ["--action", "steering", "--init", "x"]):
+    for extra in (["--demos", "5"], ["--hidden", "64"], ["--action", "steering", "--init", "x"]):
         assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out", str(out),
                      "--steps", "1", *extra]) == 2
         assert not out.exists()

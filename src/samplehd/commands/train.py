@@ -36,7 +36,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                        "by the oracle")
     policy.add_argument("--inputs", choices=["rgb", "state"], help="rgb: the visuomotor policy (default); state: "
                                                                    "the privileged-state reference (no image; the "
-                                                                   "target object's pose relative to the TCP)")
+                                                                   "target object's pose relative to the TCP; "
+                                                                   "keypose: the view marks the cells of the "
+                                                                   "objects the task moves)")
     policy.add_argument("--action", choices=["steering", "waypoint", "keypose"],
                         help="steering: chunks of the demonstrations' steering vectors (default); waypoint: the "
                              "TCP pose and gripper command where the current segment of the demonstration ends, "
@@ -91,8 +93,7 @@ def run(args: argparse.Namespace) -> int:
         elif value < low:
             raise ConfigError(f"--{key.replace('_', '-')} {value}: valid: an integer ≥ {low}")
     if given.get("action") == "keypose":
-        unused = [k for k in ("inputs", "hidden", "demos", "noise", "dagger_rounds", "workers")
-                  if k in given and not (k == "inputs" and given[k] == "rgb")]
+        unused = [k for k in ("hidden", "demos", "noise", "dagger_rounds", "workers") if k in given]
         if unused:
             key = unused[0]
             raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: not used with --action keypose (it learns "

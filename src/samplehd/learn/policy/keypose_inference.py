@@ -22,10 +22,10 @@ from samplehd.learn.policy.keyposes import Decision, KeyposeFollower
 from samplehd.learn.policy.modeling import KeyposeNet
 from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
 from samplehd.learn.training import set_seed, torch
-from samplehd.render.renderer import SEG_ROBOT, SceneRenderer, camera_intrinsics, camera_pose
+from samplehd.render.renderer import SEG_OBJECT_OFFSET, SEG_ROBOT, SceneRenderer, camera_intrinsics, camera_pose
 from samplehd.world.layout import LAYOUT
 
-__all__ = ["KeyposePolicy", "grid_of", "predict_decisions", "scene_grid"]
+__all__ = ["KeyposePolicy", "grid_of", "input_channels", "predict_decisions", "scene_grid", "task_cells"]
 
 SCENE_MODALITIES = ("rgb", "depth", "segmentation")  # depth of the segmentation pass: glass is opaque there
 HEIGHT_UNIT = 0.1  # heights (grasp, lift, goal) are learnt in this unit above the table [m]
@@ -34,6 +34,18 @@ FACTOR = 2  # the network's maps have cells this many times larger than the grid
 
 AVOID_RADIUS = 0.03  # a later grasp is not sought this close to an earlier grasp or release [m]
 MAX_DECISIONS = 6  # an episode's decisions at most (the families move up to three objects; the rest retry)
+
+
+def input_channels(inputs: str) -> int:
+    """The channels of the network's view: the grid image's, and for the privileged-state reference
+    (``inputs="state"``) one more marking the cells that show an object the task moves."""
+    return GRID_CHANNELS + (inputs == "state")
+
+
+def task_cells(ids: np.ndarray, objects: Sequence[int]) -> np.ndarray:
+    """(rows, cols) float32: 1 where a cell shows one of the scene objects ``objects`` (``ids``: the
+    segmentation id seen in each cell)."""
+    return np.isin(ids, [SEG_OBJECT_OFFSET + int(i) for i in objects]).astype(np.float32)
 
 
 def grid_of(config: PolicyGrid) -> TopDownGrid:
@@ -69,7 +81,8 @@ class KeyposePolicy:
         set_seed(config.train.seed)
         self.config = config
         self.device = device or torch.device("cpu")
-        self.net = KeyposeNet(len(instruction_vocabulary()), GRID_CHANNELS, config.model.width).to(self.device)
+        self.net = KeyposeNet(len(instruction_vocabulary()), input_channels(config.inputs),
+                              config.model.width).to(self.device)
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
@@ -100,7 +113,11 @@ class KeyposePolicy:
             self._renderer = SceneRenderer(u.model, cfg.width, cfg.height, "fast")
             self._renderer_model = u.model
             self._renderer.render(u.data, cfg.camera, SCENE_MODALITIES)  # a context's first frame differs
-        grid = scene_grid(self._renderer, u.model, u.data, cfg)
+        if self.config.inputs == "state":  # the privileged reference is told which objects the task moves
+            grid, ids = scene_grid(self._renderer, u.model, u.data, cfg, with_ids=True)
+            grid = np.concatenate([grid, task_cells(ids, u.task.objects)[None]])
+        else:
+            grid = scene_grid(self._renderer, u.model, u.data, cfg)
         tokens = encode_instruction(instruction, self.config.tokens)
         with torch.no_grad():
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]

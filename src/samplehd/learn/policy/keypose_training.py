@@ -37,13 +37,15 @@ from samplehd.learn.policy.keypose_inference import (
     OPENING_UNIT,
     SCENE_MODALITIES,
     grid_of,
+    input_channels,
     predict_decisions,
     scene_grid,
+    task_cells,
 )
 from samplehd.learn.policy.keyposes import Decision, decisions
 from samplehd.learn.policy.modeling import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeNet
 from samplehd.learn.policy.preparation import training_split
-from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
+from samplehd.learn.policy.topdown import TopDownGrid
 from samplehd.learn.training import (
     TrainRun,
     descend,
@@ -104,9 +106,10 @@ def _attribute_maps(ids: np.ndarray, scene: Mapping[str, Any], values: Mapping[s
 
 
 def _episode_samples(reader: Any, k: int, env: Any, config: PolicyGrid, tokens_len: int,
-                     renderers: dict[str, Any], values: Mapping[str, list[str]]
+                     renderers: dict[str, Any], values: Mapping[str, list[str]], inputs: str = "rgb"
                      ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
-    """(grid, tokens, labels, attribute maps) of each decision of episode ``k``."""
+    """(grid, tokens, labels, attribute maps) of each decision of episode ``k`` (``inputs="state"``:
+    the grid with the cells of the objects the task moves marked)."""
     meta = reader.episode_meta(k)
     if not meta.get("success", False):
         return []
@@ -141,18 +144,21 @@ def _episode_samples(reader: Any, k: int, env: Any, config: PolicyGrid, tokens_l
                 renderers[key] = SceneRenderer(u.model, config.width, config.height, "fast")
                 renderers[key].render(u.data, config.camera, SCENE_MODALITIES)  # a context's first frame differs
             image, ids = scene_grid(renderers[key], u.model, u.data, config, with_ids=True)
+        if inputs == "state":
+            image = np.concatenate([image, task_cells(ids, reader.instruction(k)["task"]["objects"])[None]])
         out.append((image.astype(np.float16), tokens, keypose_targets(d, grid), _attribute_maps(ids, scene, values)))
     return out
 
 
-def _prepare(reader: Any, ks: Sequence[int], config: PolicyGrid, tokens_len: int) -> dict[str, np.ndarray]:
+def _prepare(reader: Any, ks: Sequence[int], config: PolicyGrid, tokens_len: int,
+             inputs: str = "rgb") -> dict[str, np.ndarray]:
     env = replay_env(reader)
     renderers: dict[str, Any] = {}
     values = attribute_values(reader.scenes)
     grids, toks, labels, attrs, episodes = [], [], [], [], []
     try:
         for k in ks:
-            for g, t, y, a in _episode_samples(reader, k, env, config, tokens_len, renderers, values):
+            for g, t, y, a in _episode_samples(reader, k, env, config, tokens_len, renderers, values, inputs):
                 if y[12] > 0:
                     grids.append(g)
                     toks.append(t)
@@ -164,7 +170,7 @@ def _prepare(reader: Any, ks: Sequence[int], config: PolicyGrid, tokens_len: int
             r.close()
         env.close()
     if not grids:
-        return {"grid": np.zeros((0, GRID_CHANNELS, config.rows, config.cols), np.float16),
+        return {"grid": np.zeros((0, input_channels(inputs), config.rows, config.cols), np.float16),
                 "tokens": np.zeros((0, tokens_len), np.int64), "labels": np.zeros((0, LABELS), np.float32),
                 "attributes": np.zeros((0, len(KEYPOSE_ATTRIBUTES), config.rows // FACTOR, config.cols // FACTOR),
                                        np.int8),
@@ -175,12 +181,13 @@ def _prepare(reader: Any, ks: Sequence[int], config: PolicyGrid, tokens_len: int
 
 def _shifted(grid: Any, labels: Any, attributes: Any, rng: np.random.Generator) -> tuple[Any, Any, Any]:
     """The batch's views moved on the table by up to :data:`SHIFT` cells each way, whole cells of the
-    network's maps (the coordinate channels stay), their labels with them: the same scene a little
-    elsewhere."""
+    network's maps (the coordinate channels 5 and 6 stay), their labels with them: the same scene a
+    little elsewhere."""
     grid, labels, attributes = grid.clone(), labels.clone(), attributes.clone()
     steps = rng.integers(-SHIFT // FACTOR, SHIFT // FACTOR + 1, size=(len(grid), 2))
+    moved = [c for c in range(grid.shape[1]) if c not in (5, 6)]
     for i, (dr, dc) in enumerate(steps):
-        grid[i, :5] = torch.roll(grid[i, :5], shifts=(int(dr) * FACTOR, int(dc) * FACTOR), dims=(1, 2))
+        grid[i, moved] = torch.roll(grid[i, moved], shifts=(int(dr) * FACTOR, int(dc) * FACTOR), dims=(1, 2))
         attributes[i] = torch.roll(attributes[i], shifts=(int(dr), int(dc)), dims=(1, 2))
         labels[i, [0, 6]] += float(dr)
         labels[i, [1, 7]] += float(dc)
@@ -235,7 +242,7 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
                          device: str | None = None, quiet: bool = False, stop_after: int | None = None,
                          batch: int = 16, lr: float = 1e-3, width: int = 16, tokens: int = 32,
                          families: Sequence[str] | None = None, grid: PolicyGrid | None = None,
-                         init: str | Path | None = None) -> dict[str, Any]:
+                         init: str | Path | None = None, inputs: str = "rgb") -> dict[str, Any]:
     """Train the keypose policy on a dataset's L1 training episodes; metrics on its test episodes: the
     grasp's and the goal's position error [m] (median, mean, share within 1 and 2 cm), the grasp's
     height and yaw error, the flags' accuracy.
@@ -243,7 +250,9 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     ``grid`` (default: the dataset's scene images' size, so that first decisions read them) says what
     the policy looks at; an image of another size is drawn anew from the episode's state. ``init``: the
     folder of another keypose policy whose weights the training starts from (a ``pick_up`` model's
-    grounding serves ``place``); its grid and width must be this run's.
+    grounding serves ``place``); its grid, width and inputs must be this run's. ``inputs="state"``
+    trains the privileged-state reference: its view also marks the cells of the objects the task moves
+    (read from the simulator when it acts), so it is told which objects the instruction means.
     """
     reader = open_dataset(dataset)
     scenes = {s["image_index"]: s for s in reader.scenes}
@@ -253,12 +262,12 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     grid_cfg = grid
     train_k, test_k = training_split(reader, dataset, families)
     families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
-    start = _initial_weights(init, grid, width) if init is not None else None
+    start = _initial_weights(init, grid, width, inputs) if init is not None else None
     out = Path(out)
     dev = pick_device(device)
     set_seed(seed)
     config = PolicyConfig(
-        format=FORMAT, dataset=str(dataset), catalogue=reader.catalogue, inputs="rgb", action="keypose", image=0,
+        format=FORMAT, dataset=str(dataset), catalogue=reader.catalogue, inputs=inputs, action="keypose", image=0,
         chunk=1, execute=1, tokens=tokens, model=PolicyArchitecture(width=width, hidden=128),
         inference=PolicyInference(), grid=grid_cfg, families=families_used,
         train=PolicyTraining(steps=steps, seed=seed, batch=batch, stride=1, lr=lr, episodes=len(train_k),
@@ -271,8 +280,8 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
         with np.load(prepared, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
     else:
-        train = _prepare(reader, train_k, grid_cfg, tokens)
-        test = _prepare(reader, test_k, grid_cfg, tokens)
+        train = _prepare(reader, train_k, grid_cfg, tokens, inputs)
+        test = _prepare(reader, test_k, grid_cfg, tokens, inputs)
         arrays = {**{f"train_{k}": v for k, v in train.items()}, **{f"test_{k}": v for k, v in test.items()}}
         tmp = out / (PREPARED_FILE + ".tmp.npz")
         np.savez(tmp, **arrays)
@@ -280,7 +289,7 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     n = len(arrays["train_grid"])
     if n == 0:
         raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry", field="dataset")
-    net = KeyposeNet(len(instruction_vocabulary()), GRID_CHANNELS, width).to(dev)
+    net = KeyposeNet(len(instruction_vocabulary()), input_channels(inputs), width).to(dev)
     if start is not None:
         net.load_state_dict(start)
     # The lowest grasp of the training decisions: the policy never grasps lower (a finger on the table
@@ -313,13 +322,16 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     return metrics
 
 
-def _initial_weights(init: str | Path, grid: PolicyGrid, width: int) -> dict[str, Any]:
+def _initial_weights(init: str | Path, grid: PolicyGrid, width: int, inputs: str) -> dict[str, Any]:
     """The weights of the keypose policy in ``init``; one line naming ``init`` when it is none or
-    looks at another grid."""
+    looks at another grid or other inputs."""
     raw, state = load_model_files(init, "policy", FORMAT)
     config = read_model_config(PolicyConfig, raw, init)
     if config.action != "keypose":
         raise ConfigError(f"init={init}: a policy of action {config.action!r}, not a keypose policy", field="init")
+    if config.inputs != inputs:
+        raise ConfigError(f"init={init}: a keypose policy of inputs {config.inputs!r}, this run's are {inputs!r}",
+                          field="init")
     if config.grid != grid or config.model.width != width:
         raise ConfigError(f"init={init}: its grid or width (grid {config.grid.to_dict()}, width {config.model.width}) "
                           f"differs from this run's (grid {grid.to_dict()}, width {width})", field="init")

@@ -128,12 +128,12 @@ def train_policy(dataset: str | Path, out: str | Path, steps: int = 4000, seed: 
     if action not in ACTIONS:
         raise ConfigError(f"train_policy: action={action!r}; valid: {', '.join(ACTIONS)}")
     if action == "keypose":
-        if inputs != "rgb" or demos or dagger_rounds:
+        if demos or dagger_rounds:
             raise ConfigError("train_policy: action='keypose' learns from the dataset's scene images and decisions: "
-                              "inputs='rgb', no demos or DAgger rounds")
+                              "no demos or DAgger rounds")
         return train_keypose_policy(dataset, out, steps=steps, seed=seed, device=device, quiet=quiet,
                                     stop_after=stop_after, batch=batch or 16, lr=lr, width=width,
-                                    tokens=tokens, families=families, init=init)
+                                    tokens=tokens, families=families, init=init, inputs=inputs)
     if init is not None:
         raise ConfigError(f"train_policy: init={init}: only a keypose policy starts from another's weights")
     batch = batch or 64
