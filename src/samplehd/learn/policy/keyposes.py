@@ -9,7 +9,7 @@ after the arm went back to its start (``MoveToDefaultPos``), where the camera se
 As in PerAct and CLIPort, a policy predicts a decision from one look at the table and
 :class:`KeyposeFollower` executes it as steering vectors, step by step through the environment: over
 the grasp at the height it is at, down, close until the fingers stop, up, over the goal, down, open,
-up and back to the start pose.
+up and back to the start pose. Its descents are guarded: one that stops short closes or opens there.
 """
 
 from __future__ import annotations
@@ -121,8 +121,11 @@ class KeyposeFollower:
     The moves are straight lines of the TCP at the follower speed of the waypoint policy, each one
     over when the TCP is within :data:`REACHED` and :data:`YAW_REACHED` of its end; the grasp closes
     the fingers until they stop narrowing (they squeeze what they hold from then on), the release opens
-    them until they stop widening. ``home``: the TCP position and yaw the arm goes back to after a
-    release, where the next decision is made.
+    them until they stop widening. A move down toward the grasp or the release is guarded, as a robot's
+    approach is: when the TCP goes down less than :data:`BLOCKED` of the step the last steering vector
+    commanded, the descent has met the object or the table, and the fingers close (or open) at that
+    height instead of pushing on to a contact-force stop. ``home``: the TCP position and yaw the arm
+    goes back to after a release, where the next decision is made.
     """
 
     def __init__(self, decision: Decision, obs: Mapping[str, Any], home: np.ndarray, env: Any = None,
