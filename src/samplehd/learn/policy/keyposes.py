@@ -184,12 +184,12 @@ class KeyposeFollower:
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
         """The next steering vector (7,); once :attr:`done`, one that holds the arm still."""
-        if self._blocked(obs):  # a guarded move: close (or open) where the descent met the object or table
-            z = float(np.asarray(obs["tcp_pos"], np.float64)[2])
+        z = float(obs["tcp_pos"][2])
+        if self._blocked(z):  # a guarded move: close (or open) where the descent met the object or table
             end = next(k for k in range(self.phase, len(self.steps)) if self.steps[k][0] != "move")
             for k in range(self.phase, end + 1):
                 self.steps[k][2][2] = z
-        self._last_z = float(np.asarray(obs["tcp_pos"], np.float64)[2])
+        self._last_z = z
         while not self.done and self._reached(obs):
             self.phase += 1
             self._width = None
@@ -233,14 +233,13 @@ class KeyposeFollower:
             action[6] = self._held
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
-    def _blocked(self, obs: Mapping[str, Any]) -> bool:
-        """Whether a descent toward the grasp or the release has stopped short: the TCP went down less
-        than :data:`BLOCKED` of what the last steering vector commanded."""
+    def _blocked(self, z: float) -> bool:
+        """Whether a descent toward the grasp or the release has stopped short: the TCP (now at height
+        ``z``) went down less than :data:`BLOCKED` of what the last steering vector commanded."""
         if self.done or self.stage not in ("over grasp", "down to grasp", "carry", "down to release") \
                 or self._last_z is None:
             return False
-        fell = self._last_z - float(np.asarray(obs["tcp_pos"], np.float64)[2])
-        return self._drop >= BLOCKED_MIN_STEP and fell < BLOCKED * self._drop
+        return self._drop >= BLOCKED_MIN_STEP and self._last_z - z < BLOCKED * self._drop
 
     def _reached(self, obs: Mapping[str, Any]) -> bool:
         kind, _, goal = self.steps[self.phase]
