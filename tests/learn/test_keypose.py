@@ -139,6 +139,8 @@ def test_the_top_down_view_puts_each_object_where_it_stands(keypose_dataset: Pat
     assert view.shape == (7, grid.rows, grid.cols) and view.dtype == np.float32
     assert 0.3 < view[4].mean() < 1.0  # most of the table is seen
     ids = grid.project_labels(seg, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
+    both = grid.project_with_labels(rgb, seg, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
+    assert np.array_equal(both[0], view) and np.array_equal(both[1], ids)
     assert ids.shape == (grid.rows, grid.cols) and not (ids == SEG_ROBOT).any()
     for obj in scene["objects"]:  # its highest point seen lies within its box, as high as its top
         lo = np.floor(grid.cell_of(np.array(obj["bbox"]["min"][:2]))).astype(int)

@@ -60,10 +60,10 @@ def scene_grid(renderer: Any, model: Any, data: Any, config: PolicyGrid, with_id
               "intrinsics": camera_intrinsics(model, config.camera, config.width, config.height).tolist(),
               "extrinsics": camera_pose(model, data, config.camera).tolist()}
     grid, robot = grid_of(config), images["segmentation"] == SEG_ROBOT
-    image = grid.project(images["rgb"], images["depth"], camera, LAYOUT.table_height, robot=robot)
     if not with_ids:
-        return image
-    return image, grid.project_labels(images["segmentation"], images["depth"], camera, LAYOUT.table_height, robot=robot)
+        return grid.project(images["rgb"], images["depth"], camera, LAYOUT.table_height, robot=robot)
+    return grid.project_with_labels(images["rgb"], images["segmentation"], images["depth"], camera,
+                                    LAYOUT.table_height, robot=robot)
 
 
 class KeyposePolicy:

@@ -128,8 +128,8 @@ def _episode_samples(reader: Any, k: int, env: Any, config: PolicyGrid, tokens_l
             rgb = np.asarray(Image.open(reader.root / "images" / f"{stem}.png").convert("RGB"))
             depth = np.load(reader.root / "depth" / f"{stem}.npy", allow_pickle=False).astype(np.float32)
             seg = np.asarray(Image.open(reader.root / "segmentation" / f"{stem}.png"))
-            image = grid.project(rgb, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
-            ids = grid.project_labels(seg, depth, scene["camera"], LAYOUT.table_height, robot=seg == SEG_ROBOT)
+            image, ids = grid.project_with_labels(rgb, seg, depth, scene["camera"], LAYOUT.table_height,
+                                                  robot=seg == SEG_ROBOT)
         else:
             env.reset(options={"dataset": str(reader.root), "episode_index": k})
             u = env.unwrapped

@@ -58,7 +58,22 @@ class TopDownGrid:
         colour and height of the highest point seen in it; cells no pixel falls in are zero, seen 0.
         ``robot``: the pixels that show the robot, left out (a robot's self-filter, which knows where
         its links are; above the table, the arm would hide what lies under it)."""
-        cells, pixels, height = self._tops(depth, camera, table_height, robot)
+        return self._image(rgb, *self._tops(depth, camera, table_height, robot))
+
+    def project_labels(self, labels: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any], table_height: float,
+                       robot: np.ndarray | None = None) -> np.ndarray:
+        """Per cell (rows, cols) the label (an integer image beside the depth, e.g. segmentation ids) of
+        the highest point seen in it, as :meth:`project` chooses it; 0 where no point falls."""
+        cells, pixels, _ = self._tops(depth, camera, table_height, robot)
+        return self._labels(labels, cells, pixels)
+
+    def project_with_labels(self, rgb: np.ndarray, labels: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
+                            table_height: float, robot: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """(:meth:`project`, :meth:`project_labels`) of one RGB-D image, its points found once."""
+        tops = self._tops(depth, camera, table_height, robot)
+        return self._image(rgb, *tops), self._labels(labels, tops[0], tops[1])
+
+    def _image(self, rgb: np.ndarray, cells: np.ndarray, pixels: np.ndarray, height: np.ndarray) -> np.ndarray:
         out = np.zeros((GRID_CHANNELS, self.rows * self.cols), np.float32)
         out[0:3, cells] = rgb.reshape(-1, 3)[pixels].T / 255.0
         out[3, cells] = np.maximum(height, 0.0) / HEIGHT_SCALE
@@ -74,11 +89,7 @@ class TopDownGrid:
         out[6] = np.linspace(-1.0, 1.0, self.cols, dtype=np.float32)[None, :]
         return out
 
-    def project_labels(self, labels: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any], table_height: float,
-                       robot: np.ndarray | None = None) -> np.ndarray:
-        """Per cell (rows, cols) the label (an integer image beside the depth, e.g. segmentation ids) of
-        the highest point seen in it, as :meth:`project` chooses it; 0 where no point falls."""
-        cells, pixels, _ = self._tops(depth, camera, table_height, robot)
+    def _labels(self, labels: np.ndarray, cells: np.ndarray, pixels: np.ndarray) -> np.ndarray:
         out = np.zeros(self.rows * self.cols, np.int64)
         out[cells] = np.asarray(labels).reshape(-1)[pixels]
         return out.reshape(self.rows, self.cols)
