@@ -235,6 +235,7 @@ def test_the_privileged_reference_is_shown_the_objects_the_task_moves(keypose_da
     assert json.loads((out / "config.json").read_text())["inputs"] == "state"
     assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out",
                  str(tmp_path / "refused"), "--steps", "1", "--init", str(out)]) == 2
+    assert not (tmp_path / "refused").exists()
     report = tmp_path / "report.json"
     assert main(["evaluate", "--policy", "bc", "--models", str(out), "--families", "place", "--episodes", "1",
                  "--max-episode-steps", "40", "--out", str(report)]) == 0
