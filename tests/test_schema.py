@@ -7,10 +7,10 @@ import json
 
 import pytest
 
+from samplehd.benchmark.evaluation import EvalConfig
 from samplehd.dataset.config import GenerateConfig, InstructionConfig
 from samplehd.dataset.render import RenderConfig
 from samplehd.envs.config import EnvConfig
-from samplehd.envs.evaluation import EvalConfig
 from samplehd.errors import ConfigError
 from samplehd.record.paths import PathConfig
 from samplehd.robot.controller import ControlConfig

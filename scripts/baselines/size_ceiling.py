@@ -22,7 +22,7 @@ import numpy as np
 from samplehd.catalogue import load_catalogue
 from samplehd.catalogue.facts import object_facts
 from samplehd.catalogue.instance import ObjectInstance
-from samplehd.envs.levels import HELD_OUT_CLASSES, held_out_object
+from samplehd.language.levels import HELD_OUT_CLASSES, held_out_object
 from samplehd.learn.data import open_dataset
 
 

@@ -143,8 +143,8 @@ def test_validate_cli_exit_codes(micro_dataset: Path, tmp_path: Path, capsys: py
 
 
 def test_lerobot_export_records_its_env_and_splits(lerobot_export: Path, rendered_dataset: Path) -> None:
+    from samplehd.benchmark.lerobot_tabletop import LeRobotTabletop
     from samplehd.envs.lerobot_contract import env_options_from_export
-    from samplehd.envs.lerobot_tabletop import LeRobotTabletop
     from samplehd.language.levels import LEVELS, held_out_for
 
     info = json.loads((lerobot_export / "meta" / "info.json").read_text())

@@ -1,4 +1,4 @@
-"""The LeRobot env contract (samplehd.envs.lerobot_tabletop): names and shapes of the export, is_success,
+"""The LeRobot env contract (samplehd.benchmark.lerobot_tabletop): names and shapes of the export, is_success,
 seeds of `samplehd evaluate`'s split; and, where lerobot is importable (its Python 3.12 venv), the
 plugin's env factory and one LeRobot-style rollout step with a dummy policy."""
 
@@ -12,10 +12,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from samplehd.envs.evaluation import benchmark_split
+from samplehd.benchmark.evaluation import benchmark_split
+from samplehd.benchmark.lerobot_tabletop import LeRobotTabletop, make_lerobot_envs
+from samplehd.benchmark.levels import reset_at_level
 from samplehd.envs.lerobot_contract import EXPORT_RECORD, env_options_from_export
-from samplehd.envs.lerobot_tabletop import LeRobotTabletop, make_lerobot_envs
-from samplehd.envs.levels import reset_at_level
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError
 from samplehd.export.lerobot import _VECTOR_FEATURES, SAMPLEHD_RECORD, _env_record
@@ -277,8 +277,8 @@ def test_lerobot_policy_acts_as_under_lerobot_eval(tiny_lerobot_checkpoint: Path
     from lerobot.policies.factory import make_policy, make_pre_post_processors
     from lerobot.scripts.lerobot_eval import rollout
 
-    from samplehd.envs.evaluation import split_episode
-    from samplehd.envs.lerobot_policy import LeRobotPolicy
+    from samplehd.benchmark.evaluation import split_episode
+    from samplehd.benchmark.lerobot_policy import LeRobotPolicy
 
     steps, path = 6, str(tiny_lerobot_checkpoint)
     (tmp_path / "meta").mkdir()

@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from samplehd.benchmark.evaluation import EvalConfig, benchmark_split, evaluate
 from samplehd.catalogue import load_catalogue
 from samplehd.envs.config import CONTROL_MODES
-from samplehd.envs.evaluation import EvalConfig, benchmark_split, evaluate
 from samplehd.envs.oracle import OraclePolicy, oracle_action
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.robot.constants import HOME_QPOS

@@ -64,7 +64,7 @@ def test_the_former_modules_import_the_packages_objects() -> None:
     import samplehd.learn.bc as bc
     import samplehd.learn.policy as policy
     import samplehd.learn.policy_configuration as policy_configuration
-    from samplehd.envs.evaluation import LEARNED
+    from samplehd.benchmark.evaluation import LEARNED
 
     shared = [name for name in policy.__all__ if hasattr(bc, name)]
     # bc never imported ENCODERS; the keypose policy's names came after the split

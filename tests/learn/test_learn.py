@@ -206,7 +206,7 @@ def test_bad_inputs_are_one_line_errors_and_write_nothing(tmp_path: Path, capsys
 
 
 def test_levels_hold_out_what_training_leaves_out() -> None:
-    from samplehd.envs.levels import episode_level, held_out_instruction, text_variants
+    from samplehd.language.levels import episode_level, held_out_instruction, text_variants
 
     ins = {"instruction": "Pick up the red mug.", "template_filename": "pick_up.json", "template_index": 0,
            "targets": [0]}

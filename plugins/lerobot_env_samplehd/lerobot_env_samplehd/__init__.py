@@ -3,7 +3,7 @@
 LeRobot (>= 0.6) imports this package at start because its distribution name begins with
 ``lerobot_env_``; importing it registers :class:`SamplehdEnv` under the name ``samplehd``. The
 environment itself, its observation names and its seeding live in samplehd
-(:mod:`samplehd.envs.lerobot_tabletop`), where samplehd's tests check them without lerobot.
+(:mod:`samplehd.benchmark.lerobot_tabletop`), where samplehd's tests check them without lerobot.
 
 Options (``--env.<name>``):
     task: the task family, or several separated by commas (one LeRobot suite each; e.g. ``pick_up``);
@@ -25,9 +25,9 @@ from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 
 import samplehd  # noqa: F401  (picks the GL backend before mujoco is imported)
+from samplehd.benchmark.lerobot_tabletop import DEFAULT_MAX_STEPS, make_lerobot_envs
 from samplehd.envs.config import EnvConfig as TabletopConfig
 from samplehd.envs.lerobot_contract import env_options_from_export, lerobot_features
-from samplehd.envs.lerobot_tabletop import DEFAULT_MAX_STEPS, make_lerobot_envs
 
 __all__ = ["SamplehdEnv"]
 

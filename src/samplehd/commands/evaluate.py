@@ -5,11 +5,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from samplehd.benchmark.evaluation import DEFAULT_FAMILIES, EpisodeRecord, EvalConfig, evaluate, load_policy_module
+from samplehd.benchmark.lerobot_policy import is_lerobot_policy, read_lerobot_checkpoint
 from samplehd.commands._options import check_int, check_out_dir, check_out_file, config_from_options
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
-from samplehd.envs.evaluation import DEFAULT_FAMILIES, EpisodeRecord, EvalConfig, evaluate, load_policy_module
-from samplehd.envs.lerobot_policy import is_lerobot_policy, read_lerobot_checkpoint
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.learn.options import env_options

@@ -1,4 +1,6 @@
-"""samplehd.envs: the Gymnasium environment ``samplehd/Tabletop-v0``, its oracle and evaluation.
+"""samplehd.envs: the Gymnasium environment ``samplehd/Tabletop-v0``, its oracle and wrappers.
+
+Evaluation, levels and the LeRobot adapters live a floor above, in :mod:`samplehd.benchmark`.
 
 Call :func:`register_envs` (``import samplehd`` does) before ``gymnasium.make("samplehd/Tabletop-v0")``.
 """

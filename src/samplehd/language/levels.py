@@ -1,9 +1,9 @@
 """Generalisation levels L1–L4: which episodes each level evaluates and which data training leaves out.
 
 The classification of an (instruction, scene annotation) pair, shared by evaluation
-(:mod:`samplehd.envs.levels` draws episodes of a level), training (:mod:`samplehd.learn` leaves out
+(:mod:`samplehd.benchmark.levels` draws episodes of a level), training (:mod:`samplehd.learn` leaves out
 what a level holds out) and the LeRobot export (its per-level train lists). The table and the
-rejection sampling of evaluation episodes are described in :mod:`samplehd.envs.levels`.
+rejection sampling of evaluation episodes are described in :mod:`samplehd.benchmark.levels`.
 """
 
 from __future__ import annotations

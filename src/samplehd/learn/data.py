@@ -2,7 +2,7 @@
 
 Splits are the dataset's own (every ``test_every``-th scene is a test scene, with its instructions
 and episodes). Training examples leave out what the generalisation levels hold out
-(:mod:`samplehd.envs.levels`); test examples carry their level so metrics can be split by it.
+(:mod:`samplehd.language.levels`); test examples carry their level so metrics can be split by it.
 """
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import Any
 
 from samplehd.dataset.reader import DatasetReader
-from samplehd.envs.levels import episode_level, held_out_instruction, held_out_object
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.language.levels import episode_level, held_out_instruction, held_out_object
 
 __all__ = ["instruction_examples", "open_dataset", "scene_examples"]
 

@@ -32,10 +32,10 @@ from typing import Any
 import numpy as np
 
 from samplehd.catalogue.loader import DEFAULT_CATALOGUE
-from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.oracle import OraclePolicy
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, PlanningError
+from samplehd.language.levels import episode_level, held_out_instruction
 from samplehd.robot.constants import GRIPPER_STROKE
 
 __all__ = ["OBS_KEYS", "CollectSpec", "collect", "episode_rng", "episode_seed", "record_observation", "run_episode",

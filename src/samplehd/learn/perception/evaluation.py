@@ -10,8 +10,8 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.envs.levels import HELD_OUT_CLASSES, held_out_object
 from samplehd.errors import ConfigError
+from samplehd.language.levels import HELD_OUT_CLASSES, held_out_object
 from samplehd.learn.data import open_dataset, scene_examples
 from samplehd.learn.perception.configuration import ATTRIBUTES, MIN_PIXELS
 from samplehd.learn.perception.geometry import height_map

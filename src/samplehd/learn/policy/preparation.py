@@ -12,9 +12,9 @@ from typing import Any
 import numpy as np
 
 from samplehd.dataset.container import camera_settings
-from samplehd.envs.levels import episode_level, held_out_instruction
 from samplehd.envs.tokens import encode_instruction
 from samplehd.errors import ConfigError
+from samplehd.language.levels import episode_level, held_out_instruction
 from samplehd.learn.policy.actions import moving_frames, waypoint_targets, waypoints
 from samplehd.learn.policy.processing import CAMERAS, _joint_vel, _state, _target_features
 

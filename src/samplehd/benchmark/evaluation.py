@@ -8,11 +8,11 @@ A policy is any callable ``obs -> action``; if it has a ``reset(seed=...)`` meth
 the start of every episode. Built in: ``oracle`` (:class:`samplehd.envs.oracle.OraclePolicy`) and
 ``random`` (uniform samples of the action space), and the learned baselines of :mod:`samplehd.learn`
 (``neurosymbolic``, ``bc``; they read trained models from ``models``). ``lerobot:CKPT`` runs a
-LeRobot checkpoint as ``lerobot-eval`` would (:mod:`samplehd.envs.lerobot_policy`). ``MODULE:CALLABLE`` imports
+LeRobot checkpoint as ``lerobot-eval`` would (:mod:`samplehd.benchmark.lerobot_policy`). ``MODULE:CALLABLE`` imports
 user code (that is the point of the API); the callable may also be a factory taking the environment
 and returning the policy (it is called with the environment when it accepts a keyword ``env``).
 
-With a ``level`` (L1–L4, :mod:`samplehd.envs.levels`) episode ``k`` is the first episode of its
+With a ``level`` (L1–L4, :mod:`samplehd.benchmark.levels`) episode ``k`` is the first episode of its
 family in that generalisation level among reset seeds derived from the split's seed for ``k``.
 """
 
@@ -30,10 +30,10 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.benchmark.lerobot_policy import LeRobotPolicy, is_lerobot_policy
+from samplehd.benchmark.levels import LEVELS, reset_at_level
 from samplehd.catalogue.loader import catalogue_for
 from samplehd.envs.config import EnvConfig
-from samplehd.envs.lerobot_policy import LeRobotPolicy, is_lerobot_policy
-from samplehd.envs.levels import LEVELS, reset_at_level
 from samplehd.envs.oracle import OraclePolicy
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, PlanningError, require_extra

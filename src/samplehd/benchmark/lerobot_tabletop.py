@@ -28,10 +28,10 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from samplehd.benchmark.evaluation import split_episode
+from samplehd.benchmark.levels import LEVELS, reset_at_level
 from samplehd.envs.config import EnvConfig
-from samplehd.envs.evaluation import split_episode
 from samplehd.envs.lerobot_contract import lerobot_features, lerobot_observation
-from samplehd.envs.levels import LEVELS, reset_at_level
 from samplehd.envs.tabletop import TabletopEnv, action_bounds
 from samplehd.errors import ConfigError
 from samplehd.robot.controller import ControlConfig
