@@ -14,6 +14,11 @@ and returning the policy (it is called with the environment when it accepts a ke
 
 With a ``level`` (L1–L4, :mod:`samplehd.benchmark.levels`) episode ``k`` is the first episode of its
 family in that generalisation level among reset seeds derived from the split's seed for ``k``.
+
+With a ``suite`` (a shipped suite's name or a suite file, :mod:`samplehd.envs.suite_file`) nothing is
+drawn: episode ``k`` is the suite's episode ``k``, reset through the environment option
+``{"suite": ..., "episode": k}`` that any Gymnasium user has, and the report names the suite and its
+content hash.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from samplehd.benchmark.levels import LEVELS, reset_at_level
 from samplehd.catalogue.loader import catalogue_for
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.oracle import OraclePolicy
+from samplehd.envs.suite_file import Suite, SuiteEpisode, read_suite
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, PlanningError, require_extra
 from samplehd.record.paths import PathConfig, plan_and_execute
@@ -44,8 +50,8 @@ from samplehd.schema import Config, bounded
 from samplehd.tasks.task import family_names
 from samplehd.workers import Backend
 
-__all__ = ["EpisodeRecord", "EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action", "evaluate",
-           "load_policy", "load_policy_module", "split_episode"]
+__all__ = ["EpisodeRecord", "EpisodeRunner", "EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action",
+           "evaluate", "load_policy", "load_policy_module", "split_episode"]
 
 # SAMPLE-HD's families plus the two simple new ones: the default benchmark. stack_three needs scenes
 # with three stackable objects (see the env's ``scene`` option) and is opt-in.
@@ -76,6 +82,8 @@ class EvalConfig(Config, section="EvalConfig"):
         programs: ``neurosymbolic``: ``predicted`` or ``gt`` programs.
         perception: ``neurosymbolic``: ``predicted`` or ``gt`` scene annotations.
         level: generalisation level L1–L4, or None (the plain split).
+        suite: a shipped suite's name or a suite file: run every episode of it instead of a drawn
+            split (``episodes``, ``families``, ``seed`` and ``level`` are then not used).
     """
 
     policy: str = "oracle"
@@ -90,9 +98,13 @@ class EvalConfig(Config, section="EvalConfig"):
     programs: str = bounded("predicted", choices=("gt", "predicted"))
     perception: str = bounded("predicted", choices=("gt", "predicted"))
     level: str | None = bounded(None, choices=LEVELS)
+    suite: str | None = None
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        if self.suite is not None and self.level is not None:
+            raise ConfigError(f"EvalConfig.level={self.level!r}: a suite fixes each episode's level; leave level out "
+                              "with suite")
         check_policy_spec(self.policy, where="EvalConfig.")
         if self.policy == "bc" and not self.models:
             raise ConfigError("EvalConfig.policy='bc': needs `models` (the folder of `samplehd train policy`)")
@@ -127,6 +139,9 @@ class EpisodeRecord:
         video: the episode's MP4, or None.
         disturbed: the scene objects the task does not name that the episode moved or turned beyond the
             checker's tolerances (``disturb_distance``, ``disturb_angle``), at its end.
+        axis: a suite episode's robustness axis (``none``: clean), or None outside a suite.
+        strength: a suite episode's axis strength 0–5, or None.
+        twin: a suite episode's clean twin (its index), or None.
     """
 
     index: int
@@ -151,6 +166,9 @@ class EpisodeRecord:
     offline_success: bool | None = None
     video: str | None = None
     disturbed: tuple[int, ...] = ()
+    axis: str | None = None
+    strength: int | None = None
+    twin: int | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """The report's record: keys in this order, ``return`` for :attr:`episode_return`, optional
@@ -161,7 +179,8 @@ class EpisodeRecord:
             "return": self.episode_return, "terminated": self.terminated, "truncated": self.truncated,
             "safety_events": list(self.safety_events), "check_reason": self.check_reason, "wall_s": self.wall_s,
             "disturbed": list(self.disturbed)}
-        for name in ("gave_up", "level", "diagnosis", "failure_stage", "replans", "offline_success", "video"):
+        for name in ("gave_up", "level", "diagnosis", "failure_stage", "replans", "offline_success", "video", "axis",
+                     "strength", "twin"):
             if getattr(self, name) is not None:
                 d[name] = getattr(self, name)
         return d
@@ -281,8 +300,9 @@ def _offline_success(env: Any, seed: int) -> bool:
     return True
 
 
-class _Runner:
-    """One environment and policy that run benchmark episodes one at a time."""
+class EpisodeRunner:
+    """One environment and policy that run benchmark episodes one at a time (the suite builder's oracle
+    runs through it too)."""
     def __init__(self, config: EvalConfig) -> None:
         # A worker imports this module through the samplehd package, which sets the GL backend first.
 
@@ -296,13 +316,20 @@ class _Runner:
             self.policy.close()
         self.env.close()
 
-    def run(self, item: tuple[int, int, str]) -> EpisodeRecord:
-        """Run episode ``(index, seed, family)`` and return its record."""
+    def run(self, item: tuple[int, int, str], options: dict[str, Any] | None = None) -> EpisodeRecord:
+        """Run episode ``(index, seed, family)`` and return its record; with ``options``, reset with these
+        instead (``scene`` + ``instruction``: a given episode)."""
         index, seed, family = item
         config, env, policy = self.config, self.env, self.policy
         t0 = time.perf_counter()
-
-        obs, info, seed = reset_at_level(env, seed, family, config.level)
+        suite_episode: SuiteEpisode | None = None
+        if options is not None:
+            obs, info = env.reset(seed=seed, options=options)
+        elif config.suite is not None:
+            suite_episode = read_suite(config.suite).episode(index)
+            obs, info = env.reset(seed=seed, options={"suite": config.suite, "episode": index})
+        else:
+            obs, info, seed = reset_at_level(env, seed, family, config.level)
         if hasattr(policy, "reset"):
             policy.reset(seed=seed)
         frames = [env.render()] if config.video_dir else []
@@ -330,10 +357,13 @@ class _Runner:
             instruction=info["instruction"], task=info["task"], success=success, steps=steps, episode_return=ret,
             terminated=term, truncated=trunc, safety_events=tuple(e["kind"] for e in info["safety_events"]),
             check_reason=info["check_reason"], wall_s=round(time.perf_counter() - t0, 3),
-            gave_up=gave_up or None, level=config.level, diagnosis=diagnosis,
+            gave_up=gave_up or None, level=suite_episode.level if suite_episode else config.level, diagnosis=diagnosis,
             failure_stage=diagnosis.get("stage", "motion") if diagnosis is not None and not success else None,
             replans=int(policy.replans) if hasattr(policy, "replans") else None,
-            offline_success=_offline_success(env, seed) if config.compare_offline else None, disturbed=disturbed)
+            offline_success=_offline_success(env, seed) if config.compare_offline else None, disturbed=disturbed,
+            axis=suite_episode.axis if suite_episode else None,
+            strength=suite_episode.strength if suite_episode else None,
+            twin=suite_episode.twin if suite_episode else None)
         if config.video_dir and frames and frames[0] is not None:
             out = Path(config.video_dir)
             out.mkdir(parents=True, exist_ok=True)
@@ -343,7 +373,7 @@ class _Runner:
         return record
 
 
-_WORKER: dict[str, tuple[EvalConfig, _Runner]] = {}
+_WORKER: dict[str, tuple[EvalConfig, EpisodeRunner]] = {}
 
 
 def _run_in_worker(item: tuple[EvalConfig, int, int, str]) -> EpisodeRecord:
@@ -353,11 +383,13 @@ def _run_in_worker(item: tuple[EvalConfig, int, int, str]) -> EpisodeRecord:
     if held is None or held[0] != config:
         if held is not None:
             held[1].close()
-        _WORKER["runner"] = held = (config, _Runner(config))
+        _WORKER["runner"] = held = (config, EpisodeRunner(config))
     return held[1].run(tuple(episode))  # type: ignore[arg-type]
 
 
 def _summary(records: list[EpisodeRecord]) -> dict[str, Any]:
+    """Counts of a group of records (the whole run, a family, a level, an axis strength): the one place
+    a group's figures are made, so an interval on each success rate belongs here."""
     n = len(records)
     ok = sum(r.success for r in records)
     out: dict[str, Any] = {"episodes": n, "successes": ok, "success_rate": ok / n if n else 0.0}
@@ -386,8 +418,12 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
     check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
     """
-    split = benchmark_split(config.episodes, config.families, config.seed)
-    items = [(k, s, f) for k, (s, f) in enumerate(split)]
+    if config.suite is not None:
+        suite: Suite | None = read_suite(config.suite)
+        items = [(e.id, e.reset_seed, e.family) for e in suite.episodes]
+    else:
+        suite = None
+        items = [(k, s, f) for k, (s, f) in enumerate(benchmark_split(config.episodes, config.families, config.seed))]
     t0 = time.perf_counter()
     records: list[EpisodeRecord] = []
 
@@ -396,10 +432,10 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
         if progress is not None:
             progress(record)
         if out is not None:  # partial report, so an interrupted run keeps what it finished
-            _write_report(out, _report(config, records, t0, partial=True))
+            _write_report(out, _report(config, records, t0, suite, partial=True))
 
     if config.workers == 1:
-        runner = _Runner(config)
+        runner = EpisodeRunner(config)
         try:
             for item in items:
                 done(runner.run(item))
@@ -409,7 +445,7 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
         one = replace(config, workers=1)
         for _, record in Backend(workers=config.workers).map(_run_in_worker, ((one, *item) for item in items)):
             done(record)
-    report = _report(config, records, t0)
+    report = _report(config, records, t0, suite)
     if out is not None:
         _write_report(out, report)
     return report
@@ -423,17 +459,30 @@ def _write_report(out: str | Path, report: dict[str, Any]) -> None:
     tmp.replace(path)
 
 
-def _report(config: EvalConfig, records: list[EpisodeRecord], t0: float, partial: bool = False) -> dict[str, Any]:
+def _report(config: EvalConfig, records: list[EpisodeRecord], t0: float, suite: Suite | None = None,
+            partial: bool = False) -> dict[str, Any]:
     records = sorted(records, key=lambda r: r.index)
     by_family = {}
     for fam in dict.fromkeys(r.family for r in records):
         by_family[fam] = _summary([r for r in records if r.family == fam])
     env = config.env
+    if suite is not None:
+        split: dict[str, Any] = {"suite": suite.name, "content_hash": suite.content_hash,
+                                 "episodes": len(suite.episodes), "package_version": suite.package_version}
+        groups: dict[str, Any] = {
+            "by_level": {lv: _summary([r for r in records if r.level == lv])
+                         for lv in sorted({r.level for r in records if r.level})},
+            "by_axis": {ax: {str(st): _summary([r for r in records if r.axis == ax and r.strength == st])
+                             for st in sorted({r.strength for r in records if r.axis == ax})}
+                        for ax in sorted({r.axis for r in records if r.axis})}}
+    else:
+        split = {"episodes": config.episodes, "families": list(config.families), "seed": config.seed,
+                 "level": config.level}
+        groups = {}
     return {
         "policy": config.policy,
         "partial": partial,
-        "split": {"episodes": config.episodes, "families": list(config.families), "seed": config.seed,
-                  "level": config.level},
+        "split": split,
         "models": config.models,
         "programs": config.programs if config.policy == "neurosymbolic" else None,
         "perception": config.perception if config.policy == "neurosymbolic" else None,
@@ -442,6 +491,7 @@ def _report(config: EvalConfig, records: list[EpisodeRecord], t0: float, partial
         "catalogue": catalogue_for(env.scene.named_classes, env.scene.catalogue).record(),
         **_summary(records),
         "by_family": by_family,
+        **groups,
         "wall_s": round(time.perf_counter() - t0, 2),
         "records": [r.to_dict() for r in records],
     }

@@ -10,6 +10,7 @@ from samplehd.benchmark.lerobot_policy import is_lerobot_policy, read_lerobot_ch
 from samplehd.commands._options import check_int, check_out_dir, check_out_file, config_from_options
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
+from samplehd.envs.suite_file import read_suite
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.learn.options import env_options
@@ -34,11 +35,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--level", choices=("L1", "L2", "L3", "L4"),
                         help="generalisation level: L1 seen, L2 new colour-class combinations, L3 held-out "
                              "paraphrases, L4 held-out classes (default: the plain split)")
-    parser.add_argument("--episodes", type=int, default=10, help="episodes of the split (default 10)")
+    parser.add_argument("--suite", help="a benchmark suite (a shipped suite's name or a suite file): run its episodes "
+                                        "instead of drawing a split (`samplehd suite list`)")
+    parser.add_argument("--episodes", type=int, help="episodes of the split (default 10)")
     parser.add_argument("--families", nargs="+", choices=family_names(), metavar="FAMILY",
                         help=f"families, in rotation (default: {' '.join(DEFAULT_FAMILIES)}; lerobot:CKPT: the "
                              "families of its training data)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the split (default 0)")
+    parser.add_argument("--seed", type=int, help="seed of the split (default 0)")
     # These default to the --env-options file's values, then to Tabletop-v0's defaults.
     parser.add_argument("--control-mode", choices=list(CONTROL_MODES), help="action interface (default steering)")
     parser.add_argument("--obs-mode", choices=list(OBS_MODES), help="observations (default state)")
@@ -63,6 +66,15 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"{flag} {value}: only used with --policy {' or '.join(policies)}, not "
                               f"{args.policy!r}; leave it out")
     args.programs, args.perception = args.programs or "predicted", args.perception or "predicted"
+    suite = None
+    if args.suite is not None:
+        for flag, value in (("--level", args.level), ("--episodes", args.episodes), ("--seed", args.seed),
+                            ("--families", args.families)):
+            if value is not None:
+                raise ConfigError(f"{flag} {value}: a suite fixes its episodes; leave {flag} out with --suite")
+        suite = read_suite(args.suite)
+    args.episodes = len(suite.episodes) if suite is not None else (10 if args.episodes is None else args.episodes)
+    args.seed = 0 if args.seed is None else args.seed
     env: dict = {}
     if args.env_options is not None:
         env = read_json(args.env_options, ConfigError, f"--env-options {args.env_options}")
@@ -109,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
                                  video_dir=str(args.video) if args.video else None, workers=args.workers,
                                  compare_offline=args.compare_offline,
                                  models=str(args.models) if args.models else None, programs=args.programs,
-                                 perception=args.perception, level=args.level)
+                                 perception=args.perception, level=args.level, suite=args.suite)
 
     def show(r: EpisodeRecord) -> None:
         mark = "ok  " if r.success else "fail"
@@ -117,6 +129,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"[{r.index + 1}/{args.episodes}] {mark} {r.family:<15} steps={r.steps:<5}"
               f"{extra} {r.instruction}", flush=True)
 
+    if suite is not None:
+        print(f"suite {suite.name}: {len(suite.episodes)} episodes, {suite.content_hash}", flush=True)
     report = evaluate(config, args.out, progress=show)
     print(f"success_rate {report['success_rate']:.3f} over {report['episodes']} episodes "
           f"({report['wall_s']:.0f} s)")

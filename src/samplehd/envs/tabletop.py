@@ -56,7 +56,9 @@ does not survive ``fork``).
 Reset options (``reset(seed=..., options=...)``): ``family`` (draw an instruction of this family),
 or ``scene`` + ``instruction`` (+ ``episode``) to reproduce a given episode exactly, or ``dataset``
 (a directory written by ``samplehd generate``) + ``episode_index`` to start from a stored episode
-(see :func:`samplehd.envs.episodes.episode_from_options`).
+(see :func:`samplehd.envs.episodes.episode_from_options`), or ``suite`` (a shipped suite's name or a
+suite file) + ``episode`` (its index) to start a benchmark suite's episode
+(:mod:`samplehd.envs.suite_file`).
 """
 
 from __future__ import annotations
@@ -75,6 +77,7 @@ from samplehd.envs.episodes import EpisodeSpec, SceneCache, episode_from_options
 from samplehd.envs.observation import INSTRUCTION_CHARSET, ObservationBuilder
 from samplehd.envs.plan_tracker import plan_tracker
 from samplehd.envs.reward import dense_term
+from samplehd.envs.suite_file import suite_reset_options
 from samplehd.errors import ActionError, ConfigError, SamplehdError
 from samplehd.motion.assist import GraspAssist
 from samplehd.robot.constants import JOINT_LIMITS
@@ -174,13 +177,15 @@ class TabletopEnv(gym.Env):
             raise ConfigError(f"reset: seed {seed!r}: must be an integer ≥ 0, or None")
         super().reset(seed=None if seed is None else int(seed))
         options = dict(options or {})
+        if "suite" in options:
+            options = suite_reset_options(options)
         if {"scene", "instruction", "episode", "dataset", "episode_index"} & set(options):
             episode = episode_from_options(options, self.cache)
         else:
             family = options.pop("family", None)
             if options:
                 raise ConfigError(f"reset: unknown option(s) {sorted(options)}; valid: dataset, episode, "
-                                  "episode_index, family, instruction, scene")
+                                  "episode_index, family, instruction, scene, suite")
             episode = sample_episode(self.np_random, self.cache, self.config.task_families, family=family,
                                      num_scenes=self.config.num_scenes, scene_seed=self.config.scene_seed)
         self._start(episode)

@@ -1,0 +1,39 @@
+"""One suite episode beside its variant at strength 5 on every robustness axis (scene camera), as a
+contact sheet: clean twin on the left, the variant on the right, the instruction under each label.
+
+    python scripts/suite_axes_sheet.py SUITE OUT.png [EPISODE]
+"""
+
+from __future__ import annotations
+
+import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
+
+# isort: split
+import sys
+
+from PIL import Image
+
+from samplehd.benchmark.axes import AXES, perturb
+from samplehd.envs.suite_file import SuiteEpisode, read_suite
+from samplehd.envs.tabletop import TabletopEnv
+from samplehd.render.contact_sheet import contact_sheet
+
+
+def main(suite_name: str, out: str, index: int = 0) -> None:
+    suite = read_suite(suite_name)
+    twin = suite.episode(index).to_dict()
+    env = TabletopEnv(render_mode="rgb_array", width=480, height=360)
+    images, labels = [], []
+    try:
+        for axis in AXES:
+            for ep, name in ((twin, f"{axis}: clean twin"), (perturb(twin, axis, 5, seed=0), f"{axis}: strength 5")):
+                env.reset(options=SuiteEpisode.from_dict({"id": 0, **ep}).reset_options())
+                images.append(env.render())
+                labels.append(f"{name} | {ep['instruction']}")
+    finally:
+        env.close()
+    Image.fromarray(contact_sheet(images, 2, labels)).save(out, optimize=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2], int(sys.argv[3]) if len(sys.argv) > 3 else 0)

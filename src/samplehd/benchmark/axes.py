@@ -1,0 +1,88 @@
+"""Robustness axes: a suite episode changed along one axis, at strengths 1–5, beside its clean twin.
+
+Strength 0 is the clean twin itself: the same scene seed, scene and instruction. A variant differs from
+its twin only in what its axis names (:data:`AXIS_FIELDS`), by an amount set by the strength in the
+physical units below, in a direction drawn from ``SeedSequence([seed, axis, twin, strength, attempt])``:
+
+================  ===========================================================  ==================
+axis              what changes                                                 per strength step
+================  ===========================================================  ==================
+``camera``        the scene camera turns about the vertical through its         6° (5: 30°; the
+                  look-at point (``scene.camera.pos``)                          training cone is ±12°)
+``object_shift``  every object moves by one horizontal offset before the        1.5 cm (5: 7.5 cm)
+                  episode (``scene.objects[*].pos``); their layout is kept
+``shuffled``      words of the instruction trade places (``instruction``):      20 % of the words
+                  a shortcut control (5: every word moved, the words kept)      (5: 100 %)
+================  ===========================================================  ==================
+
+An axis whose change cannot alter physics (``camera``, ``shuffled``: the oracle acts on state and the
+task, never on images or text) keeps its twin's oracle proof: the same rollout, bit for bit. A
+physical axis (``object_shift``) is proven again by the oracle through the env; a variant it fails is
+replaced by the next attempt's direction.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+__all__ = ["AXES", "AXIS_FIELDS", "PHYSICAL_AXES", "STRENGTHS", "perturb"]
+
+STRENGTHS = (1, 2, 3, 4, 5)
+CAMERA_DEG_PER_STRENGTH = 6.0
+SHIFT_M_PER_STRENGTH = 0.015
+SHUFFLE_FRACTION_PER_STRENGTH = 0.2
+
+
+def _camera(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    cam = ep["scene"]["camera"]
+    pos, target = np.asarray(cam["pos"], float), np.asarray(cam["target"], float)
+    angle = math.radians(CAMERA_DEG_PER_STRENGTH * strength) * (1.0 if rng.random() < 0.5 else -1.0)
+    dx, dy = pos[0] - target[0], pos[1] - target[1]
+    c, s = math.cos(angle), math.sin(angle)
+    cam["pos"] = [float(target[0] + c * dx - s * dy), float(target[1] + s * dx + c * dy), float(pos[2])]
+
+
+def _object_shift(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    heading = rng.uniform(0.0, 2.0 * math.pi)
+    dx, dy = (SHIFT_M_PER_STRENGTH * strength * f(heading) for f in (math.cos, math.sin))
+    for obj in ep["scene"]["objects"]:
+        obj["pos"] = [float(obj["pos"][0] + dx), float(obj["pos"][1] + dy), float(obj["pos"][2])]
+
+
+def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    text = ep["instruction"].rstrip(".")
+    words = text.split()
+    moved = min(len(words), max(2, round(SHUFFLE_FRACTION_PER_STRENGTH * strength * len(words))))
+    picks = sorted(rng.choice(len(words), size=moved, replace=False).tolist())
+    order = picks[1:] + picks[:1]  # a cycle: every picked word leaves its place
+    out = list(words)
+    for src, dst in zip(picks, order, strict=True):
+        out[dst] = words[src]
+    ep["instruction"] = " ".join(out) + ("." if ep["instruction"].endswith(".") else "")
+
+
+AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
+    "camera": _camera, "object_shift": _object_shift, "shuffled": _shuffled}
+# The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
+AXIS_FIELDS = {"camera": ("scene.camera",), "object_shift": ("scene.objects",), "shuffled": ("instruction",)}
+PHYSICAL_AXES = ("object_shift",)
+
+
+def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: int = 0) -> dict[str, Any]:
+    """The variant of a clean episode dict (a suite episode without ``id``) on ``axis`` at ``strength``.
+
+    The variant's ``axis``, ``strength`` and ``twin`` are set; ``twin`` must carry its ``id``.
+    """
+    ep = copy.deepcopy(twin)
+    axis_index = sorted(AXES).index(axis)
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), axis_index, int(twin["id"]), int(strength),
+                                                        int(attempt)]))
+    AXES[axis](ep, strength, rng)
+    ep.update(axis=axis, strength=int(strength), twin=int(twin["id"]))
+    ep.pop("id", None)
+    return ep

@@ -1,0 +1,283 @@
+"""Build a benchmark suite: episodes drawn once, each proven solvable by the closed-loop oracle, frozen
+into a hashed file (:mod:`samplehd.envs.suite_file`) that evaluation reads instead of drawing.
+
+The suite is a grid of cells (catalogue × family × level), ``episodes_per_cell`` episodes each. Cell
+``c``'s candidate ``k`` resets the environment as ``samplehd evaluate --level`` does, from the seed
+``SeedSequence([seed, c, k])`` (:func:`samplehd.benchmark.levels.reset_at_level`), and the oracle
+(:class:`samplehd.envs.oracle.OraclePolicy`) acts through ``TabletopEnv.step`` until the episode ends,
+the same run ``samplehd evaluate --policy oracle`` makes (:class:`~samplehd.benchmark.evaluation.EpisodeRunner`).
+A candidate the oracle fails is rejected, its reason counted in the manifest, and the next candidate
+of the cell is tried.
+
+Candidates run in rounds on the worker backend (local processes or Ray): each round tries, per cell,
+as many new candidates as the cell still lacks episodes, so the cell's episodes are always its first
+``episodes_per_cell`` solved candidates in candidate order, whatever the number of workers: the same
+configuration gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import re
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from samplehd.benchmark.axes import AXES, PHYSICAL_AXES, STRENGTHS, perturb
+from samplehd.benchmark.evaluation import DEFAULT_FAMILIES, EpisodeRecord, EpisodeRunner, EvalConfig
+from samplehd.benchmark.levels import LEVELS, episode_level
+from samplehd.envs.config import EnvConfig
+from samplehd.envs.suite_file import CLEAN_AXIS, Suite, SuiteEpisode, content_hash
+from samplehd.errors import SamplehdError
+from samplehd.schema import Config, bounded
+from samplehd.tasks.task import family_names
+from samplehd.version import __version__
+from samplehd.workers import Backend
+
+__all__ = ["Candidate", "SuiteBuildConfig", "build_suite", "rejection_reason"]
+
+CATALOGUES = ("procedural", "shop-vrb")
+_NUMBER = re.compile(r"[0-9]+(\.[0-9]+)?")
+
+
+@dataclass(frozen=True)
+class SuiteBuildConfig(Config, section="suite"):
+    """What ``samplehd suite build`` makes.
+
+    Attributes:
+        seed: seed of every candidate's reset.
+        families: task families, one cell each (per catalogue and level).
+        levels: generalisation levels L1–L4, one cell each.
+        catalogues: built-in catalogues (``procedural``, ``shop-vrb``), one cell each.
+        episodes_per_cell: episodes each cell gets.
+        max_candidates_per_cell: candidates a cell may try before the build gives up on it (the
+            manifest lists such cells under ``short_cells``).
+        env: the environment the oracle proves the episodes in (its ``scene.catalogue`` is set per cell).
+        axes: robustness axes (:mod:`samplehd.benchmark.axes`); each clean episode gets a variant per
+            axis and strength, its clean twin being the episode itself (strength 0).
+        strengths: the strengths of each axis (1–5).
+        max_attempts_per_variant: directions a physical axis' variant may try before the build leaves
+            it out (the manifest lists it under ``short_variants``).
+    """
+
+    seed: int = bounded(0, lo=0)
+    families: tuple[str, ...] = bounded(DEFAULT_FAMILIES, choices=family_names, nonempty=True)
+    levels: tuple[str, ...] = bounded(("L1",), choices=LEVELS, nonempty=True)
+    catalogues: tuple[str, ...] = bounded(("procedural",), choices=CATALOGUES, nonempty=True)
+    episodes_per_cell: int = bounded(1, lo=1)
+    max_candidates_per_cell: int = bounded(20, lo=1)
+    env: EnvConfig = field(default_factory=EnvConfig)
+    axes: tuple[str, ...] = bounded((), choices=tuple(AXES), unique=True)
+    strengths: tuple[int, ...] = bounded(STRENGTHS, choices=STRENGTHS, unique=True, nonempty=True)
+    max_attempts_per_variant: int = bounded(4, lo=1)
+
+    def cells(self) -> list[tuple[str, str, str]]:
+        """(catalogue, family, level) of each cell, in the suite's order."""
+        return [(c, f, lv) for c in self.catalogues for f in self.families for lv in self.levels]
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One candidate episode and the oracle's verdict on it.
+
+    Attributes:
+        cell: index of its cell.
+        k: its index in the cell.
+        solved: the oracle succeeded through the env.
+        reason: why not (:func:`rejection_reason`), "" when solved.
+        episode: the episode's suite entry without ``id`` (when solved).
+        steps: control steps the oracle took.
+        variant: for an axis variant, ``axis strength twin`` (its cell is then the twin's id and ``k``
+            the attempt).
+    """
+
+    cell: int
+    k: int
+    solved: bool
+    reason: str = ""
+    episode: dict[str, Any] | None = None
+    steps: int = 0
+    variant: str = ""
+
+
+def rejection_reason(record: EpisodeRecord) -> str:
+    """A countable reason for a failed oracle episode: its kind and the message with numbers as ``N``
+    (``gave_up: PlanningError: ...``, ``safety: contact_force``, ``check: object N does not touch
+    object N``, ``truncated``)."""
+    if record.gave_up:
+        text = record.gave_up
+        kind = "gave_up"
+    elif record.safety_events:
+        text, kind = record.safety_events[-1], "safety"
+    elif record.truncated:
+        return "truncated"
+    else:
+        text, kind = str(record.check_reason), "check"
+    return f"{kind}: {_NUMBER.sub('N', text)[:100]}"
+
+
+def _cell_env(config: SuiteBuildConfig, catalogue: str) -> EvalConfig:
+    env = replace(config.env, scene=replace(config.env.scene, catalogue=catalogue))
+    return EvalConfig(policy="oracle", episodes=1, env=env)
+
+
+_WORKER: dict[str, tuple[EvalConfig, EpisodeRunner]] = {}
+
+
+def _prove(unit: tuple[SuiteBuildConfig, int, int]) -> Candidate:
+    """Run the oracle on candidate ``k`` of cell ``c`` (one work unit; the worker keeps its runner)."""
+    config, c, k = unit
+    catalogue, family, level = config.cells()[c]
+    evaluation = replace(_cell_env(config, catalogue), level=level, families=(family,))
+    held = _WORKER.get("runner")
+    if held is None or held[0] != evaluation:
+        if held is not None:
+            held[1].close()
+        _WORKER["runner"] = held = (evaluation, EpisodeRunner(evaluation))
+    runner = held[1]
+    seed = int(np.random.SeedSequence([config.seed, c, k]).generate_state(1, np.uint32)[0])
+    try:
+        record = runner.run((k, seed, family))
+    except SamplehdError as exc:  # no episode of the level or family among the reset seeds
+        return Candidate(c, k, False, f"draw: {type(exc).__name__}")
+    if not record.success:
+        return Candidate(c, k, False, rejection_reason(record), steps=record.steps)
+    ep = runner.env.episode
+    ins = ep.instruction
+    entry = SuiteEpisode(
+        id=0, catalogue=catalogue, scene_seed=int(ep.scene.seed), reset_seed=int(record.seed), scene=ep.scene.to_dict(),
+        instruction=ep.text,
+        family=ep.family, task=dict(ins["task"]), program=list(ins.get("program", [])),
+        program_sequence=str(ins.get("program_sequence", "")), targets=[int(t) for t in ins.get("targets", [])],
+        level=episode_level(ins, ep.annotation), axis=CLEAN_AXIS, strength=0, twin=None,
+        oracle_steps=record.steps).to_dict()
+    del entry["id"]
+    return Candidate(c, k, True, episode=entry, steps=record.steps)
+
+
+def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int]) -> Candidate:
+    """Run the oracle on a physical axis' variant of a clean episode (one work unit)."""
+    config, twin, axis, strength, attempt = unit
+    variant = perturb(twin, axis, strength, config.seed, attempt)
+    label = f"{axis} {strength} {twin['id']}"
+    evaluation = _cell_env(config, twin["catalogue"])
+    held = _WORKER.get("runner")
+    if held is None or held[0] != evaluation:
+        if held is not None:
+            held[1].close()
+        _WORKER["runner"] = held = (evaluation, EpisodeRunner(evaluation))
+    options = SuiteEpisode.from_dict({"id": 0, **variant}).reset_options()
+    try:
+        record = held[1].run((int(twin["id"]), int(twin["reset_seed"]), twin["family"]), options=options)
+    except SamplehdError as exc:  # e.g. objects shifted into each other or off the table
+        return Candidate(int(twin["id"]), attempt, False, f"{axis}: {type(exc).__name__}", variant=label)
+    if not record.success:
+        return Candidate(int(twin["id"]), attempt, False, f"{axis}: {rejection_reason(record)}", steps=record.steps,
+                         variant=label)
+    return Candidate(int(twin["id"]), attempt, True, episode={**variant, "oracle_steps": record.steps},
+                     steps=record.steps, variant=label)
+
+
+def _variants(config: SuiteBuildConfig, clean: list[dict[str, Any]], backend: Backend,
+              progress: Callable[[Candidate], None] | None) -> tuple[list[dict[str, Any]], Counter[str], list[Any]]:
+    """Each clean episode's variants (axis, strength, twin order), the reasons of rejected attempts and
+    the variants left out."""
+    out: dict[tuple[str, int, int], dict[str, Any]] = {}
+    rejected: Counter[str] = Counter()
+    pending = []
+    for axis in config.axes:
+        for strength in config.strengths:
+            for twin in clean:
+                if axis in PHYSICAL_AXES:
+                    pending.append((axis, strength, twin))
+                else:  # images or text only: the twin's rollout is this variant's, bit for bit
+                    out[axis, strength, twin["id"]] = perturb(twin, axis, strength, config.seed)
+    for attempt in range(config.max_attempts_per_variant):
+        units = [(config, twin, axis, strength, attempt) for axis, strength, twin in pending]
+        results = {}
+        for unit, cand in backend.map(_prove_variant, iter(units)):
+            results[unit[2], unit[3], int(unit[1]["id"])] = cand
+            if progress is not None:
+                progress(cand)
+        left = []
+        for axis, strength, twin in pending:
+            cand = results[axis, strength, int(twin["id"])]
+            if cand.solved:
+                out[axis, strength, int(twin["id"])] = cand.episode or {}
+            else:
+                rejected[cand.reason] += 1
+                left.append((axis, strength, twin))
+        pending = left
+    short = [{"axis": a, "strength": s, "twin": int(t["id"])} for a, s, t in pending]
+    return [out[k] for k in sorted(out, key=lambda k: (config.axes.index(k[0]), k[1], k[2]))], rejected, short
+
+
+def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = None,
+                progress: Callable[[Candidate], None] | None = None) -> Suite:
+    """Draw, prove and freeze a suite (see the module docstring); nothing is written.
+
+    Args:
+        name: the suite's name.
+        config: what to build.
+        backend: where candidates run (default: this process).
+        progress: called with each finished candidate.
+    """
+    backend = backend or Backend()
+    cells = config.cells()
+    need = config.episodes_per_cell
+    done: list[dict[int, Candidate]] = [{} for _ in cells]
+    tried = [0] * len(cells)
+    while True:
+        units = []
+        for c in range(len(cells)):
+            lacking = need - sum(x.solved for x in done[c].values())
+            room = config.max_candidates_per_cell - tried[c]
+            for _ in range(max(0, min(lacking, room))):
+                units.append((config, c, tried[c]))
+                tried[c] += 1
+        if not units:
+            break
+        for _, cand in backend.map(_prove, iter(units)):
+            done[cand.cell][cand.k] = cand
+            if progress is not None:
+                progress(cand)
+    episodes: list[dict[str, Any]] = []
+    rejected: Counter[str] = Counter()
+    solve: dict[str, dict[str, Counter[str]]] = {"by_catalogue": {}, "by_family": {}}
+    short = []
+    for c, (catalogue, family, level) in enumerate(cells):
+        solved = [done[c][k] for k in sorted(done[c]) if done[c][k].solved]
+        if len(solved) < need:
+            short.append({"catalogue": catalogue, "family": family, "level": level, "episodes": len(solved),
+                          "candidates": tried[c]})
+        for k in sorted(done[c]):
+            cand = done[c][k]
+            for key, value in (("by_catalogue", catalogue), ("by_family", family)):
+                solve[key].setdefault(value, Counter())["tried"] += 1
+                solve[key][value]["solved"] += cand.solved
+            if not cand.solved:
+                rejected[cand.reason] += 1
+        for cand in solved:
+            episodes.append({"id": len(episodes), **(cand.episode or {})})
+    short_variants: list[Any] = []
+    if config.axes:
+        variants, variant_rejected, short_variants = _variants(config, episodes, backend, progress)
+        rejected.update(variant_rejected)
+        episodes += [{"id": len(episodes) + i, **v} for i, v in enumerate(variants)]
+    manifest = {
+        "episodes": len(episodes),
+        **{f"by_{key}": dict(sorted(Counter(str(e[key]) for e in episodes).items()))
+           for key in ("family", "level", "catalogue", "axis", "strength")},
+        "candidates": sum(tried),
+        "rejected": dict(sorted(rejected.items(), key=lambda kv: (-kv[1], kv[0]))),
+        "candidates_solved": {key: {v: {"tried": n["tried"], "solved": n["solved"]} for v, n in groups.items()}
+                              for key, groups in solve.items()},
+        "oracle_success_on_suite": 1.0 if episodes else 0.0,
+        "short_cells": short,
+        "short_variants": short_variants,
+    }
+    build = {"name": name, **config.to_dict()}
+    return Suite(name=name, path=None, content_hash=content_hash(episodes), build=build, manifest=manifest,
+                 package_version=__version__, episodes=tuple(SuiteEpisode.from_dict(e) for e in episodes))

@@ -1,0 +1,130 @@
+"""Build, list and describe benchmark suites: frozen episode lists, each episode proven solvable by the
+closed-loop oracle, that `samplehd evaluate --suite` runs without drawing anything.
+
+  samplehd suite build NAME [--config FILE] [--out FILE] [--workers N]
+  samplehd suite list
+  samplehd suite show NAME|FILE
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from samplehd.benchmark.suite import Candidate, SuiteBuildConfig, build_suite
+from samplehd.commands._options import check_out_file, split_names
+from samplehd.dataset.outputs import check_outputs
+from samplehd.envs.suite_file import SUITE_DIR, Suite, read_suite, shipped_suites
+from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
+from samplehd.workers import BACKENDS, Backend
+
+HELP = "build a benchmark suite of oracle-proven episodes, list the shipped suites, or show one"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("action", choices=("build", "list", "show"), help="what to do")
+    parser.add_argument("name", nargs="?", help="build: the suite's name; show: a shipped suite's name or a file")
+    parser.add_argument("--config", type=Path, help="build: JSON of the build options (seed, families, levels, "
+                                                    "catalogues, episodes_per_cell, max_candidates_per_cell, env)")
+    parser.add_argument("--episodes-per-cell", type=int, help="build: episodes per catalogue × family × level")
+    parser.add_argument("--families", nargs="+", help="build: task families")
+    parser.add_argument("--levels", nargs="+", help="build: generalisation levels (L1 L2 L3 L4)")
+    parser.add_argument("--catalogues", nargs="+", help="build: procedural and/or shop-vrb")
+    parser.add_argument("--seed", type=int, help="build: seed of the candidates")
+    parser.add_argument("--axes", nargs="+", help="build: robustness axes (camera, object_shift, shuffled); each "
+                                                  "clean episode gets a variant per axis and strength")
+    parser.add_argument("--out", type=Path, help="build: the suite file to write (default NAME.json)")
+    parser.add_argument("--workers", type=int, default=1, help="build: worker processes (local backend)")
+    parser.add_argument("--backend", choices=BACKENDS, default="local", help="build: where candidates run")
+    parser.add_argument("--ray-address", help="build: Ray cluster address (default: start a local Ray)")
+    parser.add_argument("--quiet", action="store_true", help="build: no line per candidate")
+
+
+def resolve_config(args: argparse.Namespace) -> SuiteBuildConfig:
+    """The --config file's options, then the flags (a bad value's message names its flag)."""
+    options: dict = {}
+    if args.config is not None:
+        options = read_json(args.config, ConfigError, f"--config {args.config}", field="config")
+        if not isinstance(options, dict):
+            raise ConfigError(f"--config {args.config}: expected a JSON object of build options", field="config")
+    config = SuiteBuildConfig.from_dict(options, where=f"--config {args.config}" if args.config else None)
+    flags = {"episodes_per_cell": args.episodes_per_cell, "seed": args.seed}
+    for key in ("families", "levels", "catalogues", "axes"):
+        value = getattr(args, key)
+        if value is not None:
+            flags[key] = list(split_names(value, f"--{key}"))
+    for key, value in flags.items():
+        if value is not None:
+            config = SuiteBuildConfig.from_dict({**config.to_dict(), key: value},
+                                                where=f"--{key.replace('_', '-')}")
+    return config
+
+
+def describe(suite: Suite) -> str:
+    """A few lines on a suite: name, hash, counts, candidates and rejection reasons."""
+    m = suite.manifest
+    lines = [f"suite {suite.name}: {len(suite.episodes)} episodes, {suite.content_hash}",
+             f"  file {suite.path}", f"  built by samplehd {suite.package_version}, seed {suite.build.get('seed')}"]
+    for key in ("family", "level", "catalogue", "axis", "strength"):
+        counts = m.get(f"by_{key}", {})
+        lines.append(f"  by {key:<9} " + ", ".join(f"{k} {v}" for k, v in counts.items()))
+    lines.append(f"  candidates {m.get('candidates')}, rejected {sum(m.get('rejected', {}).values())}")
+    for reason, n in m.get("rejected", {}).items():
+        lines.append(f"    {n:>5}  {reason}")
+    for key, groups in m.get("candidates_solved", {}).items():
+        lines.append(f"  solved {key[3:]}: " + ", ".join(f"{v} {g['solved']}/{g['tried']}" for v, g in groups.items()))
+    if m.get("short_cells"):
+        lines.append(f"  short cells: {json.dumps(m['short_cells'])}")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.action == "list":
+        if args.name is not None:
+            raise ConfigError(f"suite list: takes no name (got {args.name!r})")
+        names = shipped_suites()
+        if not names:
+            print(f"no shipped suites (in {SUITE_DIR})")
+        for name in names:
+            suite = read_suite(name)
+            print(f"{name:<12} {len(suite.episodes):>6} episodes  {suite.content_hash}")
+        return 0
+    if args.name is None:
+        raise ConfigError(f"suite {args.action}: needs a NAME" + (" or FILE" if args.action == "show" else ""))
+    if args.action == "show":
+        print(describe(read_suite(args.name)))
+        return 0
+    if "/" in args.name or not args.name.replace("-", "").replace("_", "").isalnum():
+        raise ConfigError(f"suite build {args.name!r}: a suite name is letters, digits, - and _ (the file is --out)")
+    out = args.out or Path(f"{args.name}.json")
+    check_out_file("--out", out, (".json",))
+    check_outputs({"--out": out}, {"--config": args.config})
+    config = resolve_config(args)
+    backend = Backend(args.backend, args.workers, args.ray_address)
+    backend.connect()
+    cells = len(config.cells())
+    print(f"building suite {args.name}: {cells} cells × {config.episodes_per_cell} episodes ({backend.describe()})",
+          flush=True)
+    t0 = time.perf_counter()
+
+    def show(c: Candidate) -> None:
+        if args.quiet:
+            return
+        mark = "ok  " if c.solved else "fail"
+        if c.variant:
+            axis, strength, twin = c.variant.split()
+            print(f"  {mark} {axis} strength {strength} of episode {twin} #{c.k} steps={c.steps:<5} {c.reason}",
+                  flush=True)
+            return
+        catalogue, family, level = config.cells()[c.cell]
+        print(f"  {mark} {catalogue:<10} {family:<15} {level} #{c.k:<3} steps={c.steps:<5} {c.reason}", flush=True)
+
+    suite = build_suite(args.name, config, backend, progress=show)
+    suite.write(out)
+    wall = time.perf_counter() - t0
+    print(describe(read_suite(out)))
+    print(f"wrote {out} ({wall:.0f} s, {wall / max(1, suite.manifest['candidates']):.1f} s per candidate)")
+    return 0

@@ -1,0 +1,164 @@
+"""Benchmark suites: the file format and its refusals, the env's ``suite`` reset option, evaluation on a
+suite, and (slow) a build whose every episode the oracle solves, evaluated twice to the same report."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from samplehd.benchmark.axes import AXES, AXIS_FIELDS, STRENGTHS, perturb
+from samplehd.benchmark.evaluation import EvalConfig, evaluate
+from samplehd.benchmark.suite import SuiteBuildConfig, build_suite
+from samplehd.envs.suite_file import content_hash, read_suite, shipped_suites, suite_path
+from samplehd.envs.tabletop import TabletopEnv
+from samplehd.errors import ConfigError
+
+SHIPPED = "smoke"
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "samplehd", *args], capture_output=True, text=True, timeout=300)
+
+
+def test_the_shipped_smoke_suite_reads_and_covers_both_catalogues() -> None:
+    assert SHIPPED in shipped_suites()
+    suite = read_suite(SHIPPED)
+    raw = json.loads(suite_path(SHIPPED).read_text())
+    assert suite.content_hash == content_hash(raw["episodes"])
+    assert set(suite.manifest["by_catalogue"]) == {"procedural", "shop-vrb"}
+    assert suite.manifest["episodes"] == len(suite.episodes)
+    assert all(e.oracle_steps > 0 and e.axis == "none" and e.strength == 0 for e in suite.episodes)
+
+
+def test_env_resets_to_a_suite_episode_and_refuses_an_index_outside(tmp_path: Path) -> None:
+    suite = read_suite(SHIPPED)
+    ep = suite.episodes[-1]
+    env = TabletopEnv()
+    try:
+        _, info = env.reset(options={"suite": SHIPPED, "episode": ep.id})
+        assert info["instruction"] == ep.instruction and info["task"] == ep.task
+        assert env.episode.scene.to_dict() == ep.scene
+        for bad in (len(suite.episodes), -1, "0", True):
+            with pytest.raises(ConfigError, match="has episodes 0.."):
+                env.reset(options={"suite": SHIPPED, "episode": bad})
+        with pytest.raises(ConfigError, match="needs 'episode'"):
+            env.reset(options={"suite": SHIPPED})
+        with pytest.raises(ConfigError, match="leave out"):
+            env.reset(options={"suite": SHIPPED, "episode": 0, "family": "place"})
+    finally:
+        env.close()
+
+
+def _damaged(tmp_path: Path) -> dict[str, Path]:
+    raw = json.loads(suite_path(SHIPPED).read_text())
+    edited = json.loads(json.dumps(raw))
+    edited["episodes"][0]["instruction"] = "Pick up the thing."
+    foreign = {"format": "lerobot", "episodes": []}
+    old = {**raw, "format_version": 99}
+    files = {"edited": edited, "foreign": foreign, "version": old}
+    out = {}
+    for name, obj in files.items():
+        out[name] = tmp_path / f"{name}.json"
+        out[name].write_text(json.dumps(obj))
+    out["truncated"] = tmp_path / "truncated.json"
+    out["truncated"].write_text(suite_path(SHIPPED).read_text()[:500])
+    return out
+
+
+def test_a_damaged_or_foreign_suite_file_is_refused_in_one_line(tmp_path: Path) -> None:
+    expected = {"edited": "do not match content_hash", "foreign": "not a samplehd suite file",
+                "version": "format_version 99", "truncated": "invalid JSON"}
+    for name, path in _damaged(tmp_path).items():
+        with pytest.raises(ConfigError, match=expected[name]):
+            read_suite(path)
+        out = tmp_path / f"report_{name}.json"
+        r = _cli("evaluate", "--policy", "random", "--suite", str(path), "--out", str(out))
+        assert r.returncode == 2, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1 and str(path) in r.stderr, r.stderr
+        assert expected[name] in r.stderr
+        assert not out.exists()
+    r = _cli("evaluate", "--policy", "random", "--suite", "no-such-suite")
+    assert r.returncode == 2 and "shipped: " in r.stderr and SHIPPED in r.stderr
+
+
+def test_evaluate_refuses_split_flags_with_a_suite() -> None:
+    r = _cli("evaluate", "--policy", "random", "--suite", SHIPPED, "--level", "L2")
+    assert r.returncode == 2 and "a suite fixes its episodes" in r.stderr, r.stderr
+
+
+def test_suite_list_and_show_describe_the_shipped_suite() -> None:
+    suite = read_suite(SHIPPED)
+    r = _cli("suite", "list")
+    assert r.returncode == 0 and SHIPPED in r.stdout and suite.content_hash in r.stdout
+    r = _cli("suite", "show", SHIPPED)
+    assert r.returncode == 0 and f"{len(suite.episodes)} episodes" in r.stdout and "by family" in r.stdout
+
+
+def test_a_random_policy_on_a_suite_names_the_suite_in_its_report(tmp_path: Path) -> None:
+    suite = read_suite(SHIPPED)
+    report = evaluate(EvalConfig(policy="random", suite=SHIPPED, env={"max_episode_steps": 3}),
+                      tmp_path / "r.json")
+    assert report["split"]["suite"] == SHIPPED and report["split"]["content_hash"] == suite.content_hash
+    assert [r["instruction"] for r in report["records"]] == [e.instruction for e in suite.episodes]
+    assert set(report["by_axis"]) == {"none"} and set(report["by_level"]) <= {"L1", "L2", "L3", "L4"}
+
+
+@pytest.mark.slow
+def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(tmp_path: Path) -> None:
+    config = SuiteBuildConfig(families=("pick_up", "place"), catalogues=("procedural",), episodes_per_cell=1)
+    suite = build_suite("t", config)
+    again = build_suite("t", config)
+    assert suite.to_dict() == again.to_dict()  # same configuration, same bytes
+    path = tmp_path / "t.json"
+    suite.write(path)
+    reports = [evaluate(EvalConfig(policy="oracle", suite=str(path))) for _ in range(2)]
+    assert reports[0]["success_rate"] == 1.0
+    for r in reports:
+        r.pop("wall_s")
+        for rec in r["records"]:
+            rec.pop("wall_s")
+    assert reports[0] == reports[1]
+
+
+def _changed(a: dict, b: dict) -> set[str]:
+    """Dotted names of the fields (scene fields one level down) in which two episode dicts differ."""
+    out = set()
+    for key in set(a) | set(b):
+        if key == "scene":
+            out |= {f"scene.{k}" for k in set(a[key]) | set(b[key]) if a[key].get(k) != b[key].get(k)}
+        elif a.get(key) != b.get(key):
+            out.add(key)
+    return out
+
+
+def test_a_variant_differs_from_its_clean_twin_only_in_its_axis() -> None:
+    twins = [e.to_dict() for e in read_suite(SHIPPED).episodes[:4]]
+    for twin in twins:
+        for axis in AXES:
+            for strength in STRENGTHS:
+                variant = perturb(twin, axis, strength, seed=0)
+                assert variant == perturb(twin, axis, strength, seed=0)  # a function of the seed
+                assert variant["twin"] == twin["id"] and variant["strength"] == strength and variant["axis"] == axis
+                changed = _changed(twin, variant) - {"id", "axis", "strength", "twin"}
+                assert changed == set(AXIS_FIELDS[axis]), (axis, strength, changed)
+
+
+def test_axis_strengths_are_the_documented_physical_amounts() -> None:
+    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    for strength in STRENGTHS:
+        cam = perturb(twin, "camera", strength, seed=3)["scene"]["camera"]
+        target = np.asarray(cam["target"])
+        a, b = (np.asarray(c["pos"]) - target for c in (twin["scene"]["camera"], cam))
+        turn = abs(np.degrees(np.arctan2(b[1], b[0]) - np.arctan2(a[1], a[0])))
+        assert turn == pytest.approx(6.0 * strength) and a[2] == b[2]
+        shifted = perturb(twin, "object_shift", strength, seed=3)["scene"]["objects"]
+        moves = {tuple(np.round(np.subtract(s["pos"], o["pos"]), 9))
+                 for s, o in zip(shifted, twin["scene"]["objects"], strict=True)}
+        assert len(moves) == 1 and np.hypot(*next(iter(moves))[:2]) == pytest.approx(0.015 * strength)
+        words = perturb(twin, "shuffled", strength, seed=3)["instruction"].rstrip(".").split()
+        assert sorted(words) == sorted(twin["instruction"].rstrip(".").split())
