@@ -13,6 +13,7 @@ import pytest
 
 from samplehd.benchmark.axes import AXES, AXIS_FIELDS, STRENGTHS, perturb
 from samplehd.benchmark.evaluation import EvalConfig, evaluate
+from samplehd.benchmark.lerobot_tabletop import LeRobotTabletop
 from samplehd.benchmark.suite import SuiteBuildConfig, build_suite
 from samplehd.envs.suite_file import content_hash, read_suite, shipped_suites, suite_path
 from samplehd.envs.tabletop import TabletopEnv
@@ -160,5 +161,22 @@ def test_axis_strengths_are_the_documented_physical_amounts() -> None:
         moves = {tuple(np.round(np.subtract(s["pos"], o["pos"]), 9))
                  for s, o in zip(shifted, twin["scene"]["objects"], strict=True)}
         assert len(moves) == 1 and np.hypot(*next(iter(moves))[:2]) == pytest.approx(0.015 * strength)
+        start = perturb(twin, "robot_start", strength, seed=3)["start_state"]["qpos"]
+        home = perturb(twin, "robot_start", 0, seed=3)["start_state"]["qpos"]
+        assert np.abs(np.subtract(start, home))[:6] == pytest.approx([0.05 * strength] * 6)
+        assert start[6:] == home[6:]
         words = perturb(twin, "shuffled", strength, seed=3)["instruction"].rstrip(".").split()
         assert sorted(words) == sorted(twin["instruction"].rstrip(".").split())
+
+
+def test_the_lerobot_env_serves_a_suites_episodes_of_its_family() -> None:
+    suite = read_suite(SHIPPED)
+    picks = [e for e in suite.episodes if e.family == "pick_up"]
+    env = LeRobotTabletop("pick_up", {"obs_mode": "rgb", "width": 32, "height": 32}, suite=SHIPPED)
+    try:
+        _, info = env.reset(seed=len(picks) - 1)
+        assert env.task_description == picks[-1].instruction and info["suite_episode"] == picks[-1].id
+        with pytest.raises(ConfigError, match=f"has {len(picks)} pick_up episodes"):
+            env.reset(seed=len(picks))
+    finally:
+        env.close()

@@ -12,6 +12,8 @@ Options (``--env.<name>``):
         recorded (cameras, image size, render preset, control mode and rates, scene, checker).
     level: generalisation level L1–L4 (``samplehd evaluate --level``), or none.
     split_seed: ``samplehd evaluate --seed``; LeRobot's ``--seed`` is the first episode's index.
+    suite: a benchmark suite (a shipped suite's name or a suite file, ``samplehd evaluate --suite``):
+        each task's episodes are the suite's episodes of that family, in order; nothing is drawn.
     episode_length: steps before a rollout stops (``samplehd evaluate``'s limit is 1500).
     observation_width, observation_height, cameras: the images when no ``dataset`` is given.
 """
@@ -42,6 +44,7 @@ class SamplehdEnv(EnvConfig):
     dataset: str | None = None
     level: str | None = None
     split_seed: int = 0
+    suite: str | None = None
     episode_length: int = DEFAULT_MAX_STEPS
     observation_width: int = 128
     observation_height: int = 128
@@ -73,7 +76,7 @@ class SamplehdEnv(EnvConfig):
     @property
     def gym_kwargs(self) -> dict[str, Any]:
         return {"env": self.env_options, "split_seed": self.split_seed, "level": self.level,
-                "max_episode_steps": self.episode_length}
+                "max_episode_steps": self.episode_length, "suite": self.suite}
 
     def create_envs(self, n_envs: int, use_async_envs: bool = False) -> dict[str, dict[int, Any]]:
         """``{family: {0: VectorEnv}}``, each of ``n_envs`` environments."""

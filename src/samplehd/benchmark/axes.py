@@ -11,13 +11,15 @@ axis              what changes                                                 p
                   look-at point (``scene.camera.pos``)                          training cone is ±12°)
 ``object_shift``  every object moves by one horizontal offset before the        1.5 cm (5: 7.5 cm)
                   episode (``scene.objects[*].pos``); their layout is kept
+``robot_start``   each arm joint starts off its home angle by the step, in a    0.05 rad (5:
+                  drawn sign, within its limits (``start_state``)               0.25 rad, 14°)
 ``shuffled``      words of the instruction trade places (``instruction``):      20 % of the words
                   a shortcut control (5: every word moved, the words kept)      (5: 100 %)
 ================  ===========================================================  ==================
 
 An axis whose change cannot alter physics (``camera``, ``shuffled``: the oracle acts on state and the
 task, never on images or text) keeps its twin's oracle proof: the same rollout, bit for bit. A
-physical axis (``object_shift``) is proven again by the oracle through the env; a variant it fails is
+physical axis (``object_shift``, ``robot_start``) is proven again by the oracle through the env; a variant it fails is
 replaced by the next attempt's direction.
 """
 
@@ -30,12 +32,16 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.robot.constants import JOINT_NAMES
+from samplehd.scene.spec import SceneSpec, compile_scene
+
 __all__ = ["AXES", "AXIS_FIELDS", "PHYSICAL_AXES", "STRENGTHS", "perturb"]
 
 STRENGTHS = (1, 2, 3, 4, 5)
 CAMERA_DEG_PER_STRENGTH = 6.0
 SHIFT_M_PER_STRENGTH = 0.015
 SHUFFLE_FRACTION_PER_STRENGTH = 0.2
+JOINT_RAD_PER_STRENGTH = 0.05
 
 
 def _camera(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
@@ -54,12 +60,27 @@ def _object_shift(ep: dict[str, Any], strength: int, rng: np.random.Generator) -
         obj["pos"] = [float(obj["pos"][0] + dx), float(obj["pos"][1] + dy), float(obj["pos"][2])]
 
 
+def _robot_start(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    model, data = compile_scene(SceneSpec.from_dict(ep["scene"]))
+    qpos = data.qpos.copy()
+    for name, sign in zip(JOINT_NAMES, rng.choice([-1.0, 1.0], size=len(JOINT_NAMES)), strict=True):
+        joint = model.joint(name)
+        lo, hi = model.jnt_range[joint.id]
+        adr = int(model.jnt_qposadr[joint.id])
+        qpos[adr] = float(np.clip(qpos[adr] + sign * JOINT_RAD_PER_STRENGTH * strength, lo, hi))
+    ep["start_state"] = {"qpos": [float(v) for v in qpos], "qvel": [float(v) for v in data.qvel],
+                         "act": [float(v) for v in data.act]}
+
+
 def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
     text = ep["instruction"].rstrip(".")
     words = text.split()
     moved = min(len(words), max(2, round(SHUFFLE_FRACTION_PER_STRENGTH * strength * len(words))))
     picks = sorted(rng.choice(len(words), size=moved, replace=False).tolist())
-    order = picks[1:] + picks[:1]  # a cycle: every picked word leaves its place
+    perm = rng.permutation(moved)
+    while np.any(perm == np.arange(moved)):  # a derangement: every picked word leaves its place
+        perm = rng.permutation(moved)
+    order = [picks[int(i)] for i in perm]
     out = list(words)
     for src, dst in zip(picks, order, strict=True):
         out[dst] = words[src]
@@ -67,10 +88,11 @@ def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> No
 
 
 AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
-    "camera": _camera, "object_shift": _object_shift, "shuffled": _shuffled}
+    "camera": _camera, "object_shift": _object_shift, "robot_start": _robot_start, "shuffled": _shuffled}
 # The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
-AXIS_FIELDS = {"camera": ("scene.camera",), "object_shift": ("scene.objects",), "shuffled": ("instruction",)}
-PHYSICAL_AXES = ("object_shift",)
+AXIS_FIELDS = {"camera": ("scene.camera",), "object_shift": ("scene.objects",), "robot_start": ("start_state",),
+               "shuffled": ("instruction",)}
+PHYSICAL_AXES = ("object_shift", "robot_start")
 
 
 def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: int = 0) -> dict[str, Any]:

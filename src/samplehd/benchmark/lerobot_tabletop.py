@@ -16,6 +16,8 @@ Seeds: ``reset(seed=j)`` starts episode ``j`` of this family in ``samplehd evalu
 ``j * len(families) + i``), at ``level`` when one is given. So ``lerobot-eval --seed=0
 --eval.n_episodes=N`` meets the episodes that ``samplehd evaluate --seed 0 --episodes N`` (times the
 number of families) meets. A reset without a seed (Gymnasium's autoreset) starts the next episode.
+With a ``suite`` (a shipped suite's name or a suite file) ``reset(seed=j)`` starts instead the suite's
+``j``-th episode of this family, as ``samplehd evaluate --suite`` does: nothing is drawn.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from samplehd.benchmark.evaluation import split_episode
 from samplehd.benchmark.levels import LEVELS, reset_at_level
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.lerobot_contract import lerobot_features, lerobot_observation
+from samplehd.envs.suite_file import read_suite
 from samplehd.envs.tabletop import TabletopEnv, action_bounds
 from samplehd.errors import ConfigError
 from samplehd.robot.controller import ControlConfig
@@ -51,12 +54,15 @@ class LeRobotTabletop(gym.Env):
         split_seed: ``samplehd evaluate --seed``.
         level: generalisation level L1–L4, or None (the plain split).
         max_episode_steps: LeRobot's rollout stops after this many steps.
+        suite: a benchmark suite (name or file): episode ``j`` is its ``j``-th of ``family`` (the
+            split's seed and level are then not used).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
 
     def __init__(self, family: str, env: dict[str, Any], families: Sequence[str] | None = None,
-                 split_seed: int = 0, level: str | None = None, max_episode_steps: int = DEFAULT_MAX_STEPS) -> None:
+                 split_seed: int = 0, level: str | None = None, max_episode_steps: int = DEFAULT_MAX_STEPS,
+                 suite: str | None = None) -> None:
         super().__init__()
         families = tuple(families) if families else (family,)
         if family not in families:
@@ -71,6 +77,14 @@ class LeRobotTabletop(gym.Env):
             raise ConfigError(f"obs_mode={config.obs_mode!r}: LeRobot's policies need images; valid: rgb, rgbd, "
                               "rgbd_seg")
         self.cameras = config.cameras
+        self.suite = suite
+        self._suite_episodes: tuple[int, ...] = ()
+        if suite is not None:
+            if level is not None:
+                raise ConfigError(f"level={level!r}: a suite fixes each episode's level; leave level out with suite")
+            self._suite_episodes = tuple(e.id for e in read_suite(suite).episodes if e.family == family)
+            if not self._suite_episodes:
+                raise ConfigError(f"task={family!r}: suite {suite!r} has no episode of this family")
         self.family, self.families, self.split_seed, self.level = family, families, int(split_seed), level
         self._index = families.index(family)
         self._inner: TabletopEnv | None = None
@@ -109,12 +123,21 @@ class LeRobotTabletop(gym.Env):
         if episode < 0:
             raise ConfigError(f"seed={episode}: must be >= 0 (the episode's index in the split)")
         super().reset(seed=episode)
-        reset_seed, _ = split_episode(self.split_index(episode), self.families, self.split_seed)
-        obs, info, used = reset_at_level(self.inner, reset_seed, self.family, self.level)
+        if self.suite is not None:
+            if episode >= len(self._suite_episodes):
+                raise ConfigError(f"seed={episode}: suite {self.suite!r} has {len(self._suite_episodes)} "
+                                  f"{self.family} episodes (0..{len(self._suite_episodes) - 1})")
+            entry = read_suite(self.suite).episodes[self._suite_episodes[episode]]
+            obs, info = self.inner.reset(seed=entry.reset_seed, options={"suite": self.suite, "episode": entry.id})
+            where = {"suite_episode": entry.id, "reset_seed": entry.reset_seed}
+        else:
+            reset_seed, _ = split_episode(self.split_index(episode), self.families, self.split_seed)
+            obs, info, used = reset_at_level(self.inner, reset_seed, self.family, self.level)
+            where = {"split_episode": self.split_index(episode), "reset_seed": used}
         self._next = episode + 1
         self.task_description = str(info["instruction"])
         self._last = lerobot_observation(obs, self.cameras)
-        info = {**info, "is_success": False, "split_episode": self.split_index(episode), "reset_seed": used}
+        info = {**info, "is_success": False, **where}
         return self._last, info
 
     def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
@@ -133,13 +156,13 @@ class LeRobotTabletop(gym.Env):
 
 
 def _make_one(family: str, env: dict[str, Any], families: tuple[str, ...], split_seed: int, level: str | None,
-              max_episode_steps: int) -> LeRobotTabletop:
-    return LeRobotTabletop(family, env, families, split_seed, level, max_episode_steps)
+              max_episode_steps: int, suite: str | None = None) -> LeRobotTabletop:
+    return LeRobotTabletop(family, env, families, split_seed, level, max_episode_steps, suite)
 
 
 def make_lerobot_envs(families: Sequence[str], env: dict[str, Any], n_envs: int = 1, use_async: bool = False,
-                      split_seed: int = 0, level: str | None = None, max_episode_steps: int = DEFAULT_MAX_STEPS
-                      ) -> dict[str, dict[int, gym.vector.VectorEnv]]:
+                      split_seed: int = 0, level: str | None = None, max_episode_steps: int = DEFAULT_MAX_STEPS,
+                      suite: str | None = None) -> dict[str, dict[int, gym.vector.VectorEnv]]:
     """``{family: {0: VectorEnv}}`` as LeRobot's ``make_env`` returns (one suite per family, so
     ``lerobot-eval`` reports success per family).
 
@@ -151,10 +174,11 @@ def make_lerobot_envs(families: Sequence[str], env: dict[str, Any], n_envs: int 
         raise ConfigError("task='': name at least one family (e.g. pick_up)")
     if not (isinstance(n_envs, int) and n_envs >= 1):
         raise ConfigError(f"n_envs={n_envs!r}: must be an integer >= 1")
-    LeRobotTabletop(families[0], env, families, split_seed, level, max_episode_steps)  # errors here, in one line
+    for family in families:  # errors here, in one line
+        LeRobotTabletop(family, env, families, split_seed, level, max_episode_steps, suite)
     out: dict[str, dict[int, gym.vector.VectorEnv]] = {}
     for family in families:
-        make = functools.partial(_make_one, family, dict(env), families, split_seed, level, max_episode_steps)
+        make = functools.partial(_make_one, family, dict(env), families, split_seed, level, max_episode_steps, suite)
         if use_async and n_envs > 1:
             vec: gym.vector.VectorEnv = gym.vector.AsyncVectorEnv([make] * n_envs, context="spawn")
         else:

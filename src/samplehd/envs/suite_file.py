@@ -29,7 +29,7 @@ import functools
 import hashlib
 import json
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import MISSING, asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -68,6 +68,8 @@ class SuiteEpisode:
         strength: the axis' strength 0–5 (0: the clean twin).
         twin: the id of the clean twin (None for a clean episode).
         oracle_steps: control steps the closed-loop oracle took to succeed when the suite was built.
+        start_state: ``{qpos, qvel, act}`` lists the episode starts from instead of the scene's own
+            state (the robot start axis), or None.
     """
 
     id: int
@@ -86,20 +88,28 @@ class SuiteEpisode:
     strength: int = 0
     twin: int | None = None
     oracle_steps: int = 0
+    start_state: dict[str, list[float]] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> SuiteEpisode:
-        return cls(**{k: d[k] for k in cls.__dataclass_fields__})
+        # Fields with a default may be left out; the others must be there.
+        required = [k for k, f in cls.__dataclass_fields__.items() if f.default is MISSING]
+        return cls(**{k: d[k] for k in required}, **{k: d[k] for k in cls.__dataclass_fields__
+                                                      if k not in required and k in d})
 
     def reset_options(self) -> dict[str, Any]:
         """The environment's ``scene`` + ``instruction`` reset options of this episode."""
-        return {"scene": self.scene,
-                "instruction": {"instruction": self.instruction, "family": self.family, "task": self.task,
-                                "program": self.program, "program_sequence": self.program_sequence,
-                                "targets": self.targets}}
+        options: dict[str, Any] = {
+            "scene": self.scene,
+            "instruction": {"instruction": self.instruction, "family": self.family, "task": self.task,
+                            "program": self.program, "program_sequence": self.program_sequence,
+                            "targets": self.targets}}
+        if self.start_state is not None:
+            options["episode"] = self.start_state
+        return options
 
 
 def content_hash(episodes: list[dict[str, Any]]) -> str:
