@@ -18,6 +18,7 @@ from samplehd.benchmark.suite import SuiteBuildConfig, build_suite
 from samplehd.envs.suite_file import content_hash, read_suite, shipped_suites, suite_path
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError
+from samplehd.workers import Backend
 
 SHIPPED = "smoke"
 
@@ -77,6 +78,8 @@ def test_a_damaged_or_foreign_suite_file_is_refused_in_one_line(tmp_path: Path) 
     for name, path in _damaged(tmp_path).items():
         with pytest.raises(ConfigError, match=expected[name]):
             read_suite(path)
+        if name not in ("edited", "foreign"):  # the command line's handling is the same for every refusal
+            continue
         out = tmp_path / f"report_{name}.json"
         r = _cli("evaluate", "--policy", "random", "--suite", str(path), "--out", str(out))
         assert r.returncode == 2, r.stderr
@@ -111,14 +114,19 @@ def test_a_random_policy_on_a_suite_names_the_suite_in_its_report(tmp_path: Path
 
 @pytest.mark.slow
 def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(tmp_path: Path) -> None:
-    config = SuiteBuildConfig(families=("pick_up", "place"), catalogues=("procedural",), episodes_per_cell=1)
+    config = SuiteBuildConfig(families=("pick_up",), catalogues=("procedural",), episodes_per_cell=1,
+                              axes=("object_shift", "robot_start"), strengths=(5,))
     suite = build_suite("t", config)
-    again = build_suite("t", config)
-    assert suite.to_dict() == again.to_dict()  # same configuration, same bytes
+    assert [(e.axis, e.strength, e.twin) for e in suite.episodes] == [
+        ("none", 0, None), ("object_shift", 5, 0), ("robot_start", 5, 0)]
+    # the same bytes whatever the number of workers
+    assert build_suite("t", config, Backend(workers=2)).to_dict() == suite.to_dict()
     path = tmp_path / "t.json"
     suite.write(path)
     reports = [evaluate(EvalConfig(policy="oracle", suite=str(path))) for _ in range(2)]
     assert reports[0]["success_rate"] == 1.0
+    assert [r["steps"] for r in reports[0]["records"]] == [e.oracle_steps for e in suite.episodes]
+    assert set(reports[0]["by_axis"]) == {"none", "object_shift", "robot_start"}
     for r in reports:
         r.pop("wall_s")
         for rec in r["records"]:
@@ -138,10 +146,10 @@ def _changed(a: dict, b: dict) -> set[str]:
 
 
 def test_a_variant_differs_from_its_clean_twin_only_in_its_axis() -> None:
-    twins = [e.to_dict() for e in read_suite(SHIPPED).episodes[:4]]
+    twins = [e.to_dict() for e in read_suite(SHIPPED).episodes[::6]]  # one per catalogue
     for twin in twins:
         for axis in AXES:
-            for strength in STRENGTHS:
+            for strength in (1, 5):
                 variant = perturb(twin, axis, strength, seed=0)
                 assert variant == perturb(twin, axis, strength, seed=0)  # a function of the seed
                 assert variant["twin"] == twin["id"] and variant["strength"] == strength and variant["axis"] == axis
