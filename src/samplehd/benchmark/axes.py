@@ -13,25 +13,31 @@ axis              what changes                                                 p
                   episode (``scene.objects[*].pos``); their layout is kept
 ``robot_start``   each arm joint starts off its home angle by the step, in a    0.05 rad (5:
                   drawn sign, within its limits (``start_state``)               0.25 rad, 14°)
+``paraphrase``    words of the instruction's synonym groups (``synonyms.json``:  20 % of those
+                  put/place/set, move/shift/slide, pick up/lift/grab, ...)      words (5: every
+                  become another member of their group (``instruction``)        one)
 ``shuffled``      words of the instruction trade places (``instruction``):      20 % of the words
                   a shortcut control (5: every word moved, the words kept)      (5: 100 %)
 ================  ===========================================================  ==================
 
-An axis whose change cannot alter physics (``camera``, ``shuffled``: the oracle acts on state and the
+An axis whose change cannot alter physics (``camera``, ``paraphrase``, ``shuffled``: the oracle acts on state and the
 task, never on images or text) keeps its twin's oracle proof: the same rollout, bit for bit. A
 physical axis (``object_shift``, ``robot_start``) is proven again by the oracle through the env; a variant it fails is
-replaced by the next attempt's direction.
+replaced by the next attempt's direction. A variant that would equal its twin (an instruction with no
+word of a synonym group) is left out.
 """
 
 from __future__ import annotations
 
 import copy
 import math
+import re
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from samplehd.language.templates import default_synonyms
 from samplehd.robot.constants import JOINT_NAMES
 from samplehd.scene.spec import SceneSpec, compile_scene
 
@@ -72,6 +78,39 @@ def _robot_start(ep: dict[str, Any], strength: int, rng: np.random.Generator) ->
                          "act": [float(v) for v in data.act]}
 
 
+def _alternatives() -> dict[str, tuple[str, ...]]:
+    """Each synonym-group member -> the other members of the first group holding it (``put`` is also a
+    ``stack`` synonym, but ``stack`` is not a ``put`` synonym)."""
+    out: dict[str, tuple[str, ...]] = {}
+    for members in default_synonyms().values():
+        for word in members:
+            out.setdefault(word, tuple(m for m in members if m != word))
+    return out
+
+
+def _paraphrase(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    alternatives = _alternatives()
+    pattern = re.compile(r"\b(" + "|".join(sorted(map(re.escape, alternatives), key=len, reverse=True)) + r")\b",
+                         re.IGNORECASE)
+    text = ep["instruction"]
+    found = list(pattern.finditer(text))
+    if not found:
+        return
+    count = min(len(found), max(1, round(SHUFFLE_FRACTION_PER_STRENGTH * strength * len(found))))
+    chosen = set(rng.choice(len(found), size=count, replace=False).tolist())
+    out, last = [], 0
+    for i, m in enumerate(found):
+        word = m.group(0)
+        out.append(text[last:m.start()])
+        if i in chosen:
+            options = alternatives[word.lower()]
+            new = options[int(rng.integers(len(options)))]
+            word = new[0].upper() + new[1:] if word[0].isupper() else new
+        out.append(word)
+        last = m.end()
+    ep["instruction"] = "".join(out) + text[last:]
+
+
 def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
     text = ep["instruction"].rstrip(".")
     words = text.split()
@@ -88,10 +127,11 @@ def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> No
 
 
 AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
-    "camera": _camera, "object_shift": _object_shift, "robot_start": _robot_start, "shuffled": _shuffled}
+    "camera": _camera, "object_shift": _object_shift, "robot_start": _robot_start, "paraphrase": _paraphrase,
+    "shuffled": _shuffled}
 # The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
 AXIS_FIELDS = {"camera": ("scene.camera",), "object_shift": ("scene.objects",), "robot_start": ("start_state",),
-               "shuffled": ("instruction",)}
+               "paraphrase": ("instruction",), "shuffled": ("instruction",)}
 PHYSICAL_AXES = ("object_shift", "robot_start")
 
 

@@ -180,6 +180,12 @@ def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int])
                      steps=record.steps, variant=label)
 
 
+def _same_episode(variant: dict[str, Any], twin: dict[str, Any]) -> bool:
+    """Whether a variant equals its twin apart from its axis labels."""
+    skip = {"id", "axis", "strength", "twin"}
+    return {k: v for k, v in variant.items() if k not in skip} == {k: v for k, v in twin.items() if k not in skip}
+
+
 def _variants(config: SuiteBuildConfig, clean: list[dict[str, Any]], backend: Backend,
               progress: Callable[[Candidate], None] | None) -> tuple[list[dict[str, Any]], Counter[str], list[Any]]:
     """Each clean episode's variants (axis, strength, twin order), the reasons of rejected attempts and
@@ -193,7 +199,11 @@ def _variants(config: SuiteBuildConfig, clean: list[dict[str, Any]], backend: Ba
                 if axis in PHYSICAL_AXES:
                     pending.append((axis, strength, twin))
                 else:  # images or text only: the twin's rollout is this variant's, bit for bit
-                    out[axis, strength, twin["id"]] = perturb(twin, axis, strength, config.seed)
+                    variant = perturb(twin, axis, strength, config.seed)
+                    if _same_episode(variant, twin):
+                        rejected[f"{axis}: nothing to change"] += 1
+                    else:
+                        out[axis, strength, twin["id"]] = variant
     for attempt in range(config.max_attempts_per_variant):
         units = [(config, twin, axis, strength, attempt) for axis, strength, twin in pending]
         results = {}
