@@ -32,7 +32,7 @@ from typing import Any
 
 __all__ = ["AXIS_KEY", "CLEAN", "CONFIDENCE", "ID_KEYS", "METHODS", "SIGNIFICANCE", "STRENGTH_KEY", "TWIN_KEY",
            "PairedDifference", "Proportion", "axis_of", "episode_id", "mcnemar_exact_p", "paired_difference",
-           "proportion", "strength_of", "summarize", "twin_pairs", "wilson_interval"]
+           "proportion", "robustness_curves", "strength_of", "summarize", "twin_pairs", "wilson_interval"]
 
 CONFIDENCE = 0.95
 SIGNIFICANCE = 0.05
@@ -261,6 +261,30 @@ def twin_pairs(records: Sequence[Mapping[str, Any]]) -> dict[str, dict[int, list
     return out
 
 
+def robustness_curves(records: Sequence[Mapping[str, Any]],
+                      confidence: float = CONFIDENCE) -> dict[str, list[dict[str, Any]]]:
+    """Success against strength per robustness axis, each point a :class:`Proportion` dict with its
+    ``strength``.
+
+    Strength 0 of an axis is its own strength-0 records when it has some, else the distinct clean twins
+    its episodes name, else the clean split (the records without an axis); an axis without any of them
+    starts at its lowest strength.
+    """
+    axes = _grouped([r for r in records if axis_of(r) != CLEAN], axis_of)
+    clean = [r for r in records if axis_of(r) == CLEAN]
+    by_id = {episode_id(r): r for r in records if episode_id(r) is not None}
+    out: dict[str, list[dict[str, Any]]] = {}
+    for axis in _sorted_keys(axes):
+        strengths = _grouped(axes[axis], strength_of)
+        if 0 not in strengths:
+            twins = {id(by_id[r[TWIN_KEY]]): by_id[r[TWIN_KEY]] for r in axes[axis] if r.get(TWIN_KEY) in by_id}
+            zero = list(twins.values()) or clean
+            if zero:
+                strengths[0] = zero
+        out[axis] = [{"strength": s, **_rate(strengths[s], confidence).to_dict()} for s in sorted(strengths)]
+    return out
+
+
 def _sorted_keys(keys: Iterable[Any]) -> list[Any]:
     return sorted(keys, key=lambda k: (k == CLEAN, str(k)))
 
@@ -276,7 +300,8 @@ def summarize(records: Sequence[Mapping[str, Any]], confidence: float = CONFIDEN
     Returns:
         A JSON-ready dict: ``methods`` (the estimators, named), ``confidence``, ``overall``,
         ``by_family``, and where the records carry them ``by_level``, ``by_family_level``, ``by_axis``
-        (axis → strength → rate; strengths are string keys, the clean split is ``clean``/``0``) and
+        (axis → strength → rate; strengths are string keys, the clean split is ``clean``/``0``),
+        ``curves`` (:func:`robustness_curves`) and
         ``twins`` (axis → strength → the paired difference perturbed − clean twin). Each rate is a
         :class:`Proportion` dict; each paired difference a :class:`PairedDifference` dict.
     """
@@ -296,6 +321,7 @@ def summarize(records: Sequence[Mapping[str, Any]], confidence: float = CONFIDEN
         out["by_axis"] = {axis: {str(s): _rate(rs, confidence).to_dict()
                                  for s, rs in sorted(_grouped(axes[axis], strength_of).items())}
                           for axis in _sorted_keys(axes)}
+        out["curves"] = robustness_curves(records, confidence)
     twins = twin_pairs(records)
     if twins:
         out["twins"] = {axis: {str(s): paired_difference(twins[axis][s], confidence).to_dict()
