@@ -14,7 +14,8 @@ __all__ = ["draw_robustness_curves", "write_robustness_png"]
 PANEL = (360, 250)  # one axis's panel [px]
 COLUMNS = 3
 _MARGIN = {"left": 44, "right": 14, "top": 26, "bottom": 34}
-_BAND, _LINE, _GRID, _TEXT = (198, 214, 240), (40, 80, 170), (225, 225, 225), (20, 20, 20)
+_PAD = 10  # [px] between the frame and the first and last strength
+_BAND, _LINE, _GRID, _TEXT = (198, 214, 240), (40, 80, 170), (215, 215, 215), (20, 20, 20)
 
 
 def _panel(draw: ImageDraw.ImageDraw, origin: tuple[int, int], axis: str, points: Sequence[Mapping[str, Any]],
@@ -23,12 +24,18 @@ def _panel(draw: ImageDraw.ImageDraw, origin: tuple[int, int], axis: str, points
     x1, y1 = origin[0] + PANEL[0] - _MARGIN["right"], origin[1] + PANEL[1] - _MARGIN["bottom"]
     lo_s, hi_s = min(strengths), max(strengths)
 
-    def px(strength: float) -> float:
-        return x0 + (x1 - x0) * ((strength - lo_s) / (hi_s - lo_s) if hi_s > lo_s else 0.5)
+    def px(strength: float) -> float:  # points kept off the frame by a few pixels
+        span = (strength - lo_s) / (hi_s - lo_s) if hi_s > lo_s else 0.5
+        return x0 + _PAD + (x1 - x0 - 2 * _PAD) * span
 
     def py(rate: float) -> float:
         return y1 - (y1 - y0) * rate
 
+    measured = [p for p in points if p["rate"] is not None]
+    if len(measured) > 1:
+        band = ([(px(p["strength"]), py(p["high"])) for p in measured]
+                + [(px(p["strength"]), py(p["low"])) for p in reversed(measured)])
+        draw.polygon(band, fill=_BAND)
     draw.text((origin[0] + _MARGIN["left"], origin[1] + 6), axis, fill=_TEXT, font=font)
     for k in range(5):
         rate = k / 4
@@ -38,12 +45,7 @@ def _panel(draw: ImageDraw.ImageDraw, origin: tuple[int, int], axis: str, points
         draw.line([(px(s), y1), (px(s), y1 + 4)], fill=_TEXT)
         draw.text((px(s) - 3, y1 + 6), str(s), fill=_TEXT, font=font)
     draw.text(((x0 + x1) / 2 - 22, y1 + 19), "strength", fill=_TEXT, font=font)
-    draw.rectangle([x0, y0, x1, y1], outline=_TEXT)
-    measured = [p for p in points if p["rate"] is not None]
     if len(measured) > 1:
-        band = ([(px(p["strength"]), py(p["high"])) for p in measured]
-                + [(px(p["strength"]), py(p["low"])) for p in reversed(measured)])
-        draw.polygon(band, fill=_BAND)
         draw.line([(px(p["strength"]), py(p["rate"])) for p in measured], fill=_LINE, width=2)
     for p in measured:
         x, y = px(p["strength"]), py(p["rate"])
