@@ -28,7 +28,7 @@ def reports(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     return out
 
 
-def test_evaluate_writes_intervals_and_tables_beside_the_report(reports: dict[Path]) -> None:
+def test_evaluate_writes_intervals_and_tables_beside_the_report(reports: dict[str, Path]) -> None:
     report = json.loads(reports["oracle"].read_text())
     stats = report["statistics"]
     assert list(report)[-1] == "records" and stats["overall"]["n"] == 2
@@ -80,6 +80,10 @@ def test_compare_refuses_what_it_cannot_pair_in_one_line(reports: dict[str, Path
         "partial": (json.dumps({**good, "partial": True}), "partial report"),
         "not_a_report": ("[1, 2]", "not a samplehd evaluation report"),
         "bad_record": (json.dumps({**good, "records": [{"index": 0}]}), "records[0]: expected an object"),
+        "bad_strength": (json.dumps({**good, "records": [{**good["records"][0], "axis": "camera", "strength": "high"},
+                                                         good["records"][1]]}), "strength 'high' is not"),
+        "bad_twin": (json.dumps({**good, "records": [good["records"][0], {**good["records"][1], "twin": [0]}]}),
+                     "twin [0] is not an episode id"),
     }
     for name, (text, expected) in cases.items():
         path = tmp_path / f"{name}.json"

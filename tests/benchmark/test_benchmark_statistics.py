@@ -52,6 +52,12 @@ def test_mcnemar_exact_p_is_the_doubled_binomial_tail() -> None:
     assert mcnemar_exact_p(0, 5) == pytest.approx(2 / 32)
     # Many pairs: exact integers, no overflow, and a vanishing p for a lopsided split.
     assert 0.0 < mcnemar_exact_p(400, 600) < 1e-9
+    assert mcnemar_exact_p(5000, 5000) == 1.0 and 0.0 < mcnemar_exact_p(4800, 5200) < 1e-4
+    for n in range(40):  # every split of up to 39 discordant pairs against the binomial tail written out
+        for b in range(n + 1):
+            k = min(b, n - b)
+            tail = sum(math.comb(n, i) for i in range(k + 1))
+            assert mcnemar_exact_p(b, n - b) == min(1.0, 2 * tail / 2**n), (b, n - b)
 
 
 def test_paired_difference_matches_the_published_newcombe_interval() -> None:

@@ -73,6 +73,11 @@ def check_report(report: Any, label: str) -> list[Mapping[str, Any]]:
             raise ConfigError(f"{label}: records[{k}]: episode id {episode_id(r)!r} is not a unique string or "
                               "integer")
         ids.add(episode_id(r))
+        strength, twin = r.get("strength"), r.get("twin")
+        if strength is not None and (isinstance(strength, bool) or not isinstance(strength, int) or strength < 0):
+            raise ConfigError(f"{label}: records[{k}]: strength {strength!r} is not a whole number >= 0")
+        if twin is not None and not isinstance(twin, str | int):
+            raise ConfigError(f"{label}: records[{k}]: twin {twin!r} is not an episode id (a string or integer)")
     return report["records"]
 
 
