@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
+from samplehd.benchmark.compare import compare_reports, comparison_markdown
 from samplehd.benchmark.curves import _BAND, _LINE, PANEL
 from samplehd.benchmark.report_files import companion_paths, write_report_with_statistics
 from samplehd.benchmark.statistics import wilson_interval
@@ -69,3 +70,21 @@ def test_the_same_records_write_the_same_bytes(tmp_path: Path) -> None:
         write_report_with_statistics({"policy": "random", "split": {}, "records": _suite_like_records()}, out)
         files.append([out.read_bytes(), *(p.read_bytes() for p in companion_paths(out).values())])
     assert files[0] == files[1]
+
+
+def test_compare_groups_paired_episodes_by_axis_and_strength() -> None:
+    a = {"policy": "a", "split": {"seed": 0}, "records": _suite_like_records()}
+    # B solves every lighting episode that A lost at strength 4 and 5, and loses camera's at strength 2.
+    b_records = [{**r, "success": (True if r.get("axis") == "lighting" and r["strength"] >= 4 and r["id"][-1] != "9"
+                                   else False if r.get("axis") == "camera" and r["strength"] == 2 else r["success"])}
+                 for r in a["records"]]
+    rows = {g.group: g.difference for g in compare_reports(a, {**a, "policy": "b", "records": b_records})}
+    assert list(rows)[:3] == ["all", "family place", "clean 0"]
+    assert rows["clean 0"].pairs == 10 and rows["clean 0"].difference == 0.0 and rows["clean 0"].p_value == 1.0
+    assert (rows["lighting 5"].second_only, rows["lighting 5"].first_only) == (9, 0) and rows["lighting 5"].significant
+    assert rows["lighting 4"].second_only == 6 and rows["lighting 4"].p_value == 2 / 64
+    assert rows["camera 2"].first_only == 9 and rows["camera 2"].difference == -0.9
+    assert rows["camera 1"].difference == 0.0
+    page = comparison_markdown(list(compare_reports(a, {**a, "records": b_records})), "a", "b")
+    assert "| lighting 5 | 10 | 0/10 0.0 % [0.0, 27.8] | 9/10 90.0 % [59.6, 98.2] | +90.0 pp" in page
+    assert "Significant: camera 2, lighting 4, lighting 5." in page  # all: 15 against 9, p = 0.31
