@@ -7,6 +7,8 @@ from pathlib import Path
 
 from samplehd.benchmark.evaluation import DEFAULT_FAMILIES, EpisodeRecord, EvalConfig, evaluate, load_policy_module
 from samplehd.benchmark.lerobot_policy import is_lerobot_policy, read_lerobot_checkpoint
+from samplehd.benchmark.report_files import companion_paths, with_statistics, write_report_with_statistics
+from samplehd.benchmark.tables import format_rate
 from samplehd.commands._options import check_int, check_out_dir, check_out_file, config_from_options
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
@@ -54,7 +56,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=1, help="parallel processes (default 1)")
     parser.add_argument("--compare-offline", action="store_true",
                         help="also run the offline path generator on each episode (the oracle's reference)")
-    parser.add_argument("--out", type=Path, help="write the JSON report here")
+    parser.add_argument("--out", type=Path, help="write the JSON report here (with its statistics), its Markdown "
+                                                 "tables beside it (NAME.md) and, for episodes with robustness "
+                                                 "axes, their curves (NAME.robustness.png)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -110,7 +114,9 @@ def run(args: argparse.Namespace) -> int:
     check_int("--seed", args.seed, 0)
     check_out_file("--out", args.out, (".json",))
     check_out_dir("--video", args.video)
-    check_outputs({"--out": args.out, "--video": args.video},
+    beside = companion_paths(args.out) if args.out else {}
+    check_outputs({"--out": args.out, "--out (tables)": beside.get("markdown"),
+                   "--out (curves)": beside.get("curves"), "--video": args.video},
                   {"--env-options": args.env_options, "--models": args.models})
     load_policy_module(args.policy)
     if checkpoint is not None:
@@ -132,11 +138,14 @@ def run(args: argparse.Namespace) -> int:
     if suite is not None:
         print(f"suite {suite.name}: {len(suite.episodes)} episodes, {suite.content_hash}", flush=True)
     report = evaluate(config, args.out, progress=show)
+    report = write_report_with_statistics(report, args.out) if args.out else with_statistics(report)
+    stats = report["statistics"]
     print(f"success_rate {report['success_rate']:.3f} over {report['episodes']} episodes "
-          f"({report['wall_s']:.0f} s)")
+          f"({report['wall_s']:.0f} s); {format_rate(stats['overall'])} (95 % Wilson interval)")
     for fam, s in report["by_family"].items():
         stages = s.get("failures_by_stage")
-        print(f"  {fam:<15} {s['successes']}/{s['episodes']}" + (f"  failures: {stages}" if stages else ""))
+        print(f"  {fam:<15} {format_rate(stats['by_family'][fam])}" + (f"  failures: {stages}" if stages else ""))
     if args.out:
-        print(f"wrote {args.out}")
+        print(f"wrote {args.out} and {beside['markdown']}"
+              + (f" and {beside['curves']}" if stats.get("curves") else ""))
     return 0
