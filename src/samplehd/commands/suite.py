@@ -11,10 +11,11 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import fields
 from pathlib import Path
 
 from samplehd.benchmark.suite import Candidate, SuiteBuildConfig, build_suite
-from samplehd.commands._options import check_out_file, split_names
+from samplehd.commands._options import check_out_file, config_from_options, split_names
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.suite_file import SUITE_DIR, Suite, read_suite, shipped_suites
 from samplehd.errors import ConfigError
@@ -56,12 +57,10 @@ def resolve_config(args: argparse.Namespace) -> SuiteBuildConfig:
     for key in ("families", "levels", "catalogues", "axes"):
         value = getattr(args, key)
         if value is not None:
-            flags[key] = list(split_names(value, f"--{key}"))
-    for key, value in flags.items():
-        if value is not None:
-            config = SuiteBuildConfig.from_dict({**config.to_dict(), key: value},
-                                                where=f"--{key.replace('_', '-')}")
-    return config
+            flags[key] = split_names(value, f"--{key}")
+    given = {k: v for k, v in flags.items() if v is not None}
+    return config_from_options(SuiteBuildConfig, **{**{f.name: getattr(config, f.name) for f in fields(config)},
+                                                    **given})
 
 
 def describe(suite: Suite) -> str:
