@@ -42,7 +42,7 @@ def test_env_resets_to_a_suite_episode_and_refuses_an_index_outside(tmp_path: Pa
     ep = suite.episodes[-1]
     env = TabletopEnv()
     try:
-        _, info = env.reset(options={"suite": SHIPPED, "episode": ep.id})
+        _, info = env.reset(options={"suite": SHIPPED, "episode": np.int64(ep.id)})
         assert info["instruction"] == ep.instruction and info["task"] == ep.task
         assert env.episode.scene.to_dict() == ep.scene
         for bad in (len(suite.episodes), -1, "0", True):
