@@ -36,8 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--catalogues", nargs="+", help="build: procedural and/or shop-vrb")
     parser.add_argument("--seed", type=int, help="build: seed of the candidates")
     parser.add_argument("--axes", nargs="+", help="build: robustness axes (camera, object_shift, robot_start, "
-                                                  "paraphrase, shuffled); each clean episode gets a variant per "
-                                                  "axis and strength")
+                                                  "sensor, paraphrase, shuffled); each clean episode gets a "
+                                                  "variant per axis and strength")
     parser.add_argument("--out", type=Path, help="build: the suite file to write (default NAME.json)")
     parser.add_argument("--workers", type=int, default=1, help="build: worker processes (local backend)")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="build: where candidates run")

@@ -73,6 +73,8 @@ class SuiteEpisode:
         oracle_steps: control steps the closed-loop oracle took to succeed when the suite was built.
         start_state: ``{qpos, qvel, act}`` lists the episode starts from instead of the scene's own
             state (the robot start axis), or None.
+        sensor: the sensor axis' image corruption (:mod:`samplehd.benchmark.sensor`: ``rgb_noise``,
+            ``rgb_blur``, ``depth_noise``, ``depth_holes``), or None.
     """
 
     id: int
@@ -92,6 +94,7 @@ class SuiteEpisode:
     twin: int | None = None
     oracle_steps: int = 0
     start_state: dict[str, list[float]] | None = None
+    sensor: dict[str, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
