@@ -14,6 +14,7 @@ import sys
 from PIL import Image
 
 from samplehd.benchmark.axes import AXES, perturb
+from samplehd.benchmark.sensor import corrupt_observation, sensor_rng
 from samplehd.envs.suite_file import SuiteEpisode, read_suite
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.render.contact_sheet import contact_sheet
@@ -28,7 +29,8 @@ def main(suite_name: str, out: str, index: int = 0) -> None:
         for axis in AXES:
             for ep, name in ((twin, f"{axis}: clean twin"), (perturb(twin, axis, 5, seed=0), f"{axis}: strength 5")):
                 env.reset(options=SuiteEpisode.from_dict({"id": 0, **ep}).reset_options())
-                images.append(env.render())
+                frame = {"scene_rgb": env.render()}  # the sensor axis corrupts what the policy sees
+                images.append(corrupt_observation(frame, ep.get("sensor"), sensor_rng(ep["reset_seed"]))["scene_rgb"])
                 labels.append(f"{name} | {ep['instruction']}")
     finally:
         env.close()

@@ -42,7 +42,7 @@ def test_env_resets_to_a_suite_episode_and_refuses_an_index_outside(tmp_path: Pa
     ep = suite.episodes[-1]
     env = TabletopEnv()
     try:
-        _, info = env.reset(options={"suite": SHIPPED, "episode": ep.id})
+        _, info = env.reset(options={"suite": SHIPPED, "episode": np.int64(ep.id)})
         assert info["instruction"] == ep.instruction and info["task"] == ep.task
         assert env.episode.scene.to_dict() == ep.scene
         for bad in (len(suite.episodes), -1, "0", True):
@@ -188,3 +188,10 @@ def test_the_lerobot_env_serves_a_suites_episodes_of_its_family() -> None:
             env.reset(seed=len(picks))
     finally:
         env.close()
+
+
+def test_suite_build_refuses_a_bad_option_in_one_line_and_writes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "x.json"
+    r = _cli("suite", "build", "x", "--families", "pick_up", "nope", "--out", str(out))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "--families" in r.stderr and "valid: place" in r.stderr and not out.exists()

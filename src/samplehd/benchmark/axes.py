@@ -13,6 +13,10 @@ axis              what changes                                                 p
                   episode (``scene.objects[*].pos``); their layout is kept
 ``robot_start``   each arm joint starts off its home angle by the step, in a    0.05 rad (5:
                   drawn sign, within its limits (``start_state``)               0.25 rad, 14°)
+``sensor``        RGB noise and blur, depth noise and holes on the images a        RGB σ 4 levels
+                  policy sees (``sensor``; :mod:`samplehd.benchmark.sensor`)    (of 255), blur σ
+                                                                                0.4 px, depth σ
+                                                                                2 mm, 4 % holes
 ``paraphrase``    words of the instruction's synonym groups (``synonyms.json``:  20 % of those
                   put/place/set, move/shift/slide, pick up/lift/grab, ...)      words (5: every
                   become another member of their group (``instruction``)        one)
@@ -20,11 +24,11 @@ axis              what changes                                                 p
                   a shortcut control (5: every word moved, the words kept)      (5: 100 %)
 ================  ===========================================================  ==================
 
-An axis whose change cannot alter physics (``camera``, ``paraphrase``, ``shuffled``: the oracle acts on state and the
-task, never on images or text) keeps its twin's oracle proof: the same rollout, bit for bit. A
-physical axis (``object_shift``, ``robot_start``) is proven again by the oracle through the env; a variant it fails is
-replaced by the next attempt's direction. A variant that would equal its twin (an instruction with no
-word of a synonym group) is left out.
+An axis whose change cannot alter physics (``camera``, ``sensor``, ``paraphrase``, ``shuffled``: the
+oracle acts on state and the task, never on images or text) keeps its twin's oracle proof: the same
+rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``) is proven again by the oracle
+through the env; a variant it fails is replaced by the next attempt's direction. A variant that would
+equal its twin (an instruction with no word of a synonym group) is left out.
 """
 
 from __future__ import annotations
@@ -78,6 +82,11 @@ def _robot_start(ep: dict[str, Any], strength: int, rng: np.random.Generator) ->
                          "act": [float(v) for v in data.act]}
 
 
+def _sensor(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    ep["sensor"] = {"rgb_noise": 4.0 * strength, "rgb_blur": 0.4 * strength, "depth_noise": 0.002 * strength,
+                    "depth_holes": 0.04 * strength}
+
+
 def _alternatives() -> dict[str, tuple[str, ...]]:
     """Each synonym-group member -> the other members of the first group holding it (``put`` is also a
     ``stack`` synonym, but ``stack`` is not a ``put`` synonym)."""
@@ -127,10 +136,12 @@ def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> No
 
 
 AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
-    "camera": _camera, "object_shift": _object_shift, "robot_start": _robot_start, "paraphrase": _paraphrase,
+    "camera": _camera, "object_shift": _object_shift, "robot_start": _robot_start, "sensor": _sensor,
+    "paraphrase": _paraphrase,
     "shuffled": _shuffled}
 # The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
 AXIS_FIELDS = {"camera": ("scene.camera",), "object_shift": ("scene.objects",), "robot_start": ("start_state",),
+               "sensor": ("sensor",),
                "paraphrase": ("instruction",), "shuffled": ("instruction",)}
 PHYSICAL_AXES = ("object_shift", "robot_start")
 

@@ -37,6 +37,7 @@ import numpy as np
 
 from samplehd.benchmark.lerobot_policy import LeRobotPolicy, is_lerobot_policy
 from samplehd.benchmark.levels import LEVELS, reset_at_level
+from samplehd.benchmark.sensor import corrupt_observation, sensor_rng
 from samplehd.catalogue.loader import catalogue_for
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.oracle import OraclePolicy
@@ -330,6 +331,9 @@ class EpisodeRunner:
             obs, info = env.reset(seed=seed, options={"suite": config.suite, "episode": index})
         else:
             obs, info, seed = reset_at_level(env, seed, family, config.level)
+        sensor = suite_episode.sensor if suite_episode is not None else None
+        noise = sensor_rng(seed)
+        obs = corrupt_observation(obs, sensor, noise) if sensor else obs
         if hasattr(policy, "reset"):
             policy.reset(seed=seed)
         frames = [env.render()] if config.video_dir else []
@@ -342,6 +346,8 @@ class EpisodeRunner:
                 gave_up = f"{type(exc).__name__}: {exc}"
                 break
             obs, reward, term, trunc, info = env.step(check_policy_action(config.policy, action, env.action_space))
+            if sensor:
+                obs = corrupt_observation(obs, sensor, noise)
             steps += 1
             ret += reward
             if config.video_dir:

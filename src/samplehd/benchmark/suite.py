@@ -152,7 +152,7 @@ def _prove(unit: tuple[SuiteBuildConfig, int, int]) -> Candidate:
         family=ep.family, task=dict(ins["task"]), program=list(ins.get("program", [])),
         program_sequence=str(ins.get("program_sequence", "")), targets=[int(t) for t in ins.get("targets", [])],
         level=episode_level(ins, ep.annotation), axis=CLEAN_AXIS, strength=0, twin=None,
-        oracle_steps=record.steps, start_state=None).to_dict()
+        oracle_steps=record.steps, start_state=None, sensor=None).to_dict()
     del entry["id"]
     return Candidate(c, k, True, episode=entry, steps=record.steps)
 

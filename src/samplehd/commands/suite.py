@@ -11,10 +11,11 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import fields
 from pathlib import Path
 
 from samplehd.benchmark.suite import Candidate, SuiteBuildConfig, build_suite
-from samplehd.commands._options import check_out_file, split_names
+from samplehd.commands._options import check_out_file, config_from_options, split_names
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.suite_file import SUITE_DIR, Suite, read_suite, shipped_suites
 from samplehd.errors import ConfigError
@@ -35,8 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--catalogues", nargs="+", help="build: procedural and/or shop-vrb")
     parser.add_argument("--seed", type=int, help="build: seed of the candidates")
     parser.add_argument("--axes", nargs="+", help="build: robustness axes (camera, object_shift, robot_start, "
-                                                  "paraphrase, shuffled); each clean episode gets a variant per "
-                                                  "axis and strength")
+                                                  "sensor, paraphrase, shuffled); each clean episode gets a "
+                                                  "variant per axis and strength")
     parser.add_argument("--out", type=Path, help="build: the suite file to write (default NAME.json)")
     parser.add_argument("--workers", type=int, default=1, help="build: worker processes (local backend)")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="build: where candidates run")
@@ -56,12 +57,10 @@ def resolve_config(args: argparse.Namespace) -> SuiteBuildConfig:
     for key in ("families", "levels", "catalogues", "axes"):
         value = getattr(args, key)
         if value is not None:
-            flags[key] = list(split_names(value, f"--{key}"))
-    for key, value in flags.items():
-        if value is not None:
-            config = SuiteBuildConfig.from_dict({**config.to_dict(), key: value},
-                                                where=f"--{key.replace('_', '-')}")
-    return config
+            flags[key] = split_names(value, f"--{key}")
+    given = {k: v for k, v in flags.items() if v is not None}
+    return config_from_options(SuiteBuildConfig, **{**{f.name: getattr(config, f.name) for f in fields(config)},
+                                                    **given})
 
 
 def describe(suite: Suite) -> str:

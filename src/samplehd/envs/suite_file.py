@@ -25,6 +25,7 @@ with a ``/`` or a ``.json`` suffix is a path.
 
 from __future__ import annotations
 
+import copy
 import functools
 import hashlib
 import json
@@ -33,11 +34,13 @@ from dataclasses import MISSING, asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json, write_json_atomic
 
-__all__ = ["SUITE_DIR", "SUITE_FORMAT", "SUITE_FORMAT_VERSION", "Suite", "SuiteEpisode", "content_hash",
-           "read_suite", "shipped_suites", "suite_path"]
+__all__ = ["CLEAN_AXIS", "SUITE_DIR", "SUITE_FORMAT", "SUITE_FORMAT_VERSION", "Suite", "SuiteEpisode", "content_hash",
+           "read_suite", "shipped_suites", "suite_path", "suite_reset_options"]
 
 SUITE_FORMAT = "samplehd-suite"
 SUITE_FORMAT_VERSION = 1
@@ -70,6 +73,8 @@ class SuiteEpisode:
         oracle_steps: control steps the closed-loop oracle took to succeed when the suite was built.
         start_state: ``{qpos, qvel, act}`` lists the episode starts from instead of the scene's own
             state (the robot start axis), or None.
+        sensor: the sensor axis' image corruption (:mod:`samplehd.benchmark.sensor`: ``rgb_noise``,
+            ``rgb_blur``, ``depth_noise``, ``depth_holes``), or None.
     """
 
     id: int
@@ -89,6 +94,7 @@ class SuiteEpisode:
     twin: int | None = None
     oracle_steps: int = 0
     start_state: dict[str, list[float]] | None = None
+    sensor: dict[str, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -101,7 +107,7 @@ class SuiteEpisode:
                                                       if k not in required and k in d})
 
     def reset_options(self) -> dict[str, Any]:
-        """The environment's ``scene`` + ``instruction`` reset options of this episode."""
+        """The environment's ``scene`` + ``instruction`` reset options of this episode (a private copy)."""
         options: dict[str, Any] = {
             "scene": self.scene,
             "instruction": {"instruction": self.instruction, "family": self.family, "task": self.task,
@@ -109,7 +115,7 @@ class SuiteEpisode:
                             "targets": self.targets}}
         if self.start_state is not None:
             options["episode"] = self.start_state
-        return options
+        return copy.deepcopy(options)
 
 
 def content_hash(episodes: list[dict[str, Any]]) -> str:
@@ -142,10 +148,11 @@ class Suite:
 
     def episode(self, index: Any) -> SuiteEpisode:
         """Episode ``index``; a ConfigError naming the valid range otherwise."""
-        if not isinstance(index, int) or isinstance(index, bool) or not 0 <= index < len(self.episodes):
+        if (not isinstance(index, (int, np.integer)) or isinstance(index, bool)
+                or not 0 <= int(index) < len(self.episodes)):
             raise ConfigError(f"reset: option 'episode' {index!r}: suite {self.name!r} has episodes "
                               f"0..{len(self.episodes) - 1}")
-        return self.episodes[index]
+        return self.episodes[int(index)]
 
     def to_dict(self) -> dict[str, Any]:
         return {"format": SUITE_FORMAT, "format_version": SUITE_FORMAT_VERSION, "name": self.name,
