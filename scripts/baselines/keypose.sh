@@ -41,6 +41,7 @@ done
   echo "samplehd keypose recipe: $(date -u +%FT%TZ), commit $commit, $(($(date +%s) - start)) s," \
     "$(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)), load $(cut -d' ' -f1-3 /proc/loadavg)"
   for report in "$out"/reports/keypose_*.json; do
-    python3 -c 'import json, sys; r = json.load(open(sys.argv[1])); print(sys.argv[1], r["successes"], "/", r["episodes"])' "$report"
+    python3 -c 'import json, sys; r = json.load(open(sys.argv[1])); o = r["statistics"]["overall"]
+print(sys.argv[1], r["successes"], "/", r["episodes"], "(95 %% Wilson %.1f-%.1f %%)" % (100 * o["low"], 100 * o["high"]))' "$report"
   done
 } | tee "$out/summary.txt"

@@ -128,3 +128,16 @@ def test_summarize_without_records_is_valid_json() -> None:
     assert s["overall"] == {"successes": 0, "n": 0, "rate": None, "low": 0.0, "high": 1.0}
     assert s["by_family"] == {}
     assert not math.isnan(json.loads(json.dumps(s, allow_nan=False))["overall"]["high"])
+
+
+def test_suite_records_name_the_clean_split_none_and_their_twin_by_index() -> None:
+    """Suite episodes say axis ``none`` (strength 0) when clean and name their twin by its index."""
+    records = [_record(0, True, axis="none", strength=0, twin=0), _record(1, False, axis="none", strength=0),
+               _record(2, False, axis="camera", strength=3, twin=0), _record(3, False, axis="camera", strength=3,
+                                                                              twin=1)]
+    s = summarize(records)
+    assert list(s["by_axis"]) == ["camera", CLEAN] and s["by_axis"][CLEAN]["0"]["n"] == 2
+    assert [p["strength"] for p in s["curves"]["camera"]] == [0, 3]
+    assert s["curves"]["camera"][0]["successes"] == 1  # its twins 0 and 1
+    assert list(s["twins"]) == ["camera"]  # the clean episode naming itself is no pair
+    assert (s["twins"]["camera"]["3"]["first_only"], s["twins"]["camera"]["3"]["neither"]) == (1, 1)

@@ -94,8 +94,9 @@ def _groups(records: Sequence[Mapping[str, Any]]) -> dict[str, list[int]]:
         for value in sorted({str(r[key]) for r in records if r.get(key) is not None}):
             groups[f"{key} {value}"] = [i for i, r in enumerate(records) if str(r.get(key)) == value]
     axes = sorted({(axis_of(r), strength_of(r)) for r in records if axis_of(r) != CLEAN})
-    if axes:
-        groups[f"{CLEAN} 0"] = [i for i, r in enumerate(records) if axis_of(r) == CLEAN]
+    clean = [i for i, r in enumerate(records) if axis_of(r) == CLEAN]
+    if axes and clean:
+        groups[f"{CLEAN} 0"] = clean
     for axis, strength in axes:
         groups[f"{axis} {strength}"] = [i for i, r in enumerate(records)
                                         if axis_of(r) == axis and strength_of(r) == strength]

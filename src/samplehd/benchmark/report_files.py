@@ -27,12 +27,15 @@ def with_statistics(report: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def report_title(report: Mapping[str, Any]) -> str:
-    """``oracle on seed 0, 12 episodes (place, stack), level L2`` or ``... on suite core``."""
-    suite = report.get("suite")
-    if isinstance(suite, Mapping) and suite.get("name"):
-        where = f"suite {suite['name']}"
+    """``oracle on seed 0, 12 episodes (place, stack), level L2`` or ``oracle on suite core, 1400 episodes``
+    (a suite named in the report's ``split``)."""
+    split = report.get("split") or {}
+    suite = split.get("suite") or report.get("suite")
+    if isinstance(suite, Mapping):
+        suite = suite.get("name")
+    if suite:
+        where = f"suite {suite}, {split.get('episodes')} episodes"
     else:
-        split = report.get("split") or {}
         families = ", ".join(split.get("families") or [])
         where = f"seed {split.get('seed')}, {split.get('episodes')} episodes ({families})"
         if split.get("level"):

@@ -13,11 +13,11 @@ few dozen episodes):
   discordant pairs (success in one, failure in the other) split 50/50, so the p-value is a binomial
   tail on them, doubled and capped at 1. Concordant pairs carry no information about the difference.
 
-Records are the evaluation report's records (plain dicts, :meth:`samplehd.envs.evaluation.EpisodeRecord.to_dict`);
+Records are the evaluation report's records (plain dicts, the evaluation's ``EpisodeRecord.to_dict``);
 :func:`summarize` groups them by whatever of ``family``, ``level``, ``axis`` and ``strength`` they
-carry. A record without an ``axis`` belongs to the clean split (:data:`CLEAN`, strength 0). A perturbed
-record names its clean twin by the twin's episode id in ``twin``; an episode's id is its ``id`` when
-it has one, else its ``index``.
+carry. A record without an ``axis`` (or with axis ``none``) belongs to the clean split (:data:`CLEAN`,
+strength 0). A perturbed record names its clean twin by the twin's episode id in ``twin``; an episode's
+id is its ``id`` when it has one, else its ``index``.
 
 Pure Python (``math``, ``statistics.NormalDist``): the same figures on every machine.
 """
@@ -39,6 +39,7 @@ SIGNIFICANCE = 0.05
 AXIS_KEY, STRENGTH_KEY, TWIN_KEY = "axis", "strength", "twin"
 ID_KEYS = ("id", "index")
 CLEAN = "clean"
+_CLEAN_AXES = (None, "", "none", CLEAN)  # how records may say "no axis" (suite episodes: ``none``)
 METHODS = {
     "interval": "Wilson score interval, 95 %",
     "paired_difference": "Newcombe (1998) hybrid score interval for paired proportions (method 10), 95 %",
@@ -230,7 +231,7 @@ def episode_id(record: Mapping[str, Any]) -> Any:
 def axis_of(record: Mapping[str, Any]) -> str:
     """A record's robustness axis, :data:`CLEAN` for a record without one."""
     axis = record.get(AXIS_KEY)
-    return CLEAN if axis in (None, "", CLEAN) else str(axis)
+    return CLEAN if axis in _CLEAN_AXES else str(axis)
 
 
 def strength_of(record: Mapping[str, Any]) -> int:

@@ -138,14 +138,19 @@ def run(args: argparse.Namespace) -> int:
     if suite is not None:
         print(f"suite {suite.name}: {len(suite.episodes)} episodes, {suite.content_hash}", flush=True)
     report = evaluate(config, args.out, progress=show)
-    report = write_report_with_statistics(report, args.out) if args.out else with_statistics(report)
-    stats = report["statistics"]
     print(f"success_rate {report['success_rate']:.3f} over {report['episodes']} episodes "
-          f"({report['wall_s']:.0f} s); {format_rate(stats['overall'])} (95 % Wilson interval)")
+          f"({report['wall_s']:.0f} s)")
     for fam, s in report["by_family"].items():
         stages = s.get("failures_by_stage")
-        print(f"  {fam:<15} {format_rate(stats['by_family'][fam])}" + (f"  failures: {stages}" if stages else ""))
+        print(f"  {fam:<15} {s['successes']}/{s['episodes']}" + (f"  failures: {stages}" if stages else ""))
     if args.out:
-        print(f"wrote {args.out} and {beside['markdown']}"
-              + (f" and {beside['curves']}" if stats.get("curves") else ""))
+        print(f"wrote {args.out}")
+    # Every figure with its interval (samplehd.benchmark.statistics), in the report and beside it.
+    report = write_report_with_statistics(report, args.out) if args.out else with_statistics(report)
+    stats = report["statistics"]
+    print(f"95 % Wilson intervals: all {format_rate(stats['overall'])}")
+    for name, rate in [*stats["by_family"].items(), *stats.get("by_level", {}).items()]:
+        print(f"  {name:<15} {format_rate(rate)}")
+    if args.out:
+        print(f"wrote {beside['markdown']}" + (f" and {beside['curves']}" if stats.get("curves") else ""))
     return 0
