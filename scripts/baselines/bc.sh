@@ -11,6 +11,10 @@
 #        environment and their noise, default 0 / 0.05), FAMILIES (default "pick_up place"),
 #        ACTION (steering or waypoint, default steering)
 #
+# Scenes draw SAMPLE-HD's SHOP-VRB shapes (samplehd's default catalogue). Figures of docs/BASELINES.md
+# measured before that default used the procedural shapes: add "catalogue": "procedural" to the "scene"
+# of the configs to repeat them.
+#
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
 # Writes OUT/data/FAMILY, OUT/models/{rgb,state}_FAMILY, OUT/reports/*.json and OUT/summary.txt.
 set -euo pipefail

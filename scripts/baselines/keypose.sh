@@ -10,6 +10,10 @@
 #        STEPS (optimiser steps; pick_up 4000, place 3000), EPISODES (closed-loop episodes per family, 50),
 #        FAMILIES (default "pick_up place")
 #
+# Scenes draw SAMPLE-HD's SHOP-VRB shapes (samplehd's default catalogue). Figures of docs/BASELINES.md
+# measured before that default used the procedural shapes: add "catalogue": "procedural" to the "scene"
+# of the configs to repeat them.
+#
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
 # Writes OUT/data/FAMILY, OUT/models/keypose_FAMILY, OUT/reports/*.json and OUT/summary.txt.
 set -euo pipefail

@@ -8,6 +8,10 @@
 #        PERCEPTION_STEPS (4000), PARSER_STEPS (1000), POLICY_STEPS (4000), BC_EPISODES (300),
 #        EPISODES (closed-loop episodes per evaluation, 48)
 #
+# Scenes draw SAMPLE-HD's SHOP-VRB shapes (samplehd's default catalogue). Figures of docs/BASELINES.md
+# measured before that default used the procedural shapes: add "catalogue": "procedural" to the "scene"
+# of the configs to repeat them.
+#
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
 # Writes OUT/data/{small1200,bc}, OUT/models/{parser,perception,policy}, OUT/reports/*.json.
 set -euo pipefail

@@ -19,10 +19,13 @@ CLASSES = [
 ]  # fmt: skip
 COLOURS = ["black", "blue", "brown", "cyan", "green", "metallic", "purple", "red", "transparent", "white", "yellow"]
 MATERIALS = ["ceramic", "glass", "metal", "plastic", "rubber", "wooden"]
+# These tests hold the procedural catalogue's own data (its variants and menus); shop-vrb's are in
+# test_shop_vrb.py.
+PROCEDURAL = "procedural"
 
 
 def test_vocabulary_matches_sample_hd() -> None:
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     assert sorted(cat.classes) == CLASSES
     assert sorted(cat.colours) == COLOURS
     assert sorted(cat.materials) == MATERIALS
@@ -32,7 +35,7 @@ def test_vocabulary_matches_sample_hd() -> None:
 
 
 def test_every_class_has_two_variants_and_a_usable_menu() -> None:
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     for cls in cat.classes.values():
         assert len(cls.variants) >= 2, cls.name
         for v in cls.variants.values():
@@ -42,7 +45,7 @@ def test_every_class_has_two_variants_and_a_usable_menu() -> None:
 
 
 def test_menu_rules() -> None:
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     assert cat.classes["knife"].variants["chef"].menu.material == ("metal",)
     for cls in cat.classes.values():
         for v in cls.variants.values():
@@ -59,7 +62,7 @@ def test_menu_rules() -> None:
 
 
 def test_materials_have_look_and_physics() -> None:
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     assert cat.materials["glass"].alpha < 1.0
     assert cat.materials["wooden"].texture == "wood_grain"
     assert cat.materials["metal"].density > cat.materials["ceramic"].density > cat.materials["wooden"].density
@@ -67,7 +70,7 @@ def test_materials_have_look_and_physics() -> None:
 
 
 def test_weight_classes() -> None:
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     assert cat.weight_class(0.05) == "light"
     assert cat.weight_class(0.3) == "medium"
     assert cat.weight_class(2.0) == "heavy"
@@ -125,7 +128,7 @@ def test_malformed_files_give_one_line_errors(tmp_path: Path, file: str, edit, e
     data = _copy_data(tmp_path)
     _edit(data / file, edit)
     with pytest.raises(AssetError) as info:
-        read_catalogue(data)
+        read_catalogue(data, name=PROCEDURAL)
     msg = str(info.value)
     assert "\n" not in msg
     assert file in msg
@@ -136,16 +139,17 @@ def test_invalid_json_and_missing_file(tmp_path: Path) -> None:
     data = _copy_data(tmp_path)
     (data / "sizes.json").write_text("{ not json")
     with pytest.raises(AssetError, match=r"sizes.json: invalid JSON at line 1"):
-        read_catalogue(data)
+        read_catalogue(data, name=PROCEDURAL)
     (data / "sizes.json").unlink()
     with pytest.raises(SamplehdError, match=r"sizes.json: cannot read"):
-        read_catalogue(data)
+        read_catalogue(data, name=PROCEDURAL)
 
 
 # ----- per-run menu overrides
 def test_menu_overrides_apply_from_general_to_specific() -> None:
     cat = apply_menu_overrides(
-        {"*": {"size": ["medium"]}, "mug": {"colour": ["red", "transparent"]}, "mug.tapered": {"material": ["glass"]}}
+        {"*": {"size": ["medium"]}, "mug": {"colour": ["red", "transparent"]}, "mug.tapered": {"material": ["glass"]}},
+        load_catalogue(name=PROCEDURAL),
     )
     tapered = cat.classes["mug"].variants["tapered"].menu
     straight = cat.classes["mug"].variants["straight"].menu
@@ -153,7 +157,8 @@ def test_menu_overrides_apply_from_general_to_specific() -> None:
     assert set(tapered.pairs) == {("red", "glass"), ("transparent", "glass")}
     assert straight.colour == ("red", "transparent") and "ceramic" in straight.material
     assert cat.classes["bowl"].variants["round"].menu.size == ("medium",)
-    assert load_catalogue().classes["bowl"].variants["round"].menu.size != ("medium",)  # original untouched
+    original = load_catalogue(name=PROCEDURAL).classes["bowl"].variants["round"].menu
+    assert original.size != ("medium",)  # the catalogue itself is untouched
     assert randomised_props(tapered) == ("colour",)
 
 
@@ -178,7 +183,7 @@ def randomised_props(menu) -> tuple[str, ...]:  # noqa: ANN001
 )
 def test_malformed_menu_overrides(overrides: dict, expected: str) -> None:
     with pytest.raises(AssetError) as info:
-        apply_menu_overrides(overrides, source="run.json")
+        apply_menu_overrides(overrides, load_catalogue(name=PROCEDURAL), source="run.json")
     assert "\n" not in str(info.value)
     assert str(info.value).startswith("run.json: ")
     assert expected in str(info.value)

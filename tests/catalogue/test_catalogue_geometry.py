@@ -9,14 +9,17 @@ from scipy.spatial.transform import Rotation
 from samplehd.catalogue import ObjectInstance, build_geometry, load_catalogue, object_facts
 from samplehd.catalogue.geometry import _build_base, _build_scaled
 
+# The procedural catalogue's own shapes (shop-vrb's are tested in test_shop_vrb.py).
+PROCEDURAL = "procedural"
+
 
 def _all_variants():
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     return [(c.name, v.name) for c in cat.classes.values() for v in c.variants.values()]
 
 
 def _instance(cls: str, variant: str, size: str = "medium") -> ObjectInstance:
-    menu = load_catalogue().classes[cls].variants[variant].menu
+    menu = load_catalogue(name=PROCEDURAL).classes[cls].variants[variant].menu
     colour, material = menu.pairs[0]
     return ObjectInstance(cls, variant, colour, material, size)
 
@@ -51,7 +54,7 @@ def test_sizes_scale_uniformly() -> None:
 def test_geometry_is_consistent(cls: str, variant: str) -> None:
     inst = _instance(cls, variant)
     facts = object_facts(inst)
-    g = build_geometry(load_catalogue().classes[cls].variants[variant].geometry)
+    g = build_geometry(load_catalogue(name=PROCEDURAL).classes[cls].variants[variant].geometry)
     assert g.vertices.shape[1] == 3 and g.faces.shape[1] == 3 and len(g.texcoords) == len(g.vertices)
     assert g.faces.max() < len(g.vertices)
     assert abs(facts.bbox_min[2]) < 1e-6, "objects rest on z = 0"
@@ -80,7 +83,7 @@ def test_geometry_is_consistent(cls: str, variant: str) -> None:
 
 
 def test_containers_have_walls_made_of_sector_pieces() -> None:
-    g = build_geometry(load_catalogue().classes["bowl"].variants["round"].geometry)
+    g = build_geometry(load_catalogue(name=PROCEDURAL).classes["bowl"].variants["round"].geometry)
     assert len(g.pieces) >= 12  # a bottom plus convex wall segments around the axis
     # no piece covers the axis above the floor: something can go into the bowl
     floor = object_facts(_instance("bowl", "round")).opening.floor_height
@@ -91,7 +94,7 @@ def test_containers_have_walls_made_of_sector_pieces() -> None:
 
 
 def test_geometry_of_every_class_builds_and_is_cached() -> None:
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     _build_base.cache_clear()
     _build_scaled.cache_clear()
     for cls in cat.classes.values():
@@ -104,7 +107,7 @@ def test_geometry_of_every_class_builds_and_is_cached() -> None:
 
 
 def test_geometry_is_deterministic() -> None:
-    spec = load_catalogue().classes["wine_glass"].variants["red"].geometry
+    spec = load_catalogue(name=PROCEDURAL).classes["wine_glass"].variants["red"].geometry
     a = build_geometry(spec)
     _build_base.cache_clear()
     _build_scaled.cache_clear()
@@ -117,6 +120,6 @@ def test_geometry_is_deterministic() -> None:
 
 
 def test_geometry_arrays_are_read_only() -> None:
-    g = build_geometry(load_catalogue().classes["mug"].variants["straight"].geometry)
+    g = build_geometry(load_catalogue(name=PROCEDURAL).classes["mug"].variants["straight"].geometry)
     with pytest.raises(ValueError):
         g.vertices[0, 0] = 1.0

@@ -15,6 +15,9 @@ from samplehd.catalogue import (
     object_facts,
 )
 
+# The procedural catalogue's own shapes (shop-vrb's are tested in test_shop_vrb.py).
+PROCEDURAL = "procedural"
+
 # Plausible mass ranges of the real objects at medium size, in their first menu material [kg].
 MASS_RANGE = {
     "baking_tray": (0.3, 1.5),
@@ -36,12 +39,12 @@ MASS_RANGE = {
 
 
 def _variants():
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     return [(c.name, v.name) for c in cat.classes.values() for v in c.variants.values()]
 
 
 def _instance(cls: str, variant: str, size: str = "medium") -> ObjectInstance:
-    menu = load_catalogue().classes[cls].variants[variant].menu
+    menu = load_catalogue(name=PROCEDURAL).classes[cls].variants[variant].menu
     colour, material = menu.pairs[0]
     return ObjectInstance(cls, variant, colour, material, size if size in menu.size else menu.size[-1])
 
@@ -77,7 +80,7 @@ def test_drop_comes_to_rest_upright(cls: str, variant: str) -> None:
 
 
 def test_model_structure_and_mass() -> None:
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     spec = _world()
     instances = [_instance(c, v) for c, v in _variants()]
     for i, inst in enumerate(instances):
@@ -173,7 +176,7 @@ def test_stacks_rest_on_the_top_surface(lower: tuple, upper: tuple) -> None:
 
 @pytest.mark.slow
 def test_every_class_variant_size_and_material_rests_upright() -> None:
-    cat = load_catalogue()
+    cat = load_catalogue(name=PROCEDURAL)
     for cls in cat.classes.values():
         for v in cls.variants.values():
             for size in v.menu.size:

@@ -15,7 +15,7 @@ import pytest
 from scipy.spatial import ConvexHull
 
 from samplehd.catalogue import ObjectInstance, add_object, instance_geometry, load_catalogue, object_facts
-from samplehd.catalogue.loader import CATALOGUES, DATA_DIR, catalogue_for
+from samplehd.catalogue.loader import CATALOGUES, DATA_DIR, DEFAULT_CATALOGUE, catalogue_for
 from samplehd.errors import AssetError
 
 SHOP = "shop-vrb"
@@ -48,7 +48,7 @@ def test_the_fifteen_classes_with_mubles_variants() -> None:
     assert tuple(cat.classes) == CLASSES
     assert {c: len(cat.classes[c].variants) for c in CLASSES} == VARIANT_COUNTS
     # the vocabulary (colours, materials, sizes) is SAMPLE-HD's, shared with the procedural catalogue
-    proc = load_catalogue()
+    proc = load_catalogue(name="procedural")
     assert cat.colours == proc.colours and cat.materials == proc.materials and cat.sizes == proc.sizes
     assert cat.record()["name"] == SHOP and proc.record()["name"] == "procedural"
     assert cat.record()["sha256"] != proc.record()["sha256"]
@@ -160,7 +160,7 @@ def test_the_opening_is_free_of_collision_pieces(cls: str, variant: str) -> None
 
 
 def test_variant_names_tell_the_catalogue_and_bad_names_are_refused() -> None:
-    proc, shop = load_catalogue(), load_catalogue(name=SHOP)
+    proc, shop = load_catalogue(name="procedural"), load_catalogue(name=SHOP)
     for cls in CLASSES:
         assert not set(proc.classes[cls].variants) & set(shop.classes[cls].variants)
     assert catalogue_for(("mug",), SHOP) is shop
@@ -182,17 +182,22 @@ def test_vendored_files_carry_licence_and_provenance() -> None:
         assert (ur5e / "LICENSE").is_file() and (ur5e / "files.md").is_file()
 
 
-def test_the_sample_hd_preset_uses_shop_vrb_and_a_config_without_the_field_is_procedural() -> None:
-    from samplehd.dataset.config import GenerateConfig, preset_config
+def test_shop_vrb_is_the_default_everywhere_and_procedural_stays_selectable() -> None:
+    from samplehd.dataset.config import PRESETS, GenerateConfig, preset_config
+    from samplehd.envs.config import EnvConfig
     from samplehd.errors import ConfigError
     from samplehd.scene.config import SceneConfig
 
-    assert preset_config("sample-hd").scene.catalogue == SHOP
-    assert preset_config("tiny").scene.catalogue == "procedural" == preset_config("small").scene.catalogue
-    assert SceneConfig.from_dict({}).catalogue == "procedural"
+    assert DEFAULT_CATALOGUE == SHOP and load_catalogue().name == SHOP
+    assert {name: preset_config(name).scene.catalogue for name in PRESETS} == dict.fromkeys(PRESETS, SHOP)
+    assert SceneConfig().catalogue == SceneConfig.from_dict({}).catalogue == EnvConfig().scene.catalogue == SHOP
+    for name in PRESETS:  # a config file that names procedural gets it on top of every preset
+        pinned = GenerateConfig.from_dict({"scene": {"catalogue": "procedural"}}, base=preset_config(name))
+        assert pinned.scene.catalogue == "procedural"
+    assert EnvConfig.from_kwargs(scene={"catalogue": "procedural"}).scene.catalogue == "procedural"
     assert GenerateConfig.from_dict({"scene": {"min_objects": 2}}, base=preset_config("sample-hd")).scene.catalogue \
         == SHOP
     with pytest.raises(ConfigError) as exc:
         SceneConfig.from_dict({"catalogue": "shapenet"}, "cfg.json: scene")
     msg = str(exc.value)
-    assert "\n" not in msg and "catalogue" in msg and "shapenet" in msg and "shop-vrb" in msg
+    assert "\n" not in msg and "catalogue" in msg and "shapenet" in msg and "shop-vrb" in msg and "procedural" in msg

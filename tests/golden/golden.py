@@ -6,9 +6,11 @@ rejections and seeds of ``info.json``, and per episode its attributes and, per p
 (qpos, joints, steering, object poses, subtasks, ...), its dtype, shape and SHA-256 of the bytes
 (bitwise). Versions, timings and file checksums (which depend on the HDF5 library) are left out.
 
-Two goldens: ``tiny_seed3`` (the tiny preset) and ``crowded_seed6`` (three scenes of six objects,
-families balanced: longer paths, more contact). Regenerate a fixture (only when a change of the data
-is intended, saying why in the commit)::
+Three goldens: ``tiny_seed3`` (the tiny preset), ``crowded_seed6`` (three scenes of six objects,
+families balanced: longer paths, more contact), both on the ``procedural`` catalogue, named in their
+config files so that they stay the same whatever the default catalogue, and ``tiny_shop_vrb_seed3``
+(the tiny preset on the ``shop-vrb`` catalogue, also named: mesh objects, hull contacts). Regenerate a
+fixture (only when a change of the data is intended, saying why in the commit)::
 
     python -m samplehd generate <GOLDENS[name] args> --out OUT_DIR --quiet
     python tests/golden/golden.py OUT_DIR > tests/golden/<name>.json
@@ -28,9 +30,12 @@ import numpy as np
 HERE = Path(__file__).parent
 # name -> the ``samplehd`` arguments that make it; its fixture is ``<name>.json`` beside this file
 GOLDENS: dict[str, list[str]] = {
-    "tiny_seed3": ["generate", "--preset", "tiny", "--render", "none", "--seed", "3"],
+    "tiny_seed3": ["generate", "--preset", "tiny", "--config", str(HERE / "procedural.json"), "--render", "none",
+                   "--seed", "3"],
     "crowded_seed6": ["generate", "--preset", "tiny", "--config", str(HERE / "crowded.json"), "--render", "none",
                       "--seed", "6"],
+    "tiny_shop_vrb_seed3": ["generate", "--preset", "tiny", "--config", str(HERE / "shop_vrb.json"), "--render",
+                            "none", "--seed", "3"],
 }
 GOLDEN_ARGS = GOLDENS["tiny_seed3"]
 FIXTURE = HERE / "tiny_seed3.json"

@@ -16,6 +16,8 @@ Options (``--env.<name>``):
         each task's episodes are the suite's episodes of that family, in order; nothing is drawn.
     episode_length: steps before a rollout stops (``samplehd evaluate``'s limit is 1500).
     observation_width, observation_height, cameras: the images when no ``dataset`` is given.
+    catalogue: the objects' built-in catalogue when no ``dataset`` is given: samplehd's default
+        (``shop-vrb``, SAMPLE-HD's shapes) when left out, or ``procedural``.
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ class SamplehdEnv(EnvConfig):
     observation_width: int = 128
     observation_height: int = 128
     cameras: str = "scene"
+    catalogue: str | None = None
     features: dict[str, PolicyFeature] = field(default_factory=dict)
     features_map: dict[str, str] = field(default_factory=dict)
 
@@ -69,9 +72,13 @@ class SamplehdEnv(EnvConfig):
         """Tabletop-v0 options: the export's record, else RGB images of ``cameras`` at the given size."""
         if self.dataset:
             return env_options_from_export(self.dataset)
-        return {"obs_mode": "rgb", "cameras": [c.strip() for c in self.cameras.split(",") if c.strip()],
-                "width": self.observation_width, "height": self.observation_height, "control_mode": "steering",
-                "control_hz": 20.0}
+        options: dict[str, Any] = {
+            "obs_mode": "rgb", "cameras": [c.strip() for c in self.cameras.split(",") if c.strip()],
+            "width": self.observation_width, "height": self.observation_height, "control_mode": "steering",
+            "control_hz": 20.0}
+        if self.catalogue is not None:
+            options["scene"] = {"catalogue": self.catalogue}
+        return options
 
     @property
     def gym_kwargs(self) -> dict[str, Any]:

@@ -18,6 +18,7 @@ import numpy as np
 
 from samplehd.bench import Figure
 from samplehd.catalogue import ObjectInstance
+from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.language.generator import generate_instructions
 from samplehd.motion.assist import compile_scene_with_assist
@@ -78,7 +79,7 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None, str]) 
 
 def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers: int = 2,
                    out: str = "", families: tuple[str, ...] | None = None,
-                   catalogue: str = "procedural") -> list[dict[str, Any]]:
+                   catalogue: str = DEFAULT_CATALOGUE) -> list[dict[str, Any]]:
     """Oracle success over real sampled scenes and generated instructions.
 
     Args:
@@ -88,7 +89,7 @@ def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers:
         workers: worker processes.
         out: JSONL file to append per-instruction results to as they finish ("" for none).
         families: only instructions of these families (None: all, balanced).
-        catalogue: built-in catalogue the scenes draw from (``procedural`` or ``shop-vrb``).
+        catalogue: built-in catalogue the scenes draw from (``shop-vrb`` or ``procedural``).
 
     Returns:
         One dict per instruction: family, success, attempts, frames, reason, seconds.
@@ -249,7 +250,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--families", nargs="+", default=None, help="oracle: only these families")
     parser.add_argument("--out", default="", help="JSONL of per-instruction results (oracle: written, table: read)")
-    parser.add_argument("--catalogue", choices=["procedural", "shop-vrb"], default="procedural",
+    parser.add_argument("--catalogue", choices=list(CATALOGUES), default=DEFAULT_CATALOGUE,
                         help="oracle: the built-in catalogue the scenes draw from")
 
 

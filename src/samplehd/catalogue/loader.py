@@ -50,6 +50,8 @@ from samplehd.fileio import file_sha256
 __all__ = [
     "CATALOGUES",
     "DATA_DIR",
+    "DEFAULT_CATALOGUE",
+    "LEGACY_CATALOGUE",
     "TEXTURES",
     "catalogue_for",
     "load_catalogue",
@@ -67,7 +69,11 @@ _DATA_FILES = ("colours.json", "materials.json", "sizes.json", "classes.json")
 _SHARED_FILES = ("colours.json", "materials.json", "sizes.json")
 # Built-in catalogue name -> its classes file, relative to the data directory.
 CATALOGUES: dict[str, str] = {"procedural": "classes.json", "shop-vrb": "shop_vrb/classes.json"}
-DEFAULT_CATALOGUE = "procedural"
+# The one declaration of the default: SAMPLE-HD's own shapes. Every config, preset, command and the
+# environment take it from here; ``procedural`` is chosen by name (``scene.catalogue: procedural``).
+DEFAULT_CATALOGUE = "shop-vrb"
+# What a record written before catalogues had names was drawn from.
+LEGACY_CATALOGUE = "procedural"
 
 
 def load_catalogue(imported: Iterable[str] = (), name: str = DEFAULT_CATALOGUE) -> Catalogue:
@@ -168,7 +174,7 @@ def read_catalogue(
         classes[cname] = parse_class(base, entry, name=cname, registry_dir=classes_file.parent)
     if not classes:
         raise doc["classes"].fail("expected at least one class")
-    if name == DEFAULT_CATALOGUE:
+    if name == LEGACY_CATALOGUE:  # hashed as before catalogues had names, so old records still match
         built_in = _digest(data_dir / f for f in _DATA_FILES)
     else:  # the shared vocabulary, the classes file and every mesh file it names
         meshes = sorted(p for p in classes_file.parent.iterdir() if p.suffix == ".npz")

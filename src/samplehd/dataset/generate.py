@@ -40,7 +40,7 @@ import h5py
 import mujoco
 import numpy
 
-from samplehd.catalogue.loader import catalogue_for
+from samplehd.catalogue.loader import LEGACY_CATALOGUE, catalogue_for
 from samplehd.dataset.config import GenerateConfig, candidate_order
 from samplehd.dataset.container import read_meta, write_error
 from samplehd.dataset.journal import append_journal, read_journal, repair_journal
@@ -229,8 +229,9 @@ def catalogue_in_use(config: GenerateConfig) -> dict[str, Any]:
 def _catalogue_difference(stored: dict[str, Any], now: dict[str, Any]) -> str | None:
     if stored.get("sha256") == now["sha256"]:
         return None
-    if stored.get("name", "procedural") != now["name"]:
-        return f"the catalogue ({stored.get('name', 'procedural')} then, {now['name']} now)"
+    then = stored.get("name", LEGACY_CATALOGUE)  # a record older than catalogue names
+    if then != now["name"]:
+        return f"the catalogue ({then} then, {now['name']} now)"
     if stored.get("built_in") != now["built_in"]:
         return "the built-in catalogue data files"
     old, new = stored.get("imported", {}), now["imported"]

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from samplehd.catalogue.loader import DEFAULT_CATALOGUE
+from samplehd.catalogue.loader import LEGACY_CATALOGUE
 from samplehd.dataset.container import read_episode, read_frames, read_image, read_meta
 from samplehd.dataset.journal import read_journal
 from samplehd.dataset.layout import (
@@ -124,7 +124,7 @@ class DatasetReader:
         if isinstance(recorded, dict) and isinstance(recorded.get("name"), str):
             return recorded["name"]
         scene = self.config.get("scene")
-        return str(scene.get("catalogue", DEFAULT_CATALOGUE)) if isinstance(scene, dict) else DEFAULT_CATALOGUE
+        return str(scene.get("catalogue", LEGACY_CATALOGUE)) if isinstance(scene, dict) else LEGACY_CATALOGUE
 
     @property
     def scenes(self) -> list[dict[str, Any]]:

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.schema import Config, bounded
 
@@ -23,9 +24,8 @@ class SceneConfig(Config, section="scene"):
     Attributes:
         min_objects: fewest objects per scene.
         max_objects: most objects per scene.
-        catalogue: built-in catalogue the shapes come from: ``procedural`` (shapes made from a few
-            numbers) or ``shop-vrb`` (SAMPLE-HD's SHOP-VRB shapes); a config without the field is
-            procedural.
+        catalogue: built-in catalogue the shapes come from: ``shop-vrb`` (SAMPLE-HD's SHOP-VRB shapes,
+            the default) or ``procedural`` (shapes made from a few numbers).
         classes: classes to draw from (empty: every catalogue class).
         menu_overrides: per class, allowed values replacing the catalogue menu, e.g.
             ``{"mug": {"colour": ["red", "blue"]}}``.
@@ -49,7 +49,7 @@ class SceneConfig(Config, section="scene"):
 
     min_objects: int = bounded(3, lo=1, hi=30)
     max_objects: int = bounded(5, lo=1, hi=30)
-    catalogue: str = bounded("procedural", choices=("procedural", "shop-vrb"))
+    catalogue: str = bounded(DEFAULT_CATALOGUE, choices=tuple(CATALOGUES))
     classes: tuple[str, ...] = bounded((), unique=True)
     menu_overrides: dict[str, dict[str, list[str]]] | None = None
     placement_margin: float = bounded(0.025, lo=0.0, hi=0.2, unit="m")
