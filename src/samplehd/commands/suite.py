@@ -76,8 +76,9 @@ def describe(suite: Suite) -> str:
         lines.append(f"    {n:>5}  {reason}")
     for key, groups in m.get("candidates_solved", {}).items():
         lines.append(f"  solved {key[3:]}: " + ", ".join(f"{v} {g['solved']}/{g['tried']}" for v, g in groups.items()))
-    if m.get("short_cells"):
-        lines.append(f"  short cells: {json.dumps(m['short_cells'])}")
+    for key in ("short_cells", "short_variants"):
+        if m.get(key):
+            lines.append(f"  {key.replace('_', ' ')}: {json.dumps(m[key])}")
     return "\n".join(lines)
 
 
