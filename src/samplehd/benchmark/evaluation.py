@@ -37,6 +37,7 @@ import numpy as np
 
 from samplehd.benchmark.lerobot_policy import LeRobotPolicy, is_lerobot_policy
 from samplehd.benchmark.levels import LEVELS, reset_at_level
+from samplehd.benchmark.report_files import with_statistics, write_report_with_statistics
 from samplehd.benchmark.sensor import corrupt_observation, sensor_rng
 from samplehd.catalogue.loader import catalogue_for
 from samplehd.envs.config import EnvConfig
@@ -415,12 +416,14 @@ def _summary(records: list[EpisodeRecord]) -> dict[str, Any]:
 
 def evaluate(config: EvalConfig, out: str | Path | None = None,
              progress: Callable[[EpisodeRecord], None] | None = None) -> dict[str, Any]:
-    """Run a policy on the benchmark split and return (and optionally write) the JSON report.
+    """Run a policy on the benchmark split and return (and optionally write, with its tables beside it) the
+    JSON report.
 
     Report keys: ``policy``, ``split`` (episodes, families, seed), ``env`` (options),
     ``success_rate``, ``by_family`` (per family: episodes, successes, success_rate, ...),
     ``safety_stops``, ``mean_steps``, ``catalogue`` (content hashes of the catalogue in use),
-    ``wall_s`` and ``records`` (one per episode: index, seed,
+    ``wall_s``, ``statistics`` (every rate with its 95 % interval:
+    :func:`samplehd.benchmark.statistics.summarize`) and ``records`` (one per episode: index, seed,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
     check_reason, wall_s, and for the oracle replans / gave_up / offline_success).
     """
@@ -453,8 +456,8 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
             done(record)
     report = _report(config, records, t0, suite)
     if out is not None:
-        _write_report(out, report)
-    return report
+        return write_report_with_statistics(report, out)
+    return with_statistics(report)
 
 
 def _write_report(out: str | Path, report: dict[str, Any]) -> None:

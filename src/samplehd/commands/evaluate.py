@@ -7,7 +7,7 @@ from pathlib import Path
 
 from samplehd.benchmark.evaluation import DEFAULT_FAMILIES, EpisodeRecord, EvalConfig, evaluate, load_policy_module
 from samplehd.benchmark.lerobot_policy import is_lerobot_policy, read_lerobot_checkpoint
-from samplehd.benchmark.report_files import companion_paths, with_statistics, write_report_with_statistics
+from samplehd.benchmark.report_files import companion_paths
 from samplehd.benchmark.tables import format_rate
 from samplehd.commands._options import check_int, check_out_dir, check_out_file, config_from_options
 from samplehd.dataset.outputs import check_outputs
@@ -146,7 +146,6 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         print(f"wrote {args.out}")
     # Every figure with its interval (samplehd.benchmark.statistics), in the report and beside it.
-    report = write_report_with_statistics(report, args.out) if args.out else with_statistics(report)
     stats = report["statistics"]
     print(f"95 % Wilson intervals: all {format_rate(stats['overall'])}")
     for name, rate in [*stats["by_family"].items(), *stats.get("by_level", {}).items()]:

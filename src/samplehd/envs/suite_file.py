@@ -176,7 +176,7 @@ def suite_path(name_or_file: str | Path) -> Path:
         ConfigError: a name that is not shipped (the message lists those that are).
     """
     text = str(name_or_file)
-    if "/" in text or text.endswith(".json") or Path(text).exists():
+    if "/" in text or text.endswith(".json") or Path(text).is_file():
         return Path(text)
     path = SUITE_DIR / f"{text}.json"
     if not path.exists():
