@@ -17,12 +17,12 @@ from samplehd.errors import ConfigError
 def trained(nano_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     from samplehd.learn.parser import train_parser
     from samplehd.learn.perception import train_perception
-    from samplehd.learn.policy import train_policy
+    from samplehd.learn.policy import PolicyConfig, PolicyTraining, train_policy
 
     out = tmp_path_factory.mktemp("models")
     train_parser(nano_dataset, out / "parser", steps=2, quiet=True, device="cpu")
     train_perception(nano_dataset, out / "perception", steps=2, quiet=True, device="cpu")
-    train_policy(nano_dataset, out / "policy", steps=2, quiet=True, device="cpu")
+    train_policy(nano_dataset, out / "policy", PolicyConfig(train=PolicyTraining(steps=2)), quiet=True, device="cpu")
     return out
 
 
@@ -87,7 +87,8 @@ def test_a_damaged_config_json_is_one_line_naming_file_and_field(trained: Path, 
 
 def test_a_policy_config_json_of_an_earlier_version_still_loads(trained: Path, tmp_path: Path) -> None:
     """Format-3 files written before ``inputs``, ``action``, ``model.encoder`` and
-    ``inference.zero_channels`` existed load as the policy those versions trained."""
+    ``inference.zero_channels`` existed load as the policy those versions trained, and so do those that
+    held the keypose policy's ``grid`` and ``train.init``."""
     from samplehd.learn.policy import BCPolicy
 
     doc = json.loads((trained / "policy" / "config.json").read_text())
@@ -95,6 +96,10 @@ def test_a_policy_config_json_of_an_earlier_version_still_loads(trained: Path, t
         doc.pop(key)
     doc["model"].pop("encoder")
     doc["inference"].pop("zero_channels")
+    # the keypose policy's keys, which every policy file held before it had its own config
+    doc["grid"] = {"camera": "scene", "width": 640, "height": 360, "origin": [-0.512, -0.64], "cell": 0.008,
+                   "rows": 128, "cols": 160}
+    doc["train"]["init"] = ""
     folder = tmp_path / "old"
     folder.mkdir()
     (folder / "model.pt").write_bytes((trained / "policy" / "model.pt").read_bytes())

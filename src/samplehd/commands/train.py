@@ -15,8 +15,11 @@ from pathlib import Path
 from samplehd.commands._options import check_out_dir
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
+from samplehd.learn.keypose.configuration import KeyposeArchitecture, KeyposeConfig, KeyposeTraining
+from samplehd.learn.keypose.training import train_keypose
 from samplehd.learn.parser import score_parser, train_parser
 from samplehd.learn.perception import score_perception, train_perception
+from samplehd.learn.policy.configuration import PolicyArchitecture, PolicyCollection, PolicyConfig, PolicyTraining
 from samplehd.learn.policy.training import train_policy
 
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
@@ -116,18 +119,41 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--seed {args.seed}: must be ≥ 0")
     kw = dict(steps=steps, seed=args.seed, device=args.device, quiet=args.quiet)
     if args.model == "parser":
-
         metrics = train_parser(args.dataset, args.out, **kw)
     elif args.model == "perception":
-
         metrics = train_perception(args.dataset, args.out, **kw)
+    elif given.get("action") == "keypose":
+        metrics = train_keypose(args.dataset, args.out, _keypose_config(args, steps), device=args.device,
+                                quiet=args.quiet)
     else:
-
-        metrics = train_policy(args.dataset, args.out, **kw, **given)
+        metrics = train_policy(args.dataset, args.out, _policy_config(args, steps), device=args.device,
+                               quiet=args.quiet, workers=args.workers or 1)
     shown = {k: v for k, v in metrics.items() if not isinstance(v, (dict, list))}
     print(json.dumps(shown, indent=1))
     print(f"wrote {args.out / 'metrics.json'}")
     return 0
+
+
+def _keypose_config(args: argparse.Namespace, steps: int) -> KeyposeConfig:
+    """The keypose policy to train, from the flags (what the dataset says is filled in by training)."""
+    return KeyposeConfig(
+        inputs=args.inputs or "rgb", model=KeyposeArchitecture(),
+        train=KeyposeTraining(steps=steps, seed=args.seed, batch=args.batch or 16,
+                              init=str(args.init) if args.init is not None else ""))
+
+
+def _policy_config(args: argparse.Namespace, steps: int) -> PolicyConfig:
+    """The behaviour-cloning policy to train, from the flags (what the dataset says is filled in by
+    training): ``train.steps`` counts the DAgger rounds' steps after ``--steps``."""
+    collect = PolicyCollection(**{k: v for k, v in (("demos", args.demos), ("noise", args.noise),
+                                                     ("dagger_rounds", args.dagger_rounds),
+                                                     ("dagger_episodes", args.dagger_episodes),
+                                                     ("dagger_steps", args.dagger_steps)) if v is not None})
+    return PolicyConfig(
+        inputs=args.inputs or "rgb", action=args.action or "steering",
+        model=PolicyArchitecture(hidden=args.hidden or 256), collect=collect,
+        train=PolicyTraining(steps=steps + collect.dagger_rounds * collect.dagger_steps, seed=args.seed,
+                             batch=args.batch or 64))
 
 
 def _evaluate_only(args: argparse.Namespace) -> int:

@@ -7,10 +7,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 from samplehd.catalogue import load_catalogue
 from samplehd.errors import ConfigError
+from samplehd.learn.configuration import ModelConfig
 from samplehd.schema import Config, bounded
 from samplehd.world.layout import LAYOUT
 
@@ -102,7 +103,7 @@ class PerceptionTraining(Config, section="train"):
 
 
 @dataclass(frozen=True)
-class PerceptionConfig(Config, section="perception"):
+class PerceptionConfig(ModelConfig, section="perception"):
     """A perception model's config.
 
     Attributes:
@@ -122,9 +123,9 @@ class PerceptionConfig(Config, section="perception"):
         train: training options.
     """
 
-    kind: str = bounded("perception", choices=("perception",))
-    format: int = bounded(FORMAT, lo=1)
-    dataset: str = ""
+    KIND: ClassVar[str] = "perception"
+    FORMAT: ClassVar[int] = FORMAT
+
     model: PerceptionArchitecture = field(default_factory=PerceptionArchitecture)
     attributes: dict[str, list[str]] = field(default_factory=dict)
     kinds: tuple[str, ...] = bounded((), unique=True)
