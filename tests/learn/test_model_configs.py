@@ -15,13 +15,14 @@ from samplehd.errors import ConfigError
 
 @pytest.fixture(scope="module")
 def trained(nano_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from samplehd.learn.parser import train_parser
-    from samplehd.learn.perception import train_perception
+    from samplehd.learn.parser import ParserConfig, ParserTraining, train_parser
+    from samplehd.learn.perception import PerceptionConfig, PerceptionTraining, train_perception
     from samplehd.learn.policy import PolicyConfig, PolicyTraining, train_policy
 
     out = tmp_path_factory.mktemp("models")
-    train_parser(nano_dataset, out / "parser", steps=2, quiet=True, device="cpu")
-    train_perception(nano_dataset, out / "perception", steps=2, quiet=True, device="cpu")
+    train_parser(nano_dataset, out / "parser", ParserConfig(train=ParserTraining(steps=2)), quiet=True, device="cpu")
+    train_perception(nano_dataset, out / "perception", PerceptionConfig(train=PerceptionTraining(steps=2)), quiet=True,
+                     device="cpu")
     train_policy(nano_dataset, out / "policy", PolicyConfig(train=PolicyTraining(steps=2)), quiet=True, device="cpu")
     return out
 

@@ -17,8 +17,8 @@ from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
 from samplehd.learn.keypose.configuration import KeyposeArchitecture, KeyposeConfig, KeyposeTraining
 from samplehd.learn.keypose.training import train_keypose
-from samplehd.learn.parser import score_parser, train_parser
-from samplehd.learn.perception import score_perception, train_perception
+from samplehd.learn.parser import ParserConfig, ParserTraining, score_parser, train_parser
+from samplehd.learn.perception import PerceptionConfig, PerceptionTraining, score_perception, train_perception
 from samplehd.learn.policy.configuration import PolicyArchitecture, PolicyCollection, PolicyConfig, PolicyTraining
 from samplehd.learn.policy.training import train_policy
 
@@ -117,11 +117,12 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--steps {steps}: must be a positive integer")
     if args.seed < 0:
         raise ConfigError(f"--seed {args.seed}: must be ≥ 0")
-    kw = dict(steps=steps, seed=args.seed, device=args.device, quiet=args.quiet)
     if args.model == "parser":
-        metrics = train_parser(args.dataset, args.out, **kw)
+        metrics = train_parser(args.dataset, args.out, ParserConfig(train=ParserTraining(steps=steps, seed=args.seed)),
+                               device=args.device, quiet=args.quiet)
     elif args.model == "perception":
-        metrics = train_perception(args.dataset, args.out, **kw)
+        config = PerceptionConfig(train=PerceptionTraining(steps=steps, seed=args.seed))
+        metrics = train_perception(args.dataset, args.out, config, device=args.device, quiet=args.quiet)
     elif given.get("action") == "keypose":
         metrics = train_keypose(args.dataset, args.out, _keypose_config(args, steps), device=args.device,
                                 quiet=args.quiet)
