@@ -49,7 +49,8 @@ class ModelConfig(Config):
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], where: str | None = None) -> Self:
-        """Build from a JSON object (:meth:`Config.from_dict`), the keys of :attr:`DROPPED` left out."""
+        """Read a trained model's config from a JSON object (:meth:`Config.from_dict`), the keys of
+        :attr:`DROPPED` left out, checked by :meth:`check_trained`."""
         if cls.DROPPED and isinstance(d, Mapping):
             d = {k: dict(v) if isinstance(v, Mapping) else v for k, v in d.items()}
             for key in cls.DROPPED:
@@ -57,10 +58,16 @@ class ModelConfig(Config):
                 holder = d.get(section) if section else d
                 if isinstance(holder, dict):
                     holder.pop(name, None)
-        return super().from_dict(d, where)
+        config = super().from_dict(d, where)
+        config.check_trained()
+        return config
+
+    def check_trained(self) -> None:
+        """What a trained model's config must hold besides its fields' bounds (a config to train may
+        leave it to the dataset); raises :class:`ConfigError`. Nothing here."""
 
 
-def catalogue_options(catalogue: str) -> dict[str, Any]:
+def catalogue_options(catalogue: str) -> dict[str, dict[str, str]]:
     """The environment options of a policy trained on ``catalogue``: none for the default one, else
     its scenes from that catalogue."""
     return {} if catalogue == DEFAULT_CATALOGUE else {"scene": {"catalogue": catalogue}}

@@ -13,7 +13,7 @@ of the other network) are dropped.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import ClassVar
 
 from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
@@ -30,8 +30,6 @@ ACTION = "keypose"
 # task moves marked (the privileged-state reference)
 INPUTS = ("rgb", "state")
 KEYPOSE_ATTRIBUTES = ("name", "color", "material", "size")  # the scene annotation's keys the auxiliary maps name
-
-
 ATTRIBUTE_VALUES = 32  # logits per attribute (the catalogues have at most 16 values of any)
 
 
@@ -125,7 +123,7 @@ class KeyposeConfig(ModelConfig, section="policy"):
     families: tuple[str, ...] = ()
     train: KeyposeTraining = field(default_factory=KeyposeTraining)
 
-    def env_options(self) -> dict[str, Any]:
+    def env_options(self) -> dict[str, object]:
         """The environment options the policy needs: steering control and no image (it renders the
         scene camera's RGB-D itself when it decides); the scenes of its dataset's catalogue."""
         return {"obs_mode": "state", "control_mode": "steering", **catalogue_options(self.catalogue)}

@@ -29,8 +29,6 @@ class _Block(nn.Module):
 
 
 GRASP_OUT = 8  # heat, row and column offset, z, cos 2yaw, sin 2yaw, opening, lift
-
-
 GOAL_OUT = 6  # heat, row and column offset, z, cos 2yaw, sin 2yaw
 
 

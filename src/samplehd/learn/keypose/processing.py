@@ -32,14 +32,8 @@ __all__ = ["FACTOR", "HEIGHT_UNIT", "LABELS", "OPENING_UNIT", "SCENE_MODALITIES"
            "task_cells"]
 
 SCENE_MODALITIES = ("rgb", "depth", "segmentation")  # depth of the segmentation pass: glass is opaque there
-
-
 HEIGHT_UNIT = 0.1  # heights (grasp, lift, goal) are learnt in this unit above the table [m]
-
-
 OPENING_UNIT = 0.085  # the opening is learnt in this unit [m]
-
-
 FACTOR = 2  # the network's maps have cells this many times larger than the grid's
 
 
@@ -56,6 +50,7 @@ def task_cells(ids: np.ndarray, objects: Sequence[int]) -> np.ndarray:
 
 
 def grid_of(config: KeyposeGrid) -> TopDownGrid:
+    """The top-down grid the config describes."""
     return TopDownGrid((float(config.origin[0]), float(config.origin[1])), config.cell, config.rows, config.cols)
 
 

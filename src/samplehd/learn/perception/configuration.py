@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Self
+from typing import Any, ClassVar
 
 from samplehd.catalogue import load_catalogue
 from samplehd.errors import ConfigError
@@ -136,22 +136,19 @@ class PerceptionConfig(ModelConfig, section="perception"):
     size_templates: dict[str, Any] = field(default_factory=dict)
     train: PerceptionTraining = field(default_factory=PerceptionTraining)
 
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any], where: str | None = None) -> Self:
-        """Read a trained model's config (:meth:`ModelConfig.from_dict`): its attributes name a list of
-        values for each of :data:`ATTRIBUTES`, and each kind is a class and size of theirs."""
-        config = super().from_dict(d, where)
-        missing = [a for a in ATTRIBUTES if not _names(config.attributes.get(a))]
+    def check_trained(self) -> None:
+        """Its attributes name a list of values for each of :data:`ATTRIBUTES`, and each kind is a class
+        and size of theirs."""
+        missing = [a for a in ATTRIBUTES if not _names(self.attributes.get(a))]
         if missing:
             raise ConfigError(f"perception.attributes: needs a list of names for each of {', '.join(ATTRIBUTES)}; "
                               f"missing or not a list of names: {', '.join(missing)}", field="perception.attributes")
-        for kind in config.kinds:
+        for kind in self.kinds:
             parts = kind.split("/")
-            if (len(parts) != 3 or parts[0] not in config.attributes["name"]
-                    or parts[2] not in config.attributes["size"]):
+            if (len(parts) != 3 or parts[0] not in self.attributes["name"]
+                    or parts[2] not in self.attributes["size"]):
                 raise ConfigError(f"perception.kinds: {kind!r} is no class/variant/size of the attributes' names "
                                   f"and sizes", field="perception.kinds")
-        return config
 
 def _names(value: Any) -> bool:
     return isinstance(value, list | tuple) and all(isinstance(v, str) for v in value)

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -109,7 +110,7 @@ def train_perception(dataset: str | Path, out: str | Path, config: PerceptionCon
     (Path(out) / PREPARED_FILE).unlink(missing_ok=True)  # only a resumed run needs it
     return metrics
 
-def _train_step(net: Any, opt: Any, arrays: dict[str, Any], tr: PerceptionTraining, dev: Any) -> Any:
+def _train_step(net: Any, opt: Any, arrays: Mapping[str, Any], tr: PerceptionTraining, dev: Any) -> Any:
     """The optimiser step ``step`` of the run (``tr``: the config's training options): a segmenter
     batch every ``tr.seg_every`` steps, an attribute batch every step, the learning rate decaying
     linearly over the last two thirds."""

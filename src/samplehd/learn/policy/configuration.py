@@ -10,9 +10,8 @@ versions meant, and the keypose policy's keys they hold (``grid``, ``train.init`
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Self
+from typing import ClassVar
 
 from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
@@ -162,24 +161,16 @@ class PolicyConfig(ModelConfig, section="policy"):
     collect: PolicyCollection = field(default_factory=PolicyCollection)
     train: PolicyTraining = field(default_factory=PolicyTraining)
 
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any], where: str | None = None) -> Self:
-        """Read a trained policy's config (:meth:`ModelConfig.from_dict`): an ``rgb`` one names the side
-        of its images."""
-        config = super().from_dict(d, where)
-        if config.inputs == "rgb" and config.image < 1:
-            raise ConfigError(f"policy.image={config.image}: the rgb policy needs the side of its camera images, "
+    def check_trained(self) -> None:
+        """An ``rgb`` policy names the side of its images."""
+        if self.inputs == "rgb" and self.image < 1:
+            raise ConfigError(f"policy.image={self.image}: the rgb policy needs the side of its camera images, "
                               f"an integer ≥ 1 px", field="policy.image")
-        return config
 
-    def env_options(self) -> dict[str, Any]:
+    def env_options(self) -> dict[str, object]:
         """The environment options the policy needs: RGB of both cameras at its image size and steering
         control; the privileged-state reference (``inputs: state``) needs no image. A policy trained on
         another catalogue than the default one gets its scenes from that catalogue (``scene.catalogue``)."""
-        if self.inputs == "state":
-            options: dict[str, Any] = {"obs_mode": "state", "control_mode": "steering"}
-        else:
-            options = {"obs_mode": "rgb", "cameras": list(CAMERAS), "width": self.image, "height": self.image,
-                       "control_mode": "steering"}
-        return {**options, **catalogue_options(self.catalogue)}
-
+        images = {} if self.inputs == "state" else {"cameras": list(CAMERAS), "width": self.image, "height": self.image}
+        return {"obs_mode": "state" if self.inputs == "state" else "rgb", **images, "control_mode": "steering",
+                **catalogue_options(self.catalogue)}

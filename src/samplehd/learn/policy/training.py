@@ -334,7 +334,7 @@ class _Trainer:
             total = err.mean()
         return descend(self.opt, total)
 
-    def test_metrics(self, test: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    def test_metrics(self, test: Sequence[Mapping[str, Any]]) -> dict[str, float | int | list[float] | None]:
         """The test episodes' errors (see :func:`train_policy`) and ``test_frames``."""
         self.net.eval()
         chunk_err, first_err, zero_err, nears = [], [], [], []
