@@ -273,7 +273,7 @@ def _demo_episode() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 
 
 def test_waypoints_are_where_each_segment_ends_and_the_gripper_closes_after_a_closing_segment() -> None:
-    from samplehd.learn.policy import waypoint_targets, waypoints
+    from samplehd.learn.actions import waypoint_targets, waypoints
 
     steering, tcp, quat, opening = _demo_episode()
     goal = waypoints(steering, tcp, quat, opening)
@@ -345,7 +345,7 @@ def test_following_the_oracles_waypoints_succeeds() -> None:
     succeeds in the same episode (what a perfect waypoint policy does)."""
     from samplehd.envs.oracle import OraclePolicy
     from samplehd.envs.tabletop import TabletopEnv
-    from samplehd.learn.policy import WaypointExpert, follow_waypoints
+    from samplehd.learn.actions import WaypointExpert, follow_waypoints
 
     env = TabletopEnv(obs_mode="state", control_mode="steering", families=("pick_up",), max_episode_steps=300)
     try:

@@ -15,11 +15,18 @@ from pathlib import Path
 from samplehd.commands._options import check_out_dir
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
+from samplehd.learn.keypose.configuration import ACTION as KEYPOSE_ACTION
 from samplehd.learn.keypose.configuration import KeyposeArchitecture, KeyposeConfig, KeyposeTraining
 from samplehd.learn.keypose.training import train_keypose
 from samplehd.learn.parser import ParserConfig, ParserTraining, score_parser, train_parser
 from samplehd.learn.perception import PerceptionConfig, PerceptionTraining, score_perception, train_perception
-from samplehd.learn.policy.configuration import PolicyArchitecture, PolicyCollection, PolicyConfig, PolicyTraining
+from samplehd.learn.policy.configuration import (
+    ACTIONS,
+    PolicyArchitecture,
+    PolicyCollection,
+    PolicyConfig,
+    PolicyTraining,
+)
 from samplehd.learn.policy.training import train_policy
 
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
@@ -42,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                                    "target object's pose relative to the TCP; "
                                                                    "keypose: the view marks the cells of the "
                                                                    "objects the task moves)")
-    policy.add_argument("--action", choices=["steering", "waypoint", "keypose"],
+    policy.add_argument("--action", choices=[*ACTIONS, KEYPOSE_ACTION],
                         help="steering: chunks of the demonstrations' steering vectors (default); waypoint: the "
                              "TCP pose and gripper command where the current segment of the demonstration ends, "
                              "followed by a proportional controller; keypose: per object moved, where to grasp "
@@ -95,13 +102,13 @@ def run(args: argparse.Namespace) -> int:
                                   f"speed)")
         elif value < low:
             raise ConfigError(f"--{key.replace('_', '-')} {value}: valid: an integer ≥ {low}")
-    if given.get("action") == "keypose":
+    if given.get("action") == KEYPOSE_ACTION:
         unused = [k for k in ("hidden", "demos", "noise", "dagger_rounds", "workers") if k in given]
         if unused:
             key = unused[0]
             raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: not used with --action keypose (it learns "
                               f"from the dataset's scene images and decisions); leave it out")
-    if "init" in given and given.get("action") != "keypose":
+    if "init" in given and given.get("action") != KEYPOSE_ACTION:
         raise ConfigError(f"--init {args.init}: starts a keypose policy from another's weights; only used with "
                           f"--action keypose")
     if given.get("noise") and not given.get("demos"):
@@ -123,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.model == "perception":
         config = PerceptionConfig(train=PerceptionTraining(steps=steps, seed=args.seed))
         metrics = train_perception(args.dataset, args.out, config, device=args.device, quiet=args.quiet)
-    elif given.get("action") == "keypose":
+    elif given.get("action") == KEYPOSE_ACTION:
         metrics = train_keypose(args.dataset, args.out, _keypose_config(args, steps), device=args.device,
                                 quiet=args.quiet)
     else:
