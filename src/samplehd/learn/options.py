@@ -18,11 +18,10 @@ from typing import Any
 from samplehd.errors import ConfigError
 from samplehd.learn.keypose.configuration import ACTION as KEYPOSE_ACTION
 from samplehd.learn.keypose.configuration import KeyposeConfig
-from samplehd.learn.policy.configuration import CAMERAS, PolicyConfig
+from samplehd.learn.policy.configuration import PolicyConfig
 
-__all__ = ["POLICY_CAMERAS", "POLICY_CONFIGS", "env_options", "policy_config_class"]
+__all__ = ["POLICY_CONFIGS", "env_options", "policy_config_class"]
 
-POLICY_CAMERAS = CAMERAS  # the cameras the behaviour-cloning policy looks through, in the network's order
 # a policy config.json's ``action`` -> the config class that reads it (absent: the behaviour-cloning policy)
 POLICY_CONFIGS: dict[str, type[PolicyConfig] | type[KeyposeConfig]] = {KEYPOSE_ACTION: KeyposeConfig}
 
