@@ -13,7 +13,10 @@ Prints:
 - ``image clump functions``: functions taking ``width`` and ``height`` with ``preset``, ``cameras``,
   ``modalities`` or ``camera`` (the image request spelled out);
 - ``flag-naming library messages``: calls of ``*Error(...)`` (and ``require_extra``, ``read_json``) whose
-  strings hold a ``--flag``, outside ``commands/`` and ``cli.py``, per file.
+  strings hold a ``--flag``, outside ``commands/`` and ``cli.py``, per file;
+- ``private names imported across modules``: names with a leading underscore (not dunder) in
+  ``from samplehd... import`` statements;
+- ``functions over 80 lines in learn/``: their count (a function's lines from ``def`` to its last line).
 
 To compare with an earlier commit: ``git archive REV src | tar -x -C /tmp/base`` and run this on
 ``/tmp/base/src/samplehd``.
@@ -41,9 +44,14 @@ def _call_name(node: ast.Call) -> str:
     return f.id if isinstance(f, ast.Name) else getattr(f, "attr", "")
 
 
+def _private_imports(tree: ast.AST) -> int:
+    return sum(1 for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
+        "samplehd") for a in node.names if a.name.startswith("_") and not a.name.startswith("__"))
+
+
 def counts(root: Path) -> dict[str, object]:
     files = sorted(root.rglob("*.py"))
-    dict_any = to_dict = sigs = with_any = post_init = 0
+    dict_any = to_dict = sigs = with_any = post_init = private = long_learn = 0
     clump: list[str] = []
     flags: dict[str, int] = {}
     for p in files:
@@ -51,9 +59,12 @@ def counts(root: Path) -> dict[str, object]:
         rel = p.relative_to(root).as_posix()
         dict_any += len(re.findall(r"dict\[str, Any\]", text))
         to_dict += len(re.findall(r"^\s*def (to_dict|from_dict)\(", text, re.M))
-        for node in ast.walk(ast.parse(text)):
+        tree = ast.parse(text)
+        private += _private_imports(tree)
+        for node in ast.walk(tree):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
                 sigs += 1
+                long_learn += rel.startswith("learn/") and node.end_lineno - node.lineno + 1 > 80
                 with_any += any(re.search(r"\bAny\b", ast.unparse(t)) for t in _annotations(node))
                 names = {x.arg for x in [*node.args.args, *node.args.kwonlyargs]}
                 if {"width", "height"} <= names and names & {"preset", "cameras", "modalities", "camera"}:
@@ -70,7 +81,8 @@ def counts(root: Path) -> dict[str, object]:
     return {"dict[str, Any]": dict_any, "to_dict/from_dict defs": to_dict,
             "signatures with Any": f"{with_any}/{sigs} = {100 * with_any / sigs:.1f} %",
             "config __post_init__ lines": post_init, "image clump functions": len(clump),
-            "flag-naming library messages": sum(flags.values()), "  per file": dict(sorted(flags.items()))}
+            "flag-naming library messages": sum(flags.values()), "  per file": dict(sorted(flags.items())),
+            "private names imported across modules": private, "functions over 80 lines in learn/": long_learn}
 
 
 def main() -> None:

@@ -19,8 +19,8 @@ import json
 import numpy as np
 
 from samplehd.learn.data import open_dataset
+from samplehd.learn.policy.configuration import CAMERAS
 from samplehd.learn.policy.inference import BCPolicy
-from samplehd.learn.policy.processing import CAMERAS
 
 AXES = ("x", "y", "z", "rx", "ry", "rz", "gripper")
 

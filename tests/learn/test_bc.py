@@ -12,8 +12,15 @@ import pytest
 torch = pytest.importorskip("torch")
 
 from samplehd.errors import ConfigError  # noqa: E402
-from samplehd.learn.policy import STATE_DIM, BCPolicy, moving_frames, train_policy  # noqa: E402
-from samplehd.learn.policy.processing import _rotation_columns  # noqa: E402
+from samplehd.learn.actions import moving_frames, rotation_columns  # noqa: E402
+from samplehd.learn.policy import (  # noqa: E402
+    STATE_DIM,
+    BCPolicy,
+    PolicyCollection,
+    PolicyConfig,
+    PolicyTraining,
+    train_policy,
+)
 
 
 def _weights(folder: Path) -> dict:
@@ -24,15 +31,27 @@ def _same(a: dict, b: dict) -> bool:
     return a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
 
 
+def _train(dataset: Path, out: Path, steps: int, *, stop_after: int | None = None, inputs: str = "rgb",
+           action: str = "steering", demos: int = 0, noise: float = 0.0, dagger_rounds: int = 0,
+           dagger_episodes: int = 50, dagger_steps: int = 1000, **train: object) -> dict:
+    """``train_policy`` of the policy ``samplehd train policy`` builds from these flags (``steps``:
+    before the DAgger rounds)."""
+    collect = PolicyCollection(demos=demos, noise=noise, dagger_rounds=dagger_rounds,
+                               dagger_episodes=dagger_episodes, dagger_steps=dagger_steps)
+    config = PolicyConfig(inputs=inputs, action=action, collect=collect,
+                          train=PolicyTraining(steps=steps + dagger_rounds * dagger_steps, **train))
+    return train_policy(dataset, out, config, quiet=True, stop_after=stop_after)
+
+
 def test_policy_training_is_deterministic_resumes_and_normalises_its_state(nano_dataset: Path,
                                                                           tmp_path: Path) -> None:
     a, b, c = tmp_path / "a", tmp_path / "b", tmp_path / "c"
-    ma = train_policy(nano_dataset, a, steps=4, quiet=True)
-    train_policy(nano_dataset, b, steps=4, quiet=True)
+    ma = _train(nano_dataset, a, steps=4)
+    _train(nano_dataset, b, steps=4)
     assert _same(_weights(a), _weights(b)), "same seed on the CPU must give identical weights"
-    assert train_policy(nano_dataset, c, steps=4, quiet=True, stop_after=2) == {"stopped_at": 2}
+    assert _train(nano_dataset, c, steps=4, stop_after=2) == {"stopped_at": 2}
     assert not (c / "model.pt").exists()
-    train_policy(nano_dataset, c, steps=4, quiet=True)
+    _train(nano_dataset, c, steps=4)
     assert _same(_weights(a), _weights(c)), "a resumed run must give the uninterrupted run's model"
     w = _weights(a)
     assert w["state_mean"].shape == (STATE_DIM,) and bool((w["state_std"] >= 1e-2).all())
@@ -43,37 +62,26 @@ def test_policy_training_is_deterministic_resumes_and_normalises_its_state(nano_
     assert len(ma["test_l1_by_axis"]) == 7 and ma["test_l1"] is not None
     # Weighting the frames near the table changes the model (and is recorded).
     d = tmp_path / "d"
-    train_policy(nano_dataset, d, steps=4, quiet=True, near_weight=3.0)
+    _train(nano_dataset, d, steps=4, near_weight=3.0)
     assert json.loads((d / "config.json").read_text())["train"]["near_weight"] == 3.0
     assert not _same(_weights(a), _weights(d))
     # The L1 loss of the first version is still there (its median is a zero velocity on most frames).
     e = tmp_path / "e"
-    train_policy(nano_dataset, e, steps=2, quiet=True, loss="l1")
+    _train(nano_dataset, e, steps=2, loss="l1")
     assert json.loads((e / "config.json").read_text())["train"]["loss"] == "l1"
     with pytest.raises(ConfigError, match="loss='huber'"):
-        train_policy(nano_dataset, tmp_path / "f", steps=2, quiet=True, loss="huber")
+        _train(nano_dataset, tmp_path / "f", steps=2, loss="huber")
     assert not (tmp_path / "f").exists()
 
 
-def test_the_former_modules_import_the_packages_objects() -> None:
-    """``samplehd.learn.bc`` and ``samplehd.learn.policy_configuration``, the policy's modules before it
-    became a package, still import its names (the same objects), and ``evaluate --policy bc`` names the
-    module that defines its factory."""
+def test_evaluate_names_the_factory_that_loads_either_policy() -> None:
+    """``evaluate --policy bc`` names the module that defines its factory; the package loads its other
+    names on first use only."""
     import importlib
 
-    import samplehd.learn.bc as bc
     import samplehd.learn.policy as policy
-    import samplehd.learn.policy_configuration as policy_configuration
     from samplehd.benchmark.evaluation import LEARNED
 
-    shared = [name for name in policy.__all__ if hasattr(bc, name)]
-    # bc never imported ENCODERS; the keypose policy's names came after the split
-    assert set(policy.__all__) - set(shared) == {"ENCODERS", "Decision", "KeyposeFollower", "KeyposeNet",
-                                                 "KeyposePolicy", "PolicyGrid", "TopDownGrid", "decisions",
-                                                 "train_keypose_policy"}
-    assert all(getattr(bc, name) is getattr(policy, name) for name in shared)
-    assert all(getattr(policy_configuration, name) is getattr(policy, name) for name in policy_configuration.__all__)
-    assert bc._load_arrays is importlib.import_module("samplehd.learn.policy.preparation")._load_arrays
     module, factory = LEARNED["bc"].split(":")
     assert getattr(importlib.import_module(module), factory) is policy.policy_for_evaluation
     with pytest.raises(AttributeError, match="no attribute 'nope'"):
@@ -88,8 +96,8 @@ def test_rotation_columns_are_those_of_the_matrix_and_ignore_the_quaternion_sign
     q /= np.linalg.norm(q, axis=1, keepdims=True)
     mats = Rotation.from_quat(q[:, [1, 2, 3, 0]]).as_matrix()  # scipy: x y z w
     want = np.concatenate([mats[:, :, 0], mats[:, :, 1]], axis=1)
-    assert np.allclose(_rotation_columns(q), want, atol=1e-12)
-    assert np.allclose(_rotation_columns(-q), want, atol=1e-12)
+    assert np.allclose(rotation_columns(q), want, atol=1e-12)
+    assert np.allclose(rotation_columns(-q), want, atol=1e-12)
 
 
 def _config(**inference: object) -> dict:
@@ -193,16 +201,16 @@ def test_oracle_demos_are_noisy_where_executed_clean_where_labelled_and_reproduc
 
 def test_dart_demos_and_a_dagger_round_join_training_and_a_resumed_run_reuses_them(nano_dataset: Path,
                                                                                 tmp_path: Path) -> None:
-    opts = dict(steps=2, quiet=True, demos=4, noise=0.1, dagger_rounds=1, dagger_episodes=2, dagger_steps=2)
+    opts = dict(steps=2, demos=4, noise=0.1, dagger_rounds=1, dagger_episodes=2, dagger_steps=2)
     a, c = tmp_path / "a", tmp_path / "c"
-    ma = train_policy(nano_dataset, a, **opts)
+    ma = _train(nano_dataset, a, **opts)
     assert (a / "demos.npz").exists() and (a / "dagger_0.npz").exists()
     assert ma["collected_episodes"] >= 2 and ma["steps"] == 4
     config = json.loads((a / "config.json").read_text())
     assert config["collect"] == {"demos": 4, "noise": 0.1, "dagger_rounds": 1, "dagger_episodes": 2,
                                  "dagger_steps": 2}
-    assert train_policy(nano_dataset, c, stop_after=3, **opts) == {"stopped_at": 3}  # after the DAgger round
-    train_policy(nano_dataset, c, **opts)
+    assert _train(nano_dataset, c, stop_after=3, **opts) == {"stopped_at": 3}  # after the DAgger round
+    _train(nano_dataset, c, **opts)
     assert _same(_weights(a), _weights(c)), "a resumed run must collect and train exactly as an uninterrupted one"
 
 
@@ -212,7 +220,7 @@ def test_the_privileged_state_reference_sees_the_target_and_no_image(nano_datase
     from samplehd.learn.policy import TARGET_DIM
 
     out = tmp_path / "state"
-    metrics = train_policy(nano_dataset, out, steps=3, quiet=True, inputs="state")
+    metrics = _train(nano_dataset, out, steps=3, inputs="state")
     config = json.loads((out / "config.json").read_text())
     assert config["inputs"] == "state" and config["model"]["state_dim"] == STATE_DIM + TARGET_DIM
     assert metrics["test_l1"] is not None
@@ -265,7 +273,7 @@ def _demo_episode() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 
 
 def test_waypoints_are_where_each_segment_ends_and_the_gripper_closes_after_a_closing_segment() -> None:
-    from samplehd.learn.policy import waypoint_targets, waypoints
+    from samplehd.learn.actions import waypoint_targets, waypoints
 
     steering, tcp, quat, opening = _demo_episode()
     goal = waypoints(steering, tcp, quat, opening)
@@ -298,16 +306,16 @@ def test_squeezing_closes_narrower_than_the_fingers_are_and_stays_in_range() -> 
 
 def test_a_waypoint_policy_trains_and_acts_with_keypoints(nano_dataset: Path, tmp_path: Path) -> None:
     from samplehd.envs.tabletop import TabletopEnv
+    from samplehd.learn.actions import WAYPOINT_SPEED
     from samplehd.learn.options import env_options
-    from samplehd.learn.policy.actions import WAYPOINT_SPEED
 
     out = tmp_path / "wp"
-    metrics = train_policy(nano_dataset, out, steps=3, quiet=True, action="waypoint")
+    metrics = _train(nano_dataset, out, steps=3, action="waypoint")
     config = json.loads((out / "config.json").read_text())
     assert config["action"] == "waypoint" and config["chunk"] == 1 and config["model"]["encoder"] == "keypoints"
     assert metrics["test_l1"] is not None
     with pytest.raises(ConfigError, match="action='joints'"):
-        train_policy(nano_dataset, tmp_path / "bad", steps=2, quiet=True, action="joints")
+        _train(nano_dataset, tmp_path / "bad", steps=2, action="joints")
     assert not (tmp_path / "bad").exists()
     env = TabletopEnv(**env_options(out), families=("pick_up",))
     try:
@@ -324,7 +332,7 @@ def test_a_waypoint_policy_trains_and_acts_with_keypoints(nano_dataset: Path, tm
 
 
 def test_a_motion_the_episode_cut_short_has_its_waypoint_ahead() -> None:
-    from samplehd.learn.policy.actions import WAYPOINT_AHEAD, waypoints
+    from samplehd.learn.actions import WAYPOINT_AHEAD, waypoints
 
     steering, tcp, quat, opening = _demo_episode()
     cut = 16  # the environment ended the episode (success) in the middle of the lift
@@ -337,7 +345,7 @@ def test_following_the_oracles_waypoints_succeeds() -> None:
     succeeds in the same episode (what a perfect waypoint policy does)."""
     from samplehd.envs.oracle import OraclePolicy
     from samplehd.envs.tabletop import TabletopEnv
-    from samplehd.learn.policy import WaypointExpert, follow_waypoints
+    from samplehd.learn.actions import WaypointExpert, follow_waypoints
 
     env = TabletopEnv(obs_mode="state", control_mode="steering", families=("pick_up",), max_episode_steps=300)
     try:
@@ -365,12 +373,12 @@ def test_following_the_oracles_waypoints_succeeds() -> None:
 
 def test_a_waypoint_dagger_round_labels_the_policys_states_with_the_experts_waypoints(nano_dataset: Path,
                                                                                       tmp_path: Path) -> None:
-    from samplehd.learn.policy.preparation import _load_arrays
+    from samplehd.learn.policy.preparation import load_arrays
 
     out = tmp_path / "wpd"
-    metrics = train_policy(nano_dataset, out, steps=2, quiet=True, action="waypoint", inputs="state",
+    metrics = _train(nano_dataset, out, steps=2, action="waypoint", inputs="state",
                            dagger_rounds=1, dagger_episodes=3, dagger_steps=2)
-    raw = _load_arrays(out / "dagger_0.npz")
+    raw = load_arrays(out / "dagger_0.npz")
     assert raw and metrics["collected_episodes"] == len(raw)
     for episode in raw:
         goal = episode["goal"]
@@ -396,7 +404,7 @@ def test_a_policy_keeps_its_datasets_catalogue_for_collecting_and_evaluation(tmp
     data = tmp_path / "ds"
     assert generate_dataset(data, GenerateConfig.from_dict(doc, base=preset_config("tiny"))).episodes >= 1
     out = tmp_path / "policy"
-    train_policy(data, out, steps=2, quiet=True, inputs="state", demos=1)
+    _train(data, out, steps=2, inputs="state", demos=1)
     assert json.loads((out / "config.json").read_text())["catalogue"] == "shop-vrb"
     assert demos._WORKER["env"][1].config.scene.catalogue == "shop-vrb"  # noqa: SLF001 - the collecting env
     assert env_options(out)["scene"] == {"catalogue": "shop-vrb"}

@@ -13,8 +13,9 @@ pytest.importorskip("torch")
 
 from samplehd.dataset.reader import DatasetReader  # noqa: E402
 from samplehd.envs.replay_check import replay_env  # noqa: E402
-from samplehd.learn.policy.actions import _yaw  # noqa: E402
-from samplehd.learn.policy.keyposes import KeyposeFollower, decisions  # noqa: E402
+from samplehd.learn.actions import tcp_yaw  # noqa: E402
+from samplehd.learn.keypose.follower import KeyposeFollower  # noqa: E402
+from samplehd.learn.keypose.processing import decisions  # noqa: E402
 from samplehd.world.layout import LAYOUT  # noqa: E402
 
 KEYPOSE_DATA = {
@@ -37,6 +38,16 @@ def keypose_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     summary = generate_dataset(out, GenerateConfig.from_dict(KEYPOSE_DATA, base=preset_config("small")))
     assert summary.episodes >= 4
     return out
+
+
+def _train(dataset: Path, out: Path, steps: int, batch: int, *, inputs: str = "rgb",
+           stop_after: int | None = None) -> dict:
+    """``train_keypose`` of the policy ``samplehd train policy --action keypose`` builds from these flags."""
+    from samplehd.learn.keypose.configuration import KeyposeConfig, KeyposeTraining
+    from samplehd.learn.keypose.training import train_keypose
+
+    config = KeyposeConfig(inputs=inputs, train=KeyposeTraining(steps=steps, batch=batch))
+    return train_keypose(dataset, out, config, quiet=True, stop_after=stop_after)
 
 
 def _decisions(reader: DatasetReader, k: int) -> list:
@@ -72,7 +83,7 @@ def test_following_the_recorded_decisions_succeeds(keypose_dataset: Path) -> Non
     try:
         for k, entry in enumerate(reader.episodes):
             obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": k})
-            home = np.r_[obs["tcp_pos"], _yaw(obs["tcp_quat"])]
+            home = np.r_[obs["tcp_pos"], tcp_yaw(obs["tcp_quat"])]
             success, steps = False, 0
             for d in _decisions(reader, k):
                 follower = KeyposeFollower(d, obs, home, env)
@@ -91,7 +102,7 @@ def test_following_the_recorded_decisions_succeeds(keypose_dataset: Path) -> Non
 def test_a_descent_that_meets_an_object_stops_and_closes_there(keypose_dataset: Path) -> None:
     """A grasp predicted too low, on top of the widest object, closed fingers: the follower feels the
     descent stop on the object and closes there, instead of pushing on until the contact-force stop."""
-    from samplehd.learn.policy.keyposes import Decision
+    from samplehd.learn.keypose.processing import Decision
 
     reader = DatasetReader(keypose_dataset)
     scene = reader.scenes[reader.episodes[0].scene_index]
@@ -101,7 +112,7 @@ def test_a_descent_that_meets_an_object_stops_and_closes_there(keypose_dataset: 
     env = replay_env(reader)
     try:
         obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": 0})
-        home = np.r_[obs["tcp_pos"], _yaw(obs["tcp_quat"])]
+        home = np.r_[obs["tcp_pos"], tcp_yaw(obs["tcp_quat"])]
         low = LAYOUT.table_height + 0.01
         follower = KeyposeFollower(Decision((x, y, low, 0.0), 0.0, low + 0.15, (x, y, low + 0.15, 0.0), False, True),
                                    obs, home, env)
@@ -122,7 +133,7 @@ def test_a_descent_that_meets_an_object_stops_and_closes_there(keypose_dataset: 
 def test_the_top_down_view_puts_each_object_where_it_stands(keypose_dataset: Path) -> None:
     from PIL import Image
 
-    from samplehd.learn.policy.topdown import HEIGHT_SCALE, TopDownGrid
+    from samplehd.learn.topdown import HEIGHT_SCALE, TopDownGrid
     from samplehd.render.renderer import SEG_ROBOT
 
     grid = TopDownGrid()
@@ -155,15 +166,14 @@ def test_the_top_down_view_puts_each_object_where_it_stands(keypose_dataset: Pat
 
 def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_dataset: Path, tmp_path: Path) -> None:
     from samplehd.cli import main
-    from samplehd.learn.policy.keypose_training import train_keypose_policy
     from samplehd.learn.training import load_weights
 
     whole, cut = tmp_path / "whole", tmp_path / "cut"
-    metrics = train_keypose_policy(keypose_dataset, whole, steps=4, batch=2, quiet=True)
-    assert train_keypose_policy(keypose_dataset, cut, steps=4, batch=2, quiet=True, stop_after=2) == {"stopped_at": 2}
+    metrics = _train(keypose_dataset, whole, steps=4, batch=2)
+    assert _train(keypose_dataset, cut, steps=4, batch=2, stop_after=2) == {"stopped_at": 2}
     with np.load(cut / "prepared.npz") as z:  # every decision with the attribute maps of what it sees
         assert len(z["train_attributes"]) == len(z["train_grid"]) and (z["train_attributes"] >= 0).any()
-    train_keypose_policy(keypose_dataset, cut, steps=4, batch=2, quiet=True)
+    _train(keypose_dataset, cut, steps=4, batch=2)
     assert not (cut / "prepared.npz").exists()
     a, b = load_weights(whole / "model.pt"), load_weights(cut / "model.pt")
     assert a.keys() == b.keys() and all(np.array_equal(a[k].numpy(), b[k].numpy()) for k in a)
@@ -195,9 +205,9 @@ def test_a_later_grasp_is_not_sought_where_an_earlier_one_was() -> None:
     import torch
 
     from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
-    from samplehd.learn.policy.keypose_inference import AVOID_RADIUS, predict_decisions
-    from samplehd.learn.policy.modeling import KeyposeNet
-    from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
+    from samplehd.learn.keypose.inference import AVOID_RADIUS, predict_decisions
+    from samplehd.learn.keypose.modeling import KeyposeNet
+    from samplehd.learn.topdown import GRID_CHANNELS, TopDownGrid
 
     torch.manual_seed(0)
     net = KeyposeNet(len(instruction_vocabulary()), GRID_CHANNELS, 8).eval()
@@ -216,12 +226,10 @@ def test_the_privileged_reference_is_shown_the_objects_the_task_moves(keypose_da
     """``--inputs state``: the view gains a channel marking the cells of the task's objects, in training
     and when acting; a run of other inputs is not started from its weights."""
     from samplehd.cli import main
-    from samplehd.learn.policy.keypose_training import train_keypose_policy
-    from samplehd.learn.policy.topdown import GRID_CHANNELS, HEIGHT_SCALE
+    from samplehd.learn.topdown import GRID_CHANNELS, HEIGHT_SCALE
 
     out = tmp_path / "state"
-    assert train_keypose_policy(keypose_dataset, out, steps=2, batch=2, quiet=True, inputs="state",
-                                stop_after=1) == {"stopped_at": 1}
+    assert _train(keypose_dataset, out, steps=2, batch=2, inputs="state", stop_after=1) == {"stopped_at": 1}
     with np.load(out / "prepared.npz") as z:
         views = z["train_grid"].astype(np.float32)
     assert views.shape[1] == GRID_CHANNELS + 1
@@ -254,12 +262,12 @@ def test_keypose_training_refuses_what_it_does_not_use(keypose_dataset: Path, tm
 
 def test_a_damaged_grid_in_a_policy_config_is_one_line_naming_the_field() -> None:
     from samplehd.errors import ConfigError
-    from samplehd.learn.policy.configuration import PolicyConfig
+    from samplehd.learn.keypose.configuration import KeyposeConfig
 
     base = {"kind": "policy", "action": "keypose"}
     for grid, field in (({"rows": 100}, "grid.rows=100"), ({"origin": [0.1]}, "grid.origin=[0.1]"),
                         ({"cell": -0.01}, "grid.cell=-0.01"), ({"width": "wide"}, "grid.width='wide'")):
         with pytest.raises(ConfigError) as info:
-            PolicyConfig.from_dict({**base, "grid": grid})
+            KeyposeConfig.from_dict({**base, "grid": grid})
         message = str(info.value)
         assert field in message and "\n" not in message, message

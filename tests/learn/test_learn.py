@@ -30,9 +30,10 @@ def test_parser_trains_resumes_and_is_deterministic(nano_dataset: Path, tmp_path
     assert main(["train", "parser", "--dataset", str(nano_dataset), "--out", str(b), "--steps", "4", "--quiet"]) == 0
     assert _same(_weights(a), _weights(b)), "same seed on the CPU must give identical weights"
     # Interrupted after 2 of 4 steps, then resumed: the same model as the uninterrupted run.
-    from samplehd.learn.parser import train_parser
+    from samplehd.learn.parser import ParserConfig, ParserTraining, train_parser
 
-    assert train_parser(nano_dataset, c, steps=4, quiet=True, stop_after=2) == {"stopped_at": 2}
+    config = ParserConfig(train=ParserTraining(steps=4))
+    assert train_parser(nano_dataset, c, config, quiet=True, stop_after=2) == {"stopped_at": 2}
     ckpt = torch.load(c / "checkpoint.pt", map_location="cpu", weights_only=True)
     assert int(ckpt["step"]) == 2 and not (c / "model.pt").exists()
     assert main(["train", "parser", "--dataset", str(nano_dataset), "--out", str(c), "--steps", "4", "--quiet"]) == 0
@@ -69,9 +70,9 @@ def test_perception_trains_and_perceives_a_scene(nano_dataset: Path, tmp_path: P
 
     model = Perception.load(out)
     item = scene_examples(open_dataset(nano_dataset))["test"][0]
-    from samplehd.learn.perception.preparation import _load_scene_images
+    from samplehd.learn.perception.preparation import load_scene_images
 
-    rgb, depth, seg = _load_scene_images(item)
+    rgb, depth, seg = load_scene_images(item)
     ann = model.perceive(rgb, depth, item["annotation"]["camera"])
     assert set(ann) == {"objects", "directions", "relationships", "attribute_scores"}
     # Tested again without training, the model gives the test metrics its training wrote.
@@ -102,14 +103,21 @@ def test_perception_trains_and_perceives_a_scene(nano_dataset: Path, tmp_path: P
 
 
 def test_perception_resumes_from_its_cache_to_the_same_model(nano_dataset: Path, tmp_path: Path) -> None:
-    from samplehd.learn.perception import PREPARED_FILE, Perception, train_perception
+    from samplehd.learn.perception import (
+        PREPARED_FILE,
+        Perception,
+        PerceptionConfig,
+        PerceptionTraining,
+        train_perception,
+    )
 
     a, b = tmp_path / "a", tmp_path / "b"
-    train_perception(nano_dataset, a, steps=3, quiet=True)
+    config = PerceptionConfig(train=PerceptionTraining(steps=3))
+    train_perception(nano_dataset, a, config, quiet=True)
     assert not (a / PREPARED_FILE).exists(), "a finished run leaves no cache behind"
-    assert train_perception(nano_dataset, b, steps=3, quiet=True, stop_after=1) == {"stopped_at": 1}
+    assert train_perception(nano_dataset, b, config, quiet=True, stop_after=1) == {"stopped_at": 1}
     assert (b / PREPARED_FILE).exists()  # the decoded scenes wait for the resumed run
-    train_perception(nano_dataset, b, steps=3, quiet=True)
+    train_perception(nano_dataset, b, config, quiet=True)
     assert _same(_weights(a), _weights(b))
     config = json.loads((b / "config.json").read_text())
     config["format"] = 1  # a model of an older revision: one line saying to train again
@@ -372,7 +380,7 @@ def test_tall_objects_are_placed_by_their_own_points_and_floating_pieces_join(tm
     from scipy import ndimage
 
     from samplehd.learn.perception import backproject, join_stacked
-    from samplehd.learn.perception.geometry import _geometry
+    from samplehd.learn.perception.geometry import geometry_features
     from samplehd.world.layout import LAYOUT
 
     ann, rgb, seg, depth = _rendered_scene(tmp_path, 10, 5, 640, 360)
@@ -387,13 +395,13 @@ def test_tall_objects_are_placed_by_their_own_points_and_floating_pieces_join(tm
         naive = (np.percentile(pts, 3, axis=0) + np.percentile(pts, 97, axis=0))[:2] / 2
         true = np.asarray(o["3d_coords"][:2])
         assert np.linalg.norm(naive - true) > 0.10, o["name"]  # the background behind it is in the mask
-        assert np.linalg.norm(_geometry(rgb, depth, coarse, camera, table)[0][:2] - true) < 0.025, o["name"]
+        assert np.linalg.norm(geometry_features(rgb, depth, coarse, camera, table)[0][:2] - true) < 0.025, o["name"]
     # A union of two objects (judged whole or in parts when split at a depth jump) measures both.
     a, b = tall[0], tall[1]
     union = (seg == a["segmentation_id"]) | (seg == b["segmentation_id"])
     apart = float(np.linalg.norm(np.subtract(a["3d_coords"][:2], b["3d_coords"][:2])))
-    assert _geometry(rgb, depth, union, camera, table, whole=True)[1][0] / 10 > apart
-    assert _geometry(rgb, depth, union, camera, table)[1][0] / 10 < apart  # one of them: the larger cluster
+    assert geometry_features(rgb, depth, union, camera, table, whole=True)[1][0] / 10 > apart
+    assert geometry_features(rgb, depth, union, camera, table)[1][0] / 10 < apart  # one of them: the larger cluster
     glass = next(o for o in ann["objects"] if o["name"] == "wine_glass")
     whole = seg == glass["segmentation_id"]
     width = whole.sum(axis=1)
@@ -423,7 +431,7 @@ def test_a_union_of_objects_does_not_fit_one_kind(tmp_path: Path) -> None:
         kind_vocab,
         size_templates,
     )
-    from samplehd.learn.perception.geometry import _geometry
+    from samplehd.learn.perception.geometry import geometry_features
     from samplehd.world.layout import LAYOUT
 
     ann, rgb, seg, depth = _rendered_scene(tmp_path, 10, 5, 640, 360)
@@ -431,14 +439,14 @@ def test_a_union_of_objects_does_not_fit_one_kind(tmp_path: Path) -> None:
     objs = ann["objects"]
     masks = [seg == o["segmentation_id"] for o in objs]
     kinds = kind_vocab()
-    geo = np.stack([_geometry(rgb, depth, m, camera, table)[1] for m in masks])[:, None]
+    geo = np.stack([geometry_features(rgb, depth, m, camera, table)[1] for m in masks])[:, None]
     of = np.array([kinds.index(f"{o['name']}/{o['variant']}/{o['size']}") for o in objs])
     model = Perception(PerceptionConfig(attributes=attribute_vocab(), kinds=tuple(kinds),
                                         model=PerceptionArchitecture(2, 2), seg_downsample=1, table_height=table,
                                         size_templates=size_templates(geo, of, kinds)))
 
     def measured(mask: np.ndarray, whole: bool = False) -> np.ndarray:
-        return _geometry(rgb, depth, mask, camera, table, whole)[1][:3] / 10
+        return geometry_features(rgb, depth, mask, camera, table, whole)[1][:3] / 10
 
     assert all(model.fits_kind(o["name"], measured(m)) for o, m in zip(objs, masks, strict=True))
     for a in range(len(objs)):

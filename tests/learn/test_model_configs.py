@@ -15,14 +15,15 @@ from samplehd.errors import ConfigError
 
 @pytest.fixture(scope="module")
 def trained(nano_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
-    from samplehd.learn.parser import train_parser
-    from samplehd.learn.perception import train_perception
-    from samplehd.learn.policy import train_policy
+    from samplehd.learn.parser import ParserConfig, ParserTraining, train_parser
+    from samplehd.learn.perception import PerceptionConfig, PerceptionTraining, train_perception
+    from samplehd.learn.policy import PolicyConfig, PolicyTraining, train_policy
 
     out = tmp_path_factory.mktemp("models")
-    train_parser(nano_dataset, out / "parser", steps=2, quiet=True, device="cpu")
-    train_perception(nano_dataset, out / "perception", steps=2, quiet=True, device="cpu")
-    train_policy(nano_dataset, out / "policy", steps=2, quiet=True, device="cpu")
+    train_parser(nano_dataset, out / "parser", ParserConfig(train=ParserTraining(steps=2)), quiet=True, device="cpu")
+    train_perception(nano_dataset, out / "perception", PerceptionConfig(train=PerceptionTraining(steps=2)), quiet=True,
+                     device="cpu")
+    train_policy(nano_dataset, out / "policy", PolicyConfig(train=PolicyTraining(steps=2)), quiet=True, device="cpu")
     return out
 
 
@@ -87,7 +88,8 @@ def test_a_damaged_config_json_is_one_line_naming_file_and_field(trained: Path, 
 
 def test_a_policy_config_json_of_an_earlier_version_still_loads(trained: Path, tmp_path: Path) -> None:
     """Format-3 files written before ``inputs``, ``action``, ``model.encoder`` and
-    ``inference.zero_channels`` existed load as the policy those versions trained."""
+    ``inference.zero_channels`` existed load as the policy those versions trained, and so do those that
+    held the keypose policy's ``grid`` and ``train.init``."""
     from samplehd.learn.policy import BCPolicy
 
     doc = json.loads((trained / "policy" / "config.json").read_text())
@@ -95,6 +97,10 @@ def test_a_policy_config_json_of_an_earlier_version_still_loads(trained: Path, t
         doc.pop(key)
     doc["model"].pop("encoder")
     doc["inference"].pop("zero_channels")
+    # the keypose policy's keys, which every policy file held before it had its own config
+    doc["grid"] = {"camera": "scene", "width": 640, "height": 360, "origin": [-0.512, -0.64], "cell": 0.008,
+                   "rows": 128, "cols": 160}
+    doc["train"]["init"] = ""
     folder = tmp_path / "old"
     folder.mkdir()
     (folder / "model.pt").write_bytes((trained / "policy" / "model.pt").read_bytes())
@@ -102,3 +108,34 @@ def test_a_policy_config_json_of_an_earlier_version_still_loads(trained: Path, t
     config = BCPolicy.load(folder).config
     assert (config.inputs, config.action, config.model.encoder, config.inference.zero_channels) == (
         "rgb", "steering", "flatten", ())
+
+
+def test_a_keypose_policy_config_json_of_an_earlier_version_loads_as_a_keypose_config() -> None:
+    """Keypose policies were written with the behaviour-cloning policy's keys (``image``, ``chunk``,
+    ``inference``, ``collect``, its network and training options); they read as the keypose config,
+    those keys dropped, and ask the environment for what the keypose policy needs."""
+    from samplehd.learn.keypose.configuration import KeyposeConfig
+    from samplehd.learn.options import policy_config_class
+    from samplehd.learn.policy.configuration import PolicyConfig
+
+    doc = {"kind": "policy", "format": 3, "dataset": "ds", "catalogue": "procedural", "inputs": "rgb",
+           "action": "keypose", "image": 0, "chunk": 1, "execute": 1, "tokens": 32,
+           "model": {"width": 16, "hidden": 128, "state_dim": 23, "encoder": "flatten"},
+           "inference": {"ensemble": None, "z_floor": None, "zero_channels": []},
+           "grid": {"camera": "scene", "width": 320, "height": 180, "origin": [-0.512, -0.64], "cell": 0.008,
+                    "rows": 128, "cols": 160},
+           "families": ["pick_up", "place"],
+           "collect": {"demos": 0, "noise": 0.0, "dagger_rounds": 0, "dagger_episodes": 50, "dagger_steps": 1000},
+           "train": {"steps": 12, "seed": 1, "batch": 4, "stride": 1, "lr": 0.001, "loss": "mse", "near_weight": 1.0,
+                     "gripper_weight": 1.0, "episodes": 4, "frames": 0, "init": ""}}
+    assert policy_config_class(doc) is KeyposeConfig
+    assert policy_config_class({**doc, "action": "waypoint"}) is PolicyConfig
+    config = KeyposeConfig.from_dict(doc)
+    assert (config.grid.width, config.model.width, config.train.batch, config.train.seed) == (320, 16, 4, 1)
+    written = config.to_dict()
+    assert not {"image", "chunk", "execute", "inference", "collect"} & set(written)
+    assert set(written["model"]) == {"width"} and "stride" not in written["train"]
+    assert KeyposeConfig.from_dict(written) == config
+    assert config.env_options() == {"obs_mode": "state", "control_mode": "steering"}
+    with pytest.raises(ConfigError, match="policy.action='steering': valid: keypose"):
+        KeyposeConfig.from_dict({**doc, "action": "steering"})

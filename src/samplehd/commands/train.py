@@ -15,8 +15,18 @@ from pathlib import Path
 from samplehd.commands._options import check_out_dir
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
-from samplehd.learn.parser import score_parser, train_parser
-from samplehd.learn.perception import score_perception, train_perception
+from samplehd.learn.keypose.configuration import ACTION as KEYPOSE_ACTION
+from samplehd.learn.keypose.configuration import KeyposeArchitecture, KeyposeConfig, KeyposeTraining
+from samplehd.learn.keypose.training import train_keypose
+from samplehd.learn.parser import ParserConfig, ParserTraining, score_parser, train_parser
+from samplehd.learn.perception import PerceptionConfig, PerceptionTraining, score_perception, train_perception
+from samplehd.learn.policy.configuration import (
+    ACTIONS,
+    PolicyArchitecture,
+    PolicyCollection,
+    PolicyConfig,
+    PolicyTraining,
+)
 from samplehd.learn.policy.training import train_policy
 
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
@@ -39,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                                    "target object's pose relative to the TCP; "
                                                                    "keypose: the view marks the cells of the "
                                                                    "objects the task moves)")
-    policy.add_argument("--action", choices=["steering", "waypoint", "keypose"],
+    policy.add_argument("--action", choices=[*ACTIONS, KEYPOSE_ACTION],
                         help="steering: chunks of the demonstrations' steering vectors (default); waypoint: the "
                              "TCP pose and gripper command where the current segment of the demonstration ends, "
                              "followed by a proportional controller; keypose: per object moved, where to grasp "
@@ -92,13 +102,13 @@ def run(args: argparse.Namespace) -> int:
                                   f"speed)")
         elif value < low:
             raise ConfigError(f"--{key.replace('_', '-')} {value}: valid: an integer ≥ {low}")
-    if given.get("action") == "keypose":
+    if given.get("action") == KEYPOSE_ACTION:
         unused = [k for k in ("hidden", "demos", "noise", "dagger_rounds", "workers") if k in given]
         if unused:
             key = unused[0]
             raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: not used with --action keypose (it learns "
                               f"from the dataset's scene images and decisions); leave it out")
-    if "init" in given and given.get("action") != "keypose":
+    if "init" in given and given.get("action") != KEYPOSE_ACTION:
         raise ConfigError(f"--init {args.init}: starts a keypose policy from another's weights; only used with "
                           f"--action keypose")
     if given.get("noise") and not given.get("demos"):
@@ -114,20 +124,44 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--steps {steps}: must be a positive integer")
     if args.seed < 0:
         raise ConfigError(f"--seed {args.seed}: must be ≥ 0")
-    kw = dict(steps=steps, seed=args.seed, device=args.device, quiet=args.quiet)
     if args.model == "parser":
-
-        metrics = train_parser(args.dataset, args.out, **kw)
+        metrics = train_parser(args.dataset, args.out, ParserConfig(train=ParserTraining(steps=steps, seed=args.seed)),
+                               device=args.device, quiet=args.quiet)
     elif args.model == "perception":
-
-        metrics = train_perception(args.dataset, args.out, **kw)
+        config = PerceptionConfig(train=PerceptionTraining(steps=steps, seed=args.seed))
+        metrics = train_perception(args.dataset, args.out, config, device=args.device, quiet=args.quiet)
+    elif given.get("action") == KEYPOSE_ACTION:
+        metrics = train_keypose(args.dataset, args.out, _keypose_config(args, steps), device=args.device,
+                                quiet=args.quiet)
     else:
-
-        metrics = train_policy(args.dataset, args.out, **kw, **given)
+        metrics = train_policy(args.dataset, args.out, _policy_config(args, steps), device=args.device,
+                               quiet=args.quiet, workers=args.workers or 1)
     shown = {k: v for k, v in metrics.items() if not isinstance(v, (dict, list))}
     print(json.dumps(shown, indent=1))
     print(f"wrote {args.out / 'metrics.json'}")
     return 0
+
+
+def _keypose_config(args: argparse.Namespace, steps: int) -> KeyposeConfig:
+    """The keypose policy to train, from the flags (what the dataset says is filled in by training)."""
+    return KeyposeConfig(
+        inputs=args.inputs or "rgb", model=KeyposeArchitecture(),
+        train=KeyposeTraining(steps=steps, seed=args.seed, batch=args.batch or 16,
+                              init=str(args.init) if args.init is not None else ""))
+
+
+def _policy_config(args: argparse.Namespace, steps: int) -> PolicyConfig:
+    """The behaviour-cloning policy to train, from the flags (what the dataset says is filled in by
+    training): ``train.steps`` counts the DAgger rounds' steps after ``--steps``."""
+    collect = PolicyCollection(**{k: v for k, v in (("demos", args.demos), ("noise", args.noise),
+                                                     ("dagger_rounds", args.dagger_rounds),
+                                                     ("dagger_episodes", args.dagger_episodes),
+                                                     ("dagger_steps", args.dagger_steps)) if v is not None})
+    return PolicyConfig(
+        inputs=args.inputs or "rgb", action=args.action or "steering",
+        model=PolicyArchitecture(hidden=args.hidden or 256), collect=collect,
+        train=PolicyTraining(steps=steps + collect.dagger_rounds * collect.dagger_steps, seed=args.seed,
+                             batch=args.batch or 64))
 
 
 def _evaluate_only(args: argparse.Namespace) -> int:

@@ -1,8 +1,8 @@
 """The names, shapes and settings that tie ``samplehd export lerobot``, LeRobot and Tabletop-v0 together.
 
 One place for the feature-name and layout conversion: the LeRobot env
-(:mod:`samplehd.envs.lerobot_tabletop`, behind the ``lerobot_env_samplehd`` plugin) and the
-``samplehd evaluate --policy lerobot:CKPT`` policy (:mod:`samplehd.envs.lerobot_policy`) both turn a
+(:mod:`samplehd.benchmark.lerobot_tabletop`, behind the ``lerobot_env_samplehd`` plugin) and the
+``samplehd evaluate --policy lerobot:CKPT`` policy (:mod:`samplehd.benchmark.lerobot_policy`) both turn a
 Tabletop-v0 observation into LeRobot's raw env observation with :func:`lerobot_observation`, and
 LeRobot's ``preprocess_observation`` renames it into the export's features:
 

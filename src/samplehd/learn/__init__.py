@@ -10,12 +10,21 @@ and :mod:`samplehd.learn.options` need no torch.
   module per job: configuration, geometry, modeling, inference, preparation, evaluation, training
 - :mod:`samplehd.learn.neurosymbolic`: parse, perceive, execute, plan, act (``evaluate --policy neurosymbolic``)
 - :mod:`samplehd.learn.policy`: images + tokens + state → steering chunks or waypoints (``samplehd train
-  policy``, ``evaluate --policy bc``), a package of one module per job: configuration (no torch), processing,
-  actions, modeling, inference, preparation, training; :mod:`samplehd.learn.bc` and
-  :mod:`samplehd.learn.policy_configuration` re-export its names for existing imports
+  policy``, ``evaluate --policy bc``), a package of one module per job: configuration (no torch),
+  processing, modeling, inference, preparation, training
+- :mod:`samplehd.learn.keypose`: a top-down view of the scene camera's RGB-D + tokens → where to grasp and
+  where the object goes (``samplehd train policy --action keypose``, ``evaluate --policy bc``), a package
+  of one module per job: configuration (no torch), processing, modeling, follower, inference,
+  preparation, training
+
+Shared by the models: :mod:`samplehd.learn.configuration` (the header of every model config, no torch),
+:mod:`samplehd.learn.data` (dataset splits), :mod:`samplehd.learn.demos` (episodes collected in the
+environment), :mod:`samplehd.learn.actions` (steering and waypoint labels and followers) and
+:mod:`samplehd.learn.topdown` (the top-down grid of an RGB-D image).
+
 - :mod:`samplehd.learn.training`: torch, checkpoints, resume, progress, determinism
 - :mod:`samplehd.learn.options`: the environment a trained policy needs (no torch)
 """
 
-__all__ = ["bc", "data", "neurosymbolic", "options", "parser", "perception", "policy", "policy_configuration",
-           "training"]
+__all__ = ["actions", "configuration", "data", "demos", "keypose", "neurosymbolic", "options", "parser", "perception",
+           "policy", "topdown", "training"]

@@ -7,6 +7,7 @@ and episodes). Training examples leave out what the generalisation levels hold o
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +15,7 @@ from samplehd.dataset.reader import DatasetReader
 from samplehd.errors import ConfigError, DatasetError
 from samplehd.language.levels import episode_level, held_out_instruction, held_out_object
 
-__all__ = ["instruction_examples", "open_dataset", "scene_examples"]
+__all__ = ["instruction_examples", "open_dataset", "scene_examples", "training_split"]
 
 
 def open_dataset(path: str | Path) -> DatasetReader:
@@ -73,3 +74,23 @@ def scene_examples(reader: DatasetReader) -> dict[str, list[dict[str, Any]]]:
     if not out["train"]:
         raise ConfigError(f"dataset={root}: no training scenes", field="dataset")
     return out
+
+
+def training_split(reader: Any, dataset: str | Path, families: Sequence[str] | None = None
+                   ) -> tuple[list[int], list[int]]:
+    """(training, test) episode indices of a dataset (of ``families``, if given): every test-split
+    episode; the training split's episodes of level L1 (seen templates and objects: the other levels
+    are held out for evaluation). One line naming ``dataset`` when no training episode is left."""
+    scenes = {s["image_index"]: s for s in reader.scenes}
+    train_k, test_k = [], []
+    for e in reader.episodes:
+        if families and e.family not in families:
+            continue
+        ins = reader.instruction(e.instruction_index)
+        if e.split == "test":
+            test_k.append(e.instruction_index)
+        elif not held_out_instruction(ins) and episode_level(ins, scenes[e.scene_index]) == "L1":
+            train_k.append(e.instruction_index)
+    if not train_k:
+        raise ConfigError(f"dataset={dataset}: no training episodes", field="dataset")
+    return train_k, test_k

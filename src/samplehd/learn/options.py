@@ -1,38 +1,34 @@
-"""What a trained behaviour-cloning policy asks of the environment, read from its ``config.json``
-(:class:`~samplehd.learn.policy.configuration.PolicyConfig`).
+"""Which trained policy a ``config.json`` holds, and what it asks of the environment.
 
-Needs no PyTorch: ``samplehd evaluate`` sets the environment up from it before any model is loaded,
-and works for the other policies where the ``learn`` extra is not installed.
+A folder of ``samplehd train policy`` holds a behaviour-cloning policy
+(:class:`~samplehd.learn.policy.configuration.PolicyConfig`, ``action`` steering or waypoint) or a
+keypose policy (:class:`~samplehd.learn.keypose.configuration.KeyposeConfig`, ``action: keypose``);
+:data:`POLICY_CONFIGS` says which class reads which. Needs no PyTorch: ``samplehd evaluate`` sets the
+environment up from the config before any model is loaded, and works for the other policies where the
+``learn`` extra is not installed.
 """
 
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
+from samplehd.learn.keypose.configuration import ACTION as KEYPOSE_ACTION
+from samplehd.learn.keypose.configuration import KeyposeConfig
 from samplehd.learn.policy.configuration import PolicyConfig
 
-__all__ = ["POLICY_CAMERAS", "env_options", "env_options_from_config"]
+__all__ = ["POLICY_CONFIGS", "env_options", "policy_config_class"]
 
-POLICY_CAMERAS = ("scene", "wrist")  # the cameras the policy looks through, in the network's order
+# a policy config.json's ``action`` -> the config class that reads it (absent: the behaviour-cloning policy)
+POLICY_CONFIGS: dict[str, type[PolicyConfig] | type[KeyposeConfig]] = {KEYPOSE_ACTION: KeyposeConfig}
 
 
-def env_options_from_config(config: PolicyConfig) -> dict[str, Any]:
-    """The environment options of a policy config: RGB of both cameras at its image size and steering
-    control; the privileged-state reference (``inputs: state``) needs no image, nor does the keypose
-    policy (it renders the scene camera's RGB-D itself when it decides). A policy trained on
-    another catalogue than the default one gets its scenes from that catalogue (``scene.catalogue``)."""
-    if config.inputs == "state" or config.action == "keypose":  # the keypose policy draws its own scene view
-        options: dict[str, Any] = {"obs_mode": "state", "control_mode": "steering"}
-    else:
-        options = {"obs_mode": "rgb", "cameras": list(POLICY_CAMERAS), "width": config.image, "height": config.image,
-                   "control_mode": "steering"}
-    if config.catalogue != DEFAULT_CATALOGUE:
-        options["scene"] = {"catalogue": config.catalogue}
-    return options
+def policy_config_class(raw: Mapping[str, Any]) -> type[PolicyConfig] | type[KeyposeConfig]:
+    """The config class of the policy ``config.json`` object ``raw``, told by its ``action``."""
+    return POLICY_CONFIGS.get(str(raw.get("action", "")), PolicyConfig)
 
 
 def env_options(folder: str | Path) -> dict[str, Any]:
@@ -46,7 +42,7 @@ def env_options(folder: str | Path) -> dict[str, Any]:
         kind = cfg.get("kind") if isinstance(cfg, dict) else None
         raise ConfigError(f"models={folder}: config.json is a {kind!r} model, expected a policy", field="models")
     try:
-        config = PolicyConfig.from_dict(cfg)
+        config = policy_config_class(cfg).from_dict(cfg)
     except ConfigError as exc:
         raise ConfigError(f"models={folder}: config.json: {exc}", field="models") from None
-    return env_options_from_config(config)
+    return config.env_options()

@@ -5,7 +5,9 @@ valid)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
+from samplehd.learn.configuration import ModelConfig
 from samplehd.schema import Config, bounded
 
 __all__ = ["FORMAT", "ParserArchitecture", "ParserConfig", "ParserTraining"]
@@ -46,7 +48,7 @@ class ParserTraining(Config, section="train"):
 
 
 @dataclass(frozen=True)
-class ParserConfig(Config, section="parser"):
+class ParserConfig(ModelConfig, section="parser"):
     """A parser model's config.
 
     Attributes:
@@ -60,9 +62,9 @@ class ParserConfig(Config, section="parser"):
         train: training options.
     """
 
-    kind: str = bounded("parser", choices=("parser",))
-    format: int = bounded(FORMAT, lo=1)
-    dataset: str = ""
+    KIND: ClassVar[str] = "parser"
+    FORMAT: ClassVar[int] = FORMAT
+
     model: ParserArchitecture = field(default_factory=ParserArchitecture)
     target_vocab: tuple[str, ...] = bounded(("<NULL>", "<START>", "<END>", "<UNK>"), nonempty=True, unique=True)
     source_vocab_size: int = bounded(1, lo=1)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -9,7 +10,7 @@ import numpy as np
 
 from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.learn.data import instruction_examples, open_dataset
-from samplehd.learn.parser.configuration import ParserArchitecture, ParserConfig, ParserTraining
+from samplehd.learn.parser.configuration import ParserConfig
 from samplehd.learn.parser.evaluation import parser_test_metrics
 from samplehd.learn.parser.inference import InstructionParser
 from samplehd.learn.parser.processing import MAX_TARGET, encode_source, encode_target, pad_batch
@@ -18,8 +19,7 @@ from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, st
 __all__ = ["train_parser"]
 
 
-def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: int = 0, batch: int = 64,
-                 lr: float = 2e-3, embed: int = 64, hidden: int = 128, device: str | None = None,
+def train_parser(dataset: str | Path, out: str | Path, config: ParserConfig, *, device: str | None = None,
                  quiet: bool = False, stop_after: int | None = None) -> dict[str, Any]:
     """Train the parser on a dataset's training instructions and test it on its test split.
 
@@ -27,16 +27,29 @@ def train_parser(dataset: str | Path, out: str | Path, steps: int = 2000, seed: 
     templates and variants), ``test_node_exact_match``, ``test_executor_accuracy`` (the predicted
     program selects the same task on the scene), the same on held-out paraphrases (``l3_*``), and
     the training figures.
-    """
 
+    What the dataset says is filled in: its path, the decoder's tokens (``target_vocab``, those of its
+    training programs), the instruction vocabulary's size and the count of training instructions.
+
+    Args:
+        dataset: a dataset folder written by ``samplehd generate``.
+        out: the output folder (resumed when it holds a checkpoint).
+        config: the parser to train.
+        device: torch device (default: cuda when present, else cpu).
+        quiet: no progress bar.
+        stop_after: stop after this many steps (a checkpoint stays; for tests of resuming).
+
+    Returns:
+        The metrics written to ``metrics.json`` (``{"stopped_at": N}`` when stopped early).
+    """
     reader = open_dataset(dataset)
     data = instruction_examples(reader)
     train = data["train"]
     targets = [encode_target(e["program_sequence"], e["program"]) for e in train]
     vocab = ["<NULL>", "<START>", "<END>", "<UNK>", *sorted({t for ts in targets for t in ts})]
-    config = ParserConfig(dataset=str(dataset), model=ParserArchitecture(embed=embed, hidden=hidden),
-                          target_vocab=tuple(vocab), source_vocab_size=len(instruction_vocabulary()),
-                          train=ParserTraining(steps=steps, seed=seed, batch=batch, lr=lr, examples=len(train)))
+    config = replace(config, dataset=str(dataset), target_vocab=tuple(vocab),
+                     source_vocab_size=len(instruction_vocabulary()), train=replace(config.train, examples=len(train)))
+    steps, seed, batch, lr = config.train.steps, config.train.seed, config.train.batch, config.train.lr
     dev = pick_device(device)
     set_seed(seed)
     parser = InstructionParser(config, device=dev)

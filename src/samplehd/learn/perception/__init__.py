@@ -35,6 +35,7 @@ from samplehd.learn.perception.configuration import (
     PREPARED_FILE,
     PerceptionArchitecture,
     PerceptionConfig,
+    PerceptionTraining,
     attribute_vocab,
     kind_vocab,
 )
@@ -44,7 +45,7 @@ from samplehd.learn.perception.inference import Perception, annotation_from_inst
 from samplehd.learn.perception.preparation import size_templates
 from samplehd.learn.perception.training import train_perception
 
-__all__ = ["FORMAT", "PREPARED_FILE", "Perception", "PerceptionArchitecture", "PerceptionConfig",
+__all__ = ["FORMAT", "PREPARED_FILE", "Perception", "PerceptionArchitecture", "PerceptionConfig", "PerceptionTraining",
            "annotation_from_instances", "attribute_vocab", "backproject",
            "evaluate_perception", "height_map", "instance_masks", "join_stacked", "kind_vocab",
            "perception_test_metrics", "score_perception", "size_templates", "train_perception"]

@@ -7,10 +7,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 from samplehd.catalogue import load_catalogue
 from samplehd.errors import ConfigError
+from samplehd.learn.configuration import ModelConfig
 from samplehd.schema import Config, bounded
 from samplehd.world.layout import LAYOUT
 
@@ -18,7 +19,7 @@ __all__ = ["PerceptionArchitecture", "PerceptionConfig", "PerceptionImage", "Per
            "FORMAT", "SEG_CLASSES", "SEG_CHANNELS", "CROP", "CROP_CHANNELS", "CROP_VIEWS", "MIN_PIXELS", "MIN_RISE",
            "REACH_MARGIN", "DEPTH_JUMP", "MIN_PART", "CLUSTER_LINK", "FLOAT_LIFT", "STACK_NEAR", "GROUND_GAP",
            "RAISED", "KIND_FIT", "N_FEATURES", "PREPARED_FILE", "DEPTH_CENTRE", "DEPTH_SCALE", "ATTRIBUTES", "HEADS",
-           "attribute_vocab", "kind_vocab"]
+           "SIZE_SCALE", "attribute_vocab", "kind_vocab", "object_kind"]
 
 
 FORMAT = 4  # bump when the inputs or networks change (older models: train again)
@@ -31,7 +32,7 @@ MIN_PIXELS = 6
 MIN_RISE = 0.002  # [m] an instance lower than this above the table (95th percentile) is the table
 REACH_MARGIN = 0.10  # [m] an instance this far beyond the arm's reach is not a scene object
 DEPTH_JUMP = 0.03  # [m] a depth step this large between neighbouring pixels may part two objects
-_SIZE_SCALE = 10.0  # the geometry features hold lengths in decimetres (inputs near 1 for the networks)
+SIZE_SCALE = 10.0  # the geometry features hold lengths in decimetres (inputs near 1 for the networks)
 MIN_PART = 12  # pixels of the segmenter's grid: a part split off by a depth jump must be this large
 CLUSTER_LINK = 0.02  # [m] points of one object's surface lie this near one another (see object_points)
 FLOAT_LIFT = 0.02  # [m] an instance whose lowest points are this far above the table is an object's upper piece
@@ -39,7 +40,7 @@ STACK_NEAR = 0.03  # [m] ... joined with the instance whose ground-plane centre 
 GROUND_GAP = 0.01  # [m] parts this far apart on the ground plane are different objects
 RAISED = 0.0015  # [m] points this far above the table top are the object's when measuring its extents
 KIND_FIT = 4.0  # spreads (size_templates) above a kind: 99 % of single test objects are within 3.1 of it
-N_FEATURES = 21  # measured size and appearance features of an instance (see _geometry)
+N_FEATURES = 21  # measured size and appearance features of an instance (see geometry_features)
 PREPARED_FILE = "prepared.npz"
 DEPTH_CENTRE, DEPTH_SCALE = 1.5, 0.5
 ATTRIBUTES = ("name", "colour", "material", "size")
@@ -102,7 +103,7 @@ class PerceptionTraining(Config, section="train"):
 
 
 @dataclass(frozen=True)
-class PerceptionConfig(Config, section="perception"):
+class PerceptionConfig(ModelConfig, section="perception"):
     """A perception model's config.
 
     Attributes:
@@ -122,9 +123,9 @@ class PerceptionConfig(Config, section="perception"):
         train: training options.
     """
 
-    kind: str = bounded("perception", choices=("perception",))
-    format: int = bounded(FORMAT, lo=1)
-    dataset: str = ""
+    KIND: ClassVar[str] = "perception"
+    FORMAT: ClassVar[int] = FORMAT
+
     model: PerceptionArchitecture = field(default_factory=PerceptionArchitecture)
     attributes: dict[str, list[str]] = field(default_factory=dict)
     kinds: tuple[str, ...] = bounded((), unique=True)
@@ -135,19 +136,19 @@ class PerceptionConfig(Config, section="perception"):
     size_templates: dict[str, Any] = field(default_factory=dict)
     train: PerceptionTraining = field(default_factory=PerceptionTraining)
 
-    def __post_init__(self) -> None:
-        super().__post_init__()
+    def check_trained(self) -> None:
+        """Its attributes name a list of values for each of :data:`ATTRIBUTES`, and each kind is a class
+        and size of theirs."""
         missing = [a for a in ATTRIBUTES if not _names(self.attributes.get(a))]
         if missing:
             raise ConfigError(f"perception.attributes: needs a list of names for each of {', '.join(ATTRIBUTES)}; "
-                              f"missing or not a list of names: {', '.join(missing)}")
+                              f"missing or not a list of names: {', '.join(missing)}", field="perception.attributes")
         for kind in self.kinds:
             parts = kind.split("/")
             if (len(parts) != 3 or parts[0] not in self.attributes["name"]
                     or parts[2] not in self.attributes["size"]):
                 raise ConfigError(f"perception.kinds: {kind!r} is no class/variant/size of the attributes' names "
-                                  f"and sizes")
-
+                                  f"and sizes", field="perception.kinds")
 
 def _names(value: Any) -> bool:
     return isinstance(value, list | tuple) and all(isinstance(v, str) for v in value)
@@ -182,5 +183,5 @@ def kind_vocab(catalogue: str = "procedural") -> list[str]:
     return sorted(out)
 
 
-def _kind(o: Mapping[str, Any]) -> str:
+def object_kind(o: Mapping[str, Any]) -> str:
     return f"{o['name']}/{o.get('variant', '')}/{o['size']}"

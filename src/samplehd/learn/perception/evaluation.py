@@ -16,7 +16,7 @@ from samplehd.learn.data import open_dataset, scene_examples
 from samplehd.learn.perception.configuration import ATTRIBUTES, MIN_PIXELS
 from samplehd.learn.perception.geometry import height_map
 from samplehd.learn.perception.inference import Perception
-from samplehd.learn.perception.preparation import _load_scene_images
+from samplehd.learn.perception.preparation import load_scene_images
 from samplehd.learn.training import pick_device, timed
 
 __all__ = ["evaluate_perception", "perception_test_metrics", "score_perception"]
@@ -48,7 +48,7 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
     gt_attr_rows: list[dict[str, Any]] = []
     for item in scenes:
         ann = item["annotation"]
-        rgb, depth, seg = _load_scene_images(item)
+        rgb, depth, seg = load_scene_images(item)
         height = height_map(depth, ann["camera"], model.table_height)
         masks = model.segment(rgb, depth, ann["camera"], height)
         found = model.classify(rgb, depth, masks, ann["camera"], height)

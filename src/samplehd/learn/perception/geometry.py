@@ -15,7 +15,6 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from samplehd.learn.perception.configuration import (
-    _SIZE_SCALE,
     CLUSTER_LINK,
     CROP_CHANNELS,
     DEPTH_CENTRE,
@@ -26,11 +25,13 @@ from samplehd.learn.perception.configuration import (
     MIN_PART,
     MIN_PIXELS,
     RAISED,
+    SIZE_SCALE,
     STACK_NEAR,
 )
 
 __all__ = ["backproject", "seg_labels", "height_map", "instance_masks", "instance_parts", "split_by_depth",
-           "join_stacked", "object_points"]
+           "join_stacked", "object_points", "downsampled", "net_input", "object_crop", "metric_extents",
+           "geometry_features"]
 
 
 def backproject(depth: np.ndarray, rows: np.ndarray, cols: np.ndarray, camera: Mapping[str, Any]) -> np.ndarray:
@@ -65,7 +66,7 @@ def seg_labels(seg: np.ndarray) -> np.ndarray:
     return out
 
 
-def _downsample(img: np.ndarray, factor: int, nearest: bool) -> np.ndarray:
+def downsampled(img: np.ndarray, factor: int, nearest: bool) -> np.ndarray:
     if factor == 1:
         return img
     if nearest:
@@ -82,7 +83,7 @@ def height_map(depth: np.ndarray, camera: Mapping[str, Any], table_height: float
     return (z - table_height).reshape(depth.shape).astype(np.float32)
 
 
-def _net_input(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray) -> np.ndarray:
+def net_input(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray) -> np.ndarray:
     """(5, H, W) float32: RGB in [0, 1], normalised depth, height above the table [dm]."""
     d = (np.clip(depth, 0.0, 4.0) - DEPTH_CENTRE) / DEPTH_SCALE
     h = np.clip(height, -0.2, 0.5) * 10.0
@@ -222,7 +223,7 @@ def join_stacked(masks: Sequence[np.ndarray], depth: np.ndarray, camera: Mapping
     return [np.logical_or.reduce([masks[k] for k in g]) for g in _linked_groups(len(masks), links)]
 
 
-def _crop(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray, mask: np.ndarray, size: int,
+def object_crop(rgb: np.ndarray, depth: np.ndarray, height: np.ndarray, mask: np.ndarray, size: int,
           jitter: np.ndarray | None = None) -> np.ndarray:
     """(6, size, size) crop around a mask at the image's full resolution: RGB, mask, depth relative to
     the instance's median [dm], height above the table [dm]. ``jitter`` (row, column, scale), as
@@ -264,12 +265,12 @@ def object_points(pts: np.ndarray, table_height: float, link: float = CLUSTER_LI
     return raised[label == np.bincount(label).argmax()]
 
 
-def _metric_size(features: np.ndarray) -> np.ndarray:
-    """Long and short extent and height [m] from :func:`_geometry`'s features."""
-    return features[:3] / _SIZE_SCALE
+def metric_extents(features: np.ndarray) -> np.ndarray:
+    """Long and short extent and height [m] from :func:`geometry_features`'s features."""
+    return features[:3] / SIZE_SCALE
 
 
-def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any],
+def geometry_features(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapping[str, Any],
               table_height: float, whole: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(position [x, y, z] of the object's base, the :data:`N_FEATURES` measured features) of a mask.
 
@@ -306,8 +307,8 @@ def _geometry(rgb: np.ndarray, depth: np.ndarray, mask: np.ndarray, camera: Mapp
     v, lo_c = px.max(axis=1), px.min(axis=1)
     sat = (v - lo_c) / np.maximum(v, 1e-3)
     vp = np.percentile(v, (10, 50, 90, 98, 100))
-    size = [ext[0] * _SIZE_SCALE, ext[1] * _SIZE_SCALE, top * _SIZE_SCALE, np.log(ext[0] + 0.005),
-            np.log(ext[1] + 0.005), np.log(top + 0.005), side_m * _SIZE_SCALE]
+    size = [ext[0] * SIZE_SCALE, ext[1] * SIZE_SCALE, top * SIZE_SCALE, np.log(ext[0] + 0.005),
+            np.log(ext[1] + 0.005), np.log(top + 0.005), side_m * SIZE_SCALE]
     look = [*vp, vp[3] - vp[1], float(np.mean(v > vp[1] + 0.25)), float(np.std(v)), *np.percentile(sat, (10, 50, 90))]
     return pos, np.asarray(size + look + _texture_energy(rgb, mask), dtype=np.float32)
 

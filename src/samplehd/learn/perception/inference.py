@@ -22,15 +22,15 @@ from samplehd.learn.perception.configuration import (
     PerceptionConfig,
 )
 from samplehd.learn.perception.geometry import (
-    _crop,
-    _downsample,
-    _geometry,
-    _metric_size,
-    _net_input,
     backproject,
+    downsampled,
+    geometry_features,
     height_map,
     instance_parts,
     join_stacked,
+    metric_extents,
+    net_input,
+    object_crop,
 )
 from samplehd.learn.perception.modeling import PerceptionNet
 from samplehd.learn.training import load_model_files, read_model_config, torch
@@ -83,11 +83,11 @@ class Perception:
         f = self.factor
         if height is None:
             height = height_map(depth, camera, self.table_height)
-        x = _net_input(_downsample(rgb, f, False), _downsample(depth, f, False), _downsample(height, f, False))
+        x = net_input(downsampled(rgb, f, False), downsampled(depth, f, False), downsampled(height, f, False))
         with torch.no_grad():
             logits = self.net.segmenter(torch.as_tensor(x[None], device=self.device))
         labels = logits.argmax(1)[0].cpu().numpy()
-        found = instance_parts(labels, _downsample(depth, f, True), camera)
+        found = instance_parts(labels, downsampled(depth, f, True), camera)
         masks = [m for m, _ in found]
         if f > 1:
             masks = [np.kron(m, np.ones((f, f), bool))[: rgb.shape[0], : rgb.shape[1]] for m in masks]
@@ -125,7 +125,8 @@ class Perception:
             for (name, _), ks in alike.items():
                 if len(ks) > 1:
                     joined = np.logical_or.reduce([parts[k] for k in ks])
-                    size = _metric_size(_geometry(rgb, depth, joined, camera, self.table_height, whole=True)[1])
+                    size = metric_extents(geometry_features(rgb, depth, joined, camera, self.table_height,
+                                                            whole=True)[1])
                     if self.fits_kind(name, size):
                         out.append(joined)
                         continue
@@ -157,14 +158,15 @@ class Perception:
                  camera: Mapping[str, Any], height: np.ndarray | None = None,
                  whole: Sequence[bool] | None = None) -> list[dict[str, Any]]:
         """Attributes and geometry of each mask (logits averaged over the crop and its mirror image);
-        ``whole[k]``: mask ``k`` may hold several objects (see :func:`_geometry`)."""
+        ``whole[k]``: mask ``k`` may hold several objects (see :func:`geometry_features`)."""
         if not masks:
             return []
         if height is None:
             height = height_map(depth, camera, self.table_height)
-        crops = np.stack([_crop(rgb, depth, height, m, CROP) for m in masks])
+        crops = np.stack([object_crop(rgb, depth, height, m, CROP) for m in masks])
         whole = whole or [False] * len(masks)
-        geo = [_geometry(rgb, depth, m, camera, self.table_height, w) for m, w in zip(masks, whole, strict=True)]
+        geo = [geometry_features(rgb, depth, m, camera, self.table_height, w)
+               for m, w in zip(masks, whole, strict=True)]
         sizes = torch.as_tensor(np.stack([g[1] for g in geo]).astype(np.float32), device=self.device)
         with torch.no_grad():
             x = torch.as_tensor(crops, device=self.device)
@@ -178,7 +180,7 @@ class Perception:
             attrs = {a: self.vocab[a][int(probs[j][k].argmax())] for j, a in enumerate(ATTRIBUTES)}
             scores = {a: {v: round(float(q), 4) for v, q in zip(self.vocab[a], probs[j][k], strict=True) if q >= 0.01}
                       for j, a in enumerate(ATTRIBUTES)}
-            result.append({**attrs, "position": pos, "metric_size": _metric_size(size), "scores": scores})
+            result.append({**attrs, "position": pos, "metric_size": metric_extents(size), "scores": scores})
         return result
 
     def _with_kinds(self, probs: list[np.ndarray], features: Sequence[np.ndarray] | None = None) -> list[np.ndarray]:

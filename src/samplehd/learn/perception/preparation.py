@@ -24,14 +24,21 @@ from samplehd.learn.perception.configuration import (
     MIN_PIXELS,
     N_FEATURES,
     PREPARED_FILE,
-    _kind,
+    object_kind,
 )
-from samplehd.learn.perception.geometry import _crop, _downsample, _geometry, _net_input, height_map, seg_labels
+from samplehd.learn.perception.geometry import (
+    downsampled,
+    geometry_features,
+    height_map,
+    net_input,
+    object_crop,
+    seg_labels,
+)
 
-__all__ = ["size_templates", "prepared_arrays"]
+__all__ = ["load_scene_images", "prepare_perception", "prepared_arrays", "size_templates"]
 
 
-def _load_scene_images(item: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def load_scene_images(item: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     rgb = np.asarray(Image.open(item["rgb"]).convert("RGB"))
     depth = np.load(item["depth"], allow_pickle=False).astype(np.float32)
     seg = np.asarray(Image.open(item["segmentation"])).astype(np.int64)
@@ -44,7 +51,7 @@ def _view_mask(mask: np.ndarray, factor: int, rng: np.random.Generator) -> np.nd
     rows, cols = np.nonzero(mask)
     r0, c0 = max(rows.min() // factor - 2, 0) * factor, max(cols.min() // factor - 2, 0) * factor
     r1, c1 = min(rows.max() + 3 * factor, mask.shape[0]), min(cols.max() + 3 * factor, mask.shape[1])
-    small = _downsample(mask[r0:r1, c0:c1], factor, True)
+    small = downsampled(mask[r0:r1, c0:c1], factor, True)
     grow = int(rng.integers(-1, 2))
     if grow > 0:
         small = ndimage.binary_dilation(small)
@@ -58,7 +65,7 @@ def _view_mask(mask: np.ndarray, factor: int, rng: np.random.Generator) -> np.nd
     return out
 
 
-def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], kinds: Sequence[str],
+def prepare_perception(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], kinds: Sequence[str],
              factor: int, table_height: float, seed: int, quiet: bool = True) -> dict[str, Any]:
     """Arrays for training: the segmenter's downsampled inputs and labels, and :data:`CROP_VIEWS`
     crops (with their size features) of every training object."""
@@ -68,13 +75,13 @@ def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[st
     with console.status("reading and cropping the training scenes") if not quiet else nullcontext():
         for item in items:
             ann = item["annotation"]
-            rgb, depth, seg = _load_scene_images(item)
+            rgb, depth, seg = load_scene_images(item)
             height = height_map(depth, ann["camera"], table_height)
-            x = _net_input(_downsample(rgb, factor, False), _downsample(depth, factor, False),
-                           _downsample(height, factor, False))
+            x = net_input(downsampled(rgb, factor, False), downsampled(depth, factor, False),
+                           downsampled(height, factor, False))
             rgbs.append(np.round(x[:3] * 255).astype(np.uint8))
             dhs.append(x[3:].astype(np.float16))
-            ys.append(seg_labels(_downsample(seg, factor, True)).astype(np.int8))
+            ys.append(seg_labels(downsampled(seg, factor, True)).astype(np.int8))
             for j in item["train_objects"]:
                 o = ann["objects"][j]
                 mask = seg == o["segmentation_id"]
@@ -83,10 +90,10 @@ def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[st
                 for view in range(CROP_VIEWS):
                     m = mask if view == 0 else _view_mask(mask, factor, rng)
                     jitter = None if view == 0 else rng.uniform([-0.06, -0.06, -0.12], [0.06, 0.06, 0.12])
-                    crops.append(_crop(rgb, depth, height, m, CROP, jitter).astype(np.float16))
-                    geos.append(_geometry(rgb, depth, m, ann["camera"], table_height)[1])
+                    crops.append(object_crop(rgb, depth, height, m, CROP, jitter).astype(np.float16))
+                    geos.append(geometry_features(rgb, depth, m, ann["camera"], table_height)[1])
                 labels.append([*(vocab[a].index(o["name"] if a == "name" else o[a]) for a in ATTRIBUTES),
-                               kinds.index(_kind(o))])
+                               kinds.index(object_kind(o))])
                 extents.setdefault(f"{o['name']}/{o['size']}", []).append(o["bbox"]["extents"])
     n = len(labels)
     return {"rgb": np.stack(rgbs), "dh": np.stack(dhs), "y": np.stack(ys),
@@ -97,7 +104,7 @@ def _prepare(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[st
 
 def size_templates(geo: np.ndarray, kinds_of: np.ndarray, kinds: Sequence[str]) -> dict[str, list[list[float]]]:
     """Per kind (class/variant/size) of the training objects: the median and spread (standard deviation
-    + 0.03) of the measured log dimensions (:func:`_geometry`'s long and short extent and top height)
+    + 0.03) of the measured log dimensions (:func:`geometry_features`'s long and short extent and top height)
     over every training view. A size is a scale of a variant, so within a recognised class the nearest
     kind names the size; measured the same way in training and use, the templates carry the
     measurement's own bias (a cylinder's visible depth is its radius, not its diameter).

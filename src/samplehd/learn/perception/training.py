@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +18,6 @@ from samplehd.learn.perception.configuration import (
     FORMAT,
     N_FEATURES,
     PREPARED_FILE,
-    PerceptionArchitecture,
     PerceptionConfig,
     PerceptionImage,
     PerceptionTraining,
@@ -25,23 +26,36 @@ from samplehd.learn.perception.configuration import (
 )
 from samplehd.learn.perception.evaluation import perception_test_metrics
 from samplehd.learn.perception.inference import Perception
-from samplehd.learn.perception.preparation import _prepare, prepared_arrays, size_templates
+from samplehd.learn.perception.preparation import prepare_perception, prepared_arrays, size_templates
 from samplehd.learn.training import F, TrainRun, descend, pick_device, set_seed, step_rng, timed, torch
 from samplehd.world.layout import LAYOUT
 
 __all__ = ["train_perception"]
 
 
-def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, seed: int = 0, device: str | None = None,
-                     quiet: bool = False, stop_after: int | None = None, seg_batch: int = 4, attr_batch: int = 64,
-                     patch: int = 128, seg_every: int = 2,
-                     lr: float = 2e-3, seg_width: int = 8, attr_width: int = 24) -> dict[str, Any]:
+def train_perception(dataset: str | Path, out: str | Path, config: PerceptionConfig, *, device: str | None = None,
+                     quiet: bool = False, stop_after: int | None = None) -> dict[str, Any]:
     """Train segmentation and attribute networks on a dataset's training scenes; test on its test scenes.
 
     Metrics (``metrics.json``): ``test_mask_iou`` (mean best IoU per ground-truth object),
     ``test_detection_f1``, ``test_attribute_accuracy`` (mean of the four attribute accuracies on
     detected objects of seen classes and combinations), ``test_attribute_all_four``,
     ``test_position_error_cm`` (median, ground plane) and held-out (L2, L4) figures.
+
+    What the dataset says is filled in: its path, the attribute and kind vocabularies (of its
+    catalogue), its scene images' size and the segmenter's downsampling, the table height, the
+    training objects' extents and size templates, and the counts of training scenes and objects.
+
+    Args:
+        dataset: a dataset folder written by ``samplehd generate``.
+        out: the output folder (resumed when it holds a checkpoint).
+        config: the perception model to train.
+        device: torch device (default: cuda when present, else cpu).
+        quiet: no progress bar.
+        stop_after: stop after this many steps (a checkpoint stays; for tests of resuming).
+
+    Returns:
+        The metrics written to ``metrics.json`` (``{"stopped_at": N}`` when stopped early).
     """
     reader = open_dataset(dataset)
     data = scene_examples(reader)
@@ -51,16 +65,17 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
     height = int(data["train"][0]["annotation"]["camera"]["height"])
     factor = 2 if width >= 400 else 1
     dev = pick_device(device)
+    steps, seed = config.train.steps, config.train.seed
     set_seed(seed)
     key = {"format": FORMAT, "features": N_FEATURES, "dataset": str(Path(dataset).resolve()), "factor": factor,
            "crop": CROP, "views": CROP_VIEWS, "seed": seed, "table_height": LAYOUT.table_height,
            "scenes": [str(Path(item["rgb"]).name) for item in data["train"]], "vocab": vocab, "kinds": kinds}
     with timed() as prep_time:
-        arrays = prepared_arrays(Path(out), key, lambda: _prepare(data["train"], vocab, kinds, factor,
+        arrays = prepared_arrays(Path(out), key, lambda: prepare_perception(data["train"], vocab, kinds, factor,
                                                                   LAYOUT.table_height, seed, quiet))
-    config = PerceptionConfig(
+    config = replace(
+        config,
         dataset=str(dataset),
-        model=PerceptionArchitecture(seg_width=seg_width, attr_width=attr_width),
         attributes=vocab,
         kinds=tuple(kinds),
         image=PerceptionImage(camera="scene", width=width, height=height),
@@ -68,16 +83,39 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
         table_height=LAYOUT.table_height,
         extents=arrays["extents"],
         size_templates=size_templates(arrays["geo"], arrays["labels"][:, len(ATTRIBUTES)], kinds),
-        train=PerceptionTraining(steps=steps, seed=seed, seg_batch=seg_batch, attr_batch=attr_batch, patch=patch,
-                                 seg_every=seg_every, lr=lr, scenes=len(data["train"]),
-                                 objects=len(arrays["labels"])),
+        train=replace(config.train, scenes=len(data["train"]), objects=len(arrays["labels"])),
     )
     model = Perception(config, device=dev)
     net = model.net
-    opt = torch.optim.Adam(net.parameters(), lr=lr)
+    opt = torch.optim.Adam(net.parameters(), lr=config.train.lr)
     run = TrainRun(Path(out), config.to_dict(), steps, checkpoint_every=max(50, steps // 10), quiet=quiet,
                    stop_after=stop_after)
     run.prepare()
+    losses, t = run.train(net, opt, _train_step(net, opt, arrays, config.train, dev), "perception")
+    if run.stopped:
+        return {"stopped_at": len(losses)}
+    net.eval()
+    metrics = {
+        **perception_test_metrics(model, data["test"]),
+        "train_scenes": len(data["train"]),
+        "train_objects": len(arrays["labels"]),
+        "train_loss": float(np.mean(losses[-50:])) if losses else None,
+        "prepare_s": prep_time["wall_s"],
+        "steps": steps,
+        "seed": seed,
+        "device": str(dev),
+        **t,
+    }
+    run.finish(net, metrics)
+    (Path(out) / PREPARED_FILE).unlink(missing_ok=True)  # only a resumed run needs it
+    return metrics
+
+def _train_step(net: Any, opt: Any, arrays: Mapping[str, Any], tr: PerceptionTraining, dev: Any) -> Any:
+    """The optimiser step ``step`` of the run (``tr``: the config's training options): a segmenter
+    batch every ``tr.seg_every`` steps, an attribute batch every step, the learning rate decaying
+    linearly over the last two thirds."""
+    seed, lr, steps, seg_batch, attr_batch, patch, seg_every = (tr.seed, tr.lr, tr.steps, tr.seg_batch,
+                                                                tr.attr_batch, tr.patch, tr.seg_every)
     seg_weight = torch.tensor([1.0, 1.0, 3.0, 6.0], device=dev)
     rgb_all, dh_all, y_all = arrays["rgb"], arrays["dh"], arrays["y"]
     hh, ww = y_all.shape[1], y_all.shape[2]
@@ -122,21 +160,4 @@ def train_perception(dataset: str | Path, out: str | Path, steps: int = 3000, se
         loss = seg_loss + attr_loss
         return descend(opt, loss)
 
-    losses, t = run.train(net, opt, train_step, "perception")
-    if run.stopped:
-        return {"stopped_at": len(losses)}
-    net.eval()
-    metrics = {
-        **perception_test_metrics(model, data["test"]),
-        "train_scenes": len(data["train"]),
-        "train_objects": len(arrays["labels"]),
-        "train_loss": float(np.mean(losses[-50:])) if losses else None,
-        "prepare_s": prep_time["wall_s"],
-        "steps": steps,
-        "seed": seed,
-        "device": str(dev),
-        **t,
-    }
-    run.finish(net, metrics)
-    (Path(out) / PREPARED_FILE).unlink(missing_ok=True)  # only a resumed run needs it
-    return metrics
+    return train_step

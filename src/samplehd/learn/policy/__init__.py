@@ -18,23 +18,16 @@ demonstrations.
 Modules, one job each (LeRobot's split of a model):
 
 - :mod:`~samplehd.learn.policy.configuration`: :class:`PolicyConfig`, a model's ``config.json`` (no torch);
-- :mod:`~samplehd.learn.policy.processing`: the cameras and the robot state vector the network sees;
-- :mod:`~samplehd.learn.policy.actions`: steering and waypoint labels, :class:`WaypointExpert` and the
-  waypoint follower;
+- :mod:`~samplehd.learn.policy.processing`: the robot state vector the network sees;
 - :mod:`~samplehd.learn.policy.modeling`: the network;
-- :mod:`~samplehd.learn.policy.inference`: :class:`BCPolicy`, a trained policy that acts;
+- :mod:`~samplehd.learn.policy.inference`: :class:`BCPolicy`, a trained policy that acts, and the
+  factory ``samplehd evaluate --policy bc`` calls (which also loads the keypose policy of
+  :mod:`samplehd.learn.keypose`);
 - :mod:`~samplehd.learn.policy.preparation`: training arrays from dataset and collected episodes;
 - :mod:`~samplehd.learn.policy.training`: :func:`train_policy`, with DART demonstrations and DAgger rounds.
 
-The keypose policy (``--action keypose``), one decision per object moved (where to grasp, where it
-goes) from a top-down view of the scene camera's RGB-D, as in Transporter networks, CLIPort and PerAct:
-
-- :mod:`~samplehd.learn.policy.topdown`: :class:`TopDownGrid`, the view;
-- :mod:`~samplehd.learn.policy.keyposes`: :func:`decisions` read from recorded episodes, and
-  :class:`KeyposeFollower`, which carries a decision out as steering vectors;
-- :mod:`~samplehd.learn.policy.keypose_training`: :func:`train_keypose_policy`;
-- :mod:`~samplehd.learn.policy.keypose_inference`: :class:`KeyposePolicy`, a trained one that acts, and
-  the view and the decoding of the network's maps that training shares.
+The steering and waypoint labels, :class:`~samplehd.learn.actions.WaypointExpert` and the waypoint
+follower are :mod:`samplehd.learn.actions`.
 
 Importing this package loads only the configuration: ``samplehd evaluate`` reads a policy's
 ``config.json`` through :mod:`samplehd.learn.options` where PyTorch is not installed. The other names
@@ -48,6 +41,7 @@ from typing import Any
 
 from samplehd.learn.policy.configuration import (
     ACTIONS,
+    CAMERAS,
     ENCODERS,
     FORMAT,
     INPUTS,
@@ -57,7 +51,6 @@ from samplehd.learn.policy.configuration import (
     PolicyArchitecture,
     PolicyCollection,
     PolicyConfig,
-    PolicyGrid,
     PolicyInference,
     PolicyTraining,
 )
@@ -66,28 +59,13 @@ from samplehd.learn.policy.configuration import (
 _DEFERRED = {
     "BCNet": "modeling",
     "BCPolicy": "inference",
-    "CAMERAS": "processing",
-    "Decision": "keyposes",
-    "KeyposeFollower": "keyposes",
-    "KeyposeNet": "modeling",
-    "KeyposePolicy": "keypose_inference",
-    "TopDownGrid": "topdown",
-    "decisions": "keyposes",
-    "train_keypose_policy": "keypose_training",
-    "WaypointExpert": "actions",
-    "follow_waypoints": "actions",
-    "moving_frames": "actions",
     "policy_for_evaluation": "inference",
     "train_policy": "training",
-    "waypoint_targets": "actions",
-    "waypoints": "actions",
 }
 
 __all__ = ["ACTIONS", "CAMERAS", "ENCODERS", "FORMAT", "INPUTS", "LOSSES", "STATE_DIM", "TARGET_DIM", "BCNet",
-           "BCPolicy", "Decision", "KeyposeFollower", "KeyposeNet", "KeyposePolicy", "PolicyArchitecture",
-           "PolicyCollection", "PolicyConfig", "PolicyGrid", "PolicyInference", "PolicyTraining", "TopDownGrid",
-           "WaypointExpert", "decisions", "follow_waypoints", "moving_frames", "policy_for_evaluation",
-           "train_keypose_policy", "train_policy", "waypoint_targets", "waypoints"]
+           "BCPolicy", "PolicyArchitecture", "PolicyCollection", "PolicyConfig", "PolicyInference", "PolicyTraining",
+           "policy_for_evaluation", "train_policy"]
 
 
 def __getattr__(name: str) -> Any:

@@ -1,22 +1,25 @@
-"""What defines a trained behaviour-cloning policy: the ``config.json`` of ``samplehd train policy``,
-declared with :mod:`samplehd.schema` (a bad file is one line naming the file, the field, the value and
-what is valid). Needs no PyTorch: ``samplehd evaluate`` reads it to set the environment up.
+"""What defines a trained behaviour-cloning policy: the ``config.json`` of ``samplehd train policy``
+(``--action steering`` or ``waypoint``), declared with :mod:`samplehd.schema` (a bad file is one line
+naming the file, the field, the value and what is valid). Needs no PyTorch: ``samplehd evaluate`` reads
+it to set the environment up (:meth:`PolicyConfig.env_options`).
 
-Files written before this declaration load unchanged: the keys are the ones they hold, and a key that
-format-3 files of earlier versions lack (``inputs``, ``action``, ``model.encoder``,
-``inference.zero_channels``) has the value those versions meant.
+Files written before this declaration load unchanged: a key that format-3 files of earlier versions
+lack (``inputs``, ``action``, ``model.encoder``, ``inference.zero_channels``) has the value those
+versions meant, and the keypose policy's keys they hold (``grid``, ``train.init``) are dropped.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
+from samplehd.learn.configuration import ModelConfig, catalogue_options
 from samplehd.schema import Config, bounded
 
-__all__ = ["ACTIONS", "ENCODERS", "FORMAT", "INPUTS", "LOSSES", "STATE_DIM", "TARGET_DIM", "PolicyArchitecture",
-           "PolicyCollection", "PolicyConfig", "PolicyGrid", "PolicyInference", "PolicyTraining"]
+__all__ = ["ACTIONS", "CAMERAS", "ENCODERS", "FORMAT", "INPUTS", "LOSSES", "STATE_DIM", "TARGET_DIM",
+           "PolicyArchitecture", "PolicyCollection", "PolicyConfig", "PolicyInference", "PolicyTraining"]
 
 FORMAT = 3  # the config format of a policy model (bump when the network or its inputs change)
 # joint positions (6), TCP position (3), TCP orientation (6: two rotation columns), finger opening (1),
@@ -26,7 +29,10 @@ STATE_DIM = 23
 # orientation (6: two rotation columns) and sees no image.
 TARGET_DIM = 9
 INPUTS = ("rgb", "state")  # rgb: the visuomotor policy; state: the privileged-state reference
-ACTIONS = ("steering", "waypoint", "keypose")
+# steering: chunks of steering vectors; waypoint: one waypoint per step (the keypose policy is
+# :mod:`samplehd.learn.keypose`)
+ACTIONS = ("steering", "waypoint")
+CAMERAS = ("scene", "wrist")  # the cameras the policy looks through, in the network's order
 ENCODERS = ("flatten", "keypoints")
 LOSSES = ("mse", "l1")
 
@@ -47,30 +53,6 @@ class PolicyArchitecture(Config, section="model"):
     hidden: int = bounded(256, lo=1)
     state_dim: int = bounded(STATE_DIM, lo=1)
     encoder: str = bounded("flatten", choices=ENCODERS)
-
-
-@dataclass(frozen=True)
-class PolicyGrid(Config, section="grid"):
-    """What the keypose policy looks at (:mod:`samplehd.learn.policy.topdown`): the scene camera's RGB-D
-    image at ``width`` × ``height`` px, re-projected onto ``rows`` × ``cols`` cells of side ``cell`` from
-    the corner ``origin`` (world x, y)."""
-
-    camera: str = "scene"
-    width: int = bounded(640, lo=1, unit="px")
-    height: int = bounded(360, lo=1, unit="px")
-    origin: tuple[float, ...] = (-0.512, -0.64)
-    cell: float = bounded(0.008, lo=0.0, lo_open=True, unit="m")
-    rows: int = bounded(128, lo=16)
-    cols: int = bounded(160, lo=16)
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        if len(self.origin) != 2:
-            raise ConfigError(f"grid.origin={list(self.origin)}: the grid's corner, two numbers (world x, y) [m]",
-                              field="grid.origin")
-        if self.rows % 16 or self.cols % 16:
-            raise ConfigError(f"grid.rows={self.rows}, grid.cols={self.cols}: each a multiple of 16 (the network "
-                              f"halves the grid four times)", field="grid.rows")
 
 
 @dataclass(frozen=True)
@@ -123,7 +105,6 @@ class PolicyTraining(Config, section="train"):
         gripper_weight: loss weight of the gripper command.
         episodes: training episodes of the dataset.
         frames: training samples of the dataset.
-        init: the folder of the policy whose weights the training started from ("": none).
     """
 
     steps: int = bounded(4000, lo=1)
@@ -136,11 +117,10 @@ class PolicyTraining(Config, section="train"):
     gripper_weight: float = bounded(1.0, lo=0.0)
     episodes: int = bounded(0, lo=0)
     frames: int = bounded(0, lo=0)
-    init: str = ""
 
 
 @dataclass(frozen=True)
-class PolicyConfig(Config, section="policy"):
+class PolicyConfig(ModelConfig, section="policy"):
     """A behaviour-cloning policy's config.
 
     Attributes:
@@ -151,23 +131,23 @@ class PolicyConfig(Config, section="policy"):
             ``shop-vrb``): the one its evaluation and its collected episodes draw from.
         inputs: ``rgb`` (both cameras' RGB, instruction, robot state) or ``state`` (no image; the
             target object's pose instead).
-        action: ``steering`` (chunks of steering vectors), ``waypoint`` (one waypoint per step) or
-            ``keypose`` (one decision per object moved, from a top-down view of the scene camera's RGB-D).
-        image: side of the square camera images [px] (0: no image).
+        action: ``steering`` (chunks of steering vectors) or ``waypoint`` (one waypoint per step).
+        image: side of the square camera images [px] (0: no image; in a config to train, filled in from
+            the dataset).
         chunk: actions per prediction.
         execute: actions of a chunk executed before predicting again.
         tokens: instruction length in tokens.
         model: network sizes.
         inference: how it acts.
-        grid: the keypose policy's view of the table.
         families: the task families of its training episodes.
         collect: episodes collected in the environment.
         train: training options.
     """
 
-    kind: str = bounded("policy", choices=("policy",))
-    format: int = bounded(FORMAT, lo=1)
-    dataset: str = ""
+    KIND: ClassVar[str] = "policy"
+    FORMAT: ClassVar[int] = FORMAT
+    DROPPED: ClassVar[tuple[str, ...]] = ("grid", "train.init")
+
     catalogue: str = bounded(DEFAULT_CATALOGUE, choices=tuple(CATALOGUES))
     inputs: str = bounded("rgb", choices=INPUTS)
     action: str = bounded("steering", choices=ACTIONS)
@@ -177,13 +157,20 @@ class PolicyConfig(Config, section="policy"):
     tokens: int = bounded(32, lo=1)
     model: PolicyArchitecture = field(default_factory=PolicyArchitecture)
     inference: PolicyInference = field(default_factory=PolicyInference)
-    grid: PolicyGrid = field(default_factory=PolicyGrid)
     families: tuple[str, ...] = ()
     collect: PolicyCollection = field(default_factory=PolicyCollection)
     train: PolicyTraining = field(default_factory=PolicyTraining)
 
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        if self.inputs == "rgb" and self.action != "keypose" and self.image < 1:
+    def check_trained(self) -> None:
+        """An ``rgb`` policy names the side of its images."""
+        if self.inputs == "rgb" and self.image < 1:
             raise ConfigError(f"policy.image={self.image}: the rgb policy needs the side of its camera images, "
-                              f"an integer ≥ 1 px")
+                              f"an integer ≥ 1 px", field="policy.image")
+
+    def env_options(self) -> dict[str, object]:
+        """The environment options the policy needs: RGB of both cameras at its image size and steering
+        control; the privileged-state reference (``inputs: state``) needs no image. A policy trained on
+        another catalogue than the default one gets its scenes from that catalogue (``scene.catalogue``)."""
+        images = {} if self.inputs == "state" else {"cameras": list(CAMERAS), "width": self.image, "height": self.image}
+        return {"obs_mode": "state" if self.inputs == "state" else "rgb", **images, "control_mode": "steering",
+                **catalogue_options(self.catalogue)}

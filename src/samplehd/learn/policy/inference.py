@@ -12,12 +12,13 @@ import numpy as np
 
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
-from samplehd.learn.options import env_options_from_config
-from samplehd.learn.policy.actions import _follow, _speeds
-from samplehd.learn.policy.configuration import FORMAT, PolicyConfig
-from samplehd.learn.policy.keypose_inference import KeyposePolicy
+from samplehd.learn.actions import steering_speeds, waypoint_steering
+from samplehd.learn.keypose.configuration import KeyposeConfig
+from samplehd.learn.keypose.inference import KeyposePolicy
+from samplehd.learn.options import policy_config_class
+from samplehd.learn.policy.configuration import CAMERAS, FORMAT, PolicyConfig
 from samplehd.learn.policy.modeling import BCNet
-from samplehd.learn.policy.processing import CAMERAS, _joint_vel, _state, _target_features
+from samplehd.learn.policy.processing import policy_state, seen_joint_velocities, target_features
 from samplehd.learn.training import load_model_files, read_model_config, set_seed, torch
 
 __all__ = ["BCPolicy", "policy_for_evaluation"]
@@ -61,7 +62,7 @@ class BCPolicy:
         self.z_floor = config.inference.z_floor
         self.zero_channels = list(config.inference.zero_channels)
         self._lin_step = 0.25 / 20.0  # TCP travel of a steering value of 1 in one control step [m]
-        self._speeds = _speeds(env)  # TCP speed and angular speed of a steering value of 1 [m/s, rad/s]
+        self._speeds = steering_speeds(env)  # TCP speed and angular speed of a steering value of 1 [m/s, rad/s]
         self._queue: list[np.ndarray] = []
         self._chunks: list[np.ndarray] = []
         self._z: float | None = None
@@ -70,7 +71,7 @@ class BCPolicy:
         if env is not None:
             c = env.unwrapped.config
             # What the network needs of the images and the control; its scenes may come from another catalogue.
-            want = {k: v for k, v in env_options_from_config(config).items() if k != "scene"}
+            want = {k: v for k, v in config.env_options().items() if k != "scene"}
             got = {"obs_mode": c.obs_mode, "cameras": list(c.cameras), "width": c.width, "height": c.height,
                    "control_mode": c.control_mode}
             bad = [k for k in want if want[k] != got[k]]
@@ -97,13 +98,13 @@ class BCPolicy:
 
     def _state(self, obs: Mapping[str, Any]) -> np.ndarray:
         g = np.asarray(obs["gripper"], dtype=float)
-        robot = _state(np.asarray(obs["joint_pos"], float), np.asarray(obs["tcp_pos"], float),
-                       np.asarray(obs["tcp_quat"], float), g[0] + g[1], _joint_vel(self.action, obs["joint_vel"]),
-                       self._last_gripper)
+        robot = policy_state(np.asarray(obs["joint_pos"], float), np.asarray(obs["tcp_pos"], float),
+                             np.asarray(obs["tcp_quat"], float), g[0] + g[1],
+                             seen_joint_velocities(self.action, obs["joint_vel"]), self._last_gripper)
         if self.inputs != "state":
             return robot
         target = np.array([self._target(obs)])
-        feats = _target_features(np.asarray(obs["tcp_pos"], float)[None], np.asarray(obs["object_pos"])[None],
+        feats = target_features(np.asarray(obs["tcp_pos"], float)[None], np.asarray(obs["object_pos"])[None],
                                  np.asarray(obs["object_quat"])[None], target)[0]
         return np.concatenate([robot, feats]).astype(np.float32)
 
@@ -139,7 +140,7 @@ class BCPolicy:
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
         if self.action == "waypoint":
-            action = _follow(self.predict(obs)[0], obs["gripper"], self._speeds)
+            action = waypoint_steering(self.predict(obs)[0], obs["gripper"], self._speeds)
         elif self.ensemble is not None:
             self._chunks = [*self._chunks, self.predict(obs)][-self.chunk:]
             n = len(self._chunks)  # chunk i (oldest first) was predicted n-1-i steps ago
@@ -174,14 +175,16 @@ class BCPolicy:
         return action
 
 
-def policy_for_evaluation(env: Any, config: Any) -> Any:
-    """The policy ``samplehd evaluate --policy bc`` runs (``config``: its EvalConfig): a
-    :class:`BCPolicy`, or a :class:`~samplehd.learn.policy.keypose_inference.KeyposePolicy` for a model
-    trained with ``--action keypose``."""
+def policy_for_evaluation(env: Any, config: Any) -> BCPolicy | KeyposePolicy:
+    """The policy ``samplehd evaluate --policy bc`` runs (``config``: its EvalConfig): the one trained in
+    ``config.models``, a :class:`BCPolicy` or a :class:`~samplehd.learn.keypose.inference.KeyposePolicy`
+    (:func:`samplehd.learn.options.policy_config_class` tells them apart)."""
     if config.models is None:
         raise ConfigError("policy=bc: needs `models` (the folder of `samplehd train policy`)", field="policy")
     raw, state = load_model_files(config.models, "policy", FORMAT)
-    policy_config = read_model_config(PolicyConfig, raw, config.models)
-    if policy_config.action == "keypose":
-        return KeyposePolicy(policy_config, state, env)
-    return BCPolicy(policy_config, state, env)
+    policy_config = read_model_config(policy_config_class(raw), raw, config.models)
+    return POLICIES[type(policy_config)](policy_config, state, env)
+
+
+# a policy config class -> the policy that acts on it
+POLICIES: dict[type, Any] = {PolicyConfig: BCPolicy, KeyposeConfig: KeyposePolicy}

@@ -14,34 +14,16 @@ import numpy as np
 from samplehd.dataset.container import camera_settings
 from samplehd.envs.tokens import encode_instruction
 from samplehd.errors import ConfigError
-from samplehd.language.levels import episode_level, held_out_instruction
-from samplehd.learn.policy.actions import moving_frames, waypoint_targets, waypoints
-from samplehd.learn.policy.processing import CAMERAS, _joint_vel, _state, _target_features
+from samplehd.learn.actions import moving_frames, waypoint_targets, waypoints
+from samplehd.learn.policy.configuration import CAMERAS
+from samplehd.learn.policy.processing import policy_state, seen_joint_velocities, target_features
 
-__all__ = ["training_split"]
-
-
-def training_split(reader: Any, dataset: str | Path, families: Sequence[str] | None = None
-                   ) -> tuple[list[int], list[int]]:
-    """(training, test) episode indices of a dataset (of ``families``, if given): every test-split
-    episode; the training split's episodes of level L1 (seen templates and objects: the other levels
-    are held out for evaluation). One line naming ``dataset`` when no training episode is left."""
-    scenes = {s["image_index"]: s for s in reader.scenes}
-    train_k, test_k = [], []
-    for e in reader.episodes:
-        if families and e.family not in families:
-            continue
-        ins = reader.instruction(e.instruction_index)
-        if e.split == "test":
-            test_k.append(e.instruction_index)
-        elif not held_out_instruction(ins) and episode_level(ins, scenes[e.scene_index]) == "L1":
-            train_k.append(e.instruction_index)
-    if not train_k:
-        raise ConfigError(f"dataset={dataset}: no training episodes", field="dataset")
-    return train_k, test_k
+__all__ = ["collected_arrays", "episode_arrays", "image_size", "inputs_state", "load_arrays", "save_arrays"]
 
 
-def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS,
+
+
+def episode_arrays(reader: Any, k: int, stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS,
                     action: str = "steering") -> dict[str, np.ndarray]:
     """One episode's training arrays, its waits left out (:func:`moving_frames`).
 
@@ -52,14 +34,14 @@ def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int, cameras: 
     ep = reader.episode(k)
     f = ep.frames
     steering = np.asarray(f["steering"], np.float32)
-    labels, keep = _labels(action, steering, np.asarray(f["tcp_pos"]), np.asarray(f["tcp_quat"]),
+    labels, keep = action_labels(action, steering, np.asarray(f["tcp_pos"]), np.asarray(f["tcp_quat"]),
                            np.asarray(f["gripper_opening"]))
     last_gripper = np.r_[1.0, steering[:-1, 6]]
-    state = _state(np.asarray(f["joint_pos"]), np.asarray(f["tcp_pos"]), np.asarray(f["tcp_quat"]),
-                   np.asarray(f["gripper_opening"]), _joint_vel(action, f["joint_vel"]), last_gripper)
+    state = policy_state(np.asarray(f["joint_pos"]), np.asarray(f["tcp_pos"]), np.asarray(f["tcp_quat"]),
+                   np.asarray(f["gripper_opening"]), seen_joint_velocities(action, f["joint_vel"]), last_gripper)
     t = np.arange(0, len(keep), stride)
     tcp = np.asarray(f["tcp_pos"])
-    target = _target_features(tcp, f["object_pos"], f["object_quat"], f["target_object"])
+    target = target_features(tcp, f["object_pos"], f["object_quat"], f["target_object"])
     return {
         "frames": t, "steering": labels, "state": state[keep], "target": target[keep],
         "z": tcp[keep, 2].astype(np.float64),
@@ -68,7 +50,7 @@ def _episode_arrays(reader: Any, k: int, stride: int, tokens_len: int, cameras: 
     }
 
 
-def _labels(action: str, steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, opening: np.ndarray
+def action_labels(action: str, steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, opening: np.ndarray
             ) -> tuple[np.ndarray, np.ndarray]:
     """An episode's training labels and the frames they belong to: the steering vectors of every frame
     but the waits (:func:`moving_frames`), or every frame's waypoint target (:func:`waypoints`)."""
@@ -79,7 +61,7 @@ def _labels(action: str, steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np
     return np.asarray(steering, np.float32)[keep], keep
 
 
-def _image_size(reader: Any, dataset: str | Path) -> int:
+def image_size(reader: Any, dataset: str | Path) -> int:
     """The side of the dataset's square scene and wrist camera RGB images; one-line errors."""
     # A dataset still being written (or stopped early) has its render settings only in the config.
     render = reader.info.get("render") or reader.config.get("render") or {}
@@ -95,28 +77,28 @@ def _image_size(reader: Any, dataset: str | Path) -> int:
     return int(next(iter(sizes))[0])
 
 
-def _collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS,
+def collected_arrays(raw: Mapping[str, Any], stride: int, tokens_len: int, cameras: Sequence[str] = CAMERAS,
                       action: str = "steering") -> dict[str, np.ndarray]:
-    """A collected episode (:func:`samplehd.learn.demos.collect`) as :func:`_episode_arrays` gives one."""
+    """A collected episode (:func:`samplehd.learn.demos.collect`) as :func:`episode_arrays` gives one."""
     grip = np.asarray(raw["gripper"], np.float64)
     if "goal" in raw:  # a waypoint DAgger episode: labelled with the expert's waypoints
         labels = waypoint_targets(raw["goal"], raw["tcp_pos"], raw["tcp_quat"])
         keep = np.arange(len(labels))
     else:
-        labels, keep = _labels(action, np.asarray(raw["label"], np.float32), np.asarray(raw["tcp_pos"]),
+        labels, keep = action_labels(action, np.asarray(raw["label"], np.float32), np.asarray(raw["tcp_pos"]),
                                np.asarray(raw["tcp_quat"]), grip[:, 0] + grip[:, 1])
     last_gripper = np.r_[1.0, np.asarray(raw["executed"], np.float64)[:-1, 6]]
-    state = _state(raw["joint_pos"], raw["tcp_pos"], raw["tcp_quat"], grip[:, 0] + grip[:, 1],
-                   _joint_vel(action, raw["joint_vel"]), last_gripper)
+    state = policy_state(raw["joint_pos"], raw["tcp_pos"], raw["tcp_quat"], grip[:, 0] + grip[:, 1],
+                   seen_joint_velocities(action, raw["joint_vel"]), last_gripper)
     t = np.arange(0, len(keep), stride)
-    target = _target_features(raw["tcp_pos"], raw["object_pos"], raw["object_quat"], raw["target_object"])
+    target = target_features(raw["tcp_pos"], raw["object_pos"], raw["object_quat"], raw["target_object"])
     return {"frames": t, "steering": labels, "state": state[keep], "target": target[keep],
             "z": np.asarray(raw["tcp_pos"], np.float64)[keep, 2],
             **{c: np.asarray(raw[c])[keep[t]] for c in cameras},
             "tokens": encode_instruction(str(raw["instruction"]), tokens_len)}
 
 
-def _save_arrays(path: Path, episodes: Sequence[Mapping[str, np.ndarray]]) -> None:
+def save_arrays(path: Path, episodes: Sequence[Mapping[str, np.ndarray]]) -> None:
     """Collected episodes' arrays in one ``.npz`` (plain arrays, read with ``allow_pickle=False``)."""
     tmp = path.with_name(f".{path.name}.tmp.npz")
     np.savez_compressed(tmp, count=np.array(len(episodes)),
@@ -124,7 +106,7 @@ def _save_arrays(path: Path, episodes: Sequence[Mapping[str, np.ndarray]]) -> No
     tmp.replace(path)
 
 
-def _load_arrays(path: Path) -> list[dict[str, np.ndarray]]:
+def load_arrays(path: Path) -> list[dict[str, np.ndarray]]:
     try:
         with np.load(path, allow_pickle=False) as z:
             out: list[dict[str, np.ndarray]] = [{} for _ in range(int(z["count"]))]
@@ -137,7 +119,7 @@ def _load_arrays(path: Path) -> list[dict[str, np.ndarray]]:
         raise ConfigError(f"{path}: not readable collected episodes ({exc}); delete it to collect them again") from None
 
 
-def _inputs_state(arrays: Mapping[str, np.ndarray], inputs: str, t: Any = slice(None)) -> np.ndarray:
+def inputs_state(arrays: Mapping[str, np.ndarray], inputs: str, t: Any = slice(None)) -> np.ndarray:
     """The state the network sees at frame(s) ``t``: the robot's, and the target's for ``inputs="state"``."""
     if inputs == "state":
         return np.concatenate([arrays["state"][t], arrays["target"][t]], axis=-1)

@@ -1,6 +1,6 @@
 """The trained keypose policy acting in the environment (:class:`KeyposePolicy`): it looks at the table
 through the scene camera (RGB-D, re-projected from above), decides where to grasp and where the object
-goes, and carries the decision out with :class:`~samplehd.learn.policy.keyposes.KeyposeFollower`, one
+goes, and carries the decision out with :class:`~samplehd.learn.keypose.follower.KeyposeFollower`, one
 steering vector per ``env.step``; after each release it goes back to its start pose and looks again,
 until the episode ends (as a closed-loop behaviour-cloning policy acts until the environment says
 success or time is up) or :data:`MAX_DECISIONS` are made. The network's "last decision" flag is kept
@@ -16,54 +16,31 @@ import numpy as np
 
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
-from samplehd.learn.policy.actions import _yaw
-from samplehd.learn.policy.configuration import PolicyConfig, PolicyGrid
-from samplehd.learn.policy.keyposes import Decision, KeyposeFollower
-from samplehd.learn.policy.modeling import KeyposeNet
-from samplehd.learn.policy.topdown import GRID_CHANNELS, TopDownGrid
+from samplehd.learn.actions import tcp_yaw
+from samplehd.learn.keypose.configuration import KeyposeConfig
+from samplehd.learn.keypose.follower import KeyposeFollower
+from samplehd.learn.keypose.modeling import KeyposeNet
+from samplehd.learn.keypose.processing import (
+    FACTOR,
+    HEIGHT_UNIT,
+    OPENING_UNIT,
+    SCENE_MODALITIES,
+    Decision,
+    grid_of,
+    input_channels,
+    scene_grid,
+    task_cells,
+)
+from samplehd.learn.topdown import TopDownGrid
 from samplehd.learn.training import set_seed, torch
-from samplehd.render.renderer import SEG_OBJECT_OFFSET, SEG_ROBOT, SceneRenderer, camera_intrinsics, camera_pose
+from samplehd.render.renderer import SceneRenderer
 from samplehd.world.layout import LAYOUT
 
-__all__ = ["KeyposePolicy", "grid_of", "input_channels", "predict_decisions", "scene_grid", "task_cells"]
+__all__ = ["AVOID_RADIUS", "MAX_DECISIONS", "KeyposePolicy", "predict_decisions"]
 
-SCENE_MODALITIES = ("rgb", "depth", "segmentation")  # depth of the segmentation pass: glass is opaque there
-HEIGHT_UNIT = 0.1  # heights (grasp, lift, goal) are learnt in this unit above the table [m]
-OPENING_UNIT = 0.085  # the opening is learnt in this unit [m]
-FACTOR = 2  # the network's maps have cells this many times larger than the grid's
 
 AVOID_RADIUS = 0.03  # a later grasp is not sought this close to an earlier grasp or release [m]
 MAX_DECISIONS = 6  # an episode's decisions at most (the families move up to three objects; the rest retry)
-
-
-def input_channels(inputs: str) -> int:
-    """The channels of the network's view: the grid image's, and for the privileged-state reference
-    (``inputs="state"``) one more marking the cells that show an object the task moves."""
-    return GRID_CHANNELS + (inputs == "state")
-
-
-def task_cells(ids: np.ndarray, objects: Sequence[int]) -> np.ndarray:
-    """(rows, cols) float32: 1 where a cell shows one of the scene objects ``objects`` (``ids``: the
-    segmentation id seen in each cell)."""
-    return np.isin(ids, [SEG_OBJECT_OFFSET + int(i) for i in objects]).astype(np.float32)
-
-
-def grid_of(config: PolicyGrid) -> TopDownGrid:
-    return TopDownGrid((float(config.origin[0]), float(config.origin[1])), config.cell, config.rows, config.cols)
-
-
-def scene_grid(renderer: Any, model: Any, data: Any, config: PolicyGrid, with_ids: bool = False) -> Any:
-    """The grid image of the scene camera's view of ``data`` (``renderer`` made for ``model`` at the
-    config's size); with ``with_ids``, (it, the segmentation id seen in each cell)."""
-    images = renderer.render(data, config.camera, SCENE_MODALITIES)
-    camera = {"width": config.width, "height": config.height,
-              "intrinsics": camera_intrinsics(model, config.camera, config.width, config.height).tolist(),
-              "extrinsics": camera_pose(model, data, config.camera).tolist()}
-    grid, robot = grid_of(config), images["segmentation"] == SEG_ROBOT
-    if not with_ids:
-        return grid.project(images["rgb"], images["depth"], camera, LAYOUT.table_height, robot=robot)
-    return grid.project_with_labels(images["rgb"], images["segmentation"], images["depth"], camera,
-                                    LAYOUT.table_height, robot=robot)
 
 
 class KeyposePolicy:
@@ -76,7 +53,7 @@ class KeyposePolicy:
         env: the environment.
     """
 
-    def __init__(self, config: PolicyConfig, state: Mapping[str, Any] | None, env: Any = None,
+    def __init__(self, config: KeyposeConfig, state: Mapping[str, Any] | None, env: Any = None,
                  device: Any = None) -> None:
         set_seed(config.train.seed)
         self.config = config
@@ -129,7 +106,7 @@ class KeyposePolicy:
         if self._home is None or episode is not self._episode:
             self.reset()
             self._episode = episode
-            self._home = np.r_[np.asarray(obs["tcp_pos"], np.float64), _yaw(np.asarray(obs["tcp_quat"], np.float64))]
+            self._home = np.r_[np.asarray(obs["tcp_pos"], np.float64), tcp_yaw(np.asarray(obs["tcp_quat"], np.float64))]
         follower = self._follower
         again = follower is None or (follower.done and self.decisions[-1].release)
         if again and len(self.decisions) < MAX_DECISIONS:

@@ -1,4 +1,5 @@
-"""What the behaviour-cloning policy's outputs mean, and the labels it learns from.
+"""What the policies' outputs mean as steering vectors, and the labels the behaviour-cloning policy learns
+from (shared by :mod:`samplehd.learn.policy` and :mod:`samplehd.learn.keypose`).
 
 Steering (SAMPLE-HD's 7-D vectors): the recorded vectors of every frame but the waits
 (:func:`moving_frames`). Waypoints: a demonstration cut into segments whose end states are the
@@ -16,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from samplehd.learn.demos import squeeze_command
-from samplehd.learn.policy.processing import _rotation_columns
 
-__all__ = ["WaypointExpert", "follow_waypoints", "moving_frames", "waypoint_targets", "waypoints"]
+__all__ = ["WaypointExpert", "follow_waypoints", "moving_frames", "rotation_columns", "steering_speeds", "tcp_yaw",
+           "waypoint_steering", "waypoint_targets", "waypoints", "wrap_angle"]
 
 # Waypoint actions: the network writes the displacement to the waypoint divided by this [m] ...
 WAYPOINT_SCALE = 0.3
@@ -47,14 +48,26 @@ def moving_frames(steering: np.ndarray, tolerance: float = 1e-3) -> np.ndarray:
     keep[0] = True
     return np.flatnonzero(keep)
 
+def rotation_columns(quat: np.ndarray) -> np.ndarray:
+    """The first two columns of the rotation matrix of quaternions (..., 4: w x y z), as (..., 6).
 
-def _yaw(quat: np.ndarray) -> np.ndarray:
+    Unlike the quaternion, they do not change sign between q and -q, and are continuous in the pose.
+    """
+    q = np.asarray(quat, dtype=np.float64)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y),
+                     2 * (x * y - w * z), 1 - 2 * (x * x + z * z), 2 * (y * z + w * x)], axis=-1)
+
+
+def tcp_yaw(quat: np.ndarray) -> np.ndarray:
     """The heading of the TCP's x axis about the world z axis [rad]."""
-    cols = _rotation_columns(quat)
+    cols = rotation_columns(quat)
     return np.arctan2(cols[..., 1], cols[..., 0])
 
 
-def _wrap(angle: np.ndarray) -> np.ndarray:
+def wrap_angle(angle: np.ndarray) -> np.ndarray:
+    """``angle`` wrapped into [-pi, pi) [rad]."""
     return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
@@ -76,7 +89,7 @@ def waypoints(steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, o
     """
     steering = np.asarray(steering, np.float64)
     tcp = np.asarray(tcp_pos, np.float64)
-    yaw = _yaw(tcp_quat)
+    yaw = tcp_yaw(tcp_quat)
     opening = np.asarray(opening, np.float64)
     n = len(steering)
     moving = np.abs(steering[:, :6]).max(axis=1) >= tolerance
@@ -122,7 +135,8 @@ def waypoints(steering: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray, o
 
     def reached(t: int, j: int) -> bool:
         if segments[j][2] == 1:
-            return bool(np.linalg.norm(goal[j, :3] - tcp[t]) < pos_tol and abs(_wrap(goal[j, 3] - yaw[t])) < yaw_tol)
+            return bool(np.linalg.norm(goal[j, :3] - tcp[t]) < pos_tol
+                        and abs(wrap_angle(goal[j, 3] - yaw[t])) < yaw_tol)
         return bool(abs(opening[settled[j]] - opening[t]) < open_tol)
 
     j = 0
@@ -166,7 +180,7 @@ class WaypointExpert:
         else:
             pos_tol, yaw_tol, _ = WAYPOINT_REACHED
             reached = bool(np.linalg.norm(goal[:3] - np.asarray(obs["tcp_pos"], float)) < pos_tol
-                           and abs(_wrap(goal[3] - _yaw(np.asarray(obs["tcp_quat"], float)))) < yaw_tol)
+                           and abs(wrap_angle(goal[3] - tcp_yaw(np.asarray(obs["tcp_quat"], float)))) < yaw_tol)
         self._opening = opening
         if reached and self.phase < len(self.goals) - 1:
             self.phase += 1
@@ -175,7 +189,7 @@ class WaypointExpert:
     def action(self, obs: Mapping[str, Any], goal: np.ndarray, speeds: tuple[float, float]) -> np.ndarray:
         """The follower's steering vector toward ``goal``."""
         target = waypoint_targets(goal[None], np.asarray(obs["tcp_pos"])[None], np.asarray(obs["tcp_quat"])[None])[0]
-        return np.clip(_follow(target, obs["gripper"], speeds), -1.0, 1.0)
+        return np.clip(waypoint_steering(target, obs["gripper"], speeds), -1.0, 1.0)
 
 
 def follow_waypoints(env: Any, obs: Mapping[str, Any], goals: np.ndarray, max_steps: int) -> dict[str, Any]:
@@ -185,7 +199,7 @@ def follow_waypoints(env: Any, obs: Mapping[str, Any], goals: np.ndarray, max_st
     can be acted on. Returns the last step's info.
     """
     expert = WaypointExpert(goals)
-    speeds = _speeds(env)
+    speeds = steering_speeds(env)
     info: dict[str, Any] = {}
     for _ in range(max_steps):
         action = expert.action(obs, expert.label(obs), speeds)
@@ -195,7 +209,7 @@ def follow_waypoints(env: Any, obs: Mapping[str, Any], goals: np.ndarray, max_st
     return info
 
 
-def _speeds(env: Any) -> tuple[float, float]:
+def steering_speeds(env: Any) -> tuple[float, float]:
     """TCP speed and angular speed of a steering value of 1 in ``env`` [m/s, rad/s]."""
     control = getattr(getattr(env, "unwrapped", None), "control", None)
     if control is None:
@@ -203,7 +217,7 @@ def _speeds(env: Any) -> tuple[float, float]:
     return (float(control.max_linear_speed), float(control.max_angular_speed))
 
 
-def _follow(out: np.ndarray, gripper: Any, speeds: tuple[float, float]) -> np.ndarray:
+def waypoint_steering(out: np.ndarray, gripper: Any, speeds: tuple[float, float]) -> np.ndarray:
     """The steering vector that moves toward the waypoint ``out`` (:func:`waypoint_targets`): a TCP
     velocity of :data:`WAYPOINT_GAIN` times the displacement, at most :data:`WAYPOINT_SPEED`, a yaw rate
     of :data:`YAW_GAIN` times the remaining yaw; the gripper closing (:func:`squeeze_command`) where
@@ -227,6 +241,6 @@ def waypoint_targets(goal: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray
     goal = np.asarray(goal, np.float64)
     out = np.zeros((len(goal), 7))
     out[:, :3] = np.clip((goal[:, :3] - np.asarray(tcp_pos, np.float64)) / WAYPOINT_SCALE, -1.0, 1.0)
-    out[:, 5] = _wrap(goal[:, 3] - _yaw(tcp_quat)) / np.pi
+    out[:, 5] = wrap_angle(goal[:, 3] - tcp_yaw(tcp_quat)) / np.pi
     out[:, 6] = goal[:, 4]
     return out.astype(np.float32)

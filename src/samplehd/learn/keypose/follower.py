@@ -1,11 +1,5 @@
-"""Keyposes: what the keypose policy learns from a demonstration and how it acts on them.
+"""How the keypose policy acts on a decision (:class:`~samplehd.learn.keypose.processing.Decision`).
 
-A demonstration is a series of *decisions*, one per object it moves: where to grasp (TCP position, yaw
-and the opening before closing), how high to lift, and where the carried object goes (the TCP where
-the gripper opens; for ``pick_up``, the lifted pose it holds). :func:`decisions` reads them from a
-recorded episode's subtasks (``CloseGripper`` starts at the grasp, ``OpenGripper`` at the release,
-``MoveUP`` ends at the lift), each with the frame it is decided on: the episode's first, or the first
-after the arm went back to its start (``MoveToDefaultPos``), where the camera sees the table again.
 As in PerAct and CLIPort, a policy predicts a decision from one look at the table and
 :class:`KeyposeFollower` executes it as steering vectors, step by step through the environment: over
 the grasp at the height it is at, down, close until the fingers stop, up, over the goal, down, open,
@@ -14,18 +8,17 @@ up and back to the start pose. Its descents are guarded: one that stops short cl
 
 from __future__ import annotations
 
-import json
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from samplehd.learn.actions import steering_speeds, tcp_yaw, wrap_angle
 from samplehd.learn.demos import squeeze_command
-from samplehd.learn.policy.actions import _speeds, _wrap, _yaw
+from samplehd.learn.keypose.processing import Decision
 from samplehd.robot.constants import GRIPPER_STROKE
 
-__all__ = ["APPROACH", "Decision", "KeyposeFollower", "decisions"]
+__all__ = ["APPROACH", "KeyposeFollower"]
 
 APPROACH = 0.08  # the grasp and the release are approached straight down from this high above them [m]
 REACHED = 0.004  # a position this close to its goal is reached [m] ...
@@ -40,74 +33,8 @@ BLOCKED = 0.3  # a descent that moved less than this share of its commanded step
 BLOCKED_MIN_STEP = 0.001  # ... when the commanded step was at least this long [m]
 
 
-@dataclass(frozen=True)
-class Decision:
-    """One object moved: grasp (x, y, z [m], yaw [rad]), the finger opening before closing [m], the
-    lift height (z [m]), the goal (x, y, z, yaw of the TCP where it lets go, or holds for ``pick_up``),
-    whether it lets go there, and whether it is the episode's last."""
-
-    grasp: tuple[float, float, float, float]
-    opening: float
-    lift: float
-    goal: tuple[float, float, float, float]
-    release: bool
-    last: bool
-    frame: int = 0
-
-    def as_array(self) -> np.ndarray:
-        """(13,): grasp (4), opening, lift, goal (4), release, last, frame."""
-        return np.array([*self.grasp, self.opening, self.lift, *self.goal, float(self.release), float(self.last),
-                         float(self.frame)])
 
 
-def decisions(subtasks: Sequence[str] | str, subtask_index: np.ndarray, tcp_pos: np.ndarray, tcp_quat: np.ndarray,
-              opening: np.ndarray) -> list[Decision]:
-    """The decisions of a recorded episode (its ``subtasks`` attribute, per-frame ``subtask_index``,
-    TCP and finger opening), in order; [] for an episode whose subtasks do not read as grasp, lift and
-    carry (a re-grasp after a slip, an episode cut short)."""
-    names = json.loads(subtasks) if isinstance(subtasks, str) else list(subtasks)
-    idx = np.asarray(subtask_index)
-    tcp = np.asarray(tcp_pos, np.float64)
-    yaw = _yaw(np.asarray(tcp_quat, np.float64))
-    opening = np.asarray(opening, np.float64)
-    starts = {}
-    for k in range(len(names)):
-        hits = np.flatnonzero(idx == k)
-        if len(hits):
-            starts[k] = (int(hits[0]), int(hits[-1]))
-    out: list[Decision] = []
-    frame = 0
-    k = 0
-    while k < len(names):
-        if names[k] != "CloseGripper":
-            k += 1
-            continue
-        if k not in starts or k + 1 >= len(names) or names[k + 1] != "MoveUP" or k + 1 not in starts:
-            return []
-        tc = starts[k][0]
-        lift_end = starts[k + 1][1]
-        grasp = (*tcp[tc], float(yaw[tc]))
-        lift = float(tcp[lift_end, 2])
-        release = next((j for j in range(k + 2, len(names)) if names[j] in ("OpenGripper", "CloseGripper")), None)
-        if release is not None and names[release] == "OpenGripper":
-            if release not in starts:
-                return []
-            to = starts[release][0]
-            goal = (*tcp[to], float(yaw[to]))
-            out.append(Decision(grasp, float(opening[tc]), lift, goal, True, False, frame))
-            home = next((j for j in range(release, len(names)) if names[j] == "MoveToDefaultPos"), None)
-            if home is not None and home in starts:
-                frame = starts[home][1] + 1
-            k = release + 1
-        else:
-            goal = (*tcp[lift_end], float(yaw[lift_end]))
-            out.append(Decision(grasp, float(opening[tc]), lift, goal, False, False, frame))
-            k += 2
-    if out:
-        out[-1] = replace(out[-1], last=True)
-    if len(set(d.frame for d in out)) != len(out):
-        return []
-    return out
 
 
 def _command(opening: float) -> float:
@@ -135,7 +62,7 @@ class KeyposeFollower:
         if z_floor is not None:
             gz = max(gz, z_floor)
         tcp = np.asarray(obs["tcp_pos"], np.float64)
-        gyaw = _near_yaw(gyaw, float(_yaw(np.asarray(obs["tcp_quat"], np.float64))))
+        gyaw = _near_yaw(gyaw, float(tcp_yaw(np.asarray(obs["tcp_quat"], np.float64))))
         open_cmd = _command(d.opening + OPEN_MARGIN)
         over = max(float(tcp[2]), gz + APPROACH)
         steps: list[tuple[str, str, np.ndarray]] = [
@@ -162,7 +89,7 @@ class KeyposeFollower:
             steps += [("move", "carry", np.array([px, py, max(pz, d.lift), pyaw, -1.0]))]
         self.steps = steps
         self.phase = 0
-        self._speeds = _speeds(env)
+        self._speeds = steering_speeds(env)
         control = getattr(getattr(env, "unwrapped", None), "control", None)
         self._hz = float(control.control_hz) if control is not None else 20.0
         self._low = min(gz, d.goal[2]) + APPROACH / 2
@@ -220,7 +147,7 @@ class KeyposeFollower:
             self._drop = max(0.0, -float(delta[2]) / dist * speed / self._hz)
         else:
             self._drop = 0.0
-        yaw = float(_wrap(goal[3] - _yaw(np.asarray(obs["tcp_quat"], np.float64))))
+        yaw = float(wrap_angle(goal[3] - tcp_yaw(np.asarray(obs["tcp_quat"], np.float64))))
         action[5] = np.clip(GAIN * yaw, -ang_speed, ang_speed) / ang_speed
         if goal[4] >= -0.99:
             action[6] = goal[4]
@@ -250,13 +177,13 @@ class KeyposeFollower:
             self._settle += 1
             return (settled and self._settle > 2) or self._settle > SETTLE_STEPS
         tcp = np.asarray(obs["tcp_pos"], np.float64)
-        yaw = float(_yaw(np.asarray(obs["tcp_quat"], np.float64)))
-        return bool(np.linalg.norm(goal[:3] - tcp) < REACHED and abs(_wrap(goal[3] - yaw)) < YAW_REACHED)
+        yaw = float(tcp_yaw(np.asarray(obs["tcp_quat"], np.float64)))
+        return bool(np.linalg.norm(goal[:3] - tcp) < REACHED and abs(wrap_angle(goal[3] - yaw)) < YAW_REACHED)
 
 
 def _near_yaw(yaw: float, ref: float) -> float:
     """``yaw`` or ``yaw + pi``, whichever is nearer ``ref`` (the fingers are symmetric)."""
-    a = float(_wrap(yaw - ref))
+    a = float(wrap_angle(yaw - ref))
     if a > np.pi / 2:
         a -= np.pi
     elif a < -np.pi / 2:

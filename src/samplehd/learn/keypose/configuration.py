@@ -1,0 +1,129 @@
+"""What defines a trained keypose policy: the ``config.json`` of ``samplehd train policy --action
+keypose``, declared with :mod:`samplehd.schema` (a bad file is one line naming the file, the field, the
+value and what is valid). Needs no PyTorch: ``samplehd evaluate`` reads it to set the environment up
+(:meth:`KeyposeConfig.env_options`).
+
+Its files say ``kind: policy`` and ``action: keypose``, as the behaviour-cloning policy's files say
+``kind: policy`` and their action (``samplehd evaluate --policy bc`` runs either). Files of earlier
+versions, written with the behaviour-cloning policy's keys, load unchanged: the keys this policy never
+used (``image``, ``chunk``, ``execute``, ``inference``, ``collect`` and the network and training options
+of the other network) are dropped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
+from samplehd.errors import ConfigError
+from samplehd.learn.configuration import ModelConfig, catalogue_options
+from samplehd.schema import Config, bounded
+
+__all__ = ["ACTION", "ATTRIBUTE_VALUES", "FORMAT", "INPUTS", "KEYPOSE_ATTRIBUTES", "KeyposeArchitecture",
+           "KeyposeConfig", "KeyposeGrid", "KeyposeTraining"]
+
+FORMAT = 3  # the config format of a keypose policy (bump when the network or its inputs change)
+# the ``action`` its config.json names (the behaviour-cloning policy's: steering, waypoint)
+ACTION = "keypose"
+# rgb: the scene camera's RGB-D re-projected from above; state: that view, the cells of the objects the
+# task moves marked (the privileged-state reference)
+INPUTS = ("rgb", "state")
+KEYPOSE_ATTRIBUTES = ("name", "color", "material", "size")  # the scene annotation's keys the auxiliary maps name
+ATTRIBUTE_VALUES = 32  # logits per attribute (the catalogues have at most 16 values of any)
+
+
+@dataclass(frozen=True)
+class KeyposeArchitecture(Config, section="model"):
+    """Sizes of the network.
+
+    Attributes:
+        width: channels of the U-Net's first level.
+    """
+
+    width: int = bounded(16, lo=1)
+
+
+@dataclass(frozen=True)
+class KeyposeGrid(Config, section="grid"):
+    """What the keypose policy looks at (:mod:`samplehd.learn.topdown`): the scene camera's RGB-D
+    image at ``width`` × ``height`` px, re-projected onto ``rows`` × ``cols`` cells of side ``cell`` from
+    the corner ``origin`` (world x, y)."""
+
+    camera: str = "scene"
+    width: int = bounded(640, lo=1, unit="px")
+    height: int = bounded(360, lo=1, unit="px")
+    origin: tuple[float, ...] = (-0.512, -0.64)
+    cell: float = bounded(0.008, lo=0.0, lo_open=True, unit="m")
+    rows: int = bounded(128, lo=16)
+    cols: int = bounded(160, lo=16)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if len(self.origin) != 2:
+            raise ConfigError(f"grid.origin={list(self.origin)}: the grid's corner, two numbers (world x, y) [m]",
+                              field="grid.origin")
+        if self.rows % 16 or self.cols % 16:
+            raise ConfigError(f"grid.rows={self.rows}, grid.cols={self.cols}: each a multiple of 16 (the network "
+                              f"halves the grid four times)", field="grid.rows")
+
+
+@dataclass(frozen=True)
+class KeyposeTraining(Config, section="train"):
+    """How the keypose policy was trained (recorded; a resumed run must match all but ``steps``).
+
+    Attributes:
+        steps: optimiser steps.
+        seed: seed of the weights and the batches.
+        batch: decisions per step.
+        lr: learning rate before the decay.
+        episodes: training episodes of the dataset.
+        init: the folder of the keypose policy whose weights the training started from ("": none).
+    """
+
+    steps: int = bounded(3000, lo=1)
+    seed: int = bounded(0, lo=0)
+    batch: int = bounded(16, lo=1)
+    lr: float = bounded(1e-3, lo=0.0, lo_open=True)
+    episodes: int = bounded(0, lo=0)
+    init: str = ""
+
+
+@dataclass(frozen=True)
+class KeyposeConfig(ModelConfig, section="policy"):
+    """A keypose policy's config.
+
+    Attributes:
+        kind: ``policy``.
+        format: :data:`FORMAT` of the samplehd that wrote it.
+        dataset: the dataset it was trained on.
+        catalogue: the built-in object catalogue of that dataset's scenes: the one its evaluation
+            draws from.
+        inputs: ``rgb`` or ``state`` (:data:`INPUTS`).
+        action: ``keypose``.
+        tokens: instruction length in tokens.
+        model: network sizes.
+        grid: its view of the table.
+        families: the task families of its training episodes.
+        train: training options.
+    """
+
+    KIND: ClassVar[str] = "policy"
+    FORMAT: ClassVar[int] = FORMAT
+    DROPPED: ClassVar[tuple[str, ...]] = (
+        "image", "chunk", "execute", "inference", "collect", "model.hidden", "model.state_dim", "model.encoder",
+        "train.stride", "train.loss", "train.near_weight", "train.gripper_weight", "train.frames")
+
+    catalogue: str = bounded(DEFAULT_CATALOGUE, choices=tuple(CATALOGUES))
+    inputs: str = bounded("rgb", choices=INPUTS)
+    action: str = bounded(ACTION, choices=(ACTION,))
+    tokens: int = bounded(32, lo=1)
+    model: KeyposeArchitecture = field(default_factory=KeyposeArchitecture)
+    grid: KeyposeGrid = field(default_factory=KeyposeGrid)
+    families: tuple[str, ...] = ()
+    train: KeyposeTraining = field(default_factory=KeyposeTraining)
+
+    def env_options(self) -> dict[str, object]:
+        """The environment options the policy needs: steering control and no image (it renders the
+        scene camera's RGB-D itself when it decides); the scenes of its dataset's catalogue."""
+        return {"obs_mode": "state", "control_mode": "steering", **catalogue_options(self.catalogue)}

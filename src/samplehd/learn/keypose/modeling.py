@@ -1,0 +1,103 @@
+"""The keypose policy's network (:class:`KeyposeNet`): a U-Net over the top-down grid whose blocks are
+FiLM-modulated by the instruction, writing the grasp's and the goal's maps."""
+
+from __future__ import annotations
+
+from samplehd.learn.keypose.configuration import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES
+from samplehd.learn.training import nn, torch
+
+__all__ = ["GOAL_OUT", "GRASP_OUT", "KeyposeNet"]
+
+class _Block(nn.Module):
+    """Two 3×3 convolutions with group norm, the second FiLM-modulated by the code ``c``."""
+
+    def __init__(self, cin: int, cout: int, cond: int, stride: int = 1) -> None:
+        super().__init__()
+        self.a = nn.Sequential(nn.Conv2d(cin, cout, 3, stride=stride, padding=1), nn.GroupNorm(8, cout),
+                               nn.ReLU(inplace=True))
+        self.b = nn.Sequential(nn.Conv2d(cout, cout, 3, padding=1), nn.GroupNorm(8, cout))
+        self.film = nn.Linear(cond, 2 * cout)
+
+    def forward(self, x: torch.Tensor, c: torch.Tensor) -> torch.Tensor:
+        h = self.b(self.a(x))
+        gamma, beta = self.film(c).chunk(2, dim=1)
+        return torch.relu(h * (1 + gamma[:, :, None, None]) + beta[:, :, None, None])
+
+
+
+
+
+
+GRASP_OUT = 8  # heat, row and column offset, z, cos 2yaw, sin 2yaw, opening, lift
+GOAL_OUT = 6  # heat, row and column offset, z, cos 2yaw, sin 2yaw
+
+
+class KeyposeNet(nn.Module):
+    """Top-down grid + instruction → a decision (:mod:`samplehd.learn.keypose.follower`), as maps at half
+    the grid's resolution.
+
+    A U-Net whose blocks are FiLM-modulated by the instruction (a GRU over its tokens) writes per cell
+    of the half-resolution map the grasp's heat (a logit; the softmax over all cells says where), the
+    grasp's offset within the cell, height, yaw (as cos and sin of twice the yaw: the fingers are
+    symmetric), opening and lift height. The goal's maps are written by a head modulated as well by the
+    features at the grasp's cell (which object is carried); two logits say whether the gripper lets go
+    at the goal and whether the decision is the last.
+    """
+
+    def __init__(self, vocab: int, channels: int, width: int = 32) -> None:
+        super().__init__()
+        w = width
+        self.register_buffer("z_floor", torch.zeros(()))  # the lowest grasp height of the training decisions [m]
+        self.embed = nn.Embedding(vocab, 64, padding_idx=0)
+        self.text = nn.GRU(64, 128, batch_first=True)
+        self.mix = nn.Linear(128 + 64, 128)
+        self.down1 = _Block(channels, w, 128, stride=2)  # 1/2
+        self.down2 = _Block(w, 2 * w, 128, stride=2)  # 1/4
+        self.down3 = _Block(2 * w, 4 * w, 128, stride=2)  # 1/8
+        self.down4 = _Block(4 * w, 4 * w, 128, stride=2)  # 1/16
+        self.up3 = _Block(8 * w, 2 * w, 128)
+        self.up2 = _Block(4 * w, w, 128)
+        self.up1 = _Block(2 * w, w, 128)
+        self.grasp = nn.Conv2d(w, GRASP_OUT, 1)
+        self.goal_cond = nn.Linear(128 + w + 2, 128)
+        self.goal = _Block(w, w, 128)
+        self.goal_out = nn.Conv2d(w, GOAL_OUT, 1)
+        self.flags = nn.Sequential(nn.Linear(4 * w + 128, 128), nn.ReLU(inplace=True), nn.Linear(128, 2))
+        # training only: per cell, the class, colour, material and size of the object seen there
+        self.attributes = nn.Conv2d(w, len(KEYPOSE_ATTRIBUTES) * ATTRIBUTE_VALUES, 1)
+
+    def code(self, tokens: torch.Tensor) -> torch.Tensor:
+        """The instruction's code: the GRU's last state beside the mean of its words' embeddings (the
+        bag of words names the attributes whatever the template)."""
+        emb = self.embed(tokens)
+        lengths = (tokens != 0).sum(1).clamp(min=1)
+        packed = nn.utils.rnn.pack_padded_sequence(emb, lengths.cpu(), batch_first=True, enforce_sorted=False)
+        _, h = self.text(packed)
+        words = emb.sum(1) / lengths[:, None].to(emb.dtype)
+        return torch.relu(self.mix(torch.cat([h[-1], words], 1)))
+
+    def features(self, grid: torch.Tensor, tokens: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(the instruction's code, the half-resolution feature map, the flag logits)."""
+        c = self.code(tokens)
+        d1 = self.down1(grid, c)
+        d2 = self.down2(d1, c)
+        d3 = self.down3(d2, c)
+        d4 = self.down4(d3, c)
+        u3 = self.up3(torch.cat([nn.functional.interpolate(d4, size=d3.shape[2:]), d3], 1), c)
+        u2 = self.up2(torch.cat([nn.functional.interpolate(u3, size=d2.shape[2:]), d2], 1), c)
+        u1 = self.up1(torch.cat([nn.functional.interpolate(u2, size=d1.shape[2:]), d1], 1), c)
+        flags = self.flags(torch.cat([d4.mean(dim=(2, 3)), c], 1))
+        return c, u1, flags
+
+    def goal_maps(self, c: torch.Tensor, feats: torch.Tensor, cell: torch.Tensor) -> torch.Tensor:
+        """The goal's maps given the grasp's cell (N, 2: row, column of the half-resolution map)."""
+        n, _, rows, cols = feats.shape
+        at = feats[torch.arange(n, device=feats.device), :, cell[:, 0], cell[:, 1]]
+        where = torch.stack([cell[:, 0].float() / max(rows - 1, 1), cell[:, 1].float() / max(cols - 1, 1)], 1) * 2 - 1
+        cond = torch.relu(self.goal_cond(torch.cat([c, at, where], 1)))
+        return self.goal_out(self.goal(feats, cond))
+
+    def forward(self, grid: torch.Tensor, tokens: torch.Tensor, cell: torch.Tensor) -> tuple[torch.Tensor, ...]:
+        """(grasp maps, goal maps, flag logits), the goal's given the grasp ``cell``."""
+        c, feats, flags = self.features(grid, tokens)
+        return self.grasp(feats), self.goal_maps(c, feats, cell), flags

@@ -1,0 +1,274 @@
+"""Training the keypose policy (``samplehd train policy --action keypose``, :func:`train_keypose`) on
+the samples of :mod:`samplehd.learn.keypose.preparation`: the loss of the grasp's and the goal's maps,
+random shifts of the views, and the test decisions' errors.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from samplehd.envs.tokens import instruction_vocabulary
+from samplehd.errors import ConfigError
+from samplehd.learn.data import open_dataset, training_split
+from samplehd.learn.keypose.configuration import ATTRIBUTE_VALUES, FORMAT, KEYPOSE_ATTRIBUTES, KeyposeConfig
+from samplehd.learn.keypose.inference import predict_decisions
+from samplehd.learn.keypose.modeling import KeyposeNet
+from samplehd.learn.keypose.preparation import PREPARED_FILE, prepare_samples
+from samplehd.learn.keypose.processing import FACTOR, HEIGHT_UNIT, grid_of, input_channels
+from samplehd.learn.topdown import TopDownGrid
+from samplehd.learn.training import (
+    TrainRun,
+    descend,
+    load_model_files,
+    pick_device,
+    read_model_config,
+    set_seed,
+    step_rng,
+    torch,
+)
+from samplehd.world.layout import LAYOUT
+
+__all__ = ["keypose_loss", "train_keypose"]
+
+ATTRIBUTE_WEIGHT = 0.5  # weight of the auxiliary attribute maps' loss
+SHIFT = 4  # training views move by up to this many grid cells along each axis
+HEAT_SIGMA = 0.75  # the spread of the heat maps' targets [cells of the network's maps]
+
+
+
+
+
+
+
+
+
+
+
+
+def _shifted(grid: Any, labels: Any, attributes: Any, rng: np.random.Generator) -> tuple[Any, Any, Any]:
+    """The batch's views moved on the table by up to :data:`SHIFT` cells each way, whole cells of the
+    network's maps (the coordinate channels 5 and 6 stay), their labels with them: the same scene a
+    little elsewhere."""
+    grid, labels, attributes = grid.clone(), labels.clone(), attributes.clone()
+    steps = rng.integers(-SHIFT // FACTOR, SHIFT // FACTOR + 1, size=(len(grid), 2))
+    moved = [c for c in range(grid.shape[1]) if c not in (5, 6)]
+    for i, (dr, dc) in enumerate(steps):
+        grid[i, moved] = torch.roll(grid[i, moved], shifts=(int(dr) * FACTOR, int(dc) * FACTOR), dims=(1, 2))
+        attributes[i] = torch.roll(attributes[i], shifts=(int(dr), int(dc)), dims=(1, 2))
+        labels[i, [0, 6]] += float(dr)
+        labels[i, [1, 7]] += float(dc)
+    return grid, labels, attributes
+
+
+def _heat_loss(logits: Any, rc: Any) -> Any:
+    """Cross-entropy of the map's softmax against a Gaussian of :data:`HEAT_SIGMA` cells around the
+    labelled position (a cell beside it is nearly as right as the cell itself)."""
+    n, rows, cols = logits.shape
+    r = torch.arange(rows, device=logits.device, dtype=logits.dtype)
+    c = torch.arange(cols, device=logits.device, dtype=logits.dtype)
+    d2 = (r[None, :, None] - rc[:, 0, None, None]) ** 2 + (c[None, None, :] - rc[:, 1, None, None]) ** 2
+    target = torch.softmax((-d2 / (2 * HEAT_SIGMA ** 2)).reshape(n, -1), 1)
+    return -(target * torch.log_softmax(logits.reshape(n, -1), 1)).sum(1).mean()
+
+
+def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any) -> tuple[Any, dict[str, Any]]:
+    """The training loss of a batch and its parts: cross-entropy of the grasp's and the goal's cell
+    over the map, smooth L1 of the values at the labelled cells (the goal's read with the labelled
+    grasp's cell), binary cross-entropy of release and last, and :data:`ATTRIBUTE_WEIGHT` times the
+    cross-entropy of the attribute maps over the cells that show an object."""
+    F = torch.nn.functional
+    n = grid.shape[0]
+    c, feats, flags = net.features(grid, tokens)
+    rows, cols = feats.shape[2], feats.shape[3]
+    g_rc, p_rc = labels[:, 0:2], labels[:, 6:8]
+    g_cell = torch.stack([g_rc[:, 0].round().clamp(0, rows - 1), g_rc[:, 1].round().clamp(0, cols - 1)], 1).long()
+    p_cell = torch.stack([p_rc[:, 0].round().clamp(0, rows - 1), p_rc[:, 1].round().clamp(0, cols - 1)], 1).long()
+    gm = net.grasp(feats)
+    pm = net.goal_maps(c, feats, g_cell)
+    ar = torch.arange(n, device=grid.device)
+    g_at = gm[ar, :, g_cell[:, 0], g_cell[:, 1]]
+    p_at = pm[ar, :, p_cell[:, 0], p_cell[:, 1]]
+    heat = _heat_loss(gm[:, 0], g_rc) + _heat_loss(pm[:, 0], p_rc)
+    g_yaw, p_yaw = labels[:, 3], labels[:, 9]
+    g_want = torch.stack([g_rc[:, 0] - g_cell[:, 0], g_rc[:, 1] - g_cell[:, 1], labels[:, 2], torch.cos(2 * g_yaw),
+                          torch.sin(2 * g_yaw), labels[:, 4], labels[:, 5]], 1)
+    p_want = torch.stack([p_rc[:, 0] - p_cell[:, 0], p_rc[:, 1] - p_cell[:, 1], labels[:, 8], torch.cos(2 * p_yaw),
+                          torch.sin(2 * p_yaw)], 1)
+    values = F.smooth_l1_loss(g_at[:, 1:], g_want, beta=0.05) + F.smooth_l1_loss(p_at[:, 1:], p_want, beta=0.05)
+    flag = F.binary_cross_entropy_with_logits(flags, labels[:, 10:12])
+    att_logits = net.attributes(feats).view(n, len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, rows, cols)
+    named = F.cross_entropy(att_logits.transpose(1, 2), attributes, ignore_index=-1) if (attributes >= 0).any() \
+        else att_logits.sum() * 0.0
+    return heat + 5.0 * values + flag + ATTRIBUTE_WEIGHT * named, {
+        "heat": heat, "values": values, "flags": flag, "attributes": named, "grasp": gm, "goal": pm,
+        "flag_logits": flags}
+
+
+def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *, device: str | None = None,
+                  quiet: bool = False, stop_after: int | None = None) -> dict[str, Any]:
+    """Train the keypose policy ``config`` on a dataset's L1 training episodes; metrics on its test
+    episodes: the grasp's and the goal's position error [m] (median, mean, share within 1 and 2 cm), the
+    grasp's height and yaw error, the flags' accuracy.
+
+    What the dataset says is filled in (:func:`fill_from_dataset`): its path and catalogue, the grid's
+    image size (the dataset's scene images', so that first decisions read them; an image of another
+    size is drawn anew from the episode's state), the families and the count of its training episodes.
+    ``config.families`` (empty: all) chooses the families trained on. ``config.train.init``: the folder
+    of another keypose policy whose weights the training starts from (a ``pick_up`` model's grounding
+    serves ``place``); its grid, width and inputs must be this run's. ``inputs: state`` trains the
+    privileged-state reference: its view also marks the cells of the objects the task moves (read from
+    the simulator when it acts), so it is told which objects the instruction means.
+
+    Args:
+        dataset: a dataset folder written by ``samplehd generate``.
+        out: the output folder (resumed when it holds a checkpoint).
+        config: the policy to train.
+        device: torch device (default: cuda when present, else cpu).
+        quiet: no progress bar.
+        stop_after: stop after this many steps (a checkpoint stays; for tests of resuming).
+
+    Returns:
+        The metrics written to ``metrics.json`` (``{"stopped_at": N}`` when stopped early).
+    """
+    reader = open_dataset(dataset)
+    config, train_k, test_k = fill_from_dataset(config, reader, dataset)
+    start = _initial_weights(config) if config.train.init else None
+    out = Path(out)
+    dev = pick_device(device)
+    set_seed(config.train.seed)
+    steps = config.train.steps
+    run = TrainRun(out, config.to_dict(), steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
+                   stop_after=stop_after)
+    run.prepare()
+    arrays = _samples(out, reader, config, train_k, test_k)
+    n = len(arrays["train_grid"])
+    if n == 0:
+        raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry", field="dataset")
+    net = KeyposeNet(len(instruction_vocabulary()), input_channels(config.inputs), config.model.width).to(dev)
+    if start is not None:
+        net.load_state_dict(start)
+    # The lowest grasp of the training decisions: the policy never grasps lower (a finger on the table
+    # is a safety stop, a grasp a little high still closes on the object).
+    net.z_floor.fill_(float(arrays["train_labels"][:, 2].min()) * HEIGHT_UNIT + LAYOUT.table_height)
+    opt = torch.optim.Adam(net.parameters(), lr=config.train.lr)
+    losses, t = run.train(net, opt, _train_step(net, opt, arrays, config.train, dev), "policy")
+    if run.stopped:
+        return {"stopped_at": len(losses)}
+    metrics: dict[str, Any] = {"train_loss": float(np.mean(losses[-50:])) if losses else None,
+                               **_test_metrics(net, arrays, grid_of(config.grid), dev),
+                               "train_episodes": len(train_k), "train_decisions": n, "test_episodes": len(test_k),
+                               "families": list(config.families), "steps": steps, "seed": config.train.seed,
+                               "device": str(dev), **t}
+    run.finish(net, metrics)
+    (out / PREPARED_FILE).unlink(missing_ok=True)
+    return metrics
+
+
+def fill_from_dataset(config: KeyposeConfig, reader: Any, dataset: str | Path
+                      ) -> tuple[KeyposeConfig, list[int], list[int]]:
+    """(``config`` with what the dataset says filled in, its training episodes, its test episodes):
+    the dataset's path and catalogue, the grid's image size (its scene images'; 640 × 360 px when it
+    has none), the families of the training episodes (of ``config.families`` when given) and their
+    count."""
+    camera = reader.scenes[0]["camera"] if reader.scenes else {}
+    grid = replace(config.grid, width=int(camera.get("width", 640)), height=int(camera.get("height", 360)))
+    train_k, test_k = training_split(reader, dataset, config.families or None)
+    families = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
+    return replace(config, dataset=str(dataset), catalogue=reader.catalogue, grid=grid, families=families,
+                   train=replace(config.train, episodes=len(train_k))), train_k, test_k
+
+
+def _samples(out: Path, reader: Any, config: KeyposeConfig, train_k: Sequence[int],
+             test_k: Sequence[int]) -> dict[str, np.ndarray]:
+    """The training and test samples (``train_*``, ``test_*``), read from ``out``'s
+    :data:`~samplehd.learn.keypose.preparation.PREPARED_FILE` when a resumed run left one, else
+    prepared and kept there until the run ends."""
+    prepared = out / PREPARED_FILE
+    if prepared.exists():
+        with np.load(prepared, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    train = prepare_samples(reader, train_k, config.grid, config.tokens, config.inputs)
+    test = prepare_samples(reader, test_k, config.grid, config.tokens, config.inputs)
+    arrays = {**{f"train_{k}": v for k, v in train.items()}, **{f"test_{k}": v for k, v in test.items()}}
+    tmp = out / (PREPARED_FILE + ".tmp.npz")
+    np.savez(tmp, **arrays)
+    tmp.replace(prepared)
+    return arrays
+
+
+def _train_step(net: Any, opt: Any, arrays: dict[str, np.ndarray], train: Any, dev: Any) -> Any:
+    """The optimiser step ``step`` of the run (``train``: the config's training options): a batch of
+    shifted views, the learning rate decaying linearly over the last two thirds."""
+    n = len(arrays["train_grid"])
+
+    def train_step(step: int) -> float:
+        net.train()
+        rng = step_rng(train.seed, step)
+        for g in opt.param_groups:
+            g["lr"] = train.lr * min(1.0, 1.5 * (1 - step / train.steps))
+        idx = rng.integers(n, size=train.batch)
+        grid_t = torch.as_tensor(arrays["train_grid"][idx].astype(np.float32), device=dev)
+        grid_t, lab_t, att_t = _shifted(grid_t, torch.as_tensor(arrays["train_labels"][idx], device=dev),
+                                        torch.as_tensor(arrays["train_attributes"][idx].astype(np.int64), device=dev),
+                                        rng)
+        loss, _ = keypose_loss(net, grid_t, torch.as_tensor(arrays["train_tokens"][idx], device=dev), lab_t, att_t)
+        return descend(opt, loss)
+
+    return train_step
+
+
+def _initial_weights(config: KeyposeConfig) -> dict[str, Any]:
+    """The weights of the keypose policy in ``config.train.init``; one line naming ``init`` when it is
+    none or looks at another grid or other inputs."""
+    init = config.train.init
+    raw, state = load_model_files(init, "policy", FORMAT)
+    if raw.get("action") != config.action:
+        raise ConfigError(f"init={init}: a policy of action {raw.get('action')!r}, not a keypose policy", field="init")
+    start = read_model_config(KeyposeConfig, raw, init)
+    if start.inputs != config.inputs:
+        raise ConfigError(f"init={init}: a keypose policy of inputs {start.inputs!r}, this run's are "
+                          f"{config.inputs!r}", field="init")
+    if start.grid != config.grid or start.model.width != config.model.width:
+        raise ConfigError(f"init={init}: its grid or width (grid {start.grid.to_dict()}, width {start.model.width}) "
+                          f"differs from this run's (grid {config.grid.to_dict()}, width {config.model.width})",
+                          field="init")
+    return state
+
+
+def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, dev: Any) -> dict[str, Any]:
+    m = len(arrays["test_grid"])
+    if m == 0:
+        return {"test_decisions": 0}
+    net.eval()
+    preds = []
+    with torch.no_grad():
+        for s in range(0, m, 32):
+            idx = np.arange(s, min(s + 32, m))
+            g = torch.as_tensor(arrays["test_grid"][idx].astype(np.float32), device=dev)
+            tok = torch.as_tensor(arrays["test_tokens"][idx], device=dev)
+            preds += [p.as_array() for p in predict_decisions(net, g, tok, grid)]
+    pred = np.stack(preds)
+    labels = arrays["test_labels"]
+    coarse = grid.coarse(FACTOR)
+    g_true = coarse.world(labels[:, 0], labels[:, 1])
+    p_true = coarse.world(labels[:, 6], labels[:, 7])
+    g_err = np.linalg.norm(pred[:, 0:2] - g_true, axis=1)
+    p_err = np.linalg.norm(pred[:, 6:8] - p_true, axis=1)
+    z_err = np.abs(pred[:, 2] - (labels[:, 2] * HEIGHT_UNIT + LAYOUT.table_height))
+    yaw = np.abs(((pred[:, 3] - labels[:, 3]) + np.pi / 2) % np.pi - np.pi / 2)
+    flags = (pred[:, 10:12] > 0.5) == (labels[:, 10:12] > 0.5)
+
+    def summary(err: np.ndarray) -> dict[str, float]:
+        return {"median": round(float(np.median(err)), 4), "mean": round(float(err.mean()), 4),
+                "within_1cm": round(float((err < 0.01).mean()), 4), "within_2cm": round(float((err < 0.02).mean()), 4)}
+
+    return {"test_decisions": m, "test_grasp_error_m": summary(g_err), "test_goal_error_m": summary(p_err),
+            "test_grasp_z_error_m": round(float(np.median(z_err)), 4),
+            "test_grasp_yaw_error_rad": round(float(np.median(yaw)), 4),
+            "test_release_accuracy": round(float(flags[:, 0].mean()), 4),
+            "test_last_accuracy": round(float(flags[:, 1].mean()), 4)}
