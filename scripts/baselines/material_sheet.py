@@ -6,6 +6,7 @@ rendered by the dataset's default scene camera at the dataset's 640x360. Each ti
 the object, enlarged; rows are classes, columns materials (blank: the class has no such material).
 
 usage: python scripts/baselines/material_sheet.py OUT.png [--preset fast|hd] [--tile 128] [--yaw DEG]
+       [--catalogue shop-vrb|procedural]
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from PIL import Image, ImageDraw
 
 from samplehd.catalogue import load_catalogue
 from samplehd.catalogue.instance import ObjectInstance
+from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.render.contact_sheet import contact_sheet
 from samplehd.render.renderer import SceneRenderer
 from samplehd.scene.sampler import SCENE_CAMERA
@@ -59,8 +61,9 @@ def main() -> None:
     ap.add_argument("--yaw", type=float, default=30.0)
     ap.add_argument("--classes", nargs="*")
     ap.add_argument("--colour")
+    ap.add_argument("--catalogue", choices=list(CATALOGUES), default=DEFAULT_CATALOGUE)
     args = ap.parse_args()
-    cat = load_catalogue()
+    cat = load_catalogue(name=args.catalogue)
     camera = CameraSpec(SCENE_CAMERA, OPERATOR_CAMERA.pos, OPERATOR_CAMERA.target, OPERATOR_CAMERA.fovy)
     half = math.radians(args.yaw) / 2
     quat = (math.cos(half), 0.0, 0.0, math.sin(half))

@@ -35,7 +35,8 @@ def main() -> None:
     ap.add_argument("dataset")
     ap.add_argument("--tol", type=float, nargs="+", default=[0.02, 0.05, 0.08])
     args = ap.parse_args()
-    cat = load_catalogue()
+    reader = open_dataset(args.dataset)
+    cat = load_catalogue(name=reader.catalogue)  # the shapes the dataset's scenes were drawn from
     templates: dict[str, list[tuple[str, str, np.ndarray]]] = {}
     for name in cat.classes:
         cls = cat.object_class(name)
@@ -45,7 +46,6 @@ def main() -> None:
             for s in menu.size:
                 e = np.asarray(object_facts(ObjectInstance(name, v, c, m, s)).extents, float)
                 templates.setdefault(name, []).append((v, s, _dims(e)))
-    reader = open_dataset(args.dataset)
     train = Counter()
     test = []
     for scene in reader.scenes:

@@ -40,6 +40,8 @@ def test_make_registers_and_spaces_follow_options(fast_options: dict) -> None:
     ids = set(np.unique(obs["scene_segmentation"]).tolist())
     assert 1 in ids and any(i >= 3 for i in ids)
     assert isinstance(obs["instruction"], str) and obs["instruction"] == info["instruction"]
+    # Options that name no catalogue get SAMPLE-HD's SHOP-VRB shapes (its variants are shopvrb1, ...).
+    assert all(o.instance.variant.startswith("shopvrb") for o in env.unwrapped.episode.scene.objects)
     tokens = obs["instruction_tokens"]
     assert tokens[0] == 1 and 2 in tokens and 3 not in tokens  # <START> ... <END>, no <UNK>
     assert tokens.max() < len(instruction_vocabulary())
