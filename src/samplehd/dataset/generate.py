@@ -369,6 +369,10 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
 
             rec = {"scene_index": key[0], "slot": key[1], "status": "ok", "num_frames": int(meta["num_frames"]),
                    "size": p.stat().st_size, "sha256": file_sha256(p), "seconds": 0.0}
+            label = meta["info"].get("disturbance") if isinstance(meta.get("info"), dict) else None
+            if label is not None:
+                rec.update({"success": bool(meta["success"]), "disturbance": label["kind"],
+                            "outcome": label["outcome"]})
             known[key] = rec
             late.append(rec)
     append_journal(out, late)
@@ -394,7 +398,8 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
                               seed=int(c["seed"]), family=str(c["family"]), task=dict(c["task"]),
                               instruction=str(c["instruction"]), split=str(c["split"]),
                               scene=SceneSpec.from_dict(s["spec"]), directions=s["directions"], paths=config.paths,
-                              render=config.render)
+                              render=config.render,
+                              disturbances=config.disturbances if config.disturbances.enabled else None)
 
     position = {k: i for i, k in enumerate(order)}
     for unit, res in backend.map(run_episode_unit, units()):
@@ -427,6 +432,7 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
     instructions, episodes = [], []
     families: Counter[str] = Counter()
     splits: Counter[str] = Counter()
+    outcomes: dict[str, Counter[str]] = {k: Counter() for k in config.disturbances.kinds}
     for i, key in enumerate(ok_keys):
         c = dict(by_key[key])
         rec = known[key]
@@ -436,6 +442,9 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
         episodes.append({"instruction_index": i, "scene_index": key[0], "slot": key[1], "file": c["file"],
                          "seed": int(c["seed"]), "family": c["family"], "split": c["split"],
                          "num_frames": int(rec["num_frames"]), "size": int(rec["size"]), "sha256": rec["sha256"]})
+        if "disturbance" in rec:
+            episodes[-1].update({k: rec[k] for k in ("disturbance", "outcome", "success")})
+            outcomes[rec["disturbance"]][rec["outcome"]] += 1
         families[c["family"]] += 1
         splits[c["split"]] += 1
     # Episodes past the target cutoff (finished by other workers meanwhile) are not part of the dataset.
@@ -478,6 +487,10 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
         "render": config.render.to_dict(),
         "episodes": episodes,
     })
+    if config.disturbances.enabled:
+        # Disturbed episodes by kind and outcome; failed recoveries are in the dataset, counted apart.
+        info["counts"]["disturbances"] = {k: dict(sorted(v.items())) for k, v in outcomes.items()}
+        info["counts"]["failed_recoveries"] = sum(v["failed"] for v in outcomes.values())
     _write_json(out / INFO_FILE, info, indent=1)
 
 
