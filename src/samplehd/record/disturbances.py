@@ -5,13 +5,20 @@ moment of the recorded rollout:
 
 - ``missed_grasp``: the approach to the grasp stops short at a seeded point (the executed targets
   hold there), so the fingers close off the object;
-- ``slip``: the gripper opens for a moment at a seeded point of the transport (ObjectMove), the
-  grasp rule releases the weld and the object drops;
-- ``nudge``: the object to be grasped is pushed (a horizontal velocity of seeded direction and
-  speed set on its free joint) at a seeded point of the move towards it (GripperMoveAvoid);
+- ``slip``: the gripper opens for a moment at a seeded point of the lift (MoveUP), the grasp rule
+  releases the weld and the object drops (from a few centimetres: dropped from the transport height,
+  cans and bottles land on their side, where no grasp of the planner reaches them);
+- ``nudge``: the object to be grasped is pushed at a seeded point of the move towards it
+  (GripperMoveAvoid): moved a seeded distance (3-6 cm) in a seeded horizontal direction over
+  :data:`_PUSH_FRAMES` control steps, an equal part at the start of each and left at rest (a push by
+  a force topples tall objects when friction stops them; this one slides them like a hand that
+  pushes and lets go);
 - ``wrong_object``: another object (seeded) is approached and grasped before the instructed one;
 - ``short_release``: the transport stops at a seeded point, the object is lowered there and released,
-  short of the destination.
+  short of the destination (families that place only; in others the episode stays undisturbed).
+
+A drawn disturbance whose moment never comes (a one-frame subtask, a family without it) leaves the
+episode undisturbed and unlabelled.
 
 The oracle is not told. It notices the state through the grasp rule (the object is not in the weld
 after CloseGripper, leaves it while carried, or the weld holds another object than the one to move)
@@ -66,12 +73,13 @@ LABEL_FIELDS: dict[str, tuple[tuple[str | int, ...], str]] = {
 # Where in its subtask each kind strikes: the progress in [lo, hi] of that subtask.
 _MOMENTS: dict[str, tuple[str, float, float]] = {
     "missed_grasp": ("ApproachGrasp", 0.1, 0.4),
-    "slip": ("ObjectMove", 0.2, 0.7),
+    "slip": ("MoveUP", 0.3, 0.8),
     "nudge": ("GripperMoveAvoid", 0.5, 0.9),
     "wrong_object": ("GripperMoveAvoid", 0.0, 0.0),
     "short_release": ("ObjectMove", 0.3, 0.6),
 }
-_NUDGE_SPEED = (0.4, 0.6)  # push speed range [m/s]
+_NUDGE_DISTANCE = (0.03, 0.06)  # how far a push moves an object [m]
+_PUSH_FRAMES = 4  # control steps a push lasts
 _SLIP_FRAMES = 3  # control steps the gripper stays open in a slip (or until the oracle notices)
 # Failures (AttemptFailed reasons) the oracle recovers from by opening, backing off and grasping again.
 RECOVERABLE = ("grasp_missed", "grasp_slipped", "wrong_object", "approach_blocked", "not_holding")
@@ -106,7 +114,7 @@ class Disturbance:
         subtask: the subtask it strikes in (the first one of that name, first moved object).
         progress: where in that subtask, in [0, 1].
         direction: nudge: horizontal push direction [rad, world frame].
-        speed: nudge: push speed [m/s].
+        distance: nudge: how far the push moves the object [m].
         other: wrong_object: rank among the other objects (the object is ``others[other % len]``).
     """
 
@@ -114,12 +122,12 @@ class Disturbance:
     subtask: str
     progress: float
     direction: float = 0.0
-    speed: float = 0.0
+    distance: float = 0.0
     other: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "subtask": self.subtask, "progress": self.progress, "direction": self.direction,
-                "speed": self.speed, "other": self.other}
+                "distance": self.distance, "other": self.other}
 
 
 def draw_disturbance(config: DisturbanceConfig, seed: int) -> Disturbance | None:
@@ -133,9 +141,9 @@ def draw_disturbance(config: DisturbanceConfig, seed: int) -> Disturbance | None
     subtask, lo, hi = _MOMENTS[kind]
     progress = float(rng.uniform(lo, hi))
     direction = float(rng.uniform(-math.pi, math.pi))
-    speed = float(rng.uniform(*_NUDGE_SPEED))
+    distance = float(rng.uniform(*_NUDGE_DISTANCE))
     other = int(rng.integers(1 << 16))
-    return Disturbance(kind, subtask, progress, direction, speed, other)
+    return Disturbance(kind, subtask, progress, direction, distance, other)
 
 
 @dataclass
@@ -175,7 +183,6 @@ class Disturber:
         self.labels = _Labels()
         self._hold: np.ndarray | None = None  # missed_grasp / short_release: joints the arm holds at
         self._open_until = -1  # slip: the gripper stays open until this frame
-        self._short_release = False
 
     @property
     def fired(self) -> bool:
@@ -200,8 +207,9 @@ class Disturber:
 
     def _strikes(self, item: ControlTarget) -> bool:
         ro, d = self.ro, self.d
-        return (not self.fired and ro.subtasks[item.subtask] == d.subtask and item.progress >= d.progress
-                and ro.subtasks.count(d.subtask) == 1)
+        subtask = d.subtask
+        return (not self.fired and ro.subtasks[item.subtask] == subtask and item.progress >= d.progress
+                and ro.subtasks.count(subtask) == 1)
 
     def _apply(self, item: ControlTarget) -> ControlTarget:
         ro, d, lab = self.ro, self.d, self.labels
@@ -227,14 +235,12 @@ class Disturber:
             return item
         if d.kind == "nudge":
             if self._strikes(item):
-                i = item.target_object
-                body = ro.bodies.object_body[i]
-                dof = int(ro.model.jnt_dofadr[ro.model.body_jntadr[body]])
-                v = (d.speed * math.cos(d.direction), d.speed * math.sin(d.direction), 0.0)
-                ro.data.qvel[dof:dof + 3] = v
-                lab.frame = lab.last = frame
-                lab.object = i
-                lab.params = {"object_velocity": [float(x) for x in v]}
+                lab.frame, lab.object = frame, item.target_object
+                lab.last = frame + _PUSH_FRAMES - 1
+                step = d.distance / _PUSH_FRAMES * np.array([math.cos(d.direction), math.sin(d.direction)])
+                lab.params = {"push_step": [float(v) for v in step], "push_frames": _PUSH_FRAMES}
+            if self.fired and lab.frame <= frame <= lab.last:
+                _push_step(ro, lab.object, np.asarray(lab.params["push_step"]))
             return item
         return item
 
@@ -318,7 +324,7 @@ class Disturber:
             raise AttemptFailed("wrong_object", f"the gripper holds object {ro.assist.active}, not object {i}")
 
     def _watched(self, plan: Plan[Any]) -> Generator[ControlTarget | SubtaskCut, ControlReport | None, Any]:
-        """``plan`` watched step by step: while an object is carried (ObjectMove, MoveDOWN) it must stay in
+        """``plan`` watched step by step: while an object is carried (MoveUP, ObjectMove, MoveDOWN) it must stay in
         the weld; when it does not, the plan hears that it slipped. A short release strikes here too."""
         ro = self.ro
         try:
@@ -334,7 +340,7 @@ class Disturber:
                     plan.close()
                     yield from self._release_here(ro.hand.index)
                     return None
-                if (ro.hand is not None and name in ("ObjectMove", "MoveDOWN")
+                if (ro.hand is not None and name in ("MoveUP", "ObjectMove", "MoveDOWN")
                         and ro.assist.available and ro.assist.active != ro.hand.index):
                     item = plan.throw(AttemptFailed("grasp_slipped", f"object {ro.hand.index} slipped out of "
                                                                      f"the gripper in {name}"))
@@ -439,6 +445,15 @@ class Disturber:
         frames = {**episode.frames, "disturbance_active": active, "recovery": recovery}
         info = {**episode.info, "disturbance": label}
         return replace(episode, frames=frames, info=info, success=bool(success))
+
+
+def _push_step(ro: Rollout, i: int, step: np.ndarray) -> None:
+    """One step of a nudge: object ``i`` moved by ``step`` [m, world x and y] and put at rest."""
+    m, d = ro.model, ro.data
+    joint = int(m.body_jntadr[ro.bodies.object_body[i]])
+    adr, dof = int(m.jnt_qposadr[joint]), int(m.jnt_dofadr[joint])
+    d.qpos[adr:adr + 2] += step
+    d.qvel[dof:dof + 6] = 0.0
 
 
 def _still(gripper: float) -> np.ndarray:
