@@ -111,3 +111,14 @@ def test_recorded_actions_replay_to_the_recorded_outcome(disturbed_dataset: Path
     report = replay_dataset(disturbed_dataset)
     assert report.agrees, report
     assert max(e.tcp_deviation for e in report.episodes) < 0.01  # the replay follows the recording
+
+
+def test_stats_count_disturbances_by_kind_and_outcome(disturbed_dataset: Path, micro_dataset: Path, tmp_path: Path):
+    from samplehd.dataset.stats import dataset_stats, write_plots
+
+    stats = dataset_stats(disturbed_dataset)
+    counts = _info(disturbed_dataset)["counts"]["disturbances"]
+    assert stats["disturbances"] == {k: v for k, v in counts.items() if v}
+    assert sum(stats["disturbance_outcomes"].values()) == sum(sum(v.values()) for v in counts.values()) > 0
+    assert (tmp_path / "disturbance_outcomes.png") in write_plots(stats, tmp_path)
+    assert "disturbances" not in dataset_stats(micro_dataset)
