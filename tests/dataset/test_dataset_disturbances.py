@@ -9,6 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 from dataset_helpers import MICRO, micro_config
 
@@ -122,3 +123,36 @@ def test_stats_count_disturbances_by_kind_and_outcome(disturbed_dataset: Path, m
     assert sum(stats["disturbance_outcomes"].values()) == sum(sum(v.values()) for v in counts.values()) > 0
     assert (tmp_path / "disturbance_outcomes.png") in write_plots(stats, tmp_path)
     assert "disturbances" not in dataset_stats(micro_dataset)
+
+
+def test_lerobot_export_carries_the_labels(disturbed_dataset: Path, micro_dataset: Path, tmp_path: Path):
+    import pyarrow.parquet as pq
+
+    from samplehd.dataset.container import read_episode
+    from samplehd.export.lerobot import export_lerobot
+
+    out = tmp_path / "lr"
+    export_lerobot(disturbed_dataset, out, "samplehd/test")
+    info = json.loads((out / "meta/info.json").read_text())
+    assert info["features"]["recovery"]["dtype"] == "int64"
+    data = pq.read_table(out / "data/chunk-000/file-000.parquet").to_pydict()
+    rows = pq.read_table(out / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
+    reader_order = {e["file"]: e for e in _info(disturbed_dataset)["episodes"]}
+    seen = 0
+    for row in rows:
+        a, b = row["dataset_from_index"], row["dataset_to_index"]
+        entry = _info(disturbed_dataset)["episodes"][row["samplehd/instruction_index"]]
+        assert entry["file"] in reader_order
+        ep = read_episode(disturbed_dataset / entry["file"], images="none")
+        lab = ep.info.get("disturbance")
+        assert data["recovery"][a:b] == ep.frames.get("recovery", np.zeros(b - a)).tolist()
+        assert data["disturbance_active"][a:b] == ep.frames.get("disturbance_active", np.zeros(b - a)).tolist()
+        assert row["samplehd/disturbance.kind"] == (lab["kind"] if lab else "")
+        assert row["samplehd/disturbance.frame"] == (lab["frame"] if lab else -1)
+        assert row["samplehd/disturbance.success"] == ep.success
+        seen += lab is not None
+    assert seen > 0
+    assert "disturbances" in json.loads((out / "meta/samplehd.json").read_text())
+    plain = tmp_path / "plain"
+    export_lerobot(micro_dataset, plain, "samplehd/test")
+    assert "recovery" not in json.loads((plain / "meta/info.json").read_text())["features"]
