@@ -156,3 +156,22 @@ def test_lerobot_export_carries_the_labels(disturbed_dataset: Path, micro_datase
     plain = tmp_path / "plain"
     export_lerobot(micro_dataset, plain, "samplehd/test")
     assert "recovery" not in json.loads((plain / "meta/info.json").read_text())["features"]
+
+
+def test_viewer_timeline_bands_follow_the_labels(disturbed_dataset: Path):
+    from samplehd.dataset.container import read_episode
+    from samplehd.viewer.episodes import disturbance_bands
+
+    for e in _info(disturbed_dataset)["episodes"]:
+        ep = read_episode(disturbed_dataset / e["file"], images="none")
+        bands = {b["kind"]: b for b in disturbance_bands(ep.info)}
+        if "disturbance" not in e:
+            assert bands == {}
+            continue
+        lab = ep.info["disturbance"]
+        active = np.flatnonzero(ep.frames["disturbance_active"])
+        assert (bands["disturbance"]["start"], bands["disturbance"]["end"]) == (active[0], active[-1] + 1)
+        assert bands["disturbance"]["name"].startswith(lab["kind"])
+        recovery = np.flatnonzero(ep.frames["recovery"])
+        if len(recovery):
+            assert (bands["recovery"]["start"], bands["recovery"]["end"]) == (recovery[0], recovery[-1] + 1)
