@@ -175,3 +175,24 @@ def test_viewer_timeline_bands_follow_the_labels(disturbed_dataset: Path):
         recovery = np.flatnonzero(ep.frames["recovery"])
         if len(recovery):
             assert (bands["recovery"]["start"], bands["recovery"]["end"]) == (recovery[0], recovery[-1] + 1)
+
+
+def test_sample_hd_export_carries_the_labels(disturbed_dataset: Path, tmp_path: Path):
+    from samplehd.dataset.container import read_episode
+    from samplehd.export.sample_hd import export_samplehd
+
+    out = tmp_path / "shd"
+    export_samplehd(disturbed_dataset, out, images=False)
+    labelled = 0
+    for data in sorted(out.glob("sequences/*/data.json")):
+        doc = json.loads(data.read_text())
+        entry = _info(disturbed_dataset)["episodes"][doc["instruction_idx"]]
+        ep = read_episode(disturbed_dataset / entry["file"], images="none")
+        if "disturbance" not in ep.info:
+            assert "disturbance" not in doc and "recovery" not in doc["sequence"][0]
+            continue
+        labelled += 1
+        assert doc["disturbance"] == ep.info["disturbance"]
+        flags = [fr["recovery"] for fr in doc["sequence"][:ep.num_frames]]
+        assert flags == ep.frames["recovery"].astype(bool).tolist()
+    assert labelled > 0
