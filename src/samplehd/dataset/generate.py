@@ -378,7 +378,7 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
     append_journal(out, late)
     for key in order:
         if key in known:
-            cutoff.record(key, known[key]["status"] == "ok")
+            cutoff.record(key, _succeeded(known[key]))
     scene_by_index = {int(s["image_index"]): s for s in scenes}
     total = len(order) if cutoff.end is None else cutoff.end
     progress.stage("paths", total, sum(1 for k in order[:total] if k in known))
@@ -407,7 +407,7 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
         record = res.to_dict()
         append_journal(out, [record])
         known[key] = record
-        cutoff.record(key, res.ok)
+        cutoff.record(key, _succeeded(record))
         summary.units_run += 1
         summary.work_seconds += res.seconds
         summary.cpu_seconds += res.cpu_seconds
@@ -420,6 +420,12 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
         progress.stage("paths", cutoff.end, cutoff.end)
     cutoff.known = known  # type: ignore[attr-defined]
     return cutoff
+
+
+def _succeeded(record: dict[str, Any]) -> bool:
+    """Whether a journal record is a success: an episode written, and not a failed recovery (kept, but
+    not counted towards ``target_episodes``)."""
+    return record.get("status") == "ok" and record.get("success", True) is not False
 
 
 def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], candidates: list[dict[str, Any]],
@@ -465,7 +471,8 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
     summary.rejections = dict(sorted(rejections.items()))
     summary.scene_rejections = dict(sorted(scene_rej.items()))
     summary.families = dict(sorted(families.items()))
-    summary.target_reached = not config.target_episodes or len(episodes) >= config.target_episodes
+    successes = sum(1 for e in episodes if e.get("success", True))  # failed recoveries are kept, not counted
+    summary.target_reached = not config.target_episodes or successes >= config.target_episodes
     lang_info = dict(cand_doc["info"])
     lang_info["counts"] = {"families": dict(sorted(families.items())), "splits": dict(sorted(splits.items())),
                            "candidates": len(candidates)}
