@@ -3,8 +3,9 @@ episode of that kind (recovered where one is), from just before the disturbance 
 
     python scripts/disturbance_sheets.py DATASET OUT_DIR [KIND ...]
 
-Frames: before, the disturbance's first and last frame, the frame the oracle noticed the failure, three
-frames of the recovery (start, middle, end) and the final frame; 320 x 180, operator camera, fast preset.
+Frames: before, the disturbance's first and last frame (at least 4 frames on), the frame the oracle noticed
+the failure, three frames of the recovery (start, middle, end) and the final frame; 480 x 270, operator
+camera, fast preset.
 """
 
 from __future__ import annotations
@@ -30,14 +31,16 @@ def picks(label: dict, frames: int) -> list[tuple[int, str]]:
     """(frame, caption) of the sheet's tiles."""
     f, last = label["frame"], label["last_frame"]
     first, end = label["recovery_first"], label["recovery_last"]
-    out = [(max(0, f - 5), "before"), (f, f"{label['kind']} starts"), (last, f"{label['kind']} ends")]
+    out = [(max(0, f - 5), "before"), (f, f"{label['kind']} starts"),
+           (max(last, f + 4), f"{label['kind']} ends" if last > f else "4 frames later")]
     if label["noticed_frame"] >= 0:
         out.append((label["noticed_frame"], f"noticed: {label['failure']}"))
     if first >= 0:
         span = end - first
         out += [(first, "recovery starts"), (first + span // 2, "recovery"), (end, "recovery ends")]
     out.append((frames - 1, f"final: {label['outcome']}"))
-    return [(min(max(0, t), frames - 1), caption) for t, caption in out]
+    tiles = sorted(((min(max(0, t), frames - 1), caption) for t, caption in out), key=lambda tile: tile[0])
+    return [tile for k, tile in enumerate(tiles) if k == 0 or tile[0] != tiles[k - 1][0]]
 
 
 def main(argv: list[str]) -> None:
@@ -58,7 +61,7 @@ def main(argv: list[str]) -> None:
         label = ep.info["disturbance"]
         model, _ = compile_scene(SceneSpec.from_dict(scenes[ep.scene_index]["spec"]), 1.0 / physics_hz)
         tiles = picks(label, ep.num_frames)
-        images = render_states(model, ep.frames, ImageSpec(320, 180, "fast", ("operator",), ("rgb",)),
+        images = render_states(model, ep.frames, ImageSpec(480, 270, "fast", ("operator",), ("rgb",)),
                                [t for t, _ in tiles])
         sheet = contact_sheet(list(images["operator"]["rgb"]), 4, [f"{t}: {c}" for t, c in tiles])
         path = out / f"disturbance_{kind}.png"
