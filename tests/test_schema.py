@@ -12,6 +12,7 @@ from samplehd.dataset.config import GenerateConfig, InstructionConfig
 from samplehd.dataset.render import RenderConfig
 from samplehd.envs.config import EnvConfig
 from samplehd.errors import ConfigError
+from samplehd.record.disturbances import DisturbanceConfig
 from samplehd.record.paths import PathConfig
 from samplehd.robot.controller import ControlConfig
 from samplehd.robot.safety import SafetyConfig
@@ -21,8 +22,8 @@ from samplehd.schema import Config
 from samplehd.tasks.checker import CheckerConfig
 from samplehd.world.planner_config import PlannerConfig
 
-CONFIGS = [CheckerConfig, ControlConfig, EnvConfig, EvalConfig, GenerateConfig, InstructionConfig, PathConfig,
-           PlannerConfig, RenderConfig, SafetyConfig, SceneConfig, WorldConfig]
+CONFIGS = [CheckerConfig, ControlConfig, DisturbanceConfig, EnvConfig, EvalConfig, GenerateConfig, InstructionConfig,
+           PathConfig, PlannerConfig, RenderConfig, SafetyConfig, SceneConfig, WorldConfig]
 
 
 @pytest.mark.parametrize("cls", CONFIGS, ids=lambda c: c.__name__)
@@ -47,6 +48,7 @@ def test_a_config_is_declared_once_and_round_trips_through_json(cls: type[Config
     (EvalConfig, {"policy": "bc"}, "EvalConfig.policy='bc'"),
     (EvalConfig, {"env": {"nope": 1}}, "EvalConfig.env: unknown option(s) ['nope']"),
     (WorldConfig, {"timestep": 0.5}, "world.timestep=0.5"),
+    (DisturbanceConfig, {"kinds": ["slip", "slip"]}, "disturbances.kinds=['slip', 'slip']"),
     (WorldConfig, {"cameras": [{"name": "a", "pos": [1, 0, 1]}]}, "world.cameras[0]: missing option(s) ['target']"),
 ])
 def test_errors_are_one_line_and_name_the_field(cls: type[Config], bad: dict, where: str) -> None:

@@ -43,6 +43,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenes", type=int, help="number of scenes (overrides the preset)")
     parser.add_argument("--target", type=int, help="stop at this many successful episodes (0: no target)")
     parser.add_argument("--seed", type=int, help="base seed")
+    parser.add_argument("--disturb", type=float, metavar="P", help="chance per episode of one disturbance the "
+                        "oracle recovers from (disturbances.probability; 0: none)")
+    parser.add_argument("--disturb-kinds", nargs="+", metavar="KIND", help="disturbance kinds drawn from: "
+                        "missed_grasp slip nudge wrong_object short_release (default: all)")
     parser.add_argument("--resume", action="store_true", help="finish the dataset already in --out")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
 
@@ -61,6 +65,11 @@ def resolve_config(args: argparse.Namespace):  # noqa: ANN201 - GenerateConfig
         names = getattr(args, flag)
         if names is not None:
             flags.append((f"--{flag}", {"render": {flag: list(split_names(names, f"--{flag}"))}}))
+    if args.disturb is not None:
+        flags.append(("--disturb", {"disturbances": {"probability": args.disturb}}))
+    if args.disturb_kinds is not None:
+        flags.append(("--disturb-kinds", {"disturbances": {"kinds": list(split_names(args.disturb_kinds,
+                                                                                      "--disturb-kinds"))}}))
     for flag, top in flags:
         config = GenerateConfig.from_dict(top, where=flag, base=config)
     check_render_applies(config.render, {next(iter(top["render"])): flag for flag, top in flags if "render" in top})

@@ -43,6 +43,13 @@ def run(args: argparse.Namespace) -> int:
     if fpe:
         console.print(f"frames per episode: min {fpe['min']}, median {fpe['median']:.0f}, mean {fpe['mean']:.1f}, "
                       f"max {fpe['max']}")
+    if stats.get("disturbances"):
+        t = Table("disturbance", "recovered", "absorbed", "failed", "recovery rate")
+        for kind, outcomes in stats["disturbances"].items():
+            rec, fail = outcomes.get("recovered", 0), outcomes.get("failed", 0)
+            rate = f"{rec / (rec + fail):.1%}" if rec + fail else "-"
+            t.add_row(kind, str(rec), str(outcomes.get("absorbed", 0)), str(fail), rate)
+        console.print(t)
     for kind, counts in stats["rejections"].items():
         console.print(f"{kind} rejections: " + (", ".join(f"{k} {v}" for k, v in counts.items()) or "none"))
     if not args.no_plots:

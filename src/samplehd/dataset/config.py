@@ -21,6 +21,7 @@ from typing import Any
 from samplehd.dataset.render import RenderConfig, check_cameras, check_render_applies
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
+from samplehd.record.disturbances import DisturbanceConfig
 from samplehd.record.paths import PathConfig
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import check_scene_config
@@ -70,6 +71,9 @@ class GenerateConfig(Config, section="config"):
         instructions: instruction candidate options.
         paths: ground-truth path options (``samplehd.record.paths.PathConfig``).
         render: images stored with each episode.
+        disturbances: failures applied to episodes for the oracle to recover from
+            (``samplehd.record.disturbances``); off (probability 0) by default, and then left out of
+            :meth:`to_dict`, so a dataset without the section records the config it always did.
     """
 
     num_scenes: int = bounded(4, lo=1, hi=1_000_000)
@@ -80,6 +84,14 @@ class GenerateConfig(Config, section="config"):
     instructions: InstructionConfig = field(default_factory=InstructionConfig)
     paths: PathConfig = field(default_factory=PathConfig)
     render: RenderConfig = field(default_factory=RenderConfig)
+    disturbances: DisturbanceConfig = field(default_factory=DisturbanceConfig)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready options; ``disturbances`` only when it is on."""
+        d = super().to_dict()
+        if not self.disturbances.enabled:
+            del d["disturbances"]
+        return d
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], where: str | None = None, base: GenerateConfig | None = None
@@ -93,7 +105,8 @@ class GenerateConfig(Config, section="config"):
         if not isinstance(d, Mapping):
             raise ConfigError(f"{where}: expected a JSON object")
         base = base or cls()
-        valid = {"num_scenes", "seed", "target_episodes", "test_every", "scene", "instructions", "paths", "render"}
+        valid = {"num_scenes", "seed", "target_episodes", "test_every", "scene", "instructions", "paths", "render",
+                 "disturbances"}
         unknown = sorted(set(d) - valid)
         if unknown:
             raise ConfigError(f"{where}: unknown option(s) {unknown}; valid: {', '.join(sorted(valid))}")
@@ -107,6 +120,8 @@ class GenerateConfig(Config, section="config"):
                                                                   where=f"{where}: instructions"),
             "paths": lambda s: PathConfig.from_dict(_merge_paths(base.paths.to_dict(), s), where=f"{where}: paths"),
             "render": lambda s: RenderConfig.from_dict({**base.render.to_dict(), **s}, where=f"{where}: render"),
+            "disturbances": lambda s: DisturbanceConfig.from_dict({**base.disturbances.to_dict(), **s},
+                                                                  where=f"{where}: disturbances"),
         }
         for k, make in sections.items():
             if k in d:

@@ -6,7 +6,10 @@ Layout of ``episodes/s{scene:06d}_{slot:02d}.h5``::
                                    success, num_frames, subtasks (JSON list), info (JSON), instruction
                                    (text), task (JSON)
     /frames/<field>         one dataset per :data:`samplehd.record.episode.FRAME_FIELDS` entry, shape
-                            (T, ...) with the field's dtype, gzip + shuffle (lossless, bit-exact)
+                            (T, ...) with the field's dtype, gzip + shuffle (lossless, bit-exact);
+                            a disturbed episode also has the (T,) int8 flags of
+                            :data:`samplehd.record.disturbances.LABEL_FIELDS` (``disturbance_active``,
+                            ``recovery``) and ``info["disturbance"]``
     /images                 attrs: render (JSON: mode, width, height, cameras, modalities and
                             per_camera {camera: {mode, width, height, modalities}}; see
                             :func:`camera_settings`, :func:`render_record`)
@@ -50,6 +53,7 @@ import numpy as np
 from samplehd.dataset.layout import FORMAT_VERSION, tmp_path
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError
+from samplehd.record.disturbances import LABEL_FIELDS
 from samplehd.record.episode import FRAME_FIELDS, Episode
 from samplehd.render.deflated import IMAGE_DEFLATE_LEVEL, DeflatedFrames, deflate_frame
 from samplehd.render.keyframes import SparseFrames
@@ -291,6 +295,10 @@ def write_episode(path: Path, episode: Episode, extra: Mapping[str, Any] | None 
         for key, (_, dtype) in FRAME_FIELDS.items():
             arr = np.asarray(episode.frames[key], dtype=dtype)
             frames.create_dataset(key, data=arr, **(_GZIP if arr.size > 64 else {}))
+        for key, (_, dtype) in LABEL_FIELDS.items():
+            if key in episode.frames:
+                arr = np.asarray(episode.frames[key], dtype=dtype)
+                frames.create_dataset(key, data=arr, **(_GZIP if arr.size > 64 else {}))
         if episode.images:
             g = f.create_group("images")
             g.attrs["render"] = json.dumps(dict(render or {}), sort_keys=True)
@@ -523,7 +531,8 @@ def read_episode(path: Path, images: str = "lazy", instruction_index: int | None
     with _open(path) as f:
         try:
             a = f.attrs
-            frames = {k: f["frames"][k][()] for k in FRAME_FIELDS}
+            frames = {k: f["frames"][k][()] for k in (*FRAME_FIELDS, *LABEL_FIELDS) if k in FRAME_FIELDS
+                      or k in f["frames"]}
             keys = []
             if images != "none" and "images" in f:
                 for cam in f["images"]:

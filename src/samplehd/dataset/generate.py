@@ -370,12 +370,16 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
 
             rec = {"scene_index": key[0], "slot": key[1], "status": "ok", "num_frames": int(meta["num_frames"]),
                    "size": p.stat().st_size, "sha256": file_sha256(p), "seconds": 0.0}
+            label = meta["info"].get("disturbance") if isinstance(meta.get("info"), dict) else None
+            if label is not None:
+                rec.update({"success": bool(meta["success"]), "disturbance": label["kind"],
+                            "outcome": label["outcome"]})
             known[key] = rec
             late.append(rec)
     append_journal(out, late)
     for key in order:
         if key in known:
-            cutoff.record(key, known[key]["status"] == "ok")
+            cutoff.record(key, _succeeded(known[key]))
     scene_by_index = {int(s["image_index"]): s for s in scenes}
     total = len(order) if cutoff.end is None else cutoff.end
     progress.stage("paths", total, sum(1 for k in order[:total] if k in known))
@@ -395,7 +399,8 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
                               seed=int(c["seed"]), family=str(c["family"]), task=dict(c["task"]),
                               instruction=str(c["instruction"]), split=str(c["split"]),
                               scene=SceneSpec.from_dict(s["spec"]), directions=s["directions"], paths=config.paths,
-                              render=config.render)
+                              render=config.render,
+                              disturbances=config.disturbances if config.disturbances.enabled else None)
 
     position = {k: i for i, k in enumerate(order)}
     for unit, res in backend.map(run_episode_unit, units()):
@@ -403,7 +408,7 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
         record = res.to_dict()
         append_journal(out, [record])
         known[key] = record
-        cutoff.record(key, res.ok)
+        cutoff.record(key, _succeeded(record))
         summary.units_run += 1
         summary.work_seconds += res.seconds
         summary.cpu_seconds += res.cpu_seconds
@@ -418,6 +423,12 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
     return cutoff
 
 
+def _succeeded(record: dict[str, Any]) -> bool:
+    """Whether a journal record is a success: an episode written, and not a failed recovery (kept, but
+    not counted towards ``target_episodes``)."""
+    return record.get("status") == "ok" and record.get("success", True) is not False
+
+
 def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], candidates: list[dict[str, Any]],
               cutoff: _Cutoff, summary: GenerateSummary) -> None:
     known: dict[tuple[int, int], dict[str, Any]] = cutoff.known  # type: ignore[attr-defined]
@@ -428,6 +439,7 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
     instructions, episodes = [], []
     families: Counter[str] = Counter()
     splits: Counter[str] = Counter()
+    outcomes: dict[str, Counter[str]] = {k: Counter() for k in config.disturbances.kinds}
     for i, key in enumerate(ok_keys):
         c = dict(by_key[key])
         rec = known[key]
@@ -437,6 +449,9 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
         episodes.append({"instruction_index": i, "scene_index": key[0], "slot": key[1], "file": c["file"],
                          "seed": int(c["seed"]), "family": c["family"], "split": c["split"],
                          "num_frames": int(rec["num_frames"]), "size": int(rec["size"]), "sha256": rec["sha256"]})
+        if "disturbance" in rec:
+            episodes[-1].update({k: rec[k] for k in ("disturbance", "outcome", "success")})
+            outcomes[rec["disturbance"]][rec["outcome"]] += 1
         families[c["family"]] += 1
         splits[c["split"]] += 1
     # Episodes past the target cutoff (finished by other workers meanwhile) are not part of the dataset.
@@ -457,7 +472,8 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
     summary.rejections = dict(sorted(rejections.items()))
     summary.scene_rejections = dict(sorted(scene_rej.items()))
     summary.families = dict(sorted(families.items()))
-    summary.target_reached = not config.target_episodes or len(episodes) >= config.target_episodes
+    successes = sum(1 for e in episodes if e.get("success", True))  # failed recoveries are kept, not counted
+    summary.target_reached = not config.target_episodes or successes >= config.target_episodes
     lang_info = dict(cand_doc["info"])
     lang_info["counts"] = {"families": dict(sorted(families.items())), "splits": dict(sorted(splits.items())),
                            "candidates": len(candidates)}
@@ -479,6 +495,10 @@ def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], c
         "render": config.render.to_dict(),
         "episodes": episodes,
     })
+    if config.disturbances.enabled:
+        # Disturbed episodes by kind and outcome; failed recoveries are in the dataset, counted apart.
+        info["counts"]["disturbances"] = {k: dict(sorted(v.items())) for k, v in outcomes.items()}
+        info["counts"]["failed_recoveries"] = sum(v["failed"] for v in outcomes.values())
     _write_json(out / INFO_FILE, info, indent=1)
 
 

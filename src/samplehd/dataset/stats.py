@@ -22,7 +22,9 @@ def dataset_stats(root: str | Path) -> dict[str, Any]:
         ``{scenes, episodes, frames, families, splits, classes, colours, materials, objects_per_scene,
         frames_per_episode: {min, median, mean, max, bin_width, histogram: {bin_start: count}} (every
         bin from the lowest to the highest, empty ones too; bin ``k`` holds ``k .. k + bin_width - 1``),
-        rejections: {scenes, instructions, paths}}`` — classes/colours/materials count scene objects.
+        rejections: {scenes, instructions, paths}}`` — classes/colours/materials count scene objects; a
+        dataset made with disturbances adds ``disturbances: {kind: {outcome: n}}`` and the same counts
+        flat as ``disturbance_outcomes: {"kind outcome": n}`` (plotted).
     """
     reader = DatasetReader(root)
     scenes = reader.scenes
@@ -51,7 +53,22 @@ def dataset_stats(root: str | Path) -> dict[str, Any]:
         "objects_per_scene": dict(sorted(Counter(len(s.get("objects", [])) for s in scenes).items())),
         "frames_per_episode": fpe,
         "rejections": {k: dict(sorted(v.items())) for k, v in rej.items() if isinstance(v, dict)},
+        **_disturbance_stats(reader.info),
     }
+
+
+def _disturbance_stats(info: dict[str, Any]) -> dict[str, Any]:
+    """``{disturbances: {kind: {outcome: n}}, disturbance_outcomes: {"kind outcome": n}}`` of a dataset
+    made with disturbances (from info.json's episode entries); empty without."""
+    entries = [e for e in info.get("episodes", []) if isinstance(e, dict) and "disturbance" in e]
+    if not entries and "disturbances" not in info.get("counts", {}):
+        return {}
+    by_kind: dict[str, Counter[str]] = {}
+    for e in entries:
+        by_kind.setdefault(str(e["disturbance"]), Counter())[str(e.get("outcome", "?"))] += 1
+    table = {k: dict(sorted(v.items())) for k, v in sorted(by_kind.items())}
+    flat = {f"{k} {o}": n for k, v in table.items() for o, n in v.items()}
+    return {"disturbances": table, "disturbance_outcomes": flat}
 
 
 def plot_bars(path: Path, title: str, counts: dict[Any, int], width: int = 720) -> Path:
@@ -78,7 +95,7 @@ def plot_bars(path: Path, title: str, counts: dict[Any, int], width: int = 720) 
 def write_plots(stats: dict[str, Any], out: Path) -> list[Path]:
     """Write one PNG per count table of :func:`dataset_stats` into ``out``."""
     written = []
-    for key in ("families", "classes", "colours", "materials", "splits", "objects_per_scene"):
+    for key in ("families", "classes", "colours", "materials", "splits", "objects_per_scene", "disturbance_outcomes"):
         if stats.get(key):
             written.append(plot_bars(out / f"{key}.png", key.replace("_", " "), stats[key]))
     fpe = stats.get("frames_per_episode", {})

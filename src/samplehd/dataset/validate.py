@@ -28,6 +28,7 @@ from samplehd.dataset.layout import (
 )
 from samplehd.errors import DatasetError
 from samplehd.fileio import file_sha256
+from samplehd.record.disturbances import LABEL_FIELDS
 from samplehd.render.keyframes import keyframe_indices
 
 __all__ = ["validate_dataset", "validate_episode_file"]
@@ -67,7 +68,10 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
         problems.append(f"{path}: scene_index {ep.scene_index}, info.json says {entry['scene_index']}")
     if ep.seed != entry.get("seed", ep.seed):
         problems.append(f"{path}: seed {ep.seed}, info.json says {entry['seed']}")
-    if not ep.success:
+    label = ep.info.get("disturbance")
+    if label is not None:
+        problems.extend(_disturbance_problems(path, ep, label, entry))
+    elif not ep.success:
         problems.append(f"{path}: episode is not marked successful")
     for key in ("qpos", "qvel", "joint_pos", "object_pos"):
         if not np.all(np.isfinite(ep.frames[key])):
@@ -117,6 +121,36 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
                                     ds[t]
     except (OSError, RuntimeError, KeyError) as exc:
         problems.append(f"{path}: cannot read images: {exc}")
+    return problems
+
+
+def _disturbance_problems(path: Path, ep: Any, label: dict[str, Any], entry: dict[str, Any]) -> list[str]:
+    """Problems of a disturbed episode's labels: a failure only as a failed recovery, the flags as the label says."""
+    problems: list[str] = []
+    if not ep.success and label.get("outcome") != "failed":
+        problems.append(f"{path}: episode is not marked successful, but its disturbance label says "
+                        f"{label.get('outcome')!r}")
+    if bool(label.get("success")) != ep.success or entry.get("success", ep.success) != ep.success:
+        problems.append(f"{path}: success {ep.success} differs from its disturbance label or info.json")
+    t = ep.num_frames
+    for key in LABEL_FIELDS:
+        if key not in ep.frames:
+            problems.append(f"{path}: frames/{key} missing (a disturbed episode has it)")
+    if problems:
+        return problems
+    active, recovery = ep.frames["disturbance_active"], ep.frames["recovery"]
+    want = np.zeros(t, np.int8)
+    if label["frame"] >= 0:
+        want[label["frame"]:label["last_frame"] + 1] = 1
+    if not np.array_equal(active, want):
+        problems.append(f"{path}: frames/disturbance_active does not span frames {label['frame']}.."
+                        f"{label['last_frame']} of its label")
+    want = np.zeros(t, np.int8)
+    if label["recovery_first"] >= 0:
+        want[label["recovery_first"]:label["recovery_last"] + 1] = 1
+    if not np.array_equal(recovery, want):
+        problems.append(f"{path}: frames/recovery does not span frames {label['recovery_first']}.."
+                        f"{label['recovery_last']} of its label")
     return problems
 
 

@@ -36,6 +36,7 @@ from samplehd.dataset.layout import EPISODE_DIR, RESUME_HINT
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError, PlanningError, RenderError
 from samplehd.motion.assist import compile_scene_with_assist
+from samplehd.record.disturbances import DisturbanceConfig, draw_disturbance
 from samplehd.record.episode import Episode
 from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
 from samplehd.render.states import LiveStates
@@ -94,6 +95,7 @@ class EpisodeUnit:
         directions: the scene's direction vectors (``scenes.json``'s ``directions``).
         paths: ground-truth path settings.
         render: which images the episode gets.
+        disturbances: the disturbance draw (None: none; see :mod:`samplehd.record.disturbances`).
     """
 
     out: str
@@ -109,6 +111,7 @@ class EpisodeUnit:
     directions: dict[str, Any] | None
     paths: PathConfig
     render: RenderConfig
+    disturbances: DisturbanceConfig | None = None
 
 
 @dataclass(frozen=True)
@@ -133,6 +136,9 @@ class EpisodeResult:
         path_cpu_seconds: CPU time of planning and execution [s].
         render_cpu_seconds: CPU time of the images [s].
         write_cpu_seconds: CPU time of writing the file [s].
+        success: False for a disturbed episode whose recovery failed (kept, with its labels); None otherwise.
+        disturbance: the kind of the episode's disturbance (None: undisturbed).
+        outcome: of a disturbed episode: ``recovered``, ``absorbed`` (nothing failed) or ``failed``.
     """
 
     scene_index: int
@@ -151,6 +157,9 @@ class EpisodeResult:
     path_cpu_seconds: float | None = None
     render_cpu_seconds: float | None = None
     write_cpu_seconds: float | None = None
+    success: bool | None = None
+    disturbance: str | None = None
+    outcome: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -182,9 +191,13 @@ def run_episode_unit(unit: EpisodeUnit) -> EpisodeResult:
     # The grasp welds add no degrees of freedom: the same model serves the path and the images.
     compile_fn = compile_scene_with_assist if config.grasp_assist else compile_scene
     model, data = compile_fn(scene, 1.0 / config.physics_hz)
+    kwargs: dict[str, Any] = {}
+    drawn = None if unit.disturbances is None else draw_disturbance(unit.disturbances, unit.seed)
+    if drawn is not None:
+        kwargs = {"disturbance": drawn, "max_recoveries": unit.disturbances.max_recoveries}
     run = functools.partial(plan_and_execute, scene, unit.task, np.random.default_rng(unit.seed), config,
                             family=unit.family, scene_index=unit.scene_index, instruction_index=unit.slot,
-                            seed=unit.seed, directions=unit.directions, compiled=(model, data))
+                            seed=unit.seed, directions=unit.directions, compiled=(model, data), **kwargs)
     t1, c1 = time.perf_counter(), time.process_time()
     path = _PathTimes()
     images: dict[str, dict[str, Any]] | None = None
@@ -213,7 +226,10 @@ def run_episode_unit(unit: EpisodeUnit) -> EpisodeResult:
     extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
     written = write_episode(file, episode, extra, render.to_dict() if render.enabled else None, retry=RESUME_HINT)
     c3 = time.process_time()
-    return EpisodeResult(unit.scene_index, unit.slot, "ok", time.perf_counter() - t0, c3 - c0,
+    label = episode.info.get("disturbance")
+    labelled: dict[str, Any] = {} if label is None else {
+        "success": bool(episode.success), "disturbance": str(label["kind"]), "outcome": str(label["outcome"])}
+    return EpisodeResult(unit.scene_index, unit.slot, "ok", time.perf_counter() - t0, c3 - c0, **labelled,
                          attempts=int(episode.info.get("attempts", 1)), num_frames=written.num_frames,
                          size=written.size, sha256=written.sha256, path_seconds=t1 - t0 + path.wall,
                          render_seconds=t2 - t1 - (0 if beside else path.wall), path_cpu_seconds=c1 - c0 + path.cpu,

@@ -6,7 +6,8 @@ step, in the dataset's control and physics rates, success checker and grasp assi
 holds the final state with a hold command that was never executed, so an episode of ``T`` frames
 sends ``T - 1`` actions; after action ``t`` the state is compared with frame ``t + 1``.
 
-A replayed episode succeeds when the environment reports success at any step (``info["success"]``,
+A recorded push (a ``nudge`` disturbance, :mod:`samplehd.record.disturbances`) is applied again at its
+frame. A replayed episode succeeds when the environment reports success at any step (``info["success"]``,
 as ``samplehd evaluate`` counts it). It agrees when that equals the recorded outcome. Because the
 dataset's rollout and the environment weld a grasped object by one rule
 (:class:`samplehd.motion.assist.GraspAssist`), every successful recording must replay to success;
@@ -24,6 +25,7 @@ from samplehd.dataset.reader import DatasetReader
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError
 from samplehd.fixedmath import norm
+from samplehd.world.bodies import object_body_name
 
 __all__ = ["EpisodeReplay", "FamilyReplay", "ReplayReport", "replay_dataset", "replay_env", "replay_episode"]
 
@@ -114,7 +116,10 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
     tcp_rec, obj_rec = np.asarray(frames["tcp_pos"]), np.asarray(frames["object_pos"])
     tcp_dev = obj_dev = 0.0
     success = False
+    meta = reader.episode_meta(index)
+    push = _recorded_push(meta.get("info"))
     for t in range(len(steering) - 1):
+        _apply_push(env, push, t)
         obs, _, _, _, info = env.step(steering[t])
         success = success or bool(info["success"])
         tcp_dev = max(tcp_dev, norm(obs["tcp_pos"].astype(float) - tcp_rec[t + 1]))
@@ -123,8 +128,31 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
             diff = obs["object_pos"][:k].astype(float) - obj_rec[t + 1]
             obj_dev = max(obj_dev, float(np.max(norm(diff, axis=1))))
     entry = reader.episodes[index]
-    recorded = bool(reader.episode_meta(index).get("success", True))
+    recorded = bool(meta.get("success", True))
     return EpisodeReplay(index, entry.family, recorded, success, tcp_dev, obj_dev, max(0, len(steering) - 1))
+
+
+def _recorded_push(info: object) -> tuple[int, int, int, np.ndarray] | None:
+    """A recorded nudge (``info["disturbance"]``): (first frame, frames, object, step [m]); None for none.
+
+    A push is an event from outside, not an action: the replay applies it where the recording did
+    (the object moved by ``push_step`` and put at rest at the start of each of ``push_frames`` steps),
+    as it sends the actions.
+    """
+    label = info.get("disturbance") if isinstance(info, dict) else None
+    if not isinstance(label, dict) or "push_step" not in label:
+        return None
+    return int(label["frame"]), int(label["push_frames"]), int(label["object"]), np.asarray(label["push_step"], float)
+
+
+def _apply_push(env: TabletopEnv, push: tuple[int, int, int, np.ndarray] | None, t: int) -> None:
+    if push is None or not push[0] <= t < push[0] + push[1]:
+        return
+    model, data = env.unwrapped.model, env.unwrapped.data
+    joint = int(model.body_jntadr[model.body(object_body_name(push[2])).id])
+    adr, dof = int(model.jnt_qposadr[joint]), int(model.jnt_dofadr[joint])
+    data.qpos[adr:adr + 2] += push[3]
+    data.qvel[dof:dof + 6] = 0.0
 
 
 def replay_dataset(root: str | Path, episodes: int | None = None) -> ReplayReport:

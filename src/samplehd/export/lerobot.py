@@ -29,7 +29,11 @@ Frame features: ``observation.state`` (6 joint positions [rad] + gripper opening
 vector; the only feature whose key starts with ``action``, so LeRobot's policies see one action),
 ``command.joint`` (commanded joint targets [rad] + gripper command), ``subtask_index``,
 ``grasped_object``, and LeRobot's ``timestamp``, ``frame_index``, ``episode_index``, ``index``,
-``task_index``; the task is the instruction text. Training episodes come first, then test, and
+``task_index``; the task is the instruction text. A dataset made with disturbances adds the per-frame
+flags ``disturbance_active`` and ``recovery`` (int64, 0 in undisturbed episodes), the episode columns
+``samplehd/disturbance.{kind, frame, failure, recovery_first, recovery_last, outcome, success}`` ("" /
+-1 where an episode has none) and ``disturbances`` (config and counts) in ``meta/samplehd.json``.
+Training episodes come first, then test, and
 ``info.json`` ``splits`` gives both ranges.
 
 Images: by default only RGB, as a video feature ``observation.images.<camera>`` per camera (lossy
@@ -82,6 +86,20 @@ _VECTOR_FEATURES: dict[str, tuple[int, list[str]]] = {
 }
 _SCALAR_FEATURES = {"subtask_index": "int64", "grasped_object": "int64", "timestamp": "float32",
                     "frame_index": "int64", "episode_index": "int64", "index": "int64", "task_index": "int64"}
+# Per-frame disturbance flags (samplehd.record.disturbances), exported when the dataset was made with
+# disturbances; keys that LeRobot's policies ignore (neither observation.* nor action*).
+_LABEL_FEATURES = {"disturbance_active": "int64", "recovery": "int64"}
+# Per-episode disturbance labels in the episodes parquet (-1 / "" where an episode has none).
+_LABEL_EPISODE_KEYS = ("kind", "frame", "failure", "recovery_first", "recovery_last", "outcome", "success")
+
+
+def _episode_labels(info: dict[str, Any], success: bool) -> dict[str, Any]:
+    """The ``samplehd/disturbance.*`` columns of an episode's row in the episodes parquet."""
+    lab = info.get("disturbance") or {}
+    row = {f"samplehd/disturbance.{k}": lab.get(k, -1 if k in ("frame", "recovery_first", "recovery_last")
+                                                      else "") for k in _LABEL_EPISODE_KEYS[:-1]}
+    row["samplehd/disturbance.success"] = bool(lab.get("success", success))
+    return row
 
 
 def _episode_columns(frames: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -95,11 +113,11 @@ def _episode_columns(frames: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     }
 
 
-def _hf_features(array_shapes: dict[str, tuple[int, int]]) -> dict[str, Any]:
+def _hf_features(array_shapes: dict[str, tuple[int, int]], labels: bool = False) -> dict[str, Any]:
     feats: dict[str, Any] = {}
     for k, (n, _) in _VECTOR_FEATURES.items():
         feats[k] = {"feature": {"dtype": "float32", "_type": "Value"}, "length": n, "_type": "List"}
-    for k, dtype in _SCALAR_FEATURES.items():
+    for k, dtype in {**_SCALAR_FEATURES, **(_LABEL_FEATURES if labels else {})}.items():
         feats[k] = {"dtype": dtype, "_type": "Value"}
     for k, shape in array_shapes.items():
         feats[k] = {"shape": list(shape), "dtype": "uint16", "_type": "Array2D"}
@@ -319,7 +337,8 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     in_file = 0  # frames in the current data/video file
     in_bytes = 0  # image bytes in the current data file
     index = 0
-    hf = _hf_features({_feature_key(c, m): (settings[c]["height"], settings[c]["width"]) for c, m in images})
+    labels = isinstance(reader.config.get("disturbances"), dict)  # made with disturbances
+    hf = _hf_features({_feature_key(c, m): (settings[c]["height"], settings[c]["width"]) for c, m in images}, labels)
 
     def flush_file() -> None:
         if "writer" in data:
@@ -347,6 +366,9 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             cols["episode_index"] = np.full(t, n, dtype=np.int64)
             cols["index"] = np.arange(index, index + t, dtype=np.int64)
             cols["task_index"] = np.full(t, task_index, dtype=np.int64)
+            if labels:
+                for k in _LABEL_FEATURES:
+                    cols[k] = np.asarray(ep.frames.get(k, np.zeros(t)), dtype=np.int64)
             for k, v in cols.items():
                 stats.add(k, v)
             picks = slice(None, None, max(1, t // 4))
@@ -383,6 +405,8 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             row.update({"meta/episodes/chunk_index": 0, "meta/episodes/file_index": 0,
                         "samplehd/instruction_index": i, "samplehd/scene_index": entry.scene_index,
                         "samplehd/family": entry.family, "samplehd/split": entry.split})
+            if labels:
+                row.update(_episode_labels(ep.info, ep.success))
             ep_rows.append(row)
             index += t
             in_file += t
@@ -418,7 +442,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                 features[_feature_key(cam, mod)] = {
                     "dtype": "uint16", "shape": [h, w], "names": ["height", "width"],
                     "info": {"samplehd.ids": "0 background, 1 table, 2 robot, 3 + i scene object i"}}
-        for k, dtype in _SCALAR_FEATURES.items():
+        for k, dtype in {**_SCALAR_FEATURES, **(_LABEL_FEATURES if labels else {})}.items():
             features[k] = {"dtype": dtype, "shape": [1], "names": None}
         n_train = sum(1 for i in order if reader.episodes[i].split == "train")
         splits = {"train": f"0:{n_train}"}
@@ -442,6 +466,9 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                   "episode_lengths": {"max": max((r["length"] for r in ep_rows), default=0),
                                       "mean": float(np.mean([r["length"] for r in ep_rows])) if ep_rows else 0.0}}
         record.update(_env_record(reader.config, settings, [c for c, _ in videos], record["families"]))
+        if labels:
+            record["disturbances"] = {"config": reader.config["disturbances"],
+                                      "counts": reader.info.get("counts", {}).get("disturbances", {})}
         (tmp / SAMPLEHD_RECORD).write_text(json.dumps(record, indent=1))
     return {"episodes": len(order), "frames": index, "tasks": len(tasks),
             "videos": [_feature_key(c, "rgb") for c, _ in videos], "arrays": image_keys, "codec": codec}

@@ -11,6 +11,8 @@ The layout, field names and conventions are those that SAMPLE-HD's ``model/execu
     instructions/instructions_unityGT_filtered.json  the ground-truth Unity programs, aligned with it
     sequences/i<instruction:06d>_s<scene:06d>/
         data.json                                  {scene_json, instruction_idx, sequence: [frame, ...]}
+                                                   (+ disturbance: the label, and per frame
+                                                   disturbance_active / recovery, in a disturbed episode)
         effector.json                              {data: [effector per frame_number]}
         sequence_img_<frame:05d>.jpg               RGB (JPEG, quality 95)
         segmentation/sequence_img_<frame:05d>.png  colour segmentation (RGB PNG)
@@ -235,6 +237,10 @@ def _frame_records(ep: Any, base: np.ndarray) -> tuple[list[dict[str, Any]], lis
             "grasped_object": int(f["grasped_object"][t]),
         })
         effector.append({"position": xyz(eff[t]), "rotation": xyzw(eff_rot[t])})
+    if "disturbance" in ep.info:  # a disturbed episode's per-frame flags (samplehd.record.disturbances)
+        for t, rec in enumerate(frames):
+            rec["disturbance_active"] = bool(f["disturbance_active"][t])
+            rec["recovery"] = bool(f["recovery"][t])
     last = ep.num_frames - 1
     for k, marker in enumerate(MARKERS if ep.success else MARKERS[1:]):
         frames.append({**frames[last], "frame_number": last + 1 + k, "subtask": marker})
@@ -253,6 +259,8 @@ def _export_sequence(unit: _SequenceUnit) -> tuple[int, bool]:
     frames, effector = _frame_records(ep, base)
     doc = {"scene_json": scene_stem(ep.scene_index) + ".json", "instruction_idx": unit.instruction_index,
            "fps": unit.fps, "sequence": frames}
+    if "disturbance" in ep.info:
+        doc["disturbance"] = ep.info["disturbance"]
     (folder / "data.json").write_text(json.dumps(doc))
     (folder / "effector.json").write_text(json.dumps({"data": effector}))
     mods = ep.images.get(unit.camera, {}) if unit.camera else {}

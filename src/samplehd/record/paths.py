@@ -21,6 +21,7 @@ from samplehd.catalogue import ObjectFacts
 from samplehd.errors import ConfigError, PlanningError
 from samplehd.motion.assist import GraspAssist, compile_scene_with_assist
 from samplehd.motion.execute import AttemptFailed, Plan, Rollout, drive, initial_state, scene_facts, step_controller
+from samplehd.record.disturbances import Disturbance, Disturber
 from samplehd.record.episode import Episode
 from samplehd.record.recorder import FrameRecorder, RecordingStep
 from samplehd.render.states import LiveStates
@@ -134,6 +135,50 @@ def _run_attempt(ro: Rollout, step: RecordingStep, scene: SceneSpec, task: Task,
     return check_success(ro.model, ro.data, scene, task, config.checker, LAYOUT, directions)
 
 
+def _passes(result: CheckResult, config: PathConfig) -> bool:
+    return result.success and not (config.reject_fallen and result.fallen)
+
+
+def _check_reason(result: CheckResult, config: PathConfig) -> str:
+    """The countable failure of a final state the checker rejects ("" when it passes)."""
+    if _passes(result, config):
+        return ""
+    return "checker_failed" if not result.success else "knocked_over"
+
+
+def _run_disturbed(disturber: Disturber, step: RecordingStep, scene: SceneSpec, task: Task, config: PathConfig,
+                   exclude: dict[int, set[int]], directions: dict[str, Any] | None) -> CheckResult:
+    """The disturbed attempt: the recovering plan, then, while the checker rejects the final state after the
+    disturbance, a recovery from it (every moved object grasped where it lies and moved again). The final
+    frame is recorded by the caller."""
+    ro = disturber.ro
+    run = disturber.step(step)
+    drive(disturber.plan(task, exclude), run)
+    result = check_success(ro.model, ro.data, scene, task, config.checker, LAYOUT, directions)
+    while disturber.fired and not _passes(result, config) and disturber.labels.recoveries < disturber.max_recoveries:
+        disturber.notice_check(result.reason or f"objects {list(result.fallen)} fell over")
+        drive(disturber.recovery_plan(task), run)
+        result = check_success(ro.model, ro.data, scene, task, config.checker, LAYOUT, directions)
+    step.recorder.record_target(ro.final_target())
+    return result
+
+
+def _disturbed_episode(disturber: Disturber, ro: Rollout, step: RecordingStep, scene: SceneSpec,
+                       scene_index: int | None, instruction_index: int, family: str, seed: int, info: dict[str, Any],
+                       result: CheckResult, caller: tuple[mujoco.MjModel, mujoco.MjData] | None,
+                       live: LiveStates | None, reason: str) -> Episode:
+    """The episode of an attempt whose disturbance was applied, labelled, whatever its outcome
+    (``reason``: the failure that ended it, "" for a success). A live render keeps its frames."""
+    success = not reason
+    if caller is not None:
+        _copy_state(ro.data, caller[1])
+        mujoco.mj_forward(*caller)
+    if live is not None:
+        live.finish(success=True)
+    episode = _episode(ro, step, scene, scene_index, instruction_index, family, seed, success, info)
+    return disturber.finish(episode, success, reason)
+
+
 def _episode(ro: Rollout, step: RecordingStep, scene: SceneSpec, scene_index: int | None, instruction_index: int,
              family: str, seed: int, success: bool, info: dict[str, Any]) -> Episode:
     return Episode(
@@ -161,6 +206,8 @@ def plan_and_execute(
     directions: dict[str, Any] | None = None,
     compiled: tuple[mujoco.MjModel, mujoco.MjData] | None = None,
     live: LiveStates | None = None,
+    disturbance: Disturbance | None = None,
+    max_recoveries: int = 3,
 ) -> Episode:
     """Generate the ground-truth path of one instruction.
 
@@ -181,9 +228,14 @@ def plan_and_execute(
         live: every attempt's states also go there as they are recorded (each attempt restarts it), and it is
             finished when this returns (success) or raises (no episode), for rendering beside the rollout
             (:func:`samplehd.render.states.render_live`).
+        disturbance: apply it in the rollout and let the oracle recover
+            (:mod:`samplehd.record.disturbances`); once it has been applied, the episode is returned
+            whatever its outcome, with its labels (``info["disturbance"]`` and the per-frame flags).
+        max_recoveries: with a disturbance: recoveries before the episode is kept as a failure.
 
     Returns:
-        The successful episode (``success`` True, checker report in ``info["check"]``).
+        The successful episode (``success`` True, checker report in ``info["check"]``), or with a
+        disturbance that was applied, the episode whatever its outcome.
 
     Raises:
         PathRejected: every attempt failed; ``reason`` says why.
@@ -191,7 +243,7 @@ def plan_and_execute(
     """
     try:
         episode = _plan_and_execute(scene, task, rng, config, family, scene_index, instruction_index, seed,
-                                    directions, compiled, live)
+                                    directions, compiled, live, disturbance, max_recoveries)
     finally:
         if live is not None:
             live.finish(success=False)  # no-op after a success (only the first finish counts)
@@ -201,7 +253,8 @@ def plan_and_execute(
 def _plan_and_execute(scene: SceneSpec, task: dict[str, Any] | Task, rng: np.random.Generator,
                       config: PathConfig | None, family: str | None, scene_index: int | None,
                       instruction_index: int, seed: int, directions: dict[str, Any] | None,
-                      compiled: tuple[mujoco.MjModel, mujoco.MjData] | None, live: LiveStates | None) -> Episode:
+                      compiled: tuple[mujoco.MjModel, mujoco.MjData] | None, live: LiveStates | None,
+                      disturbance: Disturbance | None = None, max_recoveries: int = 3) -> Episode:
     config = config or PathConfig()
     t = parse_task(task, family)
     n = len(scene.objects)
@@ -230,9 +283,21 @@ def _plan_and_execute(scene: SceneSpec, task: dict[str, Any] | Task, rng: np.ran
         if live is not None:
             live.restart()
         ro, step = _new_rollout(model, data, scene, sub, config, facts, directions, live)
+        disturber = None if disturbance is None else Disturber(disturbance, ro, max_recoveries)
         try:
-            result = _run_attempt(ro, step, scene, t, config, exclude, directions)
+            if disturber is None:
+                result = _run_attempt(ro, step, scene, t, config, exclude, directions)
+            else:
+                result = _run_disturbed(disturber, step, scene, t, config, exclude, directions)
         except AttemptFailed as exc:
+            if disturber is not None and disturber.fired:
+                step.recorder.record_target(ro.final_target())
+                result = check_success(ro.model, ro.data, scene, t, config.checker, LAYOUT, directions)
+                info = {"scene": scene.to_dict(), "task": t.to_dict(), "attempts": attempt + 1,
+                        "failed_attempts": attempts, "check": result.to_dict(), "control_hz": config.control_hz,
+                        "physics_hz": config.physics_hz, **ro.info}
+                return _disturbed_episode(disturber, ro, step, scene, scene_index, instruction_index,
+                                          family or t.family, seed, info, result, caller, live, exc.reason)
             last = ro, step
             reason, message = exc.reason, str(exc)
             attempts.append({"attempt": attempt, "reason": reason, "message": message})
@@ -240,6 +305,13 @@ def _plan_and_execute(scene: SceneSpec, task: dict[str, Any] | Task, rng: np.ran
             if exc.grasp >= 0 and obj >= 0:
                 exclude.setdefault(obj, set()).add(exc.grasp)
             continue
+        if disturber is not None and disturber.fired:
+            info = {"scene": scene.to_dict(), "task": t.to_dict(), "attempts": attempt + 1,
+                    "failed_attempts": attempts, "check": result.to_dict(), "control_hz": config.control_hz,
+                    "physics_hz": config.physics_hz, **ro.info}
+            return _disturbed_episode(disturber, ro, step, scene, scene_index, instruction_index,
+                                      family or t.family, seed, info, result, caller, live,
+                                      _check_reason(result, config))
         if not result.success or (config.reject_fallen and result.fallen):
             reason = "checker_failed" if not result.success else "knocked_over"
             message = result.reason or f"objects {list(result.fallen)} fell over"

@@ -31,7 +31,8 @@ from samplehd.render.renderer import MODALITIES
 from samplehd.viewer.index import FileState
 from samplehd.world.layout import LAYOUT
 
-__all__ = ["PLOT_FIELDS", "EpisodeStore", "failure_reason", "open_episode_store", "subtask_segments"]
+__all__ = ["PLOT_FIELDS", "EpisodeStore", "disturbance_bands", "failure_reason", "open_episode_store",
+           "subtask_segments"]
 
 # Frame fields the player needs (the physics states stay on disk).
 PLOT_FIELDS = ("time", "subtask_index", "target_object", "joint_pos", "gripper_opening", "gripper_command",
@@ -56,6 +57,24 @@ def failure_reason(success: bool, info: dict[str, Any]) -> str:
         last = attempts[-1]
         return str(last.get("message") or last.get("reason") or "")
     return ""
+
+
+def disturbance_bands(info: dict[str, Any]) -> list[dict[str, Any]]:
+    """The timeline bands of a disturbed episode (``info["disturbance"]``, see
+    :mod:`samplehd.record.disturbances`): ``{start, end (exclusive), kind: disturbance | recovery, name}``
+    for the frames the disturbance acts in and for the recovery segment; none for other episodes."""
+    lab = info.get("disturbance")
+    if not isinstance(lab, dict):
+        return []
+    bands = []
+    if int(lab.get("frame", -1)) >= 0:
+        bands.append({"start": int(lab["frame"]), "end": int(lab.get("last_frame", lab["frame"])) + 1,
+                      "kind": "disturbance", "name": f"{lab.get('kind')}"
+                      + (f" → {lab['failure']}" if lab.get("failure") else "")})
+    if int(lab.get("recovery_first", -1)) >= 0:
+        bands.append({"start": int(lab["recovery_first"]), "end": int(lab["recovery_last"]) + 1, "kind": "recovery",
+                      "name": f"recovery ({lab.get('outcome')})"})
+    return bands
 
 
 def subtask_segments(subtask_index: np.ndarray, target_object: np.ndarray,
@@ -323,6 +342,7 @@ class EpisodeStore:
             "control_hz": float(info.get("control_hz", 20.0) or 20.0),
             "subtasks": subtasks,
             "segments": subtask_segments(frames["subtask_index"], frames["target_object"], subtasks),
+            "bands": disturbance_bands(info),
             "task": meta.get("task"),
             "render": meta.get("render"),
             "series": series,

@@ -68,7 +68,7 @@ export async function openPlayer(root, k) {
 
   // ---- timeline and plots
   const onSeek = (f) => { pause(); seek(f); };
-  const timeline = new Timeline({segments: ep.segments, frames, onSeek});
+  const timeline = new Timeline({segments: ep.segments, bands: ep.bands, frames, onSeek});
   const time = s.time;
   const column = (rows, j) => rows.map((r) => (r ? r[j] : NaN));
   const jointNames = s.joint_names || ["j1", "j2", "j3", "j4", "j5", "j6"];

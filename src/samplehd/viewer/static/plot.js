@@ -141,11 +141,13 @@ function legendLine(colour) {
   return span;
 }
 
-/** Subtask timeline: one coloured segment per run of equal subtask index, with a frame cursor. */
+/** Subtask timeline: one coloured segment per run of equal subtask index, with a frame cursor; a
+ * disturbed episode's bands (the disturbance in red, the recovery in green) run in a strip below. */
 export class Timeline {
   /**
    * @param {{segments:Array<{start:number,end:number,name:string}>, frames:number,
-   *          onSeek?:(frame:number)=>void}} options segment ends are exclusive frame indices.
+   *          bands?:Array<{start:number,end:number,kind:string,name:string}>,
+   *          onSeek?:(frame:number)=>void}} options segment and band ends are exclusive frame indices.
    */
   constructor(options) {
     this.options = options;
@@ -157,7 +159,8 @@ export class Timeline {
   }
 
   draw() {
-    const {ctx, width, height} = setupCanvas(this.canvas, 44);
+    const bands = this.options.bands || [];
+    const {ctx, width, height} = setupCanvas(this.canvas, bands.length ? 62 : 44);
     const n = Math.max(1, this.options.frames);
     const px = (f) => this.margin.left + f / n * (width - this.margin.left - this.margin.right);
     this.px = px;
@@ -174,6 +177,16 @@ export class Timeline {
       } else if (ctx.measureText(s.name.slice(0, 4)).width < x1 - x0 - 4) {
         ctx.fillStyle = "#111"; ctx.fillText(s.name.slice(0, 4), (x0 + x1) / 2, 21);
       }
+    }
+    for (const b of bands) {
+      const x0 = px(b.start); const x1 = px(b.end);
+      ctx.fillStyle = b.kind === "recovery" ? "#2ca02c" : "#d62728";
+      ctx.fillRect(x0, 40, Math.max(2, x1 - x0), 16);
+      // the name inside the band where it fits, else just after it
+      const inside = ctx.measureText(b.name).width < x1 - x0 - 6;
+      ctx.textAlign = "left";
+      ctx.fillStyle = inside ? "#fff" : "#111";
+      ctx.fillText(b.name, inside ? x0 + 3 : x1 + 3, 48);
     }
     this.base = ctx.getImageData(0, 0, this.canvas.width, this.canvas.height);
     this.ctx = ctx;
