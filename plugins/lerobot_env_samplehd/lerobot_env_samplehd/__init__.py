@@ -25,8 +25,9 @@ from lerobot.configs import FeatureType, PolicyFeature
 from lerobot.envs.configs import EnvConfig
 
 import samplehd  # noqa: F401  (picks the GL backend before mujoco is imported)
+from samplehd.dataset.lerobot_contract import lerobot_features
 from samplehd.envs.config import EnvConfig as TabletopConfig
-from samplehd.envs.lerobot_contract import env_options_from_export, lerobot_features
+from samplehd.envs.lerobot_contract import env_options_from_export
 from samplehd.envs.lerobot_tabletop import DEFAULT_MAX_STEPS, make_lerobot_envs
 
 __all__ = ["SamplehdEnv"]

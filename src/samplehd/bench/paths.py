@@ -18,6 +18,7 @@ import numpy as np
 
 from samplehd.bench import Figure
 from samplehd.catalogue import ObjectInstance
+from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.language.generator import generate_instructions
 from samplehd.motion.assist import compile_scene_with_assist
@@ -30,6 +31,7 @@ from samplehd.scene.annotate import annotate_scene
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneObject, SceneSpec
+from samplehd.scene.world import OPERATOR_CAMERA
 from samplehd.workers import Backend
 from samplehd.world.layout import LAYOUT
 
@@ -78,7 +80,7 @@ def _oracle_scene(args: tuple[int, int, int, str, tuple[str, ...] | None, str]) 
 
 def oracle_success(num_scenes: int, base_seed: int, per_scene: int = 5, workers: int = 2,
                    out: str = "", families: tuple[str, ...] | None = None,
-                   catalogue: str = "procedural") -> list[dict[str, Any]]:
+                   catalogue: str = DEFAULT_CATALOGUE) -> list[dict[str, Any]]:
     """Oracle success over real sampled scenes and generated instructions.
 
     Args:
@@ -161,7 +163,7 @@ def run(repeats: int = 3) -> list[Figure]:
         rates["cpu state"].append(frames / sim_cpu)
         for w, h in ((320, 180), (640, 360)):
             t1, c1 = time.perf_counter(), time.process_time()
-            render_states(model, ep.frames, ImageSpec(w, h, "fast", ("operator",), MODALITIES))
+            render_states(model, ep.frames, ImageSpec(w, h, "fast", (OPERATOR_CAMERA.name,), MODALITIES))
             rates[f"{w}x{h}"].append(frames / (sim + time.perf_counter() - t1))
             rates[f"cpu {w}x{h}"].append(frames / (sim_cpu + time.process_time() - c1))
     note = f"place episode, {frames} frames, 20 Hz control / 500 Hz physics, operator camera"
@@ -195,7 +197,7 @@ def handoff(rounds: int = 24, width: int = 320, height: int = 180, span: int = 4
     seg = stored_segmentation_dtype(model)
     dtypes = {**IMAGE_DTYPES, "segmentation": seg}
 
-    image = ImageSpec(width, height, "fast", ("operator",), MODALITIES)
+    image = ImageSpec(width, height, "fast", (OPERATOR_CAMERA.name,), MODALITIES)
     shapes = {m: image.shape(m) for m in MODALITIES}
     # Each way: whether frames are deflated, and render_states' overlap and overlap_group.
     ways: dict[str, tuple[bool, bool, int | None]] = {
@@ -209,7 +211,7 @@ def handoff(rounds: int = 24, width: int = 320, height: int = 180, span: int = 4
 
     def run_one(name: str, start: int = 0) -> tuple[float, float]:
         deflate, overlap, group = ways[name]
-        on_frame = deflating(("operator",), shapes, dtypes)[1] if deflate else (lambda c, i: None)
+        on_frame = deflating((OPERATOR_CAMERA.name,), shapes, dtypes)[1] if deflate else (lambda c, i: None)
         kw: dict[str, Any] = {"on_frame": on_frame, "overlap": overlap, "overlap_group": group}
         t0, c0 = time.perf_counter(), time.process_time()
         render_states(model, frames, image, segmentation_dtype=seg, indices=range(start, start + span), **kw)
@@ -249,7 +251,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--families", nargs="+", default=None, help="oracle: only these families")
     parser.add_argument("--out", default="", help="JSONL of per-instruction results (oracle: written, table: read)")
-    parser.add_argument("--catalogue", choices=["procedural", "shop-vrb"], default="procedural",
+    parser.add_argument("--catalogue", choices=list(CATALOGUES), default=DEFAULT_CATALOGUE,
                         help="oracle: the built-in catalogue the scenes draw from")
 
 

@@ -22,7 +22,7 @@ from pathlib import Path
 from PIL import Image
 
 from samplehd.catalogue.instance import ObjectInstance
-from samplehd.catalogue.loader import CATALOGUES, catalogue_for, load_catalogue
+from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE, catalogue_for, load_catalogue
 from samplehd.catalogue.preview import render_instances, write_catalogue_table
 from samplehd.catalogue.registry import registered_classes, remove_imported
 from samplehd.commands._options import (
@@ -111,7 +111,7 @@ def _import(args: argparse.Namespace) -> int:
 
 
 def _catalogue_flag(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--catalogue", choices=list(CATALOGUES), default="procedural",
+    p.add_argument("--catalogue", choices=list(CATALOGUES), default=DEFAULT_CATALOGUE,
                    help="built-in catalogue: procedural shapes or SAMPLE-HD's SHOP-VRB models")
 
 

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.schema import Config, bounded
 
@@ -49,7 +50,7 @@ class SceneConfig(Config, section="scene"):
 
     min_objects: int = bounded(3, lo=1, hi=30)
     max_objects: int = bounded(5, lo=1, hi=30)
-    catalogue: str = bounded("procedural", choices=("procedural", "shop-vrb"))
+    catalogue: str = bounded(DEFAULT_CATALOGUE, choices=tuple(CATALOGUES))
     classes: tuple[str, ...] = bounded((), unique=True)
     menu_overrides: dict[str, dict[str, list[str]]] | None = None
     placement_margin: float = bounded(0.025, lo=0.0, hi=0.2, unit="m")
