@@ -38,6 +38,7 @@ from samplehd.render.backend import configure_gl_backend
 from samplehd.render.renderer import MODALITIES, SceneRenderer, gl_device
 from samplehd.render.states import pose_state
 from samplehd.scene.world import OPERATOR_CAMERA, compile_world
+from samplehd.tasks.task import Task
 from samplehd.version import __version__
 from samplehd.workers import keep_freed_memory
 from samplehd.world.layout import DIRECTIONS
@@ -113,7 +114,7 @@ def _path_rows(repeats: int) -> list[Row]:
     the other (the machine's speed drifts between repeats more than within a pair), with their range.
     """
     scene = _bench_scene()
-    task = {"type": "place", "objects": [1], "subject": "left"}
+    task = Task("place", (1,), part="left")
     rows: list[Row] = []
     keep_freed_memory()  # as the episode units of `samplehd generate` run, in or out of this process
     with tempfile.TemporaryDirectory() as tmp:
