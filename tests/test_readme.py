@@ -25,7 +25,7 @@ from samplehd.cli import build_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
-DOCS = sorted((ROOT / "docs").glob("*.md"))
+DOCS = sorted((ROOT / "docs").rglob("*.md"))  # the dated notes of docs/experiments/ too
 MAX_README_BYTES = 20_000
 MAX_README_LINE = 200
 

@@ -19,14 +19,15 @@ from samplehd.motion.assist import compile_scene_with_assist
 from samplehd.record.paths import PathConfig, plan_and_execute
 from samplehd.render.renderer import MODALITIES
 from samplehd.render.states import LiveStates
+from samplehd.tasks.task import Task
 from samplehd.world.layout import DIRECTIONS
 
 pytestmark = pytest.mark.render
 
-TASK = {"type": "place", "objects": [1], "subject": "left"}
+TASK = Task("place", (1,), part="left")
 
 
-def _unit(out: Path, render: RenderConfig, task: dict = TASK, name: str = "e.h5") -> EpisodeUnit:
+def _unit(out: Path, render: RenderConfig, task: Task = TASK, name: str = "e.h5") -> EpisodeUnit:
     (out / EPISODE_DIR).mkdir(exist_ok=True)
     return EpisodeUnit(str(out), name, 0, 3, 3, "place", task, "put the soda can on the left", "train",
                        _bench_scene(), {k: list(v) for k, v in DIRECTIONS.items()}, PathConfig(), render)
@@ -71,7 +72,7 @@ def test_images_drawn_beside_the_path_are_those_of_the_finished_episode(tmp_path
 
 def test_a_rejected_path_leaves_no_images_no_file_and_no_thread(tmp_path: Path) -> None:
     render = RenderConfig("fast", 32, 24, ("operator",), ("rgb",))
-    done = run_episode_unit(_unit(tmp_path, render, task={"type": "place", "objects": [9], "subject": "left"}))
+    done = run_episode_unit(_unit(tmp_path, render, task=Task("place", (9,), part="left")))
     assert done.status == "rejected" and "objects 0..3" in done.message
     # Its journal record: what a rejection by an error has (no attempts counted), nothing of an ok episode.
     assert set(done.to_dict()) == {"scene_index", "slot", "status", "reason", "message", "seconds", "cpu_seconds"}

@@ -15,10 +15,11 @@ import pytest
 from samplehd.benchmark.evaluation import benchmark_split
 from samplehd.benchmark.lerobot_tabletop import LeRobotTabletop, make_lerobot_envs
 from samplehd.benchmark.levels import reset_at_level
-from samplehd.envs.lerobot_contract import EXPORT_RECORD, env_options_from_export
+from samplehd.dataset.lerobot_contract import EXPORT_RECORD, VECTOR_FEATURES
+from samplehd.envs.lerobot_contract import env_options_from_export
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError
-from samplehd.export.lerobot import _VECTOR_FEATURES, SAMPLEHD_RECORD, _env_record
+from samplehd.export.lerobot import _env_record
 
 SIZE = 32
 
@@ -41,7 +42,7 @@ def lerobot_keys(obs: dict[str, Any]) -> dict[str, tuple[int, ...]]:
 def test_observations_are_named_and_shaped_as_the_export(options: dict) -> None:
     env = LeRobotTabletop("pick_up", options)
     obs, info = env.reset(seed=0)
-    exported = {k: (n,) for k, (n, _) in _VECTOR_FEATURES.items() if k.startswith("observation")}
+    exported = {k: (len(n),) for k, n in VECTOR_FEATURES.items() if k.startswith("observation")}
     exported["observation.images.scene"] = (3, SIZE, SIZE)  # (H, W, 3) in info.json, CHW once loaded
     assert lerobot_keys(obs) == exported
     assert env.observation_space.contains(obs)
@@ -105,7 +106,6 @@ def test_bad_options_are_one_line(options: dict, tmp_path: Path) -> None:
 def test_the_export_record_builds_the_env(tmp_path: Path) -> None:
     from samplehd.dataset.config import GenerateConfig
 
-    assert SAMPLEHD_RECORD == EXPORT_RECORD
     settings = {"scene": {"mode": "fast", "width": 64, "height": 48, "modalities": ["rgb"]}}
     record = _env_record(GenerateConfig().to_dict(), settings, ["scene"], ["pick_up"])
     (tmp_path / "meta").mkdir()

@@ -38,3 +38,14 @@ def test_sample_hd_bracket_types_and_round_trip():
 def test_bad_tasks(bad):
     with pytest.raises(PlanningError):
         parse_task(bad)
+
+
+def test_sample_hd_forms_come_from_the_family():
+    remove = parse_task({"type": "place", "objects": [2], "subject": "left"}, family="remove")
+    assert remove.to_sample_hd() == {"name": "place", "objectInt": [2], "subjectString": ["left"], "subjectInt": -1}
+    assert remove.to_sample_hd_task() == {"type": "remove", "object": [2], "subject": "right"}  # the cleared part
+    place = parse_task({"type": "place", "objects": [0, 1], "subject": "front"})
+    assert place.to_sample_hd_task() == {"type": "place", "object": [0, 1], "subject": "front"}
+    stack = parse_task({"type": "stack", "objects": [1], "subject": 0})
+    assert stack.to_sample_hd() == {"name": "stack", "objectInt": [1], "subjectString": [], "subjectInt": 0}
+    assert stack.to_sample_hd_task() == {"type": "stack", "object": [1], "subject": 0}

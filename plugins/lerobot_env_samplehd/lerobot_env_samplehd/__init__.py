@@ -30,8 +30,9 @@ from lerobot.envs.configs import EnvConfig
 
 import samplehd  # noqa: F401  (picks the GL backend before mujoco is imported)
 from samplehd.benchmark.lerobot_tabletop import DEFAULT_MAX_STEPS, make_lerobot_envs
+from samplehd.dataset.lerobot_contract import lerobot_features
 from samplehd.envs.config import EnvConfig as TabletopConfig
-from samplehd.envs.lerobot_contract import env_options_from_export, lerobot_features
+from samplehd.envs.lerobot_contract import env_options_from_export
 
 __all__ = ["SamplehdEnv"]
 

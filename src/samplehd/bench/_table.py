@@ -37,7 +37,8 @@ from samplehd.record.paths import PathConfig
 from samplehd.render.backend import configure_gl_backend
 from samplehd.render.renderer import MODALITIES, SceneRenderer, gl_device
 from samplehd.render.states import pose_state
-from samplehd.scene.world import compile_world
+from samplehd.scene.world import OPERATOR_CAMERA, compile_world
+from samplehd.tasks.task import Task
 from samplehd.version import __version__
 from samplehd.workers import keep_freed_memory
 from samplehd.world.layout import DIRECTIONS
@@ -113,7 +114,7 @@ def _path_rows(repeats: int) -> list[Row]:
     the other (the machine's speed drifts between repeats more than within a pair), with their range.
     """
     scene = _bench_scene()
-    task = {"type": "place", "objects": [1], "subject": "left"}
+    task = Task("place", (1,), part="left")
     rows: list[Row] = []
     keep_freed_memory()  # as the episode units of `samplehd generate` run, in or out of this process
     with tempfile.TemporaryDirectory() as tmp:
@@ -136,18 +137,18 @@ def _path_rows(repeats: int) -> list[Row]:
                         _fmt(s_wall), _fmt(s_cpu), "`samplehd bench --report FILE --only paths`"))
         model, data = compile_scene_with_assist(scene)
         for w, h in ((320, 180), (640, 360)):
-            images = RenderConfig("fast", w, h, ("operator",), MODALITIES)
+            images = RenderConfig("fast", w, h, (OPERATOR_CAMERA.name,), MODALITIES)
             # Side by side, repeat by repeat (the load of a shared machine drifts): the renderer alone on the
             # scene's first state, the episode unit with images, and the renderer alone on that episode's states.
             first, done, pure = [], [], []
             with SceneRenderer(model, w, h, "fast") as r:
                 # Into one set of frame buffers, as the episode renders (no fresh memory per frame).
-                out = r.render(data, "operator", MODALITIES)  # warm-up: the first frame uploads textures
+                out = r.render(data, OPERATOR_CAMERA.name, MODALITIES)  # warm-up: the first frame uploads textures
 
                 def draw(r: SceneRenderer = r, out: dict[str, np.ndarray] = out) -> tuple[int, float, float]:
                     t0, c0 = time.perf_counter(), _cpu()
                     for _ in range(frames):
-                        r.render(data, "operator", MODALITIES, out=out)
+                        r.render(data, OPERATOR_CAMERA.name, MODALITIES, out=out)
                     return frames, time.perf_counter() - t0, _cpu() - c0
 
                 for k in range(repeats + 2):
@@ -199,7 +200,7 @@ def _draw_states(r: SceneRenderer, frames: dict[str, np.ndarray],
     for k in range(len(frames["qpos"])):
         pose_state(r.model, d, frames["qpos"][k], frames["qvel"][k], frames["act"][k], frames["time"][k])
         t0, c0 = time.perf_counter(), _cpu()
-        r.render(d, "operator", MODALITIES, out=out)
+        r.render(d, OPERATOR_CAMERA.name, MODALITIES, out=out)
         wall, cpu = wall + time.perf_counter() - t0, cpu + _cpu() - c0
     return len(frames["qpos"]), wall, cpu
 

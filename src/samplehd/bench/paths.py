@@ -31,6 +31,7 @@ from samplehd.scene.annotate import annotate_scene
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneObject, SceneSpec
+from samplehd.scene.world import OPERATOR_CAMERA
 from samplehd.workers import Backend
 from samplehd.world.layout import LAYOUT
 
@@ -162,7 +163,7 @@ def run(repeats: int = 3) -> list[Figure]:
         rates["cpu state"].append(frames / sim_cpu)
         for w, h in ((320, 180), (640, 360)):
             t1, c1 = time.perf_counter(), time.process_time()
-            render_states(model, ep.frames, ImageSpec(w, h, "fast", ("operator",), MODALITIES))
+            render_states(model, ep.frames, ImageSpec(w, h, "fast", (OPERATOR_CAMERA.name,), MODALITIES))
             rates[f"{w}x{h}"].append(frames / (sim + time.perf_counter() - t1))
             rates[f"cpu {w}x{h}"].append(frames / (sim_cpu + time.process_time() - c1))
     note = f"place episode, {frames} frames, 20 Hz control / 500 Hz physics, operator camera"
@@ -196,7 +197,7 @@ def handoff(rounds: int = 24, width: int = 320, height: int = 180, span: int = 4
     seg = stored_segmentation_dtype(model)
     dtypes = {**IMAGE_DTYPES, "segmentation": seg}
 
-    image = ImageSpec(width, height, "fast", ("operator",), MODALITIES)
+    image = ImageSpec(width, height, "fast", (OPERATOR_CAMERA.name,), MODALITIES)
     shapes = {m: image.shape(m) for m in MODALITIES}
     # Each way: whether frames are deflated, and render_states' overlap and overlap_group.
     ways: dict[str, tuple[bool, bool, int | None]] = {
@@ -210,7 +211,7 @@ def handoff(rounds: int = 24, width: int = 320, height: int = 180, span: int = 4
 
     def run_one(name: str, start: int = 0) -> tuple[float, float]:
         deflate, overlap, group = ways[name]
-        on_frame = deflating(("operator",), shapes, dtypes)[1] if deflate else (lambda c, i: None)
+        on_frame = deflating((OPERATOR_CAMERA.name,), shapes, dtypes)[1] if deflate else (lambda c, i: None)
         kw: dict[str, Any] = {"on_frame": on_frame, "overlap": overlap, "overlap_group": group}
         t0, c0 = time.perf_counter(), time.process_time()
         render_states(model, frames, image, segmentation_dtype=seg, indices=range(start, start + span), **kw)

@@ -26,14 +26,9 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.dataset.lerobot_contract import EXPORT_RECORD, IMAGE_PREFIX, lerobot_features, read_export_record
 from samplehd.envs.config import EnvConfig
-from samplehd.envs.lerobot_contract import (
-    EXPORT_RECORD,
-    env_options_from_export,
-    lerobot_features,
-    lerobot_observation,
-    read_export_record,
-)
+from samplehd.envs.lerobot_contract import env_options_from_export, lerobot_observation
 from samplehd.errors import ConfigError
 from samplehd.render.image_spec import ImageSpec
 
@@ -44,7 +39,6 @@ CONFIG_FILE = "config.json"
 WEIGHTS_FILE = "model.safetensors"
 TRAIN_CONFIG_FILE = "train_config.json"
 PRETRAINED_DIR = "pretrained_model"
-IMAGE_PREFIX = "observation.images."
 
 
 def is_lerobot_policy(spec: str) -> bool:

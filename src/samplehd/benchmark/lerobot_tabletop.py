@@ -5,8 +5,9 @@ config ``samplehd`` with LeRobot and calls :func:`make_lerobot_envs`; everything
 the contract is tested in samplehd's own suite (Python 3.11, no lerobot).
 
 Observations are named so that LeRobot's ``preprocess_observation`` turns them into the features of
-``samplehd export lerobot``, with the same shapes and units (the table and the conversion live in
-:mod:`samplehd.envs.lerobot_contract`, shared with ``samplehd evaluate --policy lerobot:CKPT``).
+``samplehd export lerobot``, with the same shapes and units (the table lives in
+:mod:`samplehd.dataset.lerobot_contract`, the conversion in :mod:`samplehd.envs.lerobot_contract`,
+shared with ``samplehd evaluate --policy lerobot:CKPT``).
 
 The action is the export's ``action``: SAMPLE-HD's 7-D steering vector. ``info["is_success"]`` is the
 shared success checker's verdict. ``task_description`` is the instruction text, ``task`` its family.
@@ -32,8 +33,9 @@ from gymnasium import spaces
 
 from samplehd.benchmark.evaluation import split_episode
 from samplehd.benchmark.levels import LEVELS, reset_at_level
+from samplehd.dataset.lerobot_contract import lerobot_features
 from samplehd.envs.config import EnvConfig
-from samplehd.envs.lerobot_contract import lerobot_features, lerobot_observation
+from samplehd.envs.lerobot_contract import lerobot_observation
 from samplehd.envs.suite_file import read_suite
 from samplehd.envs.tabletop import TabletopEnv, action_bounds
 from samplehd.errors import ConfigError

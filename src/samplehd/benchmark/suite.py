@@ -28,6 +28,8 @@ import numpy as np
 from samplehd.benchmark.axes import AXES, PHYSICAL_AXES, STRENGTHS, perturb
 from samplehd.benchmark.evaluation import DEFAULT_FAMILIES, EpisodeRecord, EpisodeRunner, EvalConfig
 from samplehd.benchmark.levels import LEVELS, episode_level
+from samplehd.catalogue.loader import CATALOGUES as BUILT_IN_CATALOGUES
+from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.suite_file import CLEAN_AXIS, Suite, SuiteEpisode, content_hash
 from samplehd.errors import SamplehdError
@@ -38,7 +40,7 @@ from samplehd.workers import Backend
 
 __all__ = ["Candidate", "SuiteBuildConfig", "build_suite", "rejection_reason"]
 
-CATALOGUES = ("procedural", "shop-vrb")
+CATALOGUES = tuple(BUILT_IN_CATALOGUES)
 _NUMBER = re.compile(r"[0-9]+(\.[0-9]+)?")
 
 
@@ -65,7 +67,7 @@ class SuiteBuildConfig(Config, section="suite"):
     seed: int = bounded(0, lo=0)
     families: tuple[str, ...] = bounded(DEFAULT_FAMILIES, choices=family_names, nonempty=True)
     levels: tuple[str, ...] = bounded(("L1",), choices=LEVELS, nonempty=True)
-    catalogues: tuple[str, ...] = bounded(("procedural",), choices=CATALOGUES, nonempty=True)
+    catalogues: tuple[str, ...] = bounded((DEFAULT_CATALOGUE,), choices=CATALOGUES, nonempty=True)
     episodes_per_cell: int = bounded(1, lo=1)
     max_candidates_per_cell: int = bounded(20, lo=1)
     env: EnvConfig = field(default_factory=EnvConfig)

@@ -13,8 +13,10 @@ from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import RenderError
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_rgb
 from samplehd.render.renderer import MODALITIES, SceneRenderer
+from samplehd.robot.constants import WRIST_CAMERA
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import compile_scene
+from samplehd.scene.world import OPERATOR_CAMERA
 from samplehd.world.seeding import scene_seed
 
 HELP = "run the main job (tiny dataset + pictures) and say where the outputs are"
@@ -31,12 +33,12 @@ def _pictures(out: Path) -> list[Path]:
     model, data = compile_scene(scene)
     paths = [out / "world_hd.png", out / "world_depth.png", out / "world_segmentation.png", out / "wrist_fast.png"]
     with SceneRenderer(model, 1280, 720, "hd") as r:
-        img = r.render(data, "operator", MODALITIES)
+        img = r.render(data, OPERATOR_CAMERA.name, MODALITIES)
     save_rgb(paths[0], img["rgb"])
     save_rgb(paths[1], colorize_depth(img["depth"]))
     save_rgb(paths[2], colorize_segmentation(img["segmentation"]))
     with SceneRenderer(model, 640, 360, "fast") as r:
-        save_rgb(paths[3], r.render(data, "wrist", ("rgb",))["rgb"])
+        save_rgb(paths[3], r.render(data, WRIST_CAMERA, ("rgb",))["rgb"])
     return paths + _photo_picture(out, model, data)
 
 
@@ -45,7 +47,7 @@ def _photo_picture(out: Path, model: object, data: object) -> list[Path]:
     path = out / "world_photo.png"
     try:
         with SceneRenderer(model, 1280, 720, "photo") as r:
-            save_rgb(path, r.render(data, "operator", ("rgb",))["rgb"])
+            save_rgb(path, r.render(data, OPERATOR_CAMERA.name, ("rgb",))["rgb"])
     except RenderError as exc:
         print(f"samplehd demo: no photo picture: {exc}")
         return []

@@ -9,13 +9,13 @@ from samplehd.commands._options import add_render_preset, check_int, check_out_f
 from samplehd.dataset.outputs import check_outputs
 from samplehd.render.image_io import colorize_depth, colorize_segmentation, save_depth, save_rgb, save_segmentation
 from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
-from samplehd.scene.world import compile_world
+from samplehd.scene.world import OPERATOR_CAMERA, compile_world
 
 HELP = "render RGB (and optionally depth / segmentation) from a named camera"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--camera", default="operator", help="camera name (operator, wrist, ...)")
+    parser.add_argument("--camera", default=OPERATOR_CAMERA.name, help="camera name (operator, wrist, ...)")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px]")
     add_render_preset(parser, PRESET_NAMES, "hd")

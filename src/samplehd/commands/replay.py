@@ -17,6 +17,7 @@ from samplehd.render.renderer import camera_names
 from samplehd.render.states import render_states
 from samplehd.render.video import write_mp4
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.scene.world import CAMERA_NAMES, OPERATOR_CAMERA
 
 HELP = "re-render a recorded episode to MP4 from its recorded states"
 
@@ -25,7 +26,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("episode", type=Path,
                         help="episode file (.h5) from `samplehd generate` or `samplehd paths`")
     parser.add_argument("--out", required=True, type=Path, help="output video (.mp4)")
-    parser.add_argument("--camera", default="operator", help="camera name (operator, scene, wrist)")
+    parser.add_argument("--camera", default=OPERATOR_CAMERA.name, help=f"camera name ({', '.join(CAMERA_NAMES)})")
     parser.add_argument("--width", type=int, default=640, help="image width [px]")
     parser.add_argument("--height", type=int, default=360, help="image height [px]")
     add_render_preset(parser, PRESET_NAMES, "fast")

@@ -168,7 +168,7 @@ PRESETS: dict[str, dict[str, Any]] = {
     "sample-hd": {
         "num_scenes": 2000,
         "target_episodes": 8360,
-        "scene": {"min_objects": 3, "max_objects": 5, "catalogue": "shop-vrb"},
+        "scene": {"min_objects": 3, "max_objects": 5},
         "instructions": {"per_scene": 10},
         "paths": {"planner": {"order": "nearest"}},
         "render": {"mode": "fast", "width": 640, "height": 360},

@@ -73,6 +73,7 @@ from samplehd.scene.annotate import image_stem
 from samplehd.scene.generate import SceneJob, scene_split
 from samplehd.scene.sampler import check_scene_config
 from samplehd.scene.spec import SceneSpec
+from samplehd.tasks.task import parse_task
 from samplehd.version import __version__
 from samplehd.workers import Backend
 from samplehd.world.seeding import episode_seed, scene_seed
@@ -396,7 +397,8 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
             c = by_key[key]
             s = scene_by_index[key[0]]
             yield EpisodeUnit(out=str(out), file=Path(c["file"]).name, scene_index=key[0], slot=key[1],
-                              seed=int(c["seed"]), family=str(c["family"]), task=dict(c["task"]),
+                              seed=int(c["seed"]), family=str(c["family"]),
+                              task=parse_task(c["task"], family=str(c["family"])),
                               instruction=str(c["instruction"]), split=str(c["split"]),
                               scene=SceneSpec.from_dict(s["spec"]), directions=s["directions"], paths=config.paths,
                               render=config.render,

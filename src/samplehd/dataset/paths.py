@@ -151,7 +151,8 @@ def generate_paths(
         slots[scene_index] += 1
         s = scenes[scene_index]
         unit = EpisodeUnit(out=str(out), file=episode_name(scene_index, slot), scene_index=scene_index, slot=slot,
-                           seed=episode_seed(seed, scene_index, slot), family=str(e["family"]), task=dict(e["task"]),
+                           seed=episode_seed(seed, scene_index, slot), family=str(e["family"]),
+                           task=parse_task(e["task"], family=str(e["family"])),
                            instruction=str(e["instruction"]), split=str(e.get("split", s.get("split", "train"))),
                            scene=SceneSpec.from_dict(s["spec"]), directions=s.get("directions"), paths=paths,
                            render=render)

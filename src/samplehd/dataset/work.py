@@ -42,6 +42,8 @@ from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
 from samplehd.render.states import LiveStates
 from samplehd.scene.generate import render_scene_files
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.tasks.task import Task
+from samplehd.world.layout import Directions
 
 __all__ = ["EpisodeResult", "EpisodeUnit", "RenderResult", "RenderUnit", "SceneResult", "run_episode_unit",
            "run_render_unit", "run_scene_unit"]
@@ -88,7 +90,7 @@ class EpisodeUnit:
         slot: the instruction's position among the scene's candidates.
         seed: the episode's seed.
         family: task family.
-        task: the executor's task dict.
+        task: the task (the episode file stores it as the executor's dict, :meth:`Task.to_program_dict`).
         instruction: instruction text (stored in the file).
         split: train or test.
         scene: the scene.
@@ -104,11 +106,11 @@ class EpisodeUnit:
     slot: int
     seed: int
     family: str
-    task: dict[str, Any]
+    task: Task
     instruction: str
     split: str
     scene: SceneSpec
-    directions: dict[str, Any] | None
+    directions: Directions | None
     paths: PathConfig
     render: RenderConfig
     disturbances: DisturbanceConfig | None = None
@@ -223,7 +225,8 @@ def run_episode_unit(unit: EpisodeUnit) -> EpisodeResult:
         episode = dataclasses.replace(episode, images=images)
     t2, c2 = time.perf_counter(), time.process_time()
     file = Path(unit.out) / EPISODE_DIR / unit.file
-    extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task, "split": unit.split}
+    extra = {"slot": unit.slot, "instruction": unit.instruction, "task": unit.task.to_program_dict(),
+             "split": unit.split}
     written = write_episode(file, episode, extra, render.to_dict() if render.enabled else None, retry=RESUME_HINT)
     c3 = time.process_time()
     label = episode.info.get("disturbance")

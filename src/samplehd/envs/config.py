@@ -10,6 +10,7 @@ from samplehd.errors import ConfigError
 from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
 from samplehd.render.renderer import MODALITIES
 from samplehd.scene.config import SceneConfig
+from samplehd.scene.world import CAMERA_NAMES, SCENE_CAMERA
 from samplehd.schema import Config, bounded
 from samplehd.tasks.checker import CheckerConfig
 from samplehd.tasks.task import family_names
@@ -30,7 +31,7 @@ CONTROL_MODES: dict[str, str] = {
     "ee_delta": "cartesian_delta",
     "steering": "steering",
 }
-CAMERAS = ("scene", "operator", "wrist")
+CAMERAS = CAMERA_NAMES  # the world's cameras (samplehd.scene.world)
 RENDER_MODES = ("rgb_array",)
 
 
@@ -73,12 +74,12 @@ class EnvConfig(Config, section="Tabletop-v0"):
     """
 
     obs_mode: str = bounded("state", choices=tuple(OBS_MODES))
-    cameras: tuple[str, ...] = bounded(("scene",), choices=CAMERAS, unique=True)
+    cameras: tuple[str, ...] = bounded((SCENE_CAMERA,), choices=CAMERAS, unique=True)
     width: int = bounded(128, lo=8, hi=4096, unit="px")
     height: int = bounded(128, lo=8, hi=4096, unit="px")
     render_preset: str = bounded("fast", choices=PRESET_NAMES)
     render_mode: str | None = bounded(None, choices=RENDER_MODES)
-    render_camera: str = bounded("scene", choices=CAMERAS)
+    render_camera: str = bounded(SCENE_CAMERA, choices=CAMERAS)
     control_mode: str = bounded("steering", choices=tuple(CONTROL_MODES))
     control_hz: float = bounded(20.0, lo=0.0, lo_open=True, unit="Hz")
     physics_hz: float = bounded(500.0, lo=0.0, lo_open=True, unit="Hz")

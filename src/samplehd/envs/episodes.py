@@ -31,6 +31,7 @@ from samplehd.scene.annotate import annotate_scene
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.scene.world import OPERATOR_CAMERA, SCENE_CAMERA
 from samplehd.tasks.task import parse_task
 from samplehd.world.seeding import scene_seed as pool_seed
 
@@ -140,7 +141,7 @@ class SceneCache:
 
 
 def _annotation(scene: SceneSpec, model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, Any]:
-    camera = "scene" if scene.camera.name == "scene" else "operator"
+    camera = SCENE_CAMERA if scene.camera.name == SCENE_CAMERA else OPERATOR_CAMERA.name
     return annotate_scene(scene, model, data, 640, 360, camera=camera)
 
 

@@ -18,6 +18,7 @@ from samplehd.envs.episode_physics import EpisodePhysics
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.render.renderer import SceneRenderer
 from samplehd.robot.constants import GRIPPER_STROKE
+from samplehd.scene.world import OPERATOR_CAMERA
 
 __all__ = ["DEPTH_MAX", "INSTRUCTION_CHARSET", "SEG_MAX", "ObservationBuilder", "observation_space"]
 
@@ -79,7 +80,7 @@ class ObservationBuilder:
             self.close()
             self.model = model
             cams = {mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)}
-            self._cam_names = {c: (c if c in cams else "operator") for c in CAMERAS}
+            self._cam_names = {c: (c if c in cams else OPERATOR_CAMERA.name) for c in CAMERAS}
         cfg = self.config
         self.tokens = encode_instruction(instruction, cfg.max_instruction_tokens)
         text = "".join(c if c in INSTRUCTION_CHARSET else " " for c in instruction)

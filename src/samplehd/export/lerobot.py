@@ -60,16 +60,24 @@ from typing import Any
 import numpy as np
 
 from samplehd.dataset.container import camera_settings
+from samplehd.dataset.lerobot_contract import (
+    ACTION,
+    COMMAND_JOINT,
+    EXPORT_RECORD,
+    STATE,
+    TCP_POSE,
+    VECTOR_FEATURES,
+    image_feature_key,
+)
 from samplehd.errors import DatasetError
 from samplehd.export.staging import export_source, staged_directory
 from samplehd.language.levels import LEVELS, held_out_for
 from samplehd.render.renderer import MODALITIES
 from samplehd.render.video import VideoWriter, pick_codec
 
-__all__ = ["CODEBASE_VERSION", "SAMPLEHD_RECORD", "SPLIT_PATH", "export_lerobot"]
+__all__ = ["CODEBASE_VERSION", "SPLIT_PATH", "export_lerobot"]
 
 CODEBASE_VERSION = "v3.0"
-SAMPLEHD_RECORD = "meta/samplehd.json"  # what the environment needs to match the export (see module docstring)
 CHUNKS_SIZE = 1000
 DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 VIDEO_PATH = "videos/{video_key}/chunk-{chunk_index:03d}/file-{file_index:03d}.mp4"
@@ -78,12 +86,6 @@ SPLIT_PATH = "meta/splits/{split}.json"  # episode indices of a split, for lerob
 DATA_FILE_MB = 100  # a data file with image columns is closed once it holds this much image data
 _QUANTILES = (0.01, 0.10, 0.50, 0.90, 0.99)
 
-_VECTOR_FEATURES: dict[str, tuple[int, list[str]]] = {
-    "observation.state": (7, [f"joint_{i}" for i in range(6)] + ["gripper_opening"]),
-    "observation.tcp_pose": (7, ["x", "y", "z", "qw", "qx", "qy", "qz"]),
-    "action": (7, ["vx", "vy", "vz", "wx", "wy", "wz", "gripper"]),
-    "command.joint": (7, [f"joint_{i}" for i in range(6)] + ["gripper"]),
-}
 _SCALAR_FEATURES = {"subtask_index": "int64", "grasped_object": "int64", "timestamp": "float32",
                     "frame_index": "int64", "episode_index": "int64", "index": "int64", "task_index": "int64"}
 # Per-frame disturbance flags (samplehd.record.disturbances), exported when the dataset was made with
@@ -104,10 +106,10 @@ def _episode_labels(info: dict[str, Any], success: bool) -> dict[str, Any]:
 
 def _episode_columns(frames: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return {
-        "observation.state": np.concatenate([frames["joint_pos"], frames["gripper_opening"][:, None]], 1),
-        "observation.tcp_pose": np.concatenate([frames["tcp_pos"], frames["tcp_quat"]], 1),
-        "action": frames["steering"],
-        "command.joint": np.concatenate([frames["command_joint_pos"], frames["gripper_command"][:, None]], 1),
+        STATE: np.concatenate([frames["joint_pos"], frames["gripper_opening"][:, None]], 1),
+        TCP_POSE: np.concatenate([frames["tcp_pos"], frames["tcp_quat"]], 1),
+        ACTION: frames["steering"],
+        COMMAND_JOINT: np.concatenate([frames["command_joint_pos"], frames["gripper_command"][:, None]], 1),
         "subtask_index": frames["subtask_index"].astype(np.int64),
         "grasped_object": frames["grasped_object"].astype(np.int64),
     }
@@ -115,8 +117,8 @@ def _episode_columns(frames: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 
 def _hf_features(array_shapes: dict[str, tuple[int, int]], labels: bool = False) -> dict[str, Any]:
     feats: dict[str, Any] = {}
-    for k, (n, _) in _VECTOR_FEATURES.items():
-        feats[k] = {"feature": {"dtype": "float32", "_type": "Value"}, "length": n, "_type": "List"}
+    for k, names in VECTOR_FEATURES.items():
+        feats[k] = {"feature": {"dtype": "float32", "_type": "Value"}, "length": len(names), "_type": "List"}
     for k, dtype in {**_SCALAR_FEATURES, **(_LABEL_FEATURES if labels else {})}.items():
         feats[k] = {"dtype": dtype, "_type": "Value"}
     for k, shape in array_shapes.items():
@@ -284,10 +286,6 @@ def _level_train_lists(reader: Any, train: list[int]) -> dict[str, list[int]]:
     return out
 
 
-def _feature_key(cam: str, mod: str) -> str:
-    return f"observation.images.{cam}" if mod == "rgb" else f"{mod}.{cam}"
-
-
 def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/dataset", codec: str | None = None,
                    frames_per_file: int = 200_000, cameras: list[str] | None = None,
                    progress: Callable[[int, int], None] | None = None,
@@ -321,7 +319,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     settings, streams = _streams(root, reader.info.get("render"), cameras, modalities)
     videos = [(c, m) for c, m in streams if m == "rgb"]
     images = [(c, m) for c, m in streams if m != "rgb"]
-    image_keys = [_feature_key(c, m) for c, m in images]
+    image_keys = [image_feature_key(c, m) for c, m in images]
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
     if codec is not None:
         codec = pick_codec(codec)  # a bad --codec is refused even where no video would be written
@@ -329,7 +327,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     order = sorted(range(len(reader)), key=lambda i: (reader.episodes[i].split != "train", i))
     tasks: dict[str, int] = {}
     stats = _Stats()
-    samples: dict[str, list[np.ndarray]] = {_feature_key(c, m): [] for c, m in streams}
+    samples: dict[str, list[np.ndarray]] = {image_feature_key(c, m): [] for c, m in streams}
     ep_rows: list[dict[str, Any]] = []
     writers: dict[str, Any] = {}
     data: dict[str, Any] = {}  # the open parquet writer of the current data file
@@ -338,7 +336,8 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     in_bytes = 0  # image bytes in the current data file
     index = 0
     labels = isinstance(reader.config.get("disturbances"), dict)  # made with disturbances
-    hf = _hf_features({_feature_key(c, m): (settings[c]["height"], settings[c]["width"]) for c, m in images}, labels)
+    hf = _hf_features({image_feature_key(c, m): (settings[c]["height"], settings[c]["width"]) for c, m in images},
+                      labels)
 
     def flush_file() -> None:
         if "writer" in data:
@@ -373,7 +372,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                 stats.add(k, v)
             picks = slice(None, None, max(1, t // 4))
             for cam, mod in images:
-                key = _feature_key(cam, mod)
+                key = image_feature_key(cam, mod)
                 frames16 = _as_uint16(mod, ep.images[cam][mod][:])
                 in_bytes += frames16.nbytes
                 cols[key] = _uint16_lists(frames16)
@@ -391,7 +390,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                 "dataset_from_index": index, "dataset_to_index": index + t,
             }
             for cam, _ in videos:
-                key = _feature_key(cam, "rgb")
+                key = image_feature_key(cam, "rgb")
                 if key not in writers:
                     writers[key] = VideoWriter(tmp / VIDEO_PATH.format(video_key=key, chunk_index=chunk,
                                                                        file_index=file),
@@ -418,28 +417,28 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                        {k: [r[k] for r in ep_rows] for k in (ep_rows[0] if ep_rows else {})})
         all_stats = stats.result()
         for cam, mod in streams:
-            key = _feature_key(cam, mod)
+            key = image_feature_key(cam, mod)
             if samples[key]:
                 all_stats[key] = _image_stats(samples[key], rgb=mod == "rgb")
         (tmp / "meta" / "stats.json").write_text(json.dumps(all_stats, indent=1))
         features: dict[str, Any] = {}
-        for k, (dim, names) in _VECTOR_FEATURES.items():
-            features[k] = {"dtype": "float32", "shape": [dim], "names": names}
+        for k, names in VECTOR_FEATURES.items():
+            features[k] = {"dtype": "float32", "shape": [len(names)], "names": names}
         for cam, mod in streams:
             w, h = settings[cam]["width"], settings[cam]["height"]
-            names = ["height", "width", "channels"]
+            key, names = image_feature_key(cam, mod), ["height", "width", "channels"]
             if mod == "rgb":
                 info = {"video.height": h, "video.width": w,
                         "video.codec": {"libsvtav1": "av1", "libx264": "h264"}.get(codec or "", codec),
                         "video.pix_fmt": "yuv420p", "video.fps": fps, "video.channels": 3, "has_audio": False,
                         "is_depth_map": False}
-                features[_feature_key(cam, mod)] = {"dtype": "video", "shape": [h, w, 3], "names": names, "info": info}
+                features[key] = {"dtype": "video", "shape": [h, w, 3], "names": names, "info": info}
             elif mod == "depth":
-                features[_feature_key(cam, mod)] = {
+                features[key] = {
                     "dtype": "uint16", "shape": [h, w], "names": ["height", "width"],
                     "info": {"unit": "mm", "samplehd.source": f"images/{cam}/depth (float32 m), rounded to mm"}}
             else:
-                features[_feature_key(cam, mod)] = {
+                features[key] = {
                     "dtype": "uint16", "shape": [h, w], "names": ["height", "width"],
                     "info": {"samplehd.ids": "0 background, 1 table, 2 robot, 3 + i scene object i"}}
         for k, dtype in {**_SCALAR_FEATURES, **(_LABEL_FEATURES if labels else {})}.items():
@@ -461,7 +460,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             (tmp / SPLIT_PATH.format(split=split)).write_text(json.dumps(ids) + "\n")
         record = {"repo_id": repo_id, "source": str(Path(root).resolve()),
                   "source_format": reader.info.get("format_version"), "versions": reader.info.get("versions"),
-                  "episodes": episodes, "state_layout": {k: names for k, (_, names) in _VECTOR_FEATURES.items()},
+                  "episodes": episodes, "state_layout": dict(VECTOR_FEATURES),
                   "families": sorted({reader.episodes[i].family for i in order}),
                   "episode_lengths": {"max": max((r["length"] for r in ep_rows), default=0),
                                       "mean": float(np.mean([r["length"] for r in ep_rows])) if ep_rows else 0.0}}
@@ -469,6 +468,6 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
         if labels:
             record["disturbances"] = {"config": reader.config["disturbances"],
                                       "counts": reader.info.get("counts", {}).get("disturbances", {})}
-        (tmp / SAMPLEHD_RECORD).write_text(json.dumps(record, indent=1))
+        (tmp / EXPORT_RECORD).write_text(json.dumps(record, indent=1))
     return {"episodes": len(order), "frames": index, "tasks": len(tasks),
-            "videos": [_feature_key(c, "rgb") for c, _ in videos], "arrays": image_keys, "codec": codec}
+            "videos": [image_feature_key(c, "rgb") for c, _ in videos], "arrays": image_keys, "codec": codec}

@@ -27,6 +27,7 @@ from samplehd.dataset.reader import DatasetReader
 from samplehd.errors import ConfigError, DatasetError
 from samplehd.render.renderer import camera_intrinsics
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.scene.world import OPERATOR_CAMERA
 
 __all__ = ["episode_location", "export_rerun"]
 
@@ -177,7 +178,7 @@ def export_rerun(root: str | Path, episode: int, out: str | Path) -> dict[str, A
     for cam, mods in images.items():
         first = next(iter(mods.values()))
         h, w = first.shape[1], first.shape[2]
-        k = camera_intrinsics(model, cam if cam_ids[cam] >= 0 else "operator", w, h)
+        k = camera_intrinsics(model, cam if cam_ids[cam] >= 0 else OPERATOR_CAMERA.name, w, h)
         rec.log(f"world/camera/{cam}", rr.Pinhole(image_from_camera=k, width=w, height=h,
                                                   camera_xyz=rr.ViewCoordinates.RUB), static=True)
         rec.log(f"world/camera/{cam}", rr.AnnotationContext(
@@ -197,7 +198,7 @@ def export_rerun(root: str | Path, episode: int, out: str | Path) -> dict[str, A
             rec.log(bodies[b], rr.Transform3D(translation=data.xpos[b], quaternion=_quat_xyzw(data.xquat[b])))
         for cam, mods in images.items():
             cid = cam_ids[cam] if cam_ids[cam] >= 0 else mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA,
-                                                                             "operator")
+                                                                             OPERATOR_CAMERA.name)
             rot = data.cam_xmat[cid].reshape(3, 3)
             rec.log(f"world/camera/{cam}", rr.Transform3D(translation=data.cam_xpos[cid], mat3x3=rot))
             if "rgb" in mods:

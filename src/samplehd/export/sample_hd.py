@@ -56,6 +56,7 @@ from samplehd.export.unity_frame import (
 from samplehd.motion.order import pick_order
 from samplehd.render.image_io import read_segmentation, save_depth
 from samplehd.render.video import VideoWriter
+from samplehd.tasks.task import Task, parse_task
 from samplehd.workers import Backend
 from samplehd.world.layout import LAYOUT
 
@@ -75,7 +76,6 @@ __all__ = [
 SAMPLE_HD_FAMILIES = ("place", "stack", "put", "remove")
 # Frames SAMPLE-HD appends to every successful sequence (its datasets/SAMPLE.py skips them).
 MARKERS = ("Succeeded", "Completed")
-_OPPOSITE = {"left": "right", "right": "left", "front": "back", "back": "front"}
 _AXIS = {"left": 1, "right": 1, "front": 0, "back": 0}  # world axis that decides each part
 _JPEG_QUALITY = 95
 # Colours of the non-object classes of the colour segmentation (ids 0 background, 1 table, 2 robot):
@@ -133,24 +133,20 @@ def _sample_hd_table_part(obj: dict[str, Any]) -> list[str]:
 def unity_program(instruction: dict[str, Any]) -> dict[str, Any]:
     """The ground-truth ``unity_program`` {name, objectInt, subjectString, subjectInt} of an instruction
     of SAMPLE-HD's four families, from samplehd's task (what the ground-truth path carried out)."""
-    task, family = instruction["task"], instruction["family"]
-    objects = [int(i) for i in task["objects"]]
-    if family in ("stack", "put"):
-        return {"name": family, "objectInt": objects, "subjectString": [], "subjectInt": int(task["subject"])}
-    if family in ("place", "remove"):  # remove is executed, and written, as place to the opposite part
-        return {"name": "place", "objectInt": objects, "subjectString": [str(task["subject"])], "subjectInt": -1}
-    raise ValueError(f"family {family!r} has no SAMPLE-HD program; valid: {', '.join(SAMPLE_HD_FAMILIES)}")
+    return _sample_hd_task(instruction).to_sample_hd()  # remove is executed, and written, as a place
 
 
 def _original_task(instruction: dict[str, Any]) -> list[dict[str, Any]]:
     """SAMPLE-HD's ``task`` list [{type, object, subject}] (preprocessing/sequence_data_preprocessing.py)."""
-    task, family = instruction["task"], instruction["family"]
-    objects = [int(i) for i in task["objects"]]
-    if family == "remove":
-        return [{"type": "remove", "object": objects, "subject": _OPPOSITE[str(task["subject"])]}]
-    if family == "place":
-        return [{"type": "place", "object": objects, "subject": str(task["subject"])}]
-    return [{"type": family, "object": objects, "subject": int(task["subject"])}]
+    return [_sample_hd_task(instruction).to_sample_hd_task()]
+
+
+def _sample_hd_task(instruction: dict[str, Any]) -> Task:
+    """The task of an instruction of one of SAMPLE-HD's families; raises ValueError for the others."""
+    family = instruction["family"]
+    if family not in SAMPLE_HD_FAMILIES:
+        raise ValueError(f"family {family!r} has no SAMPLE-HD program; valid: {', '.join(SAMPLE_HD_FAMILIES)}")
+    return parse_task(instruction["task"], family=family)
 
 
 def _band_mismatch(tokens: list[str], strict: list[list[str]], sample_hd: list[list[str]]) -> bool:

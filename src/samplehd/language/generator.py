@@ -28,7 +28,7 @@ from samplehd.language.constraints import CONSTRAINTS, Check, ConstraintContext,
 from samplehd.language.descriptions import Description, SceneDescriber, render_description
 from samplehd.language.executor import ProgramError, execute_nodes, execute_sequence
 from samplehd.language.lexicon import Lexicon, default_lexicon
-from samplehd.language.programs import node, reference_nodes, reference_tokens
+from samplehd.language.programs import ProgramNode, node, reference_nodes, reference_tokens
 from samplehd.language.realise import realise_text
 from samplehd.language.scene import Scene, parse_scene
 from samplehd.language.templates import Template, TemplateConstraint, default_templates
@@ -71,7 +71,7 @@ class Instruction:
     template_filename: str
     template_index: int
     task: Task
-    program: tuple[dict[str, Any], ...]
+    program: tuple[ProgramNode, ...]
     program_sequence: tuple[str, ...]
     params: dict[str, Any] = field(default_factory=dict)
     references: dict[str, Description] = field(default_factory=dict)
@@ -411,7 +411,7 @@ class _SceneGenerator:
         variant = template.text[int(rng.integers(len(template.text)))]
         text = realise_text(variant, phrase, template.synonyms, rng)
 
-        nodes: list[dict[str, Any]] = []
+        nodes: list[ProgramNode] = []
         where: dict[int, int] = {}
         for k, nd in enumerate(template.nodes):
             if nd["type"] in _META:

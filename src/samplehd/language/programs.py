@@ -34,7 +34,7 @@ and ``stack_three`` (three object inputs: top, middle, bottom).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TypedDict
 
 from samplehd.language.descriptions import Description
 from samplehd.tasks.task import family_names, get_family
@@ -45,6 +45,7 @@ __all__ = [
     "FLAT_TASK_TOKENS",
     "NODE_FILTER",
     "NODE_FUNCTIONS",
+    "ProgramNode",
     "node",
     "reference_nodes",
     "reference_tokens",
@@ -81,12 +82,26 @@ FLAT_TASK_TOKENS: dict[str, bool] = {
 }
 
 
-def node(type_: str, inputs: list[int] | None = None, value_inputs: list[str] | None = None) -> dict[str, Any]:
+class ProgramNode(TypedDict):
+    """One node of a CLEVR node-list program (an instruction's ``program`` in ``instructions.json``).
+
+    Attributes:
+        type: the function (``scene``, ``filter_colour``, ``relate``, an action ...).
+        inputs: indices of the earlier nodes whose outputs it takes.
+        value_inputs: its literal arguments (a colour, a relation, a table part ...).
+    """
+
+    type: str
+    inputs: list[int]
+    value_inputs: list[str]
+
+
+def node(type_: str, inputs: list[int] | None = None, value_inputs: list[str] | None = None) -> ProgramNode:
     """Return a CLEVR program node."""
     return {"type": type_, "inputs": list(inputs or []), "value_inputs": list(value_inputs or [])}
 
 
-def reference_nodes(description: Description, offset: int = 0, unique: bool = True) -> list[dict[str, Any]]:
+def reference_nodes(description: Description, offset: int = 0, unique: bool = True) -> list[ProgramNode]:
     """Return the CLEVR nodes that evaluate a description; the last node's output is the referent.
 
     Args:

@@ -35,7 +35,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from functools import cache
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 from samplehd.errors import TemplateError
 from samplehd.fileio import read_json
@@ -48,6 +48,7 @@ __all__ = [
     "SYNONYMS_PATH",
     "Template",
     "TemplateConstraint",
+    "TemplateNode",
     "TemplateParam",
     "default_synonyms",
     "default_templates",
@@ -99,6 +100,23 @@ class TemplateConstraint:
         return cls(str(data["type"]), tuple(str(p) for p in data["params"]))
 
 
+class TemplateNode(TypedDict):
+    """One node of a template's program: a CLEVR node whose arguments may also be the template's
+    parameters (``side_inputs``, filled in when an instruction is made).
+
+    Attributes:
+        type: the function, or ``object``/``objects`` (a parameter's referring expression).
+        inputs: indices of the earlier nodes whose outputs it takes.
+        side_inputs: names of the template parameters it takes.
+        value_inputs: its literal arguments.
+    """
+
+    type: str
+    inputs: list[int]
+    side_inputs: list[str]
+    value_inputs: list[str]
+
+
 @dataclass(frozen=True)
 class Template:
     """One validated instruction template.
@@ -121,7 +139,7 @@ class Template:
     text: tuple[str, ...]
     params: tuple[TemplateParam, ...]
     constraints: tuple[TemplateConstraint, ...]
-    nodes: tuple[dict[str, Any], ...]
+    nodes: tuple[TemplateNode, ...]
     sequence: tuple[str, ...]
     filename: str = ""
     index: int = 0
@@ -276,7 +294,7 @@ def _parse_template(
     raw_nodes = data.get("nodes")
     if not isinstance(raw_nodes, list) or not raw_nodes:
         raise fail("nodes", "expected a non-empty list of program nodes")
-    nodes: list[dict[str, Any]] = []
+    nodes: list[TemplateNode] = []
     for k, nd in enumerate(raw_nodes):
         where = f"nodes[{k}]"
         if not isinstance(nd, Mapping):

@@ -41,7 +41,7 @@ from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box
 from samplehd.world.collision import CollisionChecker, Held
 from samplehd.world.grasps import choose_grasps
-from samplehd.world.layout import LAYOUT, TableLayout
+from samplehd.world.layout import LAYOUT, Directions, TableLayout
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.robot_info import RobotInfo
 
@@ -196,7 +196,7 @@ class Rollout:
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
                  bodies: SceneBodies, facts: list[ObjectFacts | None], config: PlannerConfig, rng: np.random.Generator,
-                 layout: TableLayout = LAYOUT, directions: dict[str, Any] | None = None,
+                 layout: TableLayout = LAYOUT, directions: Directions | None = None,
                  use_assist: bool = True) -> None:
         self.use_assist = use_assist
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies

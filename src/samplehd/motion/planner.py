@@ -24,7 +24,6 @@ randomness (destination sampling, RRT) comes only from the generator passed in.
 from __future__ import annotations
 
 import dataclasses
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -41,7 +40,7 @@ from samplehd.world.bodies import SceneBodies, object_footprint, object_pose
 from samplehd.world.collision import CollisionChecker, Held
 from samplehd.world.free_spot import rect_overlap, table_and_reach
 from samplehd.world.grasps import ik_near
-from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
+from samplehd.world.layout import DIRECTIONS, LAYOUT, Directions, TableLayout
 from samplehd.world.placement import (
     BESIDE_FAR,
     BESIDE_NEAR,
@@ -78,7 +77,7 @@ def destination_candidates(
     rng: np.random.Generator,
     config: PlannerConfig,
     layout: TableLayout = LAYOUT,
-    directions: dict[str, Any] | None = None,
+    directions: Directions | None = None,
     ignore: tuple[int, ...] = (),
     relaxed: bool = False,
 ) -> list[tuple[np.ndarray, float]]:

@@ -31,7 +31,7 @@ from samplehd.schema import Config, bounded
 from samplehd.tasks.checker import CheckerConfig, CheckResult, check_success
 from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies
-from samplehd.world.layout import LAYOUT
+from samplehd.world.layout import LAYOUT, Directions
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.robot_info import RobotInfo
 
@@ -97,7 +97,7 @@ def _copy_state(src: mujoco.MjData, dst: mujoco.MjData) -> None:
 
 
 def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: SceneSpec, rng: np.random.Generator,
-                 config: PathConfig, facts: list[ObjectFacts | None], directions: dict[str, Any] | None,
+                 config: PathConfig, facts: list[ObjectFacts | None], directions: Directions | None,
                  live: LiveStates | None = None) -> tuple[Rollout, RecordingStep]:
     control = ControlConfig(physics_hz=config.physics_hz, control_hz=config.control_hz)
     ctrl = initial_state(model, data, control)
@@ -129,7 +129,7 @@ def _attempt(ro: Rollout, task: Task, exclude: dict[int, set[int]]) -> Plan[None
 
 
 def _run_attempt(ro: Rollout, step: RecordingStep, scene: SceneSpec, task: Task, config: PathConfig,
-                 exclude: dict[int, set[int]], directions: dict[str, Any] | None) -> CheckResult:
+                 exclude: dict[int, set[int]], directions: Directions | None) -> CheckResult:
     drive(_attempt(ro, task, exclude), step)
     step.recorder.record_target(ro.final_target())
     return check_success(ro.model, ro.data, scene, task, config.checker, LAYOUT, directions)
@@ -203,7 +203,7 @@ def plan_and_execute(
     scene_index: int | None = None,
     instruction_index: int = 0,
     seed: int = 0,
-    directions: dict[str, Any] | None = None,
+    directions: Directions | None = None,
     compiled: tuple[mujoco.MjModel, mujoco.MjData] | None = None,
     live: LiveStates | None = None,
     disturbance: Disturbance | None = None,
@@ -252,7 +252,7 @@ def plan_and_execute(
 
 def _plan_and_execute(scene: SceneSpec, task: dict[str, Any] | Task, rng: np.random.Generator,
                       config: PathConfig | None, family: str | None, scene_index: int | None,
-                      instruction_index: int, seed: int, directions: dict[str, Any] | None,
+                      instruction_index: int, seed: int, directions: Directions | None,
                       compiled: tuple[mujoco.MjModel, mujoco.MjData] | None, live: LiveStates | None,
                       disturbance: Disturbance | None = None, max_recoveries: int = 3) -> Episode:
     config = config or PathConfig()

@@ -10,6 +10,7 @@ from samplehd.record.episode import Episode
 from samplehd.render.contact_sheet import contact_sheet
 from samplehd.render.image_spec import ImageSpec
 from samplehd.render.states import render_states
+from samplehd.scene.world import OPERATOR_CAMERA
 
 __all__ = ["subtask_contact_sheet"]
 
@@ -20,7 +21,7 @@ def subtask_contact_sheet(model: mujoco.MjModel, episode: Episode, image: ImageS
 
     ``image``: the first of its cameras, in rgb, at its size and preset (default: ``operator``, 320x180, fast).
     """
-    image = image or ImageSpec(320, 180, "fast", ("operator",))
+    image = image or ImageSpec(320, 180, "fast", (OPERATOR_CAMERA.name,))
     camera = image.cameras[0]
     image = ImageSpec(image.width, image.height, image.preset, (camera,), ("rgb",))
     sub = episode.frames["subtask_index"]

@@ -47,6 +47,7 @@ __all__ = [
     "UR_GREY_RGBA",
     "UR_RING_RGBA",
     "VELOCITY_ACTUATORS",
+    "WRIST_CAMERA",
 ]
 
 NUM_JOINTS = 6
@@ -79,6 +80,7 @@ POSITION_ACTUATORS: tuple[str, ...] = tuple(f"robot_{n.removesuffix('_joint')}_p
 VELOCITY_ACTUATORS: tuple[str, ...] = tuple(f"robot_{n.removesuffix('_joint')}_velocity" for n in JOINT_NAMES)
 GRIPPER_ACTUATOR = "robot_gripper"
 GRIPPER_FINGER_JOINTS: tuple[str, str] = ("robot_left_finger_joint", "robot_right_finger_joint")
+WRIST_CAMERA = "wrist"  # the camera on the gripper
 
 # Joint position limits [rad]. The elbow is limited to ±180° because the forearm would otherwise
 # pass through the upper arm (as on the real arm's recommended configuration).

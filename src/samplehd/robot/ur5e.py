@@ -78,6 +78,7 @@ from samplehd.robot.constants import (
     UR_GREY_RGBA,
     UR_RING_RGBA,
     VELOCITY_ACTUATORS,
+    WRIST_CAMERA,
 )
 from samplehd.robot.meshes import arm_meshes
 from samplehd.robot.solids import SolidMesh
@@ -251,7 +252,7 @@ def _add_gripper(spec: mujoco.MjSpec, wrist_3: mujoco.MjsBody, dark: str, metal:
     y_cam = np.cross(z_cam, x_cam)
     quat = np.empty(4)
     mujoco.mju_mat2Quat(quat, np.column_stack([x_cam, y_cam, z_cam]).reshape(9))
-    gripper.add_camera(name="wrist", pos=[0.06, 0.0, 0.08], quat=quat, fovy=75.0)
+    gripper.add_camera(name=WRIST_CAMERA, pos=[0.06, 0.0, 0.08], quat=quat, fovy=75.0)
 
     builders, fingers = [g], []
     for side, sign, joint_name in (("left", -1.0, GRIPPER_FINGER_JOINTS[0]), ("right", 1.0, GRIPPER_FINGER_JOINTS[1])):

@@ -22,7 +22,7 @@ from samplehd.render.renderer_cache import RendererCache
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene, object_qpos_addresses
-from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec
+from samplehd.scene.world import OPERATOR_CAMERA, SCENE_CAMERA, CameraSpec
 from samplehd.world.bodies import SceneBodies, object_body_name
 from samplehd.world.collision import CollisionChecker
 from samplehd.world.layout import LAYOUT, TableLayout
@@ -30,10 +30,6 @@ from samplehd.world.robot_info import RobotInfo
 from samplehd.world.transforms import quat_from_yaw, quat_to_mat
 
 __all__ = ["SampleResult", "check_scene_config", "draw_instance", "sample_camera", "sample_scene"]
-
-# A scene camera is named "scene"; the fixed "operator" camera stays in every world too.
-SCENE_CAMERA = "scene"
-
 
 @dataclass
 class SampleResult:

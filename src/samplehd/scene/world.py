@@ -16,7 +16,7 @@ import numpy as np
 
 from samplehd.catalogue import add_object
 from samplehd.errors import ConfigError
-from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, ROBOT_BODY, ROBOT_LOOKS
+from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, ROBOT_BODY, ROBOT_LOOKS, WRIST_CAMERA
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.robot.ur5e import add_robot
 from samplehd.scene.textures import plaster_texture, tile_texture, wood_texture
@@ -26,7 +26,9 @@ from samplehd.world.layout import LAYOUT, TableLayout
 from samplehd.world.transforms import look_at_quat
 
 __all__ = [
+    "CAMERA_NAMES",
     "OPERATOR_CAMERA",
+    "SCENE_CAMERA",
     "CameraSpec",
     "PlacedObject",
     "WorldConfig",
@@ -64,6 +66,10 @@ class CameraSpec(Config, section="camera"):
 
 # The operator's viewpoint: in front of the table (+x), at standing eye height, looking at the workspace.
 OPERATOR_CAMERA = CameraSpec("operator", pos=(1.30, 0.0, 1.56), target=(-0.05, 0.0, 0.93), fovy=45.0)
+# The camera the scene sampler places in a cone around the operator's viewpoint (samplehd.scene.sampler).
+SCENE_CAMERA = "scene"
+# The cameras of every sampled world: the scene camera, the fixed operator camera, the robot's wrist camera.
+CAMERA_NAMES = (SCENE_CAMERA, OPERATOR_CAMERA.name, WRIST_CAMERA)
 
 
 @dataclass(frozen=True)
@@ -111,8 +117,8 @@ class WorldConfig(Config, section="world"):
     def __post_init__(self) -> None:
         super().__post_init__()
         names = [c.name for c in self.cameras]
-        if len(set(names)) != len(names) or "wrist" in names:
-            raise ConfigError(f"world.cameras={names!r}: names must be unique and not 'wrist'")
+        if len(set(names)) != len(names) or WRIST_CAMERA in names:
+            raise ConfigError(f"world.cameras={names!r}: names must be unique and not {WRIST_CAMERA!r}")
 
 
 def _add_texture(spec: mujoco.MjSpec, name: str, rgb: np.ndarray, cube: bool = False) -> None:

@@ -46,7 +46,7 @@ from samplehd.scene.spec import SceneSpec
 from samplehd.schema import Config, bounded
 from samplehd.tasks.task import Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, object_world_hull_box, quat_tilt
-from samplehd.world.layout import DIRECTIONS, LAYOUT, TableLayout
+from samplehd.world.layout import DIRECTIONS, LAYOUT, Directions, TableLayout
 
 __all__ = ["CheckResult", "CheckerConfig", "Judge", "check_success", "welded"]
 
@@ -124,7 +124,7 @@ class Judge:
     """Measurements of the final state, shared by the predicates."""
 
     def __init__(self, model: mujoco.MjModel, start: mujoco.MjData, end: mujoco.MjData, bodies: SceneBodies,
-                 config: CheckerConfig, layout: TableLayout, directions: dict[str, Any]) -> None:
+                 config: CheckerConfig, layout: TableLayout, directions: Directions) -> None:
         self.model, self.start, self.end, self.b, self.cfg, self.layout = model, start, end, bodies, config, layout
         self.directions = directions
         self.contacts = contact_pairs(model, end)
@@ -192,7 +192,7 @@ def check_success(
     task: dict[str, Any] | Task,
     config: CheckerConfig | None = None,
     layout: TableLayout = LAYOUT,
-    directions: dict[str, Any] | None = None,
+    directions: Directions | None = None,
 ) -> CheckResult:
     """Judge whether the task is fulfilled in the state ``data``.
 

@@ -233,6 +233,14 @@ class Task:
             "subjectInt": subject if isinstance(subject, int) else -1,
         }
 
+    def to_sample_hd_task(self) -> dict[str, Any]:
+        """SAMPLE-HD's ``task`` entry ``{type, object, subject}`` (its
+        ``preprocessing/sequence_data_preprocessing.py``): the family, the moved objects and the family's
+        parameter as SAMPLE-HD names it (a part: the destination, or the cleared part of a remove; else
+        the reference object)."""
+        subject = self.part if get_family(self.family).value == "part" else self.reference
+        return {"type": self.family, "object": list(self.objects), "subject": subject}
+
 
 def parse_relation(value: Any) -> str:
     """A direction name (or alias) as one of :data:`RELATION_NAMES`; raises PlanningError."""

@@ -11,12 +11,14 @@ whose centre lies in the band belongs to neither half on that axis.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = [
     "DIRECTIONS",
+    "Directions",
     "LAYOUT",
     "OPPOSITE_PART",
     "TABLE_PARTS",
@@ -26,6 +28,9 @@ __all__ = [
 
 TABLE_PARTS = ("left", "right", "front", "back")
 OPPOSITE_PART = {"left": "right", "right": "left", "front": "back", "back": "front"}
+
+# A scene's direction vectors by name (CLEVR's ``directions`` of scenes.json): unit vectors, world frame.
+Directions = Mapping[str, Sequence[float]]
 
 # Unit vectors in the ground plane, from the operator's viewpoint (CLEVR's "directions").
 DIRECTIONS: dict[str, tuple[float, float, float]] = {

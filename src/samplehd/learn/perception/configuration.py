@@ -170,7 +170,7 @@ def attribute_vocab() -> dict[str, list[str]]:
             "size": sorted(sizes)}
 
 
-def kind_vocab(catalogue: str = "procedural") -> list[str]:
+def kind_vocab(catalogue: str) -> list[str]:
     """Every ``class/variant/size`` of the built-in ``catalogue`` (sorted): each has one set of metric
     dimensions, so that the network can learn size as the dimensions of a recognised shape, not as a
     class-wide threshold (a large dessert fork and a medium dinner fork differ by 4 %)."""

@@ -16,6 +16,8 @@ from typing import ClassVar
 from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.learn.configuration import ModelConfig, catalogue_options
+from samplehd.robot.constants import WRIST_CAMERA
+from samplehd.scene.world import SCENE_CAMERA
 from samplehd.schema import Config, bounded
 
 __all__ = ["ACTIONS", "CAMERAS", "ENCODERS", "FORMAT", "INPUTS", "LOSSES", "STATE_DIM", "TARGET_DIM",
@@ -32,7 +34,7 @@ INPUTS = ("rgb", "state")  # rgb: the visuomotor policy; state: the privileged-s
 # steering: chunks of steering vectors; waypoint: one waypoint per step (the keypose policy is
 # :mod:`samplehd.learn.keypose`)
 ACTIONS = ("steering", "waypoint")
-CAMERAS = ("scene", "wrist")  # the cameras the policy looks through, in the network's order
+CAMERAS = (SCENE_CAMERA, WRIST_CAMERA)  # the cameras the policy looks through, in the network's order
 ENCODERS = ("flatten", "keypoints")
 LOSSES = ("mse", "l1")
 
