@@ -19,6 +19,7 @@ import mujoco
 import numpy as np
 from PIL import Image
 
+from samplehd.dataset.validate import validate_scene_files, validate_stored_config
 from samplehd.envs.replay_check import replay_env
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
@@ -59,7 +60,7 @@ from samplehd.learn.training import (
 from samplehd.render.renderer import SEG_ROBOT, SceneRenderer
 from samplehd.world.layout import LAYOUT
 
-__all__ = ["PREPARED_FILE", "keypose_targets", "scene_grid", "train_keypose_policy"]
+__all__ = ["PREPARED_FILE", "check_scene_inputs", "keypose_targets", "scene_grid", "train_keypose_policy"]
 
 PREPARED_FILE = "prepared.npz"
 ATTRIBUTE_WEIGHT = 0.5  # weight of the auxiliary attribute maps' loss
@@ -148,6 +149,21 @@ def _episode_samples(reader: Any, k: int, env: Any, config: PolicyGrid, tokens_l
             image = np.concatenate([image, task_cells(ids, reader.instruction(k)["task"]["objects"])[None]])
         out.append((image.astype(np.float16), tokens, keypose_targets(d, grid), _attribute_maps(ids, scene, values)))
     return out
+
+
+def check_scene_inputs(reader: Any) -> None:
+    """Refuse, before anything is written, a dataset whose stored config, scene cameras or scene images
+    (decoded, of the camera's size) the preparation reads and would fail on: the first problem in one
+    line (``samplehd validate --deep`` lists them all).
+
+    Raises:
+        ConfigError: ``dataset=DIR: FILE: what is wrong``.
+    """
+    problems = validate_stored_config(reader.root, reader.info) + validate_scene_files(reader.root, reader.scenes,
+                                                                                        deep=True)
+    if problems:
+        more = f" (and {len(problems) - 1} more: samplehd validate --deep lists them)" if len(problems) > 1 else ""
+        raise ConfigError(f"dataset={reader.root}: {problems[0]}{more}", field="dataset")
 
 
 def _prepare(reader: Any, ks: Sequence[int], config: PolicyGrid, tokens_len: int,
@@ -255,6 +271,7 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     (read from the simulator when it acts), so it is told which objects the instruction means.
     """
     reader = open_dataset(dataset)
+    check_scene_inputs(reader)
     scenes = {s["image_index"]: s for s in reader.scenes}
     if grid is None:
         camera = next(iter(scenes.values()))["camera"] if scenes else {}
@@ -274,21 +291,26 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
                              init=str(init) if init is not None else ""))
     run = TrainRun(out, config.to_dict(), steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
                    stop_after=stop_after)
-    run.prepare()
+    # The samples are drawn before anything is written: a dataset refused while they are drawn leaves
+    # no half-made `out`.
     prepared = out / PREPARED_FILE
-    if prepared.exists():
-        with np.load(prepared, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    else:
+    fresh = not prepared.exists()
+    if fresh:
         train = _prepare(reader, train_k, grid_cfg, tokens, inputs)
         test = _prepare(reader, test_k, grid_cfg, tokens, inputs)
         arrays = {**{f"train_{k}": v for k, v in train.items()}, **{f"test_{k}": v for k, v in test.items()}}
+        if len(arrays["train_grid"]) == 0:
+            raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry",
+                              field="dataset")
+    run.prepare()
+    if fresh:
         tmp = out / (PREPARED_FILE + ".tmp.npz")
         np.savez(tmp, **arrays)
         tmp.replace(prepared)
+    else:
+        with np.load(prepared, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
     n = len(arrays["train_grid"])
-    if n == 0:
-        raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry", field="dataset")
     net = KeyposeNet(len(instruction_vocabulary()), input_channels(inputs), width).to(dev)
     if start is not None:
         net.load_state_dict(start)
