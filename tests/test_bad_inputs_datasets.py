@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import shutil
+import stat
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -33,9 +35,20 @@ FIRST = "SHD_train_000000"
 
 
 def _tree(root: Path) -> dict[str, str]:
-    """Every path under ``root`` with the SHA-256 of its bytes ('dir' for folders)."""
-    return {str(p.relative_to(root)): "dir" if p.is_dir() else hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*"))}
+    """Every path under ``root`` with the SHA-256 of its bytes ('dir' for folders, the target of a
+    symbolic link, 'fifo' for a named pipe: never opened)."""
+    out = {}
+    for p in sorted(root.rglob("*")):
+        mode = p.lstat().st_mode
+        if stat.S_ISLNK(mode):
+            out[str(p.relative_to(root))] = f"link to {os.readlink(p)}"
+        elif stat.S_ISFIFO(mode):
+            out[str(p.relative_to(root))] = "fifo"
+        elif stat.S_ISDIR(mode):
+            out[str(p.relative_to(root))] = "dir"
+        else:
+            out[str(p.relative_to(root))] = hashlib.sha256(p.read_bytes()).hexdigest()
+    return out
 
 
 def _edit_json(path: Path, change: Callable[[Any], None]) -> None:
@@ -127,3 +140,104 @@ def test_a_dataset_validate_deep_passes_trains(scene_image_dataset, tmp_path, ca
     assert main(["train", "policy", "--action", "keypose", "--dataset", str(scene_image_dataset), "--out", str(out),
                  "--steps", "1", "--batch", "2", "--quiet"]) == 0
     assert (out / "model.pt").is_file()
+
+
+# ---- files that would hang or never resolve: FIFOs and loops of symbolic links --------------------------
+
+
+def _refused(argv: list[str], fragments: tuple[str, ...], capsys: pytest.CaptureFixture[str], root: Path) -> None:
+    """``main(argv)`` exits 2 with one line holding ``fragments`` and changes nothing under ``root``."""
+    before = _tree(root)
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    for fragment in fragments:
+        assert fragment in err, err
+    assert _tree(root) == before
+
+
+@pytest.fixture
+def loops(tmp_path: Path, scene_image_dataset: Path) -> Path:
+    """``loop``: a link to itself; ``ds_loop``: the dataset with ``episodes`` a loop of two links."""
+    (tmp_path / "loop").symlink_to("loop")
+    ds = tmp_path / "ds_loop"
+    shutil.copytree(scene_image_dataset, ds)
+    shutil.rmtree(ds / "episodes")
+    (ds / "episodes").symlink_to("other")
+    (ds / "other").symlink_to("episodes")
+    return tmp_path
+
+
+LOOP_CASES = [
+    ("generate-config", ["generate", "--quiet", "--out", "{w}/new", "--config", "{w}/loop"], "--config"),
+    ("generate-out", ["generate", "--quiet", "--out", "{w}/loop"], "--out"),
+    ("stats-out", ["stats", "{ds}", "--out", "{w}/loop"], "--out"),
+    ("instructions-templates", ["instructions", "--scenes", "{ds}/scenes.json", "--out", "{w}/new.json",
+                                "--templates", "{w}/loop"], "--templates"),
+    ("validate-dataset", ["validate", "{w}/loop"], "{w}/loop"),
+    ("stats-episodes-folder", ["stats", "{w}/ds_loop"], "episodes/"),
+    ("export-episodes-folder", ["export", "lerobot", "{w}/ds_loop", "--out", "{w}/new"], "episodes/"),
+]
+
+
+@pytest.mark.parametrize(("argv", "fragment"), [pytest.param(a, f, id=i) for i, a, f in LOOP_CASES])
+def test_a_loop_of_symbolic_links_is_one_line(loops, scene_image_dataset, argv, fragment, capsys,
+                                             monkeypatch) -> None:
+    monkeypatch.chdir(loops)
+    values = {"w": str(loops), "ds": str(scene_image_dataset)}
+    _refused([a.format(**values) for a in argv], (fragment.format(**values), "loop of symbolic links"), capsys,
+             loops)
+
+
+def test_validate_lists_an_episodes_folder_that_is_a_loop(loops, capsys) -> None:
+    before = _tree(loops)
+    assert main(["validate", str(loops / "ds_loop")]) == 1
+    assert "is a loop of symbolic links, not an episode file" in capsys.readouterr().out
+    assert _tree(loops) == before
+
+
+# Run in a child process with a timeout: a read that waits for a FIFO's writer would hang the test run.
+_FIFO_SCRIPT = """
+import contextlib, io, json, sys
+from samplehd.cli import main
+results = []
+for argv in json.loads(sys.argv[1]):
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(argv)
+    results.append([code, err.getvalue()])
+print(json.dumps(results))
+"""
+
+
+def test_a_fifo_is_refused_before_it_is_opened(tmp_path: Path, scene_image_dataset: Path) -> None:
+    import subprocess
+    import sys
+
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    ds = tmp_path / "ds_fifo"
+    shutil.copytree(scene_image_dataset, ds)
+    episode = sorted((ds / "episodes").iterdir())[0]
+    episode.unlink()
+    os.mkfifo(episode)
+    cases = [
+        (["generate", "--quiet", "--out", str(tmp_path / "new"), "--config", str(fifo)], "--config"),
+        (["evaluate", "--policy", "oracle", "--episodes", "1", "--env-options", str(fifo)], "--env-options"),
+        (["replay", str(fifo), "--out", str(tmp_path / "x.mp4")], str(fifo)),
+        (["stats", str(ds)], str(episode)),
+        (["export", "lerobot", str(ds), "--out", str(tmp_path / "new")], str(episode)),
+    ]
+    before = _tree(tmp_path)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    done = subprocess.run([sys.executable, "-c", _FIFO_SCRIPT, json.dumps([argv for argv, _ in cases])],
+                          capture_output=True, text=True, timeout=120, env=env, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    for (code, err), (argv, fragment) in zip(json.loads(done.stdout.splitlines()[-1]), cases, strict=True):
+        assert code == 2 and len(err.strip().splitlines()) == 1, (argv, err)
+        assert fragment in err and "named pipe (FIFO)" in err, err
+    validate = subprocess.run([sys.executable, "-m", "samplehd", "validate", str(ds)], capture_output=True,
+                              text=True, timeout=120, env=env)
+    assert validate.returncode == 1 and f"{episode}: is a named pipe (FIFO)" in validate.stdout
+    assert _tree(tmp_path) == before

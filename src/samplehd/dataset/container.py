@@ -50,6 +50,7 @@ import numpy as np
 from samplehd.dataset.layout import FORMAT_VERSION, tmp_path
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError
+from samplehd.fileio import check_regular_file
 from samplehd.record.episode import FRAME_FIELDS, Episode
 from samplehd.render.deflated import IMAGE_DEFLATE_LEVEL, DeflatedFrames, deflate_frame
 from samplehd.render.keyframes import SparseFrames
@@ -450,6 +451,7 @@ class FrameImages:
 
 
 def _open(path: Path) -> h5py.File:
+    check_regular_file(path, DatasetError, f"{path}: episode file")
     try:
         f = h5py.File(path, "r")
     except FileNotFoundError:

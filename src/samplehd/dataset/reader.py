@@ -34,7 +34,7 @@ from samplehd.dataset.layout import (
 from samplehd.dataset.outputs import inside_dataset
 from samplehd.dataset.validate import validate_episode_file
 from samplehd.errors import DatasetError
-from samplehd.fileio import read_json
+from samplehd.fileio import not_a_regular_file, read_json
 from samplehd.record.episode import Episode
 
 __all__ = ["DatasetReader", "EpisodeEntry"]
@@ -231,6 +231,9 @@ class DatasetReader:
             self.scenes, self.instructions  # noqa: B018 - both files readable and of the right shape
         for i, e in enumerate(self.episodes):
             path = self.episode_path(i)
+            why = not_a_regular_file(path)
+            if why is not None:
+                raise DatasetError(f"{path}: is {why}, not an episode file; {hint}")
             if not path.is_file():
                 raise DatasetError(f"{path}: missing, but {INFO_FILE} lists it; {hint}")
             size = path.stat().st_size

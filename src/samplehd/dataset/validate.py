@@ -31,7 +31,7 @@ from samplehd.dataset.layout import (
     scene_image_files,
 )
 from samplehd.errors import ConfigError, DatasetError
-from samplehd.fileio import file_sha256
+from samplehd.fileio import file_sha256, not_a_regular_file, resolve_path
 from samplehd.render.keyframes import keyframe_indices
 
 __all__ = ["validate_dataset", "validate_episode_file", "validate_scene_files", "validate_stored_config"]
@@ -54,6 +54,9 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
     :func:`samplehd.dataset.container.camera_settings`)."""
 
     problems: list[str] = []
+    why = not_a_regular_file(path)
+    if why is not None:
+        return [f"{path}: is {why}, not an episode file"]
     if not path.exists():
         return [f"{path}: missing"]
     size = path.stat().st_size
@@ -239,6 +242,7 @@ def validate_dataset(root: str | Path, deep: bool = False,
     """
     root = Path(root)
     problems: list[str] = []
+    resolve_path(root)  # a loop of symbolic links is said as one
     if not root.is_dir():
         raise DatasetError(f"{root}: {'is a file' if root.exists() else 'does not exist'}; give a dataset folder")
     if not (root / INFO_FILE).is_file():
