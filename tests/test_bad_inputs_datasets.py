@@ -241,3 +241,110 @@ def test_a_fifo_is_refused_before_it_is_opened(tmp_path: Path, scene_image_datas
                               text=True, timeout=120, env=env)
     assert validate.returncode == 1 and f"{episode}: is a named pipe (FIFO)" in validate.stdout
     assert _tree(tmp_path) == before
+
+
+# ---- damaged model folders: one line naming the file, nothing written -----------------------------------
+
+
+@pytest.fixture(scope="module")
+def model_folders(scene_image_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """A keypose policy and a parser trained for one step, and damaged copies of the policy: a config.json
+    that is not UTF-8, a config of another width, a parser's weights, and an unfinished run (checkpoint)
+    whose config.json is damaged."""
+    pytest.importorskip("torch")
+    root = tmp_path_factory.mktemp("models")
+    train = ["train", "policy", "--action", "keypose", "--dataset", str(scene_image_dataset), "--steps", "1",
+             "--batch", "2", "--quiet", "--out"]
+    assert main([*train, str(root / "keypose")]) == 0
+    assert main(["train", "parser", "--dataset", str(scene_image_dataset), "--steps", "1", "--quiet", "--out",
+                 str(root / "parser")]) == 0
+    folders = {"keypose": root / "keypose", "parser": root / "parser"}
+    for name in ("not_utf8", "other_width", "parser_weights"):
+        shutil.copytree(root / "keypose", root / name)
+        folders[name] = root / name
+    (root / "not_utf8" / "config.json").write_bytes(b"\xff\xfe{\x00}\x00")
+    _edit_json(root / "other_width" / "config.json", lambda doc: doc["model"].update(width=24))
+    shutil.copyfile(root / "parser" / "model.pt", root / "parser_weights" / "model.pt")
+    from samplehd.learn.policy.keypose_training import train_keypose_policy
+
+    unfinished = root / "unfinished"
+    assert train_keypose_policy(scene_image_dataset, unfinished, steps=2, batch=2, quiet=True, stop_after=1) == \
+        {"stopped_at": 1}
+    (unfinished / "config.json").write_bytes(b"\x00garbage")
+    folders["unfinished"] = unfinished
+    return folders
+
+
+MODEL_CASES = [
+    ("config-not-utf8", "not_utf8", "config.json", "utf-8"),
+    ("weights-other-width", "other_width", "model.pt", "do not fit"),
+    ("weights-of-a-parser", "parser_weights", "model.pt", "do not fit"),
+    ("parser-folder", "parser", "config.json", "'parser' model"),
+]
+
+
+@pytest.mark.parametrize(("folder", "file", "fragment"), [pytest.param(f, n, m, id=i) for i, f, n, m in MODEL_CASES])
+def test_a_damaged_model_folder_is_one_line(model_folders, tmp_path, folder, file, fragment, capsys) -> None:
+    models = model_folders[folder]
+    before = _tree(models)
+    argv = ["evaluate", "--policy", "bc", "--models", str(models), "--families", "pick_up", "--episodes", "1",
+            "--out", str(tmp_path / "report.json")]
+    _refused(argv, (str(models / file), fragment), capsys, tmp_path)
+    assert _tree(models) == before
+
+
+def test_weights_that_do_not_fit_a_parser_are_one_line(model_folders, scene_image_dataset, capsys) -> None:
+    parser = model_folders["parser"]
+    folder = parser.parent / "parser_bad"
+    shutil.copytree(parser, folder)
+    shutil.copyfile(model_folders["keypose"] / "model.pt", folder / "model.pt")
+    _refused(["train", "parser", "--dataset", str(scene_image_dataset), "--evaluate-only", "--out", str(folder)],
+             (str(folder / "model.pt"), "do not fit"), capsys, folder)
+
+
+def test_a_resumed_run_with_a_damaged_config_is_refused_not_overwritten(model_folders, scene_image_dataset,
+                                                                        capsys) -> None:
+    out = model_folders["unfinished"]
+    _refused(["train", "policy", "--action", "keypose", "--dataset", str(scene_image_dataset), "--steps", "2",
+              "--batch", "2", "--quiet", "--out", str(out)], (str(out / "config.json"),), capsys, out)
+
+
+@pytest.mark.parametrize("batch", ["1000000000000", "5000"])
+def test_a_batch_too_big_to_allocate_is_refused_with_the_range(scene_image_dataset, tmp_path, batch, capsys) -> None:
+    pytest.importorskip("torch")
+    _refused(["train", "policy", "--action", "keypose", "--dataset", str(scene_image_dataset), "--out",
+              str(tmp_path / "model"), "--batch", batch], ("--batch", batch, "1..4096"), capsys, tmp_path)
+
+
+# ---- evaluate --policy bc honours a flag or refuses it; never swaps it for the model's --------------------
+EVAL_FLAG_CASES = [
+    ("obs-mode", ["--obs-mode", "rgb"], ("--obs-mode rgb", "obs_mode='state'")),
+    ("control-mode", ["--control-mode", "joint_delta"], ("--control-mode joint_delta", "control_mode='steering'")),
+    ("env-options-file", ["--env-options", "{w}/options.json"], ("options.json", "control_mode='joint_delta'",
+                                                                  "'steering'")),
+    ("out-inside-models", ["--out", "{m}/report.json"], ("--out", "inside the model folder")),
+    ("out-through-a-link", ["--out", "{w}/link/report.json"], ("--out", "inside the model folder")),
+    ("video-inside-models", ["--video", "{m}/videos"], ("--video", "inside the model folder")),
+]
+
+
+@pytest.mark.parametrize(("extra", "fragments"), [pytest.param(e, f, id=i) for i, e, f in EVAL_FLAG_CASES])
+def test_evaluate_never_silently_replaces_a_flag_with_the_models(model_folders, tmp_path, extra, fragments,
+                                                                  capsys) -> None:
+    models = model_folders["keypose"]
+    (tmp_path / "options.json").write_text(json.dumps({"control_mode": "joint_delta"}))
+    (tmp_path / "link").symlink_to(models)
+    values = {"w": str(tmp_path), "m": str(models)}
+    before = _tree(models)
+    argv = ["evaluate", "--policy", "bc", "--models", str(models), "--families", "pick_up", "--episodes", "1",
+            *(a.format(**values) for a in extra)]
+    _refused(argv, tuple(f.format(**values) for f in fragments), capsys, tmp_path)
+    assert _tree(models) == before
+
+
+def test_evaluate_honours_a_flag_the_model_agrees_with(model_folders, tmp_path, capsys) -> None:
+    report = tmp_path / "report.json"
+    assert main(["evaluate", "--policy", "bc", "--models", str(model_folders["keypose"]), "--families", "pick_up",
+                 "--episodes", "1", "--max-episode-steps", "5", "--control-mode", "steering", "--out",
+                 str(report)]) == 0
+    assert json.loads(report.read_text())["episodes"] == 1

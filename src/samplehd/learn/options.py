@@ -7,12 +7,12 @@ and works for the other policies where the ``learn`` extra is not installed.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
 from samplehd.learn.policy.configuration import PolicyConfig
 
 __all__ = ["POLICY_CAMERAS", "env_options", "env_options_from_config"]
@@ -37,14 +37,14 @@ def env_options_from_config(config: PolicyConfig) -> dict[str, Any]:
 
 def env_options(folder: str | Path) -> dict[str, Any]:
     """The environment options the trained policy in ``folder`` needs; one-line errors naming ``models``."""
-    try:
-        cfg = json.loads((Path(folder) / "config.json").read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ConfigError(f"models={folder}: no readable config.json of a trained policy ({exc})",
-                          field="models") from None
+    path = Path(folder) / "config.json"
+    if not path.exists() and not path.is_symlink():
+        raise ConfigError(f"models={folder}: no config.json of a trained policy here (run `samplehd train policy` "
+                          f"first)", field="models")
+    cfg = read_json(path, ConfigError, f"models={folder}: {path}", field="models")
     if not isinstance(cfg, dict) or cfg.get("kind") != "policy":
         kind = cfg.get("kind") if isinstance(cfg, dict) else None
-        raise ConfigError(f"models={folder}: config.json is a {kind!r} model, expected a policy", field="models")
+        raise ConfigError(f"models={folder}: {path} is a {kind!r} model, expected a policy", field="models")
     try:
         config = PolicyConfig.from_dict(cfg)
     except ConfigError as exc:

@@ -18,7 +18,7 @@ from samplehd.learn.policy.configuration import FORMAT, PolicyConfig
 from samplehd.learn.policy.keypose_inference import KeyposePolicy
 from samplehd.learn.policy.modeling import BCNet
 from samplehd.learn.policy.processing import CAMERAS, _joint_vel, _state, _target_features
-from samplehd.learn.training import load_model_files, read_model_config, set_seed, torch
+from samplehd.learn.training import check_weights_fit, load_model_files, read_model_config, set_seed, torch
 
 __all__ = ["BCPolicy", "policy_for_evaluation"]
 
@@ -86,7 +86,9 @@ class BCPolicy:
         if folder is None:
             raise ConfigError("policy=bc: needs `models` (the folder of `samplehd train policy`)", field="policy")
         config, state = load_model_files(folder, "policy", FORMAT)
-        return cls(read_model_config(PolicyConfig, config, folder), state, env)
+        policy = cls(read_model_config(PolicyConfig, config, folder), None, env)
+        check_weights_fit(policy.net, state, folder)
+        return policy
 
     def reset(self, seed: int | None = None) -> None:
         self._queue = []
@@ -182,6 +184,6 @@ def policy_for_evaluation(env: Any, config: Any) -> Any:
         raise ConfigError("policy=bc: needs `models` (the folder of `samplehd train policy`)", field="policy")
     raw, state = load_model_files(config.models, "policy", FORMAT)
     policy_config = read_model_config(PolicyConfig, raw, config.models)
-    if policy_config.action == "keypose":
-        return KeyposePolicy(policy_config, state, env)
-    return BCPolicy(policy_config, state, env)
+    policy = (KeyposePolicy if policy_config.action == "keypose" else BCPolicy)(policy_config, None, env)
+    check_weights_fit(policy.net, state, config.models)
+    return policy

@@ -49,6 +49,7 @@ from samplehd.learn.policy.preparation import training_split
 from samplehd.learn.policy.topdown import TopDownGrid
 from samplehd.learn.training import (
     TrainRun,
+    check_weights_fit,
     descend,
     load_model_files,
     pick_device,
@@ -313,7 +314,7 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     n = len(arrays["train_grid"])
     net = KeyposeNet(len(instruction_vocabulary()), input_channels(inputs), width).to(dev)
     if start is not None:
-        net.load_state_dict(start)
+        check_weights_fit(net, start, init)
     # The lowest grasp of the training decisions: the policy never grasps lower (a finger on the table
     # is a safety stop, a grasp a little high still closes on the object).
     net.z_floor.fill_(float(arrays["train_labels"][:, 2].min()) * HEIGHT_UNIT + LAYOUT.table_height)
