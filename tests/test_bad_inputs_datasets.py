@@ -348,3 +348,30 @@ def test_evaluate_honours_a_flag_the_model_agrees_with(model_folders, tmp_path, 
                  "--episodes", "1", "--max-episode-steps", "5", "--control-mode", "steering", "--out",
                  str(report)]) == 0
     assert json.loads(report.read_text())["episodes"] == 1
+
+
+# ---- evaluate --policy lerobot:CKPT -------------------------------------------------------------------------
+@pytest.mark.parametrize(("ckpt", "fragment"), [("~nosuchuser_samplehd/x", "no such user"),
+                                                ("p" * 5000, "5000 characters")])
+def test_a_lerobot_path_that_cannot_be_a_folder_is_one_line(tmp_path, ckpt, fragment, capsys) -> None:
+    _refused(["evaluate", "--policy", f"lerobot:{ckpt}", "--episodes", "1"], ("--policy", fragment), capsys,
+             tmp_path)
+
+
+def test_a_relative_export_root_is_found_from_the_checkpoint_not_the_cwd(tmp_path, monkeypatch) -> None:
+    from samplehd.envs.lerobot_contract import EXPORT_RECORD
+    from samplehd.envs.lerobot_policy import export_root
+
+    ran_in = tmp_path / "project"
+    checkpoint = ran_in / "outputs" / "act" / "checkpoints" / "last" / "pretrained_model"
+    checkpoint.mkdir(parents=True)
+    (ran_in / "data" / "export" / EXPORT_RECORD).parent.mkdir(parents=True)
+    (ran_in / "data" / "export" / EXPORT_RECORD).write_text("{}")
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)
+    train_config = {"dataset": {"root": "data/export"}, "output_dir": "outputs/act"}
+    assert export_root(checkpoint, train_config) == ran_in / "data" / "export"
+    assert export_root(checkpoint, {"dataset": {"root": "data/export"}}) == ran_in / "data" / "export"
+    assert export_root(checkpoint, {"dataset": {"root": "data/other"}}) is None
+    assert export_root(checkpoint, {}) is None
