@@ -375,3 +375,44 @@ def test_a_relative_export_root_is_found_from_the_checkpoint_not_the_cwd(tmp_pat
     assert export_root(checkpoint, {"dataset": {"root": "data/export"}}) == ran_in / "data" / "export"
     assert export_root(checkpoint, {"dataset": {"root": "data/other"}}) is None
     assert export_root(checkpoint, {}) is None
+
+
+# ---- the environment: reset options and constructor values ------------------------------------------------
+@pytest.fixture(scope="module")
+def two_slot_env():
+    """Tabletop-v0 whose observation holds 2 objects (the dataset's scenes have 3)."""
+    import gymnasium as gym
+
+    env = gym.make("samplehd/Tabletop-v0", num_scenes=1, scene={"min_objects": 2, "max_objects": 2})
+    yield env
+    env.close()
+
+
+@pytest.mark.parametrize("value", [5, None, b"ds", ["ds"]], ids=["int", "none", "bytes", "list"])
+def test_a_dataset_option_that_is_no_path_is_one_line(two_slot_env, value) -> None:
+    from samplehd.errors import ConfigError
+
+    with pytest.raises(ConfigError) as caught:
+        two_slot_env.reset(options={"dataset": value, "episode_index": 0})
+    message = str(caught.value)
+    assert len(message.splitlines()) == 1 and "'dataset'" in message and "a dataset folder" in message
+
+
+def test_an_episode_with_more_objects_than_slots_is_refused(two_slot_env, scene_image_dataset) -> None:
+    from samplehd.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"3 objects.*2 slots.*max_objects ≥ 3"):
+        two_slot_env.reset(options={"dataset": str(scene_image_dataset), "episode_index": 0})
+
+
+def test_numpy_integers_are_integers_and_human_rendering_is_refused() -> None:
+    import gymnasium as gym
+
+    from samplehd.envs.config import EnvConfig
+    from samplehd.errors import ConfigError
+
+    config = EnvConfig.from_kwargs(width=np.int64(64), height=np.int32(48), num_scenes=np.uint8(2))
+    assert (config.width, config.height, config.num_scenes) == (64, 48, 2)
+    assert type(config.width) is int and json.dumps(config.to_dict())
+    with pytest.raises(ConfigError, match="render_mode='human': valid: rgb_array"):
+        gym.make("samplehd/Tabletop-v0", render_mode="human")
