@@ -416,3 +416,39 @@ def test_numpy_integers_are_integers_and_human_rendering_is_refused() -> None:
     assert type(config.width) is int and json.dumps(config.to_dict())
     with pytest.raises(ConfigError, match="render_mode='human': valid: rgb_array"):
         gym.make("samplehd/Tabletop-v0", render_mode="human")
+
+
+# ---- validate: no false alarm while a writer runs -------------------------------------------------------------
+def test_validate_says_a_running_rerender_is_running(scene_image_dataset, tmp_path, capsys) -> None:
+    from samplehd.dataset.lock import dataset_lock
+
+    ds = tmp_path / "ds"
+    shutil.copytree(scene_image_dataset, ds)
+    _edit_json(ds / "info.json", lambda info: info.update(rerender={"done": 1, "episodes": 2}))
+    with dataset_lock(ds):  # as the rerender holds it (a second open file description conflicts in-process too)
+        _refused(["validate", str(ds)], ("a rerender is running", f"process {os.getpid()}"), capsys, tmp_path)
+    assert main(["validate", str(ds)]) == 1  # once it has ended, the unfinished record is a problem again
+    assert "a rerender stopped after 1 of 2 episodes" in capsys.readouterr().out
+
+
+def test_a_nan_in_recorded_steering_names_the_episode(scene_image_dataset, tmp_path, capsys) -> None:
+    import h5py
+
+    from samplehd.dataset.reader import DatasetReader
+    from samplehd.envs.replay_check import replay_dataset
+    from samplehd.errors import DatasetError
+    from samplehd.fileio import file_sha256
+
+    ds = tmp_path / "ds"
+    shutil.copytree(scene_image_dataset, ds)
+    path = DatasetReader(ds).episode_path(1)
+    with h5py.File(path, "r+") as f:
+        steering = f["frames/steering"][...]
+        steering[3, 0] = np.nan
+        f["frames/steering"][...] = steering
+    _edit_json(ds / "info.json", lambda info: info["episodes"][1].update(size=path.stat().st_size,
+                                                                         sha256=file_sha256(path)))
+    assert main(["validate", str(ds), "--replay"]) == 1  # found before any replay
+    assert f"{path}: frames/steering has non-finite values" in capsys.readouterr().out
+    with pytest.raises(DatasetError, match=rf"{path} \(episode 1\): frames/steering has non-finite values at frame 3"):
+        replay_dataset(ds)

@@ -8,7 +8,9 @@ images with the recorded cameras, modalities and per-camera resolution).
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -30,6 +32,7 @@ from samplehd.dataset.layout import (
     is_temporary,
     scene_image_files,
 )
+from samplehd.dataset.lock import lock_holder
 from samplehd.errors import ConfigError, DatasetError
 from samplehd.fileio import file_sha256, not_a_regular_file, resolve_path
 from samplehd.render.keyframes import keyframe_indices
@@ -76,7 +79,7 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
         problems.append(f"{path}: seed {ep.seed}, info.json says {entry['seed']}")
     if not ep.success:
         problems.append(f"{path}: episode is not marked successful")
-    for key in ("qpos", "qvel", "joint_pos", "object_pos"):
+    for key in ("qpos", "qvel", "joint_pos", "object_pos", "steering"):
         if not np.all(np.isfinite(ep.frames[key])):
             problems.append(f"{path}: frames/{key} has non-finite values")
     try:
@@ -125,6 +128,23 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
     except (OSError, RuntimeError, KeyError) as exc:
         problems.append(f"{path}: cannot read images: {exc}")
     return problems
+
+
+def _writer_running(root: Path) -> str | None:
+    """``process PID`` (or ``another process``) when a command holds the dataset's lock to change it
+    (generate, rerender: :mod:`samplehd.dataset.lock`), else None. Only asked, never held."""
+    try:
+        fd = os.open(root, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        pid = lock_holder(fd)
+        return f"process {pid}" if pid else "another process"
+    finally:
+        os.close(fd)  # closing releases the shared lock taken to ask
+    return None
 
 
 def validate_stored_config(root: Path, info: dict[str, Any]) -> list[str]:
@@ -253,6 +273,12 @@ def validate_dataset(root: str | Path, deep: bool = False,
                            f"samplehd reads (valid: {FORMAT_VERSION!r}); use the samplehd version that wrote it")
     if not isinstance(info, dict):
         return problems, {}
+    writer = _writer_running(root)  # what a running writer leaves half-done is no problem of the data
+    if writer is not None:
+        what = "a rerender" if isinstance(info.get("rerender"), dict) else \
+            "generate" if info.get("status") != "complete" else "a samplehd command"
+        raise DatasetError(f"{root}: {what} is running ({writer} holds the dataset); validate it when that has "
+                           f"finished")
     if info.get("status") != "complete":
         problems.append(f"{root / INFO_FILE}: status {info.get('status')!r}: generation has not finished "
                         f"(run samplehd generate --resume)")

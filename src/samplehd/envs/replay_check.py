@@ -22,7 +22,7 @@ import numpy as np
 
 from samplehd.dataset.reader import DatasetReader
 from samplehd.envs.tabletop import TabletopEnv
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, DatasetError, SamplehdError
 from samplehd.fixedmath import norm
 
 __all__ = ["EpisodeReplay", "FamilyReplay", "ReplayReport", "replay_dataset", "replay_env", "replay_episode"]
@@ -103,19 +103,43 @@ def replay_env(reader: DatasetReader) -> TabletopEnv:
     options = {key: paths[key] for key in ("control_hz", "physics_hz", "checker", "grasp_assist") if key in paths}
     if isinstance(reader.config.get("scene"), dict):  # its object count sizes the observation
         options["scene"] = reader.config["scene"]
-    return TabletopEnv(obs_mode="state", control_mode="steering", max_episode_steps=None, **options)
+    try:
+        return TabletopEnv(obs_mode="state", control_mode="steering", max_episode_steps=None, **options)
+    except SamplehdError as exc:
+        raise DatasetError(f"{reader.root / 'info.json'}: config: its settings make no environment: "
+                           f"{_own_words(exc)}") from None
+
+
+def _own_words(exc: Exception) -> str:
+    """An environment error's message without the environment's own prefixes (``reset:``,
+    ``Tabletop-v0.``), which name no file of the dataset."""
+    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    for prefix in ("reset: ", "step: ", "Tabletop-v0."):
+        text = text.removeprefix(prefix)
+    return text
 
 
 def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> EpisodeReplay:
     """Reset ``env`` from episode ``index`` of ``reader``'s dataset and send its recorded actions."""
-    env.reset(options={"dataset": str(reader.root), "episode_index": index})
+    where = f"{reader.episode_path(index)} (episode {index})"
     frames = reader.frames(index, ["steering", "tcp_pos", "object_pos"])
     steering = np.asarray(frames["steering"])
+    bad = np.flatnonzero(~np.all(np.isfinite(steering), axis=tuple(range(1, steering.ndim))))
+    if len(bad):
+        raise DatasetError(f"{where}: frames/steering has non-finite values at frame {int(bad[0])} "
+                           f"({len(bad)} frame(s)); the recording is damaged")
+    try:
+        env.reset(options={"dataset": str(reader.root), "episode_index": index})
+    except SamplehdError as exc:
+        raise DatasetError(f"{where}: cannot start the environment from it: {_own_words(exc)}") from None
     tcp_rec, obj_rec = np.asarray(frames["tcp_pos"]), np.asarray(frames["object_pos"])
     tcp_dev = obj_dev = 0.0
     success = False
     for t in range(len(steering) - 1):
-        obs, _, _, _, info = env.step(steering[t])
+        try:
+            obs, _, _, _, info = env.step(steering[t])
+        except SamplehdError as exc:
+            raise DatasetError(f"{where}: frame {t}: the recorded action is refused: {_own_words(exc)}") from None
         success = success or bool(info["success"])
         tcp_dev = max(tcp_dev, norm(obs["tcp_pos"].astype(float) - tcp_rec[t + 1]))
         k = len(obj_rec[t + 1])
