@@ -452,3 +452,46 @@ def test_a_nan_in_recorded_steering_names_the_episode(scene_image_dataset, tmp_p
     assert f"{path}: frames/steering has non-finite values" in capsys.readouterr().out
     with pytest.raises(DatasetError, match=rf"{path} \(episode 1\): frames/steering has non-finite values at frame 3"):
         replay_dataset(ds)
+
+
+# ---- quieter gaps ------------------------------------------------------------------------------------------------
+def _episode_twice(ds: Path) -> None:
+    def twice(info: dict) -> None:
+        info["episodes"][1] = dict(info["episodes"][0], instruction_index=1)
+
+    _edit_json(ds / "info.json", twice)
+
+
+RERENDER_DAMAGES = [("scenes-json-missing", lambda d: (d / "scenes.json").unlink(), "scenes.json", "missing"),
+                    ("episode-listed-twice", _episode_twice, "info.json", "again")]
+
+
+@pytest.mark.parametrize(("damage", "file", "fragment"),
+                         [pytest.param(d, f, m, id=i) for i, d, f, m in RERENDER_DAMAGES])
+def test_rerender_refuses_a_damaged_listing_before_writing(scene_image_dataset, tmp_path, damage, file, fragment,
+                                                           capsys) -> None:
+    ds = _damaged(scene_image_dataset, tmp_path / "ds", damage)
+    _refused(["rerender", str(ds), "--cameras", "scene", "--width", "32", "--height", "32", "--quiet"],
+             (str(ds / file), fragment), capsys, tmp_path)
+
+
+def test_export_sample_hd_of_a_states_only_dataset_is_refused(scene_image_dataset, tmp_path, capsys) -> None:
+    _refused(["export", "sample-hd", str(scene_image_dataset), "--out", str(tmp_path / "shd"), "--workers", "1"],
+             (str(scene_image_dataset), "store no images", "--no-images"), capsys, tmp_path)
+
+
+@pytest.mark.parametrize("families", ["", ","])
+def test_instructions_with_no_family_named_is_refused(scene_image_dataset, tmp_path, families, capsys) -> None:
+    _refused(["instructions", "--scenes", str(scene_image_dataset / "scenes.json"), "--out",
+              str(tmp_path / "i.json"), "--families", families], ("--families", "pick_up"), capsys, tmp_path)
+
+
+def test_the_viewer_refuses_frame_minus_one(scene_image_dataset) -> None:
+    from samplehd.viewer.app import ViewerApp
+    from samplehd.viewer.server import open_dataset
+
+    app = ViewerApp(open_dataset(scene_image_dataset, render=False))
+    name = Path(json.loads((scene_image_dataset / "info.json").read_text())["episodes"][0]["file"]).stem
+    assert app.handle(f"/api/episodes/{name}/frame/0", {"camera": "scene"}).status in (200, 404)
+    response = app.handle(f"/api/episodes/{name}/frame/-1", {"camera": "scene"})
+    assert response.status == 400 and b"frame -1" in response.body

@@ -325,6 +325,10 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
     order = str(reader.config.get("paths", {}).get("planner", {}).get("order", "instruction"))
     base = LAYOUT.robot_base_position
     stored = sorted({c for e in range(len(reader)) for c in (reader.episode_meta(e).get("images") or {})})
+    if images and not stored:
+        raise DatasetError(f"{root}: its episodes store no images (a states-only dataset), and SAMPLE-HD's sequences "
+                           f"are images; render them first (samplehd rerender {root} --cameras scene) or export "
+                           f"without them (`no_images`)", field="images")
     if camera is not None and camera not in stored:
         raise DatasetError(f"camera={camera}: not stored in {root}; stored cameras: {', '.join(stored) or 'none'}",
                            field="camera")
