@@ -495,3 +495,28 @@ def test_the_viewer_refuses_frame_minus_one(scene_image_dataset) -> None:
     assert app.handle(f"/api/episodes/{name}/frame/0", {"camera": "scene"}).status in (200, 404)
     response = app.handle(f"/api/episodes/{name}/frame/-1", {"camera": "scene"})
     assert response.status == 400 and b"frame -1" in response.body
+
+
+def test_resuming_a_finished_dataset_says_there_is_nothing_to_do(scene_image_dataset, tmp_path, capsys) -> None:
+    ds = tmp_path / "ds"
+    shutil.copytree(scene_image_dataset, ds)
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps(SCENE_IMAGES))
+    episodes = {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in (ds / "episodes").iterdir()}
+    assert main(["generate", "--out", str(ds), "--resume", "--preset", "tiny", "--config", str(config),
+                 "--quiet"]) == 0
+    assert f"nothing to do: the dataset {ds} is complete" in capsys.readouterr().out
+    assert {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in (ds / "episodes").iterdir()} == episodes
+
+
+def test_keypose_training_on_small_scene_images_warns(scene_image_dataset, tmp_path, capsys) -> None:
+    pytest.importorskip("torch")
+    from samplehd.learn.policy.configuration import PolicyGrid
+    from samplehd.learn.policy.keypose_training import _warn_if_small
+
+    _warn_if_small(PolicyGrid(width=64, height=36), quiet=False)
+    err = capsys.readouterr().err
+    assert "designed for 640x360 scene images; these are 64x36" in err and len(err.splitlines()) == 1
+    _warn_if_small(PolicyGrid(width=320, height=180), quiet=False)
+    _warn_if_small(PolicyGrid(width=64, height=36), quiet=True)
+    assert capsys.readouterr().err == ""

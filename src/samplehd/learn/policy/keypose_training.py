@@ -11,6 +11,7 @@ resumed run does not draw them again.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -278,6 +279,7 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
         camera = next(iter(scenes.values()))["camera"] if scenes else {}
         grid = PolicyGrid(width=int(camera.get("width", 640)), height=int(camera.get("height", 360)))
     grid_cfg = grid
+    _warn_if_small(grid, quiet)
     train_k, test_k = training_split(reader, dataset, families)
     families_used = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
     start = _initial_weights(init, grid, width, inputs) if init is not None else None
@@ -343,6 +345,19 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     run.finish(net, metrics)
     prepared.unlink(missing_ok=True)
     return metrics
+
+
+def _warn_if_small(grid: PolicyGrid, quiet: bool) -> None:
+    """A line on stderr when the policy looks at images much smaller than it was designed for: below
+    half the default size a cell of its grid covers less than about one pixel, so most cells are filled
+    from a neighbour and the predictions blur."""
+    design = PolicyGrid()
+    if quiet or (grid.width * 2 >= design.width and grid.height * 2 >= design.height):
+        return
+    print(f"samplehd train: warning: the keypose policy is designed for {design.width}x{design.height} scene "
+          f"images; these are {grid.width}x{grid.height}, so most of its {grid.rows}x{grid.cols} cells of "
+          f"{grid.cell * 1000:g} mm see no pixel of their own (generate with render.width {design.width}, "
+          f"render.height {design.height} for the figures of docs/BASELINES.md)", file=sys.stderr)
 
 
 def _initial_weights(init: str | Path, grid: PolicyGrid, width: int, inputs: str) -> dict[str, Any]:
