@@ -520,3 +520,15 @@ def test_keypose_training_on_small_scene_images_warns(scene_image_dataset, tmp_p
     _warn_if_small(PolicyGrid(width=320, height=180), quiet=False)
     _warn_if_small(PolicyGrid(width=64, height=36), quiet=True)
     assert capsys.readouterr().err == ""
+
+
+def test_validate_replay_shows_progress_and_writes_a_per_episode_report(scene_image_dataset, tmp_path,
+                                                                       capsys) -> None:
+    report = tmp_path / "report.json"
+    assert main(["validate", str(scene_image_dataset), "--replay", "--episodes", "1", "--out", str(report)]) == 0
+    captured = capsys.readouterr()
+    assert "replayed 1/1: episode 0 (pick_up) agrees" in captured.err
+    doc = json.loads(report.read_text())
+    assert doc["agrees"] and [e["index"] for e in doc["episodes"]] == [0] and doc["episodes"][0]["steps"] > 0
+    _refused(["validate", str(scene_image_dataset), "--out", str(tmp_path / "r.json")], ("--out", "--replay"),
+             capsys, tmp_path)

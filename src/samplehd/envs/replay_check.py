@@ -15,8 +15,10 @@ a disagreement is a bug, or drift after a changed MuJoCo or samplehd version.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -78,6 +80,11 @@ class ReplayReport:
     def agrees(self) -> bool:
         """Whether every replayed outcome equals the recorded one."""
         return all(e.agrees for e in self.episodes)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report as JSON data: the verdict, per family and per episode (deviations in metres)."""
+        return {"agrees": self.agrees, "families": [asdict(f) for f in self.families()],
+                "episodes": [{**asdict(e), "agrees": e.agrees} for e in self.episodes]}
 
     def families(self) -> list[FamilyReplay]:
         """Per family, in name order."""
@@ -151,8 +158,10 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
     return EpisodeReplay(index, entry.family, recorded, success, tcp_dev, obj_dev, max(0, len(steering) - 1))
 
 
-def replay_dataset(root: str | Path, episodes: int | None = None) -> ReplayReport:
-    """Replay the first ``episodes`` episodes of a dataset (all when None).
+def replay_dataset(root: str | Path, episodes: int | None = None,
+                   on_episode: Callable[[int, int, EpisodeReplay], None] | None = None) -> ReplayReport:
+    """Replay the first ``episodes`` episodes of a dataset (all when None); ``on_episode(done, total,
+    replay)`` after each (progress).
 
     Raises:
         DatasetError: ``root`` is not a dataset directory.
@@ -165,8 +174,13 @@ def replay_dataset(root: str | Path, episodes: int | None = None) -> ReplayRepor
     if count == 0:
         raise ConfigError(f"{reader.root}: the dataset has no episodes to replay")
     env = replay_env(reader)
+    total = min(count, episodes or count)
+    done: list[EpisodeReplay] = []
     try:
-        done = [replay_episode(env, reader, i) for i in range(min(count, episodes or count))]
+        for i in range(total):
+            done.append(replay_episode(env, reader, i))
+            if on_episode is not None:
+                on_episode(len(done), total, done[-1])
     finally:
         env.close()
     return ReplayReport(tuple(done))
