@@ -532,3 +532,12 @@ def test_validate_replay_shows_progress_and_writes_a_per_episode_report(scene_im
     assert doc["agrees"] and [e["index"] for e in doc["episodes"]] == [0] and doc["episodes"][0]["steps"] > 0
     _refused(["validate", str(scene_image_dataset), "--out", str(tmp_path / "r.json")], ("--out", "--replay"),
              capsys, tmp_path)
+
+
+def test_generate_takes_families_as_a_flag(tmp_path, capsys) -> None:
+    out = tmp_path / "ds"
+    assert main(["generate", "--out", str(out), "--scenes", "1", "--render", "none", "--families", "pick_up",
+                 "--quiet", "--workers", "1"]) == 0
+    assert json.loads((out / "info.json").read_text())["config"]["instructions"]["families"] == ["pick_up"]
+    _refused(["generate", "--out", str(tmp_path / "other"), "--families", "bogus", "--quiet"],
+             ("--families", "bogus", "pick_up"), capsys, tmp_path)

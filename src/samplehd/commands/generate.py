@@ -44,6 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cameras", nargs="+", help="cameras to render (scene, operator, wrist)")
     parser.add_argument("--modalities", nargs="+", help="rgb depth segmentation")
     parser.add_argument("--scenes", type=int, help="number of scenes (overrides the preset)")
+    parser.add_argument("--families", nargs="+", help="task families of the instructions, e.g. pick_up place "
+                        "(instructions.families; all when omitted)")
     parser.add_argument("--target", type=int, help="stop at this many successful episodes (0: no target)")
     parser.add_argument("--seed", type=int, help="base seed")
     parser.add_argument("--resume", action="store_true", help="finish the dataset already in --out")
@@ -64,6 +66,8 @@ def resolve_config(args: argparse.Namespace):  # noqa: ANN201 - GenerateConfig
         names = getattr(args, flag)
         if names is not None:
             flags.append((f"--{flag}", {"render": {flag: list(split_names(names, f"--{flag}"))}}))
+    if args.families is not None:
+        flags.append(("--families", {"instructions": {"families": list(split_names(args.families, "--families"))}}))
     for flag, top in flags:
         config = GenerateConfig.from_dict(top, where=flag, base=config)
     check_render_applies(config.render, {next(iter(top["render"])): flag for flag, top in flags if "render" in top})
