@@ -19,6 +19,8 @@ from typing import Any
 import mujoco
 import numpy as np
 from PIL import Image
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from samplehd.dataset.validate import validate_scene_files, validate_stored_config
 from samplehd.envs.replay_check import replay_env
@@ -169,20 +171,27 @@ def check_scene_inputs(reader: Any) -> None:
 
 
 def _prepare(reader: Any, ks: Sequence[int], config: PolicyGrid, tokens_len: int,
-             inputs: str = "rgb") -> dict[str, np.ndarray]:
+             inputs: str = "rgb", label: str = "prepare", quiet: bool = True) -> dict[str, np.ndarray]:
     env = replay_env(reader)
     renderers: dict[str, Any] = {}
     values = attribute_values(reader.scenes)
     grids, toks, labels, attrs, episodes = [], [], [], [], []
+    # Drawing the samples renders every later decision's view: minutes on a large dataset, shown per episode.
+    bars = Progress(TextColumn("{task.description:>12}"), BarColumn(), MofNCompleteColumn(), TextColumn("episodes"),
+                    TimeElapsedColumn(), TimeRemainingColumn(), console=Console(stderr=True, quiet=quiet),
+                    disable=quiet)
     try:
-        for k in ks:
-            for g, t, y, a in _episode_samples(reader, k, env, config, tokens_len, renderers, values, inputs):
-                if y[12] > 0:
-                    grids.append(g)
-                    toks.append(t)
-                    labels.append(y)
-                    attrs.append(a)
-                    episodes.append(k)
+        with bars:
+            task = bars.add_task(label, total=len(ks))
+            for k in ks:
+                for g, t, y, a in _episode_samples(reader, k, env, config, tokens_len, renderers, values, inputs):
+                    if y[12] > 0:
+                        grids.append(g)
+                        toks.append(t)
+                        labels.append(y)
+                        attrs.append(a)
+                        episodes.append(k)
+                bars.advance(task)
     finally:
         for r in renderers.values():
             r.close()
@@ -299,8 +308,8 @@ def train_keypose_policy(dataset: str | Path, out: str | Path, steps: int = 3000
     prepared = out / PREPARED_FILE
     fresh = not prepared.exists()
     if fresh:
-        train = _prepare(reader, train_k, grid_cfg, tokens, inputs)
-        test = _prepare(reader, test_k, grid_cfg, tokens, inputs)
+        train = _prepare(reader, train_k, grid_cfg, tokens, inputs, "prepare train", quiet)
+        test = _prepare(reader, test_k, grid_cfg, tokens, inputs, "prepare test", quiet)
         arrays = {**{f"train_{k}": v for k, v in train.items()}, **{f"test_{k}": v for k, v in test.items()}}
         if len(arrays["train_grid"]) == 0:
             raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry",
