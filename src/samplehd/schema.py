@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import types
 import typing
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -137,11 +138,12 @@ def _show(value: Any) -> str:
 
 
 def _is_int(v: Any) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
+    """An integer, NumPy's included (``np.int64(64)``: what array arithmetic hands a caller); not a bool."""
+    return isinstance(v, numbers.Integral) and not isinstance(v, bool)
 
 
 def _is_number(v: Any) -> bool:
-    return isinstance(v, int | float) and not isinstance(v, bool)
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
 
 
 def _split_optional(hint: Any) -> tuple[Any, bool]:
@@ -170,7 +172,7 @@ def _check(where: str, name: str, value: Any, hint: Any, b: Bounds) -> Any:
     if hint is int:
         if not _is_int(value) or not b.admits(value):
             _fail(where, name, value, _want(hint, b))
-        return value
+        return value if type(value) is int else int(value)
     if hint is float:
         if not _is_number(value) or not math.isfinite(value) or not b.admits(value):
             _fail(where, name, value, _want(hint, b))
@@ -199,7 +201,7 @@ def _check(where: str, name: str, value: Any, hint: Any, b: Bounds) -> Any:
                 _fail(where, name, value, f"must not be empty; {_want(hint, b)}")
             if b.unique and len(set(items)) != len(items):
                 _fail(where, name, value, "must not name an item twice")
-            return tuple(float(x) if item_hint is float else x for x in items)
+            return tuple(float(x) if item_hint is float else int(x) if item_hint is int else x for x in items)
         if len(items) != len(args):
             _fail(where, name, value, _want(hint, b))
         return tuple(_check(where, f"{name}[{i}]", x, a, b) for i, (x, a) in enumerate(zip(items, args, strict=True)))

@@ -32,13 +32,15 @@ from samplehd.envs.lerobot_contract import env_options_from_export, lerobot_obse
 from samplehd.errors import ConfigError
 from samplehd.render.image_spec import ImageSpec
 
-__all__ = ["LEROBOT_PREFIX", "LeRobotCheckpoint", "LeRobotPolicy", "is_lerobot_policy", "read_lerobot_checkpoint"]
+__all__ = ["LEROBOT_PREFIX", "LeRobotCheckpoint", "LeRobotPolicy", "export_root", "is_lerobot_policy",
+           "read_lerobot_checkpoint"]
 
 LEROBOT_PREFIX = "lerobot:"
 CONFIG_FILE = "config.json"
 WEIGHTS_FILE = "model.safetensors"
 TRAIN_CONFIG_FILE = "train_config.json"
 PRETRAINED_DIR = "pretrained_model"
+_LONGEST_PATH = 4096  # PATH_MAX of Linux [bytes]
 
 
 def is_lerobot_policy(spec: str) -> bool:
@@ -97,8 +99,16 @@ def _checkpoint_folder(spec: str) -> Path:
     if not text:
         raise _fail(spec, "name a checkpoint folder after `lerobot:` (e.g. "
                           "lerobot:outputs/act/checkpoints/last/pretrained_model)")
-    path = Path(text).expanduser()
-    if not path.is_dir():
+    if len(text) > _LONGEST_PATH:
+        raise _fail(spec[:80] + "…", f"a path of {len(text)} characters; the file system takes at most {_LONGEST_PATH}")
+    try:
+        path = Path(text).expanduser()
+        folder = path.is_dir()
+    except RuntimeError:  # ~user of a user this machine does not know
+        raise _fail(spec, f"cannot expand {text.split('/')[0]!r}: no such user; give the checkpoint's path") from None
+    except OSError as exc:
+        raise _fail(spec, f"cannot read {text!r} ({exc.strerror}); give the checkpoint's path") from None
+    if not folder:
         raise _fail(spec, f"no folder {str(path)!r}; expected lerobot-train's checkpoint folder "
                           f"(…/checkpoints/last/{PRETRAINED_DIR}, with {CONFIG_FILE} and {WEIGHTS_FILE})")
     if not (path / CONFIG_FILE).is_file() and (path / PRETRAINED_DIR / CONFIG_FILE).is_file():
@@ -165,6 +175,31 @@ def _env_from_features(features: dict[str, tuple[int, ...]], spec: str) -> dict[
             "control_mode": "steering", "control_hz": 20.0}
 
 
+def export_root(checkpoint: Path, train_config: dict[str, Any]) -> Path | None:
+    """The samplehd export the checkpoint was trained on (``train_config.json``'s ``dataset.root``
+    holding ``meta/samplehd.json``), or None. A relative root is relative to the folder lerobot-train
+    ran in, not to today's working folder: the folder above the checkpoint that holds its
+    ``output_dir``, else the nearest folder above the checkpoint where the root is an export.
+
+    Args:
+        checkpoint: the ``pretrained_model`` folder.
+        train_config: its ``train_config.json`` (``{}`` when absent).
+    """
+    dataset = train_config.get("dataset")
+    root = dataset.get("root") if isinstance(dataset, dict) else None
+    if not isinstance(root, str) or not root:
+        return None
+    if Path(root).is_absolute():
+        return Path(root) if (Path(root) / EXPORT_RECORD).is_file() else None
+    here = checkpoint.absolute()
+    output_dir = train_config.get("output_dir")
+    bases = list(here.parents)
+    if isinstance(output_dir, str) and output_dir and not Path(output_dir).is_absolute():
+        ran_in = [b for b in bases if (b / output_dir) in (here, *here.parents)]
+        bases = ran_in + [b for b in bases if b not in ran_in]
+    return next((b / root for b in bases if (b / root / EXPORT_RECORD).is_file()), None)
+
+
 def read_lerobot_checkpoint(spec: str) -> LeRobotCheckpoint:
     """Check a ``lerobot:CKPT`` policy and find its environment, before anything runs.
 
@@ -184,15 +219,16 @@ def read_lerobot_checkpoint(spec: str) -> LeRobotCheckpoint:
     if not (path / WEIGHTS_FILE).is_file():
         raise _fail(spec, f"no {WEIGHTS_FILE} in {str(path)!r}; the checkpoint is incomplete")
     features = _features(spec, config)
-    root = None
-    if (path / TRAIN_CONFIG_FILE).is_file():
-        dataset = _read_json(spec, path / TRAIN_CONFIG_FILE).get("dataset") or {}
-        root = dataset.get("root") if isinstance(dataset, dict) else None
-    if root and (Path(root) / EXPORT_RECORD).is_file():
-        env, source = env_options_from_export(root), str(Path(root) / EXPORT_RECORD)
+    train_config = _read_json(spec, path / TRAIN_CONFIG_FILE) if (path / TRAIN_CONFIG_FILE).is_file() else {}
+    root = export_root(path, train_config)
+    if root is not None:
+        env, source = env_options_from_export(root), str(root / EXPORT_RECORD)
         families = tuple(read_export_record(root).get("families") or ())
     else:
         env, source, families = _env_from_features(features, spec), str(path / CONFIG_FILE), ()
+        dataset = train_config.get("dataset")
+        if isinstance(dataset, dict) and dataset.get("root"):  # say why the export's settings are not used
+            source += f" (its {TRAIN_CONFIG_FILE}'s dataset.root {dataset['root']!r} holds no samplehd export)"
     checkpoint = LeRobotCheckpoint(spec, path, policy_type, features, env, source, families)
     checkpoint.check_env(env)
     return checkpoint

@@ -14,7 +14,7 @@ from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
 from samplehd.envs.suite_file import read_suite
 from samplehd.errors import ConfigError
-from samplehd.fileio import read_json
+from samplehd.fileio import read_json, resolve_path
 from samplehd.learn.options import env_options
 from samplehd.tasks.task import family_names
 
@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
         # --env-options file names one (to try the policy on the other catalogue's shapes).
         policy_env = env_options(args.models)
         trained_scene = policy_env.pop("scene", None)
+        _refuse_env_the_policy_cannot_use(args, flags, policy_env, env)
         env.update(policy_env)
         if trained_scene and isinstance(env.get("scene", {}), dict):
             env["scene"] = {**trained_scene, **env.get("scene", {})}
@@ -118,6 +119,7 @@ def run(args: argparse.Namespace) -> int:
     check_outputs({"--out": args.out, "--out (tables)": beside.get("markdown"),
                    "--out (curves)": beside.get("curves"), "--video": args.video},
                   {"--env-options": args.env_options, "--models": args.models})
+    _refuse_outputs_inside_models(args)
     load_policy_module(args.policy)
     if checkpoint is not None:
         print(f"lerobot: {checkpoint.policy_type} policy {checkpoint.path}; environment from "
@@ -153,3 +155,28 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         print(f"wrote {beside['markdown']}" + (f" and {beside['curves']}" if stats.get("curves") else ""))
     return 0
+
+
+def _refuse_env_the_policy_cannot_use(args: argparse.Namespace, flags: dict, policy_env: dict, env: dict) -> None:
+    """A flag or ``--env-options`` value that differs from what the policy in ``--models`` was trained
+    with is refused in one line, never silently replaced by the model's."""
+    for key, want in policy_env.items():
+        have = env.get(key)
+        if have is None or (list(have) if isinstance(have, (list, tuple)) else have) == \
+                (list(want) if isinstance(want, (list, tuple)) else want):
+            continue
+        said = f"--{key.replace('_', '-')} {have}" if flags.get(key) is not None else \
+            f"--env-options {args.env_options}: {key}={have!r}"
+        raise ConfigError(f"{said}: the policy in --models {args.models} was trained with {key}={want!r}; leave it "
+                          f"out (the model's value is used) or give {want!r}")
+
+
+def _refuse_outputs_inside_models(args: argparse.Namespace) -> None:
+    """``--out`` and ``--video`` stay outside the model folder (docs/FORMAT.md), also through a link."""
+    if args.models is None:
+        return
+    models = resolve_path(args.models, ConfigError, f"--models {args.models}")
+    for flag, path in (("--out", args.out), ("--video", args.video)):
+        if path is not None and models in resolve_path(path, ConfigError, f"{flag} {path}").parents:
+            raise ConfigError(f"{flag} {path}: lies inside the model folder --models {args.models} (a model's "
+                              f"folder holds only what its training wrote); choose a path outside it")

@@ -19,9 +19,12 @@ from rich.table import Table
 from samplehd.commands._options import split_names
 from samplehd.dataset.config import PRESETS, GenerateConfig, load_config, preset_config
 from samplehd.dataset.generate import GenerateSummary, generate_dataset
+from samplehd.dataset.layout import INFO_FILE
 from samplehd.dataset.outputs import check_outputs
 from samplehd.dataset.progress import RichProgress
 from samplehd.dataset.render import RENDER_MODES, check_render_applies
+from samplehd.errors import SamplehdError
+from samplehd.fileio import read_json
 from samplehd.workers import BACKENDS, Backend, default_workers
 
 HELP = "generate a dataset (scenes, instructions, paths, images) with resume, local workers or Ray"
@@ -41,6 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cameras", nargs="+", help="cameras to render (scene, operator, wrist)")
     parser.add_argument("--modalities", nargs="+", help="rgb depth segmentation")
     parser.add_argument("--scenes", type=int, help="number of scenes (overrides the preset)")
+    parser.add_argument("--families", nargs="+", help="task families of the instructions, e.g. pick_up place "
+                        "(instructions.families; all when omitted)")
     parser.add_argument("--target", type=int, help="stop at this many successful episodes (0: no target)")
     parser.add_argument("--seed", type=int, help="base seed")
     parser.add_argument("--disturb", type=float, metavar="P", help="chance per episode of one disturbance the "
@@ -70,6 +75,8 @@ def resolve_config(args: argparse.Namespace):  # noqa: ANN201 - GenerateConfig
     if args.disturb_kinds is not None:
         flags.append(("--disturb-kinds", {"disturbances": {"kinds": list(split_names(args.disturb_kinds,
                                                                                       "--disturb-kinds"))}}))
+    if args.families is not None:
+        flags.append(("--families", {"instructions": {"families": list(split_names(args.families, "--families"))}}))
     for flag, top in flags:
         config = GenerateConfig.from_dict(top, where=flag, base=config)
     check_render_applies(config.render, {next(iter(top["render"])): flag for flag, top in flags if "render" in top})
@@ -81,12 +88,24 @@ def run(args: argparse.Namespace) -> int:
     config = resolve_config(args)
     backend = Backend(args.backend, args.workers, args.ray_address)
     backend.connect()  # before anything is written
+    was_complete = args.resume and _is_complete(args.out)
     with RichProgress(disable=args.quiet) as progress:
         progress.note(f"generating into {args.out} ({backend.describe()}, render {config.render.mode}"
                       f"{'' if not config.render.enabled else f' {config.render.width}x{config.render.height}'})")
         summary = generate_dataset(args.out, config, backend, resume=args.resume, progress=progress)
+    if was_complete and summary.units_run == 0:
+        print(f"nothing to do: the dataset {args.out} is complete ({summary.episodes} episodes)")
+        return 0
     print_summary(args.out, summary, config)
     return 0
+
+
+def _is_complete(out: Path) -> bool:
+    """Whether ``out`` holds a dataset whose generation has finished (its ``info.json`` says so)."""
+    try:
+        return read_json(out / INFO_FILE).get("status") == "complete"
+    except (SamplehdError, AttributeError):
+        return False
 
 
 def print_summary(out: Path, summary: GenerateSummary, config: Any) -> None:

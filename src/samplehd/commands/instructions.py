@@ -62,7 +62,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     check_int("--per-scene", args.per_scene, 1, 99)
     check_int("--seed", args.seed, 0)
+    given = args.families is not None
     args.families = split_names(args.families, "--families") or None
+    if given and args.families is None:  # `--families ""` or `--families ,`: not "all families"
+        raise ConfigError(f"--families: names no family; give at least one of {', '.join(family_names())}, or "
+                          f"leave it out for all")
     check_names("--families", args.families, family_names())
     check_out_file("--out", args.out, (".json",))
     scenes_file = args.scenes / "scenes.json" if args.scenes.is_dir() else args.scenes

@@ -10,6 +10,7 @@ from samplehd.commands._options import add_render_preset, check_int, check_out_f
 from samplehd.dataset.container import read_episode
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
+from samplehd.fileio import check_regular_file
 from samplehd.record.replay import subtask_contact_sheet
 from samplehd.render.image_io import save_rgb
 from samplehd.render.image_spec import PRESET_NAMES, ImageSpec
@@ -39,9 +40,9 @@ def run(args: argparse.Namespace) -> int:
     check_out_file("--out", args.out, (".mp4",))
     check_out_file("--sheet", args.sheet, (".png", ".jpg"))
     check_outputs({"--out": args.out, "--sheet": args.sheet}, {"EPISODE": args.episode})
-    if not args.episode.is_file():
-        raise ConfigError(f"{args.episode}: {'is a folder' if args.episode.is_dir() else 'does not exist'}; "
-                          "give an episode file (.h5)")
+    if not args.episode.exists() and not args.episode.is_symlink():
+        raise ConfigError(f"{args.episode}: does not exist; give an episode file (.h5)")
+    check_regular_file(args.episode, ConfigError, label=str(args.episode))
     ep = read_episode(args.episode, images="none")
     if "scene" not in ep.info:
         raise ConfigError(f"{args.episode}: the episode does not carry its scene spec (info.scene)")

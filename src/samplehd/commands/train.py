@@ -31,6 +31,8 @@ from samplehd.learn.policy.training import train_policy
 
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
 _DEFAULT_STEPS = {"parser": 1000, "perception": 3000, "policy": 4000}
+# Upper bounds of the sizes a run allocates at once (a batch of images, a layer's width).
+_MAX = {"batch": 4096, "hidden": 8192}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -102,6 +104,8 @@ def run(args: argparse.Namespace) -> int:
                                   f"speed)")
         elif value < low:
             raise ConfigError(f"--{key.replace('_', '-')} {value}: valid: an integer ≥ {low}")
+        elif key in _MAX and value > _MAX[key]:
+            raise ConfigError(f"--{key.replace('_', '-')} {value}: valid: an integer in {low}..{_MAX[key]}")
     if given.get("action") == KEYPOSE_ACTION:
         unused = [k for k in ("hidden", "demos", "noise", "dagger_rounds", "workers") if k in given]
         if unused:

@@ -8,12 +8,15 @@ recorded outcome and the largest TCP and object deviation; exit 1 when any outco
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-from samplehd.commands._options import check_int
+from samplehd.commands._options import check_int, check_out_file
+from samplehd.dataset.outputs import check_outputs
 from samplehd.dataset.validate import validate_dataset
-from samplehd.envs.replay_check import ReplayReport, replay_dataset
+from samplehd.envs.replay_check import EpisodeReplay, ReplayReport, replay_dataset
 from samplehd.errors import ConfigError
+from samplehd.fileio import write_json_atomic
 
 HELP = "verify every file of a dataset against its metadata (exit 1 on problems); --replay: in the env"
 
@@ -25,6 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--replay", action="store_true",
                         help="also replay the recorded actions in the environment (exit 1 when an outcome differs)")
     parser.add_argument("--episodes", type=int, metavar="N", help="with --replay: only the first N episodes")
+    parser.add_argument("--out", type=Path, metavar="REPORT.json",
+                        help="with --replay: also write the per-episode report (JSON)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -32,6 +37,10 @@ def run(args: argparse.Namespace) -> int:
     check_int("--episodes", args.episodes, 1)
     if args.episodes is not None and not args.replay:
         raise ConfigError("--episodes: only with --replay")
+    if args.out is not None and not args.replay:
+        raise ConfigError(f"--out {args.out}: the per-episode report of --replay; only with --replay")
+    check_out_file("--out", args.out, (".json",))
+    check_outputs({"--out": args.out}, {"DIR": args.dir})
     problems, counts = validate_dataset(args.dir, deep=args.deep)
     if problems:
         for line in problems[: args.max_problems]:
@@ -45,9 +54,18 @@ def run(args: argparse.Namespace) -> int:
           f"{counts['frames']} frames in {args.dir}")
     if not args.replay:
         return 0
-    report = replay_dataset(args.dir, args.episodes)
+    report = replay_dataset(args.dir, args.episodes, on_episode=_show_replayed)
     print_replay(report)
+    if args.out is not None:
+        write_json_atomic(args.out, report.to_dict(), indent=1)
+        print(f"wrote {args.out}")
     return 0 if report.agrees else 1
+
+
+def _show_replayed(done: int, total: int, e: EpisodeReplay) -> None:
+    """Progress of --replay on stderr, one line per episode."""
+    print(f"replayed {done}/{total}: episode {e.index} ({e.family}) "
+          f"{'agrees' if e.agrees else 'differs from the recording'}", file=sys.stderr, flush=True)
 
 
 def print_replay(report: ReplayReport) -> None:

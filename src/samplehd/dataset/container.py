@@ -53,6 +53,7 @@ import numpy as np
 from samplehd.dataset.layout import FORMAT_VERSION, tmp_path
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError
+from samplehd.fileio import check_regular_file
 from samplehd.record.disturbances import LABEL_FIELDS
 from samplehd.record.episode import FRAME_FIELDS, Episode
 from samplehd.render.deflated import IMAGE_DEFLATE_LEVEL, DeflatedFrames, deflate_frame
@@ -458,6 +459,7 @@ class FrameImages:
 
 
 def _open(path: Path) -> h5py.File:
+    check_regular_file(path, DatasetError, f"{path}: episode file")
     try:
         f = h5py.File(path, "r")
     except FileNotFoundError:

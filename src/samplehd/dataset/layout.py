@@ -10,9 +10,11 @@ from pathlib import Path
 
 __all__ = [
     "CANDIDATES_FILE",
+    "DEPTH_DIR",
     "EPISODE_DIR",
     "EPISODE_SUFFIX",
     "FORMAT_VERSION",
+    "IMAGE_DIR",
     "INFO_FILE",
     "INSTRUCTIONS_FILE",
     "JOURNAL_FILE",
@@ -20,10 +22,12 @@ __all__ = [
     "RUNS_FILE",
     "SCENES_FILE",
     "SCENE_DIR",
+    "SEGMENTATION_DIR",
     "TMP_MARK",
     "episode_name",
     "is_temporary",
     "parse_episode_name",
+    "scene_image_files",
     "tmp_path",
 ]
 
@@ -37,6 +41,10 @@ JOURNAL_FILE = "journal.jsonl"
 RUNS_FILE = "runs.jsonl"
 SCENE_DIR = "scenes"
 EPISODE_DIR = "episodes"
+# The scene camera's images of each scene (named after the scene's image_filename stem).
+IMAGE_DIR = "images"
+DEPTH_DIR = "depth"
+SEGMENTATION_DIR = "segmentation"
 EPISODE_SUFFIX = ".h5"
 # What a failed write during generation tells the user to do once the cause is fixed.
 RESUME_HINT = "run the same generate command again with `resume`"
@@ -58,6 +66,14 @@ def parse_episode_name(name: str) -> tuple[int, int] | None:
     if not sep or not scene.isdigit() or not slot.isdigit():
         return None
     return int(scene), int(slot)
+
+
+def scene_image_files(root: Path, image_filename: str) -> dict[str, Path]:
+    """The image files of one scene: ``rgb`` (PNG), ``depth_png`` (uint16 millimetres), ``depth`` (the exact
+    float32 metres, ``.npy``) and ``segmentation`` (instance-id PNG)."""
+    stem = Path(image_filename).stem
+    return {"rgb": root / IMAGE_DIR / f"{stem}.png", "depth_png": root / DEPTH_DIR / f"{stem}.png",
+            "depth": root / DEPTH_DIR / f"{stem}.npy", "segmentation": root / SEGMENTATION_DIR / f"{stem}.png"}
 
 
 def tmp_path(path: Path) -> Path:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from samplehd.dataset.layout import EPISODE_DIR, INFO_FILE
 from samplehd.errors import ConfigError, DatasetError
+from samplehd.fileio import resolve_path
 
 __all__ = ["check_outputs", "dataset_root_of", "inside_dataset"]
 
@@ -49,12 +50,15 @@ def check_outputs(outputs: Mapping[str, Path | None], inputs: Mapping[str, Path 
         ConfigError: one line naming the option, the path and what is valid.
     """
     seen: dict[Path, str] = {}
-    read = {flag: p.resolve() for flag, p in (inputs or {}).items() if p is not None}
-    own = in_place.resolve() if in_place is not None else None
+    read = {flag: resolve_path(p, ConfigError, _label(flag, p)) for flag, p in (inputs or {}).items() if p is not None}
+    for flag, path in outputs.items():
+        if path is not None:
+            _check_length(flag, path)
+            resolve_path(path, ConfigError, _label(flag, path))
+    own = resolve_path(in_place, ConfigError) if in_place is not None else None
     for flag, path in outputs.items():
         if path is None:
             continue
-        _check_length(flag, path)
         target = path.resolve()
         if target in seen:
             raise ConfigError(f"{flag} {path}: {seen[target]} names the same file; give each output its own path")
@@ -85,12 +89,17 @@ def inside_dataset(root: Path, relative: object, where: str) -> Path:
     if not isinstance(relative, str) or not relative:
         raise DatasetError(f"{where}: {relative!r} is not a file name; expected a path inside the dataset folder")
     candidate = Path(relative)
-    resolved_root = root.resolve()
+    resolved_root = resolve_path(root)
     if candidate.is_absolute() or ".." in candidate.parts or \
-            resolved_root not in (resolved_root / candidate).resolve().parents:
+            resolved_root not in resolve_path(resolved_root / candidate, label=f"{where}: {relative!r}").parents:
         raise DatasetError(f"{where}: {relative!r} leads outside the dataset folder {root}; a dataset's files "
                            f"must lie inside it (a damaged or hostile info.json?)")
     return root / candidate
+
+
+def _label(flag: str, path: Path) -> str:
+    """How a message names an option's path: ``--out PATH`` (a flag that already holds it stays as it is)."""
+    return flag if str(path) in flag else f"{flag} {path}"
 
 
 def _check_length(flag: str, path: Path) -> None:

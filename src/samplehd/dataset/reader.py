@@ -34,7 +34,7 @@ from samplehd.dataset.layout import (
 from samplehd.dataset.outputs import inside_dataset
 from samplehd.dataset.validate import validate_episode_file
 from samplehd.errors import DatasetError
-from samplehd.fileio import read_json
+from samplehd.fileio import not_a_regular_file, read_json
 from samplehd.record.episode import Episode
 
 __all__ = ["DatasetReader", "EpisodeEntry"]
@@ -228,9 +228,23 @@ class DatasetReader:
             raise DatasetError(f"{self.root / INFO_FILE}: episodes: missing or not a list")
         hint = f"nothing was changed; `samplehd validate {self.root}` lists every problem"
         if self.complete:
+            if not (self.root / SCENES_FILE).is_file():  # else the scenes would be read from scenes/ unseen
+                raise DatasetError(f"{self.root / SCENES_FILE}: missing, but {INFO_FILE} says the dataset is "
+                                   f"complete; {hint}")
             self.scenes, self.instructions  # noqa: B018 - both files readable and of the right shape
+            seen: dict[str, int] = {}
+            for k, entry in enumerate(self.info["episodes"]):
+                file = entry.get("file") if isinstance(entry, dict) else None
+                if isinstance(file, str) and file in seen:
+                    raise DatasetError(f"{self.root / INFO_FILE}: episodes[{k}] lists {file!r} again (as "
+                                       f"episodes[{seen[file]}] does); each episode file once; {hint}")
+                if isinstance(file, str):
+                    seen[file] = k
         for i, e in enumerate(self.episodes):
             path = self.episode_path(i)
+            why = not_a_regular_file(path)
+            if why is not None:
+                raise DatasetError(f"{path}: is {why}, not an episode file; {hint}")
             if not path.is_file():
                 raise DatasetError(f"{path}: missing, but {INFO_FILE} lists it; {hint}")
             size = path.stat().st_size

@@ -8,14 +8,19 @@ images with the recorded cameras, modalities and per-camera resolution).
 
 from __future__ import annotations
 
+import fcntl
 import json
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import h5py
 import numpy as np
+from PIL import Image
 
+from samplehd.catalogue.loader import CATALOGUES
+from samplehd.dataset.config import GenerateConfig
 from samplehd.dataset.container import camera_settings, read_episode
 from samplehd.dataset.layout import (
     EPISODE_DIR,
@@ -25,13 +30,15 @@ from samplehd.dataset.layout import (
     SCENE_DIR,
     SCENES_FILE,
     is_temporary,
+    scene_image_files,
 )
-from samplehd.errors import DatasetError
-from samplehd.fileio import file_sha256
+from samplehd.dataset.lock import lock_holder
+from samplehd.errors import ConfigError, DatasetError
+from samplehd.fileio import file_sha256, not_a_regular_file, resolve_path
 from samplehd.record.disturbances import LABEL_FIELDS
 from samplehd.render.keyframes import keyframe_indices
 
-__all__ = ["validate_dataset", "validate_episode_file"]
+__all__ = ["validate_dataset", "validate_episode_file", "validate_scene_files", "validate_stored_config"]
 
 
 def _load(path: Path, problems: list[str]) -> Any:
@@ -51,6 +58,9 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
     :func:`samplehd.dataset.container.camera_settings`)."""
 
     problems: list[str] = []
+    why = not_a_regular_file(path)
+    if why is not None:
+        return [f"{path}: is {why}, not an episode file"]
     if not path.exists():
         return [f"{path}: missing"]
     size = path.stat().st_size
@@ -73,7 +83,7 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
         problems.extend(_disturbance_problems(path, ep, label, entry))
     elif not ep.success:
         problems.append(f"{path}: episode is not marked successful")
-    for key in ("qpos", "qvel", "joint_pos", "object_pos"):
+    for key in ("qpos", "qvel", "joint_pos", "object_pos", "steering"):
         if not np.all(np.isfinite(ep.frames[key])):
             problems.append(f"{path}: frames/{key} has non-finite values")
     try:
@@ -151,6 +161,116 @@ def _disturbance_problems(path: Path, ep: Any, label: dict[str, Any], entry: dic
     if not np.array_equal(recovery, want):
         problems.append(f"{path}: frames/recovery does not span frames {label['recovery_first']}.."
                         f"{label['recovery_last']} of its label")
+def _writer_running(root: Path) -> str | None:
+    """``process PID`` (or ``another process``) when a command holds the dataset's lock to change it
+    (generate, rerender: :mod:`samplehd.dataset.lock`), else None. Only asked, never held."""
+    try:
+        fd = os.open(root, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        pid = lock_holder(fd)
+        return f"process {pid}" if pid else "another process"
+    finally:
+        os.close(fd)  # closing releases the shared lock taken to ask
+    return None
+
+
+def validate_stored_config(root: Path, info: dict[str, Any]) -> list[str]:
+    """Problems of the generation config and catalogue recorded in ``info.json`` (what the trainers and
+    the replay build their environment from): the config must be one this samplehd reads, the catalogue
+    a built-in one."""
+    problems: list[str] = []
+    config = info.get("config")
+    if isinstance(config, dict):
+        try:
+            GenerateConfig.from_dict(config)
+        except ConfigError as exc:
+            problems.append(f"{root / INFO_FILE}: {exc}")
+    recorded = info.get("catalogue")
+    if isinstance(recorded, dict) and recorded.get("name") not in CATALOGUES:
+        problems.append(f"{root / INFO_FILE}: catalogue.name={recorded.get('name')!r}: valid: {', '.join(CATALOGUES)}")
+    return problems
+
+
+_MATRIX_SHAPES = {"intrinsics": (3, 3), "extrinsics": (4, 4)}
+
+
+def _camera_problems(where: str, camera: Any) -> list[str]:
+    if not isinstance(camera, dict):
+        return [f"{where}: field 'camera' missing or not an object (needs width, height, intrinsics, extrinsics)"]
+    problems = []
+    for key in ("width", "height"):
+        value = camera.get(key)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            problems.append(f"{where}: camera.{key}={value!r}: valid: a positive integer [px]")
+    for key, shape in _MATRIX_SHAPES.items():
+        try:
+            matrix = np.asarray(camera.get(key), dtype=float)
+        except (TypeError, ValueError):
+            matrix = np.zeros(0)
+        if matrix.shape != shape or not np.all(np.isfinite(matrix)):
+            problems.append(f"{where}: camera.{key}: valid: a {shape[0]}x{shape[1]} matrix of finite numbers")
+    return problems
+
+
+# The PNG modes the scene writer uses (render.image_io): RGB, depth in uint16 millimetres, instance ids in
+# 8 or 16 bits.
+_PNG_MODES: dict[str, tuple[tuple[str, ...], str]] = {
+    "rgb": (("RGB",), "8-bit RGB"),
+    "depth": (("I;16", "I;16B", "I;16L", "I"), "16-bit grey millimetres"),
+    "segmentation": (("L", "I;16", "I;16B", "I;16L", "I"), "8- or 16-bit instance ids"),
+}
+
+
+def _image_problem(path: Path, camera: dict[str, Any], what: str) -> str | None:
+    """Decode one scene image file; the problem or None."""
+    size = (camera.get("width"), camera.get("height"))
+    try:
+        if path.suffix == ".npy":
+            array = np.load(path, allow_pickle=False)
+            if array.shape != size[::-1] or array.dtype.kind != "f":
+                return (f"{path}: {what} of shape {array.shape} and dtype {array.dtype}, the scene camera's is "
+                        f"{size[1]}x{size[0]} float")
+            return None
+        with Image.open(path) as image:
+            image.load()
+            if image.size != size:
+                return (f"{path}: {what} of {image.size[0]}x{image.size[1]} px, the scene camera's is "
+                        f"{size[0]}x{size[1]}")
+            modes, kind = _PNG_MODES[what]
+            if image.mode not in modes:
+                return f"{path}: {what} PNG of mode {image.mode}; valid: {kind} ({', '.join(modes)})"
+    except (OSError, ValueError, SyntaxError, Image.DecompressionBombError) as exc:
+        if path.suffix == ".npy":
+            return f"{path}: {what} is not a NumPy .npy array (expected {size[1]}x{size[0]} float32 metres)"
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        return f"{path}: {what} cannot be decoded as a PNG ({reason[:120]})"
+    return None
+
+
+def validate_scene_files(root: Path, scenes: list[dict[str, Any]], deep: bool = False) -> list[str]:
+    """Problems of the scenes' camera records and image files (``images/``, ``depth/``,
+    ``segmentation/``: what the scene trainers and the exporters read): each present, and with ``deep``
+    decoded and of the size of the scene's camera."""
+    problems: list[str] = []
+    for s in scenes:
+        where = f"{root / SCENES_FILE}: scene {s.get('image_index')}"
+        camera_problems = _camera_problems(where, s.get("camera"))
+        problems.extend(camera_problems)
+        name = s.get("image_filename")
+        if not isinstance(name, str) or not name:
+            problems.append(f"{where}: field 'image_filename' missing")
+            continue
+        for what, path in scene_image_files(root, name).items():
+            if not path.is_file():
+                problems.append(f"{path}: missing (the scene's {what.replace('_png', '')} image)")
+            elif deep and not camera_problems:
+                problem = _image_problem(path, s["camera"], what.replace("_png", ""))
+                if problem:
+                    problems.append(problem)
     return problems
 
 
@@ -160,7 +280,8 @@ def validate_dataset(root: str | Path, deep: bool = False,
 
     Args:
         root: the dataset directory.
-        deep: also decode every image chunk (the SHA-256 check already covers file integrity).
+        deep: also decode every image chunk (the SHA-256 check already covers file integrity) and every
+            scene image (images/, depth/, segmentation/, checked against the scene's camera).
         on_episode: progress callback ``(done, total)``.
 
     Returns:
@@ -172,6 +293,7 @@ def validate_dataset(root: str | Path, deep: bool = False,
     """
     root = Path(root)
     problems: list[str] = []
+    resolve_path(root)  # a loop of symbolic links is said as one
     if not root.is_dir():
         raise DatasetError(f"{root}: {'is a file' if root.exists() else 'does not exist'}; give a dataset folder")
     if not (root / INFO_FILE).is_file():
@@ -182,6 +304,12 @@ def validate_dataset(root: str | Path, deep: bool = False,
                            f"samplehd reads (valid: {FORMAT_VERSION!r}); use the samplehd version that wrote it")
     if not isinstance(info, dict):
         return problems, {}
+    writer = _writer_running(root)  # what a running writer leaves half-done is no problem of the data
+    if writer is not None:
+        what = "a rerender" if isinstance(info.get("rerender"), dict) else \
+            "generate" if info.get("status") != "complete" else "a samplehd command"
+        raise DatasetError(f"{root}: {what} is running ({writer} holds the dataset); validate it when that has "
+                           f"finished")
     if info.get("status") != "complete":
         problems.append(f"{root / INFO_FILE}: status {info.get('status')!r}: generation has not finished "
                         f"(run samplehd generate --resume)")
@@ -193,6 +321,7 @@ def validate_dataset(root: str | Path, deep: bool = False,
     for key in ("versions", "config", "episodes", "counts", "seeds"):
         if key not in info:
             problems.append(f"{root / INFO_FILE}: field {key!r} missing")
+    problems.extend(validate_stored_config(root, info))
     episodes = list(info.get("episodes", []))
     counts = info.get("counts", {})
     scenes_doc = _load(root / SCENES_FILE, problems)
@@ -203,6 +332,7 @@ def validate_dataset(root: str | Path, deep: bool = False,
             problems.append(f"{root / SCENES_FILE}: image_index values are not 0..{len(scenes) - 1} in order")
         if counts.get("scenes") != len(scenes):
             problems.append(f"{root / SCENES_FILE}: {len(scenes)} scenes, info.json says {counts.get('scenes')}")
+        problems.extend(validate_scene_files(root, scenes, deep))
         for s in scenes:
             stem = Path(str(s.get("image_filename", ""))).stem
             if not (root / SCENE_DIR / f"{stem}.json").exists():

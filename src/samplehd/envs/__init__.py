@@ -7,7 +7,9 @@ Call :func:`register_envs` (``import samplehd`` does) before ``gymnasium.make("s
 
 from __future__ import annotations
 
-__all__ = ["ENV_ID", "register_envs"]
+from typing import Any
+
+__all__ = ["ENV_ID", "make_tabletop", "register_envs"]
 
 ENV_ID = "samplehd/Tabletop-v0"
 
@@ -23,8 +25,20 @@ def register_envs() -> None:
     # one in force (the environment's own limit would otherwise cut every episode at 1500).
     gymnasium.register(
         id=ENV_ID,
-        entry_point="samplehd.envs.tabletop:TabletopEnv",
+        entry_point="samplehd.envs:make_tabletop",
         max_episode_steps=1500,
         kwargs={"max_episode_steps": None},
         disable_env_checker=False,
     )
+
+
+def make_tabletop(**options: Any) -> Any:
+    """The entry point of ``samplehd/Tabletop-v0``: a ``TabletopEnv`` of ``options``.
+
+    A function rather than the class: ``gymnasium.make`` reads a class's ``metadata`` and turns
+    ``render_mode="human"`` into ``rgb_array`` behind a pygame window wrapper; given a function it passes
+    the mode on, and the config refuses it in one line (nothing here can show a window).
+    """
+    from samplehd.envs.tabletop import TabletopEnv  # deferred: registering must stay cheap (no mujoco)
+
+    return TabletopEnv(**options)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import copy
 import json
+import os
 from collections import OrderedDict
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -217,13 +218,19 @@ def _as_scene(value: Any) -> SceneSpec:
 def _dataset_options(options: Mapping[str, Any]) -> dict[str, Any]:
     """Resolve ``dataset`` + ``episode_index`` into the scene, instruction and recorded episode."""
     if "dataset" not in options or "episode_index" not in options:
-        raise ConfigError("reset: options 'dataset' (a dataset directory) and 'episode_index' go together")
+        given = "dataset" if "dataset" in options else "episode_index"
+        raise ConfigError(f"reset: option {given!r}={options[given]!r:.80}: 'dataset' (a dataset folder) and "
+                          f"'episode_index' (an integer) go together; give both")
     if {"scene", "instruction", "episode"} & set(options):
         raise ConfigError("reset: give either 'dataset' + 'episode_index' or 'scene' + 'instruction' (+ 'episode')")
     index = options["episode_index"]
     if not isinstance(index, (int, np.integer)) or isinstance(index, bool):
         raise ConfigError(f"reset: option 'episode_index' must be an integer, got {index!r}")
-    reader = DatasetReader(options["dataset"])
+    folder = options["dataset"]
+    if not isinstance(folder, (str, os.PathLike)) or not str(folder):
+        raise ConfigError(f"reset: option 'dataset'={folder!r:.80}: must be a dataset folder (a path: str or "
+                          f"pathlib.Path), got {type(folder).__name__}")
+    reader = DatasetReader(folder)
     episode = reader.episode(int(index), images="none")
     entry = reader.episodes[int(index)]
     out = {"scene": reader.scene(entry.scene_index), "instruction": reader.instruction(int(index)),

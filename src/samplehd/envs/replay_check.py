@@ -16,14 +16,16 @@ a disagreement is a bug, or drift after a changed MuJoCo or samplehd version.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from samplehd.dataset.reader import DatasetReader
 from samplehd.envs.tabletop import TabletopEnv
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, DatasetError, SamplehdError
 from samplehd.fixedmath import norm
 from samplehd.world.bodies import object_body_name
 
@@ -81,6 +83,11 @@ class ReplayReport:
         """Whether every replayed outcome equals the recorded one."""
         return all(e.agrees for e in self.episodes)
 
+    def to_dict(self) -> dict[str, Any]:
+        """The report as JSON data: the verdict, per family and per episode (deviations in metres)."""
+        return {"agrees": self.agrees, "families": [asdict(f) for f in self.families()],
+                "episodes": [{**asdict(e), "agrees": e.agrees} for e in self.episodes]}
+
     def families(self) -> list[FamilyReplay]:
         """Per family, in name order."""
         out = []
@@ -105,14 +112,35 @@ def replay_env(reader: DatasetReader) -> TabletopEnv:
     options = {key: paths[key] for key in ("control_hz", "physics_hz", "checker", "grasp_assist") if key in paths}
     if isinstance(reader.config.get("scene"), dict):  # its object count sizes the observation
         options["scene"] = reader.config["scene"]
-    return TabletopEnv(obs_mode="state", control_mode="steering", max_episode_steps=None, **options)
+    try:
+        return TabletopEnv(obs_mode="state", control_mode="steering", max_episode_steps=None, **options)
+    except SamplehdError as exc:
+        raise DatasetError(f"{reader.root / 'info.json'}: config: its settings make no environment: "
+                           f"{_own_words(exc)}") from None
+
+
+def _own_words(exc: Exception) -> str:
+    """An environment error's message without the environment's own prefixes (``reset:``,
+    ``Tabletop-v0.``), which name no file of the dataset."""
+    text = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    for prefix in ("reset: ", "step: ", "Tabletop-v0."):
+        text = text.removeprefix(prefix)
+    return text
 
 
 def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> EpisodeReplay:
     """Reset ``env`` from episode ``index`` of ``reader``'s dataset and send its recorded actions."""
-    env.reset(options={"dataset": str(reader.root), "episode_index": index})
+    where = f"{reader.episode_path(index)} (episode {index})"
     frames = reader.frames(index, ["steering", "tcp_pos", "object_pos"])
     steering = np.asarray(frames["steering"])
+    bad = np.flatnonzero(~np.all(np.isfinite(steering), axis=tuple(range(1, steering.ndim))))
+    if len(bad):
+        raise DatasetError(f"{where}: frames/steering has non-finite values at frame {int(bad[0])} "
+                           f"({len(bad)} frame(s)); the recording is damaged")
+    try:
+        env.reset(options={"dataset": str(reader.root), "episode_index": index})
+    except SamplehdError as exc:
+        raise DatasetError(f"{where}: cannot start the environment from it: {_own_words(exc)}") from None
     tcp_rec, obj_rec = np.asarray(frames["tcp_pos"]), np.asarray(frames["object_pos"])
     tcp_dev = obj_dev = 0.0
     success = False
@@ -120,7 +148,10 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
     push = _recorded_push(meta.get("info"))
     for t in range(len(steering) - 1):
         _apply_push(env, push, t)
-        obs, _, _, _, info = env.step(steering[t])
+        try:
+            obs, _, _, _, info = env.step(steering[t])
+        except SamplehdError as exc:
+            raise DatasetError(f"{where}: frame {t}: the recorded action is refused: {_own_words(exc)}") from None
         success = success or bool(info["success"])
         tcp_dev = max(tcp_dev, norm(obs["tcp_pos"].astype(float) - tcp_rec[t + 1]))
         k = len(obj_rec[t + 1])
@@ -155,8 +186,10 @@ def _apply_push(env: TabletopEnv, push: tuple[int, int, int, np.ndarray] | None,
     data.qvel[dof:dof + 6] = 0.0
 
 
-def replay_dataset(root: str | Path, episodes: int | None = None) -> ReplayReport:
-    """Replay the first ``episodes`` episodes of a dataset (all when None).
+def replay_dataset(root: str | Path, episodes: int | None = None,
+                   on_episode: Callable[[int, int, EpisodeReplay], None] | None = None) -> ReplayReport:
+    """Replay the first ``episodes`` episodes of a dataset (all when None); ``on_episode(done, total,
+    replay)`` after each (progress).
 
     Raises:
         DatasetError: ``root`` is not a dataset directory.
@@ -169,8 +202,13 @@ def replay_dataset(root: str | Path, episodes: int | None = None) -> ReplayRepor
     if count == 0:
         raise ConfigError(f"{reader.root}: the dataset has no episodes to replay")
     env = replay_env(reader)
+    total = min(count, episodes or count)
+    done: list[EpisodeReplay] = []
     try:
-        done = [replay_episode(env, reader, i) for i in range(min(count, episodes or count))]
+        for i in range(total):
+            done.append(replay_episode(env, reader, i))
+            if on_episode is not None:
+                on_episode(len(done), total, done[-1])
     finally:
         env.close()
     return ReplayReport(tuple(done))

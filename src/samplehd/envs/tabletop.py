@@ -181,6 +181,10 @@ class TabletopEnv(gym.Env):
             options = suite_reset_options(options)
         if {"scene", "instruction", "episode", "dataset", "episode_index"} & set(options):
             episode = episode_from_options(options, self.cache)
+            if len(episode.scene.objects) > self.max_objects:  # the observation has a slot per object
+                raise ConfigError(f"reset: the episode's scene has {len(episode.scene.objects)} objects, the "
+                                  f"environment's observation {self.max_objects} slots; make the environment with "
+                                  f"scene.max_objects ≥ {len(episode.scene.objects)}")
         else:
             family = options.pop("family", None)
             if options:

@@ -10,12 +10,12 @@ environment up from the config before any model is loaded, and works for the oth
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from samplehd.errors import ConfigError
+from samplehd.fileio import read_json
 from samplehd.learn.keypose.configuration import ACTION as KEYPOSE_ACTION
 from samplehd.learn.keypose.configuration import KeyposeConfig
 from samplehd.learn.policy.configuration import PolicyConfig
@@ -33,14 +33,14 @@ def policy_config_class(raw: Mapping[str, Any]) -> type[PolicyConfig] | type[Key
 
 def env_options(folder: str | Path) -> dict[str, Any]:
     """The environment options the trained policy in ``folder`` needs; one-line errors naming ``models``."""
-    try:
-        cfg = json.loads((Path(folder) / "config.json").read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ConfigError(f"models={folder}: no readable config.json of a trained policy ({exc})",
-                          field="models") from None
+    path = Path(folder) / "config.json"
+    if not path.exists() and not path.is_symlink():
+        raise ConfigError(f"models={folder}: no config.json of a trained policy here (run `samplehd train policy` "
+                          f"first)", field="models")
+    cfg = read_json(path, ConfigError, f"models={folder}: {path}", field="models")
     if not isinstance(cfg, dict) or cfg.get("kind") != "policy":
         kind = cfg.get("kind") if isinstance(cfg, dict) else None
-        raise ConfigError(f"models={folder}: config.json is a {kind!r} model, expected a policy", field="models")
+        raise ConfigError(f"models={folder}: {path} is a {kind!r} model, expected a policy", field="models")
     try:
         config = policy_config_class(cfg).from_dict(cfg)
     except ConfigError as exc:

@@ -31,6 +31,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
 from samplehd.errors import ConfigError, require_extra
+from samplehd.fileio import read_json
 from samplehd.schema import Config
 
 # The `learn` extra: without PyTorch, importing any model module is one line naming the extra.
@@ -42,6 +43,7 @@ F = require_extra("torch.nn.functional", "learn", FEATURE)
 __all__ = [
     "F",
     "TrainRun",
+    "check_weights_fit",
     "load_model_files",
     "nn",
     "read_model_config",
@@ -119,12 +121,9 @@ def load_model_files(folder: str | Path, kind: str, fmt: int) -> tuple[dict[str,
     """
     folder = Path(folder)
     cfg_path = folder / CONFIG_FILE
-    try:
-        config = json.loads(cfg_path.read_text(encoding="utf-8"))
-    except OSError:
-        raise ConfigError(f"{cfg_path}: no trained {kind} model here (run `samplehd train {kind}` first)") from None
-    except json.JSONDecodeError as exc:
-        raise ConfigError(f"{cfg_path}: invalid JSON at line {exc.lineno}: {exc.msg}") from None
+    if not cfg_path.exists() and not cfg_path.is_symlink():
+        raise ConfigError(f"{cfg_path}: no trained {kind} model here (run `samplehd train {kind}` first)")
+    config = read_json(cfg_path, ConfigError)
     if not isinstance(config, dict) or config.get("kind") != kind:
         got = config.get("kind") if isinstance(config, dict) else None
         raise ConfigError(f"{cfg_path}: kind={got!r}, expected {kind!r}")
@@ -135,6 +134,24 @@ def load_model_files(folder: str | Path, kind: str, fmt: int) -> tuple[dict[str,
     if not weights.exists():
         raise ConfigError(f"{weights}: missing (the {kind} training did not finish; run it again to resume)")
     return config, load_weights(weights)
+
+
+def check_weights_fit(module: Any, state: Mapping[str, Any], folder: str | Path) -> None:
+    """Load the state dict read from ``folder``'s ``model.pt`` into ``module`` (the network its
+    ``config.json`` describes); weights of another width or another model are one line, not torch's
+    list of every missing key and shape.
+
+    Raises:
+        ConfigError: ``FOLDER/model.pt: its weights do not fit ...``.
+    """
+    try:
+        module.load_state_dict(state)
+    except (RuntimeError, KeyError, TypeError, ValueError) as exc:
+        lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+        detail = next((line for line in lines if not line.startswith("Error(s) in loading")), type(exc).__name__)
+        raise ConfigError(f"{Path(folder) / MODEL_FILE}: its weights do not fit the network that "
+                          f"{CONFIG_FILE} describes ({detail[:160]}); give the folder of a model trained with this "
+                          f"config, or train it again") from None
 
 
 C = TypeVar("C", bound=Config)
@@ -194,11 +211,12 @@ class TrainRun:
             self._resume_state = state
         self.out.mkdir(parents=True, exist_ok=True)
         path = self.out / CONFIG_FILE
-        if path.exists() and (self.out / CHECKPOINT_FILE).exists():
-            try:
-                old = json.loads(path.read_text(encoding="utf-8"))
-            except json.JSONDecodeError:
-                old = None
+        if (path.exists() or path.is_symlink()) and (self.out / CHECKPOINT_FILE).exists():
+            # The config of the run being resumed: a damaged one is refused, never overwritten unseen.
+            old = read_json(path, ConfigError)
+            if not isinstance(old, dict):
+                raise ConfigError(f"{path}: a JSON {type(old).__name__}, not the config of the run in `out`; delete "
+                                  f"{self.out / CHECKPOINT_FILE} to start over")
             if isinstance(old, dict):
                 for key in sorted(set(old) | set(self.config)):
                     if key == "train":  # step count may grow on resume

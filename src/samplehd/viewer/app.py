@@ -396,6 +396,8 @@ class ViewerApp:
             return Response.json(_sanitise(detail))
         if len(rest) == 3 and rest[1] == "frame":
             t = _int(rest[2].split(".", 1)[0], "frame")
+            if t < 0:  # Python's indexing would serve a frame counted from the end
+                raise _BadRequest(f"frame {t}: expected a frame index ≥ 0")
             camera = query.get("camera", "")
             modality = query.get("modality", "rgb")
             fmt = "jpeg" if query.get("format") == "jpeg" else "png"

@@ -18,9 +18,13 @@ from typing import Any
 import mujoco
 import numpy as np
 from PIL import Image
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
+from samplehd.dataset.validate import validate_scene_files, validate_stored_config
 from samplehd.envs.replay_check import replay_env
 from samplehd.envs.tokens import encode_instruction
+from samplehd.errors import ConfigError
 from samplehd.learn.keypose.configuration import KEYPOSE_ATTRIBUTES, KeyposeGrid
 from samplehd.learn.keypose.processing import (
     FACTOR,
@@ -38,7 +42,7 @@ from samplehd.learn.keypose.processing import (
 from samplehd.render.renderer import SEG_ROBOT, SceneRenderer
 from samplehd.world.layout import LAYOUT
 
-__all__ = ["PREPARED_FILE", "prepare_samples"]
+__all__ = ["PREPARED_FILE", "check_scene_inputs", "prepare_samples"]
 
 PREPARED_FILE = "prepared.npz"
 
@@ -88,21 +92,45 @@ def _episode_samples(reader: Any, k: int, env: Any, config: KeyposeGrid, tokens_
     return out
 
 
+def check_scene_inputs(reader: Any) -> None:
+    """Refuse, before anything is written, a dataset whose stored config, scene cameras or scene images
+    (decoded, of the camera's size) the preparation reads and would fail on: the first problem in one
+    line (``samplehd validate --deep`` lists them all).
+
+    Raises:
+        ConfigError: ``dataset=DIR: FILE: what is wrong``.
+    """
+    problems = validate_stored_config(reader.root, reader.info) + validate_scene_files(reader.root, reader.scenes,
+                                                                                        deep=True)
+    if problems:
+        more = f" (and {len(problems) - 1} more: samplehd validate --deep lists them)" if len(problems) > 1 else ""
+        raise ConfigError(f"dataset={reader.root}: {problems[0]}{more}", field="dataset")
+
+
 def prepare_samples(reader: Any, ks: Sequence[int], config: KeyposeGrid, tokens_len: int,
-             inputs: str = "rgb") -> dict[str, np.ndarray]:
+                    inputs: str = "rgb", label: str = "prepare", quiet: bool = True) -> dict[str, np.ndarray]:
+    """The samples of episodes ``ks``: every decision's top-down view, instruction tokens, keypose
+    targets and attribute maps (a progress bar per episode on stderr unless ``quiet``)."""
     env = replay_env(reader)
     renderers: dict[str, Any] = {}
     values = attribute_values(reader.scenes)
     grids, toks, labels, attrs, episodes = [], [], [], [], []
+    # Drawing the samples renders every later decision's view: minutes on a large dataset, shown per episode.
+    bars = Progress(TextColumn("{task.description:>12}"), BarColumn(), MofNCompleteColumn(), TextColumn("episodes"),
+                    TimeElapsedColumn(), TimeRemainingColumn(), console=Console(stderr=True, quiet=quiet),
+                    disable=quiet)
     try:
-        for k in ks:
-            for g, t, y, a in _episode_samples(reader, k, env, config, tokens_len, renderers, values, inputs):
-                if y[12] > 0:
-                    grids.append(g)
-                    toks.append(t)
-                    labels.append(y)
-                    attrs.append(a)
-                    episodes.append(k)
+        with bars:
+            task = bars.add_task(label, total=len(ks))
+            for k in ks:
+                for g, t, y, a in _episode_samples(reader, k, env, config, tokens_len, renderers, values, inputs):
+                    if y[12] > 0:
+                        grids.append(g)
+                        toks.append(t)
+                        labels.append(y)
+                        attrs.append(a)
+                        episodes.append(k)
+                bars.advance(task)
     finally:
         for r in renderers.values():
             r.close()

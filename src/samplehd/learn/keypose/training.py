@@ -5,6 +5,7 @@ random shifts of the views, and the test decisions' errors.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -15,14 +16,21 @@ import numpy as np
 from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset, training_split
-from samplehd.learn.keypose.configuration import ATTRIBUTE_VALUES, FORMAT, KEYPOSE_ATTRIBUTES, KeyposeConfig
+from samplehd.learn.keypose.configuration import (
+    ATTRIBUTE_VALUES,
+    FORMAT,
+    KEYPOSE_ATTRIBUTES,
+    KeyposeConfig,
+    KeyposeGrid,
+)
 from samplehd.learn.keypose.inference import predict_decisions
 from samplehd.learn.keypose.modeling import KeyposeNet
-from samplehd.learn.keypose.preparation import PREPARED_FILE, prepare_samples
+from samplehd.learn.keypose.preparation import PREPARED_FILE, check_scene_inputs, prepare_samples
 from samplehd.learn.keypose.processing import FACTOR, HEIGHT_UNIT, grid_of, input_channels
 from samplehd.learn.topdown import TopDownGrid
 from samplehd.learn.training import (
     TrainRun,
+    check_weights_fit,
     descend,
     load_model_files,
     pick_device,
@@ -136,7 +144,9 @@ def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *
         The metrics written to ``metrics.json`` (``{"stopped_at": N}`` when stopped early).
     """
     reader = open_dataset(dataset)
+    check_scene_inputs(reader)
     config, train_k, test_k = fill_from_dataset(config, reader, dataset)
+    _warn_if_small(config.grid, quiet)
     start = _initial_weights(config) if config.train.init else None
     out = Path(out)
     dev = pick_device(device)
@@ -144,14 +154,17 @@ def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *
     steps = config.train.steps
     run = TrainRun(out, config.to_dict(), steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
                    stop_after=stop_after)
-    run.prepare()
-    arrays = _samples(out, reader, config, train_k, test_k)
+    # The samples are drawn before anything is written: a dataset refused while they are drawn leaves
+    # no half-made `out`.
+    arrays = _samples(out, reader, config, train_k, test_k, quiet)
     n = len(arrays["train_grid"])
     if n == 0:
         raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry", field="dataset")
+    run.prepare()
+    _keep_samples(out, arrays)
     net = KeyposeNet(len(instruction_vocabulary()), input_channels(config.inputs), config.model.width).to(dev)
     if start is not None:
-        net.load_state_dict(start)
+        check_weights_fit(net, start, config.train.init)
     # The lowest grasp of the training decisions: the policy never grasps lower (a finger on the table
     # is a safety stop, a grasp a little high still closes on the object).
     net.z_floor.fill_(float(arrays["train_labels"][:, 2].min()) * HEIGHT_UNIT + LAYOUT.table_height)
@@ -184,21 +197,40 @@ def fill_from_dataset(config: KeyposeConfig, reader: Any, dataset: str | Path
 
 
 def _samples(out: Path, reader: Any, config: KeyposeConfig, train_k: Sequence[int],
-             test_k: Sequence[int]) -> dict[str, np.ndarray]:
+             test_k: Sequence[int], quiet: bool) -> dict[str, np.ndarray]:
     """The training and test samples (``train_*``, ``test_*``), read from ``out``'s
     :data:`~samplehd.learn.keypose.preparation.PREPARED_FILE` when a resumed run left one, else
-    prepared and kept there until the run ends."""
+    prepared (:func:`_keep_samples` keeps them there until the run ends)."""
     prepared = out / PREPARED_FILE
     if prepared.exists():
         with np.load(prepared, allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
-    train = prepare_samples(reader, train_k, config.grid, config.tokens, config.inputs)
-    test = prepare_samples(reader, test_k, config.grid, config.tokens, config.inputs)
-    arrays = {**{f"train_{k}": v for k, v in train.items()}, **{f"test_{k}": v for k, v in test.items()}}
+    train = prepare_samples(reader, train_k, config.grid, config.tokens, config.inputs, "prepare train", quiet)
+    test = prepare_samples(reader, test_k, config.grid, config.tokens, config.inputs, "prepare test", quiet)
+    return {**{f"train_{k}": v for k, v in train.items()}, **{f"test_{k}": v for k, v in test.items()}}
+
+
+def _keep_samples(out: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Write the samples to ``out``'s prepared file (once), so that a resumed run does not draw them again."""
+    prepared = out / PREPARED_FILE
+    if prepared.exists():
+        return
     tmp = out / (PREPARED_FILE + ".tmp.npz")
     np.savez(tmp, **arrays)
     tmp.replace(prepared)
-    return arrays
+
+
+def _warn_if_small(grid: KeyposeGrid, quiet: bool) -> None:
+    """A line on stderr when the policy looks at images much smaller than it was designed for: below
+    half the default size a cell of its grid covers less than about one pixel, so most cells are filled
+    from a neighbour and the predictions blur."""
+    design = KeyposeGrid()
+    if quiet or (grid.width * 2 >= design.width and grid.height * 2 >= design.height):
+        return
+    print(f"samplehd train: warning: the keypose policy is designed for {design.width}x{design.height} scene "
+          f"images; these are {grid.width}x{grid.height}, so most of its {grid.rows}x{grid.cols} cells of "
+          f"{grid.cell * 1000:g} mm see no pixel of their own (generate with render.width {design.width}, "
+          f"render.height {design.height} for the figures of docs/BASELINES.md)", file=sys.stderr)
 
 
 def _train_step(net: Any, opt: Any, arrays: dict[str, np.ndarray], train: Any, dev: Any) -> Any:

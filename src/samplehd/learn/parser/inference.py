@@ -10,7 +10,7 @@ from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.learn.parser.configuration import FORMAT, ParserConfig
 from samplehd.learn.parser.modeling import Seq2Seq
 from samplehd.learn.parser.processing import MAX_TARGET, ParsedProgram, decode_target, encode_source, pad_batch
-from samplehd.learn.training import load_model_files, read_model_config, torch
+from samplehd.learn.training import check_weights_fit, load_model_files, read_model_config, torch
 
 __all__ = ["InstructionParser"]
 
@@ -39,7 +39,9 @@ class InstructionParser:
     def load(cls, folder: str | Path, device: Any = None) -> InstructionParser:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train parser``."""
         config, state = load_model_files(folder, "parser", FORMAT)
-        return cls(read_model_config(ParserConfig, config, folder), state, device)
+        parser = cls(read_model_config(ParserConfig, config, folder), None, device)
+        check_weights_fit(parser.model, state, folder)
+        return parser
 
     def parse(self, texts: Sequence[str], batch: int = 256) -> list[ParsedProgram]:
         out: list[ParsedProgram] = []

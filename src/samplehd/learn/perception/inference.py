@@ -33,7 +33,7 @@ from samplehd.learn.perception.geometry import (
     object_crop,
 )
 from samplehd.learn.perception.modeling import PerceptionNet
-from samplehd.learn.training import load_model_files, read_model_config, torch
+from samplehd.learn.training import check_weights_fit, load_model_files, read_model_config, torch
 from samplehd.world.layout import DIRECTIONS, LAYOUT, table_parts_of
 from samplehd.world.relations import compute_relationships
 
@@ -75,7 +75,9 @@ class Perception:
     def load(cls, folder: str | Path, device: Any = None) -> Perception:
         """Load ``config.json`` + ``model.pt`` written by ``samplehd train perception``."""
         config, state = load_model_files(folder, "perception", FORMAT)
-        return cls(read_model_config(PerceptionConfig, config, folder), state, device)
+        perception = cls(read_model_config(PerceptionConfig, config, folder), None, device)
+        check_weights_fit(perception.net, state, folder)
+        return perception
 
     def segment(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
                 height: np.ndarray | None = None) -> list[np.ndarray]:

@@ -19,7 +19,7 @@ from samplehd.learn.options import policy_config_class
 from samplehd.learn.policy.configuration import CAMERAS, FORMAT, PolicyConfig
 from samplehd.learn.policy.modeling import BCNet
 from samplehd.learn.policy.processing import policy_state, seen_joint_velocities, target_features
-from samplehd.learn.training import load_model_files, read_model_config, set_seed, torch
+from samplehd.learn.training import check_weights_fit, load_model_files, read_model_config, set_seed, torch
 
 __all__ = ["BCPolicy", "policy_for_evaluation"]
 
@@ -87,7 +87,9 @@ class BCPolicy:
         if folder is None:
             raise ConfigError("policy=bc: needs `models` (the folder of `samplehd train policy`)", field="policy")
         config, state = load_model_files(folder, "policy", FORMAT)
-        return cls(read_model_config(PolicyConfig, config, folder), state, env)
+        policy = cls(read_model_config(PolicyConfig, config, folder), None, env)
+        check_weights_fit(policy.net, state, folder)
+        return policy
 
     def reset(self, seed: int | None = None) -> None:
         self._queue = []
@@ -183,7 +185,9 @@ def policy_for_evaluation(env: Any, config: Any) -> BCPolicy | KeyposePolicy:
         raise ConfigError("policy=bc: needs `models` (the folder of `samplehd train policy`)", field="policy")
     raw, state = load_model_files(config.models, "policy", FORMAT)
     policy_config = read_model_config(policy_config_class(raw), raw, config.models)
-    return POLICIES[type(policy_config)](policy_config, state, env)
+    policy = POLICIES[type(policy_config)](policy_config, None, env)
+    check_weights_fit(policy.net, state, config.models)
+    return policy
 
 
 # a policy config class -> the policy that acts on it
