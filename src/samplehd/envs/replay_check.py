@@ -155,7 +155,9 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
         success = success or bool(info["success"])
         tcp_dev = max(tcp_dev, norm(obs["tcp_pos"].astype(float) - tcp_rec[t + 1]))
         k = len(obj_rec[t + 1])
-        if k:
+        # A recorded frame of a push holds that frame's push step, which the replay applies only before
+        # the next action: those frames' objects are compared from the push's end on.
+        if k and (push is None or not push[0] <= t + 1 < push[0] + push[1]):
             diff = obs["object_pos"][:k].astype(float) - obj_rec[t + 1]
             obj_dev = max(obj_dev, float(np.max(norm(diff, axis=1))))
     entry = reader.episodes[index]

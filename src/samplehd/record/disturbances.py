@@ -58,7 +58,6 @@ __all__ = [
     "DisturbanceConfig",
     "Disturber",
     "draw_disturbance",
-    "label_frames",
 ]
 
 DISTURBANCE_KINDS = ("missed_grasp", "slip", "nudge", "wrong_object", "short_release")
@@ -460,9 +459,3 @@ def _still(gripper: float) -> np.ndarray:
     steer = np.zeros(7, np.float32)
     steer[6] = gripper
     return steer
-
-
-def label_frames(episode: Episode) -> dict[str, np.ndarray]:
-    """The per-frame disturbance labels of an episode (zeros where it has none)."""
-    t = episode.num_frames
-    return {k: np.asarray(episode.frames.get(k, np.zeros(t, np.int8)), np.int8) for k in LABEL_FIELDS}
