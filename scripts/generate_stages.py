@@ -33,6 +33,7 @@ import resource
 import signal
 import sys
 import time
+from pathlib import Path
 from types import FrameType
 
 STAGES = ("scene sampling and settling", "scene images", "instruction generation", "model compile", "planning", "IK",
@@ -68,6 +69,8 @@ def classify(frames: list[tuple[str, str]]) -> tuple[str, bool]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--interval", type=float, default=2.0, help="CPU milliseconds between samples")
+    parser.add_argument("--every", type=float, default=0.0, help="write the table so far every this many CPU s")
+    parser.add_argument("--partial", default="stages-so-far.md", help="where --every writes it")
     parser.add_argument("generate_args", nargs=argparse.REMAINDER, help="-- then the arguments of samplehd generate")
     args = parser.parse_args(argv)
     gen_args = [a for a in args.generate_args if a != "--"]
@@ -93,25 +96,39 @@ def main(argv: list[str] | None = None) -> int:
 
     from samplehd.cli import main as samplehd_main
 
-    signal.signal(signal.SIGPROF, on_sample)
     t0, c0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_SELF)
+
+    def write_table(note: str) -> str:
+        c1 = resource.getrusage(resource.RUSAGE_SELF)
+        cpu = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
+        total = sum(counts.values()) or 1.0
+        lines = [f"samplehd generate {' '.join(gen_args)}{note}: {cpu:.1f} CPU s, {time.perf_counter() - t0:.1f} s "
+                 f"wall, {total:.1f} CPU s sampled, load average {os.getloadavg()[0]:.1f}",
+                 "| stage | CPU s | share |", "|---|---|---|"]
+        lines += [f"| {stage} | {counts[stage]:.1f} | {counts[stage] / total:.1%} |" for stage in STAGES]
+        lines.append(f"| (fixed-order arithmetic, across stages) | {fixed_count[0]:.1f} | "
+                     f"{fixed_count[0] / total:.1%} |")
+        lines.append("\ninnermost functions:")
+        lines += [f"{n / total:6.1%}  {name}" for name, n in leaves.most_common(25)]
+        return "\n".join(lines) + "\n"
+
+    if args.every:  # a table so far every ``--every`` CPU seconds, into ``--partial``
+        next_dump = [args.every]
+        sample = on_sample
+
+        def on_sample(signum: int, frame: FrameType | None) -> None:  # noqa: F811 - the same, and the dump
+            sample(signum, frame)
+            if sum(counts.values()) >= next_dump[0]:
+                next_dump[0] += args.every
+                Path(args.partial).write_text(write_table(" (so far)"))
+
+    signal.signal(signal.SIGPROF, on_sample)
     signal.setitimer(signal.ITIMER_PROF, args.interval / 1000, args.interval / 1000)
     try:
         rc = samplehd_main(["generate", *gen_args])
     finally:
         signal.setitimer(signal.ITIMER_PROF, 0, 0)
-    c1 = resource.getrusage(resource.RUSAGE_SELF)
-    cpu = (c1.ru_utime - c0.ru_utime) + (c1.ru_stime - c0.ru_stime)
-    total = sum(counts.values()) or 1.0
-    print(f"samplehd generate {' '.join(gen_args)}: {cpu:.1f} CPU s, {time.perf_counter() - t0:.1f} s wall, "
-          f"{total:.1f} CPU s sampled, load average {os.getloadavg()[0]:.1f}")
-    print("| stage | CPU s | share |\n|---|---|---|")
-    for stage in STAGES:
-        print(f"| {stage} | {counts[stage]:.1f} | {counts[stage] / total:.1%} |")
-    print(f"| (fixed-order arithmetic, across stages) | {fixed_count[0]:.1f} | {fixed_count[0] / total:.1%} |")
-    print("\ninnermost functions:")
-    for name, n in leaves.most_common(25):
-        print(f"{n / total:6.1%}  {name}")
+    print(write_table(""), end="")
     return int(rc or 0)
 
 
