@@ -2,7 +2,9 @@
 
 Runs ``samplehd generate ARGS`` in this process (give ``--workers 1``: the work units then run here)
 and samples the running Python stack every ``--interval`` CPU milliseconds of the process (a
-``SIGPROF`` timer, so a busy machine does not move the figures). Each sample is put in one stage:
+``SIGPROF`` timer, so a busy machine does not move the figures). Each sample weighs the process's CPU
+time since the previous one (a long call into C delivers its signal when it returns, to its caller)
+and is put in one stage:
 
 - inside a scene unit: ``scene images`` (the render package) or ``scene sampling and settling``;
 - inside an episode unit, by the innermost frame of these modules: ``IK`` (robot.kinematics),
@@ -15,13 +17,14 @@ and samples the running Python stack every ``--interval`` CPU milliseconds of th
 - ``other``: start-up, imports, the coordinator, finalising.
 
 A second, cross-cutting figure counts the samples with a frame of the fixed-order arithmetic
-(``fixedmath``, ``fixedkernels``) anywhere on the stack. The script prints a Markdown table (samples,
-CPU seconds and share of the sampled time) and the 25 innermost functions.
+(``fixedmath``, ``fixedkernels``) anywhere on the stack. The script prints a Markdown table (CPU
+seconds and share of the sampled time) and the 25 innermost functions; with ``--every S`` it also
+writes the table so far every S CPU seconds into ``--partial FILE``.
 
 Usage::
 
     python scripts/generate_stages.py -- --preset sample-hd --scenes 30 --render none --seed 0 \
-        --workers 1 --quiet --out /tmp/ds
+        --workers 1 --quiet --out DIR
 """
 
 from __future__ import annotations
