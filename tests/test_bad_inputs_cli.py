@@ -398,6 +398,9 @@ CLI_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("bench-out-file", ["bench", "--out", "{file}"], ("--out", "{file}")),
     ("bench-handoff-width", ["bench", "paths", "handoff", "--width", "4"], ("--width", "4")),
     ("bench-handoff-rounds", ["bench", "paths", "handoff", "--repeats", "0"], ("--repeats", "0")),
+    ("bench-generate-repeats", ["bench", "generate", "--repeats", "0"], ("--repeats", "0")),
+    ("bench-generate-against", ["bench", "generate", "--against", "{dir}"], ("--against", "{dir}", "checkout")),
+    ("bench-generate-config", ["bench", "generate", "--configs", "{new}.json"], ("--configs", "{new}.json")),
     # demo
     ("demo-workers", ["demo", "--out", "{new}", "--workers", "0"], ("--workers", "0")),
     ("demo-seed", ["demo", "--out", "{new}", "--seed", "-1"], ("--seed", "-1")),

@@ -77,11 +77,12 @@ def add_grasp_welds(spec: mujoco.MjSpec, num_objects: int) -> None:
         eq.solref = [0.01, 1.0]
 
 
-def compile_scene_with_assist(scene: SceneSpec, timestep: float = 0.002) -> tuple[mujoco.MjModel, mujoco.MjData]:
+def compile_scene_with_assist(scene: SceneSpec, timestep: float = 0.002,
+                              robot_look: str = "mesh") -> tuple[mujoco.MjModel, mujoco.MjData]:
     """Like ``samplehd.scene.spec.compile_scene`` (arm at home, gripper open), with the grasp welds added."""
 
     placed = [PlacedObject(o.instance, tuple(o.pos), tuple(o.quat)) for o in scene.objects]
-    spec = build_world(placed, scene.world_config(timestep))
+    spec = build_world(placed, scene.world_config(timestep, robot_look))
     add_grasp_welds(spec, len(scene.objects))
     model = spec.compile()
     data = mujoco.MjData(model)

@@ -182,7 +182,9 @@ def _tilt_deg(quat: np.ndarray) -> float:
 def _settle(
     scene: SceneSpec, config: SceneConfig, rejections: Counter[str]
 ) -> tuple[SceneSpec, mujoco.MjModel, mujoco.MjData] | None:
-    model, data = compile_scene(scene)
+    # Settling draws nothing: the arm's visual meshes (no mass, no contacts, the same physics bit for bit)
+    # would only cost compiling and posing them at every step. The settled scene is compiled as drawn.
+    model, data = compile_scene(scene, robot_look="primitive")
     adr = object_qpos_addresses(model, len(scene.objects))
     start = np.stack([data.qpos[a : a + 7] for a in adr])
     mujoco.mj_step(model, data, int(round(config.settle_time / model.opt.timestep)))

@@ -98,18 +98,21 @@ class SceneSpec:
         except (KeyError, TypeError, ValueError) as exc:
             raise SceneError(f"malformed scene spec: missing or bad field {exc}") from exc
 
-    def world_config(self, timestep: float = 0.002) -> WorldConfig:
-        """World options with the operator camera and this scene's camera (named ``scene``)."""
+    def world_config(self, timestep: float = 0.002, robot_look: str = "mesh") -> WorldConfig:
+        """World options with the operator camera and this scene's camera (named ``scene``); ``robot_look``
+        is how the arm is drawn (the physics is the same for every look)."""
         cams = (OPERATOR_CAMERA,)
         if self.camera.name != OPERATOR_CAMERA.name:
             cams = (OPERATOR_CAMERA, self.camera)
-        return WorldConfig(timestep=timestep, cameras=cams)
+        return WorldConfig(timestep=timestep, cameras=cams, robot_look=robot_look)
 
 
-def compile_scene(scene: SceneSpec, timestep: float = 0.002) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """Compile the world with the scene's objects at their settled poses (robot at home)."""
+def compile_scene(scene: SceneSpec, timestep: float = 0.002,
+                  robot_look: str = "mesh") -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """Compile the world with the scene's objects at their settled poses (robot at home), the arm drawn
+    with ``robot_look``."""
     placed = [PlacedObject(o.instance, tuple(o.pos), tuple(o.quat)) for o in scene.objects]
-    return compile_world(placed, scene.world_config(timestep))
+    return compile_world(placed, scene.world_config(timestep, robot_look))
 
 
 def object_qpos_addresses(model: mujoco.MjModel, count: int) -> np.ndarray:
