@@ -18,6 +18,6 @@ def test_demo_makes_the_tiny_dataset_and_pictures(tmp_path):
         assert proc.returncode == 0, proc.stderr[-2000:]
     info = json.loads((out / "dataset" / "info.json").read_text())
     assert info["status"] == "complete" and info["counts"]["episodes"] >= 1
-    assert info["catalogue"]["imported"] == {}
+    assert info["catalogue"]["imported"] == {} and info["catalogue"]["name"] == "shop-vrb"  # the default
     for name in ("world_hd.png", "world_depth.png", "world_segmentation.png", "wrist_fast.png"):
         assert (out / name).stat().st_size > 10_000

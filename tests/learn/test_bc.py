@@ -389,9 +389,9 @@ def test_a_waypoint_dagger_round_labels_the_policys_states_with_the_experts_wayp
 
 
 def test_a_policy_keeps_its_datasets_catalogue_for_collecting_and_evaluation(tmp_path: Path) -> None:
-    """A policy trained on a shop-vrb dataset collects its demonstrations in shop-vrb scenes, records the
-    catalogue, and ``samplehd evaluate`` sets its episodes up in that catalogue (an ``--env-options``
-    file may name the other one)."""
+    """A policy trained on a dataset of the other catalogue than the default (procedural) collects its
+    demonstrations in procedural scenes, records the catalogue, and ``samplehd evaluate`` sets its episodes
+    up in that catalogue (an ``--env-options`` file may name the default, shop-vrb)."""
     from samplehd.cli import main
     from samplehd.dataset.config import GenerateConfig, preset_config
     from samplehd.dataset.generate import generate_dataset
@@ -399,21 +399,21 @@ def test_a_policy_keeps_its_datasets_catalogue_for_collecting_and_evaluation(tmp
     from samplehd.learn.options import env_options
 
     doc = {"num_scenes": 2, "seed": 0, "test_every": 2, "render": {"mode": "none"},
-           "scene": {"min_objects": 3, "max_objects": 3, "catalogue": "shop-vrb"},
+           "scene": {"min_objects": 3, "max_objects": 3, "catalogue": "procedural"},
            "instructions": {"per_scene": 1, "families": ["pick_up"]}}
     data = tmp_path / "ds"
     assert generate_dataset(data, GenerateConfig.from_dict(doc, base=preset_config("tiny"))).episodes >= 1
     out = tmp_path / "policy"
     _train(data, out, steps=2, inputs="state", demos=1)
-    assert json.loads((out / "config.json").read_text())["catalogue"] == "shop-vrb"
-    assert demos._WORKER["env"][1].config.scene.catalogue == "shop-vrb"  # noqa: SLF001 - the collecting env
-    assert env_options(out)["scene"] == {"catalogue": "shop-vrb"}
+    assert json.loads((out / "config.json").read_text())["catalogue"] == "procedural"
+    assert demos._WORKER["env"][1].config.scene.catalogue == "procedural"  # noqa: SLF001 - the collecting env
+    assert env_options(out)["scene"] == {"catalogue": "procedural"}
     reports = {}
-    for name, extra in (("trained", []), ("procedural", ["--env-options", str(tmp_path / "p.json")])):
-        (tmp_path / "p.json").write_text(json.dumps({"scene": {"catalogue": "procedural"}}))
+    for name, extra in (("trained", []), ("shop-vrb", ["--env-options", str(tmp_path / "p.json")])):
+        (tmp_path / "p.json").write_text(json.dumps({"scene": {"catalogue": "shop-vrb"}}))
         report = tmp_path / f"{name}.json"
         assert main(["evaluate", "--policy", "bc", "--models", str(out), "--families", "pick_up", "--episodes", "1",
                      "--max-episode-steps", "5", "--workers", "1", "--out", str(report), *extra]) == 0
         reports[name] = json.loads(report.read_text())
-    assert reports["trained"]["catalogue"]["name"] == "shop-vrb"
-    assert reports["procedural"]["catalogue"]["name"] == "procedural"
+    assert reports["trained"]["catalogue"]["name"] == "procedural"
+    assert reports["shop-vrb"]["catalogue"]["name"] == "shop-vrb"

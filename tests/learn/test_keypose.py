@@ -18,11 +18,14 @@ from samplehd.learn.keypose.follower import KeyposeFollower  # noqa: E402
 from samplehd.learn.keypose.processing import decisions  # noqa: E402
 from samplehd.world.layout import LAYOUT  # noqa: E402
 
+# Procedural, named: the keypose follower's expectations here were set on these seed-3 procedural scenes;
+# on shop-vrb (the default since) following the recorded decisions, the descent onto an object and the
+# privileged reference fail on them. Moving the keypose policy to shop-vrb is its own work.
 KEYPOSE_DATA = {
     "num_scenes": 4,
     "seed": 3,
     "test_every": 4,
-    "scene": {"min_objects": 3, "max_objects": 4},
+    "scene": {"min_objects": 3, "max_objects": 4, "catalogue": "procedural"},
     "instructions": {"per_scene": 2, "families": ["pick_up", "place"]},
     "render": {"mode": "none", "width": 320, "height": 180},
 }

@@ -299,7 +299,9 @@ def _rendered_scene(folder: Path, index: int, n_objects: int, width: int, height
 
     for sub in ("scenes", "images", "depth", "segmentation"):
         (folder / sub).mkdir()
-    config = SceneConfig.from_dict({"min_objects": n_objects, "max_objects": n_objects})
+    # Procedural, named: the tests' scenes (which objects touch, stand tall, ...) and the perception's
+    # kinds (kind_vocab) are those of the procedural shapes, the default when they were written.
+    config = SceneConfig.from_dict({"min_objects": n_objects, "max_objects": n_objects, "catalogue": "procedural"})
     image = ImageSpec(width, height, "fast", modalities=MODALITIES)
     job = SceneJob(index, scene_seed(1, index), str(folder), config, image, 20)
     ann, _ = render_scene_files(job)

@@ -16,6 +16,7 @@ from samplehd.motion.execute import initial_state
 from samplehd.physics import awake_contacts, wake_all
 from samplehd.robot.constants import HOME_QPOS
 from samplehd.robot.controller import ControlConfig, RobotController
+from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneSpec, compile_scene, object_qpos_addresses
 from samplehd.tasks.checker import _simulate_window
@@ -27,8 +28,9 @@ _SLEEP = int(mujoco.mjtEnableBit.mjENBL_SLEEP)
 
 @pytest.fixture(scope="module")
 def scene() -> SceneSpec:
-    """A sampled scene (settled poses on the table)."""
-    return sample_scene(0, scene_seed(7, 0)).scene
+    """A sampled scene (settled poses on the table). Procedural: the helpers need object 0 of this seed's
+    scene to fall asleep within 100 steps held by its weld, which the shop-vrb scene's object 0 does not."""
+    return sample_scene(0, scene_seed(7, 0), SceneConfig(catalogue="procedural")).scene
 
 
 def _object_trees(model: mujoco.MjModel, n: int) -> np.ndarray:
