@@ -39,3 +39,15 @@ def test_oracle_places_a_fork_on_a_board() -> None:
     assert record.instruction == "Place the fork on top of the chopping board."
     assert record.success, (record.check_reason, record.gave_up)
     assert record.replans == 0
+
+
+@pytest.mark.slow
+def test_oracle_sets_scissors_down_on_a_board() -> None:
+    """shop-vrb seed 97531, k = 2: squeezed, the fingers closed to 2.3 mm on the scissors' 10 mm body
+    (the scissors turned between the pads) and carried them low in the hand; at the release the
+    opened pads touched the board on both sides, the grasp assist welded the board and the arm lifted
+    it on the way home. With the grip that stops at the touch (14.5 mm) they land on the board."""
+    record = _split_episode("shop-vrb", 97531, 2)
+    assert record.instruction == "Set the scissors down on the chopping board."
+    assert record.success, (record.check_reason, record.gave_up)
+    assert record.disturbed == ()
