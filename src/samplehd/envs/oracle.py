@@ -212,9 +212,11 @@ class OraclePolicy:
         directions = env.episode.annotation.get("directions") if env.episode.annotation else None
         robot = RobotInfo.from_model(model, data)
         bodies = SceneBodies(model, len(scene.objects))
-        # The environment's grasp assist (when on) welds for every policy; the planner must not weld itself.
+        # The environment's grasp assist (when on) welds for every policy; the planner must not weld
+        # itself, but it closes the gripper as the dataset's paths do: it stops closing when both pads
+        # touch (a squeeze ramp on a thin handle spikes the contact force past the safety limit).
         ro = Rollout(model, data, ctrl, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
-                     use_assist=False)
+                     use_assist=False, step_assist=env.assist)
         self._rollout = ro
         remaining = list(task.objects)
         while remaining:

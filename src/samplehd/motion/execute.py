@@ -192,13 +192,19 @@ class Rollout:
         use_assist: apply the grasp rule at every control step, welding the grasped object to the
             gripper while held (see :mod:`.assist`); off where the step function applies it (the
             environment's ``step`` for the closed-loop oracle).
+        step_assist: the grasp assist the step function applies (the environment's), with
+            ``use_assist`` off: the rollout reads its welds and grasps as with its own (the
+            gripper stops closing when both pads touch, a grasp is held when welded) but never
+            updates it. None: the rollout's own assist (off without ``use_assist``).
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
                  bodies: SceneBodies, facts: list[ObjectFacts | None], config: PlannerConfig, rng: np.random.Generator,
                  layout: TableLayout = LAYOUT, directions: Directions | None = None,
-                 use_assist: bool = True) -> None:
+                 use_assist: bool = True, step_assist: GraspAssist | None = None) -> None:
         self.use_assist = use_assist
+        # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
+        self.assisted = use_assist or step_assist is not None
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
         self.facts, self.cfg, self.rng, self.layout, self.directions = facts, config, rng, layout, directions
         self.dt = controller.config.control_dt
@@ -212,8 +218,11 @@ class Rollout:
         self.hand: _Hand | None = None
         self.info: dict[str, Any] = {"grasps": [], "destinations": [], "methods": [], "assist": []}
         self.current_grasp = -1
-        self.assist = GraspAssist(model, bodies.num_objects)
-        self.assist.release(data)
+        if step_assist is None:
+            self.assist = GraspAssist(model, bodies.num_objects)
+            self.assist.release(data)
+        else:
+            self.assist = step_assist
         # Where the objects are at the start of the attempt (the first recorded frame): the
         # ``nearest`` pick order measures from these.
         self.start_positions = data.xpos[bodies.object_body].copy()
@@ -388,18 +397,18 @@ class Rollout:
         cmds = np.linspace(start, end, ramp + 1)[1:]
         kp = float(self.model.actuator_gainprm[self.model.actuator(GRIPPER_ACTUATOR).id, 0]) or 1e4
         frozen: list[float] = []
+        assisted = self.assisted and self.assist.available
 
         def command(k: int) -> float:
             if frozen:
                 return frozen[0]
             measured = float(self.data.qpos[self.robot.finger_qpos].sum())
-            if self.use_assist and self.assist.available and (
-                    self.assist.active == i or self.assist.touched(self.data, (i,)) == i):
+            if assisted and (self.assist.active == i or self.assist.touched(self.data, (i,)) == i):
                 frozen.append(_gripper_command(max(0.0, measured - 0.0005)))
                 return frozen[0]
             if k < ramp:
                 return float(cmds[k])
-            if not self.use_assist or not self.assist.available:
+            if not assisted:
                 frozen.append(_gripper_command(max(0.0, measured - self.cfg.squeeze_force / kp)))
                 return frozen[0]
             return float(cmds[-1])
@@ -415,7 +424,7 @@ class Rollout:
             return bool(attached_at) and k - attached_at[0] >= settle
 
         yield from self.run("CloseGripper", i, np.repeat(self.ctrl.target[None], n, axis=0), command,
-                            until=settled if self.use_assist else None)
+                            until=settled if assisted else None)
 
     def grasped(self) -> int:
         """The scene object touching both fingers now, or -1."""
@@ -425,7 +434,7 @@ class Rollout:
         """Whether object ``i`` is held: with the grasp assist, in its weld (the rule decides what is
         held); without it, its collision geoms within ``tolerance`` [m] of both fingers' (contacts
         on thin convex pieces flicker from step to step, distances do not)."""
-        if self.use_assist and self.assist.available:
+        if self.assisted and self.assist.available:
             return self.assist.active == i
         return self.assist.touched(self.data, (i,), tolerance) == i
 
@@ -544,7 +553,7 @@ class Rollout:
             yield from self.run("MoveDOWN", i, down)
             # The opening command releases the weld (the rule, in OpenGripper's first step).
             opening = hand.opening
-            if self.use_assist and self.assist.active >= 0:
+            if self.assisted and self.assist.active >= 0:
                 opening = max(opening, (self.assist.release_command() + 1.0) * 0.5 * GRIPPER_STROKE)
             yield from self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(opening))
             self.hand = None
