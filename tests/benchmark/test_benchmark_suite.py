@@ -11,12 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from samplehd.benchmark.axes import AXES, AXIS_FIELDS, STRENGTHS, perturb
+from samplehd.benchmark.axes import AXES, AXIS_FIELDS, BLANK_INSTRUCTION, STRENGTHS, perturb
 from samplehd.benchmark.evaluation import EvalConfig, evaluate
 from samplehd.benchmark.lerobot_tabletop import LeRobotTabletop
 from samplehd.benchmark.suite import SuiteBuildConfig, build_suite
-from samplehd.envs.suite_file import content_hash, read_suite, shipped_suites, suite_path
+from samplehd.envs.suite_file import SuiteEpisode, content_hash, read_suite, shipped_suites, suite_path
 from samplehd.envs.tabletop import TabletopEnv
+from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.workers import Backend
 
@@ -175,6 +176,25 @@ def test_axis_strengths_are_the_documented_physical_amounts() -> None:
         assert start[6:] == home[6:]
         words = perturb(twin, "shuffled", strength, seed=3)["instruction"].rstrip(".").split()
         assert sorted(words) == sorted(twin["instruction"].rstrip(".").split())
+        clean = twin["instruction"].rstrip(".").split()
+        kept = perturb(twin, "blank", strength, seed=3)["instruction"].rstrip(".").split()
+        assert len(clean) - len(kept) == min(len(clean), max(1, round(0.2 * strength * len(clean))))
+        rest = iter(clean)
+        assert all(w in rest for w in kept)  # the kept words in their order
+    assert perturb(twin, "blank", 5, seed=3)["instruction"] == BLANK_INSTRUCTION
+
+
+def test_the_env_resets_to_a_blanked_instruction() -> None:
+    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    blank = SuiteEpisode.from_dict({"id": 1, **perturb(twin, "blank", 5, seed=0)})
+    env = TabletopEnv(obs_mode="state")
+    try:
+        obs, info = env.reset(options=blank.reset_options())
+        assert obs["instruction"] == info["instruction"] == BLANK_INSTRUCTION and info["task"] == twin["task"]
+        tokens = [t for t in obs["instruction_tokens"].tolist() if t]
+        assert tokens == [1, instruction_vocabulary()["."], 2]  # <START> . <END>: no word
+    finally:
+        env.close()
 
 
 def test_the_lerobot_env_serves_a_suites_episodes_of_its_family() -> None:

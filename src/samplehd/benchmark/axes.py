@@ -22,9 +22,16 @@ axis              what changes                                                 p
                   become another member of their group (``instruction``)        one)
 ``shuffled``      words of the instruction trade places (``instruction``):      20 % of the words
                   a shortcut control (5: every word moved, the words kept)      (5: 100 %)
+``blank``         words of the instruction are dropped (``instruction``): a     20 % of the words
+                  shortcut control; at 5 none is left and the instruction is    (5: all; the text
+                  :data:`BLANK_INSTRUCTION`, the full stop alone                is ``.``)
 ================  ===========================================================  ==================
 
-An axis whose change cannot alter physics (``camera``, ``sensor``, ``paraphrase``, ``shuffled``: the
+The environment's instruction is never empty (its ``Text`` space has ``min_length=1``, and a reset refuses
+an empty text), so a blank instruction is the neutral token ``.``: no word, the full stop every
+instruction ends with (tokens ``<START> . <END>``).
+
+An axis whose change cannot alter physics (``camera``, ``sensor``, ``paraphrase``, ``shuffled``, ``blank``: the
 oracle acts on state and the task, never on images or text) keeps its twin's oracle proof: the same
 rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``) is proven again by the oracle
 through the env; a variant it fails is replaced by the next attempt's direction. A variant that would
@@ -45,13 +52,15 @@ from samplehd.language.templates import default_synonyms
 from samplehd.robot.constants import JOINT_NAMES
 from samplehd.scene.spec import SceneSpec, compile_scene
 
-__all__ = ["AXES", "AXIS_FIELDS", "PHYSICAL_AXES", "STRENGTHS", "perturb"]
+__all__ = ["AXES", "AXIS_FIELDS", "BLANK_INSTRUCTION", "PHYSICAL_AXES", "STRENGTHS", "perturb"]
 
 STRENGTHS = (1, 2, 3, 4, 5)
 CAMERA_DEG_PER_STRENGTH = 6.0
 SHIFT_M_PER_STRENGTH = 0.015
 SHUFFLE_FRACTION_PER_STRENGTH = 0.2
 JOINT_RAD_PER_STRENGTH = 0.05
+# A blanked instruction: the env admits no empty text, and "." carries no word (see the module docstring).
+BLANK_INSTRUCTION = "."
 
 
 def _camera(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
@@ -135,15 +144,26 @@ def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> No
     ep["instruction"] = " ".join(out) + ("." if ep["instruction"].endswith(".") else "")
 
 
+def _blank(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    words = ep["instruction"].rstrip(".").split()
+    dropped = min(len(words), max(1, round(SHUFFLE_FRACTION_PER_STRENGTH * strength * len(words))))
+    gone = set(rng.choice(len(words), size=dropped, replace=False).tolist())
+    kept = [w for i, w in enumerate(words) if i not in gone]
+    ep["instruction"] = " ".join(kept) + "." if kept else BLANK_INSTRUCTION
+
+
 AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
     "camera": _camera, "object_shift": _object_shift, "robot_start": _robot_start, "sensor": _sensor,
     "paraphrase": _paraphrase,
-    "shuffled": _shuffled}
+    "shuffled": _shuffled, "blank": _blank}
 # The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
 AXIS_FIELDS = {"camera": ("scene.camera",), "object_shift": ("scene.objects",), "robot_start": ("start_state",),
                "sensor": ("sensor",),
-               "paraphrase": ("instruction",), "shuffled": ("instruction",)}
+               "paraphrase": ("instruction",), "shuffled": ("instruction",), "blank": ("instruction",)}
 PHYSICAL_AXES = ("object_shift", "robot_start")
+# An axis's index in the seed of its directions: the first six sorted, then the others as they were added,
+# so an axis draws the same directions when another is added.
+_SEED_ORDER = ("camera", "object_shift", "paraphrase", "robot_start", "sensor", "shuffled", "blank")
 
 
 def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: int = 0) -> dict[str, Any]:
@@ -152,7 +172,7 @@ def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: 
     The variant's ``axis``, ``strength`` and ``twin`` are set; ``twin`` must carry its ``id``.
     """
     ep = copy.deepcopy(twin)
-    axis_index = sorted(AXES).index(axis)
+    axis_index = _SEED_ORDER.index(axis)
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), axis_index, int(twin["id"]), int(strength),
                                                         int(attempt)]))
     AXES[axis](ep, strength, rng)
