@@ -8,17 +8,28 @@ import subprocess
 import sys
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
-from samplehd.benchmark.axes import AXES, AXIS_FIELDS, BLANK_INSTRUCTION, STRENGTHS, perturb
+from samplehd.benchmark.axes import (
+    AXES,
+    AXIS_FIELDS,
+    BLANK_INSTRUCTION,
+    STRENGTHS,
+    check_instruction_fits,
+    perturb,
+)
 from samplehd.benchmark.evaluation import EvalConfig, evaluate
 from samplehd.benchmark.lerobot_tabletop import LeRobotTabletop
 from samplehd.benchmark.suite import SuiteBuildConfig, build_suite
 from samplehd.envs.suite_file import SuiteEpisode, content_hash, read_suite, shipped_suites, suite_path
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.envs.tokens import instruction_vocabulary
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, SceneError
+from samplehd.scene.config import SceneConfig
+from samplehd.scene.sampler import add_objects
+from samplehd.scene.spec import SceneSpec, compile_scene
 from samplehd.workers import Backend
 
 SHIPPED = "smoke"
@@ -149,7 +160,7 @@ def _changed(a: dict, b: dict) -> set[str]:
 def test_a_variant_differs_from_its_clean_twin_only_in_its_axis() -> None:
     twins = [e.to_dict() for e in read_suite(SHIPPED).episodes[::6]]  # one per catalogue
     for twin in twins:
-        for axis in AXES:
+        for axis in set(AXES) - {"distractors"}:  # (its own test below: it may reject an attempt)
             for strength in (1, 5):
                 variant = perturb(twin, axis, strength, seed=0)
                 assert variant == perturb(twin, axis, strength, seed=0)  # a function of the seed
@@ -215,3 +226,55 @@ def test_suite_build_refuses_a_bad_option_in_one_line_and_writes_nothing(tmp_pat
     r = _cli("suite", "build", "x", "--families", "pick_up", "nope", "--out", str(out))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert "--families" in r.stderr and "valid: place" in r.stderr and not out.exists()
+
+
+def test_lighting_changes_the_lights_by_the_documented_amounts_and_not_the_physics() -> None:
+    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    clean_model, clean_data = compile_scene(SceneSpec.from_dict(twin["scene"]))
+    key = clean_model.light("key_light").id
+    for strength in (1, 5):
+        lit = perturb(twin, "lighting", strength, seed=0)["scene"]["lighting"]
+        assert abs(lit["intensity"] - 1.0) == pytest.approx(0.12 * strength)
+        assert abs(lit["turn"]) == pytest.approx(15.0 * strength)
+        assert lit["tint"][1] == 1.0 and abs(lit["tint"][0] - 1.0) == abs(lit["tint"][2] - 1.0) == pytest.approx(
+            0.06 * strength)
+    scene = SceneSpec.from_dict(perturb(twin, "lighting", 5, seed=0)["scene"])
+    assert scene.to_dict()["lighting"] == lit and "lighting" not in SceneSpec.from_dict(twin["scene"]).to_dict()
+    model, data = compile_scene(scene)
+    factor = lit["intensity"] * np.asarray(lit["tint"])
+    np.testing.assert_allclose(model.light_diffuse, clean_model.light_diffuse * factor, rtol=1e-6)
+    np.testing.assert_allclose(model.vis.headlight.ambient, clean_model.vis.headlight.ambient * factor, rtol=1e-6)
+    turned = np.degrees(np.arctan2(model.light_dir[key, 1], model.light_dir[key, 0])
+                        - np.arctan2(clean_model.light_dir[key, 1], clean_model.light_dir[key, 0]))
+    assert (turned - lit["turn"] + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-6)
+    for m, d in ((clean_model, clean_data), (model, data)):  # the same physics, bit for bit
+        for _ in range(200):
+            mujoco.mj_step(m, d)
+    assert np.array_equal(clean_data.qpos, data.qpos) and np.array_equal(clean_data.qvel, data.qvel)
+
+
+def test_distractors_add_objects_after_the_scenes_own_and_keep_the_instruction_unambiguous() -> None:
+    twin = read_suite(SHIPPED).episodes[6].to_dict()  # "Put the chopping board and the scissors on the front half..."
+    own = twin["scene"]["objects"]
+    for strength in (1, 2):
+        variant = next(v for v in (_attempt(twin, strength, a) for a in range(4)) if v is not None)
+        objects = variant["scene"]["objects"]
+        assert len(objects) == len(own) + strength and objects[:len(own)] == own  # own poses kept exactly
+        assert _changed(twin, variant) - {"id", "axis", "strength", "twin"} == {"scene.objects"}
+        if strength == 2:  # every second one is of a class already on the table
+            assert objects[-1]["instance"]["class_name"] in {o["instance"]["class_name"] for o in own}
+        corners = np.array([o["pos"][:2] for o in objects])
+        gaps = np.linalg.norm(corners[:, None] - corners[None], axis=-1) + np.eye(len(objects))
+        assert gaps.min() > 0.03  # in free spots
+    # a second pair of scissors makes "the scissors" ambiguous: such a variant is rejected
+    scene = SceneSpec.from_dict(twin["scene"])
+    doubled = add_objects(scene, [["scissors"]], np.random.default_rng(0), SceneConfig(catalogue=twin["catalogue"]))
+    with pytest.raises(SceneError, match="no longer picks only its own objects"):
+        check_instruction_fits({**twin, "scene": doubled.to_dict()})
+
+
+def _attempt(twin: dict, strength: int, attempt: int) -> dict | None:
+    try:
+        return perturb(twin, "distractors", strength, seed=0, attempt=attempt)
+    except SceneError:
+        return None
