@@ -127,10 +127,10 @@ def test_a_random_policy_on_a_suite_names_the_suite_in_its_report(tmp_path: Path
 @pytest.mark.slow
 def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(tmp_path: Path) -> None:
     config = SuiteBuildConfig(families=("pick_up",), catalogues=("procedural",), episodes_per_cell=1,
-                              axes=("object_shift", "robot_start"), strengths=(5,))
+                              axes=("object_shift", "robot_start", "distractors"), strengths=(5,))
     suite = build_suite("t", config)
     assert [(e.axis, e.strength, e.twin) for e in suite.episodes] == [
-        ("none", 0, None), ("object_shift", 5, 0), ("robot_start", 5, 0)]
+        ("none", 0, None), ("object_shift", 5, 0), ("robot_start", 5, 0), ("distractors", 5, 0)]
     # the same bytes whatever the number of workers
     assert build_suite("t", config, Backend(workers=2)).to_dict() == suite.to_dict()
     path = tmp_path / "t.json"
@@ -138,7 +138,7 @@ def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(t
     reports = [evaluate(EvalConfig(policy="oracle", suite=str(path))) for _ in range(2)]
     assert reports[0]["success_rate"] == 1.0
     assert [r["steps"] for r in reports[0]["records"]] == [e.oracle_steps for e in suite.episodes]
-    assert set(reports[0]["by_axis"]) == {"none", "object_shift", "robot_start"}
+    assert set(reports[0]["by_axis"]) == {"none", "object_shift", "robot_start", "distractors"}
     for r in reports:
         r.pop("wall_s")
         for rec in r["records"]:
@@ -278,3 +278,19 @@ def _attempt(twin: dict, strength: int, attempt: int) -> dict | None:
         return perturb(twin, "distractors", strength, seed=0, attempt=attempt)
     except SceneError:
         return None
+
+
+def test_task_swap_names_other_objects_of_the_same_family_on_the_same_scene() -> None:
+    twin = read_suite(SHIPPED).episodes[4].to_dict()  # "Please pick up the mug."
+    near, far = (perturb(twin, "task_swap", s, seed=0) for s in (1, 5))
+    for variant in (near, far):
+        assert _changed(twin, variant) - {"id", "axis", "strength", "twin"} <= set(AXIS_FIELDS["task_swap"])
+        assert sorted(variant["targets"]) != sorted(twin["targets"]) and variant["family"] == twin["family"]
+        check_instruction_fits(variant)  # the program picks the new task's objects on the twin's scene
+        assert variant["task"]["objects"] == [t for t in variant["targets"] if t in variant["task"]["objects"]]
+
+    def distance(v: dict) -> float:
+        a, b = ({w.strip(".").lower() for w in e["instruction"].split()} for e in (twin, v))
+        return 1.0 - len(a & b) / len(a | b)
+
+    assert 0.0 < distance(near) <= distance(far)

@@ -37,6 +37,11 @@ axis              what changes                                                 p
                   objects keep their poses. A variant whose instruction no
                   longer picks only its own objects (a same-class distractor
                   made a description ambiguous) is rejected
+``task_swap``     another instruction of the same family and level on the same   the candidate at
+                  scene, naming other objects (``instruction``, ``task``,       quantile (s − 1)/4
+                  ``program``, ``program_sequence``, ``targets``): of up to     of word distance
+                  16 drawn candidates, ordered by their word distance to the    (5: the least
+                  twin's text (1 − Jaccard of the lower-case word sets)         alike; 1: the most)
 ================  ===========================================================  ==================
 
 The environment's instruction is never empty (its ``Text`` space has ``min_length=1``, and a reset refuses
@@ -46,7 +51,8 @@ instruction ends with (tokens ``<START> . <END>``).
 An axis whose change cannot alter physics (``camera``, ``lighting``, ``sensor``, ``paraphrase``, ``shuffled``,
 ``blank``: the
 oracle acts on state and the task, never on images or text) keeps its twin's oracle proof: the same
-rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``, ``distractors``) is proven again
+rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``, ``distractors``, ``task_swap``) is
+proven again
 by the oracle through the env; a variant it fails, or that cannot be made (:class:`~samplehd.errors.SceneError`
 from :func:`perturb`), is replaced by the next attempt's. A variant that would
 equal its twin (an instruction with no word of a synonym group) is left out.
@@ -65,6 +71,8 @@ import numpy as np
 from samplehd.envs.episodes import SceneCache, episode_from_options
 from samplehd.envs.suite_file import SuiteEpisode
 from samplehd.errors import ConfigError, SceneError
+from samplehd.language.generator import generate_instructions
+from samplehd.language.levels import episode_level
 from samplehd.language.templates import default_synonyms
 from samplehd.robot.constants import JOINT_NAMES
 from samplehd.scene.config import SceneConfig
@@ -80,6 +88,7 @@ CAMERA_DEG_PER_STRENGTH = 6.0
 SHIFT_M_PER_STRENGTH = 0.015
 SHUFFLE_FRACTION_PER_STRENGTH = 0.2
 JOINT_RAD_PER_STRENGTH = 0.05
+TASK_SWAP_CANDIDATES = 16
 LIGHT_INTENSITY_PER_STRENGTH = 0.12
 LIGHT_TURN_DEG_PER_STRENGTH = 15.0
 LIGHT_TINT_PER_STRENGTH = 0.06
@@ -129,6 +138,28 @@ def check_instruction_fits(ep: dict[str, Any]) -> None:
                              SceneCache(SceneConfig(catalogue=ep["catalogue"])))
     except ConfigError:
         raise SceneError("the instruction no longer picks only its own objects") from None
+
+
+def _words(text: str) -> set[str]:
+    return set(re.findall(r"[a-z]+", text.lower()))
+
+
+def _task_swap(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    scene = SceneSpec.from_dict(ep["scene"])
+    annotation = SceneCache(SceneConfig(catalogue=ep["catalogue"])).annotation(scene)
+    made = generate_instructions(annotation, rng, per_scene=TASK_SWAP_CANDIDATES, families=[ep["family"]])
+    own = _words(ep["instruction"])
+    found = []
+    for ins in (i.to_dict() for i in made.instructions):
+        if sorted(ins["targets"]) != sorted(ep["targets"]) and episode_level(ins, annotation) == ep["level"]:
+            words = _words(ins["instruction"])
+            found.append((1.0 - len(own & words) / len(own | words), len(found), ins))
+    if not found:
+        raise SceneError("no other instruction of the family and level on this scene")
+    found.sort(key=lambda c: c[:2])
+    ins = found[round((strength - 1) / (len(STRENGTHS) - 1) * (len(found) - 1))][2]
+    ep.update(instruction=ins["instruction"], task=dict(ins["task"]), program=list(ins["program"]),
+              program_sequence=str(ins["program_sequence"]), targets=[int(t) for t in ins["targets"]])
 
 
 def _robot_start(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
@@ -207,16 +238,17 @@ def _blank(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
 AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
     "camera": _camera, "lighting": _lighting, "object_shift": _object_shift, "robot_start": _robot_start,
     "sensor": _sensor, "paraphrase": _paraphrase, "shuffled": _shuffled, "blank": _blank,
-    "distractors": _distractors}
+    "distractors": _distractors, "task_swap": _task_swap}
 # The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
 AXIS_FIELDS = {"camera": ("scene.camera",), "lighting": ("scene.lighting",), "object_shift": ("scene.objects",),
                "robot_start": ("start_state",), "sensor": ("sensor",), "paraphrase": ("instruction",),
-               "shuffled": ("instruction",), "blank": ("instruction",), "distractors": ("scene.objects",)}
-PHYSICAL_AXES = ("object_shift", "robot_start", "distractors")
+               "shuffled": ("instruction",), "blank": ("instruction",), "distractors": ("scene.objects",),
+               "task_swap": ("instruction", "task", "program", "program_sequence", "targets")}
+PHYSICAL_AXES = ("object_shift", "robot_start", "distractors", "task_swap")
 # An axis's index in the seed of its directions: the first six sorted, then the others as they were added,
 # so an axis draws the same directions when another is added.
 _SEED_ORDER = ("camera", "object_shift", "paraphrase", "robot_start", "sensor", "shuffled", "blank", "lighting",
-               "distractors")
+               "distractors", "task_swap")
 
 
 def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: int = 0) -> dict[str, Any]:
@@ -226,7 +258,8 @@ def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: 
 
     Raises:
         SceneError: this attempt's variant cannot be made (``distractors``: no free spot, an object
-            hidden, or the instruction made ambiguous); another ``attempt`` may succeed.
+            hidden, or the instruction made ambiguous; ``task_swap``: no other instruction of the
+            family and level on the scene); another ``attempt`` may succeed.
     """
     ep = copy.deepcopy(twin)
     axis_index = _SEED_ORDER.index(axis)
