@@ -127,7 +127,8 @@ def test_a_random_policy_on_a_suite_names_the_suite_in_its_report(tmp_path: Path
 @pytest.mark.slow
 def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(tmp_path: Path) -> None:
     config = SuiteBuildConfig(families=("pick_up",), catalogues=("procedural",), episodes_per_cell=1,
-                              axes=("object_shift", "robot_start", "distractors"), strengths=(5,))
+                              axes=("object_shift", "robot_start", "distractors"), strengths=(5,),
+                              max_attempts_per_variant=8)  # five distractors beside "Pick up the spoon.": often a spoon
     suite = build_suite("t", config)
     assert [(e.axis, e.strength, e.twin) for e in suite.episodes] == [
         ("none", 0, None), ("object_shift", 5, 0), ("robot_start", 5, 0), ("distractors", 5, 0)]
@@ -160,7 +161,7 @@ def _changed(a: dict, b: dict) -> set[str]:
 def test_a_variant_differs_from_its_clean_twin_only_in_its_axis() -> None:
     twins = [e.to_dict() for e in read_suite(SHIPPED).episodes[::6]]  # one per catalogue
     for twin in twins:
-        for axis in set(AXES) - {"distractors"}:  # (its own test below: it may reject an attempt)
+        for axis in sorted(set(AXES) - {"distractors", "task_swap"}):  # (own tests below: they may reject)
             for strength in (1, 5):
                 variant = perturb(twin, axis, strength, seed=0)
                 assert variant == perturb(twin, axis, strength, seed=0)  # a function of the seed

@@ -257,8 +257,8 @@ def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: 
     The variant's ``axis``, ``strength`` and ``twin`` are set; ``twin`` must carry its ``id``.
 
     Raises:
-        SceneError: this attempt's variant cannot be made (``distractors``: no free spot, an object
-            hidden, or the instruction made ambiguous; ``task_swap``: no other instruction of the
+        SceneError: this attempt's variant cannot be made (``distractors``: no free spot, an object of
+            the scene hidden, or the instruction made ambiguous; ``task_swap``: no other instruction of the
             family and level on the scene); another ``attempt`` may succeed.
     """
     ep = copy.deepcopy(twin)

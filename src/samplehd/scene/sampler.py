@@ -349,7 +349,8 @@ def add_objects(
     renderers: RendererCache | None = None,
 ) -> SceneSpec:
     """The scene with more objects, drawn and placed in free spots as :func:`sample_scene` places its own
-    and settled; the scene's own objects keep their poses exactly, and the new ones come after them.
+    and settled; the scene's own objects keep their poses exactly and stay in view of the scene camera,
+    and the new ones come after them (they may be partly hidden).
 
     Args:
         scene: a sampled (settled) scene.
@@ -362,7 +363,7 @@ def add_objects(
 
     Raises:
         SceneError: one line saying why: no free spot, the new objects do not settle, one of them
-            touches an object of the scene, the arm at home touches one, or an object is hidden.
+            touches an object of the scene, the arm at home touches one, or one hides an object of the scene.
     """
     config = config or SceneConfig()
     cat = catalogue_for(config.named_classes, config.catalogue)
@@ -404,8 +405,9 @@ def add_objects(
         visible, alone = _visible_pixels(model, data, len(out.objects), config, renderers)
     w, h = config.occlusion_resolution
     min_pixels = config.min_visible_pixels * (w * h) / (640 * 360)
-    hidden = [i for i in range(len(out.objects))
+    # The scene's own objects must stay in view; an added one may hide behind them.
+    hidden = [i for i in range(own)
               if visible[i] < min_pixels or visible[i] < config.min_visible_fraction * max(alone[i], 1)]
     if hidden:
-        raise SceneError(f"{len(hidden)} object(s) hidden from the scene camera")
+        raise SceneError(f"an added object hides {len(hidden)} of the scene's objects from the scene camera")
     return out
