@@ -17,7 +17,18 @@ from samplehd.benchmark.axes import AXES, perturb
 from samplehd.benchmark.sensor import corrupt_observation, sensor_rng
 from samplehd.envs.suite_file import SuiteEpisode, read_suite
 from samplehd.envs.tabletop import TabletopEnv
+from samplehd.errors import SceneError
 from samplehd.render.contact_sheet import contact_sheet
+
+
+def _variant(twin: dict, axis: str, attempts: int = 4) -> dict:
+    """The first variant at strength 5 that can be made (a distractor may find no free spot)."""
+    for attempt in range(attempts - 1):
+        try:
+            return perturb(twin, axis, 5, seed=0, attempt=attempt)
+        except SceneError:
+            pass
+    return perturb(twin, axis, 5, seed=0, attempt=attempts - 1)
 
 
 def main(suite_name: str, out: str, index: int = 0) -> None:
@@ -27,7 +38,7 @@ def main(suite_name: str, out: str, index: int = 0) -> None:
     images, labels = [], []
     try:
         for axis in AXES:
-            for ep, name in ((twin, f"{axis}: clean twin"), (perturb(twin, axis, 5, seed=0), f"{axis}: strength 5")):
+            for ep, name in ((twin, f"{axis}: clean twin"), (_variant(twin, axis), f"{axis}: strength 5")):
                 env.reset(options=SuiteEpisode.from_dict({"id": 0, **ep}).reset_options())
                 frame = {"scene_rgb": env.render()}  # the sensor axis corrupts what the policy sees
                 images.append(corrupt_observation(frame, ep.get("sensor"), sensor_rng(ep["reset_seed"]))["scene_rgb"])

@@ -8,16 +8,28 @@ import subprocess
 import sys
 from pathlib import Path
 
+import mujoco
 import numpy as np
 import pytest
 
-from samplehd.benchmark.axes import AXES, AXIS_FIELDS, STRENGTHS, perturb
+from samplehd.benchmark.axes import (
+    AXES,
+    AXIS_FIELDS,
+    BLANK_INSTRUCTION,
+    STRENGTHS,
+    check_instruction_fits,
+    perturb,
+)
 from samplehd.benchmark.evaluation import EvalConfig, evaluate
 from samplehd.benchmark.lerobot_tabletop import LeRobotTabletop
 from samplehd.benchmark.suite import SuiteBuildConfig, build_suite
-from samplehd.envs.suite_file import content_hash, read_suite, shipped_suites, suite_path
+from samplehd.envs.suite_file import SuiteEpisode, content_hash, read_suite, shipped_suites, suite_path
 from samplehd.envs.tabletop import TabletopEnv
-from samplehd.errors import ConfigError
+from samplehd.envs.tokens import instruction_vocabulary
+from samplehd.errors import ConfigError, SceneError
+from samplehd.scene.config import SceneConfig
+from samplehd.scene.sampler import add_objects
+from samplehd.scene.spec import SceneSpec, compile_scene
 from samplehd.workers import Backend
 
 SHIPPED = "smoke"
@@ -115,10 +127,11 @@ def test_a_random_policy_on_a_suite_names_the_suite_in_its_report(tmp_path: Path
 @pytest.mark.slow
 def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(tmp_path: Path) -> None:
     config = SuiteBuildConfig(families=("pick_up",), catalogues=("procedural",), episodes_per_cell=1,
-                              axes=("object_shift", "robot_start"), strengths=(5,))
+                              axes=("object_shift", "robot_start", "distractors"), strengths=(5,),
+                              max_attempts_per_variant=8)  # five distractors beside "Pick up the spoon.": often a spoon
     suite = build_suite("t", config)
     assert [(e.axis, e.strength, e.twin) for e in suite.episodes] == [
-        ("none", 0, None), ("object_shift", 5, 0), ("robot_start", 5, 0)]
+        ("none", 0, None), ("object_shift", 5, 0), ("robot_start", 5, 0), ("distractors", 5, 0)]
     # the same bytes whatever the number of workers
     assert build_suite("t", config, Backend(workers=2)).to_dict() == suite.to_dict()
     path = tmp_path / "t.json"
@@ -126,7 +139,7 @@ def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(t
     reports = [evaluate(EvalConfig(policy="oracle", suite=str(path))) for _ in range(2)]
     assert reports[0]["success_rate"] == 1.0
     assert [r["steps"] for r in reports[0]["records"]] == [e.oracle_steps for e in suite.episodes]
-    assert set(reports[0]["by_axis"]) == {"none", "object_shift", "robot_start"}
+    assert set(reports[0]["by_axis"]) == {"none", "object_shift", "robot_start", "distractors"}
     for r in reports:
         r.pop("wall_s")
         for rec in r["records"]:
@@ -148,7 +161,7 @@ def _changed(a: dict, b: dict) -> set[str]:
 def test_a_variant_differs_from_its_clean_twin_only_in_its_axis() -> None:
     twins = [e.to_dict() for e in read_suite(SHIPPED).episodes[::6]]  # one per catalogue
     for twin in twins:
-        for axis in AXES:
+        for axis in sorted(set(AXES) - {"distractors", "task_swap"}):  # (own tests below: they may reject)
             for strength in (1, 5):
                 variant = perturb(twin, axis, strength, seed=0)
                 assert variant == perturb(twin, axis, strength, seed=0)  # a function of the seed
@@ -175,6 +188,25 @@ def test_axis_strengths_are_the_documented_physical_amounts() -> None:
         assert start[6:] == home[6:]
         words = perturb(twin, "shuffled", strength, seed=3)["instruction"].rstrip(".").split()
         assert sorted(words) == sorted(twin["instruction"].rstrip(".").split())
+        clean = twin["instruction"].rstrip(".").split()
+        kept = perturb(twin, "blank", strength, seed=3)["instruction"].rstrip(".").split()
+        assert len(clean) - len(kept) == min(len(clean), max(1, round(0.2 * strength * len(clean))))
+        rest = iter(clean)
+        assert all(w in rest for w in kept)  # the kept words in their order
+    assert perturb(twin, "blank", 5, seed=3)["instruction"] == BLANK_INSTRUCTION
+
+
+def test_the_env_resets_to_a_blanked_instruction() -> None:
+    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    blank = SuiteEpisode.from_dict({"id": 1, **perturb(twin, "blank", 5, seed=0)})
+    env = TabletopEnv(obs_mode="state")
+    try:
+        obs, info = env.reset(options=blank.reset_options())
+        assert obs["instruction"] == info["instruction"] == BLANK_INSTRUCTION and info["task"] == twin["task"]
+        tokens = [t for t in obs["instruction_tokens"].tolist() if t]
+        assert tokens == [1, instruction_vocabulary()["."], 2]  # <START> . <END>: no word
+    finally:
+        env.close()
 
 
 def test_the_lerobot_env_serves_a_suites_episodes_of_its_family() -> None:
@@ -195,3 +227,71 @@ def test_suite_build_refuses_a_bad_option_in_one_line_and_writes_nothing(tmp_pat
     r = _cli("suite", "build", "x", "--families", "pick_up", "nope", "--out", str(out))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert "--families" in r.stderr and "valid: place" in r.stderr and not out.exists()
+
+
+def test_lighting_changes_the_lights_by_the_documented_amounts_and_not_the_physics() -> None:
+    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    clean_model, clean_data = compile_scene(SceneSpec.from_dict(twin["scene"]))
+    key = clean_model.light("key_light").id
+    for strength in (1, 5):
+        lit = perturb(twin, "lighting", strength, seed=0)["scene"]["lighting"]
+        assert abs(lit["intensity"] - 1.0) == pytest.approx(0.12 * strength)
+        assert abs(lit["turn"]) == pytest.approx(15.0 * strength)
+        assert lit["tint"][1] == 1.0 and abs(lit["tint"][0] - 1.0) == abs(lit["tint"][2] - 1.0) == pytest.approx(
+            0.06 * strength)
+    scene = SceneSpec.from_dict(perturb(twin, "lighting", 5, seed=0)["scene"])
+    assert scene.to_dict()["lighting"] == lit and "lighting" not in SceneSpec.from_dict(twin["scene"]).to_dict()
+    model, data = compile_scene(scene)
+    factor = lit["intensity"] * np.asarray(lit["tint"])
+    np.testing.assert_allclose(model.light_diffuse, clean_model.light_diffuse * factor, rtol=1e-6)
+    np.testing.assert_allclose(model.vis.headlight.ambient, clean_model.vis.headlight.ambient * factor, rtol=1e-6)
+    turned = np.degrees(np.arctan2(model.light_dir[key, 1], model.light_dir[key, 0])
+                        - np.arctan2(clean_model.light_dir[key, 1], clean_model.light_dir[key, 0]))
+    assert (turned - lit["turn"] + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-6)
+    for m, d in ((clean_model, clean_data), (model, data)):  # the same physics, bit for bit
+        for _ in range(200):
+            mujoco.mj_step(m, d)
+    assert np.array_equal(clean_data.qpos, data.qpos) and np.array_equal(clean_data.qvel, data.qvel)
+
+
+def test_distractors_add_objects_after_the_scenes_own_and_keep_the_instruction_unambiguous() -> None:
+    twin = read_suite(SHIPPED).episodes[6].to_dict()  # "Put the chopping board and the scissors on the front half..."
+    own = twin["scene"]["objects"]
+    for strength in (1, 2):
+        variant = next(v for v in (_attempt(twin, strength, a) for a in range(4)) if v is not None)
+        objects = variant["scene"]["objects"]
+        assert len(objects) == len(own) + strength and objects[:len(own)] == own  # own poses kept exactly
+        assert _changed(twin, variant) - {"id", "axis", "strength", "twin"} == {"scene.objects"}
+        if strength == 2:  # every second one is of a class already on the table
+            assert objects[-1]["instance"]["class_name"] in {o["instance"]["class_name"] for o in own}
+        corners = np.array([o["pos"][:2] for o in objects])
+        gaps = np.linalg.norm(corners[:, None] - corners[None], axis=-1) + np.eye(len(objects))
+        assert gaps.min() > 0.03  # in free spots
+    # a second pair of scissors makes "the scissors" ambiguous: such a variant is rejected
+    scene = SceneSpec.from_dict(twin["scene"])
+    doubled = add_objects(scene, [["scissors"]], np.random.default_rng(0), SceneConfig(catalogue=twin["catalogue"]))
+    with pytest.raises(SceneError, match="no longer picks only its own objects"):
+        check_instruction_fits({**twin, "scene": doubled.to_dict()})
+
+
+def _attempt(twin: dict, strength: int, attempt: int) -> dict | None:
+    try:
+        return perturb(twin, "distractors", strength, seed=0, attempt=attempt)
+    except SceneError:
+        return None
+
+
+def test_task_swap_names_other_objects_of_the_same_family_on_the_same_scene() -> None:
+    twin = read_suite(SHIPPED).episodes[4].to_dict()  # "Please pick up the mug."
+    near, far = (perturb(twin, "task_swap", s, seed=0) for s in (1, 5))
+    for variant in (near, far):
+        assert _changed(twin, variant) - {"id", "axis", "strength", "twin"} <= set(AXIS_FIELDS["task_swap"])
+        assert sorted(variant["targets"]) != sorted(twin["targets"]) and variant["family"] == twin["family"]
+        check_instruction_fits(variant)  # the program picks the new task's objects on the twin's scene
+        assert variant["task"]["objects"] == [t for t in variant["targets"] if t in variant["task"]["objects"]]
+
+    def distance(v: dict) -> float:
+        a, b = ({w.strip(".").lower() for w in e["instruction"].split()} for e in (twin, v))
+        return 1.0 - len(a & b) / len(a | b)
+
+    assert 0.0 < distance(near) <= distance(far)

@@ -22,12 +22,39 @@ axis              what changes                                                 p
                   become another member of their group (``instruction``)        one)
 ``shuffled``      words of the instruction trade places (``instruction``):      20 % of the words
                   a shortcut control (5: every word moved, the words kept)      (5: 100 %)
+``blank``         words of the instruction are dropped (``instruction``): a     20 % of the words
+                  shortcut control; at 5 none is left and the instruction is    (5: all; the text
+                  :data:`BLANK_INSTRUCTION`, the full stop alone                is ``.``)
+``lighting``      the scene lights (``scene.lighting``,                         intensity ×(1 ±
+                  :class:`samplehd.scene.world.Lighting`): every light dimmer   0.12), key light
+                  or brighter, the key light turned about the vertical          15°, tint ±0.06 on
+                  through the table centre, every light warmer or cooler        red and blue (5:
+                  (red up and blue down, or the reverse)                        ×0.4 or ×1.6, 75°,
+                                                                                1.3 / 0.7)
+``distractors``  objects added after the scene's own, in free spots as the      one object (5: five)
+                  sampler places its own, settled (``scene.objects``): every
+                  second one of a class already on the table; the scene's own
+                  objects keep their poses. A variant whose instruction no
+                  longer picks only its own objects (a same-class distractor
+                  made a description ambiguous) is rejected
+``task_swap``     another instruction of the same family and level on the same   the candidate at
+                  scene, naming other objects (``instruction``, ``task``,       quantile (s − 1)/4
+                  ``program``, ``program_sequence``, ``targets``): of up to     of word distance
+                  16 drawn candidates, ordered by their word distance to the    (5: the least
+                  twin's text (1 − Jaccard of the lower-case word sets)         alike; 1: the most)
 ================  ===========================================================  ==================
 
-An axis whose change cannot alter physics (``camera``, ``sensor``, ``paraphrase``, ``shuffled``: the
+The environment's instruction is never empty (its ``Text`` space has ``min_length=1``, and a reset refuses
+an empty text), so a blank instruction is the neutral token ``.``: no word, the full stop every
+instruction ends with (tokens ``<START> . <END>``).
+
+An axis whose change cannot alter physics (``camera``, ``lighting``, ``sensor``, ``paraphrase``, ``shuffled``,
+``blank``: the
 oracle acts on state and the task, never on images or text) keeps its twin's oracle proof: the same
-rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``) is proven again by the oracle
-through the env; a variant it fails is replaced by the next attempt's direction. A variant that would
+rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``, ``distractors``, ``task_swap``) is
+proven again
+by the oracle through the env; a variant it fails, or that cannot be made (:class:`~samplehd.errors.SceneError`
+from :func:`perturb`), is replaced by the next attempt's. A variant that would
 equal its twin (an instruction with no word of a synonym group) is left out.
 """
 
@@ -41,17 +68,32 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.envs.episodes import SceneCache, episode_from_options
+from samplehd.envs.suite_file import SuiteEpisode
+from samplehd.errors import ConfigError, SceneError
+from samplehd.language.generator import generate_instructions
+from samplehd.language.levels import episode_level
 from samplehd.language.templates import default_synonyms
 from samplehd.robot.constants import JOINT_NAMES
+from samplehd.scene.config import SceneConfig
+from samplehd.scene.sampler import add_objects
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.scene.world import Lighting
 
-__all__ = ["AXES", "AXIS_FIELDS", "PHYSICAL_AXES", "STRENGTHS", "perturb"]
+__all__ = ["AXES", "AXIS_FIELDS", "BLANK_INSTRUCTION", "PHYSICAL_AXES", "STRENGTHS", "check_instruction_fits",
+           "perturb"]
 
 STRENGTHS = (1, 2, 3, 4, 5)
 CAMERA_DEG_PER_STRENGTH = 6.0
 SHIFT_M_PER_STRENGTH = 0.015
 SHUFFLE_FRACTION_PER_STRENGTH = 0.2
 JOINT_RAD_PER_STRENGTH = 0.05
+TASK_SWAP_CANDIDATES = 16
+LIGHT_INTENSITY_PER_STRENGTH = 0.12
+LIGHT_TURN_DEG_PER_STRENGTH = 15.0
+LIGHT_TINT_PER_STRENGTH = 0.06
+# A blanked instruction: the env admits no empty text, and "." carries no word (see the module docstring).
+BLANK_INSTRUCTION = "."
 
 
 def _camera(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
@@ -68,6 +110,56 @@ def _object_shift(ep: dict[str, Any], strength: int, rng: np.random.Generator) -
     dx, dy = (SHIFT_M_PER_STRENGTH * strength * f(heading) for f in (math.cos, math.sin))
     for obj in ep["scene"]["objects"]:
         obj["pos"] = [float(obj["pos"][0] + dx), float(obj["pos"][1] + dy), float(obj["pos"][2])]
+
+
+def _lighting(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    brighter, turn, warmer = (1.0 if v < 0.5 else -1.0 for v in rng.random(3))
+    tint = LIGHT_TINT_PER_STRENGTH * strength * warmer
+    ep["scene"]["lighting"] = Lighting(intensity=1.0 + brighter * LIGHT_INTENSITY_PER_STRENGTH * strength,
+                                       turn=turn * LIGHT_TURN_DEG_PER_STRENGTH * strength,
+                                       tint=(1.0 + tint, 1.0, 1.0 - tint)).to_dict()
+
+
+def _distractors(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    scene = SceneSpec.from_dict(ep["scene"])
+    config = SceneConfig(catalogue=ep["catalogue"])
+    present = sorted({o.instance.class_name for o in scene.objects})
+    crowded = add_objects(scene, [present if k % 2 else None for k in range(strength)], rng, config)
+    ep["scene"] = crowded.to_dict()
+    check_instruction_fits(ep)
+
+
+def check_instruction_fits(ep: dict[str, Any]) -> None:
+    """Raise a SceneError unless the episode's program, run on its scene, picks the task's objects (the
+    env's own check on a ``scene`` + ``instruction`` reset): an added object may make a description
+    ambiguous ("the scissors" beside a second pair) or make it pick another object."""
+    try:
+        episode_from_options(SuiteEpisode.from_dict({"id": 0, **ep}).reset_options(),
+                             SceneCache(SceneConfig(catalogue=ep["catalogue"])))
+    except ConfigError:
+        raise SceneError("the instruction no longer picks only its own objects") from None
+
+
+def _words(text: str) -> set[str]:
+    return set(re.findall(r"[a-z]+", text.lower()))
+
+
+def _task_swap(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    scene = SceneSpec.from_dict(ep["scene"])
+    annotation = SceneCache(SceneConfig(catalogue=ep["catalogue"])).annotation(scene)
+    made = generate_instructions(annotation, rng, per_scene=TASK_SWAP_CANDIDATES, families=[ep["family"]])
+    own = _words(ep["instruction"])
+    found = []
+    for ins in (i.to_dict() for i in made.instructions):
+        if sorted(ins["targets"]) != sorted(ep["targets"]) and episode_level(ins, annotation) == ep["level"]:
+            words = _words(ins["instruction"])
+            found.append((1.0 - len(own & words) / len(own | words), len(found), ins))
+    if not found:
+        raise SceneError("no other instruction of the family and level on this scene")
+    found.sort(key=lambda c: c[:2])
+    ins = found[round((strength - 1) / (len(STRENGTHS) - 1) * (len(found) - 1))][2]
+    ep.update(instruction=ins["instruction"], task=dict(ins["task"]), program=list(ins["program"]),
+              program_sequence=str(ins["program_sequence"]), targets=[int(t) for t in ins["targets"]])
 
 
 def _robot_start(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
@@ -135,24 +227,42 @@ def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> No
     ep["instruction"] = " ".join(out) + ("." if ep["instruction"].endswith(".") else "")
 
 
+def _blank(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    words = ep["instruction"].rstrip(".").split()
+    dropped = min(len(words), max(1, round(SHUFFLE_FRACTION_PER_STRENGTH * strength * len(words))))
+    gone = set(rng.choice(len(words), size=dropped, replace=False).tolist())
+    kept = [w for i, w in enumerate(words) if i not in gone]
+    ep["instruction"] = " ".join(kept) + "." if kept else BLANK_INSTRUCTION
+
+
 AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
-    "camera": _camera, "object_shift": _object_shift, "robot_start": _robot_start, "sensor": _sensor,
-    "paraphrase": _paraphrase,
-    "shuffled": _shuffled}
+    "camera": _camera, "lighting": _lighting, "object_shift": _object_shift, "robot_start": _robot_start,
+    "sensor": _sensor, "paraphrase": _paraphrase, "shuffled": _shuffled, "blank": _blank,
+    "distractors": _distractors, "task_swap": _task_swap}
 # The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
-AXIS_FIELDS = {"camera": ("scene.camera",), "object_shift": ("scene.objects",), "robot_start": ("start_state",),
-               "sensor": ("sensor",),
-               "paraphrase": ("instruction",), "shuffled": ("instruction",)}
-PHYSICAL_AXES = ("object_shift", "robot_start")
+AXIS_FIELDS = {"camera": ("scene.camera",), "lighting": ("scene.lighting",), "object_shift": ("scene.objects",),
+               "robot_start": ("start_state",), "sensor": ("sensor",), "paraphrase": ("instruction",),
+               "shuffled": ("instruction",), "blank": ("instruction",), "distractors": ("scene.objects",),
+               "task_swap": ("instruction", "task", "program", "program_sequence", "targets")}
+PHYSICAL_AXES = ("object_shift", "robot_start", "distractors", "task_swap")
+# An axis's index in the seed of its directions: the first six sorted, then the others as they were added,
+# so an axis draws the same directions when another is added.
+_SEED_ORDER = ("camera", "object_shift", "paraphrase", "robot_start", "sensor", "shuffled", "blank", "lighting",
+               "distractors", "task_swap")
 
 
 def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: int = 0) -> dict[str, Any]:
     """The variant of a clean episode dict (a suite episode without ``id``) on ``axis`` at ``strength``.
 
     The variant's ``axis``, ``strength`` and ``twin`` are set; ``twin`` must carry its ``id``.
+
+    Raises:
+        SceneError: this attempt's variant cannot be made (``distractors``: no free spot, an object of
+            the scene hidden, or the instruction made ambiguous; ``task_swap``: no other instruction of the
+            family and level on the scene); another ``attempt`` may succeed.
     """
     ep = copy.deepcopy(twin)
-    axis_index = sorted(AXES).index(axis)
+    axis_index = _SEED_ORDER.index(axis)
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), axis_index, int(twin["id"]), int(strength),
                                                         int(attempt)]))
     AXES[axis](ep, strength, rng)

@@ -32,7 +32,7 @@ from samplehd.catalogue.loader import CATALOGUES as BUILT_IN_CATALOGUES
 from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.suite_file import CLEAN_AXIS, Suite, SuiteEpisode, content_hash
-from samplehd.errors import SamplehdError
+from samplehd.errors import SamplehdError, SceneError
 from samplehd.schema import Config, bounded
 from samplehd.tasks.task import family_names
 from samplehd.version import __version__
@@ -162,8 +162,12 @@ def _prove(unit: tuple[SuiteBuildConfig, int, int]) -> Candidate:
 def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int]) -> Candidate:
     """Run the oracle on a physical axis' variant of a clean episode (one work unit)."""
     config, twin, axis, strength, attempt = unit
-    variant = perturb(twin, axis, strength, config.seed, attempt)
     label = f"{axis} {strength} {twin['id']}"
+    try:
+        variant = perturb(twin, axis, strength, config.seed, attempt)
+    except SceneError as exc:  # e.g. no free spot for a distractor, or it made the instruction ambiguous
+        return Candidate(int(twin["id"]), attempt, False, f"{axis}: {_NUMBER.sub('N', str(exc))[:100]}",
+                         variant=label)
     evaluation = _cell_env(config, twin["catalogue"])
     held = _WORKER.get("runner")
     if held is None or held[0] != evaluation:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import mujoco
@@ -29,7 +30,7 @@ from samplehd.world.layout import LAYOUT, TableLayout
 from samplehd.world.robot_info import RobotInfo
 from samplehd.world.transforms import quat_from_yaw, quat_to_mat
 
-__all__ = ["SampleResult", "check_scene_config", "draw_instance", "sample_camera", "sample_scene"]
+__all__ = ["SampleResult", "add_objects", "check_scene_config", "draw_instance", "sample_camera", "sample_scene"]
 
 @dataclass
 class SampleResult:
@@ -330,3 +331,81 @@ def sample_scene(
         f"scene {index} (seed {seed}): no acceptable scene in {config.scene_attempts} attempts; "
         f"rejections {dict(rejections)}; try fewer objects or a smaller placement_margin"
     )
+
+
+def _yaw(quat: tuple[float, float, float, float]) -> float:
+    rot = quat_to_mat(np.asarray(quat, dtype=float))
+    return math.atan2(float(rot[1, 0]), float(rot[0, 0]))
+
+
+def add_objects(
+    scene: SceneSpec,
+    classes: Sequence[Sequence[str] | None],
+    rng: np.random.Generator,
+    config: SceneConfig | None = None,
+    layout: TableLayout = LAYOUT,
+    renderers: RendererCache | None = None,
+) -> SceneSpec:
+    """The scene with more objects, drawn and placed in free spots as :func:`sample_scene` places its own
+    and settled; the scene's own objects keep their poses exactly and stay in view of the scene camera,
+    and the new ones come after them (they may be partly hidden).
+
+    Args:
+        scene: a sampled (settled) scene.
+        classes: one entry per added object: the classes it is drawn from (None: ``config``'s classes);
+            an object without a free spot is redrawn up to ``config.object_tries`` times.
+        rng: the only source of randomness.
+        config: sampler options (catalogue, menus, placement margin, settling and visibility limits).
+        layout: table and workspace.
+        renderers: where the visibility check gets its renderer (default: one made and freed here).
+
+    Raises:
+        SceneError: one line saying why: no free spot, the new objects do not settle, one of them
+            touches an object of the scene, the arm at home touches one, or one hides an object of the scene.
+    """
+    config = config or SceneConfig()
+    cat = catalogue_for(config.named_classes, config.catalogue)
+    usable = _validate_classes(cat, config)
+    rejections: Counter[str] = Counter()
+    margin = config.placement_margin / 2
+    footprints = [_footprint_corners(object_facts(o.instance, cat), np.asarray(o.pos[:2], dtype=float), _yaw(o.quat),
+                                     margin) for o in scene.objects]
+    objects = list(scene.objects)
+    for names in classes:
+        for _ in range(config.object_tries):  # a redrawn object may fit where a large one did not
+            inst = draw_instance(rng, cat, config, list(names) if names else usable)
+            facts = object_facts(inst, cat)
+            spot = _place(rng, facts, footprints, config, layout, rejections)
+            if spot is not None:
+                break
+        else:
+            raise SceneError("no free spot for an added object")
+        xy, yaw, padded = spot
+        z = layout.table_height - facts.bbox_min[2] + 0.001
+        objects.append(SceneObject(inst, (float(xy[0]), float(xy[1]), float(z)), tuple(quat_from_yaw(yaw))))
+        footprints.append(padded)
+    settled = _settle(SceneSpec(scene.index, scene.seed, tuple(objects), scene.camera), config, rejections)
+    if settled is None:
+        raise SceneError(f"the added objects do not settle ({', '.join(rejections)})")
+    own = len(scene.objects)
+    moved = [np.subtract(a.pos, b.pos) for a, b in zip(settled[0].objects, scene.objects, strict=False)]
+    if any(np.max(np.abs(d)) > 0.002 for d in moved):  # settling from their own poses leaves them within µm
+        raise SceneError("an added object touches an object of the scene")
+    out = SceneSpec(scene.index, scene.seed, (*scene.objects, *settled[0].objects[own:]), scene.camera,
+                    scene.lighting)
+    model, data = compile_scene(out)
+    if not _home_clear(model, data, len(out.objects)):
+        raise SceneError("the arm at home touches an added object")
+    if renderers is None:
+        with RendererCache() as owned:
+            visible, alone = _visible_pixels(model, data, len(out.objects), config, owned)
+    else:
+        visible, alone = _visible_pixels(model, data, len(out.objects), config, renderers)
+    w, h = config.occlusion_resolution
+    min_pixels = config.min_visible_pixels * (w * h) / (640 * 360)
+    # The scene's own objects must stay in view; an added one may hide behind them.
+    hidden = [i for i in range(own)
+              if visible[i] < min_pixels or visible[i] < config.min_visible_fraction * max(alone[i], 1)]
+    if hidden:
+        raise SceneError(f"an added object hides {len(hidden)} of the scene's objects from the scene camera")
+    return out

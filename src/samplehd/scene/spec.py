@@ -15,7 +15,15 @@ import numpy as np
 from samplehd.catalogue import ObjectInstance
 from samplehd.errors import SceneError
 from samplehd.fixedmath import norm
-from samplehd.scene.world import OPERATOR_CAMERA, CameraSpec, PlacedObject, WorldConfig, compile_world
+from samplehd.scene.world import (
+    DEFAULT_LIGHTING,
+    OPERATOR_CAMERA,
+    CameraSpec,
+    Lighting,
+    PlacedObject,
+    WorldConfig,
+    compile_world,
+)
 from samplehd.world.bodies import object_body_name
 
 __all__ = ["SceneObject", "SceneSpec", "compile_scene", "object_qpos_addresses"]
@@ -71,20 +79,26 @@ class SceneSpec:
         seed: seed the scene was sampled from.
         objects: the objects with their settled poses.
         camera: the scene camera (named ``scene``) drawn around the operator viewpoint.
+        lighting: the scene lights (the kitchen's own by default; a benchmark axis changes them). A
+            scene dict holds ``lighting`` only when it is not the default, so sampled scenes read as before.
     """
 
     index: int
     seed: int
     objects: tuple[SceneObject, ...]
     camera: CameraSpec = OPERATOR_CAMERA
+    lighting: Lighting = DEFAULT_LIGHTING
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out = {
             "index": self.index,
             "seed": self.seed,
             "objects": [o.to_dict() for o in self.objects],
             "camera": self.camera.to_dict(),
         }
+        if self.lighting != DEFAULT_LIGHTING:
+            out["lighting"] = self.lighting.to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> SceneSpec:
@@ -94,6 +108,7 @@ class SceneSpec:
                 seed=int(d["seed"]),
                 objects=tuple(SceneObject.from_dict(o) for o in d["objects"]),
                 camera=CameraSpec.from_dict(d["camera"]),
+                lighting=Lighting.from_dict(d["lighting"]) if "lighting" in d else DEFAULT_LIGHTING,
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise SceneError(f"malformed scene spec: missing or bad field {exc}") from exc
@@ -104,7 +119,7 @@ class SceneSpec:
         cams = (OPERATOR_CAMERA,)
         if self.camera.name != OPERATOR_CAMERA.name:
             cams = (OPERATOR_CAMERA, self.camera)
-        return WorldConfig(timestep=timestep, cameras=cams, robot_look=robot_look)
+        return WorldConfig(timestep=timestep, cameras=cams, robot_look=robot_look, lighting=self.lighting)
 
 
 def compile_scene(scene: SceneSpec, timestep: float = 0.002,

@@ -30,6 +30,7 @@ __all__ = [
     "OPERATOR_CAMERA",
     "SCENE_CAMERA",
     "CameraSpec",
+    "Lighting",
     "PlacedObject",
     "WorldConfig",
     "build_world",
@@ -73,6 +74,28 @@ CAMERA_NAMES = (SCENE_CAMERA, OPERATOR_CAMERA.name, WRIST_CAMERA)
 
 
 @dataclass(frozen=True)
+class Lighting(Config, section="lighting"):
+    """How the scene's lights differ from the kitchen's own (the default changes nothing).
+
+    Lights only change images: the physics of a world is the same under any lighting.
+
+    Attributes:
+        intensity: factor on the diffuse and specular light of every light and of the headlight [1].
+        turn: the key light (the one that casts shadows) turned about the vertical through the table
+            centre, its position and direction together [deg, counter-clockwise seen from above].
+        tint: factor per colour channel (red, green, blue) on every light's colour [1]; (1.2, 1, 0.8)
+            is warmer, (0.8, 1, 1.2) cooler.
+    """
+
+    intensity: float = bounded(1.0, lo=0.0, hi=4.0)
+    turn: float = bounded(0.0, lo=-180.0, hi=180.0, unit="deg")
+    tint: tuple[float, float, float] = bounded((1.0, 1.0, 1.0), lo=0.0, hi=4.0)
+
+
+DEFAULT_LIGHTING = Lighting()
+
+
+@dataclass(frozen=True)
 class PlacedObject:
     """An object instance at a pose: what the world builder needs to add one scene object.
 
@@ -99,6 +122,7 @@ class WorldConfig(Config, section="world"):
             (the shapes its physics uses); the physics is the same for both.
         offscreen_size: largest offscreen render (width, height) [px].
         shadow_size: shadow map resolution [px].
+        lighting: the scene lights (:class:`Lighting`; the default is the kitchen's own).
         sleep: let resting objects sleep (MuJoCo's sleeping islands): a sleeping object costs no
             collision or constraint work until something awake touches it. Contacts of sleeping
             bodies are not in ``data.contact``; ``samplehd.world.bodies.contact_pairs`` computes them
@@ -113,6 +137,7 @@ class WorldConfig(Config, section="world"):
     offscreen_size: tuple[int, int] = bounded((1920, 1080), lo=1, unit="px")
     shadow_size: int = bounded(4096, lo=1, unit="px")
     sleep: bool = True
+    lighting: Lighting = DEFAULT_LIGHTING
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -254,7 +279,7 @@ def _add_backdrop(spec: mujoco.MjSpec) -> None:
     _box(wb, "backdrop_window_bar", (wall_x + 0.03, 0, 1.75), (0.01, 0.02, 0.36), "frame")
 
 
-def _add_lights(spec: mujoco.MjSpec) -> None:
+def _add_lights(spec: mujoco.MjSpec, lighting: Lighting = DEFAULT_LIGHTING) -> None:
     wb = spec.worldbody
     key = wb.add_light(name="key_light", pos=[0.9, 0.6, 2.8], dir=[-0.35, -0.2, -1.0])
     key.diffuse = [0.56, 0.54, 0.52]
@@ -277,6 +302,24 @@ def _add_lights(spec: mujoco.MjSpec) -> None:
     spec.visual.headlight.diffuse = [0.12, 0.12, 0.12]
     # A camera-side highlight: broad on metal and plastic, sharp on ceramic, none on rubber.
     spec.visual.headlight.specular = [0.6, 0.6, 0.6]
+    if lighting != DEFAULT_LIGHTING:
+        _relight(spec, (key, fill, window), lighting)
+
+
+def _relight(spec: mujoco.MjSpec, lights: Sequence[Any], lighting: Lighting) -> None:
+    """Scale, tint and turn the kitchen's lights (``lights[0]`` is the key light) as ``lighting`` says."""
+    tint = np.asarray(lighting.tint, dtype=float)
+    for light in lights:
+        light.diffuse = list(np.asarray(light.diffuse, dtype=float) * lighting.intensity * tint)
+        light.specular = list(np.asarray(light.specular, dtype=float) * lighting.intensity * tint)
+    head = spec.visual.headlight
+    head.ambient = list(np.asarray(head.ambient, dtype=float) * lighting.intensity * tint)
+    head.diffuse = list(np.asarray(head.diffuse, dtype=float) * lighting.intensity * tint)
+    c, s = np.cos(np.radians(lighting.turn)), np.sin(np.radians(lighting.turn))
+    key = lights[0]
+    for attr in ("pos", "dir"):
+        x, y, z = (float(v) for v in getattr(key, attr))
+        setattr(key, attr, [c * x - s * y, s * x + c * y, z])
 
 
 def build_world(
@@ -317,7 +360,7 @@ def build_world(
     )
     _add_table(spec, layout)
     _add_backdrop(spec)
-    _add_lights(spec)
+    _add_lights(spec, config.lighting)
     for cam in config.cameras:
         spec.worldbody.add_camera(
             name=cam.name, pos=list(cam.pos), quat=list(look_at_quat(cam.pos, cam.target)), fovy=cam.fovy
