@@ -375,7 +375,7 @@ CLI_CASES: list[tuple[str, list[str], tuple[str, ...]]] = [
     ("compare-bad-json", ["compare", "{cfg:bad_json.json}", "{file}"], ("bad_json.json", "invalid JSON")),
     ("compare-not-a-report", ["compare", "{instructions}", "{instructions}"],
      ("{instructions}", "not a samplehd evaluation report")),
-    ("compare-folder", ["compare", "{dir}", "{file}"], ("{dir}", "cannot read")),
+    ("compare-folder", ["compare", "{dir}", "{file}"], ("{dir}", "is a folder, not a file")),
     ("compare-missing", ["compare", "{new}.json", "{file}"], ("{new}.json", "cannot read")),
     ("compare-out-suffix", ["compare", "{instructions}", "{instructions}", "--out", "{new}.txt"],
      ("--out", ".md or .json")),

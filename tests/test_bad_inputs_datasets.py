@@ -360,8 +360,7 @@ def test_a_lerobot_path_that_cannot_be_a_folder_is_one_line(tmp_path, ckpt, frag
 
 
 def test_a_relative_export_root_is_found_from_the_checkpoint_not_the_cwd(tmp_path, monkeypatch) -> None:
-    from samplehd.envs.lerobot_policy import export_root
-
+    from samplehd.benchmark.lerobot_policy import export_root
     from samplehd.envs.lerobot_contract import EXPORT_RECORD
 
     ran_in = tmp_path / "project"

@@ -425,7 +425,6 @@ def test_a_union_of_objects_does_not_fit_one_kind(tmp_path: Path) -> None:
     templates (held out of training) fits anything."""
     import numpy as np
 
-    from samplehd.catalogue.loader import DEFAULT_CATALOGUE
     from samplehd.learn.perception import (
         Perception,
         PerceptionArchitecture,
@@ -441,7 +440,7 @@ def test_a_union_of_objects_does_not_fit_one_kind(tmp_path: Path) -> None:
     camera, table = ann["camera"], LAYOUT.table_height
     objs = ann["objects"]
     masks = [seg == o["segmentation_id"] for o in objs]
-    kinds = kind_vocab(DEFAULT_CATALOGUE)  # the catalogue _rendered_scene draws from
+    kinds = kind_vocab("procedural")  # the catalogue _rendered_scene draws from
     geo = np.stack([geometry_features(rgb, depth, m, camera, table)[1] for m in masks])[:, None]
     of = np.array([kinds.index(f"{o['name']}/{o['variant']}/{o['size']}") for o in objs])
     model = Perception(PerceptionConfig(attributes=attribute_vocab(), kinds=tuple(kinds),

@@ -136,6 +136,9 @@ def test_a_keypose_policy_config_json_of_an_earlier_version_loads_as_a_keypose_c
     assert not {"image", "chunk", "execute", "inference", "collect"} & set(written)
     assert set(written["model"]) == {"width"} and "stride" not in written["train"]
     assert KeyposeConfig.from_dict(written) == config
-    assert config.env_options() == {"obs_mode": "state", "control_mode": "steering"}
+    assert config.env_options() == {"obs_mode": "state", "control_mode": "steering",
+                                    "scene": {"catalogue": "procedural"}}
+    # One written before catalogues had names was trained on procedural scenes.
+    assert KeyposeConfig.from_dict({k: v for k, v in doc.items() if k != "catalogue"}).catalogue == "procedural"
     with pytest.raises(ConfigError, match="policy.action='steering': valid: keypose"):
         KeyposeConfig.from_dict({**doc, "action": "steering"})

@@ -161,6 +161,9 @@ def _disturbance_problems(path: Path, ep: Any, label: dict[str, Any], entry: dic
     if not np.array_equal(recovery, want):
         problems.append(f"{path}: frames/recovery does not span frames {label['recovery_first']}.."
                         f"{label['recovery_last']} of its label")
+    return problems
+
+
 def _writer_running(root: Path) -> str | None:
     """``process PID`` (or ``another process``) when a command holds the dataset's lock to change it
     (generate, rerender: :mod:`samplehd.dataset.lock`), else None. Only asked, never held."""

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
+from samplehd.catalogue.loader import CATALOGUES, LEGACY_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.learn.configuration import ModelConfig, catalogue_options
 from samplehd.schema import Config, bounded
@@ -114,7 +114,9 @@ class KeyposeConfig(ModelConfig, section="policy"):
         "image", "chunk", "execute", "inference", "collect", "model.hidden", "model.state_dim", "model.encoder",
         "train.stride", "train.loss", "train.near_weight", "train.gripper_weight", "train.frames")
 
-    catalogue: str = bounded(DEFAULT_CATALOGUE, choices=tuple(CATALOGUES))
+    # A config.json without the field was written before catalogues had names: procedural. The trainer
+    # always fills it from the dataset.
+    catalogue: str = bounded(LEGACY_CATALOGUE, choices=tuple(CATALOGUES))
     inputs: str = bounded("rgb", choices=INPUTS)
     action: str = bounded(ACTION, choices=(ACTION,))
     tokens: int = bounded(32, lo=1)

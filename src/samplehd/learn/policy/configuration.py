@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE
+from samplehd.catalogue.loader import CATALOGUES, LEGACY_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.learn.configuration import ModelConfig, catalogue_options
 from samplehd.robot.constants import WRIST_CAMERA
@@ -150,7 +150,9 @@ class PolicyConfig(ModelConfig, section="policy"):
     FORMAT: ClassVar[int] = FORMAT
     DROPPED: ClassVar[tuple[str, ...]] = ("grid", "train.init")
 
-    catalogue: str = bounded(DEFAULT_CATALOGUE, choices=tuple(CATALOGUES))
+    # A config.json without the field was written before catalogues had names: procedural. The trainer
+    # always fills it from the dataset.
+    catalogue: str = bounded(LEGACY_CATALOGUE, choices=tuple(CATALOGUES))
     inputs: str = bounded("rgb", choices=INPUTS)
     action: str = bounded("steering", choices=ACTIONS)
     image: int = bounded(0, lo=0, unit="px")
