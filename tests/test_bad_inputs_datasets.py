@@ -85,6 +85,12 @@ DAMAGES: list[tuple[str, Callable[[Path], None], str, str]] = [
     ("recorded-catalogue-ikea", lambda d: _edit_json(
         d / "info.json", lambda doc: doc["catalogue"].update(name="ikea")),
      "info.json", "procedural, shop-vrb"),
+    ("scene-object-unknown-class", lambda d: _edit_json(
+        d / "scenes.json", lambda doc: doc["scenes"][0]["objects"][0].update(shape="teapot")),
+     "scenes.json", "scene 0: objects[0].shape='teapot': not a class of the dataset's catalogue or config; valid: "),
+    ("scene-spec-unknown-class", lambda d: _edit_json(
+        d / "scenes.json", lambda doc: doc["scenes"][1]["spec"]["objects"][0]["instance"].update(class_name="teapot")),
+     "scenes.json", "scene 1: spec.objects[0].instance.class_name='teapot'"),
 ]
 
 
