@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 from PIL import Image
 
-from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE, load_catalogue
+from samplehd.catalogue.loader import CATALOGUES, LEGACY_CATALOGUE, load_catalogue
 from samplehd.dataset.config import GenerateConfig
 from samplehd.dataset.container import camera_settings, read_episode
 from samplehd.dataset.layout import (
@@ -253,14 +253,16 @@ def _image_problem(path: Path, camera: dict[str, Any], what: str) -> str | None:
 
 
 def known_classes(info: dict[str, Any]) -> tuple[str, ...] | None:
-    """The object classes a dataset's scenes may hold: its built-in catalogue's (``scene.catalogue`` of
-    the stored config) and the imported classes the config names (``scene.classes``,
-    ``scene.menu_overrides``); None when the stored config names no built-in catalogue (a problem
-    :func:`validate_stored_config` reports)."""
+    """The object classes a dataset's scenes may hold: its built-in catalogue's (the one ``info.json``
+    records, as :attr:`DatasetReader.catalogue <samplehd.dataset.reader.DatasetReader.catalogue>` reads
+    it) and the imported classes the stored config names (``scene.classes``, ``scene.menu_overrides``);
+    None when that is no built-in catalogue (a problem :func:`validate_stored_config` reports)."""
     config = info.get("config")
     scene = config.get("scene") if isinstance(config, dict) else None
     scene = scene if isinstance(scene, dict) else {}
-    name = scene.get("catalogue", DEFAULT_CATALOGUE)
+    recorded = info.get("catalogue")
+    name = recorded.get("name") if isinstance(recorded, dict) and isinstance(recorded.get("name"), str) \
+        else scene.get("catalogue", LEGACY_CATALOGUE)
     if not isinstance(name, str) or name not in CATALOGUES:
         return None
     named = [n for n in (*(scene.get("classes") or ()), *(scene.get("menu_overrides") or {})) if isinstance(n, str)]
