@@ -85,6 +85,12 @@ DAMAGES: list[tuple[str, Callable[[Path], None], str, str]] = [
     ("recorded-catalogue-ikea", lambda d: _edit_json(
         d / "info.json", lambda doc: doc["catalogue"].update(name="ikea")),
      "info.json", "procedural, shop-vrb"),
+    ("scene-object-unknown-class", lambda d: _edit_json(
+        d / "scenes.json", lambda doc: doc["scenes"][0]["objects"][0].update(shape="teapot")),
+     "scenes.json", "scene 0: objects[0].shape='teapot': not a class of the dataset's catalogue or config; valid: "),
+    ("scene-spec-unknown-class", lambda d: _edit_json(
+        d / "scenes.json", lambda doc: doc["scenes"][1]["spec"]["objects"][0]["instance"].update(class_name="teapot")),
+     "scenes.json", "scene 1: spec.objects[0].instance.class_name='teapot'"),
 ]
 
 
@@ -533,6 +539,24 @@ def test_validate_replay_shows_progress_and_writes_a_per_episode_report(scene_im
     assert doc["agrees"] and [e["index"] for e in doc["episodes"]] == [0] and doc["episodes"][0]["steps"] > 0
     _refused(["validate", str(scene_image_dataset), "--out", str(tmp_path / "r.json")], ("--out", "--replay"),
              capsys, tmp_path)
+
+
+def test_validate_replay_on_two_workers_gives_the_same_report(scene_image_dataset, tmp_path, capsys) -> None:
+    reports = []
+    for workers in ("1", "2"):
+        report = tmp_path / f"report{workers}.json"
+        assert main(["validate", str(scene_image_dataset), "--replay", "--episodes", "2", "--workers", workers,
+                     "--out", str(report)]) == 0
+        err = capsys.readouterr().err
+        assert sorted(line.split(": ", 1)[1] for line in err.splitlines() if line.startswith("replayed ")) == [
+            "episode 0 (pick_up) agrees", "episode 1 (pick_up) agrees"], err
+        assert "replayed 2/2: " in err
+        reports.append(report.read_bytes())
+    assert reports[0] == reports[1]
+    assert [e["index"] for e in json.loads(reports[1])["episodes"]] == [0, 1]
+    _refused(["validate", str(scene_image_dataset), "--workers", "2"], ("--workers", "--replay"), capsys, tmp_path)
+    _refused(["validate", str(scene_image_dataset), "--replay", "--workers", "0"], ("--workers", "0"), capsys,
+             tmp_path)
 
 
 def test_generate_takes_families_as_a_flag(tmp_path, capsys) -> None:

@@ -149,6 +149,13 @@ def _pool_map(fn: Callable[[Any], Any], units: Iterator[Any], workers: int) -> I
         yield from _windowed(units, window, pending, lambda unit: pool.submit(fn, unit),
                              lambda handles: wait(handles, return_when=FIRST_COMPLETED)[0],
                              lambda fut: fut.result())
+    except KeyboardInterrupt:
+        # Ctrl-C reaches the workers too, but a SIGTERM (samplehd.commands' sigterm_as_interrupt) only
+        # this process: stop the units in flight rather than wait for them, as an interrupted run is
+        # resumed from its finished units anyway.
+        for process in list((getattr(pool, "_processes", None) or {}).values()):
+            process.terminate()
+        raise
     finally:
         for fut in pending:
             fut.cancel()

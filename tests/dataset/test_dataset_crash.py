@@ -56,6 +56,28 @@ def test_kill9_mid_run_then_resume_gives_the_uninterrupted_dataset(micro_dataset
     assert not [p for p in (out / "episodes").iterdir() if p.name.startswith(".")]
 
 
+@pytest.mark.slow  # about 25 s: a generate in a subprocess
+def test_sigterm_mid_run_stops_cleanly_without_leaked_semaphores(tmp_path: Path) -> None:
+    out = tmp_path / "ds"
+    cmd = [*CLI, "generate", "--preset", "tiny", "--config", str(micro_config_file(tmp_path)), "--out", str(out),
+           "--workers", "2", "--quiet"]
+    proc = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        # Once the first scene is written, the worker pool (and its queues' semaphores) is running.
+        started = _wait_for(lambda: (out / "scenes").is_dir() and any((out / "scenes").iterdir()), timeout=240)
+        assert started, proc.stderr.read().decode() if proc.poll() is not None else "no progress in 240 s"
+        proc.send_signal(signal.SIGTERM)  # to the coordinating process only, as `kill PID` does
+        _, err = proc.communicate(timeout=120)  # to EOF: the resource tracker's warnings included
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    text = err.decode()
+    assert "leaked semaphore" not in text and "Traceback" not in text, text
+    assert proc.returncode == 130 and text.strip().endswith("samplehd generate: interrupted"), text
+    assert json.loads((out / "info.json").read_text())["status"] == "in_progress"
+
+
 def _small_filesystem(tmp_path: Path, kib: int) -> tuple[Path, list[str]]:
     """A directory on a tiny tmpfs (when we may mount) or a `ulimit -f` prefix for the command."""
     mnt = tmp_path / "small"

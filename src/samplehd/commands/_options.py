@@ -7,7 +7,10 @@ from __future__ import annotations
 import argparse
 import math
 import re
-from collections.abc import Iterable, Mapping, Sequence
+import signal
+import threading
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -16,7 +19,7 @@ from samplehd.errors import ConfigError, SamplehdError
 C = TypeVar("C")
 
 __all__ = ["DefaultsHelpFormatter", "add_render_preset", "check_int", "check_names", "check_number", "check_out_dir",
-           "check_out_file", "config_from_options", "in_flags", "option_flags", "split_names"]
+           "check_out_file", "config_from_options", "in_flags", "option_flags", "sigterm_as_interrupt", "split_names"]
 
 
 _STATES_DEFAULT = re.compile(r"\bdefault[: ]", re.IGNORECASE)  # "(default 10)", "default: all", not "by default)"
@@ -175,3 +178,24 @@ def check_out_dir(flag: str, path: Path | None, empty: bool = False) -> None:
             break
     if empty and path.is_dir() and any(path.iterdir()):
         raise ConfigError(f"{flag} {path}: exists and is not empty; choose a new or empty folder")
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+@contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """Within the block, SIGTERM stops the command as Ctrl-C does: the interrupt unwinds through the
+    command's cleanup (worker pools shut down, their queues' semaphores released) instead of the default
+    action ending the process on the spot, which leaves those semaphores to Python's resource tracker
+    and its "leaked semaphore" warning. The previous handler is restored after the block; off the main
+    thread (where no handler can be set) the block runs unchanged."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)

@@ -5,6 +5,11 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
 from samplehd.commands._options import add_render_preset, check_int, check_out_file
 from samplehd.dataset.container import read_episode
@@ -20,6 +25,9 @@ from samplehd.render.video import write_mp4
 from samplehd.scene.spec import SceneSpec, compile_scene
 from samplehd.scene.world import CAMERA_NAMES, OPERATOR_CAMERA
 
+if TYPE_CHECKING:
+    import mujoco
+
 HELP = "re-render a recorded episode to MP4 from its recorded states"
 
 
@@ -32,6 +40,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--height", type=int, default=360, help="image height [px]")
     add_render_preset(parser, PRESET_NAMES, "fast")
     parser.add_argument("--sheet", type=Path, help="also write a per-subtask contact sheet (.png)")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+# Frames rendered between two updates of the progress bar.
+PROGRESS_FRAMES = 10
 
 
 def run(args: argparse.Namespace) -> int:
@@ -50,11 +63,30 @@ def run(args: argparse.Namespace) -> int:
     model, _ = compile_scene(scene, 1.0 / float(ep.info.get("physics_hz", 500.0)))
     if args.camera not in camera_names(model):
         raise ConfigError(f"--camera {args.camera!r}: unknown; valid: {', '.join(camera_names(model))}")
-    images = render_states(model, ep.frames, ImageSpec(args.width, args.height, args.render_preset, (args.camera,)))
-    rgb = images[args.camera]["rgb"]
+    rgb = _render_with_progress(model, ep.frames, ImageSpec(args.width, args.height, args.render_preset,
+                                                            (args.camera,)), args.camera, args.quiet)
     write_mp4(args.out, rgb, float(ep.info.get("control_hz", 20.0)))
     print(f"wrote {args.out} ({len(rgb)} frames)")
     if args.sheet:
         save_rgb(args.sheet, subtask_contact_sheet(model, ep, ImageSpec(320, 180, args.render_preset, (args.camera,))))
         print(f"wrote {args.sheet}")
     return 0
+
+
+def _render_with_progress(model: mujoco.MjModel, frames: dict[str, np.ndarray], image: ImageSpec, camera: str,
+                          quiet: bool) -> np.ndarray:
+    """The episode's RGB frames (T, H, W, 3), with a progress bar on stderr updated every
+    :data:`PROGRESS_FRAMES` frames (none when ``quiet``)."""
+    total = len(frames["qpos"])
+    rgb: list[np.ndarray] = []
+    with Progress(TextColumn("replay"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
+                  TimeRemainingColumn(), console=Console(stderr=True, quiet=quiet), disable=quiet) as bar:
+        task = bar.add_task("frames", total=total)
+
+        def keep(cam: str, images: dict[str, np.ndarray]) -> None:
+            rgb.append(images["rgb"].copy())  # the array is reused for the next frame
+            if len(rgb) % PROGRESS_FRAMES == 0 or len(rgb) == total:
+                bar.update(task, completed=len(rgb))
+
+        render_states(model, frames, image, on_frame=keep)
+    return np.stack(rgb)

@@ -17,6 +17,7 @@ from samplehd.dataset.validate import validate_dataset
 from samplehd.envs.replay_check import EpisodeReplay, ReplayReport, replay_dataset
 from samplehd.errors import ConfigError
 from samplehd.fileio import write_json_atomic
+from samplehd.workers import Backend
 
 HELP = "verify every file of a dataset against its metadata (exit 1 on problems); --replay: in the env"
 
@@ -30,6 +31,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--episodes", type=int, metavar="N", help="with --replay: only the first N episodes")
     parser.add_argument("--out", type=Path, metavar="REPORT.json",
                         help="with --replay: also write the per-episode report (JSON)")
+    parser.add_argument("--workers", type=int, metavar="N",
+                        help="with --replay: worker processes that replay episodes (default 1)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -39,6 +42,9 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("--episodes: only with --replay")
     if args.out is not None and not args.replay:
         raise ConfigError(f"--out {args.out}: the per-episode report of --replay; only with --replay")
+    check_int("--workers", args.workers, 1)
+    if args.workers is not None and not args.replay:
+        raise ConfigError(f"--workers {args.workers}: the worker processes of --replay; only with --replay")
     check_out_file("--out", args.out, (".json",))
     check_outputs({"--out": args.out}, {"DIR": args.dir})
     problems, counts = validate_dataset(args.dir, deep=args.deep)
@@ -54,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
           f"{counts['frames']} frames in {args.dir}")
     if not args.replay:
         return 0
-    report = replay_dataset(args.dir, args.episodes, on_episode=_show_replayed)
+    report = replay_dataset(args.dir, args.episodes, on_episode=_show_replayed,
+                            backend=Backend("local", args.workers or 1))
     print_replay(report)
     if args.out is not None:
         write_json_atomic(args.out, report.to_dict(), indent=1)

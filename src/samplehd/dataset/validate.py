@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 from PIL import Image
 
-from samplehd.catalogue.loader import CATALOGUES
+from samplehd.catalogue.loader import CATALOGUES, LEGACY_CATALOGUE, load_catalogue
 from samplehd.dataset.config import GenerateConfig
 from samplehd.dataset.container import camera_settings, read_episode
 from samplehd.dataset.layout import (
@@ -38,7 +38,8 @@ from samplehd.fileio import file_sha256, not_a_regular_file, resolve_path
 from samplehd.record.disturbances import LABEL_FIELDS
 from samplehd.render.keyframes import keyframe_indices
 
-__all__ = ["validate_dataset", "validate_episode_file", "validate_scene_files", "validate_stored_config"]
+__all__ = ["known_classes", "validate_dataset", "validate_episode_file", "validate_scene_files",
+           "validate_stored_config"]
 
 
 def _load(path: Path, problems: list[str]) -> Any:
@@ -254,13 +255,52 @@ def _image_problem(path: Path, camera: dict[str, Any], what: str) -> str | None:
     return None
 
 
-def validate_scene_files(root: Path, scenes: list[dict[str, Any]], deep: bool = False) -> list[str]:
+def known_classes(info: dict[str, Any]) -> tuple[str, ...] | None:
+    """The object classes a dataset's scenes may hold: its built-in catalogue's (the one ``info.json``
+    records, as :attr:`DatasetReader.catalogue <samplehd.dataset.reader.DatasetReader.catalogue>` reads
+    it) and the imported classes the stored config names (``scene.classes``, ``scene.menu_overrides``);
+    None when that is no built-in catalogue (a problem :func:`validate_stored_config` reports)."""
+    config = info.get("config")
+    scene = config.get("scene") if isinstance(config, dict) else None
+    scene = scene if isinstance(scene, dict) else {}
+    recorded = info.get("catalogue")
+    name = recorded.get("name") if isinstance(recorded, dict) and isinstance(recorded.get("name"), str) \
+        else scene.get("catalogue", LEGACY_CATALOGUE)
+    if not isinstance(name, str) or name not in CATALOGUES:
+        return None
+    named = [n for n in (*(scene.get("classes") or ()), *(scene.get("menu_overrides") or {})) if isinstance(n, str)]
+    builtin = tuple(load_catalogue(name=name).classes)
+    return builtin + tuple(n for n in named if n not in builtin)
+
+
+def _class_problems(where: str, scene: dict[str, Any], valid: tuple[str, ...]) -> list[str]:
+    """An object of the scene (``objects[k].shape`` or ``spec.objects[k].instance.class_name``) of a class
+    not in ``valid``: the first one, in one line."""
+    spec = scene.get("spec")
+    placed = spec.get("objects") if isinstance(spec, dict) else None
+    named = [(f"objects[{k}].shape", o.get("shape")) for k, o in enumerate(scene.get("objects") or [])
+             if isinstance(o, dict)]
+    named += [(f"spec.objects[{k}].instance.class_name", (o.get("instance") or {}).get("class_name"))
+              for k, o in enumerate(placed or []) if isinstance(o, dict) and isinstance(o.get("instance"), dict)]
+    for field, value in named:
+        if value is not None and value not in valid:
+            return [f"{where}: {field}={value!r}: not a class of the dataset's catalogue or config; "
+                    f"valid: {', '.join(valid)}"]
+    return []
+
+
+def validate_scene_files(root: Path, scenes: list[dict[str, Any]], deep: bool = False,
+                         info: dict[str, Any] | None = None) -> list[str]:
     """Problems of the scenes' camera records and image files (``images/``, ``depth/``,
     ``segmentation/``: what the scene trainers and the exporters read): each present, and with ``deep``
-    decoded and of the size of the scene's camera."""
+    decoded and of the size of the scene's camera; with ``info`` (the dataset's ``info.json``) also each
+    object's class, one of :func:`known_classes`."""
     problems: list[str] = []
+    valid = known_classes(info) if info is not None else None
     for s in scenes:
         where = f"{root / SCENES_FILE}: scene {s.get('image_index')}"
+        if valid is not None:
+            problems.extend(_class_problems(where, s, valid))
         camera_problems = _camera_problems(where, s.get("camera"))
         problems.extend(camera_problems)
         name = s.get("image_filename")
@@ -335,7 +375,7 @@ def validate_dataset(root: str | Path, deep: bool = False,
             problems.append(f"{root / SCENES_FILE}: image_index values are not 0..{len(scenes) - 1} in order")
         if counts.get("scenes") != len(scenes):
             problems.append(f"{root / SCENES_FILE}: {len(scenes)} scenes, info.json says {counts.get('scenes')}")
-        problems.extend(validate_scene_files(root, scenes, deep))
+        problems.extend(validate_scene_files(root, scenes, deep, info))
         for s in scenes:
             stem = Path(str(s.get("image_filename", ""))).stem
             if not (root / SCENE_DIR / f"{stem}.json").exists():

@@ -27,6 +27,7 @@ from samplehd.dataset.reader import DatasetReader
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import ConfigError, DatasetError, SamplehdError
 from samplehd.fixedmath import norm
+from samplehd.workers import Backend
 from samplehd.world.bodies import object_body_name
 
 __all__ = ["EpisodeReplay", "FamilyReplay", "ReplayReport", "replay_dataset", "replay_env", "replay_episode"]
@@ -189,12 +190,16 @@ def _apply_push(env: TabletopEnv, push: tuple[int, int, int, np.ndarray] | None,
 
 
 def replay_dataset(root: str | Path, episodes: int | None = None,
-                   on_episode: Callable[[int, int, EpisodeReplay], None] | None = None) -> ReplayReport:
-    """Replay the first ``episodes`` episodes of a dataset (all when None); ``on_episode(done, total,
-    replay)`` after each (progress).
+                   on_episode: Callable[[int, int, EpisodeReplay], None] | None = None,
+                   backend: Backend | None = None) -> ReplayReport:
+    """Replay the first ``episodes`` episodes of a dataset (all when None) on ``backend`` (default: in
+    this process); ``on_episode(done, total, replay)`` after each, in the order they finish (progress).
+
+    The report lists the episodes in index order whichever worker replayed them: the same for any number
+    of workers.
 
     Raises:
-        DatasetError: ``root`` is not a dataset directory.
+        DatasetError: ``root`` is not a dataset directory, or an episode cannot be replayed.
         ConfigError: ``episodes`` is not a positive integer, or the dataset has no episodes.
     """
     if episodes is not None and (isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1):
@@ -203,14 +208,43 @@ def replay_dataset(root: str | Path, episodes: int | None = None,
     count = len(reader.episodes)
     if count == 0:
         raise ConfigError(f"{reader.root}: the dataset has no episodes to replay")
-    env = replay_env(reader)
+    env = replay_env(reader)  # a config that makes no environment is refused before any worker starts
     total = min(count, episodes or count)
+    backend = backend or Backend()
+    if backend.kind == "local" and backend.workers > total:  # no idle worker processes to start
+        backend = Backend("local", total)
+    _close_worker_env()
+    if backend.kind == "local" and backend.workers == 1:  # units run in this process: keep the env
+        _worker_env.append((str(reader.root), reader, env))
+    else:
+        env.close()
     done: list[EpisodeReplay] = []
     try:
-        for i in range(total):
-            done.append(replay_episode(env, reader, i))
+        for _, replayed in backend.map(_replay_unit, ((str(reader.root), i) for i in range(total))):
+            done.append(replayed)
             if on_episode is not None:
-                on_episode(len(done), total, done[-1])
+                on_episode(len(done), total, replayed)
     finally:
-        env.close()
-    return ReplayReport(tuple(done))
+        _close_worker_env()
+    return ReplayReport(tuple(sorted(done, key=lambda e: e.index)))
+
+
+# A worker's environment, kept from one unit to the next (building one compiles the scene model):
+# (dataset root, its reader, the environment).
+_worker_env: list[tuple[str, DatasetReader, TabletopEnv]] = []
+
+
+def _replay_unit(unit: tuple[str, int]) -> EpisodeReplay:
+    """Work unit of :func:`replay_dataset`: replay episode ``index`` of the dataset at ``root``."""
+    root, index = unit
+    if not _worker_env or _worker_env[0][0] != root:
+        _close_worker_env()
+        reader = DatasetReader(root)
+        _worker_env.append((root, reader, replay_env(reader)))
+    _, reader, env = _worker_env[0]
+    return replay_episode(env, reader, index)
+
+
+def _close_worker_env() -> None:
+    while _worker_env:
+        _worker_env.pop()[2].close()

@@ -101,7 +101,7 @@ def check_scene_inputs(reader: Any) -> None:
         ConfigError: ``dataset=DIR: FILE: what is wrong``.
     """
     problems = validate_stored_config(reader.root, reader.info) + validate_scene_files(reader.root, reader.scenes,
-                                                                                        deep=True)
+                                                                                        deep=True, info=reader.info)
     if problems:
         more = f" (and {len(problems) - 1} more: samplehd validate --deep lists them)" if len(problems) > 1 else ""
         raise ConfigError(f"dataset={reader.root}: {problems[0]}{more}", field="dataset")
