@@ -566,3 +566,17 @@ def test_generate_takes_families_as_a_flag(tmp_path, capsys) -> None:
     assert json.loads((out / "info.json").read_text())["config"]["instructions"]["families"] == ["pick_up"]
     _refused(["generate", "--out", str(tmp_path / "other"), "--families", "bogus", "--quiet"],
              ("--families", "bogus", "pick_up"), capsys, tmp_path)
+
+
+def test_an_imported_class_the_config_names_is_a_known_class() -> None:
+    """Imported classes take part only where a config names them (``scene.classes``): such an object is
+    no unknown class, and one the config does not name still is."""
+    from samplehd.dataset.validate import known_classes, validate_scene_files
+
+    info = {"catalogue": {"name": "procedural"}, "config": {"scene": {"classes": ["mug", "teapot"]}}}
+    valid = known_classes(info)
+    assert valid is not None and "teapot" in valid and "mug" in valid
+    scene = {"image_index": 0, "objects": [{"shape": "teapot"}]}
+    assert not [p for p in validate_scene_files(Path("ds"), [scene], info=info) if "not a class" in p]
+    other = {"image_index": 0, "objects": [{"shape": "kettle"}]}
+    assert [p for p in validate_scene_files(Path("ds"), [other], info=info) if "objects[0].shape='kettle'" in p]
