@@ -21,7 +21,7 @@ from types import ModuleType
 from typing import NoReturn
 
 from samplehd import commands
-from samplehd.commands._options import DefaultsHelpFormatter, in_flags, option_flags
+from samplehd.commands._options import DefaultsHelpFormatter, in_flags, option_flags, sigterm_as_interrupt
 from samplehd.errors import MissingExtraError, SamplehdError
 from samplehd.version import __version__
 
@@ -104,7 +104,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args._run(args) or 0)
+        # SIGTERM unwinds like Ctrl-C, so every command's worker pools shut down and release their queues.
+        with sigterm_as_interrupt():
+            return int(args._run(args) or 0)
     except SamplehdError as exc:
         if args.debug:
             traceback.print_exc()

@@ -16,7 +16,7 @@ from typing import Any
 from rich.console import Console
 from rich.table import Table
 
-from samplehd.commands._options import sigterm_as_interrupt, split_names
+from samplehd.commands._options import split_names
 from samplehd.dataset.config import PRESETS, GenerateConfig, load_config, preset_config
 from samplehd.dataset.generate import GenerateSummary, generate_dataset
 from samplehd.dataset.layout import INFO_FILE
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     backend = Backend(args.backend, args.workers, args.ray_address)
     backend.connect()  # before anything is written
     was_complete = args.resume and _is_complete(args.out)
-    with sigterm_as_interrupt(), RichProgress(disable=args.quiet) as progress:
+    with RichProgress(disable=args.quiet) as progress:
         progress.note(f"generating into {args.out} ({backend.describe()}, render {config.render.mode}"
                       f"{'' if not config.render.enabled else f' {config.render.width}x{config.render.height}'})")
         summary = generate_dataset(args.out, config, backend, resume=args.resume, progress=progress)
