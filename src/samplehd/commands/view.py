@@ -12,8 +12,6 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import json
-import signal
-import threading
 from pathlib import Path
 
 from samplehd.dataset.layout import FORMAT_VERSION, INFO_FILE
@@ -52,7 +50,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"samplehd view: {status['root']} — {counts['scenes']} scenes, {counts['instructions']} instructions, "
           f"{counts['episodes']} episodes")
     print(f"serving on {server.url} (Ctrl-C to stop)", flush=True)
-    _stop_on_sigterm()
+    # SIGTERM stops the server as Ctrl-C does (cli.main: sigterm_as_interrupt); a server started in the
+    # background of a script gets SIGINT ignored by the shell, so `kill` is how it is stopped there.
     try:
         server.serve_forever()
     except KeyboardInterrupt:
@@ -60,17 +59,6 @@ def run(args: argparse.Namespace) -> int:
     finally:
         server.server_close()
     return 0
-
-
-def _interrupt(signum: int, frame: object) -> None:
-    raise KeyboardInterrupt
-
-
-def _stop_on_sigterm() -> None:
-    """SIGTERM stops the server as Ctrl-C does (a server started in the background of a script gets
-    SIGINT ignored by the shell, so ``kill`` is how it is stopped there)."""
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, _interrupt)
 
 
 def _check_host(host: str, allow_remote: bool) -> None:
