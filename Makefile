@@ -4,7 +4,10 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 DEV_STAMP := $(VENV)/.installed-dev
-PYTEST_ARGS ?= -m "not slow"
+# Two test processes, one per core of the 2-core CI machine; a file's tests stay in one process so
+# that its module fixtures are made once (TEST_WORKERS=0 runs them in this process).
+TEST_WORKERS ?= 2
+PYTEST_ARGS ?= -m "not slow" -n $(TEST_WORKERS) --dist loadfile
 
 GL_DEBS := libegl1 libegl-mesa0 libgl1-mesa-dri libosmesa6
 BROWSER_DEBS := chromium chromium-driver
