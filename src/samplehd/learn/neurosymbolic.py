@@ -31,7 +31,7 @@ from samplehd.learn.parser import InstructionParser
 from samplehd.learn.perception import Perception
 from samplehd.learn.training import set_seed
 from samplehd.render.renderer import SceneRenderer, camera_intrinsics, camera_pose
-from samplehd.tasks.task import parse_task
+from samplehd.tasks.task import family_of_program, parse_task
 
 __all__ = ["NeuroSymbolicPolicy", "policy_for_evaluation"]
 
@@ -222,11 +222,8 @@ class NeuroSymbolicPolicy(OraclePolicy):
             diag["stage"] = "parse" if not parse_ok else ("perception" if not perception_ok else "execution")
         if chosen is None:
             return None, diag
-        family = chosen["type"]
-        if family == "place" and len(program) == 3 and program[2].startswith("filter_table["):
-            family = "remove"
         try:
-            return parse_task(chosen, family), diag
+            return parse_task(chosen, family_of_program(chosen["type"], program)), diag
         except Exception as exc:  # noqa: BLE001 - a malformed predicted task is a failed decision
             diag["error"] = str(exc)
             return None, diag

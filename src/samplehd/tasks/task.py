@@ -58,6 +58,7 @@ __all__ = [
     "Task",
     "TaskFamily",
     "family_names",
+    "family_of_program",
     "get_family",
     "parse_part",
     "parse_relation",
@@ -101,6 +102,8 @@ class TaskFamily:
         support_of: the object that object ``obj`` must end on or in (-1: the table or the gripper).
         runs_as: the family whose program a task of this family is written as (remove runs as a place
             to the opposite part), with ``adopt`` turning such a task into one of this family.
+        written_as: whether a flat program (SAMPLE-HD's tokens, action first) of the ``runs_as`` family
+            stands for this family (remove: a place of everything on one table part); None: never.
     """
 
     name: str
@@ -118,6 +121,7 @@ class TaskFamily:
     support_of: Callable[[Task, int], int] = lambda task, obj: -1
     runs_as: str | None = None
     adopt: Callable[[Task], Task] | None = None
+    written_as: Callable[[Sequence[str]], bool] | None = None
 
     @property
     def places(self) -> bool:
@@ -141,6 +145,20 @@ def register_family(family: TaskFamily) -> TaskFamily:
 def family_names() -> tuple[str, ...]:
     """Every registered family, in their declared order."""
     return tuple(sorted(_REGISTRY, key=lambda n: _REGISTRY[n].order))
+
+
+def family_of_program(action: str, program: Sequence[str]) -> str:
+    """The family a flat program whose action is of family ``action`` stands for: a family that runs
+    as ``action`` and claims the program (:attr:`TaskFamily.written_as`), else ``action`` itself.
+
+    Args:
+        action: the family of the program's action (``place`` for a remove).
+        program: the flat program's tokens, action first (``["place[back]", "scene", "filter_table[front]"]``).
+    """
+    for family in _REGISTRY.values():
+        if family.runs_as == action and family.written_as is not None and family.written_as(program):
+            return family.name
+    return action
 
 
 def get_family(name: str) -> TaskFamily:
