@@ -12,8 +12,8 @@ written so far (skipping temporary files) and the instruction candidates they be
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -33,11 +33,12 @@ from samplehd.dataset.layout import (
 )
 from samplehd.dataset.outputs import inside_dataset
 from samplehd.dataset.validate import validate_episode_file
-from samplehd.errors import DatasetError
+from samplehd.errors import DatasetError, SamplehdError
 from samplehd.fileio import not_a_regular_file, read_json
 from samplehd.record.episode import Episode
+from samplehd.tasks.task import Task, parse_task
 
-__all__ = ["DatasetReader", "EpisodeEntry"]
+__all__ = ["DatasetReader", "EpisodeEntry", "EpisodeMeta"]
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,93 @@ class EpisodeEntry:
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> EpisodeEntry:
         return cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
+
+
+# The root attributes an episode file holds (in the writer's order), the ones read into typed fields.
+_META_ATTRS = ("format_version", "scene_index", "instruction_index", "family", "seed", "success", "num_frames",
+               "subtasks", "info", "slot", "instruction", "task")
+
+
+@dataclass(frozen=True)
+class EpisodeMeta:
+    """An episode file's attributes, without frames or images
+    (:func:`samplehd.dataset.container.read_meta`, typed).
+
+    Attributes:
+        stem: the file's name without its suffix.
+        format_version: the file's format version.
+        scene_index: index into ``scenes.json``.
+        instruction_index: the episode's index in the dataset (its ``instruction_index``).
+        family: task family.
+        seed: seed of the episode's randomness.
+        success: the checker's verdict on the final state.
+        num_frames: recorded frames.
+        subtasks: subtask names, indexed by the frames' ``subtask_index``.
+        info: checker report, grasp choices, control rate, disturbance, ... (free-form JSON object).
+        slot: the instruction's position among its scene's candidates (None: not recorded).
+        instruction: the instruction's text (None: not recorded).
+        task: the task (None: not recorded).
+        render: the render settings of the stored images (None: no images).
+        images: stored modalities per camera.
+        image_frames: per camera with images at keyframes only, the frames that have them.
+        extra: any other root attributes of the file, in its order.
+    """
+
+    stem: str
+    format_version: str
+    scene_index: int
+    instruction_index: int
+    family: str
+    seed: int
+    success: bool
+    num_frames: int
+    subtasks: tuple[str, ...]
+    info: dict[str, Any]
+    slot: int | None = None
+    instruction: str | None = None
+    task: Task | None = None
+    render: dict[str, Any] | None = None
+    images: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    image_frames: dict[str, tuple[int, ...]] = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> EpisodeMeta:
+        """From :func:`samplehd.dataset.container.read_meta`'s mapping."""
+        task = d.get("task")
+        family = str(d["family"])
+        return cls(
+            stem=str(d["stem"]), format_version=str(d.get("format_version", "")), scene_index=int(d["scene_index"]),
+            instruction_index=int(d["instruction_index"]), family=family, seed=int(d["seed"]),
+            success=bool(d["success"]), num_frames=int(d["num_frames"]),
+            subtasks=tuple(str(x) for x in d["subtasks"]), info=dict(d["info"]),
+            slot=int(d["slot"]) if "slot" in d else None,
+            instruction=str(d["instruction"]) if "instruction" in d else None,
+            task=parse_task(task, family) if isinstance(task, Mapping) else None,
+            render=dict(d["render"]) if isinstance(d.get("render"), Mapping) else None,
+            images={c: tuple(m) for c, m in (d.get("images") or {}).items()},
+            image_frames={c: tuple(f) for c, f in (d.get("image_frames") or {}).items()},
+            extra={k: v for k, v in d.items()
+                   if k not in (*_META_ATTRS, "stem", "render", "images", "image_frames")})
+
+    def to_dict(self) -> dict[str, Any]:
+        """As :func:`samplehd.dataset.container.read_meta` reads it: the task as the file stores it
+        (the executor's ``{type, objects, subject, relation}``, keys sorted)."""
+        d: dict[str, Any] = {"stem": self.stem, "format_version": self.format_version,
+                             "scene_index": self.scene_index, "instruction_index": self.instruction_index,
+                             "family": self.family, "seed": self.seed, "success": self.success,
+                             "num_frames": self.num_frames, "subtasks": list(self.subtasks), "info": self.info}
+        if self.slot is not None:
+            d["slot"] = self.slot
+        if self.instruction is not None:
+            d["instruction"] = self.instruction
+        if self.task is not None:
+            d["task"] = dict(sorted(self.task.to_program_dict().items()))
+        d.update(self.extra)
+        d["render"] = self.render
+        d["images"] = {c: list(m) for c, m in self.images.items()}
+        d["image_frames"] = {c: list(f) for c, f in self.image_frames.items()}
+        return d
 
 
 class DatasetReader:
@@ -289,15 +377,19 @@ class DatasetReader:
 
         return read_episode(self.episode_path(index), images=images, instruction_index=index)
 
-    def episode_meta(self, index: int) -> dict[str, Any]:
-        """Episode ``index``'s attributes without frames or images (see
-        :func:`samplehd.dataset.container.read_meta`): stem, family, success, num_frames, subtasks,
-        info (checker report, control_hz), task, render settings and stored ``images`` {camera:
-        [modalities]} (empty, with ``render`` None, for an episode stored without images)."""
+    def episode_meta(self, index: int) -> EpisodeMeta:
+        """Episode ``index``'s attributes without frames or images: stem, family, success, num_frames,
+        subtasks, info (checker report, control_hz), task, render settings and stored ``images``
+        {camera: modalities} (empty, with ``render`` None, for an episode stored without images).
 
-        meta = read_meta(self.episode_path(index))
-        meta["instruction_index"] = index
-        return meta
+        Raises:
+            DatasetError: no such episode, or its file is truncated or corrupted.
+        """
+        path = self.episode_path(index)
+        try:
+            return replace(EpisodeMeta.from_dict(read_meta(path)), instruction_index=index)
+        except (KeyError, TypeError, ValueError, SamplehdError) as exc:
+            raise DatasetError(f"{path}: not an episode file this samplehd reads ({exc})") from None
 
     def listing(self) -> list[dict[str, Any]]:
         """A cheap listing of every episode (attributes only); unreadable files are listed with
@@ -305,7 +397,7 @@ class DatasetReader:
         out = []
         for i, e in enumerate(self.episodes):
             try:
-                meta = self.episode_meta(i)
+                meta = self.episode_meta(i).to_dict()
                 meta.pop("info", None)
             except DatasetError as exc:
                 meta = {"stem": Path(e.file).stem, "error": str(exc)}

@@ -329,7 +329,7 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
     order = str(reader.config.get("paths", {}).get("planner", {}).get("order", "instruction"))
     base = LAYOUT.robot_base_position
-    stored = sorted({c for e in range(len(reader)) for c in (reader.episode_meta(e).get("images") or {})})
+    stored = sorted({c for e in range(len(reader)) for c in reader.episode_meta(e).images})
     if images and not stored:
         with dataset_lock(reader.root, shared=True):  # a dataset being written says so first (it may get images)
             pass
