@@ -19,7 +19,7 @@ from typing import Any
 
 from samplehd.catalogue.loader import LEGACY_CATALOGUE
 from samplehd.dataset.container import read_episode, read_frames, read_image, read_meta
-from samplehd.dataset.journal import read_journal
+from samplehd.dataset.journal import JournalRecord, read_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
     EPISODE_DIR,
@@ -28,6 +28,8 @@ from samplehd.dataset.layout import (
     INSTRUCTIONS_FILE,
     SCENE_DIR,
     SCENES_FILE,
+    DatasetInfo,
+    InfoEpisode,
     is_temporary,
     parse_episode_name,
 )
@@ -35,7 +37,9 @@ from samplehd.dataset.outputs import inside_dataset
 from samplehd.dataset.validate import validate_episode_file
 from samplehd.errors import DatasetError, SamplehdError
 from samplehd.fileio import not_a_regular_file, read_json
+from samplehd.language.instruction_file import InstructionEntry
 from samplehd.record.episode import Episode
+from samplehd.scene.annotate import SceneAnnotation
 from samplehd.tasks.task import Task, parse_task
 
 __all__ = ["DatasetReader", "EpisodeEntry", "EpisodeMeta"]
@@ -73,7 +77,7 @@ class EpisodeEntry:
         return dict(self.__dict__)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> EpisodeEntry:
+    def from_dict(cls, d: InfoEpisode) -> EpisodeEntry:
         return cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
 
 
@@ -186,7 +190,7 @@ class DatasetReader:
         info_path = self.root / INFO_FILE
         if not info_path.exists():
             raise DatasetError(f"{self.root}: not a samplehd dataset ({INFO_FILE} is missing)")
-        self.info: dict[str, Any] = read_json(info_path)
+        self.info: DatasetInfo = read_json(info_path)
         if not isinstance(self.info, dict):
             raise DatasetError(f"{info_path}: expected a JSON object, got {type(self.info).__name__}")
         version = self.info.get("format_version")
@@ -194,8 +198,8 @@ class DatasetReader:
             raise DatasetError(f"{info_path}: format_version {version!r} is not one this samplehd reads "
                                f"(valid: {FORMAT_VERSION!r}); use the samplehd version that wrote it")
         self.complete = self.info.get("status") == "complete"
-        self._scenes: list[dict[str, Any]] | None = None
-        self._instructions: list[dict[str, Any]] | None = None
+        self._scenes: list[SceneAnnotation] | None = None
+        self._instructions: list[InstructionEntry] | None = None
         self._episodes: list[EpisodeEntry] | None = None
 
     # --- metadata -------------------------------------------------------------------------------
@@ -215,7 +219,7 @@ class DatasetReader:
         return str(scene.get("catalogue", LEGACY_CATALOGUE)) if isinstance(scene, dict) else LEGACY_CATALOGUE
 
     @property
-    def scenes(self) -> list[dict[str, Any]]:
+    def scenes(self) -> list[SceneAnnotation]:
         """Scene annotations (CLEVR layout), sorted by ``image_index``."""
         if self._scenes is None:
             path = self.root / SCENES_FILE
@@ -232,7 +236,7 @@ class DatasetReader:
                 self._scenes = sorted(found, key=lambda s: s["image_index"])
         return self._scenes
 
-    def scene(self, index: int) -> dict[str, Any]:
+    def scene(self, index: int) -> SceneAnnotation:
         """The scene with ``image_index == index``."""
         for s in self.scenes:
             if s["image_index"] == index:
@@ -240,7 +244,7 @@ class DatasetReader:
         raise DatasetError(f"{self.root}: no scene {index}")
 
     @property
-    def instructions(self) -> list[dict[str, Any]]:
+    def instructions(self) -> list[InstructionEntry]:
         """Instructions with episodes, in ``instruction_index`` order (CLEVR question-file entries)."""
         if self._instructions is None:
             if self.complete:
@@ -254,7 +258,7 @@ class DatasetReader:
                     self._instructions.append(entry)
         return self._instructions
 
-    def _candidates(self) -> list[dict[str, Any]]:
+    def _candidates(self) -> list[InstructionEntry]:
         path = self.root / CANDIDATES_FILE
         return list(read_json(path)["instructions"]) if path.exists() else []
 
@@ -412,11 +416,11 @@ class DatasetReader:
         """One decoded image frame: rgb uint8 H×W×3, depth float32 [m], segmentation ids."""
         return read_image(self.episode_path(index), camera, modality, frame)
 
-    def rejections(self) -> list[dict[str, Any]]:
+    def rejections(self) -> list[JournalRecord]:
         """Instruction candidates whose ground-truth path failed: {scene_index, slot, reason, message}."""
         return [r for r in read_journal(self.root) if r.get("status") == "rejected"]
 
-    def instruction(self, index: int) -> dict[str, Any]:
+    def instruction(self, index: int) -> InstructionEntry:
         """The instruction entry of episode ``index``."""
         return self.instructions[index]
 

@@ -46,7 +46,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypedDict
 
 from samplehd.errors import PlanningError
 from samplehd.world.layout import TABLE_PARTS
@@ -55,6 +55,8 @@ __all__ = [
     "DESTINATIONS",
     "RELATION_NAMES",
     "VALUE_KINDS",
+    "ProgramTask",
+    "SampleHdTask",
     "Task",
     "TaskFamily",
     "family_names",
@@ -169,6 +171,24 @@ def get_family(name: str) -> TaskFamily:
         raise PlanningError(f"unknown task family {name!r}; valid: {', '.join(family_names())}") from None
 
 
+class ProgramTask(TypedDict):
+    """A task as the program executor writes it (the ``task`` of instruction files): the program's
+    action, the moved objects, its subject (a table part, an object index, or None) and its relation."""
+
+    type: str
+    objects: list[int]
+    subject: str | int | None
+    relation: str | None
+
+
+class SampleHdTask(TypedDict):
+    """SAMPLE-HD's ``task`` entry (its ``preprocessing/sequence_data_preprocessing.py``)."""
+
+    type: str
+    object: list[int]
+    subject: str | int | None
+
+
 @dataclass(frozen=True)
 class Task:
     """A task.
@@ -237,7 +257,7 @@ class Task:
             direction=d.get("direction"),
         )
 
-    def to_program_dict(self) -> dict[str, Any]:
+    def to_program_dict(self) -> ProgramTask:
         """The executor's ``{type, objects, subject, relation}`` (the ``task`` of instruction files)."""
         return {"type": self.type, "objects": list(self.objects), "subject": self.subject, "relation": self.relation}
 
@@ -251,7 +271,7 @@ class Task:
             "subjectInt": subject if isinstance(subject, int) else -1,
         }
 
-    def to_sample_hd_task(self) -> dict[str, Any]:
+    def to_sample_hd_task(self) -> SampleHdTask:
         """SAMPLE-HD's ``task`` entry ``{type, object, subject}`` (its
         ``preprocessing/sequence_data_preprocessing.py``): the family, the moved objects and the family's
         parameter as SAMPLE-HD names it (a part: the destination, or the cleared part of a remove; else
@@ -275,7 +295,7 @@ def parse_part(value: Any) -> str:
     return str(value)
 
 
-def parse_task(task: Mapping[str, Any] | Task, family: str | None = None) -> Task:
+def parse_task(task: ProgramTask | Mapping[str, Any] | Task, family: str | None = None) -> Task:
     """Normalise an executor task dict (or a :class:`Task`) into a :class:`Task`.
 
     Args:

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-from samplehd.dataset.journal import read_journal
+from samplehd.dataset.journal import JournalRecord, read_journal
 from samplehd.dataset.layout import CANDIDATES_FILE, EPISODE_DIR, INFO_FILE, JOURNAL_FILE
 from samplehd.dataset.reader import DatasetReader
 from samplehd.envs.config import CAMERAS
@@ -288,7 +288,7 @@ class EpisodeStore:
             self._journal_key, self._journal_cache = key, counts
         return counts
 
-    def rejections(self) -> list[dict[str, Any]]:
+    def rejections(self) -> list[JournalRecord]:
         """Instruction candidates whose path was rejected: ``{scene_index, slot, reason, message}``."""
         reader = self.reader()
         if reader is None:
