@@ -58,7 +58,7 @@ def episode_sheet(dataset: Path, index: int, out: Path, count: int = 8, width: i
             images.append(r.render(data, "scene")["rgb"])
             labels.append(f"frame {k} subtask {int(frames['subtask_index'][k])}")
     Image.fromarray(contact_sheet(images, 4, labels)).save(out)
-    print(reader.episode_meta(index).get("instruction"))
+    print(reader.episode_meta(index).instruction)
 
 
 def main() -> None:

@@ -6,7 +6,9 @@ Usage::
 
 Prints:
 
-- ``dict[str, Any]``: occurrences of the annotation;
+- ``dict[str, Any]``: occurrences of the annotation anywhere in the text;
+- ``dict[str, Any] in signatures``: its occurrences in function parameter and return annotations
+  (``dict[str, Any] | None`` and ``list[dict[str, Any]]`` count once each);
 - ``to_dict/from_dict defs``: methods of those names written out (a base class's count once);
 - ``signatures with Any``: functions whose parameter or return annotations mention ``Any``, of all functions;
 - ``config __post_init__ lines``: lines of ``__post_init__`` of every ``*Config`` class (hand-written validation);
@@ -51,7 +53,7 @@ def _private_imports(tree: ast.AST) -> int:
 
 def counts(root: Path) -> dict[str, object]:
     files = sorted(root.rglob("*.py"))
-    dict_any = to_dict = sigs = with_any = post_init = private = long_learn = 0
+    dict_any = dict_any_sig = to_dict = sigs = with_any = post_init = private = long_learn = 0
     clump: list[str] = []
     flags: dict[str, int] = {}
     for p in files:
@@ -65,7 +67,9 @@ def counts(root: Path) -> dict[str, object]:
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
                 sigs += 1
                 long_learn += rel.startswith("learn/") and node.end_lineno - node.lineno + 1 > 80
-                with_any += any(re.search(r"\bAny\b", ast.unparse(t)) for t in _annotations(node))
+                annotations = [ast.unparse(t) for t in _annotations(node)]
+                with_any += any(re.search(r"\bAny\b", t) for t in annotations)
+                dict_any_sig += sum(len(re.findall(r"dict\[str, Any\]", t)) for t in annotations)
                 names = {x.arg for x in [*node.args.args, *node.args.kwonlyargs]}
                 if {"width", "height"} <= names and names & {"preset", "cameras", "modalities", "camera"}:
                     clump.append(f"{rel}:{node.name}")
@@ -78,7 +82,7 @@ def counts(root: Path) -> dict[str, object]:
                                        for c in ast.walk(a) if isinstance(c, ast.Constant) and isinstance(c.value, str))
                     if FLAG.search(strings):
                         flags[rel] = flags.get(rel, 0) + 1
-    return {"dict[str, Any]": dict_any, "to_dict/from_dict defs": to_dict,
+    return {"dict[str, Any]": dict_any, "dict[str, Any] in signatures": dict_any_sig, "to_dict/from_dict defs": to_dict,
             "signatures with Any": f"{with_any}/{sigs} = {100 * with_any / sigs:.1f} %",
             "config __post_init__ lines": post_init, "image clump functions": len(clump),
             "flag-naming library messages": sum(flags.values()), "  per file": dict(sorted(flags.items())),

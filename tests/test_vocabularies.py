@@ -14,17 +14,13 @@ from samplehd.scene.world import CAMERA_NAMES, OPERATOR_CAMERA, SCENE_CAMERA
 
 ROOT = Path(__file__).resolve().parent.parent
 SRC = ROOT / "src" / "samplehd"
-# A known leftover: learn/neurosymbolic.py reads a predicted `place` onto a cleared table part as `remove`
-# (a family rule the registry should own).
-ELSEWHERE = ("learn/neurosymbolic.py",)
 
 
 def _modules() -> list[tuple[str, ast.Module]]:
     out = []
     for path in sorted([*SRC.rglob("*.py"), *(ROOT / "plugins").rglob("*.py")]):
         rel = path.relative_to(SRC).as_posix() if path.is_relative_to(SRC) else path.relative_to(ROOT).as_posix()
-        if not rel.startswith(ELSEWHERE):
-            out.append((rel, ast.parse(path.read_text(encoding="utf-8"))))
+        out.append((rel, ast.parse(path.read_text(encoding="utf-8"))))
     return out
 
 

@@ -118,7 +118,7 @@ def test_suite_list_and_show_describe_the_shipped_suite() -> None:
 def test_a_random_policy_on_a_suite_names_the_suite_in_its_report(tmp_path: Path) -> None:
     suite = read_suite(SHIPPED)
     report = evaluate(EvalConfig(policy="random", suite=SHIPPED, env={"max_episode_steps": 3}),
-                      tmp_path / "r.json")
+                      tmp_path / "r.json").to_dict()
     assert report["split"]["suite"] == SHIPPED and report["split"]["content_hash"] == suite.content_hash
     assert [r["instruction"] for r in report["records"]] == [e.instruction for e in suite.episodes]
     assert set(report["by_axis"]) == {"none"} and set(report["by_level"]) <= {"L1", "L2", "L3", "L4"}
@@ -136,7 +136,7 @@ def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(t
     assert build_suite("t", config, Backend(workers=2)).to_dict() == suite.to_dict()
     path = tmp_path / "t.json"
     suite.write(path)
-    reports = [evaluate(EvalConfig(policy="oracle", suite=str(path))) for _ in range(2)]
+    reports = [evaluate(EvalConfig(policy="oracle", suite=str(path))).to_dict() for _ in range(2)]
     assert reports[0]["success_rate"] == 1.0
     assert [r["steps"] for r in reports[0]["records"]] == [e.oracle_steps for e in suite.episodes]
     assert set(reports[0]["by_axis"]) == {"none", "object_shift", "robot_start", "distractors"}

@@ -13,6 +13,7 @@ from samplehd.dataset.container import FrameImages, read_episode, read_meta, wri
 from samplehd.dataset.reader import DatasetReader
 from samplehd.dataset.validate import validate_dataset
 from samplehd.errors import DatasetError
+from samplehd.tasks.task import Task
 
 
 def test_round_trip_is_exact_and_atomic(rendered_dataset: Path, tmp_path: Path) -> None:
@@ -42,7 +43,20 @@ def test_rendered_images_match_the_render_settings(rendered_dataset: Path) -> No
     assert img.shape == (36, 64, 3) and img.dtype == np.uint8
     assert depth.dtype == np.float32 and np.isfinite(depth).all() and depth.min() > 0
     assert seg.dtype == np.uint8 and seg.max() >= 3  # an object is visible
-    assert reader.episode_meta(0)["render"]["width"] == 64
+    assert reader.episode_meta(0).render["width"] == 64
+
+
+def test_episode_meta_is_typed_and_reads_back_as_the_file_stores_it(rendered_dataset: Path) -> None:
+    """The reader's episode attributes are typed (the task a Task) and write back as read_meta reads them."""
+    reader = DatasetReader(rendered_dataset)
+    for k, entry in enumerate(reader.episodes):
+        meta = reader.episode_meta(k)
+        raw = read_meta(reader.episode_path(k))
+        raw["instruction_index"] = k
+        assert meta.to_dict() == raw and list(meta.to_dict()) == list(raw)
+        assert isinstance(meta.task, Task) and meta.task.family == meta.family == entry.family
+        assert meta.task.to_program_dict() == raw["task"] and meta.num_frames == entry.num_frames
+        assert meta.images == {"scene": ("depth", "rgb", "segmentation")} and meta.extra == {"split": entry.split}
 
 
 def test_rerender_matches_fresh_render_and_resumes(rendered_dataset: Path, tmp_path: Path) -> None:

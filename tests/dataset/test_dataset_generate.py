@@ -32,7 +32,7 @@ def test_micro_dataset_is_valid_and_readable(micro_dataset: Path) -> None:
         assert inst["instruction_index"] == i and inst["family"] == ep.family
         assert inst["image_index"] == ep.scene_index
         meta = reader.episode_meta(i)
-        assert meta["render"] is None and meta["images"] == {}
+        assert meta.render is None and meta.images == {}
     # per-episode seeds are recorded, and split follows the scene
     cands = json.loads((micro_dataset / "candidates.json").read_text())["instructions"]
     assert len({c["seed"] for c in cands}) == len(cands)

@@ -59,9 +59,9 @@ def test_add_keeps_the_stored_camera_and_adds_one_at_its_own_size(rendered_datas
     assert validate_dataset(added_dataset)[0] == []
     for k in range(len(after)):
         meta = after.episode_meta(k)
-        assert {c: sorted(m) for c, m in meta["images"].items()} == {
+        assert {c: sorted(m) for c, m in meta.images.items()} == {
             "scene": ["depth", "rgb", "segmentation"], "wrist": ["depth", "rgb"]}
-        assert camera_settings(meta["render"]) == {
+        assert camera_settings(meta.render) == {
             "scene": {"mode": "fast", "width": 64, "height": 36, "modalities": ["rgb", "depth", "segmentation"]},
             "wrist": {"mode": "fast", "width": 48, "height": 48, "modalities": ["rgb", "depth"]}}
         old, new = before.episode(k, images="load"), after.episode(k)
@@ -76,7 +76,7 @@ def test_add_keeps_the_stored_camera_and_adds_one_at_its_own_size(rendered_datas
     info = json.loads((added_dataset / "info.json").read_text())
     assert info["render"]["cameras"] == ["scene", "wrist"] and info["render"]["mode"] == "fast"
     assert info["render"]["width"] is None and info["render"]["modalities"] is None  # cameras differ
-    assert camera_settings(info["render"]) == camera_settings(after.episode_meta(0)["render"])
+    assert camera_settings(info["render"]) == camera_settings(after.episode_meta(0).render)
     assert info["render_history"][-1]["width"] == 64
 
 
@@ -119,7 +119,7 @@ def test_replace_drops_the_other_cameras(added_dataset: Path, tmp_path: Path) ->
     res = rerender_dataset(copy, RenderConfig("fast", 32, 32, ("wrist",), ("rgb",)))
     assert res["rendered"] == res["episodes"] and not res["add"]
     reader = DatasetReader(copy)
-    assert all(reader.episode_meta(k)["images"] == {"wrist": ["rgb"]} for k in range(len(reader)))
+    assert all(reader.episode_meta(k).images == {"wrist": ("rgb",)} for k in range(len(reader)))
     assert reader.info["render"]["width"] == 32 and reader.info["render"]["cameras"] == ["wrist"]
     assert validate_dataset(copy)[0] == []
 

@@ -67,7 +67,7 @@ def test_evaluate_random_policy_writes_a_report_and_videos(tmp_path: Path, fast_
                      video_dir=str(tmp_path / "videos"))
     report = evaluate(cfg, tmp_path / "report.json")
     saved = json.loads((tmp_path / "report.json").read_text())
-    assert saved["episodes"] == 2 and saved["success_rate"] == report["success_rate"] == 0.0
+    assert saved["episodes"] == 2 and saved["success_rate"] == report.success_rate == 0.0
     assert set(saved["by_family"]) <= {"pick_up", "place"}
     assert saved["catalogue"] == load_catalogue().record() and saved["catalogue"]["imported"] == {}
     rec = saved["records"][0]
@@ -101,8 +101,8 @@ def test_evaluate_records_the_objects_an_episode_disturbed(tmp_path: Path, fast_
     for spec, moved in (("random", False), ("shoving_agents:make", True)):
         cfg = EvalConfig(policy=spec, episodes=1, families=("place",), env={**fast_options, "max_episode_steps": 3})
         report = evaluate(cfg)
-        assert bool(report["records"][0]["disturbed"]) == moved, report["records"][0]
-        assert report["successes_undisturbed"] == 0
+        assert bool(report.records[0].disturbed) == moved, report.records[0]
+        assert report.overall.successes_undisturbed == 0
 
 
 def test_evaluate_cli_rejects_a_bad_policy_in_one_line() -> None:
@@ -126,4 +126,4 @@ def test_evaluate_loads_a_user_policy_and_a_policy_factory(tmp_path: Path, fast_
     for spec in ("user_agents:act", "user_agents:make"):
         cfg = EvalConfig(policy=spec, episodes=1, families=("pick_up",), env={**fast_options, "max_episode_steps": 5})
         report = evaluate(cfg)
-        assert report["episodes"] == 1 and report["records"][0]["steps"] == 5
+        assert report.overall.episodes == 1 and report.records[0].steps == 5

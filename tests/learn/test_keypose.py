@@ -56,7 +56,7 @@ def _train(dataset: Path, out: Path, steps: int, batch: int, *, inputs: str = "r
 def _decisions(reader: DatasetReader, k: int) -> list:
     meta = reader.episode_meta(k)
     fr = reader.frames(k, ["subtask_index", "tcp_pos", "tcp_quat", "gripper_opening"])
-    return decisions(meta["subtasks"], fr["subtask_index"], fr["tcp_pos"], fr["tcp_quat"], fr["gripper_opening"])
+    return decisions(meta.subtasks, fr["subtask_index"], fr["tcp_pos"], fr["tcp_quat"], fr["gripper_opening"])
 
 
 def test_decisions_are_read_from_the_recorded_subtasks(keypose_dataset: Path) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from samplehd.errors import PlanningError
-from samplehd.tasks.task import Task, parse_task
+from samplehd.tasks.task import Task, family_of_program, parse_task
 
 
 def test_executor_forms():
@@ -49,3 +49,12 @@ def test_sample_hd_forms_come_from_the_family():
     stack = parse_task({"type": "stack", "objects": [1], "subject": 0})
     assert stack.to_sample_hd() == {"name": "stack", "objectInt": [1], "subjectString": [], "subjectInt": 0}
     assert stack.to_sample_hd_task() == {"type": "stack", "object": [1], "subject": 0}
+
+
+def test_a_flat_program_names_its_family_through_the_registry():
+    """A place of everything on one table part is a remove (its family claims it); other places and other
+    actions stay what their action says."""
+    assert family_of_program("place", ["place[back]", "scene", "filter_table[front]"]) == "remove"
+    assert family_of_program("place", ["place[back]", "scene", "filter_name[fork]"]) == "place"
+    assert family_of_program("place", ["place[back]", "scene", "filter_table[front]", "filter_name[fork]"]) == "place"
+    assert family_of_program("stack", ["stack", "scene", "filter_table[front]"]) == "stack"

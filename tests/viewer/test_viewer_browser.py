@@ -174,7 +174,7 @@ def test_episode_player_advances_frames(browser: Any, viewer_url: str, dataset_f
     files = dataset_files
     stem, entry = files.stems[0], files.episodes[0]
     reader = DatasetReader(files.root)
-    subtasks = [str(s) for s in reader.episode_meta(0)["subtasks"]]
+    subtasks = list(reader.episode_meta(0).subtasks)
     subtask_index = reader.frames(0, ["subtask_index"])["subtask_index"]
     width = files.info["config"]["render"]["width"]
     _open(browser, f"{viewer_url}#/episode/{stem}")

@@ -65,7 +65,7 @@ def test_episodes_of_a_dataset_being_generated(dataset_copy: Path, dataset_files
     meta = reader.episode_meta(index)
     n = entries[written]["num_frames"]
     assert detail["num_frames"] == n and detail["next"] == unlogged and detail["previous"] is None
-    names = [str(s) for s in meta["subtasks"]]
+    names = list(meta.subtasks)
     assert {g["name"] for g in detail["segments"]} <= set(names) and detail["segments"][-1]["end"] == n
     steering = reader.frames(index, ["steering"])["steering"]
     assert len(detail["series"]["steering"]) == n

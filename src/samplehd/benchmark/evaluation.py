@@ -49,11 +49,12 @@ from samplehd.record.paths import PathConfig, plan_and_execute
 from samplehd.render.video import write_mp4
 from samplehd.scene.spec import compile_scene
 from samplehd.schema import Config, bounded
-from samplehd.tasks.task import family_names
+from samplehd.tasks.task import Task, family_names, parse_task
 from samplehd.workers import Backend
 
-__all__ = ["EpisodeRecord", "EpisodeRunner", "EvalConfig", "RandomPolicy", "benchmark_split", "check_policy_action",
-           "evaluate", "load_policy", "load_policy_module", "split_episode"]
+__all__ = ["DrawnSplit", "EpisodeRecord", "EpisodeRunner", "EvalConfig", "EvalReport", "GroupSummary", "RandomPolicy",
+           "SuiteSplit", "benchmark_split", "check_policy_action", "evaluate", "load_policy", "load_policy_module",
+           "split_episode"]
 
 # SAMPLE-HD's families plus the two simple new ones: the default benchmark. stack_three needs scenes
 # with three stackable objects (see the env's ``scene`` option) and is opt-in.
@@ -123,7 +124,8 @@ class EpisodeRecord:
         family: the family of the instruction the episode got.
         requested_family: the family the split asked for.
         instruction: the instruction's text.
-        task: the task the instruction asks for (``info["task"]``).
+        task: the task the instruction asks for (``info["task"]``; written as the executor's
+            ``{type, objects, subject, relation}``).
         success: the shared checker's verdict at the end.
         steps: control steps taken.
         episode_return: sum of the rewards (``return`` in the report).
@@ -151,14 +153,14 @@ class EpisodeRecord:
     family: str
     requested_family: str
     instruction: str
-    task: dict[str, Any]
+    task: Task
     success: bool
     steps: int
     episode_return: float
     terminated: bool
     truncated: bool
     safety_events: tuple[str, ...]
-    check_reason: Any
+    check_reason: str
     wall_s: float
     gave_up: str | None = None
     level: str | None = None
@@ -177,10 +179,10 @@ class EpisodeRecord:
         entries only where set."""
         d: dict[str, Any] = {
             "index": self.index, "seed": self.seed, "family": self.family, "requested_family": self.requested_family,
-            "instruction": self.instruction, "task": self.task, "success": self.success, "steps": self.steps,
-            "return": self.episode_return, "terminated": self.terminated, "truncated": self.truncated,
-            "safety_events": list(self.safety_events), "check_reason": self.check_reason, "wall_s": self.wall_s,
-            "disturbed": list(self.disturbed)}
+            "instruction": self.instruction, "task": self.task.to_program_dict(), "success": self.success,
+            "steps": self.steps, "return": self.episode_return, "terminated": self.terminated,
+            "truncated": self.truncated, "safety_events": list(self.safety_events),
+            "check_reason": self.check_reason, "wall_s": self.wall_s, "disturbed": list(self.disturbed)}
         for name in ("gave_up", "level", "diagnosis", "failure_stage", "replans", "offline_success", "video", "axis",
                      "strength", "twin"):
             if getattr(self, name) is not None:
@@ -361,7 +363,8 @@ class EpisodeRunner:
         diagnosis = dict(policy.diagnosis) if getattr(policy, "diagnosis", None) else None
         record = EpisodeRecord(
             index=index, seed=seed, family=info["family"], requested_family=family,
-            instruction=info["instruction"], task=info["task"], success=success, steps=steps, episode_return=ret,
+            instruction=info["instruction"], task=parse_task(info["task"], info["family"]), success=success,
+            steps=steps, episode_return=ret,
             terminated=term, truncated=trunc, safety_events=tuple(e["kind"] for e in info["safety_events"]),
             check_reason=info["check_reason"], wall_s=round(time.perf_counter() - t0, 3),
             gave_up=gave_up or None, level=suite_episode.level if suite_episode else config.level, diagnosis=diagnosis,
@@ -394,34 +397,178 @@ def _run_in_worker(item: tuple[EvalConfig, int, int, str]) -> EpisodeRecord:
     return held[1].run(tuple(episode))  # type: ignore[arg-type]
 
 
-def _summary(records: list[EpisodeRecord]) -> dict[str, Any]:
-    """Counts of a group of records (the whole run, a family, a level, an axis strength): the one place
-    a group's figures are made, so an interval on each success rate belongs here."""
-    n = len(records)
-    ok = sum(r.success for r in records)
-    out: dict[str, Any] = {"episodes": n, "successes": ok, "success_rate": ok / n if n else 0.0}
-    if records and records[0].offline_success is not None:
-        feasible = [r for r in records if r.offline_success]
-        out["offline_success_rate"] = len(feasible) / n
-        out["success_rate_where_offline_succeeds"] = (
-            sum(r.success for r in feasible) / len(feasible) if feasible else None)
-    out["successes_undisturbed"] = sum(r.success and not r.disturbed for r in records)
-    out["safety_stops"] = sum(bool(r.safety_events) for r in records)
-    stages = [r.failure_stage for r in records if r.failure_stage is not None]
-    if stages:
-        out["failures_by_stage"] = {s: stages.count(s) for s in sorted(set(stages))}
-    out["mean_steps"] = float(np.mean([r.steps for r in records])) if records else 0.0
-    return out
+@dataclass(frozen=True)
+class GroupSummary:
+    """The figures of a group of records (the whole run, a family, a level, an axis strength).
+
+    Attributes:
+        episodes: records in the group.
+        successes: successful ones.
+        success_rate: ``successes / episodes`` (0 for an empty group).
+        successes_undisturbed: successes that moved no object the task does not name.
+        safety_stops: records with a safety event.
+        mean_steps: mean control steps per episode.
+        failures_by_stage: failed episodes per stage they are charged to (learned policies; empty: none).
+        offline_success_rate: share the offline path generator solved, or None (no ``compare_offline``).
+        success_rate_where_offline_succeeds: the success rate among those, or None (none solved, or no
+            ``compare_offline``).
+    """
+
+    episodes: int
+    successes: int
+    success_rate: float
+    successes_undisturbed: int
+    safety_stops: int
+    mean_steps: float
+    failures_by_stage: dict[str, int] = field(default_factory=dict)
+    offline_success_rate: float | None = None
+    success_rate_where_offline_succeeds: float | None = None
+
+    @classmethod
+    def of(cls, records: Sequence[EpisodeRecord]) -> GroupSummary:
+        """The summary of ``records``: the one place a group's figures are made, so an interval on each
+        success rate belongs here."""
+        n = len(records)
+        ok = sum(r.success for r in records)
+        offline = where_offline = None
+        if records and records[0].offline_success is not None:
+            feasible = [r for r in records if r.offline_success]
+            offline = len(feasible) / n
+            where_offline = sum(r.success for r in feasible) / len(feasible) if feasible else None
+        stages = [r.failure_stage for r in records if r.failure_stage is not None]
+        return cls(episodes=n, successes=ok, success_rate=ok / n if n else 0.0,
+                   successes_undisturbed=sum(r.success and not r.disturbed for r in records),
+                   safety_stops=sum(bool(r.safety_events) for r in records),
+                   mean_steps=float(np.mean([r.steps for r in records])) if records else 0.0,
+                   failures_by_stage={s: stages.count(s) for s in sorted(set(stages))},
+                   offline_success_rate=offline, success_rate_where_offline_succeeds=where_offline)
+
+    def to_dict(self) -> dict[str, object]:
+        """The report's entry: the offline rates only with ``compare_offline``, the stages only when any."""
+        d: dict[str, object] = {"episodes": self.episodes, "successes": self.successes,
+                                "success_rate": self.success_rate}
+        if self.offline_success_rate is not None:
+            d["offline_success_rate"] = self.offline_success_rate
+            d["success_rate_where_offline_succeeds"] = self.success_rate_where_offline_succeeds
+        d["successes_undisturbed"] = self.successes_undisturbed
+        d["safety_stops"] = self.safety_stops
+        if self.failures_by_stage:
+            d["failures_by_stage"] = dict(self.failures_by_stage)
+        d["mean_steps"] = self.mean_steps
+        return d
+
+
+@dataclass(frozen=True)
+class DrawnSplit:
+    """A split drawn from a seed (no suite).
+
+    Attributes:
+        episodes: its episodes.
+        families: its families, in rotation.
+        seed: its seed.
+        level: its generalisation level, or None.
+    """
+
+    episodes: int
+    families: tuple[str, ...]
+    seed: int
+    level: str | None
+
+    def to_dict(self) -> dict[str, object]:
+        return {"episodes": self.episodes, "families": list(self.families), "seed": self.seed, "level": self.level}
+
+
+@dataclass(frozen=True)
+class SuiteSplit:
+    """A suite's episodes.
+
+    Attributes:
+        suite: the suite's name.
+        content_hash: its content hash.
+        episodes: its episodes.
+        package_version: the samplehd version that built it.
+    """
+
+    suite: str
+    content_hash: str
+    episodes: int
+    package_version: str
+
+    def to_dict(self) -> dict[str, object]:
+        return {"suite": self.suite, "content_hash": self.content_hash, "episodes": self.episodes,
+                "package_version": self.package_version}
+
+
+@dataclass(frozen=True)
+class EvalReport:
+    """What an evaluation run did: the JSON report (:meth:`to_dict`, keys in this order).
+
+    Attributes:
+        policy: the policy spec.
+        partial: written while the run goes on (an interrupted run keeps what it finished).
+        split: the split run.
+        models: the models folder, or None.
+        programs: ``neurosymbolic``'s programs setting, else None.
+        perception: ``neurosymbolic``'s perception setting, else None.
+        env: the environment's options.
+        catalogue: content hashes of the catalogue in use (:meth:`samplehd.catalogue.model.Catalogue.record`).
+        overall: the whole run's figures (written at the top level of the report).
+        by_family: figures per family, in the order families first occur.
+        by_level: a suite's figures per level (None outside a suite).
+        by_axis: a suite's figures per axis and strength (None outside a suite).
+        wall_s: wall time of the run so far [s].
+        records: one per episode, by index.
+        statistics: every rate with its 95 % interval (:func:`samplehd.benchmark.statistics.summarize`),
+            once the run is complete; None before.
+    """
+
+    policy: str
+    partial: bool
+    split: DrawnSplit | SuiteSplit
+    models: str | None
+    programs: str | None
+    perception: str | None
+    env: EnvConfig
+    catalogue: dict[str, object]
+    overall: GroupSummary
+    by_family: dict[str, GroupSummary]
+    by_level: dict[str, GroupSummary] | None
+    by_axis: dict[str, dict[str, GroupSummary]] | None
+    wall_s: float
+    records: tuple[EpisodeRecord, ...]
+    statistics: dict[str, Any] | None = None
+
+    @property
+    def success_rate(self) -> float:
+        """The whole run's success rate."""
+        return self.overall.success_rate
+
+    def to_dict(self) -> dict[str, Any]:
+        """The report as written to its JSON file."""
+        d: dict[str, Any] = {
+            "policy": self.policy, "partial": self.partial, "split": self.split.to_dict(), "models": self.models,
+            "programs": self.programs, "perception": self.perception, "env": self.env.to_dict(),
+            "catalogue": self.catalogue, **self.overall.to_dict(),
+            "by_family": {k: v.to_dict() for k, v in self.by_family.items()}}
+        if self.by_level is not None:
+            d["by_level"] = {k: v.to_dict() for k, v in self.by_level.items()}
+        if self.by_axis is not None:
+            d["by_axis"] = {ax: {st: v.to_dict() for st, v in by.items()} for ax, by in self.by_axis.items()}
+        d["wall_s"] = self.wall_s
+        if self.statistics is not None:
+            d["statistics"] = self.statistics
+        d["records"] = [r.to_dict() for r in self.records]
+        return d
 
 
 def evaluate(config: EvalConfig, out: str | Path | None = None,
-             progress: Callable[[EpisodeRecord], None] | None = None) -> dict[str, Any]:
+             progress: Callable[[EpisodeRecord], None] | None = None) -> EvalReport:
     """Run a policy on the benchmark split and return (and optionally write, with its tables beside it) the
-    JSON report.
+    report.
 
-    Report keys: ``policy``, ``split`` (episodes, families, seed), ``env`` (options),
-    ``success_rate``, ``by_family`` (per family: episodes, successes, success_rate, ...),
-    ``safety_stops``, ``mean_steps``, ``catalogue`` (content hashes of the catalogue in use),
+    The JSON report (:meth:`EvalReport.to_dict`) holds ``policy``, ``split`` (episodes, families, seed),
+    ``env`` (options), ``success_rate`` and the run's other figures, ``by_family`` (per family:
+    episodes, successes, success_rate, ...), ``catalogue`` (content hashes of the catalogue in use),
     ``wall_s``, ``statistics`` (every rate with its 95 % interval:
     :func:`samplehd.benchmark.statistics.summarize`) and ``records`` (one per episode: index, seed,
     family, instruction, task, success, steps, return, terminated, truncated, safety_events,
@@ -455,52 +602,46 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
         for _, record in Backend(workers=config.workers).map(_run_in_worker, ((one, *item) for item in items)):
             done(record)
     report = _report(config, records, t0, suite)
-    if out is not None:
-        return write_report_with_statistics(report, out)
-    return with_statistics(report)
+    full = write_report_with_statistics(report.to_dict(), out) if out is not None else with_statistics(
+        report.to_dict())
+    return replace(report, statistics=full["statistics"])
 
 
-def _write_report(out: str | Path, report: dict[str, Any]) -> None:
+def _write_report(out: str | Path, report: EvalReport) -> None:
     path = Path(out)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(report, indent=1) + "\n", encoding="utf-8")
+    tmp.write_text(json.dumps(report.to_dict(), indent=1) + "\n", encoding="utf-8")
     tmp.replace(path)
 
 
 def _report(config: EvalConfig, records: list[EpisodeRecord], t0: float, suite: Suite | None = None,
-            partial: bool = False) -> dict[str, Any]:
+            partial: bool = False) -> EvalReport:
     records = sorted(records, key=lambda r: r.index)
-    by_family = {}
-    for fam in dict.fromkeys(r.family for r in records):
-        by_family[fam] = _summary([r for r in records if r.family == fam])
+    by_family = {fam: GroupSummary.of([r for r in records if r.family == fam])
+                 for fam in dict.fromkeys(r.family for r in records)}
     env = config.env
+    split: DrawnSplit | SuiteSplit
     if suite is not None:
-        split: dict[str, Any] = {"suite": suite.name, "content_hash": suite.content_hash,
-                                 "episodes": len(suite.episodes), "package_version": suite.package_version}
-        groups: dict[str, Any] = {
-            "by_level": {lv: _summary([r for r in records if r.level == lv])
-                         for lv in sorted({r.level for r in records if r.level})},
-            "by_axis": {ax: {str(st): _summary([r for r in records if r.axis == ax and r.strength == st])
-                             for st in sorted({r.strength for r in records if r.axis == ax})}
-                        for ax in sorted({r.axis for r in records if r.axis})}}
+        split = SuiteSplit(suite=suite.name, content_hash=suite.content_hash, episodes=len(suite.episodes),
+                           package_version=suite.package_version)
+        by_level: dict[str, GroupSummary] | None = {
+            lv: GroupSummary.of([r for r in records if r.level == lv])
+            for lv in sorted({r.level for r in records if r.level})}
+        by_axis: dict[str, dict[str, GroupSummary]] | None = {
+            ax: {str(st): GroupSummary.of([r for r in records if r.axis == ax and r.strength == st])
+                 for st in sorted({r.strength for r in records if r.axis == ax})}  # type: ignore[type-var]
+            for ax in sorted({r.axis for r in records if r.axis})}  # type: ignore[type-var]
     else:
-        split = {"episodes": config.episodes, "families": list(config.families), "seed": config.seed,
-                 "level": config.level}
-        groups = {}
-    return {
-        "policy": config.policy,
-        "partial": partial,
-        "split": split,
-        "models": config.models,
-        "programs": config.programs if config.policy == "neurosymbolic" else None,
-        "perception": config.perception if config.policy == "neurosymbolic" else None,
-        "env": env.to_dict(),
+        split = DrawnSplit(episodes=config.episodes, families=tuple(config.families), seed=config.seed,
+                           level=config.level)
+        by_level = by_axis = None
+    neurosymbolic = config.policy == "neurosymbolic"
+    return EvalReport(
+        policy=config.policy, partial=partial, split=split, models=config.models,
+        programs=config.programs if neurosymbolic else None, perception=config.perception if neurosymbolic else None,
+        env=env,
         # The split's scenes draw from the built-in catalogue plus imported classes the env options name.
-        "catalogue": catalogue_for(env.scene.named_classes, env.scene.catalogue).record(),
-        **_summary(records),
-        "by_family": by_family,
-        **groups,
-        "wall_s": round(time.perf_counter() - t0, 2),
-        "records": [r.to_dict() for r in records],
-    }
+        catalogue=catalogue_for(env.scene.named_classes, env.scene.catalogue).record(),
+        overall=GroupSummary.of(records), by_family=by_family, by_level=by_level, by_axis=by_axis,
+        wall_s=round(time.perf_counter() - t0, 2), records=tuple(records))

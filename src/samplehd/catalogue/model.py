@@ -9,7 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, TypedDict
 
 from samplehd.errors import AssetError
 
@@ -21,6 +21,7 @@ __all__ = [
     "Affordances",
     "AssetMenu",
     "Catalogue",
+    "CatalogueRecord",
     "Colour",
     "MassModel",
     "Material",
@@ -29,6 +30,17 @@ __all__ = [
     "Variant",
     "WeightClass",
 ]
+
+
+class CatalogueRecord(TypedDict, total=False):
+    """What a catalogue was read from (:meth:`Catalogue.record`), as outputs record it: the built-in
+    catalogue's name, the hash of all below, the built-in data files' hash and, per imported class held,
+    its registry files' hash. Records older than catalogue names lack ``name``."""
+
+    name: str
+    sha256: str
+    built_in: str
+    imported: dict[str, str]
 
 # The three properties an asset menu can randomise, in the order they are drawn.
 PROPERTIES = ("colour", "material", "size")
@@ -256,7 +268,7 @@ class Catalogue:
     digests: dict[str, str] = field(default_factory=dict, hash=False, compare=False)
     name: str = "procedural"
 
-    def record(self) -> dict[str, Any]:
+    def record(self) -> CatalogueRecord:
         """What this catalogue was read from, for a dataset's or report's metadata.
 
         Returns:

@@ -140,15 +140,15 @@ def run(args: argparse.Namespace) -> int:
     if suite is not None:
         print(f"suite {suite.name}: {len(suite.episodes)} episodes, {suite.content_hash}", flush=True)
     report = evaluate(config, args.out, progress=show)
-    print(f"success_rate {report['success_rate']:.3f} over {report['episodes']} episodes "
-          f"({report['wall_s']:.0f} s)")
-    for fam, s in report["by_family"].items():
-        stages = s.get("failures_by_stage")
-        print(f"  {fam:<15} {s['successes']}/{s['episodes']}" + (f"  failures: {stages}" if stages else ""))
+    print(f"success_rate {report.success_rate:.3f} over {report.overall.episodes} episodes "
+          f"({report.wall_s:.0f} s)")
+    for fam, s in report.by_family.items():
+        stages = s.failures_by_stage
+        print(f"  {fam:<15} {s.successes}/{s.episodes}" + (f"  failures: {stages}" if stages else ""))
     if args.out:
         print(f"wrote {args.out}")
     # Every figure with its interval (samplehd.benchmark.statistics), in the report and beside it.
-    stats = report["statistics"]
+    stats = report.statistics or {}
     print(f"95 % Wilson intervals: all {format_rate(stats['overall'])}")
     for name, rate in [*stats["by_family"].items(), *stats.get("by_level", {}).items()]:
         print(f"  {name:<15} {format_rate(rate)}")

@@ -8,11 +8,10 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
 
 from samplehd.commands._options import add_render_preset, check_int, check_names, check_out_dir, split_names
 from samplehd.dataset.outputs import check_outputs
-from samplehd.dataset.paths import format_summary, generate_paths
+from samplehd.dataset.paths import PathResult, format_summary, generate_paths
 from samplehd.dataset.render import RenderConfig
 from samplehd.envs.config import CAMERAS
 from samplehd.record.paths import PathConfig
@@ -57,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     paths = PathConfig(max_attempts=args.max_attempts)
     backend = Backend(args.backend, args.workers)
 
-    def show(r: dict[str, Any], total: int) -> None:
+    def show(r: PathResult, total: int) -> None:
         status = "ok" if r["success"] else f"rejected ({r['reason']})"
         print(f"instruction {r['instruction_index']} of {total} ({r['family']}): {status} {r['seconds']:.1f} s",
               flush=True)

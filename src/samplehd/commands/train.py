@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 from samplehd.commands._options import check_out_dir
@@ -17,17 +18,10 @@ from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
 from samplehd.learn.keypose.configuration import ACTION as KEYPOSE_ACTION
 from samplehd.learn.keypose.configuration import KeyposeArchitecture, KeyposeConfig, KeyposeTraining
-from samplehd.learn.keypose.training import train_keypose
 from samplehd.learn.parser import ParserConfig, ParserTraining, score_parser, train_parser
 from samplehd.learn.perception import PerceptionConfig, PerceptionTraining, score_perception, train_perception
-from samplehd.learn.policy.configuration import (
-    ACTIONS,
-    PolicyArchitecture,
-    PolicyCollection,
-    PolicyConfig,
-    PolicyTraining,
-)
-from samplehd.learn.policy.training import train_policy
+from samplehd.learn.policy.configuration import PolicyArchitecture, PolicyCollection, PolicyConfig, PolicyTraining
+from samplehd.learn.registry import policy_actions, policy_for_action
 
 HELP = "train the parser, perception or behaviour-cloning policy baseline on a dataset (needs PyTorch)"
 _DEFAULT_STEPS = {"parser": 1000, "perception": 3000, "policy": 4000}
@@ -51,7 +45,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                                    "target object's pose relative to the TCP; "
                                                                    "keypose: the view marks the cells of the "
                                                                    "objects the task moves)")
-    policy.add_argument("--action", choices=[*ACTIONS, KEYPOSE_ACTION],
+    policy.add_argument("--action", choices=list(policy_actions()),
                         help="steering: chunks of the demonstrations' steering vectors (default); waypoint: the "
                              "TCP pose and gripper command where the current segment of the demonstration ends, "
                              "followed by a proportional controller; keypose: per object moved, where to grasp "
@@ -134,29 +128,30 @@ def run(args: argparse.Namespace) -> int:
     elif args.model == "perception":
         config = PerceptionConfig(train=PerceptionTraining(steps=steps, seed=args.seed))
         metrics = train_perception(args.dataset, args.out, config, device=args.device, quiet=args.quiet)
-    elif given.get("action") == KEYPOSE_ACTION:
-        metrics = train_keypose(args.dataset, args.out, _keypose_config(args, steps), device=args.device,
-                                quiet=args.quiet)
     else:
-        metrics = train_policy(args.dataset, args.out, _policy_config(args, steps), device=args.device,
-                               quiet=args.quiet, workers=args.workers or 1)
+        entry = policy_for_action(args.action or policy_actions()[0])
+        config, options = POLICY_FLAGS[entry.name](args, steps)
+        metrics = entry.train_function()(args.dataset, args.out, config, device=args.device, quiet=args.quiet,
+                                         **options)
     shown = {k: v for k, v in metrics.items() if not isinstance(v, (dict, list))}
     print(json.dumps(shown, indent=1))
     print(f"wrote {args.out / 'metrics.json'}")
     return 0
 
 
-def _keypose_config(args: argparse.Namespace, steps: int) -> KeyposeConfig:
-    """The keypose policy to train, from the flags (what the dataset says is filled in by training)."""
+def _keypose_config(args: argparse.Namespace, steps: int) -> tuple[KeyposeConfig, dict[str, int]]:
+    """The keypose policy to train, from the flags (what the dataset says is filled in by training), and
+    no more trainer options."""
     return KeyposeConfig(
         inputs=args.inputs or "rgb", model=KeyposeArchitecture(),
         train=KeyposeTraining(steps=steps, seed=args.seed, batch=args.batch or 16,
-                              init=str(args.init) if args.init is not None else ""))
+                              init=str(args.init) if args.init is not None else "")), {}
 
 
-def _policy_config(args: argparse.Namespace, steps: int) -> PolicyConfig:
+def _policy_config(args: argparse.Namespace, steps: int) -> tuple[PolicyConfig, dict[str, int]]:
     """The behaviour-cloning policy to train, from the flags (what the dataset says is filled in by
-    training): ``train.steps`` counts the DAgger rounds' steps after ``--steps``."""
+    training): ``train.steps`` counts the DAgger rounds' steps after ``--steps``; and the trainer's
+    ``workers``."""
     collect = PolicyCollection(**{k: v for k, v in (("demos", args.demos), ("noise", args.noise),
                                                      ("dagger_rounds", args.dagger_rounds),
                                                      ("dagger_episodes", args.dagger_episodes),
@@ -165,7 +160,12 @@ def _policy_config(args: argparse.Namespace, steps: int) -> PolicyConfig:
         inputs=args.inputs or "rgb", action=args.action or "steering",
         model=PolicyArchitecture(hidden=args.hidden or 256), collect=collect,
         train=PolicyTraining(steps=steps + collect.dagger_rounds * collect.dagger_steps, seed=args.seed,
-                             batch=args.batch or 64))
+                             batch=args.batch or 64)), {"workers": args.workers or 1}
+
+
+# A registered policy's name (samplehd.learn.registry) -> its config and trainer options from the flags.
+POLICY_FLAGS: dict[str, Callable[[argparse.Namespace, int], tuple[PolicyConfig | KeyposeConfig, dict[str, int]]]] = {
+    "bc": _policy_config, "keypose": _keypose_config}
 
 
 def _evaluate_only(args: argparse.Namespace) -> int:

@@ -41,9 +41,10 @@ import mujoco
 import numpy
 
 from samplehd.catalogue.loader import LEGACY_CATALOGUE, catalogue_for
+from samplehd.catalogue.model import CatalogueRecord
 from samplehd.dataset.config import GenerateConfig, candidate_order
 from samplehd.dataset.container import read_meta, write_error
-from samplehd.dataset.journal import append_journal, read_journal, repair_journal
+from samplehd.dataset.journal import JournalRecord, append_journal, read_journal, repair_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
     EPISODE_DIR,
@@ -54,6 +55,7 @@ from samplehd.dataset.layout import (
     RUNS_FILE,
     SCENE_DIR,
     SCENES_FILE,
+    DatasetInfo,
     episode_name,
     is_temporary,
     parse_episode_name,
@@ -66,10 +68,10 @@ from samplehd.dataset.work import EpisodeUnit, run_episode_unit, run_scene_unit
 from samplehd.errors import ConfigError, DatasetError
 from samplehd.fileio import file_sha256, write_json_atomic
 from samplehd.fixedmath import machine
-from samplehd.language.instruction_file import generate_instruction_file
+from samplehd.language.instruction_file import InstructionEntry, generate_instruction_file
 from samplehd.render.image_spec import ImageSpec
 from samplehd.render.renderer import MODALITIES
-from samplehd.scene.annotate import image_stem
+from samplehd.scene.annotate import SceneAnnotation, image_stem
 from samplehd.scene.generate import SceneJob, scene_split
 from samplehd.scene.sampler import check_scene_config
 from samplehd.scene.spec import SceneSpec
@@ -205,7 +207,7 @@ def _holds_files(out: Path) -> bool:
     return False
 
 
-def _check_resumable(out: Path, info: dict[str, Any]) -> None:
+def _check_resumable(out: Path, info: DatasetInfo) -> None:
     """Refuse to resume a dataset of another format, or one whose finished episodes are missing or
     damaged (resuming would build on them); nothing is changed."""
     reader = DatasetReader(out)  # checks format_version
@@ -221,13 +223,13 @@ def _check_resumable(out: Path, info: dict[str, Any]) -> None:
                                "every problem")
 
 
-def catalogue_in_use(config: GenerateConfig) -> dict[str, Any]:
+def catalogue_in_use(config: GenerateConfig) -> CatalogueRecord:
     """The content hashes of the catalogue a dataset's scenes draw from (built-in data files plus
     every imported class the config names); recorded in info.json and checked on ``--resume``."""
     return catalogue_for(config.scene.named_classes, config.scene.catalogue).record()
 
 
-def _catalogue_difference(stored: dict[str, Any], now: dict[str, Any]) -> str | None:
+def _catalogue_difference(stored: CatalogueRecord, now: CatalogueRecord) -> str | None:
     if stored.get("sha256") == now["sha256"]:
         return None
     then = stored.get("name", LEGACY_CATALOGUE)  # a record older than catalogue names
@@ -240,14 +242,14 @@ def _catalogue_difference(stored: dict[str, Any], now: dict[str, Any]) -> str | 
     return "imported class(es) " + ", ".join(changed)
 
 
-def _base_info(config: GenerateConfig) -> dict[str, Any]:
+def _base_info(config: GenerateConfig) -> DatasetInfo:
     return {"format_version": FORMAT_VERSION, "status": "in_progress", "versions": versions(),
             "machine": machine(),  # to trace a difference between machines
             "config": config.to_dict(), "catalogue": catalogue_in_use(config)}
 
 
 def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: Progress,
-                 summary: GenerateSummary) -> Iterator[dict[str, Any]]:
+                 summary: GenerateSummary) -> Iterator[SceneAnnotation]:
     """Sample the missing scenes; yield every scene's annotation in index order as soon as it and all
     before it exist, so that the instruction stage runs while later scenes are sampled."""
     r = config.render
@@ -265,7 +267,7 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
         done[job.index] = False
     following = 0  # next scene to yield
 
-    def ready() -> Iterator[dict[str, Any]]:
+    def ready() -> Iterator[SceneAnnotation]:
         nonlocal following
         while following < config.num_scenes and done[following]:
             try:
@@ -284,8 +286,8 @@ def _scene_stage(out: Path, config: GenerateConfig, backend: Backend, progress: 
         yield from ready()
 
 
-def _instruction_stage(out: Path, config: GenerateConfig, scenes: Iterator[dict[str, Any]],
-                       progress: Progress) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+def _instruction_stage(out: Path, config: GenerateConfig, scenes: Iterator[SceneAnnotation],
+                       progress: Progress) -> tuple[list[SceneAnnotation], list[InstructionEntry]]:
     """Instruction candidates of every scene, made as the scenes arrive (or read back when resuming);
     returns (scenes, candidates)."""
     path = out / CANDIDATES_FILE
@@ -300,7 +302,7 @@ def _instruction_stage(out: Path, config: GenerateConfig, scenes: Iterator[dict[
         return seen, list(doc["instructions"])
     seen = []
 
-    def arriving() -> Iterator[dict[str, Any]]:
+    def arriving() -> Iterator[SceneAnnotation]:
         for scene in scenes:
             seen.append(scene)
             yield scene
@@ -347,13 +349,13 @@ class _Cutoff:
         return self.end is None or position < self.end
 
 
-def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], candidates: list[dict[str, Any]],
+def _path_stage(out: Path, config: GenerateConfig, scenes: list[SceneAnnotation], candidates: list[InstructionEntry],
                 backend: Backend, progress: Progress, summary: GenerateSummary) -> _Cutoff:
 
     by_key = {(int(c["image_index"]), int(c["slot"])): c for c in candidates}
     order = candidate_order(list(by_key))
     cutoff = _Cutoff(order, config.target_episodes)
-    known: dict[tuple[int, int], dict[str, Any]] = {}
+    known: dict[tuple[int, int], JournalRecord] = {}
     for rec in read_journal(out):
         key = (int(rec["scene_index"]), int(rec["slot"]))
         if key in by_key and (rec["status"] == "rejected" or (out / by_key[key]["file"]).exists()):
@@ -425,15 +427,15 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]],
     return cutoff
 
 
-def _succeeded(record: dict[str, Any]) -> bool:
+def _succeeded(record: JournalRecord) -> bool:
     """Whether a journal record is a success: an episode written, and not a failed recovery (kept, but
     not counted towards ``target_episodes``)."""
     return record.get("status") == "ok" and record.get("success", True) is not False
 
 
-def _finalize(out: Path, config: GenerateConfig, scenes: list[dict[str, Any]], candidates: list[dict[str, Any]],
+def _finalize(out: Path, config: GenerateConfig, scenes: list[SceneAnnotation], candidates: list[InstructionEntry],
               cutoff: _Cutoff, summary: GenerateSummary) -> None:
-    known: dict[tuple[int, int], dict[str, Any]] = cutoff.known  # type: ignore[attr-defined]
+    known: dict[tuple[int, int], JournalRecord] = cutoff.known  # type: ignore[attr-defined]
     end = len(cutoff.order) if cutoff.end is None else cutoff.end
     included = set(cutoff.order[:end])
     by_key = {(int(c["image_index"]), int(c["slot"])): c for c in candidates}

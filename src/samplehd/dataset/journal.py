@@ -12,15 +12,40 @@ import json
 import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 from samplehd.dataset.container import write_error
 from samplehd.dataset.layout import JOURNAL_FILE, RESUME_HINT
 
-__all__ = ["append_journal", "read_journal", "repair_journal"]
+__all__ = ["JournalRecord", "append_journal", "read_journal", "repair_journal"]
 
 
-def read_journal(root: Path) -> list[dict[str, Any]]:
+class JournalRecord(TypedDict, total=False):
+    """One line of the journal: a path work unit's outcome (:class:`samplehd.dataset.work.EpisodeResult`,
+    whose attributes say what each key means; a key is left out where it does not apply)."""
+
+    scene_index: int
+    slot: int
+    status: str
+    seconds: float
+    cpu_seconds: float
+    reason: str
+    message: str
+    attempts: int
+    num_frames: int
+    size: int
+    sha256: str
+    path_seconds: float
+    render_seconds: float
+    path_cpu_seconds: float
+    render_cpu_seconds: float
+    write_cpu_seconds: float
+    success: bool
+    disturbance: str
+    outcome: str
+
+
+def read_journal(root: Path) -> list[JournalRecord]:
     """Every complete record of ``root/journal.jsonl`` (none if the file is absent)."""
     path = Path(root) / JOURNAL_FILE
     if not path.exists():

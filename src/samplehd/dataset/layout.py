@@ -7,9 +7,14 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Any, TypedDict
+
+from samplehd.catalogue.model import CatalogueRecord
 
 __all__ = [
     "CANDIDATES_FILE",
+    "DatasetInfo",
+    "InfoEpisode",
     "DEPTH_DIR",
     "EPISODE_DIR",
     "EPISODE_SUFFIX",
@@ -30,6 +35,46 @@ __all__ = [
     "scene_image_files",
     "tmp_path",
 ]
+
+
+class InfoEpisode(TypedDict, total=False):
+    """One item of ``info.json``'s ``episodes`` (:class:`samplehd.dataset.reader.EpisodeEntry` reads it);
+    a disturbed episode adds its labels ``success``, ``disturbance`` and ``outcome``."""
+
+    instruction_index: int
+    scene_index: int
+    slot: int
+    file: str
+    seed: int
+    family: str
+    split: str
+    num_frames: int
+    size: int
+    sha256: str
+    success: bool
+    disturbance: str
+    outcome: str
+
+
+class DatasetInfo(TypedDict, total=False):
+    """``info.json`` (docs/FORMAT.md): written ``in_progress`` at the start (format, versions, machine,
+    config, catalogue) and completed at the end (counts, rejections, seeds, render settings, episodes);
+    ``rerender`` is present while a rerender is unfinished."""
+
+    format_version: str
+    status: str
+    versions: dict[str, str]
+    machine: dict[str, Any]
+    config: dict[str, Any]
+    catalogue: CatalogueRecord
+    counts: dict[str, Any]
+    target_reached: bool
+    rejections: dict[str, Any]
+    seeds: dict[str, Any]
+    render: dict[str, Any]
+    rerender: dict[str, Any]
+    episodes: list[InfoEpisode]
+
 
 FORMAT_VERSION = "1.0"
 

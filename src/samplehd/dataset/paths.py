@@ -21,7 +21,7 @@ import json
 from collections import Counter
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 from samplehd.dataset.layout import EPISODE_DIR, episode_name
 from samplehd.dataset.render import RenderConfig, check_cameras
@@ -32,15 +32,34 @@ from samplehd.language.executor import execute
 from samplehd.language.instruction_file import read_instructions
 from samplehd.language.scene import parse_scene
 from samplehd.record.paths import PathConfig
+from samplehd.scene.annotate import SceneAnnotation
 from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.task import family_names, parse_task
 from samplehd.workers import Backend
 from samplehd.world.seeding import episode_seed
 
-__all__ = ["check_instructions_fit", "format_summary", "generate_paths", "load_scenes", "summarise"]
+__all__ = ["PathResult", "check_instructions_fit", "format_summary", "generate_paths", "load_scenes", "summarise"]
 
 
-def load_scenes(path: Path) -> dict[int, dict[str, Any]]:
+class PathResult(TypedDict, total=False):
+    """One line of ``results.jsonl``: an instruction's path, written (``file``) or rejected (``reason``,
+    ``message``); ``frames`` [frames], ``seconds`` [s] of wall time."""
+
+    instruction_index: int
+    scene_index: int
+    slot: int
+    family: str
+    seed: int
+    success: bool
+    attempts: int
+    frames: int
+    seconds: float
+    file: str
+    reason: str
+    message: str
+
+
+def load_scenes(path: Path) -> dict[int, SceneAnnotation]:
     """Scenes of a scenes.json (or a directory holding one), by image_index.
 
     Raises:
@@ -59,7 +78,7 @@ def load_scenes(path: Path) -> dict[int, dict[str, Any]]:
     return out
 
 
-def check_instructions_fit(entries: list[Any], scenes: dict[int, dict[str, Any]], instructions_path: Path,
+def check_instructions_fit(entries: list[Any], scenes: dict[int, SceneAnnotation], instructions_path: Path,
                            scenes_path: Path) -> None:
     """Refuse instructions that were not made for these scenes, before any path is planned: each
     names a known family and a scene of the scenes file, and its program, run again on that scene,
@@ -114,7 +133,7 @@ def generate_paths(
     paths: PathConfig | None = None,
     render: RenderConfig | None = None,
     backend: Backend | None = None,
-    on_result: Callable[[dict[str, Any], int], None] | None = None,
+    on_result: Callable[[PathResult, int], None] | None = None,
 ) -> dict[str, Any]:
     """Plan, execute and record every instruction; returns the summary (also written to OUT).
 
@@ -166,10 +185,10 @@ def generate_paths(
     write_json_atomic(out / "config.json", {"scenes": str(scenes_path), "instructions": str(instructions_path),
                                             "seed": seed, "limit": limit, "paths": paths.to_dict(),
                                             "render": render.to_dict(), "backend": backend.describe()}, indent=2)
-    results: list[dict[str, Any]] = []
+    results: list[PathResult] = []
     with (out / "results.jsonl").open("w", encoding="utf-8") as log:
         for unit, res in backend.map(run_episode_unit, units):
-            r = {"instruction_index": meta[(unit.scene_index, unit.slot)], "scene_index": unit.scene_index,
+            r: PathResult = {"instruction_index": meta[(unit.scene_index, unit.slot)], "scene_index": unit.scene_index,
                  "slot": unit.slot, "family": unit.family, "seed": unit.seed, "success": res.ok,
                  "attempts": 1 if res.attempts is None else res.attempts, "frames": res.num_frames or 0,
                  "seconds": res.seconds}
@@ -187,7 +206,7 @@ def generate_paths(
     return summary
 
 
-def summarise(results: list[dict[str, Any]]) -> dict[str, Any]:
+def summarise(results: list[PathResult]) -> dict[str, Any]:
     """The summary.json content from per-instruction results."""
     by: dict[str, dict[str, int]] = {}
     rej: Counter[str] = Counter()

@@ -12,14 +12,14 @@ written so far (skipping temporary files) and the instruction candidates they be
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from dataclasses import dataclass
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from samplehd.catalogue.loader import LEGACY_CATALOGUE
 from samplehd.dataset.container import read_episode, read_frames, read_image, read_meta
-from samplehd.dataset.journal import read_journal
+from samplehd.dataset.journal import JournalRecord, read_journal
 from samplehd.dataset.layout import (
     CANDIDATES_FILE,
     EPISODE_DIR,
@@ -28,16 +28,21 @@ from samplehd.dataset.layout import (
     INSTRUCTIONS_FILE,
     SCENE_DIR,
     SCENES_FILE,
+    DatasetInfo,
+    InfoEpisode,
     is_temporary,
     parse_episode_name,
 )
 from samplehd.dataset.outputs import inside_dataset
 from samplehd.dataset.validate import validate_episode_file
-from samplehd.errors import DatasetError
+from samplehd.errors import DatasetError, SamplehdError
 from samplehd.fileio import not_a_regular_file, read_json
+from samplehd.language.instruction_file import InstructionEntry
 from samplehd.record.episode import Episode
+from samplehd.scene.annotate import SceneAnnotation
+from samplehd.tasks.task import Task, parse_task
 
-__all__ = ["DatasetReader", "EpisodeEntry"]
+__all__ = ["DatasetReader", "EpisodeEntry", "EpisodeMeta"]
 
 
 @dataclass(frozen=True)
@@ -72,8 +77,95 @@ class EpisodeEntry:
         return dict(self.__dict__)
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> EpisodeEntry:
+    def from_dict(cls, d: InfoEpisode) -> EpisodeEntry:
         return cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
+
+
+# The root attributes an episode file holds (in the writer's order), the ones read into typed fields.
+_META_ATTRS = ("format_version", "scene_index", "instruction_index", "family", "seed", "success", "num_frames",
+               "subtasks", "info", "slot", "instruction", "task")
+
+
+@dataclass(frozen=True)
+class EpisodeMeta:
+    """An episode file's attributes, without frames or images
+    (:func:`samplehd.dataset.container.read_meta`, typed).
+
+    Attributes:
+        stem: the file's name without its suffix.
+        format_version: the file's format version.
+        scene_index: index into ``scenes.json``.
+        instruction_index: the episode's index in the dataset (its ``instruction_index``).
+        family: task family.
+        seed: seed of the episode's randomness.
+        success: the checker's verdict on the final state.
+        num_frames: recorded frames.
+        subtasks: subtask names, indexed by the frames' ``subtask_index``.
+        info: checker report, grasp choices, control rate, disturbance, ... (free-form JSON object).
+        slot: the instruction's position among its scene's candidates (None: not recorded).
+        instruction: the instruction's text (None: not recorded).
+        task: the task (None: not recorded).
+        render: the render settings of the stored images (None: no images).
+        images: stored modalities per camera.
+        image_frames: per camera with images at keyframes only, the frames that have them.
+        extra: any other root attributes of the file, in its order.
+    """
+
+    stem: str
+    format_version: str
+    scene_index: int
+    instruction_index: int
+    family: str
+    seed: int
+    success: bool
+    num_frames: int
+    subtasks: tuple[str, ...]
+    info: dict[str, Any]
+    slot: int | None = None
+    instruction: str | None = None
+    task: Task | None = None
+    render: dict[str, Any] | None = None
+    images: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    image_frames: dict[str, tuple[int, ...]] = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> EpisodeMeta:
+        """From :func:`samplehd.dataset.container.read_meta`'s mapping."""
+        task = d.get("task")
+        family = str(d["family"])
+        return cls(
+            stem=str(d["stem"]), format_version=str(d.get("format_version", "")), scene_index=int(d["scene_index"]),
+            instruction_index=int(d["instruction_index"]), family=family, seed=int(d["seed"]),
+            success=bool(d["success"]), num_frames=int(d["num_frames"]),
+            subtasks=tuple(str(x) for x in d["subtasks"]), info=dict(d["info"]),
+            slot=int(d["slot"]) if "slot" in d else None,
+            instruction=str(d["instruction"]) if "instruction" in d else None,
+            task=parse_task(task, family) if isinstance(task, Mapping) else None,
+            render=dict(d["render"]) if isinstance(d.get("render"), Mapping) else None,
+            images={c: tuple(m) for c, m in (d.get("images") or {}).items()},
+            image_frames={c: tuple(f) for c, f in (d.get("image_frames") or {}).items()},
+            extra={k: v for k, v in d.items()
+                   if k not in (*_META_ATTRS, "stem", "render", "images", "image_frames")})
+
+    def to_dict(self) -> dict[str, Any]:
+        """As :func:`samplehd.dataset.container.read_meta` reads it: the task as the file stores it
+        (the executor's ``{type, objects, subject, relation}``, keys sorted)."""
+        d: dict[str, Any] = {"stem": self.stem, "format_version": self.format_version,
+                             "scene_index": self.scene_index, "instruction_index": self.instruction_index,
+                             "family": self.family, "seed": self.seed, "success": self.success,
+                             "num_frames": self.num_frames, "subtasks": list(self.subtasks), "info": self.info}
+        if self.slot is not None:
+            d["slot"] = self.slot
+        if self.instruction is not None:
+            d["instruction"] = self.instruction
+        if self.task is not None:
+            d["task"] = dict(sorted(self.task.to_program_dict().items()))
+        d.update(self.extra)
+        d["render"] = self.render
+        d["images"] = {c: list(m) for c, m in self.images.items()}
+        d["image_frames"] = {c: list(f) for c, f in self.image_frames.items()}
+        return d
 
 
 class DatasetReader:
@@ -98,7 +190,7 @@ class DatasetReader:
         info_path = self.root / INFO_FILE
         if not info_path.exists():
             raise DatasetError(f"{self.root}: not a samplehd dataset ({INFO_FILE} is missing)")
-        self.info: dict[str, Any] = read_json(info_path)
+        self.info: DatasetInfo = read_json(info_path)
         if not isinstance(self.info, dict):
             raise DatasetError(f"{info_path}: expected a JSON object, got {type(self.info).__name__}")
         version = self.info.get("format_version")
@@ -106,8 +198,8 @@ class DatasetReader:
             raise DatasetError(f"{info_path}: format_version {version!r} is not one this samplehd reads "
                                f"(valid: {FORMAT_VERSION!r}); use the samplehd version that wrote it")
         self.complete = self.info.get("status") == "complete"
-        self._scenes: list[dict[str, Any]] | None = None
-        self._instructions: list[dict[str, Any]] | None = None
+        self._scenes: list[SceneAnnotation] | None = None
+        self._instructions: list[InstructionEntry] | None = None
         self._episodes: list[EpisodeEntry] | None = None
 
     # --- metadata -------------------------------------------------------------------------------
@@ -127,7 +219,7 @@ class DatasetReader:
         return str(scene.get("catalogue", LEGACY_CATALOGUE)) if isinstance(scene, dict) else LEGACY_CATALOGUE
 
     @property
-    def scenes(self) -> list[dict[str, Any]]:
+    def scenes(self) -> list[SceneAnnotation]:
         """Scene annotations (CLEVR layout), sorted by ``image_index``."""
         if self._scenes is None:
             path = self.root / SCENES_FILE
@@ -144,7 +236,7 @@ class DatasetReader:
                 self._scenes = sorted(found, key=lambda s: s["image_index"])
         return self._scenes
 
-    def scene(self, index: int) -> dict[str, Any]:
+    def scene(self, index: int) -> SceneAnnotation:
         """The scene with ``image_index == index``."""
         for s in self.scenes:
             if s["image_index"] == index:
@@ -152,7 +244,7 @@ class DatasetReader:
         raise DatasetError(f"{self.root}: no scene {index}")
 
     @property
-    def instructions(self) -> list[dict[str, Any]]:
+    def instructions(self) -> list[InstructionEntry]:
         """Instructions with episodes, in ``instruction_index`` order (CLEVR question-file entries)."""
         if self._instructions is None:
             if self.complete:
@@ -166,7 +258,7 @@ class DatasetReader:
                     self._instructions.append(entry)
         return self._instructions
 
-    def _candidates(self) -> list[dict[str, Any]]:
+    def _candidates(self) -> list[InstructionEntry]:
         path = self.root / CANDIDATES_FILE
         return list(read_json(path)["instructions"]) if path.exists() else []
 
@@ -289,15 +381,19 @@ class DatasetReader:
 
         return read_episode(self.episode_path(index), images=images, instruction_index=index)
 
-    def episode_meta(self, index: int) -> dict[str, Any]:
-        """Episode ``index``'s attributes without frames or images (see
-        :func:`samplehd.dataset.container.read_meta`): stem, family, success, num_frames, subtasks,
-        info (checker report, control_hz), task, render settings and stored ``images`` {camera:
-        [modalities]} (empty, with ``render`` None, for an episode stored without images)."""
+    def episode_meta(self, index: int) -> EpisodeMeta:
+        """Episode ``index``'s attributes without frames or images: stem, family, success, num_frames,
+        subtasks, info (checker report, control_hz), task, render settings and stored ``images``
+        {camera: modalities} (empty, with ``render`` None, for an episode stored without images).
 
-        meta = read_meta(self.episode_path(index))
-        meta["instruction_index"] = index
-        return meta
+        Raises:
+            DatasetError: no such episode, or its file is truncated or corrupted.
+        """
+        path = self.episode_path(index)
+        try:
+            return replace(EpisodeMeta.from_dict(read_meta(path)), instruction_index=index)
+        except (KeyError, TypeError, ValueError, SamplehdError) as exc:
+            raise DatasetError(f"{path}: not an episode file this samplehd reads ({exc})") from None
 
     def listing(self) -> list[dict[str, Any]]:
         """A cheap listing of every episode (attributes only); unreadable files are listed with
@@ -305,7 +401,7 @@ class DatasetReader:
         out = []
         for i, e in enumerate(self.episodes):
             try:
-                meta = self.episode_meta(i)
+                meta = self.episode_meta(i).to_dict()
                 meta.pop("info", None)
             except DatasetError as exc:
                 meta = {"stem": Path(e.file).stem, "error": str(exc)}
@@ -320,11 +416,11 @@ class DatasetReader:
         """One decoded image frame: rgb uint8 H×W×3, depth float32 [m], segmentation ids."""
         return read_image(self.episode_path(index), camera, modality, frame)
 
-    def rejections(self) -> list[dict[str, Any]]:
+    def rejections(self) -> list[JournalRecord]:
         """Instruction candidates whose ground-truth path failed: {scene_index, slot, reason, message}."""
         return [r for r in read_journal(self.root) if r.get("status") == "rejected"]
 
-    def instruction(self, index: int) -> dict[str, Any]:
+    def instruction(self, index: int) -> InstructionEntry:
         """The instruction entry of episode ``index``."""
         return self.instructions[index]
 

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from samplehd.dataset.layout import DatasetInfo
 from samplehd.dataset.reader import DatasetReader
 
 __all__ = ["dataset_stats", "plot_bars", "write_plots"]
@@ -57,7 +58,7 @@ def dataset_stats(root: str | Path) -> dict[str, Any]:
     }
 
 
-def _disturbance_stats(info: dict[str, Any]) -> dict[str, Any]:
+def _disturbance_stats(info: DatasetInfo) -> dict[str, Any]:
     """``{disturbances: {kind: {outcome: n}}, disturbance_outcomes: {"kind outcome": n}}`` of a dataset
     made with disturbances (from info.json's episode entries); empty without."""
     entries = [e for e in info.get("episodes", []) if isinstance(e, dict) and "disturbance" in e]

@@ -29,6 +29,8 @@ from samplehd.dataset.layout import (
     INSTRUCTIONS_FILE,
     SCENE_DIR,
     SCENES_FILE,
+    DatasetInfo,
+    InfoEpisode,
     is_temporary,
     scene_image_files,
 )
@@ -37,6 +39,7 @@ from samplehd.errors import ConfigError, DatasetError
 from samplehd.fileio import file_sha256, not_a_regular_file, resolve_path
 from samplehd.record.disturbances import LABEL_FIELDS
 from samplehd.render.keyframes import keyframe_indices
+from samplehd.scene.annotate import SceneAnnotation
 
 __all__ = ["known_classes", "validate_dataset", "validate_episode_file", "validate_scene_files",
            "validate_stored_config"]
@@ -52,7 +55,7 @@ def _load(path: Path, problems: list[str]) -> Any:
     return None
 
 
-def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, Any] | None,
+def validate_episode_file(path: Path, entry: InfoEpisode, render: dict[str, Any] | None,
                           deep: bool = False) -> list[str]:
     """Problems of one episode file compared with its ``info.json`` entry and the render settings
     (``info.json``'s ``render``: every camera with its own resolution and modalities, see
@@ -135,7 +138,7 @@ def validate_episode_file(path: Path, entry: dict[str, Any], render: dict[str, A
     return problems
 
 
-def _disturbance_problems(path: Path, ep: Any, label: dict[str, Any], entry: dict[str, Any]) -> list[str]:
+def _disturbance_problems(path: Path, ep: Any, label: dict[str, Any], entry: InfoEpisode) -> list[str]:
     """Problems of a disturbed episode's labels: a failure only as a failed recovery, the flags as the label says."""
     problems: list[str] = []
     if not ep.success and label.get("outcome") != "failed":
@@ -182,7 +185,7 @@ def _writer_running(root: Path) -> str | None:
     return None
 
 
-def validate_stored_config(root: Path, info: dict[str, Any]) -> list[str]:
+def validate_stored_config(root: Path, info: DatasetInfo) -> list[str]:
     """Problems of the generation config and catalogue recorded in ``info.json`` (what the trainers and
     the replay build their environment from): the config must be one this samplehd reads, the catalogue
     a built-in one."""
@@ -255,7 +258,7 @@ def _image_problem(path: Path, camera: dict[str, Any], what: str) -> str | None:
     return None
 
 
-def known_classes(info: dict[str, Any]) -> tuple[str, ...] | None:
+def known_classes(info: DatasetInfo) -> tuple[str, ...] | None:
     """The object classes a dataset's scenes may hold: its built-in catalogue's (the one ``info.json``
     records, as :attr:`DatasetReader.catalogue <samplehd.dataset.reader.DatasetReader.catalogue>` reads
     it) and the imported classes the stored config names (``scene.classes``, ``scene.menu_overrides``);
@@ -273,7 +276,7 @@ def known_classes(info: dict[str, Any]) -> tuple[str, ...] | None:
     return builtin + tuple(n for n in named if n not in builtin)
 
 
-def _class_problems(where: str, scene: dict[str, Any], valid: tuple[str, ...]) -> list[str]:
+def _class_problems(where: str, scene: SceneAnnotation, valid: tuple[str, ...]) -> list[str]:
     """An object of the scene (``objects[k].shape`` or ``spec.objects[k].instance.class_name``) of a class
     not in ``valid``: the first one, in one line."""
     spec = scene.get("spec")
@@ -289,8 +292,8 @@ def _class_problems(where: str, scene: dict[str, Any], valid: tuple[str, ...]) -
     return []
 
 
-def validate_scene_files(root: Path, scenes: list[dict[str, Any]], deep: bool = False,
-                         info: dict[str, Any] | None = None) -> list[str]:
+def validate_scene_files(root: Path, scenes: list[SceneAnnotation], deep: bool = False,
+                         info: DatasetInfo | None = None) -> list[str]:
     """Problems of the scenes' camera records and image files (``images/``, ``depth/``,
     ``segmentation/``: what the scene trainers and the exporters read): each present, and with ``deep``
     decoded and of the size of the scene's camera; with ``info`` (the dataset's ``info.json``) also each

@@ -32,6 +32,7 @@ from samplehd.dataset.container import (
     write_episode,
     write_error,
 )
+from samplehd.dataset.journal import JournalRecord
 from samplehd.dataset.layout import EPISODE_DIR, RESUME_HINT
 from samplehd.dataset.render import RenderConfig
 from samplehd.errors import DatasetError, PlanningError, RenderError
@@ -167,7 +168,7 @@ class EpisodeResult:
     def ok(self) -> bool:
         return self.status == "ok"
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JournalRecord:
         """The journal record: the fields that apply to this outcome (the others are left out)."""
         return {f.name: v for f in dataclasses.fields(self) if (v := getattr(self, f.name)) is not None}
 

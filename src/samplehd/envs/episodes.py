@@ -27,8 +27,9 @@ from samplehd.envs.scene_worker import sample_in_child
 from samplehd.errors import ConfigError, SamplehdError, SceneError
 from samplehd.language.executor import execute
 from samplehd.language.generator import generate_instructions
+from samplehd.language.instruction_file import InstructionEntry
 from samplehd.motion.assist import compile_scene_with_assist
-from samplehd.scene.annotate import annotate_scene
+from samplehd.scene.annotate import SceneAnnotation, annotate_scene
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import sample_scene
 from samplehd.scene.spec import SceneSpec, compile_scene
@@ -59,8 +60,8 @@ class EpisodeSpec:
     """
 
     scene: SceneSpec
-    instruction: dict[str, Any]
-    annotation: dict[str, Any] = field(default_factory=dict)
+    instruction: InstructionEntry
+    annotation: SceneAnnotation = field(default_factory=SceneAnnotation)
     initial_state: dict[str, np.ndarray] | None = None
 
     @property
@@ -94,7 +95,7 @@ class SceneCache:
         self.timestep = timestep
         self._config_key = json.dumps(config.to_dict(), sort_keys=True)
         self._models: OrderedDict[str, tuple[mujoco.MjModel, mujoco.MjData]] = OrderedDict()
-        self._annotations: dict[str, dict[str, Any]] = {}
+        self._annotations: dict[str, SceneAnnotation] = {}
 
     def scene(self, seed: int, index: int = 0) -> SceneSpec:
         """The scene sampled from ``seed`` (cached)."""
@@ -132,7 +133,7 @@ class SceneCache:
             self._annotations.pop(old, None)
         return model, data, True
 
-    def annotation(self, scene: SceneSpec) -> dict[str, Any]:
+    def annotation(self, scene: SceneSpec) -> SceneAnnotation:
         """The scene's CLEVR-layout annotation (cached with the compiled model; a private copy)."""
         model, data, _ = self.compiled(scene)
         key = json.dumps(scene.to_dict(), sort_keys=True)
@@ -141,12 +142,12 @@ class SceneCache:
         return copy.deepcopy(self._annotations[key])
 
 
-def _annotation(scene: SceneSpec, model: mujoco.MjModel, data: mujoco.MjData) -> dict[str, Any]:
+def _annotation(scene: SceneSpec, model: mujoco.MjModel, data: mujoco.MjData) -> SceneAnnotation:
     camera = SCENE_CAMERA if scene.camera.name == SCENE_CAMERA else OPERATOR_CAMERA.name
     return annotate_scene(scene, model, data, 640, 360, camera=camera)
 
 
-def _instruction_entry(instruction: Any) -> dict[str, Any]:
+def _instruction_entry(instruction: Any) -> InstructionEntry:
     d = dict(instruction.to_dict())
     d["task"] = dict(d["task"])
     return d
@@ -179,7 +180,7 @@ def sample_episode(
         family = families[int(rng.integers(len(families)))]
     elif family not in families:
         raise ConfigError(f"episode family {family!r} is not among the environment's families {list(families)}")
-    last: tuple[SceneSpec, dict[str, Any]] | None = None
+    last: tuple[SceneSpec, SceneAnnotation] | None = None
     for _ in range(_SCENE_TRIES):
         if num_scenes:
             index = int(rng.integers(num_scenes))

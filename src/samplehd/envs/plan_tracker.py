@@ -14,6 +14,7 @@ import mujoco
 import numpy as np
 
 from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
+from samplehd.tasks.task import ProgramTask
 from samplehd.world.layout import Directions
 
 __all__ = ["PlanTracker", "plan_tracker"]
@@ -51,7 +52,7 @@ class PlanTracker:
         return self.names[self.subtask_index[self.frame]]
 
 
-def plan_tracker(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, task: dict[str, Any], family: str,
+def plan_tracker(model: mujoco.MjModel, data: mujoco.MjData, scene: Any, task: ProgramTask, family: str,
                  directions: Directions | None, seed: int, physics_hz: float,
                  control_hz: float) -> tuple[PlanTracker | None, str]:
     """Plan the episode from a copy of ``data``; returns (tracker, "") or (None, why not)."""

@@ -146,7 +146,7 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
     tcp_dev = obj_dev = 0.0
     success = False
     meta = reader.episode_meta(index)
-    push = _recorded_push(meta.get("info"))
+    push = _recorded_push(meta.info)
     for t in range(len(steering) - 1):
         _apply_push(env, push, t)
         try:
@@ -162,7 +162,7 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
             diff = obs["object_pos"][:k].astype(float) - obj_rec[t + 1]
             obj_dev = max(obj_dev, float(np.max(norm(diff, axis=1))))
     entry = reader.episodes[index]
-    recorded = bool(meta.get("success", True))
+    recorded = meta.success
     return EpisodeReplay(index, entry.family, recorded, success, tcp_dev, obj_dev, max(0, len(steering) - 1))
 
 

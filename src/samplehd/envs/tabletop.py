@@ -82,6 +82,7 @@ from samplehd.errors import ActionError, ConfigError, SamplehdError
 from samplehd.motion.assist import GraspAssist
 from samplehd.robot.constants import JOINT_LIMITS
 from samplehd.robot.controller import ControlConfig, RobotController
+from samplehd.tasks.checker import CheckReport
 from samplehd.tasks.task import Task, parse_task
 
 __all__ = ["INSTRUCTION_CHARSET", "TabletopEnv"]
@@ -265,7 +266,7 @@ class TabletopEnv(gym.Env):
         if self._plan is not None:
             self.plan_subtask = self._plan.update(self.physics.tcp_pos(), self.physics.finger_opening())
 
-    def check_success(self) -> dict[str, Any]:
+    def check_success(self) -> CheckReport:
         """The shared checker's full report on the current state (with the stability window)."""
         return self.physics.report(self.task).to_dict()
 

@@ -54,9 +54,11 @@ from samplehd.export.unity_frame import (
     xyz,
     xyzw,
 )
+from samplehd.language.instruction_file import InstructionEntry
 from samplehd.motion.order import pick_order
 from samplehd.render.image_io import read_segmentation, save_depth
 from samplehd.render.video import VideoWriter
+from samplehd.scene.annotate import ObjectAnnotation, SceneAnnotation
 from samplehd.tasks.task import Task, parse_task
 from samplehd.workers import Backend
 from samplehd.world.layout import LAYOUT
@@ -122,7 +124,7 @@ def colour_segmentation(ids: np.ndarray, num_objects: int) -> np.ndarray:
     return lut[ids]
 
 
-def _sample_hd_table_part(obj: dict[str, Any]) -> list[str]:
+def _sample_hd_table_part(obj: ObjectAnnotation) -> list[str]:
     """One of left/right and one of front/back: samplehd's parts, the nearer half where it lies in the band."""
     parts = list(obj.get("table_part") or [])
     x, y = obj["3d_coords"][0], obj["3d_coords"][1]
@@ -131,18 +133,18 @@ def _sample_hd_table_part(obj: dict[str, Any]) -> list[str]:
     return [horizontal, vertical]
 
 
-def unity_program(instruction: dict[str, Any]) -> dict[str, Any]:
+def unity_program(instruction: InstructionEntry) -> dict[str, Any]:
     """The ground-truth ``unity_program`` {name, objectInt, subjectString, subjectInt} of an instruction
     of SAMPLE-HD's four families, from samplehd's task (what the ground-truth path carried out)."""
     return _sample_hd_task(instruction).to_sample_hd()  # remove is executed, and written, as a place
 
 
-def _original_task(instruction: dict[str, Any]) -> list[dict[str, Any]]:
+def _original_task(instruction: InstructionEntry) -> list[dict[str, Any]]:
     """SAMPLE-HD's ``task`` list [{type, object, subject}] (preprocessing/sequence_data_preprocessing.py)."""
     return [_sample_hd_task(instruction).to_sample_hd_task()]
 
 
-def _sample_hd_task(instruction: dict[str, Any]) -> Task:
+def _sample_hd_task(instruction: InstructionEntry) -> Task:
     """The task of an instruction of one of SAMPLE-HD's families; raises ValueError for the others."""
     family = instruction["family"]
     if family not in SAMPLE_HD_FAMILIES:
@@ -159,7 +161,7 @@ def _band_mismatch(tokens: list[str], strict: list[list[str]], sample_hd: list[l
     return False
 
 
-def _scene_doc(scene: dict[str, Any], base: np.ndarray) -> dict[str, Any]:
+def _scene_doc(scene: SceneAnnotation, base: np.ndarray) -> dict[str, Any]:
     doc = {k: v for k, v in scene.items() if k != "spec"}
     doc["image_filename"] = scene_stem(int(scene["image_index"])) + ".png"
     rel = scene.get("relationships", {})
@@ -285,7 +287,7 @@ def _export_sequence(unit: _SequenceUnit) -> tuple[int, bool]:
     return ep.num_frames, recorded == computed
 
 
-def _export_scene_images(root: Path, tmp: Path, scene: dict[str, Any]) -> None:
+def _export_scene_images(root: Path, tmp: Path, scene: SceneAnnotation) -> None:
     stem, new = Path(scene["image_filename"]).stem, scene_stem(int(scene["image_index"]))
     for sub, suffix in (("images", ".png"), ("depth", ".png"), ("depth", ".npy")):
         src = root / sub / f"{stem}{suffix}"
@@ -329,7 +331,7 @@ def export_samplehd(root: str | Path, out: str | Path, images: bool = True, prev
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
     order = str(reader.config.get("paths", {}).get("planner", {}).get("order", "instruction"))
     base = LAYOUT.robot_base_position
-    stored = sorted({c for e in range(len(reader)) for c in (reader.episode_meta(e).get("images") or {})})
+    stored = sorted({c for e in range(len(reader)) for c in reader.episode_meta(e).images})
     if images and not stored:
         with dataset_lock(reader.root, shared=True):  # a dataset being written says so first (it may get images)
             pass

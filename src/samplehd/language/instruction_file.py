@@ -35,7 +35,7 @@ import math
 from collections import Counter
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -49,6 +49,7 @@ from samplehd.version import __version__
 
 __all__ = [
     "INSTRUCTIONS_FORMAT_VERSION",
+    "InstructionEntry",
     "assign_splits",
     "generate_instruction_file",
     "parse_split_ratio",
@@ -57,6 +58,33 @@ __all__ = [
 ]
 
 INSTRUCTIONS_FORMAT_VERSION = "1.0"
+
+
+class InstructionEntry(TypedDict, total=False):
+    """One entry of ``instructions`` (the module docstring's layout); a dataset's entries add ``slot``,
+    ``seed``, the episode's ``instruction_index`` and (instruction candidates) its ``file`` and
+    ``candidate_index``. ``task`` is the executor's ``{type, objects, subject, relation}``
+    (:meth:`samplehd.tasks.task.Task.to_program_dict`)."""
+
+    split: str
+    image_index: int
+    image_filename: str
+    instruction_index: int
+    instruction: str
+    template_filename: str
+    template_index: int
+    template_name: str
+    family: str
+    task: dict[str, Any]
+    targets: list[int]
+    program: list[dict[str, Any]]
+    program_sequence: str
+    params: dict[str, Any]
+    references: dict[str, Any]
+    slot: int
+    seed: int
+    file: str
+    candidate_index: int
 
 
 def parse_split_ratio(text: str) -> dict[str, float]:

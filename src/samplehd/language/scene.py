@@ -15,6 +15,7 @@ from typing import Any
 
 from samplehd.errors import SceneError
 from samplehd.fileio import read_json
+from samplehd.scene.annotate import SceneAnnotation
 from samplehd.world.layout import DIRECTIONS, TABLE_PARTS
 from samplehd.world.relations import RELATIONS, compute_relationships
 
@@ -364,7 +365,7 @@ def _scene_dicts(path: Path) -> tuple[dict[str, Any], list[tuple[str, Any]]]:
     raise SceneError(f"{path}: expected a scenes file {{info, scenes: [...]}} or one scene dict")
 
 
-def load_scenes(path: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+def load_scenes(path: str | Path) -> tuple[dict[str, Any], list[SceneAnnotation]]:
     """Read scene dicts from a scenes file or a folder.
 
     A folder is read as its ``scenes.json`` if it has one, else as every ``*.json`` in it (each a
@@ -390,7 +391,7 @@ def load_scenes(path: str | Path) -> tuple[dict[str, Any], list[dict[str, Any]]]
     else:
         raise SceneError(f"{path}: no such file or folder")
     info: dict[str, Any] = {}
-    scenes: list[dict[str, Any]] = []
+    scenes: list[SceneAnnotation] = []
     for file in files:
         file_info, entries = _scene_dicts(file)
         info = info or file_info

@@ -31,14 +31,15 @@ from samplehd.learn.parser import InstructionParser
 from samplehd.learn.perception import Perception
 from samplehd.learn.training import set_seed
 from samplehd.render.renderer import SceneRenderer, camera_intrinsics, camera_pose
-from samplehd.tasks.task import parse_task
+from samplehd.scene.annotate import ObjectAnnotation, SceneAnnotation
+from samplehd.tasks.task import ProgramTask, family_of_program, parse_task
 
 __all__ = ["NeuroSymbolicPolicy", "policy_for_evaluation"]
 
 _CHOICES = ("gt", "predicted")
 
 
-def _describe(obj: dict[str, Any]) -> str:
+def _describe(obj: ObjectAnnotation) -> str:
     """One object of a scene annotation in a few words, for the reports: ``small red metal mug @ (x, y)``."""
     x, y = obj["3d_coords"][:2]
     return f"{obj['size']} {obj['colour']} {obj['material']} {obj['name']} @ ({x:.3f}, {y:.3f})"
@@ -50,7 +51,7 @@ _MIN_SCORE = 0.05  # an alternative label below this probability is not tried
 _MAX_TRIES = 8
 
 
-def _relabel(scene: dict[str, Any], changes: Sequence[tuple[int, str, str]]) -> dict[str, Any]:
+def _relabel(scene: SceneAnnotation, changes: Sequence[tuple[int, str, str]]) -> SceneAnnotation:
     objects = [dict(o) for o in scene["objects"]]
     for i, attr, value in changes:
         objects[i][attr] = value
@@ -61,8 +62,8 @@ def _relabel(scene: dict[str, Any], changes: Sequence[tuple[int, str, str]]) -> 
     return {**scene, "objects": objects}
 
 
-def _relaxed(program: Sequence[str], perceived: dict[str, Any],
-             run: Callable[[list[str], Any], dict[str, Any] | None]) -> dict[str, Any] | None:
+def _relaxed(program: Sequence[str], perceived: SceneAnnotation,
+             run: Callable[[list[str], Any], ProgramTask | None]) -> ProgramTask | None:
     """Run ``program`` on the perceived scene with the next most likely labels where its top labels fail.
 
     A filter of the program that finds no object (or too many) is retried with one or two objects
@@ -99,7 +100,7 @@ def _relaxed(program: Sequence[str], perceived: dict[str, Any],
     return None
 
 
-def _same(a: dict[str, Any] | None, b: dict[str, Any]) -> bool:
+def _same(a: ProgramTask | None, b: ProgramTask) -> bool:
     return a is not None and all(a.get(k) == b.get(k) for k in ("type", "objects", "subject", "relation"))
 
 
@@ -173,7 +174,7 @@ class NeuroSymbolicPolicy(OraclePolicy):
             program = list(self.parser.parse([ep.text])[0].flat)
             diag["program"] = " ".join(program)
 
-        def run(prog: list[str], scene: Any) -> dict[str, Any] | None:
+        def run(prog: list[str], scene: Any) -> ProgramTask | None:
             try:
                 return execute(prog, scene).to_program_dict()
             except (ProgramError, ValueError):
@@ -196,7 +197,7 @@ class NeuroSymbolicPolicy(OraclePolicy):
         else:
             scene = gt_scene
 
-        def grounded(task: dict[str, Any] | None) -> dict[str, Any] | None:
+        def grounded(task: ProgramTask | None) -> ProgramTask | None:
             if task is None or mapping is None:
                 return task
             objs = [mapping[i] for i in task["objects"]]
@@ -207,7 +208,7 @@ class NeuroSymbolicPolicy(OraclePolicy):
                 return None
             return {**task, "objects": objs, "subject": subj}
 
-        def decide(prog: list[str]) -> dict[str, Any] | None:
+        def decide(prog: list[str]) -> ProgramTask | None:
             task = grounded(run(prog, scene))
             if task is None and self.perception is not None:  # a filter found no object, or too many
                 task = grounded(_relaxed(prog, perceived, run))
@@ -222,11 +223,8 @@ class NeuroSymbolicPolicy(OraclePolicy):
             diag["stage"] = "parse" if not parse_ok else ("perception" if not perception_ok else "execution")
         if chosen is None:
             return None, diag
-        family = chosen["type"]
-        if family == "place" and len(program) == 3 and program[2].startswith("filter_table["):
-            family = "remove"
         try:
-            return parse_task(chosen, family), diag
+            return parse_task(chosen, family_of_program(chosen["type"], program)), diag
         except Exception as exc:  # noqa: BLE001 - a malformed predicted task is a failed decision
             diag["error"] = str(exc)
             return None, diag

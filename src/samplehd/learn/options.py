@@ -3,7 +3,7 @@
 A folder of ``samplehd train policy`` holds a behaviour-cloning policy
 (:class:`~samplehd.learn.policy.configuration.PolicyConfig`, ``action`` steering or waypoint) or a
 keypose policy (:class:`~samplehd.learn.keypose.configuration.KeyposeConfig`, ``action: keypose``);
-:data:`POLICY_CONFIGS` says which class reads which. Needs no PyTorch: ``samplehd evaluate`` sets the
+:mod:`samplehd.learn.registry` says which class reads which. Needs no PyTorch: ``samplehd evaluate`` sets the
 environment up from the config before any model is loaded, and works for the other policies where the
 ``learn`` extra is not installed.
 """
@@ -16,19 +16,15 @@ from typing import Any
 
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
-from samplehd.learn.keypose.configuration import ACTION as KEYPOSE_ACTION
-from samplehd.learn.keypose.configuration import KeyposeConfig
-from samplehd.learn.policy.configuration import PolicyConfig
+from samplehd.learn.registry import PolicyConfigClass, policy_entry
 
-__all__ = ["POLICY_CONFIGS", "env_options", "policy_config_class"]
-
-# a policy config.json's ``action`` -> the config class that reads it (absent: the behaviour-cloning policy)
-POLICY_CONFIGS: dict[str, type[PolicyConfig] | type[KeyposeConfig]] = {KEYPOSE_ACTION: KeyposeConfig}
+__all__ = ["env_options", "policy_config_class"]
 
 
-def policy_config_class(raw: Mapping[str, Any]) -> type[PolicyConfig] | type[KeyposeConfig]:
-    """The config class of the policy ``config.json`` object ``raw``, told by its ``action``."""
-    return POLICY_CONFIGS.get(str(raw.get("action", "")), PolicyConfig)
+def policy_config_class(raw: Mapping[str, Any]) -> PolicyConfigClass:
+    """The config class of the policy ``config.json`` object ``raw``, told by its ``action``
+    (:func:`samplehd.learn.registry.policy_entry`)."""
+    return policy_entry(raw).config
 
 
 def env_options(folder: str | Path) -> dict[str, Any]:

@@ -29,7 +29,7 @@ from samplehd.robot.controller import ControlConfig
 from samplehd.scene.spec import SceneSpec
 from samplehd.schema import Config, bounded
 from samplehd.tasks.checker import CheckerConfig, CheckResult, check_success
-from samplehd.tasks.task import Task, get_family, parse_task
+from samplehd.tasks.task import ProgramTask, Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies
 from samplehd.world.layout import LAYOUT, Directions
 from samplehd.world.planner_config import PlannerConfig
@@ -147,7 +147,7 @@ def _check_reason(result: CheckResult, config: PathConfig) -> str:
 
 
 def _run_disturbed(disturber: Disturber, step: RecordingStep, scene: SceneSpec, task: Task, config: PathConfig,
-                   exclude: dict[int, set[int]], directions: dict[str, Any] | None) -> CheckResult:
+                   exclude: dict[int, set[int]], directions: Directions | None) -> CheckResult:
     """The disturbed attempt: the recovering plan, then, while the checker rejects the final state after the
     disturbance, a recovery from it (every moved object grasped where it lies and moved again). The final
     frame is recorded by the caller."""
@@ -195,7 +195,7 @@ def _episode(ro: Rollout, step: RecordingStep, scene: SceneSpec, scene_index: in
 
 def plan_and_execute(
     scene: SceneSpec,
-    task: dict[str, Any] | Task,
+    task: ProgramTask | Task,
     rng: np.random.Generator,
     config: PathConfig | None = None,
     *,
@@ -250,7 +250,7 @@ def plan_and_execute(
     return episode
 
 
-def _plan_and_execute(scene: SceneSpec, task: dict[str, Any] | Task, rng: np.random.Generator,
+def _plan_and_execute(scene: SceneSpec, task: ProgramTask | Task, rng: np.random.Generator,
                       config: PathConfig | None, family: str | None, scene_index: int | None,
                       instruction_index: int, seed: int, directions: Directions | None,
                       compiled: tuple[mujoco.MjModel, mujoco.MjData] | None, live: LiveStates | None,

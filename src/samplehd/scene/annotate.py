@@ -18,7 +18,7 @@ A scene entry (one per scene in ``scenes.json``, and alone in ``scenes/<stem>.js
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, TypedDict
 
 import mujoco
 import numpy as np
@@ -43,7 +43,37 @@ from samplehd.world.layout import DIRECTIONS, table_parts_of
 from samplehd.world.relations import compute_relationships
 from samplehd.world.transforms import quat_to_mat, yaw_from_quat
 
-__all__ = ["annotate_scene", "image_stem"]
+__all__ = ["ObjectAnnotation", "SceneAnnotation", "annotate_scene", "image_stem"]
+
+
+# One object of a scene entry, as the module docstring lists its keys (CLEVR's and SAMPLE-HD's); the
+# JSON key "3d_coords" is not an identifier, so the class is declared in the functional form.
+ObjectAnnotation = TypedDict("ObjectAnnotation", {
+    "name": str, "shape": str, "color": str, "colour": str, "material": str, "size": str, "weight": str,
+    "mass": float, "table_part": list[str], "3d_coords": list[float], "rotation": float,
+    "orientation": list[float], "pixel_coords": list[float], "bbox": dict[str, list[float]],
+    "footprint_half_extents": list[float], "segmentation_id": int, "affordances": list[str],
+    "opening_radius": float, "top_extent": float, "variant": str}, total=False)
+
+
+class SceneAnnotation(TypedDict, total=False):
+    """A scene entry of ``scenes.json`` (one per scene; alone in ``scenes/<stem>.json``): the keys the
+    module docstring lists. Not every producer writes every key (a perceived scene has objects,
+    relationships and directions, and per object its ``attribute_scores``), hence ``total=False``."""
+
+    split: str
+    image_index: int
+    image_filename: str
+    seed: int
+    version: str
+    directions: dict[str, list[float]]
+    objects: list[ObjectAnnotation]
+    relationships: dict[str, list[list[int]]]
+    camera: dict[str, Any]
+    manipulator: dict[str, Any]
+    segmentation_ids: dict[str, int]
+    spec: dict[str, Any]
+    attribute_scores: list[dict[str, Any]]
 
 
 def image_stem(split: str, index: int) -> str:
@@ -75,7 +105,7 @@ def annotate_scene(
     height: int,
     split: str = "train",
     camera: str = "scene",
-) -> dict[str, Any]:
+) -> SceneAnnotation:
     """Build the CLEVR-layout annotation of a compiled scene seen from `camera` at width × height."""
     objects = []
     centers = []

@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypedDict
 
 import mujoco
 import numpy as np
@@ -44,11 +44,11 @@ from samplehd.fixedmath import dot, norm
 from samplehd.physics import wake_all
 from samplehd.scene.spec import SceneSpec
 from samplehd.schema import Config, bounded
-from samplehd.tasks.task import Task, get_family, parse_task
+from samplehd.tasks.task import ProgramTask, Task, get_family, parse_task
 from samplehd.world.bodies import SceneBodies, contact_pairs, object_world_box, object_world_hull_box, quat_tilt
 from samplehd.world.layout import DIRECTIONS, LAYOUT, Directions, TableLayout
 
-__all__ = ["CheckResult", "CheckerConfig", "Judge", "check_success", "welded"]
+__all__ = ["CheckReport", "CheckResult", "CheckerConfig", "Judge", "check_success", "welded"]
 
 
 @dataclass(frozen=True)
@@ -84,6 +84,17 @@ class CheckerConfig(Config, section="checker"):
     fall_angle: float = bounded(0.79, lo=0.0, unit="rad")
 
 
+class CheckReport(TypedDict):
+    """A :class:`CheckResult` as JSON (:meth:`CheckResult.to_dict`): the same fields, tuples as lists."""
+
+    success: bool
+    family: str
+    reason: str
+    disturbed: list[int]
+    fallen: list[int]
+    details: dict[str, Any]
+
+
 @dataclass(frozen=True)
 class CheckResult:
     """The checker's verdict.
@@ -104,7 +115,7 @@ class CheckResult:
     fallen: tuple[int, ...] = ()
     details: dict[str, Any] = field(default_factory=dict)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> CheckReport:
         return {
             "success": self.success,
             "family": self.family,
@@ -115,7 +126,7 @@ class CheckResult:
         }
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> CheckResult:
+    def from_dict(cls, d: CheckReport) -> CheckResult:
         return cls(bool(d["success"]), str(d["family"]), str(d.get("reason", "")),
                    tuple(d.get("disturbed", ())), tuple(d.get("fallen", ())), dict(d.get("details", {})))
 
@@ -189,7 +200,7 @@ def check_success(
     model: mujoco.MjModel,
     data: mujoco.MjData,
     scene: SceneSpec,
-    task: dict[str, Any] | Task,
+    task: ProgramTask | Task,
     config: CheckerConfig | None = None,
     layout: TableLayout = LAYOUT,
     directions: Directions | None = None,

@@ -46,7 +46,7 @@ from __future__ import annotations
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypedDict
 
 from samplehd.errors import PlanningError
 from samplehd.world.layout import TABLE_PARTS
@@ -55,9 +55,12 @@ __all__ = [
     "DESTINATIONS",
     "RELATION_NAMES",
     "VALUE_KINDS",
+    "ProgramTask",
+    "SampleHdTask",
     "Task",
     "TaskFamily",
     "family_names",
+    "family_of_program",
     "get_family",
     "parse_part",
     "parse_relation",
@@ -101,6 +104,8 @@ class TaskFamily:
         support_of: the object that object ``obj`` must end on or in (-1: the table or the gripper).
         runs_as: the family whose program a task of this family is written as (remove runs as a place
             to the opposite part), with ``adopt`` turning such a task into one of this family.
+        written_as: whether a flat program (SAMPLE-HD's tokens, action first) of the ``runs_as`` family
+            stands for this family (remove: a place of everything on one table part); None: never.
     """
 
     name: str
@@ -118,6 +123,7 @@ class TaskFamily:
     support_of: Callable[[Task, int], int] = lambda task, obj: -1
     runs_as: str | None = None
     adopt: Callable[[Task], Task] | None = None
+    written_as: Callable[[Sequence[str]], bool] | None = None
 
     @property
     def places(self) -> bool:
@@ -143,12 +149,44 @@ def family_names() -> tuple[str, ...]:
     return tuple(sorted(_REGISTRY, key=lambda n: _REGISTRY[n].order))
 
 
+def family_of_program(action: str, program: Sequence[str]) -> str:
+    """The family a flat program whose action is of family ``action`` stands for: a family that runs
+    as ``action`` and claims the program (:attr:`TaskFamily.written_as`), else ``action`` itself.
+
+    Args:
+        action: the family of the program's action (``place`` for a remove).
+        program: the flat program's tokens, action first (``["place[back]", "scene", "filter_table[front]"]``).
+    """
+    for family in _REGISTRY.values():
+        if family.runs_as == action and family.written_as is not None and family.written_as(program):
+            return family.name
+    return action
+
+
 def get_family(name: str) -> TaskFamily:
     """The family called ``name``; raises PlanningError naming the valid ones."""
     try:
         return _REGISTRY[name]
     except KeyError:
         raise PlanningError(f"unknown task family {name!r}; valid: {', '.join(family_names())}") from None
+
+
+class ProgramTask(TypedDict):
+    """A task as the program executor writes it (the ``task`` of instruction files): the program's
+    action, the moved objects, its subject (a table part, an object index, or None) and its relation."""
+
+    type: str
+    objects: list[int]
+    subject: str | int | None
+    relation: str | None
+
+
+class SampleHdTask(TypedDict):
+    """SAMPLE-HD's ``task`` entry (its ``preprocessing/sequence_data_preprocessing.py``)."""
+
+    type: str
+    object: list[int]
+    subject: str | int | None
 
 
 @dataclass(frozen=True)
@@ -219,7 +257,7 @@ class Task:
             direction=d.get("direction"),
         )
 
-    def to_program_dict(self) -> dict[str, Any]:
+    def to_program_dict(self) -> ProgramTask:
         """The executor's ``{type, objects, subject, relation}`` (the ``task`` of instruction files)."""
         return {"type": self.type, "objects": list(self.objects), "subject": self.subject, "relation": self.relation}
 
@@ -233,7 +271,7 @@ class Task:
             "subjectInt": subject if isinstance(subject, int) else -1,
         }
 
-    def to_sample_hd_task(self) -> dict[str, Any]:
+    def to_sample_hd_task(self) -> SampleHdTask:
         """SAMPLE-HD's ``task`` entry ``{type, object, subject}`` (its
         ``preprocessing/sequence_data_preprocessing.py``): the family, the moved objects and the family's
         parameter as SAMPLE-HD names it (a part: the destination, or the cleared part of a remove; else
@@ -257,7 +295,7 @@ def parse_part(value: Any) -> str:
     return str(value)
 
 
-def parse_task(task: Mapping[str, Any] | Task, family: str | None = None) -> Task:
+def parse_task(task: ProgramTask | Mapping[str, Any] | Task, family: str | None = None) -> Task:
     """Normalise an executor task dict (or a :class:`Task`) into a :class:`Task`.
 
     Args:

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 from PIL import Image
 
-from samplehd.dataset.journal import read_journal
+from samplehd.dataset.journal import JournalRecord, read_journal
 from samplehd.dataset.layout import CANDIDATES_FILE, EPISODE_DIR, INFO_FILE, JOURNAL_FILE
 from samplehd.dataset.reader import DatasetReader
 from samplehd.envs.config import CAMERAS
@@ -229,14 +229,12 @@ class EpisodeStore:
         if hit is not None and hit[0] == key:
             return hit[1]
         try:
-            meta = reader.episode_meta(index)
-            info = meta.get("info") if isinstance(meta.get("info"), dict) else {}
-            success = bool(meta.get("success", False))
-            meta = {"success": success, "failure_reason": failure_reason(success, info),
-                    "num_frames": int(meta.get("num_frames", entry.num_frames)),
-                    "instruction": str(meta.get("instruction", "")), "cameras": dict(meta.get("images") or {}),
-                    "image_frames": dict(meta.get("image_frames") or {}),
-                    "family": str(meta.get("family", entry.family)), "readable": True}
+            read = reader.episode_meta(index)
+            meta = {"success": read.success, "failure_reason": failure_reason(read.success, read.info),
+                    "num_frames": read.num_frames, "instruction": read.instruction or "",
+                    "cameras": {c: list(m) for c, m in read.images.items()},
+                    "image_frames": {c: list(f) for c, f in read.image_frames.items()},
+                    "family": read.family, "readable": True}
         except DatasetError as exc:
             meta = {"success": False, "failure_reason": f"unreadable: {exc}", "readable": False, "cameras": {}}
         with self._lock:
@@ -290,7 +288,7 @@ class EpisodeStore:
             self._journal_key, self._journal_cache = key, counts
         return counts
 
-    def rejections(self) -> list[dict[str, Any]]:
+    def rejections(self) -> list[JournalRecord]:
         """Instruction candidates whose path was rejected: ``{scene_index, slot, reason, message}``."""
         reader = self.reader()
         if reader is None:
@@ -320,13 +318,13 @@ class EpisodeStore:
         reader, i, entry = self._locate(name)
         meta = reader.episode_meta(i)
         frames = reader.frames(i, PLOT_FIELDS)
-        info = meta.get("info") if isinstance(meta.get("info"), dict) else {}
-        subtasks = [str(s) for s in meta.get("subtasks") or []]
+        info = meta.info
+        subtasks = list(meta.subtasks)
         self._episode_meta(reader, i, entry)  # caches success, failure reason and cameras for the listing
         summary = next(s for s in self.summaries() if s["episode"] == name)
-        summary["cameras"] = dict(meta.get("images") or {})
+        summary["cameras"] = {c: list(m) for c, m in meta.images.items()}
         # Cameras with images at keyframes only (rerender --every/--subtask-ends): the frames that have them.
-        summary["image_frames"] = dict(meta.get("image_frames") or {})
+        summary["image_frames"] = {c: list(f) for c, f in meta.image_frames.items()}
         summary["rendered_on_demand"] = False
         if not summary["cameras"] and self._renderable(entry.scene_index):
             summary["cameras"] = {c: list(MODALITIES) for c in CAMERAS}
@@ -343,8 +341,8 @@ class EpisodeStore:
             "subtasks": subtasks,
             "segments": subtask_segments(frames["subtask_index"], frames["target_object"], subtasks),
             "bands": disturbance_bands(info),
-            "task": meta.get("task"),
-            "render": meta.get("render"),
+            "task": meta.to_dict().get("task"),
+            "render": meta.render,
             "series": series,
             "layout": _layout(),
             "info": {k: v for k, v in info.items() if k != "scene"},  # the scene has its own page

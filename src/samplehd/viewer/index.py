@@ -19,7 +19,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from samplehd.dataset.journal import JournalRecord
+from samplehd.dataset.layout import DatasetInfo
 from samplehd.errors import DatasetError
+from samplehd.language.instruction_file import InstructionEntry
+from samplehd.scene.annotate import SceneAnnotation
 
 __all__ = [
     "FILTER_KEYS",
@@ -186,12 +190,12 @@ class DatasetIndex:
         self._json = _JsonCache()
 
     # -- files ---------------------------------------------------------------------------------
-    def info(self) -> tuple[dict[str, Any], FileState]:
+    def info(self) -> tuple[DatasetInfo, FileState]:
         """``info.json`` (or ``{}``) and its state."""
         doc, state = self._json.read(self.root / "info.json")
         return (doc if isinstance(doc, dict) else {}), state
 
-    def scenes(self) -> tuple[dict[int, dict[str, Any]], FileState]:
+    def scenes(self) -> tuple[dict[int, SceneAnnotation], FileState]:
         """Scenes by image index, and the state of ``scenes.json``.
 
         While ``scenes.json`` is missing or partial, the complete per-scene files are used.
@@ -211,13 +215,13 @@ class DatasetIndex:
             if scenes and state.state != "ok":
                 state = FileState("scenes.json", state.state,
                                   f"{state.detail}; showing {len(scenes)} per-scene files from scenes/")
-        out: dict[int, dict[str, Any]] = {}
+        out: dict[int, SceneAnnotation] = {}
         for position, scene in enumerate(scenes):
             if isinstance(scene, dict):
                 out[_as_int(scene.get("image_index"), position)] = scene
         return out, state
 
-    def instructions(self) -> tuple[list[dict[str, Any]], FileState]:
+    def instructions(self) -> tuple[list[InstructionEntry], FileState]:
         """Instructions (``instructions`` or CLEVR's ``questions`` list) and the file's state.
 
         While ``instructions.json`` is not written yet (``samplehd generate`` writes it last), the
@@ -243,7 +247,7 @@ class DatasetIndex:
                 out.append(q)
         return out, state
 
-    def candidates(self) -> list[dict[str, Any]]:
+    def candidates(self) -> list[InstructionEntry]:
         """Instruction candidates of ``candidates.json`` (``samplehd generate``), or []."""
         doc, state = self._json.read(self.root / "candidates.json")
         items = doc.get("instructions", []) if isinstance(doc, dict) and state.state == "ok" else []
@@ -255,7 +259,7 @@ class DatasetIndex:
             return [], FileState("episodes", "missing", "this folder holds no episodes")
         return self.episodes.summaries(), self.episodes.state()
 
-    def rejections(self) -> list[dict[str, Any]]:
+    def rejections(self) -> list[JournalRecord]:
         """Instruction candidates whose path was rejected (``{scene_index, slot, reason, message}``)."""
         if self.episodes is None or not hasattr(self.episodes, "rejections"):
             return []
@@ -282,12 +286,12 @@ class DatasetIndex:
             "counts": {"scenes": len(scenes), "instructions": len(instructions), "episodes": ep_count},
         }
 
-    def instructions_of(self, scene_index: int) -> list[dict[str, Any]]:
+    def instructions_of(self, scene_index: int) -> list[InstructionEntry]:
         """The instructions whose ``image_index`` is ``scene_index``."""
         items, _ = self.instructions()
         return [q for q in items if _as_int(q.get("image_index"), -1) == scene_index]
 
-    def instruction(self, instruction_index: int) -> dict[str, Any]:
+    def instruction(self, instruction_index: int) -> InstructionEntry:
         """One instruction by index; raises DatasetError when absent."""
         items, state = self.instructions()
         for q in items:
@@ -295,7 +299,7 @@ class DatasetIndex:
                 return q
         raise DatasetError(f"instruction {instruction_index}: not in the dataset ({state.state}, {len(items)} read)")
 
-    def scene(self, scene_index: int) -> dict[str, Any]:
+    def scene(self, scene_index: int) -> SceneAnnotation:
         """One scene by image index; raises DatasetError when absent."""
         scenes, state = self.scenes()
         if scene_index not in scenes:

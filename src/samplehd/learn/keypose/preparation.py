@@ -53,14 +53,14 @@ def _episode_samples(reader: Any, k: int, env: Any, config: KeyposeGrid, tokens_
     """(grid, tokens, labels, attribute maps) of each decision of episode ``k`` (``inputs="state"``:
     the grid with the cells of the objects the task moves marked)."""
     meta = reader.episode_meta(k)
-    if not meta.get("success", False):
+    if not meta.success:
         return []
     fr = reader.frames(k, ["subtask_index", "tcp_pos", "tcp_quat", "gripper_opening", "qpos", "qvel"])
-    ds = decisions(meta["subtasks"], fr["subtask_index"], fr["tcp_pos"], fr["tcp_quat"], fr["gripper_opening"])
+    ds = decisions(meta.subtasks, fr["subtask_index"], fr["tcp_pos"], fr["tcp_quat"], fr["gripper_opening"])
     if not ds:
         return []
     grid = grid_of(config)
-    tokens = encode_instruction(str(meta["instruction"]), tokens_len)
+    tokens = encode_instruction(meta.instruction or "", tokens_len)
     entry = reader.episodes[k]
     scene = reader.scene(entry.scene_index)
     out = []

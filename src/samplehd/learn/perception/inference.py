@@ -34,6 +34,7 @@ from samplehd.learn.perception.geometry import (
 )
 from samplehd.learn.perception.modeling import PerceptionNet
 from samplehd.learn.training import check_weights_fit, load_model_files, read_model_config, torch
+from samplehd.scene.annotate import SceneAnnotation
 from samplehd.world.layout import DIRECTIONS, LAYOUT, table_parts_of
 from samplehd.world.relations import compute_relationships
 
@@ -229,7 +230,7 @@ class Perception:
         return out / out.sum()
 
     def perceive(self, rgb: np.ndarray, depth: np.ndarray, camera: Mapping[str, Any],
-                 directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                 directions: Mapping[str, Any] | None = None) -> SceneAnnotation:
         """A scene annotation (``objects``, ``relationships``, ``directions``) from one RGB-D image, and
         ``attribute_scores``: per object, the probability of each likely value of each attribute."""
         height = height_map(depth, camera, self.table_height)
@@ -242,7 +243,7 @@ class Perception:
 
 def annotation_from_instances(found: Sequence[Mapping[str, Any]], masks: Sequence[np.ndarray],
                               extents: Mapping[str, Sequence[float]],
-                              directions: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                              directions: Mapping[str, Any] | None = None) -> SceneAnnotation:
     """Turn perceived instances into a CLEVR-layout scene dict (objects with the fields the executor reads)."""
     objects = []
     for f, m in zip(found, masks, strict=True):

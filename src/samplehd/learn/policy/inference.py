@@ -13,12 +13,10 @@ import numpy as np
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.actions import steering_speeds, waypoint_steering
-from samplehd.learn.keypose.configuration import KeyposeConfig
-from samplehd.learn.keypose.inference import KeyposePolicy
-from samplehd.learn.options import policy_config_class
 from samplehd.learn.policy.configuration import CAMERAS, FORMAT, PolicyConfig
 from samplehd.learn.policy.modeling import BCNet
 from samplehd.learn.policy.processing import policy_state, seen_joint_velocities, target_features
+from samplehd.learn.registry import policy_entry
 from samplehd.learn.training import check_weights_fit, load_model_files, read_model_config, set_seed, torch
 
 __all__ = ["BCPolicy", "policy_for_evaluation"]
@@ -177,18 +175,16 @@ class BCPolicy:
         return action
 
 
-def policy_for_evaluation(env: Any, config: Any) -> BCPolicy | KeyposePolicy:
+def policy_for_evaluation(env: Any, config: Any) -> Any:
     """The policy ``samplehd evaluate --policy bc`` runs (``config``: its EvalConfig): the one trained in
-    ``config.models``, a :class:`BCPolicy` or a :class:`~samplehd.learn.keypose.inference.KeyposePolicy`
-    (:func:`samplehd.learn.options.policy_config_class` tells them apart)."""
+    ``config.models``, run by the class its entry in :mod:`samplehd.learn.registry` names (a
+    :class:`BCPolicy`, a keypose policy, ...), told by its config's ``action``."""
     if config.models is None:
         raise ConfigError("policy=bc: needs `models` (the folder of `samplehd train policy`)", field="policy")
     raw, state = load_model_files(config.models, "policy", FORMAT)
-    policy_config = read_model_config(policy_config_class(raw), raw, config.models)
-    policy = POLICIES[type(policy_config)](policy_config, None, env)
+    entry = policy_entry(raw)
+    policy_config = read_model_config(entry.config, raw, config.models)
+    policy = entry.runner_class()(policy_config, None, env)
     check_weights_fit(policy.net, state, config.models)
     return policy
 
-
-# a policy config class -> the policy that acts on it
-POLICIES: dict[type, Any] = {PolicyConfig: BCPolicy, KeyposeConfig: KeyposePolicy}

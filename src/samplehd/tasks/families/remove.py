@@ -42,4 +42,6 @@ FAMILY = register_family(TaskFamily(
     destination_part=lambda t: OPPOSITE_PART[t.part] if t.part else None,
     runs_as="place",
     adopt=_adopt,
+    # "place[back] scene filter_table[front]": everything on one part goes to the other one
+    written_as=lambda program: len(program) == 3 and program[2].startswith("filter_table["),
 ))
