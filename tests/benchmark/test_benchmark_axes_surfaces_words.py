@@ -13,6 +13,7 @@ from samplehd.envs.suite_file import SuiteEpisode, read_suite
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.envs.tokens import SPECIAL_TOKENS, instruction_vocabulary, tokenize
 from samplehd.language.templates import default_synonyms
+from samplehd.render.renderer import SceneRenderer
 from samplehd.scene.spec import SceneSpec, compile_scene
 from samplehd.scene.textures import recolour
 
@@ -125,3 +126,22 @@ def test_unseen_synonyms_at_strength_5_leave_no_replaceable_word_and_the_env_rea
 
 def test_the_new_axes_are_registered() -> None:
     assert {"textures", "verbs", "nouns", "unseen_synonyms"} <= set(AXES)
+
+
+@pytest.mark.render
+@pytest.mark.parametrize("preset", ["fast", pytest.param("photo", marks=pytest.mark.slow)])  # photo: minutes
+def test_every_evaluation_renderer_shows_the_lighting_and_textures_axes(preset: str) -> None:
+    if preset == "photo":
+        pytest.importorskip("mitsuba", reason="the photo preset needs samplehd[photo]")
+    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    lit, textured = (perturb(twin, axis, 5, seed=0) for axis in ("lighting", "textures"))
+    assert lit["scene"]["lighting"]["intensity"] == pytest.approx(0.4)  # this draw dims every light
+    frames = []
+    for ep in (twin, lit, textured):
+        model, data = compile_scene(SceneSpec.from_dict(ep["scene"]))
+        with SceneRenderer(model, 96, 54, preset) as renderer:
+            frames.append(renderer.render(data, "scene", ("rgb",))["rgb"].astype(float))
+    clean, dim, recoloured = frames
+    assert dim.mean() < 0.7 * clean.mean()
+    table = (slice(30, 54), slice(10, 86))  # the table top fills the lower middle of the scene camera's view
+    assert np.abs(recoloured[table] - clean[table]).mean() > 20.0

@@ -16,6 +16,7 @@ import numpy as np
 
 from samplehd.catalogue import add_object
 from samplehd.errors import ConfigError
+from samplehd.render.scene_lighting import SceneLighting, write_lighting
 from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, ROBOT_BODY, ROBOT_LOOKS, WRIST_CAMERA
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.robot.ur5e import add_robot
@@ -351,6 +352,7 @@ def _relight(spec: mujoco.MjSpec, lights: Sequence[Any], lighting: Lighting) -> 
     head = spec.visual.headlight
     head.ambient = list(np.asarray(head.ambient, dtype=float) * lighting.intensity * tint)
     head.diffuse = list(np.asarray(head.diffuse, dtype=float) * lighting.intensity * tint)
+    write_lighting(spec, SceneLighting(lighting.intensity, lighting.turn, lighting.tint))  # for the photo preset
     c, s = np.cos(np.radians(lighting.turn)), np.sin(np.radians(lighting.turn))
     key = lights[0]
     for attr in ("pos", "dir"):
