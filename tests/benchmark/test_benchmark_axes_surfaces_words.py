@@ -8,10 +8,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from samplehd.benchmark.axes import AXES, language_words, perturb
+from samplehd.benchmark.axes import AXES, AXIS_FIELDS, PHYSICAL_AXES, check_instruction_fits, language_words, perturb
 from samplehd.envs.suite_file import SuiteEpisode, read_suite
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.envs.tokens import SPECIAL_TOKENS, instruction_vocabulary, tokenize
+from samplehd.errors import SceneError
 from samplehd.language.templates import default_synonyms
 from samplehd.render.renderer import SceneRenderer
 from samplehd.scene.spec import SceneSpec, compile_scene
@@ -145,3 +146,33 @@ def test_every_evaluation_renderer_shows_the_lighting_and_textures_axes(preset: 
     assert dim.mean() < 0.7 * clean.mean()
     table = (slice(30, 54), slice(10, 86))  # the table top fills the lower middle of the scene camera's view
     assert np.abs(recoloured[table] - clean[table]).mean() > 20.0
+
+
+def _unseen(twin: dict, strength: int) -> dict:
+    for attempt in range(6):  # an attempt may find no free spot or no instruction keeping the roles
+        try:
+            return perturb(twin, "unseen_objects", strength, seed=0, attempt=attempt)
+        except SceneError:
+            pass
+    raise AssertionError(f"no unseen_objects variant of {twin['instruction']!r} at strength {strength}")
+
+
+def test_unseen_objects_replace_the_task_objects_first_by_a_held_out_class_and_keep_the_others() -> None:
+    twin = read_suite(SHIPPED).episodes[4].to_dict()  # "Please pick up the mug." among three objects
+    objects = twin["scene"]["objects"]
+    for strength in (1, 5):
+        variant = _unseen(twin, strength)
+        replaced = min(strength, len(objects))
+        new = variant["scene"]["objects"]
+        assert len(new) == len(objects)
+        kept = [o for i, o in enumerate(objects) if i not in twin["targets"]][:len(objects) - replaced]
+        assert new[:len(kept)] == kept  # the others keep their poses, in their order
+        assert [o["instance"]["class_name"] for o in new[len(kept):]] == ["food_box"] * replaced
+        assert [new[t]["instance"]["class_name"] for t in variant["targets"]] == ["food_box"]
+        assert variant["family"] == twin["family"] and "food box" in variant["instruction"]
+        check_instruction_fits(variant)  # the env's own check: the text's program picks the targets
+        changed = {k for k in set(twin) | set(variant) if twin.get(k) != variant.get(k)}
+        scene_changed = {f"scene.{k}" for k in twin["scene"] if twin["scene"][k] != variant["scene"][k]}
+        assert (changed - {"scene", "axis", "strength", "twin", "id"}) | scene_changed <= set(
+            AXIS_FIELDS["unseen_objects"])
+    assert "unseen_objects" in PHYSICAL_AXES  # its variants are proven again by the oracle

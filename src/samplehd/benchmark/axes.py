@@ -76,6 +76,7 @@ import functools
 import math
 import re
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -86,7 +87,7 @@ from samplehd.envs.suite_file import SuiteEpisode
 from samplehd.errors import AssetError, ConfigError, SceneError
 from samplehd.fileio import read_json
 from samplehd.language.generator import generate_instructions
-from samplehd.language.levels import episode_level
+from samplehd.language.levels import HELD_OUT_CLASSES, episode_level
 from samplehd.language.templates import default_synonyms
 from samplehd.robot.constants import JOINT_NAMES
 from samplehd.scene.config import SceneConfig
@@ -103,6 +104,7 @@ SHIFT_M_PER_STRENGTH = 0.015
 SHUFFLE_FRACTION_PER_STRENGTH = 0.2
 JOINT_RAD_PER_STRENGTH = 0.05
 TASK_SWAP_CANDIDATES = 16
+UNSEEN_OBJECT_CANDIDATES = 48
 LIGHT_INTENSITY_PER_STRENGTH = 0.12
 LIGHT_TURN_DEG_PER_STRENGTH = 15.0
 LIGHT_TINT_PER_STRENGTH = 0.06
@@ -189,6 +191,33 @@ def _task_swap(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> N
     ins = found[round((strength - 1) / (len(STRENGTHS) - 1) * (len(found) - 1))][2]
     ep.update(instruction=ins["instruction"], task=dict(ins["task"]), program=list(ins["program"]),
               program_sequence=str(ins["program_sequence"]), targets=[int(t) for t in ins["targets"]])
+
+
+def _unseen_objects(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    scene = SceneSpec.from_dict(ep["scene"])
+    config = SceneConfig(catalogue=ep["catalogue"])
+    targets = [int(t) for t in ep["targets"]]
+    order = list(dict.fromkeys([*targets, *range(len(scene.objects))]))  # the task's objects first
+    gone = order[:min(strength, len(order))]
+    kept = [i for i in range(len(scene.objects)) if i not in gone]
+    rest = replace(scene, objects=tuple(scene.objects[i] for i in kept))
+    held_out = sorted(HELD_OUT_CLASSES)
+    new = add_objects(rest, [held_out] * len(gone), rng, config)
+    index = {old: k for k, old in enumerate(kept)} | {old: len(kept) + k for k, old in enumerate(gone)}
+    want = [index[t] for t in targets]  # in the twin's order: each object keeps its role
+    annotation = SceneCache(config).annotation(new)
+    made = generate_instructions(annotation, rng, per_scene=UNSEEN_OBJECT_CANDIDATES, families=[ep["family"]])
+    own = _words(ep["instruction"])
+    found = []
+    for ins in (i.to_dict() for i in made.instructions):
+        if [int(t) for t in ins["targets"]] == want:
+            words = _words(ins["instruction"])
+            found.append((1.0 - len(own & words) / len(own | words), len(found), ins))
+    if not found:
+        raise SceneError("no instruction of the family gives the objects the twin's roles")
+    ins = min(found, key=lambda c: c[:2])[2]
+    ep.update(scene=new.to_dict(), instruction=ins["instruction"], task=dict(ins["task"]),
+              program=list(ins["program"]), program_sequence=str(ins["program_sequence"]), targets=want)
 
 
 def _robot_start(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
@@ -308,19 +337,20 @@ AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
     "camera": _camera, "lighting": _lighting, "object_shift": _object_shift, "robot_start": _robot_start,
     "sensor": _sensor, "paraphrase": _paraphrase, "shuffled": _shuffled, "blank": _blank,
     "distractors": _distractors, "task_swap": _task_swap, "textures": _textures, "verbs": _verbs,
-    "nouns": _nouns, "unseen_synonyms": _unseen_synonyms}
+    "nouns": _nouns, "unseen_synonyms": _unseen_synonyms, "unseen_objects": _unseen_objects}
 # The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
 AXIS_FIELDS = {"camera": ("scene.camera",), "lighting": ("scene.lighting",), "object_shift": ("scene.objects",),
                "robot_start": ("start_state",), "sensor": ("sensor",), "paraphrase": ("instruction",),
                "shuffled": ("instruction",), "blank": ("instruction",), "distractors": ("scene.objects",),
                "task_swap": ("instruction", "task", "program", "program_sequence", "targets"),
                "textures": ("scene.surfaces",), "verbs": ("instruction",), "nouns": ("instruction",),
-               "unseen_synonyms": ("instruction",)}
-PHYSICAL_AXES = ("object_shift", "robot_start", "distractors", "task_swap")
+               "unseen_synonyms": ("instruction",),
+               "unseen_objects": ("scene.objects", "instruction", "task", "program", "program_sequence", "targets")}
+PHYSICAL_AXES = ("object_shift", "robot_start", "distractors", "task_swap", "unseen_objects")
 # An axis's index in the seed of its directions: the first six sorted, then the others as they were added,
 # so an axis draws the same directions when another is added.
 _SEED_ORDER = ("camera", "object_shift", "paraphrase", "robot_start", "sensor", "shuffled", "blank", "lighting",
-               "distractors", "task_swap", "textures", "verbs", "nouns", "unseen_synonyms")
+               "distractors", "task_swap", "textures", "verbs", "nouns", "unseen_synonyms", "unseen_objects")
 
 
 def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: int = 0) -> dict[str, Any]:
