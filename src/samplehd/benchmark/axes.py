@@ -48,6 +48,11 @@ axis              what changes                                                 p
 ``unseen_synonyms`` verbs and nouns the generator says become words it never     20 % of those
                   says (``words.json``: put → lay/deposit, mug → cup, chopping  words (5: every one)
                   board → breadboard, side → area, ...)
+``unseen_objects`` objects of the scene, the task's first, become objects of the   one object (5: five)
+                  held-out class (food_box) placed in free spots; the
+                  instruction is drawn again keeping each object's role
+                  (``scene.objects``, ``instruction``, ``task``, ``program``,
+                  ``program_sequence``, ``targets``)
 ``task_swap``     another instruction of the same family and level on the same   the candidate at
                   scene, naming other objects (``instruction``, ``task``,       quantile (s − 1)/4
                   ``program``, ``program_sequence``, ``targets``): of up to     of word distance
@@ -62,8 +67,8 @@ instruction ends with (tokens ``<START> . <END>``).
 An axis whose change cannot alter physics (``camera``, ``lighting``, ``textures``, ``sensor``, ``paraphrase``,
 ``verbs``, ``nouns``, ``unseen_synonyms``, ``shuffled``, ``blank``: the
 oracle acts on state and the task, never on images or text) keeps its twin's oracle proof: the same
-rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``, ``distractors``, ``task_swap``) is
-proven again
+rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``, ``distractors``, ``task_swap``,
+``unseen_objects``) is proven again
 by the oracle through the env; a variant it fails, or that cannot be made (:class:`~samplehd.errors.SceneError`
 from :func:`perturb`), is replaced by the next attempt's. A variant that would
 equal its twin (an instruction with no word of a synonym group) is left out.
