@@ -1,7 +1,8 @@
 """One suite episode beside its variant at strength 5 on every robustness axis (scene camera), as a
-contact sheet: clean twin on the left, the variant on the right, the instruction under each label.
+contact sheet: per axis the clean twin, then the variant, each captioned with the axis and its
+instruction; two axes per row. Written as a 128-colour PNG to stay small.
 
-    python scripts/suite_axes_sheet.py SUITE OUT.png [EPISODE]
+    python scripts/suite_axes_sheet.py SUITE OUT.png [EPISODE] [--preset fast|hd|photo]
 """
 
 from __future__ import annotations
@@ -9,9 +10,11 @@ from __future__ import annotations
 import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 
 # isort: split
-import sys
+import argparse
+import textwrap
 
-from PIL import Image
+import numpy as np
+from PIL import Image, ImageDraw
 
 from samplehd.benchmark.axes import AXES, perturb
 from samplehd.benchmark.sensor import corrupt_observation, sensor_rng
@@ -20,8 +23,11 @@ from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import SceneError
 from samplehd.render.contact_sheet import contact_sheet
 
+WIDTH, HEIGHT = 320, 240
+CAPTION_LINES, LINE_PX, CHARS = 4, 12, 44
 
-def _variant(twin: dict, axis: str, attempts: int = 4) -> dict:
+
+def _variant(twin: dict, axis: str, attempts: int = 8) -> dict:
     """The first variant at strength 5 that can be made (a distractor may find no free spot)."""
     for attempt in range(attempts - 1):
         try:
@@ -31,22 +37,41 @@ def _variant(twin: dict, axis: str, attempts: int = 4) -> dict:
     return perturb(twin, axis, 5, seed=0, attempt=attempts - 1)
 
 
-def main(suite_name: str, out: str, index: int = 0) -> None:
+def _captioned(frame: np.ndarray, title: str, text: str) -> np.ndarray:
+    """The frame over a white strip with its title and the instruction, wrapped."""
+    strip = Image.new("RGB", (frame.shape[1], CAPTION_LINES * LINE_PX + 4), (255, 255, 255))
+    draw = ImageDraw.Draw(strip)
+    lines = [title, *textwrap.wrap(text, CHARS)][:CAPTION_LINES]
+    for k, line in enumerate(lines):
+        draw.text((3, 2 + k * LINE_PX), line, fill=(0, 0, 0) if k else (160, 0, 0))
+    return np.concatenate([frame, np.asarray(strip)], axis=0)
+
+
+def main(suite_name: str, out: str, index: int = 0, preset: str = "fast") -> None:
     suite = read_suite(suite_name)
     twin = suite.episode(index).to_dict()
-    env = TabletopEnv(render_mode="rgb_array", width=480, height=360)
-    images, labels = [], []
+    # A slot per object: the distractors at strength 5 bring a scene to up to ten objects.
+    env = TabletopEnv(render_mode="rgb_array", width=WIDTH, height=HEIGHT, render_preset=preset,
+                      scene={"max_objects": 12})
+    tiles = []
     try:
         for axis in AXES:
             for ep, name in ((twin, f"{axis}: clean twin"), (_variant(twin, axis), f"{axis}: strength 5")):
                 env.reset(options=SuiteEpisode.from_dict({"id": 0, **ep}).reset_options())
                 frame = {"scene_rgb": env.render()}  # the sensor axis corrupts what the policy sees
-                images.append(corrupt_observation(frame, ep.get("sensor"), sensor_rng(ep["reset_seed"]))["scene_rgb"])
-                labels.append(f"{name} | {ep['instruction']}")
+                rgb = corrupt_observation(frame, ep.get("sensor"), sensor_rng(ep["reset_seed"]))["scene_rgb"]
+                tiles.append(_captioned(rgb, name, ep["instruction"]))
     finally:
         env.close()
-    Image.fromarray(contact_sheet(images, 2, labels)).save(out, optimize=True)
+    sheet = Image.fromarray(contact_sheet(tiles, 4))
+    sheet.quantize(128, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(out, optimize=True)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2], int(sys.argv[3]) if len(sys.argv) > 3 else 0)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("suite")
+    parser.add_argument("out")
+    parser.add_argument("episode", nargs="?", type=int, default=0)
+    parser.add_argument("--preset", default="fast", choices=("fast", "hd", "photo"))
+    args = parser.parse_args()
+    main(args.suite, args.out, args.episode, args.preset)

@@ -43,13 +43,13 @@ def keypose_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
-def _train(dataset: Path, out: Path, steps: int, batch: int, *, inputs: str = "rgb",
+def _train(dataset: Path, out: Path, steps: int, batch: int, *, inputs: str = "rgb", language: str = "instruction",
            stop_after: int | None = None) -> dict:
     """``train_keypose`` of the policy ``samplehd train policy --action keypose`` builds from these flags."""
     from samplehd.learn.keypose.configuration import KeyposeConfig, KeyposeTraining
     from samplehd.learn.keypose.training import train_keypose
 
-    config = KeyposeConfig(inputs=inputs, train=KeyposeTraining(steps=steps, batch=batch))
+    config = KeyposeConfig(inputs=inputs, language=language, train=KeyposeTraining(steps=steps, batch=batch))
     return train_keypose(dataset, out, config, quiet=True, stop_after=stop_after)
 
 
@@ -274,3 +274,27 @@ def test_a_damaged_grid_in_a_policy_config_is_one_line_naming_the_field() -> Non
             KeyposeConfig.from_dict({**base, "grid": grid})
         message = str(info.value)
         assert field in message and "\n" not in message, message
+
+
+def test_the_language_blind_control_reads_a_blank_instruction_in_training_and_when_acting(
+        keypose_dataset: Path, tmp_path: Path) -> None:
+    """``--blind-language``: every training sample and every decision reads the blank text, not the
+    instruction; without ``--action keypose`` the flag is refused."""
+    from samplehd.cli import main
+    from samplehd.envs.tokens import encode_instruction
+    from samplehd.learn.keypose.configuration import BLANK_TEXT, KeyposeConfig, policy_instruction
+
+    out = tmp_path / "blind"
+    assert _train(keypose_dataset, out, steps=2, batch=2, language="blank", stop_after=1) == {"stopped_at": 1}
+    with np.load(out / "prepared.npz") as z:  # the samples of a run not yet finished
+        tokens = z["train_tokens"]
+    assert len(tokens) and (tokens == encode_instruction(BLANK_TEXT, KeyposeConfig().tokens)[None]).all()
+    assert main(["train", "policy", "--action", "keypose", "--blind-language", "--dataset", str(keypose_dataset),
+                 "--out", str(out), "--steps", "2", "--batch", "2", "--quiet"]) == 0
+    config = KeyposeConfig.from_dict(json.loads((out / "config.json").read_text()))
+    assert config.language == "blank"
+    assert policy_instruction(config, "Please pick up the mug.") == BLANK_TEXT
+    assert policy_instruction(KeyposeConfig(), "Please pick up the mug.") == "Please pick up the mug."
+    assert main(["train", "policy", "--blind-language", "--dataset", str(keypose_dataset), "--out",
+                 str(tmp_path / "refused"), "--steps", "1"]) == 2
+    assert not (tmp_path / "refused").exists()

@@ -37,6 +37,22 @@ axis              what changes                                                 p
                   objects keep their poses. A variant whose instruction no
                   longer picks only its own objects (a same-class distractor
                   made a description ambiguous) is rejected
+``textures``      the table's wood and the walls' plaster and tiles                hue 30°, saturation
+                  (``scene.surfaces``, :class:`samplehd.scene.world.Surfaces`),  ×(1 + 0.4) or ÷,
+                  each surface moved in HSV: hue turned, saturation raised or   brightness ×(1 ±
+                  lowered, brightness raised or lowered, each in a drawn        0.1) (5: 150°, ×3
+                  direction                                                     or ÷3, ×1.5 or 0.5)
+``verbs``         as ``paraphrase``, the verb groups only (put/place/set,        20 % of those
+                  move/shift/slide, stack, pick up/lift/grab; ``words.json``)   words (5: every one)
+``nouns``         as ``paraphrase``, the noun groups only (side/part/half)      20 % of those words
+``unseen_synonyms`` verbs and nouns the generator says become words it never     20 % of those
+                  says (``words.json``: put → lay/deposit, mug → cup, chopping  words (5: every one)
+                  board → breadboard, side → area, ...)
+``unseen_objects`` objects of the scene, the task's first, become objects of the   one object (5: five)
+                  held-out class (food_box) placed in free spots; the
+                  instruction is drawn again keeping each object's role
+                  (``scene.objects``, ``instruction``, ``task``, ``program``,
+                  ``program_sequence``, ``targets``)
 ``task_swap``     another instruction of the same family and level on the same   the candidate at
                   scene, naming other objects (``instruction``, ``task``,       quantile (s − 1)/4
                   ``program``, ``program_sequence``, ``targets``): of up to     of word distance
@@ -48,11 +64,11 @@ The environment's instruction is never empty (its ``Text`` space has ``min_lengt
 an empty text), so a blank instruction is the neutral token ``.``: no word, the full stop every
 instruction ends with (tokens ``<START> . <END>``).
 
-An axis whose change cannot alter physics (``camera``, ``lighting``, ``sensor``, ``paraphrase``, ``shuffled``,
-``blank``: the
+An axis whose change cannot alter physics (``camera``, ``lighting``, ``textures``, ``sensor``, ``paraphrase``,
+``verbs``, ``nouns``, ``unseen_synonyms``, ``shuffled``, ``blank``: the
 oracle acts on state and the task, never on images or text) keeps its twin's oracle proof: the same
-rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``, ``distractors``, ``task_swap``) is
-proven again
+rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``, ``distractors``, ``task_swap``,
+``unseen_objects``) is proven again
 by the oracle through the env; a variant it fails, or that cannot be made (:class:`~samplehd.errors.SceneError`
 from :func:`perturb`), is replaced by the next attempt's. A variant that would
 equal its twin (an instruction with no word of a synonym group) is left out.
@@ -61,27 +77,31 @@ equal its twin (an instruction with no word of a synonym group) is left out.
 from __future__ import annotations
 
 import copy
+import functools
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from samplehd.envs.episodes import SceneCache, episode_from_options
 from samplehd.envs.suite_file import SuiteEpisode
-from samplehd.errors import ConfigError, SceneError
+from samplehd.errors import AssetError, ConfigError, SceneError
+from samplehd.fileio import read_json
 from samplehd.language.generator import generate_instructions
-from samplehd.language.levels import episode_level
+from samplehd.language.levels import HELD_OUT_CLASSES, episode_level
 from samplehd.language.templates import default_synonyms
 from samplehd.robot.constants import JOINT_NAMES
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import add_objects
 from samplehd.scene.spec import SceneSpec, compile_scene
-from samplehd.scene.world import Lighting
+from samplehd.scene.world import Lighting, Surfaces
 
-__all__ = ["AXES", "AXIS_FIELDS", "BLANK_INSTRUCTION", "PHYSICAL_AXES", "STRENGTHS", "check_instruction_fits",
-           "perturb"]
+__all__ = ["AXES", "AXIS_FIELDS", "BLANK_INSTRUCTION", "PHYSICAL_AXES", "STRENGTHS", "WORDS_FILE",
+           "check_instruction_fits", "language_words", "perturb"]
 
 STRENGTHS = (1, 2, 3, 4, 5)
 CAMERA_DEG_PER_STRENGTH = 6.0
@@ -89,9 +109,15 @@ SHIFT_M_PER_STRENGTH = 0.015
 SHUFFLE_FRACTION_PER_STRENGTH = 0.2
 JOINT_RAD_PER_STRENGTH = 0.05
 TASK_SWAP_CANDIDATES = 16
+UNSEEN_OBJECT_CANDIDATES = 48
 LIGHT_INTENSITY_PER_STRENGTH = 0.12
 LIGHT_TURN_DEG_PER_STRENGTH = 15.0
 LIGHT_TINT_PER_STRENGTH = 0.06
+TEXTURE_HUE_DEG_PER_STRENGTH = 30.0
+TEXTURE_SATURATION_PER_STRENGTH = 0.4
+TEXTURE_VALUE_PER_STRENGTH = 0.1
+# The words of the language axes: synonym groups by part of speech, and words the generator never says.
+WORDS_FILE = Path(__file__).resolve().parent / "words.json"
 # A blanked instruction: the env admits no empty text, and "." carries no word (see the module docstring).
 BLANK_INSTRUCTION = "."
 
@@ -118,6 +144,16 @@ def _lighting(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> No
     ep["scene"]["lighting"] = Lighting(intensity=1.0 + brighter * LIGHT_INTENSITY_PER_STRENGTH * strength,
                                        turn=turn * LIGHT_TURN_DEG_PER_STRENGTH * strength,
                                        tint=(1.0 + tint, 1.0, 1.0 - tint)).to_dict()
+
+
+def _textures(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    turn, more, brighter = (np.where(rng.random((3, 2)) < 0.5, 1.0, -1.0))
+    hue = turn * TEXTURE_HUE_DEG_PER_STRENGTH * strength
+    saturation = (1.0 + TEXTURE_SATURATION_PER_STRENGTH * strength) ** more
+    value = 1.0 + brighter * TEXTURE_VALUE_PER_STRENGTH * strength
+    ep["scene"]["surfaces"] = Surfaces(
+        table_hue=float(hue[0]), table_saturation=float(saturation[0]), table_value=float(value[0]),
+        wall_hue=float(hue[1]), wall_saturation=float(saturation[1]), wall_value=float(value[1])).to_dict()
 
 
 def _distractors(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
@@ -162,6 +198,33 @@ def _task_swap(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> N
               program_sequence=str(ins["program_sequence"]), targets=[int(t) for t in ins["targets"]])
 
 
+def _unseen_objects(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    scene = SceneSpec.from_dict(ep["scene"])
+    config = SceneConfig(catalogue=ep["catalogue"])
+    targets = [int(t) for t in ep["targets"]]
+    order = list(dict.fromkeys([*targets, *range(len(scene.objects))]))  # the task's objects first
+    gone = order[:min(strength, len(order))]
+    kept = [i for i in range(len(scene.objects)) if i not in gone]
+    rest = replace(scene, objects=tuple(scene.objects[i] for i in kept))
+    held_out = sorted(HELD_OUT_CLASSES)
+    new = add_objects(rest, [held_out] * len(gone), rng, config)
+    index = {old: k for k, old in enumerate(kept)} | {old: len(kept) + k for k, old in enumerate(gone)}
+    want = [index[t] for t in targets]  # in the twin's order: each object keeps its role
+    annotation = SceneCache(config).annotation(new)
+    made = generate_instructions(annotation, rng, per_scene=UNSEEN_OBJECT_CANDIDATES, families=[ep["family"]])
+    own = _words(ep["instruction"])
+    found = []
+    for ins in (i.to_dict() for i in made.instructions):
+        if [int(t) for t in ins["targets"]] == want:
+            words = _words(ins["instruction"])
+            found.append((1.0 - len(own & words) / len(own | words), len(found), ins))
+    if not found:
+        raise SceneError("no instruction of the family gives the objects the twin's roles")
+    ins = min(found, key=lambda c: c[:2])[2]
+    ep.update(scene=new.to_dict(), instruction=ins["instruction"], task=dict(ins["task"]),
+              program=list(ins["program"]), program_sequence=str(ins["program_sequence"]), targets=want)
+
+
 def _robot_start(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
     model, data = compile_scene(SceneSpec.from_dict(ep["scene"]))
     qpos = data.qpos.copy()
@@ -179,18 +242,41 @@ def _sensor(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None
                     "depth_holes": 0.04 * strength}
 
 
-def _alternatives() -> dict[str, tuple[str, ...]]:
+@functools.cache
+def language_words() -> dict[str, Any]:
+    """The language axes' words (:data:`WORDS_FILE`): ``seen_groups`` (``verbs``, ``nouns``: synonym group
+    names of ``synonyms.json``) and ``unseen`` (``verbs``, ``nouns``: word -> words the generator never
+    says).
+
+    Raises:
+        AssetError: the file is unreadable or lacks those keys.
+    """
+    words = read_json(WORDS_FILE, AssetError)
+    try:
+        groups = {pos: tuple(words["seen_groups"][pos]) for pos in ("verbs", "nouns")}
+        unseen = {pos: {str(k): tuple(v) for k, v in words["unseen"][pos].items()} for pos in ("verbs", "nouns")}
+    except (KeyError, TypeError, AttributeError) as exc:
+        raise AssetError(f"{WORDS_FILE}: missing or malformed key {exc}; it needs seen_groups.verbs/nouns "
+                         "and unseen.verbs/nouns") from None
+    return {"seen_groups": groups, "unseen": unseen}
+
+
+def _alternatives(groups: tuple[str, ...] | None = None) -> dict[str, tuple[str, ...]]:
     """Each synonym-group member -> the other members of the first group holding it (``put`` is also a
-    ``stack`` synonym, but ``stack`` is not a ``put`` synonym)."""
+    ``stack`` synonym, but ``stack`` is not a ``put`` synonym); only the groups named in ``groups``
+    (default: all)."""
     out: dict[str, tuple[str, ...]] = {}
-    for members in default_synonyms().values():
-        for word in members:
-            out.setdefault(word, tuple(m for m in members if m != word))
+    for name, members in default_synonyms().items():
+        if groups is None or name in groups:
+            for word in members:
+                out.setdefault(word, tuple(m for m in members if m != word))
     return out
 
 
-def _paraphrase(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
-    alternatives = _alternatives()
+def _swap_words(ep: dict[str, Any], alternatives: Mapping[str, tuple[str, ...]], strength: int,
+                rng: np.random.Generator) -> None:
+    """Replace a share of the instruction's words (or phrases) that have alternatives, longest first,
+    each by one alternative drawn uniformly; the share is 20 % per strength step (5: every one)."""
     pattern = re.compile(r"\b(" + "|".join(sorted(map(re.escape, alternatives), key=len, reverse=True)) + r")\b",
                          re.IGNORECASE)
     text = ep["instruction"]
@@ -210,6 +296,23 @@ def _paraphrase(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> 
         out.append(word)
         last = m.end()
     ep["instruction"] = "".join(out) + text[last:]
+
+
+def _paraphrase(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    _swap_words(ep, _alternatives(), strength, rng)
+
+
+def _verbs(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    _swap_words(ep, _alternatives(language_words()["seen_groups"]["verbs"]), strength, rng)
+
+
+def _nouns(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    _swap_words(ep, _alternatives(language_words()["seen_groups"]["nouns"]), strength, rng)
+
+
+def _unseen_synonyms(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+    unseen = language_words()["unseen"]
+    _swap_words(ep, {**unseen["verbs"], **unseen["nouns"]}, strength, rng)
 
 
 def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
@@ -238,17 +341,21 @@ def _blank(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
 AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
     "camera": _camera, "lighting": _lighting, "object_shift": _object_shift, "robot_start": _robot_start,
     "sensor": _sensor, "paraphrase": _paraphrase, "shuffled": _shuffled, "blank": _blank,
-    "distractors": _distractors, "task_swap": _task_swap}
+    "distractors": _distractors, "task_swap": _task_swap, "textures": _textures, "verbs": _verbs,
+    "nouns": _nouns, "unseen_synonyms": _unseen_synonyms, "unseen_objects": _unseen_objects}
 # The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
 AXIS_FIELDS = {"camera": ("scene.camera",), "lighting": ("scene.lighting",), "object_shift": ("scene.objects",),
                "robot_start": ("start_state",), "sensor": ("sensor",), "paraphrase": ("instruction",),
                "shuffled": ("instruction",), "blank": ("instruction",), "distractors": ("scene.objects",),
-               "task_swap": ("instruction", "task", "program", "program_sequence", "targets")}
-PHYSICAL_AXES = ("object_shift", "robot_start", "distractors", "task_swap")
+               "task_swap": ("instruction", "task", "program", "program_sequence", "targets"),
+               "textures": ("scene.surfaces",), "verbs": ("instruction",), "nouns": ("instruction",),
+               "unseen_synonyms": ("instruction",),
+               "unseen_objects": ("scene.objects", "instruction", "task", "program", "program_sequence", "targets")}
+PHYSICAL_AXES = ("object_shift", "robot_start", "distractors", "task_swap", "unseen_objects")
 # An axis's index in the seed of its directions: the first six sorted, then the others as they were added,
 # so an axis draws the same directions when another is added.
 _SEED_ORDER = ("camera", "object_shift", "paraphrase", "robot_start", "sensor", "shuffled", "blank", "lighting",
-               "distractors", "task_swap")
+               "distractors", "task_swap", "textures", "verbs", "nouns", "unseen_synonyms", "unseen_objects")
 
 
 def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: int = 0) -> dict[str, Any]:

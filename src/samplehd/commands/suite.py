@@ -14,6 +14,7 @@ import time
 from dataclasses import fields
 from pathlib import Path
 
+from samplehd.benchmark.axes import AXES
 from samplehd.benchmark.suite import Candidate, SuiteBuildConfig, build_suite
 from samplehd.commands._options import check_out_file, config_from_options, split_names
 from samplehd.dataset.outputs import check_outputs
@@ -35,9 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--levels", nargs="+", help="build: generalisation levels (L1 L2 L3 L4)")
     parser.add_argument("--catalogues", nargs="+", help="build: procedural and/or shop-vrb")
     parser.add_argument("--seed", type=int, help="build: seed of the candidates")
-    parser.add_argument("--axes", nargs="+", help="build: robustness axes (camera, object_shift, robot_start, "
-                                                  "sensor, paraphrase, shuffled); each clean episode gets a "
-                                                  "variant per axis and strength")
+    parser.add_argument("--axes", nargs="+", help=f"build: robustness axes ({', '.join(AXES)}); each clean "
+                                                  "episode gets a variant per axis and strength")
     parser.add_argument("--out", type=Path, help="build: the suite file to write (default NAME.json)")
     parser.add_argument("--workers", type=int, default=1, help="build: worker processes (local backend)")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="build: where candidates run")

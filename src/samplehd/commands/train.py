@@ -51,6 +51,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "followed by a proportional controller; keypose: per object moved, where to grasp "
                              "and where it goes, from a top-down view of the scene camera's RGB-D (the dataset's "
                              "scene images; default 16 decisions per step)")
+    policy.add_argument("--blind-language", action="store_true",
+                        help="--action keypose: the language-blind control: the policy reads a blank instruction "
+                             "('.') in training and when it acts")
     policy.add_argument("--init", type=Path, help="--action keypose: start from the weights of the keypose policy "
                                                   "in this folder (e.g. a pick_up model for place)")
     policy.add_argument("--batch", type=int, help="frames per optimiser step (default 64)")
@@ -106,6 +109,9 @@ def run(args: argparse.Namespace) -> int:
             key = unused[0]
             raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: not used with --action keypose (it learns "
                               f"from the dataset's scene images and decisions); leave it out")
+    if args.blind_language and given.get("action") != KEYPOSE_ACTION:
+        raise ConfigError("--blind-language: the language-blind control of the keypose policy; only used with "
+                          "--action keypose")
     if "init" in given and given.get("action") != KEYPOSE_ACTION:
         raise ConfigError(f"--init {args.init}: starts a keypose policy from another's weights; only used with "
                           f"--action keypose")
@@ -144,6 +150,7 @@ def _keypose_config(args: argparse.Namespace, steps: int) -> tuple[KeyposeConfig
     no more trainer options."""
     return KeyposeConfig(
         inputs=args.inputs or "rgb", model=KeyposeArchitecture(),
+        language="blank" if args.blind_language else "instruction",
         train=KeyposeTraining(steps=steps, seed=args.seed, batch=args.batch or 16,
                               init=str(args.init) if args.init is not None else "")), {}
 

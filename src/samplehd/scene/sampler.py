@@ -392,7 +392,7 @@ def add_objects(
     if any(np.max(np.abs(d)) > 0.002 for d in moved):  # settling from their own poses leaves them within µm
         raise SceneError("an added object touches an object of the scene")
     out = SceneSpec(scene.index, scene.seed, (*scene.objects, *settled[0].objects[own:]), scene.camera,
-                    scene.lighting)
+                    scene.lighting, scene.surfaces)
     model, data = compile_scene(out)
     if not _home_clear(model, data, len(out.objects)):
         raise SceneError("the arm at home touches an added object")

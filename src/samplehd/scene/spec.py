@@ -17,10 +17,12 @@ from samplehd.errors import SceneError
 from samplehd.fixedmath import norm
 from samplehd.scene.world import (
     DEFAULT_LIGHTING,
+    DEFAULT_SURFACES,
     OPERATOR_CAMERA,
     CameraSpec,
     Lighting,
     PlacedObject,
+    Surfaces,
     WorldConfig,
     compile_world,
 )
@@ -81,6 +83,8 @@ class SceneSpec:
         camera: the scene camera (named ``scene``) drawn around the operator viewpoint.
         lighting: the scene lights (the kitchen's own by default; a benchmark axis changes them). A
             scene dict holds ``lighting`` only when it is not the default, so sampled scenes read as before.
+        surfaces: the table's and walls' textures (the kitchen's own by default; a benchmark axis changes
+            them); in a scene dict only when not the default, as ``lighting``.
     """
 
     index: int
@@ -88,6 +92,7 @@ class SceneSpec:
     objects: tuple[SceneObject, ...]
     camera: CameraSpec = OPERATOR_CAMERA
     lighting: Lighting = DEFAULT_LIGHTING
+    surfaces: Surfaces = DEFAULT_SURFACES
 
     def to_dict(self) -> dict[str, Any]:
         out = {
@@ -98,6 +103,8 @@ class SceneSpec:
         }
         if self.lighting != DEFAULT_LIGHTING:
             out["lighting"] = self.lighting.to_dict()
+        if self.surfaces != DEFAULT_SURFACES:
+            out["surfaces"] = self.surfaces.to_dict()
         return out
 
     @classmethod
@@ -109,6 +116,7 @@ class SceneSpec:
                 objects=tuple(SceneObject.from_dict(o) for o in d["objects"]),
                 camera=CameraSpec.from_dict(d["camera"]),
                 lighting=Lighting.from_dict(d["lighting"]) if "lighting" in d else DEFAULT_LIGHTING,
+                surfaces=Surfaces.from_dict(d["surfaces"]) if "surfaces" in d else DEFAULT_SURFACES,
             )
         except (KeyError, TypeError, ValueError) as exc:
             raise SceneError(f"malformed scene spec: missing or bad field {exc}") from exc
@@ -119,7 +127,8 @@ class SceneSpec:
         cams = (OPERATOR_CAMERA,)
         if self.camera.name != OPERATOR_CAMERA.name:
             cams = (OPERATOR_CAMERA, self.camera)
-        return WorldConfig(timestep=timestep, cameras=cams, robot_look=robot_look, lighting=self.lighting)
+        return WorldConfig(timestep=timestep, cameras=cams, robot_look=robot_look, lighting=self.lighting,
+                           surfaces=self.surfaces)
 
 
 def compile_scene(scene: SceneSpec, timestep: float = 0.002,

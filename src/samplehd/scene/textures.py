@@ -10,7 +10,7 @@ from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["plaster_texture", "tile_texture", "wood_texture"]
+__all__ = ["plaster_texture", "recolour", "tile_texture", "wood_texture"]
 
 
 def _smooth_noise(
@@ -85,3 +85,36 @@ def plaster_texture(
     n = _smooth_noise(rng, size, size, 8) * 0.6 + _smooth_noise(rng, size, size, 32) * 0.4
     img = np.asarray(rgb, float)[None, None, :] + (n[..., None] - 0.5) * 14
     return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def recolour(rgb: np.ndarray, hue: float = 0.0, saturation: float = 1.0, value: float = 1.0) -> np.ndarray:
+    """A uint8 RGB image with its colours moved in HSV: hue turned, saturation and brightness scaled.
+
+    Args:
+        rgb: (h, w, 3) uint8 image.
+        hue: turn of every pixel's hue round the colour wheel [deg].
+        saturation: factor on every pixel's HSV saturation [1] (clipped to 1).
+        value: factor on every pixel's HSV value, its brightness [1] (clipped to 1).
+
+    Returns:
+        A new (h, w, 3) uint8 image (the same values for hue 0 and factors 1).
+    """
+    x = rgb.astype(np.float64) / 255.0
+    hi, lo = x.max(axis=-1), x.min(axis=-1)
+    chroma = hi - lo
+    safe = np.where(chroma > 0, chroma, 1.0)
+    r, g, b = x[..., 0], x[..., 1], x[..., 2]
+    h = np.where(hi == r, ((g - b) / safe) % 6.0, np.where(hi == g, (b - r) / safe + 2.0, (r - g) / safe + 4.0))
+    h = np.where(chroma > 0, h, 0.0)
+    s = np.where(hi > 0, chroma / np.where(hi > 0, hi, 1.0), 0.0)
+    h = (h + hue / 60.0) % 6.0
+    s = np.clip(s * saturation, 0.0, 1.0)
+    v = np.clip(hi * value, 0.0, 1.0)
+    c = v * s
+    k = c * (1.0 - np.abs(h % 2.0 - 1.0))
+    sector = np.floor(h).astype(int) % 6
+    zero = np.zeros_like(c)
+    table = np.stack([np.stack(t, axis=-1) for t in ((c, k, zero), (k, c, zero), (zero, c, k), (zero, k, c),
+                                                      (k, zero, c), (c, zero, k))])
+    out = np.take_along_axis(table, sector[None, ..., None], axis=0)[0] + (v - c)[..., None]
+    return np.round(np.clip(out, 0.0, 1.0) * 255.0).astype(np.uint8)

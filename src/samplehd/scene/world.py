@@ -16,10 +16,11 @@ import numpy as np
 
 from samplehd.catalogue import add_object
 from samplehd.errors import ConfigError
+from samplehd.render.scene_lighting import SceneLighting, write_lighting
 from samplehd.robot.constants import HOME_QPOS, ROBOT_BASE_QUAT, ROBOT_BODY, ROBOT_LOOKS, WRIST_CAMERA
 from samplehd.robot.controller import ControlConfig, RobotController
 from samplehd.robot.ur5e import add_robot
-from samplehd.scene.textures import plaster_texture, tile_texture, wood_texture
+from samplehd.scene.textures import plaster_texture, recolour, tile_texture, wood_texture
 from samplehd.schema import Config, bounded
 from samplehd.world.bodies import object_body_name
 from samplehd.world.layout import LAYOUT, TableLayout
@@ -32,6 +33,7 @@ __all__ = [
     "CameraSpec",
     "Lighting",
     "PlacedObject",
+    "Surfaces",
     "WorldConfig",
     "build_world",
     "compile_world",
@@ -96,6 +98,34 @@ DEFAULT_LIGHTING = Lighting()
 
 
 @dataclass(frozen=True)
+class Surfaces(Config, section="surfaces"):
+    """How the table's and the walls' textures differ from the kitchen's own (the default changes nothing).
+
+    Each surface's texture is moved in HSV (:func:`samplehd.scene.textures.recolour`): the table's wood
+    (top and apron), and the walls' plaster with the backsplash tiles. Surfaces only change images: the
+    physics of a world is the same under any of them.
+
+    Attributes:
+        table_hue: the table's wood turned round the colour wheel [deg of hue].
+        table_saturation: factor on the wood's saturation [1].
+        table_value: factor on the wood's brightness (HSV value) [1].
+        wall_hue: the walls' plaster and tiles turned round the colour wheel [deg of hue].
+        wall_saturation: factor on their saturation [1].
+        wall_value: factor on their brightness [1].
+    """
+
+    table_hue: float = bounded(0.0, lo=-180.0, hi=180.0, unit="deg")
+    table_saturation: float = bounded(1.0, lo=0.0, hi=10.0)
+    table_value: float = bounded(1.0, lo=0.0, hi=4.0)
+    wall_hue: float = bounded(0.0, lo=-180.0, hi=180.0, unit="deg")
+    wall_saturation: float = bounded(1.0, lo=0.0, hi=10.0)
+    wall_value: float = bounded(1.0, lo=0.0, hi=4.0)
+
+
+DEFAULT_SURFACES = Surfaces()
+
+
+@dataclass(frozen=True)
 class PlacedObject:
     """An object instance at a pose: what the world builder needs to add one scene object.
 
@@ -123,6 +153,7 @@ class WorldConfig(Config, section="world"):
         offscreen_size: largest offscreen render (width, height) [px].
         shadow_size: shadow map resolution [px].
         lighting: the scene lights (:class:`Lighting`; the default is the kitchen's own).
+        surfaces: the table's and walls' textures (:class:`Surfaces`; the default is the kitchen's own).
         sleep: let resting objects sleep (MuJoCo's sleeping islands): a sleeping object costs no
             collision or constraint work until something awake touches it. Contacts of sleeping
             bodies are not in ``data.contact``; ``samplehd.world.bodies.contact_pairs`` computes them
@@ -138,6 +169,7 @@ class WorldConfig(Config, section="world"):
     shadow_size: int = bounded(4096, lo=1, unit="px")
     sleep: bool = True
     lighting: Lighting = DEFAULT_LIGHTING
+    surfaces: Surfaces = DEFAULT_SURFACES
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -174,10 +206,15 @@ def _add_material(
         mat.texuniform = texuniform
 
 
-def _add_materials(spec: mujoco.MjSpec) -> None:
-    _add_texture(spec, "wood", wood_texture(256), cube=True)
-    _add_texture(spec, "tiles", tile_texture(128))
-    _add_texture(spec, "plaster", plaster_texture(128))
+def _add_materials(spec: mujoco.MjSpec, surfaces: Surfaces = DEFAULT_SURFACES) -> None:
+    wood, tiles, plaster = wood_texture(256), tile_texture(128), plaster_texture(128)
+    if surfaces != DEFAULT_SURFACES:
+        wood = recolour(wood, surfaces.table_hue, surfaces.table_saturation, surfaces.table_value)
+        tiles, plaster = (recolour(t, surfaces.wall_hue, surfaces.wall_saturation, surfaces.wall_value)
+                          for t in (tiles, plaster))
+    _add_texture(spec, "wood", wood, cube=True)
+    _add_texture(spec, "tiles", tiles)
+    _add_texture(spec, "plaster", plaster)
     floor = spec.add_texture(name="floor_tiles", type=mujoco.mjtTexture.mjTEXTURE_2D, width=256, height=256)
     floor.builtin = mujoco.mjtBuiltin.mjBUILTIN_CHECKER
     floor.rgb1 = [0.58, 0.55, 0.50]
@@ -315,6 +352,7 @@ def _relight(spec: mujoco.MjSpec, lights: Sequence[Any], lighting: Lighting) -> 
     head = spec.visual.headlight
     head.ambient = list(np.asarray(head.ambient, dtype=float) * lighting.intensity * tint)
     head.diffuse = list(np.asarray(head.diffuse, dtype=float) * lighting.intensity * tint)
+    write_lighting(spec, SceneLighting(lighting.intensity, lighting.turn, lighting.tint))  # for the photo preset
     c, s = np.cos(np.radians(lighting.turn)), np.sin(np.radians(lighting.turn))
     key = lights[0]
     for attr in ("pos", "dir"):
@@ -354,7 +392,7 @@ def build_world(
     spec.stat.center = [0.0, 0.0, layout.table_height]
     spec.stat.extent = 2.0
 
-    _add_materials(spec)
+    _add_materials(spec, config.surfaces)
     spec.worldbody.add_geom(
         name="floor", type=_GEOM.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor", pos=[0, 0, 0]
     )

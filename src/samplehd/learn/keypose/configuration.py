@@ -15,13 +15,14 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import ClassVar
 
+from samplehd.benchmark.axes import BLANK_INSTRUCTION
 from samplehd.catalogue.loader import CATALOGUES, LEGACY_CATALOGUE
 from samplehd.errors import ConfigError
 from samplehd.learn.configuration import ModelConfig, catalogue_options
 from samplehd.schema import Config, bounded
 
-__all__ = ["ACTION", "ATTRIBUTE_VALUES", "FORMAT", "INPUTS", "KEYPOSE_ATTRIBUTES", "KeyposeArchitecture",
-           "KeyposeConfig", "KeyposeGrid", "KeyposeTraining"]
+__all__ = ["ACTION", "ATTRIBUTE_VALUES", "BLANK_TEXT", "FORMAT", "INPUTS", "KEYPOSE_ATTRIBUTES", "LANGUAGE",
+           "KeyposeArchitecture", "KeyposeConfig", "KeyposeGrid", "KeyposeTraining", "policy_instruction"]
 
 FORMAT = 3  # the config format of a keypose policy (bump when the network or its inputs change)
 # the ``action`` its config.json names (the behaviour-cloning policy's: steering, waypoint)
@@ -29,6 +30,10 @@ ACTION = "keypose"
 # rgb: the scene camera's RGB-D re-projected from above; state: that view, the cells of the objects the
 # task moves marked (the privileged-state reference)
 INPUTS = ("rgb", "state")
+# instruction: the policy reads the instruction; blank: a language-blind control that reads the neutral
+# text BLANK_TEXT in training and when it acts (the benchmark's blank instruction: no word, the full stop).
+LANGUAGE = ("instruction", "blank")
+BLANK_TEXT = BLANK_INSTRUCTION
 KEYPOSE_ATTRIBUTES = ("name", "color", "material", "size")  # the scene annotation's keys the auxiliary maps name
 ATTRIBUTE_VALUES = 32  # logits per attribute (the catalogues have at most 16 values of any)
 
@@ -100,6 +105,7 @@ class KeyposeConfig(ModelConfig, section="policy"):
         catalogue: the built-in object catalogue of that dataset's scenes: the one its evaluation
             draws from.
         inputs: ``rgb`` or ``state`` (:data:`INPUTS`).
+        language: ``instruction``, or ``blank`` for the language-blind control (:data:`LANGUAGE`).
         action: ``keypose``.
         tokens: instruction length in tokens.
         model: network sizes.
@@ -118,6 +124,7 @@ class KeyposeConfig(ModelConfig, section="policy"):
     # always fills it from the dataset.
     catalogue: str = bounded(LEGACY_CATALOGUE, choices=tuple(CATALOGUES))
     inputs: str = bounded("rgb", choices=INPUTS)
+    language: str = bounded("instruction", choices=LANGUAGE)
     action: str = bounded(ACTION, choices=(ACTION,))
     tokens: int = bounded(32, lo=1)
     model: KeyposeArchitecture = field(default_factory=KeyposeArchitecture)
@@ -129,3 +136,9 @@ class KeyposeConfig(ModelConfig, section="policy"):
         """The environment options the policy needs: steering control and no image (it renders the
         scene camera's RGB-D itself when it decides); the scenes of its dataset's catalogue."""
         return {"obs_mode": "state", "control_mode": "steering", **catalogue_options(self.catalogue)}
+
+
+def policy_instruction(config: KeyposeConfig, text: str) -> str:
+    """The text the policy reads for an instruction: the instruction itself, or :data:`BLANK_TEXT` for
+    the language-blind control (the same in training and when it acts)."""
+    return text if config.language == "instruction" else BLANK_TEXT

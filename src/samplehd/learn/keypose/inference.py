@@ -17,7 +17,7 @@ import numpy as np
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.actions import tcp_yaw
-from samplehd.learn.keypose.configuration import KeyposeConfig
+from samplehd.learn.keypose.configuration import KeyposeConfig, policy_instruction
 from samplehd.learn.keypose.follower import KeyposeFollower
 from samplehd.learn.keypose.modeling import KeyposeNet
 from samplehd.learn.keypose.processing import (
@@ -95,7 +95,7 @@ class KeyposePolicy:
             grid = np.concatenate([grid, task_cells(ids, u.task.objects)[None]])
         else:
             grid = scene_grid(self._renderer, u.model, u.data, cfg)
-        tokens = encode_instruction(instruction, self.config.tokens)
+        tokens = encode_instruction(policy_instruction(self.config, instruction), self.config.tokens)
         with torch.no_grad():
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
             return predict_decisions(self.net, torch.as_tensor(grid[None], device=self.device),

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.envs.tokens import instruction_vocabulary
+from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset, training_split
 from samplehd.learn.keypose.configuration import (
@@ -22,6 +22,7 @@ from samplehd.learn.keypose.configuration import (
     KEYPOSE_ATTRIBUTES,
     KeyposeConfig,
     KeyposeGrid,
+    policy_instruction,
 )
 from samplehd.learn.keypose.inference import predict_decisions
 from samplehd.learn.keypose.modeling import KeyposeNet
@@ -157,6 +158,10 @@ def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *
     # The samples are drawn before anything is written: a dataset refused while they are drawn leaves
     # no half-made `out`.
     arrays = _samples(out, reader, config, train_k, test_k, quiet)
+    if config.language != "instruction":  # the language-blind control: every sample reads the blank text
+        blank = encode_instruction(policy_instruction(config, ""), config.tokens)
+        for key in ("train_tokens", "test_tokens"):
+            arrays[key] = np.broadcast_to(blank, arrays[key].shape).copy()
     n = len(arrays["train_grid"])
     if n == 0:
         raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry", field="dataset")

@@ -19,6 +19,7 @@ import numpy as np
 from samplehd.render.photo.geometry import Part
 from samplehd.render.photo.runtime import load_mitsuba
 from samplehd.render.photo.textures import can_label, food_box_print, srgb_to_linear, window_view
+from samplehd.render.scene_lighting import SceneLighting
 
 __all__ = ["LookParams", "bsdf_for", "default_look", "lights", "random_look"]
 
@@ -225,8 +226,12 @@ def _emitter(rgb: np.ndarray) -> dict[str, Any]:
     return {"type": "area", "radiance": {"type": "rgb", "value": [float(c) for c in rgb]}}
 
 
-def lights(look: LookParams) -> dict[str, dict[str, Any]]:
+def lights(look: LookParams, scene: SceneLighting | None = None) -> dict[str, dict[str, Any]]:
     """Kitchen lighting: a bright window in the back wall, two ceiling panels and a closed ceiling.
+
+    ``scene`` changes them as the GL presets' lights are changed (:mod:`samplehd.render.scene_lighting`):
+    every emitter scaled by its intensity and tinted, the main panel (the key light) turned about the
+    vertical through the table centre.
 
     Returns:
         Named Mitsuba shapes (emitting rectangles and the ceiling) to add to the scene.
@@ -234,10 +239,16 @@ def lights(look: LookParams) -> dict[str, dict[str, Any]]:
     mi = load_mitsuba()
     tf = mi.ScalarTransform4f
     down = tf().rotate([1, 0, 0], 180)  # a rectangle faces +z; ceiling parts face the floor
-    warm = blackbody_rgb(look.colour_temperature)
-    day = blackbody_rgb(6500.0) * np.array([0.92, 0.97, 1.08])
-    s = look.light_scale
+    scene = scene or SceneLighting()
+    tint = np.asarray(scene.tint, dtype=float)
+    warm = blackbody_rgb(look.colour_temperature) * tint
+    day = blackbody_rgb(6500.0) * np.array([0.92, 0.97, 1.08]) * tint
+    s = look.light_scale * scene.intensity
     kx, ky = look.key_offset
+    key_x, key_y = 0.2 + kx, 0.3 + ky
+    if scene.turn:
+        c, t = np.cos(np.radians(scene.turn)), np.sin(np.radians(scene.turn))
+        key_x, key_y = float(c * key_x - t * key_y), float(t * key_x + c * key_y)
     return {
         # Closed ceiling: light bounces back down as in a room (it is above every camera's view).
         "photo_ceiling": {"type": "rectangle",
@@ -251,7 +262,7 @@ def lights(look: LookParams) -> dict[str, dict[str, Any]]:
                          .scale([0.36, 0.56, 1.0])},
         # Main panel above the table (its offset sets where the light comes from) and a softer fill.
         "photo_key": {"type": "rectangle", "emitter": _emitter(warm * 18.0 * s),
-                      "to_world": tf().translate([0.2 + kx, 0.3 + ky, 2.95]).scale([0.45, 0.3, 1.0]) @ down},
+                      "to_world": tf().translate([key_x, key_y, 2.95]).scale([0.45, 0.3, 1.0]) @ down},
         "photo_fill": {"type": "rectangle", "emitter": _emitter(warm * 6.0 * s),
                        "to_world": tf().translate([1.2, -0.8, 2.95]).scale([0.4, 0.4, 1.0]) @ down},
     }

@@ -16,6 +16,7 @@ import numpy as np
 from samplehd.render.photo.geometry import Part, model_parts, model_texture
 from samplehd.render.photo.look import LookParams, bsdf_for, lights
 from samplehd.render.photo.runtime import load_drjit, load_mitsuba, photo_backend
+from samplehd.render.scene_lighting import model_lighting
 
 __all__ = ["PhotoScene"]
 
@@ -53,7 +54,7 @@ class PhotoScene:
             self._shape_seg[key] = int(body_seg[part.body])
             if not part.static:
                 self._dynamic.append((key, part))
-        for key, shape in lights(look).items():
+        for key, shape in lights(look, model_lighting(model)).items():
             # Made here, one by one: shapes made inside load_dict come out in a varying order, and the
             # order of the lights decides which one a random number picks (the same seed would give
             # another picture).
