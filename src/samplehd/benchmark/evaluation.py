@@ -406,6 +406,7 @@ def _summary(records: list[EpisodeRecord]) -> dict[str, Any]:
         out["success_rate_where_offline_succeeds"] = (
             sum(r.success for r in feasible) / len(feasible) if feasible else None)
     out["successes_undisturbed"] = sum(r.success and not r.disturbed for r in records)
+    out["successes_after_retry"] = sum(r.success and bool((r.diagnosis or {}).get("retries")) for r in records)
     out["safety_stops"] = sum(bool(r.safety_events) for r in records)
     stages = [r.failure_stage for r in records if r.failure_stage is not None]
     if stages:
