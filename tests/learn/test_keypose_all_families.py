@@ -57,7 +57,7 @@ def test_one_keypose_policy_trains_on_every_family_and_acts(every_family_dataset
     assert metrics["train_decisions"] > metrics["train_episodes"]  # families that move several objects
 
     report = tmp_path / "report.json"
-    assert main(["evaluate", "--policy", "bc", "--models", str(out), "--families", "stack_three", "remove",
+    assert main(["evaluate", "--policy", "bc", "--models", str(out), "--families", "remove", "put",
                  "--episodes", "2", "--max-episode-steps", "40", "--out", str(report)]) == 0
     result = json.loads(report.read_text())
     assert result["episodes"] == 2 and "successes_after_retry" in result["by_family"]["remove"]
