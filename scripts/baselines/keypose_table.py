@@ -28,6 +28,8 @@ def main(paths: list[str]) -> int:
     notes = []
     for path in (Path(p) for p in paths if Path(p).is_file()):
         report = json.loads(path.read_text())
+        if "statistics" not in report:  # a report still being written
+            continue
         policy = "neurosymbolic" if "neurosymbolic" in path.stem else "keypose"
         level = str(report["records"][0].get("level") or "plain") if report["records"] else "plain"
         column = f"{policy} {level}"

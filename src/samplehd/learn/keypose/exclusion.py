@@ -95,14 +95,19 @@ def named_classes(instruction: str, vocabulary: KeyposeVocabulary) -> set[str]:
 
 
 def unknown_nouns(instruction: str, vocabulary: KeyposeVocabulary) -> list[str]:
-    """The words of ``instruction`` outside the training words that stand in a noun's place: right after
-    a determiner (:data:`DETERMINERS`), a known attribute word or another such word. Empty (the rule
-    does not fire) for a policy that recorded no training words."""
+    """The words of ``instruction`` it does not know (neither a training word nor a word of an attribute
+    value or class its maps name) that stand in a noun's place: right after a determiner
+    (:data:`DETERMINERS`), a known attribute word or another such word. Empty (the rule does not fire)
+    for a policy that recorded no training words."""
     if not vocabulary.words:
         return []
-    known = set(vocabulary.words)
     adjectives = {w for a in _attribute_words().values() for w in a.values()} | {
         v for a in ("color", "material", "size") for v in vocabulary.values(a)}
+    nouns = default_lexicon().nouns
+    # the words of the attribute values and classes its maps name are known even when no training
+    # instruction said them (a material, a plural)
+    known = set(vocabulary.words) | adjectives | {
+        w for c in vocabulary.name for n in nouns.get(c, (c.replace("_", " "),)) for w in tokenize(n)}
     tokens = tokenize(instruction)
     out: list[str] = []
     for i, w in enumerate(tokens):
