@@ -23,8 +23,8 @@ device=()
 [[ -n "${DEVICE:-}" ]] && device=(--device "$DEVICE")
 bin="${SAMPLEHD:-samplehd}"
 # families each level can draw: L3 draws no put or stack episode, L4 (a food box) only where one is a
-# target; stack_three needs more objects than the environment's default scenes hold (evaluated apart,
-# at L1, on scenes of 5-6 objects)
+# target; stack_three needs more objects than the environment's default scenes hold (tried apart, at
+# L1, on scenes of 5-6 objects; even there 12 sampled scenes drew none when measured)
 six=(pick_up place place_relative put remove stack)
 declare -A families=([L1]="${six[*]}" [L2]="${six[*]}" [L3]="pick_up place place_relative remove"
                      [L4]="pick_up place place_relative put remove")
@@ -54,7 +54,8 @@ done
 if [[ " ${LEVELS:-L1} " == *" L1 "* && ! -f "$out/reports/keypose_all_L1_stack_three.json" ]]; then
   echo '{"scene": {"min_objects": 5, "max_objects": 6}}' > "$out/reports/six_objects.json"
   "$bin" evaluate --policy bc --models "$model" --families stack_three --level L1 --episodes "${LEVEL_EPISODES:-10}" \
-    --env-options "$out/reports/six_objects.json" --workers "$workers" --out "$out/reports/keypose_all_L1_stack_three.json"
+    --env-options "$out/reports/six_objects.json" --workers "$workers" --out "$out/reports/keypose_all_L1_stack_three.json" \
+    || echo "stack_three: no episode drawn (the environment's scenes seldom allow one; see docs/BASELINES.md)" >&2
 fi
 
 {
