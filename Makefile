@@ -14,7 +14,7 @@ BROWSER_DEBS := chromium chromium-driver
 # Mitsuba's CPU backend compiles with LLVM; Debian 12's default LLVM 15 crashes it, LLVM 19 works.
 PHOTO_DEBS := libllvm19
 
-.PHONY: demo test test-all bench bc-baseline keypose-baseline lint gl browser photo clean
+.PHONY: demo test test-all bench bc-baseline keypose-baseline keypose-all-baseline lint gl browser photo clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -61,6 +61,9 @@ bc-baseline: gl $(DEV_STAMP)
 
 keypose-baseline: gl $(DEV_STAMP)
 	SAMPLEHD=$(BIN)/samplehd scripts/baselines/keypose.sh outputs/keypose
+
+keypose-all-baseline: gl $(DEV_STAMP)
+	SAMPLEHD=$(BIN)/samplehd scripts/baselines/keypose_all.sh outputs/keypose_all
 
 # ruff, then the floors: import-linter's contracts in pyproject.toml (make test checks them too,
 # tests/test_layers.py) and the cycle/local-import counts of scripts/import_graph.py.

@@ -406,6 +406,8 @@ class GroupSummary:
         successes: successful ones.
         success_rate: ``successes / episodes`` (0 for an empty group).
         successes_undisturbed: successes that moved no object the task does not name.
+        successes_after_retry: successes a learned policy reached after retrying (its diagnosis counts
+            ``retries``).
         safety_stops: records with a safety event.
         mean_steps: mean control steps per episode.
         failures_by_stage: failed episodes per stage they are charged to (learned policies; empty: none).
@@ -418,6 +420,7 @@ class GroupSummary:
     successes: int
     success_rate: float
     successes_undisturbed: int
+    successes_after_retry: int
     safety_stops: int
     mean_steps: float
     failures_by_stage: dict[str, int] = field(default_factory=dict)
@@ -438,6 +441,8 @@ class GroupSummary:
         stages = [r.failure_stage for r in records if r.failure_stage is not None]
         return cls(episodes=n, successes=ok, success_rate=ok / n if n else 0.0,
                    successes_undisturbed=sum(r.success and not r.disturbed for r in records),
+                   successes_after_retry=sum(r.success and bool((r.diagnosis or {}).get("retries"))
+                                             for r in records),
                    safety_stops=sum(bool(r.safety_events) for r in records),
                    mean_steps=float(np.mean([r.steps for r in records])) if records else 0.0,
                    failures_by_stage={s: stages.count(s) for s in sorted(set(stages))},
@@ -451,6 +456,7 @@ class GroupSummary:
             d["offline_success_rate"] = self.offline_success_rate
             d["success_rate_where_offline_succeeds"] = self.success_rate_where_offline_succeeds
         d["successes_undisturbed"] = self.successes_undisturbed
+        d["successes_after_retry"] = self.successes_after_retry
         d["safety_stops"] = self.safety_stops
         if self.failures_by_stage:
             d["failures_by_stage"] = dict(self.failures_by_stage)

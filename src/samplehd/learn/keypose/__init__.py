@@ -9,6 +9,7 @@ as in Transporter networks, CLIPort and PerAct. Modules, one job each (LeRobot's
 - :mod:`~samplehd.learn.keypose.follower`: :class:`KeyposeFollower`, which carries a decision out as
   steering vectors;
 - :mod:`~samplehd.learn.keypose.inference`: :class:`KeyposePolicy`, a trained one that acts;
+- :mod:`~samplehd.learn.keypose.exclusion`: grounding a noun it never heard by exclusion (L4);
 - :mod:`~samplehd.learn.keypose.preparation`: the training samples of a dataset;
 - :mod:`~samplehd.learn.keypose.training`: :func:`train_keypose`.
 
@@ -28,11 +29,13 @@ from samplehd.learn.keypose.configuration import (
     KeyposeConfig,
     KeyposeGrid,
     KeyposeTraining,
+    KeyposeVocabulary,
 )
 
 # name -> the module that defines it, imported on first use (PyTorch, the environment)
 _DEFERRED = {
     "Decision": "processing",
+    "exclusion_target": "exclusion",
     "KeyposeFollower": "follower",
     "KeyposeNet": "modeling",
     "KeyposePolicy": "inference",
@@ -41,7 +44,8 @@ _DEFERRED = {
 }
 
 __all__ = ["FORMAT", "INPUTS", "Decision", "KeyposeArchitecture", "KeyposeConfig", "KeyposeFollower", "KeyposeGrid",
-           "KeyposeNet", "KeyposePolicy", "KeyposeTraining", "decisions", "train_keypose"]
+           "KeyposeNet", "KeyposePolicy", "KeyposeTraining", "KeyposeVocabulary", "decisions", "exclusion_target",
+           "train_keypose"]
 
 
 def __getattr__(name: str) -> Any:

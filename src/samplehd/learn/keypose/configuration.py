@@ -22,7 +22,8 @@ from samplehd.learn.configuration import ModelConfig, catalogue_options
 from samplehd.schema import Config, bounded
 
 __all__ = ["ACTION", "ATTRIBUTE_VALUES", "BLANK_TEXT", "FORMAT", "INPUTS", "KEYPOSE_ATTRIBUTES", "LANGUAGE",
-           "KeyposeArchitecture", "KeyposeConfig", "KeyposeGrid", "KeyposeTraining", "policy_instruction"]
+           "KeyposeArchitecture", "KeyposeConfig", "KeyposeGrid", "KeyposeTraining", "KeyposeVocabulary",
+           "policy_instruction"]
 
 FORMAT = 3  # the config format of a keypose policy (bump when the network or its inputs change)
 # the ``action`` its config.json names (the behaviour-cloning policy's: steering, waypoint)
@@ -95,6 +96,33 @@ class KeyposeTraining(Config, section="train"):
 
 
 @dataclass(frozen=True)
+class KeyposeVocabulary(Config, section="vocabulary"):
+    """What the keypose policy was trained on, for grounding by exclusion
+    (:mod:`samplehd.learn.keypose.exclusion`): the words of its training instructions and, per attribute
+    of :data:`KEYPOSE_ATTRIBUTES`, the values its auxiliary maps name, in the order of their logits
+    (a held-out class is none of ``name``'s). Filled in from the dataset by the trainer; empty in the
+    files of earlier versions (the rule then never fires).
+
+    Attributes:
+        words: the training instructions' words.
+        name: object classes.
+        color: colours.
+        material: materials.
+        size: sizes.
+    """
+
+    words: tuple[str, ...] = ()
+    name: tuple[str, ...] = ()
+    color: tuple[str, ...] = ()
+    material: tuple[str, ...] = ()
+    size: tuple[str, ...] = ()
+
+    def values(self, attribute: str) -> tuple[str, ...]:
+        """The values of one attribute of :data:`KEYPOSE_ATTRIBUTES`."""
+        return tuple(getattr(self, attribute))
+
+
+@dataclass(frozen=True)
 class KeyposeConfig(ModelConfig, section="policy"):
     """A keypose policy's config.
 
@@ -112,6 +140,7 @@ class KeyposeConfig(ModelConfig, section="policy"):
         grid: its view of the table.
         families: the task families of its training episodes.
         train: training options.
+        vocabulary: the words and attribute values it was trained on.
     """
 
     KIND: ClassVar[str] = "policy"
@@ -131,6 +160,7 @@ class KeyposeConfig(ModelConfig, section="policy"):
     grid: KeyposeGrid = field(default_factory=KeyposeGrid)
     families: tuple[str, ...] = ()
     train: KeyposeTraining = field(default_factory=KeyposeTraining)
+    vocabulary: KeyposeVocabulary = field(default_factory=KeyposeVocabulary)
 
     def env_options(self) -> dict[str, object]:
         """The environment options the policy needs: steering control and no image (it renders the

@@ -3,7 +3,9 @@
 As in PerAct and CLIPort, a policy predicts a decision from one look at the table and
 :class:`KeyposeFollower` executes it as steering vectors, step by step through the environment: over
 the grasp at the height it is at, down, close until the fingers stop, up, over the goal, down, open,
-up and back to the start pose. Its descents are guarded: one that stops short closes or opens there.
+up and back to the start pose. Its descents are guarded: one that stops short closes or opens there. A
+grasp whose fingers close on nothing (:data:`MISSED_WIDTH`) goes back to the start pose open, and
+:attr:`KeyposeFollower.missed` says so (the policy looks again).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ OPEN_MARGIN = 0.01  # the gripper opens this much wider than the predicted openi
 DESCENT_SPEED = 0.06  # the last approach to a grasp or release goes down at most this fast [m/s]
 BLOCKED = 0.3  # a descent that moved less than this share of its commanded step has met something ...
 BLOCKED_MIN_STEP = 0.001  # ... when the commanded step was at least this long [m]
+MISSED_WIDTH = 0.001  # fingers that closed narrower than this hold nothing: the grasp missed [m]
 
 
 
@@ -89,6 +92,12 @@ class KeyposeFollower:
             steps += [("move", "carry", np.array([px, py, max(pz, d.lift), pyaw, -1.0]))]
         self.steps = steps
         self.phase = 0
+        self.missed = False  # the grasp closed on nothing; the follower went back home without carrying
+        self._home_steps = [("move", "up", np.array([gx, gy, over, gyaw, open_cmd])),
+                            ("move", "home", np.array([home[0], home[1], max(over, home[2]),
+                                                       _near_yaw(home[3], gyaw), open_cmd])),
+                            ("move", "home", np.array([home[0], home[1], home[2], _near_yaw(home[3], gyaw),
+                                                       open_cmd]))]
         self._speeds = steering_speeds(env)
         control = getattr(getattr(env, "unwrapped", None), "control", None)
         self._hz = float(control.control_hz) if control is not None else 20.0
@@ -118,6 +127,10 @@ class KeyposeFollower:
                 self.steps[k][2][2] = z
         self._last_z = z
         while not self.done and self._reached(obs):
+            if self.steps[self.phase][0] == "close" and self._width is not None and self._width < MISSED_WIDTH:
+                # nothing between the fingers: back home, open, where the policy looks again
+                self.missed = True
+                self.steps = self.steps[:self.phase + 1] + self._home_steps
             self.phase += 1
             self._width = None
             self._settle = 0

@@ -1,7 +1,8 @@
 """The trained keypose policy acting in the environment (:class:`KeyposePolicy`): it looks at the table
 through the scene camera (RGB-D, re-projected from above), decides where to grasp and where the object
 goes, and carries the decision out with :class:`~samplehd.learn.keypose.follower.KeyposeFollower`, one
-steering vector per ``env.step``; after each release it goes back to its start pose and looks again,
+steering vector per ``env.step``; after each release, and after a grasp that closed on nothing, it goes
+back to its start pose and looks again,
 until the episode ends (as a closed-loop behaviour-cloning policy acts until the environment says
 success or time is up) or :data:`MAX_DECISIONS` are made. The network's "last decision" flag is kept
 in the diagnosis only: it is right on about as many held-out decisions as always saying yes.
@@ -17,7 +18,8 @@ import numpy as np
 from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.actions import tcp_yaw
-from samplehd.learn.keypose.configuration import KeyposeConfig, policy_instruction
+from samplehd.learn.keypose.configuration import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeConfig, policy_instruction
+from samplehd.learn.keypose.exclusion import exclusion_target, table_objects, unknown_nouns
 from samplehd.learn.keypose.follower import KeyposeFollower
 from samplehd.learn.keypose.modeling import KeyposeNet
 from samplehd.learn.keypose.processing import (
@@ -78,6 +80,8 @@ class KeyposePolicy:
         self._home: np.ndarray | None = None
         self._episode: Any = None
         self.decisions = []
+        self.exclusion = False  # whether this episode's instruction fired the rule of grounding by exclusion
+        self.retries = 0  # decisions made again after a grasp that closed on nothing
 
     def decide(self, instruction: str) -> Decision:
         """The decision on the scene camera's current view. The grasp is not sought within
@@ -97,9 +101,27 @@ class KeyposePolicy:
             grid = scene_grid(self._renderer, u.model, u.data, cfg)
         tokens = encode_instruction(policy_instruction(self.config, instruction), self.config.tokens)
         with torch.no_grad():
+            grid_t = torch.as_tensor(grid[None], device=self.device)
+            tokens_t = torch.as_tensor(tokens[None], device=self.device)
+            only = self._grounded_by_exclusion(instruction, grid, grid_t, tokens_t)
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
-            return predict_decisions(self.net, torch.as_tensor(grid[None], device=self.device),
-                                     torch.as_tensor(tokens[None], device=self.device), self.grid, [avoid])[0]
+            return predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [only])[0]
+
+    def _grounded_by_exclusion(self, instruction: str, grid: np.ndarray, grid_t: Any, tokens_t: Any
+                               ) -> np.ndarray | None:
+        """The cells of the object an unheard noun means (:mod:`samplehd.learn.keypose.exclusion`), or None
+        when the rule does not fire; whether it fired is kept for the diagnosis."""
+        vocabulary = self.config.vocabulary
+        if not unknown_nouns(instruction, vocabulary):
+            return None
+        self.exclusion = True
+        _, feats, _ = self.net.features(grid_t, tokens_t)
+        maps = self.net.attributes(feats)[0].view(len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, *feats.shape[2:])
+        maps = maps.cpu().numpy().astype(np.float64)
+        logits = {a: maps[k, :len(vocabulary.values(a))] for k, a in enumerate(KEYPOSE_ATTRIBUTES)}
+        objects = table_objects(grid, logits["name"], logits, vocabulary, FACTOR)
+        target = exclusion_target(instruction, vocabulary, objects)
+        return None if target is None else objects[target].cells
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
         episode = getattr(self.env.unwrapped, "episode", None)
@@ -108,8 +130,9 @@ class KeyposePolicy:
             self._episode = episode
             self._home = np.r_[np.asarray(obs["tcp_pos"], np.float64), tcp_yaw(np.asarray(obs["tcp_quat"], np.float64))]
         follower = self._follower
-        again = follower is None or (follower.done and self.decisions[-1].release)
+        again = follower is None or (follower.done and (self.decisions[-1].release or follower.missed))
         if again and len(self.decisions) < MAX_DECISIONS:
+            self.retries += int(follower is not None and follower.missed)
             decision = self.decide(str(obs["instruction"]))
             self.decisions.append(decision)
             follower = self._follower = KeyposeFollower(decision, obs, self._home, self.env,
@@ -122,7 +145,7 @@ class KeyposePolicy:
         episode is charged) and the decisions made, rounded to the millimetre."""
         if self._follower is None:
             return {}
-        return {"stage": self._follower.stage,
+        return {"stage": self._follower.stage, "retries": self.retries, "exclusion": self.exclusion,
                 "decisions": [{"grasp": [round(v, 3) for v in d.grasp], "goal": [round(v, 3) for v in d.goal],
                                "release": d.release, "last": d.last} for d in self.decisions]}
 
@@ -134,21 +157,27 @@ class KeyposePolicy:
 
 
 def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid,
-                      avoid: Sequence[Sequence[np.ndarray]] | None = None) -> list[Decision]:
+                      avoid: Sequence[Sequence[np.ndarray]] | None = None,
+                      only: Sequence[np.ndarray | None] | None = None) -> list[Decision]:
     """The decisions the network makes on a batch of grid images: the most likely cell of the grasp,
     the values there, then the goal's maps given that cell and their most likely cell. ``avoid``: per
-    image, table points (x, y) whose cells within :data:`AVOID_RADIUS` the grasp is not sought in."""
+    image, table points (x, y) whose cells within :data:`AVOID_RADIUS` the grasp is not sought in.
+    ``only``: per image, None or the cells of the network's map (bool, rows × cols) the grasp is sought
+    in alone (an object grounded by exclusion)."""
     c, feats, flags = net.features(grid_batch, tokens)
     gm = net.grasp(feats)
     n, _, rows, cols = gm.shape
     heat = gm[:, 0].clone()
+    for i, cells in enumerate(only or ()):
+        if cells is not None and cells.any():
+            heat[i][torch.as_tensor(~cells, device=heat.device)] = -torch.inf
     coarse = grid.coarse(FACTOR)
     if avoid:
         centres = coarse.world(*np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij"))
         for i, points in enumerate(avoid):
             for xy in points:
                 near = np.linalg.norm(centres - np.asarray(xy)[None, None], axis=-1) < AVOID_RADIUS
-                if near.all():
+                if near.all() or torch.isinf(heat[i][torch.as_tensor(~near, device=heat.device)]).all():
                     continue
                 heat[i][torch.as_tensor(near, device=heat.device)] = -torch.inf
     g_idx = heat.reshape(n, -1).argmax(1)

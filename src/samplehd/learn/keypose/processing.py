@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from samplehd.errors import ConfigError
+from samplehd.language.levels import HELD_OUT_CLASSES
 from samplehd.learn.actions import tcp_yaw
 from samplehd.learn.keypose.configuration import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeGrid
 from samplehd.learn.topdown import GRID_CHANNELS, TopDownGrid
@@ -156,9 +157,17 @@ def keypose_targets(d: Decision, grid: TopDownGrid) -> np.ndarray:
                      float(d.release), float(d.last), float(inside)], np.float32)
 
 
+def _labelled(obj: Mapping[str, Any], attribute: str) -> bool:
+    """Whether the auxiliary maps name this attribute of ``obj``: not the class of a held-out class (L4),
+    which the policy must never have been told, as perception leaves it out."""
+    return not (attribute == "name" and str(obj.get("name")) in HELD_OUT_CLASSES)
+
+
 def attribute_values(scenes: Sequence[Mapping[str, Any]]) -> dict[str, list[str]]:
-    """Per attribute of :data:`KEYPOSE_ATTRIBUTES`, the values the scenes' objects have, sorted."""
-    values = {a: sorted({str(o.get(a)) for s in scenes for o in s["objects"]}) for a in KEYPOSE_ATTRIBUTES}
+    """Per attribute of :data:`KEYPOSE_ATTRIBUTES`, the values the scenes' objects have, sorted (no
+    held-out class among the classes)."""
+    values = {a: sorted({str(o.get(a)) for s in scenes for o in s["objects"] if _labelled(o, a)})
+              for a in KEYPOSE_ATTRIBUTES}
     for a, v in values.items():
         if len(v) > ATTRIBUTE_VALUES:
             raise ConfigError(f"dataset: {len(v)} values of {a!r} ({', '.join(v[:5])}, ...); the keypose policy's "
@@ -168,11 +177,13 @@ def attribute_values(scenes: Sequence[Mapping[str, Any]]) -> dict[str, list[str]
 
 def attribute_maps(ids: np.ndarray, scene: Mapping[str, Any], values: Mapping[str, list[str]]) -> np.ndarray:
     """(attributes, rows/FACTOR, cols/FACTOR) int8: per coarse cell the index of each attribute of the
-    object seen there (``ids``: segmentation ids per grid cell), -1 where no object is."""
+    object seen there (``ids``: segmentation ids per grid cell), -1 where no object is and for the class
+    of a held-out class."""
     coarse = ids[FACTOR // 2::FACTOR, FACTOR // 2::FACTOR]
     out = np.full((len(KEYPOSE_ATTRIBUTES), *coarse.shape), -1, np.int8)
     for obj in scene["objects"]:
         where = coarse == int(obj["segmentation_id"])
         for a, name in enumerate(KEYPOSE_ATTRIBUTES):
-            out[a][where] = values[name].index(str(obj.get(name)))
+            if _labelled(obj, name):
+                out[a][where] = values[name].index(str(obj.get(name)))
     return out

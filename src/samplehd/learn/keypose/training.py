@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
+from samplehd.envs.tokens import encode_instruction, instruction_vocabulary, tokenize
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset, training_split
 from samplehd.learn.keypose.configuration import (
@@ -22,12 +22,13 @@ from samplehd.learn.keypose.configuration import (
     KEYPOSE_ATTRIBUTES,
     KeyposeConfig,
     KeyposeGrid,
+    KeyposeVocabulary,
     policy_instruction,
 )
 from samplehd.learn.keypose.inference import predict_decisions
 from samplehd.learn.keypose.modeling import KeyposeNet
 from samplehd.learn.keypose.preparation import PREPARED_FILE, check_scene_inputs, prepare_samples
-from samplehd.learn.keypose.processing import FACTOR, HEIGHT_UNIT, grid_of, input_channels
+from samplehd.learn.keypose.processing import FACTOR, HEIGHT_UNIT, attribute_values, grid_of, input_channels
 from samplehd.learn.topdown import TopDownGrid
 from samplehd.learn.training import (
     TrainRun,
@@ -192,13 +193,16 @@ def fill_from_dataset(config: KeyposeConfig, reader: Any, dataset: str | Path
     """(``config`` with what the dataset says filled in, its training episodes, its test episodes):
     the dataset's path and catalogue, the grid's image size (its scene images'; 640 × 360 px when it
     has none), the families of the training episodes (of ``config.families`` when given) and their
-    count."""
+    count, the words of their instructions and the attribute values of the scenes' objects."""
     camera = reader.scenes[0]["camera"] if reader.scenes else {}
     grid = replace(config.grid, width=int(camera.get("width", 640)), height=int(camera.get("height", 360)))
     train_k, test_k = training_split(reader, dataset, config.families or None)
     families = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
+    values = attribute_values(reader.scenes)
+    words = sorted({w for k in train_k for w in tokenize(str(reader.instruction(k)["instruction"]))})
+    vocabulary = KeyposeVocabulary(words=tuple(words), **{a: tuple(values[a]) for a in KEYPOSE_ATTRIBUTES})
     return replace(config, dataset=str(dataset), catalogue=reader.catalogue, grid=grid, families=families,
-                   train=replace(config.train, episodes=len(train_k))), train_k, test_k
+                   train=replace(config.train, episodes=len(train_k)), vocabulary=vocabulary), train_k, test_k
 
 
 def _samples(out: Path, reader: Any, config: KeyposeConfig, train_k: Sequence[int],
