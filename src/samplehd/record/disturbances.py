@@ -244,10 +244,9 @@ class Disturber:
         return item
 
     def _opened(self, item: ControlTarget) -> ControlTarget:
-        """The target with the gripper opened: the grasp rule releases the weld in this step."""
-        ro = self.ro
+        """The target with the gripper opened: the grasp rule (applied by the step with this command)
+        releases the weld in this step."""
         command = 1.0
-        ro.assist.update(ro.data, command, ro.ctrl.stopped is not None)
         steering = item.steering.copy()
         steering[6] = command
         return replace(item, gripper=command, steering=steering, held=None)
