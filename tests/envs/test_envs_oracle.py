@@ -158,5 +158,5 @@ def test_oracle_grasps_again_an_object_that_slipped(fast_options: dict) -> None:
     assert oracle.replans == 1
     again = seen.index("ObjectMove") + 1
     assert seen[again:again + 3] == ["OpenGripper", "MoveToDefaultPos", "GripperMoveAvoid"], seen
-    assert seen.count("CloseGripper") == 2
+    assert seen.count("CloseGripper") == len(env.task.objects) + 1  # one grasp per object, one again
     oracle.close()
