@@ -172,18 +172,14 @@ def test_lerobot_export_records_its_env_and_splits(lerobot_export: Path, rendere
 
 
 def test_lerobot_export_carries_camera_intrinsics_and_extrinsics(lerobot_export: Path, rendered_dataset: Path) -> None:
-    """meta/samplehd.json gives each camera's K and where its extrinsics are: world-fixed cameras per
-    episode (a column of the episodes table), the wrist camera as its mount on the gripper. Projecting an
-    object's recorded position with them lands on that object's pixels in the exported segmentation."""
-    import mujoco
+    """meta/samplehd.json gives each exported camera's K and where its extrinsics are (world-fixed cameras:
+    a column of the episodes table). Projecting an object's recorded position with them lands on that
+    object's pixels in the exported segmentation."""
     import pyarrow.parquet as pq
-
-    from samplehd.render.renderer import camera_pose
-    from samplehd.scene.spec import SceneSpec, compile_scene
 
     record = json.loads((lerobot_export / "meta" / "samplehd.json").read_text())
     cams = record["cameras"]
-    assert {"scene", "wrist"} <= set(cams)
+    assert set(cams) == {"scene"}  # the cameras the dataset stores
     eps = pq.read_table(lerobot_export / "meta/episodes/chunk-000/file-000.parquet").to_pylist()
     data = pq.read_table(lerobot_export / "data/chunk-000/file-000.parquet")
     seg_col = data.column("segmentation.scene").to_numpy(zero_copy_only=False)
@@ -203,19 +199,38 @@ def test_lerobot_export_carries_camera_intrinsics_and_extrinsics(lerobot_export:
             total += 1
             hits += bool(0 <= int(v) < 36 and 0 <= int(u) < 64 and seg[int(v), int(u)] == 3 + i)
     assert hits >= 0.8 * total, (hits, total)  # an object's centre may hide behind another
-    # the wrist camera: the gripper body's pose times the mount is the camera's pose at any frame
-    mount = np.array(cams["wrist"]["extrinsics"]["mount"])
-    assert cams["wrist"]["extrinsics"]["moves_with"] == "robot_gripper"
-    e = eps[0]
-    ep = reader.episode(e["samplehd/instruction_index"], images="none")
-    spec = SceneSpec.from_dict(reader.scene(e["samplehd/scene_index"])["spec"])
-    model, d = compile_scene(spec, robot_look="primitive")
-    d.qpos[:] = ep.frames["qpos"][ep.num_frames // 2]
-    mujoco.mj_kinematics(model, d)
+
+
+def test_wrist_camera_extrinsics_are_its_mount_on_the_gripper(micro_dataset: Path) -> None:
+    """The wrist camera moves with the gripper: the gripper body's pose times the recorded mount is the
+    camera's pose at any frame (here the middle of an episode, the arm far from home)."""
+    import mujoco
+
+    from samplehd.export.camera_geometry import CameraGeometry
+    from samplehd.render.renderer import camera_pose
+    from samplehd.scene.spec import SceneSpec, compile_scene
+
+    reader = DatasetReader(micro_dataset)
+    entry = reader.episodes[0]
+    ep = reader.episode(0, images="none")
+    scene = reader.scene(entry.scene_index)
+    geometry = CameraGeometry(["scene", "wrist"], {"scene": (64, 36), "wrist": (64, 36)})
+    fixed = geometry.episode_extrinsics(scene, ep.frames["qpos"][0])
+    record = geometry.record()
+    assert set(fixed) == {"scene"} and record["wrist"]["extrinsics"]["moves_with"] == "robot_gripper"
+    mount = np.array(record["wrist"]["extrinsics"]["mount"])
+    model, d = compile_scene(SceneSpec.from_dict(scene["spec"]), robot_look="primitive")
     body = model.body("robot_gripper").id
-    frame = np.eye(4)
-    frame[:3, :3], frame[:3, 3] = d.xmat[body].reshape(3, 3), d.xpos[body]
-    assert np.allclose(frame @ mount, camera_pose(model, d, "wrist"), atol=1e-6)
+    poses = []
+    for t in (0, ep.num_frames // 2):
+        d.qpos[:] = ep.frames["qpos"][t]
+        mujoco.mj_kinematics(model, d)
+        frame = np.eye(4)
+        frame[:3, :3], frame[:3, 3] = d.xmat[body].reshape(3, 3), d.xpos[body]
+        poses.append(camera_pose(model, d, "wrist"))
+        assert np.allclose(frame @ mount, poses[-1], atol=1e-6), t
+        assert np.allclose(np.array(fixed["scene"]).reshape(4, 4), camera_pose(model, d, "scene"))  # world-fixed
+    assert np.linalg.norm(poses[1][:3, 3] - poses[0][:3, 3]) > 0.05  # the wrist camera moved
 
 
 def test_lerobot_native_depth_video_round_trips(rendered_dataset: Path, tmp_path: Path) -> None:
