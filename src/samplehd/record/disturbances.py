@@ -18,7 +18,9 @@ moment of the recorded rollout:
   short of the destination (families that place only; in others the episode stays undisturbed).
 
 A drawn disturbance whose moment never comes (a one-frame subtask, a family without it) leaves the
-episode undisturbed and unlabelled.
+episode undisturbed and unlabelled; the dataset's unit then makes it again without the disturbance
+(:func:`samplehd.dataset.work.run_episode_unit`), since a disturbed rollout steps its recorded vectors
+(:class:`samplehd.record.recorder.ActionStep`) where an undisturbed one steps its joint targets.
 
 The oracle is not told. It notices the state through the grasp rule (the object is not in the weld
 after CloseGripper, leaves it while carried, or the weld holds another object than the one to move)
