@@ -215,7 +215,7 @@ def test_a_disturbance_that_never_comes_leaves_the_plain_bytes(micro_dataset: Pa
     for name, disturbances in {"plain": None, "drawn": DisturbanceConfig(1.0, ("short_release",))}.items():
         (tmp_path / name / "episodes").mkdir(parents=True)
         unit = EpisodeUnit(out=str(tmp_path / name), file="e.h5", scene_index=0, slot=0, seed=5, family="pick_up",
-                           task=parse_task({"type": "pick_up", "objects": [0]}), instruction="Pick it up.",
+                           task=parse_task({"type": "pick_up", "objects": [1]}), instruction="Pick it up.",
                            split="train", scene=SceneSpec.from_dict(scene["spec"]), directions=scene["directions"],
                            paths=config.paths, render=config.render, disturbances=disturbances)
         results[name] = run_episode_unit(unit)
