@@ -225,6 +225,7 @@ def test_wrist_camera_extrinsics_are_its_mount_on_the_gripper(micro_dataset: Pat
     for t in (0, ep.num_frames // 2):
         d.qpos[:] = ep.frames["qpos"][t]
         mujoco.mj_kinematics(model, d)
+        mujoco.mj_camlight(model, d)
         frame = np.eye(4)
         frame[:3, :3], frame[:3, 3] = d.xmat[body].reshape(3, 3), d.xpos[body]
         poses.append(camera_pose(model, d, "wrist"))

@@ -50,6 +50,7 @@ class CameraGeometry:
         model, data = self._compiled[index]
         data.qpos[:] = qpos
         mujoco.mj_kinematics(model, data)
+        mujoco.mj_camlight(model, data)  # camera poses are not part of mj_kinematics
         out: dict[str, list[float]] = {}
         for cam in self.cameras:
             w, h = self.sizes[cam]
