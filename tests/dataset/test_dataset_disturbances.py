@@ -197,3 +197,27 @@ def test_sample_hd_export_carries_the_labels(disturbed_dataset: Path, tmp_path: 
         flags = [fr["recovery"] for fr in doc["sequence"][:ep.num_frames]]
         assert flags == ep.frames["recovery"].astype(bool).tolist()
     assert labelled > 0
+
+
+def test_a_disturbance_that_never_comes_leaves_the_plain_bytes(micro_dataset: Path, tmp_path: Path):
+    """A short release drawn for a pick_up has no transport to cut short: the unit makes the episode
+    again undisturbed, the file a dataset without disturbances writes (a disturbed rollout steps its
+    recorded vectors, an undisturbed one its joint targets: their bytes would differ)."""
+    from samplehd.dataset.reader import DatasetReader
+    from samplehd.dataset.work import EpisodeUnit, run_episode_unit
+    from samplehd.record.disturbances import DisturbanceConfig
+    from samplehd.scene.spec import SceneSpec
+    from samplehd.tasks.task import parse_task
+
+    config = micro_config()
+    scene = DatasetReader(micro_dataset).scenes[0]
+    results = {}
+    for name, disturbances in {"plain": None, "drawn": DisturbanceConfig(1.0, ("short_release",))}.items():
+        (tmp_path / name / "episodes").mkdir(parents=True)
+        unit = EpisodeUnit(out=str(tmp_path / name), file="e.h5", scene_index=0, slot=0, seed=5, family="pick_up",
+                           task=parse_task({"type": "pick_up", "objects": [1]}), instruction="Pick it up.",
+                           split="train", scene=SceneSpec.from_dict(scene["spec"]), directions=scene["directions"],
+                           paths=config.paths, render=config.render, disturbances=disturbances)
+        results[name] = run_episode_unit(unit)
+    assert results["plain"].ok and results["drawn"].ok and results["drawn"].disturbance is None
+    assert results["drawn"].sha256 == results["plain"].sha256

@@ -127,3 +127,36 @@ def test_evaluate_loads_a_user_policy_and_a_policy_factory(tmp_path: Path, fast_
         cfg = EvalConfig(policy=spec, episodes=1, families=("pick_up",), env={**fast_options, "max_episode_steps": 5})
         report = evaluate(cfg)
         assert report.overall.episodes == 1 and report.records[0].steps == 5
+
+
+def test_oracle_grasps_again_an_object_that_slipped(fast_options: dict) -> None:
+    """Taken out of the gripper while carried (put back where it stood), the object is noticed missing;
+    the oracle backs off and grasps it again (samplehd.motion.regrasp, the plan disturbed episodes
+    recover with too) and still places it."""
+    env = TabletopEnv(families=["place"], max_episode_steps=900, **fast_options)
+    oracle = OraclePolicy(env)
+    obs, _ = env.reset(seed=0, options={"family": "place"})
+    oracle.reset(seed=0)
+    model, data = env.model, env.data
+    i = env.task.objects[0]
+    joint = int(model.body_jntadr[model.body(f"object_{i}").id])
+    adr, dof = int(model.jnt_qposadr[joint]), int(model.jnt_dofadr[joint])
+    start = data.qpos[adr:adr + 7].copy()
+    seen, taken = [], False
+    for _ in range(env.config.max_episode_steps):
+        obs, _, term, trunc, info = env.step(oracle(obs))
+        if not seen or seen[-1] != info["subtask"]:
+            seen.append(info["subtask"])
+        if info["subtask"] == "ObjectMove" and not taken:
+            env.assist.release(data)
+            data.qpos[adr:adr + 7] = start
+            data.qvel[dof:dof + 6] = 0.0
+            taken = True
+        if term or trunc or oracle.gave_up:
+            break
+    assert taken and info["success"], (info["check_reason"], oracle.failure)
+    assert oracle.replans == 1
+    again = seen.index("ObjectMove") + 1
+    assert seen[again:again + 3] == ["OpenGripper", "MoveToDefaultPos", "GripperMoveAvoid"], seen
+    assert seen.count("CloseGripper") == len(env.task.objects) + 1  # one grasp per object, one again
+    oracle.close()

@@ -34,6 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     lr.add_argument("--cameras", nargs="+", help="cameras to export (default: all stored)")
     lr.add_argument("--modalities", nargs="+",
                     help="rgb (video), depth (uint16 mm array), segmentation (uint16 id array); default: rgb")
+    lr.add_argument("--depth-video", action="store_true",
+                    help="depth as LeRobot's native depth video observation.images.<camera>_depth (lossless 12-bit "
+                         "log codes, HEVC; LeRobot >= 0.6 decodes it) instead of the uint16 mm array")
     lr.add_argument("--frames-per-file", type=int, default=200_000, help="frames per data/video file")
     rr = sub.add_parser("rerun", help="one episode as a Rerun recording (.rrd): 3-D scene, cameras, series, subtasks",
                         formatter_class=DefaultsHelpFormatter)
@@ -92,7 +95,8 @@ def run(args: argparse.Namespace) -> int:
         if args.format == "lerobot":
             res = export_lerobot(args.dir, args.out, args.repo_id, args.codec, args.frames_per_file,
                                  list(split_names(args.cameras, "--cameras")) or None, progress=tick,
-                                 modalities=list(split_names(args.modalities, "--modalities")) or None)
+                                 modalities=list(split_names(args.modalities, "--modalities")) or None,
+                                 depth_video=args.depth_video)
         else:
             res = export_samplehd(args.dir, args.out, images=not args.no_images, previews=args.previews,
                                   camera=args.camera, backend=Backend("local", args.workers), progress=tick)

@@ -31,6 +31,8 @@ from samplehd.render.image_spec import ImageSpec
 __all__ = [
     "ACTION",
     "COMMAND_JOINT",
+    "DEPTH_CODE_MAX",
+    "DEPTH_VIDEO_PARAMS",
     "EXPORT_RECORD",
     "IMAGE_PREFIX",
     "STATE",
@@ -38,6 +40,7 @@ __all__ = [
     "VECTOR_FEATURES",
     "VECTOR_SIZE",
     "LeRobotFeature",
+    "depth_video_key",
     "image_feature_key",
     "lerobot_features",
     "read_export_record",
@@ -59,6 +62,20 @@ VECTOR_FEATURES: dict[str, list[str]] = {
     ACTION: ["vx", "vy", "vz", "wx", "wy", "wz", "gripper"],
     COMMAND_JOINT: [f"joint_{i}" for i in range(6)] + ["gripper"],
 }
+
+
+# LeRobot's native depth videos (lerobot >= 0.6: ``lerobot.configs.video.DepthEncoderConfig``, decoded by
+# ``lerobot.datasets.depth_utils.dequantize_depth``): depth quantized to 12-bit codes on a log scale,
+# ``code = rint(4095 (ln(d + shift) - ln(min + shift)) / (ln(max + shift) - ln(min + shift)))`` with d in
+# metres, clipped to [0, 4095], in a lossless HEVC gray12le video; the feature's ``info`` carries
+# ``is_depth_map`` and these parameters under ``video.<name>``.
+DEPTH_VIDEO_PARAMS: dict[str, float | bool] = {"depth_min": 0.01, "depth_max": 10.0, "shift": 3.5, "use_log": True}
+DEPTH_CODE_MAX = 4095
+
+
+def depth_video_key(camera: str) -> str:
+    """A camera's native LeRobot depth video feature, named as LeRobot's depth cameras name theirs."""
+    return f"{IMAGE_PREFIX}{camera}_depth"
 
 
 def image_feature_key(camera: str, modality: str) -> str:

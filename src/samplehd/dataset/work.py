@@ -196,22 +196,36 @@ def run_episode_unit(unit: EpisodeUnit) -> EpisodeResult:
     # physics, bit for bit) but cost 40-50 CPU ms to compile per unit and about 15 % of each physics step.
     compile_fn = compile_scene_with_assist if config.grasp_assist else compile_scene
     model, data = compile_fn(scene, 1.0 / config.physics_hz, "mesh" if render.enabled else "primitive")
-    kwargs: dict[str, Any] = {}
     drawn = None if unit.disturbances is None else draw_disturbance(unit.disturbances, unit.seed)
-    if drawn is not None:
-        kwargs = {"disturbance": drawn, "max_recoveries": unit.disturbances.max_recoveries}
-    run = functools.partial(plan_and_execute, scene, unit.task, np.random.default_rng(unit.seed), config,
-                            family=unit.family, scene_index=unit.scene_index, instruction_index=unit.slot,
-                            seed=unit.seed, directions=unit.directions, compiled=(model, data), **kwargs)
+
+    def path_of(compiled: tuple[Any, Any], disturbed: bool) -> tuple[Episode, dict[str, dict[str, Any]] | None]:
+        kwargs: dict[str, Any] = {}
+        if disturbed and drawn is not None and unit.disturbances is not None:
+            kwargs = {"disturbance": drawn, "max_recoveries": unit.disturbances.max_recoveries}
+        run = functools.partial(plan_and_execute, scene, unit.task, np.random.default_rng(unit.seed), config,
+                                family=unit.family, scene_index=unit.scene_index, instruction_index=unit.slot,
+                                seed=unit.seed, directions=unit.directions, compiled=compiled, **kwargs)
+        if beside:
+            return _path_beside_images(run, path, render, compiled[0], scene.seed)
+        return path.timed(run), None
+
     t1, c1 = time.perf_counter(), time.process_time()
     path = _PathTimes()
-    images: dict[str, dict[str, Any]] | None = None
     beside = render.enabled and render.every_frame
     try:
-        if beside:
-            episode, images = _path_beside_images(run, path, render, model, scene.seed)
-        else:
-            episode = path.timed(run)
+        try:
+            episode, images = path_of((model, data), drawn is not None)
+            unfired = drawn is not None and "disturbance" not in episode.info
+        except PathRejected:
+            if drawn is None:
+                raise
+            unfired = True
+        if unfired:
+            # The drawn disturbance never came (a family without its moment, no other object to grasp):
+            # the episode is made again undisturbed, the bytes a dataset without disturbances has (a
+            # disturbed rollout steps its recorded vectors, an undisturbed one its joint targets).
+            model, data = compile_fn(scene, 1.0 / config.physics_hz, "mesh" if render.enabled else "primitive")
+            episode, images = path_of((model, data), False)
     except PathRejected as exc:
         return EpisodeResult(unit.scene_index, unit.slot, "rejected", time.perf_counter() - t0,
                              time.process_time() - c0, reason=exc.reason, message=str(exc).splitlines()[0][:300],

@@ -13,7 +13,8 @@ environment's control mode:
 It closes the loop: every subtask is planned from the state the previous one left; while it
 carries an object it checks every step that the object is still between the fingers, and when a
 grasp misses or the object slips it opens the gripper, backs off and plans a new grasp of the
-object where it now lies (up to ``max_replans`` times per object).
+object where it now lies (up to ``max_replans`` times per object): the one re-grasping plan,
+:func:`samplehd.motion.regrasp.regrasping_plan`, that the recovery of disturbed episodes runs too.
 
 The planner yields one control target per step (:mod:`samplehd.motion.execute`); the oracle keeps
 that generator and advances it by one target per :meth:`OraclePolicy.__call__`, after the
@@ -35,11 +36,11 @@ from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import PlanningError
 from samplehd.fixedmath import matmul
 from samplehd.motion.execute import AttemptFailed, ControlTarget, Plan, Rollout, SubtaskCut, scene_facts
+from samplehd.motion.regrasp import regrasping_plan
 from samplehd.motion.steering import steering_from_targets
 from samplehd.robot.constants import GRIPPER_STROKE
 from samplehd.robot.controller import ControlReport
 from samplehd.robot.kinematics import fk_tcp
-from samplehd.tasks.task import get_family
 from samplehd.world.bodies import SceneBodies
 from samplehd.world.layout import LAYOUT
 from samplehd.world.planner_config import PlannerConfig
@@ -47,9 +48,6 @@ from samplehd.world.robot_info import RobotInfo
 from samplehd.world.transforms import rotvec
 
 __all__ = ["OraclePolicy", "oracle_action"]
-
-# Failures after which the oracle backs off and grasps the object again.
-_REGRASP_REASONS = ("grasp_missed", "grasp_slipped")
 
 
 def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: float, env: TabletopEnv) -> np.ndarray:
@@ -218,39 +216,18 @@ class OraclePolicy:
         ro = Rollout(model, data, ctrl, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
                      use_assist=False, step_assist=env.assist)
         self._rollout = ro
-        remaining = list(task.objects)
-        while remaining:
-            i = ro.next_object(task, remaining)
-            remaining.remove(i)
-            exclude: set[int] = set()
-            for attempt in range(self.max_replans + 1):
-                k = -1
-                try:
-                    k = yield from ro.pick(i, tuple(exclude))
-                    if get_family(task.family).places:
-                        yield from ro.place(i, task, k)
-                    break
-                except AttemptFailed as exc:
-                    grasp = exc.grasp if exc.grasp >= 0 else k
-                    if exc.reason not in _REGRASP_REASONS or attempt == self.max_replans:
-                        self.failure = exc.reason
-                        return
-                    self.replans += 1
-                    if grasp >= 0:
-                        exclude.add(grasp)
-                    try:
-                        yield from self._back_off(ro, i)
-                    except PlanningError as back:
-                        self.failure = getattr(back, "reason", "no_path_home")
-                        return
-                except PlanningError as exc:
-                    self.failure = f"planning: {exc}"
-                    return
+        try:
+            yield from regrasping_plan(ro, task, self.max_replans, on_failure=self._replanned)
+        except AttemptFailed as exc:
+            self.failure = exc.reason
+            return
+        except PlanningError as exc:
+            self.failure = f"planning: {exc}"
+            return
         self.subtask = "Completed"
         env.subtask = "Completed"
 
-    def _back_off(self, ro: Rollout, i: int) -> Plan[None]:
-        """Open the gripper and retreat home before grasping object ``i`` again."""
-        ro.hand = None
-        yield from ro.hold("OpenGripper", i, self.planner.open_time, 1.0)
-        yield from ro.go_home(i, GRIPPER_STROKE)
+    def _replanned(self, failure: AttemptFailed) -> bool:
+        """A missed or slipped grasp is answered by a re-grasp without the grasp that failed."""
+        self.replans += 1
+        return True

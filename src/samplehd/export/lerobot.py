@@ -53,6 +53,7 @@ lerobot 0.6.1 returns them as (H, W) integer tensors; their stats are scalars in
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -63,19 +64,23 @@ from samplehd.dataset.container import camera_settings
 from samplehd.dataset.lerobot_contract import (
     ACTION,
     COMMAND_JOINT,
+    DEPTH_CODE_MAX,
+    DEPTH_VIDEO_PARAMS,
     EXPORT_RECORD,
     STATE,
     TCP_POSE,
     VECTOR_FEATURES,
+    depth_video_key,
     image_feature_key,
 )
 from samplehd.errors import DatasetError
+from samplehd.export.camera_geometry import CameraGeometry
 from samplehd.export.staging import export_source, staged_directory
 from samplehd.language.levels import LEVELS, held_out_for
 from samplehd.render.renderer import MODALITIES
 from samplehd.render.video import VideoWriter, pick_codec
 
-__all__ = ["CODEBASE_VERSION", "SPLIT_PATH", "export_lerobot"]
+__all__ = ["CODEBASE_VERSION", "SPLIT_PATH", "depth_codes", "depth_from_codes", "export_lerobot"]
 
 CODEBASE_VERSION = "v3.0"
 CHUNKS_SIZE = 1000
@@ -165,6 +170,24 @@ def _as_uint16(mod: str, frames: np.ndarray) -> np.ndarray:
         mm = np.round(np.nan_to_num(np.asarray(frames, np.float64), nan=0.0, posinf=65535.0, neginf=0.0) * 1000.0)
         return np.clip(mm, 0, 65535).astype(np.uint16)
     return np.asarray(frames).astype(np.uint16)
+
+
+def depth_codes(depth: np.ndarray) -> np.ndarray:
+    """Depth [m] → LeRobot's 12-bit depth codes (uint16, log scale, :data:`DEPTH_VIDEO_PARAMS`); no data
+    (0, inf, nan) and depths outside [depth_min, depth_max] are clipped to the ends."""
+    p = DEPTH_VIDEO_PARAMS
+    lo, hi = math.log(p["depth_min"] + p["shift"]), math.log(p["depth_max"] + p["shift"])
+    d = np.nan_to_num(np.asarray(depth, np.float64), nan=0.0, posinf=p["depth_max"], neginf=0.0)
+    norm = (np.log(np.maximum(d, 0.0) + p["shift"]) - lo) / (hi - lo)
+    return np.clip(np.rint(norm * DEPTH_CODE_MAX), 0, DEPTH_CODE_MAX).astype(np.uint16)
+
+
+def depth_from_codes(codes: np.ndarray) -> np.ndarray:
+    """LeRobot's 12-bit depth codes → depth [m] (``lerobot.datasets.depth_utils.dequantize_depth``'s inverse)."""
+    p = DEPTH_VIDEO_PARAMS
+    lo, hi = math.log(p["depth_min"] + p["shift"]), math.log(p["depth_max"] + p["shift"])
+    d = np.exp(np.asarray(codes, np.float64) * (hi - lo) / DEPTH_CODE_MAX + lo) - p["shift"]
+    return np.clip(d, p["depth_min"], p["depth_max"])
 
 
 def _uint16_lists(frames16: np.ndarray) -> Any:
@@ -289,7 +312,7 @@ def _level_train_lists(reader: Any, train: list[int]) -> dict[str, list[int]]:
 def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/dataset", codec: str | None = None,
                    frames_per_file: int = 200_000, cameras: list[str] | None = None,
                    progress: Callable[[int, int], None] | None = None,
-                   modalities: list[str] | None = None) -> dict[str, Any]:
+                   modalities: list[str] | None = None, depth_video: bool = False) -> dict[str, Any]:
     """Write the LeRobot v3.0 layout of a complete samplehd dataset into ``out`` (atomically: a
     temporary folder renamed at the end).
 
@@ -304,6 +327,10 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
         progress: ``progress(done, total)`` per episode.
         modalities: which of rgb (video features), depth and segmentation (uint16 arrays under
             ``depth.<camera>`` / ``segmentation.<camera>``) to export (default: rgb only).
+        depth_video: depth as LeRobot's native depth video ``observation.images.<camera>_depth``
+            (lossless 12-bit log codes, :data:`~samplehd.dataset.lerobot_contract.DEPTH_VIDEO_PARAMS`)
+            instead of the uint16 millimetre array ``depth.<camera>``; LeRobot's policies take every
+            video feature as an image input.
 
     Returns:
         ``{episodes, frames, tasks, videos: [keys], images: [keys], codec}``.
@@ -317,17 +344,20 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
 
     reader, out = export_source(root, out)
     settings, streams = _streams(root, reader.info.get("render"), cameras, modalities)
-    videos = [(c, m) for c, m in streams if m == "rgb"]
-    images = [(c, m) for c, m in streams if m != "rgb"]
+    videos = [(c, m) for c, m in streams if m == "rgb" or (depth_video and m == "depth")]
+    images = [(c, m) for c, m in streams if (c, m) not in videos]
     image_keys = [image_feature_key(c, m) for c, m in images]
+
+    def key_of(cam: str, mod: str) -> str:
+        return depth_video_key(cam) if depth_video and mod == "depth" else image_feature_key(cam, mod)
     fps = int(round(float(reader.config.get("paths", {}).get("control_hz", 20.0))))
     if codec is not None:
         codec = pick_codec(codec)  # a bad --codec is refused even where no video would be written
-    codec = (codec or pick_codec()) if videos else None
+    codec = (codec or pick_codec()) if any(m == "rgb" for _, m in videos) else None
     order = sorted(range(len(reader)), key=lambda i: (reader.episodes[i].split != "train", i))
     tasks: dict[str, int] = {}
     stats = _Stats()
-    samples: dict[str, list[np.ndarray]] = {image_feature_key(c, m): [] for c, m in streams}
+    samples: dict[str, list[np.ndarray]] = {key_of(c, m): [] for c, m in streams}
     ep_rows: list[dict[str, Any]] = []
     writers: dict[str, Any] = {}
     data: dict[str, Any] = {}  # the open parquet writer of the current data file
@@ -338,6 +368,8 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
     labels = isinstance(reader.config.get("disturbances"), dict)  # made with disturbances
     hf = _hf_features({image_feature_key(c, m): (settings[c]["height"], settings[c]["width"]) for c, m in images},
                       labels)
+    exported = list(dict.fromkeys(c for c, _ in streams))
+    geometry = CameraGeometry(exported, {c: (settings[c]["width"], settings[c]["height"]) for c in exported})
 
     def flush_file() -> None:
         if "writer" in data:
@@ -389,21 +421,29 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                 "episode_index": n, "tasks": [text], "length": t, "data/chunk_index": chunk, "data/file_index": file,
                 "dataset_from_index": index, "dataset_to_index": index + t,
             }
-            for cam, _ in videos:
-                key = image_feature_key(cam, "rgb")
+            for cam, mod in videos:
+                key = key_of(cam, mod)
                 if key not in writers:
                     writers[key] = VideoWriter(tmp / VIDEO_PATH.format(video_key=key, chunk_index=chunk,
                                                                        file_index=file),
-                                               settings[cam]["width"], settings[cam]["height"], fps, codec)
-                frames_rgb = ep.images[cam]["rgb"][:]
-                writers[key].write(frames_rgb)
-                samples[key].extend(frames_rgb[picks][:4])
+                                               settings[cam]["width"], settings[cam]["height"], fps, codec,
+                                               pix_fmt="yuv420p" if mod == "rgb" else "gray12le")
+                frames = ep.images[cam][mod][:]
+                if mod == "depth":
+                    writers[key].write(depth_codes(frames))
+                    samples[key].extend(_as_uint16(mod, frames[picks][:4]))  # stats in millimetres
+                else:
+                    writers[key].write(frames)
+                    samples[key].extend(frames[picks][:4])
                 row.update({f"videos/{key}/chunk_index": chunk, f"videos/{key}/file_index": file,
                             f"videos/{key}/from_timestamp": in_file / fps,
                             f"videos/{key}/to_timestamp": (in_file + t) / fps})
             row.update({"meta/episodes/chunk_index": 0, "meta/episodes/file_index": 0,
                         "samplehd/instruction_index": i, "samplehd/scene_index": entry.scene_index,
                         "samplehd/family": entry.family, "samplehd/split": entry.split})
+            if exported:
+                extrinsics = geometry.episode_extrinsics(reader.scene(entry.scene_index), ep.frames["qpos"][0])
+                row.update({f"samplehd/extrinsics.{c}": v for c, v in extrinsics.items()})
             if labels:
                 row.update(_episode_labels(ep.info, ep.success))
             ep_rows.append(row)
@@ -417,7 +457,7 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                        {k: [r[k] for r in ep_rows] for k in (ep_rows[0] if ep_rows else {})})
         all_stats = stats.result()
         for cam, mod in streams:
-            key = image_feature_key(cam, mod)
+            key = key_of(cam, mod)
             if samples[key]:
                 all_stats[key] = _image_stats(samples[key], rgb=mod == "rgb")
         (tmp / "meta" / "stats.json").write_text(json.dumps(all_stats, indent=1))
@@ -426,8 +466,14 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
             features[k] = {"dtype": "float32", "shape": [len(names)], "names": names}
         for cam, mod in streams:
             w, h = settings[cam]["width"], settings[cam]["height"]
-            key, names = image_feature_key(cam, mod), ["height", "width", "channels"]
-            if mod == "rgb":
+            key, names = key_of(cam, mod), ["height", "width", "channels"]
+            if (cam, mod) in videos and mod == "depth":
+                info = {"video.height": h, "video.width": w, "video.codec": "hevc", "video.pix_fmt": "gray12le",
+                        "video.fps": fps, "video.channels": 1, "has_audio": False, "is_depth_map": True,
+                        "depth_unit": "mm",  # of its stats; LeRobot decodes the frames to millimetres
+                        **{f"video.{k}": v for k, v in DEPTH_VIDEO_PARAMS.items()}}
+                features[key] = {"dtype": "video", "shape": [h, w, 1], "names": names, "info": info}
+            elif mod == "rgb":
                 info = {"video.height": h, "video.width": w,
                         "video.codec": {"libsvtav1": "av1", "libx264": "h264"}.get(codec or "", codec),
                         "video.pix_fmt": "yuv420p", "video.fps": fps, "video.channels": 3, "has_audio": False,
@@ -464,10 +510,12 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
                   "families": sorted({reader.episodes[i].family for i in order}),
                   "episode_lengths": {"max": max((r["length"] for r in ep_rows), default=0),
                                       "mean": float(np.mean([r["length"] for r in ep_rows])) if ep_rows else 0.0}}
-        record.update(_env_record(reader.config, settings, [c for c, _ in videos], record["families"]))
+        record.update(_env_record(reader.config, settings, [c for c, m in videos if m == "rgb"], record["families"]))
+        if exported:
+            record["cameras"] = geometry.record()
         if labels:
             record["disturbances"] = {"config": reader.config["disturbances"],
                                       "counts": reader.info.get("counts", {}).get("disturbances", {})}
         (tmp / EXPORT_RECORD).write_text(json.dumps(record, indent=1))
     return {"episodes": len(order), "frames": index, "tasks": len(tasks),
-            "videos": [image_feature_key(c, "rgb") for c, _ in videos], "arrays": image_keys, "codec": codec}
+            "videos": [key_of(c, m) for c, m in videos], "arrays": image_keys, "codec": codec}

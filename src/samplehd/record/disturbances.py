@@ -18,13 +18,16 @@ moment of the recorded rollout:
   short of the destination (families that place only; in others the episode stays undisturbed).
 
 A drawn disturbance whose moment never comes (a one-frame subtask, a family without it) leaves the
-episode undisturbed and unlabelled.
+episode undisturbed and unlabelled; the dataset's unit then makes it again without the disturbance
+(:func:`samplehd.dataset.work.run_episode_unit`), since a disturbed rollout steps its recorded vectors
+(:class:`samplehd.record.recorder.ActionStep`) where an undisturbed one steps its joint targets.
 
 The oracle is not told. It notices the state through the grasp rule (the object is not in the weld
 after CloseGripper, leaves it while carried, or the weld holds another object than the one to move)
 and through the success checker at the end of the plan, and it recovers by replanning from the
-current state: open the gripper, back off home, grasp the object where it now lies, and go on (the
-same recovery as the closed-loop oracle's, :mod:`samplehd.envs.oracle`).
+current state: open the gripper, back off home, grasp the object where it now lies, and go on: the
+closed-loop oracle's one re-grasping plan (:func:`samplehd.motion.regrasp.regrasping_plan`), with more
+failures recovered (:data:`RECOVERABLE`) and the labels kept.
 
 The draw comes from its own stream, ``SeedSequence([episode seed, 0xD157])``: the episode's own
 generator draws nothing new, so an episode drawn undisturbed is the episode a dataset without
@@ -43,6 +46,7 @@ import numpy as np
 from samplehd.errors import PlanningError
 from samplehd.motion.execute import AttemptFailed, ControlTarget, Plan, Rollout, SubtaskCut
 from samplehd.motion.planner import release_height, straight_move
+from samplehd.motion.regrasp import regrasping_plan
 from samplehd.record.episode import Episode
 from samplehd.robot.constants import GRIPPER_STROKE, TCP_OFFSET
 from samplehd.robot.controller import ControlReport
@@ -182,6 +186,7 @@ class Disturber:
         self.labels = _Labels()
         self._hold: np.ndarray | None = None  # missed_grasp / short_release: joints the arm holds at
         self._open_until = -1  # slip: the gripper stays open until this frame
+        self._recovering = False  # a recovery has begun and the object is not held again yet
 
     @property
     def fired(self) -> bool:
@@ -244,62 +249,50 @@ class Disturber:
         return item
 
     def _opened(self, item: ControlTarget) -> ControlTarget:
-        """The target with the gripper opened: the grasp rule releases the weld in this step."""
-        ro = self.ro
+        """The target with the gripper opened: the grasp rule (applied by the step with this command)
+        releases the weld in this step."""
         command = 1.0
-        ro.assist.update(ro.data, command, ro.ctrl.stopped is not None)
         steering = item.steering.copy()
         steering[6] = command
         return replace(item, gripper=command, steering=steering, held=None)
 
     # ------------------------------------------------------------------ the recovering plan
     def plan(self, task: Task, exclude: dict[int, set[int]]) -> Plan[None]:
-        """The task's plan with the oracle's recovery: each moved object in the planner's order is
-        picked (and placed); a recoverable failure is answered by backing off and grasping again."""
-        ro = self.ro
-        remaining = list(task.objects)
-        first = True
-        while remaining:
-            i = ro.next_object(task, remaining)
-            remaining.remove(i)
-            yield from self._move_object(task, i, tuple(exclude.get(i, ())), first)
-            first = False
+        """The task's plan with the oracle's recovery (:func:`samplehd.motion.regrasp.regrasping_plan`):
+        each moved object in the planner's order is picked (and placed); once the disturbance has been
+        applied, a failure of :data:`RECOVERABLE` is answered by backing off and grasping again.
 
-    def _move_object(self, task: Task, i: int, exclude: tuple[int, ...], first: bool) -> Plan[None]:
-        ro, lab = self.ro, self.labels
-        places = get_family(task.family).places
-        wrong = first and self.d.kind == "wrong_object"
-        recovering = False
-        excluded = set(exclude)
-        for attempt in range(self.max_recoveries + 1):
-            k = -1
-            try:
-                if wrong:
-                    wrong = False
-                    yield from self._grasp_wrong(task, i)
-                k = yield from self._watched(ro.pick(i, tuple(sorted(excluded))))
-                if recovering:
-                    lab.recovery_last = self._frame()
-                    recovering = False
-                if places:
-                    yield from self._watched(ro.place(i, task, k))
-                return
-            except AttemptFailed as exc:
-                if not self.fired or exc.reason not in RECOVERABLE or attempt == self.max_recoveries:
-                    raise
-                if not lab.failure:
-                    lab.failure, lab.message = exc.reason, str(exc)
-                    lab.noticed = self._frame()
-                    lab.last = max(lab.last, lab.frame)
-                elif exc.grasp >= 0 or k >= 0:
-                    # A grasp that failed in a recovery is not tried again (the disturbance's own failure
-                    # says nothing against the grasp it struck).
-                    excluded.add(exc.grasp if exc.grasp >= 0 else k)
-                if lab.recovery_first < 0:
-                    lab.recovery_first = ro.steps
-                lab.recoveries += 1
-                recovering = True
-                yield from self._back_off(i)
+        The disturbance's own failure leaves its grasp to be tried again (the failure says nothing
+        against the grasp it struck); a grasp that fails in a recovery is not tried again.
+        """
+        before = (lambda i: self._grasp_wrong(task, i)) if self.d.kind == "wrong_object" else None
+        yield from regrasping_plan(self.ro, task, self.max_recoveries, reasons=RECOVERABLE, exclude=exclude,
+                                   watch=self._watched, before=before, on_failure=self._noticed,
+                                   on_grasp=self._grasped)
+
+    def _noticed(self, exc: AttemptFailed) -> bool:
+        """A failure the recovery answers: labelled (the first one is the disturbance's); returns whether
+        the grasp that failed is excluded from the next picks. Before the disturbance nothing is
+        recovered: the failure propagates."""
+        lab = self.labels
+        if not self.fired:
+            raise exc
+        exclude = bool(lab.failure)
+        if not lab.failure:
+            lab.failure, lab.message = exc.reason, str(exc)
+            lab.noticed = self._frame()
+            lab.last = max(lab.last, lab.frame)
+        if lab.recovery_first < 0:
+            lab.recovery_first = self.ro.steps
+        lab.recoveries += 1
+        self._recovering = True
+        return exclude
+
+    def _grasped(self, i: int) -> None:
+        """A pick succeeded: a recovery in progress ends with the object held again."""
+        if self._recovering:
+            self.labels.recovery_last = self._frame()
+            self._recovering = False
 
     def _grasp_wrong(self, task: Task, i: int) -> Plan[None]:
         """wrong_object: approach and close on another object first (it is not lifted); the oracle sees
@@ -382,13 +375,6 @@ class Disturber:
         lab.last = self._frame()
         ro.hand = None
         yield from ro.go_home(i, opening)
-
-    def _back_off(self, i: int) -> Plan[None]:
-        """Open the gripper and go home before grasping object ``i`` again."""
-        ro = self.ro
-        ro.hand = None
-        yield from ro.hold("OpenGripper", i, ro.cfg.open_time, 1.0)
-        yield from ro.go_home(i, GRIPPER_STROKE)
 
     def notice_check(self, reason: str) -> None:
         """The checker found the final state failed after the disturbance: a recovery starts here."""

@@ -23,7 +23,7 @@ from samplehd.motion.assist import GraspAssist, compile_scene_with_assist
 from samplehd.motion.execute import AttemptFailed, Plan, Rollout, drive, initial_state, scene_facts, step_controller
 from samplehd.record.disturbances import Disturbance, Disturber
 from samplehd.record.episode import Episode
-from samplehd.record.recorder import FrameRecorder, RecordingStep
+from samplehd.record.recorder import ActionStep, FrameRecorder, RecordingStep
 from samplehd.render.states import LiveStates
 from samplehd.robot.controller import ControlConfig
 from samplehd.scene.spec import SceneSpec
@@ -98,15 +98,28 @@ def _copy_state(src: mujoco.MjData, dst: mujoco.MjData) -> None:
 
 def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: SceneSpec, rng: np.random.Generator,
                  config: PathConfig, facts: list[ObjectFacts | None], directions: Directions | None,
-                 live: LiveStates | None = None) -> tuple[Rollout, RecordingStep]:
+                 live: LiveStates | None = None, as_actions: bool = False) -> tuple[Rollout, RecordingStep]:
+    """The rollout of one attempt and its recording step function.
+
+    ``as_actions``: execute the recorded steering vectors as the environment does
+    (:class:`~samplehd.record.recorder.ActionStep`), for episodes whose outcome only a bit-exact replay
+    reproduces (disturbed ones: fingers push objects about); otherwise the planner's joint targets
+    (the undisturbed data, unchanged).
+    """
     control = ControlConfig(physics_hz=config.physics_hz, control_hz=config.control_hz)
     ctrl = initial_state(model, data, control)
     robot = RobotInfo.from_model(model, data)
     bodies = SceneBodies(model, len(scene.objects))
+    step_assist = None
+    if as_actions and config.grasp_assist:
+        step_assist = GraspAssist(model, bodies.num_objects)
+        step_assist.release(data)
     ro = Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions,
-                 use_assist=config.grasp_assist)
+                 use_assist=config.grasp_assist and not as_actions, step_assist=step_assist)
     recorder = FrameRecorder(model, data, robot.arm_qpos, robot.arm_dof, robot.finger_qpos, ro.finger_bodies,
                              robot.tcp_site, bodies.object_body, live)
+    if as_actions:
+        return ro, ActionStep(recorder, ctrl, step_assist, ro.info["assist"])
     return ro, RecordingStep(recorder, partial(step_controller, ctrl))
 
 
@@ -282,7 +295,8 @@ def _plan_and_execute(scene: SceneSpec, task: ProgramTask | Task, rng: np.random
         sub = np.random.default_rng(rng.integers(2**63))
         if live is not None:
             live.restart()
-        ro, step = _new_rollout(model, data, scene, sub, config, facts, directions, live)
+        ro, step = _new_rollout(model, data, scene, sub, config, facts, directions, live,
+                                as_actions=disturbance is not None)
         disturber = None if disturbance is None else Disturber(disturbance, ro, max_recoveries)
         try:
             if disturber is None:

@@ -5,23 +5,30 @@ step (joint targets, gripper command and the SAMPLE-HD steering vector that prod
 motion), as a policy would see and act. The last frame holds the final state with a hold command.
 
 :class:`RecordingStep` wraps the step function that drives a plan's control targets
-(:func:`samplehd.motion.execute.drive`): it records the frame, then steps.
+(:func:`samplehd.motion.execute.drive`): it records the frame, then steps. :class:`ActionStep`
+executes each target as the environment executes the recorded action instead (the grasp rule with
+the steering vector's gripper command, then the controller in steering mode), so that the recorded
+actions replay bit for bit.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
 
 import mujoco
 import numpy as np
 
+from samplehd.motion.assist import GraspAssist
 from samplehd.motion.execute import ControlTarget, SubtaskCut
 from samplehd.record.episode import FRAME_FIELDS
 from samplehd.render.states import LiveStates
-from samplehd.robot.controller import ControlReport
+from samplehd.robot.controller import ControlReport, RobotController
 from samplehd.world.bodies import grasped_object
 
 __all__ = [
+    "ActionStep",
     "FrameRecorder",
     "RecordingStep",
 ]
@@ -139,3 +146,49 @@ class RecordingStep:
         if report.safety_event is not None:
             self.recorder.rows["safety_event"][-1] = np.int8(report.safety_event.code)
         return report
+
+
+class ActionStep(RecordingStep):
+    """A step function that executes each target as the environment executes the recorded action.
+
+    The environment replays a recording (``samplehd validate --replay``) by sending each frame's
+    float32 steering vector: its step applies the grasp rule with the vector's gripper command, then
+    the controller turns the vector into a joint target. A rollout that steps this way executes
+    exactly what it records, so the replay reproduces its states bit for bit, where the planner's
+    float64 joint targets (:class:`RecordingStep` with
+    :func:`~samplehd.motion.execute.step_controller`) differ from the vectors' by ~1e-7 rad: enough
+    for fingers that push an object (a missed grasp, a re-grasp of a thin object) to leave it
+    elsewhere in the replay.
+
+    The rule is applied before the frame is recorded, so the frame's ``grasped_object`` is the object
+    welded in its step, as the rollout's own rule records it.
+
+    Args:
+        recorder: where frames go.
+        controller: the robot controller that steps the physics.
+        assist: the grasp assist the step applies (None: no grasp assist); the rollout must not
+            apply it too (``Rollout(use_assist=False, step_assist=assist)``).
+        events: where each weld and release is noted (``{"object", "frame", "on"}``), as the
+            rollout notes its own (its ``info["assist"]``).
+    """
+
+    def __init__(self, recorder: FrameRecorder, controller: RobotController, assist: GraspAssist | None,
+                 events: list[dict[str, Any]] | None = None) -> None:
+        super().__init__(recorder, self._execute)
+        self.controller = controller
+        self.assist = assist
+        self.events = events if events is not None else []
+
+    def _execute(self, target: ControlTarget) -> ControlReport:
+        return self.controller.step(np.asarray(target.steering, dtype=np.float32).astype(float), "steering")
+
+    def __call__(self, item: ControlTarget | SubtaskCut) -> ControlReport | None:
+        if isinstance(item, ControlTarget) and self.assist is not None:
+            assist = self.assist
+            before = assist.active
+            command = float(np.float32(item.steering[6]))
+            after = assist.update(self.recorder.data, command, self.controller.stopped is not None)
+            if after != before:
+                self.events.append({"object": max(before, after), "frame": len(self.recorder), "on": after >= 0})
+            item = replace(item, held=after if after >= 0 else None)
+        return super().__call__(item)

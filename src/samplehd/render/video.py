@@ -18,6 +18,7 @@ __all__ = ["VideoWriter", "pick_codec", "write_mp4"]
 # LeRobot's default is AV1 (SVT-AV1, CRF 30, GOP 2); H.264 and MPEG-4 are fallbacks for PyAV builds
 # without it.
 _CODECS = ("libsvtav1", "libx264", "mpeg4")
+PIXEL_FORMATS = ("yuv420p", "gray12le")  # RGB videos; 12-bit single-channel videos (depth codes)
 
 
 def pick_codec(preferred: str | None = None) -> str:
@@ -36,44 +37,56 @@ def pick_codec(preferred: str | None = None) -> str:
 
 
 class VideoWriter:
-    """Append RGB frames to one MP4 file; frame ``k`` gets timestamp ``k / fps`` exactly.
+    """Append frames to one MP4 file; frame ``k`` gets timestamp ``k / fps`` exactly.
 
     Args:
         path: output file (parent folders are created).
         width: frame width [px] (even, for yuv420p).
-        height: frame height [px] (even).
+        height: frame height [px] (even, for yuv420p).
         fps: frames per second.
-        codec: PyAV encoder name (default: :func:`pick_codec`).
+        codec: PyAV encoder name (default: :func:`pick_codec`); gray12le always uses libx265.
         crf: constant rate factor (quality; lower is better).
         gop: keyframe interval [frames] (LeRobot uses 2 for fast random access); None: the codec's.
+        pix_fmt: ``yuv420p``: H×W×3 uint8 RGB frames, lossy; ``gray12le``: H×W uint16 frames of 12-bit
+            codes, lossless HEVC (Main 12, as LeRobot stores depth maps).
     """
 
     def __init__(self, path: Path, width: int, height: int, fps: int, codec: str | None = None, crf: int = 30,
-                 gop: int | None = 2) -> None:
+                 gop: int | None = 2, pix_fmt: str = "yuv420p") -> None:
         # SVT-AV1 logs its whole configuration to stderr unless told otherwise (1 = errors only).
         os.environ.setdefault("SVT_LOG", "1")
-        if width % 2 or height % 2:
+        if pix_fmt not in PIXEL_FORMATS:
+            raise ConfigError(f"pix_fmt={pix_fmt!r}: must be one of {', '.join(PIXEL_FORMATS)}", field="pix_fmt")
+        if pix_fmt == "yuv420p" and (width % 2 or height % 2):
             raise DatasetError(f"video {path}: {width}x{height} must have even sides for yuv420p")
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.codec = pick_codec(codec)
-        self.container = av.open(str(self.path), mode="w")
+        self.pix_fmt = pix_fmt
         keyframes = {} if gop is None else {"g": str(gop)}
-        options = {"crf": str(crf), **keyframes}
-        if self.codec == "libsvtav1":
-            options.update({"preset": "12"})
-        if self.codec == "mpeg4":
-            options = {"qscale": "3", **keyframes}
+        if pix_fmt == "gray12le":
+            self.codec = pick_codec("libx265")
+            options = {"x265-params": "lossless=1:log-level=error", **keyframes}
+        else:
+            self.codec = pick_codec(codec)
+            options = {"crf": str(crf), **keyframes}
+            if self.codec == "libsvtav1":
+                options.update({"preset": "12"})
+            if self.codec == "mpeg4":
+                options = {"qscale": "3", **keyframes}
+        self.container = av.open(str(self.path), mode="w")
         self.stream = self.container.add_stream(self.codec, rate=fps, options=options)
         self.stream.width, self.stream.height = width, height
-        self.stream.pix_fmt = "yuv420p"
+        self.stream.pix_fmt = pix_fmt
         self.stream.time_base = Fraction(1, fps)
         self.frames = 0
 
     def write(self, frames: Iterable[np.ndarray]) -> None:
-        """Append H×W×3 uint8 frames."""
-        for rgb in frames:
-            frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(rgb, dtype=np.uint8), format="rgb24")
+        """Append frames: H×W×3 uint8 RGB (yuv420p) or H×W uint16 codes below 4096 (gray12le)."""
+        for image in frames:
+            if self.pix_fmt == "gray12le":
+                frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image, dtype=np.uint16), format="gray12le")
+            else:
+                frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image, dtype=np.uint8), format="rgb24")
             frame.pts = self.frames
             self.frames += 1
             for packet in self.stream.encode(frame):
