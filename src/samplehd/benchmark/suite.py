@@ -14,8 +14,10 @@ options, the scene seed as the reset seed) until the episode ends
 (:class:`~samplehd.benchmark.evaluation.EpisodeRunner`). A candidate the oracle fails is rejected, its
 reason counted in the manifest, and the next candidate of the cell is tried.
 
-Columns run in rounds on the worker backend (local processes or Ray): each round tries, per cell,
-as many new candidates as the cell still lacks episodes, so the cell's episodes are always its first
+Columns run in rounds on the worker backend (local processes or Ray): the first round tries two
+candidates per cell, and a cell neither of which found an episode of its family and level is given
+up (``short_cells`` says why); each later round tries, per cell, as many new candidates as the cell
+still lacks episodes, so the cell's episodes are always its first
 ``episodes_per_cell`` solved candidates in candidate order, whatever the number of workers: the same
 configuration gives the same bytes.
 """
@@ -130,6 +132,9 @@ def rejection_reason(record: EpisodeRecord) -> str:
 
 # Instructions of the wanted family drawn on a scene before the next scene is sampled.
 _INSTRUCTIONS_PER_SCENE = 8
+# Candidates per cell in the first round: a cell all of whose first candidates find no episode of its
+# family and level on their scenes is given up, so that no later column samples scenes for it.
+_PROBE = 2
 # Compiled scenes (and their annotations) a worker's environment keeps: the scenes of a column.
 _COLUMN_SCENES = 64
 
@@ -186,6 +191,12 @@ def _prove(config: SuiteBuildConfig, runner: EpisodeRunner, c: int, k: int) -> C
         oracle_steps=record.steps, start_state=None, sensor=None).to_dict()
     del entry["id"]
     return Candidate(c, k, True, episode=entry, steps=record.steps)
+
+
+def _barren(done: dict[int, Candidate]) -> bool:
+    """Whether a cell's candidates so far (its first round's) all found no episode of its family and
+    level: the cell is then given up (``short_cells``, with the reason)."""
+    return bool(done) and all(not x.solved and x.reason.startswith("draw:") for x in done.values())
 
 
 def _prove_column(unit: tuple[SuiteBuildConfig, str, int, tuple[int, ...]]) -> list[Candidate]:
@@ -277,12 +288,15 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
     need = config.episodes_per_cell
     done: list[dict[int, Candidate]] = [{} for _ in cells]
     tried = [0] * len(cells)
+    first = True
     while True:
         columns: dict[tuple[str, int], list[int]] = {}
         for c in range(len(cells)):
+            if _barren(done[c]):
+                continue
             lacking = need - sum(x.solved for x in done[c].values())
             room = config.max_candidates_per_cell - tried[c]
-            for _ in range(max(0, min(lacking, room))):
+            for _ in range(max(0, min(lacking, room, _PROBE if first else lacking))):
                 columns.setdefault((cells[c][0], tried[c]), []).append(c)
                 tried[c] += 1
         if not columns:
@@ -294,6 +308,7 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
                 done[cand.cell][cand.k] = cand
                 if progress is not None:
                     progress(cand)
+        first = False
     episodes: list[dict[str, Any]] = []
     rejected: Counter[str] = Counter()
     solve: dict[str, dict[str, Counter[str]]] = {"by_catalogue": {}, "by_family": {}}
@@ -302,7 +317,9 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
         solved = [done[c][k] for k in sorted(done[c]) if done[c][k].solved]
         if len(solved) < need:
             short.append({"catalogue": catalogue, "family": family, "level": level, "episodes": len(solved),
-                          "candidates": tried[c]})
+                          "candidates": tried[c], **({"reason": f"no episode of the family and level on the "
+                                                      f"{len(done[c]) * config.max_scenes_per_candidate} scenes "
+                                                      "of its first candidates"} if _barren(done[c]) else {})})
         for k in sorted(done[c]):
             cand = done[c][k]
             for key, value in (("by_catalogue", catalogue), ("by_family", family)):
