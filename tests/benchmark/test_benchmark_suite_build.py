@@ -9,7 +9,7 @@ import json
 import pytest
 
 from samplehd.benchmark.levels import HELD_OUT_CLASSES, LEVELS, episode_level, instruction_at_level
-from samplehd.benchmark.suite import SuiteBuildConfig, scene_seeds
+from samplehd.benchmark.suite import SuiteBuildConfig, build_suite, scene_seeds
 from samplehd.commands.suite import resolve_config
 from samplehd.envs.episodes import SceneCache
 from samplehd.envs.suite_file import SUITE_SPEC_DIR
@@ -45,3 +45,16 @@ def test_the_shipped_core_specification_is_every_family_level_and_catalogue() ->
     assert set(config.families) == set(family_names()) and config.levels == LEVELS
     assert set(config.catalogues) == {"procedural", "shop-vrb"}
     assert len(config.cells()) * config.episodes_per_cell >= 1400 and config.axes == ()
+
+
+def test_a_cell_whose_first_candidates_find_no_episode_is_given_up() -> None:
+    """put L3 has no episode (its held-out text also fits a seen variant): the first round's two
+    candidates find none, and the build tries no third one but names the cell and why."""
+    config = SuiteBuildConfig(families=("put",), levels=("L3",), catalogues=("procedural",), episodes_per_cell=3,
+                              max_scenes_per_candidate=1, env={"obs_mode": "state"})
+    suite = build_suite("empty", config)
+    assert suite.episodes == () and suite.manifest["candidates"] == 2
+    assert suite.manifest["rejected"] == {"draw: no L3 episode in 1 scenes": 2}
+    assert suite.manifest["short_cells"] == [{
+        "catalogue": "procedural", "family": "put", "level": "L3", "episodes": 0, "candidates": 2,
+        "reason": "no episode of the family and level on the 2 scenes of its first candidates"}]
