@@ -160,3 +160,24 @@ def test_oracle_grasps_again_an_object_that_slipped(fast_options: dict) -> None:
     assert seen[again:again + 3] == ["OpenGripper", "MoveToDefaultPos", "GripperMoveAvoid"], seen
     assert seen.count("CloseGripper") == len(env.task.objects) + 1  # one grasp per object, one again
     oracle.close()
+
+
+def test_oracle_gives_up_when_its_finished_plan_fails_the_check(fast_options: dict) -> None:
+    """One plan per episode: a pick_up whose lift the checker does not accept (it asks for 0.5 m) ends
+    with the oracle giving up on the check's reason once its plan has run, instead of planning the
+    episode over until the step limit (the replans of one plan are not reset either)."""
+    env = TabletopEnv(families=["pick_up"], max_episode_steps=600, checker={"lift_height": 0.5}, **fast_options)
+    oracle = OraclePolicy(env)
+    obs, _ = env.reset(seed=0, options={"family": "pick_up"})
+    oracle.reset(seed=0)
+    subtasks = []
+    for _ in range(600):
+        obs, _, term, trunc, info = env.step(oracle(obs))
+        subtasks.append(info["subtask"])
+        if term or trunc or oracle.gave_up:
+            break
+    assert not info["success"] and not trunc and oracle.gave_up, oracle.failure
+    assert oracle.failure.startswith("check_failed: "), oracle.failure
+    assert "Completed" in subtasks and subtasks.count("CloseGripper") == len(
+        [s for s in subtasks[:subtasks.index("Completed")] if s == "CloseGripper"])
+    oracle.close()

@@ -14,7 +14,10 @@ L4     a target object is of a held-out class           instances of those class
 
 L1 keeps every other held-out item out as well, so it measures in-distribution skill. Episodes of a
 level are drawn by rejection from the same seeded split as plain evaluation: reset seeds
-``SeedSequence([seed, k, attempt])`` until the episode is in the level (:func:`reset_at_level`).
+``SeedSequence([seed, k, attempt])`` until the episode is in the level (:func:`reset_at_level`). A
+suite build draws differently (:func:`instruction_at_level`): it keeps a scene whose first
+instruction is of another level and draws more instructions of the family on it, so an episode of a
+level costs a scene sampling only when the scene has none.
 Training code calls :func:`held_out_instruction` and :func:`held_out_object` to drop the items a
 level holds out, so every model's L2–L4 numbers are on things it never saw. The classification itself
 lives in :mod:`samplehd.language.levels` (the LeRobot export uses it too); this module draws episodes.
@@ -22,12 +25,15 @@ lives in :mod:`samplehd.language.levels` (the LeRobot export uses it too); this 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import zlib
+from collections.abc import Iterable, Mapping
 from typing import Any
 
 import numpy as np
 
+from samplehd.envs.episodes import SceneCache
 from samplehd.errors import ConfigError
+from samplehd.language.generator import generate_instructions
 from samplehd.language.levels import (
     HELD_OUT_CLASSES,
     HELD_OUT_COMBINATIONS,
@@ -50,6 +56,7 @@ __all__ = [
     "held_out_instruction",
     "held_out_object",
     "in_level",
+    "instruction_at_level",
     "reset_at_level",
     "text_variants",
 ]
@@ -85,3 +92,54 @@ def reset_at_level(env: Any, seed: int, family: str, level: str | None, max_atte
         if in_level(ep.instruction, ep.annotation, level):
             return obs, info, s
     raise ConfigError(f"level={level!r}: no {family} episode of this level in {max_attempts} seeds", field="level")
+
+
+def _may_have_level(scene: Any, level: str) -> bool:
+    """Whether a scene has an object that a target of an L2 or L4 episode must be (always for L1, L3)."""
+    objects = [{"name": o.instance.class_name, "colour": o.instance.colour} for o in scene.objects]
+    if level == "L4":
+        return any(o["name"] in HELD_OUT_CLASSES for o in objects)
+    if level == "L2":
+        return any(held_out_object(o) and o["name"] not in HELD_OUT_CLASSES for o in objects)
+    return True
+
+
+def instruction_at_level(cache: SceneCache, scene_seeds: Iterable[int], family: str, level: str,
+                         per_scene: int = 8) -> tuple[Any, dict[str, Any], int]:
+    """The first episode of ``family`` in ``level`` among the scenes sampled from ``scene_seeds``.
+
+    On each scene up to ``per_scene`` distinct instructions of the family are drawn, as a reset draws
+    one (:func:`samplehd.language.generator.generate_instructions`, from a generator seeded by the
+    scene seed and the family), and the first of the level is taken; a scene with none gives way to
+    the next seed. Scenes and their annotations come from ``cache``, so cells that share scene seeds
+    sample each scene once.
+
+    Args:
+        cache: the environment's scene cache (its sampler options make the scenes).
+        scene_seeds: scene seeds, tried in order.
+        family: the task family.
+        level: L1–L4.
+        per_scene: instructions drawn per scene.
+
+    Returns:
+        (scene, instruction entry, scene seed): reset the environment with
+        ``options={"scene": scene, "instruction": entry}`` and the scene seed as its seed.
+
+    Raises:
+        ConfigError: an unknown level, or no episode of the level on any of the scenes.
+    """
+    if level not in LEVELS:
+        raise ConfigError(f"level={level!r}: valid: {', '.join(LEVELS)}", field="level")
+    tried = 0
+    for seed in scene_seeds:
+        tried += 1
+        scene = cache.scene(int(seed))
+        if not _may_have_level(scene, level):
+            continue  # no object a target of the level could be: skip the scene's annotation and compilation
+        annotation = cache.annotation(scene)
+        rng = np.random.default_rng([int(seed), zlib.crc32(family.encode())])
+        for instruction in generate_instructions(annotation, rng, per_scene=per_scene, families=[family]).instructions:
+            entry = instruction.to_dict()
+            if episode_level(entry, annotation) == level:
+                return scene, entry, int(seed)
+    raise ConfigError(f"level={level!r}: no {family} episode of this level on {tried} scenes", field="level")

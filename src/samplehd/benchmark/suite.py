@@ -2,15 +2,22 @@
 into a hashed file (:mod:`samplehd.envs.suite_file`) that evaluation reads instead of drawing.
 
 The suite is a grid of cells (catalogue × family × level), ``episodes_per_cell`` episodes each. Cell
-``c``'s candidate ``k`` resets the environment as ``samplehd evaluate --level`` does, from the seed
-``SeedSequence([seed, c, k])`` (:func:`samplehd.benchmark.levels.reset_at_level`), and the oracle
-(:class:`samplehd.envs.oracle.OraclePolicy`) acts through ``TabletopEnv.step`` until the episode ends,
-the same run ``samplehd evaluate --policy oracle`` makes (:class:`~samplehd.benchmark.evaluation.EpisodeRunner`).
-A candidate the oracle fails is rejected, its reason counted in the manifest, and the next candidate
-of the cell is tried.
+``c``'s candidate ``k`` is the first episode of its family and level on the scenes sampled from the
+seeds ``SeedSequence([seed, k, a])``, ``a`` = 0, 1, ... (:func:`samplehd.benchmark.levels.instruction_at_level`:
+several instructions of the family are drawn per scene before the next scene is sampled). Candidate
+``k`` of every cell of a catalogue draws from the same scenes, so the cells share scenes (each
+episode is still one scene and one instruction; a cell's episodes are on different scenes), and one
+work unit, a *column*, proves candidate ``k`` of all the catalogue's cells that want one, sampling
+each scene once. The oracle (:class:`samplehd.envs.oracle.OraclePolicy`) acts through
+``TabletopEnv.step`` from the reset ``samplehd evaluate --suite`` makes (the scene and instruction as
+options, the scene seed as the reset seed) until the episode ends
+(:class:`~samplehd.benchmark.evaluation.EpisodeRunner`). A candidate the oracle fails is rejected, its
+reason counted in the manifest, and the next candidate of the cell is tried.
 
-Candidates run in rounds on the worker backend (local processes or Ray): each round tries, per cell,
-as many new candidates as the cell still lacks episodes, so the cell's episodes are always its first
+Columns run in rounds on the worker backend (local processes or Ray): the first round tries two
+candidates per cell, and a cell neither of which found an episode of its family and level is given
+up (``short_cells`` says why); each later round tries, per cell, as many new candidates as the cell
+still lacks episodes, so the cell's episodes are always its first
 ``episodes_per_cell`` solved candidates in candidate order, whatever the number of workers: the same
 configuration gives the same bytes.
 """
@@ -27,7 +34,7 @@ import numpy as np
 
 from samplehd.benchmark.axes import AXES, PHYSICAL_AXES, STRENGTHS, perturb
 from samplehd.benchmark.evaluation import DEFAULT_FAMILIES, EpisodeRecord, EpisodeRunner, EvalConfig
-from samplehd.benchmark.levels import LEVELS, episode_level
+from samplehd.benchmark.levels import LEVELS, episode_level, instruction_at_level
 from samplehd.catalogue.loader import CATALOGUES as BUILT_IN_CATALOGUES
 from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.envs.config import EnvConfig
@@ -38,7 +45,7 @@ from samplehd.tasks.task import family_names
 from samplehd.version import __version__
 from samplehd.workers import Backend
 
-__all__ = ["Candidate", "SuiteBuildConfig", "build_suite", "rejection_reason"]
+__all__ = ["Candidate", "SuiteBuildConfig", "build_suite", "rejection_reason", "scene_seeds"]
 
 CATALOGUES = tuple(BUILT_IN_CATALOGUES)
 _NUMBER = re.compile(r"[0-9]+(\.[0-9]+)?")
@@ -56,6 +63,8 @@ class SuiteBuildConfig(Config, section="suite"):
         episodes_per_cell: episodes each cell gets.
         max_candidates_per_cell: candidates a cell may try before the build gives up on it (the
             manifest lists such cells under ``short_cells``).
+        max_scenes_per_candidate: scenes a candidate may sample looking for an episode of its family
+            and level before it is rejected (``draw: ...``).
         env: the environment the oracle proves the episodes in (its ``scene.catalogue`` is set per cell).
         axes: robustness axes (:mod:`samplehd.benchmark.axes`); each clean episode gets a variant per
             axis and strength, its clean twin being the episode itself (strength 0).
@@ -70,6 +79,7 @@ class SuiteBuildConfig(Config, section="suite"):
     catalogues: tuple[str, ...] = bounded((DEFAULT_CATALOGUE,), choices=CATALOGUES, nonempty=True)
     episodes_per_cell: int = bounded(1, lo=1)
     max_candidates_per_cell: int = bounded(20, lo=1)
+    max_scenes_per_candidate: int = bounded(40, lo=1)
     env: EnvConfig = field(default_factory=EnvConfig)
     axes: tuple[str, ...] = bounded((), choices=tuple(AXES), unique=True)
     strengths: tuple[int, ...] = bounded(STRENGTHS, choices=STRENGTHS, unique=True, nonempty=True)
@@ -120,6 +130,15 @@ def rejection_reason(record: EpisodeRecord) -> str:
     return f"{kind}: {_NUMBER.sub('N', text)[:100]}"
 
 
+# Instructions of the wanted family drawn on a scene before the next scene is sampled.
+_INSTRUCTIONS_PER_SCENE = 8
+# Candidates per cell in the first round: a cell all of whose first candidates find no episode of its
+# family and level on their scenes is given up, so that no later column samples scenes for it.
+_PROBE = 2
+# Compiled scenes (and their annotations) a worker's environment keeps: the scenes of a column.
+_COLUMN_SCENES = 64
+
+
 def _cell_env(config: SuiteBuildConfig, catalogue: str) -> EvalConfig:
     env = replace(config.env, scene=replace(config.env.scene, catalogue=catalogue))
     return EvalConfig(policy="oracle", episodes=1, env=env)
@@ -128,22 +147,37 @@ def _cell_env(config: SuiteBuildConfig, catalogue: str) -> EvalConfig:
 _WORKER: dict[str, tuple[EvalConfig, EpisodeRunner]] = {}
 
 
-def _prove(unit: tuple[SuiteBuildConfig, int, int]) -> Candidate:
-    """Run the oracle on candidate ``k`` of cell ``c`` (one work unit; the worker keeps its runner)."""
-    config, c, k = unit
-    catalogue, family, level = config.cells()[c]
-    evaluation = replace(_cell_env(config, catalogue), level=level, families=(family,))
+def _runner(config: SuiteBuildConfig, catalogue: str) -> EpisodeRunner:
+    """The worker's oracle runner for a catalogue, kept across cells, columns and rounds."""
+    evaluation = _cell_env(config, catalogue)
+    evaluation = replace(evaluation, env=replace(
+        evaluation.env, scene_cache_size=max(evaluation.env.scene_cache_size, _COLUMN_SCENES)))
     held = _WORKER.get("runner")
     if held is None or held[0] != evaluation:
         if held is not None:
             held[1].close()
         _WORKER["runner"] = held = (evaluation, EpisodeRunner(evaluation))
-    runner = held[1]
-    seed = int(np.random.SeedSequence([config.seed, c, k]).generate_state(1, np.uint32)[0])
+    return held[1]
+
+
+def scene_seeds(seed: int, k: int, count: int) -> list[int]:
+    """The scene seeds candidate ``k`` of every cell draws from, in order."""
+    return [int(np.random.SeedSequence([seed, k, a]).generate_state(1, np.uint32)[0]) for a in range(count)]
+
+
+def _prove(config: SuiteBuildConfig, runner: EpisodeRunner, c: int, k: int) -> Candidate:
+    """Draw candidate ``k`` of cell ``c`` and run the oracle on it."""
+    catalogue, family, level = config.cells()[c]
     try:
-        record = runner.run((k, seed, family))
-    except SamplehdError as exc:  # no episode of the level or family among the reset seeds
-        return Candidate(c, k, False, f"draw: {type(exc).__name__}")
+        scene, instruction, seed = instruction_at_level(
+            runner.env.cache, scene_seeds(config.seed, k, config.max_scenes_per_candidate), family, level,
+            _INSTRUCTIONS_PER_SCENE)
+    except SamplehdError:  # no episode of the family and level on the candidate's scenes
+        return Candidate(c, k, False, f"draw: no {level} episode in {config.max_scenes_per_candidate} scenes")
+    try:
+        record = runner.run((k, seed, family), options={"scene": scene, "instruction": instruction})
+    except SamplehdError as exc:  # the env refused the drawn start (e.g. objects inside each other)
+        return Candidate(c, k, False, f"reset: {type(exc).__name__}")
     if not record.success:
         return Candidate(c, k, False, rejection_reason(record), steps=record.steps)
     ep = runner.env.episode
@@ -159,6 +193,20 @@ def _prove(unit: tuple[SuiteBuildConfig, int, int]) -> Candidate:
     return Candidate(c, k, True, episode=entry, steps=record.steps)
 
 
+def _barren(done: dict[int, Candidate]) -> bool:
+    """Whether a cell's candidates so far (its first round's) all found no episode of its family and
+    level: the cell is then given up (``short_cells``, with the reason)."""
+    return bool(done) and all(not x.solved and x.reason.startswith("draw:") for x in done.values())
+
+
+def _prove_column(unit: tuple[SuiteBuildConfig, str, int, tuple[int, ...]]) -> list[Candidate]:
+    """Candidate ``k`` of each of ``cells`` (all of one catalogue), in order: one work unit; the worker
+    keeps its runner, whose scene cache holds the column's scenes."""
+    config, catalogue, k, cells = unit
+    runner = _runner(config, catalogue)
+    return [_prove(config, runner, c, k) for c in cells]
+
+
 def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int]) -> Candidate:
     """Run the oracle on a physical axis' variant of a clean episode (one work unit)."""
     config, twin, axis, strength, attempt = unit
@@ -168,15 +216,10 @@ def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int])
     except SceneError as exc:  # e.g. no free spot for a distractor, or it made the instruction ambiguous
         return Candidate(int(twin["id"]), attempt, False, f"{axis}: {_NUMBER.sub('N', str(exc))[:100]}",
                          variant=label)
-    evaluation = _cell_env(config, twin["catalogue"])
-    held = _WORKER.get("runner")
-    if held is None or held[0] != evaluation:
-        if held is not None:
-            held[1].close()
-        _WORKER["runner"] = held = (evaluation, EpisodeRunner(evaluation))
+    runner = _runner(config, twin["catalogue"])
     options = SuiteEpisode.from_dict({"id": 0, **variant}).reset_options()
     try:
-        record = held[1].run((int(twin["id"]), int(twin["reset_seed"]), twin["family"]), options=options)
+        record = runner.run((int(twin["id"]), int(twin["reset_seed"]), twin["family"]), options=options)
     except SamplehdError as exc:  # e.g. objects shifted into each other or off the table
         return Candidate(int(twin["id"]), attempt, False, f"{axis}: {type(exc).__name__}", variant=label)
     if not record.success:
@@ -245,20 +288,27 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
     need = config.episodes_per_cell
     done: list[dict[int, Candidate]] = [{} for _ in cells]
     tried = [0] * len(cells)
+    first = True
     while True:
-        units = []
+        columns: dict[tuple[str, int], list[int]] = {}
         for c in range(len(cells)):
+            if _barren(done[c]):
+                continue
             lacking = need - sum(x.solved for x in done[c].values())
             room = config.max_candidates_per_cell - tried[c]
-            for _ in range(max(0, min(lacking, room))):
-                units.append((config, c, tried[c]))
+            for _ in range(max(0, min(lacking, room, _PROBE if first else lacking))):
+                columns.setdefault((cells[c][0], tried[c]), []).append(c)
                 tried[c] += 1
-        if not units:
+        if not columns:
             break
-        for _, cand in backend.map(_prove, iter(units)):
-            done[cand.cell][cand.k] = cand
-            if progress is not None:
-                progress(cand)
+        units = [(config, catalogue, k, tuple(cs)) for (catalogue, k), cs in sorted(
+            columns.items(), key=lambda kv: (kv[0][1], config.catalogues.index(kv[0][0])))]
+        for _, column in backend.map(_prove_column, iter(units)):
+            for cand in column:
+                done[cand.cell][cand.k] = cand
+                if progress is not None:
+                    progress(cand)
+        first = False
     episodes: list[dict[str, Any]] = []
     rejected: Counter[str] = Counter()
     solve: dict[str, dict[str, Counter[str]]] = {"by_catalogue": {}, "by_family": {}}
@@ -267,7 +317,9 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
         solved = [done[c][k] for k in sorted(done[c]) if done[c][k].solved]
         if len(solved) < need:
             short.append({"catalogue": catalogue, "family": family, "level": level, "episodes": len(solved),
-                          "candidates": tried[c]})
+                          "candidates": tried[c], **({"reason": f"no episode of the family and level on the "
+                                                      f"{len(done[c]) * config.max_scenes_per_candidate} scenes "
+                                                      "of its first candidates"} if _barren(done[c]) else {})})
         for k in sorted(done[c]):
             cand = done[c][k]
             for key, value in (("by_catalogue", catalogue), ("by_family", family)):

@@ -2,6 +2,7 @@
 closed-loop oracle, that `samplehd evaluate --suite` runs without drawing anything.
 
   samplehd suite build NAME [--config FILE] [--out FILE] [--workers N]
+      (a shipped suite's NAME, e.g. core, builds from its shipped specification unless --config is given)
   samplehd suite list
   samplehd suite show NAME|FILE
 """
@@ -18,7 +19,7 @@ from samplehd.benchmark.axes import AXES
 from samplehd.benchmark.suite import Candidate, SuiteBuildConfig, build_suite
 from samplehd.commands._options import check_out_file, config_from_options, split_names
 from samplehd.dataset.outputs import check_outputs
-from samplehd.envs.suite_file import SUITE_DIR, Suite, read_suite, shipped_suites
+from samplehd.envs.suite_file import SUITE_DIR, SUITE_SPEC_DIR, Suite, read_suite, shipped_suites
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json
 from samplehd.workers import BACKENDS, Backend
@@ -30,7 +31,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("action", choices=("build", "list", "show"), help="what to do")
     parser.add_argument("name", nargs="?", help="build: the suite's name; show: a shipped suite's name or a file")
     parser.add_argument("--config", type=Path, help="build: JSON of the build options (seed, families, levels, "
-                                                    "catalogues, episodes_per_cell, max_candidates_per_cell, env)")
+                                                    "catalogues, episodes_per_cell, max_candidates_per_cell, "
+                                                    "max_scenes_per_candidate, env); default for a shipped suite's "
+                                                    "name: its shipped specification")
     parser.add_argument("--episodes-per-cell", type=int, help="build: episodes per catalogue × family × level")
     parser.add_argument("--families", nargs="+", help="build: task families")
     parser.add_argument("--levels", nargs="+", help="build: generalisation levels (L1 L2 L3 L4)")
@@ -48,6 +51,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def resolve_config(args: argparse.Namespace) -> SuiteBuildConfig:
     """The --config file's options, then the flags (a bad value's message names its flag)."""
     options: dict = {}
+    shipped = SUITE_SPEC_DIR / f"{args.name}.json"
+    if args.config is None and shipped.is_file():
+        args.config = shipped
     if args.config is not None:
         options = read_json(args.config, ConfigError, f"--config {args.config}", field="config")
         if not isinstance(options, dict):

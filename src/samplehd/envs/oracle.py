@@ -15,6 +15,8 @@ carries an object it checks every step that the object is still between the fing
 grasp misses or the object slips it opens the gripper, backs off and plans a new grasp of the
 object where it now lies (up to ``max_replans`` times per object): the one re-grasping plan,
 :func:`samplehd.motion.regrasp.regrasping_plan`, that the recovery of disturbed episodes runs too.
+One plan per episode: when it has run to its end and the task's check still fails, the oracle gives
+up (``failure`` is ``check_failed: REASON``) and holds still; it does not start the episode's plan over.
 
 The planner yields one control target per step (:mod:`samplehd.motion.execute`); the oracle keeps
 that generator and advances it by one target per :meth:`OraclePolicy.__call__`, after the
@@ -118,13 +120,17 @@ class OraclePolicy:
     def __call__(self, obs: Any = None) -> np.ndarray:
         """The next action; ``obs`` is unused (the oracle reads privileged state)."""
         env = self.env
-        if self._episode is not env.episode or self._plan is None:
+        if self._episode is not env.episode or (self._plan is None and not self._finished):
             self.reset()
             self._episode = env.episode
             self._plan = self._plan_episode()
             report: ControlReport | None = None
             first = True
         elif self._finished:
+            if not self.failure:  # the plan ran to its end and the step after it did not succeed
+                check = env.check_success()
+                if not check["success"]:
+                    self.failure = f"check_failed: {check['reason']}"
             return self._hold_action()
         else:
             if env.controller.stopped is not None:  # a safety stop ends the plan

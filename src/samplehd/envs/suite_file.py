@@ -39,12 +39,14 @@ import numpy as np
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json, write_json_atomic
 
-__all__ = ["CLEAN_AXIS", "SUITE_DIR", "SUITE_FORMAT", "SUITE_FORMAT_VERSION", "Suite", "SuiteEpisode", "content_hash",
-           "read_suite", "shipped_suites", "suite_path", "suite_reset_options"]
+__all__ = ["CLEAN_AXIS", "SUITE_DIR", "SUITE_FORMAT", "SUITE_FORMAT_VERSION", "SUITE_SPEC_DIR", "Suite",
+           "SuiteEpisode", "content_hash", "read_suite", "shipped_suites", "suite_path", "suite_reset_options"]
 
 SUITE_FORMAT = "samplehd-suite"
 SUITE_FORMAT_VERSION = 1
 SUITE_DIR = Path(__file__).resolve().parent / "suites"
+# The build options of the shipped suites (``samplehd suite build NAME`` reads NAME.json here).
+SUITE_SPEC_DIR = SUITE_DIR / "specs"
 # The clean axis: an episode as drawn, the twin every perturbed episode is compared with.
 CLEAN_AXIS = "none"
 
