@@ -304,6 +304,17 @@ def _offline_success(env: Any, seed: int) -> bool:
     return True
 
 
+def _with_slots_for(config: EvalConfig, suite: Suite) -> EvalConfig:
+    """``config`` with an observation slot for every object of the suite's fullest scene (a
+    ``distractors`` variant holds up to five objects more than the scenes the env samples); a config
+    with room enough is returned as it is."""
+    scene = config.env.scene
+    need = max((len(e.scene.get("objects", ())) for e in suite.episodes), default=0)
+    if need <= scene.max_objects:
+        return config
+    return replace(config, env=replace(config.env, scene=replace(scene, max_objects=need)))
+
+
 class EpisodeRunner:
     """One environment and policy that run benchmark episodes one at a time (the suite builder's oracle
     runs through it too)."""
@@ -583,6 +594,7 @@ def evaluate(config: EvalConfig, out: str | Path | None = None,
     if config.suite is not None:
         suite: Suite | None = read_suite(config.suite)
         items = [(e.id, e.reset_seed, e.family) for e in suite.episodes]
+        config = _with_slots_for(config, suite)
     else:
         suite = None
         items = [(k, s, f) for k, (s, f) in enumerate(benchmark_split(config.episodes, config.families, config.seed))]

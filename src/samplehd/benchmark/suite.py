@@ -147,11 +147,15 @@ def _cell_env(config: SuiteBuildConfig, catalogue: str) -> EvalConfig:
 _WORKER: dict[str, tuple[EvalConfig, EpisodeRunner]] = {}
 
 
-def _runner(config: SuiteBuildConfig, catalogue: str) -> EpisodeRunner:
-    """The worker's oracle runner for a catalogue, kept across cells, columns and rounds."""
+def _runner(config: SuiteBuildConfig, catalogue: str, slots: int = 0) -> EpisodeRunner:
+    """The worker's oracle runner for a catalogue, kept across cells, columns and rounds; ``slots``: the
+    object slots its observation needs at least (a variant's scene may hold more objects than the
+    scenes the env samples)."""
     evaluation = _cell_env(config, catalogue)
+    scene = evaluation.env.scene
     evaluation = replace(evaluation, env=replace(
-        evaluation.env, scene_cache_size=max(evaluation.env.scene_cache_size, _COLUMN_SCENES)))
+        evaluation.env, scene_cache_size=max(evaluation.env.scene_cache_size, _COLUMN_SCENES),
+        scene=replace(scene, max_objects=max(scene.max_objects, slots))))
     held = _WORKER.get("runner")
     if held is None or held[0] != evaluation:
         if held is not None:
@@ -216,7 +220,8 @@ def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int])
     except SceneError as exc:  # e.g. no free spot for a distractor, or it made the instruction ambiguous
         return Candidate(int(twin["id"]), attempt, False, f"{axis}: {_NUMBER.sub('N', str(exc))[:100]}",
                          variant=label)
-    runner = _runner(config, twin["catalogue"])
+    # one runner for every variant: room for the most objects an axis adds (distractors: one per strength)
+    runner = _runner(config, twin["catalogue"], slots=config.env.scene.max_objects + max(config.strengths))
     options = SuiteEpisode.from_dict({"id": 0, **variant}).reset_options()
     try:
         record = runner.run((int(twin["id"]), int(twin["reset_seed"]), twin["family"]), options=options)
