@@ -88,8 +88,8 @@ for idx in (0, len(ds) // 2, len(ds) - 1):
     assert int(item["index"]) == idx
     assert item["observation.state"].shape == (7,) and item["action"].shape == (7,)
     for key in ds.meta.video_keys:
-        h, w, _ = info["features"][key]["shape"]
-        assert tuple(item[key].shape) == (3, h, w), (key, item[key].shape)
+        h, w, c = info["features"][key]["shape"]  # c = 1: a native depth video (export --depth-video)
+        assert tuple(item[key].shape) == (c, h, w), (key, item[key].shape)
     # Opt-in depth (uint16 mm) and segmentation (uint16 ids): (H, W) arrays, not cameras.
     for key, feat in info["features"].items():
         if key.startswith(("depth.", "segmentation.")):

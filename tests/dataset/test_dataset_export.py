@@ -272,3 +272,13 @@ def test_lerobot_native_depth_video_round_trips(rendered_dataset: Path, tmp_path
         near = (depth > 0.05) & (depth < 3.0)
         err = np.abs(depth_from_codes(got) - depth)[near]
         assert err.max() <= 0.5 * 3.3e-4 * (3.0 + 3.5) + 1e-6  # half a log step at 3 m
+
+
+def test_depth_video_without_depth_is_one_line_and_writes_nothing(rendered_dataset: Path, tmp_path: Path,
+                                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """--depth-video exports the depth as a video: without depth among --modalities there is none to
+    write, which is said in one line (exit 2) rather than ignored."""
+    out = tmp_path / "lr"
+    assert main(["export", "lerobot", str(rendered_dataset), "--out", str(out), "--depth-video"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "--depth-video" in err and "depth" in err.split(":", 2)[-1] and not out.exists()

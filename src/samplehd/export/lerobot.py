@@ -336,12 +336,15 @@ def export_lerobot(root: str | Path, out: str | Path, repo_id: str = "samplehd/d
         ``{episodes, frames, tasks, videos: [keys], images: [keys], codec}``.
 
     Raises:
-        DatasetError: not a complete dataset, ``out`` exists, a camera or modality is not stored, or
-            an RGB camera has odd image sides.
+        DatasetError: not a complete dataset, ``out`` exists, a camera or modality is not stored, an
+            RGB camera has odd image sides, or ``depth_video`` without depth among ``modalities``.
     """
     import pyarrow.parquet as pq
 
 
+    if depth_video and "depth" not in (modalities or ()):
+        raise DatasetError(f"depth_video=True: it writes the exported depth as a video, but modalities="
+                           f"{modalities or ['rgb']} exports no depth; add depth to modalities", field="depth_video")
     reader, out = export_source(root, out)
     settings, streams = _streams(root, reader.info.get("render"), cameras, modalities)
     videos = [(c, m) for c, m in streams if m == "rgb" or (depth_video and m == "depth")]
