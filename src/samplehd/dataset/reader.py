@@ -73,7 +73,7 @@ class EpisodeEntry:
     size: int = -1
     sha256: str = ""
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return dict(self.__dict__)
 
     @classmethod
@@ -148,7 +148,7 @@ class EpisodeMeta:
             extra={k: v for k, v in d.items()
                    if k not in (*_META_ATTRS, "stem", "render", "images", "image_frames")})
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """As :func:`samplehd.dataset.container.read_meta` reads it: the task as the file stores it
         (the executor's ``{type, objects, subject, relation}``, keys sorted)."""
         d: dict[str, Any] = {"stem": self.stem, "format_version": self.format_version,

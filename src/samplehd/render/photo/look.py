@@ -54,7 +54,7 @@ class LookParams:
     randomised: bool = False
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         d = asdict(self)
         d.pop("extra")
         d["key_offset"] = list(self.key_offset)
