@@ -17,6 +17,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from samplehd.catalogue.loader import LEGACY_CATALOGUE
 from samplehd.dataset.container import read_episode, read_frames, read_image, read_meta
 from samplehd.dataset.journal import JournalRecord, read_journal
@@ -408,7 +410,7 @@ class DatasetReader:
             out.append({**e.to_dict(), **meta, "instruction_index": i})
         return out
 
-    def frames(self, index: int, fields: list[str] | tuple[str, ...] | None = None) -> dict[str, Any]:
+    def frames(self, index: int, fields: list[str] | tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
         """Selected frame fields of episode ``index`` (no images, no other fields are read)."""
         return read_frames(self.episode_path(index), fields)
 
