@@ -1,5 +1,9 @@
 """File helpers every stage shares: the one JSON reader (one-line errors naming the file and what is
-wrong), the one atomic JSON writer and the one file digest."""
+wrong), the one atomic JSON writer and the one file digest.
+
+A ``to_dict`` method annotated ``-> dict[str, object]`` gives a record's JSON form, which goes to
+``json.dumps`` (or :func:`write_json_atomic`) as is: that is the JSON boundary, and its keys are
+documented where the record's format is."""
 
 from __future__ import annotations
 

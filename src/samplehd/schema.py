@@ -315,7 +315,7 @@ class Config:
     def __post_init__(self) -> None:
         check_fields(self, self._section)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready options (:func:`to_mapping`)."""
         return to_mapping(self)
 

@@ -19,7 +19,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import mujoco
 import numpy as np
@@ -28,6 +28,7 @@ from samplehd.bench import pin_to_one_core
 from samplehd.bench.language import bench_object_counts
 from samplehd.bench.paths import _bench_scene
 from samplehd.dataset.container import read_frames
+from samplehd.dataset.journal import JournalRecord
 from samplehd.dataset.layout import EPISODE_DIR
 from samplehd.dataset.render import RenderConfig
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit
@@ -120,7 +121,7 @@ def _path_rows(repeats: int) -> list[Row]:
     with tempfile.TemporaryDirectory() as tmp:
         (Path(tmp) / EPISODE_DIR).mkdir()
 
-        def unit(render: RenderConfig, seed: int) -> dict[str, Any]:
+        def unit(render: RenderConfig, seed: int) -> JournalRecord:
             u = EpisodeUnit(tmp, f"e{seed}.h5", 0, seed, seed, "place", task, "put the soda can on the left",
                             "train", scene, {k: list(v) for k, v in DIRECTIONS.items()}, PathConfig(), render)
             out = run_episode_unit(u)
@@ -168,7 +169,7 @@ def _path_rows(repeats: int) -> list[Row]:
 
             f_ms = 1000 / statistics.median(x[1] for x in first)
 
-            def ms(key: str, done: list[dict[str, Any]] = done) -> float:
+            def ms(key: str, done: list[JournalRecord] = done) -> float:
                 return 1000 * statistics.median(d[key] / d["num_frames"] for d in done)
 
             what = f"`fast` RGB+depth+segmentation {w}×{h}, operator camera"
@@ -262,14 +263,29 @@ def _machine() -> str:
             f"Python {platform.python_version()}, MuJoCo GL backend {gl or 'default'}{device}")
 
 
-def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list[Row], dict[str, Any]]:
+class BenchFacts(TypedDict):
+    """The header facts of a benchmark table: when (UTC) and on what it ran, the load averages (1 / 5 /
+    15 min) at the start and end (None where the system has none), the commit, the wall and CPU time of
+    the run [s], and the repeats per figure."""
+
+    date: str
+    machine: str
+    load_start: tuple[float, float, float] | None
+    load_end: tuple[float, float, float] | None
+    commit: str
+    seconds: float
+    cpu_seconds: float
+    repeats: int
+
+
+def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list[Row], BenchFacts]:
     """Measure every row; returns the rows and the header facts (date, machine, loads, commit)."""
     configure_gl_backend()
     start = os.getloadavg() if hasattr(os, "getloadavg") else None
     when = datetime.datetime.now(datetime.UTC)
     t0, c0 = time.perf_counter(), _cpu()
     rows = [row for area in areas for row in AREAS[area](repeats)]
-    facts = {
+    facts: BenchFacts = {
         "date": when.strftime("%Y-%m-%d %H:%M UTC"),
         "machine": _machine(),
         "load_start": start,
@@ -282,7 +298,7 @@ def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list
     return rows, facts
 
 
-def table_markdown(rows: Sequence[Row], facts: dict[str, Any]) -> str:
+def table_markdown(rows: Sequence[Row], facts: BenchFacts) -> str:
     """The table with its header, between the markers."""
     def load(v: Any) -> str:
         return " / ".join(f"{x:.1f}" for x in v) if v else "unknown"

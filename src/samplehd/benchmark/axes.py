@@ -83,12 +83,12 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
 from samplehd.envs.episodes import SceneCache, episode_from_options
-from samplehd.envs.suite_file import SuiteEpisode
+from samplehd.envs.suite_file import EpisodeRecord, SuiteEpisode
 from samplehd.errors import AssetError, ConfigError, SceneError
 from samplehd.fileio import read_json
 from samplehd.language.generator import generate_instructions
@@ -122,7 +122,7 @@ WORDS_FILE = Path(__file__).resolve().parent / "words.json"
 BLANK_INSTRUCTION = "."
 
 
-def _camera(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _camera(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     cam = ep["scene"]["camera"]
     pos, target = np.asarray(cam["pos"], float), np.asarray(cam["target"], float)
     angle = math.radians(CAMERA_DEG_PER_STRENGTH * strength) * (1.0 if rng.random() < 0.5 else -1.0)
@@ -131,14 +131,14 @@ def _camera(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None
     cam["pos"] = [float(target[0] + c * dx - s * dy), float(target[1] + s * dx + c * dy), float(pos[2])]
 
 
-def _object_shift(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _object_shift(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     heading = rng.uniform(0.0, 2.0 * math.pi)
     dx, dy = (SHIFT_M_PER_STRENGTH * strength * f(heading) for f in (math.cos, math.sin))
     for obj in ep["scene"]["objects"]:
         obj["pos"] = [float(obj["pos"][0] + dx), float(obj["pos"][1] + dy), float(obj["pos"][2])]
 
 
-def _lighting(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _lighting(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     brighter, turn, warmer = (1.0 if v < 0.5 else -1.0 for v in rng.random(3))
     tint = LIGHT_TINT_PER_STRENGTH * strength * warmer
     ep["scene"]["lighting"] = Lighting(intensity=1.0 + brighter * LIGHT_INTENSITY_PER_STRENGTH * strength,
@@ -146,7 +146,7 @@ def _lighting(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> No
                                        tint=(1.0 + tint, 1.0, 1.0 - tint)).to_dict()
 
 
-def _textures(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _textures(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     turn, more, brighter = (np.where(rng.random((3, 2)) < 0.5, 1.0, -1.0))
     hue = turn * TEXTURE_HUE_DEG_PER_STRENGTH * strength
     saturation = (1.0 + TEXTURE_SATURATION_PER_STRENGTH * strength) ** more
@@ -156,7 +156,7 @@ def _textures(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> No
         wall_hue=float(hue[1]), wall_saturation=float(saturation[1]), wall_value=float(value[1])).to_dict()
 
 
-def _distractors(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _distractors(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     scene = SceneSpec.from_dict(ep["scene"])
     config = SceneConfig(catalogue=ep["catalogue"])
     present = sorted({o.instance.class_name for o in scene.objects})
@@ -165,7 +165,7 @@ def _distractors(ep: dict[str, Any], strength: int, rng: np.random.Generator) ->
     check_instruction_fits(ep)
 
 
-def check_instruction_fits(ep: dict[str, Any]) -> None:
+def check_instruction_fits(ep: EpisodeRecord) -> None:
     """Raise a SceneError unless the episode's program, run on its scene, picks the task's objects (the
     env's own check on a ``scene`` + ``instruction`` reset): an added object may make a description
     ambiguous ("the scissors" beside a second pair) or make it pick another object."""
@@ -180,7 +180,7 @@ def _words(text: str) -> set[str]:
     return set(re.findall(r"[a-z]+", text.lower()))
 
 
-def _task_swap(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _task_swap(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     scene = SceneSpec.from_dict(ep["scene"])
     annotation = SceneCache(SceneConfig(catalogue=ep["catalogue"])).annotation(scene)
     made = generate_instructions(annotation, rng, per_scene=TASK_SWAP_CANDIDATES, families=[ep["family"]])
@@ -198,7 +198,7 @@ def _task_swap(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> N
               program_sequence=str(ins["program_sequence"]), targets=[int(t) for t in ins["targets"]])
 
 
-def _unseen_objects(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _unseen_objects(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     scene = SceneSpec.from_dict(ep["scene"])
     config = SceneConfig(catalogue=ep["catalogue"])
     targets = [int(t) for t in ep["targets"]]
@@ -225,7 +225,7 @@ def _unseen_objects(ep: dict[str, Any], strength: int, rng: np.random.Generator)
               program=list(ins["program"]), program_sequence=str(ins["program_sequence"]), targets=want)
 
 
-def _robot_start(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _robot_start(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     model, data = compile_scene(SceneSpec.from_dict(ep["scene"]))
     qpos = data.qpos.copy()
     for name, sign in zip(JOINT_NAMES, rng.choice([-1.0, 1.0], size=len(JOINT_NAMES)), strict=True):
@@ -237,13 +237,21 @@ def _robot_start(ep: dict[str, Any], strength: int, rng: np.random.Generator) ->
                          "act": [float(v) for v in data.act]}
 
 
-def _sensor(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _sensor(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     ep["sensor"] = {"rgb_noise": 4.0 * strength, "rgb_blur": 0.4 * strength, "depth_noise": 0.002 * strength,
                     "depth_holes": 0.04 * strength}
 
 
+class LanguageWords(TypedDict):
+    """The language axes' words (:data:`WORDS_FILE`): per part of speech (``verbs``, ``nouns``) the seen
+    synonym group names, and each unseen word's replacements."""
+
+    seen_groups: dict[str, tuple[str, ...]]
+    unseen: dict[str, dict[str, tuple[str, ...]]]
+
+
 @functools.cache
-def language_words() -> dict[str, Any]:
+def language_words() -> LanguageWords:
     """The language axes' words (:data:`WORDS_FILE`): ``seen_groups`` (``verbs``, ``nouns``: synonym group
     names of ``synonyms.json``) and ``unseen`` (``verbs``, ``nouns``: word -> words the generator never
     says).
@@ -273,7 +281,7 @@ def _alternatives(groups: tuple[str, ...] | None = None) -> dict[str, tuple[str,
     return out
 
 
-def _swap_words(ep: dict[str, Any], alternatives: Mapping[str, tuple[str, ...]], strength: int,
+def _swap_words(ep: EpisodeRecord, alternatives: Mapping[str, tuple[str, ...]], strength: int,
                 rng: np.random.Generator) -> None:
     """Replace a share of the instruction's words (or phrases) that have alternatives, longest first,
     each by one alternative drawn uniformly; the share is 20 % per strength step (5: every one)."""
@@ -298,24 +306,24 @@ def _swap_words(ep: dict[str, Any], alternatives: Mapping[str, tuple[str, ...]],
     ep["instruction"] = "".join(out) + text[last:]
 
 
-def _paraphrase(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _paraphrase(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     _swap_words(ep, _alternatives(), strength, rng)
 
 
-def _verbs(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _verbs(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     _swap_words(ep, _alternatives(language_words()["seen_groups"]["verbs"]), strength, rng)
 
 
-def _nouns(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _nouns(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     _swap_words(ep, _alternatives(language_words()["seen_groups"]["nouns"]), strength, rng)
 
 
-def _unseen_synonyms(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _unseen_synonyms(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     unseen = language_words()["unseen"]
     _swap_words(ep, {**unseen["verbs"], **unseen["nouns"]}, strength, rng)
 
 
-def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _shuffled(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     text = ep["instruction"].rstrip(".")
     words = text.split()
     moved = min(len(words), max(2, round(SHUFFLE_FRACTION_PER_STRENGTH * strength * len(words))))
@@ -330,7 +338,7 @@ def _shuffled(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> No
     ep["instruction"] = " ".join(out) + ("." if ep["instruction"].endswith(".") else "")
 
 
-def _blank(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
+def _blank(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
     words = ep["instruction"].rstrip(".").split()
     dropped = min(len(words), max(1, round(SHUFFLE_FRACTION_PER_STRENGTH * strength * len(words))))
     gone = set(rng.choice(len(words), size=dropped, replace=False).tolist())
@@ -338,7 +346,7 @@ def _blank(ep: dict[str, Any], strength: int, rng: np.random.Generator) -> None:
     ep["instruction"] = " ".join(kept) + "." if kept else BLANK_INSTRUCTION
 
 
-AXES: dict[str, Callable[[dict[str, Any], int, np.random.Generator], None]] = {
+AXES: dict[str, Callable[[EpisodeRecord, int, np.random.Generator], None]] = {
     "camera": _camera, "lighting": _lighting, "object_shift": _object_shift, "robot_start": _robot_start,
     "sensor": _sensor, "paraphrase": _paraphrase, "shuffled": _shuffled, "blank": _blank,
     "distractors": _distractors, "task_swap": _task_swap, "textures": _textures, "verbs": _verbs,
@@ -358,7 +366,7 @@ _SEED_ORDER = ("camera", "object_shift", "paraphrase", "robot_start", "sensor", 
                "distractors", "task_swap", "textures", "verbs", "nouns", "unseen_synonyms", "unseen_objects")
 
 
-def perturb(twin: dict[str, Any], axis: str, strength: int, seed: int, attempt: int = 0) -> dict[str, Any]:
+def perturb(twin: EpisodeRecord, axis: str, strength: int, seed: int, attempt: int = 0) -> EpisodeRecord:
     """The variant of a clean episode dict (a suite episode without ``id``) on ``axis`` at ``strength``.
 
     The variant's ``axis``, ``strength`` and ``twin`` are set; ``twin`` must carry its ``id``.

@@ -48,7 +48,7 @@ class GroupComparison:
     group: str
     difference: PairedDifference
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {"group": self.group, **self.difference.to_dict()}
 
 

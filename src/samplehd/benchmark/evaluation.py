@@ -174,7 +174,7 @@ class EpisodeRecord:
     strength: int | None = None
     twin: int | None = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """The report's record: keys in this order, ``return`` for :attr:`episode_return`, optional
         entries only where set."""
         d: dict[str, Any] = {
@@ -560,7 +560,7 @@ class EvalReport:
         """The whole run's success rate."""
         return self.overall.success_rate
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """The report as written to its JSON file."""
         d: dict[str, Any] = {
             "policy": self.policy, "partial": self.partial, "split": self.split.to_dict(), "models": self.models,

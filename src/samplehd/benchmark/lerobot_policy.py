@@ -29,6 +29,7 @@ import numpy as np
 from samplehd.dataset.lerobot_contract import EXPORT_RECORD, IMAGE_PREFIX, lerobot_features, read_export_record
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.lerobot_contract import env_options_from_export, lerobot_observation
+from samplehd.envs.observation import Observation
 from samplehd.errors import ConfigError
 from samplehd.render.image_spec import ImageSpec
 
@@ -275,7 +276,7 @@ class LeRobotPolicy:
             self._torch.manual_seed(int(seed))
         self.task = str(self.env.unwrapped.episode.text)
 
-    def __call__(self, obs: dict[str, Any]) -> np.ndarray:
+    def __call__(self, obs: Observation) -> np.ndarray:
         batch = self._preprocess(lerobot_observation(obs, self.cameras))
         batch["task"] = [self.task]
         batch = self.preprocessor(batch)

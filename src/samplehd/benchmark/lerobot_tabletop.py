@@ -35,7 +35,7 @@ from samplehd.benchmark.evaluation import split_episode
 from samplehd.benchmark.levels import LEVELS, reset_at_level
 from samplehd.dataset.lerobot_contract import lerobot_features
 from samplehd.envs.config import EnvConfig
-from samplehd.envs.lerobot_contract import lerobot_observation
+from samplehd.envs.lerobot_contract import LeRobotObservation, lerobot_observation
 from samplehd.envs.suite_file import read_suite
 from samplehd.envs.tabletop import TabletopEnv, action_bounds
 from samplehd.errors import ConfigError
@@ -92,7 +92,7 @@ class LeRobotTabletop(gym.Env):
         self._inner: TabletopEnv | None = None
         self._options = options
         self._next = 0
-        self._last: dict[str, Any] | None = None
+        self._last: LeRobotObservation | None = None
         self.task = family
         self.task_description = ""
         self._max_episode_steps = max_episode_steps
@@ -120,7 +120,7 @@ class LeRobotTabletop(gym.Env):
         return episode * len(self.families) + self._index
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None
-              ) -> tuple[dict[str, Any], dict[str, Any]]:
+              ) -> tuple[LeRobotObservation, dict[str, Any]]:
         episode = self._next if seed is None else int(seed)
         if episode < 0:
             raise ConfigError(f"seed={episode}: must be >= 0 (the episode's index in the split)")
@@ -142,7 +142,7 @@ class LeRobotTabletop(gym.Env):
         info = {**info, "is_success": False, **where}
         return self._last, info
 
-    def step(self, action: Any) -> tuple[dict[str, Any], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[LeRobotObservation, float, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.inner.step(np.asarray(action, np.float32))
         self._last = lerobot_observation(obs, self.cameras)
         return self._last, float(reward), bool(terminated), bool(truncated), info

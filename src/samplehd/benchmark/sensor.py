@@ -19,6 +19,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from samplehd.envs.observation import Observation
 from samplehd.envs.suite_file import read_suite
 
 __all__ = ["SuiteSensor", "corrupt_observation", "sensor_rng"]
@@ -42,8 +43,8 @@ def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
     return out
 
 
-def corrupt_observation(obs: Mapping[str, Any], sensor: Mapping[str, float] | None,
-                        rng: np.random.Generator) -> dict[str, Any]:
+def corrupt_observation(obs: Observation, sensor: Mapping[str, float] | None,
+                        rng: np.random.Generator) -> Observation:
     """``obs`` with every ``*_rgb`` and ``*_depth`` image corrupted as ``sensor`` says (None: unchanged)."""
     out = dict(obs)
     if not sensor:

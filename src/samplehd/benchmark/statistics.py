@@ -97,7 +97,7 @@ class Proportion:
     low: float
     high: float
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {"successes": self.successes, "n": self.n, "rate": self.rate, "low": self.low, "high": self.high}
 
 
@@ -166,7 +166,7 @@ class PairedDifference:
     p_value: float
     significant: bool
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {"pairs": self.pairs, "both": self.both, "first_only": self.first_only,
                 "second_only": self.second_only, "neither": self.neither, "first": self.first.to_dict(),
                 "second": self.second.to_dict(), "difference": self.difference, "low": self.low,

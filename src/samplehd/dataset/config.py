@@ -86,7 +86,7 @@ class GenerateConfig(Config, section="config"):
     render: RenderConfig = field(default_factory=RenderConfig)
     disturbances: DisturbanceConfig = field(default_factory=DisturbanceConfig)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """JSON-ready options; ``disturbances`` only when it is on."""
         d = super().to_dict()
         if not self.disturbances.enabled:

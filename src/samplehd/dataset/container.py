@@ -45,7 +45,7 @@ import threading
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import h5py
 import numpy as np
@@ -61,7 +61,9 @@ from samplehd.render.keyframes import SparseFrames
 from samplehd.render.renderer import MODALITIES
 
 __all__ = [
+    "CameraRender",
     "EpisodeFile",
+    "RenderRecord",
     "KEYFRAME_KEYS",
     "FrameImages",
     "camera_settings",
@@ -139,7 +141,34 @@ def _modality_list(mods: Iterable[str]) -> list[str]:
 KEYFRAME_KEYS = ("every", "subtask_ends", "look")
 
 
-def camera_settings(render: Mapping[str, Any] | None) -> dict[str, dict[str, Any]]:
+class CameraRender(TypedDict, total=False):
+    """One camera's render settings (a render record's ``per_camera`` entry): mode (``fast``, ``hd``),
+    image size [px], modalities in the order rgb, depth, segmentation, and where set the keyframe
+    settings (:data:`KEYFRAME_KEYS`: every N-th frame, subtask ends) and the photo look."""
+
+    mode: str
+    width: int
+    height: int
+    modalities: list[str]
+    every: int
+    subtask_ends: bool
+    look: str
+
+
+class RenderRecord(TypedDict):
+    """A render record (an episode file's ``/images`` attribute, ``info.json``'s ``render``): the mode,
+    size and modalities every camera shares (``mode`` ``"mixed"`` and the others None where they
+    differ), the cameras, and each camera's own settings."""
+
+    mode: str
+    width: int | None
+    height: int | None
+    cameras: list[str]
+    modalities: list[str] | None
+    per_camera: dict[str, CameraRender]
+
+
+def camera_settings(render: Mapping[str, Any] | None) -> dict[str, CameraRender]:
     """The per-camera render settings of a render record (an episode file's ``/images`` attribute or
     ``info.json``'s ``render``).
 
@@ -169,7 +198,7 @@ def camera_settings(render: Mapping[str, Any] | None) -> dict[str, dict[str, Any
         raise DatasetError(f"malformed render settings {dict(render)!r}: {exc!r}") from None
 
 
-def render_record(per_camera: Mapping[str, Mapping[str, Any]]) -> dict[str, Any] | None:
+def render_record(per_camera: Mapping[str, Mapping[str, Any]]) -> RenderRecord | None:
     """The render record describing images with the given per-camera settings.
 
     ``mode``, ``width``, ``height`` and ``modalities`` hold the value every camera shares; where the
@@ -571,7 +600,7 @@ def describe_settings(s: Mapping[str, Any]) -> str:
 
 
 def merge_camera_settings(old: Mapping[str, Mapping[str, Any]], render: RenderConfig,
-                          add: bool) -> dict[str, dict[str, Any]]:
+                          add: bool) -> dict[str, CameraRender]:
     """The per-camera settings of an episode's images after rendering ``render`` into it.
 
     Args:

@@ -38,7 +38,8 @@ from samplehd.tasks.task import family_names, parse_task
 from samplehd.workers import Backend
 from samplehd.world.seeding import episode_seed
 
-__all__ = ["PathResult", "check_instructions_fit", "format_summary", "generate_paths", "load_scenes", "summarise"]
+__all__ = ["FamilyCounts", "PathResult", "PathSummary", "check_instructions_fit", "format_summary", "generate_paths",
+           "load_scenes", "summarise"]
 
 
 class PathResult(TypedDict, total=False):
@@ -57,6 +58,27 @@ class PathResult(TypedDict, total=False):
     file: str
     reason: str
     message: str
+
+
+class FamilyCounts(TypedDict):
+    """Paths of one family in ``summary.json``: attempted, succeeded, and succeeded at the first attempt."""
+
+    attempted: int
+    succeeded: int
+    first_try: int
+
+
+class PathSummary(TypedDict):
+    """``summary.json`` of ``samplehd paths``: the counts over every instruction and by family, the
+    rejection reasons with their counts (most common first), the frames written and the wall time [s]."""
+
+    attempted: int
+    succeeded: int
+    first_try: int
+    by_family: dict[str, FamilyCounts]
+    rejections: dict[str, int]
+    frames: int
+    seconds: float
 
 
 def load_scenes(path: Path) -> dict[int, SceneAnnotation]:
@@ -134,7 +156,7 @@ def generate_paths(
     render: RenderConfig | None = None,
     backend: Backend | None = None,
     on_result: Callable[[PathResult, int], None] | None = None,
-) -> dict[str, Any]:
+) -> PathSummary:
     """Plan, execute and record every instruction; returns the summary (also written to OUT).
 
     Args:
@@ -206,9 +228,9 @@ def generate_paths(
     return summary
 
 
-def summarise(results: list[PathResult]) -> dict[str, Any]:
+def summarise(results: list[PathResult]) -> PathSummary:
     """The summary.json content from per-instruction results."""
-    by: dict[str, dict[str, int]] = {}
+    by: dict[str, FamilyCounts] = {}
     rej: Counter[str] = Counter()
     for r in results:
         f = by.setdefault(r["family"], {"attempted": 0, "succeeded": 0, "first_try": 0})
@@ -229,7 +251,7 @@ def summarise(results: list[PathResult]) -> dict[str, Any]:
     }
 
 
-def format_summary(summary: dict[str, Any]) -> str:
+def format_summary(summary: PathSummary) -> str:
     """The summary as a plain-text table."""
     lines = [f"{'family':16s} {'attempted':>9s} {'first try':>9s} {'succeeded':>9s} {'rate':>7s}"]
     for fam, f in summary["by_family"].items():

@@ -17,6 +17,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from samplehd.catalogue.loader import LEGACY_CATALOGUE
 from samplehd.dataset.container import read_episode, read_frames, read_image, read_meta
 from samplehd.dataset.journal import JournalRecord, read_journal
@@ -73,7 +75,7 @@ class EpisodeEntry:
     size: int = -1
     sha256: str = ""
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return dict(self.__dict__)
 
     @classmethod
@@ -148,7 +150,7 @@ class EpisodeMeta:
             extra={k: v for k, v in d.items()
                    if k not in (*_META_ATTRS, "stem", "render", "images", "image_frames")})
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """As :func:`samplehd.dataset.container.read_meta` reads it: the task as the file stores it
         (the executor's ``{type, objects, subject, relation}``, keys sorted)."""
         d: dict[str, Any] = {"stem": self.stem, "format_version": self.format_version,
@@ -408,7 +410,7 @@ class DatasetReader:
             out.append({**e.to_dict(), **meta, "instruction_index": i})
         return out
 
-    def frames(self, index: int, fields: list[str] | tuple[str, ...] | None = None) -> dict[str, Any]:
+    def frames(self, index: int, fields: list[str] | tuple[str, ...] | None = None) -> dict[str, np.ndarray]:
         """Selected frame fields of episode ``index`` (no images, no other fields are read)."""
         return read_frames(self.episode_path(index), fields)
 

@@ -149,7 +149,7 @@ class RenderConfig(Config, section="render"):
         done = render_live(model, live, on_attempt, self.image, photo=photo, segmentation_dtype=seg)
         return None if done is None else kept[0]
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         d = {"mode": self.mode, "width": self.width, "height": self.height, "cameras": list(self.cameras),
              "modalities": list(self.modalities)}
         # Only where set, so that records of every-frame images stay as they were.

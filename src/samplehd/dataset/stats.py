@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
@@ -13,10 +13,46 @@ from PIL import Image, ImageDraw, ImageFont
 from samplehd.dataset.layout import DatasetInfo
 from samplehd.dataset.reader import DatasetReader
 
-__all__ = ["dataset_stats", "plot_bars", "write_plots"]
+__all__ = ["DatasetStats", "dataset_stats", "plot_bars", "write_plots"]
 
 
-def dataset_stats(root: str | Path) -> dict[str, Any]:
+class FramesPerEpisode(TypedDict, total=False):
+    """Episode lengths [frames]: min, median, mean, max, and a histogram ``{bin_start: count}`` of bins
+    ``bin_width`` wide (empty when the dataset has no episode yet)."""
+
+    min: int
+    median: float
+    mean: float
+    max: int
+    bin_width: int
+    histogram: dict[int, int]
+
+
+class DisturbanceStats(TypedDict, total=False):
+    """Episodes of a dataset made with disturbances: ``{kind: {outcome: n}}``, and the same counts flat
+    as ``{"kind outcome": n}``; both absent without disturbances."""
+
+    disturbances: dict[str, dict[str, int]]
+    disturbance_outcomes: dict[str, int]
+
+
+class DatasetStats(DisturbanceStats):
+    """The counts of :func:`dataset_stats` (see its docstring)."""
+
+    scenes: int
+    episodes: int
+    frames: int
+    families: dict[str, int]
+    splits: dict[str, int]
+    classes: dict[str, int]
+    colours: dict[str, int]
+    materials: dict[str, int]
+    objects_per_scene: dict[int, int]
+    frames_per_episode: FramesPerEpisode
+    rejections: dict[str, dict[str, int]]
+
+
+def dataset_stats(root: str | Path) -> DatasetStats:
     """Counts of a (complete or in-progress) dataset.
 
     Returns:
@@ -31,7 +67,7 @@ def dataset_stats(root: str | Path) -> dict[str, Any]:
     scenes = reader.scenes
     objs = [o for s in scenes for o in s.get("objects", [])]
     frames = np.array([e.num_frames for e in reader.episodes if e.num_frames >= 0], dtype=np.int64)
-    fpe: dict[str, Any] = {}
+    fpe: FramesPerEpisode = {}
     if len(frames):
         width = max(25, int(np.ceil((frames.max() - frames.min() + 1) / 12 / 25.0)) * 25)
         counts = Counter(int(b) for b in (frames // width) * width)
@@ -58,7 +94,7 @@ def dataset_stats(root: str | Path) -> dict[str, Any]:
     }
 
 
-def _disturbance_stats(info: DatasetInfo) -> dict[str, Any]:
+def _disturbance_stats(info: DatasetInfo) -> DisturbanceStats:
     """``{disturbances: {kind: {outcome: n}}, disturbance_outcomes: {"kind outcome": n}}`` of a dataset
     made with disturbances (from info.json's episode entries); empty without."""
     entries = [e for e in info.get("episodes", []) if isinstance(e, dict) and "disturbance" in e]
@@ -93,7 +129,7 @@ def plot_bars(path: Path, title: str, counts: dict[Any, int], width: int = 720) 
     return path
 
 
-def write_plots(stats: dict[str, Any], out: Path) -> list[Path]:
+def write_plots(stats: DatasetStats, out: Path) -> list[Path]:
     """Write one PNG per count table of :func:`dataset_stats` into ``out``."""
     written = []
     for key in ("families", "classes", "colours", "materials", "splits", "objects_per_scene", "disturbance_outcomes"):

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
@@ -29,10 +29,22 @@ from samplehd.dataset.lerobot_contract import EXPORT_RECORD, read_export_record
 from samplehd.envs.config import EnvConfig
 from samplehd.errors import ConfigError
 
-__all__ = ["env_options_from_export", "lerobot_observation"]
+if TYPE_CHECKING:
+    from samplehd.envs.observation import Observation
+
+__all__ = ["LeRobotObservation", "env_options_from_export", "lerobot_observation"]
 
 
-def lerobot_observation(obs: dict[str, Any], cameras: Sequence[str]) -> dict[str, Any]:
+class LeRobotObservation(TypedDict):
+    """LeRobot's raw env observation (see the module docstring): RGB images by camera, the joint angles
+    with the finger opening [rad, m], and the TCP position and quaternion [m]."""
+
+    pixels: dict[str, np.ndarray]
+    agent_pos: np.ndarray
+    tcp_pose: np.ndarray
+
+
+def lerobot_observation(obs: Observation, cameras: Sequence[str]) -> LeRobotObservation:
     """A Tabletop-v0 observation as LeRobot's raw env observation (see the module docstring)."""
     g = np.asarray(obs["gripper"], np.float32)
     return {

@@ -7,7 +7,6 @@ The renderers are made on first use and kept while the scene's model stays; a ne
 from __future__ import annotations
 
 import string
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -20,11 +19,13 @@ from samplehd.render.renderer import SceneRenderer
 from samplehd.robot.constants import GRIPPER_STROKE
 from samplehd.scene.world import OPERATOR_CAMERA
 
-__all__ = ["DEPTH_MAX", "INSTRUCTION_CHARSET", "SEG_MAX", "ObservationBuilder", "observation_space"]
+__all__ = ["DEPTH_MAX", "INSTRUCTION_CHARSET", "SEG_MAX", "Observation", "ObservationBuilder", "observation_space"]
 
 INSTRUCTION_CHARSET = "".join(c for c in string.printable if c not in "\t\n\r\x0b\x0c")
 DEPTH_MAX = 20.0  # [m]; farther depths are clipped (the room is a few metres across)
 SEG_MAX = 255
+# An observation: the arrays of :func:`observation_space` by key, and ``instruction``, the text.
+Observation = dict[str, np.ndarray | str]
 
 
 def observation_space(cfg: EnvConfig) -> spaces.Dict:
@@ -96,7 +97,7 @@ class ObservationBuilder:
                 self._renderer.render(data, self._cam_names[cam], cfg.modalities)
         return self._renderer
 
-    def observe(self, physics: EpisodePhysics) -> dict[str, Any]:
+    def observe(self, physics: EpisodePhysics) -> Observation:
         """The observation of ``physics``' current state."""
         d, n = physics.data, self.max_objects
         ctrl = physics.controller
@@ -113,7 +114,7 @@ class ObservationBuilder:
         gripper = np.zeros(3, np.float32)
         gripper[:2] = d.qpos[physics.finger_qpos]
         gripper[2] = ctrl.gripper_width / GRIPPER_STROKE * 2.0 - 1.0
-        obs: dict[str, Any] = {
+        obs: Observation = {
             "joint_pos": ctrl.joint_positions().astype(np.float32),
             "joint_vel": ctrl.joint_velocities().astype(np.float32),
             "gripper": gripper,

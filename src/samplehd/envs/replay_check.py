@@ -19,7 +19,6 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -84,7 +83,7 @@ class ReplayReport:
         """Whether every replayed outcome equals the recorded one."""
         return all(e.agrees for e in self.episodes)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """The report as JSON data: the verdict, per family and per episode (deviations in metres)."""
         return {"agrees": self.agrees, "families": [asdict(f) for f in self.families()],
                 "episodes": [{**asdict(e), "agrees": e.agrees} for e in self.episodes]}

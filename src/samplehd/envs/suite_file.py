@@ -32,7 +32,7 @@ import json
 from collections.abc import Mapping
 from dataclasses import MISSING, asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -49,6 +49,40 @@ SUITE_DIR = Path(__file__).resolve().parent / "suites"
 SUITE_SPEC_DIR = SUITE_DIR / "specs"
 # The clean axis: an episode as drawn, the twin every perturbed episode is compared with.
 CLEAN_AXIS = "none"
+
+
+class EpisodeRecord(TypedDict, total=False):
+    """A suite episode as the file's ``episodes`` hold it (:meth:`SuiteEpisode.to_dict`; the keys are
+    :class:`SuiteEpisode`'s fields). A robustness variant being built (:func:`samplehd.benchmark.axes.perturb`)
+    lacks ``id`` until the suite numbers it."""
+
+    id: int
+    catalogue: str
+    scene_seed: int
+    reset_seed: int
+    scene: dict[str, Any]
+    instruction: str
+    family: str
+    task: dict[str, Any]
+    program: list[Any]
+    program_sequence: str
+    targets: list[int]
+    level: str
+    axis: str
+    strength: int
+    twin: int | None
+    oracle_steps: int
+    start_state: dict[str, list[float]] | None
+    sensor: dict[str, float] | None
+
+
+class SceneResetOptions(TypedDict, total=False):
+    """The environment's ``scene`` + ``instruction`` reset options of a suite episode: the scene
+    specification, the instruction entry, and (robot start axis) the ``{qpos, qvel, act}`` start state."""
+
+    scene: dict[str, Any]
+    instruction: dict[str, Any]
+    episode: dict[str, list[float]]
 
 
 @dataclass(frozen=True)
@@ -98,8 +132,8 @@ class SuiteEpisode:
     start_state: dict[str, list[float]] | None = None
     sensor: dict[str, float] | None = None
 
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+    def to_dict(self) -> EpisodeRecord:
+        return EpisodeRecord(**asdict(self))
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> SuiteEpisode:
@@ -108,9 +142,9 @@ class SuiteEpisode:
         return cls(**{k: d[k] for k in required}, **{k: d[k] for k in cls.__dataclass_fields__
                                                       if k not in required and k in d})
 
-    def reset_options(self) -> dict[str, Any]:
+    def reset_options(self) -> SceneResetOptions:
         """The environment's ``scene`` + ``instruction`` reset options of this episode (a private copy)."""
-        options: dict[str, Any] = {
+        options: SceneResetOptions = {
             "scene": self.scene,
             "instruction": {"instruction": self.instruction, "family": self.family, "task": self.task,
                             "program": self.program, "program_sequence": self.program_sequence,
@@ -120,7 +154,7 @@ class SuiteEpisode:
         return copy.deepcopy(options)
 
 
-def content_hash(episodes: list[dict[str, Any]]) -> str:
+def content_hash(episodes: list[EpisodeRecord]) -> str:
     """``sha256:<hex>`` of the canonical JSON (sorted keys, no spaces) of the episode dicts."""
     text = json.dumps(episodes, sort_keys=True, separators=(",", ":"), ensure_ascii=True)
     return "sha256:" + hashlib.sha256(text.encode("ascii")).hexdigest()
@@ -156,7 +190,7 @@ class Suite:
                               f"0..{len(self.episodes) - 1}")
         return self.episodes[int(index)]
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {"format": SUITE_FORMAT, "format_version": SUITE_FORMAT_VERSION, "name": self.name,
                 "package_version": self.package_version, "build": self.build, "manifest": self.manifest,
                 "content_hash": self.content_hash, "episodes": [e.to_dict() for e in self.episodes]}
@@ -233,7 +267,7 @@ def _read(path: str, stamp: int) -> Suite:
                  episodes=tuple(episodes))
 
 
-def suite_reset_options(options: Mapping[str, Any]) -> dict[str, Any]:
+def suite_reset_options(options: Mapping[str, Any]) -> SceneResetOptions:
     """The ``scene`` + ``instruction`` reset options of the environment option ``{"suite": NAME_OR_FILE,
     "episode": i}``.
 

@@ -74,7 +74,7 @@ from gymnasium import spaces
 from samplehd.envs.config import CONTROL_MODES, EnvConfig
 from samplehd.envs.episode_physics import EpisodePhysics
 from samplehd.envs.episodes import EpisodeSpec, SceneCache, episode_from_options, sample_episode
-from samplehd.envs.observation import INSTRUCTION_CHARSET, ObservationBuilder
+from samplehd.envs.observation import INSTRUCTION_CHARSET, Observation, ObservationBuilder
 from samplehd.envs.plan_tracker import plan_tracker
 from samplehd.envs.reward import dense_term
 from samplehd.envs.suite_file import suite_reset_options
@@ -271,7 +271,7 @@ class TabletopEnv(gym.Env):
         return self.physics.report(self.task).to_dict()
 
     # ------------------------------------------------------------------ observations
-    def _observation(self) -> dict[str, Any]:
+    def _observation(self) -> Observation:
         return self.observer.observe(self.physics)
 
     def _info(self, report: Any, event: dict[str, Any] | None) -> dict[str, Any]:

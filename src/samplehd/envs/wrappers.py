@@ -31,13 +31,16 @@ sampling renders its occlusion check in a child process), so it can be created b
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
 from samplehd.errors import ConfigError
+
+if TYPE_CHECKING:
+    from samplehd.envs.observation import Observation
 
 __all__ = ["STATE_KEYS", "FlatState", "SingleImage", "TokenInstruction"]
 
@@ -62,7 +65,7 @@ class TokenInstruction(gym.ObservationWrapper):
         space = _dict_space(env)
         self.observation_space = spaces.Dict({k: v for k, v in space.spaces.items() if k != "instruction"})
 
-    def observation(self, observation: dict[str, Any]) -> dict[str, Any]:
+    def observation(self, observation: Observation) -> Observation:
         return {k: v for k, v in observation.items() if k != "instruction"}
 
 
@@ -86,7 +89,7 @@ class SingleImage(gym.ObservationWrapper):
         self._key = f"{self.camera}_rgb"
         self.observation_space = space.spaces[self._key]
 
-    def observation(self, observation: dict[str, Any]) -> np.ndarray:
+    def observation(self, observation: Observation) -> np.ndarray:
         return observation[self._key]
 
 
@@ -116,5 +119,5 @@ class FlatState(gym.ObservationWrapper):
         self.observation_space = spaces.Box(np.concatenate(lows).astype(np.float32),
                                             np.concatenate(highs).astype(np.float32), dtype=np.float32)
 
-    def observation(self, observation: dict[str, Any]) -> np.ndarray:
+    def observation(self, observation: Observation) -> np.ndarray:
         return np.concatenate([np.asarray(observation[k], dtype=np.float32).ravel() for k in self._keys])

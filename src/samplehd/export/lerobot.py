@@ -60,7 +60,7 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.dataset.container import camera_settings
+from samplehd.dataset.container import CameraRender, camera_settings
 from samplehd.dataset.lerobot_contract import (
     ACTION,
     COMMAND_JOINT,
@@ -247,7 +247,7 @@ def _write_tasks(path: Path, tasks: list[str]) -> None:
 
 
 def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str] | None,
-             modalities: list[str] | None) -> tuple[dict[str, dict[str, Any]], list[tuple[str, str]]]:
+             modalities: list[str] | None) -> tuple[dict[str, CameraRender], list[tuple[str, str]]]:
     """The per-camera settings and the (camera, modality) streams to export; one-line errors."""
     settings = camera_settings(render)
     cams = list(dict.fromkeys(cameras)) if cameras is not None else list(settings)
@@ -274,7 +274,7 @@ def _streams(root: str | Path, render: dict[str, Any] | None, cameras: list[str]
     return settings, streams
 
 
-def _env_record(config: dict[str, Any], settings: dict[str, dict[str, Any]], cameras: list[str],
+def _env_record(config: dict[str, Any], settings: dict[str, CameraRender], cameras: list[str],
                 families: list[str]) -> dict[str, Any]:
     """``{"env": options}``: the ``samplehd/Tabletop-v0`` options (EnvConfig field names) that give
     observations like the exported ones, or ``{"env_note": why}`` when no single env can."""

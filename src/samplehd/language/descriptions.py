@@ -91,7 +91,7 @@ class Description:
             own += 1 + self.anchor.modifier_count
         return own
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Return ``{filters: {kind: value}, relation, anchor}``."""
         return {
             "filters": dict(self.filters),

@@ -81,7 +81,7 @@ class Instruction:
         """Every object index the task involves (moved objects, then the subject object)."""
         return self.task.involved
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Return the instruction-file entry fields this instruction owns."""
         return {
             "instruction": self.text,
@@ -123,7 +123,7 @@ class GenerationResult:
     rejections: dict[str, int]
     attempts: int
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Return ``{instructions: [...], rejections, attempts}``."""
         return {
             "instructions": [i.to_dict() for i in self.instructions],

@@ -117,7 +117,7 @@ class Lexicon:
             relative_pronoun=str(data.get("relative_pronoun", "that")),
         )
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Return the JSON layout of ``lexicon.json``."""
         return {
             "nouns": {k: list(v) for k, v in self.nouns.items()},

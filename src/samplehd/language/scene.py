@@ -103,7 +103,7 @@ class SceneObject:
         """Return the value of an attribute kind (name, colour, material, size, table_part)."""
         return getattr(self, kind)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Return the object in the scene-file layout (the fields this package reads)."""
         out: dict[str, Any] = {
             "name": self.name,
@@ -159,7 +159,7 @@ class Scene:
     def __len__(self) -> int:
         return len(self.objects)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Return the scene in the scenes-file layout (the fields this package reads)."""
         return {
             "split": self.split,

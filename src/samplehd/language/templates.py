@@ -90,7 +90,7 @@ class TemplateConstraint:
     type: str
     params: tuple[str, ...]
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Return ``{type, params}``."""
         return {"type": self.type, "params": list(self.params)}
 
@@ -152,7 +152,7 @@ class Template:
                 return p
         raise KeyError(name)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         """Return the template in the template-file layout (plus family, filename, index)."""
         return {
             "family": self.family,

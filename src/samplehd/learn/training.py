@@ -42,6 +42,8 @@ F = require_extra("torch.nn.functional", "learn", FEATURE)
 
 __all__ = [
     "F",
+    "MetricValue",
+    "Metrics",
     "TrainRun",
     "check_weights_fit",
     "load_model_files",
@@ -58,6 +60,10 @@ CONFIG_FILE = "config.json"
 CHECKPOINT_FILE = "checkpoint.pt"
 MODEL_FILE = "model.pt"
 METRICS_FILE = "metrics.json"
+# A ``metrics.json`` entry: a figure or a count (None: not measured, e.g. no test example of a level), a
+# name (the device), or a table of them (by level, attribute or family).
+MetricValue = float | int | bool | str | None | list[float] | dict[str, "MetricValue"]
+Metrics = dict[str, MetricValue]
 
 
 def pick_device(requested: str | None = None) -> Any:
@@ -108,7 +114,7 @@ def _save_torch(path: Path, obj: Any) -> None:
     tmp.replace(path)
 
 
-def load_model_files(folder: str | Path, kind: str, fmt: int) -> tuple[dict[str, Any], dict[str, Any]]:
+def load_model_files(folder: str | Path, kind: str, fmt: int) -> tuple[dict[str, Any], dict[str, torch.Tensor]]:
     """Read ``config.json`` and ``model.pt`` of a trained model; one-line errors.
 
     Args:
@@ -284,7 +290,7 @@ class TrainRun:
                 losses.append(loss)
         return losses, times
 
-    def finish(self, model: Any, metrics: dict[str, Any]) -> None:
+    def finish(self, model: Any, metrics: Metrics) -> None:
         """Write the final model and ``metrics.json``."""
         state = {k: v.detach().cpu() for k, v in model.state_dict().items()}
         _save_torch(self.out / MODEL_FILE, state)

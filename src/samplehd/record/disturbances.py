@@ -128,7 +128,7 @@ class Disturbance:
     distance: float = 0.0
     other: int = 0
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {"kind": self.kind, "subtask": self.subtask, "progress": self.progress, "direction": self.direction,
                 "distance": self.distance, "other": self.other}
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import partial
-from typing import Any
+from typing import Any, TypedDict
 
 import mujoco
 import numpy as np
@@ -35,7 +35,7 @@ from samplehd.world.layout import LAYOUT, Directions
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.robot_info import RobotInfo
 
-__all__ = ["PathConfig", "PathRejected", "plan_and_execute"]
+__all__ = ["FailedAttempt", "PathConfig", "PathRejected", "plan_and_execute"]
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,14 @@ class PathConfig(Config, section="paths"):
 
 
 
+class FailedAttempt(TypedDict):
+    """One failed attempt of a rejected path: its number (0 first), the reason code and the message."""
+
+    attempt: int
+    reason: str
+    message: str
+
+
 class PathRejected(PlanningError):
     """No attempt produced a path that passes the checker.
 
@@ -80,7 +88,7 @@ class PathRejected(PlanningError):
             only; never ground truth.
     """
 
-    def __init__(self, reason: str, message: str, attempts: list[dict[str, Any]],
+    def __init__(self, reason: str, message: str, attempts: list[FailedAttempt],
                  failed_episode: Episode | None = None) -> None:
         super().__init__(message)
         self.reason = reason
@@ -287,7 +295,7 @@ def _plan_and_execute(scene: SceneSpec, task: ProgramTask | Task, rng: np.random
     mujoco.mj_copyData(start, model, data)
     facts = scene_facts(scene)
     exclude: dict[int, set[int]] = {}
-    attempts: list[dict[str, Any]] = []
+    attempts: list[FailedAttempt] = []
     reason, message = "", ""
     last: tuple[Rollout, RecordingStep] | None = None
     for attempt in range(config.max_attempts):

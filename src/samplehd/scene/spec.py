@@ -49,7 +49,7 @@ class SceneObject:
     pos: tuple[float, float, float]
     quat: tuple[float, float, float, float]
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {"instance": self.instance.to_dict(), "pos": list(self.pos), "quat": list(self.quat)}
 
     @classmethod
@@ -94,7 +94,7 @@ class SceneSpec:
     lighting: Lighting = DEFAULT_LIGHTING
     surfaces: Surfaces = DEFAULT_SURFACES
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         out = {
             "index": self.index,
             "seed": self.seed,

@@ -238,7 +238,7 @@ class Task:
         """The executor's relation (place_relative's direction)."""
         return self.direction
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "family": self.family,
             "objects": list(self.objects),

@@ -17,7 +17,7 @@ import json
 import threading
 from collections import OrderedDict
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from PIL import Image
@@ -59,14 +59,35 @@ def failure_reason(success: bool, info: dict[str, Any]) -> str:
     return ""
 
 
-def disturbance_bands(info: dict[str, Any]) -> list[dict[str, Any]]:
+class Band(TypedDict):
+    """A timeline band of the player: frames ``start`` to ``end`` (exclusive), ``kind`` disturbance or
+    recovery, and its label."""
+
+    start: int
+    end: int
+    kind: str
+    name: str
+
+
+class Segment(TypedDict):
+    """A run of frames with one subtask and target: frames ``start`` to ``end`` (exclusive), the
+    subtask's index and name, and the target object's index."""
+
+    start: int
+    end: int
+    index: int
+    name: str
+    target: int
+
+
+def disturbance_bands(info: dict[str, Any]) -> list[Band]:
     """The timeline bands of a disturbed episode (``info["disturbance"]``, see
     :mod:`samplehd.record.disturbances`): ``{start, end (exclusive), kind: disturbance | recovery, name}``
     for the frames the disturbance acts in and for the recovery segment; none for other episodes."""
     lab = info.get("disturbance")
     if not isinstance(lab, dict):
         return []
-    bands = []
+    bands: list[Band] = []
     if int(lab.get("frame", -1)) >= 0:
         bands.append({"start": int(lab["frame"]), "end": int(lab.get("last_frame", lab["frame"])) + 1,
                       "kind": "disturbance", "name": f"{lab.get('kind')}"
@@ -78,11 +99,11 @@ def disturbance_bands(info: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def subtask_segments(subtask_index: np.ndarray, target_object: np.ndarray,
-                     names: list[str]) -> list[dict[str, Any]]:
+                     names: list[str]) -> list[Segment]:
     """Runs of equal (subtask, target) as ``{start, end (exclusive), index, name, target}``."""
     idx = np.asarray(subtask_index).astype(np.int64)
     tgt = np.asarray(target_object).astype(np.int64)
-    out: list[dict[str, Any]] = []
+    out: list[Segment] = []
     start = 0
     for f in range(1, len(idx) + 1):
         if f == len(idx) or idx[f] != idx[start] or tgt[f] != tgt[start]:
@@ -93,7 +114,7 @@ def subtask_segments(subtask_index: np.ndarray, target_object: np.ndarray,
     return out
 
 
-def _layout() -> dict[str, Any]:
+def _layout() -> dict[str, list[float] | float]:
     return {"table_size": list(LAYOUT.table_size), "robot_base": list(LAYOUT.robot_base),
             "workspace_min": list(LAYOUT.workspace_min), "workspace_max": list(LAYOUT.workspace_max),
             "workspace_center": [float(v) for v in LAYOUT.workspace_center], "band": LAYOUT.band}

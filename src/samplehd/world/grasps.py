@@ -98,7 +98,7 @@ class Grasp:
         t[:3, 3] = self.position
         return t
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         return {
             "name": self.name,
             "position": list(self.position),

@@ -11,7 +11,7 @@ in the diagnosis only: it is right on about as many held-out decisions as always
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -38,11 +38,32 @@ from samplehd.learn.training import set_seed, torch
 from samplehd.render.renderer import SceneRenderer
 from samplehd.world.layout import LAYOUT
 
-__all__ = ["AVOID_RADIUS", "MAX_DECISIONS", "KeyposePolicy", "predict_decisions"]
+__all__ = ["AVOID_RADIUS", "MAX_DECISIONS", "KeyposeDiagnosis", "KeyposePolicy", "predict_decisions"]
 
 
 AVOID_RADIUS = 0.03  # a later grasp is not sought this close to an earlier grasp or release [m]
 MAX_DECISIONS = 6  # an episode's decisions at most (the families move up to three objects; the rest retry)
+
+
+class DecisionRecord(TypedDict):
+    """A decision as evaluation records keep it: grasp and goal (x, y, z [m], yaw [rad]) rounded to the
+    millimetre, whether it lets go, and whether it is the episode's last."""
+
+    grasp: list[float]
+    goal: list[float]
+    release: bool
+    last: bool
+
+
+class KeyposeDiagnosis(TypedDict, total=False):
+    """A keypose episode so far (:meth:`KeyposePolicy.diagnosis`; empty before the first decision): the
+    follower's stage, the decisions made again after an empty grasp, whether grounding by exclusion
+    fired, and the decisions."""
+
+    stage: str
+    retries: int
+    exclusion: bool
+    decisions: list[DecisionRecord]
 
 
 class KeyposePolicy:
@@ -140,7 +161,7 @@ class KeyposePolicy:
         return follower(obs)
 
     @property
-    def diagnosis(self) -> dict[str, Any]:
+    def diagnosis(self) -> KeyposeDiagnosis:
         """The episode so far, copied into evaluation records: the stage the follower is at (where a failed
         episode is charged) and the decisions made, rounded to the millimetre."""
         if self._follower is None:

@@ -31,6 +31,7 @@ from samplehd.learn.keypose.preparation import PREPARED_FILE, check_scene_inputs
 from samplehd.learn.keypose.processing import FACTOR, HEIGHT_UNIT, attribute_values, grid_of, input_channels
 from samplehd.learn.topdown import TopDownGrid
 from samplehd.learn.training import (
+    Metrics,
     TrainRun,
     check_weights_fit,
     descend,
@@ -86,7 +87,7 @@ def _heat_loss(logits: Any, rc: Any) -> Any:
     return -(target * torch.log_softmax(logits.reshape(n, -1), 1)).sum(1).mean()
 
 
-def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any) -> tuple[Any, dict[str, Any]]:
+def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any) -> tuple[Any, dict[str, torch.Tensor]]:
     """The training loss of a batch and its parts: cross-entropy of the grasp's and the goal's cell
     over the map, smooth L1 of the values at the labelled cells (the goal's read with the labelled
     grasp's cell), binary cross-entropy of release and last, and :data:`ATTRIBUTE_WEIGHT` times the
@@ -120,7 +121,7 @@ def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any)
 
 
 def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *, device: str | None = None,
-                  quiet: bool = False, stop_after: int | None = None) -> dict[str, Any]:
+                  quiet: bool = False, stop_after: int | None = None) -> Metrics:
     """Train the keypose policy ``config`` on a dataset's L1 training episodes; metrics on its test
     episodes: the grasp's and the goal's position error [m] (median, mean, share within 1 and 2 cm), the
     grasp's height and yaw error, the flags' accuracy.
@@ -263,7 +264,7 @@ def _train_step(net: Any, opt: Any, arrays: dict[str, np.ndarray], train: Any, d
     return train_step
 
 
-def _initial_weights(config: KeyposeConfig) -> dict[str, Any]:
+def _initial_weights(config: KeyposeConfig) -> dict[str, torch.Tensor]:
     """The weights of the keypose policy in ``config.train.init``; one line naming ``init`` when it is
     none or looks at another grid or other inputs."""
     init = config.train.init
@@ -281,7 +282,7 @@ def _initial_weights(config: KeyposeConfig) -> dict[str, Any]:
     return state
 
 
-def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, dev: Any) -> dict[str, Any]:
+def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, dev: Any) -> Metrics:
     m = len(arrays["test_grid"])
     if m == 0:
         return {"test_decisions": 0}

@@ -11,7 +11,7 @@ from samplehd.language.executor import ProgramError, execute
 from samplehd.language.scene import parse_scene
 from samplehd.learn.data import instruction_examples, open_dataset
 from samplehd.learn.parser.inference import InstructionParser
-from samplehd.learn.training import pick_device, timed
+from samplehd.learn.training import Metrics, pick_device, timed
 
 __all__ = ["evaluate_parser", "parser_test_metrics", "score_parser"]
 
@@ -24,7 +24,7 @@ def _task_equal(program: Any, scene: Mapping[str, Any], task: Mapping[str, Any])
     return got == {k: task.get(k) for k in got}
 
 
-def evaluate_parser(parser: InstructionParser, examples: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+def evaluate_parser(parser: InstructionParser, examples: Sequence[Mapping[str, Any]]) -> Metrics:
     """Exact match (flat program; node list) and executor accuracy (same task on the scene), overall and per level."""
     preds = parser.parse([e["instruction"] for e in examples])
     rows = []
@@ -40,7 +40,7 @@ def evaluate_parser(parser: InstructionParser, examples: Sequence[Mapping[str, A
             "executor_nodes": p.nodes is not None and _task_equal(p.nodes, e["scene"], e["task"]),
         })
 
-    def rates(rs: list[dict[str, Any]]) -> dict[str, Any]:
+    def rates(rs: list[dict[str, str | bool]]) -> dict[str, float | None]:
         n = len(rs)
         return {"n": n, **{k: (sum(r[k] for r in rs) / n if n else None)
                            for k in ("exact", "nodes_exact", "executor", "executor_nodes")}}
@@ -49,7 +49,7 @@ def evaluate_parser(parser: InstructionParser, examples: Sequence[Mapping[str, A
     return {"all": rates(rows), "by_level": by_level}
 
 
-def parser_test_metrics(parser: InstructionParser, test: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+def parser_test_metrics(parser: InstructionParser, test: Sequence[Mapping[str, Any]]) -> Metrics:
     """The ``test_*`` and ``l3_*`` entries of a parser's ``metrics.json`` (:func:`evaluate_parser`)."""
     seen = [e for e in test if e["level"] == "L1"]
     heldout = [e for e in test if e["level"] == "L3"]
@@ -69,7 +69,7 @@ def parser_test_metrics(parser: InstructionParser, test: Sequence[Mapping[str, A
     }
 
 
-def score_parser(dataset: str | Path, models: str | Path, device: str | None = None) -> dict[str, Any]:
+def score_parser(dataset: str | Path, models: str | Path, device: str | None = None) -> Metrics:
     """Test a trained parser (the ``--out`` folder of ``samplehd train parser``) on a dataset's test
     instructions without training: the ``test_*`` and ``l3_*`` metrics of ``metrics.json``, with the
     wall time and load average of the test (``test_wall_s``, ``test_load_average_1min``).

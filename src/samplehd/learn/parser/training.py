@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -14,13 +13,13 @@ from samplehd.learn.parser.configuration import ParserConfig
 from samplehd.learn.parser.evaluation import parser_test_metrics
 from samplehd.learn.parser.inference import InstructionParser
 from samplehd.learn.parser.processing import MAX_TARGET, encode_source, encode_target, pad_batch
-from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng, torch
+from samplehd.learn.training import Metrics, TrainRun, descend, pick_device, set_seed, step_rng, torch
 
 __all__ = ["train_parser"]
 
 
 def train_parser(dataset: str | Path, out: str | Path, config: ParserConfig, *, device: str | None = None,
-                 quiet: bool = False, stop_after: int | None = None) -> dict[str, Any]:
+                 quiet: bool = False, stop_after: int | None = None) -> Metrics:
     """Train the parser on a dataset's training instructions and test it on its test split.
 
     Metrics (``metrics.json``): ``test_exact_match`` (flat program, test instructions of seen

@@ -17,7 +17,7 @@ from samplehd.learn.perception.configuration import ATTRIBUTES, MIN_PIXELS
 from samplehd.learn.perception.geometry import height_map
 from samplehd.learn.perception.inference import Perception
 from samplehd.learn.perception.preparation import load_scene_images
-from samplehd.learn.training import pick_device, timed
+from samplehd.learn.training import Metrics, pick_device, timed
 
 __all__ = ["evaluate_perception", "perception_test_metrics", "score_perception"]
 
@@ -39,7 +39,7 @@ def _match(pred: Sequence[np.ndarray], gt: Sequence[np.ndarray]) -> list[tuple[i
     return out
 
 
-def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) -> Metrics:
     """Mask IoU, detection F1 (IoU ≥ 0.5), attribute accuracy (per attribute and all four right, on
     detected objects) and position error [cm], over test scenes; attributes split by L1 objects and
     held-out ones."""
@@ -77,10 +77,10 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
             gt_attr_rows.append({"kind": kind, **{a: f[a] == (o["name"] if a == "name" else o[a])
                                                   for a in ATTRIBUTES}})
 
-    def acc(rs: list[dict[str, Any]]) -> dict[str, Any]:
+    def acc(rs: list[dict[str, str | float | bool]]) -> dict[str, float]:
         if not rs:
             return {"n": 0}
-        out: dict[str, Any] = {"n": len(rs), **{a: float(np.mean([r[a] for r in rs])) for a in ATTRIBUTES}}
+        out: dict[str, float] = {"n": len(rs), **{a: float(np.mean([r[a] for r in rs])) for a in ATTRIBUTES}}
         out["mean"] = float(np.mean([out[a] for a in ATTRIBUTES]))
         out["all_four"] = float(np.mean([all(r[a] for a in ATTRIBUTES) for r in rs]))
         return out
@@ -102,7 +102,7 @@ def evaluate_perception(model: Perception, scenes: Sequence[Mapping[str, Any]]) 
     }
 
 
-def perception_test_metrics(model: Perception, scenes: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+def perception_test_metrics(model: Perception, scenes: Sequence[Mapping[str, Any]]) -> Metrics:
     """The ``test_*`` entries of a perception model's ``metrics.json`` (:func:`evaluate_perception`)."""
     m = evaluate_perception(model, scenes)
     return {
@@ -123,7 +123,7 @@ def perception_test_metrics(model: Perception, scenes: Sequence[Mapping[str, Any
     }
 
 
-def score_perception(dataset: str | Path, models: str | Path, device: str | None = None) -> dict[str, Any]:
+def score_perception(dataset: str | Path, models: str | Path, device: str | None = None) -> Metrics:
     """Test a trained perception model (the ``--out`` folder of ``samplehd train perception``) on a
     dataset's test scenes without training: the ``test_*`` metrics of ``metrics.json``, with the wall
     time and load average of the test (``test_wall_s``, ``test_load_average_1min``).

@@ -9,7 +9,7 @@ import os
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import nullcontext
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from PIL import Image
@@ -35,7 +35,7 @@ from samplehd.learn.perception.geometry import (
     seg_labels,
 )
 
-__all__ = ["load_scene_images", "prepare_perception", "prepared_arrays", "size_templates"]
+__all__ = ["PreparedArrays", "load_scene_images", "prepare_perception", "prepared_arrays", "size_templates"]
 
 
 def load_scene_images(item: Mapping[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -65,8 +65,22 @@ def _view_mask(mask: np.ndarray, factor: int, rng: np.random.Generator) -> np.nd
     return out
 
 
+class PreparedArrays(TypedDict):
+    """Perception's training arrays (``prepared.npz``): the segmenter's downsampled RGB, depth and height
+    inputs and labels; per training object its :data:`CROP_VIEWS` crops, their size features and its
+    attribute and kind labels; the median box extents [m] by ``class/size``."""
+
+    rgb: np.ndarray
+    dh: np.ndarray
+    y: np.ndarray
+    crops: np.ndarray
+    geo: np.ndarray
+    labels: np.ndarray
+    extents: dict[str, list[float]]
+
+
 def prepare_perception(items: Sequence[Mapping[str, Any]], vocab: Mapping[str, Sequence[str]], kinds: Sequence[str],
-             factor: int, table_height: float, seed: int, quiet: bool = True) -> dict[str, Any]:
+             factor: int, table_height: float, seed: int, quiet: bool = True) -> PreparedArrays:
     """Arrays for training: the segmenter's downsampled inputs and labels, and :data:`CROP_VIEWS`
     crops (with their size features) of every training object."""
     rgbs, dhs, ys, crops, geos, labels, extents = [], [], [], [], [], [], {}
@@ -120,7 +134,7 @@ def size_templates(geo: np.ndarray, kinds_of: np.ndarray, kinds: Sequence[str]) 
     return out
 
 
-def prepared_arrays(out: Path, key: Mapping[str, Any], make: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+def prepared_arrays(out: Path, key: Mapping[str, Any], make: Callable[[], PreparedArrays]) -> PreparedArrays:
     """The prepared training arrays, cached in ``out/prepared.npz`` (made again when ``key`` differs).
 
     Decoding and cropping the scenes takes longer than many training steps; a resumed run reads them

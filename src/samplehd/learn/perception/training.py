@@ -27,14 +27,14 @@ from samplehd.learn.perception.configuration import (
 from samplehd.learn.perception.evaluation import perception_test_metrics
 from samplehd.learn.perception.inference import Perception
 from samplehd.learn.perception.preparation import prepare_perception, prepared_arrays, size_templates
-from samplehd.learn.training import F, TrainRun, descend, pick_device, set_seed, step_rng, timed, torch
+from samplehd.learn.training import F, Metrics, TrainRun, descend, pick_device, set_seed, step_rng, timed, torch
 from samplehd.world.layout import LAYOUT
 
 __all__ = ["train_perception"]
 
 
 def train_perception(dataset: str | Path, out: str | Path, config: PerceptionConfig, *, device: str | None = None,
-                     quiet: bool = False, stop_after: int | None = None) -> dict[str, Any]:
+                     quiet: bool = False, stop_after: int | None = None) -> Metrics:
     """Train segmentation and attribute networks on a dataset's training scenes; test on its test scenes.
 
     Metrics (``metrics.json``): ``test_mask_iou`` (mean best IoU per ground-truth object),

@@ -28,7 +28,7 @@ from samplehd.learn.policy.preparation import (
     load_arrays,
     save_arrays,
 )
-from samplehd.learn.training import TrainRun, descend, pick_device, set_seed, step_rng, torch
+from samplehd.learn.training import Metrics, TrainRun, descend, pick_device, set_seed, step_rng, torch
 
 __all__ = ["DAGGER_FILE", "DEMOS_FILE", "dagger_policy", "fill_from_dataset", "for_action", "lowest_tcp",
            "train_policy",
@@ -80,7 +80,7 @@ def dagger_policy(args: tuple[PolicyConfig, Mapping[str, Any]], env: Any) -> BCP
 
 
 def train_policy(dataset: str | Path, out: str | Path, config: PolicyConfig, *, device: str | None = None,
-                 quiet: bool = False, stop_after: int | None = None, workers: int = 1) -> dict[str, Any]:
+                 quiet: bool = False, stop_after: int | None = None, workers: int = 1) -> Metrics:
     """Train the behaviour-cloning policy ``config`` on a dataset's training episodes, with the
     episodes of ``config.collect`` collected in the environment.
 

@@ -12,7 +12,7 @@ temperature and direction, table/floor/wall textures and exposure, all drawn fro
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -54,7 +54,7 @@ class LookParams:
     randomised: bool = False
     extra: dict[str, Any] = field(default_factory=dict, compare=False)
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> dict[str, object]:
         d = asdict(self)
         d.pop("extra")
         d["key_offset"] = list(self.key_offset)
@@ -100,7 +100,22 @@ def blackbody_rgb(kelvin: float) -> np.ndarray:
     return rgb / float(rgb @ np.array([0.2126, 0.7152, 0.0722]))
 
 
-def _rgb(v: Any) -> dict[str, Any]:
+class RgbSpectrum(TypedDict):
+    """Mitsuba's ``rgb`` texture: ``type`` ``"rgb"`` and the linear RGB ``value`` (each 0..1 for a
+    reflectance; radiance is unbounded)."""
+
+    type: str
+    value: list[float]
+
+
+class AreaEmitter(TypedDict):
+    """Mitsuba's ``area`` emitter: ``type`` ``"area"`` and its radiance."""
+
+    type: str
+    radiance: RgbSpectrum
+
+
+def _rgb(v: Any) -> RgbSpectrum:
     return {"type": "rgb", "value": [float(c) for c in np.clip(v, 0.0, 1.0)]}
 
 
@@ -222,7 +237,7 @@ def bsdf_for(part: Part, look: LookParams, image: np.ndarray | None = None) -> d
     return {"type": "diffuse", "reflectance": _rgb(lin)}
 
 
-def _emitter(rgb: np.ndarray) -> dict[str, Any]:
+def _emitter(rgb: np.ndarray) -> AreaEmitter:
     return {"type": "area", "radiance": {"type": "rgb", "value": [float(c) for c in rgb]}}
 
 

@@ -10,7 +10,7 @@ from samplehd.tasks.task import Task, TaskFamily, register_family
 from samplehd.world.bodies import object_world_box
 
 
-def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
+def _check(j: Judge, t: Task) -> tuple[str, dict[str, float]]:
     """The object's bottom is ``lift_height`` above the table, it touches a finger (or hangs in the
     grasp assist's weld) and nothing but the robot."""
     reason = ""

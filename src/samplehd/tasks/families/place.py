@@ -3,18 +3,26 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, TypedDict
 
 from samplehd.tasks.checker import Judge
 from samplehd.tasks.task import Task, TaskFamily, parse_part, register_family
 from samplehd.world.layout import table_parts_of
 
 
-def in_part(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
+class PartPlacement(TypedDict):
+    """Where a moved object ended (a check's ``details`` entry under the object's index): its position
+    in metres, rounded to 0.1 mm, and the table parts it lies in."""
+
+    pos: list[float]
+    parts: list[str]
+
+
+def in_part(j: Judge, t: Task) -> tuple[str, dict[str, PartPlacement]]:
     """place (and remove): every moved object rests on the table inside the destination part (the
     neutral band counts as outside); for remove, none is left in the cleared part."""
     reason = ""
-    details: dict[str, Any] = {}
+    details: dict[str, PartPlacement] = {}
     dest = t.destination_part
     for i in t.objects:
         parts = table_parts_of(j.pos(i)[:2], j.layout)

@@ -13,7 +13,7 @@ from samplehd.tasks.checker import Judge
 from samplehd.tasks.task import Task, TaskFamily, parse_relation, register_family
 
 
-def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
+def _check(j: Judge, t: Task) -> tuple[str, dict[str, float]]:
     """The object rests on the table, its offset from the reference along the scene's direction
     vector above ``relation_margin``."""
     reason = ""

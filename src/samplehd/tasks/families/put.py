@@ -2,15 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from samplehd.tasks.checker import Judge
 from samplehd.tasks.families.stack import build_on, parse_on
 from samplehd.tasks.task import Task, TaskFamily, register_family
 from samplehd.world.bodies import object_world_box
 
 
-def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
+def _check(j: Judge, t: Task) -> tuple[str, dict[str, float]]:
     """The object rests inside the container's footprint (shrunk by ``container_margin``), its
     bottom below the container's rim."""
     reason = ""

@@ -31,7 +31,7 @@ def parse_on(name: str) -> Callable[[list[int], Any, str | None, Mapping[str, An
     return parse
 
 
-def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
+def _check(j: Judge, t: Task) -> tuple[str, dict[str, float]]:
     """The object rests on the base (touching it, above its bottom, over its footprint)."""
     return j.stacked(t.objects[0], t.reference), {}
 

@@ -13,7 +13,7 @@ from samplehd.tasks.checker import Judge
 from samplehd.tasks.task import Task, TaskFamily, register_family
 
 
-def _check(j: Judge, t: Task) -> tuple[str, dict[str, Any]]:
+def _check(j: Judge, t: Task) -> tuple[str, dict[str, float]]:
     """Middle on bottom, top on middle (each as for stack)."""
     middle, top = t.objects
     return j.stacked(middle, t.reference) or j.stacked(top, middle), {}
