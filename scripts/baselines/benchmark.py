@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
 import shlex
 import subprocess
 import sys
@@ -29,6 +28,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from samplehd.bench.provenance import machine_description, measured_commit
 from samplehd.benchmark.statistics import proportion
 from samplehd.benchmark.tables import format_rate, markdown_table
 from samplehd.envs.suite_file import read_suite
@@ -77,28 +77,9 @@ def _rows(name: str, records: Sequence[Mapping[str, Any]]) -> list[list[str]]:
     return rows
 
 
-def _git_commit() -> str:
-    try:
-        out = subprocess.run(["git", "-C", str(HERE), "rev-parse", "--short", "HEAD"], capture_output=True,
-                             text=True, check=True)
-        dirty = subprocess.run(["git", "-C", str(HERE), "status", "--porcelain", "--untracked-files=no"],
-                               capture_output=True, text=True, check=True).stdout.strip()
-        return out.stdout.strip() + (" (with uncommitted changes)" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
 def _machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
     load = " ".join(f"{v:.1f}" for v in os.getloadavg())
-    return f"{os.cpu_count()} cores ({cpu}), load average {load} at the end"
+    return f"{machine_description()}, load average {load} at the end"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -140,7 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             records += [r for r in data["records"] if family is None or r["family"] == family]
         rows += _rows(policy, records)
     head = [f"Suite `{suite.name}` ({len(suite.episodes)} episodes, {suite.content_hash}); samplehd commit "
-            f"{_git_commit()}; {_machine()}.", "", "Wall time: " + ", ".join(times) + ".", "", "```bash",
+            f"{measured_commit()}; {_machine()}.", "", "Wall time: " + ", ".join(times) + ".", "", "```bash",
             *commands, "```", ""]
     if skipped:
         head += ["Skipped: " + "; ".join(skipped) + ".", ""]

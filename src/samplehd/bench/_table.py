@@ -11,9 +11,7 @@ from __future__ import annotations
 
 import datetime
 import os
-import platform
 import statistics
-import subprocess
 import tempfile
 import time
 from collections.abc import Callable, Sequence
@@ -27,20 +25,20 @@ import numpy as np
 from samplehd.bench import pin_to_one_core
 from samplehd.bench.language import bench_object_counts
 from samplehd.bench.paths import _bench_scene
+from samplehd.bench.provenance import machine_description, measured_commit
 from samplehd.dataset.container import read_frames
 from samplehd.dataset.journal import JournalRecord
 from samplehd.dataset.layout import EPISODE_DIR
 from samplehd.dataset.render import RenderConfig
 from samplehd.dataset.work import EpisodeUnit, run_episode_unit
-from samplehd.errors import ConfigError, RenderError
+from samplehd.errors import ConfigError
 from samplehd.motion.assist import compile_scene_with_assist
 from samplehd.record.paths import PathConfig
 from samplehd.render.backend import configure_gl_backend
-from samplehd.render.renderer import MODALITIES, SceneRenderer, gl_device
+from samplehd.render.renderer import MODALITIES, SceneRenderer
 from samplehd.render.states import pose_state
 from samplehd.scene.world import OPERATOR_CAMERA, compile_world
 from samplehd.tasks.task import Task
-from samplehd.version import __version__
 from samplehd.workers import keep_freed_memory
 from samplehd.world.layout import DIRECTIONS
 
@@ -226,43 +224,6 @@ def _robot_rows(repeats: int) -> list[Row]:
 AREAS: dict[str, Callable[[int], list[Row]]] = {"robot": _robot_rows, "paths": _path_rows, "language": _language_rows}
 
 
-def _commit() -> str:
-    """The commit measured (with ``+changes`` when the tree differs from it), or the package version."""
-    here = Path(__file__).resolve().parent
-    try:
-        sha = subprocess.run(["git", "rev-parse", "--short=10", "HEAD"], cwd=here, capture_output=True, text=True,
-                             timeout=10, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=here,
-                               capture_output=True, text=True, timeout=10, check=True).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return f"samplehd {__version__} (not a git checkout)"
-    return f"{sha}{' +changes' if dirty else ''} (samplehd {__version__})"
-
-
-def _machine() -> str:
-    cpu = platform.processor() or platform.machine()
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    mem = ""
-    try:
-        kb = int(Path("/proc/meminfo").read_text().split("MemTotal:")[1].split()[0])
-        mem = f", {kb / 2**20:.0f} GiB"
-    except (OSError, IndexError, ValueError):
-        pass
-    gl = os.environ.get("MUJOCO_GL", "")
-    try:
-        device = f" ({gl_device()})"
-    except RenderError:
-        device = " (no GL context)"
-    return (f"{cpu}, {os.cpu_count()} logical cores{mem}, {platform.system()} {platform.release()}, "
-            f"Python {platform.python_version()}, MuJoCo GL backend {gl or 'default'}{device}")
-
-
 class BenchFacts(TypedDict):
     """The header facts of a benchmark table: when (UTC) and on what it ran, the load averages (1 / 5 /
     15 min) at the start and end (None where the system has none), the commit, the wall and CPU time of
@@ -287,10 +248,10 @@ def measure(repeats: int = 3, areas: Sequence[str] = tuple(AREAS)) -> tuple[list
     rows = [row for area in areas for row in AREAS[area](repeats)]
     facts: BenchFacts = {
         "date": when.strftime("%Y-%m-%d %H:%M UTC"),
-        "machine": _machine(),
+        "machine": machine_description(),
         "load_start": start,
         "load_end": os.getloadavg() if hasattr(os, "getloadavg") else None,
-        "commit": _commit(),
+        "commit": measured_commit(),
         "seconds": time.perf_counter() - t0,
         "cpu_seconds": _cpu() - c0,
         "repeats": repeats,
