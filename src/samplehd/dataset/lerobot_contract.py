@@ -2,7 +2,7 @@
 ``samplehd/Tabletop-v0`` together, declared once.
 
 The exporter (:mod:`samplehd.export.lerobot`) writes these features and ``meta/samplehd.json``; the
-LeRobot env (:mod:`samplehd.envs.lerobot_tabletop`, behind the ``lerobot_env_samplehd`` plugin) and the
+LeRobot env (:mod:`samplehd.benchmark.lerobot_tabletop`, behind the ``lerobot_env_samplehd`` plugin) and the
 ``samplehd evaluate --policy lerobot:CKPT`` policy read them. The env returns LeRobot's raw observation
 keys, which LeRobot's ``preprocess_observation`` renames into the export's features:
 

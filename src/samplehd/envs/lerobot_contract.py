@@ -1,13 +1,7 @@
 """The Tabletop-v0 side of the LeRobot contract (:mod:`samplehd.dataset.lerobot_contract`).
 
-env key             LeRobot feature               value
-==================  ============================  ===============================================
-``pixels/<cam>``    ``observation.images.<cam>``  RGB (H, W, 3) uint8 (LeRobot makes it CHW float)
-``agent_pos``       ``observation.state``         6 joint angles [rad] + gripper opening [m]
-``tcp_pose``        ``observation.tcp_pose``      TCP position [m] + quaternion (w, x, y, z)
-``action``          ``action``                    SAMPLE-HD's 7-D steering vector
-==================  ============================  ===============================================
-=======
+The keys and features are tabled in that module.
+
 The LeRobot env (:mod:`samplehd.benchmark.lerobot_tabletop`, behind the ``lerobot_env_samplehd`` plugin) and
 the ``samplehd evaluate --policy lerobot:CKPT`` policy (:mod:`samplehd.benchmark.lerobot_policy`) both turn a
 Tabletop-v0 observation into LeRobot's raw env observation with :func:`lerobot_observation`, and build
