@@ -222,7 +222,8 @@ def _home_clear(model: mujoco.MjModel, data: mujoco.MjData, count: int) -> bool:
     if mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY) < 0:
         return True
     robot = RobotInfo.from_model(model, data)
-    checker = CollisionChecker(model, data, SceneBodies(model, count), robot)
+    # one query: copying the model to prune its static pairs would cost more than it saves
+    checker = CollisionChecker(model, data, SceneBodies(model, count), robot, prune=False)
     return checker.free(HOME_QPOS, GRIPPER_STROKE)
 
 
