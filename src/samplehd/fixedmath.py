@@ -170,10 +170,12 @@ def _kernels() -> ModuleType:
 
 
 def _flat(f: str, *args: np.ndarray | float) -> np.ndarray:
-    arrays = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in args))
+    arrays = [np.asarray(a, dtype=np.float64) for a in args]
+    if any(a.shape != arrays[0].shape for a in arrays[1:]):  # broadcasting only where the shapes differ
+        arrays = np.broadcast_arrays(*arrays)
     flat = [np.ascontiguousarray(a).reshape(-1) for a in arrays]
     out = np.empty(flat[0].shape[0])
-    getattr(_kernels(), f)(*flat, out)
+    getattr(_KERNELS[0] if _KERNELS else _kernels(), f)(*flat, out)
     return out.reshape(arrays[0].shape)
 
 

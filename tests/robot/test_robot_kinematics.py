@@ -22,6 +22,7 @@ from samplehd.robot.kinematics import (
     inverse_kinematics,
     pos_quat_from_pose,
     pose_from_pos_quat,
+    wrap_to_limits,
 )
 
 _angles = st.lists(st.floats(-np.pi, np.pi, allow_nan=False), min_size=6, max_size=6).map(np.array)
@@ -119,6 +120,24 @@ def test_batch_matches_single() -> None:
     assert ok.all()
     single = np.array([inverse_kinematics(p, s, TCP_OFFSET) for p, s in zip(poses, seeds, strict=True)])
     np.testing.assert_allclose(batch, single, atol=1e-8)
+
+
+def test_a_batch_row_has_the_bits_of_its_own_call() -> None:
+    """The grasp search solves several seeds of one pose in one ik_batch call: every row must be the
+    bits of that row solved alone (small batches and the compiled products' sizes alike)."""
+    rng = np.random.default_rng(11)
+    for n in (2, 3, 4, 9, 17):
+        poses = np.repeat(fk_tcp(rng.uniform(-np.pi, np.pi, 6))[None], n, axis=0)
+        poses[n // 2:] = forward_kinematics(rng.uniform(-np.pi, np.pi, (n - n // 2, 6)), TCP_OFFSET)
+        seeds = rng.uniform(-np.pi, np.pi, (n, 6))
+        batch, ok = ik_batch(poses, seeds, TCP_OFFSET)
+        for k in range(n):
+            one, one_ok = ik_batch(poses[k:k + 1], seeds[k], TCP_OFFSET)
+            assert batch[k].tobytes() == one[0].tobytes() and ok[k] == one_ok[0]
+        wrapped, inside = wrap_to_limits(batch, seeds[0])
+        for k in range(n):
+            alone, alone_inside = wrap_to_limits(batch[k], seeds[0])
+            assert wrapped[k].tobytes() == alone.tobytes() and inside[k] == alone_inside
 
 
 @pytest.mark.parametrize(

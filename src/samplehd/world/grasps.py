@@ -278,12 +278,8 @@ def ik_near(pose_base: np.ndarray, seed: np.ndarray) -> np.ndarray | None:
 
 def ik_candidates(pose_base: np.ndarray, seed: np.ndarray) -> list[np.ndarray]:
     """Every IK solution inside the limits, nearest ``seed`` first (each wrapped towards it) [rad]."""
-    sols = ik_all(pose_base, TCP_OFFSET)
-    out = []
-    for s in sols:
-        q, ok = wrap_to_limits(s, seed)
-        if ok:
-            out.append(q)
+    qs, ok = wrap_to_limits(ik_all(pose_base, TCP_OFFSET), seed)  # row by row, in one pass
+    out = [q for q, inside in zip(qs, ok, strict=True) if inside]
     out.sort(key=lambda q: float(np.sum((q - seed) ** 2)))
     return out
 
@@ -438,12 +434,14 @@ def _grasp_arm_poses(robot: RobotInfo, tcp_w: np.ndarray, app: np.ndarray, dz: f
     pre_w = tcp_k.copy()
     pre_w[:3, 3] -= config.approach_distance * app
     tcp_b, pre_b = robot.world_to_base(tcp_k), robot.world_to_base(pre_w)
+    pres = [q for q in ik_candidates(pre_b, seed_q)[:4] if _elbow_up(q)]
     branches: list[tuple[np.ndarray, np.ndarray]] = []
-    for q_pre in ik_candidates(pre_b, seed_q)[:4]:
-        if not _elbow_up(q_pre):
-            continue
-        q_g = ik_near(tcp_b, q_pre)
-        if q_g is None or np.max(np.abs(q_g - q_pre)) > 0.6:
+    if not pres:
+        return _GraspArmPoses(tcp_b, pre_b, branches)
+    # the grasp nearest each pre-grasp branch, all in one batch (each row the bits of its own ik_near)
+    q_gs, ok = ik_batch(np.repeat(tcp_b[None], len(pres), axis=0), np.array(pres), TCP_OFFSET)
+    for q_pre, q_g, found in zip(pres, q_gs, ok, strict=True):
+        if not found or np.max(np.abs(q_g - q_pre)) > 0.6:
             continue
         branches.append((q_pre, q_g))
     return _GraspArmPoses(tcp_b, pre_b, branches)
