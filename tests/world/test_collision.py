@@ -7,29 +7,9 @@ import samplehd  # noqa: F401  (sets MUJOCO_GL before mujoco is imported)
 # isort: split
 import mujoco
 import numpy as np
-import pytest
 
-from samplehd.catalogue import ObjectInstance
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS
-from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene
-from samplehd.world.bodies import SceneBodies
 from samplehd.world.collision import CollisionChecker, Held, pruned_collision_model
-from samplehd.world.robot_info import RobotInfo
-
-TABLE = 0.75  # [m]
-UP = (1.0, 0.0, 0.0, 0.0)
-
-
-@pytest.fixture(scope="module")
-def shop_scene() -> tuple[mujoco.MjModel, mujoco.MjData, SceneBodies, RobotInfo]:
-    """Three SHOP-VRB shapes (convex hulls) resting on the table, two of them touching."""
-    objs = (
-        SceneObject(ObjectInstance("mug", "shopvrb1", "red", "ceramic", "medium"), (0.05, -0.15, TABLE), UP),
-        SceneObject(ObjectInstance("bowl", "shopvrb1", "white", "ceramic", "medium"), (0.05, 0.05, TABLE), UP),
-        SceneObject(ObjectInstance("food_box", "shopvrb1", "yellow", "plastic", "small"), (0.12, 0.05, TABLE), UP),
-    )
-    model, data = compile_scene(SceneSpec(index=0, seed=0, objects=objs), robot_look="primitive")
-    return model, data, SceneBodies(model, len(objs)), RobotInfo.from_model(model, data)
 
 
 def test_the_pruned_copy_skips_only_pairs_without_a_kept_body(shop_scene) -> None:
@@ -81,3 +61,4 @@ def test_pruned_queries_equal_the_full_models(shop_scene) -> None:
     # the held object's geoms collide with the table only while it is held
     assert pruned.contacts(HOME_QPOS, GRIPPER_STROKE, helds[1]) == full.contacts(HOME_QPOS, GRIPPER_STROKE, helds[1])
     assert pruned.contacts(HOME_QPOS, GRIPPER_STROKE) == full.contacts(HOME_QPOS, GRIPPER_STROKE)
+

@@ -196,12 +196,16 @@ class Rollout:
             ``use_assist`` off: the rollout reads its welds and grasps as with its own (the
             gripper stops closing when both pads touch, a grasp is held when welded) but never
             updates it. None: the rollout's own assist (off without ``use_assist``).
+        grasp_memo: the compiled scene's name for :func:`~samplehd.world.grasps.choose_grasps`'s
+            ``memo`` (None: every grasp search runs).
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
                  bodies: SceneBodies, facts: list[ObjectFacts | None], config: PlannerConfig, rng: np.random.Generator,
                  layout: TableLayout = LAYOUT, directions: Directions | None = None,
-                 use_assist: bool = True, step_assist: GraspAssist | None = None) -> None:
+                 use_assist: bool = True, step_assist: GraspAssist | None = None,
+                 grasp_memo: str | None = None) -> None:
+        self.grasp_memo = grasp_memo
         self.use_assist = use_assist
         # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
         self.assisted = use_assist or step_assist is not None
@@ -344,7 +348,7 @@ class Rollout:
         self._sync()
         q0 = self.ctrl.target
         grasps = choose_grasps(self.model, self.data, self.bodies, self.robot, self.checker, i, self.facts[i],
-                               q0, self.cfg, self.layout, exclude)
+                               q0, self.cfg, self.layout, exclude, memo=self.grasp_memo)
         if not grasps:
             raise AttemptFailed("no_feasible_grasp", f"object {i}: no reachable, collision-free grasp")
         k, gp = grasps[0]

@@ -10,6 +10,7 @@ it raises :class:`PathRejected` with a short, countable reason. A failed path is
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from functools import partial
 from typing import Any, TypedDict
@@ -122,8 +123,10 @@ def _new_rollout(model: mujoco.MjModel, data: mujoco.MjData, scene: SceneSpec, r
     if as_actions and config.grasp_assist:
         step_assist = GraspAssist(model, bodies.num_objects)
         step_assist.release(data)
+    # The scene as compiled: every instruction of it starts its first grasp search from the same state.
+    memo = f"{json.dumps(scene.to_dict(), sort_keys=True)} nq={model.nq} ngeom={model.ngeom}"
     ro = Rollout(model, data, ctrl, robot, bodies, facts, config.planner, rng, LAYOUT, directions,
-                 use_assist=config.grasp_assist and not as_actions, step_assist=step_assist)
+                 use_assist=config.grasp_assist and not as_actions, step_assist=step_assist, grasp_memo=memo)
     recorder = FrameRecorder(model, data, robot.arm_qpos, robot.arm_dof, robot.finger_qpos, ro.finger_bodies,
                              robot.tcp_site, bodies.object_body, live)
     if as_actions:

@@ -19,8 +19,11 @@ Rules (data, one entry per site name in :data:`GRASP_RULES`):
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import hashlib
 import math
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -306,6 +309,7 @@ def choose_grasps(
     config: PlannerConfig,
     layout: TableLayout = LAYOUT,
     exclude: tuple[int, ...] = (),
+    memo: str | None = None,
 ) -> list[tuple[int, GraspPlan]]:
     """Feasible grasps of object ``i`` in the current state, best first, with their registry index.
 
@@ -318,7 +322,62 @@ def choose_grasps(
     fingers (opened to the grasp's opening) touch nothing, the object included, at either pose, and
     the fingertips stay ``finger_clearance`` above the table (the grasp is raised a little where the
     open fingers would press on the object).
+
+    ``memo`` names the compiled scene (its spec and how it was compiled, e.g. the spec as JSON and
+    ``model.ngeom``): the result is then kept in this process under it and the bytes of everything
+    else the search reads (the state, the arguments), and a later call with the same bytes gets a
+    copy instead of searching again. Every instruction of a scene starts its first pick from the same
+    state (the scene as compiled, the arm at home), so a worker that meets the scene again skips it.
     """
+    if memo is None:
+        return _search_grasps(model, data, bodies, robot, checker, i, facts, seed_q, config, layout, exclude)
+    key = _search_key(memo, model, data, bodies, robot, checker, i, facts, seed_q, config, layout, exclude)
+    found = _SEARCHES.get(key)
+    if found is None:
+        found = _search_grasps(model, data, bodies, robot, checker, i, facts, seed_q, config, layout, exclude)
+        _SEARCHES[key] = copy.deepcopy(found)
+        while len(_SEARCHES) > _SEARCHES_KEPT:
+            _SEARCHES.popitem(last=False)
+        return found
+    _SEARCHES.move_to_end(key)
+    return copy.deepcopy(found)
+
+
+# choose_grasps results by memo and input bytes (least recently used dropped first): a few KB each
+_SEARCHES: OrderedDict[bytes, list[tuple[int, GraspPlan]]] = OrderedDict()
+_SEARCHES_KEPT = 4096
+
+
+def _search_key(memo: str, model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodies, robot: RobotInfo,
+                checker: CollisionChecker, i: int, facts: ObjectFacts | None, seed_q: np.ndarray,
+                config: PlannerConfig, layout: TableLayout, exclude: tuple[int, ...]) -> bytes:
+    """The digest of everything :func:`_search_grasps` reads."""
+    h = hashlib.sha256(memo.encode())
+    site_facts = None if facts is None else (facts.graspable_sites, facts.bbox_min, facts.bbox_max)
+    h.update(repr((model.nq, model.ngeom, model.nbody, bodies.num_objects, i, tuple(exclude), site_facts, config,
+                   layout, checker.margin, checker.object_margin, robot.finger_open_sign, robot.finger_depth,
+                   robot.tcp_site)).encode())
+    for arr in (model.geom_type, model.geom_size, model.geom_dataid, model.mesh_vertnum, model.geom_contype,
+                model.geom_conaffinity, np.asarray(seed_q, dtype=float), checker.base_qpos, data.qpos, data.xpos,
+                data.xquat, data.xmat, data.geom_xpos, data.geom_xmat, robot.base_pos, robot.base_rot,
+                robot.finger_axis):
+        h.update(np.ascontiguousarray(arr).tobytes())
+    return h.digest()
+
+
+def _search_grasps(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    bodies: SceneBodies,
+    robot: RobotInfo,
+    checker: CollisionChecker,
+    i: int,
+    facts: ObjectFacts | None,
+    seed_q: np.ndarray,
+    config: PlannerConfig,
+    layout: TableLayout,
+    exclude: tuple[int, ...],
+) -> list[tuple[int, GraspPlan]]:
     t_obj = object_pose(data, bodies, i)
     sites = facts.graspable_sites if facts is not None else ()
     bmin = facts.bbox_min if facts is not None else bodies.local_box(i).lo
