@@ -252,6 +252,7 @@ class Rollout:
         """
         idx = self._begin(name)
         n = len(targets)
+        grips = None
         if callable(gripper):
             grip_of = gripper
         else:
@@ -262,12 +263,15 @@ class Rollout:
         # previous target (clipped by the controller) gets its own.
         poses = fk_tcp(np.vstack([self.ctrl.target[None], targets])) if n else np.zeros((0, 4, 4))
         motion = steering_motion(poses[:-1], poses[1:], self.dt, cc.max_linear_speed, cc.max_angular_speed)
+        # with the gripper commands known in advance, every step's vector at once (each row the bits of its own)
+        steers = None if grips is None else np.clip(np.column_stack([motion, grips]), -1.0, 1.0).astype(np.float32)
         previous = self.ctrl.target
         for k, q in enumerate(targets):
             self.gripper = float(grip_of(k))
             now = self.ctrl.target
             if np.array_equal(now, previous):
-                steer = np.clip(np.append(motion[k], self.gripper), -1.0, 1.0).astype(np.float32)
+                steer = (np.clip(np.append(motion[k], self.gripper), -1.0, 1.0).astype(np.float32) if steers is None
+                         else steers[k])
             else:
                 steer = steering_from_targets(fk_tcp(now), poses[k + 1], self.gripper, self.dt,
                                               cc.max_linear_speed, cc.max_angular_speed)

@@ -201,6 +201,7 @@ class RobotController:
         self._speed = SPEED_LIMITS * cfg.speed_scale
         self._reach = self._speed * cfg.control_dt  # largest target move per control step [rad]
         self._limits = JOINT_LIMITS
+        self._lo, self._hi = JOINT_LIMITS[:, 0].copy(), JOINT_LIMITS[:, 1].copy()
         self._limit_rows = JOINT_LIMITS.tolist()
         self._dt = cfg.control_dt
         self._chunk = cfg.substeps // cfg.safety_checks_per_step
@@ -299,7 +300,7 @@ class RobotController:
         a = np.asarray(action, dtype=float)
         if a.shape != (size,):
             raise ActionError(f"action for mode {mode!r} must have shape ({size},), got {a.shape}")
-        if not np.all(np.isfinite(a)):
+        if not np.isfinite(a).all():
             raise ActionError(f"action for mode {mode!r} contains NaN or infinite values")
         if self._stopped is not None:
             return ControlReport(time=float(self.data.time), ignored=True)
@@ -322,8 +323,8 @@ class RobotController:
         else:
             target, pose, unreachable, cart_clipped = self._cartesian_target(a, mode)
             clipped.extend(cart_clipped)
-        lo, hi = self._limits[:, 0], self._limits[:, 1]
-        if np.any(target < lo) or np.any(target > hi):
+        lo, hi = self._lo, self._hi
+        if (target < lo).any() or (target > hi).any():
             clipped.append("joint_limits")
             target = np.clip(target, lo, hi)
         self._target = np.array(target, dtype=float)
@@ -410,7 +411,7 @@ class RobotController:
             # factor, so the slowest joint (at its speed limit) sets the pace and all joints
             # arrive together, as a UR "movej" does. The target is reached this period when the
             # speed limits allow.
-            slowest = float(np.max(np.abs(ramp) / self._reach))
+            slowest = float((np.abs(ramp) / self._reach).max())
             fraction = 1.0 if slowest <= 1.0 else 1.0 / slowest
             velocity = ramp * (fraction / self._dt)
             d.ctrl[self._pos_ctrl] = velocity

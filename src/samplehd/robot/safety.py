@@ -158,6 +158,8 @@ class SafetyMonitor:
                 object_bodies |= _descendants(m, b)
         body_class = np.where(robot_bodies, _ROBOT, np.where(object_bodies, _OBJECT, _OTHER))
         self._geom_class = body_class[m.geom_bodyid].astype(np.int8)
+        self._robot_geom = self._geom_class == _ROBOT
+        self._geom_body: list[int] = m.geom_bodyid.tolist()
         dofs = [int(m.jnt_dofadr[m.joint(j).id]) for j in JOINT_NAMES]
         contiguous = dofs == list(range(dofs[0], dofs[0] + len(dofs)))
         self._arm_dofs = slice(dofs[0], dofs[-1] + 1) if contiguous else np.array(dofs)
@@ -184,11 +186,10 @@ class SafetyMonitor:
         if data.ncon:
             contacts = data.contact
             geom = contacts.geom
-            cls = self._geom_class[geom]
-            robot = cls == _ROBOT
-            involved = np.flatnonzero(robot[:, 0] | robot[:, 1])
+            robot = self._robot_geom[geom]
+            involved = (robot[:, 0] | robot[:, 1]).nonzero()[0]
             if involved.size:
-                event = self._check_contacts(data, involved, geom, cls, contacts.dist)
+                event = self._check_contacts(data, involved, geom[involved], contacts.dist[involved])
                 if event is not None:
                     return event
                 return self._check_torque(data) if torque else None
@@ -196,24 +197,26 @@ class SafetyMonitor:
         return self._check_torque(data) if torque else None
 
     def _check_contacts(
-        self, data: mujoco.MjData, involved: np.ndarray, geom: np.ndarray, cls: np.ndarray, dist: np.ndarray
+        self, data: mujoco.MjData, involved: np.ndarray, geom: np.ndarray, dist: np.ndarray
     ) -> SafetyEvent | None:
+        """The contacts ``involved`` (their geom pairs ``geom`` and distances ``dist``) of the robot."""
         cfg = self.config
         m = self.model
+        body_of = self._geom_body
         # Normal force summed over the contact points of each (robot body, object body) pair.
         pair_force: dict[tuple[int, int], list[float | int]] = {}
-        for i in involved.tolist():
-            g1, g2 = int(geom[i, 0]), int(geom[i, 1])
-            c1, c2 = int(cls[i, 0]), int(cls[i, 1])
+        # one conversion to Python numbers for all of them (the loop runs at every safety check)
+        for i, (g1, g2), (c1, c2), d in zip(involved.tolist(), geom.tolist(), self._geom_class[geom].tolist(),
+                                            dist.tolist(), strict=True):
             if c1 != _ROBOT:
                 g1, g2, c1, c2 = g2, g1, c2, c1
             if c2 == _OBJECT:
                 mujoco.mj_contactForce(m, data, i, self._force)
-                key = (int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2]))
+                key = (body_of[g1], body_of[g2])
                 entry = pair_force.setdefault(key, [0.0, g1, g2])
                 entry[0] += abs(float(self._force[0]))
                 continue
-            depth = -float(dist[i])
+            depth = -d
             if depth < cfg.min_penetration:
                 continue
             if c2 == _ROBOT and cfg.check_self_collision:
