@@ -166,3 +166,21 @@ def test_config_validation():
     with pytest.raises(ConfigError):
         CheckerConfig.from_dict({"nope": 1})
     assert CheckerConfig.from_dict(CheckerConfig().to_dict()) == CheckerConfig()
+
+
+def test_the_window_is_the_steps_one_by_one(compiled, scene):
+    """The checker's window runs in MuJoCo's own loop: the same bits as stepping once per call."""
+    from samplehd.physics import wake_all
+    from samplehd.tasks.checker import _simulate_window
+
+    model, data = _state(compiled, scene, {0: (0.05, -0.2, TABLE + 0.03)})  # the box falls 3 cm
+    end = _simulate_window(model, data, 0.3)
+    ref = mujoco.MjData(model)
+    mujoco.mj_copyData(ref, model, data)
+    wake_all(ref)
+    for _ in range(150):
+        mujoco.mj_step(model, ref)
+    mujoco.mj_forward(model, ref)
+    assert end.time == ref.time > data.time
+    for field in ("qpos", "qvel", "act", "xpos"):
+        assert getattr(end, field).tobytes() == getattr(ref, field).tobytes(), field
