@@ -100,3 +100,17 @@ def test_a_cell_whose_first_candidates_find_no_episode_is_given_up() -> None:
     assert suite.manifest["short_cells"] == [{
         "catalogue": "procedural", "family": "stack_three", "level": "L1", "episodes": 0, "candidates": 2,
         "reason": "no episode of the family and level on the 2 scenes of its first candidates"}]
+
+
+@pytest.mark.slow
+def test_the_once_empty_core_cells_fill_with_oracle_proven_episodes() -> None:
+    """put L3, stack L3 and stack_three L1 on procedural, drawn as core draws them (its rounds and its
+    stack_three scenes): each cell gets its episode, of its level, and the oracle solved it."""
+    spec = json.loads((SUITE_SPEC_DIR / "core.json").read_text())
+    config = SuiteBuildConfig.from_dict({**spec, "families": ["put", "stack", "stack_three"], "levels": ["L1", "L3"],
+                                         "catalogues": ["procedural"], "episodes_per_cell": 1})
+    suite = build_suite("filled", config)
+    assert suite.manifest["short_cells"] == []
+    cells = {(e.family, e.level) for e in suite.episodes}
+    assert cells == {(f, lv) for f in ("put", "stack", "stack_three") for lv in ("L1", "L3")}
+    assert all(len(e.scene["objects"]) >= 5 for e in suite.episodes if e.family == "stack_three")
