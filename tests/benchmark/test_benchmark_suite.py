@@ -23,7 +23,7 @@ from samplehd.benchmark.axes import (
 from samplehd.benchmark.evaluation import EvalConfig, evaluate
 from samplehd.benchmark.lerobot_tabletop import LeRobotTabletop
 from samplehd.benchmark.suite import SuiteBuildConfig, build_suite
-from samplehd.envs.suite_file import SuiteEpisode, content_hash, read_suite, shipped_suites, suite_path
+from samplehd.envs.suite_file import Suite, SuiteEpisode, content_hash, read_suite, shipped_suites, suite_path
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.errors import ConfigError, SceneError
@@ -218,6 +218,24 @@ def test_the_lerobot_env_serves_a_suites_episodes_of_its_family() -> None:
         assert env.task_description == picks[-1].instruction and info["suite_episode"] == picks[-1].id
         with pytest.raises(ConfigError, match=f"has {len(picks)} pick_up episodes"):
             env.reset(seed=len(picks))
+    finally:
+        env.close()
+
+
+def test_the_lerobot_env_has_a_slot_for_every_object_of_its_suites_scenes(tmp_path: Path) -> None:
+    """A suite scene with more objects than the env samples (core's stack_three: up to 7) resets: the env
+    is made with room for the family's fullest scene, as `evaluate --suite` makes its env."""
+    twin = read_suite(SHIPPED).episodes[4].to_dict()  # "Please pick up the mug."
+    crowded = next(v for v in (_attempt(twin, 3, a) for a in range(4)) if v is not None)  # 3 objects + 3
+    crowded = {**crowded, "id": 0, "axis": "none", "strength": 0, "twin": None}
+    assert len(crowded["scene"]["objects"]) > SceneConfig().max_objects
+    path = tmp_path / "crowded.json"
+    Suite(name="crowded", path=None, content_hash=content_hash([crowded]), build={}, manifest={}, package_version="",
+          episodes=(SuiteEpisode.from_dict(crowded),)).write(path)
+    env = LeRobotTabletop("pick_up", {"obs_mode": "rgb", "width": 32, "height": 32}, suite=str(path))
+    try:
+        _, info = env.reset(seed=0)
+        assert info["suite_episode"] == 0 and env.task_description == twin["instruction"]
     finally:
         env.close()
 

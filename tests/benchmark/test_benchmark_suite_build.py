@@ -47,14 +47,70 @@ def test_the_shipped_core_specification_is_every_family_level_and_catalogue() ->
     assert len(config.cells()) * config.episodes_per_cell >= 1400 and config.axes == ()
 
 
+def test_put_and_stack_have_l3_episodes(cache: SceneCache) -> None:
+    """The held-out phrasings "Place X inside Y" and "Stack X onto Y" are L3: a seen variant's "in" or
+    "on" does not match the start of "inside" or "onto". A scene with one stack task says its
+    held-out phrasing only in a later round of draws."""
+    seeds = scene_seeds(0, 0, 4)
+    for family, word in (("put", " inside "), ("stack", " onto ")):
+        scene, entry, _ = instruction_at_level(cache, seeds, family, "L3")
+        assert word in entry["instruction"] and episode_level(entry, cache.annotation(scene)) == "L3"
+    with pytest.raises(ConfigError, match="no stack episode of this level on 1 scenes"):
+        instruction_at_level(cache, seeds[3:], "stack", "L3")
+    scene, entry, seed = instruction_at_level(cache, seeds[3:], "stack", "L3", rounds=4)
+    assert seed == seeds[3] and entry["instruction"].startswith("Stack ") and " onto " in entry["instruction"]
+
+
+def test_stack_three_cells_draw_from_scenes_of_their_own(cache: SceneCache) -> None:
+    """core samples stack_three's scenes with 5–7 objects (three that stack are rare among 3–5): the
+    scene seed of candidate 9's first scene then holds an L1 and an L3 episode,
+    where the 3–5-object scene of that seed holds none; other families keep the env's scenes."""
+    config = SuiteBuildConfig.from_dict(json.loads((SUITE_SPEC_DIR / "core.json").read_text()))
+    own = config.scene_for("procedural", "stack_three")
+    assert (own.min_objects, own.max_objects, own.catalogue) == (5, 7, "procedural")
+    assert config.scene_for("procedural", "stack") == SceneConfig(catalogue="procedural")
+    seed = scene_seeds(0, 9, 1)
+    with pytest.raises(ConfigError, match="no stack_three episode of this level on 1 scenes"):
+        instruction_at_level(cache, seed, "stack_three", "L1")
+    rich = SceneCache(own, size=2, grasp_welds=True, gl_free=True)
+    for level in ("L1", "L3"):
+        scene, entry, _ = instruction_at_level(rich, seed, "stack_three", level, rounds=config.instruction_rounds)
+        assert len(scene.objects) >= 5 and episode_level(entry, rich.annotation(scene)) == level
+
+
+def test_a_family_scene_option_is_checked() -> None:
+    with pytest.raises(ConfigError, match=r"suite.family_scene.stak: unknown family 'stak'"):
+        SuiteBuildConfig(family_scene={"stak": {"min_objects": 5}})
+    with pytest.raises(ConfigError, match=r"suite.family_scene.stack_three: unknown option\(s\) \['objects'\]"):
+        SuiteBuildConfig(family_scene={"stack_three": {"objects": 5}})
+    with pytest.raises(ConfigError, match=r"suite.family_scene.stack_three: scene.max_objects=5: must be ≥"):
+        SuiteBuildConfig(family_scene={"stack_three": {"min_objects": 6}})
+    with pytest.raises(ConfigError, match=r"other than 'catalogue'"):
+        SuiteBuildConfig(family_scene={"stack_three": {"catalogue": "procedural"}})
+
+
 def test_a_cell_whose_first_candidates_find_no_episode_is_given_up() -> None:
-    """put L3 has no episode (its held-out text also fits a seen variant): the first round's two
-    candidates find none, and the build tries no third one but names the cell and why."""
-    config = SuiteBuildConfig(families=("put",), levels=("L3",), catalogues=("procedural",), episodes_per_cell=3,
-                              max_scenes_per_candidate=1, env={"obs_mode": "state"})
+    """stack_three L1 has no episode on the first 3–5-object scene of candidates 0 and 1: the first
+    round's two candidates find none, and the build tries no third one but names the cell and why."""
+    config = SuiteBuildConfig(families=("stack_three",), levels=("L1",), catalogues=("procedural",),
+                              episodes_per_cell=3, max_scenes_per_candidate=1, env={"obs_mode": "state"})
     suite = build_suite("empty", config)
     assert suite.episodes == () and suite.manifest["candidates"] == 2
-    assert suite.manifest["rejected"] == {"draw: no L3 episode in 1 scenes": 2}
+    assert suite.manifest["rejected"] == {"draw: no L1 episode in 1 scenes": 2}
     assert suite.manifest["short_cells"] == [{
-        "catalogue": "procedural", "family": "put", "level": "L3", "episodes": 0, "candidates": 2,
+        "catalogue": "procedural", "family": "stack_three", "level": "L1", "episodes": 0, "candidates": 2,
         "reason": "no episode of the family and level on the 2 scenes of its first candidates"}]
+
+
+@pytest.mark.slow
+def test_the_once_empty_core_cells_fill_with_oracle_proven_episodes() -> None:
+    """put L3, stack L3 and stack_three L1 on procedural, drawn as core draws them (its rounds and its
+    stack_three scenes): each cell gets its episode, of its level, and the oracle solved it."""
+    spec = json.loads((SUITE_SPEC_DIR / "core.json").read_text())
+    config = SuiteBuildConfig.from_dict({**spec, "families": ["put", "stack", "stack_three"], "levels": ["L1", "L3"],
+                                         "catalogues": ["procedural"], "episodes_per_cell": 1})
+    suite = build_suite("filled", config)
+    assert suite.manifest["short_cells"] == []
+    cells = {(e.family, e.level) for e in suite.episodes}
+    assert cells == {(f, lv) for f in ("put", "stack", "stack_three") for lv in ("L1", "L3")}
+    assert all(len(e.scene["objects"]) >= 5 for e in suite.episodes if e.family == "stack_three")

@@ -84,9 +84,15 @@ class LeRobotTabletop(gym.Env):
         if suite is not None:
             if level is not None:
                 raise ConfigError(f"level={level!r}: a suite fixes each episode's level; leave level out with suite")
-            self._suite_episodes = tuple(e.id for e in read_suite(suite).episodes if e.family == family)
+            episodes = [e for e in read_suite(suite).episodes if e.family == family]
+            self._suite_episodes = tuple(e.id for e in episodes)
             if not self._suite_episodes:
                 raise ConfigError(f"task={family!r}: suite {suite!r} has no episode of this family")
+            # an observation slot for every object of the family's fullest scene (core's stack_three
+            # scenes hold up to 7 objects, a distractors variant up to 10), as `evaluate --suite` makes
+            need = max(len(e.scene.get("objects", ())) for e in episodes)
+            if need > config.scene.max_objects:
+                options["scene"] = {**dict(options.get("scene") or {}), "max_objects": need}
         self.family, self.families, self.split_seed, self.level = family, families, int(split_seed), level
         self._index = families.index(family)
         self._inner: TabletopEnv | None = None

@@ -105,21 +105,25 @@ def _may_have_level(scene: Any, level: str) -> bool:
 
 
 def instruction_at_level(cache: SceneCache, scene_seeds: Iterable[int], family: str, level: str,
-                         per_scene: int = 8) -> tuple[Any, dict[str, Any], int]:
+                         per_scene: int = 8, rounds: int = 1) -> tuple[Any, dict[str, Any], int]:
     """The first episode of ``family`` in ``level`` among the scenes sampled from ``scene_seeds``.
 
     On each scene up to ``per_scene`` distinct instructions of the family are drawn, as a reset draws
     one (:func:`samplehd.language.generator.generate_instructions`, from a generator seeded by the
-    scene seed and the family), and the first of the level is taken; a scene with none gives way to
-    the next seed. Scenes and their annotations come from ``cache``, so cells that share scene seeds
-    sample each scene once.
+    scene seed and the family), and the first of the level is taken; when none is, up to ``rounds - 1``
+    more rounds are drawn, round ``r`` from a generator seeded by the scene seed, the family and ``r``
+    (a scene with only a task or two of a rare family then also says them in their other text
+    variants: an L3 episode needs the held-out one); a scene with none gives way to the next seed.
+    Scenes and their annotations come from ``cache``, so cells that share scene seeds sample each
+    scene once.
 
     Args:
         cache: the environment's scene cache (its sampler options make the scenes).
         scene_seeds: scene seeds, tried in order.
         family: the task family.
         level: L1–L4.
-        per_scene: instructions drawn per scene.
+        per_scene: instructions drawn per round.
+        rounds: rounds of drawing per scene (1: the first round only).
 
     Returns:
         (scene, instruction entry, scene seed): reset the environment with
@@ -137,9 +141,13 @@ def instruction_at_level(cache: SceneCache, scene_seeds: Iterable[int], family: 
         if not _may_have_level(scene, level):
             continue  # no object a target of the level could be: skip the scene's annotation and compilation
         annotation = cache.annotation(scene)
-        rng = np.random.default_rng([int(seed), zlib.crc32(family.encode())])
-        for instruction in generate_instructions(annotation, rng, per_scene=per_scene, families=[family]).instructions:
-            entry = instruction.to_dict()
-            if episode_level(entry, annotation) == level:
-                return scene, entry, int(seed)
+        for r in range(rounds):
+            rng = np.random.default_rng([int(seed), zlib.crc32(family.encode()), *([r] if r else [])])
+            made = generate_instructions(annotation, rng, per_scene=per_scene, families=[family]).instructions
+            for instruction in made:
+                entry = instruction.to_dict()
+                if episode_level(entry, annotation) == level:
+                    return scene, entry, int(seed)
+            if not made:
+                break  # no task of the family on the scene: another round draws none either
     raise ConfigError(f"level={level!r}: no {family} episode of this level on {tried} scenes", field="level")

@@ -39,7 +39,8 @@ from samplehd.catalogue.loader import CATALOGUES as BUILT_IN_CATALOGUES
 from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.suite_file import CLEAN_AXIS, Suite, SuiteEpisode, content_hash
-from samplehd.errors import SamplehdError, SceneError
+from samplehd.errors import ConfigError, SamplehdError, SceneError
+from samplehd.scene.config import SceneConfig
 from samplehd.schema import Config, bounded
 from samplehd.tasks.task import family_names
 from samplehd.version import __version__
@@ -65,7 +66,12 @@ class SuiteBuildConfig(Config, section="suite"):
             manifest lists such cells under ``short_cells``).
         max_scenes_per_candidate: scenes a candidate may sample looking for an episode of its family
             and level before it is rejected (``draw: ...``).
+        instruction_rounds: rounds of instruction draws on a scene before the next scene is sampled
+            (:func:`samplehd.benchmark.levels.instruction_at_level`).
         env: the environment the oracle proves the episodes in (its ``scene.catalogue`` is set per cell).
+        family_scene: per family, scene options (:class:`samplehd.scene.config.SceneConfig` keys) its
+            cells' scenes are sampled with instead of ``env.scene``'s, e.g. ``{"stack_three":
+            {"min_objects": 5, "max_objects": 7}}``: three objects that stack are rare among 3–5.
         axes: robustness axes (:mod:`samplehd.benchmark.axes`); each clean episode gets a variant per
             axis and strength, its clean twin being the episode itself (strength 0).
         strengths: the strengths of each axis (1–5).
@@ -80,14 +86,38 @@ class SuiteBuildConfig(Config, section="suite"):
     episodes_per_cell: int = bounded(1, lo=1)
     max_candidates_per_cell: int = bounded(20, lo=1)
     max_scenes_per_candidate: int = bounded(40, lo=1)
+    instruction_rounds: int = bounded(1, lo=1)
     env: EnvConfig = field(default_factory=EnvConfig)
+    family_scene: dict[str, dict[str, Any]] | None = None
     axes: tuple[str, ...] = bounded((), choices=tuple(AXES), unique=True)
     strengths: tuple[int, ...] = bounded(STRENGTHS, choices=STRENGTHS, unique=True, nonempty=True)
     max_attempts_per_variant: int = bounded(4, lo=1)
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        for family, options in (self.family_scene or {}).items():
+            where = f"suite.family_scene.{family}"
+            if family not in family_names():
+                raise ConfigError(f"{where}: unknown family {family!r}; valid: {', '.join(family_names())}",
+                                  field="family_scene")
+            if not isinstance(options, dict) or "catalogue" in options:
+                raise ConfigError(f"{where}={options!r}: must be a JSON object of scene options other than "
+                                  "'catalogue' (each cell sets its own)", field="family_scene")
+            try:
+                SceneConfig.from_dict({**self.env.scene.to_dict(), **options}, where=where)
+            except ConfigError as exc:  # a rule across fields names the scene section only
+                if str(exc).startswith(where):
+                    raise
+                raise ConfigError(f"{where}: {exc}", field="family_scene") from None
+
     def cells(self) -> list[tuple[str, str, str]]:
         """(catalogue, family, level) of each cell, in the suite's order."""
         return [(c, f, lv) for c in self.catalogues for f in self.families for lv in self.levels]
+
+    def scene_for(self, catalogue: str, family: str) -> SceneConfig:
+        """The scene options a cell's scenes are sampled with."""
+        options = (self.family_scene or {}).get(family, {})
+        return SceneConfig.from_dict({**self.env.scene.to_dict(), **options, "catalogue": catalogue})
 
 
 @dataclass(frozen=True)
@@ -139,29 +169,35 @@ _PROBE = 2
 _COLUMN_SCENES = 64
 
 
-def _cell_env(config: SuiteBuildConfig, catalogue: str) -> EvalConfig:
-    env = replace(config.env, scene=replace(config.env.scene, catalogue=catalogue))
+def _cell_env(config: SuiteBuildConfig, catalogue: str, family: str) -> EvalConfig:
+    env = replace(config.env, scene=config.scene_for(catalogue, family))
     return EvalConfig(policy="oracle", episodes=1, env=env)
 
 
-_WORKER: dict[str, tuple[EvalConfig, EpisodeRunner]] = {}
+# The worker's runners, most recently used last: one per catalogue and per family with scene options
+# of its own (``family_scene``), so that a column's cells keep their scene caches.
+# (Configs hold dicts, so the runners are a list searched by equality.)
+_WORKER: list[tuple[EvalConfig, EpisodeRunner]] = []
+_RUNNERS = 4
 
 
-def _runner(config: SuiteBuildConfig, catalogue: str, slots: int = 0) -> EpisodeRunner:
-    """The worker's oracle runner for a catalogue, kept across cells, columns and rounds; ``slots``: the
-    object slots its observation needs at least (a variant's scene may hold more objects than the
-    scenes the env samples)."""
-    evaluation = _cell_env(config, catalogue)
+def _runner(config: SuiteBuildConfig, catalogue: str, family: str, slots: int = 0) -> EpisodeRunner:
+    """The worker's oracle runner for a catalogue and family, kept across cells, columns and rounds;
+    ``slots``: the object slots its observation needs at least (a variant's scene may hold more
+    objects than the scenes the env samples)."""
+    evaluation = _cell_env(config, catalogue, family)
     scene = evaluation.env.scene
     evaluation = replace(evaluation, env=replace(
         evaluation.env, scene_cache_size=max(evaluation.env.scene_cache_size, _COLUMN_SCENES),
         scene=replace(scene, max_objects=max(scene.max_objects, slots))))
-    held = _WORKER.get("runner")
-    if held is None or held[0] != evaluation:
-        if held is not None:
-            held[1].close()
-        _WORKER["runner"] = held = (evaluation, EpisodeRunner(evaluation))
-    return held[1]
+    held = next((i for i, (c, _) in enumerate(_WORKER) if c == evaluation), None)
+    if held is None:
+        while len(_WORKER) >= _RUNNERS:
+            _WORKER.pop(0)[1].close()
+        _WORKER.append((evaluation, EpisodeRunner(evaluation)))
+    else:
+        _WORKER.append(_WORKER.pop(held))
+    return _WORKER[-1][1]
 
 
 def scene_seeds(seed: int, k: int, count: int) -> list[int]:
@@ -175,7 +211,7 @@ def _prove(config: SuiteBuildConfig, runner: EpisodeRunner, c: int, k: int) -> C
     try:
         scene, instruction, seed = instruction_at_level(
             runner.env.cache, scene_seeds(config.seed, k, config.max_scenes_per_candidate), family, level,
-            _INSTRUCTIONS_PER_SCENE)
+            _INSTRUCTIONS_PER_SCENE, config.instruction_rounds)
     except SamplehdError:  # no episode of the family and level on the candidate's scenes
         return Candidate(c, k, False, f"draw: no {level} episode in {config.max_scenes_per_candidate} scenes")
     try:
@@ -205,10 +241,9 @@ def _barren(done: dict[int, Candidate]) -> bool:
 
 def _prove_column(unit: tuple[SuiteBuildConfig, str, int, tuple[int, ...]]) -> list[Candidate]:
     """Candidate ``k`` of each of ``cells`` (all of one catalogue), in order: one work unit; the worker
-    keeps its runner, whose scene cache holds the column's scenes."""
+    keeps its runners, whose scene caches hold the column's scenes."""
     config, catalogue, k, cells = unit
-    runner = _runner(config, catalogue)
-    return [_prove(config, runner, c, k) for c in cells]
+    return [_prove(config, _runner(config, catalogue, config.cells()[c][1]), c, k) for c in cells]
 
 
 def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int]) -> Candidate:
@@ -221,7 +256,8 @@ def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int])
         return Candidate(int(twin["id"]), attempt, False, f"{axis}: {_NUMBER.sub('N', str(exc))[:100]}",
                          variant=label)
     # one runner for every variant: room for the most objects an axis adds (distractors: one per strength)
-    runner = _runner(config, twin["catalogue"], slots=config.env.scene.max_objects + max(config.strengths))
+    scene = config.scene_for(twin["catalogue"], twin["family"])
+    runner = _runner(config, twin["catalogue"], twin["family"], slots=scene.max_objects + max(config.strengths))
     options = SuiteEpisode.from_dict({"id": 0, **variant}).reset_options()
     try:
         record = runner.run((int(twin["id"]), int(twin["reset_seed"]), twin["family"]), options=options)

@@ -39,6 +39,8 @@ HELD_OUT_VARIANT = -1
 _OPTIONAL = re.compile(r"\[([^\[\]]*)\]")
 _SYNONYM = re.compile(r"\{([A-Za-z0-9_]+)\}")
 _PLACEHOLDER = re.compile(r"<([A-Za-z0-9_]+)(?::([a-z]+))?>")
+# A template's space: whitespace, or none where a word does not go on across it.
+_SPACE = r"(?:\s+|(?<!\w)|(?!\w))"
 
 
 def _variant_regex(text: str, synonyms: Mapping[str, Sequence[str]]) -> re.Pattern[str]:
@@ -57,7 +59,9 @@ def _variant_regex(text: str, synonyms: Mapping[str, Sequence[str]]) -> re.Patte
         pos = m.end()
     out.append(re.escape(text[pos:]))
     pattern = "".join(out)
-    pattern = re.sub(r"(\\ )+", r"\\s*", pattern)  # optional parts leave doubled or missing spaces
+    # Optional parts leave doubled or missing spaces, but a missing space may not join two words: the
+    # "in" of "put X in Y" must not match the start of "inside", nor "on" that of "onto".
+    pattern = re.sub(r"(\\ )+", lambda _: _SPACE, pattern)
     return re.compile(r"^\s*" + pattern + r"\s*[.?!]?\s*$", re.IGNORECASE)
 
 

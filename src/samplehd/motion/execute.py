@@ -38,7 +38,7 @@ from samplehd.robot.controller import ControlConfig, ControlReport, RobotControl
 from samplehd.robot.kinematics import fk_tcp, ik_batch
 from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.task import Task, get_family
-from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box
+from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box, object_world_hull_box
 from samplehd.world.collision import CollisionChecker, Held
 from samplehd.world.grasps import choose_grasps
 from samplehd.world.layout import LAYOUT, Directions, TableLayout
@@ -198,15 +198,21 @@ class Rollout:
             updates it. None: the rollout's own assist (off without ``use_assist``).
         grasp_memo: the compiled scene's name for :func:`~samplehd.world.grasps.choose_grasps`'s
             ``memo`` (None: every grasp search runs).
+        hull_bottom: find a held object's release height down to where its collision hulls meet the
+            table. Off (the dataset's paths, whose bytes are fixed): down to where MuJoCo's per-piece
+            bounding boxes do, which for mesh pieces (boxes in each piece's principal-axes frame) reach
+            up to a centimetre lower, so over a thin support (a baking tray's 2 mm floor) the object is
+            released that much higher and may fall through it.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
                  bodies: SceneBodies, facts: list[ObjectFacts | None], config: PlannerConfig, rng: np.random.Generator,
                  layout: TableLayout = LAYOUT, directions: Directions | None = None,
                  use_assist: bool = True, step_assist: GraspAssist | None = None,
-                 grasp_memo: str | None = None) -> None:
+                 grasp_memo: str | None = None, hull_bottom: bool = False) -> None:
         self.grasp_memo = grasp_memo
         self.use_assist = use_assist
+        self.hull_bottom = hull_bottom
         # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
         self.assisted = use_assist or step_assist is not None
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
@@ -494,7 +500,8 @@ class Rollout:
             # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
             cz, sz = np.cos(yaw), np.sin(yaw)
             rot = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
-            obj_bottom_below = t_obj[2, 3] - object_world_box(self.model, self.data, self.bodies, i).lo[2]
+            box = object_world_hull_box if self.hull_bottom else object_world_box
+            obj_bottom_below = t_obj[2, 3] - box(self.model, self.data, self.bodies, i).lo[2]
             start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
             try:
                 z_rel = release_height(self.checker, self.bodies, i, rot, xy, start_z,
