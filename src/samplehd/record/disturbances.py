@@ -14,8 +14,12 @@ moment of the recorded rollout:
   a force topples tall objects when friction stops them; this one slides them like a hand that
   pushes and lets go);
 - ``wrong_object``: another object (seeded) is approached and grasped before the instructed one;
-- ``short_release``: the transport stops at a seeded point, the object is lowered there and released,
-  short of the destination (families that place only; in others the episode stays undisturbed).
+- ``short_release``: the transport stops at a seeded point, the object is lowered there onto the table
+  and released, short of the destination (families that place only; in others the episode stays
+  undisturbed). Where the object would come down on another object (the destination's rim, a plate on
+  the way), the release waits for the first point of the transport over bare table: let go on a rim, it
+  topples, and no grasp of the planner reaches an object on its side. A transport that never crosses
+  bare table after the seeded point leaves the episode undisturbed.
 
 A drawn disturbance whose moment never comes (a one-frame subtask, a family without it) leaves the
 episode undisturbed and unlabelled; the dataset's unit then makes it again without the disturbance
@@ -84,6 +88,7 @@ _MOMENTS: dict[str, tuple[str, float, float]] = {
 _NUDGE_DISTANCE = (0.03, 0.06)  # how far a push moves an object [m]
 _PUSH_FRAMES = 4  # control steps a push lasts
 _SLIP_FRAMES = 3  # control steps the gripper stays open in a slip (or until the oracle notices)
+_ON_TABLE = 0.004  # a short release's object rests on the table when it comes to rest this close to it [m]
 # Failures (AttemptFailed reasons) the oracle recovers from by opening, backing off and grasping again.
 RECOVERABLE = ("grasp_missed", "grasp_slipped", "wrong_object", "approach_blocked", "not_holding")
 
@@ -328,7 +333,7 @@ class Disturber:
                     continue
                 name = ro.subtasks[-1] if ro.subtasks else ""
                 if (self.d.kind == "short_release" and not self.fired and ro.hand is not None
-                        and self._strikes(item)):
+                        and self._strikes(item) and self._rest_height(ro.hand.index)[1]):
                     plan.close()
                     yield from self._release_here(ro.hand.index)
                     return None
@@ -341,20 +346,28 @@ class Disturber:
         except StopIteration as stop:
             return stop.value
 
+    def _rest_height(self, i: int) -> tuple[float, bool]:
+        """Where the held object ``i`` comes to rest if lowered straight down from where it is: the height
+        of its frame [m, world], and whether it rests on the table (no other object below it; let go on
+        another object's rim or top, it topples, and no grasp of the planner reaches an object on its side)."""
+        ro = self.ro
+        ro._sync()
+        t_obj = object_pose(ro.data, ro.bodies, i)
+        table = ro.layout.table_height + t_obj[2, 3] - object_world_box(ro.model, ro.data, ro.bodies, i).lo[2]
+        try:
+            z = release_height(ro.checker, ro.bodies, i, t_obj[:3, :3], t_obj[:2, 3], t_obj[2, 3], table - 0.001)
+        except PlanningError:  # it touches something where it is
+            return table, False
+        return z, z <= table + _ON_TABLE
+
     def _release_here(self, i: int) -> Plan[None]:
-        """short_release: the transport stops; the object is lowered onto what lies below and released."""
+        """short_release: the transport stops; the object is lowered onto the table and released."""
         ro, lab = self.ro, self.labels
         lab.frame, lab.object = self._frame(), i
-        ro._sync()
+        z_rel, _ = self._rest_height(i)
         hand = ro.hand
         t_obj = object_pose(ro.data, ro.bodies, i)
         tcp = ro._tcp_world()
-        below = t_obj[2, 3] - object_world_box(ro.model, ro.data, ro.bodies, i).lo[2]
-        try:
-            z_rel = release_height(ro.checker, ro.bodies, i, t_obj[:3, :3], t_obj[:2, 3], t_obj[2, 3],
-                                   ro.layout.table_height + below - 0.001)
-        except PlanningError:
-            z_rel = ro.layout.table_height + below
         drop = t_obj[2, 3] - (z_rel + ro.cfg.release_gap)
         end_w = tcp.copy()
         end_w[2, 3] -= max(0.0, drop)
