@@ -127,7 +127,7 @@ def test_a_failed_recovery_with_a_fall_replays_to_its_recorded_failure():
         for t in range(ep.num_frames - 1):
             *_, info = env.step(ep.frames["steering"][t])
             any_step = any_step or bool(info["success"])
-        assert env.unwrapped.data.qpos.tobytes() == ep.frames["qpos"][-1].tobytes()
+            assert env.unwrapped.data.qpos.tobytes() == ep.frames["qpos"][t + 1].tobytes(), f"frame {t + 1} differs"
         assert any_step  # what the replay used to count: a success the recording never had
         assert final_outcome(env) == ep.success
         assert final_outcome(env, reject_fallen=False)
