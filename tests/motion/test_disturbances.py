@@ -39,7 +39,9 @@ def disturbed(scene):
         "slip": _disturbance("slip"),
         "nudge": _disturbance("nudge", direction=np.pi / 2, distance=0.05),
         "wrong_object": _disturbance("wrong_object", other=0),
-        "short_release": _disturbance("short_release", progress=0.3),
+        # early in the transport, over bare table (from 0.3 on the can hangs over the bowl, and the
+        # release waits until it is past it, in the goal half: absorbed)
+        "short_release": _disturbance("short_release", progress=0.15),
     }
     return {k: _run(scene, PLACE, d) for k, d in kinds.items()}
 
@@ -173,3 +175,50 @@ def test_draw_is_its_own_stream_and_off_by_default():
     assert a == b and a.kind == "nudge" and draw_disturbance(on, 6) != a
     drawn = [draw_disturbance(DisturbanceConfig(probability=0.3), s) for s in range(400)]
     assert 80 < sum(d is not None for d in drawn) < 160
+
+
+# ``samplehd generate --preset tiny --scenes 50 --render none --seed 11 --disturb 1 --disturb-kinds short_release``,
+# episode 58 (scene 29, slot 0): "Set the thermos down on the plate." At the drawn moment the thermos hangs over
+# the plate's rim; let go there, it toppled and no grasp reached it on its side (a failed recovery).
+RIM_SCENE = {
+    "index": 29, "seed": 2293734477,
+    "objects": [
+        {"instance": {"class_name": "thermos", "variant": "shopvrb1", "colour": "cyan", "material": "metal",
+                      "size": "small"},
+         "pos": [0.11035161460397332, 0.07536800402732216, 0.7497973697583566],
+         "quat": [0.9892900737244866, 0.0013247680741854243, -0.0008423250205293828, 0.14595439530315402]},
+        {"instance": {"class_name": "plate", "variant": "shopvrb2", "colour": "blue", "material": "rubber",
+                      "size": "large"},
+         "pos": [-0.043857449217621865, -0.2207373625531023, 0.7499535659151711],
+         "quat": [0.9946448791175829, -2.28890141032259e-06, -1.1331946713971256e-05, 0.10335165364674635]},
+        {"instance": {"class_name": "spoon", "variant": "shopvrb2", "colour": "brown", "material": "rubber",
+                      "size": "large"},
+         "pos": [0.16090687850676674, 0.19694537429730824, 0.7497532111672374],
+         "quat": [0.0074806558694019455, 1.8102973999815806e-05, -0.00036332616217880166, -0.9999719533337652]},
+    ],
+    "camera": {"name": "scene", "pos": [1.2659172439590893, 0.001151695184972091, 1.5514447598631051],
+               "target": [-0.07901458708245308, -0.026909168236062646, 0.93], "fovy": 45.0},
+}
+RIM_SEED = 1742855668
+
+
+def test_short_release_waits_for_a_spot_where_the_object_stands():
+    from samplehd.motion.assist import compile_scene_with_assist
+    from samplehd.record.disturbances import DisturbanceConfig, draw_disturbance
+    from samplehd.record.paths import plan_and_execute
+    from samplehd.scene.spec import SceneSpec
+    from samplehd.world.layout import DIRECTIONS
+
+    scene = SceneSpec.from_dict(RIM_SCENE)
+    drawn = draw_disturbance(DisturbanceConfig(probability=1.0, kinds=("short_release",)), RIM_SEED)
+    task = {"type": "stack", "objects": [0], "subject": 1, "relation": None}
+    ep = plan_and_execute(scene, task, np.random.default_rng(RIM_SEED), family="stack", seed=RIM_SEED,
+                          directions=DIRECTIONS, compiled=compile_scene_with_assist(scene, 0.002, "primitive"),
+                          disturbance=drawn)
+    lab = _label(ep)
+    assert lab["frame"] >= 0 and lab["object"] == 0
+    assert ep.info["check"]["fallen"] == [], ep.info["check"]  # it stands where it was let go
+    assert ep.success, lab
+    # let go within a few millimetres of its support, not from above another object's rim
+    released = ep.frames["object_pos"][lab["last_frame"], 0]
+    assert abs(released[2] - ep.frames["object_pos"][-1, 0][2]) < 0.01

@@ -7,11 +7,14 @@ holds the final state with a hold command that was never executed, so an episode
 sends ``T - 1`` actions; after action ``t`` the state is compared with frame ``t + 1``.
 
 A recorded push (a ``nudge`` disturbance, :mod:`samplehd.record.disturbances`) is applied again at its
-frame. A replayed episode succeeds when the environment reports success at any step (``info["success"]``,
-as ``samplehd evaluate`` counts it). It agrees when that equals the recorded outcome. Because the
+frame. The replayed outcome is judged as the dataset judged its recording: the shared success checker on
+the final state (the state of the last frame), and with the dataset's ``paths.reject_fallen`` an object
+fallen over makes it a failure (the environment's ``info["success"]``, which ``samplehd evaluate``
+counts, is any step's checker verdict and does not look at falls: a recovery that ends with an object
+on its side in the right place passes there). It agrees when that equals the recorded outcome. Because the
 dataset's rollout and the environment weld a grasped object by one rule
-(:class:`samplehd.motion.assist.GraspAssist`), every successful recording must replay to success;
-a disagreement is a bug, or drift after a changed MuJoCo or samplehd version.
+(:class:`samplehd.motion.assist.GraspAssist`), every recording must replay to its outcome, success or
+failure; a disagreement is a bug, or drift after a changed MuJoCo or samplehd version.
 """
 
 from __future__ import annotations
@@ -29,7 +32,8 @@ from samplehd.fixedmath import norm
 from samplehd.workers import Backend
 from samplehd.world.bodies import object_body_name
 
-__all__ = ["EpisodeReplay", "FamilyReplay", "ReplayReport", "replay_dataset", "replay_env", "replay_episode"]
+__all__ = ["EpisodeReplay", "FamilyReplay", "ReplayReport", "final_outcome", "replay_dataset", "replay_env",
+           "replay_episode"]
 
 
 @dataclass(frozen=True)
@@ -40,7 +44,8 @@ class EpisodeReplay:
         index: episode index in the dataset.
         family: task family.
         recorded_success: the outcome the dataset recorded.
-        replayed_success: whether the environment reported success during the replay.
+        replayed_success: the replay's outcome, judged as the dataset judges (the checker on the final
+            state, falls rejected when the dataset rejects them).
         tcp_deviation: largest distance between the replayed and the recorded TCP position [m].
         object_deviation: largest distance between a replayed and the recorded object position [m].
         steps: actions sent.
@@ -143,16 +148,14 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
         raise DatasetError(f"{where}: cannot start the environment from it: {_own_words(exc)}") from None
     tcp_rec, obj_rec = np.asarray(frames["tcp_pos"]), np.asarray(frames["object_pos"])
     tcp_dev = obj_dev = 0.0
-    success = False
     meta = reader.episode_meta(index)
     push = _recorded_push(meta.info)
     for t in range(len(steering) - 1):
         _apply_push(env, push, t)
         try:
-            obs, _, _, _, info = env.step(steering[t])
+            obs, *_ = env.step(steering[t])
         except SamplehdError as exc:
             raise DatasetError(f"{where}: frame {t}: the recorded action is refused: {_own_words(exc)}") from None
-        success = success or bool(info["success"])
         tcp_dev = max(tcp_dev, norm(obs["tcp_pos"].astype(float) - tcp_rec[t + 1]))
         k = len(obj_rec[t + 1])
         # A recorded frame of a push holds that frame's push step, which the replay applies only before
@@ -160,9 +163,24 @@ def replay_episode(env: TabletopEnv, reader: DatasetReader, index: int) -> Episo
         if k and (push is None or not push[0] <= t + 1 < push[0] + push[1]):
             diff = obs["object_pos"][:k].astype(float) - obj_rec[t + 1]
             obj_dev = max(obj_dev, float(np.max(norm(diff, axis=1))))
+    success = final_outcome(env, _rejects_fallen(reader))
     entry = reader.episodes[index]
-    recorded = meta.success
-    return EpisodeReplay(index, entry.family, recorded, success, tcp_dev, obj_dev, max(0, len(steering) - 1))
+    return EpisodeReplay(index, entry.family, meta.success, success, tcp_dev, obj_dev, max(0, len(steering) - 1))
+
+
+def final_outcome(env: TabletopEnv, reject_fallen: bool = True) -> bool:
+    """Whether ``env``'s current state completes its task as a dataset records it: the shared checker's
+    verdict (with its stability window) and, with ``reject_fallen``, no object fallen over
+    (:class:`samplehd.record.paths.PathConfig`)."""
+    final = env.unwrapped.check_success()
+    return bool(final["success"]) and not (reject_fallen and final["fallen"])
+
+
+def _rejects_fallen(reader: DatasetReader) -> bool:
+    """Whether the dataset counts a final state with an object fallen over as a failure
+    (``paths.reject_fallen``, true by default)."""
+    paths = reader.config.get("paths", {})
+    return bool(paths.get("reject_fallen", True)) if isinstance(paths, dict) else True
 
 
 def _recorded_push(info: object) -> tuple[int, int, int, np.ndarray] | None:

@@ -14,8 +14,13 @@ moment of the recorded rollout:
   a force topples tall objects when friction stops them; this one slides them like a hand that
   pushes and lets go);
 - ``wrong_object``: another object (seeded) is approached and grasped before the instructed one;
-- ``short_release``: the transport stops at a seeded point, the object is lowered there and released,
-  short of the destination (families that place only; in others the episode stays undisturbed).
+- ``short_release``: the transport stops at a seeded point, the object is lowered there onto the table
+  and released, short of the destination (families that place only; in others the episode stays
+  undisturbed). The release goes down as a place does (a collision-checked straight line, the fingers
+  free to open at its end); where the object would come down on another object (the destination's rim,
+  a plate on the way) or the way down is not free, it waits for the first point of the transport where
+  it is: let go on a rim, an object topples, and no grasp of the planner reaches it on its side. A
+  transport without such a point after the seeded one leaves the episode undisturbed.
 
 A drawn disturbance whose moment never comes (a one-frame subtask, a family without it) leaves the
 episode undisturbed and unlabelled; the dataset's unit then makes it again without the disturbance
@@ -54,6 +59,7 @@ from samplehd.robot.kinematics import fk_tcp, ik_batch
 from samplehd.schema import Config, bounded
 from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import object_pose, object_world_box
+from samplehd.world.collision import Held
 
 __all__ = [
     "DISTURBANCE_KINDS",
@@ -84,6 +90,7 @@ _MOMENTS: dict[str, tuple[str, float, float]] = {
 _NUDGE_DISTANCE = (0.03, 0.06)  # how far a push moves an object [m]
 _PUSH_FRAMES = 4  # control steps a push lasts
 _SLIP_FRAMES = 3  # control steps the gripper stays open in a slip (or until the oracle notices)
+_ON_TABLE = 0.004  # a short release's object rests on the table when it comes to rest this close to it [m]
 # Failures (AttemptFailed reasons) the oracle recovers from by opening, backing off and grasping again.
 RECOVERABLE = ("grasp_missed", "grasp_slipped", "wrong_object", "approach_blocked", "not_holding")
 
@@ -327,10 +334,12 @@ class Disturber:
                     item = plan.send(report)
                     continue
                 name = ro.subtasks[-1] if ro.subtasks else ""
-                if (self.d.kind == "short_release" and not self.fired and ro.hand is not None
-                        and self._strikes(item)):
+                down = None
+                if self.d.kind == "short_release" and not self.fired and ro.hand is not None and self._strikes(item):
+                    down = self._lowering(ro.hand.index)
+                if down is not None:
                     plan.close()
-                    yield from self._release_here(ro.hand.index)
+                    yield from self._release_here(ro.hand.index, down)
                     return None
                 if (ro.hand is not None and name in ("MoveUP", "ObjectMove", "MoveDOWN")
                         and ro.assist.available and ro.assist.active != ro.hand.index):
@@ -341,36 +350,48 @@ class Disturber:
         except StopIteration as stop:
             return stop.value
 
-    def _release_here(self, i: int) -> Plan[None]:
-        """short_release: the transport stops; the object is lowered onto what lies below and released."""
-        ro, lab = self.ro, self.labels
-        lab.frame, lab.object = self._frame(), i
+    def _opening(self) -> float:
+        """How wide the fingers open to let the held object go [m]."""
+        ro = self.ro
+        return max(ro.hand.opening, (ro.assist.release_command() + 1.0) * 0.5 * GRIPPER_STROKE)
+
+    def _lowering(self, i: int) -> np.ndarray | None:
+        """short_release: the way down from where the held object ``i`` is, as a place goes down: timed joint
+        targets of a straight, collision-checked TCP line until the object is just above the table, the
+        fingers free to open there. None where the object would come down on another object (let go on a
+        rim or a top, it topples, and no grasp of the planner reaches an object on its side), where the
+        line or the opening fingers collide, or where the pose is out of reach."""
+        ro = self.ro
         ro._sync()
-        hand = ro.hand
         t_obj = object_pose(ro.data, ro.bodies, i)
-        tcp = ro._tcp_world()
-        below = t_obj[2, 3] - object_world_box(ro.model, ro.data, ro.bodies, i).lo[2]
+        table = ro.layout.table_height + t_obj[2, 3] - object_world_box(ro.model, ro.data, ro.bodies, i).lo[2]
         try:
-            z_rel = release_height(ro.checker, ro.bodies, i, t_obj[:3, :3], t_obj[:2, 3], t_obj[2, 3],
-                                   ro.layout.table_height + below - 0.001)
-        except PlanningError:
-            z_rel = ro.layout.table_height + below
-        drop = t_obj[2, 3] - (z_rel + ro.cfg.release_gap)
-        end_w = tcp.copy()
-        end_w[2, 3] -= max(0.0, drop)
-        start_b = fk_tcp(ro.ctrl.target)
+            z_rel = release_height(ro.checker, ro.bodies, i, t_obj[:3, :3], t_obj[:2, 3], t_obj[2, 3], table - 0.001)
+        except PlanningError:  # it touches something where it is
+            return None
+        if z_rel > table + _ON_TABLE:
+            return None
+        end_w = ro._tcp_world()
+        end_w[2, 3] -= max(0.0, t_obj[2, 3] - (z_rel + ro.cfg.release_gap))
         end_b = ro.robot.world_to_base(end_w)
         q, ok = ik_batch(end_b[None], ro.ctrl.target[None], TCP_OFFSET)
-        path = np.zeros((0, 6))
-        if ok[0]:
-            try:
-                path = straight_move(ro.checker, start_b, end_b, ro.ctrl.target, 0.0, ro.dt, ro.cfg.approach_speed,
-                                     check=False, ramp_time=ro.cfg.line_ramp_time)
-            except PlanningError:
-                path = np.zeros((0, 6))
-        if len(path):
-            yield from ro.run("MoveDOWN", i, path)
-        opening = max(hand.opening, (ro.assist.release_command() + 1.0) * 0.5 * GRIPPER_STROKE)
+        held = Held(i, ro.hand.tcp_to_object)
+        if not ok[0] or not ro.checker.free(q[0], self._opening(), held, allow_objects_with_gripper=(i,)):
+            return None
+        try:
+            return straight_move(ro.checker, fk_tcp(ro.ctrl.target), end_b, ro.ctrl.target, 0.0, ro.dt,
+                                 ro.cfg.approach_speed, held=held, ramp_time=ro.cfg.line_ramp_time)
+        except PlanningError:
+            return None
+
+    def _release_here(self, i: int, down: np.ndarray) -> Plan[None]:
+        """short_release: the transport stops; the object is lowered along ``down`` onto the table and
+        released."""
+        ro, lab = self.ro, self.labels
+        lab.frame, lab.object = self._frame(), i
+        opening = self._opening()
+        if len(down):
+            yield from ro.run("MoveDOWN", i, down)
         yield from ro.hold("OpenGripper", i, ro.cfg.open_time, 2.0 * opening / GRIPPER_STROKE - 1.0)
         lab.last = self._frame()
         ro.hand = None

@@ -321,8 +321,11 @@ def _plan_and_execute(scene: SceneSpec, task: ProgramTask | Task, rng: np.random
                 info = {"scene": scene.to_dict(), "task": t.to_dict(), "attempts": attempt + 1,
                         "failed_attempts": attempts, "check": result.to_dict(), "control_hz": config.control_hz,
                         "physics_hz": config.physics_hz, **ro.info}
+                # The outcome is the checker's verdict on the final state, as for a plan that ends (and as
+                # `validate --replay` judges it): a failure after the task was done does not undo it.
                 return _disturbed_episode(disturber, ro, step, scene, scene_index, instruction_index,
-                                          family or t.family, seed, info, result, caller, live, exc.reason)
+                                          family or t.family, seed, info, result, caller, live,
+                                          "" if _passes(result, config) else exc.reason)
             last = ro, step
             reason, message = exc.reason, str(exc)
             attempts.append({"attempt": attempt, "reason": reason, "message": message})
