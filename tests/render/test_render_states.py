@@ -188,7 +188,10 @@ def test_live_states_render_the_attempt_that_became_the_episode_and_nothing_of_a
             live.restart()
             for k in range(len(states["qpos"])):
                 live.put(states["qpos"][k], states["qvel"][k], None, None)
-                time.sleep(0.02 if not last else 0.001)  # the renderer is well into the first attempt
+                time.sleep(0.02 if not last else 0.001)
+            deadline = time.monotonic() + 60.0
+            while not last and not (drawn and drawn[0]["rgb"]) and time.monotonic() < deadline:
+                time.sleep(0.01)  # the renderer is into the first attempt before it is abandoned
         live.finish(success=True)
 
     recorder = threading.Thread(target=record)
