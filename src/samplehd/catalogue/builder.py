@@ -21,6 +21,7 @@ do not set ``mjDSBL_MULTICCD``) to rest stably on boxes and on each other.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import lru_cache
 
 import mujoco
 import numpy as np
@@ -148,17 +149,34 @@ def _ensure_meshes(spec: mujoco.MjSpec, prefix: str, geometry: ObjectGeometry) -
     visual = f"{prefix}_visual"
     if spec.mesh(visual) is not None:
         return visual
-    spec.add_mesh(
-        name=visual,
-        uservert=geometry.vertices.astype(np.float32).ravel().tolist(),
-        userface=geometry.faces.astype(np.int32).ravel().tolist(),
-        usertexcoord=geometry.texcoords.astype(np.float32).ravel().tolist(),
-        inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL,
-    )
-    for k, piece in enumerate(geometry.pieces):
-        if piece.kind == "mesh":
-            spec.add_mesh(name=f"{prefix}_collision_{k}", uservert=piece.vertices.ravel().tolist())
+    vert, face, texcoord, pieces = _mesh_lists(geometry)
+    spec.add_mesh(name=visual, uservert=vert, userface=face, usertexcoord=texcoord,
+                  inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
+    for k, piece_vert in pieces:
+        spec.add_mesh(name=f"{prefix}_collision_{k}", uservert=piece_vert)
     return visual
+
+
+# The lists ``add_mesh`` takes, per geometry: every world of a scene (one per episode unit) adds the same
+# meshes, and converting their arrays to lists costs more than MuJoCo's own copy. Keyed by the geometry's
+# identity (``build_geometry`` caches geometries); the entry keeps its geometry alive, so no id is reused.
+_MeshLists = tuple[list[float], list[int], list[float], list[tuple[int, list[float]]]]
+_MESH_LISTS: dict[int, tuple[ObjectGeometry, _MeshLists]] = {}
+_MESH_LISTS_MAX = 256
+
+
+def _mesh_lists(geometry: ObjectGeometry) -> _MeshLists:
+    hit = _MESH_LISTS.get(id(geometry))
+    if hit is not None and hit[0] is geometry:
+        return hit[1]
+    lists = (geometry.vertices.astype(np.float32).ravel().tolist(),
+             geometry.faces.astype(np.int32).ravel().tolist(),
+             geometry.texcoords.astype(np.float32).ravel().tolist(),
+             [(k, p.vertices.ravel().tolist()) for k, p in enumerate(geometry.pieces) if p.kind == "mesh"])
+    if len(_MESH_LISTS) >= _MESH_LISTS_MAX:
+        _MESH_LISTS.pop(next(iter(_MESH_LISTS)))
+    _MESH_LISTS[id(geometry)] = (geometry, lists)
+    return lists
 
 
 def _ensure_material(spec: mujoco.MjSpec, material: Material, colour: Colour) -> str:
@@ -183,13 +201,14 @@ def _ensure_texture(spec: mujoco.MjSpec, texture: str) -> str:
         return texture
     if texture not in TEXTURES:  # the loader only accepts known textures
         raise AssetError(f"unknown texture {texture!r}; valid textures are {', '.join(TEXTURES)}")
-    img = TEXTURES[texture]()
-    tex = spec.add_texture(
-        name=texture,
-        type=mujoco.mjtTexture.mjTEXTURE_2D,
-        width=img.shape[1],
-        height=img.shape[0],
-        nchannel=3,
-    )
-    tex.data = img.tobytes()
+    width, height, pixels = _texture_pixels(texture)
+    tex = spec.add_texture(name=texture, type=mujoco.mjtTexture.mjTEXTURE_2D, width=width, height=height, nchannel=3)
+    tex.data = pixels
     return texture
+
+
+@lru_cache(maxsize=len(TEXTURES))
+def _texture_pixels(texture: str) -> tuple[int, int, bytes]:
+    """A material texture's width, height and RGB bytes, made once per process (the images are seeded)."""
+    img = TEXTURES[texture]()
+    return img.shape[1], img.shape[0], img.tobytes()

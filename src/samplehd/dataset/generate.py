@@ -390,11 +390,18 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[SceneAnnotation]
     if frames_done:
         progress.advance("paths", 0, frames_done)
 
+    position = {k: i for i, k in enumerate(order)}
+    # Where the target cannot stop the run early, a scene's units run one after another, so that a worker
+    # compiles a scene's world once for the units it gets (``work.unit_world``); the dataset is the same
+    # (each unit's bytes depend on its own seed, the target still counts in slot-major order).
+    early_stop = 0 < config.target_episodes < len(order)
+    dispatch = order if early_stop else sorted(order)
+
     def units() -> Iterator[EpisodeUnit]:
-        for pos, key in enumerate(order):
+        for key in dispatch:
             if key in known:
                 continue
-            if not cutoff.needed(pos):
+            if not cutoff.needed(position[key]):
                 return
             c = by_key[key]
             s = scene_by_index[key[0]]
@@ -406,7 +413,6 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[SceneAnnotation]
                               render=config.render,
                               disturbances=config.disturbances if config.disturbances.enabled else None)
 
-    position = {k: i for i, k in enumerate(order)}
     for unit, res in backend.map(run_episode_unit, units()):
         key = (unit.scene_index, unit.slot)
         record = res.to_dict()

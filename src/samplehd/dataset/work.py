@@ -8,11 +8,13 @@ any unit in any order and the files come out the same.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import functools
 import json
 import time
 import traceback
+from collections import OrderedDict
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -20,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import h5py
+import mujoco
 import numpy as np
 
 from samplehd.dataset.container import (
@@ -43,6 +46,7 @@ from samplehd.record.paths import PathConfig, PathRejected, plan_and_execute
 from samplehd.render.states import LiveStates
 from samplehd.scene.generate import render_scene_files
 from samplehd.scene.spec import SceneSpec, compile_scene
+from samplehd.scene.world import fresh_state
 from samplehd.tasks.task import Task
 from samplehd.world.layout import Directions
 
@@ -173,6 +177,38 @@ class EpisodeResult:
         return {f.name: v for f in dataclasses.fields(self) if (v := getattr(self, f.name)) is not None}
 
 
+# The last few worlds this process compiled for episode units, pristine (each unit gets a copy): a scene's
+# units run one after another where the dataset's order allows (``scene_major``), and copying a compiled
+# model costs about 1 CPU ms where building and compiling it cost 25-80.
+_WORLDS: OrderedDict[tuple[SceneSpec, float, str, bool], mujoco.MjModel] = OrderedDict()
+_WORLDS_KEPT = 4
+
+
+def unit_world(scene: SceneSpec, timestep: float, robot_look: str,
+               assist: bool) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    """The compiled world of an episode unit, as ``compile_scene_with_assist`` (``assist``) or ``compile_scene``
+    returns it: a model of its own (a copy of one kept from an earlier unit of the same scene, the same bytes)
+    and fresh data, arm at home, gripper open, after ``mj_forward``.
+
+    Args:
+        scene: the unit's scene.
+        timestep: physics step [s].
+        robot_look: the arm's look (``mesh`` where images are drawn, ``primitive`` where none are).
+        assist: with the grasp welds.
+    """
+    key = (scene, timestep, robot_look, assist)
+    model = _WORLDS.get(key)
+    if model is None:
+        model, _ = (compile_scene_with_assist if assist else compile_scene)(scene, timestep, robot_look)
+        _WORLDS[key] = model
+        if len(_WORLDS) > _WORLDS_KEPT:
+            _WORLDS.popitem(last=False)
+    else:
+        _WORLDS.move_to_end(key)
+    model = copy.copy(model)
+    return model, fresh_state(model)
+
+
 def run_episode_unit(unit: EpisodeUnit) -> EpisodeResult:
     """Plan and execute one instruction, render its images from the stored states, write the file.
 
@@ -194,8 +230,8 @@ def run_episode_unit(unit: EpisodeUnit) -> EpisodeResult:
     # The grasp welds add no degrees of freedom: the same model serves the path and the images. With no
     # images the arm is drawn with primitives: its visual meshes have no mass and no contacts (the same
     # physics, bit for bit) but cost 40-50 CPU ms to compile per unit and about 15 % of each physics step.
-    compile_fn = compile_scene_with_assist if config.grasp_assist else compile_scene
-    model, data = compile_fn(scene, 1.0 / config.physics_hz, "mesh" if render.enabled else "primitive")
+    model, data = unit_world(scene, 1.0 / config.physics_hz, "mesh" if render.enabled else "primitive",
+                             config.grasp_assist)
     drawn = None if unit.disturbances is None else draw_disturbance(unit.disturbances, unit.seed)
 
     def path_of(compiled: tuple[Any, Any], disturbed: bool) -> tuple[Episode, dict[str, dict[str, Any]] | None]:
@@ -224,7 +260,8 @@ def run_episode_unit(unit: EpisodeUnit) -> EpisodeResult:
             # The drawn disturbance never came (a family without its moment, no other object to grasp):
             # the episode is made again undisturbed, the bytes a dataset without disturbances has (a
             # disturbed rollout steps its recorded vectors, an undisturbed one its joint targets).
-            model, data = compile_fn(scene, 1.0 / config.physics_hz, "mesh" if render.enabled else "primitive")
+            model, data = unit_world(scene, 1.0 / config.physics_hz, "mesh" if render.enabled else "primitive",
+                                     config.grasp_assist)
             episode, images = path_of((model, data), False)
     except PathRejected as exc:
         return EpisodeResult(unit.scene_index, unit.slot, "rejected", time.perf_counter() - t0,

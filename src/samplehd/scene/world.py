@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import mujoco
@@ -178,13 +179,30 @@ class WorldConfig(Config, section="world"):
             raise ConfigError(f"world.cameras={names!r}: names must be unique and not {WRIST_CAMERA!r}")
 
 
-def _add_texture(spec: mujoco.MjSpec, name: str, rgb: np.ndarray, cube: bool = False) -> None:
+def _add_texture(spec: mujoco.MjSpec, name: str, image: tuple[int, int, bytes], cube: bool = False) -> None:
     # A cube texture with one image puts the same picture on every face of a box (the table top's
     # edges too); a 2-D texture is projected along the geom's local z and repeats with texrepeat.
-    h, w, _ = rgb.shape
+    w, h, pixels = image
     kind = mujoco.mjtTexture.mjTEXTURE_CUBE if cube else mujoco.mjtTexture.mjTEXTURE_2D
     tex = spec.add_texture(name=name, type=kind, width=w, height=h, nchannel=3)
-    tex.data = np.ascontiguousarray(rgb, dtype=np.uint8).tobytes()
+    tex.data = pixels
+
+
+def _image(rgb: np.ndarray) -> tuple[int, int, bytes]:
+    h, w, _ = rgb.shape
+    return w, h, np.ascontiguousarray(rgb, dtype=np.uint8).tobytes()
+
+
+@lru_cache(maxsize=16)
+def _surface_images(surfaces: Surfaces) -> tuple[tuple[int, int, bytes], ...]:
+    """The table's wood, the tiles' and the plaster's textures under ``surfaces`` (width, height, RGB
+    bytes), made once per process and surfaces: every world of a dataset adds the same three."""
+    wood, tiles, plaster = wood_texture(256), tile_texture(128), plaster_texture(128)
+    if surfaces != DEFAULT_SURFACES:
+        wood = recolour(wood, surfaces.table_hue, surfaces.table_saturation, surfaces.table_value)
+        tiles, plaster = (recolour(t, surfaces.wall_hue, surfaces.wall_saturation, surfaces.wall_value)
+                          for t in (tiles, plaster))
+    return _image(wood), _image(tiles), _image(plaster)
 
 
 def _add_material(
@@ -207,11 +225,7 @@ def _add_material(
 
 
 def _add_materials(spec: mujoco.MjSpec, surfaces: Surfaces = DEFAULT_SURFACES) -> None:
-    wood, tiles, plaster = wood_texture(256), tile_texture(128), plaster_texture(128)
-    if surfaces != DEFAULT_SURFACES:
-        wood = recolour(wood, surfaces.table_hue, surfaces.table_saturation, surfaces.table_value)
-        tiles, plaster = (recolour(t, surfaces.wall_hue, surfaces.wall_saturation, surfaces.wall_value)
-                          for t in (tiles, plaster))
+    wood, tiles, plaster = _surface_images(surfaces)
     _add_texture(spec, "wood", wood, cube=True)
     _add_texture(spec, "tiles", tiles)
     _add_texture(spec, "plaster", plaster)
