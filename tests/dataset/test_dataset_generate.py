@@ -110,6 +110,41 @@ def test_target_cutoff_counts_in_slot_major_order() -> None:
     assert c.end == 3 and c.needed(2) and not c.needed(3)
 
 
+def test_units_run_scene_by_scene_unless_the_target_can_stop_early(micro_dataset: Path) -> None:
+    from samplehd.dataset.config import dispatch_order
+    from samplehd.dataset.journal import read_journal
+
+    keys = [(0, 0), (1, 0), (0, 1), (1, 1), (0, 2)]
+    assert dispatch_order(keys, 0) == [(0, 0), (0, 1), (0, 2), (1, 0), (1, 1)]
+    assert dispatch_order(keys, 5) == dispatch_order(keys, 9) == sorted(keys)
+    assert dispatch_order(keys, 4) == [(0, 0), (1, 0), (0, 1), (1, 1), (0, 2)]
+    # the micro dataset (no target, one worker in this process) ran its units in that order
+    ran = [(int(r["scene_index"]), int(r["slot"])) for r in read_journal(micro_dataset)]
+    assert ran == sorted(ran) and len({k[0] for k in ran}) == 2
+
+
+def test_a_kept_world_is_handed_out_as_a_fresh_compile(micro_dataset: Path) -> None:
+    import mujoco
+
+    from samplehd.dataset.work import unit_world
+    from samplehd.motion.assist import compile_scene_with_assist
+    from samplehd.scene.spec import SceneSpec
+
+    def saved(model: mujoco.MjModel) -> bytes:
+        buf = np.zeros(mujoco.mj_sizeModel(model), np.uint8)
+        mujoco.mj_saveModel(model, None, buf)
+        return buf.tobytes()
+
+    scene = SceneSpec.from_dict(json.loads((micro_dataset / "scenes.json").read_text())["scenes"][0]["spec"])
+    fresh_model, fresh_data = compile_scene_with_assist(scene, 0.002, "primitive")
+    first, _ = unit_world(scene, 0.002, "primitive", True)
+    first.geom_friction[:] = 0.0  # a unit that changes its model changes no other unit's
+    second, data = unit_world(scene, 0.002, "primitive", True)
+    assert second is not first and saved(second) == saved(fresh_model)
+    for name in ("qpos", "qvel", "ctrl", "act", "xpos", "qacc"):
+        assert np.array_equal(getattr(data, name), getattr(fresh_data, name)), name
+
+
 def test_unknown_camera_fails_before_any_work() -> None:
     from samplehd.dataset.render import RenderConfig, check_cameras
 

@@ -212,3 +212,16 @@ def check_names(config: GenerateConfig, where: str = "config") -> None:
 def candidate_order(keys: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:
     """Candidates (scene, slot) in slot-major order: the order ``target_episodes`` counts in."""
     return sorted(keys, key=lambda k: (k[1], k[0]))
+
+
+def dispatch_order(keys: Sequence[tuple[int, int]], target_episodes: int) -> list[tuple[int, int]]:
+    """The order episode units are handed to the workers in.
+
+    Where ``target_episodes`` could stop the run before its last candidate, slot-major (the order the
+    target counts in, so that no unit past the stop runs); otherwise scene by scene, so that a worker
+    meets a scene's units one after another and compiles its world once for them
+    (:func:`samplehd.dataset.work.unit_world`). Either way every unit's bytes are its own seed's.
+    """
+    if 0 < target_episodes < len(keys):
+        return candidate_order(keys)
+    return sorted(keys)

@@ -42,7 +42,7 @@ import numpy
 
 from samplehd.catalogue.loader import LEGACY_CATALOGUE, catalogue_for
 from samplehd.catalogue.model import CatalogueRecord
-from samplehd.dataset.config import GenerateConfig, candidate_order
+from samplehd.dataset.config import GenerateConfig, candidate_order, dispatch_order
 from samplehd.dataset.container import read_meta, write_error
 from samplehd.dataset.journal import JournalRecord, append_journal, read_journal, repair_journal
 from samplehd.dataset.layout import (
@@ -391,11 +391,7 @@ def _path_stage(out: Path, config: GenerateConfig, scenes: list[SceneAnnotation]
         progress.advance("paths", 0, frames_done)
 
     position = {k: i for i, k in enumerate(order)}
-    # Where the target cannot stop the run early, a scene's units run one after another, so that a worker
-    # compiles a scene's world once for the units it gets (``work.unit_world``); the dataset is the same
-    # (each unit's bytes depend on its own seed, the target still counts in slot-major order).
-    early_stop = 0 < config.target_episodes < len(order)
-    dispatch = order if early_stop else sorted(order)
+    dispatch = dispatch_order(order, config.target_episodes)
 
     def units() -> Iterator[EpisodeUnit]:
         for key in dispatch:
