@@ -31,3 +31,44 @@ def test_bench_generate_runs_and_prints_its_figures(tmp_path: Path, capsys) -> N
     row = re.search(r"\| this checkout, one.json \| 1 \| ([\d,]+) \| [\d.]+ \([\d.]+–[\d.]+\) .* \| 1.000 ", out)
     assert row is not None, out
     assert int(row.group(1).replace(",", "")) > 0
+
+
+def _children(pid: int) -> list[int]:
+    path = Path(f"/proc/{pid}/task/{pid}/children")
+    return [int(c) for c in path.read_text().split()] if path.exists() else []
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="reads child processes from Linux's /proc")
+def test_a_terminated_bench_stops_the_generate_it_was_timing(tmp_path: Path) -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    timed: list[int] = []
+    bench = subprocess.Popen([sys.executable, "-m", "samplehd", "bench", "generate", "--preset", "tiny", "--scenes",
+                              "50", "--workers", "1", "--repeats", "1", "--warmup", "0"],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path)
+    try:
+        deadline = time.monotonic() + 120
+        while not (timed := _children(bench.pid)) and time.monotonic() < deadline and bench.poll() is None:
+            time.sleep(0.1)
+        assert timed, "the bench never started its generate"
+        bench.send_signal(signal.SIGTERM)
+        bench.wait(timeout=60)
+        deadline = time.monotonic() + 30
+        alive = timed
+        while alive and time.monotonic() < deadline:
+            alive = [p for p in timed if Path(f"/proc/{p}").exists()
+                     and Path(f"/proc/{p}/stat").read_text().split()[2] != "Z"]
+            time.sleep(0.1)
+        assert not alive, f"generate {alive} outlived its bench"
+    finally:
+        if bench.poll() is None:
+            bench.kill()
+        for p in timed:  # none is left running, whatever the outcome
+            try:
+                os.kill(p, signal.SIGKILL)
+            except ProcessLookupError:
+                pass

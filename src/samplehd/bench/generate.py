@@ -86,8 +86,14 @@ def generate_once(variant: Variant, args: list[str], root: Path) -> Run:
     t0 = time.perf_counter()
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     assert proc.stderr is not None
-    err = proc.stderr.read()
-    _, status, usage = os.wait4(proc.pid, 0)
+    try:
+        err = proc.stderr.read()
+        _, status, usage = os.wait4(proc.pid, 0)
+    except BaseException:  # interrupted (Ctrl-C, or SIGTERM as one): the run it timed stops with it
+        proc.terminate()
+        proc.wait()
+        shutil.rmtree(out.parent, ignore_errors=True)
+        raise
     proc.returncode = os.waitstatus_to_exitcode(status)
     wall = time.perf_counter() - t0
     frames = episodes = 0

@@ -23,7 +23,7 @@ from rich.table import Table
 
 from samplehd import bench
 from samplehd.bench import _table
-from samplehd.commands._options import check_out_dir
+from samplehd.commands._options import check_out_dir, sigterm_as_interrupt
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError
 
@@ -59,7 +59,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if getattr(args, "area", None):
-        return int(args._report(args) or 0)
+        with sigterm_as_interrupt():  # a killed bench stops the processes it times
+            return int(args._report(args) or 0)
     if args.repeats < 1:
         raise ConfigError(f"--repeats {args.repeats}: must be an integer ≥ 1")
     if args.report is not None:
