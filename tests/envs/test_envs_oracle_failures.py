@@ -29,7 +29,8 @@ def _saved_episode(name: str) -> EpisodeRecord:
     """A saved candidate of a suite build (scene and instruction as the build drew them), driven by the
     oracle as the build drives it."""
     saved = json.loads((DATA / name).read_text())
-    env = {"obs_mode": "state", "scene": {"catalogue": saved["catalogue"]}}
+    slots = max(5, len(saved["scene"]["objects"]))  # the env's default 5 observation slots, or one per object
+    env = {"obs_mode": "state", "scene": {"catalogue": saved["catalogue"], "max_objects": slots}}
     config = EvalConfig(policy="oracle", episodes=1, env=env)
     runner = EpisodeRunner(config)
     try:
@@ -81,3 +82,24 @@ def test_oracle_sets_scissors_down_on_a_board() -> None:
     assert record.instruction == "Set the scissors down on the chopping board."
     assert record.success, (record.check_reason, record.gave_up)
     assert record.disturbed == ()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("name", "instruction"), [
+    ("core_procedural_pick_up_l2_9.json", "Grab the plate and hold it up."),
+    ("core_procedural_place_l1_2.json", "Slide the plate and the fork to the left half of the table."),
+    ("core_procedural_stack_l3_10.json", "Stack the plate onto the baking tray."),
+    ("core_procedural_stack_three_l2_3.json",
+     "Build a tower with the large plate at the bottom, the small plate in the middle and the thermos on top."),
+])
+def test_oracle_grasps_a_soup_plate_by_its_sloped_brim(name: str, instruction: str) -> None:
+    """core, procedural: the small soup plate's brim rises 20 mm outwards over its top 5.6 mm. The rim
+    grasp's pads stood around the site's nominal 2.4 mm wall; reaching 4 mm below the top, the inner pad
+    met the brim's upper face about 9 mm before the outer pad met the lip, pushed and tilted the plate,
+    and the grasp assist (both pads touching) never welded: ``grasp_missed`` three times, or
+    ``approach_blocked`` by the tilted plate. The oracle now centres the pads on what they pinch, so
+    both touch in the same step, and it is welded without moving."""
+    record = _saved_episode(name)
+    assert record.instruction == instruction
+    assert record.success, (record.check_reason, record.gave_up)
+    assert record.replans == 0

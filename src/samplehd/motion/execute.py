@@ -40,7 +40,7 @@ from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box, object_world_hull_box
 from samplehd.world.collision import CollisionChecker, Held
-from samplehd.world.grasps import choose_grasps
+from samplehd.world.grasps import choose_grasps, pinch_gaps
 from samplehd.world.layout import LAYOUT, Directions, TableLayout
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.robot_info import RobotInfo
@@ -56,6 +56,14 @@ __all__ = [
     "scene_facts",
     "step_controller",
 ]
+
+
+# fit_pinch: the pads' gaps are evened out until they differ by at most this [m] (the grasp assist's
+# touch tolerance is 0.5 mm and each pad closes about 1 mm per control step), in this many moves, each
+# followed by this many still steps for the arm to settle.
+_PINCH_TOLERANCE = 0.0003
+_PINCH_CORRECTIONS = 3
+_PINCH_SETTLE_STEPS = 2
 
 
 @dataclass(frozen=True)
@@ -203,16 +211,21 @@ class Rollout:
             bounding boxes do, which for mesh pieces (boxes in each piece's principal-axes frame) reach
             up to a centimetre lower, so over a thin support (a baking tray's 2 mm floor) the object is
             released that much higher and may fall through it.
+        fit_pinch: centre each rim grasp on what its pads pinch, so both touch at once
+            (:func:`~samplehd.world.grasps.choose_grasps`'s ``fit_pinch``). Off (the dataset's paths):
+            around the rim site's nominal wall, which on a sloped brim lets one pad push the object
+            before the other touches it.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
                  bodies: SceneBodies, facts: list[ObjectFacts | None], config: PlannerConfig, rng: np.random.Generator,
                  layout: TableLayout = LAYOUT, directions: Directions | None = None,
                  use_assist: bool = True, step_assist: GraspAssist | None = None,
-                 grasp_memo: str | None = None, hull_bottom: bool = False) -> None:
+                 grasp_memo: str | None = None, hull_bottom: bool = False, fit_pinch: bool = False) -> None:
         self.grasp_memo = grasp_memo
         self.use_assist = use_assist
         self.hull_bottom = hull_bottom
+        self.fit_pinch = fit_pinch
         # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
         self.assisted = use_assist or step_assist is not None
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
@@ -358,7 +371,8 @@ class Rollout:
         self._sync()
         q0 = self.ctrl.target
         grasps = choose_grasps(self.model, self.data, self.bodies, self.robot, self.checker, i, self.facts[i],
-                               q0, self.cfg, self.layout, exclude, memo=self.grasp_memo)
+                               q0, self.cfg, self.layout, exclude, memo=self.grasp_memo,
+                               fit_pinch=self.fit_pinch)
         if not grasps:
             raise AttemptFailed("no_feasible_grasp", f"object {i}: no reachable, collision-free grasp")
         k, gp = grasps[0]
@@ -381,6 +395,8 @@ class Rollout:
         except PlanningError as exc:
             raise AttemptFailed("approach_blocked", str(exc), k) from exc
         yield from self.run("ApproachGrasp", i, path, open_cmd)
+        if self.fit_pinch and gp.grasp.name == "rim":
+            yield from self._centre_pinch(i, gp.grasp.opening, open_cmd)
         yield from self.close_gripper(i, gp.grasp.opening, gp.grasp.width)
         self._sync()
         if not self._holding(i):
@@ -394,6 +410,29 @@ class Rollout:
         if lift:
             yield from self.move_up(i, k)
         return k
+
+    def _centre_pinch(self, i: int, opening: float, open_cmd: float) -> Plan[None]:
+        """Move the open gripper along its closing line until both pads are as far from object ``i``,
+        measured where the TCP is (not where it was planned): on a sloped brim a pad's gap changes by
+        nearly 4 mm per millimetre of height, so the arm's tracking error alone can make one pad touch
+        and push the object a step before the other; the grasp assist welds only when both touch."""
+        for _ in range(_PINCH_CORRECTIONS):
+            self._sync()
+            tcp = self._tcp_world()
+            gaps = pinch_gaps(self.model, self.data, self.bodies, i, tcp, self.robot, opening)
+            if gaps is None or abs(gaps[0] - gaps[1]) <= _PINCH_TOLERANCE:
+                return
+            shift = 0.5 * (gaps[0] - gaps[1]) * matmul(tcp[:3, :3], self.robot.finger_axis)
+            start = fk_tcp(self.ctrl.target)
+            end = start.copy()
+            end[:3, 3] += matmul(self.robot.base_rot.T, shift)
+            try:
+                path = straight_move(self.checker, start, end, self.ctrl.target, opening, self.dt,
+                                     self.cfg.approach_speed)
+            except PlanningError:
+                return
+            settle = np.repeat(path[-1:], _PINCH_SETTLE_STEPS, axis=0)
+            yield from self.run("ApproachGrasp", i, np.vstack([path, settle]), open_cmd)
 
     def close_gripper(self, i: int, opening: float, width: float) -> Plan[None]:
         """CloseGripper: ramp the finger command down until both pads touch the object, arm still.
