@@ -28,7 +28,7 @@ import numpy as np
 from samplehd.catalogue import ObjectFacts, object_facts
 from samplehd.errors import PlanningError
 from samplehd.fixedmath import inv_rigid, matmul, norm
-from samplehd.motion.assist import GraspAssist
+from samplehd.motion.assist import RELEASE_MARGIN, GraspAssist
 from samplehd.motion.order import effector_point
 from samplehd.motion.order import next_object as order_next_object
 from samplehd.motion.planner import destination_candidates, plan_joint_move, release_height, straight_move
@@ -64,6 +64,8 @@ __all__ = [
 _PINCH_TOLERANCE = 0.0003
 _PINCH_CORRECTIONS = 3
 _PINCH_SETTLE_STEPS = 2
+# ease_release: how long the pads ease off a welded object before the weld is released [s].
+_EASE_TIME = 0.15
 
 
 @dataclass(frozen=True)
@@ -215,17 +217,22 @@ class Rollout:
             (:func:`~samplehd.world.grasps.choose_grasps`'s ``fit_pinch``). Off (the dataset's paths):
             around the rim site's nominal wall, which on a sloped brim lets one pad push the object
             before the other touches it.
+        ease_release: before the weld is released, ease the pads off the object for a moment with the
+            weld still on. Off (the dataset's paths): the opening command releases the weld while the
+            pads still squeeze, which can shoot a thin tapered object out of them.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
                  bodies: SceneBodies, facts: list[ObjectFacts | None], config: PlannerConfig, rng: np.random.Generator,
                  layout: TableLayout = LAYOUT, directions: Directions | None = None,
                  use_assist: bool = True, step_assist: GraspAssist | None = None,
-                 grasp_memo: str | None = None, hull_bottom: bool = False, fit_pinch: bool = False) -> None:
+                 grasp_memo: str | None = None, hull_bottom: bool = False, fit_pinch: bool = False,
+                 ease_release: bool = False) -> None:
         self.grasp_memo = grasp_memo
         self.use_assist = use_assist
         self.hull_bottom = hull_bottom
         self.fit_pinch = fit_pinch
+        self.ease_release = ease_release
         # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
         self.assisted = use_assist or step_assist is not None
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
@@ -434,6 +441,14 @@ class Rollout:
             settle = np.repeat(path[-1:], _PINCH_SETTLE_STEPS, axis=0)
             yield from self.run("ApproachGrasp", i, np.vstack([path, settle]), open_cmd)
 
+    def _ease_grip(self, i: int) -> Plan[None]:
+        """Ease the pads off the welded object ``i`` before the weld is released: a command half the
+        assist's release margin wider than the one it welded with keeps the weld and stops the squeeze.
+        Released while squeezed, a thin tapered object (shop-vrb scissors) is shot out of the pads,
+        falls 27 mm in one control step and passes through a 13 mm board."""
+        eased = min(1.0, self.assist.attach_command + 0.5 * RELEASE_MARGIN)
+        yield from self.hold("OpenGripper", i, _EASE_TIME, eased)
+
     def close_gripper(self, i: int, opening: float, width: float) -> Plan[None]:
         """CloseGripper: ramp the finger command down until both pads touch the object, arm still.
 
@@ -609,6 +624,8 @@ class Rollout:
             opening = hand.opening
             if self.assisted and self.assist.active >= 0:
                 opening = max(opening, (self.assist.release_command() + 1.0) * 0.5 * GRIPPER_STROKE)
+                if self.ease_release:
+                    yield from self._ease_grip(i)
             yield from self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(opening))
             self.hand = None
             yield from self.go_home(i, opening)
