@@ -114,3 +114,14 @@ def test_oracle_sets_scissors_on_a_board_without_shooting_them_through_it() -> N
     record = _saved_episode("core_shop_vrb_stack_l3_3.json")
     assert record.instruction == "Stack the scissors onto the chopping board."
     assert record.success, (record.check_reason, record.gave_up)
+
+
+@pytest.mark.slow
+def test_oracle_places_a_baking_tray_behind_a_box_turned_half_round() -> None:
+    """core, procedural place_relative L4, candidate 1: held by its rim, the baking tray found no release
+    pose behind the food box: at every spot the arm folded into itself (forearm against upper arm and
+    table; ``no_release_path``). The oracle now also tries each spot with the tray turned half round
+    (its footprint is symmetric about its origin), which puts the grasp on the far side."""
+    record = _saved_episode("core_procedural_place_relative_l4_1.json")
+    assert record.instruction == "Position the baking tray behind the food box."
+    assert record.success, (record.check_reason, record.gave_up)

@@ -223,10 +223,11 @@ class OraclePolicy:
         # baking tray's 2 mm floor falls through it). It centres rim grasps on what the pads pinch (on a
         # sloped brim one pad would otherwise push the plate away before the other touches it), and it
         # eases the pads off a carried object before the weld lets go (released while squeezed, thin
-        # scissors are shot out of the pads through a chopping board).
+        # scissors are shot out of the pads through a chopping board); where no release pose of a spot
+        # is free it tries the object turned half round (a tray held by its near rim behind a box).
         ro = Rollout(model, data, ctrl, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
                      use_assist=False, step_assist=env.assist, hull_bottom=True, fit_pinch=True,
-                     ease_release=True)
+                     ease_release=True, turn_release=True)
         self._rollout = ro
         try:
             yield from regrasping_plan(ro, task, self.max_replans, on_failure=self._replanned)

@@ -66,6 +66,8 @@ _PINCH_CORRECTIONS = 3
 _PINCH_SETTLE_STEPS = 2
 # ease_release: how long the pads ease off a welded object before the weld is released [s].
 _EASE_TIME = 0.15
+# turn_release: how far a footprint may be off-centre about the object's origin for a half turn to keep it [m].
+_SYMMETRY_TOLERANCE = 0.002
 
 
 @dataclass(frozen=True)
@@ -220,6 +222,10 @@ class Rollout:
         ease_release: before the weld is released, ease the pads off the object for a moment with the
             weld still on. Off (the dataset's paths): the opening command releases the weld while the
             pads still squeeze, which can shoot a thin tapered object out of them.
+        turn_release: where no release pose of a destination spot is free, try the spot with the object
+            turned half round about the vertical (objects whose footprint is symmetric about their
+            origin only): a tray held by its near rim, placed close to the robot, folds the arm into
+            itself; turned, the grasp is on the far side. Off (the dataset's paths): each spot as drawn.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
@@ -227,12 +233,13 @@ class Rollout:
                  layout: TableLayout = LAYOUT, directions: Directions | None = None,
                  use_assist: bool = True, step_assist: GraspAssist | None = None,
                  grasp_memo: str | None = None, hull_bottom: bool = False, fit_pinch: bool = False,
-                 ease_release: bool = False) -> None:
+                 ease_release: bool = False, turn_release: bool = False) -> None:
         self.grasp_memo = grasp_memo
         self.use_assist = use_assist
         self.hull_bottom = hull_bottom
         self.fit_pinch = fit_pinch
         self.ease_release = ease_release
+        self.turn_release = turn_release
         # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
         self.assisted = use_assist or step_assist is not None
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
@@ -550,7 +557,7 @@ class Rollout:
         into = get_family(task.family).destination == "opening"
         max_drop = self.cfg.max_drop_into if into else self.cfg.max_drop
         last_error = "no reachable release pose"
-        for xy, yaw in spots:
+        for xy, yaw in self._turned_spots(spots, i):
             # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
             cz, sz = np.cos(yaw), np.sin(yaw)
             rot = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
@@ -631,6 +638,17 @@ class Rollout:
             yield from self.go_home(i, opening)
             return
         raise AttemptFailed("no_release_path", f"object {i}: {last_error}", grasp_index)
+
+    def _turned_spots(self, spots: list[tuple[np.ndarray, float]], i: int) -> list[tuple[np.ndarray, float]]:
+        """The release spots to try, in order: with ``turn_release`` and an object whose footprint is
+        symmetric about its origin, each spot is followed by itself with the object turned half round."""
+        facts = self.facts[i]
+        if not self.turn_release or facts is None:
+            return list(spots)
+        lo, hi = np.asarray(facts.bbox_min, float)[:2], np.asarray(facts.bbox_max, float)[:2]
+        if np.max(np.abs(lo + hi)) > _SYMMETRY_TOLERANCE:
+            return list(spots)
+        return [s for xy, yaw in spots for s in ((xy, yaw), (xy, yaw + math.pi))]
 
     def go_home(self, target: int, opening: float) -> Plan[None]:
         """MoveToDefaultPos: straight retreat up, then a joint-space move home."""
