@@ -89,6 +89,34 @@ def test_a_family_scene_option_is_checked() -> None:
         SuiteBuildConfig(family_scene={"stack_three": {"catalogue": "procedural"}})
 
 
+def test_a_family_scene_budget_is_checked() -> None:
+    with pytest.raises(ConfigError, match=r"suite.family_max_scenes.stak: unknown family 'stak'"):
+        SuiteBuildConfig(family_max_scenes={"stak": 100})
+    with pytest.raises(ConfigError, match=r"suite.family_max_scenes.stack_three=0: must be an integer ≥ 1"):
+        SuiteBuildConfig(family_max_scenes={"stack_three": 0})
+    config = SuiteBuildConfig.from_dict(json.loads((SUITE_SPEC_DIR / "core.json").read_text()))
+    assert config.max_scenes("stack_three") > config.max_scenes("stack") == config.max_scenes_per_candidate
+
+
+def test_a_stack_three_cell_finds_its_episode_within_its_own_scene_budget() -> None:
+    """Seed 7, candidate 0: of its 5–7-object scenes the first holds no stack_three L4 episode and the
+    second does. With one scene per candidate the cell stays short; with two for stack_three alone
+    (``family_max_scenes``) it gets its episode, proven by the oracle, and other families keep one."""
+    spec = {"seed": 7, "families": ["stack_three"], "levels": ["L4"], "catalogues": ["procedural"],
+            "episodes_per_cell": 1, "max_candidates_per_cell": 1, "max_scenes_per_candidate": 1,
+            "instruction_rounds": 4, "env": {"obs_mode": "state"},
+            "family_scene": {"stack_three": {"min_objects": 5, "max_objects": 7}}}
+    short = build_suite("short", SuiteBuildConfig.from_dict(spec))
+    assert short.manifest["rejected"] == {"draw: no L4 episode in 1 scenes": 1}
+    config = SuiteBuildConfig.from_dict({**spec, "family_max_scenes": {"stack_three": 2}})
+    assert config.max_scenes("stack") == 1
+    suite = build_suite("filled", config)
+    assert suite.manifest["short_cells"] == [] and suite.manifest["rejected"] == {}
+    (episode,) = suite.episodes
+    assert (episode.family, episode.level) == ("stack_three", "L4")
+    assert episode.scene_seed == scene_seeds(7, 0, 2)[1]
+
+
 def test_a_cell_whose_first_candidates_find_no_episode_is_given_up() -> None:
     """stack_three L1 has no episode on the first 3–5-object scene of candidates 0 and 1: the first
     round's two candidates find none, and the build tries no third one but names the cell and why."""

@@ -72,6 +72,9 @@ class SuiteBuildConfig(Config, section="suite"):
         family_scene: per family, scene options (:class:`samplehd.scene.config.SceneConfig` keys) its
             cells' scenes are sampled with instead of ``env.scene``'s, e.g. ``{"stack_three":
             {"min_objects": 5, "max_objects": 7}}``: three objects that stack are rare among 3–5.
+        family_max_scenes: per family, scenes a candidate may sample instead of
+            ``max_scenes_per_candidate``, e.g. ``{"stack_three": 160}``: a scene holding a stack of
+            three is rare even among 5–7 objects.
         axes: robustness axes (:mod:`samplehd.benchmark.axes`); each clean episode gets a variant per
             axis and strength, its clean twin being the episode itself (strength 0).
         strengths: the strengths of each axis (1–5).
@@ -89,6 +92,7 @@ class SuiteBuildConfig(Config, section="suite"):
     instruction_rounds: int = bounded(1, lo=1)
     env: EnvConfig = field(default_factory=EnvConfig)
     family_scene: dict[str, dict[str, Any]] | None = None
+    family_max_scenes: dict[str, int] | None = None
     axes: tuple[str, ...] = bounded((), choices=tuple(AXES), unique=True)
     strengths: tuple[int, ...] = bounded(STRENGTHS, choices=STRENGTHS, unique=True, nonempty=True)
     max_attempts_per_variant: int = bounded(4, lo=1)
@@ -109,6 +113,19 @@ class SuiteBuildConfig(Config, section="suite"):
                 if str(exc).startswith(where):
                     raise
                 raise ConfigError(f"{where}: {exc}", field="family_scene") from None
+
+        for family, count in (self.family_max_scenes or {}).items():
+            where = f"suite.family_max_scenes.{family}"
+            if family not in family_names():
+                raise ConfigError(f"{where}: unknown family {family!r}; valid: {', '.join(family_names())}",
+                                  field="family_max_scenes")
+            if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+                raise ConfigError(f"{where}={count!r}: must be an integer ≥ 1 (scenes per candidate)",
+                                  field="family_max_scenes")
+
+    def max_scenes(self, family: str) -> int:
+        """Scenes a candidate of ``family`` may sample looking for its episode."""
+        return (self.family_max_scenes or {}).get(family, self.max_scenes_per_candidate)
 
     def cells(self) -> list[tuple[str, str, str]]:
         """(catalogue, family, level) of each cell, in the suite's order."""
@@ -188,7 +205,8 @@ def _runner(config: SuiteBuildConfig, catalogue: str, family: str, slots: int = 
     evaluation = _cell_env(config, catalogue, family)
     scene = evaluation.env.scene
     evaluation = replace(evaluation, env=replace(
-        evaluation.env, scene_cache_size=max(evaluation.env.scene_cache_size, _COLUMN_SCENES),
+        evaluation.env, scene_cache_size=max(evaluation.env.scene_cache_size, _COLUMN_SCENES,
+                                             config.max_scenes(family)),
         scene=replace(scene, max_objects=max(scene.max_objects, slots))))
     held = next((i for i, (c, _) in enumerate(_WORKER) if c == evaluation), None)
     if held is None:
@@ -208,12 +226,13 @@ def scene_seeds(seed: int, k: int, count: int) -> list[int]:
 def _prove(config: SuiteBuildConfig, runner: EpisodeRunner, c: int, k: int) -> Candidate:
     """Draw candidate ``k`` of cell ``c`` and run the oracle on it."""
     catalogue, family, level = config.cells()[c]
+    scenes = config.max_scenes(family)
     try:
         scene, instruction, seed = instruction_at_level(
-            runner.env.cache, scene_seeds(config.seed, k, config.max_scenes_per_candidate), family, level,
+            runner.env.cache, scene_seeds(config.seed, k, scenes), family, level,
             _INSTRUCTIONS_PER_SCENE, config.instruction_rounds)
     except SamplehdError:  # no episode of the family and level on the candidate's scenes
-        return Candidate(c, k, False, f"draw: no {level} episode in {config.max_scenes_per_candidate} scenes")
+        return Candidate(c, k, False, f"draw: no {level} episode in {scenes} scenes")
     try:
         record = runner.run((k, seed, family), options={"scene": scene, "instruction": instruction})
     except SamplehdError as exc:  # the env refused the drawn start (e.g. objects inside each other)
@@ -359,7 +378,7 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
         if len(solved) < need:
             short.append({"catalogue": catalogue, "family": family, "level": level, "episodes": len(solved),
                           "candidates": tried[c], **({"reason": f"no episode of the family and level on the "
-                                                      f"{len(done[c]) * config.max_scenes_per_candidate} scenes "
+                                                      f"{len(done[c]) * config.max_scenes(family)} scenes "
                                                       "of its first candidates"} if _barren(done[c]) else {})})
         for k in sorted(done[c]):
             cand = done[c][k]

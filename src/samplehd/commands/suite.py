@@ -32,8 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("name", nargs="?", help="build: the suite's name; show: a shipped suite's name or a file")
     parser.add_argument("--config", type=Path, help="build: JSON of the build options (seed, families, levels, "
                                                     "catalogues, episodes_per_cell, max_candidates_per_cell, "
-                                                    "max_scenes_per_candidate, instruction_rounds, env, family_scene); "
-                                                    "default for a shipped suite's "
+                                                    "max_scenes_per_candidate, instruction_rounds, env, family_scene, "
+                                                    "family_max_scenes); default for a shipped suite's "
                                                     "name: its shipped specification")
     parser.add_argument("--episodes-per-cell", type=int, help="build: episodes per catalogue × family × level")
     parser.add_argument("--families", nargs="+", help="build: task families")

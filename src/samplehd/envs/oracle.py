@@ -220,9 +220,14 @@ class OraclePolicy:
         # itself, but it closes the gripper as the dataset's paths do: it stops closing when both pads
         # touch (a squeeze ramp on a thin handle spikes the contact force past the safety limit).
         # It releases a carried object as low as its collision hulls allow (a mug dropped 10 mm onto a
-        # baking tray's 2 mm floor falls through it).
+        # baking tray's 2 mm floor falls through it). It centres rim grasps on what the pads pinch (on a
+        # sloped brim one pad would otherwise push the plate away before the other touches it), and it
+        # eases the pads off a carried object before the weld lets go (released while squeezed, thin
+        # scissors are shot out of the pads through a chopping board); where no release pose of a spot
+        # is free it tries the object turned half round (a tray held by its near rim behind a box).
         ro = Rollout(model, data, ctrl, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
-                     use_assist=False, step_assist=env.assist, hull_bottom=True)
+                     use_assist=False, step_assist=env.assist, hull_bottom=True, fit_pinch=True,
+                     ease_release=True, turn_release=True)
         self._rollout = ro
         try:
             yield from regrasping_plan(ro, task, self.max_replans, on_failure=self._replanned)

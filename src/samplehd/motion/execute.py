@@ -28,7 +28,7 @@ import numpy as np
 from samplehd.catalogue import ObjectFacts, object_facts
 from samplehd.errors import PlanningError
 from samplehd.fixedmath import inv_rigid, matmul, norm
-from samplehd.motion.assist import GraspAssist
+from samplehd.motion.assist import RELEASE_MARGIN, GraspAssist
 from samplehd.motion.order import effector_point
 from samplehd.motion.order import next_object as order_next_object
 from samplehd.motion.planner import destination_candidates, plan_joint_move, release_height, straight_move
@@ -40,7 +40,7 @@ from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box, object_world_hull_box
 from samplehd.world.collision import CollisionChecker, Held
-from samplehd.world.grasps import choose_grasps
+from samplehd.world.grasps import choose_grasps, pinch_gaps
 from samplehd.world.layout import LAYOUT, Directions, TableLayout
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.robot_info import RobotInfo
@@ -56,6 +56,18 @@ __all__ = [
     "scene_facts",
     "step_controller",
 ]
+
+
+# fit_pinch: the pads' gaps are evened out until they differ by at most this [m] (the grasp assist's
+# touch tolerance is 0.5 mm and each pad closes about 1 mm per control step), in this many moves, each
+# followed by this many still steps for the arm to settle.
+_PINCH_TOLERANCE = 0.0003
+_PINCH_CORRECTIONS = 3
+_PINCH_SETTLE_STEPS = 2
+# ease_release: how long the pads ease off a welded object before the weld is released [s].
+_EASE_TIME = 0.15
+# turn_release: how far a footprint may be off-centre about the object's origin for a half turn to keep it [m].
+_SYMMETRY_TOLERANCE = 0.002
 
 
 @dataclass(frozen=True)
@@ -203,16 +215,31 @@ class Rollout:
             bounding boxes do, which for mesh pieces (boxes in each piece's principal-axes frame) reach
             up to a centimetre lower, so over a thin support (a baking tray's 2 mm floor) the object is
             released that much higher and may fall through it.
+        fit_pinch: centre each rim grasp on what its pads pinch, so both touch at once
+            (:func:`~samplehd.world.grasps.choose_grasps`'s ``fit_pinch``). Off (the dataset's paths):
+            around the rim site's nominal wall, which on a sloped brim lets one pad push the object
+            before the other touches it.
+        ease_release: before the weld is released, ease the pads off the object for a moment with the
+            weld still on. Off (the dataset's paths): the opening command releases the weld while the
+            pads still squeeze, which can shoot a thin tapered object out of them.
+        turn_release: where no release pose of a destination spot is free, try the spot with the object
+            turned half round about the vertical (objects whose footprint is symmetric about their
+            origin only): a tray held by its near rim, placed close to the robot, folds the arm into
+            itself; turned, the grasp is on the far side. Off (the dataset's paths): each spot as drawn.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
                  bodies: SceneBodies, facts: list[ObjectFacts | None], config: PlannerConfig, rng: np.random.Generator,
                  layout: TableLayout = LAYOUT, directions: Directions | None = None,
                  use_assist: bool = True, step_assist: GraspAssist | None = None,
-                 grasp_memo: str | None = None, hull_bottom: bool = False) -> None:
+                 grasp_memo: str | None = None, hull_bottom: bool = False, fit_pinch: bool = False,
+                 ease_release: bool = False, turn_release: bool = False) -> None:
         self.grasp_memo = grasp_memo
         self.use_assist = use_assist
         self.hull_bottom = hull_bottom
+        self.fit_pinch = fit_pinch
+        self.ease_release = ease_release
+        self.turn_release = turn_release
         # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
         self.assisted = use_assist or step_assist is not None
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
@@ -358,7 +385,8 @@ class Rollout:
         self._sync()
         q0 = self.ctrl.target
         grasps = choose_grasps(self.model, self.data, self.bodies, self.robot, self.checker, i, self.facts[i],
-                               q0, self.cfg, self.layout, exclude, memo=self.grasp_memo)
+                               q0, self.cfg, self.layout, exclude, memo=self.grasp_memo,
+                               fit_pinch=self.fit_pinch)
         if not grasps:
             raise AttemptFailed("no_feasible_grasp", f"object {i}: no reachable, collision-free grasp")
         k, gp = grasps[0]
@@ -381,6 +409,8 @@ class Rollout:
         except PlanningError as exc:
             raise AttemptFailed("approach_blocked", str(exc), k) from exc
         yield from self.run("ApproachGrasp", i, path, open_cmd)
+        if self.fit_pinch and gp.grasp.name == "rim":
+            yield from self._centre_pinch(i, gp.grasp.opening, open_cmd)
         yield from self.close_gripper(i, gp.grasp.opening, gp.grasp.width)
         self._sync()
         if not self._holding(i):
@@ -394,6 +424,37 @@ class Rollout:
         if lift:
             yield from self.move_up(i, k)
         return k
+
+    def _centre_pinch(self, i: int, opening: float, open_cmd: float) -> Plan[None]:
+        """Move the open gripper along its closing line until both pads are as far from object ``i``,
+        measured where the TCP is (not where it was planned): on a sloped brim a pad's gap changes by
+        nearly 4 mm per millimetre of height, so the arm's tracking error alone can make one pad touch
+        and push the object a step before the other; the grasp assist welds only when both touch."""
+        for _ in range(_PINCH_CORRECTIONS):
+            self._sync()
+            tcp = self._tcp_world()
+            gaps = pinch_gaps(self.model, self.data, self.bodies, i, tcp, self.robot, opening)
+            if gaps is None or abs(gaps[0] - gaps[1]) <= _PINCH_TOLERANCE:
+                return
+            shift = 0.5 * (gaps[0] - gaps[1]) * matmul(tcp[:3, :3], self.robot.finger_axis)
+            start = fk_tcp(self.ctrl.target)
+            end = start.copy()
+            end[:3, 3] += matmul(self.robot.base_rot.T, shift)
+            try:
+                path = straight_move(self.checker, start, end, self.ctrl.target, opening, self.dt,
+                                     self.cfg.approach_speed)
+            except PlanningError:
+                return
+            settle = np.repeat(path[-1:], _PINCH_SETTLE_STEPS, axis=0)
+            yield from self.run("ApproachGrasp", i, np.vstack([path, settle]), open_cmd)
+
+    def _ease_grip(self, i: int) -> Plan[None]:
+        """Ease the pads off the welded object ``i`` before the weld is released: a command half the
+        assist's release margin wider than the one it welded with keeps the weld and stops the squeeze.
+        Released while squeezed, a thin tapered object (shop-vrb scissors) is shot out of the pads,
+        falls 27 mm in one control step and passes through a 13 mm board."""
+        eased = min(1.0, self.assist.attach_command + 0.5 * RELEASE_MARGIN)
+        yield from self.hold("OpenGripper", i, _EASE_TIME, eased)
 
     def close_gripper(self, i: int, opening: float, width: float) -> Plan[None]:
         """CloseGripper: ramp the finger command down until both pads touch the object, arm still.
@@ -496,7 +557,7 @@ class Rollout:
         into = get_family(task.family).destination == "opening"
         max_drop = self.cfg.max_drop_into if into else self.cfg.max_drop
         last_error = "no reachable release pose"
-        for xy, yaw in spots:
+        for xy, yaw in self._turned_spots(spots, i):
             # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
             cz, sz = np.cos(yaw), np.sin(yaw)
             rot = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
@@ -570,11 +631,24 @@ class Rollout:
             opening = hand.opening
             if self.assisted and self.assist.active >= 0:
                 opening = max(opening, (self.assist.release_command() + 1.0) * 0.5 * GRIPPER_STROKE)
+                if self.ease_release:
+                    yield from self._ease_grip(i)
             yield from self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(opening))
             self.hand = None
             yield from self.go_home(i, opening)
             return
         raise AttemptFailed("no_release_path", f"object {i}: {last_error}", grasp_index)
+
+    def _turned_spots(self, spots: list[tuple[np.ndarray, float]], i: int) -> list[tuple[np.ndarray, float]]:
+        """The release spots to try, in order: with ``turn_release`` and an object whose footprint is
+        symmetric about its origin, each spot is followed by itself with the object turned half round."""
+        facts = self.facts[i]
+        if not self.turn_release or facts is None:
+            return list(spots)
+        lo, hi = np.asarray(facts.bbox_min, float)[:2], np.asarray(facts.bbox_max, float)[:2]
+        if np.max(np.abs(lo + hi)) > _SYMMETRY_TOLERANCE:
+            return list(spots)
+        return [s for xy, yaw in spots for s in ((xy, yaw), (xy, yaw + math.pi))]
 
     def go_home(self, target: int, opening: float) -> Plan[None]:
         """MoveToDefaultPos: straight retreat up, then a joint-space move home."""

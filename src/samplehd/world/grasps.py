@@ -51,6 +51,7 @@ __all__ = [
     "graspable_in_scene",
     "ik_candidates",
     "ik_near",
+    "pinch_gaps",
     "register_grasp_rule",
 ]
 
@@ -310,6 +311,7 @@ def choose_grasps(
     layout: TableLayout = LAYOUT,
     exclude: tuple[int, ...] = (),
     memo: str | None = None,
+    fit_pinch: bool = False,
 ) -> list[tuple[int, GraspPlan]]:
     """Feasible grasps of object ``i`` in the current state, best first, with their registry index.
 
@@ -328,13 +330,22 @@ def choose_grasps(
     else the search reads (the state, the arguments), and a later call with the same bytes gets a
     copy instead of searching again. Every instruction of a scene starts its first pick from the same
     state (the scene as compiled, the arm at home), so a worker that meets the scene again skips it.
+
+    ``fit_pinch`` centres each rim grasp on what its pads will pinch at the chosen height (measured
+    by rays from the open pads against the object's collision geoms), so that both pads touch at
+    once and the grasp's width is that span; off (the dataset's paths, whose bytes are fixed), the
+    pads stand around the rim site's nominal wall. On a sloped brim (the procedural soup plate's,
+    74° from vertical) the pads reach the brim's top 4 mm, where the inner pad's lower edge meets
+    the brim's upper face 7 mm before the outer pad meets the lip: closing, it pushes and tilts the
+    plate before both pads touch, and the grasp assist never welds it.
     """
+    args = (model, data, bodies, robot, checker, i, facts, seed_q, config, layout, exclude, fit_pinch)
     if memo is None:
-        return _search_grasps(model, data, bodies, robot, checker, i, facts, seed_q, config, layout, exclude)
-    key = _search_key(memo, model, data, bodies, robot, checker, i, facts, seed_q, config, layout, exclude)
+        return _search_grasps(*args)
+    key = _search_key(memo, *args)
     found = _SEARCHES.get(key)
     if found is None:
-        found = _search_grasps(model, data, bodies, robot, checker, i, facts, seed_q, config, layout, exclude)
+        found = _search_grasps(*args)
         _SEARCHES[key] = copy.deepcopy(found)
         while len(_SEARCHES) > _SEARCHES_KEPT:
             _SEARCHES.popitem(last=False)
@@ -350,12 +361,14 @@ _SEARCHES_KEPT = 4096
 
 def _search_key(memo: str, model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodies, robot: RobotInfo,
                 checker: CollisionChecker, i: int, facts: ObjectFacts | None, seed_q: np.ndarray,
-                config: PlannerConfig, layout: TableLayout, exclude: tuple[int, ...]) -> bytes:
+                config: PlannerConfig, layout: TableLayout, exclude: tuple[int, ...], fit_pinch: bool) -> bytes:
     """The digest of everything :func:`_search_grasps` reads."""
     h = hashlib.sha256(memo.encode())
     site_facts = None if facts is None else (facts.graspable_sites, facts.bbox_min, facts.bbox_max)
+    # fit_pinch joins the key only when set, so the dataset's keys (and its memo) stay as they were
+    pinch = ("fit_pinch",) if fit_pinch else ()
     h.update(repr((model.nq, model.ngeom, model.nbody, bodies.num_objects, i, tuple(exclude), site_facts, config,
-                   layout, checker.margin, checker.object_margin, robot.finger_open_sign, robot.finger_depth,
+                   *pinch, layout, checker.margin, checker.object_margin, robot.finger_open_sign, robot.finger_depth,
                    robot.tcp_site)).encode())
     for arr in (model.geom_type, model.geom_size, model.geom_dataid, model.mesh_vertnum, model.geom_contype,
                 model.geom_conaffinity, np.asarray(seed_q, dtype=float), checker.base_qpos, data.qpos, data.xpos,
@@ -377,6 +390,7 @@ def _search_grasps(
     config: PlannerConfig,
     layout: TableLayout,
     exclude: tuple[int, ...],
+    fit_pinch: bool = False,
 ) -> list[tuple[int, GraspPlan]]:
     t_obj = object_pose(data, bodies, i)
     sites = facts.graspable_sites if facts is not None else ()
@@ -411,18 +425,13 @@ def _search_grasps(
                 break
             if h not in arm_poses:
                 arm_poses[h] = _grasp_arm_poses(robot, tcp_w, app, float(heights[h]), seed_q, config)
-            poses = arm_poses[h]
-            for b, (q_pre, q_g) in enumerate(poses.branches):
-                if not checker.free(q_g, opening):
-                    break  # the same pose collides for every IK branch: try higher
-                if not checker.free(q_pre, opening):
-                    continue
-                if not poses.lift_free(checker, b, opening, i):
-                    continue
-                best = (q_pre, q_g, poses.tcp_b, poses.pre_b)
+            best = _free_branch(checker, arm_poses[h], opening, i)
+            if best is not None:
                 if opening != g.opening:
                     g = dataclasses.replace(g, opening=float(opening))
-                break
+                if fit_pinch and g.name == "rim":
+                    best, g = _fitted_pinch(model, data, bodies, robot, checker, i, t_obj, tcp_w, app,
+                                            float(heights[h]), g, seed_q, config, best)
         if best is None:
             continue
         # Prefer the catalogue's order, then small wrist turns from the seed.
@@ -504,3 +513,101 @@ def _grasp_arm_poses(robot: RobotInfo, tcp_w: np.ndarray, app: np.ndarray, dz: f
             continue
         branches.append((q_pre, q_g))
     return _GraspArmPoses(tcp_b, pre_b, branches)
+
+
+def _free_branch(checker: CollisionChecker, poses: _GraspArmPoses, opening: float,
+                 i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """The first IK branch of ``poses`` whose grasp, pre-grasp and lift are collision-free with the
+    fingers open to ``opening`` [m]: (pre-grasp q, grasp q, grasp pose, pre-grasp pose), or None."""
+    for b, (q_pre, q_g) in enumerate(poses.branches):
+        if not checker.free(q_g, opening):
+            return None  # the same pose collides for every IK branch: try higher
+        if not checker.free(q_pre, opening):
+            continue
+        if not poses.lift_free(checker, b, opening, i):
+            continue
+        return q_pre, q_g, poses.tcp_b, poses.pre_b
+    return None
+
+
+def _fitted_pinch(model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodies, robot: RobotInfo,
+                  checker: CollisionChecker, i: int, t_obj: np.ndarray, tcp_w: np.ndarray, app: np.ndarray,
+                  dz: float, g: Grasp, seed_q: np.ndarray, config: PlannerConfig,
+                  best: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+                  ) -> tuple[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], Grasp]:
+    """Grasp ``g`` (found feasible as ``best`` at ``tcp_w`` raised by ``dz`` [m]) moved along its
+    closing line so that both open pads are as far from the object, with the width the pads pinch;
+    unchanged where a pad meets nothing or the moved grasp is not free."""
+    closing = matmul(tcp_w[:3, :3], robot.finger_axis)
+    shift = np.zeros(3)
+    for _ in range(3):  # a gap is not linear in the shift where a pad's nearest point moves (a faceted rim)
+        tcp_k = tcp_w.copy()
+        tcp_k[:3, 3] += shift
+        tcp_k[2, 3] += dz
+        gaps = pinch_gaps(model, data, bodies, i, tcp_k, robot, g.opening)
+        if gaps is None:
+            return best, g
+        gap_a, gap_b = gaps
+        if abs(gap_a - gap_b) <= 0.0003:
+            break
+        shift = shift + 0.5 * (gap_a - gap_b) * closing
+    moved = tcp_w.copy()
+    moved[:3, 3] += shift
+    fitted = _free_branch(checker, _grasp_arm_poses(robot, moved, app, dz, seed_q, config), g.opening, i)
+    if fitted is None:
+        return best, g
+    position = np.asarray(g.position, dtype=float) + matmul(t_obj[:3, :3].T, shift)
+    return fitted, dataclasses.replace(g, position=_t(position), width=float(g.opening - gap_a - gap_b))
+
+
+_PINCH_STEP = 0.001  # [m] spacing of the rays down each pad's face
+_PINCH_ACROSS = (-0.008, 0.0, 0.008)  # [m] ray offsets across each pad's face, inside its 22 mm width
+
+
+def pinch_gaps(model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodies, i: int, tcp_w: np.ndarray,
+               robot: RobotInfo, opening: float) -> tuple[float, float] | None:
+    """How far each pad, open to ``opening`` [m] at TCP pose ``tcp_w`` (world, 4×4), travels as the
+    gripper closes before it meets object ``i``'s collision geoms [m].
+
+    Rays start on each pad's face, over its height (the TCP ± ``finger_depth`` along the approach
+    axis) and width, and run along the closing line towards the other pad; a pad's gap is its
+    shortest ray. The first entry is the pad on the ``-finger_axis`` side.
+
+    Returns:
+        (gap of the ``-finger_axis`` pad, gap of the ``+finger_axis`` pad), or None where a pad's
+        rays meet nothing within the opening.
+    """
+    rot = tcp_w[:3, :3]
+    closing = matmul(rot, robot.finger_axis)
+    across = matmul(rot, np.cross([0.0, 0.0, 1.0], robot.finger_axis))
+    down = rot[:, 2]
+    centre = tcp_w[:3, 3]
+    depth = robot.finger_depth
+    reach = 0.5 * opening + depth + 0.01
+    geoms = [int(gid) for gid in bodies.object_geoms(i)
+             if (model.geom_contype[gid] or model.geom_conaffinity[gid])
+             and norm(data.geom_xpos[gid] - centre) <= model.geom_rbound[gid] + reach]
+    along = np.arange(-depth, depth, _PINCH_STEP)
+    gaps = []
+    for side in (-1.0, 1.0):
+        vec = -side * closing
+        nearest = math.inf
+        for a in along:
+            for t in _PINCH_ACROSS:
+                pnt = centre + side * 0.5 * opening * closing + a * down + t * across
+                for gid in geoms:
+                    d = _ray_geom(model, data, gid, pnt, vec)
+                    if 0.0 <= d < nearest:
+                        nearest = d
+        if nearest > opening:
+            return None
+        gaps.append(nearest)
+    return gaps[0], gaps[1]
+
+
+def _ray_geom(model: mujoco.MjModel, data: mujoco.MjData, gid: int, pnt: np.ndarray, vec: np.ndarray) -> float:
+    """Distance along the unit ray ``pnt + x vec`` to geom ``gid``'s surface [m] (-1: none)."""
+    if model.geom_type[gid] == mujoco.mjtGeom.mjGEOM_MESH:
+        return float(mujoco.mj_rayMesh(model, data, gid, pnt, vec))
+    return float(mujoco.mju_rayGeom(data.geom_xpos[gid], data.geom_xmat[gid], model.geom_size[gid], pnt, vec,
+                                    int(model.geom_type[gid])))
