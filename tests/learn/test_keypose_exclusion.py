@@ -27,6 +27,9 @@ def test_the_rule_fires_only_on_an_unheard_word_in_a_nouns_place() -> None:
     assert unknown_nouns("Pick up the red mug.", VOCABULARY) == []  # every word heard
     assert unknown_nouns("Grab the red mug.", VOCABULARY) == []  # an unheard verb is no noun
     assert unknown_nouns("Put the mug onto the bowl.", VOCABULARY) == []  # nor a preposition after a noun
+    # nor one after a word that is a material and a class (glass): it opens a noun phrase of its own
+    assert unknown_nouns("Place the metal inside the bowl.", VOCABULARY) == []
+    assert unknown_nouns("Put the metal food box in the bowl.", VOCABULARY) == ["food", "box"]
     # the words of values and classes its maps name are known though no instruction said them
     assert unknown_nouns("Pick up the plates.", VOCABULARY) == []
     assert unknown_nouns("Pick up the medium-sized mug.", VOCABULARY) == []

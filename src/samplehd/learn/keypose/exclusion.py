@@ -97,8 +97,10 @@ def named_classes(instruction: str, vocabulary: KeyposeVocabulary) -> set[str]:
 def unknown_nouns(instruction: str, vocabulary: KeyposeVocabulary) -> list[str]:
     """The words of ``instruction`` it does not know (neither a training word nor a word of an attribute
     value or class its maps name) that stand in a noun's place: right after a determiner
-    (:data:`DETERMINERS`), a known attribute word or another such word. Empty (the rule does not fire)
-    for a policy that recorded no training words."""
+    (:data:`DETERMINERS`), a known attribute word or another such word, and not right before a
+    determiner (a word there is a preposition: "glass" is a material word and a class, so the unheard
+    "inside" in "place the glass inside the pan" follows an attribute word). Empty (the rule does not
+    fire) for a policy that recorded no training words."""
     if not vocabulary.words:
         return []
     adjectives = {w for a in _attribute_words().values() for w in a.values()} | {
@@ -113,6 +115,8 @@ def unknown_nouns(instruction: str, vocabulary: KeyposeVocabulary) -> list[str]:
     for i, w in enumerate(tokens):
         if w in known or not w.isalpha() or i == 0:
             continue
+        if i + 1 < len(tokens) and tokens[i + 1] in DETERMINERS:
+            continue  # a word that opens a noun phrase of its own is a preposition ("the glass inside the pan")
         before = tokens[i - 1]
         if before in DETERMINERS or before in adjectives or (out and out[-1] == before):
             out.append(w)
