@@ -40,7 +40,7 @@ from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box, object_world_hull_box
 from samplehd.world.collision import CollisionChecker, Held
-from samplehd.world.grasps import choose_grasps, pinch_gaps
+from samplehd.world.grasps import PINCH_TOLERANCE, choose_grasps, pinch_gaps
 from samplehd.world.layout import LAYOUT, Directions, TableLayout
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.robot_info import RobotInfo
@@ -58,10 +58,8 @@ __all__ = [
 ]
 
 
-# fit_pinch: the pads' gaps are evened out until they differ by at most this [m] (the grasp assist's
-# touch tolerance is 0.5 mm and each pad closes about 1 mm per control step), in this many moves, each
-# followed by this many still steps for the arm to settle.
-_PINCH_TOLERANCE = 0.0003
+# fit_pinch: the pads' gaps are evened out (to PINCH_TOLERANCE) in this many moves, each followed by this
+# many still steps for the arm to settle.
 _PINCH_CORRECTIONS = 3
 _PINCH_SETTLE_STEPS = 2
 # ease_release: how long the pads ease off a welded object before the weld is released [s].
@@ -434,7 +432,7 @@ class Rollout:
             self._sync()
             tcp = self._tcp_world()
             gaps = pinch_gaps(self.model, self.data, self.bodies, i, tcp, self.robot, opening)
-            if gaps is None or abs(gaps[0] - gaps[1]) <= _PINCH_TOLERANCE:
+            if gaps is None or abs(gaps[0] - gaps[1]) <= PINCH_TOLERANCE:
                 return
             shift = 0.5 * (gaps[0] - gaps[1]) * matmul(tcp[:3, :3], self.robot.finger_axis)
             start = fk_tcp(self.ctrl.target)

@@ -224,14 +224,15 @@ def _home_clear(model: mujoco.MjModel, data: mujoco.MjData, count: int) -> bool:
     base = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, ROBOT_BODY)
     if base < 0:
         return True
-    objects = {int(b) for b in SceneBodies(model, count).object_body}
+    bodies = SceneBodies(model, count)
+    objects = {int(b) for b in bodies.object_body}
     for c in data.contact[: data.ncon]:
         pair = {int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])}
         if c.dist < 0 and base in pair and pair - {base} <= objects:
             return False
     robot = RobotInfo.from_model(model, data)
     # one query: copying the model to prune its static pairs would cost more than it saves
-    checker = CollisionChecker(model, data, SceneBodies(model, count), robot, prune=False)
+    checker = CollisionChecker(model, data, bodies, robot, prune=False)
     return checker.free(HOME_QPOS, GRIPPER_STROKE)
 
 

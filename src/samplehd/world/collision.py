@@ -49,6 +49,13 @@ def _body_bits(model: mujoco.MjModel) -> None:
         getattr(model, f"body_{name}")[:] = bits
 
 
+def _pruned_bits(contype: np.ndarray, conaffinity: np.ndarray, kept: np.ndarray | bool
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Geoms' collision bits in a pruned copy: moved one place up, and kept in place too where ``kept``."""
+    ct, ca = np.asarray(contype, np.int64), np.asarray(conaffinity, np.int64)
+    return np.where(kept, ct | (ct << 1), ct << 1), np.where(kept, ca | (ca << 1), ca)
+
+
 def pruned_collision_model(model: mujoco.MjModel, keep_bodies: Iterable[int]) -> mujoco.MjModel:
     """A copy of ``model`` whose collision pass skips every geom pair with neither geom in ``keep_bodies``.
 
@@ -69,8 +76,7 @@ def pruned_collision_model(model: mujoco.MjModel, keep_bodies: Iterable[int]) ->
     keep = np.zeros(model.nbody, dtype=bool)
     keep[list(keep_bodies)] = True
     kept = keep[model.geom_bodyid]
-    pruned.geom_contype[:] = np.where(kept, ct | (ct << 1), ct << 1)
-    pruned.geom_conaffinity[:] = np.where(kept, ca | (ca << 1), ca)
+    pruned.geom_contype[:], pruned.geom_conaffinity[:] = _pruned_bits(ct, ca, kept)
     _body_bits(pruned)
     return pruned
 
@@ -129,9 +135,7 @@ class CollisionChecker:
             if i < 0:
                 continue
             g = self.bodies.object_geoms(i)
-            ct, ca = src.geom_contype[g], src.geom_conaffinity[g]
-            m.geom_contype[g] = ct | (ct << 1) if kept else ct << 1
-            m.geom_conaffinity[g] = ca | (ca << 1) if kept else ca
+            m.geom_contype[g], m.geom_conaffinity[g] = _pruned_bits(src.geom_contype[g], src.geom_conaffinity[g], kept)
             b = int(self.bodies.object_body[i])
             for name in ("contype", "conaffinity"):
                 getattr(m, f"body_{name}")[b] = np.bitwise_or.reduce(getattr(m, f"geom_{name}")[g], initial=0)

@@ -51,6 +51,7 @@ __all__ = [
     "graspable_in_scene",
     "ik_candidates",
     "ik_near",
+    "PINCH_TOLERANCE",
     "pinch_gaps",
     "register_grasp_rule",
 ]
@@ -548,7 +549,7 @@ def _fitted_pinch(model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodie
         if gaps is None:
             return best, g
         gap_a, gap_b = gaps
-        if abs(gap_a - gap_b) <= 0.0003:
+        if abs(gap_a - gap_b) <= PINCH_TOLERANCE:
             break
         shift = shift + 0.5 * (gap_a - gap_b) * closing
     moved = tcp_w.copy()
@@ -560,6 +561,9 @@ def _fitted_pinch(model: mujoco.MjModel, data: mujoco.MjData, bodies: SceneBodie
     return fitted, dataclasses.replace(g, position=_t(position), width=float(g.opening - gap_a - gap_b))
 
 
+# fit_pinch: the pads' gaps count as even within this [m] (the grasp assist's touch tolerance is 0.5 mm
+# and each pad closes about 1 mm per control step)
+PINCH_TOLERANCE = 0.0003
 _PINCH_STEP = 0.001  # [m] spacing of the rays down each pad's face
 _PINCH_ACROSS = (-0.008, 0.0, 0.008)  # [m] ray offsets across each pad's face, inside its 22 mm width
 
