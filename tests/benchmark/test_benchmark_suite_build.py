@@ -1,18 +1,20 @@
 """Building suites: a level's episode drawn from a scene's instructions, the candidate scenes shared by
-a column of cells, and the shipped ``core`` specification."""
+a column of cells, and the shipped ``core`` specification and the suite built from it."""
 
 from __future__ import annotations
 
 import argparse
 import json
+from collections import Counter
 
 import pytest
 
+from samplehd.benchmark.evaluation import EpisodeRunner, EvalConfig, _with_slots_for
 from samplehd.benchmark.levels import HELD_OUT_CLASSES, LEVELS, episode_level, instruction_at_level
 from samplehd.benchmark.suite import SuiteBuildConfig, build_suite, scene_seeds
 from samplehd.commands.suite import resolve_config
 from samplehd.envs.episodes import SceneCache
-from samplehd.envs.suite_file import SUITE_SPEC_DIR
+from samplehd.envs.suite_file import SUITE_SPEC_DIR, read_suite
 from samplehd.errors import ConfigError
 from samplehd.scene.config import SceneConfig
 from samplehd.tasks.task import family_names
@@ -108,10 +110,14 @@ def test_a_stack_three_cell_finds_its_episode_within_its_own_scene_budget() -> N
             "family_scene": {"stack_three": {"min_objects": 5, "max_objects": 7}}}
     short = build_suite("short", SuiteBuildConfig.from_dict(spec))
     assert short.manifest["rejected"] == {"draw: no L4 episode in 1 scenes": 1}
+    # a candidate the draw found no episode for was tried, but never given to the oracle
+    assert short.manifest["candidates_solved"]["by_catalogue_family"] == {
+        "procedural stack_three": {"tried": 1, "drawn": 0, "solved": 0}}
     config = SuiteBuildConfig.from_dict({**spec, "family_max_scenes": {"stack_three": 2}})
     assert config.max_scenes("stack") == 1
     suite = build_suite("filled", config)
     assert suite.manifest["short_cells"] == [] and suite.manifest["rejected"] == {}
+    assert suite.manifest["candidates_solved"]["by_family"] == {"stack_three": {"tried": 1, "drawn": 1, "solved": 1}}
     (episode,) = suite.episodes
     assert (episode.family, episode.level) == ("stack_three", "L4")
     assert episode.scene_seed == scene_seeds(7, 0, 2)[1]
@@ -142,3 +148,41 @@ def test_the_once_empty_core_cells_fill_with_oracle_proven_episodes() -> None:
     cells = {(e.family, e.level) for e in suite.episodes}
     assert cells == {(f, lv) for f in ("put", "stack", "stack_three") for lv in ("L1", "L3")}
     assert all(len(e.scene["objects"]) >= 5 for e in suite.episodes if e.family == "stack_three")
+
+
+def test_the_shipped_core_suite_is_its_specification_built_whole() -> None:
+    """``core`` ships built: from its shipped specification, every cell full, every episode clean and
+    proven by the oracle, and the manifest's candidate counts add up to its episodes and rejections."""
+    suite = read_suite("core")
+    spec = SuiteBuildConfig.from_dict(json.loads((SUITE_SPEC_DIR / "core.json").read_text()))
+    assert suite.build == json.loads(json.dumps({"name": "core", **spec.to_dict()}))
+    cells = Counter((e.catalogue, e.family, e.level) for e in suite.episodes)
+    assert set(cells) == set(spec.cells()) and set(cells.values()) == {spec.episodes_per_cell}
+    assert len(suite.episodes) == 1400 and suite.manifest["short_cells"] == []
+    assert all(e.axis == "none" and e.strength == 0 and e.oracle_steps > 0 for e in suite.episodes)
+    m = suite.manifest
+    assert m["oracle_success_on_suite"] == 1.0
+    groups = m["candidates_solved"]["by_catalogue_family"]
+    assert sum(g["tried"] for g in groups.values()) == m["candidates"]
+    assert sum(g["solved"] for g in groups.values()) == len(suite.episodes)
+    assert m["candidates"] - len(suite.episodes) == sum(m["rejected"].values())
+    draws = sum(n for reason, n in m["rejected"].items() if reason.startswith("draw:"))
+    assert sum(g["tried"] - g["drawn"] for g in groups.values()) == draws
+
+
+@pytest.mark.slow
+def test_the_oracle_solves_shipped_core_episodes_in_their_recorded_steps() -> None:
+    """Three of ``core``'s episodes (its first, a procedural stack_three L4 one and its last, a shop-vrb
+    stack_three L4 one), reset from the shipped file as ``evaluate --suite core`` resets them: the oracle
+    solves each in exactly the control steps the build recorded."""
+    suite = read_suite("core")
+    picks = [suite.episodes[0], next(e for e in suite.episodes if (e.catalogue, e.family, e.level)
+                                      == ("procedural", "stack_three", "L4")), suite.episodes[-1]]
+    config = EvalConfig(policy="oracle", episodes=len(suite.episodes), suite="core", env={"obs_mode": "state"})
+    runner = EpisodeRunner(_with_slots_for(config, suite))
+    try:
+        for e in picks:
+            record = runner.run((e.id, e.reset_seed, e.family))
+            assert (record.success, record.steps, record.family) == (True, e.oracle_steps, e.family), e.id
+    finally:
+        runner.close()

@@ -371,7 +371,7 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
         first = False
     episodes: list[dict[str, Any]] = []
     rejected: Counter[str] = Counter()
-    solve: dict[str, dict[str, Counter[str]]] = {"by_catalogue": {}, "by_family": {}}
+    solve: dict[str, dict[str, Counter[str]]] = {"by_catalogue": {}, "by_family": {}, "by_catalogue_family": {}}
     short = []
     for c, (catalogue, family, level) in enumerate(cells):
         solved = [done[c][k] for k in sorted(done[c]) if done[c][k].solved]
@@ -382,9 +382,12 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
                                                       "of its first candidates"} if _barren(done[c]) else {})})
         for k in sorted(done[c]):
             cand = done[c][k]
-            for key, value in (("by_catalogue", catalogue), ("by_family", family)):
-                solve[key].setdefault(value, Counter())["tried"] += 1
-                solve[key][value]["solved"] += cand.solved
+            for key, value in (("by_catalogue", catalogue), ("by_family", family),
+                               ("by_catalogue_family", f"{catalogue} {family}")):
+                group = solve[key].setdefault(value, Counter())
+                group["tried"] += 1
+                group["drawn"] += not cand.reason.startswith("draw:")  # the draw found an episode of the cell
+                group["solved"] += cand.solved
             if not cand.solved:
                 rejected[cand.reason] += 1
         for cand in solved:
@@ -400,7 +403,7 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
            for key in ("family", "level", "catalogue", "axis", "strength")},
         "candidates": sum(tried),
         "rejected": dict(sorted(rejected.items(), key=lambda kv: (-kv[1], kv[0]))),
-        "candidates_solved": {key: {v: {"tried": n["tried"], "solved": n["solved"]} for v, n in groups.items()}
+        "candidates_solved": {key: {v: {k: n[k] for k in ("tried", "drawn", "solved")} for v, n in groups.items()}
                               for key, groups in solve.items()},
         "oracle_success_on_suite": 1.0 if episodes else 0.0,
         "short_cells": short,

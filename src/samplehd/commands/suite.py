@@ -81,8 +81,9 @@ def describe(suite: Suite) -> str:
     lines.append(f"  candidates {m.get('candidates')}, rejected {sum(m.get('rejected', {}).values())}")
     for reason, n in m.get("rejected", {}).items():
         lines.append(f"    {n:>5}  {reason}")
-    for key, groups in m.get("candidates_solved", {}).items():
-        lines.append(f"  solved {key[3:]}: " + ", ".join(f"{v} {g['solved']}/{g['tried']}" for v, g in groups.items()))
+    for key, groups in m.get("candidates_solved", {}).items():  # solved of drawn (the oracle's record), of tried
+        lines.append(f"  solved {key[3:].replace('_', ' × ')}: " + ", ".join(
+            f"{v} {g['solved']}/{g.get('drawn', g['tried'])}/{g['tried']}" for v, g in groups.items()))
     for key in ("short_cells", "short_variants"):
         if m.get(key):
             lines.append(f"  {key.replace('_', ' ')}: {json.dumps(m[key])}")
