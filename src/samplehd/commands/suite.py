@@ -89,9 +89,9 @@ def describe(suite: Suite) -> str:
         lines.append(f"  by {key:<9} " + ", ".join(f"{k} {v}" for k, v in counts.items()))
     lines.append(f"  candidates {m.get('candidates')}, rejected {sum(m.get('rejected', {}).values())}")
     if m.get("base"):
-        lines.append(f"  from base {m['base']['name']} ({m['base']['content_hash']}): its first "
-                     f"{suite.build.get('base_per_cell') or 'all'} clean episodes per cell, "
-                     f"{len(m['base']['episodes'])} in all; axes {', '.join(m.get('axes', [])) or 'none'}")
+        lines.append(f"  from base {m['base']['name']} ({m['base']['content_hash']}): "
+                     f"{_taken(suite.build.get('base_per_cell'))}, {len(m['base']['episodes'])} in all; "
+                     f"axes {', '.join(m.get('axes', [])) or 'none'}")
     for reason, n in m.get("rejected", {}).items():
         lines.append(f"    {n:>5}  {reason}")
     for key, groups in m.get("candidates_solved", {}).items():
@@ -100,6 +100,11 @@ def describe(suite: Suite) -> str:
         if m.get(key):
             lines.append(f"  {key.replace('_', ' ')}: {json.dumps(m[key])}")
     return "\n".join(lines)
+
+
+def _taken(per_cell: int | None) -> str:
+    """What a suite built from a base takes of it, in words."""
+    return "all its clean episodes" if per_cell is None else f"its first {per_cell} clean episodes per cell"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -128,9 +133,9 @@ def run(args: argparse.Namespace) -> int:
     backend = Backend(args.backend, args.workers, args.ray_address)
     backend.connect()
     if base is not None:
-        print(f"building suite {args.name} from {base.name} ({base.content_hash}): its first "
-              f"{config.base_per_cell or 'all'} clean episodes per cell × axes {' '.join(config.axes) or 'none'} × "
-              f"strengths {' '.join(map(str, config.strengths))} ({backend.describe()})", flush=True)
+        print(f"building suite {args.name} from {base.name} ({base.content_hash}): {_taken(config.base_per_cell)} "
+              f"× axes {' '.join(config.axes) or 'none'} × strengths {' '.join(map(str, config.strengths))} "
+              f"({backend.describe()})", flush=True)
     else:
         print(f"building suite {args.name}: {len(config.cells())} cells × {config.episodes_per_cell} episodes "
               f"({backend.describe()})", flush=True)
@@ -156,7 +161,8 @@ def run(args: argparse.Namespace) -> int:
     wall = time.perf_counter() - t0
     print(describe(read_suite(out)))
     if base is not None:  # only the physical variants' attempts ran the oracle
-        print(f"wrote {out} ({wall:.0f} s, {runs} physical variant attempts, {wall / max(1, runs):.1f} s each)")
+        each = f", {wall / runs:.1f} s each" if runs else ""
+        print(f"wrote {out} ({wall:.0f} s, {runs} physical variant attempts{each})")
     else:
         print(f"wrote {out} ({wall:.0f} s, {wall / max(1, suite.manifest['candidates']):.1f} s per candidate)")
     return 0
