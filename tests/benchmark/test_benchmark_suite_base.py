@@ -3,15 +3,18 @@ from them (a few axes at a time, as ``plus`` is built), and the refusals of a ba
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from samplehd.benchmark.axes import AXES, AXIS_FIELDS, PHYSICAL_AXES, STRENGTHS, perturb
 from samplehd.benchmark.suite import SuiteBuildConfig, build_suite, read_base
+from samplehd.commands.suite import resolve_config
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.suite_file import SUITE_SPEC_DIR, Suite, SuiteEpisode, content_hash, read_suite
 from samplehd.errors import ConfigError
@@ -197,6 +200,9 @@ def test_the_shipped_plus_specification_derives_every_axis_from_core() -> None:
     the other nine axes (which change nearly every instruction) would give over 10,000."""
     spec = json.loads((SUITE_SPEC_DIR / "plus.json").read_text())
     config = SuiteBuildConfig.from_dict(spec)
+    args = argparse.Namespace(name="plus", config=None, episodes_per_cell=None, seed=None, families=None,
+                              levels=None, catalogues=None, axes=["camera", "lighting"])
+    assert resolve_config(args) == replace(config, axes=("camera", "lighting"))  # a part of plus: two axes
     core = SuiteBuildConfig.from_dict(json.loads((SUITE_SPEC_DIR / "core.json").read_text()))
     assert config.base == "core" and set(config.axes) == set(AXES) and config.strengths == STRENGTHS
     twins = len(core.cells()) * (config.base_per_cell or 0)
