@@ -20,14 +20,24 @@ up (``short_cells`` says why); each later round tries, per cell, as many new can
 still lacks episodes, so the cell's episodes are always its first
 ``episodes_per_cell`` solved candidates in candidate order, whatever the number of workers: the same
 configuration gives the same bytes.
+
+A suite may instead derive from a built *base* suite (``base``, ``base_per_cell``): it takes the first
+``base_per_cell`` clean episodes of each of the base's cells, in suite order, as they are (the base's
+oracle proof stands; only their ids are renumbered), and makes their axes' variants as above, the
+physical ones proven in the base's env with the base's scene options. Nothing is drawn, so the
+drawing options belong to the base's build and may not be given. This is how a large robustness suite
+(``plus``) ships as a specification and is built lazily, an axis or a few at a time: a variant depends
+only on the seed, its axis and strength, its attempt and its twin (whose id does not depend on the
+axes built), so a build of some axes holds the same variants as a build of all, renumbered.
 """
 
 from __future__ import annotations
 
+import json
 import re
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, is_dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -38,18 +48,33 @@ from samplehd.benchmark.levels import LEVELS, episode_level, instruction_at_leve
 from samplehd.catalogue.loader import CATALOGUES as BUILT_IN_CATALOGUES
 from samplehd.catalogue.loader import DEFAULT_CATALOGUE
 from samplehd.envs.config import EnvConfig
-from samplehd.envs.suite_file import CLEAN_AXIS, Suite, SuiteEpisode, content_hash
+from samplehd.envs.suite_file import (
+    CLEAN_AXIS,
+    Suite,
+    SuiteEpisode,
+    content_hash,
+    read_suite,
+    shipped_suites,
+    suite_path,
+)
 from samplehd.errors import ConfigError, SamplehdError, SceneError
 from samplehd.scene.config import SceneConfig
-from samplehd.schema import Config, bounded
+from samplehd.schema import Config, bounded, to_mapping
 from samplehd.tasks.task import family_names
 from samplehd.version import __version__
 from samplehd.workers import Backend
 
-__all__ = ["Candidate", "SuiteBuildConfig", "build_suite", "rejection_reason", "scene_seeds"]
+__all__ = ["Candidate", "SuiteBuildConfig", "build_suite", "read_base", "rejection_reason", "scene_seeds"]
 
 CATALOGUES = tuple(BUILT_IN_CATALOGUES)
 _NUMBER = re.compile(r"[0-9]+(\.[0-9]+)?")
+# The options that draw and prove clean episodes: a suite built from a base has the base's.
+_DRAWING = ("families", "levels", "catalogues", "episodes_per_cell", "max_candidates_per_cell",
+            "max_scenes_per_candidate", "instruction_rounds", "env", "family_scene", "family_max_scenes")
+# Of those, the ones a physical variant is proven with (the env and its scenes' options).
+_PROOF = ("env", "family_scene", "family_max_scenes", "max_scenes_per_candidate")
+# The options of a suite built from a base (left out of the build record of one that is not).
+_BASE = ("base", "base_per_cell")
 
 
 @dataclass(frozen=True)
@@ -80,6 +105,11 @@ class SuiteBuildConfig(Config, section="suite"):
         strengths: the strengths of each axis (1–5).
         max_attempts_per_variant: directions a physical axis' variant may try before the build leaves
             it out (the manifest lists it under ``short_variants``).
+        base: a built suite (a shipped suite's name or a file) whose clean episodes this suite takes as
+            they are, instead of drawing and proving its own; the drawing options above (families to
+            family_max_scenes) are the base's and may not be given.
+        base_per_cell: with ``base``: the first N clean episodes of each of the base's cells (catalogue ×
+            family × level), in suite order; None: all of them.
     """
 
     seed: int = bounded(0, lo=0)
@@ -94,11 +124,14 @@ class SuiteBuildConfig(Config, section="suite"):
     family_scene: dict[str, dict[str, Any]] | None = None
     family_max_scenes: dict[str, int] | None = None
     axes: tuple[str, ...] = bounded((), choices=tuple(AXES), unique=True)
-    strengths: tuple[int, ...] = bounded(STRENGTHS, choices=STRENGTHS, unique=True, nonempty=True)
+    strengths: tuple[int, ...] = bounded(STRENGTHS, lo=min(STRENGTHS), hi=max(STRENGTHS), unique=True, nonempty=True)
     max_attempts_per_variant: int = bounded(4, lo=1)
+    base: str | None = None
+    base_per_cell: int | None = bounded(None, lo=1)
 
     def __post_init__(self) -> None:
         super().__post_init__()
+        self._check_base()
         for family, options in (self.family_scene or {}).items():
             where = f"suite.family_scene.{family}"
             if family not in family_names():
@@ -122,6 +155,25 @@ class SuiteBuildConfig(Config, section="suite"):
             if isinstance(count, bool) or not isinstance(count, int) or count < 1:
                 raise ConfigError(f"{where}={count!r}: must be an integer ≥ 1 (scenes per candidate)",
                                   field="family_max_scenes")
+
+    def _check_base(self) -> None:
+        """A base goes without the drawing options; ``base_per_cell`` goes with a base."""
+        if self.base is None:
+            if self.base_per_cell is not None:
+                raise ConfigError(f"suite.base_per_cell={self.base_per_cell}: counts the clean episodes taken per "
+                                  "cell from suite.base; name the base (a built suite's name or file) or leave it "
+                                  "out", field="base_per_cell")
+            return
+        if not self.base.strip():
+            raise ConfigError("suite.base='': must be a built suite's name or file", field="base")
+        default = SuiteBuildConfig()
+        for name in _DRAWING:
+            value = getattr(self, name)
+            if value != getattr(default, name):
+                text = json.dumps(to_mapping(value) if is_dataclass(value) else value)
+                raise ConfigError(f"suite.{name}={text if len(text) <= 60 else text[:57] + '...'}: a suite built "
+                                  f"from a base (suite.base={self.base!r}) has its base's; leave it out",
+                                  field=name)
 
     def max_scenes(self, family: str) -> int:
         """Scenes a candidate of ``family`` may sample looking for its episode."""
@@ -333,17 +385,118 @@ def _variants(config: SuiteBuildConfig, clean: list[dict[str, Any]], backend: Ba
     return [out[k] for k in sorted(out, key=lambda k: (config.axes.index(k[0]), k[1], k[2]))], rejected, short
 
 
+def read_base(config: SuiteBuildConfig) -> Suite:
+    """The suite ``config.base`` names, read and checked.
+
+    Raises:
+        ConfigError: one line naming ``suite.base`` and its value: no shipped suite of that name and no
+            such file, a damaged or foreign file, a suite with no clean episode, or one itself built
+            from a base (name that base instead: its build holds the env that proved the episodes).
+    """
+    base = str(config.base)
+    try:
+        path = suite_path(base)
+    except ConfigError:
+        raise ConfigError(f"suite.base={base!r}: no such shipped suite; shipped: {', '.join(shipped_suites())} "
+                          "(or give a built suite file's path)", field="base") from None
+    try:
+        suite = read_suite(path)
+    except ConfigError as exc:
+        raise ConfigError(f"suite.base={base!r}: {exc}", field="base") from None
+    if suite.build.get("base") is not None:
+        raise ConfigError(f"suite.base={base!r}: suite {suite.name!r} is itself built from the base "
+                          f"{suite.build['base']!r}; name that one", field="base")
+    if not any(e.axis == CLEAN_AXIS for e in suite.episodes):
+        raise ConfigError(f"suite.base={base!r}: suite {suite.name!r} has no clean episode (axis {CLEAN_AXIS!r}) "
+                          "to make variants of", field="base")
+    return suite
+
+
+def _base_cells(base: Suite) -> list[tuple[str, str, str]]:
+    """The base's cells (catalogue, family, level) in its order: its build's grid, then any other cell
+    its clean episodes hold."""
+    b = base.build
+    grid = [(c, f, lv) for c in b.get("catalogues", ()) for f in b.get("families", ()) for lv in b.get("levels", ())]
+    held = [(e.catalogue, e.family, e.level) for e in base.episodes if e.axis == CLEAN_AXIS]
+    return list(dict.fromkeys([*grid, *held]))
+
+
+def _take_clean(config: SuiteBuildConfig, base: Suite) -> tuple[list[SuiteEpisode], list[dict[str, Any]]]:
+    """The base's clean episodes the suite takes (the first ``base_per_cell`` of each cell, in suite
+    order) and the cells that have fewer."""
+    want = config.base_per_cell
+    taken: Counter[tuple[str, str, str]] = Counter()
+    out = []
+    for ep in base.episodes:
+        cell = (ep.catalogue, ep.family, ep.level)
+        if ep.axis == CLEAN_AXIS and (want is None or taken[cell] < want):
+            taken[cell] += 1
+            out.append(ep)
+    short = [{"catalogue": c, "family": f, "level": lv, "episodes": taken[c, f, lv],
+              "reason": f"the base has {taken[c, f, lv]} clean episodes of the cell"}
+             for c, f, lv in _base_cells(base) if want is not None and taken[c, f, lv] < want]
+    return out, short
+
+
+def _proof_config(config: SuiteBuildConfig, base: Suite) -> SuiteBuildConfig:
+    """What a suite built from a base proves its physical variants with: the base's env and scene
+    options, and its own seed, axes, strengths and attempts."""
+    own = {k: getattr(config, k) for k in ("seed", "axes", "strengths", "max_attempts_per_variant")}
+    try:
+        return SuiteBuildConfig.from_dict({**{k: base.build[k] for k in _PROOF if k in base.build}, **own})
+    except ConfigError as exc:  # a base built by another samplehd, whose env options this one does not know
+        raise ConfigError(f"suite.base={config.base!r}: its build's options: {exc}", field="base") from None
+
+
+def _manifest(episodes: list[dict[str, Any]], candidates: int, rejected: Counter[str],
+              candidates_solved: dict[str, Any], short_cells: list[Any], short_variants: list[Any]) -> dict[str, Any]:
+    """The suite file's manifest (counts, rejection reasons, what the build could not fill)."""
+    return {
+        "episodes": len(episodes),
+        **{f"by_{key}": dict(sorted(Counter(str(e[key]) for e in episodes).items()))
+           for key in ("family", "level", "catalogue", "axis", "strength")},
+        "candidates": candidates,
+        "rejected": dict(sorted(rejected.items(), key=lambda kv: (-kv[1], kv[0]))),
+        "candidates_solved": candidates_solved,
+        "oracle_success_on_suite": 1.0 if episodes else 0.0,
+        "short_cells": short_cells,
+        "short_variants": short_variants,
+    }
+
+
+def _build_from_base(name: str, config: SuiteBuildConfig, backend: Backend,
+                     progress: Callable[[Candidate], None] | None) -> Suite:
+    """A suite of a base's clean episodes and their variants (see the module docstring)."""
+    base = read_base(config)
+    taken, short = _take_clean(config, base)
+    clean: list[dict[str, Any]] = [{**e.to_dict(), "id": i} for i, e in enumerate(taken)]
+    variants, rejected, short_variants = _variants(_proof_config(config, base), clean, backend, progress)
+    episodes = clean + [{"id": len(clean) + i, **v} for i, v in enumerate(variants)]
+    manifest = {**_manifest(episodes, 0, rejected, {}, short, short_variants),
+                "base": {"name": base.name, "content_hash": base.content_hash, "episodes": [e.id for e in taken]},
+                "axes": list(config.axes), "strengths": list(config.strengths)}
+    build = {"name": name, **{k: v for k, v in config.to_dict().items() if k not in _DRAWING}}
+    return Suite(name=name, path=None, content_hash=content_hash(episodes), build=build, manifest=manifest,
+                 package_version=__version__, episodes=tuple(SuiteEpisode.from_dict(e) for e in episodes))
+
+
 def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = None,
                 progress: Callable[[Candidate], None] | None = None) -> Suite:
-    """Draw, prove and freeze a suite (see the module docstring); nothing is written.
+    """Draw, prove and freeze a suite, or derive it from its base (see the module docstring); nothing
+    is written.
 
     Args:
         name: the suite's name.
         config: what to build.
         backend: where candidates run (default: this process).
         progress: called with each finished candidate.
+
+    Raises:
+        ConfigError: a base that cannot be used (:func:`read_base`).
     """
     backend = backend or Backend()
+    if config.base is not None:
+        return _build_from_base(name, config, backend, progress)
     cells = config.cells()
     need = config.episodes_per_cell
     done: list[dict[int, Candidate]] = [{} for _ in cells]
@@ -397,18 +550,9 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
         variants, variant_rejected, short_variants = _variants(config, episodes, backend, progress)
         rejected.update(variant_rejected)
         episodes += [{"id": len(episodes) + i, **v} for i, v in enumerate(variants)]
-    manifest = {
-        "episodes": len(episodes),
-        **{f"by_{key}": dict(sorted(Counter(str(e[key]) for e in episodes).items()))
-           for key in ("family", "level", "catalogue", "axis", "strength")},
-        "candidates": sum(tried),
-        "rejected": dict(sorted(rejected.items(), key=lambda kv: (-kv[1], kv[0]))),
-        "candidates_solved": {key: {v: {k: n[k] for k in ("tried", "drawn", "solved")} for v, n in groups.items()}
-                              for key, groups in solve.items()},
-        "oracle_success_on_suite": 1.0 if episodes else 0.0,
-        "short_cells": short,
-        "short_variants": short_variants,
-    }
-    build = {"name": name, **config.to_dict()}
+    solved_counts = {key: {v: {k: n[k] for k in ("tried", "drawn", "solved")} for v, n in groups.items()}
+                     for key, groups in solve.items()}
+    manifest = _manifest(episodes, sum(tried), rejected, solved_counts, short, short_variants)
+    build = {"name": name, **{k: v for k, v in config.to_dict().items() if k not in _BASE}}
     return Suite(name=name, path=None, content_hash=content_hash(episodes), build=build, manifest=manifest,
                  package_version=__version__, episodes=tuple(SuiteEpisode.from_dict(e) for e in episodes))

@@ -1,8 +1,9 @@
 """Build, list and describe benchmark suites: frozen episode lists, each episode proven solvable by the
 closed-loop oracle, that `samplehd evaluate --suite` runs without drawing anything.
 
-  samplehd suite build NAME [--config FILE] [--out FILE] [--workers N]
-      (a shipped suite's NAME, e.g. core, builds from its shipped specification unless --config is given)
+  samplehd suite build NAME [--config FILE] [--axes AXIS ...] [--out FILE] [--workers N]
+      (a shipped suite's NAME, e.g. core or plus, builds from its shipped specification unless --config is
+      given; plus derives from core's built episodes, and --axes builds only those axes of it)
   samplehd suite list
   samplehd suite show NAME|FILE
 """
@@ -16,7 +17,7 @@ from dataclasses import fields
 from pathlib import Path
 
 from samplehd.benchmark.axes import AXES
-from samplehd.benchmark.suite import Candidate, SuiteBuildConfig, build_suite
+from samplehd.benchmark.suite import Candidate, SuiteBuildConfig, build_suite, read_base
 from samplehd.commands._options import check_out_file, config_from_options, split_names
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.suite_file import SUITE_DIR, SUITE_SPEC_DIR, Suite, read_suite, shipped_suites
@@ -33,8 +34,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", type=Path, help="build: JSON of the build options (seed, families, levels, "
                                                     "catalogues, episodes_per_cell, max_candidates_per_cell, "
                                                     "max_scenes_per_candidate, instruction_rounds, env, family_scene, "
-                                                    "family_max_scenes); default for a shipped suite's "
-                                                    "name: its shipped specification")
+                                                    "family_max_scenes, axes, strengths, "
+                                                    "max_attempts_per_variant, base, base_per_cell); default for a "
+                                                    "shipped suite's name: its shipped specification")
     parser.add_argument("--episodes-per-cell", type=int, help="build: episodes per catalogue × family × level")
     parser.add_argument("--families", nargs="+", help="build: task families")
     parser.add_argument("--levels", nargs="+", help="build: generalisation levels (L1 L2 L3 L4)")
@@ -42,6 +44,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, help="build: seed of the candidates")
     parser.add_argument("--axes", nargs="+", help=f"build: robustness axes ({', '.join(AXES)}); each clean "
                                                   "episode gets a variant per axis and strength")
+    parser.add_argument("--strengths", type=int, nargs="+", help="build: the strengths (1–5) of each axis")
+    parser.add_argument("--base", help="build: a built suite (shipped name or file) whose clean episodes this "
+                                       "suite takes as they are, making only the axes' variants")
+    parser.add_argument("--base-per-cell", type=int, help="build: with --base, the first N clean episodes of each "
+                                                          "of its catalogue × family × level cells (default: all)")
     parser.add_argument("--out", type=Path, help="build: the suite file to write (default NAME.json)")
     parser.add_argument("--workers", type=int, default=1, help="build: worker processes (local backend)")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="build: where candidates run")
@@ -60,7 +67,9 @@ def resolve_config(args: argparse.Namespace) -> SuiteBuildConfig:
         if not isinstance(options, dict):
             raise ConfigError(f"--config {args.config}: expected a JSON object of build options", field="config")
     config = SuiteBuildConfig.from_dict(options, where=f"--config {args.config}" if args.config else None)
-    flags = {"episodes_per_cell": args.episodes_per_cell, "seed": args.seed}
+    flags = {"episodes_per_cell": args.episodes_per_cell, "seed": args.seed,
+             "base": getattr(args, "base", None), "base_per_cell": getattr(args, "base_per_cell", None),
+             "strengths": getattr(args, "strengths", None)}
     for key in ("families", "levels", "catalogues", "axes"):
         value = getattr(args, key)
         if value is not None:
@@ -79,6 +88,10 @@ def describe(suite: Suite) -> str:
         counts = m.get(f"by_{key}", {})
         lines.append(f"  by {key:<9} " + ", ".join(f"{k} {v}" for k, v in counts.items()))
     lines.append(f"  candidates {m.get('candidates')}, rejected {sum(m.get('rejected', {}).values())}")
+    if m.get("base"):
+        lines.append(f"  from base {m['base']['name']} ({m['base']['content_hash']}): "
+                     f"{_taken(suite.build.get('base_per_cell'))}, {len(m['base']['episodes'])} in all; "
+                     f"axes {', '.join(m.get('axes', [])) or 'none'}")
     for reason, n in m.get("rejected", {}).items():
         lines.append(f"    {n:>5}  {reason}")
     for key, groups in m.get("candidates_solved", {}).items():  # solved of drawn (the oracle's record), of tried
@@ -88,6 +101,11 @@ def describe(suite: Suite) -> str:
         if m.get(key):
             lines.append(f"  {key.replace('_', ' ')}: {json.dumps(m[key])}")
     return "\n".join(lines)
+
+
+def _taken(per_cell: int | None) -> str:
+    """What a suite built from a base takes of it, in words."""
+    return "all its clean episodes" if per_cell is None else f"its first {per_cell} clean episodes per cell"
 
 
 def run(args: argparse.Namespace) -> int:
@@ -112,14 +130,22 @@ def run(args: argparse.Namespace) -> int:
     check_out_file("--out", out, (".json",))
     check_outputs({"--out": out}, {"--config": args.config})
     config = resolve_config(args)
+    base = read_base(config) if config.base is not None else None  # a bad base is refused before any work
     backend = Backend(args.backend, args.workers, args.ray_address)
     backend.connect()
-    cells = len(config.cells())
-    print(f"building suite {args.name}: {cells} cells × {config.episodes_per_cell} episodes ({backend.describe()})",
-          flush=True)
+    if base is not None:
+        print(f"building suite {args.name} from {base.name} ({base.content_hash}): {_taken(config.base_per_cell)} "
+              f"× axes {' '.join(config.axes) or 'none'} × strengths {' '.join(map(str, config.strengths))} "
+              f"({backend.describe()})", flush=True)
+    else:
+        print(f"building suite {args.name}: {len(config.cells())} cells × {config.episodes_per_cell} episodes "
+              f"({backend.describe()})", flush=True)
     t0 = time.perf_counter()
+    runs = 0
 
     def show(c: Candidate) -> None:
+        nonlocal runs
+        runs += 1
         if args.quiet:
             return
         mark = "ok  " if c.solved else "fail"
@@ -135,5 +161,9 @@ def run(args: argparse.Namespace) -> int:
     suite.write(out)
     wall = time.perf_counter() - t0
     print(describe(read_suite(out)))
-    print(f"wrote {out} ({wall:.0f} s, {wall / max(1, suite.manifest['candidates']):.1f} s per candidate)")
+    if base is not None:  # only the physical variants' attempts ran the oracle
+        each = f", {wall / runs:.1f} s each" if runs else ""
+        print(f"wrote {out} ({wall:.0f} s, {runs} physical variant attempts{each})")
+    else:
+        print(f"wrote {out} ({wall:.0f} s, {wall / max(1, suite.manifest['candidates']):.1f} s per candidate)")
     return 0
