@@ -200,9 +200,9 @@ def test_an_object_that_slips_out_is_noticed_and_the_arm_goes_home_open(
 
 
 def test_a_grasp_on_the_empty_table_is_missed_and_the_arm_goes_home_open(keypose_dataset: Path) -> None:
-    """A grasp whose fingers close on nothing (a spot of the table 6 cm or more from every object) is
-    missed at the close: the follower goes straight up and back to its start pose open, without lifting
-    or checking a grip it does not have."""
+    """A grasp on the empty table (6 cm or more from every object, low enough that the descent meets the
+    table) is missed: the grip check after the lift finds the fingers empty, and the follower goes back
+    to its start pose open instead of carrying and holding nothing, and checks no grip there."""
     from samplehd.learn.keypose.processing import Decision
 
     reader = DatasetReader(keypose_dataset)
@@ -230,8 +230,10 @@ def test_a_grasp_on_the_empty_table_is_missed_and_the_arm_goes_home_open(keypose
                 break
             obs, _ = _step(env, follower, obs)
             stages.append(follower.stage)
-        assert follower.done and follower.missed and follower.lost == "close", (follower.lost, stages[-5:])
-        assert "close" in stages and "up" in stages and not {"lift", "lift check", "carry"} & set(stages)
+        # the fingertips pressed on the table hold the fingers 25 mm apart by friction: only the grip check
+        # after the lift finds them empty
+        assert follower.done and follower.lost == "lift", (follower.lost, stages[-5:])
+        assert "close" in stages and "home" in stages and "carry" not in stages
         assert np.linalg.norm(obs["tcp_pos"] - home[:3]) < 0.01
         for _ in range(_hold_steps(env) + 10):  # and stays there open, checking no grip
             obs, _ = _step(env, follower, obs)

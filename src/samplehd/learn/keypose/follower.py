@@ -163,7 +163,7 @@ class KeyposeFollower:
             if kind in ("close", "check") and self._width is not None and self._empty(kind, self._width):
                 # nothing between the fingers: back home, open, where the policy looks again
                 self.lost = "close" if kind == "close" else name.split()[0]
-                self.steps = self.steps[:self.phase + 1] + self._home_steps(goal)
+                self.steps = self.steps[:self.phase + 1] + self._home_steps(goal, self.lost)
             self.phase += 1
             self._width = None
             self._settle = 0
@@ -178,11 +178,13 @@ class KeyposeFollower:
         """Whether fingers settled at ``width`` [m] at the end of a close or a grip check hold nothing."""
         return width < MISSED_WIDTH or (kind == "check" and width < self._held_width - DROPPED_MARGIN)
 
-    def _home_steps(self, goal: np.ndarray) -> list[tuple[str, str, np.ndarray]]:
-        """Straight up from ``goal`` (at least as high as the approach over the grasp), then back to the
-        start pose, open."""
+    def _home_steps(self, goal: np.ndarray, lost: str) -> list[tuple[str, str, np.ndarray]]:
+        """Up from ``goal``, where the fingers were found empty (``lost``), then back to the start pose,
+        open: from the close as high as the grasp was approached, from the release by :data:`APPROACH`
+        as after a release, from the lift or the hold not at all (already lifted, perhaps at the edge of
+        the arm's reach)."""
         x, y, z, yaw = goal[:4]
-        up = max(float(z), self._over)
+        up = {"close": self._over, "release": float(z) + APPROACH}.get(lost, float(z))
         home_yaw = _near_yaw(self._home[3], float(yaw))
         return [("move", "up", np.array([x, y, up, yaw, self._open])),
                 ("move", "home", np.array([self._home[0], self._home[1], max(up, self._home[2]), home_yaw,
