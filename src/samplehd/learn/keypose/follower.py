@@ -42,11 +42,11 @@ DESCENT_SPEED = 0.06  # the last approach to a grasp or release goes down at mos
 BLOCKED = 0.3  # a descent that moved less than this share of its commanded step has met something ...
 BLOCKED_MIN_STEP = 0.001  # ... when the commanded step was at least this long [m]
 MISSED_WIDTH = 0.001  # fingers that closed narrower than this hold nothing: the grasp missed [m]
-# A grip check asks for this much less than the held width [m]: the finger servo (10 kN/m) makes it
-# about 30 N, far below the contact-force limit even on heavy objects, where squeezing on without a
-# bound (each command 2 mm narrower than the fingers) saturates at the grip force
-CHECK_SQUEEZE = 0.003
-DROPPED_MARGIN = 0.0015  # fingers that narrow by more than this during a grip check hold nothing [m]
+# A grip check asks for this much less than the held width [m]: a bounded squeeze. Closing on (each
+# command 2 mm narrower than the fingers) stops the arm on a contact force on heavy objects, and a fixed
+# 2 or 3 mm squeeze of a welded 54 mm object did too (300-400 N on one pad)
+CHECK_SQUEEZE = 0.001
+DROPPED_MARGIN = 0.0005  # fingers that narrow by more than this during a grip check hold nothing [m]
 HOLD_CHECK_PERIOD = 2.0  # holding at the end of a decision that does not let go, the grip is checked this often [s]
 LOST_AT = ("close", "lift", "release", "hold")  # where :attr:`KeyposeFollower.lost` found the fingers empty
 
