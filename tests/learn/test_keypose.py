@@ -78,9 +78,29 @@ def test_decisions_are_read_from_the_recorded_subtasks(keypose_dataset: Path) ->
     assert families == {"pick_up", "place"}
 
 
+def _step(env, follower: KeyposeFollower, obs: dict) -> tuple[dict, dict]:
+    """One ``env.step`` of the follower's steering vector; the arm must not be stopped."""
+    action = follower(obs)
+    assert action.shape == (7,) and np.abs(action).max() <= 1.0
+    obs, _, _, _, info = env.step(action)
+    assert not info["safety_stop"], (follower.stage, info["safety_events"])
+    return obs, info
+
+
+def _hold_steps(env) -> int:
+    """Control steps between two grip checks while holding."""
+    from samplehd.learn.keypose.follower import HOLD_CHECK_PERIOD
+
+    return round(HOLD_CHECK_PERIOD * env.unwrapped.control.control_hz)
+
+
 def test_following_the_recorded_decisions_succeeds(keypose_dataset: Path) -> None:
     """The labels can be acted on: the follower, given each episode's own decisions, succeeds in the
-    episode (what a perfect keypose policy does)."""
+    episode (what a perfect keypose policy does). Its grip checks (after the lift, before the release,
+    now and then while holding a picked-up object) squeeze without stopping the arm and never take an
+    object in the fingers for a lost one."""
+    from samplehd.learn.keypose.follower import SETTLE_STEPS
+
     reader = DatasetReader(keypose_dataset)
     env = replay_env(reader)
     try:
@@ -90,14 +110,135 @@ def test_following_the_recorded_decisions_succeeds(keypose_dataset: Path) -> Non
             success, steps = False, 0
             for d in _decisions(reader, k):
                 follower = KeyposeFollower(d, obs, home, env)
+                stages = []
                 while not follower.done and steps < 600:
-                    action = follower(obs)
-                    assert action.shape == (7,) and np.abs(action).max() <= 1.0
-                    obs, _, terminated, truncated, info = env.step(action)
+                    obs, info = _step(env, follower, obs)
+                    stages.append(follower.stage)
                     steps += 1
                     success = success or bool(info["success"])
-                    assert not info["safety_stop"], (k, info["safety_events"])
+                assert follower.lost is None, (k, follower.lost)
+                assert "lift check" in stages and ("release check" in stages) == d.release, (k, set(stages))
             assert success, f"episode {k} ({entry.family}): {info['check_reason']}"
+            if d.release:
+                continue
+            # held on: three grip checks, each a few steps of squeeze, and the object stays up in the fingers
+            stages = []
+            for _ in range(3 * (_hold_steps(env) + SETTLE_STEPS)):
+                obs, info = _step(env, follower, obs)
+                stages.append(follower.stage)
+            checks = sum(a != b == "hold check" for a, b in zip(stages, stages[1:], strict=False))
+            assert checks >= 3 and follower.done and follower.lost is None, (k, checks, follower.stage)
+            u = env.unwrapped
+            held = u.task.objects[0]
+            assert u.assist.active == held and u.physics.object_pos(held)[2] > LAYOUT.table_height + 0.05
+    finally:
+        env.close()
+
+
+def _drop_held_object(env) -> None:
+    """Take the object the fingers hold out of them, as a slip would: its grasp weld off and the object
+    set down 1.5 m aside, on the floor."""
+    import mujoco
+
+    u = env.unwrapped
+    held = u.assist.active
+    assert held >= 0, "nothing is held"
+    u.assist.release(u.data)
+    joint = u.model.body_jntadr[u.model.body(f"object_{held}").id]
+    qpos, qvel = u.model.jnt_qposadr[joint], u.model.jnt_dofadr[joint]
+    u.data.qpos[qpos:qpos + 3] = u.data.qpos[qpos:qpos + 3] + [1.5, 0.0, 0.0]
+    u.data.qpos[qpos + 2] = 0.2
+    u.data.qvel[qvel:qvel + 6] = 0.0
+    mujoco.mj_forward(u.model, u.data)
+
+
+@pytest.mark.parametrize(("family", "dropped_at", "noticed_at"), [
+    ("pick_up", "lift", "lift"), ("pick_up", "done", "hold"), ("place", "carry", "release")])
+def test_an_object_that_slips_out_is_noticed_and_the_arm_goes_home_open(
+        keypose_dataset: Path, family: str, dropped_at: str, noticed_at: str) -> None:
+    """An object taken out of the fingers during the lift, while held at the end of a pick_up, or during
+    the carry of a place is noticed by the next grip check, from the fingers' width alone: the follower
+    is ``missed`` (``lost`` says where), goes back to its start pose open and stays there."""
+    from samplehd.learn.keypose.follower import SETTLE_STEPS
+
+    reader = DatasetReader(keypose_dataset)
+    k = next(k for k, entry in enumerate(reader.episodes) if entry.family == family)
+    env = replay_env(reader)
+    try:
+        obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": k})
+        home = np.r_[obs["tcp_pos"], tcp_yaw(obs["tcp_quat"])]
+        d = _decisions(reader, k)[0]
+        assert d.release == (family == "place")
+        follower = KeyposeFollower(d, obs, home, env)
+        for _ in range(600):
+            if follower.stage == dropped_at:
+                break
+            obs, _ = _step(env, follower, obs)
+        assert follower.stage == dropped_at and follower.lost is None
+        for _ in range(3):  # a few steps into the stage
+            obs, _ = _step(env, follower, obs)
+        _drop_held_object(env)
+        steps, bound = 0, _hold_steps(env) + SETTLE_STEPS if dropped_at == "done" else 200
+        while not follower.missed and steps < bound:
+            obs, _ = _step(env, follower, obs)
+            steps += 1
+        assert follower.lost == noticed_at, (follower.lost, follower.stage, steps)
+        stages = [follower.stage]
+        for _ in range(400):
+            if follower.done:
+                break
+            obs, _ = _step(env, follower, obs)
+            stages.append(follower.stage)
+        assert follower.done and "home" in stages and "open" not in stages, stages
+        assert np.linalg.norm(obs["tcp_pos"] - home[:3]) < 0.01
+        for _ in range(_hold_steps(env) + 10):  # open at the start pose, no grip checks: the policy looks again
+            obs, _ = _step(env, follower, obs)
+            assert follower.stage == "done"
+        assert float(obs["gripper"][0] + obs["gripper"][1]) > d.opening
+    finally:
+        env.close()
+
+
+def test_a_grasp_on_the_empty_table_is_missed_and_the_arm_goes_home_open(keypose_dataset: Path) -> None:
+    """A grasp on the empty table (6 cm or more from every object, low enough that the descent meets the
+    table) is missed: the grip check after the lift finds the fingers empty, and the follower goes back
+    to its start pose open instead of carrying and holding nothing, and checks no grip there."""
+    from samplehd.learn.keypose.processing import Decision
+
+    reader = DatasetReader(keypose_dataset)
+    k = next(k for k, entry in enumerate(reader.episodes) if entry.family == "pick_up")
+    scene = reader.scenes[reader.episodes[k].scene_index]
+    d = _decisions(reader, k)[0]
+    lows = np.array([o["bbox"]["min"][:2] for o in scene["objects"]])
+    highs = np.array([o["bbox"]["max"][:2] for o in scene["objects"]])
+
+    def clearance(xy: np.ndarray) -> float:  # distance to the nearest object's footprint
+        return float(np.linalg.norm(np.maximum(np.maximum(lows - xy, xy - highs), 0.0), axis=1).min())
+
+    spots = [np.add(d.grasp[:2], (dx, dy)) for dx in (0.0, 0.1, -0.1, 0.2, -0.2) for dy in (0.0, 0.1, -0.1)]
+    x, y = next(xy for xy in spots if clearance(xy) > 0.06)
+    z = LAYOUT.table_height + 0.02
+    env = replay_env(reader)
+    try:
+        obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": k})
+        home = np.r_[obs["tcp_pos"], tcp_yaw(obs["tcp_quat"])]
+        follower = KeyposeFollower(Decision((x, y, z, d.grasp[3]), d.opening, d.lift, (x, y, d.lift, d.grasp[3]),
+                                            False, True), obs, home, env)
+        stages = []
+        for _ in range(600):
+            if follower.done:
+                break
+            obs, _ = _step(env, follower, obs)
+            stages.append(follower.stage)
+        # the fingertips pressed on the table hold the fingers 25 mm apart by friction: only the grip check
+        # after the lift finds them empty
+        assert follower.done and follower.lost == "lift", (follower.lost, stages[-5:])
+        assert "close" in stages and "home" in stages and "carry" not in stages
+        assert np.linalg.norm(obs["tcp_pos"] - home[:3]) < 0.01
+        for _ in range(_hold_steps(env) + 10):  # and stays there open, checking no grip
+            obs, _ = _step(env, follower, obs)
+            assert follower.stage == "done"
+        assert float(obs["gripper"][0] + obs["gripper"][1]) > d.opening
     finally:
         env.close()
 

@@ -3,9 +3,16 @@
 As in PerAct and CLIPort, a policy predicts a decision from one look at the table and
 :class:`KeyposeFollower` executes it as steering vectors, step by step through the environment: over
 the grasp at the height it is at, down, close until the fingers stop, up, over the goal, down, open,
-up and back to the start pose. Its descents are guarded: one that stops short closes or opens there. A
-grasp whose fingers close on nothing (:data:`MISSED_WIDTH`) goes back to the start pose open, and
-:attr:`KeyposeFollower.missed` says so (the policy looks again).
+up and back to the start pose. Its descents are guarded: one that stops short closes or opens there.
+
+It tells whether it still holds the object from what a robot feels, the fingers' width under the
+commands it sends, never from the object's pose: a grasp whose fingers close on nothing
+(:data:`MISSED_WIDTH`) has missed; after the lift, before opening at the release and every
+:data:`HOLD_CHECK_PERIOD` while holding at the end of a decision that does not let go, a grip check
+asks the fingers for :data:`CHECK_SQUEEZE` less than the width they hold at, and fingers that narrow by
+more than :data:`DROPPED_MARGIN` (or close below :data:`MISSED_WIDTH`) hold nothing any more: the object
+slipped out or was never more than pinched. Either way the follower goes back to the start pose open,
+and :attr:`KeyposeFollower.lost` says where (the policy looks again).
 """
 
 from __future__ import annotations
@@ -20,7 +27,8 @@ from samplehd.learn.demos import squeeze_command
 from samplehd.learn.keypose.processing import Decision
 from samplehd.robot.constants import GRIPPER_STROKE
 
-__all__ = ["APPROACH", "KeyposeFollower"]
+__all__ = ["APPROACH", "CHECK_SQUEEZE", "DROPPED_MARGIN", "HOLD_CHECK_PERIOD", "LOST_AT", "MISSED_WIDTH",
+           "KeyposeFollower"]
 
 APPROACH = 0.08  # the grasp and the release are approached straight down from this high above them [m]
 REACHED = 0.004  # a position this close to its goal is reached [m] ...
@@ -34,10 +42,13 @@ DESCENT_SPEED = 0.06  # the last approach to a grasp or release goes down at mos
 BLOCKED = 0.3  # a descent that moved less than this share of its commanded step has met something ...
 BLOCKED_MIN_STEP = 0.001  # ... when the commanded step was at least this long [m]
 MISSED_WIDTH = 0.001  # fingers that closed narrower than this hold nothing: the grasp missed [m]
-
-
-
-
+# A grip check asks for this much less than the held width [m]: a bounded squeeze. Closing on (each
+# command 2 mm narrower than the fingers) stops the arm on a contact force on heavy objects, and a fixed
+# 2 or 3 mm squeeze of a welded 54 mm object did too (300-400 N on one pad)
+CHECK_SQUEEZE = 0.001
+DROPPED_MARGIN = 0.0005  # fingers that narrow by more than this during a grip check hold nothing [m]
+HOLD_CHECK_PERIOD = 2.0  # holding at the end of a decision that does not let go, the grip is checked this often [s]
+LOST_AT = ("close", "lift", "release", "hold")  # where :attr:`KeyposeFollower.lost` found the fingers empty
 
 
 def _command(opening: float) -> float:
@@ -54,8 +65,11 @@ class KeyposeFollower:
     them until they stop widening. A move down toward the grasp or the release is guarded, as a robot's
     approach is: when the TCP goes down less than :data:`BLOCKED` of the step the last steering vector
     commanded, the descent has met the object or the table, and the fingers close (or open) at that
-    height instead of pushing on to a contact-force stop. ``home``: the TCP position and yaw the arm
-    goes back to after a release, where the next decision is made.
+    height instead of pushing on to a contact-force stop. Grip checks (the module docstring) stand
+    after the lift and before the opening, and are added every :data:`HOLD_CHECK_PERIOD` once a
+    decision that does not let go is done; a check squeezes by at most :data:`CHECK_SQUEEZE` with the
+    arm still, then holds at the width again. ``home``: the TCP position and yaw the arm goes back to
+    after a release, after a missed grasp and after a lost object, where the next decision is made.
     """
 
     def __init__(self, decision: Decision, obs: Mapping[str, Any], home: np.ndarray, env: Any = None,
@@ -74,6 +88,7 @@ class KeyposeFollower:
             ("move", "down to grasp", np.array([gx, gy, gz, gyaw, open_cmd])),
             ("close", "close", np.array([gx, gy, gz, gyaw, -1.0])),
             ("move", "lift", np.array([gx, gy, max(d.lift, gz), gyaw, -1.0])),
+            ("check", "lift check", np.array([gx, gy, max(d.lift, gz), gyaw, -1.0])),
         ]
         px, py, pz, pyaw = d.goal
         pyaw = _near_yaw(pyaw, gyaw)
@@ -82,6 +97,7 @@ class KeyposeFollower:
             steps += [("move", "carry", np.array([px, py, carry, pyaw, -1.0])),
                       ("move", "carry", np.array([px, py, pz + APPROACH, pyaw, -1.0])),
                       ("move", "down to release", np.array([px, py, pz, pyaw, -1.0])),
+                      ("check", "release check", np.array([px, py, pz, pyaw, -1.0])),
                       ("open", "open", np.array([px, py, pz, pyaw, open_cmd])),
                       ("move", "up", np.array([px, py, pz + APPROACH, pyaw, open_cmd]))]
             # back to where the camera sees the table, as the demonstrations do
@@ -92,19 +108,21 @@ class KeyposeFollower:
             steps += [("move", "carry", np.array([px, py, max(pz, d.lift), pyaw, -1.0]))]
         self.steps = steps
         self.phase = 0
-        self.missed = False  # the grasp closed on nothing; the follower went back home without carrying
-        self._home_steps = [("move", "up", np.array([gx, gy, over, gyaw, open_cmd])),
-                            ("move", "home", np.array([home[0], home[1], max(over, home[2]),
-                                                       _near_yaw(home[3], gyaw), open_cmd])),
-                            ("move", "home", np.array([home[0], home[1], home[2], _near_yaw(home[3], gyaw),
-                                                       open_cmd]))]
+        # where the fingers were found empty (one of LOST_AT), after which the follower went back home open
+        self.lost: str | None = None
+        self._release = d.release
+        self._over = over
+        self._home = np.asarray(home, np.float64)
+        self._open = open_cmd
         self._speeds = steering_speeds(env)
         control = getattr(getattr(env, "unwrapped", None), "control", None)
         self._hz = float(control.control_hz) if control is not None else 20.0
         self._low = min(gz, d.goal[2]) + APPROACH / 2
         self._width: float | None = None
         self._settle = 0
-        self._held: float | None = None
+        self._held: float | None = None  # the gripper command that holds the object ...
+        self._held_width = 0.0  # ... at this width, where the close stopped [m]
+        self._idle = 0  # control steps held still since the last grip check
         self._last_z: float | None = None
         self._drop = 0.0  # the TCP's descent commanded by the last steering vector [m]
 
@@ -114,38 +132,72 @@ class KeyposeFollower:
 
     @property
     def stage(self) -> str:
-        """What the follower is doing: "over grasp", "down to grasp", "close", "lift", "carry", "down to
-        release", "open", "up", "home", or "done"."""
+        """What the follower is doing: "over grasp", "down to grasp", "close", "lift", "lift check",
+        "carry", "down to release", "release check", "open", "up", "hold check", "home", or "done"."""
         return "done" if self.done else self.steps[self.phase][1]
 
+    @property
+    def missed(self) -> bool:
+        """Whether the follower went back home without the object (:attr:`lost` says where)."""
+        return self.lost is not None
+
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
-        """The next steering vector (7,); once :attr:`done`, one that holds the arm still."""
+        """The next steering vector (7,); once :attr:`done`, one that holds the arm still (and the object,
+        checking the grip now and then)."""
         z = float(obs["tcp_pos"][2])
         if self._blocked(z):  # a guarded move: close (or open) where the descent met the object or table
-            end = next(k for k in range(self.phase, len(self.steps)) if self.steps[k][0] != "move")
+            end = next((k for k in range(self.phase, len(self.steps)) if self.steps[k][0] in ("close", "open")),
+                       len(self.steps) - 1)
             for k in range(self.phase, end + 1):
                 self.steps[k][2][2] = z
         self._last_z = z
+        if self.done and not self._release and self.lost is None:
+            self._idle += 1
+            if self._idle >= round(HOLD_CHECK_PERIOD * self._hz):
+                self._idle = 0
+                here = self.steps[-1][2].copy()
+                here[:3] = np.asarray(obs["tcp_pos"], np.float64)
+                self.steps.append(("check", "hold check", here))
         while not self.done and self._reached(obs):
-            if self.steps[self.phase][0] == "close" and self._width is not None and self._width < MISSED_WIDTH:
+            kind, name, goal = self.steps[self.phase]
+            if kind in ("close", "check") and self._width is not None and self._empty(kind, self._width):
                 # nothing between the fingers: back home, open, where the policy looks again
-                self.missed = True
-                self.steps = self.steps[:self.phase + 1] + self._home_steps
+                self.lost = "close" if kind == "close" else name.split()[0]
+                self.steps = self.steps[:self.phase + 1] + self._home_steps(goal, self.lost)
             self.phase += 1
             self._width = None
             self._settle = 0
         kind, _, goal = self.steps[min(self.phase, len(self.steps) - 1)]
         if self.done:
+            kind = "hold"
             goal = goal.copy()
             goal[:3] = np.asarray(obs["tcp_pos"], np.float64)
-        return self._steer(obs, goal)
+        return self._steer(obs, goal, kind)
 
-    def _steer(self, obs: Mapping[str, Any], goal: np.ndarray) -> np.ndarray:
+    def _empty(self, kind: str, width: float) -> bool:
+        """Whether fingers settled at ``width`` [m] at the end of a close or a grip check hold nothing."""
+        return width < MISSED_WIDTH or (kind == "check" and width < self._held_width - DROPPED_MARGIN)
+
+    def _home_steps(self, goal: np.ndarray, lost: str) -> list[tuple[str, str, np.ndarray]]:
+        """Up from ``goal``, where the fingers were found empty (``lost``), then back to the start pose,
+        open: from the close as high as the grasp was approached, from the release by :data:`APPROACH`
+        as after a release, from the lift or the hold not at all (already lifted, perhaps at the edge of
+        the arm's reach)."""
+        x, y, z, yaw = goal[:4]
+        up = {"close": self._over, "release": float(z) + APPROACH}.get(lost, float(z))
+        home_yaw = _near_yaw(self._home[3], float(yaw))
+        return [("move", "up", np.array([x, y, up, yaw, self._open])),
+                ("move", "home", np.array([self._home[0], self._home[1], max(up, self._home[2]), home_yaw,
+                                           self._open])),
+                ("move", "home", np.array([self._home[0], self._home[1], self._home[2], home_yaw, self._open]))]
+
+    def _steer(self, obs: Mapping[str, Any], goal: np.ndarray, kind: str) -> np.ndarray:
         """Toward ``goal``: a TCP velocity of :data:`GAIN` times the displacement, between
         :data:`MIN_SPEED` and :data:`MAX_SPEED` (slower within :data:`APPROACH` of the table, at most
         :data:`DESCENT_SPEED` on the way down to a grasp or release) and never
         past the goal in one control step; a yaw rate of :data:`GAIN` times the remaining yaw; the
-        gripper squeezing for a closed goal, else at the goal's opening."""
+        gripper at the goal's opening, or for a closed goal squeezing while the step (``kind``) is a
+        close, :data:`CHECK_SQUEEZE` narrower than the held width in a grip check, else holding."""
         lin_speed, ang_speed = self._speeds
         tcp = np.asarray(obs["tcp_pos"], np.float64)
         delta = goal[:3] - tcp
@@ -164,13 +216,14 @@ class KeyposeFollower:
         action[5] = np.clip(GAIN * yaw, -ang_speed, ang_speed) / ang_speed
         if goal[4] >= -0.99:
             action[6] = goal[4]
-        elif self.steps[min(self.phase, len(self.steps) - 1)][0] == "close":
+        elif kind == "close":
             action[6] = squeeze_command(obs["gripper"])
         else:  # holding at the width the fingers stopped at, as the demonstrations do (squeezing on through
             # the lift pushes the pads past the contact-force limit on heavy objects)
             if self._held is None:
-                self._held = _command(float(obs["gripper"][0]) + float(obs["gripper"][1]))
-            action[6] = self._held
+                self._held_width = float(obs["gripper"][0]) + float(obs["gripper"][1])
+                self._held = _command(self._held_width)
+            action[6] = _command(self._held_width - CHECK_SQUEEZE) if kind == "check" else self._held
         return np.clip(action, -1.0, 1.0).astype(np.float32)
 
     def _blocked(self, z: float) -> bool:
@@ -183,7 +236,7 @@ class KeyposeFollower:
 
     def _reached(self, obs: Mapping[str, Any]) -> bool:
         kind, _, goal = self.steps[self.phase]
-        if kind in ("close", "open"):
+        if kind in ("close", "open", "check"):
             width = float(obs["gripper"][0]) + float(obs["gripper"][1])
             settled = self._width is not None and abs(width - self._width) < 1e-4
             self._width = width

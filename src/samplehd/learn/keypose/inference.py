@@ -1,8 +1,8 @@
 """The trained keypose policy acting in the environment (:class:`KeyposePolicy`): it looks at the table
 through the scene camera (RGB-D, re-projected from above), decides where to grasp and where the object
 goes, and carries the decision out with :class:`~samplehd.learn.keypose.follower.KeyposeFollower`, one
-steering vector per ``env.step``; after each release, and after a grasp that closed on nothing, it goes
-back to its start pose and looks again,
+steering vector per ``env.step``; after each release, after a grasp that closed on nothing and after
+the fingers were found empty (the object slipped out), it goes back to its start pose and looks again,
 until the episode ends (as a closed-loop behaviour-cloning policy acts until the environment says
 success or time is up) or :data:`MAX_DECISIONS` are made. The network's "last decision" flag is kept
 in the diagnosis only: it is right on about as many held-out decisions as always saying yes.
@@ -57,11 +57,13 @@ class DecisionRecord(TypedDict):
 
 class KeyposeDiagnosis(TypedDict, total=False):
     """A keypose episode so far (:meth:`KeyposePolicy.diagnosis`; empty before the first decision): the
-    follower's stage, the decisions made again after an empty grasp, whether grounding by exclusion
-    fired, and the decisions."""
+    follower's stage, the decisions made again after the fingers were found empty and where each time
+    (:data:`~samplehd.learn.keypose.follower.LOST_AT`), whether grounding by exclusion fired, and the
+    decisions."""
 
     stage: str
     retries: int
+    lost: list[str]
     exclusion: bool
     decisions: list[DecisionRecord]
 
@@ -102,7 +104,8 @@ class KeyposePolicy:
         self._episode: Any = None
         self.decisions = []
         self.exclusion = False  # whether this episode's instruction fired the rule of grounding by exclusion
-        self.retries = 0  # decisions made again after a grasp that closed on nothing
+        self.retries = 0  # decisions made again after the fingers were found empty ...
+        self.lost: list[str] = []  # ... and where, each time (KeyposeFollower.lost)
 
     def decide(self, instruction: str) -> Decision:
         """The decision on the scene camera's current view. The grasp is not sought within
@@ -153,7 +156,9 @@ class KeyposePolicy:
         follower = self._follower
         again = follower is None or (follower.done and (self.decisions[-1].release or follower.missed))
         if again and len(self.decisions) < MAX_DECISIONS:
-            self.retries += int(follower is not None and follower.missed)
+            if follower is not None and follower.lost is not None:
+                self.retries += 1
+                self.lost.append(follower.lost)
             decision = self.decide(str(obs["instruction"]))
             self.decisions.append(decision)
             follower = self._follower = KeyposeFollower(decision, obs, self._home, self.env,
@@ -163,10 +168,13 @@ class KeyposePolicy:
     @property
     def diagnosis(self) -> KeyposeDiagnosis:
         """The episode so far, copied into evaluation records: the stage the follower is at (where a failed
-        episode is charged) and the decisions made, rounded to the millimetre."""
-        if self._follower is None:
+        episode is charged), where the fingers were found empty (the current decision's too, after the
+        last one) and the decisions made, rounded to the millimetre."""
+        follower = self._follower
+        if follower is None:
             return {}
-        return {"stage": self._follower.stage, "retries": self.retries, "exclusion": self.exclusion,
+        lost = self.lost + ([follower.lost] if follower.lost is not None else [])
+        return {"stage": follower.stage, "retries": self.retries, "lost": lost, "exclusion": self.exclusion,
                 "decisions": [{"grasp": [round(v, 3) for v in d.grasp], "goal": [round(v, 3) for v in d.goal],
                                "release": d.release, "last": d.last} for d in self.decisions]}
 
