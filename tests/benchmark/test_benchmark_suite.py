@@ -17,6 +17,7 @@ from samplehd.benchmark.axes import (
     AXIS_FIELDS,
     BLANK_INSTRUCTION,
     STRENGTHS,
+    changed_fields,
     check_instruction_fits,
     perturb,
 )
@@ -147,17 +148,6 @@ def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(t
     assert reports[0] == reports[1]
 
 
-def _changed(a: dict, b: dict) -> set[str]:
-    """Dotted names of the fields (scene fields one level down) in which two episode dicts differ."""
-    out = set()
-    for key in set(a) | set(b):
-        if key == "scene":
-            out |= {f"scene.{k}" for k in set(a[key]) | set(b[key]) if a[key].get(k) != b[key].get(k)}
-        elif a.get(key) != b.get(key):
-            out.add(key)
-    return out
-
-
 def test_a_variant_differs_from_its_clean_twin_only_in_its_axis() -> None:
     twins = [e.to_dict() for e in read_suite(SHIPPED).episodes[::6]]  # one per catalogue
     for twin in twins:
@@ -166,7 +156,7 @@ def test_a_variant_differs_from_its_clean_twin_only_in_its_axis() -> None:
                 variant = perturb(twin, axis, strength, seed=0)
                 assert variant == perturb(twin, axis, strength, seed=0)  # a function of the seed
                 assert variant["twin"] == twin["id"] and variant["strength"] == strength and variant["axis"] == axis
-                changed = _changed(twin, variant) - {"id", "axis", "strength", "twin"}
+                changed = changed_fields(twin, variant) - {"id", "axis", "strength", "twin"}
                 assert changed == set(AXIS_FIELDS[axis]), (axis, strength, changed)
 
 
@@ -279,7 +269,7 @@ def test_distractors_add_objects_after_the_scenes_own_and_keep_the_instruction_u
         variant = next(v for v in (_attempt(twin, strength, a) for a in range(4)) if v is not None)
         objects = variant["scene"]["objects"]
         assert len(objects) == len(own) + strength and objects[:len(own)] == own  # own poses kept exactly
-        assert _changed(twin, variant) - {"id", "axis", "strength", "twin"} == {"scene.objects"}
+        assert changed_fields(twin, variant) - {"id", "axis", "strength", "twin"} == {"scene.objects"}
         if strength == 2:  # every second one is of a class already on the table
             assert objects[-1]["instance"]["class_name"] in {o["instance"]["class_name"] for o in own}
         corners = np.array([o["pos"][:2] for o in objects])
@@ -303,7 +293,7 @@ def test_task_swap_names_other_objects_of_the_same_family_on_the_same_scene() ->
     twin = read_suite(SHIPPED).episodes[4].to_dict()  # "Please pick up the mug."
     near, far = (perturb(twin, "task_swap", s, seed=0) for s in (1, 5))
     for variant in (near, far):
-        assert _changed(twin, variant) - {"id", "axis", "strength", "twin"} <= set(AXIS_FIELDS["task_swap"])
+        assert changed_fields(twin, variant) - {"id", "axis", "strength", "twin"} <= set(AXIS_FIELDS["task_swap"])
         assert sorted(variant["targets"]) != sorted(twin["targets"]) and variant["family"] == twin["family"]
         check_instruction_fits(variant)  # the program picks the new task's objects on the twin's scene
         assert variant["task"]["objects"] == [t for t in variant["targets"] if t in variant["task"]["objects"]]

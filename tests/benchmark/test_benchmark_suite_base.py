@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from samplehd.benchmark.axes import AXES, AXIS_FIELDS, PHYSICAL_AXES, STRENGTHS, perturb
+from samplehd.benchmark.axes import AXES, AXIS_FIELDS, PHYSICAL_AXES, STRENGTHS, changed_fields, perturb
 from samplehd.benchmark.suite import SuiteBuildConfig, build_suite, read_base
 from samplehd.commands.suite import resolve_config
 from samplehd.envs.config import EnvConfig
@@ -28,17 +28,6 @@ def _cli(*args: str) -> subprocess.CompletedProcess:
 
 def _bytes(suite: Suite) -> str:
     return json.dumps(suite.to_dict())
-
-
-def _changed(a: dict, b: dict) -> set[str]:
-    """Dotted names of the fields (scene fields one level down) in which two episode dicts differ."""
-    out = set()
-    for key in set(a) | set(b):
-        if key == "scene":
-            out |= {f"scene.{k}" for k in set(a[key]) | set(b[key]) if a[key].get(k) != b[key].get(k)}
-        elif a.get(key) != b.get(key):
-            out.add(key)
-    return out
 
 
 def _write(tmp_path: Path, name: str, episodes: list[dict], build: dict) -> Path:
@@ -62,7 +51,7 @@ def test_a_suite_from_a_base_copies_its_clean_episodes_and_varies_them_on_its_ax
     for ep in variants:
         twin = twins[ep.twin].to_dict()
         assert ep.to_dict() == {**perturb(twin, ep.axis, ep.strength, seed=0), "id": ep.id}
-        assert _changed(twin, ep.to_dict()) - {"id", "axis", "strength", "twin"} == set(AXIS_FIELDS[ep.axis])
+        assert changed_fields(twin, ep.to_dict()) - {"id", "axis", "strength", "twin"} == set(AXIS_FIELDS[ep.axis])
         assert ep.oracle_steps == twin["oracle_steps"]  # the twin's rollout: its proof stands
     m = suite.manifest
     assert m["base"] == {"name": base.name, "content_hash": base.content_hash, "episodes": list(range(12))}
@@ -112,7 +101,7 @@ def test_a_suite_from_a_base_proves_its_physical_variants_through_the_env() -> N
     assert len(made) > 12  # most robot starts are solved
     for ep in suite.episodes[12:]:
         twin = twins[ep.twin].to_dict()
-        changed = _changed(twin, ep.to_dict()) - {"id", "axis", "strength", "twin", "oracle_steps"}
+        changed = changed_fields(twin, ep.to_dict()) - {"id", "axis", "strength", "twin", "oracle_steps"}
         assert changed == set(AXIS_FIELDS[ep.axis]) and ep.oracle_steps > 0
     assert _bytes(build_suite("physical", config)) == _bytes(suite)
 

@@ -190,13 +190,19 @@ def test_an_object_that_slips_out_is_noticed_and_the_arm_goes_home_open(
             obs, _ = _step(env, follower, obs)
             stages.append(follower.stage)
         assert follower.done and "home" in stages and "open" not in stages, stages
-        assert np.linalg.norm(obs["tcp_pos"] - home[:3]) < 0.01
-        for _ in range(_hold_steps(env) + 10):  # open at the start pose, no grip checks: the policy looks again
-            obs, _ = _step(env, follower, obs)
-            assert follower.stage == "done"
-        assert float(obs["gripper"][0] + obs["gripper"][1]) > d.opening
+        _stays_home_open(env, follower, obs, home, d.opening)  # no grip checks: the policy looks again
     finally:
         env.close()
+
+
+def _stays_home_open(env, follower: KeyposeFollower, obs: dict, home: np.ndarray, opening: float) -> None:
+    """The follower is done at its start pose and stays there, fingers open wider than ``opening``,
+    through a whole grip-check period (it checks no grip: it holds nothing)."""
+    assert np.linalg.norm(obs["tcp_pos"] - home[:3]) < 0.01
+    for _ in range(_hold_steps(env) + 10):
+        obs, _ = _step(env, follower, obs)
+        assert follower.stage == "done"
+    assert float(obs["gripper"][0] + obs["gripper"][1]) > opening
 
 
 def test_a_grasp_on_the_empty_table_is_missed_and_the_arm_goes_home_open(keypose_dataset: Path) -> None:
@@ -234,11 +240,7 @@ def test_a_grasp_on_the_empty_table_is_missed_and_the_arm_goes_home_open(keypose
         # after the lift finds them empty
         assert follower.done and follower.lost == "lift", (follower.lost, stages[-5:])
         assert "close" in stages and "home" in stages and "carry" not in stages
-        assert np.linalg.norm(obs["tcp_pos"] - home[:3]) < 0.01
-        for _ in range(_hold_steps(env) + 10):  # and stays there open, checking no grip
-            obs, _ = _step(env, follower, obs)
-            assert follower.stage == "done"
-        assert float(obs["gripper"][0] + obs["gripper"][1]) > d.opening
+        _stays_home_open(env, follower, obs, home, d.opening)
     finally:
         env.close()
 

@@ -83,7 +83,7 @@ import re
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import TypedDict
+from typing import Any, TypedDict
 
 import numpy as np
 
@@ -101,7 +101,7 @@ from samplehd.scene.spec import SceneSpec, compile_scene
 from samplehd.scene.world import Lighting, Surfaces
 
 __all__ = ["AXES", "AXIS_FIELDS", "BLANK_INSTRUCTION", "PHYSICAL_AXES", "STRENGTHS", "WORDS_FILE",
-           "check_instruction_fits", "language_words", "perturb"]
+           "changed_fields", "check_instruction_fits", "language_words", "perturb"]
 
 STRENGTHS = (1, 2, 3, 4, 5)
 CAMERA_DEG_PER_STRENGTH = 6.0
@@ -364,6 +364,20 @@ PHYSICAL_AXES = ("object_shift", "robot_start", "distractors", "task_swap", "uns
 # so an axis draws the same directions when another is added.
 _SEED_ORDER = ("camera", "object_shift", "paraphrase", "robot_start", "sensor", "shuffled", "blank", "lighting",
                "distractors", "task_swap", "textures", "verbs", "nouns", "unseen_synonyms", "unseen_objects")
+
+
+def changed_fields(twin: Mapping[str, Any], variant: Mapping[str, Any]) -> set[str]:
+    """The fields in which two episode dicts differ, a scene's one level down (``scene.objects``): a
+    variant's, less ``id``, ``axis``, ``strength``, ``twin`` and ``oracle_steps``, are within its axis'
+    :data:`AXIS_FIELDS`."""
+    out = set()
+    for key in set(twin) | set(variant):
+        if key == "scene":
+            a, b = twin.get(key) or {}, variant.get(key) or {}
+            out |= {f"scene.{k}" for k in set(a) | set(b) if a.get(k) != b.get(k)}
+        elif twin.get(key) != variant.get(key):
+            out.add(key)
+    return out
 
 
 def perturb(twin: EpisodeRecord, axis: str, strength: int, seed: int, attempt: int = 0) -> EpisodeRecord:
