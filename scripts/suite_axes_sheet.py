@@ -27,14 +27,16 @@ WIDTH, HEIGHT = 320, 240
 CAPTION_LINES, LINE_PX, CHARS = 4, 12, 44
 
 
-def _variant(twin: dict, axis: str, attempts: int = 8) -> dict:
-    """The first variant at strength 5 that can be made (a distractor may find no free spot)."""
-    for attempt in range(attempts - 1):
+def _variant(twin: dict, axis: str, attempts: int = 8) -> dict | str:
+    """The first variant at strength 5 that can be made (a distractor may find no free spot), or why
+    none can (a scene with no other instruction of the family has no ``task_swap``)."""
+    reason = ""
+    for attempt in range(attempts):
         try:
             return perturb(twin, axis, 5, seed=0, attempt=attempt)
-        except SceneError:
-            pass
-    return perturb(twin, axis, 5, seed=0, attempt=attempts - 1)
+        except SceneError as exc:
+            reason = str(exc)
+    return reason
 
 
 def _captioned(frame: np.ndarray, title: str, text: str) -> np.ndarray:
@@ -56,7 +58,11 @@ def main(suite_name: str, out: str, index: int = 0, preset: str = "fast") -> Non
     tiles = []
     try:
         for axis in AXES:
-            for ep, name in ((twin, f"{axis}: clean twin"), (_variant(twin, axis), f"{axis}: strength 5")):
+            variant = _variant(twin, axis)
+            if isinstance(variant, str):
+                print(f"{axis}: no variant of episode {index}: {variant}")
+                continue
+            for ep, name in ((twin, f"{axis}: clean twin"), (variant, f"{axis}: strength 5")):
                 env.reset(options=SuiteEpisode.from_dict({"id": 0, **ep}).reset_options())
                 frame = {"scene_rgb": env.render()}  # the sensor axis corrupts what the policy sees
                 rgb = corrupt_observation(frame, ep.get("sensor"), sensor_rng(ep["reset_seed"]))["scene_rgb"]
