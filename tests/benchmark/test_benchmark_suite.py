@@ -186,6 +186,22 @@ def test_axis_strengths_are_the_documented_physical_amounts() -> None:
     assert perturb(twin, "blank", 5, seed=3)["instruction"] == BLANK_INSTRUCTION
 
 
+def test_the_robot_start_axis_moves_only_the_arm_from_the_twins_start() -> None:
+    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    env = TabletopEnv(obs_mode="state")
+    try:
+        states = []
+        for ep in (twin, perturb(twin, "robot_start", 0, seed=3), perturb(twin, "robot_start", 5, seed=3)):
+            env.reset(options=SuiteEpisode.from_dict({"id": 1, **ep}).reset_options())
+            states.append(env.physics.data.qpos.copy())
+    finally:
+        env.close()
+    twin_start, zero, five = states
+    assert zero.tolist() == twin_start.tolist()  # the gripper open, the arm at home, objects as the twin's
+    assert five[6:].tolist() == twin_start[6:].tolist()
+    assert np.abs(five[:6] - twin_start[:6]) == pytest.approx([0.25] * 6)
+
+
 def test_the_env_resets_to_a_blanked_instruction() -> None:
     twin = read_suite(SHIPPED).episodes[0].to_dict()
     blank = SuiteEpisode.from_dict({"id": 1, **perturb(twin, "blank", 5, seed=0)})

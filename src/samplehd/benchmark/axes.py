@@ -94,7 +94,9 @@ from samplehd.fileio import read_json
 from samplehd.language.generator import generate_instructions
 from samplehd.language.levels import HELD_OUT_CLASSES, episode_level
 from samplehd.language.templates import default_synonyms
+from samplehd.motion.execute import initial_state
 from samplehd.robot.constants import JOINT_NAMES
+from samplehd.robot.controller import ControlConfig
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.sampler import add_objects
 from samplehd.scene.spec import SceneSpec, compile_scene
@@ -226,7 +228,9 @@ def _unseen_objects(ep: EpisodeRecord, strength: int, rng: np.random.Generator) 
 
 
 def _robot_start(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
+    # The state the twin starts from (the arm at home, the gripper open), only the arm's joints moved.
     model, data = compile_scene(SceneSpec.from_dict(ep["scene"]))
+    initial_state(model, data, ControlConfig())
     qpos = data.qpos.copy()
     for name, sign in zip(JOINT_NAMES, rng.choice([-1.0, 1.0], size=len(JOINT_NAMES)), strict=True):
         joint = model.joint(name)
