@@ -164,9 +164,34 @@ def test_suite_build_refuses_a_bad_base_with_exit_2_and_writes_nothing(tmp_path:
     r = _cli("suite", "build", "x", "--config", str(spec), "--out", str(out))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert "suite.base='no-such-suite': no such shipped suite" in r.stderr and not out.exists()
-    r = _cli("suite", "build", "x", "--base", BASE, "--families", "pick_up", "--out", str(out))
+    r = _cli("suite", "build", "x", "--base", BASE, "--families", "pick_up", "nope", "--out", str(out))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
-    assert "--families" in r.stderr and "has its base's" in r.stderr and not out.exists()
+    assert "--families ['pick_up', 'nope']: unknown 'nope'; valid: " in r.stderr and not out.exists()
+    r = _cli("suite", "build", "x", "--base", BASE, "--episodes-per-cell", "3", "--out", str(out))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "--episodes-per-cell 3" in r.stderr and "has its base's" in r.stderr and not out.exists()
+
+
+def test_a_suite_from_a_base_may_take_only_some_of_its_cells(tmp_path: Path) -> None:
+    """``--catalogues``, ``--families`` and ``--levels`` beside ``--base`` select the base's cells: the
+    suite holds the selected cells' episodes of the whole base, in its order, and its build says so."""
+    every = build_suite("every", SuiteBuildConfig(base=BASE))
+    some = build_suite("some", SuiteBuildConfig(base=BASE, base_catalogues=("shop-vrb",),
+                                                base_families=("pick_up", "put"), base_levels=("L1",)))
+    expected = [{**e.to_dict(), "id": None} for e in every.episodes
+                if e.catalogue == "shop-vrb" and e.family in ("pick_up", "put")]
+    assert [{**e.to_dict(), "id": None} for e in some.episodes] == expected and len(expected) == 2
+    assert some.build["base_families"] == ["pick_up", "put"] and "base_families" not in every.build
+    assert build_suite("none", SuiteBuildConfig(base=BASE, base_levels=("L2",))).episodes == ()
+    out = tmp_path / "cli.json"
+    r = _cli("suite", "build", "cli", "--base", BASE, "--catalogues", "shop-vrb", "--families", "pick_up", "put",
+             "--levels", "L1", "--out", str(out), "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert [e.to_dict() for e in read_suite(out).episodes] == [e.to_dict() for e in some.episodes]
+    with pytest.raises(ConfigError, match=r'^suite.base_families=\["pick_up"\]: selects cells of suite.base; '):
+        SuiteBuildConfig(base_families=("pick_up",))
+    with pytest.raises(ConfigError, match=r"^suite.base_levels=\['L9'\]: unknown 'L9'; valid: L1, L2, L3, L4$"):
+        SuiteBuildConfig(base=BASE, base_levels=("L9",))
 
 
 def test_suite_build_makes_only_the_named_axes_of_a_specification(tmp_path: Path) -> None:

@@ -74,7 +74,7 @@ _DRAWING = ("families", "levels", "catalogues", "episodes_per_cell", "max_candid
 # Of those, the ones a physical variant is proven with (the env and its scenes' options).
 _PROOF = ("env", "family_scene", "family_max_scenes", "max_scenes_per_candidate")
 # The options of a suite built from a base (left out of the build record of one that is not).
-_BASE = ("base", "base_per_cell")
+_BASE = ("base", "base_per_cell", "base_catalogues", "base_families", "base_levels")
 
 
 @dataclass(frozen=True)
@@ -110,6 +110,9 @@ class SuiteBuildConfig(Config, section="suite"):
             family_max_scenes) are the base's and may not be given.
         base_per_cell: with ``base``: the first N clean episodes of each of the base's cells (catalogue ×
             family × level), in suite order; None: all of them.
+        base_catalogues, base_families, base_levels: with ``base``: only the base's cells of these
+            catalogues, families and levels (None: all of the base's), e.g. a smaller suite of one
+            catalogue's L1 episodes to evaluate a policy on.
     """
 
     seed: int = bounded(0, lo=0)
@@ -128,6 +131,9 @@ class SuiteBuildConfig(Config, section="suite"):
     max_attempts_per_variant: int = bounded(4, lo=1)
     base: str | None = None
     base_per_cell: int | None = bounded(None, lo=1)
+    base_catalogues: tuple[str, ...] | None = bounded(None, choices=CATALOGUES, nonempty=True, unique=True)
+    base_families: tuple[str, ...] | None = bounded(None, choices=family_names, nonempty=True, unique=True)
+    base_levels: tuple[str, ...] | None = bounded(None, choices=LEVELS, nonempty=True, unique=True)
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -163,6 +169,11 @@ class SuiteBuildConfig(Config, section="suite"):
                 raise ConfigError(f"suite.base_per_cell={self.base_per_cell}: counts the clean episodes taken per "
                                   "cell from suite.base; name the base (a built suite's name or file) or leave it "
                                   "out", field="base_per_cell")
+            for name in ("base_catalogues", "base_families", "base_levels"):
+                if getattr(self, name) is not None:
+                    raise ConfigError(f"suite.{name}={json.dumps(list(getattr(self, name)))}: selects cells of "
+                                      "suite.base; name the base (a built suite's name or file) or leave it out",
+                                      field=name)
             return
         if not self.base.strip():
             raise ConfigError("suite.base='': must be a built suite's name or file", field="base")
@@ -421,6 +432,12 @@ def _base_cells(base: Suite) -> list[tuple[str, str, str]]:
     return list(dict.fromkeys([*grid, *held]))
 
 
+def _selected(config: SuiteBuildConfig, cell: tuple[str, str, str]) -> bool:
+    """Whether a base's cell (catalogue, family, level) is among those the suite takes."""
+    return all(chosen is None or value in chosen for value, chosen in
+               zip(cell, (config.base_catalogues, config.base_families, config.base_levels), strict=True))
+
+
 def _take_clean(config: SuiteBuildConfig, base: Suite) -> tuple[list[SuiteEpisode], list[dict[str, Any]]]:
     """The base's clean episodes the suite takes (the first ``base_per_cell`` of each cell, in suite
     order) and the cells that have fewer."""
@@ -429,12 +446,13 @@ def _take_clean(config: SuiteBuildConfig, base: Suite) -> tuple[list[SuiteEpisod
     out = []
     for ep in base.episodes:
         cell = (ep.catalogue, ep.family, ep.level)
-        if ep.axis == CLEAN_AXIS and (want is None or taken[cell] < want):
+        if ep.axis == CLEAN_AXIS and _selected(config, cell) and (want is None or taken[cell] < want):
             taken[cell] += 1
             out.append(ep)
     short = [{"catalogue": c, "family": f, "level": lv, "episodes": taken[c, f, lv],
               "reason": f"the base has {taken[c, f, lv]} clean episodes of the cell"}
-             for c, f, lv in _base_cells(base) if want is not None and taken[c, f, lv] < want]
+             for c, f, lv in _base_cells(base)
+             if want is not None and taken[c, f, lv] < want and _selected(config, (c, f, lv))]
     return out, short
 
 
@@ -475,7 +493,8 @@ def _build_from_base(name: str, config: SuiteBuildConfig, backend: Backend,
     manifest = {**_manifest(episodes, 0, rejected, {}, short, short_variants),
                 "base": {"name": base.name, "content_hash": base.content_hash, "episodes": [e.id for e in taken]},
                 "axes": list(config.axes), "strengths": list(config.strengths)}
-    build = {"name": name, **{k: v for k, v in config.to_dict().items() if k not in _DRAWING}}
+    build = {"name": name, **{k: v for k, v in config.to_dict().items()
+                              if k not in _DRAWING and not (k.startswith("base_") and v is None)}}
     return Suite(name=name, path=None, content_hash=content_hash(episodes), build=build, manifest=manifest,
                  package_version=__version__, episodes=tuple(SuiteEpisode.from_dict(e) for e in episodes))
 

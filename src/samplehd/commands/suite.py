@@ -35,12 +35,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                     "catalogues, episodes_per_cell, max_candidates_per_cell, "
                                                     "max_scenes_per_candidate, instruction_rounds, env, family_scene, "
                                                     "family_max_scenes, axes, strengths, "
-                                                    "max_attempts_per_variant, base, base_per_cell); default for a "
+                                                    "max_attempts_per_variant, base, base_per_cell, base_catalogues, "
+                                                    "base_families, base_levels); default for a "
                                                     "shipped suite's name: its shipped specification")
     parser.add_argument("--episodes-per-cell", type=int, help="build: episodes per catalogue × family × level")
-    parser.add_argument("--families", nargs="+", help="build: task families")
-    parser.add_argument("--levels", nargs="+", help="build: generalisation levels (L1 L2 L3 L4)")
-    parser.add_argument("--catalogues", nargs="+", help="build: procedural and/or shop-vrb")
+    parser.add_argument("--families", nargs="+", help="build: task families (with --base: only the base's cells "
+                                                      "of these)")
+    parser.add_argument("--levels", nargs="+", help="build: generalisation levels (L1 L2 L3 L4; with --base: only "
+                                                    "the base's cells of these)")
+    parser.add_argument("--catalogues", nargs="+", help="build: procedural and/or shop-vrb (with --base: only the "
+                                                        "base's cells of these)")
     parser.add_argument("--seed", type=int, help="build: seed of the candidates")
     parser.add_argument("--axes", nargs="+", help=f"build: robustness axes ({', '.join(AXES)}); each clean "
                                                   "episode gets a variant per axis and strength")
@@ -70,13 +74,21 @@ def resolve_config(args: argparse.Namespace) -> SuiteBuildConfig:
     flags = {"episodes_per_cell": args.episodes_per_cell, "seed": args.seed,
              "base": getattr(args, "base", None), "base_per_cell": getattr(args, "base_per_cell", None),
              "strengths": getattr(args, "strengths", None)}
+    # beside a base, --catalogues, --families and --levels select the base's cells
+    from_base = flags["base"] is not None or config.base is not None
     for key in ("families", "levels", "catalogues", "axes"):
         value = getattr(args, key)
         if value is not None:
-            flags[key] = split_names(value, f"--{key}")
+            flags[f"base_{key}" if from_base and key != "axes" else key] = split_names(value, f"--{key}")
     given = {k: v for k, v in flags.items() if v is not None}
-    return config_from_options(SuiteBuildConfig, **{**{f.name: getattr(config, f.name) for f in fields(config)},
-                                                    **given})
+    try:
+        return config_from_options(SuiteBuildConfig, **{**{f.name: getattr(config, f.name) for f in fields(config)},
+                                                        **given})
+    except ConfigError as exc:  # a selection of the base's cells came from its flag (--families ...)
+        if exc.field in given and exc.field.startswith("base_") and exc.field != "base_per_cell":
+            flag = exc.field.removeprefix("base_")
+            raise ConfigError(str(exc).replace(exc.field, flag, 1), field=flag) from None
+        raise
 
 
 def describe(suite: Suite) -> str:
@@ -90,7 +102,8 @@ def describe(suite: Suite) -> str:
     lines.append(f"  candidates {m.get('candidates')}, rejected {sum(m.get('rejected', {}).values())}")
     if m.get("base"):
         lines.append(f"  from base {m['base']['name']} ({m['base']['content_hash']}): "
-                     f"{_taken(suite.build.get('base_per_cell'))}, {len(m['base']['episodes'])} in all; "
+                     f"{_taken(suite.build.get('base_per_cell'))}{_selection(suite.build)}, "
+                     f"{len(m['base']['episodes'])} in all; "
                      f"axes {', '.join(m.get('axes', [])) or 'none'}")
     for reason, n in m.get("rejected", {}).items():
         lines.append(f"    {n:>5}  {reason}")
@@ -101,6 +114,13 @@ def describe(suite: Suite) -> str:
         if m.get(key):
             lines.append(f"  {key.replace('_', ' ')}: {json.dumps(m[key])}")
     return "\n".join(lines)
+
+
+def _selection(build: dict) -> str:
+    """The base's cells a suite selected (``base_catalogues``, ``base_families``, ``base_levels``), in words."""
+    chosen = [" ".join(build[f"base_{key}"]) for key in ("catalogues", "families", "levels")
+              if build.get(f"base_{key}")]
+    return f" of {' × '.join(chosen)}" if chosen else ""
 
 
 def _taken(per_cell: int | None) -> str:
