@@ -1,4 +1,5 @@
-"""The family x level table of evaluation reports (``samplehd evaluate --level ... --out``), each cell
+"""The family x level table of evaluation reports (``samplehd evaluate --suite ... --out`` or ``--level ...
+--out``), each cell
 successes / n with its 95 % Wilson interval (:mod:`samplehd.benchmark.statistics`; the row ``all``
 pools each column's reports), and per report the successes reached after a retry and how often the
 rule of grounding by exclusion fired.
@@ -30,16 +31,25 @@ def main(paths: list[str]) -> int:
         report = json.loads(path.read_text())
         if "statistics" not in report:  # a report still being written
             continue
-        policy = "neurosymbolic" if "neurosymbolic" in path.stem else "keypose"
-        level = str(report["records"][0].get("level") or "plain") if report["records"] else "plain"
-        column = f"{policy} {level}"
-        for family, rate in report["statistics"]["by_family"].items():
-            rows.setdefault(family, {})[column] = _cell(rate["successes"], rate["n"])
-            totals[column][0] += rate["successes"]
-            totals[column][1] += rate["n"]
+        policy = {"bc": "keypose"}.get(str(report.get("policy")), str(report.get("policy")))
+        # a report of a suite's episodes covers every level (its family x level cells); one of a drawn
+        # split covers the level it was drawn at
+        cells = {family: {str(level): rate for level, rate in levels.items()}
+                 for family, levels in report["statistics"].get("by_family_level", {}).items()}
+        if not cells:
+            level = str(report["records"][0].get("level") or "plain") if report["records"] else "plain"
+            cells = {family: {level: rate} for family, rate in report["statistics"]["by_family"].items()}
+        for family, levels in cells.items():
+            for level, rate in levels.items():
+                column = f"{policy} {level}"
+                rows.setdefault(family, {})[column] = _cell(rate["successes"], rate["n"])
+                totals[column][0] += rate["successes"]
+                totals[column][1] += rate["n"]
         fired = sum(bool((r.get("diagnosis") or {}).get("exclusion")) for r in report["records"])
         retried = sum(r["success"] and bool((r.get("diagnosis") or {}).get("retries")) for r in report["records"])
-        notes.append(f"{path.name}: {report['successes']}/{report['episodes']}, after a retry {retried}, "
+        split = report.get("split") or {}
+        where = f" on suite {split['suite']} ({split['content_hash']})" if split.get("suite") else ""
+        notes.append(f"{path.name}{where}: {report['successes']}/{report['episodes']}, after a retry {retried}, "
                      f"exclusion fired {fired}/{report['episodes']}, {report.get('wall_s', 0):.0f} s")
     rows["all"] = {c: _cell(*t) for c, t in totals.items()}
     columns = sorted({c for r in rows.values() for c in r}, key=lambda c: (c.split()[1], c.split()[0]))
