@@ -10,7 +10,8 @@
 #   env: WORKERS (generate/evaluate processes, default: all cores), DEVICE (default: automatic),
 #        STEPS (optimiser steps, default 3000), PER_CELL (core episodes per family x level, default 10;
 #        at most 25), NS_MODELS (a folder with parser/ and perception/: the neuro-symbolic loop on the
-#        same episodes)
+#        same episodes), BLIND (set: also the language-blind control, trained and evaluated the same way
+#        with the instruction blanked in training and when it acts)
 #
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
 # Writes OUT/data/all, OUT/models/keypose_all, OUT/reports/*.json, OUT/reports/*.md, OUT/videos/ and
@@ -45,6 +46,13 @@ if [[ -n "${NS_MODELS:-}" && ! -f "$out/reports/neurosymbolic_core.json" ]]; the
   "$bin" evaluate --policy neurosymbolic --models "$NS_MODELS" --suite "$suite" --workers "$workers" \
     --out "$out/reports/neurosymbolic_core.json"
 fi
+if [[ -n "${BLIND:-}" ]]; then
+  blind="$out/models/keypose_all_blind"
+  [[ -f "$blind/model.pt" ]] || "$bin" train policy --action keypose --blind-language --dataset "$data" \
+    --out "$blind" --steps "${STEPS:-3000}" --quiet "${device[@]}"
+  [[ -f "$out/reports/keypose_blind_core.json" ]] || "$bin" evaluate --policy bc --models "$blind" --suite "$suite" \
+    --workers "$workers" --out "$out/reports/keypose_blind_core.json"
+fi
 # one video per family: the first L1 episode of each
 videos="$out/reports/core_shop_l1_video.json"
 [[ -f "$videos" ]] || "$bin" suite build core-shop-l1-video --base core --catalogues shop-vrb --levels L1 \
@@ -57,5 +65,6 @@ videos="$out/reports/core_shop_l1_video.json"
   echo "samplehd keypose_all recipe: $(date -u +%FT%TZ), commit $commit, $(($(date +%s) - start)) s" \
     "(data + training $((trained - start)) s), $(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs))," \
     "load $(cut -d' ' -f1-3 /proc/loadavg)"
-  "${PYTHON:-$(dirname "$(command -v "$bin")")/python}" "$here/keypose_table.py" "$out/reports/keypose_all_core.json" "$out/reports/neurosymbolic_core.json"
+  "${PYTHON:-$(dirname "$(command -v "$bin")")/python}" "$here/keypose_table.py" "$out/reports/keypose_all_core.json" \
+    "$out/reports/keypose_blind_core.json" "$out/reports/neurosymbolic_core.json"
 } | tee "$out/summary.txt"

@@ -23,6 +23,12 @@ def _cell(successes: int, n: int) -> str:
     return f"{successes}/{n} ({100 * rate.low:.0f}-{100 * rate.high:.0f} %)"
 
 
+def _blind(report: dict) -> bool:
+    """Whether a report's policy is the language-blind control (its model's configuration says so)."""
+    config = Path(str(report.get("models") or "")) / "config.json"
+    return config.is_file() and json.loads(config.read_text()).get("language") == "blank"
+
+
 def main(paths: list[str]) -> int:
     rows: dict[str, dict[str, str]] = {}
     totals: dict[str, list[int]] = defaultdict(lambda: [0, 0])
@@ -32,6 +38,8 @@ def main(paths: list[str]) -> int:
         if "statistics" not in report:  # a report still being written
             continue
         policy = {"bc": "keypose"}.get(str(report.get("policy")), str(report.get("policy")))
+        if policy == "keypose" and _blind(report):
+            policy = "keypose-blind"
         # a report of a suite's episodes covers every level (its family x level cells); one of a drawn
         # split covers the level it was drawn at
         cells = {family: {str(level): rate for level, rate in levels.items()}
