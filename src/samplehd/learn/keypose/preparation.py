@@ -73,7 +73,9 @@ def _episode_samples(reader: Any, k: int, env: Any, config: KeyposeGrid, tokens_
             image, ids = grid.project_with_labels(rgb, seg, depth, scene["camera"], LAYOUT.table_height,
                                                   robot=seg == SEG_ROBOT)
         else:
-            env.reset(options={"dataset": str(reader.root), "episode_index": k})
+            # the reader already open (a reset from the dataset's folder would parse its index files again)
+            env.reset(options={"scene": scene, "instruction": reader.instruction(k),
+                               "episode": reader.episode(k, images="none")})
             u = env.unwrapped
             u.data.qpos[:] = fr["qpos"][d.frame]
             u.data.qvel[:] = fr["qvel"][d.frame]
