@@ -426,6 +426,7 @@ def test_the_language_blind_control_reads_a_blank_instruction_in_training_and_wh
     from samplehd.cli import main
     from samplehd.envs.tokens import encode_instruction
     from samplehd.learn.keypose.configuration import BLANK_TEXT, KeyposeConfig, policy_instruction
+    from samplehd.learn.keypose.exclusion import unknown_nouns
 
     out = tmp_path / "blind"
     assert _train(keypose_dataset, out, steps=2, batch=2, language="blank", stop_after=1) == {"stopped_at": 1}
@@ -438,6 +439,12 @@ def test_the_language_blind_control_reads_a_blank_instruction_in_training_and_wh
     assert config.language == "blank"
     assert policy_instruction(config, "Please pick up the mug.") == BLANK_TEXT
     assert policy_instruction(KeyposeConfig(), "Please pick up the mug.") == "Please pick up the mug."
+    # nor does it ground an unheard word by exclusion: the rule reads what the policy reads
+    report = tmp_path / "l4.json"
+    assert main(["evaluate", "--policy", "bc", "--models", str(out), "--families", "pick_up", "--level", "L4",
+                 "--episodes", "1", "--max-episode-steps", "5", "--out", str(report)]) == 0
+    record = json.loads(report.read_text())["records"][0]
+    assert unknown_nouns(record["instruction"], config.vocabulary) and record["diagnosis"]["exclusion"] is False
     assert main(["train", "policy", "--blind-language", "--dataset", str(keypose_dataset), "--out",
                  str(tmp_path / "refused"), "--steps", "1"]) == 2
     assert not (tmp_path / "refused").exists()

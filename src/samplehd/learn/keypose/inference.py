@@ -123,11 +123,13 @@ class KeyposePolicy:
             grid = np.concatenate([grid, task_cells(ids, u.task.objects)[None]])
         else:
             grid = scene_grid(self._renderer, u.model, u.data, cfg)
-        tokens = encode_instruction(policy_instruction(self.config, instruction), self.config.tokens)
+        # what the policy reads: the language-blind control neither reads nor grounds the instruction's words
+        text = policy_instruction(self.config, instruction)
+        tokens = encode_instruction(text, self.config.tokens)
         with torch.no_grad():
             grid_t = torch.as_tensor(grid[None], device=self.device)
             tokens_t = torch.as_tensor(tokens[None], device=self.device)
-            only = self._grounded_by_exclusion(instruction, grid, grid_t, tokens_t)
+            only = self._grounded_by_exclusion(text, grid, grid_t, tokens_t)
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
             return predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [only])[0]
 
