@@ -64,7 +64,7 @@ from samplehd.tasks.task import family_names
 from samplehd.version import __version__
 from samplehd.workers import Backend
 
-__all__ = ["Candidate", "SuiteBuildConfig", "build_suite", "read_base", "rejection_reason", "scene_seeds"]
+__all__ = ["SELECTION", "Candidate", "SuiteBuildConfig", "build_suite", "read_base", "rejection_reason", "scene_seeds"]
 
 CATALOGUES = tuple(BUILT_IN_CATALOGUES)
 _NUMBER = re.compile(r"[0-9]+(\.[0-9]+)?")
@@ -74,7 +74,9 @@ _DRAWING = ("families", "levels", "catalogues", "episodes_per_cell", "max_candid
 # Of those, the ones a physical variant is proven with (the env and its scenes' options).
 _PROOF = ("env", "family_scene", "family_max_scenes", "max_scenes_per_candidate")
 # The options of a suite built from a base (left out of the build record of one that is not).
-_BASE = ("base", "base_per_cell", "base_catalogues", "base_families", "base_levels")
+# Beside a base, the options that select its cells (catalogue, family, level; None: all of them).
+SELECTION = ("base_catalogues", "base_families", "base_levels")
+_BASE = ("base", "base_per_cell", *SELECTION)
 
 
 @dataclass(frozen=True)
@@ -169,7 +171,7 @@ class SuiteBuildConfig(Config, section="suite"):
                 raise ConfigError(f"suite.base_per_cell={self.base_per_cell}: counts the clean episodes taken per "
                                   "cell from suite.base; name the base (a built suite's name or file) or leave it "
                                   "out", field="base_per_cell")
-            for name in ("base_catalogues", "base_families", "base_levels"):
+            for name in SELECTION:
                 if getattr(self, name) is not None:
                     raise ConfigError(f"suite.{name}={json.dumps(list(getattr(self, name)))}: selects cells of "
                                       "suite.base; name the base (a built suite's name or file) or leave it out",
@@ -434,8 +436,8 @@ def _base_cells(base: Suite) -> list[tuple[str, str, str]]:
 
 def _selected(config: SuiteBuildConfig, cell: tuple[str, str, str]) -> bool:
     """Whether a base's cell (catalogue, family, level) is among those the suite takes."""
-    return all(chosen is None or value in chosen for value, chosen in
-               zip(cell, (config.base_catalogues, config.base_families, config.base_levels), strict=True))
+    return all(getattr(config, name) is None or value in getattr(config, name)
+               for value, name in zip(cell, SELECTION, strict=True))
 
 
 def _take_clean(config: SuiteBuildConfig, base: Suite) -> tuple[list[SuiteEpisode], list[dict[str, Any]]]:
@@ -494,7 +496,7 @@ def _build_from_base(name: str, config: SuiteBuildConfig, backend: Backend,
                 "base": {"name": base.name, "content_hash": base.content_hash, "episodes": [e.id for e in taken]},
                 "axes": list(config.axes), "strengths": list(config.strengths)}
     build = {"name": name, **{k: v for k, v in config.to_dict().items()
-                              if k not in _DRAWING and not (k.startswith("base_") and v is None)}}
+                              if k not in _DRAWING and not (k in SELECTION and v is None)}}
     return Suite(name=name, path=None, content_hash=content_hash(episodes), build=build, manifest=manifest,
                  package_version=__version__, episodes=tuple(SuiteEpisode.from_dict(e) for e in episodes))
 

@@ -17,7 +17,7 @@ from dataclasses import fields
 from pathlib import Path
 
 from samplehd.benchmark.axes import AXES
-from samplehd.benchmark.suite import Candidate, SuiteBuildConfig, build_suite, read_base
+from samplehd.benchmark.suite import SELECTION, Candidate, SuiteBuildConfig, build_suite, read_base
 from samplehd.commands._options import check_out_file, config_from_options, split_names
 from samplehd.dataset.outputs import check_outputs
 from samplehd.envs.suite_file import SUITE_DIR, SUITE_SPEC_DIR, Suite, read_suite, shipped_suites
@@ -79,13 +79,13 @@ def resolve_config(args: argparse.Namespace) -> SuiteBuildConfig:
     for key in ("families", "levels", "catalogues", "axes"):
         value = getattr(args, key)
         if value is not None:
-            flags[f"base_{key}" if from_base and key != "axes" else key] = split_names(value, f"--{key}")
+            flags[f"base_{key}" if from_base and f"base_{key}" in SELECTION else key] = split_names(value, f"--{key}")
     given = {k: v for k, v in flags.items() if v is not None}
     try:
         return config_from_options(SuiteBuildConfig, **{**{f.name: getattr(config, f.name) for f in fields(config)},
                                                         **given})
     except ConfigError as exc:  # a selection of the base's cells came from its flag (--families ...)
-        if exc.field in given and exc.field.startswith("base_") and exc.field != "base_per_cell":
+        if exc.field in given and exc.field in SELECTION:
             flag = exc.field.removeprefix("base_")
             raise ConfigError(str(exc).replace(exc.field, flag, 1), field=flag) from None
         raise
@@ -118,8 +118,7 @@ def describe(suite: Suite) -> str:
 
 def _selection(build: dict) -> str:
     """The base's cells a suite selected (``base_catalogues``, ``base_families``, ``base_levels``), in words."""
-    chosen = [" ".join(build[f"base_{key}"]) for key in ("catalogues", "families", "levels")
-              if build.get(f"base_{key}")]
+    chosen = [" ".join(build[name]) for name in SELECTION if build.get(name)]
     return f" of {' × '.join(chosen)}" if chosen else ""
 
 
