@@ -31,7 +31,9 @@ _MAX = {"batch": 4096, "hidden": 8192}
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", choices=list(_DEFAULT_STEPS), help="what to train")
-    parser.add_argument("--dataset", type=Path, required=True, help="a dataset folder written by `samplehd generate`")
+    parser.add_argument("--dataset", type=Path, nargs="+", required=True, metavar="DIR",
+                        help="a dataset folder written by `samplehd generate` (several: `train policy --action "
+                             "keypose` learns from their episodes together)")
     parser.add_argument("--out", type=Path, required=True, help="output folder (resumes when it holds a checkpoint)")
     parser.add_argument("--steps", type=int, help="optimiser steps (default: parser 1000, perception 3000, "
                                                   "policy 4000)")
@@ -82,7 +84,12 @@ def run(args: argparse.Namespace) -> int:
 
     _torch_or_error()
     check_out_dir("--out", args.out)
-    check_outputs({"--out": args.out}, {"--dataset": args.dataset, "--init": args.init})
+    datasets = args.dataset
+    if len(datasets) > 1 and (args.model != "policy" or args.action != KEYPOSE_ACTION):
+        raise ConfigError(f"--dataset {' '.join(map(str, datasets))}: several datasets train only "
+                          "`train policy --action keypose`; give one")
+    check_outputs({"--out": args.out}, {**{f"--dataset {d}": d for d in datasets}, "--init": args.init})
+    args.dataset = datasets[0] if len(datasets) == 1 else datasets
     collect = {"demos": args.demos, "noise": args.noise, "dagger_rounds": args.dagger_rounds,
                "dagger_episodes": args.dagger_episodes, "dagger_steps": args.dagger_steps, "workers": args.workers,
                "inputs": args.inputs, "action": args.action, "batch": args.batch, "hidden": args.hidden,

@@ -23,7 +23,7 @@ from samplehd.schema import Config, bounded
 
 __all__ = ["ACTION", "ATTRIBUTE_VALUES", "BLANK_TEXT", "FORMAT", "INPUTS", "KEYPOSE_ATTRIBUTES", "LANGUAGE",
            "KeyposeArchitecture", "KeyposeConfig", "KeyposeGrid", "KeyposeTraining", "KeyposeVocabulary",
-           "policy_instruction"]
+           "ShapeRange", "policy_instruction"]
 
 FORMAT = 3  # the config format of a keypose policy (bump when the network or its inputs change)
 # the ``action`` its config.json names (the behaviour-cloning policy's: steering, waypoint)
@@ -96,6 +96,22 @@ class KeyposeTraining(Config, section="train"):
 
 
 @dataclass(frozen=True)
+class ShapeRange(Config, section="vocabulary.shapes"):
+    """The sizes one known class was seen with on the policy's map of its training views (the 2nd to
+    98th percentile of its objects' :func:`samplehd.learn.keypose.exclusion.object_shape`).
+
+    Attributes:
+        name: the class.
+        low: the smallest (height, length, width) [m].
+        high: the largest (height, length, width) [m].
+    """
+
+    name: str
+    low: tuple[float, float, float]
+    high: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
 class KeyposeVocabulary(Config, section="vocabulary"):
     """What the keypose policy was trained on, for grounding by exclusion
     (:mod:`samplehd.learn.keypose.exclusion`): the words of its training instructions and, per attribute
@@ -109,6 +125,8 @@ class KeyposeVocabulary(Config, section="vocabulary"):
         color: colours.
         material: materials.
         size: sizes.
+        shapes: the sizes each class of ``name`` was seen with (empty in the files of earlier versions:
+            any size then fits any class).
     """
 
     words: tuple[str, ...] = ()
@@ -116,6 +134,7 @@ class KeyposeVocabulary(Config, section="vocabulary"):
     color: tuple[str, ...] = ()
     material: tuple[str, ...] = ()
     size: tuple[str, ...] = ()
+    shapes: tuple[ShapeRange, ...] = ()
 
     def values(self, attribute: str) -> tuple[str, ...]:
         """The values of one attribute of :data:`KEYPOSE_ATTRIBUTES`."""
@@ -129,7 +148,8 @@ class KeyposeConfig(ModelConfig, section="policy"):
     Attributes:
         kind: ``policy``.
         format: :data:`FORMAT` of the samplehd that wrote it.
-        dataset: the dataset it was trained on.
+        dataset: the dataset it was trained on (the first, when there were several).
+        more_datasets: the others it was trained on with it (their episodes added to the first's).
         catalogue: the built-in object catalogue of that dataset's scenes: the one its evaluation
             draws from.
         inputs: ``rgb`` or ``state`` (:data:`INPUTS`).
@@ -152,6 +172,7 @@ class KeyposeConfig(ModelConfig, section="policy"):
     # A config.json without the field was written before catalogues had names: procedural. The trainer
     # always fills it from the dataset.
     catalogue: str = bounded(LEGACY_CATALOGUE, choices=tuple(CATALOGUES))
+    more_datasets: tuple[str, ...] = ()
     inputs: str = bounded("rgb", choices=INPUTS)
     language: str = bounded("instruction", choices=LANGUAGE)
     action: str = bounded(ACTION, choices=(ACTION,))

@@ -19,7 +19,7 @@ from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.actions import tcp_yaw
 from samplehd.learn.keypose.configuration import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeConfig, policy_instruction
-from samplehd.learn.keypose.exclusion import exclusion_target, table_objects, unknown_nouns
+from samplehd.learn.keypose.exclusion import exclusion_target, moves_unheard, table_objects, unknown_nouns
 from samplehd.learn.keypose.follower import KeyposeFollower
 from samplehd.learn.keypose.modeling import KeyposeNet
 from samplehd.learn.keypose.processing import (
@@ -104,6 +104,8 @@ class KeyposePolicy:
         self._episode: Any = None
         self.decisions = []
         self.exclusion = False  # whether this episode's instruction fired the rule of grounding by exclusion
+        self._restricted = False  # whether the current decision's grasp was sought on that object alone ...
+        self._grounded_moved = False  # ... and whether such a decision has moved it (the rule is then done)
         self.retries = 0  # decisions made again after the fingers were found empty ...
         self.lost: list[str] = []  # ... and where, each time (KeyposeFollower.lost)
 
@@ -136,17 +138,24 @@ class KeyposePolicy:
     def _grounded_by_exclusion(self, instruction: str, grid: np.ndarray, grid_t: Any, tokens_t: Any
                                ) -> np.ndarray | None:
         """The cells of the object an unheard noun means (:mod:`samplehd.learn.keypose.exclusion`), or None
-        when the rule does not fire; whether it fired is kept for the diagnosis."""
+        when the rule does not fire; whether it fired is kept for the diagnosis. The grasp is sought on
+        that object alone only where the noun names an object to move (not a reference or a container:
+        :func:`~samplehd.learn.keypose.exclusion.moves_unheard`) and until a grasp of it has been carried
+        through; the other objects an instruction moves are the network's to find."""
         vocabulary = self.config.vocabulary
+        self._restricted = False
         if not unknown_nouns(instruction, vocabulary):
             return None
         self.exclusion = True
+        if self._grounded_moved or not moves_unheard(instruction, vocabulary):
+            return None
         _, feats, _ = self.net.features(grid_t, tokens_t)
         maps = self.net.attributes(feats)[0].view(len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, *feats.shape[2:])
         maps = maps.cpu().numpy().astype(np.float64)
         logits = {a: maps[k, :len(vocabulary.values(a))] for k, a in enumerate(KEYPOSE_ATTRIBUTES)}
-        objects = table_objects(grid, logits["name"], logits, vocabulary, FACTOR)
+        objects = table_objects(grid, logits["name"], logits, vocabulary, FACTOR, self.grid.cell)
         target = exclusion_target(instruction, vocabulary, objects)
+        self._restricted = target is not None
         return None if target is None else objects[target].cells
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
@@ -161,6 +170,7 @@ class KeyposePolicy:
             if follower is not None and follower.lost is not None:
                 self.retries += 1
                 self.lost.append(follower.lost)
+            self._grounded_moved |= follower is not None and self._restricted and follower.lost is None
             decision = self.decide(str(obs["instruction"]))
             self.decisions.append(decision)
             follower = self._follower = KeyposeFollower(decision, obs, self._home, self.env,

@@ -110,12 +110,15 @@ def check_scene_inputs(reader: Any) -> None:
 
 
 def prepare_samples(reader: Any, ks: Sequence[int], config: KeyposeGrid, tokens_len: int,
-                    inputs: str = "rgb", label: str = "prepare", quiet: bool = True) -> dict[str, np.ndarray]:
+                    inputs: str = "rgb", label: str = "prepare", quiet: bool = True,
+                    values: Mapping[str, list[str]] | None = None) -> dict[str, np.ndarray]:
     """The samples of episodes ``ks``: every decision's top-down view, instruction tokens, keypose
-    targets and attribute maps (a progress bar per episode on stderr unless ``quiet``)."""
+    targets and attribute maps (a progress bar per episode on stderr unless ``quiet``). ``values``: the
+    attribute values the maps index (default: those of the dataset's scenes; of every dataset trained
+    on together when there are several)."""
     env = replay_env(reader)
     renderers: dict[str, Any] = {}
-    values = attribute_values(reader.scenes)
+    values = attribute_values(reader.scenes) if values is None else values
     grids, toks, labels, attrs, episodes = [], [], [], [], []
     # Drawing the samples renders every later decision's view: minutes on a large dataset, shown per episode.
     bars = Progress(TextColumn("{task.description:>12}"), BarColumn(), MofNCompleteColumn(), TextColumn("episodes"),

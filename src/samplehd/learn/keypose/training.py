@@ -25,6 +25,7 @@ from samplehd.learn.keypose.configuration import (
     KeyposeVocabulary,
     policy_instruction,
 )
+from samplehd.learn.keypose.exclusion import shape_ranges
 from samplehd.learn.keypose.inference import predict_decisions
 from samplehd.learn.keypose.modeling import KeyposeNet
 from samplehd.learn.keypose.preparation import PREPARED_FILE, check_scene_inputs, prepare_samples
@@ -120,11 +121,12 @@ def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any)
         "flag_logits": flags}
 
 
-def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *, device: str | None = None,
-                  quiet: bool = False, stop_after: int | None = None) -> Metrics:
-    """Train the keypose policy ``config`` on a dataset's L1 training episodes; metrics on its test
-    episodes: the grasp's and the goal's position error [m] (median, mean, share within 1 and 2 cm), the
-    grasp's height and yaw error, the flags' accuracy.
+def train_keypose(dataset: str | Path | Sequence[str | Path], out: str | Path, config: KeyposeConfig, *,
+                  device: str | None = None, quiet: bool = False, stop_after: int | None = None) -> Metrics:
+    """Train the keypose policy ``config`` on a dataset's L1 training episodes (on those of several
+    datasets together: the same catalogue and scene camera size); metrics on its test episodes: the
+    grasp's and the goal's position error [m] (median, mean, share within 1 and 2 cm), the grasp's height
+    and yaw error, the flags' accuracy.
 
     What the dataset says is filled in (:func:`fill_from_dataset`): its path and catalogue, the grid's
     image size (the dataset's scene images', so that first decisions read them; an image of another
@@ -136,7 +138,8 @@ def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *
     the simulator when it acts), so it is told which objects the instruction means.
 
     Args:
-        dataset: a dataset folder written by ``samplehd generate``.
+        dataset: a dataset folder written by ``samplehd generate``, or several (a family a dataset of
+            all families gives few demonstrations of, from a dataset of that family).
         out: the output folder (resumed when it holds a checkpoint).
         config: the policy to train.
         device: torch device (default: cuda when present, else cpu).
@@ -146,20 +149,20 @@ def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *
     Returns:
         The metrics written to ``metrics.json`` (``{"stopped_at": N}`` when stopped early).
     """
-    reader = open_dataset(dataset)
-    check_scene_inputs(reader)
-    config, train_k, test_k = fill_from_dataset(config, reader, dataset)
+    datasets = [dataset] if isinstance(dataset, str | Path) else list(dataset)
+    readers = [open_dataset(d) for d in datasets]
+    for reader in readers:
+        check_scene_inputs(reader)
+    config, train_k, test_k = fill_from_dataset(config, readers, datasets)
     _warn_if_small(config.grid, quiet)
     start = _initial_weights(config) if config.train.init else None
     out = Path(out)
     dev = pick_device(device)
     set_seed(config.train.seed)
     steps = config.train.steps
-    run = TrainRun(out, config.to_dict(), steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
-                   stop_after=stop_after)
     # The samples are drawn before anything is written: a dataset refused while they are drawn leaves
     # no half-made `out`.
-    arrays = _samples(out, reader, config, train_k, test_k, quiet)
+    arrays = _samples(out, readers, config, train_k, test_k, quiet)
     if config.language != "instruction":  # the language-blind control: every sample reads the blank text
         blank = encode_instruction(policy_instruction(config, ""), config.tokens)
         for key in ("train_tokens", "test_tokens"):
@@ -167,6 +170,12 @@ def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *
     n = len(arrays["train_grid"])
     if n == 0:
         raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry", field="dataset")
+    # the sizes each class was seen with, for grounding an unheard noun by exclusion
+    shapes = shape_ranges(arrays["train_grid"], arrays["train_attributes"], config.vocabulary.name, FACTOR,
+                          grid_of(config.grid).cell)
+    config = replace(config, vocabulary=replace(config.vocabulary, shapes=shapes))
+    run = TrainRun(out, config.to_dict(), steps, checkpoint_every=max(50, steps // 20), quiet=quiet,
+                   stop_after=stop_after)
     run.prepare()
     _keep_samples(out, arrays)
     net = KeyposeNet(len(instruction_vocabulary()), input_channels(config.inputs), config.model.width).to(dev)
@@ -181,7 +190,8 @@ def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *
         return {"stopped_at": len(losses)}
     metrics: dict[str, Any] = {"train_loss": float(np.mean(losses[-50:])) if losses else None,
                                **_test_metrics(net, arrays, grid_of(config.grid), dev),
-                               "train_episodes": len(train_k), "train_decisions": n, "test_episodes": len(test_k),
+                               "train_episodes": sum(map(len, train_k)), "train_decisions": n,
+                               "test_episodes": sum(map(len, test_k)),
                                "families": list(config.families), "steps": steps, "seed": config.train.seed,
                                "device": str(dev), **t}
     run.finish(net, metrics)
@@ -189,35 +199,60 @@ def train_keypose(dataset: str | Path, out: str | Path, config: KeyposeConfig, *
     return metrics
 
 
-def fill_from_dataset(config: KeyposeConfig, reader: Any, dataset: str | Path
-                      ) -> tuple[KeyposeConfig, list[int], list[int]]:
-    """(``config`` with what the dataset says filled in, its training episodes, its test episodes):
-    the dataset's path and catalogue, the grid's image size (its scene images'; 640 × 360 px when it
-    has none), the families of the training episodes (of ``config.families`` when given) and their
-    count, the words of their instructions and the attribute values of the scenes' objects."""
-    camera = reader.scenes[0]["camera"] if reader.scenes else {}
-    grid = replace(config.grid, width=int(camera.get("width", 640)), height=int(camera.get("height", 360)))
-    train_k, test_k = training_split(reader, dataset, config.families or None)
-    families = tuple(sorted({reader.instruction(k)["family"] for k in train_k}))
-    values = attribute_values(reader.scenes)
-    words = sorted({w for k in train_k for w in tokenize(str(reader.instruction(k)["instruction"]))})
+def fill_from_dataset(config: KeyposeConfig, readers: Sequence[Any], datasets: Sequence[str | Path]
+                      ) -> tuple[KeyposeConfig, list[list[int]], list[list[int]]]:
+    """(``config`` with what the datasets say filled in, each one's training episodes, each one's test
+    episodes): the datasets' paths and catalogue, the grid's image size (their scene images'; 640 × 360 px
+    when they have none), the families of the training episodes (of ``config.families`` when given) and
+    their count, the words of their instructions and the attribute values of the scenes' objects.
+
+    Raises:
+        ConfigError: one line naming a dataset whose catalogue or scene camera size is not the first's.
+    """
+    def camera(reader: Any) -> tuple[int, int]:
+        c = reader.scenes[0]["camera"] if reader.scenes else {}
+        return int(c.get("width", 640)), int(c.get("height", 360))
+
+    first = readers[0]
+    for d, reader in zip(datasets[1:], readers[1:], strict=True):
+        if reader.catalogue != first.catalogue:
+            raise ConfigError(f"dataset={d}: catalogue {reader.catalogue!r}, the first dataset's ({datasets[0]}) "
+                              f"{first.catalogue!r}; datasets trained on together share one", field="dataset")
+        if camera(reader) != camera(first):
+            raise ConfigError(f"dataset={d}: scene camera {'x'.join(map(str, camera(reader)))} px, the first "
+                              f"dataset's ({datasets[0]}) {'x'.join(map(str, camera(first)))} px; datasets trained "
+                              "on together share one", field="dataset")
+    width, height = camera(first)
+    grid = replace(config.grid, width=width, height=height)
+    splits = [training_split(r, d, config.families or None) for r, d in zip(readers, datasets, strict=True)]
+    train_k, test_k = [s[0] for s in splits], [s[1] for s in splits]
+    instructions = [str(r.instruction(k)["instruction"]) for r, ks in zip(readers, train_k, strict=True) for k in ks]
+    families = tuple(sorted({r.instruction(k)["family"] for r, ks in zip(readers, train_k, strict=True) for k in ks}))
+    values = attribute_values([s for r in readers for s in r.scenes])
+    words = sorted({w for text in instructions for w in tokenize(text)})
     vocabulary = KeyposeVocabulary(words=tuple(words), **{a: tuple(values[a]) for a in KEYPOSE_ATTRIBUTES})
-    return replace(config, dataset=str(dataset), catalogue=reader.catalogue, grid=grid, families=families,
-                   train=replace(config.train, episodes=len(train_k)), vocabulary=vocabulary), train_k, test_k
+    return replace(config, dataset=str(datasets[0]), more_datasets=tuple(str(d) for d in datasets[1:]),
+                   catalogue=first.catalogue, grid=grid, families=families,
+                   train=replace(config.train, episodes=len(instructions)), vocabulary=vocabulary), train_k, test_k
 
 
-def _samples(out: Path, reader: Any, config: KeyposeConfig, train_k: Sequence[int],
-             test_k: Sequence[int], quiet: bool) -> dict[str, np.ndarray]:
-    """The training and test samples (``train_*``, ``test_*``), read from ``out``'s
+def _samples(out: Path, readers: Sequence[Any], config: KeyposeConfig, train_k: Sequence[Sequence[int]],
+             test_k: Sequence[Sequence[int]], quiet: bool) -> dict[str, np.ndarray]:
+    """The training and test samples (``train_*``, ``test_*``) of every dataset, read from ``out``'s
     :data:`~samplehd.learn.keypose.preparation.PREPARED_FILE` when a resumed run left one, else
     prepared (:func:`_keep_samples` keeps them there until the run ends)."""
     prepared = out / PREPARED_FILE
     if prepared.exists():
         with np.load(prepared, allow_pickle=False) as z:
             return {k: z[k] for k in z.files}
-    train = prepare_samples(reader, train_k, config.grid, config.tokens, config.inputs, "prepare train", quiet)
-    test = prepare_samples(reader, test_k, config.grid, config.tokens, config.inputs, "prepare test", quiet)
-    return {**{f"train_{k}": v for k, v in train.items()}, **{f"test_{k}": v for k, v in test.items()}}
+    # the attribute maps index the values of every dataset's scenes, as the vocabulary names them
+    values = {a: list(config.vocabulary.values(a)) for a in KEYPOSE_ATTRIBUTES}
+    out_arrays: dict[str, np.ndarray] = {}
+    for split, ks in (("train", train_k), ("test", test_k)):
+        parts = [prepare_samples(r, k, config.grid, config.tokens, config.inputs, f"prepare {split}", quiet, values)
+                 for r, k in zip(readers, ks, strict=True)]
+        out_arrays.update({f"{split}_{key}": np.concatenate([p[key] for p in parts]) for key in parts[0]})
+    return out_arrays
 
 
 def _keep_samples(out: Path, arrays: dict[str, np.ndarray]) -> None:
