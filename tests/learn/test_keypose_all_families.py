@@ -109,7 +109,8 @@ def test_several_datasets_train_one_keypose_policy_together(every_family_dataset
     assert main(["train", "policy", "--action", "keypose", "--dataset", str(stacks), str(small), "--out",
                  str(refused), "--steps", "2", "--quiet"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and f"--dataset {small}: scene camera 96x54 px, the first dataset's ({stacks}) 160x90 px" in err, err
+    assert len(err.splitlines()) == 1, err
+    assert f"--dataset {small}: scene camera 96x54 px, the first dataset's ({stacks}) 160x90 px" in err, err
     assert main(["train", "parser", "--dataset", str(stacks), str(small), "--out", str(refused)]) == 2
     assert "several datasets train only `train policy --action keypose`" in capsys.readouterr().err
     assert not refused.exists()

@@ -108,7 +108,7 @@ def test_the_sizes_a_class_was_seen_with_come_from_the_labelled_training_views()
     grids[0, 3, 10:14, 10:14] = 0.2  # an object of no class the maps name (held out)
     (mug,) = shape_ranges(grids, attributes, VOCABULARY.name, factor=2, grid_cell=0.008)
     assert mug.name == "mug"
-    assert mug.low[0] == pytest.approx(0.0504, abs=1e-4) and mug.high[0] == pytest.approx(0.0696, abs=1e-4)
+    assert mug.low[0] == pytest.approx(0.052, abs=1e-4) and mug.high[0] == pytest.approx(0.068, abs=1e-4)
     assert mug.high[1] <= 0.048 + 1e-9 and mug.low[2] == pytest.approx(0.032)
 
 
@@ -135,3 +135,20 @@ def test_a_vocabulary_that_is_not_lists_of_words_is_one_line_naming_it() -> None
         KeyposeConfig.from_dict({**config.to_dict(), "vocabulary": {"words": "pick up"}})
     with pytest.raises(ConfigError, match=r"vocabulary: unknown option.*nouns.*valid: words"):
         KeyposeConfig.from_dict({**config.to_dict(), "vocabulary": {"nouns": ["mug"]}})
+
+
+def test_the_grasp_of_a_grounded_object_opens_wide_and_stays_near_its_top() -> None:
+    pytest.importorskip("torch")
+    from samplehd.learn.keypose.inference import GROUNDED_GRASP_OVER_TOP, grounded_grasp
+    from samplehd.learn.keypose.processing import Decision
+    from samplehd.robot.constants import GRIPPER_STROKE
+    from samplehd.world.layout import LAYOUT
+
+    box = _object({"plate": 0.2}, shape=(0.045, 0.09, 0.08))
+    table = LAYOUT.table_height
+    high = Decision((0.1, 0.2, table + 0.08, 0.3), 0.04, table + 0.2, (0.0, 0.1, table + 0.1, 0.0), False, True)
+    capped = grounded_grasp(high, box)
+    assert capped.grasp == pytest.approx((0.1, 0.2, table + 0.045 + GROUNDED_GRASP_OVER_TOP, 0.3))
+    assert capped.opening == GRIPPER_STROKE and capped.goal == high.goal and capped.lift == high.lift
+    low = Decision((0.1, 0.2, table + 0.03, 0.3), 0.04, table + 0.2, (0.0, 0.1, table + 0.1, 0.0), False, True)
+    assert grounded_grasp(low, box).grasp[2] == table + 0.03  # a lower grasp stays

@@ -97,8 +97,8 @@ class KeyposeTraining(Config, section="train"):
 
 @dataclass(frozen=True)
 class ShapeRange(Config, section="vocabulary.shapes"):
-    """The sizes one known class was seen with on the policy's map of its training views (the 2nd to
-    98th percentile of its objects' :func:`samplehd.learn.keypose.exclusion.object_shape`).
+    """The sizes one known class was seen with on the policy's map of its training views (the 10th to
+    90th percentile of its objects' :func:`samplehd.learn.keypose.exclusion.object_shape`).
 
     Attributes:
         name: the class.

@@ -49,7 +49,9 @@ RELATION_WORDS = frozenset({"on", "onto", "in", "into", "inside", "to", "behind"
 # A size seen in training counts as this much wider (height, length, width) [m]: a few millimetres of
 # a height map's noise, a map cell of a footprint's.
 SHAPE_MARGIN = (0.005, 0.016, 0.016)
-SHAPE_PERCENTILES = (2.0, 98.0)  # the sizes of a class kept from training (an odd view or merged objects left out)
+# the sizes of a class kept from training: a fragment, an odd view or merged objects left out (chosen on
+# the L4 episodes of a training dataset's test split, never on a benchmark suite)
+SHAPE_PERCENTILES = (10.0, 90.0)
 
 
 @dataclass(frozen=True)

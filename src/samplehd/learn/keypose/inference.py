@@ -11,6 +11,7 @@ in the diagnosis only: it is right on about as many held-out decisions as always
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any, TypedDict
 
 import numpy as np
@@ -19,7 +20,7 @@ from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.actions import tcp_yaw
 from samplehd.learn.keypose.configuration import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeConfig, policy_instruction
-from samplehd.learn.keypose.exclusion import exclusion_target, moves_unheard, table_objects, unknown_nouns
+from samplehd.learn.keypose.exclusion import SeenObject, exclusion_target, moves_unheard, table_objects, unknown_nouns
 from samplehd.learn.keypose.follower import KeyposeFollower
 from samplehd.learn.keypose.modeling import KeyposeNet
 from samplehd.learn.keypose.processing import (
@@ -36,13 +37,19 @@ from samplehd.learn.keypose.processing import (
 from samplehd.learn.topdown import TopDownGrid
 from samplehd.learn.training import set_seed, torch
 from samplehd.render.renderer import SceneRenderer
+from samplehd.robot.constants import GRIPPER_STROKE
 from samplehd.world.layout import LAYOUT
 
-__all__ = ["AVOID_RADIUS", "MAX_DECISIONS", "KeyposeDiagnosis", "KeyposePolicy", "predict_decisions"]
+__all__ = ["AVOID_RADIUS", "GROUNDED_GRASP_OVER_TOP", "MAX_DECISIONS", "KeyposeDiagnosis", "KeyposePolicy",
+           "grounded_grasp", "predict_decisions"]
 
 
 AVOID_RADIUS = 0.03  # a later grasp is not sought this close to an earlier grasp or release [m]
 MAX_DECISIONS = 6  # an episode's decisions at most (the families move up to three objects; the rest retry)
+# The grasp of an object grounded by exclusion, whose height the network never learnt: the TCP at most
+# this far above the object's top (the demonstrations' grasps of objects lower than 7 cm: 6-12 mm above
+# their top, median), the fingers open wide (GRIPPER_STROKE).
+GROUNDED_GRASP_OVER_TOP = 0.01  # [m]
 
 
 class DecisionRecord(TypedDict):
@@ -131,13 +138,15 @@ class KeyposePolicy:
         with torch.no_grad():
             grid_t = torch.as_tensor(grid[None], device=self.device)
             tokens_t = torch.as_tensor(tokens[None], device=self.device)
-            only = self._grounded_by_exclusion(text, grid, grid_t, tokens_t)
+            grounded = self._grounded_by_exclusion(text, grid, grid_t, tokens_t)
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
-            return predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [only])[0]
+            only = None if grounded is None else grounded.cells
+            decision = predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [only])[0]
+        return decision if grounded is None else grounded_grasp(decision, grounded)
 
     def _grounded_by_exclusion(self, instruction: str, grid: np.ndarray, grid_t: Any, tokens_t: Any
-                               ) -> np.ndarray | None:
-        """The cells of the object an unheard noun means (:mod:`samplehd.learn.keypose.exclusion`), or None
+                               ) -> SeenObject | None:
+        """The object an unheard noun means (:mod:`samplehd.learn.keypose.exclusion`), or None
         when the rule does not fire; whether it fired is kept for the diagnosis. The grasp is sought on
         that object alone only where the noun names an object to move (not a reference or a container:
         :func:`~samplehd.learn.keypose.exclusion.moves_unheard`) and until a grasp of it has been carried
@@ -156,7 +165,7 @@ class KeyposePolicy:
         objects = table_objects(grid, logits["name"], logits, vocabulary, FACTOR, self.grid.cell)
         target = exclusion_target(instruction, vocabulary, objects)
         self._restricted = target is not None
-        return None if target is None else objects[target].cells
+        return None if target is None else objects[target]
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
         episode = getattr(self.env.unwrapped, "episode", None)
@@ -195,6 +204,14 @@ class KeyposePolicy:
             self._renderer.close()
             self._renderer = None
             self._renderer_model = None
+
+
+def grounded_grasp(decision: Decision, grounded: SeenObject) -> Decision:
+    """``decision`` with the grasp of an object grounded by exclusion: the TCP no higher than
+    :data:`GROUNDED_GRASP_OVER_TOP` above the object's top on the map, the fingers open wide."""
+    x, y, z, yaw = decision.grasp
+    top = LAYOUT.table_height + grounded.shape[0] + GROUNDED_GRASP_OVER_TOP
+    return replace(decision, grasp=(x, y, min(z, top), yaw), opening=GRIPPER_STROKE)
 
 
 def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid,
