@@ -30,7 +30,7 @@ from scipy import ndimage
 from samplehd.envs.tokens import tokenize
 from samplehd.language.lexicon import default_lexicon
 from samplehd.learn.keypose.configuration import KEYPOSE_ATTRIBUTES, KeyposeVocabulary, ShapeRange
-from samplehd.learn.topdown import HEIGHT_SCALE
+from samplehd.learn.topdown import HEIGHT_SCALE, TopDownGrid
 
 __all__ = ["DETERMINERS", "MIN_CELLS", "OBJECT_HEIGHT", "RELATION_WORDS", "SHAPE_MARGIN", "SeenObject",
            "exclusion_target", "moves_unheard", "named_classes", "named_values", "object_shape", "shape_ranges",
@@ -168,7 +168,7 @@ def moves_unheard(instruction: str, vocabulary: KeyposeVocabulary) -> bool:
 
 
 def table_objects(grid: np.ndarray, class_logits: np.ndarray, attribute_logits: Mapping[str, np.ndarray],
-                  vocabulary: KeyposeVocabulary, factor: int, grid_cell: float = 0.008) -> list[SeenObject]:
+                  vocabulary: KeyposeVocabulary, factor: int, grid_cell: float = TopDownGrid.cell) -> list[SeenObject]:
     """The objects on the table: connected groups of the network's map cells higher than
     :data:`OBJECT_HEIGHT` above the table, each with its mean class probabilities and most likely
     colour, material and size.
