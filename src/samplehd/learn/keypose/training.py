@@ -169,7 +169,8 @@ def train_keypose(dataset: str | Path | Sequence[str | Path], out: str | Path, c
             arrays[key] = np.broadcast_to(blank, arrays[key].shape).copy()
     n = len(arrays["train_grid"])
     if n == 0:
-        raise ConfigError(f"dataset={dataset}: no training episode reads as grasp, lift and carry", field="dataset")
+        raise ConfigError(f"dataset={' '.join(map(str, datasets))}: no training episode reads as grasp, lift and "
+                          "carry", field="dataset")
     # the sizes each class was seen with, for grounding an unheard noun by exclusion
     shapes = shape_ranges(arrays["train_grid"], arrays["train_attributes"], config.vocabulary.name, FACTOR,
                           grid_of(config.grid).cell)
