@@ -116,6 +116,22 @@ def test_suite_list_and_show_describe_the_shipped_suite() -> None:
     assert r.returncode == 0 and f"{len(suite.episodes)} episodes" in r.stdout and "by family" in r.stdout
 
 
+def test_a_summary_names_a_few_short_variants_and_counts_the_rest() -> None:
+    """A `plus` axis can leave hundreds of twin x strength pairs short; `suite build` and `suite show`
+    name five and say how many more the manifest lists, on one line."""
+    from dataclasses import replace
+
+    from samplehd.commands.suite import describe
+
+    suite = read_suite(SHIPPED)
+    short = [{"axis": "task_swap", "strength": 1 + i % 5, "twin": i} for i in range(400)]
+    text = describe(replace(suite, manifest={**suite.manifest, "short_variants": short}))
+    line = next(x for x in text.splitlines() if "short variants" in x)
+    assert line.startswith("  short variants (400): ") and line.endswith(", and 395 more in the manifest")
+    assert line.count('"twin"') == 5 and len(line) < 400
+    assert "short variants" not in describe(suite)
+
+
 def test_a_random_policy_on_a_suite_names_the_suite_in_its_report(tmp_path: Path) -> None:
     suite = read_suite(SHIPPED)
     report = evaluate(EvalConfig(policy="random", suite=SHIPPED, env={"max_episode_steps": 3}),

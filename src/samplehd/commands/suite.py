@@ -26,6 +26,7 @@ from samplehd.fileio import read_json
 from samplehd.workers import BACKENDS, Backend
 
 HELP = "build a benchmark suite of oracle-proven episodes, list the shipped suites, or show one"
+SHOWN_SHORT = 5  # short cells or variants a summary names; the manifest lists them all
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -111,8 +112,11 @@ def describe(suite: Suite) -> str:
         lines.append(f"  solved {key[3:].replace('_', ' × ')}: " + ", ".join(
             f"{v} {g['solved']}/{g.get('drawn', g['tried'])}/{g['tried']}" for v, g in groups.items()))
     for key in ("short_cells", "short_variants"):
-        if m.get(key):
-            lines.append(f"  {key.replace('_', ' ')}: {json.dumps(m[key])}")
+        short = m.get(key) or []
+        if short:  # a few, then how many more the file's manifest lists (a plus axis can leave hundreds)
+            more = f", and {len(short) - SHOWN_SHORT} more in the manifest" if len(short) > SHOWN_SHORT else ""
+            lines.append(f"  {key.replace('_', ' ')} ({len(short)}): "
+                         f"{', '.join(json.dumps(x) for x in short[:SHOWN_SHORT])}{more}")
     return "\n".join(lines)
 
 
