@@ -17,8 +17,8 @@
 #        stack_three and worse at L1, docs/experiments/2026-12-keypose-all.md)
 #
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
-# Writes OUT/data/all (and OUT/data/stack_three), OUT/models/keypose_all, OUT/reports/*.json, OUT/reports/*.md, OUT/videos/ and
-# OUT/summary.txt.
+# Writes OUT/data/all (and OUT/data/stack_three), OUT/models/keypose_all, OUT/reports/*.json,
+# OUT/reports/*.md, OUT/videos/ and OUT/summary.txt.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 # shellcheck source=scripts/baselines/demonstrations.sh

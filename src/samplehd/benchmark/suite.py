@@ -436,8 +436,8 @@ def _base_cells(base: Suite) -> list[tuple[str, str, str]]:
 
 def _selected(config: SuiteBuildConfig, cell: tuple[str, str, str]) -> bool:
     """Whether a base's cell (catalogue, family, level) is among those the suite takes."""
-    return all(getattr(config, name) is None or value in getattr(config, name)
-               for value, name in zip(cell, SELECTION, strict=True))
+    chosen = (getattr(config, name) for name in SELECTION)
+    return all(names is None or value in names for value, names in zip(cell, chosen, strict=True))
 
 
 def _take_clean(config: SuiteBuildConfig, base: Suite) -> tuple[list[SuiteEpisode], list[dict[str, Any]]]:

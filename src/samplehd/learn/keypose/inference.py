@@ -138,14 +138,14 @@ class KeyposePolicy:
         with torch.no_grad():
             grid_t = torch.as_tensor(grid[None], device=self.device)
             tokens_t = torch.as_tensor(tokens[None], device=self.device)
-            grounded = self._grounded_by_exclusion(text, grid, grid_t, tokens_t)
+            features = self.net.features(grid_t, tokens_t)
+            grounded = self._grounded_by_exclusion(text, grid, features[1])
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
             only = None if grounded is None else grounded.cells
-            decision = predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [only])[0]
+            decision = predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [only], features)[0]
         return decision if grounded is None else grounded_grasp(decision, grounded)
 
-    def _grounded_by_exclusion(self, instruction: str, grid: np.ndarray, grid_t: Any, tokens_t: Any
-                               ) -> SeenObject | None:
+    def _grounded_by_exclusion(self, instruction: str, grid: np.ndarray, feats: Any) -> SeenObject | None:
         """The object an unheard noun means (:mod:`samplehd.learn.keypose.exclusion`), or None
         when the rule does not fire; whether it fired is kept for the diagnosis. The grasp is sought on
         that object alone only where the noun names an object to move (not a reference or a container:
@@ -158,7 +158,6 @@ class KeyposePolicy:
         self.exclusion = True
         if self._grounded_moved or not moves_unheard(instruction, vocabulary):
             return None
-        _, feats, _ = self.net.features(grid_t, tokens_t)
         maps = self.net.attributes(feats)[0].view(len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, *feats.shape[2:])
         maps = maps.cpu().numpy().astype(np.float64)
         logits = {a: maps[k, :len(vocabulary.values(a))] for k, a in enumerate(KEYPOSE_ATTRIBUTES)}
@@ -216,13 +215,14 @@ def grounded_grasp(decision: Decision, grounded: SeenObject) -> Decision:
 
 def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid,
                       avoid: Sequence[Sequence[np.ndarray]] | None = None,
-                      only: Sequence[np.ndarray | None] | None = None) -> list[Decision]:
+                      only: Sequence[np.ndarray | None] | None = None, features: Any = None) -> list[Decision]:
     """The decisions the network makes on a batch of grid images: the most likely cell of the grasp,
     the values there, then the goal's maps given that cell and their most likely cell. ``avoid``: per
     image, table points (x, y) whose cells within :data:`AVOID_RADIUS` the grasp is not sought in.
     ``only``: per image, None or the cells of the network's map (bool, rows × cols) the grasp is sought
-    in alone (an object grounded by exclusion)."""
-    c, feats, flags = net.features(grid_batch, tokens)
+    in alone (an object grounded by exclusion). ``features``: ``net.features`` of these images when the
+    caller has them already."""
+    c, feats, flags = net.features(grid_batch, tokens) if features is None else features
     gm = net.grasp(feats)
     n, _, rows, cols = gm.shape
     heat = gm[:, 0].clone()
