@@ -85,6 +85,30 @@ def test_a_base_per_cell_takes_each_cells_first_clean_episodes_in_suite_order(tm
     assert every.manifest["short_cells"] == []
 
 
+def test_a_base_skip_takes_the_episodes_a_suite_of_the_first_ones_leaves(tmp_path: Path) -> None:
+    """A validation suite and a test suite of one base share no episode: skipping the first of each
+    cell's two takes the second; skipping both leaves every cell short, and says why."""
+    smoke = read_suite(BASE)
+    first = [e.to_dict() for e in smoke.episodes]
+    second = [{**e, "reset_seed": e["reset_seed"] + 1} for e in first]
+    path = _write(tmp_path, "two", [*first, *second], smoke.build)
+    test = build_suite("test", SuiteBuildConfig(base=str(path), base_per_cell=1))
+    val = build_suite("val", SuiteBuildConfig(base=str(path), base_per_cell=1, base_skip=1))
+    assert val.manifest["base"]["episodes"] == list(range(12, 24)) and val.manifest["short_cells"] == []
+    assert [e.reset_seed for e in val.episodes] == [e["reset_seed"] for e in second]
+    assert not {e.reset_seed for e in val.episodes} & {e.reset_seed for e in test.episodes}
+    assert val.build["base_skip"] == 1 and "base_skip" not in test.build
+    none = build_suite("none", SuiteBuildConfig(base=str(path), base_per_cell=1, base_skip=2))
+    assert none.episodes == () and len(none.manifest["short_cells"]) == 12
+    assert none.manifest["short_cells"][0]["reason"] == ("the base has 2 clean episodes of the cell, of which the "
+                                                         "first 2 are passed over")
+    with pytest.raises(ConfigError, match=r"^suite.base_skip=1: counts the clean episodes passed over per cell "
+                                          r"of suite.base; name the base"):
+        SuiteBuildConfig(base_skip=1)
+    with pytest.raises(ConfigError, match=r"^suite.base_skip=-1: must be an integer ≥ 0"):
+        SuiteBuildConfig(base=BASE, base_skip=-1)
+
+
 @pytest.mark.slow
 def test_a_suite_from_a_base_proves_its_physical_variants_through_the_env() -> None:
     """One non-physical and one physical axis at strength 5 on smoke's twelve episodes: the robot start

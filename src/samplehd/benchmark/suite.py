@@ -22,7 +22,8 @@ still lacks episodes, so the cell's episodes are always its first
 configuration gives the same bytes.
 
 A suite may instead derive from a built *base* suite (``base``, ``base_per_cell``): it takes the first
-``base_per_cell`` clean episodes of each of the base's cells, in suite order, as they are (the base's
+``base_per_cell`` clean episodes of each of the base's cells (after its first ``base_skip``: a
+validation suite disjoint from a test suite of the same base), in suite order, as they are (the base's
 oracle proof stands; only their ids are renumbered), and makes their axes' variants as above, the
 physical ones proven in the base's env with the base's scene options. Nothing is drawn, so the
 drawing options belong to the base's build and may not be given. This is how a large robustness suite
@@ -76,7 +77,7 @@ _PROOF = ("env", "family_scene", "family_max_scenes", "max_scenes_per_candidate"
 # The options of a suite built from a base (left out of the build record of one that is not).
 # Beside a base, the options that select its cells (catalogue, family, level; None: all of them).
 SELECTION = ("base_catalogues", "base_families", "base_levels")
-_BASE = ("base", "base_per_cell", *SELECTION)
+_BASE = ("base", "base_per_cell", "base_skip", *SELECTION)
 
 
 @dataclass(frozen=True)
@@ -112,6 +113,9 @@ class SuiteBuildConfig(Config, section="suite"):
             family_max_scenes) are the base's and may not be given.
         base_per_cell: with ``base``: the first N clean episodes of each of the base's cells (catalogue ×
             family × level), in suite order; None: all of them.
+        base_skip: with ``base``: the first N clean episodes of each cell are passed over before
+            ``base_per_cell`` are taken (0: none), e.g. the episodes a test suite of the first 10 per
+            cell leaves, to tune a policy's rules on without touching them.
         base_catalogues, base_families, base_levels: with ``base``: only the base's cells of these
             catalogues, families and levels (None: all of the base's), e.g. a smaller suite of one
             catalogue's L1 episodes to evaluate a policy on.
@@ -133,6 +137,7 @@ class SuiteBuildConfig(Config, section="suite"):
     max_attempts_per_variant: int = bounded(4, lo=1)
     base: str | None = None
     base_per_cell: int | None = bounded(None, lo=1)
+    base_skip: int = bounded(0, lo=0)
     base_catalogues: tuple[str, ...] | None = bounded(None, choices=CATALOGUES, nonempty=True, unique=True)
     base_families: tuple[str, ...] | None = bounded(None, choices=family_names, nonempty=True, unique=True)
     base_levels: tuple[str, ...] | None = bounded(None, choices=LEVELS, nonempty=True, unique=True)
@@ -171,6 +176,10 @@ class SuiteBuildConfig(Config, section="suite"):
                 raise ConfigError(f"suite.base_per_cell={self.base_per_cell}: counts the clean episodes taken per "
                                   "cell from suite.base; name the base (a built suite's name or file) or leave it "
                                   "out", field="base_per_cell")
+            if self.base_skip:
+                raise ConfigError(f"suite.base_skip={self.base_skip}: counts the clean episodes passed over per "
+                                  "cell of suite.base; name the base (a built suite's name or file) or leave it "
+                                  "out", field="base_skip")
             for name in SELECTION:
                 if getattr(self, name) is not None:
                     raise ConfigError(f"suite.{name}={json.dumps(list(getattr(self, name)))}: selects cells of "
@@ -441,18 +450,23 @@ def _selected(config: SuiteBuildConfig, cell: tuple[str, str, str]) -> bool:
 
 
 def _take_clean(config: SuiteBuildConfig, base: Suite) -> tuple[list[SuiteEpisode], list[dict[str, Any]]]:
-    """The base's clean episodes the suite takes (the first ``base_per_cell`` of each cell, in suite
-    order) and the cells that have fewer."""
+    """The base's clean episodes the suite takes (the first ``base_per_cell`` of each cell after its
+    first ``base_skip``, in suite order) and the cells that have fewer."""
     want = config.base_per_cell
+    seen: Counter[tuple[str, str, str]] = Counter()
     taken: Counter[tuple[str, str, str]] = Counter()
     out = []
     for ep in base.episodes:
         cell = (ep.catalogue, ep.family, ep.level)
-        if ep.axis == CLEAN_AXIS and _selected(config, cell) and (want is None or taken[cell] < want):
+        if ep.axis != CLEAN_AXIS or not _selected(config, cell):
+            continue
+        seen[cell] += 1
+        if seen[cell] > config.base_skip and (want is None or taken[cell] < want):
             taken[cell] += 1
             out.append(ep)
     short = [{"catalogue": c, "family": f, "level": lv, "episodes": taken[c, f, lv],
-              "reason": f"the base has {taken[c, f, lv]} clean episodes of the cell"}
+              "reason": f"the base has {seen[c, f, lv]} clean episodes of the cell"
+                        + (f", of which the first {config.base_skip} are passed over" if config.base_skip else "")}
              for c, f, lv in _base_cells(base)
              if want is not None and taken[c, f, lv] < want and _selected(config, (c, f, lv))]
     return out, short
@@ -495,8 +509,9 @@ def _build_from_base(name: str, config: SuiteBuildConfig, backend: Backend,
     manifest = {**_manifest(episodes, 0, rejected, {}, short, short_variants),
                 "base": {"name": base.name, "content_hash": base.content_hash, "episodes": [e.id for e in taken]},
                 "axes": list(config.axes), "strengths": list(config.strengths)}
-    build = {"name": name, **{k: v for k, v in config.to_dict().items()
-                              if k not in _DRAWING and not (k in SELECTION and v is None)}}
+    build = {"name": name, **{k: v for k, v in config.to_dict().items()  # base_skip only where it skips
+                              if k not in _DRAWING and not (k in SELECTION and v is None)
+                              and not (k == "base_skip" and not v)}}
     return Suite(name=name, path=None, content_hash=content_hash(episodes), build=build, manifest=manifest,
                  package_version=__version__, episodes=tuple(SuiteEpisode.from_dict(e) for e in episodes))
 

@@ -36,7 +36,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                     "catalogues, episodes_per_cell, max_candidates_per_cell, "
                                                     "max_scenes_per_candidate, instruction_rounds, env, family_scene, "
                                                     "family_max_scenes, axes, strengths, "
-                                                    "max_attempts_per_variant, base, base_per_cell, base_catalogues, "
+                                                    "max_attempts_per_variant, base, base_per_cell, base_skip, "
+                                                    "base_catalogues, "
                                                     "base_families, base_levels); default for a "
                                                     "shipped suite's name: its shipped specification")
     parser.add_argument("--episodes-per-cell", type=int, help="build: episodes per catalogue × family × level")
@@ -54,6 +55,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                        "suite takes as they are, making only the axes' variants")
     parser.add_argument("--base-per-cell", type=int, help="build: with --base, the first N clean episodes of each "
                                                           "of its catalogue × family × level cells (default: all)")
+    parser.add_argument("--base-skip", type=int, help="build: with --base, pass over the first N clean episodes of "
+                                                      "each cell before taking --base-per-cell (default 0)")
     parser.add_argument("--out", type=Path, help="build: the suite file to write (default NAME.json)")
     parser.add_argument("--workers", type=int, default=1, help="build: worker processes (local backend)")
     parser.add_argument("--backend", choices=BACKENDS, default="local", help="build: where candidates run")
@@ -74,6 +77,7 @@ def resolve_config(args: argparse.Namespace) -> SuiteBuildConfig:
     config = SuiteBuildConfig.from_dict(options, where=f"--config {args.config}" if args.config else None)
     flags = {"episodes_per_cell": args.episodes_per_cell, "seed": args.seed,
              "base": getattr(args, "base", None), "base_per_cell": getattr(args, "base_per_cell", None),
+             "base_skip": getattr(args, "base_skip", None),
              "strengths": getattr(args, "strengths", None)}
     # beside a base, --catalogues, --families and --levels select the base's cells
     from_base = flags["base"] is not None or config.base is not None
@@ -102,8 +106,9 @@ def describe(suite: Suite) -> str:
         lines.append(f"  by {key:<9} " + ", ".join(f"{k} {v}" for k, v in counts.items()))
     lines.append(f"  candidates {m.get('candidates')}, rejected {sum(m.get('rejected', {}).values())}")
     if m.get("base"):
+        taken = _taken(suite.build.get("base_per_cell"), suite.build.get("base_skip", 0))
         lines.append(f"  from base {m['base']['name']} ({m['base']['content_hash']}): "
-                     f"{_taken(suite.build.get('base_per_cell'))}{_selection(suite.build)}, "
+                     f"{taken}{_selection(suite.build)}, "
                      f"{len(m['base']['episodes'])} in all; "
                      f"axes {', '.join(m.get('axes', [])) or 'none'}")
     for reason, n in m.get("rejected", {}).items():
@@ -126,9 +131,12 @@ def _selection(build: dict) -> str:
     return f" of {' × '.join(chosen)}" if chosen else ""
 
 
-def _taken(per_cell: int | None) -> str:
+def _taken(per_cell: int | None, skip: int = 0) -> str:
     """What a suite built from a base takes of it, in words."""
-    return "all its clean episodes" if per_cell is None else f"its first {per_cell} clean episodes per cell"
+    if not skip:
+        return "all its clean episodes" if per_cell is None else f"its first {per_cell} clean episodes per cell"
+    return (f"its clean episodes after the first {skip} per cell" if per_cell is None
+            else f"{per_cell} clean episodes per cell after the first {skip}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -157,7 +165,8 @@ def run(args: argparse.Namespace) -> int:
     backend = Backend(args.backend, args.workers, args.ray_address)
     backend.connect()
     if base is not None:
-        print(f"building suite {args.name} from {base.name} ({base.content_hash}): {_taken(config.base_per_cell)} "
+        taken = _taken(config.base_per_cell, config.base_skip)
+        print(f"building suite {args.name} from {base.name} ({base.content_hash}): {taken} "
               f"× axes {' '.join(config.axes) or 'none'} × strengths {' '.join(map(str, config.strengths))} "
               f"({backend.describe()})", flush=True)
     else:
