@@ -157,7 +157,8 @@ def _drop_held_object(env) -> None:
 def test_an_object_that_slips_out_is_noticed_and_the_arm_goes_home_open(
         keypose_dataset: Path, family: str, dropped_at: str, noticed_at: str) -> None:
     """An object taken out of the fingers during the lift, while held at the end of a pick_up, or during
-    the carry of a place is noticed by the next grip check, from the fingers' width alone: the follower
+    the carry of a place is noticed by the next grip check, from the fingers' width and the gripper's
+    object detection (what a robot feels, not the object's pose): the follower
     is ``missed`` (``lost`` says where), goes back to its start pose open and stays there."""
     from samplehd.learn.keypose.follower import SETTLE_STEPS
 
@@ -240,6 +241,35 @@ def test_a_grasp_on_the_empty_table_is_missed_and_the_arm_goes_home_open(keypose
         # after the lift finds them empty
         assert follower.done and follower.lost == "lift", (follower.lost, stages[-5:])
         assert "close" in stages and "home" in stages and "carry" not in stages
+        _stays_home_open(env, follower, obs, home, d.opening)
+    finally:
+        env.close()
+
+
+def test_a_grasp_out_of_reach_is_given_up_and_the_arm_goes_home_open(keypose_dataset: Path) -> None:
+    """A grasp 1.1 m from the robot base, beyond what the arm reaches: the move toward it stops coming
+    closer, and after STUCK_STEPS control steps without progress the follower gives it up ("reach") and
+    goes back to its start pose open instead of straining there until the episode's time is up."""
+    from samplehd.learn.keypose.follower import STUCK_STEPS
+    from samplehd.learn.keypose.processing import Decision
+
+    reader = DatasetReader(keypose_dataset)
+    d = _decisions(reader, 0)[0]
+    x, y = LAYOUT.robot_base[0] + 1.1, 0.0
+    env = replay_env(reader)
+    try:
+        obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": 0})
+        home = np.r_[obs["tcp_pos"], tcp_yaw(obs["tcp_quat"])]
+        follower = KeyposeFollower(Decision((x, y, d.grasp[2], d.grasp[3]), d.opening, d.lift,
+                                            (x, y, d.lift, d.grasp[3]), True, True), obs, home, env)
+        stages = []
+        for _ in range(600):
+            if follower.done:
+                break
+            obs, _ = _step(env, follower, obs)
+            stages.append(follower.stage)
+        assert follower.done and follower.lost == "reach", (follower.lost, stages[-5:])
+        assert stages.count("over grasp") >= STUCK_STEPS and "close" not in stages and "home" in stages
         _stays_home_open(env, follower, obs, home, d.opening)
     finally:
         env.close()

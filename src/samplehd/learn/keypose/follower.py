@@ -6,13 +6,18 @@ the grasp at the height it is at, down, close until the fingers stop, up, over t
 up and back to the start pose. Its descents are guarded: one that stops short closes or opens there.
 
 It tells whether it still holds the object from what a robot feels, the fingers' width under the
-commands it sends, never from the object's pose: a grasp whose fingers close on nothing
-(:data:`MISSED_WIDTH`) has missed; after the lift, before opening at the release and every
-:data:`HOLD_CHECK_PERIOD` while holding at the end of a decision that does not let go, a grip check
-asks the fingers for :data:`CHECK_SQUEEZE` less than the width they hold at, and fingers that narrow by
-more than :data:`DROPPED_MARGIN` (or close below :data:`MISSED_WIDTH`) hold nothing any more: the object
-slipped out or was never more than pinched. Either way the follower goes back to the start pose open,
-and :attr:`KeyposeFollower.lost` says where (the policy looks again).
+commands it sends and the gripper's object detection (:meth:`KeyposeFollower._detects_object`), never
+from the object's pose: a grasp whose fingers close on nothing (:data:`MISSED_WIDTH`) with no object
+detected has missed; after the lift, before opening at the release and every :data:`HOLD_CHECK_PERIOD`
+while holding at the end of a decision that does not let go, a grip check asks the fingers for
+:data:`CHECK_SQUEEZE` less than the width they hold at, and fingers that narrow by more than
+:data:`DROPPED_MARGIN` (or close below :data:`MISSED_WIDTH`) with no object detected hold nothing any
+more: the object slipped out. An object the gripper detects between fingers that closed past it (a
+pinch at an edge, a thin rim) is held: the environment's grasp assist carries it. Either way the
+follower goes back to the start pose open, and :attr:`KeyposeFollower.lost` says where (the policy
+looks again). A move toward the grasp that has
+not come :data:`STUCK_PROGRESS` closer in :data:`STUCK_STEPS` control steps (a grasp out of the arm's
+reach, or behind what the arm meets on the way) is given up the same way (``lost`` "reach").
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ from samplehd.learn.keypose.processing import Decision
 from samplehd.robot.constants import GRIPPER_STROKE
 
 __all__ = ["APPROACH", "CHECK_SQUEEZE", "DROPPED_MARGIN", "HOLD_CHECK_PERIOD", "LOST_AT", "MISSED_WIDTH",
-           "KeyposeFollower"]
+           "STUCK_PROGRESS", "STUCK_STEPS", "KeyposeFollower"]
 
 APPROACH = 0.08  # the grasp and the release are approached straight down from this high above them [m]
 REACHED = 0.004  # a position this close to its goal is reached [m] ...
@@ -48,7 +53,14 @@ MISSED_WIDTH = 0.001  # fingers that closed narrower than this hold nothing: the
 CHECK_SQUEEZE = 0.001
 DROPPED_MARGIN = 0.0005  # fingers that narrow by more than this during a grip check hold nothing [m]
 HOLD_CHECK_PERIOD = 2.0  # holding at the end of a decision that does not let go, the grip is checked this often [s]
-LOST_AT = ("close", "lift", "release", "hold")  # where :attr:`KeyposeFollower.lost` found the fingers empty
+# A move toward the grasp that has not come this much closer to its goal [m] in this many control steps
+# (2 s at 20 Hz) is given up: the arm goes back home and the policy looks again. The yaw still to turn
+# counts at STUCK_YAW_SCALE metres per radian (a turn in place is progress too).
+STUCK_PROGRESS = 0.001
+STUCK_STEPS = 40
+STUCK_YAW_SCALE = 0.05  # [m/rad]
+# where :attr:`KeyposeFollower.lost` found the fingers empty ("reach": the grasp was given up on the way)
+LOST_AT = ("close", "lift", "release", "hold", "reach")
 
 
 def _command(opening: float) -> float:
@@ -115,6 +127,7 @@ class KeyposeFollower:
         self._home = np.asarray(home, np.float64)
         self._open = open_cmd
         self._speeds = steering_speeds(env)
+        self._env = getattr(env, "unwrapped", None)
         control = getattr(getattr(env, "unwrapped", None), "control", None)
         self._hz = float(control.control_hz) if control is not None else 20.0
         self._low = min(gz, d.goal[2]) + APPROACH / 2
@@ -125,6 +138,8 @@ class KeyposeFollower:
         self._idle = 0  # control steps held still since the last grip check
         self._last_z: float | None = None
         self._drop = 0.0  # the TCP's descent commanded by the last steering vector [m]
+        self._nearest = np.inf  # the current move's closest approach to its goal so far [m] ...
+        self._stalled = 0  # ... and the control steps since it last came STUCK_PROGRESS closer
 
     @property
     def done(self) -> bool:
@@ -151,6 +166,12 @@ class KeyposeFollower:
             for k in range(self.phase, end + 1):
                 self.steps[k][2][2] = z
         self._last_z = z
+        if self._stuck(obs):  # the grasp is out of reach: back home open, where the policy looks again
+            self.lost = "reach"
+            here = self.steps[self.phase][2].copy()
+            here[:3] = np.asarray(obs["tcp_pos"], np.float64)
+            self.steps = self.steps[:self.phase] + self._home_steps(here, self.lost)
+            self._nearest, self._stalled = np.inf, 0
         if self.done and not self._release and self.lost is None:
             self._idle += 1
             if self._idle >= round(HOLD_CHECK_PERIOD * self._hz):
@@ -160,13 +181,15 @@ class KeyposeFollower:
                 self.steps.append(("check", "hold check", here))
         while not self.done and self._reached(obs):
             kind, name, goal = self.steps[self.phase]
-            if kind in ("close", "check") and self._width is not None and self._empty(kind, self._width):
+            if kind in ("close", "check") and self._width is not None and self._empty(kind, self._width) \
+                    and not self._detects_object():
                 # nothing between the fingers: back home, open, where the policy looks again
                 self.lost = "close" if kind == "close" else name.split()[0]
                 self.steps = self.steps[:self.phase + 1] + self._home_steps(goal, self.lost)
             self.phase += 1
             self._width = None
             self._settle = 0
+            self._nearest, self._stalled = np.inf, 0
         kind, _, goal = self.steps[min(self.phase, len(self.steps) - 1)]
         if self.done:
             kind = "hold"
@@ -177,6 +200,14 @@ class KeyposeFollower:
     def _empty(self, kind: str, width: float) -> bool:
         """Whether fingers settled at ``width`` [m] at the end of a close or a grip check hold nothing."""
         return width < MISSED_WIDTH or (kind == "check" and width < self._held_width - DROPPED_MARGIN)
+
+    def _detects_object(self) -> bool:
+        """The gripper's object detection (as a parallel gripper reports that its fingers stopped on an
+        object): in this environment, whether its grasp assist holds an object. A close or grip check
+        finds the fingers empty only when the gripper does not report one; without the environment's
+        assist (no env, or ``grasp_assist`` off) the fingers' width alone decides."""
+        assist = getattr(self._env, "assist", None)
+        return assist is not None and int(getattr(assist, "active", -1)) >= 0
 
     def _home_steps(self, goal: np.ndarray, lost: str) -> list[tuple[str, str, np.ndarray]]:
         """Up from ``goal``, where the fingers were found empty (``lost``), then back to the start pose,
@@ -233,6 +264,21 @@ class KeyposeFollower:
                 or self._last_z is None:
             return False
         return self._drop >= BLOCKED_MIN_STEP and self._last_z - z < BLOCKED * self._drop
+
+    def _stuck(self, obs: Mapping[str, Any]) -> bool:
+        """Whether the move toward the grasp (before anything is held) has not come
+        :data:`STUCK_PROGRESS` closer to its goal (the yaw counted at :data:`STUCK_YAW_SCALE`) in
+        :data:`STUCK_STEPS` control steps."""
+        if self.done or self.lost is not None or self.stage not in ("over grasp", "down to grasp"):
+            return False
+        goal = self.steps[self.phase][2]
+        yaw = abs(float(wrap_angle(goal[3] - tcp_yaw(np.asarray(obs["tcp_quat"], np.float64)))))
+        dist = float(np.linalg.norm(goal[:3] - np.asarray(obs["tcp_pos"], np.float64))) + STUCK_YAW_SCALE * yaw
+        if dist < self._nearest - STUCK_PROGRESS:
+            self._nearest, self._stalled = dist, 0
+            return False
+        self._stalled += 1
+        return self._stalled >= STUCK_STEPS
 
     def _reached(self, obs: Mapping[str, Any]) -> bool:
         kind, _, goal = self.steps[self.phase]
