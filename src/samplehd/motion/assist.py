@@ -32,6 +32,8 @@ state dimension (nq, nv, na), so episodes replay on models compiled with or with
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -62,6 +64,9 @@ OPEN_MARGIN = 0.00025
 # A weld is released when the command opens this much beyond the command it was made with
 # (gripper command units, 2 / stroke per metre: about 2 mm).
 RELEASE_MARGIN = 0.05
+# What the bodies' bounding spheres add for rounding, so that they only ever rule out what the per-geom
+# test would [m].
+_SPHERE_SLACK = 1e-6
 
 
 def add_grasp_welds(spec: mujoco.MjSpec, num_objects: int) -> None:
@@ -89,6 +94,12 @@ def compile_scene_with_assist(scene: SceneSpec, timestep: float = 0.002,
     reset_robot_home(model, data)
     mujoco.mj_forward(model, data)
     return model, data
+
+
+def _body_radius(model: mujoco.MjModel, geoms: np.ndarray) -> float:
+    """Radius about the geoms' body origin that holds every one's bounding sphere [m]."""
+    offsets = np.sqrt((model.geom_pos[geoms] ** 2).sum(axis=1)) + model.geom_rbound[geoms]
+    return float(offsets.max()) + _SPHERE_SLACK if len(geoms) else 0.0
 
 
 def _collision_geoms(model: mujoco.MjModel, body: int) -> np.ndarray:
@@ -123,6 +134,14 @@ class GraspAssist:
         self._objects_with_geoms = np.array(with_geoms, dtype=int)
         self._all_objects = np.concatenate([self.object_geoms[i] for i in with_geoms] + [np.zeros(0)]).astype(int)
         self._object_starts = np.cumsum([0] + [len(self.object_geoms[i]) for i in with_geoms[:-1]]).astype(int)
+        # Each finger's and each object's collision geoms lie within these radii of its body's origin
+        # (offset plus bounding sphere) [m]: a body pair farther apart than their radii and the tolerance
+        # has no geom pair close enough, which rules out most control steps before the per-geom test.
+        finger_bodies = [int(model.jnt_bodyid[j]) for j in joints]
+        object_bodies = [model.body(object_body_name(i)).id for i in with_geoms]
+        self._sphere_bodies = np.array(finger_bodies + object_bodies, dtype=int)
+        self._finger_radii = [_body_radius(model, g) for g in self.finger_geoms]
+        self._object_radii = [_body_radius(model, self.object_geoms[i]) for i in with_geoms]
         self.active = -1
         self.attach_command = 1.0
         self._fromto = np.zeros(6)
@@ -145,7 +164,7 @@ class GraspAssist:
         mujoco.mj_kinematics(m, data)
         # objects with a geom whose bounding sphere comes within ``tolerance`` of each finger's: only
         # those can pass the exact test below (the same gaps, computed for all pairs at once)
-        if not len(self._all_objects) or not len(self._all_fingers):
+        if not len(self._all_objects) or not len(self._all_fingers) or not self._bodies_near(data, tolerance):
             return -1
         close = self._gaps(data, self._all_fingers, self._all_objects) < tolerance
         per_finger = np.logical_or.reduceat(close, self._finger_starts, axis=0)  # (fingers, object geoms)
@@ -156,6 +175,21 @@ class GraspAssist:
                                        for fingers in self.finger_geoms):
                 return i
         return -1
+
+    def _bodies_near(self, data: mujoco.MjData, tolerance: float) -> bool:
+        """Whether some object's bounding sphere about its body's origin comes within ``tolerance`` [m] of
+        both fingers' (a necessary condition of the per-geom test, with a micrometre to spare for rounding)."""
+        positions = data.xpos[self._sphere_bodies].tolist()
+        nf = len(self._finger_radii)
+        fingers = list(zip(positions[:nf], self._finger_radii, strict=True))
+        reach = tolerance + _SPHERE_SLACK
+        for (x, y, z), radius in zip(positions[nf:], self._object_radii, strict=True):
+            for (fx, fy, fz), finger_radius in fingers:
+                if math.sqrt((fx - x) ** 2 + (fy - y) ** 2 + (fz - z) ** 2) - finger_radius - radius >= reach:
+                    break
+            else:
+                return True
+        return False
 
     def _gaps(self, data: mujoco.MjData, geoms1: np.ndarray, geoms2: np.ndarray) -> np.ndarray:
         """(len(geoms1), len(geoms2)) gaps between the geoms' bounding spheres [m]."""
