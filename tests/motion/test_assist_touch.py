@@ -21,11 +21,20 @@ from samplehd.world.seeding import scene_seed
 _TOLERANCES = (0.0005, 0.005, 0.02, 0.1)
 
 
-def _per_geom_candidates(assist: GraspAssist, data: mujoco.MjData, tolerance: float) -> np.ndarray:
-    """Per object: a geom of it within ``tolerance`` of a geom of each finger (bounding spheres)."""
-    close = assist._gaps(data, assist._all_fingers, assist._all_objects) < tolerance
-    per_finger = np.logical_or.reduceat(close, assist._finger_starts, axis=0)
-    return np.logical_or.reduceat(per_finger, assist._object_starts, axis=1).all(axis=0)
+def _per_geom_candidates(assist: GraspAssist, data: mujoco.MjData, tolerance: float) -> set[int]:
+    """The objects with a geom whose bounding sphere comes within ``tolerance`` of a geom's of each finger."""
+    return {i for i, geoms in enumerate(assist.object_geoms) if len(geoms)
+            and all((assist._gaps(data, fingers, geoms) < tolerance).any() for fingers in assist.finger_geoms)}
+
+
+def _reference_touched(assist: GraspAssist, data: mujoco.MjData, tolerance: float) -> int:
+    """The touch test as it was before the body spheres: every object's per-geom candidacy, then distances."""
+    mujoco.mj_kinematics(assist.model, data)
+    candidates = _per_geom_candidates(assist, data, tolerance)
+    for i, geoms in enumerate(assist.object_geoms):
+        if i in candidates and all(assist._near(data, fingers, geoms, tolerance) for fingers in assist.finger_geoms):
+            return i
+    return -1
 
 
 @pytest.mark.parametrize("catalogue", ["procedural", "shop-vrb"])
@@ -35,13 +44,11 @@ def test_body_spheres_never_rule_out_a_touch(catalogue: str) -> None:
     model, data = compile_scene_with_assist(scene, robot_look="primitive")
     initial_state(model, data, ControlConfig())
     assist = GraspAssist(model, n)
-    per_geom = GraspAssist(model, n)
-    per_geom._bodies_near = lambda data, tolerance: True  # type: ignore[method-assign]
     adr = object_qpos_addresses(model, n)
     tcp = RobotInfo.from_model(model, data).tcp_site
     rng = np.random.default_rng(3)
     rest = data.qpos.copy()
-    near_states = 0
+    near_states = touches = 0
     for _ in range(300):
         data.qpos[:] = rest
         mujoco.mj_kinematics(model, data)
@@ -52,9 +59,10 @@ def test_body_spheres_never_rule_out_a_touch(catalogue: str) -> None:
         quat = rng.normal(size=4)
         data.qpos[adr[i] + 3:adr[i] + 7] = quat / np.linalg.norm(quat)
         for tolerance in _TOLERANCES:
-            assert assist.touched(data, tolerance=tolerance) == per_geom.touched(data, tolerance=tolerance)
+            touched = assist.touched(data, tolerance=tolerance)
+            assert touched == _reference_touched(assist, data, tolerance)
+            touches += touched >= 0
             candidates = _per_geom_candidates(assist, data, tolerance)
-            if candidates.any():
-                near_states += 1
-                assert assist._bodies_near(data, tolerance)
-    assert near_states > 50, "the states drawn should put objects between the fingers"
+            near_states += bool(candidates)
+            assert candidates <= assist._objects_near(data, tolerance)
+    assert near_states > 50 and touches > 20, "the states drawn should put objects between the fingers"
