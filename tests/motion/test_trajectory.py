@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from samplehd.motion.trajectory import cruise_profile, joint_path, min_jerk
+from samplehd.fixedmath import matmul
+from samplehd.motion.trajectory import _axis_angle, _interpolate, cruise_profile, interpolate_pose, joint_path, min_jerk
 
 DT = 0.05
 
@@ -69,3 +70,23 @@ def test_unknown_planner_option_names_the_valid_ones() -> None:
 
     with pytest.raises(ConfigError, match=r"paths.planner: unknown option\(s\) \['ramp'\]; valid: .*joint_ramp_time"):
         PlannerConfig.from_dict({"ramp": 0.5})
+
+
+def test_a_lines_poses_share_its_turn_bit_for_bit() -> None:
+    """cartesian_path computes the line's rotation once; each pose is interpolate_pose's, bit for bit."""
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        poses = []
+        for _ in range(2):
+            q = rng.normal(size=4)
+            w, x, y, z = q / np.linalg.norm(q)
+            t = np.eye(4)
+            t[:3, :3] = [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                         [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                         [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
+            t[:3, 3] = rng.normal(0.0, 0.3, 3)
+            poses.append(t)
+        a, b = poses
+        turn = _axis_angle(matmul(a[:3, :3].T, b[:3, :3]))
+        for s in min_jerk(17):
+            assert np.array_equal(_interpolate(a, b, turn, float(s)), interpolate_pose(a, b, float(s)))

@@ -190,3 +190,19 @@ def test_other_rates() -> None:
     report = ctrl.step(np.r_[HOME_QPOS + 0.1, 1.0], "joint_position")
     assert report.time == pytest.approx(0.1)
     np.testing.assert_allclose(ctrl.interpolated_target, HOME_QPOS + 0.1, atol=1e-12)
+
+
+def test_joint_targets_within_the_limits_are_kept_as_given(controller: RobotController) -> None:
+    """Targets on or inside the limits keep their bits and report nothing; one beyond is clipped."""
+    on_limits = np.where(np.arange(6) % 2 == 0, JOINT_LIMITS[:, 0], JOINT_LIMITS[:, 1])
+    inside = HOME_QPOS + np.nextafter(0.0, 1.0)
+    for target in (on_limits, inside):
+        report = controller.command(np.r_[target, 2.0], "joint_position")
+        assert report.clipped == ("gripper",) and not report.unreachable
+        assert np.array_equal(controller.target, target)
+        assert controller.gripper_width == pytest.approx(GRIPPER_STROKE)
+    beyond = on_limits.copy()
+    beyond[3] = np.nextafter(JOINT_LIMITS[3, 1], np.inf)
+    report = controller.command(np.r_[beyond, 0.0], "joint_position")
+    assert report.clipped == ("joint_limits",)
+    assert np.array_equal(controller.target, np.clip(beyond, JOINT_LIMITS[:, 0], JOINT_LIMITS[:, 1]))

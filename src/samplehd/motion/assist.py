@@ -32,6 +32,8 @@ state dimension (nq, nv, na), so episodes replay on models compiled with or with
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -62,6 +64,9 @@ OPEN_MARGIN = 0.00025
 # A weld is released when the command opens this much beyond the command it was made with
 # (gripper command units, 2 / stroke per metre: about 2 mm).
 RELEASE_MARGIN = 0.05
+# What the bodies' bounding spheres add for rounding, so that they only ever rule out what the per-geom
+# test would [m].
+_SPHERE_SLACK = 1e-6
 
 
 def add_grasp_welds(spec: mujoco.MjSpec, num_objects: int) -> None:
@@ -91,6 +96,12 @@ def compile_scene_with_assist(scene: SceneSpec, timestep: float = 0.002,
     return model, data
 
 
+def _body_radius(model: mujoco.MjModel, geoms: np.ndarray) -> float:
+    """Radius about the geoms' body origin that holds every one's bounding sphere [m]."""
+    offsets = np.sqrt((model.geom_pos[geoms] ** 2).sum(axis=1)) + model.geom_rbound[geoms]
+    return float(offsets.max()) + _SPHERE_SLACK if len(geoms) else 0.0
+
+
 def _collision_geoms(model: mujoco.MjModel, body: int) -> np.ndarray:
     geoms = np.flatnonzero(model.geom_bodyid == body)
     return geoms[(model.geom_contype[geoms] != 0) | (model.geom_conaffinity[geoms] != 0)]
@@ -115,14 +126,16 @@ class GraspAssist:
         self.finger_geoms = tuple(_collision_geoms(model, int(model.jnt_bodyid[j])) for j in joints)
         self.object_geoms = tuple(_collision_geoms(model, model.body(object_body_name(i)).id)
                                   for i in range(num_objects))
-        # every finger geom against every object geom at once (the bounding-sphere test), and where each
-        # finger's and each object's geoms start in those rows and columns
-        self._all_fingers = np.concatenate(self.finger_geoms).astype(int)
-        self._finger_starts = np.cumsum([0] + [len(g) for g in self.finger_geoms[:-1]])
         with_geoms = [i for i, g in enumerate(self.object_geoms) if len(g)]
-        self._objects_with_geoms = np.array(with_geoms, dtype=int)
-        self._all_objects = np.concatenate([self.object_geoms[i] for i in with_geoms] + [np.zeros(0)]).astype(int)
-        self._object_starts = np.cumsum([0] + [len(self.object_geoms[i]) for i in with_geoms[:-1]]).astype(int)
+        # Each finger's and each object's collision geoms lie within these radii of its body's origin
+        # (offset plus bounding sphere) [m]: a body pair farther apart than their radii and the tolerance
+        # has no geom pair close enough, which rules out most control steps before the per-geom test.
+        finger_bodies = [int(model.jnt_bodyid[j]) for j in joints]
+        object_bodies = [model.body(object_body_name(i)).id for i in with_geoms]
+        self._sphere_bodies = np.array(finger_bodies + object_bodies, dtype=int)
+        self._sphere_objects = with_geoms
+        self._finger_radii = [_body_radius(model, g) for g in self.finger_geoms]
+        self._object_radii = [_body_radius(model, self.object_geoms[i]) for i in with_geoms]
         self.active = -1
         self.attach_command = 1.0
         self._fromto = np.zeros(6)
@@ -141,21 +154,33 @@ class GraspAssist:
                 tolerance: float = TOUCH_TOLERANCE) -> int:
         """The first of ``objects`` (default: all) whose collision geoms lie within ``tolerance`` [m]
         of both fingers' collision geoms in the state ``data.qpos``, or -1."""
-        m = self.model
-        mujoco.mj_kinematics(m, data)
-        # objects with a geom whose bounding sphere comes within ``tolerance`` of each finger's: only
-        # those can pass the exact test below (the same gaps, computed for all pairs at once)
-        if not len(self._all_objects) or not len(self._all_fingers):
+        mujoco.mj_kinematics(self.model, data)
+        near = self._objects_near(data, tolerance)
+        if not near:
             return -1
-        close = self._gaps(data, self._all_fingers, self._all_objects) < tolerance
-        per_finger = np.logical_or.reduceat(close, self._finger_starts, axis=0)  # (fingers, object geoms)
-        both = np.logical_or.reduceat(per_finger, self._object_starts, axis=1).all(axis=0)
-        candidates = set(self._objects_with_geoms[both].tolist())
+        # each finger's geoms against the object's: bounding spheres first, then exact distances
         for i in range(len(self.object_geoms)) if objects is None else objects:
-            if i in candidates and all(self._near(data, fingers, self.object_geoms[i], tolerance)
-                                       for fingers in self.finger_geoms):
+            if i in near and all(self._near(data, fingers, self.object_geoms[i], tolerance)
+                                 for fingers in self.finger_geoms):
                 return i
         return -1
+
+    def _objects_near(self, data: mujoco.MjData, tolerance: float) -> set[int]:
+        """The objects whose bounding sphere about their body's origin comes within ``tolerance`` [m] of both
+        fingers' (with a micrometre to spare for rounding): only these can have a geom that close to each
+        finger's. At most control steps the gripper is near none, and no geom pair is looked at."""
+        positions = data.xpos[self._sphere_bodies].tolist()
+        nf = len(self._finger_radii)
+        fingers = list(zip(positions[:nf], self._finger_radii, strict=True))
+        reach = tolerance + _SPHERE_SLACK
+        near = set()
+        for i, (x, y, z), radius in zip(self._sphere_objects, positions[nf:], self._object_radii, strict=True):
+            for (fx, fy, fz), finger_radius in fingers:
+                if math.sqrt((fx - x) ** 2 + (fy - y) ** 2 + (fz - z) ** 2) - finger_radius - radius >= reach:
+                    break
+            else:
+                near.add(i)
+        return near
 
     def _gaps(self, data: mujoco.MjData, geoms1: np.ndarray, geoms2: np.ndarray) -> np.ndarray:
         """(len(geoms1), len(geoms2)) gaps between the geoms' bounding spheres [m]."""

@@ -80,9 +80,15 @@ def _rodrigues(w: np.ndarray) -> np.ndarray:
 
 def interpolate_pose(a: np.ndarray, b: np.ndarray, s: float) -> np.ndarray:
     """Pose at progress s between 4×4 poses a and b (linear position, geodesic rotation)."""
+    return _interpolate(a, b, _axis_angle(matmul(a[:3, :3].T, b[:3, :3])), s)
+
+
+def _interpolate(a: np.ndarray, b: np.ndarray, turn: np.ndarray, s: float) -> np.ndarray:
+    """:func:`interpolate_pose` given the rotation from a to b as a rotation vector ``turn`` (in a's frame),
+    which a line's poses share."""
     t = np.eye(4)
     t[:3, 3] = a[:3, 3] + s * (b[:3, 3] - a[:3, 3])
-    t[:3, :3] = matmul(a[:3, :3], _rodrigues(s * _axis_angle(matmul(a[:3, :3].T, b[:3, :3]))))
+    t[:3, :3] = matmul(a[:3, :3], _rodrigues(s * turn))
     return t
 
 
@@ -150,7 +156,8 @@ def cartesian_path(
     length = max(dist / speed, ang / angular_speed)
     profile = cruise_profile(length, 1.875, dt, min_time, ramp_time) if length > 0 else min_jerk(
         max(1, int(np.ceil(min_time / dt))))
-    poses = np.stack([interpolate_pose(start_pose, end_pose, float(s)) for s in profile])
+    turn = _axis_angle(matmul(start_pose[:3, :3].T, end_pose[:3, :3]))
+    poses = np.stack([_interpolate(start_pose, end_pose, turn, float(s)) for s in profile])
     out, failed = ik_path(poses, q_start, TCP_OFFSET)
     if failed >= 0:
         p = poses[failed, :3, 3]

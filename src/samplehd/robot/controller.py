@@ -300,7 +300,8 @@ class RobotController:
         a = np.asarray(action, dtype=float)
         if a.shape != (size,):
             raise ActionError(f"action for mode {mode!r} must have shape ({size},), got {a.shape}")
-        if not np.isfinite(a).all():
+        values = a.tolist()
+        if not all(map(math.isfinite, values)):
             raise ActionError(f"action for mode {mode!r} contains NaN or infinite values")
         if self._stopped is not None:
             return ControlReport(time=float(self.data.time), ignored=True)
@@ -313,6 +314,12 @@ class RobotController:
         pose = None
         if mode == "joint_position":
             target = a[:6]
+            # within the joint limits (the usual case): compared on Python floats, kept as given
+            if all(lo <= q <= hi for q, (lo, hi) in zip(values[:6], self._limit_rows, strict=True)):
+                self._target = target.copy()
+                self._target_pose = None
+                self._set_gripper(gripper)
+                return ControlReport(time=float(self.data.time), clipped=tuple(clipped))
         elif mode == "joint_delta":
             delta = a[:6]
             lim = self.config.max_joint_delta

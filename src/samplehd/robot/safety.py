@@ -164,6 +164,7 @@ class SafetyMonitor:
         contiguous = dofs == list(range(dofs[0], dofs[0] + len(dofs)))
         self._arm_dofs = slice(dofs[0], dofs[-1] + 1) if contiguous else np.array(dofs)
         self._torque_limit = TORQUE_LIMITS * self.config.torque_ratio
+        self._torque_limit_list: list[float] = self._torque_limit.tolist()
         self._overload_since = np.full(len(JOINT_NAMES), np.nan)
         self._overloaded = False
         self._force = np.zeros(6)
@@ -247,6 +248,15 @@ class SafetyMonitor:
         )
 
     def _check_torque(self, data: mujoco.MjData) -> SafetyEvent | None:
+        if not self._overloaded:
+            # the usual case, every joint below its limit, on Python floats (this runs at every control
+            # step); anything else (NaN included) takes the array path below
+            for value, limit in zip(data.qfrc_actuator[self._arm_dofs].tolist(), self._torque_limit_list,
+                                    strict=True):
+                if not abs(value) < limit:
+                    break
+            else:
+                return None
         torque = np.abs(data.qfrc_actuator[self._arm_dofs])
         over = torque >= self._torque_limit
         if not over.any():
