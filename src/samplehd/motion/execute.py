@@ -227,10 +227,11 @@ class Rollout:
             turned half round about the vertical (objects whose footprint is symmetric about their
             origin only): a tray held by its near rim, placed close to the robot, folds the arm into
             itself; turned, the grasp is on the far side. Off (the dataset's paths): each spot as drawn.
-        open_gently: open the gripper from a weld in two stages: for OpenGripper's first control step
-            just past the command that releases the weld (the object drops clear of the pads), then as
-            wide as planned; the subtask keeps its length. Off (the dataset's paths): as wide as planned
-            at once, and the pads, snapping open, drag a light object resting against them with them.
+        open_gently: where the gripper still touches the welded object when OpenGripper begins, open
+            it in two stages: for the first control step just past the command that releases the weld
+            (the object drops clear of the pads), then as wide as planned; the subtask keeps its length.
+            Off (the dataset's paths): as wide as planned at once, and pads snapping open drag a light
+            object resting against them with them.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
@@ -640,7 +641,8 @@ class Rollout:
                 opening = max(opening, (self.assist.release_command() + 1.0) * 0.5 * GRIPPER_STROKE)
                 if self.ease_release:
                     yield from self._ease_grip(i)
-            yield from self.open_gripper(i, opening, gently=welded and self.open_gently)
+            gently = welded and self.open_gently and self.gripper_touches(i)
+            yield from self.open_gripper(i, opening, gently=gently)
             self.hand = None
             yield from self.go_home(i, opening)
             return
@@ -659,6 +661,17 @@ class Rollout:
         if gently:
             commands[0] = min(commands[0], self.assist.attach_command + _GENTLE_OPENING * RELEASE_MARGIN)
         yield from self.run("OpenGripper", i, np.repeat(self.ctrl.target[None], n, axis=0), commands)
+
+    def gripper_touches(self, i: int) -> bool:
+        """Whether a part of the gripper is in contact with object ``i`` now (the last step's MuJoCo
+        contacts): after the ease, a pad resting on a thin object's top (shop-vrb scissors)."""
+        m, d = self.model, self.data
+        body, grip = int(self.bodies.object_body[i]), self.bodies.gripper_bodies
+        for k in range(d.ncon):
+            b1, b2 = int(m.geom_bodyid[d.contact[k].geom1]), int(m.geom_bodyid[d.contact[k].geom2])
+            if (b1 == body and b2 in grip) or (b2 == body and b1 in grip):
+                return True
+        return False
 
     def _turned_spots(self, spots: list[tuple[np.ndarray, float]], i: int) -> list[tuple[np.ndarray, float]]:
         """The release spots to try, in order: with ``turn_release`` and an object whose footprint is
