@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from samplehd.envs.suite_file import content_hash, read_suite
-from samplehd.errors import ConfigError
+from samplehd.errors import ConfigError, SamplehdError
 from samplehd.fileio import read_json
 
 
@@ -30,8 +30,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("report", type=Path, help="the JSON report of `samplehd evaluate --policy oracle --suite`")
     parser.add_argument("--out", type=Path, required=True, help="the suite file to write")
     args = parser.parse_args(argv)
-    suite = read_suite(args.suite)
-    report = read_json(args.report, ConfigError, str(args.report))
+    try:
+        suite = read_suite(args.suite)
+        report = read_json(args.report, ConfigError, str(args.report))
+    except SamplehdError as exc:  # an unknown or damaged suite, an unreadable report: one line
+        print(exc, file=sys.stderr)
+        return 2
     split = report.get("split") or {}
     problems = [f"policy {report.get('policy')!r}, not 'oracle'"] if report.get("policy") != "oracle" else []
     if split.get("content_hash") != suite.content_hash:
