@@ -125,3 +125,15 @@ def test_oracle_places_a_baking_tray_behind_a_box_turned_half_round() -> None:
     record = _saved_episode("core_procedural_place_relative_l4_1.json")
     assert record.instruction == "Position the baking tray behind the food box."
     assert record.success, (record.check_reason, record.gave_up)
+
+
+@pytest.mark.slow
+def test_oracle_sets_scissors_on_a_plate_without_dragging_them_through_it() -> None:
+    """core, shop-vrb stack_three L1, candidate 17: the scissors (5.6 g) were eased 7 mm over the plate,
+    then the fingers were commanded open at once; the servo snapped the pads 10 mm apart within a few
+    milliseconds, and the pad resting on the scissors dragged them sideways and down at 1.3 m/s, 13 mm
+    deep, through the plate's 3 mm floor ("object 2 is not above object 4"). The oracle now opens just
+    past the weld's release for one step first: the scissors drop clear of the pads onto the plate."""
+    record = _saved_episode("core_shop_vrb_stack_three_l1_17.json")
+    assert record.instruction == "Stack the plate on the chopping board and then the scissors on the plate."
+    assert record.success, (record.check_reason, record.gave_up)

@@ -223,11 +223,13 @@ class OraclePolicy:
         # baking tray's 2 mm floor falls through it). It centres rim grasps on what the pads pinch (on a
         # sloped brim one pad would otherwise push the plate away before the other touches it), and it
         # eases the pads off a carried object before the weld lets go (released while squeezed, thin
-        # scissors are shot out of the pads through a chopping board); where no release pose of a spot
-        # is free it tries the object turned half round (a tray held by its near rim behind a box).
+        # scissors are shot out of the pads through a chopping board), then, where a pad still rests on
+        # the object, opens them just past the weld's release for one step (opened at once, the pad
+        # drags light scissors through a plate's floor); where no release pose of a spot is free it
+        # tries the object turned half round (a tray held by its near rim behind a box).
         ro = Rollout(model, data, ctrl, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
                      use_assist=False, step_assist=env.assist, hull_bottom=True, fit_pinch=True,
-                     ease_release=True, turn_release=True)
+                     ease_release=True, turn_release=True, open_gently=True)
         self._rollout = ro
         try:
             yield from regrasping_plan(ro, task, self.max_replans, on_failure=self._replanned)

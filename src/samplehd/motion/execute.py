@@ -66,6 +66,9 @@ _PINCH_SETTLE_STEPS = 2
 _EASE_TIME = 0.15
 # turn_release: how far a footprint may be off-centre about the object's origin for a half turn to keep it [m].
 _SYMMETRY_TOLERANCE = 0.002
+# open_gently: the gripper command of OpenGripper's first step, beyond the one the weld was made with, in
+# release margins (past the one margin that releases the weld, about 2.7 mm of opening in all).
+_GENTLE_OPENING = 1.25
 
 
 @dataclass(frozen=True)
@@ -224,6 +227,11 @@ class Rollout:
             turned half round about the vertical (objects whose footprint is symmetric about their
             origin only): a tray held by its near rim, placed close to the robot, folds the arm into
             itself; turned, the grasp is on the far side. Off (the dataset's paths): each spot as drawn.
+        open_gently: where the gripper still touches the welded object when OpenGripper begins, open
+            it in two stages: for the first control step just past the command that releases the weld
+            (the object drops clear of the pads), then as wide as planned; the subtask keeps its length.
+            Off (the dataset's paths): as wide as planned at once, and pads snapping open drag a light
+            object resting against them with them.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
@@ -231,13 +239,14 @@ class Rollout:
                  layout: TableLayout = LAYOUT, directions: Directions | None = None,
                  use_assist: bool = True, step_assist: GraspAssist | None = None,
                  grasp_memo: str | None = None, hull_bottom: bool = False, fit_pinch: bool = False,
-                 ease_release: bool = False, turn_release: bool = False) -> None:
+                 ease_release: bool = False, turn_release: bool = False, open_gently: bool = False) -> None:
         self.grasp_memo = grasp_memo
         self.use_assist = use_assist
         self.hull_bottom = hull_bottom
         self.fit_pinch = fit_pinch
         self.ease_release = ease_release
         self.turn_release = turn_release
+        self.open_gently = open_gently
         # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
         self.assisted = use_assist or step_assist is not None
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
@@ -627,15 +636,42 @@ class Rollout:
             yield from self.run("MoveDOWN", i, down)
             # The opening command releases the weld (the rule, in OpenGripper's first step).
             opening = hand.opening
-            if self.assisted and self.assist.active >= 0:
+            welded = self.assisted and self.assist.active >= 0
+            if welded:
                 opening = max(opening, (self.assist.release_command() + 1.0) * 0.5 * GRIPPER_STROKE)
                 if self.ease_release:
                     yield from self._ease_grip(i)
-            yield from self.hold("OpenGripper", i, self.cfg.open_time, _gripper_command(opening))
+            gently = welded and self.open_gently and self.gripper_touches(i)
+            yield from self.open_gripper(i, opening, gently=gently)
             self.hand = None
             yield from self.go_home(i, opening)
             return
         raise AttemptFailed("no_release_path", f"object {i}: {last_error}", grasp_index)
+
+    def open_gripper(self, i: int, opening: float, gently: bool = False) -> Plan[None]:
+        """OpenGripper: the arm still for ``open_time``, the fingers opened to ``opening`` [m]; ``gently``:
+        the first control step only just past the command that releases the weld (``open_gently``).
+
+        Opened at once from a weld, the position servo snaps the pads about 10 mm apart within a few
+        milliseconds; a pad resting on shop-vrb scissors (5.6 g) dragged them sideways and down at 1.3 m/s,
+        and the contacts (20 ms time constant) let them sink 13 mm, through a plate's 3 mm floor. A step
+        just past the release lets them drop clear of the pads first (at most 0.34 m/s, 7 mm sideways)."""
+        n = max(1, int(round(self.cfg.open_time / self.dt)))
+        commands = np.full(n, _gripper_command(opening))
+        if gently:
+            commands[0] = min(commands[0], self.assist.attach_command + _GENTLE_OPENING * RELEASE_MARGIN)
+        yield from self.run("OpenGripper", i, np.repeat(self.ctrl.target[None], n, axis=0), commands)
+
+    def gripper_touches(self, i: int) -> bool:
+        """Whether a part of the gripper is in contact with object ``i`` now (the last step's MuJoCo
+        contacts): after the ease, a pad resting on a thin object's top (shop-vrb scissors)."""
+        m, d = self.model, self.data
+        body, grip = int(self.bodies.object_body[i]), self.bodies.gripper_bodies
+        for k in range(d.ncon):
+            b1, b2 = int(m.geom_bodyid[d.contact[k].geom1]), int(m.geom_bodyid[d.contact[k].geom2])
+            if (b1 == body and b2 in grip) or (b2 == body and b1 in grip):
+                return True
+        return False
 
     def _turned_spots(self, spots: list[tuple[np.ndarray, float]], i: int) -> list[tuple[np.ndarray, float]]:
         """The release spots to try, in order: with ``turn_release`` and an object whose footprint is
