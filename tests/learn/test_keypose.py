@@ -196,6 +196,18 @@ def test_an_object_that_slips_out_is_noticed_and_the_arm_goes_home_open(
         env.close()
 
 
+def _follow_until_done(env, follower: KeyposeFollower, obs: dict, limit: int = 600) -> tuple[dict, list[str]]:
+    """Step ``follower`` until it is done (at most ``limit`` steps): the last observation and the
+    stages it went through."""
+    stages = []
+    for _ in range(limit):
+        if follower.done:
+            break
+        obs, _ = _step(env, follower, obs)
+        stages.append(follower.stage)
+    return obs, stages
+
+
 def _stays_home_open(env, follower: KeyposeFollower, obs: dict, home: np.ndarray, opening: float) -> None:
     """The follower is done at its start pose and stays there, fingers open wider than ``opening``,
     through a whole grip-check period (it checks no grip: it holds nothing)."""
@@ -231,12 +243,7 @@ def test_a_grasp_on_the_empty_table_is_missed_and_the_arm_goes_home_open(keypose
         home = np.r_[obs["tcp_pos"], tcp_yaw(obs["tcp_quat"])]
         follower = KeyposeFollower(Decision((x, y, z, d.grasp[3]), d.opening, d.lift, (x, y, d.lift, d.grasp[3]),
                                             False, True), obs, home, env)
-        stages = []
-        for _ in range(600):
-            if follower.done:
-                break
-            obs, _ = _step(env, follower, obs)
-            stages.append(follower.stage)
+        obs, stages = _follow_until_done(env, follower, obs)
         # the fingertips pressed on the table hold the fingers 25 mm apart by friction: only the grip check
         # after the lift finds them empty
         assert follower.done and follower.lost == "lift", (follower.lost, stages[-5:])
@@ -262,12 +269,7 @@ def test_a_grasp_out_of_reach_is_given_up_and_the_arm_goes_home_open(keypose_dat
         home = np.r_[obs["tcp_pos"], tcp_yaw(obs["tcp_quat"])]
         follower = KeyposeFollower(Decision((x, y, d.grasp[2], d.grasp[3]), d.opening, d.lift,
                                             (x, y, d.lift, d.grasp[3]), True, True), obs, home, env)
-        stages = []
-        for _ in range(600):
-            if follower.done:
-                break
-            obs, _ = _step(env, follower, obs)
-            stages.append(follower.stage)
+        obs, stages = _follow_until_done(env, follower, obs)
         assert follower.done and follower.lost == "reach", (follower.lost, stages[-5:])
         assert stages.count("over grasp") >= STUCK_STEPS and "close" not in stages and "home" in stages
         _stays_home_open(env, follower, obs, home, d.opening)
