@@ -451,6 +451,35 @@ def test_a_damaged_grid_in_a_policy_config_is_one_line_naming_the_field() -> Non
         assert field in message and "\n" not in message, message
 
 
+def test_word_dropout_reads_a_share_of_the_words_as_unk_and_the_policy_reads_unheard_words_so() -> None:
+    """Training reads each word as ``<UNK>`` with the configured probability (never a special token or the
+    padding); a policy trained so reads a word outside its training instructions as ``<UNK>``, one of an
+    earlier format (trained without) reads the words as they are."""
+    from samplehd.envs.tokens import SPECIAL_TOKENS, encode_instruction, instruction_vocabulary
+    from samplehd.learn.keypose.configuration import KeyposeConfig, KeyposeVocabulary, policy_tokens
+    from samplehd.learn.keypose.training import _dropped_words
+
+    unk = SPECIAL_TOKENS["<UNK>"]
+    tokens = np.stack([encode_instruction("Pick up the red mug and put it in the bowl.", 32)] * 400)
+    words = tokens >= len(SPECIAL_TOKENS)
+    dropped = _dropped_words(tokens, 0.25, np.random.default_rng(0))
+    assert (dropped[~words] == tokens[~words]).all()
+    share = (dropped[words] == unk).mean()
+    assert 0.22 < share < 0.28, share
+    assert (_dropped_words(tokens, 0.25, np.random.default_rng(0)) == dropped).all()
+    assert _dropped_words(tokens, 0.0, np.random.default_rng(0)) is tokens
+
+    vocab = instruction_vocabulary()
+    trained = KeyposeConfig(vocabulary=KeyposeVocabulary(words=("pick", "up", "the", "mug", ".")))
+    text = "Make a stack of the mug."
+    read = policy_tokens(trained, text)
+    assert [int(t) for t in read[1:8]] == [unk, unk, unk, unk, vocab["the"], vocab["mug"], vocab["."]]
+    train = {k: v for k, v in trained.train.to_dict().items() if k != "word_dropout"}
+    legacy = KeyposeConfig.from_dict({**trained.to_dict(), "train": train})  # a file from before the option
+    assert legacy.train.word_dropout == 0.0 and KeyposeConfig().train.word_dropout == 0.1
+    assert (policy_tokens(legacy, text) == encode_instruction(text, legacy.tokens)).all()
+
+
 def test_the_language_blind_control_reads_a_blank_instruction_in_training_and_when_acting(
         keypose_dataset: Path, tmp_path: Path) -> None:
     """``--blind-language``: every training sample and every decision reads the blank text, not the
@@ -468,7 +497,7 @@ def test_the_language_blind_control_reads_a_blank_instruction_in_training_and_wh
     assert main(["train", "policy", "--action", "keypose", "--blind-language", "--dataset", str(keypose_dataset),
                  "--out", str(out), "--steps", "2", "--batch", "2", "--quiet"]) == 0
     config = KeyposeConfig.from_dict(json.loads((out / "config.json").read_text()))
-    assert config.language == "blank"
+    assert config.language == "blank" and config.train.word_dropout == 0.0  # no word to drop
     assert policy_instruction(config, "Please pick up the mug.") == BLANK_TEXT
     assert policy_instruction(KeyposeConfig(), "Please pick up the mug.") == "Please pick up the mug."
     # nor does it ground an unheard word by exclusion: the rule reads what the policy reads

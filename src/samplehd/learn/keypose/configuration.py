@@ -12,18 +12,22 @@ of the other network) are dropped.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar, Self
+
+import numpy as np
 
 from samplehd.benchmark.axes import BLANK_INSTRUCTION
 from samplehd.catalogue.loader import CATALOGUES, LEGACY_CATALOGUE
+from samplehd.envs.tokens import SPECIAL_TOKENS, encode_instruction, instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.configuration import ModelConfig, catalogue_options
 from samplehd.schema import Config, bounded
 
 __all__ = ["ACTION", "ATTRIBUTE_VALUES", "BLANK_TEXT", "FORMAT", "INPUTS", "KEYPOSE_ATTRIBUTES", "LANGUAGE",
            "KeyposeArchitecture", "KeyposeConfig", "KeyposeGrid", "KeyposeTraining", "KeyposeVocabulary",
-           "ShapeRange", "policy_instruction"]
+           "ShapeRange", "policy_instruction", "policy_tokens"]
 
 FORMAT = 3  # the config format of a keypose policy (bump when the network or its inputs change)
 # the ``action`` its config.json names (the behaviour-cloning policy's: steering, waypoint)
@@ -85,6 +89,9 @@ class KeyposeTraining(Config, section="train"):
         lr: learning rate before the decay.
         episodes: training episodes of the dataset.
         init: the folder of the keypose policy whose weights the training started from ("": none).
+        word_dropout: the share of an instruction's words read as ``<UNK>`` in each training batch, so
+            that no single word decides (a trained ``<UNK>`` means "a word I do not know"; the policy
+            then reads every word outside its training instructions as one: see :func:`policy_tokens`).
     """
 
     steps: int = bounded(3000, lo=1)
@@ -93,6 +100,7 @@ class KeyposeTraining(Config, section="train"):
     lr: float = bounded(1e-3, lo=0.0, lo_open=True)
     episodes: int = bounded(0, lo=0)
     init: str = ""
+    word_dropout: float = bounded(0.1, lo=0.0, hi=1.0, hi_open=True)
 
 
 @dataclass(frozen=True)
@@ -183,10 +191,33 @@ class KeyposeConfig(ModelConfig, section="policy"):
     train: KeyposeTraining = field(default_factory=KeyposeTraining)
     vocabulary: KeyposeVocabulary = field(default_factory=KeyposeVocabulary)
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], where: str | None = None) -> Self:
+        """Read a config file (:meth:`ModelConfig.from_dict`); one whose ``train`` section has no
+        ``word_dropout`` was written before the option existed: trained without it."""
+        train = d.get("train") if isinstance(d, Mapping) else None
+        if isinstance(train, Mapping) and "word_dropout" not in train:
+            d = {**d, "train": {**train, "word_dropout": 0.0}}
+        return super().from_dict(d, where)
+
     def env_options(self) -> dict[str, object]:
         """The environment options the policy needs: steering control and no image (it renders the
         scene camera's RGB-D itself when it decides); the scenes of its dataset's catalogue."""
         return {"obs_mode": "state", "control_mode": "steering", **catalogue_options(self.catalogue)}
+
+
+def policy_tokens(config: KeyposeConfig, text: str) -> np.ndarray:
+    """The token ids the policy reads for an instruction (:func:`policy_instruction`'s text). A policy
+    trained with word dropout reads a word outside its training instructions as ``<UNK>``, the token it
+    learnt stands for a word it does not know; the embedding of a word it never read is untrained and
+    would steer it at random."""
+    tokens = encode_instruction(policy_instruction(config, text), config.tokens)
+    if config.language != "instruction" or not config.train.word_dropout or not config.vocabulary.words:
+        return tokens
+    vocab = instruction_vocabulary()
+    known = np.array([vocab[w] for w in config.vocabulary.words if w in vocab], dtype=np.int64)
+    unheard = (tokens >= len(SPECIAL_TOKENS)) & ~np.isin(tokens, known)
+    return np.where(unheard, SPECIAL_TOKENS["<UNK>"], tokens)
 
 
 def policy_instruction(config: KeyposeConfig, text: str) -> str:

@@ -16,10 +16,16 @@ from typing import Any, TypedDict
 
 import numpy as np
 
-from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
+from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.actions import tcp_yaw
-from samplehd.learn.keypose.configuration import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES, KeyposeConfig, policy_instruction
+from samplehd.learn.keypose.configuration import (
+    ATTRIBUTE_VALUES,
+    KEYPOSE_ATTRIBUTES,
+    KeyposeConfig,
+    policy_instruction,
+    policy_tokens,
+)
 from samplehd.learn.keypose.exclusion import SeenObject, exclusion_target, moves_unheard, table_objects, unknown_nouns
 from samplehd.learn.keypose.follower import KeyposeFollower
 from samplehd.learn.keypose.modeling import KeyposeNet
@@ -134,7 +140,7 @@ class KeyposePolicy:
             grid = scene_grid(self._renderer, u.model, u.data, cfg)
         # what the policy reads: the language-blind control neither reads nor grounds the instruction's words
         text = policy_instruction(self.config, instruction)
-        tokens = encode_instruction(text, self.config.tokens)
+        tokens = policy_tokens(self.config, instruction)
         with torch.no_grad():
             grid_t = torch.as_tensor(grid[None], device=self.device)
             tokens_t = torch.as_tensor(tokens[None], device=self.device)

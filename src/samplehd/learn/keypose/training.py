@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from samplehd.envs.tokens import encode_instruction, instruction_vocabulary, tokenize
+from samplehd.envs.tokens import SPECIAL_TOKENS, encode_instruction, instruction_vocabulary, tokenize
 from samplehd.errors import ConfigError
 from samplehd.learn.data import open_dataset, training_split
 from samplehd.learn.keypose.configuration import (
@@ -75,6 +75,16 @@ def _shifted(grid: Any, labels: Any, attributes: Any, rng: np.random.Generator) 
         labels[i, [0, 6]] += float(dr)
         labels[i, [1, 7]] += float(dc)
     return grid, labels, attributes
+
+
+def _dropped_words(tokens: np.ndarray, share: float, rng: np.random.Generator) -> np.ndarray:
+    """The batch's instructions with each word read as ``<UNK>`` with probability ``share`` (the special
+    tokens and the padding stay); drawn from a stream of its own, so the batches are those of a run
+    without it."""
+    if not share:
+        return tokens
+    words = tokens >= len(SPECIAL_TOKENS)
+    return np.where(words & (rng.random(tokens.shape) < share), SPECIAL_TOKENS["<UNK>"], tokens)
 
 
 def _heat_loss(logits: Any, rc: Any) -> Any:
@@ -164,6 +174,7 @@ def train_keypose(dataset: str | Path | Sequence[str | Path], out: str | Path, c
     # no half-made `out`.
     arrays = _samples(out, readers, config, train_k, test_k, quiet)
     if config.language != "instruction":  # the language-blind control: every sample reads the blank text
+        config = replace(config, train=replace(config.train, word_dropout=0.0))
         blank = encode_instruction(policy_instruction(config, ""), config.tokens)
         for key in ("train_tokens", "test_tokens"):
             arrays[key] = np.broadcast_to(blank, arrays[key].shape).copy()
@@ -294,7 +305,8 @@ def _train_step(net: Any, opt: Any, arrays: dict[str, np.ndarray], train: Any, d
         grid_t, lab_t, att_t = _shifted(grid_t, torch.as_tensor(arrays["train_labels"][idx], device=dev),
                                         torch.as_tensor(arrays["train_attributes"][idx].astype(np.int64), device=dev),
                                         rng)
-        loss, _ = keypose_loss(net, grid_t, torch.as_tensor(arrays["train_tokens"][idx], device=dev), lab_t, att_t)
+        tokens = _dropped_words(arrays["train_tokens"][idx], train.word_dropout, step_rng(train.seed, step, stream=1))
+        loss, _ = keypose_loss(net, grid_t, torch.as_tensor(tokens, device=dev), lab_t, att_t)
         return descend(opt, loss)
 
     return train_step
