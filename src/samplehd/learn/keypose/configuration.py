@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from functools import cache
 from typing import Any, ClassVar, Self
 
 import numpy as np
@@ -206,6 +207,15 @@ class KeyposeConfig(ModelConfig, section="policy"):
         return {"obs_mode": "state", "control_mode": "steering", **catalogue_options(self.catalogue)}
 
 
+@cache
+def _token_ids(words: tuple[str, ...]) -> np.ndarray:
+    """The ids of ``words`` in the fixed vocabulary (read once per policy's words, not per decision)."""
+    vocab = instruction_vocabulary()
+    ids = np.array([vocab[w] for w in words if w in vocab], dtype=np.int64)
+    ids.flags.writeable = False
+    return ids
+
+
 def policy_tokens(config: KeyposeConfig, text: str) -> np.ndarray:
     """The token ids the policy reads for an instruction (:func:`policy_instruction`'s text). A policy
     trained with word dropout reads a word outside its training instructions as ``<UNK>``, the token it
@@ -214,9 +224,7 @@ def policy_tokens(config: KeyposeConfig, text: str) -> np.ndarray:
     tokens = encode_instruction(policy_instruction(config, text), config.tokens)
     if config.language != "instruction" or not config.train.word_dropout or not config.vocabulary.words:
         return tokens
-    vocab = instruction_vocabulary()
-    known = np.array([vocab[w] for w in config.vocabulary.words if w in vocab], dtype=np.int64)
-    unheard = (tokens >= len(SPECIAL_TOKENS)) & ~np.isin(tokens, known)
+    unheard = (tokens >= len(SPECIAL_TOKENS)) & ~np.isin(tokens, _token_ids(config.vocabulary.words))
     return np.where(unheard, SPECIAL_TOKENS["<UNK>"], tokens)
 
 

@@ -128,7 +128,7 @@ class KeyposeFollower:
         self._open = open_cmd
         self._speeds = steering_speeds(env)
         self._env = getattr(env, "unwrapped", None)
-        control = getattr(getattr(env, "unwrapped", None), "control", None)
+        control = getattr(self._env, "control", None)
         self._hz = float(control.control_hz) if control is not None else 20.0
         self._low = min(gz, d.goal[2]) + APPROACH / 2
         self._width: float | None = None
