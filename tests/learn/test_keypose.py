@@ -480,6 +480,17 @@ def test_word_dropout_reads_a_share_of_the_words_as_unk_and_the_policy_reads_unh
     assert (policy_tokens(legacy, text) == encode_instruction(text, legacy.tokens)).all()
 
 
+def test_a_bad_word_dropout_in_a_policy_config_is_one_line_naming_the_field() -> None:
+    from samplehd.errors import ConfigError
+    from samplehd.learn.keypose.configuration import KeyposeConfig
+
+    for value, shown in ((1.0, "1.0"), (-0.1, "-0.1"), ("some", "'some'")):
+        with pytest.raises(ConfigError) as info:
+            KeyposeConfig.from_dict({"kind": "policy", "action": "keypose", "train": {"word_dropout": value}})
+        message = str(info.value)
+        assert f"train.word_dropout={shown}" in message and "\n" not in message, message
+
+
 def test_the_language_blind_control_reads_a_blank_instruction_in_training_and_when_acting(
         keypose_dataset: Path, tmp_path: Path) -> None:
     """``--blind-language``: every training sample and every decision reads the blank text, not the
