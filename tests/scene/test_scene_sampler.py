@@ -111,18 +111,23 @@ def test_scenes_cli_bad_config_file(tmp_path, capsys):
     assert "invalid JSON at line 1" in capsys.readouterr().err
 
 
+def _contacts_with(scene: SceneSpec, base_only: bool) -> list:
+    """The penetrating contacts between an object of the compiled ``scene`` and the robot's base
+    (``base_only``) or any robot body."""
+    model, data = compile_scene(scene)
+    bodies = {model.body("robot_base").id} if base_only else SceneBodies(model, len(scene.objects)).robot_bodies
+    objects = {model.body(f"object_{i}").id for i in range(len(scene.objects))}
+    return [c for c in data.contact[: data.ncon]
+            if c.dist < 0 and {int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])} & bodies
+            and {int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])} & objects]
+
+
 def test_no_object_is_sampled_into_the_robot_base() -> None:
     """shop-vrb, seed 1669946257 (a suite build's candidate): the medium pan's handle settled 11 mm deep in
     the robot's base, which the planner's collision checker ignores (the base never moves), and the
     environment's first step stopped on a 2.7 kN contact. Such a draw is now rejected and redrawn."""
     result = sample_scene(0, 1669946257, SceneConfig(catalogue="shop-vrb"))
-    model, data = compile_scene(result.scene)
-    base = model.body("robot_base").id
-    objects = {model.body(f"object_{i}").id for i in range(len(result.scene.objects))}
-    into_base = [c for c in data.contact[: data.ncon]
-                 if c.dist < 0 and {model.geom_bodyid[c.geom1], model.geom_bodyid[c.geom2]} & {base}
-                 and {model.geom_bodyid[c.geom1], model.geom_bodyid[c.geom2]} & objects]
-    assert into_base == []
+    assert _contacts_with(result.scene, base_only=True) == []
     assert result.rejections["robot_home_blocked"] >= 1
 
 
@@ -132,12 +137,6 @@ def test_no_object_is_sampled_leaning_on_the_arm() -> None:
     tolerates as a graze; once the arm left, the pan settled into the arm's home volume and the way home
     was in collision. A draw with any object touching any robot body is now rejected and redrawn."""
     result = sample_scene(0, 2443992897, SceneConfig(min_objects=5, max_objects=7, catalogue="procedural"))
-    model, data = compile_scene(result.scene)
-    robot = SceneBodies(model, len(result.scene.objects)).robot_bodies
-    objects = {model.body(f"object_{i}").id for i in range(len(result.scene.objects))}
-    touching = [c for c in data.contact[: data.ncon]
-                if c.dist < 0 and {int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])} & robot
-                and {int(model.geom_bodyid[c.geom1]), int(model.geom_bodyid[c.geom2])} & objects]
-    assert touching == []
+    assert _contacts_with(result.scene, base_only=False) == []
     assert result.rejections["robot_home_blocked"] == 1
     assert result.attempts == 2
