@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -18,7 +19,8 @@ from samplehd.render.renderer import SceneRenderer
 from samplehd.scene.spec import SceneSpec, compile_scene
 from samplehd.scene.textures import recolour
 
-SHIPPED = "smoke"
+# Twelve oracle-proven episodes of an earlier build of smoke, which the tests of the axes are written on
+TWINS = Path(__file__).parent / "data" / "twins.json"
 
 
 def _texture(model: mujoco.MjModel, name: str) -> np.ndarray:
@@ -40,7 +42,7 @@ def test_recolour_turns_hue_and_scales_saturation_and_value() -> None:
 
 
 def test_textures_change_the_table_and_wall_textures_by_the_documented_amounts_and_not_the_physics() -> None:
-    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    twin = read_suite(TWINS).episodes[0].to_dict()
     clean_model, clean_data = compile_scene(SceneSpec.from_dict(twin["scene"]))
     assert "surfaces" not in SceneSpec.from_dict(twin["scene"]).to_dict()
     for strength in (1, 5):
@@ -86,7 +88,7 @@ def test_verbs_and_nouns_vary_only_their_own_words() -> None:
     verbs, nouns = (_group_words(seen[pos]) for pos in ("verbs", "nouns"))
     verb_words = {part for w in verbs for part in w.split()}
     changed = {"verbs": 0, "nouns": 0}
-    for ep in read_suite(SHIPPED).episodes:
+    for ep in read_suite(TWINS).episodes:
         twin = ep.to_dict()
         for axis, own, other in (("verbs", verb_words, nouns), ("nouns", nouns, verb_words)):
             for strength in (1, 5):
@@ -111,7 +113,7 @@ def test_unseen_synonyms_at_strength_5_leave_no_replaceable_word_and_the_env_rea
     unseen = language_words()["unseen"]
     keys = {**unseen["verbs"], **unseen["nouns"]}
     pattern = re.compile(r"\b(" + "|".join(sorted(map(re.escape, keys), key=len, reverse=True)) + r")\b", re.I)
-    suite = read_suite(SHIPPED)
+    suite = read_suite(TWINS)
     for ep in suite.episodes:
         text = perturb(ep.to_dict(), "unseen_synonyms", 5, seed=0)["instruction"]
         assert not pattern.search(text), text
@@ -134,7 +136,7 @@ def test_the_new_axes_are_registered() -> None:
 def test_every_evaluation_renderer_shows_the_lighting_and_textures_axes(preset: str) -> None:
     if preset == "photo":
         pytest.importorskip("mitsuba", reason="the photo preset needs samplehd[photo]")
-    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    twin = read_suite(TWINS).episodes[0].to_dict()
     lit, textured = (perturb(twin, axis, 5, seed=0) for axis in ("lighting", "textures"))
     assert lit["scene"]["lighting"]["intensity"] == pytest.approx(0.4)  # this draw dims every light
     frames = []
@@ -158,7 +160,7 @@ def _unseen(twin: dict, strength: int) -> dict:
 
 
 def test_unseen_objects_replace_the_task_objects_first_by_a_held_out_class_and_keep_the_others() -> None:
-    twin = read_suite(SHIPPED).episodes[4].to_dict()  # "Please pick up the mug." among three objects
+    twin = read_suite(TWINS).episodes[4].to_dict()  # "Please pick up the mug." among three objects
     objects = twin["scene"]["objects"]
     for strength in (1, 5):
         variant = _unseen(twin, strength)

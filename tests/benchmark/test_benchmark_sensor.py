@@ -11,12 +11,15 @@ import pytest
 
 from samplehd.benchmark.axes import perturb
 from samplehd.benchmark.sensor import SuiteSensor, corrupt_observation, sensor_rng
-from samplehd.envs.suite_file import content_hash, suite_path
+from samplehd.envs.suite_file import content_hash
 from samplehd.envs.tabletop import TabletopEnv
+
+# Twelve oracle-proven episodes of an earlier build of smoke
+TWINS = Path(__file__).parent / "data" / "twins.json"
 
 
 def test_strength_5_corrupts_images_by_the_documented_amounts_and_leaves_state_alone() -> None:
-    twin = json.loads(suite_path("smoke").read_text())["episodes"][0]
+    twin = json.loads(TWINS.read_text())["episodes"][0]
     sensor = perturb(twin, "sensor", 5, seed=0)["sensor"]
     obs = {"scene_rgb": np.full((96, 96, 3), 128, np.uint8), "scene_depth": np.full((96, 96), 1.0, np.float32),
            "joint_pos": np.arange(6.0)}
@@ -33,7 +36,7 @@ def test_strength_5_corrupts_images_by_the_documented_amounts_and_leaves_state_a
 
 
 def test_the_wrapper_corrupts_a_sensor_episode_and_not_its_clean_twin(tmp_path: Path) -> None:
-    raw = json.loads(suite_path("smoke").read_text())
+    raw = json.loads(TWINS.read_text())
     twin = raw["episodes"][0]
     raw["episodes"] = [twin, {"id": 1, **perturb(twin, "sensor", 5, seed=0)}]
     raw["content_hash"] = content_hash(raw["episodes"])

@@ -34,6 +34,8 @@ from samplehd.scene.spec import SceneSpec, compile_scene
 from samplehd.workers import Backend
 
 SHIPPED = "smoke"
+# Twelve oracle-proven episodes of an earlier build of smoke, which the tests of the axes are written on
+TWINS = Path(__file__).parent / "data" / "twins.json"
 
 
 def _cli(*args: str) -> subprocess.CompletedProcess:
@@ -165,7 +167,7 @@ def test_a_built_suite_is_solved_by_the_oracle_and_evaluates_identically_twice(t
 
 
 def test_a_variant_differs_from_its_clean_twin_only_in_its_axis() -> None:
-    twins = [e.to_dict() for e in read_suite(SHIPPED).episodes[::6]]  # one per catalogue
+    twins = [e.to_dict() for e in read_suite(TWINS).episodes[::6]]  # one per catalogue
     for twin in twins:
         for axis in sorted(set(AXES) - {"distractors", "task_swap", "unseen_objects"}):  # (own tests: they may reject)
             for strength in (1, 5):
@@ -177,7 +179,7 @@ def test_a_variant_differs_from_its_clean_twin_only_in_its_axis() -> None:
 
 
 def test_axis_strengths_are_the_documented_physical_amounts() -> None:
-    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    twin = read_suite(TWINS).episodes[0].to_dict()
     for strength in STRENGTHS:
         cam = perturb(twin, "camera", strength, seed=3)["scene"]["camera"]
         target = np.asarray(cam["target"])
@@ -203,7 +205,7 @@ def test_axis_strengths_are_the_documented_physical_amounts() -> None:
 
 
 def test_the_robot_start_axis_moves_only_the_arm_from_the_twins_start() -> None:
-    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    twin = read_suite(TWINS).episodes[0].to_dict()
     env = TabletopEnv(obs_mode="state")
     try:
         states = []
@@ -219,7 +221,7 @@ def test_the_robot_start_axis_moves_only_the_arm_from_the_twins_start() -> None:
 
 
 def test_the_env_resets_to_a_blanked_instruction() -> None:
-    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    twin = read_suite(TWINS).episodes[0].to_dict()
     blank = SuiteEpisode.from_dict({"id": 1, **perturb(twin, "blank", 5, seed=0)})
     env = TabletopEnv(obs_mode="state")
     try:
@@ -247,7 +249,7 @@ def test_the_lerobot_env_serves_a_suites_episodes_of_its_family() -> None:
 def test_the_lerobot_env_has_a_slot_for_every_object_of_its_suites_scenes(tmp_path: Path) -> None:
     """A suite scene with more objects than the env samples (core's stack_three: up to 7) resets: the env
     is made with room for the family's fullest scene, as `evaluate --suite` makes its env."""
-    twin = read_suite(SHIPPED).episodes[4].to_dict()  # "Please pick up the mug."
+    twin = read_suite(TWINS).episodes[4].to_dict()  # "Please pick up the mug."
     crowded = next(v for v in (_attempt(twin, 3, a) for a in range(4)) if v is not None)  # 3 objects + 3
     crowded = {**crowded, "id": 0, "axis": "none", "strength": 0, "twin": None}
     assert len(crowded["scene"]["objects"]) > SceneConfig().max_objects
@@ -270,7 +272,7 @@ def test_suite_build_refuses_a_bad_option_in_one_line_and_writes_nothing(tmp_pat
 
 
 def test_lighting_changes_the_lights_by_the_documented_amounts_and_not_the_physics() -> None:
-    twin = read_suite(SHIPPED).episodes[0].to_dict()
+    twin = read_suite(TWINS).episodes[0].to_dict()
     clean_model, clean_data = compile_scene(SceneSpec.from_dict(twin["scene"]))
     key = clean_model.light("key_light").id
     for strength in (1, 5):
@@ -295,7 +297,7 @@ def test_lighting_changes_the_lights_by_the_documented_amounts_and_not_the_physi
 
 
 def test_distractors_add_objects_after_the_scenes_own_and_keep_the_instruction_unambiguous() -> None:
-    twin = read_suite(SHIPPED).episodes[6].to_dict()  # "Put the chopping board and the scissors on the front half..."
+    twin = read_suite(TWINS).episodes[6].to_dict()  # "Put the chopping board and the scissors on the front half..."
     own = twin["scene"]["objects"]
     for strength in (1, 2):
         variant = next(v for v in (_attempt(twin, strength, a) for a in range(4)) if v is not None)
@@ -322,7 +324,7 @@ def _attempt(twin: dict, strength: int, attempt: int) -> dict | None:
 
 
 def test_task_swap_names_other_objects_of_the_same_family_on_the_same_scene() -> None:
-    twin = read_suite(SHIPPED).episodes[4].to_dict()  # "Please pick up the mug."
+    twin = read_suite(TWINS).episodes[4].to_dict()  # "Please pick up the mug."
     near, far = (perturb(twin, "task_swap", s, seed=0) for s in (1, 5))
     for variant in (near, far):
         assert changed_fields(twin, variant) - {"id", "axis", "strength", "twin"} <= set(AXIS_FIELDS["task_swap"])

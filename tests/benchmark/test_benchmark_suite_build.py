@@ -11,7 +11,7 @@ import pytest
 
 from samplehd.benchmark.evaluation import EpisodeRunner, EvalConfig, _with_slots_for
 from samplehd.benchmark.levels import HELD_OUT_CLASSES, LEVELS, episode_level, instruction_at_level
-from samplehd.benchmark.suite import SuiteBuildConfig, build_suite, scene_seeds
+from samplehd.benchmark.suite import Candidate, SuiteBuildConfig, _to_try, build_suite, scene_seeds
 from samplehd.commands.suite import resolve_config
 from samplehd.envs.episodes import SceneCache
 from samplehd.envs.suite_file import SUITE_SPEC_DIR, read_suite
@@ -123,6 +123,27 @@ def test_a_stack_three_cell_finds_its_episode_within_its_own_scene_budget() -> N
     assert episode.scene_seed == scene_seeds(7, 0, 2)[1]
 
 
+def _cell(outcomes: str) -> dict[int, Candidate]:
+    """A cell's candidates so far: ``s`` solved, ``d`` no episode drawn, ``f`` the oracle failed."""
+    reasons = {"s": "", "d": "draw: no L2 episode in 160 scenes", "f": "grasp_missed"}
+    return {k: Candidate(0, k, o == "s", reasons[o]) for k, o in enumerate(outcomes)}
+
+
+def test_a_cell_whose_draws_often_fail_tries_more_candidates_after_its_second_round() -> None:
+    """Two candidates in the first round; in the second as many as the cell lacks; from the third on
+    as many divided by the cell's share solved so far (at most twice), never beyond its room."""
+    assert _to_try({}, 0, 25, 60, first=True) == 2
+    assert _to_try({}, 0, 1, 60, first=True) == 1
+    assert _to_try(_cell("sd"), 2, 25, 58, first=False) == 24  # second round: what it lacks
+    # third round: 15 of 25 solved (draws failed on the others): 10 lacking, tried at 25/15 of that
+    assert _to_try(_cell("s" * 15 + "d" * 10), 25, 25, 35, first=False) == 17
+    assert _to_try(_cell("s" * 24 + "f"), 25, 25, 35, first=False) == 1  # a cell the oracle nearly always solves
+    assert _to_try(_cell("s" * 10 + "d" * 15), 25, 25, 35, first=False) == 30  # at most twice what it lacks
+    assert _to_try(_cell("s" * 2 + "d" * 23), 25, 25, 35, first=False) == 35  # within its room
+    assert _to_try(_cell("s" * 3 + "d" * 3), 6, 25, 54, first=False) == 44
+    assert _to_try(_cell("s" * 25 + "d"), 26, 25, 34, first=False) == 0  # full
+
+
 def test_a_cell_whose_first_candidates_find_no_episode_is_given_up() -> None:
     """stack_three L1 has no episode on the first 3–5-object scene of candidates 0 and 1: the first
     round's two candidates find none, and the build tries no third one but names the cell and why."""
@@ -165,10 +186,20 @@ def test_the_shipped_core_suite_is_its_specification_built_whole() -> None:
     assert m["oracle_success_on_suite"] == 1.0
     groups = m["candidates_solved"]["by_catalogue_family"]
     assert sum(g["tried"] for g in groups.values()) == m["candidates"]
-    assert sum(g["solved"] for g in groups.values()) == len(suite.episodes)
-    assert m["candidates"] - len(suite.episodes) == sum(m["rejected"].values())
+    assert sum(g["solved"] for g in groups.values()) == len(suite.episodes) + m["spare"]
+    assert m["candidates"] - len(suite.episodes) - m["spare"] == sum(m["rejected"].values())
     draws = sum(n for reason, n in m["rejected"].items() if reason.startswith("draw:"))
     assert sum(g["tried"] - g["drawn"] for g in groups.values()) == draws
+
+
+@pytest.mark.slow
+def test_the_shipped_smoke_suite_is_its_specification_built_again() -> None:
+    """``samplehd suite build smoke`` (a shipped name picks its shipped specification) draws, proves and
+    writes exactly the shipped file: its episodes, their hash and its manifest."""
+    spec = SuiteBuildConfig.from_dict(json.loads((SUITE_SPEC_DIR / "smoke.json").read_text()))
+    built, shipped = build_suite("smoke", spec), read_suite("smoke")
+    assert built.content_hash == shipped.content_hash
+    assert (built.build, built.manifest) == (shipped.build, shipped.manifest)
 
 
 @pytest.mark.slow

@@ -17,9 +17,12 @@ reason counted in the manifest, and the next candidate of the cell is tried.
 Columns run in rounds on the worker backend (local processes or Ray): the first round tries two
 candidates per cell, and a cell neither of which found an episode of its family and level is given
 up (``short_cells`` says why); each later round tries, per cell, as many new candidates as the cell
-still lacks episodes, so the cell's episodes are always its first
-``episodes_per_cell`` solved candidates in candidate order, whatever the number of workers: the same
-configuration gives the same bytes.
+still lacks episodes, from the third round on that many divided by the share of the cell's candidates
+so far that were solved (at most twice as many), so that a cell whose draws often fail needs fewer
+rounds, each of which waits for its slowest column. A candidate's outcome depends only on the
+configuration, its cell and ``k``, and the cell's episodes are always its first ``episodes_per_cell``
+solved candidates in candidate order (those solved beyond them are counted as ``spare``), whatever the
+number of workers: the same configuration gives the same bytes.
 
 A suite may instead derive from a built *base* suite (``base``, ``base_per_cell``): it takes the first
 ``base_per_cell`` clean episodes of each of the base's cells (after its first ``base_skip``: a
@@ -326,6 +329,21 @@ def _prove(config: SuiteBuildConfig, runner: EpisodeRunner, c: int, k: int) -> C
     return Candidate(c, k, True, episode=entry, steps=record.steps)
 
 
+def _to_try(done: dict[int, Candidate], tried: int, need: int, room: int, first: bool) -> int:
+    """How many new candidates a cell tries this round: two in the first; later, as many as it lacks,
+    from the third round on divided by the share of its candidates so far that were solved (at most
+    twice as many), never more than ``room``."""
+    solved = sum(x.solved for x in done.values())
+    lacking = need - solved
+    if first:
+        want = min(lacking, _PROBE)
+    elif tried > _PROBE and solved:
+        want = min(2 * lacking, max(lacking, round(lacking * tried / solved)))
+    else:
+        want = lacking
+    return max(0, min(want, room))
+
+
 def _barren(done: dict[int, Candidate]) -> bool:
     """Whether a cell's candidates so far (its first round's) all found no episode of its family and
     level: the cell is then given up (``short_cells``, with the reason)."""
@@ -483,13 +501,16 @@ def _proof_config(config: SuiteBuildConfig, base: Suite) -> SuiteBuildConfig:
 
 
 def _manifest(episodes: list[dict[str, Any]], candidates: int, rejected: Counter[str],
-              candidates_solved: dict[str, Any], short_cells: list[Any], short_variants: list[Any]) -> dict[str, Any]:
-    """The suite file's manifest (counts, rejection reasons, what the build could not fill)."""
+              candidates_solved: dict[str, Any], short_cells: list[Any], short_variants: list[Any],
+              spare: int = 0) -> dict[str, Any]:
+    """The suite file's manifest (counts, rejection reasons, what the build could not fill; ``spare``:
+    candidates solved beyond their cell's episodes)."""
     return {
         "episodes": len(episodes),
         **{f"by_{key}": dict(sorted(Counter(str(e[key]) for e in episodes).items()))
            for key in ("family", "level", "catalogue", "axis", "strength")},
         "candidates": candidates,
+        "spare": spare,
         "rejected": dict(sorted(rejected.items(), key=lambda kv: (-kv[1], kv[0]))),
         "candidates_solved": candidates_solved,
         "oracle_success_on_suite": 1.0 if episodes else 0.0,
@@ -543,9 +564,7 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
         for c in range(len(cells)):
             if _barren(done[c]):
                 continue
-            lacking = need - sum(x.solved for x in done[c].values())
-            room = config.max_candidates_per_cell - tried[c]
-            for _ in range(max(0, min(lacking, room, _PROBE if first else lacking))):
+            for _ in range(_to_try(done[c], tried[c], need, config.max_candidates_per_cell - tried[c], first)):
                 columns.setdefault((cells[c][0], tried[c]), []).append(c)
                 tried[c] += 1
         if not columns:
@@ -562,8 +581,11 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
     rejected: Counter[str] = Counter()
     solve: dict[str, dict[str, Counter[str]]] = {"by_catalogue": {}, "by_family": {}, "by_catalogue_family": {}}
     short = []
+    spare = 0
     for c, (catalogue, family, level) in enumerate(cells):
         solved = [done[c][k] for k in sorted(done[c]) if done[c][k].solved]
+        spare += max(0, len(solved) - need)
+        solved = solved[:need]
         if len(solved) < need:
             short.append({"catalogue": catalogue, "family": family, "level": level, "episodes": len(solved),
                           "candidates": tried[c], **({"reason": f"no episode of the family and level on the "
@@ -588,7 +610,7 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
         episodes += [{"id": len(episodes) + i, **v} for i, v in enumerate(variants)]
     solved_counts = {key: {v: {k: n[k] for k in ("tried", "drawn", "solved")} for v, n in groups.items()}
                      for key, groups in solve.items()}
-    manifest = _manifest(episodes, sum(tried), rejected, solved_counts, short, short_variants)
+    manifest = _manifest(episodes, sum(tried), rejected, solved_counts, short, short_variants, spare)
     build = {"name": name, **{k: v for k, v in config.to_dict().items() if k not in _BASE}}
     return Suite(name=name, path=None, content_hash=content_hash(episodes), build=build, manifest=manifest,
                  package_version=__version__, episodes=tuple(SuiteEpisode.from_dict(e) for e in episodes))

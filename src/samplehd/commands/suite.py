@@ -104,7 +104,8 @@ def describe(suite: Suite) -> str:
     for key in ("family", "level", "catalogue", "axis", "strength"):
         counts = m.get(f"by_{key}", {})
         lines.append(f"  by {key:<9} " + ", ".join(f"{k} {v}" for k, v in counts.items()))
-    lines.append(f"  candidates {m.get('candidates')}, rejected {sum(m.get('rejected', {}).values())}")
+    spare = f", solved beyond their cell's episodes {m['spare']}" if m.get("spare") else ""
+    lines.append(f"  candidates {m.get('candidates')}, rejected {sum(m.get('rejected', {}).values())}{spare}")
     if m.get("base"):
         taken = _taken(suite.build.get("base_per_cell"), suite.build.get("base_skip", 0))
         lines.append(f"  from base {m['base']['name']} ({m['base']['content_hash']}): "
