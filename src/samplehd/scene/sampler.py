@@ -18,7 +18,7 @@ from samplehd.catalogue import Catalogue, ObjectFacts, ObjectInstance, catalogue
 from samplehd.errors import ConfigError, SceneError
 from samplehd.fixedmath import matmul, norm
 from samplehd.render.image_spec import ImageSpec
-from samplehd.render.renderer import SEG_OBJECT_OFFSET
+from samplehd.render.renderer import SEG_OBJECT_OFFSET, project_points, segmentation_lut
 from samplehd.render.renderer_cache import RendererCache
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
 from samplehd.scene.config import SceneConfig
@@ -129,13 +129,16 @@ def _footprint_corners(facts: ObjectFacts, xy: np.ndarray, yaw: float, margin: f
 
 
 def _rects_overlap(a: np.ndarray, b: np.ndarray) -> bool:
-    """Separating-axis test of two convex quadrilaterals (4×2 corner arrays)."""
-    for poly in (a, b):
+    """Separating-axis test of two convex quadrilaterals (4×2 corner arrays), in Python floats (each
+    projection ``x ax + y ay`` rounded as :func:`~samplehd.fixedmath.matmul` rounds it)."""
+    pa_corners, pb_corners = a.tolist(), b.tolist()
+    for poly in (pa_corners, pb_corners):
         for i in range(4):
-            edge = poly[(i + 1) % 4] - poly[i]
-            axis = np.array([-edge[1], edge[0]])
-            pa, pb = matmul(a, axis), matmul(b, axis)
-            if pa.max() < pb.min() or pb.max() < pa.min():
+            (x0, y0), (x1, y1) = poly[i], poly[(i + 1) % 4]
+            ax, ay = -(y1 - y0), x1 - x0
+            pa = [x * ax + y * ay for x, y in pa_corners]
+            pb = [x * ax + y * ay for x, y in pb_corners]
+            if max(pa) < min(pb) or max(pb) < min(pa):
                 return False
     return True
 
@@ -238,25 +241,76 @@ def _home_clear(model: mujoco.MjModel, data: mujoco.MjData, count: int) -> bool:
     return checker.free(HOME_QPOS, GRIPPER_STROKE)
 
 
+# Corners of the unit box, to bound a geom by its local bounding box.
+_CORNERS = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], dtype=float)
+# Pixels added around each object's projected bounds before they are compared.
+_BOUNDS_MARGIN_PX = 2.0
+
+
+def _screen_bounds(model: mujoco.MjModel, data: mujoco.MjData, count: int, width: int, height: int
+                   ) -> list[tuple[float, float, float, float] | None]:
+    """Per object, (u0, u1, v0, v1): pixel bounds in the scene camera enclosing every geom of it (the
+    corners of each geom's bounding box projected, widened by a margin); None where a corner lies
+    behind the camera."""
+    lut = segmentation_lut(model)
+    out: list[tuple[float, float, float, float] | None] = []
+    for i in range(count):
+        corners = []
+        for g in np.flatnonzero(lut == SEG_OBJECT_OFFSET + i):
+            local = model.geom_aabb[g, :3] + model.geom_aabb[g, 3:] * _CORNERS
+            corners.append(data.geom_xpos[g] + matmul(local, data.geom_xmat[g].reshape(3, 3).T))
+        if not corners:
+            out.append(None)
+            continue
+        uvd = project_points(model, data, SCENE_CAMERA, width, height, np.concatenate(corners))
+        if np.any(uvd[:, 2] <= 1e-3):
+            out.append(None)
+            continue
+        m = _BOUNDS_MARGIN_PX
+        out.append((float(uvd[:, 0].min()) - m, float(uvd[:, 0].max()) + m,
+                    float(uvd[:, 1].min()) - m, float(uvd[:, 1].max()) + m))
+    return out
+
+
+def _apart(a: tuple[float, float, float, float] | None, b: tuple[float, float, float, float] | None) -> bool:
+    """Whether two objects' pixel bounds cannot share a pixel."""
+    return a is not None and b is not None and (a[1] < b[0] or b[1] < a[0] or a[3] < b[2] or b[3] < a[2])
+
+
+def _alone_groups(bounds: list[tuple[float, float, float, float] | None]) -> list[list[int]]:
+    """Objects in groups whose members' pixel bounds are pairwise apart, in order (first fit): drawn
+    together, no member can hide another, so each one's pixels are those it has alone."""
+    groups: list[list[int]] = []
+    for i, box in enumerate(bounds):
+        group = next((g for g in groups if all(_apart(box, bounds[j]) for j in g)), None)
+        if group is None:
+            groups.append([i])
+        else:
+            group.append(i)
+    return groups
+
+
 def _visible_pixels(
     model: mujoco.MjModel, data: mujoco.MjData, count: int, config: SceneConfig, renderers: RendererCache
 ) -> tuple[list[int], list[int]]:
-    """Pixels of each object in the scene camera's segmentation, with all objects and alone."""
+    """Pixels of each object in the scene camera's segmentation, with all objects and alone (the others
+    out of view; objects that cannot hide each other are drawn in one render, :func:`_alone_groups`)."""
     w, h = config.occlusion_resolution
     adr = object_qpos_addresses(model, count)
     r = renderers.get(model, ImageSpec(w, h, "fast", (SCENE_CAMERA,), ("segmentation",)))
     seg = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
     visible = [int(np.count_nonzero(seg == SEG_OBJECT_OFFSET + i)) for i in range(count)]
-    alone = []
+    alone = [0] * count
     saved = data.qpos.copy()
-    for i in range(count):
+    for group in _alone_groups(_screen_bounds(model, data, count, w, h)):
         for j in range(count):
-            if j != i:  # park the others far below the floor, out of view
+            if j not in group:  # park the others far below the floor, out of view
                 data.qpos[adr[j] : adr[j] + 3] = (50.0 + j, 50.0, -50.0)
         mujoco.mj_kinematics(model, data)
         mujoco.mj_camlight(model, data)
-        seg_i = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
-        alone.append(int(np.count_nonzero(seg_i == SEG_OBJECT_OFFSET + i)))
+        seg_g = r.render(data, SCENE_CAMERA, ("segmentation",))["segmentation"]
+        for i in group:
+            alone[i] = int(np.count_nonzero(seg_g == SEG_OBJECT_OFFSET + i))
         data.qpos[:] = saved
     mujoco.mj_forward(model, data)
     return visible, alone
