@@ -165,3 +165,21 @@ def test_segmentation_labels_the_meshes_as_robot() -> None:
         pixels[look] = int((seg == SEG_ROBOT).sum())
     assert pixels["primitive"] > 150
     assert 0.6 < pixels["mesh"] / pixels["primitive"] < 1.6, pixels
+
+
+@pytest.mark.parametrize("look", ROBOT_LOOKS)
+def test_worlds_get_the_same_robot_from_the_kept_spec(look):
+    """Worlds attach a copy of one robot spec per look; the model is byte for byte the one a freshly built
+    robot spec gives, however many worlds came before."""
+    from samplehd.robot import ur5e
+
+    def model_bytes() -> bytes:
+        model = compile_world([], WorldConfig(robot_look=look))[0]
+        buf = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+        mujoco.mj_saveModel(model, None, buf)
+        return buf.tobytes()
+
+    ur5e._KEPT.specs = {}
+    fresh = model_bytes()
+    assert model_bytes() == fresh and model_bytes() == fresh
+    assert ur5e._KEPT.specs[look] is not None
