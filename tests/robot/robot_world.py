@@ -33,7 +33,7 @@ def build_table_world(
     spec.worldbody.add_geom(
         name="backdrop_wall", type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.02, 1.5, 1.0], pos=[-1.0, 0.0, 1.0]
     )
-    add_robot(spec.worldbody, BASE_POS, base_quat)
+    add_robot(spec.worldbody, BASE_POS, base_quat, spec=spec)
     if extra is not None:
         extra(spec)
     return spec

@@ -119,14 +119,14 @@ def test_attach_into_rotated_frame_and_roundtrip_xml(tmp_path) -> None:
             warnings.simplefilter("error")
             spec = mujoco.MjSpec()
             body = spec.worldbody.add_body(name="stand", pos=[1.0, 2.0, 0.5])
-            root = add_robot(body, (0.1, 0.0, 0.2), (0.0, 0.0, 0.0, 1.0))
+            root = add_robot(body, (0.1, 0.0, 0.2), (0.0, 0.0, 0.0, 1.0), spec=spec)
             assert root.name == ROBOT_BODY
             model = spec.compile()
             xml = spec.to_xml()
         assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
     finally:
         os.chdir(cwd)
-    reloaded = mujoco.MjModel.from_xml_string(xml)
+    reloaded = mujoco.MjModel.from_xml_string(xml, spec.assets)  # the arm's meshes are in-memory files
     assert reloaded.nu == model.nu == 13 and reloaded.nbody == model.nbody
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)

@@ -37,6 +37,7 @@ Use :class:`samplehd.robot.controller.RobotController` rather than writing ``ctr
 
 from __future__ import annotations
 
+import hashlib
 import math
 import threading
 import warnings
@@ -360,6 +361,18 @@ def _add_hand_look(spec: mujoco.MjSpec, gripper: mujoco.MjsBody, fingers: list[t
         geom.mass = 0.0
 
 
+def _mesh_asset(spec: mujoco.MjSpec, vertices: np.ndarray, faces: np.ndarray) -> str:
+    """Add a mesh to ``spec``'s in-memory assets as a binary ``.msh`` file named by its content and return
+    the name: MuJoCo keeps what it compiled from a file, so each arm mesh is processed once per process,
+    not at every compile (~30 ms a world). MuJoCo holds vertices as float32 either way: the same mesh."""
+    v = np.ascontiguousarray(vertices, dtype=np.float32)
+    f = np.ascontiguousarray(faces, dtype=np.int32)
+    data = np.array([len(v), 0, 0, len(f)], dtype=np.int32).tobytes() + v.tobytes() + f.tobytes()
+    name = f"samplehd_{hashlib.sha256(data).hexdigest()[:32]}.msh"
+    spec.assets = {**spec.assets, name: data}
+    return name
+
+
 def _add_arm_meshes(spec: mujoco.MjSpec, links: list[_LinkBuilder]) -> None:
     """The mesh look: the UR5e's visual meshes on the arm bodies; the arm's primitives hidden."""
     meshes = arm_meshes()
@@ -370,8 +383,7 @@ def _add_arm_meshes(spec: mujoco.MjSpec, links: list[_LinkBuilder]) -> None:
             geom.group = _HIDDEN_GROUP
         for k, part in enumerate(meshes.parts[link.name]):
             mesh = spec.add_mesh(name=f"{link.name}_mesh_{k}")
-            mesh.uservert = part.vertices.astype(np.float64).ravel()
-            mesh.userface = part.faces.ravel()
+            mesh.file = _mesh_asset(spec, part.vertices, part.faces)
             # Shell inertia needs no closed surface; the geom's zero mass makes it weightless anyway.
             mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
             geom = link.body.add_geom(name=f"{link.name}_mesh_{k}", type=_GEOM.mjGEOM_MESH, meshname=mesh.name,
@@ -480,6 +492,8 @@ def add_robot(
     pos: Sequence[float] | np.ndarray = (0.0, 0.0, 0.0),
     quat: Sequence[float] | np.ndarray = ROBOT_BASE_QUAT,
     look: str = "mesh",
+    *,
+    spec: mujoco.MjSpec,
 ) -> mujoco.MjsBody:
     """Attach the UR5e with its gripper to ``parent``.
 
@@ -488,6 +502,7 @@ def add_robot(
         pos: position of the robot base frame (DH frame 0) in ``parent``'s frame [m].
         quat: orientation (w, x, y, z) of the base frame in ``parent``'s frame.
         look: how the arm is drawn (:func:`robot_spec`).
+        spec: the spec ``parent`` belongs to: it gets the robot's mesh files (in-memory assets).
 
     Returns:
         The attached root body ``robot_base``.
@@ -495,6 +510,7 @@ def add_robot(
     warnings.filterwarnings("ignore", message=_EMPTY_PREFIX_WARNING)
     frame = parent.add_frame(pos=list(map(float, pos)), quat=list(map(float, quat)))
     robot = _kept_robot_spec(look)
+    spec.assets = {**spec.assets, **robot.assets}
     # MuJoCo also reports the prefix-less attachment through its C warning handler (stdout and
     # MUJOCO_LOG.TXT); silence it for this call only.
     previous = mujoco.get_mju_user_warning()

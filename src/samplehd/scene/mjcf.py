@@ -52,7 +52,13 @@ def export_mjcf(spec: mujoco.MjSpec, path: str | Path) -> Path:
         # Meshes of an attached spec (the robot's) resolve files against that spec's directory, so they
         # are named by absolute paths here and made relative in the written XML.
         absolute = asset_dir.resolve()
+        held = spec.assets  # in-memory mesh files (the robot's): written beside the XML
         for mesh in spec.meshes:
+            if mesh.file in held:
+                asset_dir.mkdir(exist_ok=True)
+                (absolute / mesh.file).write_bytes(held[mesh.file])
+                mesh.file = str(absolute / mesh.file)
+                continue
             if not len(mesh.uservert) or len(mesh.userfacenormal) or len(mesh.userfacetexcoord):
                 continue  # a file already, or per-face data that .msh cannot hold: stays inline
             asset_dir.mkdir(exist_ok=True)

@@ -418,7 +418,7 @@ def build_world(
             name=cam.name, pos=list(cam.pos), quat=list(look_at_quat(cam.pos, cam.target)), fovy=cam.fovy
         )
     if config.with_robot:
-        add_robot(spec.worldbody, layout.robot_base_position, ROBOT_BASE_QUAT, config.robot_look)
+        add_robot(spec.worldbody, layout.robot_base_position, ROBOT_BASE_QUAT, config.robot_look, spec=spec)
     if objects:
         for i, placed in enumerate(objects):
             add_object(spec, placed.instance, object_body_name(i), placed.pos, placed.quat)
