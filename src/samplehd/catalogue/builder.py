@@ -24,7 +24,6 @@ from collections.abc import Sequence
 from functools import lru_cache
 
 import mujoco
-import numpy as np
 
 from samplehd.catalogue.facts import mass_of
 from samplehd.catalogue.geometry import ObjectGeometry, build_geometry
@@ -33,6 +32,7 @@ from samplehd.catalogue.loader import resolve_catalogue
 from samplehd.catalogue.model import Catalogue, Colour, Material
 from samplehd.catalogue.textures import TEXTURES
 from samplehd.errors import AssetError
+from samplehd.physics import msh_file
 
 __all__ = [
     "COLLISION_CONDIM",
@@ -149,34 +149,42 @@ def _ensure_meshes(spec: mujoco.MjSpec, prefix: str, geometry: ObjectGeometry) -
     visual = f"{prefix}_visual"
     if spec.mesh(visual) is not None:
         return visual
-    vert, face, texcoord, pieces = _mesh_lists(geometry)
-    spec.add_mesh(name=visual, uservert=vert, userface=face, usertexcoord=texcoord,
-                  inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
-    for k, piece_vert in pieces:
-        spec.add_mesh(name=f"{prefix}_collision_{k}", uservert=piece_vert)
+    (visual_file, pieces), files = _mesh_files(geometry)
+    spec.assets = {**spec.assets, **files}
+    spec.add_mesh(name=visual, file=visual_file, inertia=mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL)
+    for k, piece_file in pieces:
+        spec.add_mesh(name=f"{prefix}_collision_{k}", file=piece_file)
     return visual
 
 
-# The lists ``add_mesh`` takes, per geometry: every world of a scene (one per episode unit) adds the same
-# meshes, and converting their arrays to lists costs more than MuJoCo's own copy. Keyed by the geometry's
-# identity (``build_geometry`` caches geometries); the entry keeps its geometry alive, so no id is reused.
-_MeshLists = tuple[list[float], list[int], list[float], list[tuple[int, list[float]]]]
-_MESH_LISTS: dict[int, tuple[ObjectGeometry, _MeshLists]] = {}
-_MESH_LISTS_MAX = 256
+# Each geometry's meshes as in-memory ``.msh`` files (:func:`samplehd.physics.msh_file`), which MuJoCo
+# processes once per process (a piece's convex hull, the visual mesh's normals), not at every compile:
+# every world of a scene (the sampler compiles each twice, an episode unit once more) adds the same
+# meshes. Keyed by the geometry's identity (``build_geometry`` caches geometries); the entry keeps its
+# geometry alive, so no id is reused.
+_MeshFiles = tuple[tuple[str, list[tuple[int, str]]], dict[str, bytes]]
+_MESH_FILES: dict[int, tuple[ObjectGeometry, _MeshFiles]] = {}
+_MESH_FILES_MAX = 256
 
 
-def _mesh_lists(geometry: ObjectGeometry) -> _MeshLists:
-    hit = _MESH_LISTS.get(id(geometry))
+def _mesh_files(geometry: ObjectGeometry) -> _MeshFiles:
+    """(the visual mesh's file name, (piece index, file name) of each mesh piece) and the files."""
+    hit = _MESH_FILES.get(id(geometry))
     if hit is not None and hit[0] is geometry:
         return hit[1]
-    lists = (geometry.vertices.astype(np.float32).ravel().tolist(),
-             geometry.faces.astype(np.int32).ravel().tolist(),
-             geometry.texcoords.astype(np.float32).ravel().tolist(),
-             [(k, p.vertices.ravel().tolist()) for k, p in enumerate(geometry.pieces) if p.kind == "mesh"])
-    if len(_MESH_LISTS) >= _MESH_LISTS_MAX:
-        _MESH_LISTS.pop(next(iter(_MESH_LISTS)))
-    _MESH_LISTS[id(geometry)] = (geometry, lists)
-    return lists
+    visual, data = msh_file(geometry.vertices, geometry.faces, geometry.texcoords)
+    files = {visual: data}
+    pieces = []
+    for k, p in enumerate(geometry.pieces):
+        if p.kind == "mesh":
+            name, data = msh_file(p.vertices)
+            files[name] = data
+            pieces.append((k, name))
+    entry = ((visual, pieces), files)
+    if len(_MESH_FILES) >= _MESH_FILES_MAX:
+        _MESH_FILES.pop(next(iter(_MESH_FILES)))
+    _MESH_FILES[id(geometry)] = (geometry, entry)
+    return entry
 
 
 def _ensure_material(spec: mujoco.MjSpec, material: Material, colour: Colour) -> str:

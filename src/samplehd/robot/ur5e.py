@@ -37,7 +37,6 @@ Use :class:`samplehd.robot.controller.RobotController` rather than writing ``ctr
 
 from __future__ import annotations
 
-import hashlib
 import math
 import threading
 import warnings
@@ -48,6 +47,7 @@ import numpy as np
 
 from samplehd.errors import ConfigError
 from samplehd.fixedmath import norm
+from samplehd.physics import msh_file
 from samplehd.robot.constants import (
     ARM_KP,
     ARM_KV,
@@ -361,18 +361,6 @@ def _add_hand_look(spec: mujoco.MjSpec, gripper: mujoco.MjsBody, fingers: list[t
         geom.mass = 0.0
 
 
-def _mesh_asset(spec: mujoco.MjSpec, vertices: np.ndarray, faces: np.ndarray) -> str:
-    """Add a mesh to ``spec``'s in-memory assets as a binary ``.msh`` file named by its content and return
-    the name: MuJoCo keeps what it compiled from a file, so each arm mesh is processed once per process,
-    not at every compile (~30 ms a world). MuJoCo holds vertices as float32 either way: the same mesh."""
-    v = np.ascontiguousarray(vertices, dtype=np.float32)
-    f = np.ascontiguousarray(faces, dtype=np.int32)
-    data = np.array([len(v), 0, 0, len(f)], dtype=np.int32).tobytes() + v.tobytes() + f.tobytes()
-    name = f"samplehd_{hashlib.sha256(data).hexdigest()[:32]}.msh"
-    spec.assets = {**spec.assets, name: data}
-    return name
-
-
 def _add_arm_meshes(spec: mujoco.MjSpec, links: list[_LinkBuilder]) -> None:
     """The mesh look: the UR5e's visual meshes on the arm bodies; the arm's primitives hidden."""
     meshes = arm_meshes()
@@ -383,7 +371,8 @@ def _add_arm_meshes(spec: mujoco.MjSpec, links: list[_LinkBuilder]) -> None:
             geom.group = _HIDDEN_GROUP
         for k, part in enumerate(meshes.parts[link.name]):
             mesh = spec.add_mesh(name=f"{link.name}_mesh_{k}")
-            mesh.file = _mesh_asset(spec, part.vertices, part.faces)
+            mesh.file, data = msh_file(part.vertices, part.faces)
+            spec.assets = {**spec.assets, mesh.file: data}
             # Shell inertia needs no closed surface; the geom's zero mass makes it weightless anyway.
             mesh.inertia = mujoco.mjtMeshInertia.mjMESH_INERTIA_SHELL
             geom = link.body.add_geom(name=f"{link.name}_mesh_{k}", type=_GEOM.mjGEOM_MESH, meshname=mesh.name,
