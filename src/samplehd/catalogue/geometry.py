@@ -212,11 +212,11 @@ class ScissorsSpec:
 
 @dataclass(frozen=True)
 class ImportedSpec:
-    """Geometry of an imported mesh, stored in the user registry.
+    """Geometry of an imported mesh, stored in the user registry or the shipped pack.
 
     Attributes:
         path: the ``geometry.npz`` file holding the normalised mesh and its convex pieces.
-        digest: content hash of that file (part of the cache key).
+        digest: content hash of that file (checked on load).
     """
 
     path: str
@@ -422,7 +422,7 @@ def _build_scaled(spec: GeometrySpec, scale: float) -> ObjectGeometry:
 @lru_cache(maxsize=128)
 def _build_base(spec: GeometrySpec) -> ObjectGeometry:
     if isinstance(spec, ImportedSpec):
-        g = load_imported_geometry(spec.path)
+        g = load_imported_geometry(spec.path, spec.digest)
     elif isinstance(spec, MeshSpec):
         g = load_vendored_geometry(spec)
     else:

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from samplehd.catalogue.geometry import GRIPPER_STROKE
-from samplehd.catalogue.loader import load_catalogue, make_menu, parse_class
+from samplehd.catalogue.loader import CATALOGUES, load_catalogue, make_menu, pack_classes, parse_class
 from samplehd.catalogue.model import Catalogue, ObjectClass
 from samplehd.catalogue.registry import cache_dir, refresh, registry_dir
 from samplehd.catalogue.schema import Field, is_identifier, read_json
@@ -270,7 +270,7 @@ def import_mesh(
 
     Args:
         path: OBJ, STL, PLY or GLB file.
-        name: new class name (lower-case snake case; must not be a built-in class).
+        name: new class name (lower-case snake case; must not be a built-in or a shipped pack class).
         options: scaling and decomposition parameters.
         materials: materials the class's menu allows.
         colours: colours the menu allows (default: every colour that fits one of the materials).
@@ -283,7 +283,7 @@ def import_mesh(
         The registered class and a report dict (pieces, extents [m], volume [m^3], cached, seconds).
 
     Raises:
-        AssetError: bad name, unreadable/empty mesh, implausible size, unknown colour/material/size.
+        AssetError: bad or reserved name, unreadable/empty mesh, implausible size, unknown colour/material/size.
     """
     t0 = time.perf_counter()
     options = options or ImportOptions()
@@ -292,9 +292,11 @@ def import_mesh(
         raise AssetError(f"name={name!r}: use lower-case letters, digits and '_', starting with a letter", field="name")
     if len(name) > MAX_NAME:  # the registry's folder and file names carry it (255 bytes on most file systems)
         raise AssetError(f"name={name[:20]}... ({len(name)} characters): at most {MAX_NAME} characters", field="name")
-    existing = cat.classes.get(name)
-    if existing is not None and not existing.imported:
+    if any(name in load_catalogue(name=c).classes for c in CATALOGUES):
         raise AssetError(f"name={name!r} is a built-in class; choose another name", field="name")
+    if name in pack_classes():
+        raise AssetError(f"name={name!r} is a class of the shipped imported pack; choose another name",
+                         field="name")
     target = registry_dir() / name
     if target.exists() and not overwrite:
         raise AssetError(f"name={name!r} is already registered ({target}); pass `overwrite` to replace it",

@@ -12,10 +12,14 @@ shapes vendored from MuBlE, see ``shop_vrb/files.md``). Their variant names diff
 ... in ``shop-vrb``), so an :class:`~samplehd.catalogue.instance.ObjectInstance` says by its variant
 which catalogue it comes from (:func:`resolve_catalogue`).
 
-Imported classes live in the user registry (see :mod:`samplehd.catalogue.registry`), one
+Imported classes live in the user registry (see :mod:`samplehd.catalogue.registry`) and in the
+shipped pack (``data/imported_pack``: meshes from outside both built-in catalogues, written by
+``scripts/vendor_imported_pack.py`` with the importer, see ``imported_pack/files.md``), one
 ``<name>/class.json`` each with the same layout as one entry of ``classes.json``. A catalogue holds
 the built-in classes and only those imported classes that are asked for by name, and records a
-content hash of its data files and of every imported class it holds (:meth:`Catalogue.record`).
+content hash of its data files and of every imported class it holds (:meth:`Catalogue.record`). A
+pack class's name is reserved (the importer refuses it), and a name in both the pack and the user
+registry is the pack's, so a name means the same shape on every machine.
 
 Every problem is reported as one :class:`~samplehd.errors.AssetError` line naming the file, the
 field and what is valid; unknown keys are errors.
@@ -55,12 +59,15 @@ __all__ = [
     "TEXTURES",
     "catalogue_for",
     "load_catalogue",
+    "pack_classes",
     "parse_class",
     "read_catalogue",
     "resolve_catalogue",
 ]
 
 DATA_DIR = Path(__file__).parent / "data"
+# The shipped pack of imported classes, relative to the data directory.
+PACK = "imported_pack"
 FORMAT = 1
 _AFFORDANCES = ("graspable", "handle_pickable", "container", "stackable_on", "stackable")
 
@@ -77,7 +84,8 @@ LEGACY_CATALOGUE = "procedural"
 
 
 def load_catalogue(imported: Iterable[str] = (), name: str = DEFAULT_CATALOGUE) -> Catalogue:
-    """Return the built-in catalogue ``name`` plus the imported classes named in ``imported`` (cached).
+    """Return the built-in catalogue ``name`` plus the imported classes named in ``imported`` (cached):
+    classes of the shipped pack (:func:`pack_classes`) or of the user registry.
 
     Nothing in the user registry takes part unless named here, so a seeded run gives the same
     scenes on every machine whatever its user imported. Call
@@ -96,17 +104,22 @@ def load_catalogue(imported: Iterable[str] = (), name: str = DEFAULT_CATALOGUE) 
     return _load_cached(str(DATA_DIR), str(registry_dir()), tuple(sorted(set(imported))), generation(), name)
 
 
+def pack_classes(data_dir: Path = DATA_DIR) -> tuple[str, ...]:
+    """Names of the imported classes shipped in the pack (``data/imported_pack``), sorted."""
+    return registered_classes(Path(data_dir) / PACK)
+
+
 def catalogue_for(class_names: Iterable[str], name: str = DEFAULT_CATALOGUE) -> Catalogue:
     """The catalogue a config naming ``class_names`` needs: the built-in catalogue ``name`` plus
-    every named class found in the user registry. Names found in neither are left to the caller's
-    validation, which knows the file and field to name.
+    every named class found in the shipped pack or the user registry. Names found in none are left to
+    the caller's validation, which knows the file and field to name.
     """
     builtin = load_catalogue(name=name)
     wanted = [n for n in class_names if n not in builtin.classes]
     if not wanted:
         return builtin
-    registered = set(registered_classes())
-    return load_catalogue((n for n in wanted if n in registered), name)
+    known = {*pack_classes(), *registered_classes()}
+    return load_catalogue((n for n in wanted if n in known), name)
 
 
 def resolve_catalogue(
@@ -145,12 +158,14 @@ def read_catalogue(
     imported: Iterable[str] = (),
     name: str = DEFAULT_CATALOGUE,
 ) -> Catalogue:
-    """Read and validate the catalogue files in ``data_dir`` and the named classes of ``registry``.
+    """Read and validate the catalogue files in ``data_dir`` and the named imported classes.
 
     Args:
-        data_dir: directory holding colours.json, materials.json, sizes.json and the classes files.
+        data_dir: directory holding colours.json, materials.json, sizes.json, the classes files and
+            the pack of imported classes.
         registry: user registry directory with imported classes (default :func:`registry_dir`).
-        imported: names of the registry's classes to add (default: none).
+        imported: names of the pack's or the registry's classes to add (default: none); a name in
+            both is the pack's.
         name: which built-in catalogue's classes to read (:data:`CATALOGUES`).
 
     Returns:
@@ -183,21 +198,22 @@ def read_catalogue(
     names = tuple(dict.fromkeys(imported))
     if names:
         registry = registry_dir() if registry is None else Path(registry)
+        pack = pack_classes(data_dir)
         known = registered_classes(registry)
-        for name in names:
-            if name not in known:
+        for cname in names:
+            if cname not in pack and cname not in known:
                 raise AssetError(
-                    f"class {name!r}: neither built-in nor imported into {registry}; built-in classes: "
-                    f"{', '.join(classes)}; imported: {', '.join(known) or 'none'} "
-                    "(add one with `samplehd assets import`)"
+                    f"class {cname!r}: neither built-in nor imported into {registry}; built-in classes: "
+                    f"{', '.join(classes)}; shipped imported: {', '.join(pack) or 'none'}; imported: "
+                    f"{', '.join(known) or 'none'} (add one with `samplehd assets import`)"
                 )
-        for name in names:
-            path = registry / name / "class.json"
+        for cname in names:
+            path = (data_dir / PACK if cname in pack else registry) / cname / "class.json"
             f = read_json(path)
-            if name in classes:
-                raise f.fail(f"imported class {name!r} clashes with a built-in class; re-import under another name")
-            classes[name] = parse_class(base, f, name=name, imported=True, registry_dir=path.parent)
-            digests[name] = _digest(sorted(p for p in path.parent.iterdir() if p.is_file()))
+            if cname in classes:
+                raise f.fail(f"imported class {cname!r} clashes with a built-in class; re-import under another name")
+            classes[cname] = parse_class(base, f, name=cname, imported=True, registry_dir=path.parent)
+            digests[cname] = _digest(sorted(p for p in path.parent.iterdir() if p.is_file()))
     return Catalogue(colours, materials, sizes, weights, classes, digests, name)
 
 

@@ -6,14 +6,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import ConvexHull
 
 __all__ = [
     "read_mesh_arrays",
     "CollisionPiece",
+    "convex_pieces",
     "GraspSite",
     "ObjectGeometry",
     "Opening",
     "TopSurface",
+    "mesh_area",
     "planar_texcoords",
     "scale_tuple",
 ]
@@ -173,3 +176,21 @@ def read_mesh_arrays(path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
     with np.load(path, allow_pickle=False) as z:
         return (np.asarray(z["vertices"], np.float64), np.asarray(z["faces"], np.int32),
                 np.asarray(z["piece_counts"], np.int64), np.asarray(z["piece_points"], np.float64))
+
+
+def convex_pieces(counts: np.ndarray, points: np.ndarray) -> tuple[CollisionPiece, ...]:
+    """The convex collision pieces stored as point counts (P,) and their points stacked (sum, 3) [m]:
+    each piece is the convex hull of its points (numpy and scipy only, no mesh library)."""
+    pieces = []
+    for pts in np.split(points, np.cumsum(counts)[:-1]):
+        hull = ConvexHull(pts)
+        pieces.append(CollisionPiece("mesh", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+                                     np.ascontiguousarray(pts[hull.vertices]), float(hull.volume)))
+    return tuple(pieces)
+
+
+def mesh_area(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Surface area of a triangle mesh [m^2]."""
+    tri = vertices[faces]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    return 0.5 * float(np.sqrt((cross * cross).sum(axis=1)).sum())

@@ -23,10 +23,17 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
 from samplehd.catalogue.schema import Field
-from samplehd.catalogue.shape import CollisionPiece, GraspSite, ObjectGeometry, Opening, TopSurface, read_mesh_arrays
+from samplehd.catalogue.shape import (
+    GraspSite,
+    ObjectGeometry,
+    Opening,
+    TopSurface,
+    convex_pieces,
+    mesh_area,
+    read_mesh_arrays,
+)
 from samplehd.errors import AssetError
 
 __all__ = ["MeshSpec", "load_vendored_geometry", "mesh_texcoords", "parse_mesh"]
@@ -130,22 +137,15 @@ def load_vendored_geometry(spec: MeshSpec) -> ObjectGeometry:
         vertices, faces, counts, points = read_mesh_arrays(str(path))
     except (OSError, ValueError, KeyError) as exc:
         raise AssetError(f"{path}: damaged vendored mesh ({exc})") from None
-    pieces = []
-    for pts in np.split(points, np.cumsum(counts)[:-1]):
-        hull = ConvexHull(pts)
-        pieces.append(CollisionPiece("mesh", (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
-                                     np.ascontiguousarray(pts[hull.vertices]), float(hull.volume)))
     tri = vertices[faces]
-    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    area = 0.5 * float(np.sqrt((cross * cross).sum(axis=1)).sum())
     volume = float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum()) / 6.0
     return ObjectGeometry(
         vertices=vertices,
         faces=faces,
         texcoords=mesh_texcoords(vertices, faces),
-        pieces=tuple(pieces),
+        pieces=convex_pieces(counts, points),
         volume=spec.volume if spec.volume is not None else abs(volume),
-        area=area,
+        area=mesh_area(vertices, faces),
         top=spec.top,
         opening=spec.opening,
         grasps=spec.grasps,

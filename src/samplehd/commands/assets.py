@@ -22,7 +22,7 @@ from pathlib import Path
 from PIL import Image
 
 from samplehd.catalogue.instance import ObjectInstance
-from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE, catalogue_for, load_catalogue
+from samplehd.catalogue.loader import CATALOGUES, DEFAULT_CATALOGUE, catalogue_for, load_catalogue, pack_classes
 from samplehd.catalogue.preview import render_instances, write_catalogue_table
 from samplehd.catalogue.registry import registered_classes, remove_imported
 from samplehd.commands._options import (
@@ -116,7 +116,7 @@ def _catalogue_flag(p: argparse.ArgumentParser) -> None:
 
 
 def _list(args: argparse.Namespace) -> int:
-    cat = load_catalogue(registered_classes(), args.catalogue)
+    cat = load_catalogue((*pack_classes(), *registered_classes()), args.catalogue)
     rows = []
     for cls in cat.classes.values():
         for v in cls.variants.values():
