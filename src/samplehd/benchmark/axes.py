@@ -53,6 +53,9 @@ axis              what changes                                                 p
                   instruction is drawn again keeping each object's role
                   (``scene.objects``, ``instruction``, ``task``, ``program``,
                   ``program_sequence``, ``targets``)
+``imported_objects`` as ``unseen_objects``, but the new objects are of the       one object (5: five)
+                  shipped pack's imported classes (bottle, bread, lemon; one
+                  drawn per object), which no scene draws unless it names them
 ``task_swap``     another instruction of the same family and level on the same   the candidate at
                   scene, naming other objects (``instruction``, ``task``,       quantile (s − 1)/4
                   ``program``, ``program_sequence``, ``targets``): of up to     of word distance
@@ -68,7 +71,7 @@ An axis whose change cannot alter physics (``camera``, ``lighting``, ``textures`
 ``verbs``, ``nouns``, ``unseen_synonyms``, ``shuffled``, ``blank``: the
 oracle acts on state and the task, never on images or text) keeps its twin's oracle proof: the same
 rollout, bit for bit. A physical axis (``object_shift``, ``robot_start``, ``distractors``, ``task_swap``,
-``unseen_objects``) is proven again
+``unseen_objects``, ``imported_objects``) is proven again
 by the oracle through the env; a variant it fails, or that cannot be made (:class:`~samplehd.errors.SceneError`
 from :func:`perturb`), is replaced by the next attempt's. A variant that would
 equal its twin (an instruction with no word of a synonym group) is left out.
@@ -87,6 +90,7 @@ from typing import Any, TypedDict
 
 import numpy as np
 
+from samplehd.catalogue.loader import pack_classes
 from samplehd.envs.episodes import SceneCache, episode_from_options
 from samplehd.envs.suite_file import EpisodeRecord, SuiteEpisode
 from samplehd.errors import AssetError, ConfigError, SceneError
@@ -201,15 +205,29 @@ def _task_swap(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> No
 
 
 def _unseen_objects(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
+    _replace_objects(ep, strength, rng, lambda count: [sorted(HELD_OUT_CLASSES)] * count)
+
+
+def _imported_objects(ep: EpisodeRecord, strength: int, rng: np.random.Generator) -> None:
+    pack = pack_classes()
+    _replace_objects(ep, strength, rng, lambda count: [[pack[int(k)]] for k in rng.integers(len(pack), size=count)],
+                     pack)
+
+
+def _replace_objects(ep: EpisodeRecord, strength: int, rng: np.random.Generator,
+                     draw: Callable[[int], list[list[str]]], named: tuple[str, ...] = ()) -> None:
+    """Take ``strength`` objects of the scene away (the task's first, in their order in ``targets``),
+    place as many objects of the classes ``draw(count)`` gives (one list of classes per object) in free
+    spots, and draw the instruction again so that each object keeps its role. ``named``: imported
+    classes the replacements are drawn from (they join the catalogue by name)."""
     scene = SceneSpec.from_dict(ep["scene"])
-    config = SceneConfig(catalogue=ep["catalogue"])
+    config = SceneConfig(catalogue=ep["catalogue"], classes=named)
     targets = [int(t) for t in ep["targets"]]
     order = list(dict.fromkeys([*targets, *range(len(scene.objects))]))  # the task's objects first
     gone = order[:min(strength, len(order))]
     kept = [i for i in range(len(scene.objects)) if i not in gone]
     rest = replace(scene, objects=tuple(scene.objects[i] for i in kept))
-    held_out = sorted(HELD_OUT_CLASSES)
-    new = add_objects(rest, [held_out] * len(gone), rng, config)
+    new = add_objects(rest, draw(len(gone)), rng, config)
     index = {old: k for k, old in enumerate(kept)} | {old: len(kept) + k for k, old in enumerate(gone)}
     want = [index[t] for t in targets]  # in the twin's order: each object keeps its role
     annotation = SceneCache(config).annotation(new)
@@ -354,7 +372,8 @@ AXES: dict[str, Callable[[EpisodeRecord, int, np.random.Generator], None]] = {
     "camera": _camera, "lighting": _lighting, "object_shift": _object_shift, "robot_start": _robot_start,
     "sensor": _sensor, "paraphrase": _paraphrase, "shuffled": _shuffled, "blank": _blank,
     "distractors": _distractors, "task_swap": _task_swap, "textures": _textures, "verbs": _verbs,
-    "nouns": _nouns, "unseen_synonyms": _unseen_synonyms, "unseen_objects": _unseen_objects}
+    "nouns": _nouns, "unseen_synonyms": _unseen_synonyms, "unseen_objects": _unseen_objects,
+    "imported_objects": _imported_objects}
 # The episode fields (dotted paths) each axis may change; a variant equals its twin elsewhere.
 AXIS_FIELDS = {"camera": ("scene.camera",), "lighting": ("scene.lighting",), "object_shift": ("scene.objects",),
                "robot_start": ("start_state",), "sensor": ("sensor",), "paraphrase": ("instruction",),
@@ -362,12 +381,15 @@ AXIS_FIELDS = {"camera": ("scene.camera",), "lighting": ("scene.lighting",), "ob
                "task_swap": ("instruction", "task", "program", "program_sequence", "targets"),
                "textures": ("scene.surfaces",), "verbs": ("instruction",), "nouns": ("instruction",),
                "unseen_synonyms": ("instruction",),
-               "unseen_objects": ("scene.objects", "instruction", "task", "program", "program_sequence", "targets")}
-PHYSICAL_AXES = ("object_shift", "robot_start", "distractors", "task_swap", "unseen_objects")
+               "unseen_objects": ("scene.objects", "instruction", "task", "program", "program_sequence", "targets"),
+               "imported_objects": ("scene.objects", "instruction", "task", "program", "program_sequence",
+                                    "targets")}
+PHYSICAL_AXES = ("object_shift", "robot_start", "distractors", "task_swap", "unseen_objects", "imported_objects")
 # An axis's index in the seed of its directions: the first six sorted, then the others as they were added,
 # so an axis draws the same directions when another is added.
 _SEED_ORDER = ("camera", "object_shift", "paraphrase", "robot_start", "sensor", "shuffled", "blank", "lighting",
-               "distractors", "task_swap", "textures", "verbs", "nouns", "unseen_synonyms", "unseen_objects")
+               "distractors", "task_swap", "textures", "verbs", "nouns", "unseen_synonyms", "unseen_objects",
+               "imported_objects")
 
 
 def changed_fields(twin: Mapping[str, Any], variant: Mapping[str, Any]) -> set[str]:
