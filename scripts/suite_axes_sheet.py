@@ -2,7 +2,7 @@
 contact sheet: per axis the clean twin, then the variant, each captioned with the axis and its
 instruction; two axes per row. Written as a 128-colour PNG to stay small.
 
-    python scripts/suite_axes_sheet.py SUITE OUT.png [EPISODE] [--preset fast|hd|photo]
+    python scripts/suite_axes_sheet.py SUITE OUT.png [EPISODE] [--preset fast|hd|photo] [--axes AXIS ...]
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ def _captioned(frame: np.ndarray, title: str, text: str) -> np.ndarray:
     return np.concatenate([frame, np.asarray(strip)], axis=0)
 
 
-def main(suite_name: str, out: str, index: int = 0, preset: str = "fast") -> None:
+def main(suite_name: str, out: str, index: int = 0, preset: str = "fast", axes: tuple[str, ...] = tuple(AXES)) -> None:
     suite = read_suite(suite_name)
     twin = suite.episode(index).to_dict()
     # A slot per object: the distractors at strength 5 bring a scene to up to ten objects.
@@ -57,7 +57,7 @@ def main(suite_name: str, out: str, index: int = 0, preset: str = "fast") -> Non
                       scene={"max_objects": 12})
     tiles = []
     try:
-        for axis in AXES:
+        for axis in axes:
             variant = _variant(twin, axis)
             if isinstance(variant, str):
                 print(f"{axis}: no variant of episode {index}: {variant}")
@@ -79,5 +79,6 @@ if __name__ == "__main__":
     parser.add_argument("out")
     parser.add_argument("episode", nargs="?", type=int, default=0)
     parser.add_argument("--preset", default="fast", choices=("fast", "hd", "photo"))
+    parser.add_argument("--axes", nargs="+", default=list(AXES), choices=list(AXES), help="default: every axis")
     args = parser.parse_args()
-    main(args.suite, args.out, args.episode, args.preset)
+    main(args.suite, args.out, args.episode, args.preset, tuple(args.axes))
