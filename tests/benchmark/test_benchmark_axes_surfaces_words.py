@@ -8,12 +8,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import pytest
+from axis_variants import first_variant
 
 from samplehd.benchmark.axes import AXES, AXIS_FIELDS, PHYSICAL_AXES, check_instruction_fits, language_words, perturb
 from samplehd.envs.suite_file import SuiteEpisode, read_suite
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.envs.tokens import SPECIAL_TOKENS, instruction_vocabulary, tokenize
-from samplehd.errors import SceneError
 from samplehd.language.templates import default_synonyms
 from samplehd.render.renderer import SceneRenderer
 from samplehd.scene.spec import SceneSpec, compile_scene
@@ -150,20 +150,11 @@ def test_every_evaluation_renderer_shows_the_lighting_and_textures_axes(preset: 
     assert np.abs(recoloured[table] - clean[table]).mean() > 20.0
 
 
-def _unseen(twin: dict, strength: int) -> dict:
-    for attempt in range(6):  # an attempt may find no free spot or no instruction keeping the roles
-        try:
-            return perturb(twin, "unseen_objects", strength, seed=0, attempt=attempt)
-        except SceneError:
-            pass
-    raise AssertionError(f"no unseen_objects variant of {twin['instruction']!r} at strength {strength}")
-
-
 def test_unseen_objects_replace_the_task_objects_first_by_a_held_out_class_and_keep_the_others() -> None:
     twin = read_suite(TWINS).episodes[4].to_dict()  # "Please pick up the mug." among three objects
     objects = twin["scene"]["objects"]
     for strength in (1, 5):
-        variant = _unseen(twin, strength)
+        variant = first_variant(twin, "unseen_objects", strength)
         replaced = min(strength, len(objects))
         new = variant["scene"]["objects"]
         assert len(new) == len(objects)

@@ -6,24 +6,16 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from samplehd.benchmark.axes import AXES, AXIS_FIELDS, PHYSICAL_AXES, changed_fields, check_instruction_fits, perturb
+from axis_variants import first_variant
+
+from samplehd.benchmark.axes import AXES, AXIS_FIELDS, PHYSICAL_AXES, changed_fields, check_instruction_fits
 from samplehd.benchmark.suite import SuiteBuildConfig, build_suite
 from samplehd.catalogue.loader import pack_classes
 from samplehd.envs.suite_file import SUITE_SPEC_DIR, read_suite
-from samplehd.errors import SceneError
 from samplehd.language.lexicon import default_lexicon
 
 # Twelve oracle-proven episodes of an earlier build of smoke, which the tests of the axes are written on
 TWINS = Path(__file__).parent / "data" / "twins.json"
-
-
-def _imported(twin: dict, strength: int) -> dict:
-    for attempt in range(6):  # an attempt may find no free spot or no instruction keeping the roles
-        try:
-            return perturb(twin, "imported_objects", strength, seed=0, attempt=attempt)
-        except SceneError:
-            pass
-    raise AssertionError(f"no imported_objects variant of {twin['instruction']!r} at strength {strength}")
 
 
 def test_imported_objects_replace_the_task_objects_first_by_pack_classes_and_keep_the_others() -> None:
@@ -31,8 +23,9 @@ def test_imported_objects_replace_the_task_objects_first_by_pack_classes_and_kee
     objects = twin["scene"]["objects"]
     pack = set(pack_classes())
     for strength in (1, 3, 5):
-        variant = _imported(twin, strength)
-        assert variant == _imported(twin, strength)  # a function of the seed, twin, strength and attempt
+        variant = first_variant(twin, "imported_objects", strength)
+        # a function of the seed, twin, strength and attempt
+        assert variant == first_variant(twin, "imported_objects", strength)
         replaced = min(strength, len(objects))
         new = variant["scene"]["objects"]
         assert len(new) == len(objects)
