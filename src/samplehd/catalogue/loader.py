@@ -104,8 +104,10 @@ def load_catalogue(imported: Iterable[str] = (), name: str = DEFAULT_CATALOGUE) 
     return _load_cached(str(DATA_DIR), str(registry_dir()), tuple(sorted(set(imported))), generation(), name)
 
 
+@lru_cache(maxsize=4)
 def pack_classes(data_dir: Path = DATA_DIR) -> tuple[str, ...]:
-    """Names of the imported classes shipped in the pack (``data/imported_pack``), sorted."""
+    """Names of the imported classes shipped in the pack (``data/imported_pack``), sorted. The pack is
+    package data, so its listing is read once per directory."""
     return registered_classes(Path(data_dir) / PACK)
 
 
