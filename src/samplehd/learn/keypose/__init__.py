@@ -10,7 +10,6 @@ as in Transporter networks, CLIPort and PerAct. Modules, one job each (LeRobot's
   steering vectors;
 - :mod:`~samplehd.learn.keypose.inference`: :class:`KeyposePolicy`, a trained one that acts;
 - :mod:`~samplehd.learn.keypose.exclusion`: grounding a noun it never heard by exclusion (L4);
-- :mod:`~samplehd.learn.keypose.naming`: the grasp on an object of the class the instruction names;
 - :mod:`~samplehd.learn.keypose.preparation`: the training samples of a dataset;
 - :mod:`~samplehd.learn.keypose.training`: :func:`train_keypose`.
 

@@ -4,11 +4,8 @@ goes, and carries the decision out with :class:`~samplehd.learn.keypose.follower
 steering vector per ``env.step``; after each release, after a grasp that closed on nothing and after
 the fingers were found empty (the object slipped out), it goes back to its start pose and looks again,
 until the episode ends (as a closed-loop behaviour-cloning policy acts until the environment says
-success or time is up) or :data:`MAX_DECISIONS` are made. Which object it grasps is checked against
-the words: a noun it never heard is grounded by exclusion (:mod:`~samplehd.learn.keypose.exclusion`),
-and a grasp on none of the objects the instruction names to move is sought again on them
-(:mod:`~samplehd.learn.keypose.naming`). The network's "last decision" flag is kept in the diagnosis
-only: it is right on about as many held-out decisions as always saying yes.
+success or time is up) or :data:`MAX_DECISIONS` are made. The network's "last decision" flag is kept
+in the diagnosis only: it is right on about as many held-out decisions as always saying yes.
 """
 
 from __future__ import annotations
@@ -29,17 +26,9 @@ from samplehd.learn.keypose.configuration import (
     policy_instruction,
     policy_tokens,
 )
-from samplehd.learn.keypose.exclusion import (
-    SeenObject,
-    exclusion_target,
-    moves_unheard,
-    named_classes,
-    table_objects,
-    unknown_nouns,
-)
+from samplehd.learn.keypose.exclusion import SeenObject, exclusion_target, moves_unheard, table_objects, unknown_nouns
 from samplehd.learn.keypose.follower import KeyposeFollower
 from samplehd.learn.keypose.modeling import KeyposeNet
-from samplehd.learn.keypose.naming import moved_phrase, named_cells
 from samplehd.learn.keypose.processing import (
     FACTOR,
     HEIGHT_UNIT,
@@ -58,7 +47,7 @@ from samplehd.robot.constants import GRIPPER_STROKE
 from samplehd.world.layout import LAYOUT
 
 __all__ = ["AVOID_RADIUS", "GROUNDED_GRASP_OVER_TOP", "MAX_DECISIONS", "KeyposeDiagnosis", "KeyposePolicy",
-           "decide_on", "grounded_grasp", "predict_decisions"]
+           "grounded_grasp", "predict_decisions"]
 
 
 AVOID_RADIUS = 0.03  # a later grasp is not sought this close to an earlier grasp or release [m]
@@ -82,15 +71,13 @@ class DecisionRecord(TypedDict):
 class KeyposeDiagnosis(TypedDict, total=False):
     """A keypose episode so far (:meth:`KeyposePolicy.diagnosis`; empty before the first decision): the
     follower's stage, the decisions made again after the fingers were found empty and where each time
-    (:data:`~samplehd.learn.keypose.follower.LOST_AT`), whether grounding by exclusion fired, how many
-    decisions' grasps were sought again on the objects the instruction names
-    (:mod:`samplehd.learn.keypose.naming`), and the decisions."""
+    (:data:`~samplehd.learn.keypose.follower.LOST_AT`), whether grounding by exclusion fired, and the
+    decisions."""
 
     stage: str
     retries: int
     lost: list[str]
     exclusion: bool
-    redirected: int
     decisions: list[DecisionRecord]
 
 
@@ -132,9 +119,6 @@ class KeyposePolicy:
         self.exclusion = False  # whether this episode's instruction fired the rule of grounding by exclusion
         self._restricted = False  # whether the current decision's grasp was sought on that object alone ...
         self._grounded_moved = False  # ... and whether such a decision has moved it (the rule is then done)
-        self._carried = False  # whether a decision has carried an object through (naming's rule is then done)
-        self.redirected = 0  # decisions whose grasp was sought again on the objects the instruction names
-        self._objects: list[SeenObject] | None = None  # the current decision's objects on the map
         self.retries = 0  # decisions made again after the fingers were found empty ...
         self.lost: list[str] = []  # ... and where, each time (KeyposeFollower.lost)
 
@@ -161,38 +145,11 @@ class KeyposePolicy:
             grid_t = torch.as_tensor(grid[None], device=self.device)
             tokens_t = torch.as_tensor(tokens[None], device=self.device)
             features = self.net.features(grid_t, tokens_t)
-            self._objects = None
             grounded = self._grounded_by_exclusion(text, grid, features[1])
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
-            if grounded is not None:
-                decision = predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [grounded.cells],
-                                             features)[0]
-                return grounded_grasp(decision, grounded)
-            named = self._named(text, grid, features[1])
-            decision, redirected = decide_on(self.net, grid_t, tokens_t, self.grid, avoid, named, features)
-        self.redirected += redirected
-        return decision
-
-    def _table_objects(self, grid: np.ndarray, feats: Any) -> list[SeenObject]:
-        """The objects on the policy's map of the table, with the auxiliary maps' guesses
-        (:func:`~samplehd.learn.keypose.exclusion.table_objects`), found once per decision."""
-        if self._objects is None:
-            vocabulary = self.config.vocabulary
-            maps = self.net.attributes(feats)[0].view(len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, *feats.shape[2:])
-            maps = maps.cpu().numpy().astype(np.float64)
-            logits = {a: maps[k, :len(vocabulary.values(a))] for k, a in enumerate(KEYPOSE_ATTRIBUTES)}
-            self._objects = table_objects(grid, logits["name"], logits, vocabulary, FACTOR, self.grid.cell)
-        return self._objects
-
-    def _named(self, instruction: str, grid: np.ndarray, feats: Any) -> np.ndarray | None:
-        """The cells of the objects the instruction names to move (:mod:`samplehd.learn.keypose.naming`),
-        or None where it names none the policy knows, and once a decision has carried an object through:
-        the phrase of what to move names the first object moved ("stack the plate on the board and then
-        the bowl on the plate"), and what the next decisions move is the network's to find."""
-        if self._carried or not named_classes(moved_phrase(instruction), self.config.vocabulary):
-            return None
-        return named_cells(instruction, self.config.vocabulary, self._table_objects(grid, feats),
-                           self.grid.coarse(FACTOR))
+            only = None if grounded is None else grounded.cells
+            decision = predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [only], features)[0]
+        return decision if grounded is None else grounded_grasp(decision, grounded)
 
     def _grounded_by_exclusion(self, instruction: str, grid: np.ndarray, feats: Any) -> SeenObject | None:
         """The object an unheard noun means (:mod:`samplehd.learn.keypose.exclusion`), or None
@@ -207,7 +164,10 @@ class KeyposePolicy:
         self.exclusion = True
         if self._grounded_moved or not moves_unheard(instruction, vocabulary):
             return None
-        objects = self._table_objects(grid, feats)
+        maps = self.net.attributes(feats)[0].view(len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, *feats.shape[2:])
+        maps = maps.cpu().numpy().astype(np.float64)
+        logits = {a: maps[k, :len(vocabulary.values(a))] for k, a in enumerate(KEYPOSE_ATTRIBUTES)}
+        objects = table_objects(grid, logits["name"], logits, vocabulary, FACTOR, self.grid.cell)
         target = exclusion_target(instruction, vocabulary, objects)
         self._restricted = target is not None
         return None if target is None else objects[target]
@@ -225,7 +185,6 @@ class KeyposePolicy:
                 self.retries += 1
                 self.lost.append(follower.lost)
             self._grounded_moved |= follower is not None and self._restricted and follower.lost is None
-            self._carried |= follower is not None and follower.lost is None
             decision = self.decide(str(obs["instruction"]))
             self.decisions.append(decision)
             follower = self._follower = KeyposeFollower(decision, obs, self._home, self.env,
@@ -242,7 +201,6 @@ class KeyposePolicy:
             return {}
         lost = self.lost + ([follower.lost] if follower.lost is not None else [])
         return {"stage": follower.stage, "retries": self.retries, "lost": lost, "exclusion": self.exclusion,
-                "redirected": self.redirected,
                 "decisions": [{"grasp": [round(v, 3) for v in d.grasp], "goal": [round(v, 3) for v in d.goal],
                                "release": d.release, "last": d.last} for d in self.decisions]}
 
@@ -259,23 +217,6 @@ def grounded_grasp(decision: Decision, grounded: SeenObject) -> Decision:
     x, y, z, yaw = decision.grasp
     top = LAYOUT.table_height + grounded.shape[0] + GROUNDED_GRASP_OVER_TOP
     return replace(decision, grasp=(x, y, min(z, top), yaw), opening=GRIPPER_STROKE)
-
-
-def decide_on(net: Any, grid_image: Any, tokens: Any, grid: TopDownGrid, avoid: Sequence[np.ndarray],
-              cells: np.ndarray | None, features: Any = None) -> tuple[Decision, bool]:
-    """The decision on one grid image (a batch of one) with its grasp on ``cells`` of the network's map
-    (bool, rows × cols; :func:`samplehd.learn.keypose.naming.named_cells`), and whether that moved it:
-    the grasp map's choice stands where it lies on them (or ``cells`` is None), else the grasp is sought
-    on them alone (:func:`predict_decisions`)."""
-    decision = predict_decisions(net, grid_image, tokens, grid, [avoid], None, features)[0]
-    if cells is None:
-        return decision, False
-    coarse = grid.coarse(FACTOR)
-    row, col = np.clip(np.rint(coarse.cell_of(np.asarray(decision.grasp[:2]))).astype(int), 0,
-                       [coarse.rows - 1, coarse.cols - 1])
-    if cells[row, col]:
-        return decision, False
-    return predict_decisions(net, grid_image, tokens, grid, [avoid], [cells], features)[0], True
 
 
 def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid,
