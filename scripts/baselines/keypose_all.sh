@@ -62,12 +62,15 @@ if [[ -n "${BLIND:-}" ]]; then
   [[ -f "$out/reports/keypose_blind_core.json" ]] || "$bin" evaluate --policy bc --models "$blind" --suite "$suite" \
     --workers "$workers" --out "$out/reports/keypose_blind_core.json"
 fi
-# one video per family: the first L1 episode of each
+# one video per family: the first L1 episode of each, filmed at 480x360 (the env's images, which the
+# keypose policy does not read: it renders its own view of the table)
 videos="$out/reports/core_shop_l1_video.json"
 [[ -f "$videos" ]] || "$bin" suite build core-shop-l1-video --base core --catalogues shop-vrb --levels L1 \
   --base-per-cell 1 --out "$videos" --quiet
+echo '{"width": 480, "height": 360}' > "$out/reports/video_env.json"
 [[ -f "$out/reports/keypose_all_videos.json" ]] || "$bin" evaluate --policy bc --models "$model" --suite "$videos" \
-  --workers "$workers" --video "$out/videos" --out "$out/reports/keypose_all_videos.json"
+  --workers "$workers" --env-options "$out/reports/video_env.json" --video "$out/videos" \
+  --out "$out/reports/keypose_all_videos.json"
 
 {
   commit=$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)
