@@ -6,16 +6,18 @@ more often than it misses a grasp. Grounding keeps the two apart, as 3D-LOTUS++ 
 the parser turns the instruction into a program, the perception model turns the scene camera's
 RGB-D into objects with class, colour, material, size and position, and the program, run on them by
 the project's executor (with the next likeliest labels where the top ones find nothing), names the
-objects the instruction moves, in order. The policy then seeks its grasp on the object to move next
-only: the raised cells of its own map that hold that object's perceived position, within
-:data:`GROUND_RADIUS` of it.
+objects the instruction moves. The policy then seeks its grasp on those objects only: the cells of
+its own map of the raised group (with the cells it encloses and its edge) that holds an object's
+perceived position, within :data:`GROUND_RADIUS` of it.
 
-The object to move next is the first of the task's objects not standing where this episode let an
-object go (within :data:`RELEASED_RADIUS`): a tower's middle object once set down is not lifted
-again, and the program, run again on the current view, no longer names what ``remove`` has carried
-off. Grounding stands aside (the network chooses alone) when the program finds no object, when the
-instruction names classes and the perception model calls the object none of them (a parse gone wrong
-on an unfamiliar phrasing), or when the object's position holds no raised cell of the map.
+The objects still to move are those of the task not standing where this episode let an object go
+(within :data:`RELEASED_RADIUS`); the program, run again on each new view, no longer names what
+``remove`` has carried off. The network chooses the order among them, as it learnt to, but for a tower
+(:data:`ORDERED`), which is built from the bottom up: its first object still to move. Grounding stands
+aside (the network chooses alone) when the program uses a value more often than the instruction says
+it (:func:`unsaid_value`: a parse gone wrong on an unfamiliar phrasing), when the program finds no
+object, when the instruction names classes and perception calls an object to move none of them, or when
+no raised cell of the map lies at the objects.
 """
 
 from __future__ import annotations
@@ -25,7 +27,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 
+from samplehd.envs.tokens import tokenize
 from samplehd.language.lexicon import default_lexicon
 from samplehd.learn.keypose.exclusion import classes_said, raised_groups
 from samplehd.learn.neurosymbolic import SCENE_MODALITIES, perceived_task
@@ -35,33 +39,84 @@ from samplehd.learn.topdown import TopDownGrid
 from samplehd.render.renderer import SceneRenderer, camera_intrinsics, camera_pose
 from samplehd.scene.annotate import SceneAnnotation
 
-__all__ = ["GROUND_RADIUS", "RELEASED_RADIUS", "Grounded", "ProgramGrounding", "grounded_cells", "next_to_move"]
+__all__ = ["GROUND_RADIUS", "ORDERED", "RELEASED_RADIUS", "Grounded", "ProgramGrounding", "grounded_cells",
+           "next_to_move", "still_to_move", "unsaid_value"]
 
 GROUND_RADIUS = 0.08  # the grasp is sought on map cells this close to the object's perceived position [m]
 RELEASED_RADIUS = 0.04  # an object this close to where the episode let one go has been moved [m]
+ORDERED = frozenset({"stack_three"})  # the program actions whose objects are moved in the task's order
 
 
 class Grounded(dict):
     """What grounding found for one decision (copied into the diagnosis): ``program`` (the parser's),
-    ``objects`` (the perceived objects the task moves: name and x, y), ``target`` (the one to move next,
-    or None) and ``why`` (why grounding stood aside, when it did)."""
+    ``objects`` (the perceived objects the task moves: name and x, y), ``targets`` (x, y of those the
+    grasp is sought on; empty when grounding stood aside) and ``why`` (why it stood aside, when it did)."""
+
+
+_FILTERS = {"filter_name": "name", "filter_shape": "name", "filter_colour": "colour", "filter_color": "colour",
+            "filter_material": "material", "filter_size": "size"}
+
+
+def _times_said(tokens: Sequence[str], phrases: Sequence[str]) -> int:
+    n = 0
+    for phrase in set(phrases):
+        words = tokenize(phrase)
+        n += sum(list(tokens[i:i + len(words)]) == words for i in range(len(tokens) - len(words) + 1))
+    return n
+
+
+def unsaid_value(program: Sequence[str], instruction: str) -> str | None:
+    """The first value of ``program`` (a flat program's tokens, action first) that it uses more often than
+    ``instruction`` says it, or None. Each filter's value counts once, and the action's (a part, a
+    relation) once where the instruction says it at all: ``remove``'s destination goes unsaid ("Empty
+    the right part" is ``place[left] scene filter_table[right]``). A class is said by its noun, singular
+    or plural; a colour, material or size by its word (``medium-sized``); anything else by itself."""
+    tokens = tokenize(instruction)
+    lexicon = default_lexicon()
+    need: dict[tuple[str, str], int] = {}
+    for k, token in enumerate(program):
+        op, _, rest = token.partition("[")
+        if not rest.endswith("]"):
+            continue
+        kind = _FILTERS.get(op, "" if op.startswith("filter_") or k > 0 else "action")
+        need[(kind, rest[:-1])] = need.get((kind, rest[:-1]), 0) + 1
+    said: dict[str, int] = {}
+    for (kind, value), n in need.items():
+        if kind == "name":
+            phrases: Sequence[str] = lexicon.nouns.get(value, (value.replace("_", " "),))
+        elif kind in ("colour", "material", "size"):
+            phrases = (lexicon.adjectives.get(kind, {}).get(value, value),)
+        else:
+            phrases = (value.replace("_", " "),)
+        times = _times_said(tokens, phrases)
+        said[value] = said.get(value, 0) + (0 if kind == "action" and times == 0 else n)
+        if said[value] > times:
+            return value
+    return None
+
+
+def still_to_move(moved: Sequence[Sequence[float]], released: Sequence[Sequence[float]]) -> list[int]:
+    """The indices of ``moved`` (x, y [m] of the task's objects) that stand farther than
+    :data:`RELEASED_RADIUS` from every point of ``released`` (x, y), in order."""
+    return [i for i, xy in enumerate(moved)
+            if all(np.hypot(xy[0] - r[0], xy[1] - r[1]) > RELEASED_RADIUS for r in released)]
 
 
 def next_to_move(moved: Sequence[Sequence[float]], released: Sequence[Sequence[float]]) -> int | None:
-    """The index of the first of ``moved`` (x, y [m], in the order the task moves them) that stands
-    farther than :data:`RELEASED_RADIUS` from every point of ``released`` (x, y), or None."""
-    for i, xy in enumerate(moved):
-        if all(np.hypot(xy[0] - r[0], xy[1] - r[1]) > RELEASED_RADIUS for r in released):
-            return i
-    return None
+    """The first of :func:`still_to_move`, or None."""
+    left = still_to_move(moved, released)
+    return left[0] if left else None
 
 
 def grounded_cells(grid: np.ndarray, xy: Sequence[float], coarse: TopDownGrid, factor: int) -> np.ndarray | None:
     """The cells of the network's map (``coarse``: rows × cols, bool) the grasp of the object perceived
     at ``xy`` is sought in: those of the raised group of cells (:func:`raised_groups` of the grid image
-    ``grid``) nearest to ``xy`` that lie within :data:`GROUND_RADIUS` of it; None when no raised cell
-    does."""
-    _, groups = raised_groups(grid, coarse.rows, coarse.cols, factor)
+    ``grid``, with the cells it encloses and a cell around it) nearest to ``xy`` that lie within
+    :data:`GROUND_RADIUS` of it; None when no such cell does."""
+    _, raised = raised_groups(grid, coarse.rows, coarse.cols, factor)
+    # a group's cells the camera does not see into (a mug's or a bowl's inside) and its rim's edge cells
+    # belong to it: the grasp of a mug is often there
+    groups = [ndimage.binary_fill_holes(ndimage.binary_dilation(g)) for g in raised]
     centres = coarse.world(*np.meshgrid(np.arange(coarse.rows), np.arange(coarse.cols), indexing="ij"))
     near = np.hypot(centres[..., 0] - xy[0], centres[..., 1] - xy[1])
     best: tuple[float, np.ndarray] | None = None
@@ -117,8 +172,12 @@ class ProgramGrounding:
         """The object the instruction moves next in ``env``'s current scene (``released``: x, y [m] where
         this episode let objects go)."""
         program = self.program(instruction)
+        found = Grounded(program=" ".join(program), objects=[], targets=[])
+        unsaid = unsaid_value(program, instruction)
+        if unsaid is not None:
+            found["why"] = f"the program uses {unsaid!r} more often than the instruction says it"
+            return found
         perceived = self.perceive(env)
-        found = Grounded(program=" ".join(program), objects=[], target=None)
         task = perceived_task(program, perceived)
         if task is None or not task["objects"]:
             found["why"] = "the program finds no object"
@@ -126,15 +185,18 @@ class ProgramGrounding:
         objects: list[Mapping[str, Any]] = [perceived["objects"][i] for i in task["objects"]]
         moved = [tuple(float(v) for v in o["3d_coords"][:2]) for o in objects]
         found["objects"] = [[o["name"], round(x, 3), round(y, 3)] for o, (x, y) in zip(objects, moved, strict=True)]
-        k = next_to_move(moved, released)
-        if k is None:
+        left = still_to_move(moved, released)
+        if not left:
             found["why"] = "every object it moves stands where one was let go"
             return found
+        if task["type"] in ORDERED:
+            left = left[:1]
         named = classes_said(instruction, self.classes)
-        if named and objects[k]["name"] not in named:
-            found["why"] = f"the instruction names {sorted(named)}, not {objects[k]['name']!r}"
+        wrong = sorted({objects[k]["name"] for k in left} - named) if named else []
+        if wrong:
+            found["why"] = f"the instruction names {sorted(named)}, not {wrong}"
             return found
-        found["target"] = list(moved[k])
+        found["targets"] = [[round(moved[k][0], 4), round(moved[k][1], 4)] for k in left]
         return found
 
     def close(self) -> None:

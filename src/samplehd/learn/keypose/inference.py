@@ -170,16 +170,15 @@ class KeyposePolicy:
         chooses alone, as it does when the instruction has a word it never heard in a noun's place:
         grounding by exclusion's); what it found is kept for the diagnosis."""
         if self.exclusion:
-            found = Grounded(program="", objects=[], target=None, why="an unheard noun: grounding by exclusion's")
+            found = Grounded(program="", objects=[], targets=[], why="an unheard noun: grounding by exclusion's")
         else:
             found = self.grounding.target(instruction, self.env, self.released)
-        cells = None
-        if found["target"] is not None:
-            cells = grounded_cells(grid, found["target"], self.grid.coarse(FACTOR), FACTOR)
-            if cells is None:
-                found["why"] = "no raised cell of the map at the object"
+        coarse = self.grid.coarse(FACTOR)
+        at = [c for xy in found["targets"] if (c := grounded_cells(grid, xy, coarse, FACTOR)) is not None]
+        if found["targets"] and not at:
+            found["why"] = "no raised cell of the map at the objects"
         self.grounded.append(found)
-        return cells
+        return np.logical_or.reduce(at) if at else None
 
     def _grounded_by_exclusion(self, instruction: str, grid: np.ndarray, feats: Any) -> SeenObject | None:
         """The object an unheard noun means (:mod:`samplehd.learn.keypose.exclusion`), or None
