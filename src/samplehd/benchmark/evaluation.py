@@ -84,8 +84,6 @@ class EvalConfig(Config, section="EvalConfig"):
             policy's folder).
         programs: ``neurosymbolic``: ``predicted`` or ``gt`` programs.
         perception: ``neurosymbolic``: ``predicted`` or ``gt`` scene annotations.
-        grounding: ``bc`` with a keypose policy: a folder with parser/ and perception/ that say which
-            object to move (:mod:`samplehd.learn.keypose.grounding`); None: the policy alone.
         level: generalisation level L1–L4, or None (the plain split).
         suite: a shipped suite's name or a suite file: run every episode of it instead of a drawn
             split (``episodes``, ``families``, ``seed`` and ``level`` are then not used).
@@ -102,7 +100,6 @@ class EvalConfig(Config, section="EvalConfig"):
     models: str | None = None
     programs: str = bounded("predicted", choices=("gt", "predicted"))
     perception: str = bounded("predicted", choices=("gt", "predicted"))
-    grounding: str | None = None
     level: str | None = bounded(None, choices=LEVELS)
     suite: str | None = None
 
@@ -540,7 +537,6 @@ class EvalReport:
         records: one per episode, by index.
         statistics: every rate with its 95 % interval (:func:`samplehd.benchmark.statistics.summarize`),
             once the run is complete; None before.
-        grounding: the keypose policy's grounding models folder, or None (then not written).
     """
 
     policy: str
@@ -558,7 +554,6 @@ class EvalReport:
     wall_s: float
     records: tuple[EpisodeRecord, ...]
     statistics: dict[str, Any] | None = None
-    grounding: str | None = None
 
     @property
     def success_rate(self) -> float:
@@ -569,8 +564,7 @@ class EvalReport:
         """The report as written to its JSON file."""
         d: dict[str, Any] = {
             "policy": self.policy, "partial": self.partial, "split": self.split.to_dict(), "models": self.models,
-            "programs": self.programs, "perception": self.perception,
-            **({"grounding": self.grounding} if self.grounding is not None else {}), "env": self.env.to_dict(),
+            "programs": self.programs, "perception": self.perception, "env": self.env.to_dict(),
             "catalogue": self.catalogue, **self.overall.to_dict(),
             "by_family": {k: v.to_dict() for k, v in self.by_family.items()}}
         if self.by_level is not None:
@@ -668,4 +662,4 @@ def _report(config: EvalConfig, records: list[EpisodeRecord], t0: float, suite: 
         # The split's scenes draw from the built-in catalogue plus imported classes the env options name.
         catalogue=catalogue_for(env.scene.named_classes, env.scene.catalogue).record(),
         overall=GroupSummary.of(records), by_family=by_family, by_level=by_level, by_axis=by_axis,
-        wall_s=round(time.perf_counter() - t0, 2), records=tuple(records), grounding=config.grounding)
+        wall_s=round(time.perf_counter() - t0, 2), records=tuple(records))

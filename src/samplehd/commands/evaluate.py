@@ -15,7 +15,6 @@ from samplehd.envs.config import CONTROL_MODES, OBS_MODES, EnvConfig
 from samplehd.envs.suite_file import read_suite
 from samplehd.errors import ConfigError
 from samplehd.fileio import read_json, resolve_path
-from samplehd.learn.keypose.configuration import ACTION as KEYPOSE_ACTION
 from samplehd.learn.options import env_options
 from samplehd.tasks.task import family_names
 
@@ -30,9 +29,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "or MODULE:CALLABLE (obs -> action)")
     parser.add_argument("--models", type=Path, help="trained models: neurosymbolic: a folder with parser/ and "
                                                     "perception/; bc: the folder of `samplehd train policy`")
-    parser.add_argument("--grounding", type=Path, metavar="DIR",
-                        help="bc with a keypose policy: a folder with parser/ and perception/ (`samplehd train`) "
-                             "that say which object to move; the policy's grasp is sought on it")
     parser.add_argument("--programs", choices=("gt", "predicted"),
                         help="neurosymbolic: the instruction's program (gt) or the parser's (default predicted)")
     parser.add_argument("--perception", choices=("gt", "predicted"),
@@ -69,8 +65,7 @@ def run(args: argparse.Namespace) -> int:
 
     for flag, value, policies in (("--programs", args.programs, ("neurosymbolic",)),
                                   ("--perception", args.perception, ("neurosymbolic",)),
-                                  ("--models", args.models, ("neurosymbolic", "bc")),
-                                  ("--grounding", args.grounding, ("bc",))):
+                                  ("--models", args.models, ("neurosymbolic", "bc"))):
         if value is not None and args.policy not in policies:
             raise ConfigError(f"{flag} {value}: only used with --policy {' or '.join(policies)}, not "
                               f"{args.policy!r}; leave it out")
@@ -123,10 +118,8 @@ def run(args: argparse.Namespace) -> int:
     beside = companion_paths(args.out) if args.out else {}
     check_outputs({"--out": args.out, "--out (tables)": beside.get("markdown"),
                    "--out (curves)": beside.get("curves"), "--video": args.video},
-                  {"--env-options": args.env_options, "--models": args.models, "--grounding": args.grounding})
+                  {"--env-options": args.env_options, "--models": args.models})
     _refuse_outputs_inside_models(args)
-    if args.grounding is not None:
-        _check_grounding(args)
     load_policy_module(args.policy)
     if checkpoint is not None:
         print(f"lerobot: {checkpoint.policy_type} policy {checkpoint.path}; environment from "
@@ -136,7 +129,6 @@ def run(args: argparse.Namespace) -> int:
                                  video_dir=str(args.video) if args.video else None, workers=args.workers,
                                  compare_offline=args.compare_offline,
                                  models=str(args.models) if args.models else None, programs=args.programs,
-                                 grounding=str(args.grounding) if args.grounding else None,
                                  perception=args.perception, level=args.level, suite=args.suite)
 
     def show(r: EpisodeRecord) -> None:
@@ -163,19 +155,6 @@ def run(args: argparse.Namespace) -> int:
     if args.out:
         print(f"wrote {beside['markdown']}" + (f" and {beside['curves']}" if stats.get("curves") else ""))
     return 0
-
-
-def _check_grounding(args: argparse.Namespace) -> None:
-    """--grounding names a parser and a perception model that load, for a keypose policy in --models."""
-    if args.models is None:
-        raise ConfigError(f"--grounding {args.grounding}: grounds a keypose policy; give its folder as --models")
-    action = read_json(args.models / "config.json", ConfigError, f"--models {args.models}").get("action")
-    if action != KEYPOSE_ACTION:
-        raise ConfigError(f"--grounding {args.grounding}: grounds a keypose policy; the policy in --models "
-                          f"{args.models} has action={action!r}")
-    from samplehd.learn.keypose.grounding import ProgramGrounding  # noqa: PLC0415 - loads PyTorch
-
-    ProgramGrounding(args.grounding).close()  # its models load (one-line errors otherwise)
 
 
 def _refuse_env_the_policy_cannot_use(args: argparse.Namespace, flags: dict, policy_env: dict, env: dict) -> None:

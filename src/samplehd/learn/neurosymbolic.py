@@ -34,7 +34,7 @@ from samplehd.render.renderer import SceneRenderer, camera_intrinsics, camera_po
 from samplehd.scene.annotate import ObjectAnnotation, SceneAnnotation
 from samplehd.tasks.task import ProgramTask, family_of_program, parse_task
 
-__all__ = ["NeuroSymbolicPolicy", "perceived_task", "policy_for_evaluation"]
+__all__ = ["NeuroSymbolicPolicy", "policy_for_evaluation"]
 
 _CHOICES = ("gt", "predicted")
 
@@ -98,21 +98,6 @@ def _relaxed(program: Sequence[str], perceived: SceneAnnotation,
         if task is not None:
             return task
     return None
-
-
-def _run(program: Sequence[str], scene: Any) -> ProgramTask | None:
-    try:
-        return execute(list(program), scene).to_program_dict()
-    except (ProgramError, ValueError):
-        return None
-
-
-def perceived_task(program: Sequence[str], perceived: SceneAnnotation, scene: Any = None) -> ProgramTask | None:
-    """The task ``program`` gives on a perceived scene annotation (its objects are indices into
-    ``perceived["objects"]``), with the next likeliest labels where the top ones find no object or too
-    many; None when no labelling gives one. ``scene``: ``parse_scene(perceived)`` when the caller has it."""
-    task = _run(program, parse_scene(perceived) if scene is None else scene)
-    return task if task is not None else _relaxed(program, perceived, _run)
 
 
 def _same(a: ProgramTask | None, b: ProgramTask) -> bool:
@@ -189,6 +174,12 @@ class NeuroSymbolicPolicy(OraclePolicy):
             program = list(self.parser.parse([ep.text])[0].flat)
             diag["program"] = " ".join(program)
 
+        def run(prog: list[str], scene: Any) -> ProgramTask | None:
+            try:
+                return execute(prog, scene).to_program_dict()
+            except (ProgramError, ValueError):
+                return None
+
         mapping: list[int] | None = None
         if self.perception is not None:
             rgb, depth, camera = self._scene_image()
@@ -218,13 +209,13 @@ class NeuroSymbolicPolicy(OraclePolicy):
             return {**task, "objects": objs, "subject": subj}
 
         def decide(prog: list[str]) -> ProgramTask | None:
-            task = grounded(_run(prog, scene))
+            task = grounded(run(prog, scene))
             if task is None and self.perception is not None:  # a filter found no object, or too many
-                task = grounded(_relaxed(prog, perceived, _run))
+                task = grounded(_relaxed(prog, perceived, run))
             return task
 
         chosen = decide(program)
-        parse_ok = self.parser is None or _same(_run(program, gt_scene), gt_task)
+        parse_ok = self.parser is None or _same(run(program, gt_scene), gt_task)
         perception_ok = self.perception is None or _same(decide(gt_program), gt_task)
         diag["task_correct"] = _same(chosen, gt_task)
         diag["parse_ok"], diag["perception_ok"] = parse_ok, perception_ok

@@ -33,8 +33,8 @@ from samplehd.learn.keypose.configuration import KEYPOSE_ATTRIBUTES, KeyposeVoca
 from samplehd.learn.topdown import HEIGHT_SCALE, TopDownGrid
 
 __all__ = ["DETERMINERS", "MIN_CELLS", "OBJECT_HEIGHT", "RELATION_WORDS", "SHAPE_MARGIN", "SeenObject",
-           "classes_said", "exclusion_target", "moves_unheard", "named_classes", "named_values", "object_shape",
-           "raised_groups", "shape_ranges", "table_objects", "unknown_nouns"]
+           "exclusion_target", "moves_unheard", "named_classes", "named_values", "object_shape", "shape_ranges",
+           "table_objects", "unknown_nouns"]
 
 # words after which a noun phrase starts: an unknown word there is in a noun's place
 DETERMINERS = frozenset({"the", "a", "an", "all", "both", "each", "every", "this", "that", "these", "those"})
@@ -120,14 +120,9 @@ def named_values(instruction: str, vocabulary: KeyposeVocabulary) -> dict[str, s
 
 def named_classes(instruction: str, vocabulary: KeyposeVocabulary) -> set[str]:
     """The known classes whose noun (singular or plural) the instruction says."""
-    return classes_said(instruction, vocabulary.name)
-
-
-def classes_said(instruction: str, classes: Sequence[str]) -> set[str]:
-    """Of ``classes``, those whose noun (singular or plural) ``instruction`` says."""
     tokens = tokenize(instruction)
     nouns = default_lexicon().nouns
-    return {c for c in classes
+    return {c for c in vocabulary.name
             if any(_says(tokens, n) for n in nouns.get(c, (c.replace("_", " "), c.replace("_", " ") + "s")))}
 
 
@@ -187,7 +182,7 @@ def table_objects(grid: np.ndarray, class_logits: np.ndarray, attribute_logits: 
         factor: the network's map cells are ``factor`` grid cells wide.
         grid_cell: a grid cell's width [m].
     """
-    heights, groups = raised_groups(grid, *class_logits.shape[1:], factor)
+    heights, groups = _raised_groups(grid, *class_logits.shape[1:], factor)
     p = np.exp(class_logits - class_logits.max(0, keepdims=True))
     p /= p.sum(0, keepdims=True)
     out = []
@@ -200,7 +195,7 @@ def table_objects(grid: np.ndarray, class_logits: np.ndarray, attribute_logits: 
     return out
 
 
-def raised_groups(grid: np.ndarray, rows: int, cols: int, factor: int) -> tuple[np.ndarray, list[np.ndarray]]:
+def _raised_groups(grid: np.ndarray, rows: int, cols: int, factor: int) -> tuple[np.ndarray, list[np.ndarray]]:
     """(height of each of the network's map cells [m], the connected groups of at least
     :data:`MIN_CELLS` cells higher than :data:`OBJECT_HEIGHT`, each a bool mask)."""
     height = np.where(grid[SEEN_CHANNEL] > 0, grid[HEIGHT_CHANNEL], 0.0)[:rows * factor, :cols * factor]
@@ -243,7 +238,7 @@ def shape_ranges(grids: np.ndarray, attributes: np.ndarray, classes: Sequence[st
     name = KEYPOSE_ATTRIBUTES.index("name")
     seen: dict[int, list[tuple[float, float, float]]] = {}
     for grid, maps in zip(grids, attributes, strict=True):
-        heights, groups = raised_groups(grid, *maps.shape[1:], factor)
+        heights, groups = _raised_groups(grid, *maps.shape[1:], factor)
         for cells in groups:
             labels = maps[name][cells]
             labels = labels[labels >= 0]

@@ -5,10 +5,7 @@ steering vector per ``env.step``; after each release, after a grasp that closed 
 the fingers were found empty (the object slipped out), it goes back to its start pose and looks again,
 until the episode ends (as a closed-loop behaviour-cloning policy acts until the environment says
 success or time is up) or :data:`MAX_DECISIONS` are made. The network's "last decision" flag is kept
-in the diagnosis only: it is right on about as many held-out decisions as always saying yes. With
-:attr:`KeyposePolicy.grounding` (``evaluate --grounding DIR``), the parser and the perception model say
-which object to move and the network's grasp is sought on it alone
-(:mod:`~samplehd.learn.keypose.grounding`).
+in the diagnosis only: it is right on about as many held-out decisions as always saying yes.
 """
 
 from __future__ import annotations
@@ -31,7 +28,6 @@ from samplehd.learn.keypose.configuration import (
 )
 from samplehd.learn.keypose.exclusion import SeenObject, exclusion_target, moves_unheard, table_objects, unknown_nouns
 from samplehd.learn.keypose.follower import KeyposeFollower
-from samplehd.learn.keypose.grounding import Grounded, ProgramGrounding, grounded_cells
 from samplehd.learn.keypose.modeling import KeyposeNet
 from samplehd.learn.keypose.processing import (
     FACTOR,
@@ -75,15 +71,14 @@ class DecisionRecord(TypedDict):
 class KeyposeDiagnosis(TypedDict, total=False):
     """A keypose episode so far (:meth:`KeyposePolicy.diagnosis`; empty before the first decision): the
     follower's stage, the decisions made again after the fingers were found empty and where each time
-    (:data:`~samplehd.learn.keypose.follower.LOST_AT`), whether grounding by exclusion fired, the
-    decisions and, with a grounding, what it found for each (:class:`~samplehd.learn.keypose.grounding.Grounded`)."""
+    (:data:`~samplehd.learn.keypose.follower.LOST_AT`), whether grounding by exclusion fired, and the
+    decisions."""
 
     stage: str
     retries: int
     lost: list[str]
     exclusion: bool
     decisions: list[DecisionRecord]
-    grounding: list[dict[str, Any]]
 
 
 class KeyposePolicy:
@@ -94,13 +89,10 @@ class KeyposePolicy:
         config: the trained model's config.
         state: its state dict (None: an untrained network).
         env: the environment.
-        device: where the network runs (None: the CPU).
-        grounding: a :class:`~samplehd.learn.keypose.grounding.ProgramGrounding` that says which object
-            to move (None: the network alone; also settable as :attr:`grounding`).
     """
 
     def __init__(self, config: KeyposeConfig, state: Mapping[str, Any] | None, env: Any = None,
-                 device: Any = None, grounding: ProgramGrounding | None = None) -> None:
+                 device: Any = None) -> None:
         set_seed(config.train.seed)
         self.config = config
         self.device = device or torch.device("cpu")
@@ -117,7 +109,6 @@ class KeyposePolicy:
         self._renderer: Any = None
         self._renderer_model: Any = None
         self.decisions: list[Decision] = []
-        self.grounding = grounding
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
@@ -130,8 +121,6 @@ class KeyposePolicy:
         self._grounded_moved = False  # ... and whether such a decision has moved it (the rule is then done)
         self.retries = 0  # decisions made again after the fingers were found empty ...
         self.lost: list[str] = []  # ... and where, each time (KeyposeFollower.lost)
-        self.released: list[tuple[float, float]] = []  # where a decision carried through let go (x, y [m])
-        self.grounded: list[Grounded] = []  # what the grounding found, per decision
 
     def decide(self, instruction: str) -> Decision:
         """The decision on the scene camera's current view. The grasp is not sought within
@@ -159,26 +148,8 @@ class KeyposePolicy:
             grounded = self._grounded_by_exclusion(text, grid, features[1])
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
             only = None if grounded is None else grounded.cells
-            if self.grounding is not None:  # it stands aside where exclusion fired
-                cells = self._grounded_by_program(instruction, grid)
-                only = cells if only is None else only
             decision = predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [only], features)[0]
         return decision if grounded is None else grounded_grasp(decision, grounded)
-
-    def _grounded_by_program(self, instruction: str, grid: np.ndarray) -> np.ndarray | None:
-        """The network's map cells of the object the grounding says to move next, or None (the network
-        chooses alone, as it does when the instruction has a word it never heard in a noun's place:
-        grounding by exclusion's); what it found is kept for the diagnosis."""
-        if self.exclusion:
-            found = Grounded(program="", objects=[], targets=[], why="an unheard noun: grounding by exclusion's")
-        else:
-            found = self.grounding.target(instruction, self.env, self.released)
-        coarse = self.grid.coarse(FACTOR)
-        at = [c for xy in found["targets"] if (c := grounded_cells(grid, xy, coarse, FACTOR)) is not None]
-        if found["targets"] and not at:
-            found["why"] = "no raised cell of the map at the objects"
-        self.grounded.append(found)
-        return np.logical_or.reduce(at) if at else None
 
     def _grounded_by_exclusion(self, instruction: str, grid: np.ndarray, feats: Any) -> SeenObject | None:
         """The object an unheard noun means (:mod:`samplehd.learn.keypose.exclusion`), or None
@@ -214,8 +185,6 @@ class KeyposePolicy:
                 self.retries += 1
                 self.lost.append(follower.lost)
             self._grounded_moved |= follower is not None and self._restricted and follower.lost is None
-            if follower is not None and follower.lost is None and self.decisions[-1].release:
-                self.released.append(self.decisions[-1].goal[:2])
             decision = self.decide(str(obs["instruction"]))
             self.decisions.append(decision)
             follower = self._follower = KeyposeFollower(decision, obs, self._home, self.env,
@@ -231,17 +200,11 @@ class KeyposePolicy:
         if follower is None:
             return {}
         lost = self.lost + ([follower.lost] if follower.lost is not None else [])
-        out: KeyposeDiagnosis = {
-            "stage": follower.stage, "retries": self.retries, "lost": lost, "exclusion": self.exclusion,
-            "decisions": [{"grasp": [round(v, 3) for v in d.grasp], "goal": [round(v, 3) for v in d.goal],
-                           "release": d.release, "last": d.last} for d in self.decisions]}
-        if self.grounding is not None:
-            out["grounding"] = [dict(g) for g in self.grounded]
-        return out
+        return {"stage": follower.stage, "retries": self.retries, "lost": lost, "exclusion": self.exclusion,
+                "decisions": [{"grasp": [round(v, 3) for v in d.grasp], "goal": [round(v, 3) for v in d.goal],
+                               "release": d.release, "last": d.last} for d in self.decisions]}
 
     def close(self) -> None:
-        if self.grounding is not None:
-            self.grounding.close()
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None

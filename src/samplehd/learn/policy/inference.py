@@ -178,8 +178,7 @@ class BCPolicy:
 def policy_for_evaluation(env: Any, config: Any) -> Any:
     """The policy ``samplehd evaluate --policy bc`` runs (``config``: its EvalConfig): the one trained in
     ``config.models``, run by the class its entry in :mod:`samplehd.learn.registry` names (a
-    :class:`BCPolicy`, a keypose policy, ...), told by its config's ``action``; a keypose policy with
-    the grounding of ``config.grounding`` where one is named."""
+    :class:`BCPolicy`, a keypose policy, ...), told by its config's ``action``."""
     if config.models is None:
         raise ConfigError("policy=bc: needs `models` (the folder of `samplehd train policy`)", field="policy")
     raw, state = load_model_files(config.models, "policy", FORMAT)
@@ -187,12 +186,5 @@ def policy_for_evaluation(env: Any, config: Any) -> Any:
     policy_config = read_model_config(entry.config, raw, config.models)
     policy = entry.runner_class()(policy_config, None, env)
     check_weights_fit(policy.net, state, config.models)
-    if getattr(config, "grounding", None):
-        if not hasattr(policy, "grounding"):
-            raise ConfigError(f"grounding={config.grounding}: grounds a keypose policy; the policy in {config.models} "
-                              f"is {entry.name!r}", field="grounding")
-        from samplehd.learn.keypose.grounding import ProgramGrounding  # noqa: PLC0415 - the keypose policy's
-
-        policy.grounding = ProgramGrounding(config.grounding)
     return policy
 
