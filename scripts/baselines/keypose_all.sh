@@ -67,7 +67,7 @@ fi
 videos="$out/reports/core_shop_l1_video.json"
 [[ -f "$videos" ]] || "$bin" suite build core-shop-l1-video --base core --catalogues shop-vrb --levels L1 \
   --base-per-cell 1 --out "$videos" --quiet
-echo '{"width": 480, "height": 360}' > "$out/reports/video_env.json"
+[[ -f "$out/reports/video_env.json" ]] || echo '{"width": 480, "height": 360}' > "$out/reports/video_env.json"
 [[ -f "$out/reports/keypose_all_videos.json" ]] || "$bin" evaluate --policy bc --models "$model" --suite "$videos" \
   --workers "$workers" --env-options "$out/reports/video_env.json" --video "$out/videos" \
   --out "$out/reports/keypose_all_videos.json"
