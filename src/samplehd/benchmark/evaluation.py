@@ -285,9 +285,9 @@ def check_policy_action(spec: str, action: Any, space: Any) -> np.ndarray:
         a = np.asarray(action)
     except Exception:  # noqa: BLE001 - any object can be returned
         a = np.asarray(None)
-    text = repr(action)
-    text = text if len(text) <= 60 else text[:57] + "..."
     if a.dtype.kind not in "biuf" or a.shape != space.shape or not np.all(np.isfinite(a)):
+        text = repr(action)
+        text = text if len(text) <= 60 else text[:57] + "..."
         raise ConfigError(f"policy={spec!r}: policy returned {text} ({type(action).__name__}); {expected}",
                           field="policy")
     return a.astype(float)
