@@ -31,9 +31,10 @@ from typing import Any
 
 import numpy as np
 
+from samplehd.catalogue import catalogue_for, object_facts
 from samplehd.envs.episodes import SceneCache
 from samplehd.errors import ConfigError
-from samplehd.language.generator import generate_instructions
+from samplehd.language.generator import generate_instructions, may_have_family
 from samplehd.language.levels import (
     HELD_OUT_CLASSES,
     HELD_OUT_COMBINATIONS,
@@ -45,6 +46,7 @@ from samplehd.language.levels import (
     held_out_object,
     text_variants,
 )
+from samplehd.language.scene import SceneObject
 
 __all__ = [
     "HELD_OUT_CLASSES",
@@ -57,6 +59,7 @@ __all__ = [
     "held_out_object",
     "in_level",
     "instruction_at_level",
+    "pose_free_objects",
     "reset_at_level",
     "text_variants",
 ]
@@ -104,6 +107,25 @@ def _may_have_level(scene: Any, level: str) -> bool:
     return True
 
 
+def pose_free_objects(scene: Any, cache: SceneCache) -> list[SceneObject]:
+    """The scene's objects as instructions see them, with what their classes and sizes fix (affordances,
+    extents, flat top, opening) as the scene's annotation gives it, and dummy poses."""
+    catalogue = catalogue_for(cache.config.named_classes, cache.config.catalogue)
+    out = []
+    for i, o in enumerate(scene.objects):
+        inst = o.instance
+        facts = object_facts(inst, catalogue)
+        aff = facts.affordances
+        out.append(SceneObject(
+            index=i, name=inst.class_name, colour=inst.colour, material=inst.material, size=inst.size,
+            table_part=(), coords=(0.0, 0.0, 0.0), extents=tuple(float(v) for v in facts.extents),
+            graspable=aff.graspable, handle_pickable=aff.handle_pickable, container=aff.container,
+            stackable_on=aff.stackable_on, stackable=aff.stackable,
+            opening_radius=float(facts.opening.radius) if facts.opening else None,
+            top_extent=tuple(2 * float(v) for v in facts.top.half_extents) if facts.top.flat else None))
+    return out
+
+
 def instruction_at_level(cache: SceneCache, scene_seeds: Iterable[int], family: str, level: str,
                          per_scene: int = 8, rounds: int = 1) -> tuple[Any, dict[str, Any], int]:
     """The first episode of ``family`` in ``level`` among the scenes sampled from ``scene_seeds``.
@@ -140,6 +162,8 @@ def instruction_at_level(cache: SceneCache, scene_seeds: Iterable[int], family: 
         scene = cache.scene(int(seed))
         if not _may_have_level(scene, level):
             continue  # no object a target of the level could be: skip the scene's annotation and compilation
+        if not may_have_family(pose_free_objects(scene, cache), family):
+            continue  # e.g. no three objects that stack: no task of the family, wherever the objects stand
         annotation = cache.annotation(scene)
         for r in range(rounds):
             rng = np.random.default_rng([int(seed), zlib.crc32(family.encode()), *([r] if r else [])])

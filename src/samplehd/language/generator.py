@@ -15,6 +15,7 @@ instruction is polynomial in the number of objects.
 
 from __future__ import annotations
 
+import itertools
 import operator
 from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
@@ -30,7 +31,7 @@ from samplehd.language.executor import ProgramError, execute_nodes, execute_sequ
 from samplehd.language.lexicon import Lexicon, default_lexicon
 from samplehd.language.programs import ProgramNode, node, reference_nodes, reference_tokens
 from samplehd.language.realise import realise_text
-from samplehd.language.scene import Scene, parse_scene
+from samplehd.language.scene import Scene, SceneObject, parse_scene
 from samplehd.language.templates import Template, TemplateConstraint, default_templates
 from samplehd.tasks.task import Task, parse_task
 from samplehd.world.layout import OPPOSITE_PART, TABLE_PARTS
@@ -38,14 +39,19 @@ from samplehd.world.relations import RELATIONS
 
 __all__ = [
     "BALANCE_MODES",
+    "POSE_FREE_CONSTRAINTS",
     "GenerationResult",
     "Instruction",
     "TemplateBalancer",
     "generate_instructions",
+    "may_have_family",
 ]
 
 BALANCE_MODES = ("templates", "families")
 _META = ("object", "object_set")
+# Constraints that read only what objects are (their classes' affordances and their sizes), never where they
+# stand or what surrounds them.
+POSE_FREE_CONSTRAINTS = frozenset({"stackable_on", "fits_in"})
 
 
 @dataclass(frozen=True)
@@ -561,3 +567,29 @@ def _draw_instructions(
         out.append(made)
     rejections = {k: v for k, v in sorted(gen.rejections.items()) if v}
     return GenerationResult(tuple(out), rejections, gen.attempts)
+
+
+def may_have_family(objects: Sequence[SceneObject], family: str, templates: Sequence[Template] | None = None) -> bool:
+    """Whether some template of ``family`` can bind its object parameters to distinct ``objects`` that pass
+    its pose-free constraints (:data:`POSE_FREE_CONSTRAINTS`; the objects' poses are not read).
+
+    False means that :func:`generate_instructions` draws no instruction of the family on any scene of these
+    objects, wherever they stand: every binding it tries is one of these. True says nothing more (a
+    template with a parameter that is not an object, or with no pose-free constraint, always may).
+    """
+    pool = [t for t in (templates if templates is not None else default_templates()) if t.family == family]
+    ctx = ConstraintContext(Scene(0, "", "", tuple(objects)))
+    try:
+        for template in pool:
+            checks = [(CONSTRAINTS[c.type].check, c.params) for c in template.constraints
+                      if c.type in POSE_FREE_CONSTRAINTS]
+            if not checks or any(p.type != "object" for p in template.params):
+                return True
+            names = [p.name for p in template.params]
+            for binding in itertools.permutations(range(len(objects)), len(names)):
+                values = dict(zip(names, binding, strict=True))
+                if all(check(ctx, [values[p] for p in params]) for check, params in checks):
+                    return True
+        return False
+    finally:
+        ctx.release()

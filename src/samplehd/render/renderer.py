@@ -256,10 +256,13 @@ class SceneRenderer:
         preset: str | RenderPreset = "fast",
         buffer_size: tuple[int, int] | None = None,
         photo: PhotoOptions | None = None,
+        context: mujoco.MjrContext | None = None,
     ) -> None:
         """Make the GL resources of ``model`` for renders of ``width``×``height`` px; ``buffer_size``
         allocates a larger offscreen buffer, so that :meth:`resize` can render larger images later.
-        ``photo`` (a ``samplehd.render.photo.PhotoOptions``) sets the path tracer of the ``photo`` preset."""
+        ``photo`` (a ``samplehd.render.photo.PhotoOptions``) sets the path tracer of the ``photo`` preset.
+        ``context``: MuJoCo's GL resources already made for this model (a GL preset only); they are
+        borrowed, not freed by :meth:`close` (:class:`samplehd.render.renderer_cache.MeshSharingRenderers`)."""
         check_size(width, height)
         self.model = model
         self.preset = get_preset(preset)
@@ -275,6 +278,7 @@ class SceneRenderer:
             self._tracer = PhotoTracer(model, photo, self._lut, SEG_BACKGROUND)
         self._gl: Any = None
         self._ctx = None
+        self._owns_ctx = context is None
         bw, bh = buffer_size or (width, height)
         self.buffer_size = (max(width, int(bw)), max(height, int(bh)))
         check_size(*self.buffer_size)
@@ -286,7 +290,7 @@ class SceneRenderer:
         try:
             self._gl = _shared_gl_context()
             self._gl.make_current()
-            self._ctx = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
+            self._ctx = context or mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100.value)
         except Exception as exc:  # GL failures surface as many exception types
             self.close()
             raise RenderError(
@@ -343,9 +347,10 @@ class SceneRenderer:
     def close(self) -> None:
         """Free the GL resources (safe to call twice)."""
         if self._ctx is not None:
-            if self._gl is not None:
-                self._gl.make_current()
-            self._ctx.free()
+            if self._owns_ctx:
+                if self._gl is not None:
+                    self._gl.make_current()
+                self._ctx.free()
             self._ctx = None
         self._tracer = None
         self._gl = None  # the shared context lives on for the next renderer

@@ -7,6 +7,7 @@ Every rejection is counted by reason. The same seed gives the same scene (bit fo
 from __future__ import annotations
 
 import math
+import threading
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -19,7 +20,7 @@ from samplehd.errors import ConfigError, SceneError
 from samplehd.fixedmath import matmul, norm
 from samplehd.render.image_spec import ImageSpec
 from samplehd.render.renderer import SEG_OBJECT_OFFSET, project_points, segmentation_lut
-from samplehd.render.renderer_cache import RendererCache
+from samplehd.render.renderer_cache import MeshSharingRenderers, RendererCache
 from samplehd.robot.constants import GRIPPER_STROKE, HOME_QPOS, ROBOT_BODY
 from samplehd.scene.config import SceneConfig
 from samplehd.scene.spec import SceneObject, SceneSpec, compile_scene, object_qpos_addresses
@@ -290,8 +291,21 @@ def _alone_groups(bounds: list[tuple[float, float, float, float] | None]) -> lis
     return groups
 
 
+# Per thread, the occlusion check's renderers when the caller passes none: one GL context whose scene
+# meshes are swapped from scene to scene (the arm's are uploaded once).
+_OCCLUSION = threading.local()
+
+
+def _occlusion_renderers() -> MeshSharingRenderers:
+    kept = getattr(_OCCLUSION, "renderers", None)
+    if kept is None:
+        kept = _OCCLUSION.renderers = MeshSharingRenderers()
+    return kept
+
+
 def _visible_pixels(
-    model: mujoco.MjModel, data: mujoco.MjData, count: int, config: SceneConfig, renderers: RendererCache
+    model: mujoco.MjModel, data: mujoco.MjData, count: int, config: SceneConfig,
+    renderers: RendererCache | MeshSharingRenderers,
 ) -> tuple[list[int], list[int]]:
     """Pixels of each object in the scene camera's segmentation, with all objects and alone (the others
     out of view; objects that cannot hide each other are drawn in one render, :func:`_alone_groups`)."""
@@ -334,8 +348,9 @@ def sample_scene(
             ``config.classes`` names).
         layout: table and workspace.
         renderers: where the occlusion check gets its renderer; pass the cache that renders the
-            scene's images next (with ``result.model``) to make the GL resources once. Default: a
-            renderer made and freed here.
+            scene's images next (with ``result.model``) to make the GL resources once. Default: this
+            thread's :class:`~samplehd.render.renderer_cache.MeshSharingRenderers`, one GL context
+            kept from scene to scene.
 
     Returns:
         The accepted scene with rejection counts.
@@ -380,11 +395,7 @@ def sample_scene(
         if not _home_clear(model, data, len(objects)):
             rejections["robot_home_blocked"] += 1
             continue
-        if renderers is None:
-            with RendererCache() as own:
-                visible, alone = _visible_pixels(model, data, len(objects), config, own)
-        else:
-            visible, alone = _visible_pixels(model, data, len(objects), config, renderers)
+        visible, alone = _visible_pixels(model, data, len(objects), config, renderers or _occlusion_renderers())
         occluded = [
             i for i in range(len(objects))
             if visible[i] < min_pixels or visible[i] < config.min_visible_fraction * max(alone[i], 1)
@@ -423,7 +434,7 @@ def add_objects(
         rng: the only source of randomness.
         config: sampler options (catalogue, menus, placement margin, settling and visibility limits).
         layout: table and workspace.
-        renderers: where the visibility check gets its renderer (default: one made and freed here).
+        renderers: where the visibility check gets its renderer (default: as :func:`sample_scene`).
 
     Raises:
         SceneError: one line saying why: no free spot, the new objects do not settle, one of them
@@ -462,11 +473,7 @@ def add_objects(
     model, data = compile_scene(out)
     if not _home_clear(model, data, len(out.objects)):
         raise SceneError("the arm at home touches an added object")
-    if renderers is None:
-        with RendererCache() as owned:
-            visible, alone = _visible_pixels(model, data, len(out.objects), config, owned)
-    else:
-        visible, alone = _visible_pixels(model, data, len(out.objects), config, renderers)
+    visible, alone = _visible_pixels(model, data, len(out.objects), config, renderers or _occlusion_renderers())
     w, h = config.occlusion_resolution
     min_pixels = config.min_visible_pixels * (w * h) / (640 * 360)
     # The scene's own objects must stay in view; an added one may hide behind them.
