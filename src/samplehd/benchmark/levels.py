@@ -121,8 +121,7 @@ def pose_free_objects(scene: Any, cache: SceneCache) -> list[SceneObject]:
             table_part=(), coords=(0.0, 0.0, 0.0), extents=tuple(float(v) for v in facts.extents),
             graspable=aff.graspable, handle_pickable=aff.handle_pickable, container=aff.container,
             stackable_on=aff.stackable_on, stackable=aff.stackable,
-            opening_radius=float(facts.opening.radius) if facts.opening else None,
-            top_extent=tuple(2 * float(v) for v in facts.top.half_extents) if facts.top.flat else None))
+            opening_radius=facts.opening_radius, top_extent=facts.top_extent))
     return out
 
 

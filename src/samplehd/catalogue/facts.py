@@ -75,6 +75,19 @@ class ObjectFacts:
     friction: tuple[float, float, float]
     num_collision_pieces: int
 
+    @property
+    def top_extent(self) -> tuple[float, float] | None:
+        """Full sizes (x, y) of the flat top things can stand on [m], or None (instructions' ``top_extent``)."""
+        if not self.top.flat:
+            return None
+        hx, hy = self.top.half_extents
+        return (2 * hx, 2 * hy)
+
+    @property
+    def opening_radius(self) -> float | None:
+        """Radius of a container's opening [m], or None (instructions' ``opening_radius``)."""
+        return float(self.opening.radius) if self.opening else None
+
     def footprint_at(self, x: float, y: float, yaw: float) -> np.ndarray:
         """The footprint polygon of the object placed at (x, y) with a rotation ``yaw`` about z.
 

@@ -90,9 +90,9 @@ def _world_key(model: mujoco.MjModel, image: ImageSpec) -> tuple:
     infinite plane's extent follows the model's size; it lies under the table, where it only draws
     background)."""
     q = model.vis.quality
-    planes = int(np.count_nonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE))
+    planes = model.geom_size[model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE]
     return (image.width, image.height, image.preset, int(q.numslices), int(q.numstacks), int(q.numquads),
-            planes, tuple(float(x) for x in model.geom_size[model.geom_type == mujoco.mjtGeom.mjGEOM_PLANE].ravel()))
+            len(planes), tuple(float(x) for x in planes.ravel()))
 
 
 class MeshSharingRenderers:

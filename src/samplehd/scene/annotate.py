@@ -154,8 +154,8 @@ def annotate_scene(
                 "footprint_half_extents": list(facts.footprint_half_extents),
                 "segmentation_id": SEG_OBJECT_OFFSET + i,
                 "affordances": aff,
-                "opening_radius": float(facts.opening.radius) if facts.opening else None,
-                "top_extent": [2 * v for v in facts.top.half_extents] if facts.top.flat else None,
+                "opening_radius": facts.opening_radius,
+                "top_extent": None if facts.top_extent is None else list(facts.top_extent),
             }
         )
     # pixel_coords: where the object's origin (its base centre) projects, as CLEVR does with 3d_coords;
