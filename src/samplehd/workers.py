@@ -3,7 +3,9 @@ of every parallel job (``scenes``, ``paths``, ``generate``, ``rerender``, ``expo
 
 Both backends take units lazily from an iterator (so the caller can stop feeding them, e.g. once
 ``target_episodes`` is reached) and yield ``(unit, result)`` as units finish, in completion order.
-Results never depend on which worker ran a unit.
+Results never depend on which worker ran a unit. The iterator may yield :data:`WAIT` while units run:
+no unit is ready until a result is in. :class:`Feed` is such an iterator: a queue its caller adds to as
+results come in (the next unit of a chain asked as soon as its last one is done), run in one pool.
 
 Local workers are started with the ``spawn`` method: a forked child would inherit the parent's
 GL/EGL state. Ray tasks run the same functions; on a multi-machine cluster the output directory must
@@ -13,6 +15,7 @@ be on a file system every node can write (workers write their episode files them
 from __future__ import annotations
 
 import ctypes
+import heapq
 import os
 import signal
 import socket
@@ -26,9 +29,18 @@ from typing import Any
 
 from samplehd.errors import ConfigError, require_extra
 
-__all__ = ["BACKENDS", "Backend", "default_workers", "keep_freed_memory"]
+__all__ = ["BACKENDS", "WAIT", "Backend", "Feed", "default_workers", "keep_freed_memory"]
 
 BACKENDS = ("local", "ray")
+
+
+class _Wait:
+    def __repr__(self) -> str:
+        return "WAIT"
+
+
+# Yielded by a unit iterator instead of a unit: none is ready before a running unit's result is in.
+WAIT: Any = _Wait()
 
 
 def default_workers() -> int:
@@ -94,9 +106,46 @@ class Backend:
         elif self.workers <= 1:
             keep_freed_memory()
             for unit in units:
+                if unit is WAIT:  # nothing runs here between two units: nothing to wait for
+                    raise RuntimeError(_WAITING_IDLE)
                 yield unit, fn(unit)
         else:
             yield from _pool_map(fn, units, self.workers)
+
+
+_WAITING_IDLE = "the unit iterator waits for a result while no unit runs"
+
+
+class Feed:
+    """Units a caller adds to while their results come in, run on one backend (one pool for all).
+
+    ``run`` yields ``(unit, result)`` as units finish; between two results the caller may ``put`` new
+    units (e.g. the next step of the chain a result ends), and the run ends when nothing is queued or
+    running. Of the queued units the lowest ``priority`` starts first, then the earliest put.
+    """
+
+    def __init__(self) -> None:
+        self._queue: list[tuple[float, int, Any]] = []
+        self._put = 0
+        self._running = 0
+
+    def put(self, unit: Any, priority: float = 0) -> None:
+        heapq.heappush(self._queue, (priority, self._put, unit))
+        self._put += 1
+
+    def _units(self) -> Iterator[Any]:
+        while self._queue or self._running:
+            if not self._queue:
+                yield WAIT
+                continue
+            self._running += 1
+            yield heapq.heappop(self._queue)[2]
+
+    def run(self, backend: Backend, fn: Callable[[Any], Any]) -> Iterator[tuple[Any, Any]]:
+        """Run ``fn`` on the queued units and on those put while it runs (see :meth:`Backend.map`)."""
+        for unit, result in backend.map(fn, self._units()):
+            self._running -= 1
+            yield unit, result
 
 
 def _die_with_parent() -> None:
@@ -170,7 +219,8 @@ def _windowed(
     wait_done: Callable[[list[Any]], Any],
     result_of: Callable[[Any], Any],
 ) -> Iterator[tuple[Any, Any]]:
-    """Keep at most `window` units in flight; yield (unit, result) as they finish.
+    """Keep at most `window` units in flight; yield (unit, result) as they finish. A :data:`WAIT` from
+    `units` stops the submitting until a result is in.
 
     `pending` maps in-flight handles to units and is the caller's, so it can cancel them on exit.
     """
@@ -181,6 +231,10 @@ def _windowed(
                 unit = next(units)
             except StopIteration:
                 exhausted = True
+                break
+            if unit is WAIT:
+                if not pending:
+                    raise RuntimeError(_WAITING_IDLE)
                 break
             pending[submit(unit)] = unit
         if not pending:

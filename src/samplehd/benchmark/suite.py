@@ -14,15 +14,18 @@ options, the scene seed as the reset seed) until the episode ends
 (:class:`~samplehd.benchmark.evaluation.EpisodeRunner`). A candidate the oracle fails is rejected, its
 reason counted in the manifest, and the next candidate of the cell is tried.
 
-Columns run in rounds on the worker backend (local processes or Ray): the first round tries two
-candidates per cell, and a cell neither of which found an episode of its family and level is given
-up (``short_cells`` says why); each later round tries, per cell, as many new candidates as the cell
-still lacks episodes, from the third round on that many divided by the share of the cell's candidates
-so far that were solved (at most twice as many), so that a cell whose draws often fail needs fewer
-rounds, each of which waits for its slowest column. A candidate's outcome depends only on the
-configuration, its cell and ``k``, and the cell's episodes are always its first ``episodes_per_cell``
-solved candidates in candidate order (those solved beyond them are counted as ``spare``), whatever the
-number of workers: the same configuration gives the same bytes.
+Each cell tries its candidates in rounds, on one pool of the worker backend (local processes or
+Ray): its first round tries two candidates, and a cell neither of which found an episode of its family
+and level is given up (``short_cells`` says why); each later round tries as many new candidates as the
+cell still lacks episodes, from the third round on that many divided by the share of the cell's
+candidates so far that were solved (at most twice as many), so that a cell whose draws often fail
+needs fewer rounds. A cell's next round is asked as soon as its own last candidate is in, not when
+every cell's is, and the cells whose rounds are asked together share columns; a later round starts
+before an earlier one, so the cells that need many rounds are not left to the end. A candidate's
+outcome depends only on the configuration, its cell and ``k``, and the cell's episodes are always its
+first ``episodes_per_cell`` solved candidates in candidate order (those solved beyond them are counted
+as ``spare``), whatever the number of workers and the order candidates finish in: the same
+configuration gives the same bytes.
 
 A suite may instead derive from a built *base* suite (``base``, ``base_per_cell``): it takes the first
 ``base_per_cell`` clean episodes of each of the base's cells (after its first ``base_skip``: a
@@ -66,7 +69,7 @@ from samplehd.scene.config import SceneConfig
 from samplehd.schema import Config, bounded, to_mapping
 from samplehd.tasks.task import family_names
 from samplehd.version import __version__
-from samplehd.workers import Backend
+from samplehd.workers import Backend, Feed
 
 __all__ = ["SELECTION", "Candidate", "SuiteBuildConfig", "build_suite", "read_base", "rejection_reason", "scene_seeds"]
 
@@ -357,6 +360,46 @@ def _prove_column(unit: tuple[SuiteBuildConfig, str, int, tuple[int, ...]]) -> l
     return [_prove(config, _runner(config, catalogue, config.cells()[c][1]), c, k) for c in cells]
 
 
+def _prove_cells(config: SuiteBuildConfig, backend: Backend,
+                 progress: Callable[[Candidate], None] | None) -> tuple[list[dict[int, Candidate]], list[int]]:
+    """Every cell's candidates by ``k`` and how many it tried: each cell's rounds (:func:`_to_try`), the
+    next asked when the cell's last candidate is in (see the module docstring)."""
+    cells = config.cells()
+    done: list[dict[int, Candidate]] = [{} for _ in cells]
+    tried = [0] * len(cells)
+    rounds = [0] * len(cells)
+    waiting = [0] * len(cells)  # the cell's candidates of this round not in yet
+    feed = Feed()
+
+    def ask(ready: list[int]) -> None:
+        columns: dict[tuple[str, int], list[int]] = {}
+        for c in ready:
+            if _barren(done[c]):
+                continue
+            room = config.max_candidates_per_cell - tried[c]
+            waiting[c] = _to_try(done[c], tried[c], config.episodes_per_cell, room, rounds[c] == 0)
+            rounds[c] += 1
+            for _ in range(waiting[c]):
+                columns.setdefault((cells[c][0], tried[c]), []).append(c)
+                tried[c] += 1
+        for (catalogue, k), cs in sorted(columns.items(),
+                                         key=lambda kv: (kv[0][1], config.catalogues.index(kv[0][0]))):
+            feed.put((config, catalogue, k, tuple(cs)), priority=-max(rounds[c] for c in cs))
+
+    ask(list(range(len(cells))))
+    for _, column in feed.run(backend, _prove_column):
+        ready = []
+        for cand in column:
+            done[cand.cell][cand.k] = cand
+            waiting[cand.cell] -= 1
+            if progress is not None:
+                progress(cand)
+            if not waiting[cand.cell]:
+                ready.append(cand.cell)
+        ask(ready)
+    return done, tried
+
+
 def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int]) -> Candidate:
     """Run the oracle on a physical axis' variant of a clean episode (one work unit)."""
     config, twin, axis, strength, attempt = unit
@@ -405,23 +448,24 @@ def _variants(config: SuiteBuildConfig, clean: list[dict[str, Any]], backend: Ba
                         rejected[f"{axis}: nothing to change"] += 1
                     else:
                         out[axis, strength, twin["id"]] = variant
-    for attempt in range(config.max_attempts_per_variant):
-        units = [(config, twin, axis, strength, attempt) for axis, strength, twin in pending]
-        results = {}
-        for unit, cand in backend.map(_prove_variant, iter(units)):
-            results[unit[2], unit[3], int(unit[1]["id"])] = cand
-            if progress is not None:
-                progress(cand)
-        left = []
-        for axis, strength, twin in pending:
-            cand = results[axis, strength, int(twin["id"])]
-            if cand.solved:
-                out[axis, strength, int(twin["id"])] = cand.episode or {}
-            else:
-                rejected[cand.reason] += 1
-                left.append((axis, strength, twin))
-        pending = left
-    short = [{"axis": a, "strength": s, "twin": int(t["id"])} for a, s, t in pending]
+    # A failed attempt's next one is queued at once, before the first attempts still waiting.
+    feed = Feed()
+    for axis, strength, twin in pending:
+        feed.put((config, twin, axis, strength, 0))
+    left: list[tuple[str, int, int]] = []
+    for (_, twin, axis, strength, attempt), cand in feed.run(backend, _prove_variant):
+        if progress is not None:
+            progress(cand)
+        if cand.solved:
+            out[axis, strength, int(twin["id"])] = cand.episode or {}
+            continue
+        rejected[cand.reason] += 1
+        if attempt + 1 < config.max_attempts_per_variant:
+            feed.put((config, twin, axis, strength, attempt + 1), priority=-(attempt + 1))
+        else:
+            left.append((axis, strength, int(twin["id"])))
+    order = {(axis, strength, int(twin["id"])): i for i, (axis, strength, twin) in enumerate(pending)}
+    short = [{"axis": a, "strength": s, "twin": t} for a, s, t in sorted(left, key=order.__getitem__)]
     return [out[k] for k in sorted(out, key=lambda k: (config.axes.index(k[0]), k[1], k[2]))], rejected, short
 
 
@@ -556,27 +600,7 @@ def build_suite(name: str, config: SuiteBuildConfig, backend: Backend | None = N
         return _build_from_base(name, config, backend, progress)
     cells = config.cells()
     need = config.episodes_per_cell
-    done: list[dict[int, Candidate]] = [{} for _ in cells]
-    tried = [0] * len(cells)
-    first = True
-    while True:
-        columns: dict[tuple[str, int], list[int]] = {}
-        for c in range(len(cells)):
-            if _barren(done[c]):
-                continue
-            for _ in range(_to_try(done[c], tried[c], need, config.max_candidates_per_cell - tried[c], first)):
-                columns.setdefault((cells[c][0], tried[c]), []).append(c)
-                tried[c] += 1
-        if not columns:
-            break
-        units = [(config, catalogue, k, tuple(cs)) for (catalogue, k), cs in sorted(
-            columns.items(), key=lambda kv: (kv[0][1], config.catalogues.index(kv[0][0])))]
-        for _, column in backend.map(_prove_column, iter(units)):
-            for cand in column:
-                done[cand.cell][cand.k] = cand
-                if progress is not None:
-                    progress(cand)
-        first = False
+    done, tried = _prove_cells(config, backend, progress)
     episodes: list[dict[str, Any]] = []
     rejected: Counter[str] = Counter()
     solve: dict[str, dict[str, Counter[str]]] = {"by_catalogue": {}, "by_family": {}, "by_catalogue_family": {}}
