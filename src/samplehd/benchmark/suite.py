@@ -452,7 +452,7 @@ def _variants(config: SuiteBuildConfig, clean: list[dict[str, Any]], backend: Ba
     feed = Feed()
     for axis, strength, twin in pending:
         feed.put((config, twin, axis, strength, 0))
-    left: list[tuple[str, int, int]] = []
+    left: set[tuple[str, int, int]] = set()
     for (_, twin, axis, strength, attempt), cand in feed.run(backend, _prove_variant):
         if progress is not None:
             progress(cand)
@@ -463,9 +463,8 @@ def _variants(config: SuiteBuildConfig, clean: list[dict[str, Any]], backend: Ba
         if attempt + 1 < config.max_attempts_per_variant:
             feed.put((config, twin, axis, strength, attempt + 1), priority=-(attempt + 1))
         else:
-            left.append((axis, strength, int(twin["id"])))
-    order = {(axis, strength, int(twin["id"])): i for i, (axis, strength, twin) in enumerate(pending)}
-    short = [{"axis": a, "strength": s, "twin": t} for a, s, t in sorted(left, key=order.__getitem__)]
+            left.add((axis, strength, int(twin["id"])))
+    short = [{"axis": a, "strength": s, "twin": int(t["id"])} for a, s, t in pending if (a, s, int(t["id"])) in left]
     return [out[k] for k in sorted(out, key=lambda k: (config.axes.index(k[0]), k[1], k[2]))], rejected, short
 
 
