@@ -62,3 +62,37 @@ def test_pruned_queries_equal_the_full_models(shop_scene) -> None:
     assert pruned.contacts(HOME_QPOS, GRIPPER_STROKE, helds[1]) == full.contacts(HOME_QPOS, GRIPPER_STROKE, helds[1])
     assert pruned.contacts(HOME_QPOS, GRIPPER_STROKE) == full.contacts(HOME_QPOS, GRIPPER_STROKE)
 
+
+
+def test_a_self_contact_shallower_than_the_margin_offends(shop_scene) -> None:
+    """The safety monitor stops the arm on any self-contact (``min_penetration`` 0): the planner must
+    not accept one that its margin for the scene would let pass. The elbow folds until the wrist
+    just touches the upper arm."""
+    model, data, bodies, robot = shop_scene
+    checker = CollisionChecker(model, data, bodies, robot)
+    arm = np.zeros(model.nbody, dtype=bool)
+    arm[list(bodies.robot_bodies)] = True
+    scratch = mujoco.MjData(model)
+
+    def self_depth(q: np.ndarray) -> float:
+        scratch.qpos[:] = data.qpos
+        scratch.qpos[robot.arm_qpos] = q
+        mujoco.mj_kinematics(model, scratch)
+        mujoco.mj_collision(model, scratch)
+        pair = model.geom_bodyid[scratch.contact.geom]
+        own = arm[pair[:, 0]] & arm[pair[:, 1]]
+        return float(-scratch.contact.dist[own].min()) if own.any() else 0.0
+
+    open_, folded = (np.array([2.734, -1.94, elbow, -2.47, -1.57, -1.391]) for elbow in (2.6, 3.1))
+    assert self_depth(open_) == 0.0 < checker.margin < self_depth(folded)
+    lo, hi = 0.0, 1.0
+    while True:  # bisect to a touch shallower than the margin
+        mid = (lo + hi) / 2
+        depth = self_depth(open_ + mid * (folded - open_))
+        if 0.0 < depth < checker.margin:
+            break
+        lo, hi = (mid, hi) if depth == 0.0 else (lo, mid)
+    q = open_ + mid * (folded - open_)
+    (a, b, dist), = checker.contacts(q, 0.0)
+    assert arm[a] and arm[b] and dist == -depth
+    assert checker.free(open_, 0.0)

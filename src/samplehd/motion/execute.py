@@ -17,8 +17,9 @@ target into an action of the environment's control mode. No thread, no recorder 
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
-from collections.abc import Callable, Generator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
@@ -31,7 +32,13 @@ from samplehd.fixedmath import inv_rigid, matmul, norm
 from samplehd.motion.assist import RELEASE_MARGIN, GraspAssist
 from samplehd.motion.order import effector_point
 from samplehd.motion.order import next_object as order_next_object
-from samplehd.motion.planner import destination_candidates, plan_joint_move, release_height, straight_move
+from samplehd.motion.planner import (
+    destination_candidates,
+    leaves_room,
+    plan_joint_move,
+    release_height,
+    straight_move,
+)
 from samplehd.motion.steering import steering_from_targets, steering_motion
 from samplehd.robot.constants import GRIPPER_ACTUATOR, GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
 from samplehd.robot.controller import ControlConfig, ControlReport, RobotController
@@ -42,6 +49,7 @@ from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, obje
 from samplehd.world.collision import CollisionChecker, Held
 from samplehd.world.grasps import PINCH_TOLERANCE, choose_grasps, pinch_gaps
 from samplehd.world.layout import LAYOUT, Directions, TableLayout
+from samplehd.world.placement import SPOT_SECOND_LOOK, SPOT_SECOND_SAMPLES
 from samplehd.world.planner_config import PlannerConfig
 from samplehd.world.robot_info import RobotInfo
 
@@ -270,6 +278,7 @@ class Rollout:
         # Where the objects are at the start of the attempt (the first recorded frame): the
         # ``nearest`` pick order measures from these.
         self.start_positions = data.xpos[bodies.object_body].copy()
+        self.moved: list[int] = []  # the objects put down so far, in turn
 
     # ------------------------------------------------------------------ stepping
     def _begin(self, name: str) -> int:
@@ -559,12 +568,13 @@ class Rollout:
                                        self.layout, self.directions)
         if not spots:
             raise AttemptFailed("no_free_spot", f"object {i}: no free spot at the destination", grasp_index)
+        spots = self._roomy_first(i, task, spots)
         transport_z = self._transport_z(i)
         q_now = self.ctrl.target
         into = get_family(task.family).destination == "opening"
         max_drop = self.cfg.max_drop_into if into else self.cfg.max_drop
         last_error = "no reachable release pose"
-        for xy, yaw in self._turned_spots(spots, i):
+        for xy, yaw in itertools.chain(self._turned_spots(spots, i), self._second_look(i, task, spots)):
             # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
             cz, sz = np.cos(yaw), np.sin(yaw)
             rot = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
@@ -645,6 +655,7 @@ class Rollout:
             yield from self.open_gripper(i, opening, gently=gently)
             self.hand = None
             yield from self.go_home(i, opening)
+            self.moved.append(i)
             return
         raise AttemptFailed("no_release_path", f"object {i}: {last_error}", grasp_index)
 
@@ -672,6 +683,30 @@ class Rollout:
             if (b1 == body and b2 in grip) or (b2 == body and b1 in grip):
                 return True
         return False
+
+    def _roomy_first(self, i: int, task: Task, spots: list[tuple[np.ndarray, float]]
+                     ) -> list[tuple[np.ndarray, float]]:
+        """``spots`` for object ``i``, those that leave room for the task's objects still to come to
+        the same table part first (:func:`~samplehd.motion.planner.leaves_room`), each group in its order."""
+        to_come = [k for k in task.objects if k != i and k not in self.moved]
+        if not to_come or get_family(task.family).destination != "table_part":
+            return spots
+        roomy = [leaves_room(self.data, self.bodies, self.facts, i, s, to_come, task, self.cfg, self.layout)
+                 for s in spots]
+        return [s for s, ok in zip(spots, roomy, strict=True) if ok] + [s for s, ok in zip(spots, roomy, strict=True)
+                                                                        if not ok]
+
+    def _second_look(self, i: int, task: Task, tried: list[tuple[np.ndarray, float]]
+                     ) -> Iterator[tuple[np.ndarray, float]]:
+        """More release spots for object ``i``, drawn only once every spot of ``tried`` has failed: a
+        search with SPOT_SECOND_SAMPLES times the samples whose best SPOT_SECOND_LOOK are all tried
+        (those of ``tried`` left out)."""
+        cfg = dataclasses.replace(self.cfg, spot_samples=SPOT_SECOND_SAMPLES * self.cfg.spot_samples)
+        spots = destination_candidates(self.data, self.bodies, self.facts, i, task, self.rng, cfg, self.layout,
+                                       self.directions, shortlist=SPOT_SECOND_LOOK, options=SPOT_SECOND_LOOK)
+        seen = {(float(xy[0]), float(xy[1]), yaw) for xy, yaw in tried}
+        fresh = [(xy, yaw) for xy, yaw in spots if (float(xy[0]), float(xy[1]), yaw) not in seen]
+        yield from self._turned_spots(self._roomy_first(i, task, fresh), i)
 
     def _turned_spots(self, spots: list[tuple[np.ndarray, float]], i: int) -> list[tuple[np.ndarray, float]]:
         """The release spots to try, in order: with ``turn_release`` and an object whose footprint is

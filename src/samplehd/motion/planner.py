@@ -45,6 +45,8 @@ from samplehd.world.placement import (
     BESIDE_FAR,
     BESIDE_NEAR,
     BESIDE_NEED,
+    GRASP_ROOM,
+    ROOM_GRID_STEP,
     SPOT_COMFORT_REACH,
     SPOT_FAR_PENALTY,
     SPOT_OPTIONS,
@@ -61,6 +63,7 @@ from samplehd.world.transforms import yaw_rotation_2d
 
 __all__ = [
     "destination_candidates",
+    "leaves_room",
     "plan_joint_move",
     "release_height",
     "straight_move",
@@ -80,6 +83,8 @@ def destination_candidates(
     directions: Directions | None = None,
     ignore: tuple[int, ...] = (),
     relaxed: bool = False,
+    shortlist: int = SPOT_SHORTLIST,
+    options: int = SPOT_OPTIONS,
 ) -> list[tuple[np.ndarray, float]]:
     """Candidate world (x, y) positions of object ``i``'s frame origin at release and turns about the
     vertical [rad], best first.
@@ -89,7 +94,8 @@ def destination_candidates(
     reference object along the scene's direction; ``top`` / ``opening``: the support's top or
     opening centre.
     Where no spot is free, the search runs once more with the gaps to other objects and to the
-    part's edges halved (``relaxed``), as a person would squeeze an object in.
+    part's edges halved (``relaxed``), as a person would squeeze an object in. Of the ``shortlist``
+    best free samples, ``options`` drawn at random are returned in their order.
     """
     t_obj = object_pose(data, bodies, i)
     recipe = get_family(task.family).destination
@@ -168,13 +174,73 @@ def destination_candidates(
     if not scored and not relaxed:
         tight = dataclasses.replace(config, spot_margin=config.spot_margin / 2, part_margin=config.part_margin / 2,
                                     spot_samples=3 * config.spot_samples)
-        return destination_candidates(data, bodies, facts, i, task, rng, tight, layout, directions, ignore, True)
+        return destination_candidates(data, bodies, facts, i, task, rng, tight, layout, directions, ignore, True,
+                                      shortlist, options)
     scored.sort(key=lambda x: x[0])
-    best = scored[:SPOT_SHORTLIST]
+    best = scored[:shortlist]
     if len(best) > 1:
-        order = sorted(rng.permutation(len(best))[: min(SPOT_OPTIONS, len(best))])
+        order = sorted(rng.permutation(len(best))[: min(options, len(best))])
         best = [best[j] for j in order]
     return [(o, y) for _, o, y in best]
+
+
+def leaves_room(
+    data: mujoco.MjData,
+    bodies: SceneBodies,
+    facts: list[ObjectFacts | None],
+    i: int,
+    spot: tuple[np.ndarray, float],
+    to_come: list[int],
+    task: Task,
+    config: PlannerConfig,
+    layout: TableLayout = LAYOUT,
+) -> bool:
+    """Whether object ``i`` put down at ``spot`` (its frame origin's world (x, y) and turn, as
+    :func:`destination_candidates` gives them) leaves room for the objects ``to_come`` to the task's
+    destination part.
+
+    The spot must stay ``GRASP_ROOM`` clear of where those objects stand (their grasps need room for
+    the fingers), and each of them in turn must find a free spot of the part (the planner's tests:
+    origin in the part shrunk by ``part_margin``, footprint on the table, origin in reach,
+    ``spot_margin`` from every other footprint) on a grid of ``ROOM_GRID_STEP``, filled from its
+    lowest corner, the first free cell taken (a packing a person would manage; the planner's own
+    spots spread out).
+    """
+    lo, hi = layout.part_bounds(task.destination_part)
+    lo, hi = lo + config.part_margin, hi - config.part_margin
+    foot = {k: object_footprint(data, bodies, k, facts[k]) for k in range(bodies.num_objects)}
+    foot[i] = _turned_footprint(data, bodies, foot[i], i, spot[0], spot[1])
+    c_i, rot_i, half_i = foot[i]
+    if any(rect_overlap(c_i, rot_i, half_i, *foot[k], GRASP_ROOM) for k in to_come):
+        return False
+    xs = np.arange(lo[0], hi[0] + 1e-9, ROOM_GRID_STEP)
+    ys = np.arange(lo[1], hi[1] + 1e-9, ROOM_GRID_STEP)
+    grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
+    for k in to_come:
+        found = None
+        for yaw in dict.fromkeys(SPOT_TURNS):
+            c, rot, half = _turned_footprint(data, bodies, foot[k], k, grid, yaw)
+            keep, _ = table_and_reach(c, np.broadcast_to(matmul(np.abs(rot), half), c.shape), grid, layout)
+            for j, rect in foot.items():
+                if j != k:
+                    keep &= ~rect_overlap(c, rot, half, *rect, config.spot_margin)
+            if keep.any():
+                found = (c[np.argmax(keep)], rot, half)
+                break
+        if found is None:
+            return False
+        foot[k] = found
+    return True
+
+
+def _turned_footprint(data: mujoco.MjData, bodies: SceneBodies, rect: tuple[np.ndarray, np.ndarray, np.ndarray],
+                      k: int, origin: np.ndarray, yaw: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Object ``k``'s footprint ``rect`` (centre, rotation, half sizes, where it stands) with its frame
+    origin moved to ``origin`` ((2,) or (m, 2)) and turned by ``yaw`` about the vertical."""
+    c, rot, half = rect
+    rz = yaw_rotation_2d(np.array([yaw]))[0]
+    offset = matmul(rz, c - object_pose(data, bodies, k)[:2, 3])
+    return np.asarray(origin) + offset, matmul(rz, rot), half
 
 
 def release_height(

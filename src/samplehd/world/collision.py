@@ -89,7 +89,9 @@ class CollisionChecker:
         data: the current state (object poses are copied from it at construction / :meth:`sync`).
         bodies: body ids of the scene.
         robot: robot addresses.
-        margin: penetration depth tolerated [m] (contacts shallower than this are ignored).
+        margin: penetration depth tolerated [m] (contacts shallower than this are ignored), except
+            between two of the robot's own links, which offend at any depth (the safety monitor stops
+            the arm on any self-contact).
         object_margin: penetration tolerated between the arm and a scene object [m] (a graze; the
             safety monitor only stops on force there).
         prune: collide on a copy of the model that skips the pairs of two geoms neither of which is
@@ -169,8 +171,8 @@ class CollisionChecker:
     ) -> list[tuple[int, int, float]]:
         """Offending contacts at configuration ``q``: (body a, body b, distance [m]).
 
-        A contact offends when it involves the robot or the held object, is deeper than the margin,
-        and is not allowed: robot self-contacts inside the gripper, the gripper with the held object,
+        A contact offends when it involves the robot or the held object, is deeper than the margin
+        (two robot links: at any depth), and is not allowed: robot self-contacts inside the gripper, the gripper with the held object,
         the gripper with objects in ``allow_objects_with_gripper``, and the body pairs in ``allow``.
         """
         self._set(q, opening, held)
@@ -192,7 +194,7 @@ class CollisionChecker:
             grip_ok[held_body] = True
         g1, g2 = self._grip[b1], self._grip[b2]
         offends = (
-            (dist <= -self.margin)
+            ((dist <= -self.margin) | (r1 & r2 & (dist <= 0.0)))  # the arm touching itself
             & ~(self._static[b1] | self._static[b2])
             # a graze of the arm on a scene object (not the held one)
             & ~(((r1 & self._object[b2]) | (r2 & self._object[b1])) & (dist > -self.object_margin) & ~h1 & ~h2)

@@ -28,3 +28,12 @@ SPOT_TURN_WEIGHT = 0.05  # [1/rad]
 SPOT_FAR_PENALTY = 2.0  # [1/m]
 SPOT_SHORTLIST = 12  # free samples kept, best first
 SPOT_OPTIONS = 6  # of which this many are tried
+# Where none of those can be reached and released (the wrist against a tall neighbour, the arm folded
+# near its base), the planner samples again, this many times as many, and tries the best SPOT_SECOND_LOOK.
+SPOT_SECOND_SAMPLES = 3
+SPOT_SECOND_LOOK = 24
+# With more objects still to come to the same table part, spots that leave each of them a free spot on a
+# grid of this pitch [m] (filled greedily, in turn) and stay GRASP_ROOM clear of the footprints of those
+# still to be picked up [m] are tried first.
+ROOM_GRID_STEP = 0.02
+GRASP_ROOM = 0.08
