@@ -1,5 +1,5 @@
-"""Candidates of ``core``'s grid drawn on a fresh seed (seed 1) that the closed-loop oracle once failed,
-each for one reason the planner now answers; every one is solved through the env."""
+"""Candidates of ``core``'s grid drawn on fresh seeds (1 and 2) that the closed-loop oracle once failed,
+each for one reason the planner or the oracle now answers; every one is solved through the env."""
 
 from __future__ import annotations
 
@@ -10,30 +10,35 @@ import pytest
 from samplehd.benchmark.suite import SuiteBuildConfig, _prove, _runner
 from samplehd.envs.suite_file import SUITE_SPEC_DIR
 
-# (catalogue, family, level, candidate): what stopped the oracle there
+# (seed, catalogue, family, level, candidate): what stopped the oracle there
 FAILED_ONCE = [
     # the elbow folded near the base, the wrist grazing the upper arm (0.02 mm, under the planner's
     # margin for the scene): a safety stop
-    ("shop-vrb", "pick_up", "L1", 9),
+    (1, "shop-vrb", "pick_up", "L1", 9),
     # both release spots beside the soda can only reached with the arm folded onto itself
-    ("procedural", "place_relative", "L1", 69),
+    (1, "procedural", "place_relative", "L1", 69),
     # the second object put where the third no longer fits in the part
-    ("procedural", "place", "L4", 35),
+    (1, "procedural", "place", "L4", 35),
     # the food box put down 6 cm from the chopping board, whose grasps then had no room
-    ("procedural", "place", "L4", 30),
+    (1, "procedural", "place", "L4", 30),
+    # the straight approach from the pre-grasp pose met a neighbour (the grasp search checks the line's
+    # two ends only), and the oracle gave up instead of grasping another way
+    (2, "procedural", "stack_three", "L1", 72),
+    (2, "procedural", "put", "L2", 71),
 ]
 
 
-def _config() -> SuiteBuildConfig:
-    """``core``'s specification on seed 1."""
+def _config(seed: int) -> SuiteBuildConfig:
+    """``core``'s specification on another seed."""
     spec = json.loads((SUITE_SPEC_DIR / "core.json").read_text())
-    return SuiteBuildConfig.from_dict({**spec, "seed": 1})
+    return SuiteBuildConfig.from_dict({**spec, "seed": seed})
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("catalogue", "family", "level", "k"), FAILED_ONCE)
-def test_the_oracle_solves_a_candidate_it_once_failed(catalogue: str, family: str, level: str, k: int) -> None:
-    config = _config()
+@pytest.mark.parametrize(("seed", "catalogue", "family", "level", "k"), FAILED_ONCE)
+def test_the_oracle_solves_a_candidate_it_once_failed(seed: int, catalogue: str, family: str, level: str,
+                                                       k: int) -> None:
+    config = _config(seed)
     cell = config.cells().index((catalogue, family, level))
     candidate = _prove(config, _runner(config, catalogue, family), cell, k)
     assert candidate.solved, candidate.reason

@@ -12,8 +12,9 @@ environment's control mode:
 
 It closes the loop: every subtask is planned from the state the previous one left; while it
 carries an object it checks every step that the object is still between the fingers, and when a
-grasp misses or the object slips it opens the gripper, backs off and plans a new grasp of the
-object where it now lies (up to ``max_replans`` times per object): the one re-grasping plan,
+grasp misses, the object slips or the straight approach to a grasp is blocked it opens the gripper,
+backs off and plans a new grasp of the object where it now lies, without the grasp that failed (up to
+``max_replans`` times per object): the one re-grasping plan,
 :func:`samplehd.motion.regrasp.regrasping_plan`, that the recovery of disturbed episodes runs too.
 One plan per episode: when it has run to its end and the task's check still fails, the oracle gives
 up (``failure`` is ``check_failed: REASON``) and holds still; it does not start the episode's plan over.
@@ -38,7 +39,7 @@ from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import PlanningError
 from samplehd.fixedmath import matmul
 from samplehd.motion.execute import AttemptFailed, ControlTarget, Plan, Rollout, SubtaskCut, scene_facts
-from samplehd.motion.regrasp import regrasping_plan
+from samplehd.motion.regrasp import REGRASP_REASONS, regrasping_plan
 from samplehd.motion.steering import steering_from_targets
 from samplehd.robot.constants import GRIPPER_STROKE
 from samplehd.robot.controller import ControlReport
@@ -50,6 +51,11 @@ from samplehd.world.robot_info import RobotInfo
 from samplehd.world.transforms import rotvec
 
 __all__ = ["OraclePolicy", "oracle_action"]
+
+# Failures the oracle answers by backing off and grasping again without the grasp that failed: a missed
+# or slipped grasp, and an approach line from the pre-grasp pose that meets an object (the grasp search
+# checks the two ends of the line only).
+_REPLANNED = (*REGRASP_REASONS, "approach_blocked")
 
 
 def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: float, env: TabletopEnv) -> np.ndarray:
@@ -81,7 +87,7 @@ class OraclePolicy:
             reads its privileged state through ``env.unwrapped``.
         seed: seed of the planner's generator (destinations, RRT); :meth:`reset` may change it.
         planner: planner settings (default: the dataset's).
-        max_replans: re-grasps per object after a miss or a slip.
+        max_replans: re-grasps per object after a miss, a slip or a blocked approach.
 
     Example:
         >>> oracle = OraclePolicy(env)                 # doctest: +SKIP
@@ -232,7 +238,7 @@ class OraclePolicy:
                      ease_release=True, turn_release=True, open_gently=True)
         self._rollout = ro
         try:
-            yield from regrasping_plan(ro, task, self.max_replans, on_failure=self._replanned)
+            yield from regrasping_plan(ro, task, self.max_replans, reasons=_REPLANNED, on_failure=self._replanned)
         except AttemptFailed as exc:
             self.failure = exc.reason
             return
@@ -243,6 +249,7 @@ class OraclePolicy:
         env.subtask = "Completed"
 
     def _replanned(self, failure: AttemptFailed) -> bool:
-        """A missed or slipped grasp is answered by a re-grasp without the grasp that failed."""
+        """A missed or slipped grasp or a blocked approach is answered by a re-grasp without the grasp
+        that failed."""
         self.replans += 1
         return True
