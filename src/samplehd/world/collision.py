@@ -172,8 +172,9 @@ class CollisionChecker:
         """Offending contacts at configuration ``q``: (body a, body b, distance [m]).
 
         A contact offends when it involves the robot or the held object, is deeper than the margin
-        (two robot links: at any depth), and is not allowed: robot self-contacts inside the gripper, the gripper with the held object,
-        the gripper with objects in ``allow_objects_with_gripper``, and the body pairs in ``allow``.
+        (two robot links: at any depth), and is not allowed: robot self-contacts inside the gripper,
+        the gripper with the held object, the gripper with objects in ``allow_objects_with_gripper``,
+        and the body pairs in ``allow``.
         """
         self._set(q, opening, held)
         self._keep_held(held)
