@@ -691,10 +691,8 @@ class Rollout:
         to_come = [k for k in task.objects if k != i and k not in self.moved]
         if not to_come or get_family(task.family).destination != "table_part":
             return spots
-        roomy = [leaves_room(self.data, self.bodies, self.facts, i, s, to_come, task, self.cfg, self.layout)
-                 for s in spots]
-        return [s for s, ok in zip(spots, roomy, strict=True) if ok] + [s for s, ok in zip(spots, roomy, strict=True)
-                                                                        if not ok]
+        return sorted(spots, key=lambda s: not leaves_room(self.data, self.bodies, self.facts, i, s, to_come, task,
+                                                           self.cfg, self.layout))
 
     def _second_look(self, i: int, task: Task, tried: list[tuple[np.ndarray, float]]
                      ) -> Iterator[tuple[np.ndarray, float]]:
