@@ -28,6 +28,7 @@ motion-planning solutions drive ``env.step``. No thread, and only public state o
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Generator
 from typing import Any
 
@@ -79,6 +80,14 @@ def oracle_action(mode: str, q_now: np.ndarray, q_next: np.ndarray, gripper: flo
     return np.clip(np.asarray(a, dtype=float), lo, hi)
 
 
+# The carried object's bottom above its support when the oracle lets go [m] (the dataset's paths: 6 mm).
+# Dropped 6-8 mm, a shop-vrb fork (1 g, a few millimetres thick) meets a baking tray's 2.5 mm floor at
+# 0.35 m/s; the contacts (20 ms time constant) let it sink past the floor's middle, and it is pushed
+# out below (seed 2, shop-vrb stack L1 #22); a plate went through a tray the same way. From 2-4 mm it
+# meets the floor at under 0.28 m/s and stays on it.
+RELEASE_GAP = 0.002
+
+
 class OraclePolicy:
     """The closed-loop oracle for one environment.
 
@@ -86,7 +95,7 @@ class OraclePolicy:
         env: the environment (a ``gymnasium.make`` result or a :class:`TabletopEnv`); the oracle
             reads its privileged state through ``env.unwrapped``.
         seed: seed of the planner's generator (destinations, RRT); :meth:`reset` may change it.
-        planner: planner settings (default: the dataset's).
+        planner: planner settings (default: the dataset's, with ``release_gap`` :data:`RELEASE_GAP`).
         max_replans: re-grasps per object after a miss, a slip or a blocked approach.
 
     Example:
@@ -98,7 +107,7 @@ class OraclePolicy:
 
     def __init__(self, env: gym.Env, seed: int = 0, planner: PlannerConfig | None = None, max_replans: int = 2) -> None:
         self.env: TabletopEnv = env.unwrapped
-        self.planner = planner or PlannerConfig()
+        self.planner = planner or dataclasses.replace(PlannerConfig(), release_gap=RELEASE_GAP)
         self.max_replans = max_replans
         self.seed = seed
         self.subtask = ""
@@ -232,10 +241,13 @@ class OraclePolicy:
         # scissors are shot out of the pads through a chopping board), then, where a pad still rests on
         # the object, opens them just past the weld's release for one step (opened at once, the pad
         # drags light scissors through a plate's floor); where no release pose of a spot is free it
-        # tries the object turned half round (a tray held by its near rim behind a box).
+        # tries the object turned half round (a tray held by its near rim behind a box), and after every
+        # spot the arm's other IK branches above the first spots; it lays a long object along a support's
+        # top where it overhangs it as turned (a fork across a tray rests on the rim).
         ro = Rollout(model, data, ctrl, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
                      use_assist=False, step_assist=env.assist, hull_bottom=True, fit_pinch=True,
-                     ease_release=True, turn_release=True, open_gently=True)
+                     ease_release=True, turn_release=True, open_gently=True, other_branches=True,
+                     align_on_top=True)
         self._rollout = ro
         try:
             yield from regrasping_plan(ro, task, self.max_replans, reasons=_REPLANNED, on_failure=self._replanned)

@@ -42,7 +42,7 @@ from samplehd.motion.planner import (
 from samplehd.motion.steering import steering_from_targets, steering_motion
 from samplehd.robot.constants import GRIPPER_ACTUATOR, GRIPPER_STROKE, HOME_QPOS, TCP_OFFSET
 from samplehd.robot.controller import ControlConfig, ControlReport, RobotController
-from samplehd.robot.kinematics import fk_tcp, ik_batch
+from samplehd.robot.kinematics import fk_tcp, ik_all, ik_batch, wrap_to_limits
 from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box, object_world_hull_box
@@ -196,6 +196,18 @@ class _Hand:
     approach_opening: float = 0.0
 
 
+@dataclass(frozen=True)
+class _Release:
+    """How a held object is set down: the joint-space move to above the release pose, the descent,
+    the fingers' opening there [m] and the destination as recorded in the rollout's info."""
+
+    move: np.ndarray
+    method: str
+    down: np.ndarray
+    opening: float
+    destination: dict[str, Any]
+
+
 class Rollout:
     """Runs subtasks of one attempt on a live ``MjData`` and records them.
 
@@ -240,6 +252,13 @@ class Rollout:
             (the object drops clear of the pads), then as wide as planned; the subtask keeps its length.
             Off (the dataset's paths): as wide as planned at once, and pads snapping open drag a light
             object resting against them with them.
+        other_branches: where every release spot has failed with the arm's IK branch nearest its
+            configuration, try the first spots again with its other branches: the nearest may fold
+            the upper arm through the table above a far spot where another reaches it from above.
+            Off (the dataset's paths): the nearest branch only.
+        align_on_top: set an object that overhangs its support's top as it is turned now along the
+            top's long side where it fits so (:func:`~samplehd.motion.planner.top_turn`). Off (the
+            dataset's paths): as it is turned.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
@@ -247,7 +266,8 @@ class Rollout:
                  layout: TableLayout = LAYOUT, directions: Directions | None = None,
                  use_assist: bool = True, step_assist: GraspAssist | None = None,
                  grasp_memo: str | None = None, hull_bottom: bool = False, fit_pinch: bool = False,
-                 ease_release: bool = False, turn_release: bool = False, open_gently: bool = False) -> None:
+                 ease_release: bool = False, turn_release: bool = False, open_gently: bool = False,
+                 other_branches: bool = False, align_on_top: bool = False) -> None:
         self.grasp_memo = grasp_memo
         self.use_assist = use_assist
         self.hull_bottom = hull_bottom
@@ -255,6 +275,8 @@ class Rollout:
         self.ease_release = ease_release
         self.turn_release = turn_release
         self.open_gently = open_gently
+        self.other_branches = other_branches
+        self.align_on_top = align_on_top
         # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
         self.assisted = use_assist or step_assist is not None
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
@@ -561,11 +583,10 @@ class Rollout:
         hand = self.hand
         if hand is None or hand.index != i:
             raise AttemptFailed("not_holding", f"object {i} is not in the gripper", grasp_index)
-        held = Held(i, hand.tcp_to_object)
         t_obj = object_pose(self.data, self.bodies, i)
         # Ignore the held object itself when searching for room.
         spots = destination_candidates(self.data, self.bodies, self.facts, i, task, self.rng, self.cfg,
-                                       self.layout, self.directions)
+                                       self.layout, self.directions, align_on_top=self.align_on_top)
         if not spots:
             raise AttemptFailed("no_free_spot", f"object {i}: no free spot at the destination", grasp_index)
         spots = self._roomy_first(i, task, spots)
@@ -574,76 +595,20 @@ class Rollout:
         into = get_family(task.family).destination == "opening"
         max_drop = self.cfg.max_drop_into if into else self.cfg.max_drop
         last_error = "no reachable release pose"
+        release: _Release | str = last_error
         for xy, yaw in itertools.chain(self._turned_spots(spots, i), self._second_look(i, task, spots)):
-            # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
-            cz, sz = np.cos(yaw), np.sin(yaw)
-            rot = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
-            box = object_world_hull_box if self.hull_bottom else object_world_box
-            obj_bottom_below = t_obj[2, 3] - box(self.model, self.data, self.bodies, i).lo[2]
-            start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
-            try:
-                z_rel = release_height(self.checker, self.bodies, i, rot, xy, start_z,
-                                       self.layout.table_height + obj_bottom_below - 0.001)
-            except PlanningError as exc:
-                last_error = str(exc)
-                continue
-            t_obj_rel = np.eye(4)
-            t_obj_rel[:3, :3] = rot
-            t_obj_rel[:3, 3] = (xy[0], xy[1], z_rel + self.cfg.release_gap)
-            tcp_rel_w = matmul(t_obj_rel, inv_rigid(hand.tcp_to_object))
-            rel_b = self.robot.world_to_base(tcp_rel_w)
-            q_above = None
-            # Above the release pose at the transport height, or as high as the arm reaches there.
-            z_top = max(transport_z, self._tcp_world()[2, 3])
-            for zk in np.arange(z_top, tcp_rel_w[2, 3] + 0.02 - 1e-9, -0.02):
-                tcp_above_w = tcp_rel_w.copy()
-                tcp_above_w[2, 3] = zk
-                above_b = self.robot.world_to_base(tcp_above_w)
-                qa, ok = ik_batch(above_b[None], q_now[None], TCP_OFFSET)
-                if ok[0]:
-                    q_above = qa[0]
-                    break
-            if q_above is None:
-                last_error = "release pose out of reach"
-                continue
-            # Where the fingers cannot open beside the object (a can in a mug), release it higher and
-            # let it drop the last centimetres; over a container, from above the rim if need be (a
-            # short box deep in a mug: the open fingers are wider than the mug).
-            # Open as wide as the approach did where there is room (a pad must not stay on the object),
-            # else a little beyond the grip.
-            drop = None
-            for dz in np.arange(0.0, min(max_drop, tcp_above_w[2, 3] - tcp_rel_w[2, 3]) + 1e-9, 0.01):
-                t = rel_b.copy()
-                t[2, 3] += dz
-                qr, ok = ik_batch(t[None], q_above[None], TCP_OFFSET)
-                if not ok[0]:
-                    continue
-                for opening in (hand.approach_opening, hand.opening):
-                    if self.checker.free(qr[0], opening, Held(i, hand.tcp_to_object) if dz else None,
-                                         allow_objects_with_gripper=(i,)):
-                        drop = (dz, t, opening)
-                        break
-                if drop is not None:
-                    break
-            if drop is None:
-                last_error = "the fingers cannot open at the release pose"
-                continue
-            rel_b = drop[1]
-            hand = dataclasses.replace(hand, opening=drop[2])
-            try:
-                move, method = plan_joint_move(self.checker, q_now, q_above, 0.0, self.dt, self.cfg, self.rng,
-                                               held=held, lift_z=transport_z, robot=self.robot)
-                down = straight_move(self.checker, above_b, rel_b, q_above, 0.0, self.dt, self.cfg.approach_speed,
-                                     held=held, ramp_time=self.cfg.line_ramp_time)
-            except PlanningError as exc:
-                last_error = str(exc)
-                continue
-            self.info["destinations"].append({"object": i, "xy": [float(xy[0]), float(xy[1])],
-                                              "z": float(t_obj_rel[2, 3]), "yaw": float(yaw),
-                                              "drop": float(drop[0])})
-            self.info["methods"].append(method)
-            yield from self.run("ObjectMove", i, move)
-            yield from self.run("MoveDOWN", i, down)
+            release = self._release_plan(i, hand, t_obj, xy, yaw, transport_z, q_now, max_drop, q_now)
+            if not isinstance(release, str):
+                break
+            last_error = release
+        if isinstance(release, str) and self.other_branches:
+            release = self._other_branch_release(i, hand, t_obj, spots, transport_z, q_now, max_drop)
+        if not isinstance(release, str):
+            hand = dataclasses.replace(hand, opening=release.opening)
+            self.info["destinations"].append(release.destination)
+            self.info["methods"].append(release.method)
+            yield from self.run("ObjectMove", i, release.move)
+            yield from self.run("MoveDOWN", i, release.down)
             # The opening command releases the weld (the rule, in OpenGripper's first step).
             opening = hand.opening
             welded = self.assisted and self.assist.active >= 0
@@ -658,6 +623,93 @@ class Rollout:
             self.moved.append(i)
             return
         raise AttemptFailed("no_release_path", f"object {i}: {last_error}", grasp_index)
+
+    def _release_plan(self, i: int, hand: _Hand, t_obj: np.ndarray, xy: np.ndarray, yaw: float, transport_z: float,
+                      q_now: np.ndarray, max_drop: float, seed: np.ndarray) -> _Release | str:
+        """The moves that set held object ``i`` down at ``xy`` turned by ``yaw`` (ObjectMove to above
+        the release pose, MoveDOWN to it), or why there are none; ``seed``: the configuration whose
+        IK branch the arm takes above the release pose (``q_now``: the nearest)."""
+        held = Held(i, hand.tcp_to_object)
+        # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
+        cz, sz = np.cos(yaw), np.sin(yaw)
+        rot = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
+        box = object_world_hull_box if self.hull_bottom else object_world_box
+        obj_bottom_below = t_obj[2, 3] - box(self.model, self.data, self.bodies, i).lo[2]
+        start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
+        try:
+            z_rel = release_height(self.checker, self.bodies, i, rot, xy, start_z,
+                                   self.layout.table_height + obj_bottom_below - 0.001)
+        except PlanningError as exc:
+            return str(exc)
+        t_obj_rel = np.eye(4)
+        t_obj_rel[:3, :3] = rot
+        t_obj_rel[:3, 3] = (xy[0], xy[1], z_rel + self.cfg.release_gap)
+        tcp_rel_w = matmul(t_obj_rel, inv_rigid(hand.tcp_to_object))
+        rel_b = self.robot.world_to_base(tcp_rel_w)
+        q_above = None
+        # Above the release pose at the transport height, or as high as the arm reaches there.
+        z_top = max(transport_z, self._tcp_world()[2, 3])
+        for zk in np.arange(z_top, tcp_rel_w[2, 3] + 0.02 - 1e-9, -0.02):
+            tcp_above_w = tcp_rel_w.copy()
+            tcp_above_w[2, 3] = zk
+            above_b = self.robot.world_to_base(tcp_above_w)
+            qa, ok = ik_batch(above_b[None], seed[None], TCP_OFFSET)
+            if ok[0]:
+                q_above = qa[0]
+                break
+        if q_above is None:
+            return "release pose out of reach"
+        # Where the fingers cannot open beside the object (a can in a mug), release it higher and
+        # let it drop the last centimetres; over a container, from above the rim if need be (a
+        # short box deep in a mug: the open fingers are wider than the mug).
+        # Open as wide as the approach did where there is room (a pad must not stay on the object),
+        # else a little beyond the grip.
+        drop = None
+        for dz in np.arange(0.0, min(max_drop, tcp_above_w[2, 3] - tcp_rel_w[2, 3]) + 1e-9, 0.01):
+            t = rel_b.copy()
+            t[2, 3] += dz
+            qr, ok = ik_batch(t[None], q_above[None], TCP_OFFSET)
+            if not ok[0]:
+                continue
+            for opening in (hand.approach_opening, hand.opening):
+                if self.checker.free(qr[0], opening, held if dz else None, allow_objects_with_gripper=(i,)):
+                    drop = (dz, t, opening)
+                    break
+            if drop is not None:
+                break
+        if drop is None:
+            return "the fingers cannot open at the release pose"
+        try:
+            move, method = plan_joint_move(self.checker, q_now, q_above, 0.0, self.dt, self.cfg, self.rng,
+                                           held=held, lift_z=transport_z, robot=self.robot)
+            down = straight_move(self.checker, above_b, drop[1], q_above, 0.0, self.dt, self.cfg.approach_speed,
+                                 held=held, ramp_time=self.cfg.line_ramp_time)
+        except PlanningError as exc:
+            return str(exc)
+        destination = {"object": i, "xy": [float(xy[0]), float(xy[1])], "z": float(t_obj_rel[2, 3]),
+                       "yaw": float(yaw), "drop": float(drop[0])}
+        return _Release(move, method, down, drop[2], destination)
+
+    def _other_branch_release(self, i: int, hand: _Hand, t_obj: np.ndarray, spots: list[tuple[np.ndarray, float]],
+                              transport_z: float, q_now: np.ndarray, max_drop: float) -> _Release | str:
+        """``other_branches``: the first spots again, each with the arm's other IK branches above it
+        (nearest to the arm first), once every spot has failed with the nearest branch."""
+        error = "no other IK branch"
+        start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
+        for xy, yaw in self._turned_spots(spots, i):
+            cz, sz = np.cos(yaw), np.sin(yaw)
+            top = np.eye(4)
+            top[:3, :3] = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
+            top[:3, 3] = (xy[0], xy[1], start_z)
+            tcp_top = self.robot.world_to_base(matmul(top, inv_rigid(hand.tcp_to_object)))
+            branches, ok = wrap_to_limits(ik_all(tcp_top, TCP_OFFSET), q_now)
+            branches = branches[ok]
+            for k in np.argsort(np.linalg.norm(branches - q_now, axis=1), kind="stable")[1:]:
+                release = self._release_plan(i, hand, t_obj, xy, yaw, transport_z, q_now, max_drop, branches[k])
+                if not isinstance(release, str):
+                    return release
+                error = release
+        return error
 
     def open_gripper(self, i: int, opening: float, gently: bool = False) -> Plan[None]:
         """OpenGripper: the arm still for ``open_time``, the fingers opened to ``opening`` [m]; ``gently``:

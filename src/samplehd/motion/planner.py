@@ -71,6 +71,30 @@ __all__ = [
 ]
 
 
+def top_turn(rot: np.ndarray, half: np.ndarray, t_base: np.ndarray, base: ObjectFacts | None) -> float:
+    """The turn about the vertical [rad] that sets a footprint (world 2×2 rotation ``rot``, half sizes
+    ``half`` [m]) inside the rectangular top of a support at pose ``t_base``: 0 where it fits as it is
+    or fits neither way; else the turn in (-π/2, π/2] that lays its long side along the top's (a fork
+    across a baking tray rests on the rim, tilts and slides; along it, it lies on the floor)."""
+    if base is None or base.top.round:
+        return 0.0
+    top_half = np.asarray(base.top.half_extents, float)
+    c, s = t_base[0, 0], t_base[1, 0]
+    base_rot = np.array([[c, -s], [s, c]]) / max(float(np.hypot(c, s)), 1e-12)
+
+    def fits(yaw: float) -> bool:
+        turned = matmul(base_rot.T, matmul(yaw_rotation_2d(np.array([yaw]))[0], rot))
+        return bool(np.all(matmul(np.abs(turned), half) <= top_half))
+
+    if fits(0.0):
+        return 0.0
+    long_axis = rot[:, int(half[1] > half[0])]
+    top_axis = base_rot[:, int(top_half[1] > top_half[0])]
+    yaw = float(np.arctan2(top_axis[1], top_axis[0]) - np.arctan2(long_axis[1], long_axis[0]))
+    yaw = (yaw + np.pi / 2) % np.pi - np.pi / 2  # an axis: the turn of least size
+    return yaw if fits(yaw) else 0.0
+
+
 def destination_candidates(
     data: mujoco.MjData,
     bodies: SceneBodies,
@@ -85,6 +109,7 @@ def destination_candidates(
     relaxed: bool = False,
     shortlist: int = SPOT_SHORTLIST,
     options: int = SPOT_OPTIONS,
+    align_on_top: bool = False,
 ) -> list[tuple[np.ndarray, float]]:
     """Candidate world (x, y) positions of object ``i``'s frame origin at release and turns about the
     vertical [rad], best first.
@@ -95,7 +120,9 @@ def destination_candidates(
     opening centre.
     Where no spot is free, the search runs once more with the gaps to other objects and to the
     part's edges halved (``relaxed``), as a person would squeeze an object in. Of the ``shortlist``
-    best free samples, ``options`` drawn at random are returned in their order.
+    best free samples, ``options`` drawn at random are returned in their order. ``align_on_top``
+    (``top``): where the object's footprint, as it is turned now, overhangs the support's top and
+    turned along the top's long side it does not, it is turned so (:func:`top_turn`).
     """
     t_obj = object_pose(data, bodies, i)
     recipe = get_family(task.family).destination
@@ -111,9 +138,10 @@ def destination_candidates(
             c_local = np.array([*bodies.local_box(base).center[:2], 0.0])
         target = (matmul(t_base[:3, :3], c_local) + t_base[:3, 3])[:2]
         # Place the object's footprint centre (not its frame origin) on the target.
-        _, rot_i, _ = object_footprint(data, bodies, i, facts[i])
+        _, rot_i, half_i = object_footprint(data, bodies, i, facts[i])
         fc = np.asarray(facts[i].footprint_center) if facts[i] is not None else bodies.local_box(i).center[:2]
-        return [(target - matmul(rot_i, fc), 0.0)]
+        yaw = top_turn(rot_i, half_i, t_base, f) if align_on_top and recipe == "top" else 0.0
+        return [(target - matmul(yaw_rotation_2d(np.array([yaw]))[0], matmul(rot_i, fc)), yaw)]
     c_i, rot_i0, half_i = object_footprint(data, bodies, i, facts[i])
     offset0 = c_i - t_obj[:2, 3]  # footprint centre relative to the frame origin (kept on transport)
     others = [k for k in range(bodies.num_objects) if k != i and k not in ignore]
