@@ -243,11 +243,12 @@ class OraclePolicy:
         # drags light scissors through a plate's floor); where no release pose of a spot is free it
         # tries the object turned half round (a tray held by its near rim behind a box), and after every
         # spot the arm's other IK branches above the first spots; it lays a long object along a support's
-        # top where it overhangs it as turned (a fork across a tray rests on the rim).
+        # top where it overhangs it as turned (a fork across a tray rests on the rim), and lowers an object
+        # lifted against the arm until it is clear.
         ro = Rollout(model, data, ctrl, robot, bodies, facts, self.planner, rng, LAYOUT, directions,
                      use_assist=False, step_assist=env.assist, hull_bottom=True, fit_pinch=True,
                      ease_release=True, turn_release=True, open_gently=True, other_branches=True,
-                     align_on_top=True)
+                     align_on_top=True, free_start=True)
         self._rollout = ro
         try:
             yield from regrasping_plan(ro, task, self.max_replans, reasons=_REPLANNED, on_failure=self._replanned)

@@ -47,7 +47,7 @@ from samplehd.scene.spec import SceneSpec
 from samplehd.tasks.task import Task, get_family
 from samplehd.world.bodies import SceneBodies, grasped_object, object_pose, object_world_box, object_world_hull_box
 from samplehd.world.collision import CollisionChecker, Held
-from samplehd.world.grasps import PINCH_TOLERANCE, choose_grasps, pinch_gaps
+from samplehd.world.grasps import PINCH_TOLERANCE, choose_grasps, ik_near, pinch_gaps
 from samplehd.world.layout import LAYOUT, Directions, TableLayout
 from samplehd.world.placement import SPOT_SECOND_LOOK, SPOT_SECOND_SAMPLES
 from samplehd.world.planner_config import PlannerConfig
@@ -74,6 +74,8 @@ _PINCH_SETTLE_STEPS = 2
 _EASE_TIME = 0.15
 # turn_release: how far a footprint may be off-centre about the object's origin for a half turn to keep it [m].
 _SYMMETRY_TOLERANCE = 0.002
+# free_start: how far a held object lifted against the arm may be lowered to clear it [m].
+_CLEAR_DROP = 0.1
 # open_gently: the gripper command of OpenGripper's first step, beyond the one the weld was made with, in
 # release margins (past the one margin that releases the weld, about 2.7 mm of opening in all).
 _GENTLE_OPENING = 1.25
@@ -259,6 +261,10 @@ class Rollout:
         align_on_top: set an object that overhangs its support's top as it is turned now along the
             top's long side where it fits so (:func:`~samplehd.motion.planner.top_turn`). Off (the
             dataset's paths): as it is turned.
+        free_start: where the held object ends its lift against the arm (a pan lifted by its handle
+            meets the upper-arm link; the lift is not collision-checked), lower it straight until it is
+            clear before the move to the destination (:meth:`_lower_clear`). Off (the dataset's paths):
+            no move can start there and the placement fails.
     """
 
     def __init__(self, model: mujoco.MjModel, data: mujoco.MjData, controller: RobotController, robot: RobotInfo,
@@ -267,7 +273,7 @@ class Rollout:
                  use_assist: bool = True, step_assist: GraspAssist | None = None,
                  grasp_memo: str | None = None, hull_bottom: bool = False, fit_pinch: bool = False,
                  ease_release: bool = False, turn_release: bool = False, open_gently: bool = False,
-                 other_branches: bool = False, align_on_top: bool = False) -> None:
+                 other_branches: bool = False, align_on_top: bool = False, free_start: bool = False) -> None:
         self.grasp_memo = grasp_memo
         self.use_assist = use_assist
         self.hull_bottom = hull_bottom
@@ -277,6 +283,7 @@ class Rollout:
         self.open_gently = open_gently
         self.other_branches = other_branches
         self.align_on_top = align_on_top
+        self.free_start = free_start
         # Whether a grasp assist welds grasped objects, the rollout's own or the step function's.
         self.assisted = use_assist or step_assist is not None
         self.model, self.data, self.ctrl, self.robot, self.bodies = model, data, controller, robot, bodies
@@ -592,6 +599,9 @@ class Rollout:
         spots = self._roomy_first(i, task, spots)
         transport_z = self._transport_z(i)
         q_now = self.ctrl.target
+        if self.free_start and not self.checker.free(q_now, 0.0, Held(i, hand.tcp_to_object)):
+            # No joint move can start here (plan_joint_move refuses a start in collision): lower first.
+            q_now = yield from self._lower_clear(i, hand, grasp_index)
         into = get_family(task.family).destination == "opening"
         max_drop = self.cfg.max_drop_into if into else self.cfg.max_drop
         last_error = "no reachable release pose"
@@ -623,6 +633,25 @@ class Rollout:
             self.moved.append(i)
             return
         raise AttemptFailed("no_release_path", f"object {i}: {last_error}", grasp_index)
+
+    def _lower_clear(self, i: int, hand: _Hand, grasp_index: int) -> Plan[np.ndarray]:
+        """``free_start``: a straight descent of the held object ``i`` to the first height, in 1 cm
+        steps down to ``_CLEAR_DROP``, where it is clear of the arm; the arm's configuration there."""
+        held = Held(i, hand.tcp_to_object)
+        start = fk_tcp(self.ctrl.target)
+        for dz in np.arange(0.01, _CLEAR_DROP + 1e-9, 0.01):
+            end = start.copy()
+            end[2, 3] -= dz
+            q = ik_near(end, self.ctrl.target)
+            if q is None or not self.checker.free(q, 0.0, held):
+                continue
+            path = straight_move(self.checker, start, end, self.ctrl.target, 0.0, self.dt, self.cfg.lift_speed,
+                                 held=held, check=False, ramp_time=self.cfg.line_ramp_time)
+            yield from self.run("ObjectMove", i, path)
+            self._sync()
+            return self.ctrl.target
+        raise AttemptFailed("no_release_path", f"object {i}: held against the arm, and no lower pose clear of it",
+                            grasp_index)
 
     def _release_plan(self, i: int, hand: _Hand, t_obj: np.ndarray, xy: np.ndarray, yaw: float, transport_z: float,
                       q_now: np.ndarray, max_drop: float, seed: np.ndarray) -> _Release | str:
