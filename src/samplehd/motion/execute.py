@@ -602,6 +602,7 @@ class Rollout:
         if self.free_start and not self.checker.free(q_now, 0.0, Held(i, hand.tcp_to_object)):
             # No joint move can start here (plan_joint_move refuses a start in collision): lower first.
             q_now = yield from self._lower_clear(i, hand, grasp_index)
+            t_obj = object_pose(self.data, self.bodies, i)
         into = get_family(task.family).destination == "opening"
         max_drop = self.cfg.max_drop_into if into else self.cfg.max_drop
         last_error = "no reachable release pose"
