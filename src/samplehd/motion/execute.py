@@ -184,6 +184,13 @@ def _upright(rot: np.ndarray, max_tilt: float = 0.35) -> np.ndarray:
     return matmul(fix, rot)
 
 
+def _released(t_obj: np.ndarray, yaw: float) -> np.ndarray:
+    """The held object's orientation at release: upright (:func:`_upright`), turned by ``yaw`` [rad]
+    about the vertical."""
+    cz, sz = np.cos(yaw), np.sin(yaw)
+    return matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
+
+
 def _gripper_command(opening: float) -> float:
     return float(np.clip(2.0 * opening / GRIPPER_STROKE - 1.0, -1.0, 1.0))
 
@@ -661,11 +668,10 @@ class Rollout:
         IK branch the arm takes above the release pose (``q_now``: the nearest)."""
         held = Held(i, hand.tcp_to_object)
         # Release pose: object moved to (x, y), turned by yaw about the vertical, dropped onto its support.
-        cz, sz = np.cos(yaw), np.sin(yaw)
-        rot = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
+        rot = _released(t_obj, yaw)
         box = object_world_hull_box if self.hull_bottom else object_world_box
         obj_bottom_below = t_obj[2, 3] - box(self.model, self.data, self.bodies, i).lo[2]
-        start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
+        start_z = self._carried_z(t_obj, transport_z)
         try:
             z_rel = release_height(self.checker, self.bodies, i, rot, xy, start_z,
                                    self.layout.table_height + obj_bottom_below - 0.001)
@@ -720,16 +726,19 @@ class Rollout:
                        "yaw": float(yaw), "drop": float(drop[0])}
         return _Release(move, method, down, drop[2], destination)
 
+    def _carried_z(self, t_obj: np.ndarray, transport_z: float) -> float:
+        """Height [m, world] of the held object's frame (pose ``t_obj`` now) with the TCP at ``transport_z``."""
+        return transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
+
     def _other_branch_release(self, i: int, hand: _Hand, t_obj: np.ndarray, spots: list[tuple[np.ndarray, float]],
                               transport_z: float, q_now: np.ndarray, max_drop: float) -> _Release | str:
         """``other_branches``: the first spots again, each with the arm's other IK branches above it
         (nearest to the arm first), once every spot has failed with the nearest branch."""
         error = "no other IK branch"
-        start_z = transport_z - (self._tcp_world()[2, 3] - t_obj[2, 3])
+        start_z = self._carried_z(t_obj, transport_z)
         for xy, yaw in self._turned_spots(spots, i):
-            cz, sz = np.cos(yaw), np.sin(yaw)
             top = np.eye(4)
-            top[:3, :3] = matmul(np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]]), _upright(t_obj[:3, :3]))
+            top[:3, :3] = _released(t_obj, yaw)
             top[:3, 3] = (xy[0], xy[1], start_z)
             tcp_top = self.robot.world_to_base(matmul(top, inv_rigid(hand.tcp_to_object)))
             branches, ok = wrap_to_limits(ik_all(tcp_top, TCP_OFFSET), q_now)
