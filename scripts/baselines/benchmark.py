@@ -1,17 +1,18 @@
 """The baselines of docs/BENCHMARK.md on one suite: oracle, random, neuro-symbolic (programs and perception
-predicted), keypose (pick_up, place) and the language-blind keypose control, each through `samplehd
-evaluate --suite`, and one Markdown table of their success with 95 % Wilson intervals per family, axis and
-strength, headed by the commands, the commit, the machine and the times.
+predicted), the keypose policy of all seven families and its language-blind control, each through
+`samplehd evaluate --suite`, and one Markdown table of their success with 95 % Wilson intervals: per
+family and level on the clean episodes, and per robustness axis and strength (strength 0: the clean twins
+of that axis's variants; `*`: the variants differ from their twins, exact McNemar p < 0.05), headed by the
+commands, the commit, the machine and the times.
 
     python scripts/baselines/benchmark.py SUITE [--out DIR] [--workers N] [--policies ...]
         [--models DIR] [--keypose DIR] [--max-episode-steps N]
 
---models is the folder of scripts/baselines/run.sh (parser/ and perception/ in models/ below it);
---keypose the folder of scripts/baselines/keypose.sh (models/keypose_FAMILY), and of
-`BLIND=1 scripts/baselines/keypose.sh` for the control (models/keypose_blind_FAMILY). A learned baseline
-whose models are missing is skipped with a line saying how to train them. A keypose policy acts on every
-episode of the suite (a suite fixes its episodes), and only its own family's episodes enter the table.
-Finished reports are kept: run it again and only what is missing runs.
+--models is a folder with parser/ and perception/ (`samplehd train parser|perception --out DIR/parser`
+...), or the folder of scripts/baselines/run.sh (models/ below it); --keypose the folder of
+scripts/baselines/keypose_all.sh (models/keypose_all, and models/keypose_all_blind with BLIND=1). A
+learned baseline whose models are missing is skipped with a line saying how to train them. Finished
+reports are kept: run it again and only what is missing runs.
 
 Writes DIR/reports/NAME.json (and evaluate's NAME.md, NAME.robustness.png) and DIR/baselines.md.
 """
@@ -31,50 +32,55 @@ from typing import Any
 from samplehd.bench.provenance import machine_description, measured_commit
 from samplehd.benchmark.statistics import proportion
 from samplehd.benchmark.tables import format_rate, markdown_table
-from samplehd.envs.suite_file import read_suite
+from samplehd.envs.suite_file import Suite, read_suite
 
-KEYPOSE_FAMILIES = ("pick_up", "place")
 POLICIES = ("oracle", "random", "neurosymbolic", "keypose", "keypose_blind")
-HERE = Path(__file__).resolve().parent
 
 
-def _runs(policy: str, args: argparse.Namespace) -> list[tuple[str, list[str], str | None]]:
-    """(report name, evaluate flags, family the table keeps or None) of each evaluation of a baseline;
-    raises FileNotFoundError naming the missing models."""
+def _ns_models(folder: Path) -> Path:
+    """The folder holding parser/ and perception/: FOLDER itself or FOLDER/models."""
+    for models in (folder, folder / "models"):
+        if all((models / part).is_dir() for part in ("parser", "perception")):
+            return models
+    raise FileNotFoundError(f"{folder}/parser and perception (train with scripts/baselines/run.sh {folder})")
+
+
+def _flags(policy: str, args: argparse.Namespace) -> list[str]:
+    """The evaluate flags of a baseline; raises FileNotFoundError naming the missing models."""
     if policy in ("oracle", "random"):
-        return [(policy, ["--policy", policy], None)]
+        return ["--policy", policy]
     if policy == "neurosymbolic":
-        models = Path(args.models) / "models"
-        for part in ("parser", "perception"):
-            if not (models / part).is_dir():
-                raise FileNotFoundError(f"{models / part} (train with scripts/baselines/run.sh {args.models})")
-        return [(policy, ["--policy", "neurosymbolic", "--models", str(models), "--programs", "predicted",
-                          "--perception", "predicted"], None)]
+        return ["--policy", "neurosymbolic", "--models", str(_ns_models(Path(args.models))),
+                "--programs", "predicted", "--perception", "predicted"]
     blind = "_blind" if policy == "keypose_blind" else ""
-    runs = []
-    for family in KEYPOSE_FAMILIES:
-        model = Path(args.keypose) / "models" / f"keypose{blind}_{family}"
-        if not (model / "model.pt").is_file():
-            how = f"{'BLIND=1 ' if blind else ''}FAMILIES={family} scripts/baselines/keypose.sh {args.keypose}"
-            raise FileNotFoundError(f"{model / 'model.pt'} (train with {how})")
-        runs.append((f"{policy}_{family}", ["--policy", "bc", "--models", str(model)], family))
-    return runs
+    model = Path(args.keypose) / "models" / f"keypose_all{blind}"
+    if not (model / "model.pt").is_file():
+        raise FileNotFoundError(f"{model / 'model.pt'} (train with {'BLIND=1 ' if blind else ''}"
+                                f"scripts/baselines/keypose_all.sh {args.keypose})")
+    return ["--policy", "bc", "--models", str(model)]
 
 
-def _rows(name: str, records: Sequence[Mapping[str, Any]]) -> list[list[str]]:
-    """Per family (clean episodes) and per axis × strength: the baseline's success with its interval."""
-    def rate(rs: Sequence[Mapping[str, Any]]) -> str:
-        return format_rate(proportion(sum(bool(r["success"]) for r in rs), len(rs)).to_dict())
+def _groups(suite: Suite, records: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str], list[bool]]:
+    """(group, strength) -> the successes of its episodes: all, each family and level on the clean episodes,
+    and per axis its twins (strength 0) and its variants at each strength."""
+    clean = [r for r in records if suite.episodes[r["index"]].axis == "none"]
+    groups: dict[tuple[str, str], list[bool]] = {("all (clean)", "0"): [bool(r["success"]) for r in clean]}
+    for key in ("family", "level"):
+        for value in sorted({r[key] for r in clean}):
+            groups[(f"{key} {value}", "0")] = [bool(r["success"]) for r in clean if r[key] == value]
+    success = {r["index"]: bool(r["success"]) for r in records}
+    axes = sorted({e.axis for e in suite.episodes if e.axis != "none"})
+    for axis in axes:
+        variants = [e for e in suite.episodes if e.axis == axis and e.id in success]
+        twins = sorted({e.twin for e in variants if e.twin is not None})
+        groups[(axis, "0")] = [success[t] for t in twins if t in success]
+        for strength in sorted({e.strength for e in variants}):
+            groups[(axis, str(strength))] = [success[e.id] for e in variants if e.strength == strength]
+    return groups
 
-    clean = [r for r in records if r.get("axis") in (None, "none")]
-    rows = [[name, "all (clean)", "0", rate(clean)]]
-    rows += [[name, f"family {f}", "0", rate([r for r in clean if r["family"] == f])]
-             for f in sorted({r["family"] for r in clean})]
-    for axis in sorted({r["axis"] for r in records if r.get("axis") not in (None, "none")}):
-        for strength in sorted({int(r["strength"]) for r in records if r.get("axis") == axis}):
-            rows.append([name, axis, str(strength),
-                         rate([r for r in records if r.get("axis") == axis and int(r["strength"]) == strength])])
-    return rows
+
+def _cell(successes: list[bool], significant: bool) -> str:
+    return format_rate(proportion(sum(successes), len(successes)).to_dict()) + (" *" if significant else "")
 
 
 def _machine() -> str:
@@ -88,44 +94,49 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("outputs/benchmark"))
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--policies", nargs="+", choices=POLICIES, default=list(POLICIES))
-    parser.add_argument("--models", default="outputs/baselines", help="scripts/baselines/run.sh's folder")
-    parser.add_argument("--keypose", default="outputs/keypose", help="scripts/baselines/keypose.sh's folder")
+    parser.add_argument("--models", default="outputs/baselines",
+                        help="parser/ and perception/ (or scripts/baselines/run.sh's folder)")
+    parser.add_argument("--keypose", default="outputs/keypose_all", help="scripts/baselines/keypose_all.sh's folder")
     parser.add_argument("--max-episode-steps", type=int, help="evaluate's step limit (default: its own)")
     args = parser.parse_args(argv)
     suite = read_suite(args.suite)
     reports = args.out / "reports"
     reports.mkdir(parents=True, exist_ok=True)
     samplehd = [sys.executable, "-m", "samplehd"]
-    commands, rows, times, skipped = [], [], [], []
+    commands, times, skipped = [], [], []
+    columns: dict[str, dict[tuple[str, str], str]] = {}
     for policy in args.policies:
         try:
-            runs = _runs(policy, args)
+            flags = _flags(policy, args)
         except FileNotFoundError as exc:
             skipped.append(f"{policy}: no models at {exc}")
             print(f"skipped {skipped[-1]}", file=sys.stderr)
             continue
-        records: list[Mapping[str, Any]] = []
-        for name, flags, family in runs:
-            report = reports / f"{name}.json"
-            limit = ["--max-episode-steps", str(args.max_episode_steps)] if args.max_episode_steps else []
-            command = [*samplehd, "evaluate", *flags, "--suite", args.suite, "--workers", str(args.workers), *limit,
-                       "--out", str(report)]
-            commands.append(shlex.join(["samplehd", *command[3:]]))
-            if not report.is_file():
-                print(f"running {commands[-1]}", file=sys.stderr, flush=True)
-                subprocess.run(command, check=True)
-            data = json.loads(report.read_text())
-            if data["split"].get("content_hash") != suite.content_hash:
-                raise SystemExit(f"{report}: ran another split ({data['split']}); delete it to run this suite")
-            times.append(f"{name} {data['wall_s']:.0f} s")
-            records += [r for r in data["records"] if family is None or r["family"] == family]
-        rows += _rows(policy, records)
+        report = reports / f"{policy}.json"
+        limit = ["--max-episode-steps", str(args.max_episode_steps)] if args.max_episode_steps else []
+        command = [*samplehd, "evaluate", *flags, "--suite", args.suite, "--workers", str(args.workers), *limit,
+                   "--out", str(report)]
+        commands.append(shlex.join(["samplehd", *command[3:]]))
+        if not report.is_file():
+            print(f"running {commands[-1]}", file=sys.stderr, flush=True)
+            subprocess.run(command, check=True)
+        data = json.loads(report.read_text())
+        if data["split"].get("content_hash") != suite.content_hash:
+            raise SystemExit(f"{report}: ran another split ({data['split']}); delete it to run this suite")
+        times.append(f"{policy} {data['wall_s']:.0f} s")
+        twins = data["statistics"].get("twins", {})
+        columns[policy] = {
+            key: _cell(successes, key[1] != "0" and bool(twins.get(key[0], {}).get(key[1], {}).get("significant")))
+            for key, successes in _groups(suite, data["records"]).items()}
+    keys = list(dict.fromkeys(k for column in columns.values() for k in column))
+    rows = [[group, strength, *(column.get((group, strength), "–") for column in columns.values())]
+            for group, strength in keys]
     head = [f"Suite `{suite.name}` ({len(suite.episodes)} episodes, {suite.content_hash}); samplehd commit "
             f"{measured_commit()}; {_machine()}.", "", "Wall time: " + ", ".join(times) + ".", "", "```bash",
             *commands, "```", ""]
     if skipped:
         head += ["Skipped: " + "; ".join(skipped) + ".", ""]
-    table = markdown_table(["baseline", "group", "strength", "success [95 % Wilson]"], rows)
+    table = markdown_table(["group", "strength", *columns], rows)
     (args.out / "baselines.md").write_text("\n".join([*head, table, ""]))
     print("\n".join([*head, table]))
     return 0
