@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from samplehd.benchmark.axes import AXES, AXIS_FIELDS, PHYSICAL_AXES, STRENGTHS, changed_fields, perturb
-from samplehd.benchmark.suite import SuiteBuildConfig, build_suite, read_base
+from samplehd.benchmark.suite import SuiteBuildConfig, _prove_variant, build_suite, read_base
 from samplehd.commands.suite import resolve_config
 from samplehd.envs.config import EnvConfig
 from samplehd.envs.suite_file import SUITE_SPEC_DIR, Suite, SuiteEpisode, content_hash, read_suite
@@ -247,3 +247,16 @@ def test_the_shipped_plus_specification_derives_every_axis_from_core() -> None:
     assert config.base_per_cell is not None and config.base_per_cell <= core.episodes_per_cell
     others = set(AXES) - set(PHYSICAL_AXES) - {"nouns"}
     assert twins * (1 + len(others) * len(STRENGTHS)) >= 10_000
+
+
+
+def test_a_variant_the_env_refuses_is_rejected_with_the_envs_reason() -> None:
+    """core's 'Clear the front part of the table.' (shop-vrb remove L1) as twin 9, its objects shifted
+    7.5 cm toward the back: the env refuses the reset (the program picks other objects); the rejection
+    names why, not the error's class."""
+    twin = {**read_suite("core").episodes[1101].to_dict(), "id": 9}
+    assert twin["instruction"] == "Clear the front part of the table."
+    result = _prove_variant((SuiteBuildConfig(base="core"), twin, "object_shift", 5, 0))
+    assert not result.solved
+    assert result.reason.startswith("object_shift: reset: the instruction's task names objects [N], but its "
+                                    "program picks other objects"), result.reason

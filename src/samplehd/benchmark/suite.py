@@ -415,8 +415,9 @@ def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int])
     options = SuiteEpisode.from_dict({"id": 0, **variant}).reset_options()
     try:
         record = runner.run((int(twin["id"]), int(twin["reset_seed"]), twin["family"]), options=options)
-    except SamplehdError as exc:  # e.g. objects shifted into each other or off the table
-        return Candidate(int(twin["id"]), attempt, False, f"{axis}: {type(exc).__name__}", variant=label)
+    except SamplehdError as exc:  # e.g. objects shifted off the table, or out of the region the instruction names
+        return Candidate(int(twin["id"]), attempt, False, f"{axis}: {_NUMBER.sub('N', str(exc))[:100]}",
+                         variant=label)
     if not record.success:
         return Candidate(int(twin["id"]), attempt, False, f"{axis}: {rejection_reason(record)}", steps=record.steps,
                          variant=label)
