@@ -1,6 +1,8 @@
 """One suite episode beside its variant at strength 5 on every robustness axis (scene camera), as a
 contact sheet: per axis the clean twin, then the variant, each captioned with the axis and its
-instruction; two axes per row. Written as a 128-colour PNG to stay small.
+instruction; two axes per row. The variant is the suite's own where it holds one (a physical axis':
+the attempt the oracle proved), else made as a build would make it; an axis with nothing to change
+on the episode is left out. Written as a 128-colour PNG to stay small.
 
     python scripts/suite_axes_sheet.py SUITE OUT.png [EPISODE] [--preset fast|hd|photo] [--axes AXIS ...]
 """
@@ -16,9 +18,9 @@ import textwrap
 import numpy as np
 from PIL import Image, ImageDraw
 
-from samplehd.benchmark.axes import AXES, perturb
+from samplehd.benchmark.axes import AXES, changed_fields, perturb
 from samplehd.benchmark.sensor import corrupt_observation, sensor_rng
-from samplehd.envs.suite_file import SuiteEpisode, read_suite
+from samplehd.envs.suite_file import Suite, SuiteEpisode, read_suite
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import SceneError
 from samplehd.render.contact_sheet import contact_sheet
@@ -27,15 +29,23 @@ WIDTH, HEIGHT = 320, 240
 CAPTION_LINES, LINE_PX, CHARS = 4, 12, 44
 
 
-def _variant(twin: dict, axis: str, attempts: int = 8) -> dict | str:
-    """The first variant at strength 5 that can be made (a distractor may find no free spot), or why
-    none can (a scene with no other instruction of the family has no ``task_swap``)."""
+def _variant(suite: Suite, twin: dict, axis: str, attempts: int = 8) -> dict | str:
+    """The suite's variant of ``twin`` at strength 5 on ``axis``, else the first that can be made (a
+    distractor may find no free spot), or why none can (no other instruction of the family has no
+    ``task_swap``; a text without a noun of the groups has no ``nouns``)."""
+    for ep in suite.episodes:
+        if ep.axis == axis and ep.strength == 5 and ep.twin == twin["id"]:
+            return ep.to_dict()
     reason = ""
     for attempt in range(attempts):
         try:
-            return perturb(twin, axis, 5, seed=0, attempt=attempt)
+            variant = perturb(twin, axis, 5, seed=suite.build.get("seed", 0), attempt=attempt)
         except SceneError as exc:
             reason = str(exc)
+            continue
+        if changed_fields(twin, variant) <= {"id", "axis", "strength", "twin"}:
+            return "nothing to change"
+        return variant
     return reason
 
 
@@ -58,7 +68,7 @@ def main(suite_name: str, out: str, index: int = 0, preset: str = "fast", axes: 
     tiles = []
     try:
         for axis in axes:
-            variant = _variant(twin, axis)
+            variant = _variant(suite, twin, axis)
             if isinstance(variant, str):
                 print(f"{axis}: no variant of episode {index}: {variant}")
                 continue
