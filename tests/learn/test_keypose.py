@@ -135,6 +135,36 @@ def test_following_the_recorded_decisions_succeeds(keypose_dataset: Path) -> Non
         env.close()
 
 
+def test_an_arm_that_starts_tilted_is_turned_level_and_follows_the_decisions(keypose_dataset: Path) -> None:
+    """A start pose with the tool tilted 0.2 rad off straight down (as a suite's robot start axis gives
+    it): the follower turns the tool level on its first move and the recorded decisions succeed, where a
+    tilted descent put the fingertips into the table (an environment collision stop)."""
+    from samplehd.learn.keypose.follower import TILT_TOLERANCE, tool_tilt
+
+    reader = DatasetReader(keypose_dataset)
+    env = replay_env(reader)
+    try:
+        for k, entry in enumerate(reader.episodes):
+            obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": k})
+            assert np.linalg.norm(tool_tilt(obs["tcp_quat"])) < 1e-3  # level at the start pose
+            for _ in range(4):  # 0.05 rad a step about x and y
+                obs, *_ = env.step(np.array([0, 0, 0, 0.7, 0.7, 0, 1], np.float32))
+            assert np.linalg.norm(tool_tilt(obs["tcp_quat"])) > 0.15
+            home = np.r_[obs["tcp_pos"], tcp_yaw(obs["tcp_quat"])]
+            success, tilts = False, []
+            for d in _decisions(reader, k):
+                follower = KeyposeFollower(d, obs, home, env)
+                while not follower.done:
+                    obs, info = _step(env, follower, obs)
+                    if follower.stage in ("down to grasp", "close", "down to release"):
+                        tilts.append(float(np.linalg.norm(tool_tilt(obs["tcp_quat"]))))
+                    success = success or bool(info["success"])
+            assert success, f"episode {k} ({entry.family}): {info['check_reason']}"
+            assert max(tilts) < TILT_TOLERANCE + 0.005, max(tilts)
+    finally:
+        env.close()
+
+
 def _drop_held_object(env) -> None:
     """Take the object the fingers hold out of them, as a slip would: its grasp weld off and the object
     set down 1.5 m aside, on the floor."""

@@ -4,6 +4,8 @@ As in PerAct and CLIPort, a policy predicts a decision from one look at the tabl
 :class:`KeyposeFollower` executes it as steering vectors, step by step through the environment: over
 the grasp at the height it is at, down, close until the fingers stop, up, over the goal, down, open,
 up and back to the start pose. Its descents are guarded: one that stops short closes or opens there.
+The tool is held pointing straight down, as in every demonstration: an arm that starts tilted (the
+robot start axis of a suite) is turned level from its first move on (:data:`TILT_TOLERANCE`).
 
 It tells whether it still holds the object from what a robot feels, the fingers' width under the
 commands it sends and the gripper's object detection (:meth:`KeyposeFollower._detects_object`), never
@@ -33,7 +35,7 @@ from samplehd.learn.keypose.processing import Decision
 from samplehd.robot.constants import GRIPPER_STROKE
 
 __all__ = ["APPROACH", "CHECK_SQUEEZE", "DROPPED_MARGIN", "HOLD_CHECK_PERIOD", "LOST_AT", "MISSED_WIDTH",
-           "STUCK_PROGRESS", "STUCK_STEPS", "KeyposeFollower"]
+           "STUCK_PROGRESS", "STUCK_STEPS", "TILT_TOLERANCE", "KeyposeFollower", "tool_tilt"]
 
 APPROACH = 0.08  # the grasp and the release are approached straight down from this high above them [m]
 REACHED = 0.004  # a position this close to its goal is reached [m] ...
@@ -59,6 +61,9 @@ HOLD_CHECK_PERIOD = 2.0  # holding at the end of a decision that does not let go
 STUCK_PROGRESS = 0.001
 STUCK_STEPS = 40
 STUCK_YAW_SCALE = 0.05  # [m/rad]
+# A tool axis found further than this from straight down is turned level at GAIN from then on [rad]; the
+# arm's own tracking error (up to 0.013 rad carrying a thermos) is left alone.
+TILT_TOLERANCE = 0.02
 # where :attr:`KeyposeFollower.lost` found the fingers empty ("reach": the grasp was given up on the way)
 LOST_AT = ("close", "lift", "release", "hold", "reach")
 
@@ -140,6 +145,7 @@ class KeyposeFollower:
         self._drop = 0.0  # the TCP's descent commanded by the last steering vector [m]
         self._nearest = np.inf  # the current move's closest approach to its goal so far [m] ...
         self._stalled = 0  # ... and the control steps since it last came STUCK_PROGRESS closer
+        self._level = False  # the tool was found tilted: it is turned level from then on
 
     @property
     def done(self) -> bool:
@@ -245,6 +251,10 @@ class KeyposeFollower:
             self._drop = 0.0
         yaw = float(wrap_angle(goal[3] - tcp_yaw(np.asarray(obs["tcp_quat"], np.float64))))
         action[5] = np.clip(GAIN * yaw, -ang_speed, ang_speed) / ang_speed
+        tilt = tool_tilt(obs["tcp_quat"])
+        self._level = self._level or float(np.linalg.norm(tilt)) > TILT_TOLERANCE
+        if self._level:
+            action[3:5] = np.clip(GAIN * tilt[:2], -ang_speed, ang_speed) / ang_speed
         if goal[4] >= -0.99:
             action[6] = goal[4]
         elif kind == "close":
@@ -291,6 +301,18 @@ class KeyposeFollower:
         tcp = np.asarray(obs["tcp_pos"], np.float64)
         yaw = float(tcp_yaw(np.asarray(obs["tcp_quat"], np.float64)))
         return bool(np.linalg.norm(goal[:3] - tcp) < REACHED and abs(wrap_angle(goal[3] - yaw)) < YAW_REACHED)
+
+
+def tool_tilt(quat: np.ndarray) -> np.ndarray:
+    """The rotation vector (base frame, which has the world's axes) that turns the TCP's approach axis,
+    its z (straight down at the start pose), to straight down: zero for a level tool [rad]."""
+    w, x, y, z = np.asarray(quat, np.float64) / float(np.linalg.norm(quat))
+    approach = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+    axis = np.cross(approach, (0.0, 0.0, -1.0))
+    sin = float(np.linalg.norm(axis))
+    if sin < 1e-12:
+        return np.zeros(3)
+    return axis / sin * float(np.arctan2(sin, -approach[2]))
 
 
 def _near_yaw(yaw: float, ref: float) -> float:
