@@ -79,6 +79,16 @@ def _groups(suite: Suite, records: Sequence[Mapping[str, Any]]) -> dict[tuple[st
     return groups
 
 
+def _paired(twins: Mapping[str, Any], groups: Mapping[tuple[str, str], list[bool]], axis: str) -> str:
+    """One axis of one baseline in a line: its twins' successes, then the variants' at each strength
+    (``*``: they differ from their twins, exact McNemar p < 0.05)."""
+    clean = groups.get((axis, "0"), [])
+    strengths = sorted(twins.get(axis, {}), key=int)
+    return f"{sum(clean)}/{len(clean)} → " + ", ".join(
+        f"{twins[axis][k]['second']['successes']}/{twins[axis][k]['pairs']}" + ("*" if twins[axis][k]["significant"]
+                                                                                else "") for k in strengths)
+
+
 def _cell(successes: list[bool], significant: bool) -> str:
     return format_rate(proportion(sum(successes), len(successes)).to_dict()) + (" *" if significant else "")
 
@@ -105,6 +115,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     samplehd = [sys.executable, "-m", "samplehd"]
     commands, times, skipped = [], [], []
     columns: dict[str, dict[tuple[str, str], str]] = {}
+    paired: dict[str, dict[str, str]] = {}
     for policy in args.policies:
         try:
             flags = _flags(policy, args)
@@ -125,9 +136,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise SystemExit(f"{report}: ran another split ({data['split']}); delete it to run this suite")
         times.append(f"{policy} {data['wall_s']:.0f} s")
         twins = data["statistics"].get("twins", {})
+        groups = _groups(suite, data["records"])
         columns[policy] = {
             key: _cell(successes, key[1] != "0" and bool(twins.get(key[0], {}).get(key[1], {}).get("significant")))
-            for key, successes in _groups(suite, data["records"]).items()}
+            for key, successes in groups.items()}
+        paired[policy] = {axis: _paired(twins, groups, axis) for axis in sorted(twins)}
     keys = list(dict.fromkeys(k for column in columns.values() for k in column))
     rows = [[group, strength, *(column.get((group, strength), "–") for column in columns.values())]
             for group, strength in keys]
@@ -137,6 +150,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if skipped:
         head += ["Skipped: " + "; ".join(skipped) + ".", ""]
     table = markdown_table(["group", "strength", *columns], rows)
+    axes = sorted({axis for column in paired.values() for axis in column})
+    if axes:
+        table += ("\n\nPer axis, each baseline's clean twins → its variants at strengths 1–5 (successes/pairs; "
+                  "`*`: exact McNemar p < 0.05 against the twins):\n\n"
+                  + markdown_table(["axis", *paired], [[a, *(c.get(a, "–") for c in paired.values())] for a in axes]))
     (args.out / "baselines.md").write_text("\n".join([*head, table, ""]))
     print("\n".join([*head, table]))
     return 0

@@ -27,7 +27,7 @@ def test_the_table_holds_the_oracle_per_axis_and_strength_and_skips_missing_mode
     assert "Skipped: keypose: no models at" in page and "keypose_all.sh" in page
     assert "samplehd evaluate --policy oracle --suite" in page
     rows = {tuple(c.strip() for c in line.strip("|").split("|")[:2]): line.strip("|").split("|")[2].strip()
-            for line in page.splitlines() if line.startswith("| ") and "---" not in line}
+            for line in page.split("Per axis")[0].splitlines() if line.startswith("| ") and "---" not in line}
     assert ("group", "strength") in rows and rows[("group", "strength")] == "oracle"
     clean = rows[("all (clean)", "0")]
     n = int(clean.split("/")[1].split()[0])
@@ -35,6 +35,7 @@ def test_the_table_holds_the_oracle_per_axis_and_strength_and_skips_missing_mode
     assert rows[("family pick_up", "0")] == clean
     # the oracle reads the state, not the words: a blank instruction leaves it at its twins' rate, no star
     assert rows[("blank", "0")] == clean and rows[("blank", "5")] == clean
+    assert f"| blank | {n}/{n} → {n}/{n} |" in page  # the paired line: twins, then strength 5
     assert (out / "reports" / "oracle.json").is_file()
     # finished reports are kept: a second run evaluates nothing again
     again = _run(str(SCRIPT), str(suite), "--out", str(out), "--workers", "1", "--policies", "oracle")
