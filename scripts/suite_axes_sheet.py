@@ -18,8 +18,9 @@ import textwrap
 import numpy as np
 from PIL import Image, ImageDraw
 
-from samplehd.benchmark.axes import AXES, changed_fields, perturb
+from samplehd.benchmark.axes import AXES, perturb
 from samplehd.benchmark.sensor import corrupt_observation, sensor_rng
+from samplehd.benchmark.suite import same_episode
 from samplehd.envs.suite_file import Suite, SuiteEpisode, read_suite
 from samplehd.envs.tabletop import TabletopEnv
 from samplehd.errors import SceneError
@@ -43,7 +44,7 @@ def _variant(suite: Suite, twin: dict, axis: str, attempts: int = 8) -> dict | s
         except SceneError as exc:
             reason = str(exc)
             continue
-        if changed_fields(twin, variant) <= {"id", "axis", "strength", "twin"}:
+        if same_episode(variant, twin):
             return "nothing to change"
         return variant
     return reason

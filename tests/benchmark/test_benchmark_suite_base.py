@@ -249,7 +249,6 @@ def test_the_shipped_plus_specification_derives_every_axis_from_core() -> None:
     assert twins * (1 + len(others) * len(STRENGTHS)) >= 10_000
 
 
-
 def test_a_variant_the_env_refuses_is_rejected_with_the_envs_reason() -> None:
     """core's 'Clear the front part of the table.' (shop-vrb remove L1) as twin 9, its objects shifted
     7.5 cm toward the back: the env refuses the reset (the program picks other objects); the rejection

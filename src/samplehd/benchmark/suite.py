@@ -71,7 +71,8 @@ from samplehd.tasks.task import family_names
 from samplehd.version import __version__
 from samplehd.workers import Backend, Feed
 
-__all__ = ["SELECTION", "Candidate", "SuiteBuildConfig", "build_suite", "read_base", "rejection_reason", "scene_seeds"]
+__all__ = ["SELECTION", "Candidate", "SuiteBuildConfig", "build_suite", "read_base", "rejection_reason", "same_episode",
+           "scene_seeds"]
 
 CATALOGUES = tuple(BUILT_IN_CATALOGUES)
 _NUMBER = re.compile(r"[0-9]+(\.[0-9]+)?")
@@ -425,7 +426,7 @@ def _prove_variant(unit: tuple[SuiteBuildConfig, dict[str, Any], str, int, int])
                      steps=record.steps, variant=label)
 
 
-def _same_episode(variant: dict[str, Any], twin: dict[str, Any]) -> bool:
+def same_episode(variant: dict[str, Any], twin: dict[str, Any]) -> bool:
     """Whether a variant equals its twin apart from its axis labels."""
     skip = {"id", "axis", "strength", "twin"}
     return {k: v for k, v in variant.items() if k not in skip} == {k: v for k, v in twin.items() if k not in skip}
@@ -445,7 +446,7 @@ def _variants(config: SuiteBuildConfig, clean: list[dict[str, Any]], backend: Ba
                     pending.append((axis, strength, twin))
                 else:  # images or text only: the twin's rollout is this variant's, bit for bit
                     variant = perturb(twin, axis, strength, config.seed)
-                    if _same_episode(variant, twin):
+                    if same_episode(variant, twin):
                         rejected[f"{axis}: nothing to change"] += 1
                     else:
                         out[axis, strength, twin["id"]] = variant

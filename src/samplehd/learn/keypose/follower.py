@@ -33,6 +33,7 @@ from samplehd.learn.actions import steering_speeds, tcp_yaw, wrap_angle
 from samplehd.learn.demos import squeeze_command
 from samplehd.learn.keypose.processing import Decision
 from samplehd.robot.constants import GRIPPER_STROKE
+from samplehd.world.transforms import quat_to_mat
 
 __all__ = ["APPROACH", "CHECK_SQUEEZE", "DROPPED_MARGIN", "HOLD_CHECK_PERIOD", "LOST_AT", "MISSED_WIDTH",
            "STUCK_PROGRESS", "STUCK_STEPS", "TILT_TOLERANCE", "KeyposeFollower", "tool_tilt"]
@@ -306,8 +307,7 @@ class KeyposeFollower:
 def tool_tilt(quat: np.ndarray) -> np.ndarray:
     """The rotation vector (base frame, which has the world's axes) that turns the TCP's approach axis,
     its z (straight down at the start pose), to straight down: zero for a level tool [rad]."""
-    w, x, y, z = np.asarray(quat, np.float64) / float(np.linalg.norm(quat))
-    approach = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+    approach = quat_to_mat(quat)[:, 2]
     axis = np.cross(approach, (0.0, 0.0, -1.0))
     sin = float(np.linalg.norm(axis))
     if sin < 1e-12:
