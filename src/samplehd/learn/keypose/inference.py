@@ -28,7 +28,6 @@ from samplehd.learn.keypose.configuration import (
 )
 from samplehd.learn.keypose.exclusion import SeenObject, exclusion_target, moves_unheard, table_objects, unknown_nouns
 from samplehd.learn.keypose.follower import KeyposeFollower
-from samplehd.learn.keypose.grounding import described_objects, unnamed_cells
 from samplehd.learn.keypose.modeling import KeyposeNet
 from samplehd.learn.keypose.processing import (
     FACTOR,
@@ -72,13 +71,11 @@ class DecisionRecord(TypedDict):
 class KeyposeDiagnosis(TypedDict, total=False):
     """A keypose episode so far (:meth:`KeyposePolicy.diagnosis`; empty before the first decision): the
     follower's stage, the decisions made again after the fingers were found empty and where each time
-    (:data:`~samplehd.learn.keypose.follower.LOST_AT`), whether grounding by exclusion fired, how many
-    grasps were kept off an object the instruction does not describe
-    (:mod:`~samplehd.learn.keypose.grounding`), and the decisions."""
+    (:data:`~samplehd.learn.keypose.follower.LOST_AT`), whether grounding by exclusion fired, and the
+    decisions."""
 
     stage: str
     retries: int
-    regrounded: int
     lost: list[str]
     exclusion: bool
     decisions: list[DecisionRecord]
@@ -122,7 +119,6 @@ class KeyposePolicy:
         self.exclusion = False  # whether this episode's instruction fired the rule of grounding by exclusion
         self._restricted = False  # whether the current decision's grasp was sought on that object alone ...
         self._grounded_moved = False  # ... and whether such a decision has moved it (the rule is then done)
-        self.regrounded = 0  # decisions whose grasp was kept off an object the instruction does not describe
         self.retries = 0  # decisions made again after the fingers were found empty ...
         self.lost: list[str] = []  # ... and where, each time (KeyposeFollower.lost)
 
@@ -151,12 +147,8 @@ class KeyposePolicy:
             features = self.net.features(grid_t, tokens_t)
             grounded = self._grounded_by_exclusion(text, grid, features[1])
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
-            named = None if grounded is not None else self._named_cells(text, grid, features[1])
-            only = grounded.cells if grounded is not None else named
+            only = None if grounded is None else grounded.cells
             decision = predict_decisions(self.net, grid_t, tokens_t, self.grid, [avoid], [only], features)[0]
-            if named is not None and decision.grasp != predict_decisions(
-                    self.net, grid_t, tokens_t, self.grid, [avoid], None, features)[0].grasp:
-                self.regrounded += 1
         return decision if grounded is None else grounded_grasp(decision, grounded)
 
     def _grounded_by_exclusion(self, instruction: str, grid: np.ndarray, feats: Any) -> SeenObject | None:
@@ -172,30 +164,13 @@ class KeyposePolicy:
         self.exclusion = True
         if self._grounded_moved or not moves_unheard(instruction, vocabulary):
             return None
-        objects = self._table_objects(grid, feats)
-        target = exclusion_target(instruction, vocabulary, objects)
-        self._restricted = target is not None
-        return None if target is None else objects[target]
-
-    def _named_cells(self, instruction: str, grid: np.ndarray, feats: Any) -> np.ndarray | None:
-        """The cells the grasp is sought in when no unheard noun names the object: all but those of the
-        objects that fit none of the instruction's descriptions (:mod:`samplehd.learn.keypose.grounding`);
-        None where the check leaves the grasp alone."""
-        if self.exclusion or not self.config.vocabulary.name:
-            return None
-        descriptions = described_objects(instruction, self.config.vocabulary)
-        if not descriptions:
-            return None
-        unnamed = unnamed_cells(self._table_objects(grid, feats), descriptions)
-        return None if unnamed is None else ~unnamed
-
-    def _table_objects(self, grid: np.ndarray, feats: Any) -> list[SeenObject]:
-        """The objects on the policy's map, with what its auxiliary maps say of each."""
-        vocabulary = self.config.vocabulary
         maps = self.net.attributes(feats)[0].view(len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, *feats.shape[2:])
         maps = maps.cpu().numpy().astype(np.float64)
         logits = {a: maps[k, :len(vocabulary.values(a))] for k, a in enumerate(KEYPOSE_ATTRIBUTES)}
-        return table_objects(grid, logits["name"], logits, vocabulary, FACTOR, self.grid.cell)
+        objects = table_objects(grid, logits["name"], logits, vocabulary, FACTOR, self.grid.cell)
+        target = exclusion_target(instruction, vocabulary, objects)
+        self._restricted = target is not None
+        return None if target is None else objects[target]
 
     def __call__(self, obs: Mapping[str, Any]) -> np.ndarray:
         episode = getattr(self.env.unwrapped, "episode", None)
@@ -226,7 +201,6 @@ class KeyposePolicy:
             return {}
         lost = self.lost + ([follower.lost] if follower.lost is not None else [])
         return {"stage": follower.stage, "retries": self.retries, "lost": lost, "exclusion": self.exclusion,
-                "regrounded": self.regrounded,
                 "decisions": [{"grasp": [round(v, 3) for v in d.grasp], "goal": [round(v, 3) for v in d.goal],
                                "release": d.release, "last": d.last} for d in self.decisions]}
 
