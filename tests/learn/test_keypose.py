@@ -14,7 +14,7 @@ pytest.importorskip("torch")
 from samplehd.dataset.reader import DatasetReader  # noqa: E402
 from samplehd.envs.replay_check import replay_env  # noqa: E402
 from samplehd.learn.actions import tcp_yaw  # noqa: E402
-from samplehd.learn.keypose.follower import KeyposeFollower  # noqa: E402
+from samplehd.learn.keypose.follower import TILT_TOLERANCE, KeyposeFollower, tool_tilt  # noqa: E402
 from samplehd.learn.keypose.processing import decisions  # noqa: E402
 from samplehd.world.layout import LAYOUT  # noqa: E402
 
@@ -139,8 +139,6 @@ def test_an_arm_that_starts_tilted_is_turned_level_and_follows_the_decisions(key
     """A start pose with the tool tilted 0.2 rad off straight down (as a suite's robot start axis gives
     it): the follower turns the tool level on its first move and the recorded decisions succeed, where a
     tilted descent put the fingertips into the table (an environment collision stop)."""
-    from samplehd.learn.keypose.follower import TILT_TOLERANCE, tool_tilt
-
     reader = DatasetReader(keypose_dataset)
     env = replay_env(reader)
     try:
