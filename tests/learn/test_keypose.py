@@ -387,6 +387,8 @@ def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_datas
     assert config["action"] == "keypose" and config["grid"]["width"] == 320 and config["grid"]["height"] == 180
     assert metrics["train_decisions"] >= 3 and metrics["test_decisions"] >= 1
     assert set(metrics["test_grasp_error_m"]) == {"median", "mean", "within_1cm", "within_2cm"}
+    assert 0 <= metrics["test_grasp_on_object"] <= 1  # which object the held-out grasps land on
+    assert 0 <= metrics["test_class_accuracy"]["objects"] <= 1 and 0 <= metrics["test_class_accuracy"]["cells"] <= 1
     assert float(a["z_floor"]) > LAYOUT.table_height
 
     # a run may start from another keypose policy's weights (one line naming --init when it is not one)
@@ -405,6 +407,24 @@ def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_datas
     assert code == 0
     result = json.loads(report.read_text())
     assert result["episodes"] == 1 and result["records"][0]["steps"] >= 1
+
+
+def test_the_held_out_metrics_say_which_object_is_grasped_and_what_the_class_map_calls_it() -> None:
+    from samplehd.learn.keypose.training import _grounding_metrics
+
+    # one view, 16 x 16 cells: a mug (class 0, colour 1) at rows 2-5, a bowl (class 1, colour 1) at rows 10-13
+    attributes = np.full((2, 4, 16, 16), -1, np.int8)
+    attributes[:, :, 2:6, 2:6] = np.array([0, 1, 0, 0])[:, None, None]
+    attributes[:, :, 10:14, 2:6] = np.array([1, 1, 0, 0])[:, None, None]
+    labels = np.zeros((2, 13), np.float32)
+    labels[:, 0:2] = [3.0, 3.0]  # both decisions grasp the mug
+    grasps = np.array([[4.0, 4.2], [11.0, 3.0]])  # the first on the mug, the second on the bowl
+    classes = np.zeros((2, 16, 16), np.int64)  # the class map calls everything a mug
+    m = _grounding_metrics(attributes, labels, grasps, classes)
+    assert m["test_grasp_on_object"] == 0.5
+    assert m["test_class_accuracy"] == {"objects": 0.5, "cells": 0.5}
+    classes[:, 10:14, 2:6] = 1  # and now the bowl a bowl
+    assert _grounding_metrics(attributes, labels, grasps, classes)["test_class_accuracy"]["objects"] == 1.0
 
 
 def test_a_later_grasp_is_not_sought_where_an_earlier_one_was() -> None:

@@ -93,6 +93,8 @@ class KeyposeTraining(Config, section="train"):
         word_dropout: the share of an instruction's words read as ``<UNK>`` in each training batch, so
             that no single word decides (a trained ``<UNK>`` means "a word I do not know"; the policy
             then reads every word outside its training instructions as one: see :func:`policy_tokens`).
+        attribute_weight: the weight of the auxiliary maps' loss (per cell, the class, colour, material
+            and size of the object seen there) beside the grasp's and the goal's.
     """
 
     steps: int = bounded(3000, lo=1)
@@ -102,6 +104,7 @@ class KeyposeTraining(Config, section="train"):
     episodes: int = bounded(0, lo=0)
     init: str = ""
     word_dropout: float = bounded(0.1, lo=0.0, hi=1.0, hi_open=True)
+    attribute_weight: float = bounded(0.5, lo=0.0)
 
 
 @dataclass(frozen=True)

@@ -47,9 +47,11 @@ from samplehd.world.layout import LAYOUT
 
 __all__ = ["keypose_loss", "train_keypose"]
 
-ATTRIBUTE_WEIGHT = 0.5  # weight of the auxiliary attribute maps' loss
 SHIFT = 4  # training views move by up to this many grid cells along each axis
 HEAT_SIGMA = 0.75  # the spread of the heat maps' targets [cells of the network's maps]
+# a grasp lies on the object most of the cells this near show [cells of the network's maps]: a mug's
+# grasp on its rim, a thin spoon's beside it
+OBJECT_RADIUS = 2
 
 
 
@@ -98,10 +100,11 @@ def _heat_loss(logits: Any, rc: Any) -> Any:
     return -(target * torch.log_softmax(logits.reshape(n, -1), 1)).sum(1).mean()
 
 
-def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any) -> tuple[Any, dict[str, torch.Tensor]]:
+def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any, attribute_weight: float = 0.5
+                 ) -> tuple[Any, dict[str, torch.Tensor]]:
     """The training loss of a batch and its parts: cross-entropy of the grasp's and the goal's cell
     over the map, smooth L1 of the values at the labelled cells (the goal's read with the labelled
-    grasp's cell), binary cross-entropy of release and last, and :data:`ATTRIBUTE_WEIGHT` times the
+    grasp's cell), binary cross-entropy of release and last, and ``attribute_weight`` times the
     cross-entropy of the attribute maps over the cells that show an object."""
     F = torch.nn.functional
     n = grid.shape[0]
@@ -126,7 +129,7 @@ def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any)
     att_logits = net.attributes(feats).view(n, len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, rows, cols)
     named = F.cross_entropy(att_logits.transpose(1, 2), attributes, ignore_index=-1) if (attributes >= 0).any() \
         else att_logits.sum() * 0.0
-    return heat + 5.0 * values + flag + ATTRIBUTE_WEIGHT * named, {
+    return heat + 5.0 * values + flag + attribute_weight * named, {
         "heat": heat, "values": values, "flags": flag, "attributes": named, "grasp": gm, "goal": pm,
         "flag_logits": flags}
 
@@ -306,7 +309,8 @@ def _train_step(net: Any, opt: Any, arrays: dict[str, np.ndarray], train: Any, d
                                         torch.as_tensor(arrays["train_attributes"][idx].astype(np.int64), device=dev),
                                         rng)
         tokens = _dropped_words(arrays["train_tokens"][idx], train.word_dropout, step_rng(train.seed, step, stream=1))
-        loss, _ = keypose_loss(net, grid_t, torch.as_tensor(tokens, device=dev), lab_t, att_t)
+        loss, _ = keypose_loss(net, grid_t, torch.as_tensor(tokens, device=dev), lab_t, att_t,
+                               train.attribute_weight)
         return descend(opt, loss)
 
     return train_step
@@ -335,13 +339,17 @@ def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, de
     if m == 0:
         return {"test_decisions": 0}
     net.eval()
-    preds = []
+    preds, classes = [], []
     with torch.no_grad():
         for s in range(0, m, 32):
             idx = np.arange(s, min(s + 32, m))
             g = torch.as_tensor(arrays["test_grid"][idx].astype(np.float32), device=dev)
             tok = torch.as_tensor(arrays["test_tokens"][idx], device=dev)
-            preds += [p.as_array() for p in predict_decisions(net, g, tok, grid)]
+            features = net.features(g, tok)
+            preds += [p.as_array() for p in predict_decisions(net, g, tok, grid, features=features)]
+            feats = features[1]
+            maps = net.attributes(feats).view(len(idx), len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, *feats.shape[2:])
+            classes.append(maps[:, 0].argmax(1).cpu().numpy())
     pred = np.stack(preds)
     labels = arrays["test_labels"]
     coarse = grid.coarse(FACTOR)
@@ -361,4 +369,56 @@ def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, de
             "test_grasp_z_error_m": round(float(np.median(z_err)), 4),
             "test_grasp_yaw_error_rad": round(float(np.median(yaw)), 4),
             "test_release_accuracy": round(float(flags[:, 0].mean()), 4),
-            "test_last_accuracy": round(float(flags[:, 1].mean()), 4)}
+            "test_last_accuracy": round(float(flags[:, 1].mean()), 4),
+            **_grounding_metrics(arrays["test_attributes"], labels, coarse.cell_of(pred[:, 0:2]),
+                                 np.concatenate(classes))}
+
+
+def _grounding_metrics(attributes: np.ndarray, labels: np.ndarray, grasp_cells: np.ndarray,
+                       classes: np.ndarray) -> Metrics:
+    """Which object the held-out decisions grasp, and what the auxiliary class map calls each object
+    (``attributes``: the true attribute maps; ``grasp_cells``: the predicted grasps' cells of the
+    network's map; ``classes``: the class map's most likely class per cell):
+
+    - ``test_grasp_on_object``: the share of the decisions whose labelled grasp lies on an object
+      (within :data:`OBJECT_RADIUS` cells) where the predicted grasp lies on that same object;
+    - ``test_class_accuracy``: per object seen in a held-out view, whether the class its cells are most
+      often given is its class (``cells``: per cell)."""
+    objects = _object_ids(attributes)
+    rows, cols = objects.shape[1:]
+    true_cells = np.clip(np.round(labels[:, 0:2]).astype(int), 0, [rows - 1, cols - 1])
+    pred_cells = np.clip(np.round(grasp_cells).astype(int), 0, [rows - 1, cols - 1])
+    true = np.array([_object_near(o, *rc) for o, rc in zip(objects, true_cells, strict=True)])
+    pred = np.array([_object_near(o, *rc) for o, rc in zip(objects, pred_cells, strict=True)])
+    on = true >= 0
+    names = attributes[:, 0]
+    seen = names >= 0
+    right = total = 0
+    for view, cls, name in zip(objects, classes, names, strict=True):
+        for obj in np.unique(view[view >= 0]):
+            cells = view == obj
+            right += int(np.bincount(cls[cells]).argmax() == name[cells][0])
+            total += 1
+    return {"test_grasp_on_object": round(float((pred[on] == true[on]).mean()), 4) if on.any() else None,
+            "test_class_accuracy": {"objects": round(right / total, 4) if total else None,
+                                    "cells": round(float((classes[seen] == names[seen]).mean()), 4)
+                                    if seen.any() else None}}
+
+
+def _object_ids(attributes: np.ndarray) -> np.ndarray:
+    """Per cell of the attribute maps (N, attribute, rows, cols), one id per object seen there (its
+    class, colour, material and size together; -1 where no object is seen)."""
+    a = attributes.astype(np.int64)
+    ids = ((a[:, 0] * ATTRIBUTE_VALUES + a[:, 1]) * ATTRIBUTE_VALUES + a[:, 2]) * ATTRIBUTE_VALUES + a[:, 3]
+    return np.where(a[:, 0] >= 0, ids, -1)
+
+
+def _object_near(objects: np.ndarray, row: int, col: int) -> int:
+    """The object most of the cells within :data:`OBJECT_RADIUS` of (row, col) show, or -1 (none)."""
+    r = OBJECT_RADIUS
+    near = objects[max(row - r, 0):row + r + 1, max(col - r, 0):col + r + 1].ravel()
+    near = near[near >= 0]
+    if not len(near):
+        return -1
+    values, counts = np.unique(near, return_counts=True)
+    return int(values[counts.argmax()])
