@@ -401,6 +401,21 @@ def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_datas
                      str(tmp_path / "refused"), "--steps", "1", "--init", str(bad)]) == 2
     assert not (tmp_path / "refused").exists()
 
+    # the product grasp head: its key and query in the weights, its name in the config; keypose only
+    product = tmp_path / "product"
+    assert main(["train", "policy", "--action", "keypose", "--grasp-head", "product", "--dataset",
+                 str(keypose_dataset), "--out", str(product), "--steps", "1", "--batch", "2", "--quiet"]) == 0
+    assert json.loads((product / "config.json").read_text())["model"]["grasp_head"] == "product"
+    assert {"key.weight", "query.weight"} <= set(load_weights(product / "model.pt"))
+    assert main(["train", "policy", "--grasp-head", "product", "--dataset", str(keypose_dataset), "--out",
+                 str(tmp_path / "refused"), "--steps", "1"]) == 2
+    assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out",
+                 str(tmp_path / "refused"), "--steps", "1", "--init", str(product)]) == 2  # another network
+    assert not (tmp_path / "refused").exists()
+    code = main(["evaluate", "--policy", "bc", "--models", str(product), "--families", "pick_up", "--episodes", "1",
+                 "--max-episode-steps", "60", "--out", str(tmp_path / "product.json")])
+    assert code == 0 and json.loads((tmp_path / "product.json").read_text())["records"][0]["steps"] >= 1
+
     report = tmp_path / "report.json"
     code = main(["evaluate", "--policy", "bc", "--models", str(whole), "--families", "pick_up", "--episodes", "1",
                  "--max-episode-steps", "60", "--out", str(report)])

@@ -17,7 +17,7 @@ from samplehd.commands._options import check_out_dir
 from samplehd.dataset.outputs import check_outputs
 from samplehd.errors import ConfigError, require_extra
 from samplehd.learn.keypose.configuration import ACTION as KEYPOSE_ACTION
-from samplehd.learn.keypose.configuration import KeyposeArchitecture, KeyposeConfig, KeyposeTraining
+from samplehd.learn.keypose.configuration import GRASP_HEADS, KeyposeArchitecture, KeyposeConfig, KeyposeTraining
 from samplehd.learn.parser import ParserConfig, ParserTraining, score_parser, train_parser
 from samplehd.learn.perception import PerceptionConfig, PerceptionTraining, score_perception, train_perception
 from samplehd.learn.policy.configuration import PolicyArchitecture, PolicyCollection, PolicyConfig, PolicyTraining
@@ -58,6 +58,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "('.') in training and when it acts")
     policy.add_argument("--init", type=Path, help="--action keypose: start from the weights of the keypose policy "
                                                   "in this folder (e.g. a pick_up model for place)")
+    policy.add_argument("--grasp-head", choices=GRASP_HEADS,
+                        help="--action keypose: film: the grasp's maps read the instruction through the "
+                             "FiLM-modulated features (default); product: their heat also adds a per-cell "
+                             "product of the features' key with the instruction's query")
     policy.add_argument("--batch", type=int, help="frames per optimiser step (default 64)")
     policy.add_argument("--hidden", type=int, help="width of the network's hidden layers (default 256)")
     policy.add_argument("--demos", type=int, help="oracle episodes to collect in the environment besides the "
@@ -93,13 +97,13 @@ def run(args: argparse.Namespace) -> int:
     collect = {"demos": args.demos, "noise": args.noise, "dagger_rounds": args.dagger_rounds,
                "dagger_episodes": args.dagger_episodes, "dagger_steps": args.dagger_steps, "workers": args.workers,
                "inputs": args.inputs, "action": args.action, "batch": args.batch, "hidden": args.hidden,
-               "init": args.init}
+               "init": args.init, "grasp_head": args.grasp_head}
     given = {k: v for k, v in collect.items() if v is not None}
     if given and args.model != "policy":
         flag = "--" + next(iter(given)).replace("_", "-")
         raise ConfigError(f"{flag} {next(iter(given.values()))}: only used with `train policy`; leave it out")
     for key, value in given.items():
-        if key in ("inputs", "action", "init"):
+        if key in ("inputs", "action", "init", "grasp_head"):
             continue
         low = 1 if key in ("dagger_episodes", "dagger_steps", "workers", "batch", "hidden") else 0
         if key == "noise":
@@ -119,6 +123,9 @@ def run(args: argparse.Namespace) -> int:
     if args.blind_language and given.get("action") != KEYPOSE_ACTION:
         raise ConfigError("--blind-language: the language-blind control of the keypose policy; only used with "
                           "--action keypose")
+    if "grasp_head" in given and given.get("action") != KEYPOSE_ACTION:
+        raise ConfigError(f"--grasp-head {args.grasp_head}: the keypose policy's grasp head; only used with "
+                          f"--action keypose")
     if "init" in given and given.get("action") != KEYPOSE_ACTION:
         raise ConfigError(f"--init {args.init}: starts a keypose policy from another's weights; only used with "
                           f"--action keypose")
@@ -156,7 +163,7 @@ def _keypose_config(args: argparse.Namespace, steps: int) -> tuple[KeyposeConfig
     """The keypose policy to train, from the flags (what the dataset says is filled in by training), and
     no more trainer options."""
     return KeyposeConfig(
-        inputs=args.inputs or "rgb", model=KeyposeArchitecture(),
+        inputs=args.inputs or "rgb", model=KeyposeArchitecture(grasp_head=args.grasp_head or "film"),
         language="blank" if args.blind_language else "instruction",
         train=KeyposeTraining(steps=steps, seed=args.seed, batch=args.batch or 16,
                               init=str(args.init) if args.init is not None else "")), {}

@@ -26,8 +26,8 @@ from samplehd.errors import ConfigError
 from samplehd.learn.configuration import ModelConfig, catalogue_options
 from samplehd.schema import Config, bounded
 
-__all__ = ["ACTION", "ATTRIBUTE_VALUES", "BLANK_TEXT", "FORMAT", "INPUTS", "KEYPOSE_ATTRIBUTES", "LANGUAGE",
-           "KeyposeArchitecture", "KeyposeConfig", "KeyposeGrid", "KeyposeTraining", "KeyposeVocabulary",
+__all__ = ["ACTION", "ATTRIBUTE_VALUES", "BLANK_TEXT", "FORMAT", "GRASP_HEADS", "INPUTS", "KEYPOSE_ATTRIBUTES",
+           "LANGUAGE", "KeyposeArchitecture", "KeyposeConfig", "KeyposeGrid", "KeyposeTraining", "KeyposeVocabulary",
            "ShapeRange", "policy_instruction", "policy_tokens"]
 
 FORMAT = 3  # the config format of a keypose policy (bump when the network or its inputs change)
@@ -40,6 +40,7 @@ INPUTS = ("rgb", "state")
 # text BLANK_TEXT in training and when it acts (the benchmark's blank instruction: no word, the full stop).
 LANGUAGE = ("instruction", "blank")
 BLANK_TEXT = BLANK_INSTRUCTION
+GRASP_HEADS = ("film", "product")  # how the grasp's heat reads the instruction (KeyposeArchitecture.grasp_head)
 KEYPOSE_ATTRIBUTES = ("name", "color", "material", "size")  # the scene annotation's keys the auxiliary maps name
 ATTRIBUTE_VALUES = 32  # logits per attribute (the catalogues have at most 16 values of any)
 
@@ -50,9 +51,13 @@ class KeyposeArchitecture(Config, section="model"):
 
     Attributes:
         width: channels of the U-Net's first level.
+        grasp_head: ``film``: the grasp's maps read the instruction through the FiLM-modulated features
+            alone; ``product``: their heat also adds, per cell, the product of a key of the cell's features
+            with a query of the instruction (:data:`GRASP_HEADS`).
     """
 
     width: int = bounded(16, lo=1)
+    grasp_head: str = bounded("film", choices=GRASP_HEADS)
 
 
 @dataclass(frozen=True)

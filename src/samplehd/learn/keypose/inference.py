@@ -97,7 +97,7 @@ class KeyposePolicy:
         self.config = config
         self.device = device or torch.device("cpu")
         self.net = KeyposeNet(len(instruction_vocabulary()), input_channels(config.inputs),
-                              config.model.width).to(self.device)
+                              config.model.width, config.model.grasp_head).to(self.device)
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
@@ -229,7 +229,7 @@ def predict_decisions(net: Any, grid_batch: Any, tokens: Any, grid: TopDownGrid,
     in alone (an object grounded by exclusion). ``features``: ``net.features`` of these images when the
     caller has them already."""
     c, feats, flags = net.features(grid_batch, tokens) if features is None else features
-    gm = net.grasp(feats)
+    gm = net.grasp_maps(c, feats)
     n, _, rows, cols = gm.shape
     heat = gm[:, 0].clone()
     for i, cells in enumerate(only or ()):

@@ -30,6 +30,7 @@ class _Block(nn.Module):
 
 GRASP_OUT = 8  # heat, row and column offset, z, cos 2yaw, sin 2yaw, opening, lift
 GOAL_OUT = 6  # heat, row and column offset, z, cos 2yaw, sin 2yaw
+PRODUCT_CHANNELS = 32  # channels of the product head's key and query
 
 
 class KeyposeNet(nn.Module):
@@ -44,9 +45,10 @@ class KeyposeNet(nn.Module):
     at the goal and whether the decision is the last.
     """
 
-    def __init__(self, vocab: int, channels: int, width: int = 32) -> None:
+    def __init__(self, vocab: int, channels: int, width: int = 32, grasp_head: str = "film") -> None:
         super().__init__()
         w = width
+        self.product = grasp_head == "product"
         self.register_buffer("z_floor", torch.zeros(()))  # the lowest grasp height of the training decisions [m]
         self.embed = nn.Embedding(vocab, 64, padding_idx=0)
         self.text = nn.GRU(64, 128, batch_first=True)
@@ -59,6 +61,9 @@ class KeyposeNet(nn.Module):
         self.up2 = _Block(4 * w, w, 128)
         self.up1 = _Block(2 * w, w, 128)
         self.grasp = nn.Conv2d(w, GRASP_OUT, 1)
+        if self.product:  # the grasp's heat also reads the instruction per cell: a key of the cell's features · a query
+            self.key = nn.Conv2d(w, PRODUCT_CHANNELS, 1)
+            self.query = nn.Linear(128, PRODUCT_CHANNELS)
         self.goal_cond = nn.Linear(128 + w + 2, 128)
         self.goal = _Block(w, w, 128)
         self.goal_out = nn.Conv2d(w, GOAL_OUT, 1)
@@ -89,6 +94,15 @@ class KeyposeNet(nn.Module):
         flags = self.flags(torch.cat([d4.mean(dim=(2, 3)), c], 1))
         return c, u1, flags
 
+    def grasp_maps(self, c: torch.Tensor, feats: torch.Tensor) -> torch.Tensor:
+        """The grasp's maps (N, :data:`GRASP_OUT`, rows, cols); with the ``product`` head, the heat plus
+        the scaled dot product of each cell's key with the instruction's query."""
+        maps = self.grasp(feats)
+        if not self.product:
+            return maps
+        match = (self.key(feats) * self.query(c)[:, :, None, None]).sum(1, keepdim=True) / PRODUCT_CHANNELS ** 0.5
+        return torch.cat([maps[:, :1] + match, maps[:, 1:]], 1)
+
     def goal_maps(self, c: torch.Tensor, feats: torch.Tensor, cell: torch.Tensor) -> torch.Tensor:
         """The goal's maps given the grasp's cell (N, 2: row, column of the half-resolution map)."""
         n, _, rows, cols = feats.shape
@@ -100,4 +114,4 @@ class KeyposeNet(nn.Module):
     def forward(self, grid: torch.Tensor, tokens: torch.Tensor, cell: torch.Tensor) -> tuple[torch.Tensor, ...]:
         """(grasp maps, goal maps, flag logits), the goal's given the grasp ``cell``."""
         c, feats, flags = self.features(grid, tokens)
-        return self.grasp(feats), self.goal_maps(c, feats, cell), flags
+        return self.grasp_maps(c, feats), self.goal_maps(c, feats, cell), flags

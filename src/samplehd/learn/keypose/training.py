@@ -113,7 +113,7 @@ def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any,
     g_rc, p_rc = labels[:, 0:2], labels[:, 6:8]
     g_cell = torch.stack([g_rc[:, 0].round().clamp(0, rows - 1), g_rc[:, 1].round().clamp(0, cols - 1)], 1).long()
     p_cell = torch.stack([p_rc[:, 0].round().clamp(0, rows - 1), p_rc[:, 1].round().clamp(0, cols - 1)], 1).long()
-    gm = net.grasp(feats)
+    gm = net.grasp_maps(c, feats)
     pm = net.goal_maps(c, feats, g_cell)
     ar = torch.arange(n, device=grid.device)
     g_at = gm[ar, :, g_cell[:, 0], g_cell[:, 1]]
@@ -193,7 +193,8 @@ def train_keypose(dataset: str | Path | Sequence[str | Path], out: str | Path, c
                    stop_after=stop_after)
     run.prepare()
     _keep_samples(out, arrays)
-    net = KeyposeNet(len(instruction_vocabulary()), input_channels(config.inputs), config.model.width).to(dev)
+    net = KeyposeNet(len(instruction_vocabulary()), input_channels(config.inputs), config.model.width,
+                     config.model.grasp_head).to(dev)
     if start is not None:
         check_weights_fit(net, start, config.train.init)
     # The lowest grasp of the training decisions: the policy never grasps lower (a finger on the table
@@ -327,10 +328,10 @@ def _initial_weights(config: KeyposeConfig) -> dict[str, torch.Tensor]:
     if start.inputs != config.inputs:
         raise ConfigError(f"init={init}: a keypose policy of inputs {start.inputs!r}, this run's are "
                           f"{config.inputs!r}", field="init")
-    if start.grid != config.grid or start.model.width != config.model.width:
-        raise ConfigError(f"init={init}: its grid or width (grid {start.grid.to_dict()}, width {start.model.width}) "
-                          f"differs from this run's (grid {config.grid.to_dict()}, width {config.model.width})",
-                          field="init")
+    if start.grid != config.grid or start.model != config.model:
+        raise ConfigError(f"init={init}: its grid or network (grid {start.grid.to_dict()}, model "
+                          f"{start.model.to_dict()}) differs from this run's (grid {config.grid.to_dict()}, model "
+                          f"{config.model.to_dict()})", field="init")
     return state
 
 
