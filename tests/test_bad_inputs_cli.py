@@ -905,6 +905,10 @@ OPTION_CASES += [
     ("train-parser-action", TRAIN + ["{new}", "--action", "waypoint"], ("--action", "train policy")),
     ("train-zero-batch", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--batch", "0"],
      ("--batch", "0")),
+    ("train-grasp-head-unknown", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--action", "keypose",
+                                  "--grasp-head", "dot"], ("--grasp-head", "dot")),
+    ("train-grasp-head-not-keypose", ["train", "policy", "--dataset", "{ds}", "--out", "{new}", "--grasp-head",
+                                      "product"], ("--grasp-head", "product", "--action keypose")),
 ]
 
 
