@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # One keypose policy for all seven task families (docs/BASELINES.md#one-policy-for-all-seven-families):
 # a states-only dataset of demonstrations of every family on SAMPLE-HD's SHOP-VRB shapes with 640x360
-# scene images (scripts/baselines/keypose_all.json) and one of stack_three alone
+# scene images (scripts/baselines/keypose_all.json) and two of stack_three alone
 # (scripts/baselines/keypose_stack_three.json: a three-object stack needs a plate in the middle, which
-# few scenes of all shapes hold: 49 of the first's 5,007 episodes), each proven by replay; one keypose
-# policy trained on both;
+# few scenes of all shapes hold: 49 of the first's 5,007 episodes; keypose_stack_three_tops.json: the
+# bowl and the thermos on top, classes the first leaves out), each proven by replay; one keypose
+# policy trained on all three, its grasp map reading the instruction per cell (--grasp-head product);
 # evaluated closed loop on the shipped benchmark suite `core`: its SHOP-VRB cells (every family x L1-L4,
 # the first PER_CELL episodes of each), with the rule of grounding by exclusion at L4, and one video per
 # family at L1.
@@ -15,11 +16,11 @@
 #        at most 25), NS_MODELS (a folder with parser/ and perception/: the neuro-symbolic loop on the
 #        same episodes), BLIND (set: also the language-blind control, trained and evaluated the same way
 #        with the instruction blanked in training and when it acts), STACK_THREE (0: without the
-#        stack_three dataset; docs/experiments/2026-12-keypose-all.md measures both)
+#        stack_three datasets; docs/experiments/2026-12-keypose-all.md measures both)
 #
 # Every step resumes: run it again after an interruption and finished parts are skipped or resumed.
-# Writes OUT/data/all (and OUT/data/stack_three), OUT/models/keypose_all, OUT/reports/*.json,
-# OUT/reports/*.md, OUT/videos/ and OUT/summary.txt.
+# Writes OUT/data/all (and OUT/data/stack_three, OUT/data/stack_three_tops), OUT/models/keypose_all,
+# OUT/reports/*.json, OUT/reports/*.md, OUT/videos/ and OUT/summary.txt.
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 # shellcheck source=scripts/baselines/demonstrations.sh
@@ -36,12 +37,14 @@ data="$out/data/all"
 demonstrations "$here/keypose_all.json" "$data" "$out/reports/replay_all.txt"
 datasets=("$data")
 if [[ "${STACK_THREE:-1}" != 0 ]]; then
-  datasets+=("$out/data/stack_three")
+  datasets+=("$out/data/stack_three" "$out/data/stack_three_tops")
   demonstrations "$here/keypose_stack_three.json" "$out/data/stack_three" "$out/reports/replay_stack_three.txt"
+  demonstrations "$here/keypose_stack_three_tops.json" "$out/data/stack_three_tops" \
+    "$out/reports/replay_stack_three_tops.txt"
 fi
 model="$out/models/keypose_all"
-[[ -f "$model/model.pt" ]] || "$bin" train policy --action keypose --dataset "${datasets[@]}" --out "$model" \
-  --steps "${STEPS:-6000}" --quiet "${device[@]}"
+[[ -f "$model/model.pt" ]] || "$bin" train policy --action keypose --grasp-head product --dataset "${datasets[@]}" \
+  --out "$model" --steps "${STEPS:-6000}" --quiet "${device[@]}"
 trained=$(date +%s)
 
 # the suite's SHOP-VRB cells, PER_CELL episodes each: a named, hashed part of core
@@ -57,8 +60,8 @@ if [[ -n "${NS_MODELS:-}" && ! -f "$out/reports/neurosymbolic_core.json" ]]; the
 fi
 if [[ -n "${BLIND:-}" ]]; then
   blind="$out/models/keypose_all_blind"
-  [[ -f "$blind/model.pt" ]] || "$bin" train policy --action keypose --blind-language --dataset "${datasets[@]}" \
-    --out "$blind" --steps "${STEPS:-6000}" --quiet "${device[@]}"
+  [[ -f "$blind/model.pt" ]] || "$bin" train policy --action keypose --grasp-head product --blind-language \
+    --dataset "${datasets[@]}" --out "$blind" --steps "${STEPS:-6000}" --quiet "${device[@]}"
   [[ -f "$out/reports/keypose_blind_core.json" ]] || "$bin" evaluate --policy bc --models "$blind" --suite "$suite" \
     --workers "$workers" --out "$out/reports/keypose_blind_core.json"
 fi
