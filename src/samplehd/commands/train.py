@@ -120,15 +120,12 @@ def run(args: argparse.Namespace) -> int:
             key = unused[0]
             raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: not used with --action keypose (it learns "
                               f"from the dataset's scene images and decisions); leave it out")
-    if args.blind_language and given.get("action") != KEYPOSE_ACTION:
-        raise ConfigError("--blind-language: the language-blind control of the keypose policy; only used with "
-                          "--action keypose")
-    if "grasp_head" in given and given.get("action") != KEYPOSE_ACTION:
-        raise ConfigError(f"--grasp-head {args.grasp_head}: the keypose policy's grasp head; only used with "
-                          f"--action keypose")
-    if "init" in given and given.get("action") != KEYPOSE_ACTION:
-        raise ConfigError(f"--init {args.init}: starts a keypose policy from another's weights; only used with "
-                          f"--action keypose")
+    keypose_only = {"--blind-language": ("", args.blind_language, "the language-blind control of the keypose policy"),
+                    "--grasp-head": (f" {args.grasp_head}", "grasp_head" in given, "the keypose policy's grasp head"),
+                    "--init": (f" {args.init}", "init" in given, "starts a keypose policy from another's weights")}
+    for flag, (value, used, what) in keypose_only.items():
+        if used and given.get("action") != KEYPOSE_ACTION:
+            raise ConfigError(f"{flag}{value}: {what}; only used with --action keypose")
     if given.get("noise") and not given.get("demos"):
         raise ConfigError(f"--noise {args.noise}: adds noise to --demos episodes; give --demos N or leave it out")
     for key in ("dagger_episodes", "dagger_steps"):

@@ -20,7 +20,6 @@ from samplehd.envs.tokens import instruction_vocabulary
 from samplehd.errors import ConfigError
 from samplehd.learn.actions import tcp_yaw
 from samplehd.learn.keypose.configuration import (
-    ATTRIBUTE_VALUES,
     KEYPOSE_ATTRIBUTES,
     KeyposeConfig,
     policy_instruction,
@@ -164,8 +163,7 @@ class KeyposePolicy:
         self.exclusion = True
         if self._grounded_moved or not moves_unheard(instruction, vocabulary):
             return None
-        maps = self.net.attributes(feats)[0].view(len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, *feats.shape[2:])
-        maps = maps.cpu().numpy().astype(np.float64)
+        maps = self.net.attribute_maps(feats)[0].cpu().numpy().astype(np.float64)
         logits = {a: maps[k, :len(vocabulary.values(a))] for k, a in enumerate(KEYPOSE_ATTRIBUTES)}
         objects = table_objects(grid, logits["name"], logits, vocabulary, FACTOR, self.grid.cell)
         target = exclusion_target(instruction, vocabulary, objects)

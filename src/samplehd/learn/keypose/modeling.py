@@ -103,6 +103,12 @@ class KeyposeNet(nn.Module):
         match = (self.key(feats) * self.query(c)[:, :, None, None]).sum(1, keepdim=True) / PRODUCT_CHANNELS ** 0.5
         return torch.cat([maps[:, :1] + match, maps[:, 1:]], 1)
 
+    def attribute_maps(self, feats: torch.Tensor) -> torch.Tensor:
+        """The auxiliary maps' logits (N, attribute of :data:`KEYPOSE_ATTRIBUTES`, :data:`ATTRIBUTE_VALUES`,
+        rows, cols): per cell, the class, colour, material and size of the object seen there."""
+        n, _, rows, cols = feats.shape
+        return self.attributes(feats).view(n, len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, rows, cols)
+
     def goal_maps(self, c: torch.Tensor, feats: torch.Tensor, cell: torch.Tensor) -> torch.Tensor:
         """The goal's maps given the grasp's cell (N, 2: row, column of the half-resolution map)."""
         n, _, rows, cols = feats.shape

@@ -126,7 +126,7 @@ def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any,
                           torch.sin(2 * p_yaw)], 1)
     values = F.smooth_l1_loss(g_at[:, 1:], g_want, beta=0.05) + F.smooth_l1_loss(p_at[:, 1:], p_want, beta=0.05)
     flag = F.binary_cross_entropy_with_logits(flags, labels[:, 10:12])
-    att_logits = net.attributes(feats).view(n, len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, rows, cols)
+    att_logits = net.attribute_maps(feats)
     named = F.cross_entropy(att_logits.transpose(1, 2), attributes, ignore_index=-1) if (attributes >= 0).any() \
         else att_logits.sum() * 0.0
     return heat + 5.0 * values + flag + attribute_weight * named, {
@@ -348,9 +348,7 @@ def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, de
             tok = torch.as_tensor(arrays["test_tokens"][idx], device=dev)
             features = net.features(g, tok)
             preds += [p.as_array() for p in predict_decisions(net, g, tok, grid, features=features)]
-            feats = features[1]
-            maps = net.attributes(feats).view(len(idx), len(KEYPOSE_ATTRIBUTES), ATTRIBUTE_VALUES, *feats.shape[2:])
-            classes.append(maps[:, 0].argmax(1).cpu().numpy())
+            classes.append(net.attribute_maps(features[1])[:, 0].argmax(1).cpu().numpy())
     pred = np.stack(preds)
     labels = arrays["test_labels"]
     coarse = grid.coarse(FACTOR)
