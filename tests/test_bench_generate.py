@@ -72,3 +72,37 @@ def test_a_terminated_bench_stops_the_generate_it_was_timing(tmp_path: Path) -> 
                 os.kill(p, signal.SIGKILL)
             except ProcessLookupError:
                 pass
+
+
+def test_an_interrupt_inside_the_spawn_still_stops_the_generate(tmp_path: Path, monkeypatch) -> None:
+    """SIGTERM that lands while ``subprocess.Popen`` has forked but not yet returned (the window the test
+    above hits now and then on a loaded machine) still stops the run: it waits for the spawn to finish."""
+    import os
+    import signal
+    import subprocess
+
+    from samplehd.bench import generate as bench_generate
+    from samplehd.commands._options import sigterm_as_interrupt
+
+    spawned: list[subprocess.Popen[bytes]] = []
+    popen = subprocess.Popen
+
+    def popen_then_sigterm(*args, **kwargs):  # the real spawn; the signal lands before the caller holds it
+        proc = popen(*args, **kwargs)
+        spawned.append(proc)
+        os.kill(os.getpid(), signal.SIGTERM)
+        return proc
+
+    monkeypatch.setattr(bench_generate.subprocess, "Popen", popen_then_sigterm)
+    variant = bench_generate.Variant("this checkout", bench_generate._SRC, None)
+    try:
+        with sigterm_as_interrupt(), pytest.raises(KeyboardInterrupt):
+            bench_generate.generate_once(variant, ["--preset", "tiny", "--scenes", "50", "--workers", "1"], tmp_path)
+        assert len(spawned) == 1
+        assert spawned[0].poll() is not None, "the generate outlived the interrupted bench"
+        assert list(tmp_path.iterdir()) == []  # its dataset folder went with it
+    finally:
+        for proc in spawned:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()

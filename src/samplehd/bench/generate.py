@@ -20,11 +20,15 @@ import argparse
 import json
 import os
 import shutil
+import signal
 import statistics
 import subprocess
 import sys
 import tempfile
+import threading
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -74,6 +78,27 @@ class Run:
         return self.frames / self.cpu_seconds if self.cpu_seconds > 0 else 0.0
 
 
+@contextmanager
+def _interrupts_held() -> Iterator[None]:
+    """Within the block, Ctrl-C and SIGTERM wait; they are raised again, in the order they came, as the block
+    ends. An interrupt that landed inside ``subprocess.Popen`` (after the fork, while it waits for the exec)
+    would unwind before the caller holds the new process, which would then run on, orphaned. Off the main
+    thread (where no handler can be set) the block runs unchanged."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught: list[int] = []
+    signums = (signal.SIGINT, signal.SIGTERM)
+    previous = {s: signal.signal(s, lambda signum, _frame: caught.append(signum)) for s in signums}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        for s in dict.fromkeys(caught):
+            signal.raise_signal(s)
+
+
 def generate_once(variant: Variant, args: list[str], root: Path) -> Run:
     """Run ``samplehd generate ARGS --out DIR`` of ``variant`` in a fresh process under ``root``; the
     dataset is deleted after its counts are read."""
@@ -84,14 +109,17 @@ def generate_once(variant: Variant, args: list[str], root: Path) -> Run:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(variant.src), os.environ.get("PYTHONPATH", "")]).rstrip(
         os.pathsep))
     t0 = time.perf_counter()
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    assert proc.stderr is not None
+    proc: subprocess.Popen[bytes] | None = None
     try:
+        with _interrupts_held():  # the child exists from its fork on: it must be known before an interrupt lands
+            proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        assert proc.stderr is not None
         err = proc.stderr.read()
         _, status, usage = os.wait4(proc.pid, 0)
     except BaseException:  # interrupted (Ctrl-C, or SIGTERM as one): the run it timed stops with it
-        proc.terminate()
-        proc.wait()
+        if proc is not None:
+            proc.terminate()
+            proc.wait()
         shutil.rmtree(out.parent, ignore_errors=True)
         raise
     proc.returncode = os.waitstatus_to_exitcode(status)
