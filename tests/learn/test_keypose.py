@@ -4,6 +4,7 @@ on them (proven on the recorded decisions), and a trained model acting through `
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -411,7 +412,18 @@ def test_a_keypose_policy_trains_resumes_and_acts_through_evaluate(keypose_datas
                  str(tmp_path / "refused"), "--steps", "1"]) == 2
     assert main(["train", "policy", "--action", "keypose", "--dataset", str(keypose_dataset), "--out",
                  str(tmp_path / "refused"), "--steps", "1", "--init", str(product)]) == 2  # another network
+    # the count of objects put down: its vectors in the weights, its name in the config; keypose only
+    counted = tmp_path / "counted"
+    assert main(["train", "policy", "--action", "keypose", "--placed-count", "--dataset", str(keypose_dataset),
+                 "--out", str(counted), "--steps", "1", "--batch", "2", "--quiet"]) == 0
+    assert json.loads((counted / "config.json").read_text())["model"]["placed_count"] is True
+    assert "placed.weight" in load_weights(counted / "model.pt")
+    assert main(["train", "policy", "--placed-count", "--dataset", str(keypose_dataset), "--out",
+                 str(tmp_path / "refused"), "--steps", "1"]) == 2
     assert not (tmp_path / "refused").exists()
+    code = main(["evaluate", "--policy", "bc", "--models", str(counted), "--families", "place", "--episodes", "1",
+                 "--max-episode-steps", "60", "--out", str(tmp_path / "counted.json")])
+    assert code == 0 and json.loads((tmp_path / "counted.json").read_text())["records"][0]["steps"] >= 1
     code = main(["evaluate", "--policy", "bc", "--models", str(product), "--families", "pick_up", "--episodes", "1",
                  "--max-episode-steps", "60", "--out", str(tmp_path / "product.json")])
     assert code == 0 and json.loads((tmp_path / "product.json").read_text())["records"][0]["steps"] >= 1
@@ -461,6 +473,76 @@ def test_a_later_grasp_is_not_sought_where_an_earlier_one_was() -> None:
         second = predict_decisions(net, view, tokens, grid, [avoid])[0]
     for xy in avoid:  # the grasp's cell centre lies outside the radius; its offset moves it by under a cell
         assert np.linalg.norm(np.subtract(second.grasp[:2], xy)) > AVOID_RADIUS - grid.cell * 2
+
+
+def test_each_sample_counts_the_objects_its_episode_put_down_before_it(keypose_dataset: Path) -> None:
+    """The count a ``placed_count`` network reads: 0 for an episode's first decision, one more after
+    each decision that lets go (a place moving two objects: 0 then 1)."""
+    from samplehd.learn.keypose.configuration import KeyposeGrid
+    from samplehd.learn.keypose.preparation import prepare_samples
+
+    reader = DatasetReader(keypose_dataset)
+    ks = list(range(len(reader.episodes)))
+    arrays = prepare_samples(reader, ks, replace(KeyposeGrid(), width=320, height=180), 32)
+    want = [n for k in ks if reader.episode_meta(k).success
+            for n in np.cumsum([0] + [d.release for d in _decisions(reader, k)])[:-1]]
+    assert arrays["placed"].tolist() == want and len(want) == len(arrays["grid"])
+    assert 1 in want  # a place of two objects is among them
+
+
+def test_a_placed_count_network_reads_the_count_and_starts_as_one_without() -> None:
+    import torch
+
+    from samplehd.envs.tokens import encode_instruction, instruction_vocabulary
+    from samplehd.learn.keypose.modeling import PLACED_COUNTS, KeyposeNet
+    from samplehd.learn.topdown import GRID_CHANNELS
+
+    torch.manual_seed(0)
+    plain = KeyposeNet(len(instruction_vocabulary()), GRID_CHANNELS, 8).eval()
+    torch.manual_seed(0)
+    counted = KeyposeNet(len(instruction_vocabulary()), GRID_CHANNELS, 8, placed_count=True).eval()
+    shared = plain.state_dict()
+    assert all(torch.equal(shared[k], v) for k, v in counted.state_dict().items() if k in shared)
+    assert set(counted.state_dict()) - set(shared) == {"placed.weight"}
+    tokens = torch.as_tensor(np.stack([encode_instruction("Stack the cup on the plate.", 32)] * 2))
+    placed = torch.tensor([0, 1])
+    with torch.no_grad():
+        assert torch.equal(plain.code(tokens), counted.code(tokens, placed))  # zero at the start
+        counted.placed.weight[1] = 1.0
+        code = counted.code(tokens, placed)
+        assert torch.equal(code[0], plain.code(tokens)[0]) and torch.equal(code[1], plain.code(tokens)[1] + 1.0)
+        many = counted.code(tokens, torch.tensor([PLACED_COUNTS + 3, PLACED_COUNTS - 1]))
+        assert torch.equal(many[0], many[1])  # counts past the last read as it
+
+
+def test_the_policy_counts_the_objects_it_put_down(keypose_dataset: Path) -> None:
+    """The count the policy gives its network: the decisions carried through to a release before this
+    one (the recorded decisions of an episode moving two objects, followed in the environment)."""
+    from samplehd.learn.keypose.configuration import KeyposeConfig
+    from samplehd.learn.keypose.inference import KeyposePolicy
+
+    reader = DatasetReader(keypose_dataset)
+    k = next(k for k in range(len(reader.episodes)) if reader.episode_meta(k).success
+             and sum(d.release for d in _decisions(reader, k)) == 2)
+    recorded = _decisions(reader, k)
+    env = replay_env(reader)
+    try:
+        class Recorded(KeyposePolicy):  # the network's decisions replaced by the episode's own
+            seen: list[int] = []
+
+            def decide(self, instruction: str):
+                self.seen.append(self.placed)
+                return recorded[len(self.seen) - 1]
+
+        policy = Recorded(KeyposeConfig(), None, env)
+        obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": k})
+        for _ in range(1200):
+            obs, _, terminated, truncated, info = env.step(policy(obs))
+            if terminated or truncated or (len(policy.seen) == 2 and policy._follower.done):
+                break
+        assert policy.seen == [0, 1] and policy.placed == 1 and policy.retries == 0
+    finally:
+        env.close()
 
 
 def test_the_privileged_reference_is_shown_the_objects_the_task_moves(keypose_dataset: Path, tmp_path: Path) -> None:

@@ -134,8 +134,9 @@ def test_a_keypose_policy_config_json_of_an_earlier_version_loads_as_a_keypose_c
     assert (config.grid.width, config.model.width, config.train.batch, config.train.seed) == (320, 16, 4, 1)
     written = config.to_dict()
     assert not {"image", "chunk", "execute", "inference", "collect"} & set(written)
-    assert set(written["model"]) == {"width", "grasp_head"} and "stride" not in written["train"]
-    assert config.model.grasp_head == "film" and config.train.attribute_weight == 0.5  # what it was trained with
+    assert set(written["model"]) == {"width", "grasp_head", "placed_count"} and "stride" not in written["train"]
+    # what it was trained with
+    assert config.model.grasp_head == "film" and not config.model.placed_count and config.train.attribute_weight == 0.5
     assert KeyposeConfig.from_dict(written) == config
     assert config.env_options() == {"obs_mode": "state", "control_mode": "steering",
                                     "scene": {"catalogue": "procedural"}}

@@ -62,6 +62,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="--action keypose: film: the grasp's maps read the instruction through the "
                              "FiLM-modulated features (default); product: their heat also adds a per-cell "
                              "product of the features' key with the instruction's query")
+    policy.add_argument("--placed-count", action="store_true",
+                        help="--action keypose: the network also reads how many objects the policy has put "
+                             "down so far in the episode (model.placed_count)")
     policy.add_argument("--batch", type=int, help="frames per optimiser step (default 64)")
     policy.add_argument("--hidden", type=int, help="width of the network's hidden layers (default 256)")
     policy.add_argument("--demos", type=int, help="oracle episodes to collect in the environment besides the "
@@ -121,6 +124,7 @@ def run(args: argparse.Namespace) -> int:
             raise ConfigError(f"--{key.replace('_', '-')} {given[key]}: not used with --action keypose (it learns "
                               f"from the dataset's scene images and decisions); leave it out")
     keypose_only = {"--blind-language": ("", args.blind_language, "the language-blind control of the keypose policy"),
+                    "--placed-count": ("", args.placed_count, "the keypose network's count of objects put down"),
                     "--grasp-head": (f" {args.grasp_head}", "grasp_head" in given, "the keypose policy's grasp head"),
                     "--init": (f" {args.init}", "init" in given, "starts a keypose policy from another's weights")}
     for flag, (value, used, what) in keypose_only.items():
@@ -160,7 +164,8 @@ def _keypose_config(args: argparse.Namespace, steps: int) -> tuple[KeyposeConfig
     """The keypose policy to train, from the flags (what the dataset says is filled in by training), and
     no more trainer options."""
     return KeyposeConfig(
-        inputs=args.inputs or "rgb", model=KeyposeArchitecture(grasp_head=args.grasp_head or "film"),
+        inputs=args.inputs or "rgb",
+        model=KeyposeArchitecture(grasp_head=args.grasp_head or "film", placed_count=args.placed_count),
         language="blank" if args.blind_language else "instruction",
         train=KeyposeTraining(steps=steps, seed=args.seed, batch=args.batch or 16,
                               init=str(args.init) if args.init is not None else "")), {}

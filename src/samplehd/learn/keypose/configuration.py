@@ -54,10 +54,15 @@ class KeyposeArchitecture(Config, section="model"):
         grasp_head: ``film``: the grasp's maps read the instruction through the FiLM-modulated features
             alone; ``product``: their heat also adds, per cell, the product of a key of the cell's features
             with a query of the instruction (:data:`GRASP_HEADS`).
+        placed_count: the instruction's code also reads how many objects the policy has put down so far
+            in the episode (0 for the first decision; a learnt vector per count up to
+            :data:`~samplehd.learn.keypose.modeling.PLACED_COUNTS`), so that what it looks for can change
+            from one object of a multi-object task to the next.
     """
 
     width: int = bounded(16, lo=1)
     grasp_head: str = bounded("film", choices=GRASP_HEADS)
+    placed_count: bool = False
 
 
 @dataclass(frozen=True)

@@ -96,7 +96,7 @@ class KeyposePolicy:
         self.config = config
         self.device = device or torch.device("cpu")
         self.net = KeyposeNet(len(instruction_vocabulary()), input_channels(config.inputs),
-                              config.model.width, config.model.grasp_head).to(self.device)
+                              config.model.width, config.model.grasp_head, config.model.placed_count).to(self.device)
         if state is not None:
             self.net.load_state_dict(state)
         self.net.eval()
@@ -120,9 +120,11 @@ class KeyposePolicy:
         self._grounded_moved = False  # ... and whether such a decision has moved it (the rule is then done)
         self.retries = 0  # decisions made again after the fingers were found empty ...
         self.lost: list[str] = []  # ... and where, each time (KeyposeFollower.lost)
+        self.placed = 0  # decisions carried through to a release: the objects put down so far
 
     def decide(self, instruction: str) -> Decision:
-        """The decision on the scene camera's current view. The grasp is not sought within
+        """The decision on the scene camera's current view (a network with ``placed_count`` reads
+        :attr:`placed` too). The grasp is not sought within
         :data:`AVOID_RADIUS` of this episode's earlier grasps and releases: what was put down stays there,
         and a grasp that did not take is not tried the same way again."""
         u = self.env.unwrapped
@@ -143,7 +145,8 @@ class KeyposePolicy:
         with torch.no_grad():
             grid_t = torch.as_tensor(grid[None], device=self.device)
             tokens_t = torch.as_tensor(tokens[None], device=self.device)
-            features = self.net.features(grid_t, tokens_t)
+            placed_t = torch.tensor([self.placed], device=self.device)
+            features = self.net.features(grid_t, tokens_t, placed_t)
             grounded = self._grounded_by_exclusion(text, grid, features[1])
             avoid = [np.array(p[:2]) for d in self.decisions for p in (d.grasp, d.goal)]
             only = None if grounded is None else grounded.cells
@@ -182,6 +185,8 @@ class KeyposePolicy:
             if follower is not None and follower.lost is not None:
                 self.retries += 1
                 self.lost.append(follower.lost)
+            elif follower is not None and self.decisions[-1].release:
+                self.placed += 1
             self._grounded_moved |= follower is not None and self._restricted and follower.lost is None
             decision = self.decide(str(obs["instruction"]))
             self.decisions.append(decision)

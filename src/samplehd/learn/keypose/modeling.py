@@ -6,7 +6,7 @@ from __future__ import annotations
 from samplehd.learn.keypose.configuration import ATTRIBUTE_VALUES, KEYPOSE_ATTRIBUTES
 from samplehd.learn.training import nn, torch
 
-__all__ = ["GOAL_OUT", "GRASP_OUT", "KeyposeNet"]
+__all__ = ["GOAL_OUT", "GRASP_OUT", "PLACED_COUNTS", "KeyposeNet"]
 
 class _Block(nn.Module):
     """Two 3×3 convolutions with group norm, the second FiLM-modulated by the code ``c``."""
@@ -24,13 +24,10 @@ class _Block(nn.Module):
         return torch.relu(h * (1 + gamma[:, :, None, None]) + beta[:, :, None, None])
 
 
-
-
-
-
 GRASP_OUT = 8  # heat, row and column offset, z, cos 2yaw, sin 2yaw, opening, lift
 GOAL_OUT = 6  # heat, row and column offset, z, cos 2yaw, sin 2yaw
 PRODUCT_CHANNELS = 32  # channels of the product head's key and query
+PLACED_COUNTS = 8  # the counts of objects put down the code tells apart (higher ones read as the last)
 
 
 class KeyposeNet(nn.Module):
@@ -42,10 +39,13 @@ class KeyposeNet(nn.Module):
     grasp's offset within the cell, height, yaw (as cos and sin of twice the yaw: the fingers are
     symmetric), opening and lift height. The goal's maps are written by a head modulated as well by the
     features at the grasp's cell (which object is carried); two logits say whether the gripper lets go
-    at the goal and whether the decision is the last.
+    at the goal and whether the decision is the last. With ``placed_count``, a learnt vector per count
+    of objects the policy has put down so far is added to the instruction's code (zero at the start of
+    training, so the network begins as the one without).
     """
 
-    def __init__(self, vocab: int, channels: int, width: int = 32, grasp_head: str = "film") -> None:
+    def __init__(self, vocab: int, channels: int, width: int = 32, grasp_head: str = "film",
+                 placed_count: bool = False) -> None:
         super().__init__()
         w = width
         self.product = grasp_head == "product"
@@ -70,20 +70,32 @@ class KeyposeNet(nn.Module):
         self.flags = nn.Sequential(nn.Linear(4 * w + 128, 128), nn.ReLU(inplace=True), nn.Linear(128, 2))
         # training only: per cell, the class, colour, material and size of the object seen there
         self.attributes = nn.Conv2d(w, len(KEYPOSE_ATTRIBUTES) * ATTRIBUTE_VALUES, 1)
+        self.placed: nn.Embedding | None = None  # made last: the other weights start as without it
+        if placed_count:
+            self.placed = nn.Embedding(PLACED_COUNTS, 128)
+            nn.init.zeros_(self.placed.weight)
 
-    def code(self, tokens: torch.Tensor) -> torch.Tensor:
+    def code(self, tokens: torch.Tensor, placed: torch.Tensor | None = None) -> torch.Tensor:
         """The instruction's code: the GRU's last state beside the mean of its words' embeddings (the
-        bag of words names the attributes whatever the template)."""
+        bag of words names the attributes whatever the template); with ``placed_count``, plus the vector
+        of ``placed`` (N,: objects put down so far; None: 0)."""
         emb = self.embed(tokens)
         lengths = (tokens != 0).sum(1).clamp(min=1)
         packed = nn.utils.rnn.pack_padded_sequence(emb, lengths.cpu(), batch_first=True, enforce_sorted=False)
         _, h = self.text(packed)
         words = emb.sum(1) / lengths[:, None].to(emb.dtype)
-        return torch.relu(self.mix(torch.cat([h[-1], words], 1)))
+        c = torch.relu(self.mix(torch.cat([h[-1], words], 1)))
+        if self.placed is None:
+            return c
+        if placed is None:
+            placed = torch.zeros(len(tokens), dtype=torch.long, device=tokens.device)
+        return c + self.placed(placed.long().clamp(0, PLACED_COUNTS - 1))
 
-    def features(self, grid: torch.Tensor, tokens: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-        """(the instruction's code, the half-resolution feature map, the flag logits)."""
-        c = self.code(tokens)
+    def features(self, grid: torch.Tensor, tokens: torch.Tensor, placed: torch.Tensor | None = None
+                 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """(the instruction's code, the half-resolution feature map, the flag logits); ``placed``: see
+        :meth:`code`."""
+        c = self.code(tokens, placed)
         d1 = self.down1(grid, c)
         d2 = self.down2(d1, c)
         d3 = self.down3(d2, c)
@@ -117,7 +129,8 @@ class KeyposeNet(nn.Module):
         cond = torch.relu(self.goal_cond(torch.cat([c, at, where], 1)))
         return self.goal_out(self.goal(feats, cond))
 
-    def forward(self, grid: torch.Tensor, tokens: torch.Tensor, cell: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    def forward(self, grid: torch.Tensor, tokens: torch.Tensor, cell: torch.Tensor,
+                placed: torch.Tensor | None = None) -> tuple[torch.Tensor, ...]:
         """(grasp maps, goal maps, flag logits), the goal's given the grasp ``cell``."""
-        c, feats, flags = self.features(grid, tokens)
+        c, feats, flags = self.features(grid, tokens, placed)
         return self.grasp_maps(c, feats), self.goal_maps(c, feats, cell), flags

@@ -49,9 +49,9 @@ PREPARED_FILE = "prepared.npz"
 
 def _episode_samples(reader: Any, k: int, env: Any, config: KeyposeGrid, tokens_len: int,
                      renderers: dict[str, Any], values: Mapping[str, list[str]], inputs: str = "rgb"
-                     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]:
-    """(grid, tokens, labels, attribute maps) of each decision of episode ``k`` (``inputs="state"``:
-    the grid with the cells of the objects the task moves marked)."""
+                     ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]]:
+    """(grid, tokens, labels, attribute maps, objects put down before it) of each decision of episode
+    ``k`` (``inputs="state"``: the grid with the cells of the objects the task moves marked)."""
     meta = reader.episode_meta(k)
     if not meta.success:
         return []
@@ -64,6 +64,7 @@ def _episode_samples(reader: Any, k: int, env: Any, config: KeyposeGrid, tokens_
     entry = reader.episodes[k]
     scene = reader.scene(entry.scene_index)
     out = []
+    placed = 0
     for d in ds:
         if d.frame == 0 and scene["camera"]["width"] == config.width and scene["camera"]["height"] == config.height:
             stem = Path(scene["image_filename"]).stem
@@ -90,7 +91,9 @@ def _episode_samples(reader: Any, k: int, env: Any, config: KeyposeGrid, tokens_
             image, ids = scene_grid(renderers[key], u.model, u.data, config, with_ids=True)
         if inputs == "state":
             image = np.concatenate([image, task_cells(ids, reader.instruction(k)["task"]["objects"])[None]])
-        out.append((image.astype(np.float16), tokens, keypose_targets(d, grid), attribute_maps(ids, scene, values)))
+        out.append((image.astype(np.float16), tokens, keypose_targets(d, grid), attribute_maps(ids, scene, values),
+                    placed))
+        placed += d.release
     return out
 
 
@@ -113,13 +116,13 @@ def prepare_samples(reader: Any, ks: Sequence[int], config: KeyposeGrid, tokens_
                     inputs: str = "rgb", label: str = "prepare", quiet: bool = True,
                     values: Mapping[str, list[str]] | None = None) -> dict[str, np.ndarray]:
     """The samples of episodes ``ks``: every decision's top-down view, instruction tokens, keypose
-    targets and attribute maps (a progress bar per episode on stderr unless ``quiet``). ``values``: the
-    attribute values the maps index (default: those of the dataset's scenes; of every dataset trained
-    on together when there are several)."""
+    targets, attribute maps and the count of objects its episode put down before it (a progress bar
+    per episode on stderr unless ``quiet``). ``values``: the attribute values the maps index (default:
+    those of the dataset's scenes; of every dataset trained on together when there are several)."""
     env = replay_env(reader)
     renderers: dict[str, Any] = {}
     values = attribute_values(reader.scenes) if values is None else values
-    grids, toks, labels, attrs, episodes = [], [], [], [], []
+    grids, toks, labels, attrs, episodes, placed = [], [], [], [], [], []
     # Drawing the samples renders every later decision's view: minutes on a large dataset, shown per episode.
     bars = Progress(TextColumn("{task.description:>12}"), BarColumn(), MofNCompleteColumn(), TextColumn("episodes"),
                     TimeElapsedColumn(), TimeRemainingColumn(), console=Console(stderr=True, quiet=quiet),
@@ -128,13 +131,15 @@ def prepare_samples(reader: Any, ks: Sequence[int], config: KeyposeGrid, tokens_
         with bars:
             task = bars.add_task(label, total=len(ks))
             for k in ks:
-                for g, t, y, a in _episode_samples(reader, k, env, config, tokens_len, renderers, values, inputs):
+                for g, t, y, a, n in _episode_samples(reader, k, env, config, tokens_len, renderers, values,
+                                                       inputs):
                     if y[12] > 0:
                         grids.append(g)
                         toks.append(t)
                         labels.append(y)
                         attrs.append(a)
                         episodes.append(k)
+                        placed.append(n)
                 bars.advance(task)
     finally:
         for r in renderers.values():
@@ -145,6 +150,7 @@ def prepare_samples(reader: Any, ks: Sequence[int], config: KeyposeGrid, tokens_
                 "tokens": np.zeros((0, tokens_len), np.int64), "labels": np.zeros((0, LABELS), np.float32),
                 "attributes": np.zeros((0, len(KEYPOSE_ATTRIBUTES), config.rows // FACTOR, config.cols // FACTOR),
                                        np.int8),
-                "episode": np.zeros(0, np.int64)}
+                "episode": np.zeros(0, np.int64), "placed": np.zeros(0, np.int64)}
     return {"grid": np.stack(grids), "tokens": np.stack(toks), "labels": np.stack(labels),
-            "attributes": np.stack(attrs), "episode": np.array(episodes, np.int64)}
+            "attributes": np.stack(attrs), "episode": np.array(episodes, np.int64),
+            "placed": np.array(placed, np.int64)}

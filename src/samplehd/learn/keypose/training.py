@@ -100,15 +100,16 @@ def _heat_loss(logits: Any, rc: Any) -> Any:
     return -(target * torch.log_softmax(logits.reshape(n, -1), 1)).sum(1).mean()
 
 
-def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any, attribute_weight: float = 0.5
-                 ) -> tuple[Any, dict[str, torch.Tensor]]:
+def keypose_loss(net: Any, grid: Any, tokens: Any, labels: Any, attributes: Any, attribute_weight: float = 0.5,
+                 placed: Any = None) -> tuple[Any, dict[str, torch.Tensor]]:
     """The training loss of a batch and its parts: cross-entropy of the grasp's and the goal's cell
     over the map, smooth L1 of the values at the labelled cells (the goal's read with the labelled
     grasp's cell), binary cross-entropy of release and last, and ``attribute_weight`` times the
-    cross-entropy of the attribute maps over the cells that show an object."""
+    cross-entropy of the attribute maps over the cells that show an object. ``placed``: the objects put
+    down before each decision (read by a network with ``placed_count``)."""
     F = torch.nn.functional
     n = grid.shape[0]
-    c, feats, flags = net.features(grid, tokens)
+    c, feats, flags = net.features(grid, tokens, placed)
     rows, cols = feats.shape[2], feats.shape[3]
     g_rc, p_rc = labels[:, 0:2], labels[:, 6:8]
     g_cell = torch.stack([g_rc[:, 0].round().clamp(0, rows - 1), g_rc[:, 1].round().clamp(0, cols - 1)], 1).long()
@@ -194,7 +195,7 @@ def train_keypose(dataset: str | Path | Sequence[str | Path], out: str | Path, c
     run.prepare()
     _keep_samples(out, arrays)
     net = KeyposeNet(len(instruction_vocabulary()), input_channels(config.inputs), config.model.width,
-                     config.model.grasp_head).to(dev)
+                     config.model.grasp_head, config.model.placed_count).to(dev)
     if start is not None:
         check_weights_fit(net, start, config.train.init)
     # The lowest grasp of the training decisions: the policy never grasps lower (a finger on the table
@@ -256,11 +257,14 @@ def _samples(out: Path, readers: Sequence[Any], config: KeyposeConfig, train_k: 
              test_k: Sequence[Sequence[int]], quiet: bool) -> dict[str, np.ndarray]:
     """The training and test samples (``train_*``, ``test_*``) of every dataset, read from ``out``'s
     :data:`~samplehd.learn.keypose.preparation.PREPARED_FILE` when a resumed run left one, else
-    prepared (:func:`_keep_samples` keeps them there until the run ends)."""
+    prepared (:func:`_keep_samples` keeps them there until the run ends; one without the counts of
+    objects put down is drawn again)."""
     prepared = out / PREPARED_FILE
     if prepared.exists():
         with np.load(prepared, allow_pickle=False) as z:
-            return {k: z[k] for k in z.files}
+            if "train_placed" in z.files:
+                return {k: z[k] for k in z.files}
+        prepared.unlink()
     # the attribute maps index the values of every dataset's scenes, as the vocabulary names them
     values = {a: list(config.vocabulary.values(a)) for a in KEYPOSE_ATTRIBUTES}
     out_arrays: dict[str, np.ndarray] = {}
@@ -311,7 +315,7 @@ def _train_step(net: Any, opt: Any, arrays: dict[str, np.ndarray], train: Any, d
                                         rng)
         tokens = _dropped_words(arrays["train_tokens"][idx], train.word_dropout, step_rng(train.seed, step, stream=1))
         loss, _ = keypose_loss(net, grid_t, torch.as_tensor(tokens, device=dev), lab_t, att_t,
-                               train.attribute_weight)
+                               train.attribute_weight, torch.as_tensor(arrays["train_placed"][idx], device=dev))
         return descend(opt, loss)
 
     return train_step
@@ -346,7 +350,7 @@ def _test_metrics(net: Any, arrays: dict[str, np.ndarray], grid: TopDownGrid, de
             idx = np.arange(s, min(s + 32, m))
             g = torch.as_tensor(arrays["test_grid"][idx].astype(np.float32), device=dev)
             tok = torch.as_tensor(arrays["test_tokens"][idx], device=dev)
-            features = net.features(g, tok)
+            features = net.features(g, tok, torch.as_tensor(arrays["test_placed"][idx], device=dev))
             preds += [p.as_array() for p in predict_decisions(net, g, tok, grid, features=features)]
             classes.append(net.attribute_maps(features[1])[:, 0].argmax(1).cpu().numpy())
     pred = np.stack(preds)
