@@ -56,3 +56,26 @@ def test_the_stack_three_datasets_put_every_top_of_the_suite_on_a_stack() -> Non
     assert "scissors" in _config("keypose_stack_three_mixed.json").scene.classes
     configs = [_config(name) for name in STACK_THREE]
     assert len({c.seed for c in configs}) == len(configs)
+
+
+SUITE_SPECS = sorted((CONFIGS[0].parent / "suites").glob("*.json"))
+
+
+@pytest.mark.parametrize("path", SUITE_SPECS, ids=[p.name for p in SUITE_SPECS])
+def test_a_fresh_suite_spec_draws_as_core_does_from_a_seed_of_its_own(path: Path) -> None:
+    """The specs of the larger suites the baselines are also measured on (`samplehd suite build NAME
+    --config FILE`): they load as a build config, draw their scenes as `core` does (the same options
+    but for the cells, the count and the seed) and from a seed that neither `core` nor another spec uses."""
+    from samplehd.benchmark.suite import SuiteBuildConfig
+    from samplehd.envs.suite_file import SUITE_SPEC_DIR
+
+    spec = json.loads(path.read_text())
+    config = SuiteBuildConfig.from_dict(spec)
+    assert config.episodes_per_cell >= 100
+    core = json.loads((SUITE_SPEC_DIR / "core.json").read_text())
+    cells = {"seed", "families", "levels", "catalogues", "episodes_per_cell", "max_candidates_per_cell"}
+    assert {k: v for k, v in spec.items() if k not in cells} == {k: core[k] for k in spec if k not in cells}
+    for key in ("family_scene", "family_max_scenes"):  # core's per-family options for the spec's families
+        assert spec.get(key, {}) == {f: v for f, v in core[key].items() if f in spec["families"]}
+    seeds = [json.loads(p.read_text())["seed"] for p in SUITE_SPECS]
+    assert spec["seed"] != core["seed"] and seeds.count(spec["seed"]) == 1

@@ -517,7 +517,9 @@ def test_a_placed_count_network_reads_the_count_and_starts_as_one_without() -> N
 
 def test_the_policy_counts_the_objects_it_put_down(keypose_dataset: Path) -> None:
     """The count the policy gives its network: the decisions carried through to a release before this
-    one (the recorded decisions of an episode moving two objects, followed in the environment)."""
+    one, up to one the network called the last (a decision after it seeks that object again). The
+    recorded decisions of an episode moving two objects, followed in the environment: 0 then 1; with
+    the first called the last: 0 and 0."""
     from samplehd.learn.keypose.configuration import KeyposeConfig
     from samplehd.learn.keypose.inference import KeyposePolicy
 
@@ -525,22 +527,25 @@ def test_the_policy_counts_the_objects_it_put_down(keypose_dataset: Path) -> Non
     k = next(k for k in range(len(reader.episodes)) if reader.episode_meta(k).success
              and sum(d.release for d in _decisions(reader, k)) == 2)
     recorded = _decisions(reader, k)
+    assert [d.last for d in recorded] == [False, True]
     env = replay_env(reader)
     try:
-        class Recorded(KeyposePolicy):  # the network's decisions replaced by the episode's own
-            seen: list[int] = []
+        for given, want in ((recorded, [0, 1]), ([replace(recorded[0], last=True), recorded[1]], [0, 0])):
+            class Recorded(KeyposePolicy):  # the network's decisions replaced by these
+                seen: list[int] = []
+                decisions_given = given
 
-            def decide(self, instruction: str):
-                self.seen.append(self.placed)
-                return recorded[len(self.seen) - 1]
+                def decide(self, instruction: str):
+                    self.seen.append(self.placed)
+                    return self.decisions_given[len(self.seen) - 1]
 
-        policy = Recorded(KeyposeConfig(), None, env)
-        obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": k})
-        for _ in range(1200):
-            obs, _, terminated, truncated, info = env.step(policy(obs))
-            if terminated or truncated or (len(policy.seen) == 2 and policy._follower.done):
-                break
-        assert policy.seen == [0, 1] and policy.placed == 1 and policy.retries == 0
+            policy = Recorded(KeyposeConfig(), None, env)
+            obs, _ = env.reset(options={"dataset": str(reader.root), "episode_index": k})
+            for _ in range(1200):
+                obs, _, terminated, truncated, info = env.step(policy(obs))
+                if terminated or truncated or (len(policy.seen) == 2 and policy._follower.done):
+                    break
+            assert policy.seen == want and policy.retries == 0, (given, policy.seen)
     finally:
         env.close()
 

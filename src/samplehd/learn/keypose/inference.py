@@ -120,7 +120,9 @@ class KeyposePolicy:
         self._grounded_moved = False  # ... and whether such a decision has moved it (the rule is then done)
         self.retries = 0  # decisions made again after the fingers were found empty ...
         self.lost: list[str] = []  # ... and where, each time (KeyposeFollower.lost)
-        self.placed = 0  # decisions carried through to a release: the objects put down so far
+        # the objects put down so far: decisions carried through to a release, up to the one the network
+        # called the last (after it, the task is not done and the last object is sought again)
+        self.placed = 0
 
     def decide(self, instruction: str) -> Decision:
         """The decision on the scene camera's current view (a network with ``placed_count`` reads
@@ -185,8 +187,8 @@ class KeyposePolicy:
             if follower is not None and follower.lost is not None:
                 self.retries += 1
                 self.lost.append(follower.lost)
-            elif follower is not None and self.decisions[-1].release:
-                self.placed += 1
+            elif follower is not None and self.decisions[-1].release and not self.decisions[-1].last:
+                self.placed += 1  # not after what the network called the last: a decision again is that one again
             self._grounded_moved |= follower is not None and self._restricted and follower.lost is None
             decision = self.decide(str(obs["instruction"]))
             self.decisions.append(decision)
