@@ -5,7 +5,8 @@
 # (scripts/baselines/keypose_stack_three.json: a three-object stack needs a plate in the middle, which
 # few scenes of all shapes hold: 49 of the first's 5,007 episodes; keypose_stack_three_tops.json: the
 # bowl and the thermos on top, classes the first leaves out), each proven by replay; one keypose
-# policy trained on all three, its grasp map reading the instruction per cell (--grasp-head product);
+# policy trained on all three, its grasp map reading the instruction per cell (--grasp-head product)
+# and its code the count of objects it has put down so far (--placed-count);
 # evaluated closed loop on the shipped benchmark suite `core`: its SHOP-VRB cells (every family x L1-L4,
 # the first PER_CELL episodes of each), with the rule of grounding by exclusion at L4, and one video per
 # family at L1.
@@ -43,8 +44,8 @@ if [[ "${STACK_THREE:-1}" != 0 ]]; then
     "$out/reports/replay_stack_three_tops.txt"
 fi
 model="$out/models/keypose_all"
-[[ -f "$model/model.pt" ]] || "$bin" train policy --action keypose --grasp-head product --dataset "${datasets[@]}" \
-  --out "$model" --steps "${STEPS:-6000}" --quiet "${device[@]}"
+[[ -f "$model/model.pt" ]] || "$bin" train policy --action keypose --grasp-head product --placed-count \
+  --dataset "${datasets[@]}" --out "$model" --steps "${STEPS:-6000}" --quiet "${device[@]}"
 trained=$(date +%s)
 
 # the suite's SHOP-VRB cells, PER_CELL episodes each: a named, hashed part of core
@@ -60,7 +61,7 @@ if [[ -n "${NS_MODELS:-}" && ! -f "$out/reports/neurosymbolic_core.json" ]]; the
 fi
 if [[ -n "${BLIND:-}" ]]; then
   blind="$out/models/keypose_all_blind"
-  [[ -f "$blind/model.pt" ]] || "$bin" train policy --action keypose --grasp-head product --blind-language \
+  [[ -f "$blind/model.pt" ]] || "$bin" train policy --action keypose --grasp-head product --placed-count --blind-language \
     --dataset "${datasets[@]}" --out "$blind" --steps "${STEPS:-6000}" --quiet "${device[@]}"
   [[ -f "$out/reports/keypose_blind_core.json" ]] || "$bin" evaluate --policy bc --models "$blind" --suite "$suite" \
     --workers "$workers" --out "$out/reports/keypose_blind_core.json"
