@@ -599,6 +599,9 @@ def test_a_damaged_grid_in_a_policy_config_is_one_line_naming_the_field() -> Non
             KeyposeConfig.from_dict({**base, "grid": grid})
         message = str(info.value)
         assert field in message and "\n" not in message, message
+    with pytest.raises(ConfigError) as info:  # a count read or not: a JSON boolean
+        KeyposeConfig.from_dict({**base, "model": {"placed_count": "yes"}})
+    assert str(info.value) == "model.placed_count='yes': must be true or false"
 
 
 def test_word_dropout_reads_a_share_of_the_words_as_unk_and_the_policy_reads_unheard_words_so() -> None:

@@ -4,8 +4,10 @@ goes, and carries the decision out with :class:`~samplehd.learn.keypose.follower
 steering vector per ``env.step``; after each release, after a grasp that closed on nothing and after
 the fingers were found empty (the object slipped out), it goes back to its start pose and looks again,
 until the episode ends (as a closed-loop behaviour-cloning policy acts until the environment says
-success or time is up) or :data:`MAX_DECISIONS` are made. The network's "last decision" flag is kept
-in the diagnosis only: it is right on about as many held-out decisions as always saying yes.
+success or time is up) or :data:`MAX_DECISIONS` are made. The network's "last decision" flag never
+ends an episode (a network without the count is right on about as many held-out decisions as always
+saying yes); a network with ``placed_count`` reads the objects put down so far, a count that stops at
+a release flagged as the last.
 """
 
 from __future__ import annotations
